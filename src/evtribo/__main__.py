@@ -1,0 +1,3 @@
+from evtribo.cli import entry
+
+entry()

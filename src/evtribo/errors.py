@@ -1,0 +1,116 @@
+"""The errors evtribo raises, in one tree.
+
+::
+
+    EvtriboError
+     +-- UserInputError            bad usage, configuration or input file (exit code 2)
+     |    +-- ConfigError          study.toml, rig TOML, model parameters   (also ValueError)
+     |    |    +-- RigConfigError  the [rig] table or its DBC                (also ValueError)
+     |    +-- LogFormatError       a CAN log that cannot be read             (also ValueError)
+     |    +-- SidecarError         a trial's JSON sidecar                    (also ValueError)
+     |    +-- StudyError           the study folder's layout or names        (also ValueError)
+     |    +-- OutputExistsError    refusing to overwrite without --force     (also FileExistsError)
+     +-- AcquisitionError          the bus or the disk failed while recording (exit code 1)
+     +-- AnalysisError             the analysis could not produce a result    (exit code 1)
+
+Every error can carry where it happened (``path``, ``line``, ``key``); ``str(err)`` puts that
+first, the way compilers do: ``study.toml: key 'rig.dbc': file not found``.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Any
+
+
+class EvtriboError(Exception):
+    """Root of every error evtribo raises on purpose."""
+
+    exit_code = 1
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        path: str | os.PathLike[str] | None = None,
+        line: int | None = None,
+        key: str | None = None,
+    ) -> None:
+        self.message = message
+        self.path = None if path is None else os.fspath(path)
+        self.line = line
+        self.key = key
+        super().__init__(self.__str__())
+
+    def location(self) -> str:
+        """``file:line: key 'k'`` (the parts that are known), or an empty string."""
+        parts = []
+        if self.path is not None:
+            parts.append(self.path if self.line is None else f"{self.path}:{self.line}")
+        if self.key is not None:
+            parts.append(f"key '{self.key}'")
+        return ": ".join(parts)
+
+    def __str__(self) -> str:
+        where = self.location()
+        return f"{where}: {self.message}" if where else self.message
+
+    def __reduce__(self) -> tuple[Any, ...]:  # picklable across worker processes
+        return (_rebuild, (type(self), self.message, self.path, self.line, self.key))
+
+
+def _rebuild(cls: type[EvtriboError], message: str, path: str | None, line: int | None,
+             key: str | None) -> EvtriboError:
+    return cls(message, path=path, line=line, key=key)
+
+
+class UserInputError(EvtriboError):
+    """Bad usage, configuration or input: the user can fix it (exit code 2)."""
+
+    exit_code = 2
+
+
+class ConfigError(UserInputError, ValueError):
+    """A configuration value is missing, of the wrong type or out of range."""
+
+
+class RigConfigError(ConfigError):
+    """The rig description (``[rig]`` of study.toml, a rig TOML or its DBC) is wrong."""
+
+
+class LogFormatError(UserInputError, ValueError):
+    """A CAN log cannot be read (unknown format, or a damaged line under ``--strict``)."""
+
+
+class SidecarError(UserInputError, ValueError):
+    """A trial's JSON sidecar is malformed or holds a forbidden value."""
+
+
+class StudyError(UserInputError, ValueError):
+    """The study folder's layout or names are wrong."""
+
+
+class OutputExistsError(UserInputError, FileExistsError):
+    """An output already exists and ``--force`` was not given."""
+
+
+class AcquisitionError(EvtriboError, OSError):
+    """Recording failed (bus error, adapter gone, disk full); what was logged is kept."""
+
+
+class AnalysisError(EvtriboError, RuntimeError):
+    """The analysis could not produce a result from valid input."""
+
+
+__all__ = [
+    "AcquisitionError",
+    "AnalysisError",
+    "ConfigError",
+    "EvtriboError",
+    "LogFormatError",
+    "OutputExistsError",
+    "RigConfigError",
+    "SidecarError",
+    "StudyError",
+    "UserInputError",
+]
