@@ -1,0 +1,1 @@
+"""Acquisition: python-can buses, the trial logger, the live monitor, the simulated rig."""
