@@ -1,0 +1,161 @@
+"""The study folder: discovery, names, study.toml and sidecars."""
+
+import json
+from pathlib import Path
+
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from evtribo import study
+from evtribo.errors import OutputExistsError, SidecarError, StudyError
+
+RIG = {"dbc": "rig/loadcells.dbc", "normal_force": "FzCell.Fz", "tangential_force": "FxCell.Fx"}
+
+
+def make_study(root: Path, trials: dict[str, dict | None]) -> Path:
+    study.write_study_toml(root, name="sweep", rig=RIG)
+    for key, sidecar in trials.items():
+        subject, trial = key.split("/")
+        (root / subject).mkdir(exist_ok=True)
+        (root / subject / f"{trial}.log").write_text("(1.000000) vcan0 0C1#00\n")
+        if sidecar is not None:
+            (root / subject / f"{trial}.json").write_text(json.dumps(sidecar))
+    return root
+
+
+@given(st.text(max_size=20))
+def test_names_are_plain_or_refused(name):
+    try:
+        ok = study.validate_name(name, what="subject")
+    except StudyError as err:
+        assert "not allowed" in str(err)
+        assert not study.NAME_PATTERN.fullmatch(name)
+    else:
+        assert ok == name
+        assert "/" not in name and "\\" not in name and name not in ("", ".", "..")
+        assert Path(name).name == name
+
+
+@pytest.mark.parametrize("bad", ["../P01", "P01/x", "/etc", "..", "", "P 01", "P01\n", 7])
+def test_sidecar_subject_path_refused(tmp_path, bad):
+    p = tmp_path / "run-01.json"
+    p.write_text(json.dumps({"subject": bad}))
+    with pytest.raises(SidecarError) as exc:
+        study.read_sidecar(p, default_subject="P01")
+    assert str(p) in str(exc.value) and "key 'subject'" in str(exc.value)
+
+
+@pytest.mark.parametrize(
+    ("sidecar", "key"),
+    [
+        ({"waveform": "triangle-ish"}, "waveform"),
+        ({"amplitude_V": "140"}, "amplitude_V"),
+        ({"amplitude_V": True}, "amplitude_V"),
+        ({"amplitude_V": -5}, "amplitude_V"),
+        ({"frequency_Hz": [1]}, "frequency_Hz"),
+        ({"condition": "sometimes"}, "condition"),
+        ({"notes": 12}, "notes"),
+    ],
+)
+def test_sidecar_bad_values_name_the_key(tmp_path, sidecar, key):
+    p = tmp_path / "run-01.json"
+    p.write_text(json.dumps(sidecar))
+    with pytest.raises(SidecarError) as exc:
+        study.read_sidecar(p, default_subject="P01")
+    assert exc.value.key == key and exc.value.path == str(p)
+
+
+def test_sidecar_invalid_json_names_the_line(tmp_path):
+    p = tmp_path / "run-01.json"
+    p.write_text('{\n "subject": "P01",\n "amplitude_V": 140,,\n}')
+    with pytest.raises(SidecarError) as exc:
+        study.read_sidecar(p, default_subject="P01")
+    assert exc.value.line == 3
+
+
+def test_sidecar_defaults_and_unknown_keys_kept(tmp_path):
+    p = tmp_path / "run-01.json"
+    p.write_text(json.dumps({"waveform": "Square", "amplitude_V": 140, "frequency_Hz": 10000,
+                             "condition": "alternating", "bus": "vcan0", "frames": 12}))
+    s = study.read_sidecar(p, default_subject="P07")
+    assert (s.subject, s.waveform, s.amplitude_V, s.condition) == ("P07", "square", 140.0,
+                                                                   "alternating")
+    assert s.extra == {"bus": "vcan0", "frames": 12}
+    assert s.to_dict()["bus"] == "vcan0"
+
+
+def test_write_sidecar_refuses_overwrite(tmp_path):
+    p = tmp_path / "run-01.json"
+    study.write_sidecar(p, {"subject": "P01"})
+    with pytest.raises(OutputExistsError):
+        study.write_sidecar(p, {"subject": "P02"})
+    assert json.loads(p.read_text())["subject"] == "P01"
+    study.write_sidecar(p, {"subject": "P02"}, force=True)
+    assert json.loads(p.read_text())["subject"] == "P02"
+
+
+def test_discovery(tmp_path):
+    root = make_study(tmp_path / "s", {
+        "P01/run-01": {"condition": "on", "amplitude_V": 60},
+        "P01/run-02": {"condition": "off"},
+        "P02/run-01": None,
+    })
+    (root / "rig").mkdir()
+    (root / "rig" / "stray.log").write_text("")
+    (root / "P02" / "run-02.log.part").write_text("")
+    (root / "P02" / "notes.txt").write_text("")
+    s = study.load_study(root, with_rig=False)
+    assert s.name == "sweep"
+    assert [t.key for t in s.trials] == ["P01/run-01", "P01/run-02", "P02/run-01", "P02/run-02"]
+    assert s.trials[3].partial and not s.trials[0].partial
+    assert s.trials[2].sidecar_path is None
+    assert len(s.warnings) == 3  # two without a sidecar, one partial
+    assert s.subjects == ["P01", "P02"]
+
+
+def test_partial_log_superseded_by_complete_one(tmp_path):
+    root = make_study(tmp_path / "s", {"P01/run-01": {}})
+    (root / "P01" / "run-01.log.part").write_text("")
+    s = study.load_study(root, with_rig=False)
+    assert len(s.trials) == 1 and not s.trials[0].partial
+
+
+def test_sidecar_subject_overrides_folder_and_duplicates_refused(tmp_path):
+    root = make_study(tmp_path / "s", {"P01/run-01": {"subject": "P02"},
+                                       "P02/run-01": {}})
+    with pytest.raises(StudyError, match="appears twice"):
+        study.load_study(root, with_rig=False)
+
+
+@pytest.mark.parametrize(
+    ("text", "key", "line"),
+    [
+        ('name = "x"\n[rig]\ndbc = \n', None, 3),
+        ('name = 3\n[rig]\n', "name", None),
+        ('nmae = "x"\n[rig]\n', "nmae", None),
+        ('name = "x"\n', "rig", None),
+        ('name = "x"\nrig = "loadcells.dbc"\n', "rig", None),
+    ],
+)
+def test_bad_study_toml(tmp_path, text, key, line):
+    (tmp_path / "study.toml").write_text(text)
+    with pytest.raises(StudyError) as exc:
+        study.load_study(tmp_path, with_rig=False)
+    assert exc.value.path.endswith("study.toml")
+    assert exc.value.key == key and exc.value.line == line
+
+
+def test_not_a_study(tmp_path):
+    with pytest.raises(StudyError, match="not a study"):
+        study.load_study(tmp_path, with_rig=False)
+    with pytest.raises(StudyError, match="no such study folder"):
+        study.load_study(tmp_path / "missing", with_rig=False)
+
+
+def test_study_toml_round_trip_and_no_overwrite(tmp_path):
+    study.write_study_toml(tmp_path, name='a "quoted" name', rig=RIG)
+    config = study.read_study_toml(tmp_path / "study.toml")
+    assert config == {"name": 'a "quoted" name', "rig": RIG}
+    with pytest.raises(OutputExistsError):
+        study.write_study_toml(tmp_path, name="other", rig=RIG)
