@@ -1,0 +1,167 @@
+"""The model's parameters: one frozen object, Table 1 of the seed paper by default.
+
+Every field is in SI units and carries its unit and a description in the dataclass field
+metadata, so the command line (``evtribo model --list``, ``--set NAME=VALUE``) and the fitting
+code read names, units and defaults from one place.
+
+>>> from evtribo.model import TABLE_1
+>>> TABLE_1.with_values(h_L=3e-6).h_L
+3e-06
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any, NamedTuple
+
+from evtribo.errors import ConfigError
+
+__all__ = ["TABLE_1", "ModelParameters", "ParameterInfo"]
+
+
+def _p(default: float, unit: str, description: str, rule: str) -> Any:
+    return field(default=default, metadata={"unit": unit, "description": description,
+                                            "rule": rule})
+
+
+# rule: "positive" (> 0) or "nonnegative" (>= 0)
+@dataclass(frozen=True, slots=True)
+class ModelParameters:
+    """Material and geometrical parameters of the fingertip-screen contact (SI units).
+
+    Defaults are Table 1 of the seed paper. Instances are immutable and validated on
+    creation: a bad value raises :class:`evtribo.errors.ConfigError` (a ``ValueError``)
+    whose ``key`` is the parameter's name.
+
+    Attributes
+    ----------
+    mu : float
+        Coulomb friction coefficient, dimensionless (> 0).
+    R : float
+        Radius of the parabolic fingertip profile, m.
+    E_star : float
+        Effective elastic modulus E* (eq. 4, 10), Pa.
+    eps_sc, eps_i, eps_L : float
+        Relative permittivities of stratum corneum, insulating layer and air gap.
+    h_sc, h_i, h_L : float
+        Thicknesses of stratum corneum, insulating layer and equivalent air gap, m.
+    eps_0 : float
+        Permittivity of free space, F/m (the paper's rounded 8.854e-12).
+    """
+
+    mu: float = _p(0.5, "1", "Coulomb friction coefficient", "positive")
+    R: float = _p(0.01, "m", "radius of the parabolic fingertip profile", "positive")
+    E_star: float = _p(40e3, "Pa", "equivalent effective elastic modulus E*", "positive")
+    eps_sc: float = _p(1650.0, "1", "relative permittivity of the stratum corneum", "positive")
+    eps_i: float = _p(3.35, "1", "relative permittivity of the screen's insulating layer",
+                      "positive")
+    eps_L: float = _p(1.0, "1", "relative permittivity of the equivalent air gap", "positive")
+    h_sc: float = _p(300e-6, "m", "thickness of the stratum corneum", "nonnegative")
+    h_i: float = _p(1e-6, "m", "thickness of the screen's insulating layer", "nonnegative")
+    h_L: float = _p(5e-6, "m", "thickness of the equivalent air gap", "nonnegative")
+    eps_0: float = _p(8.854e-12, "F/m", "permittivity of free space", "positive")
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Real):
+                raise ConfigError(f"expected a number, got {value!r}", key=f.name)
+            number = float(value)
+            if not math.isfinite(number):
+                raise ConfigError(f"must be finite, got {number!r}", key=f.name)
+            rule = f.metadata["rule"]
+            if rule == "positive" and number <= 0:
+                raise ConfigError(f"must be > 0 ({f.metadata['unit']}), got {number!r}",
+                                  key=f.name)
+            if rule == "nonnegative" and number < 0:
+                raise ConfigError(f"must be >= 0 ({f.metadata['unit']}), got {number!r}",
+                                  key=f.name)
+            object.__setattr__(self, f.name, number)
+        if self.effective_gap <= 0:
+            raise ConfigError("h_sc, h_i and h_L are all zero: the capacitor has no gap",
+                              key="h_L")
+
+    # ------------------------------------------------------------------ derived values
+    @property
+    def effective_gap(self) -> float:
+        """Air-equivalent dielectric thickness h_sc/eps_sc + h_L/eps_L + h_i/eps_i, m."""
+        return self.h_sc / self.eps_sc + self.h_L / self.eps_L + self.h_i / self.eps_i
+
+    # ------------------------------------------------------------------ names and edits
+    @classmethod
+    def names(cls) -> tuple[str, ...]:
+        """The parameter names, in Table 1 order."""
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+    @classmethod
+    def info(cls) -> tuple[ParameterInfo, ...]:
+        """Name, unit, Table 1 default and description of every parameter."""
+        return tuple(ParameterInfo(f.name, f.metadata["unit"], float(f.default),
+                                   f.metadata["description"])
+                     for f in dataclasses.fields(cls))
+
+    def as_dict(self) -> dict[str, float]:
+        """The parameters as a plain ``{name: value}`` dictionary (SI units)."""
+        return {name: getattr(self, name) for name in self.names()}
+
+    def with_values(self, values: Mapping[str, Any] | None = None, /,
+                    **kwargs: Any) -> ModelParameters:
+        """A copy with some parameters changed; unknown names raise ConfigError.
+
+        Parameters
+        ----------
+        values : mapping, optional
+            ``{name: value}`` in SI units.
+        **kwargs
+            More ``name=value`` pairs.
+        """
+        changes = {**(values or {}), **kwargs}
+        known = set(self.names())
+        for name in changes:
+            if name not in known:
+                raise ConfigError(
+                    f"unknown model parameter; known: {', '.join(self.names())}", key=name)
+        return dataclasses.replace(self, **changes)
+
+    replace = with_values
+
+    def with_assignments(self, assignments: Iterable[str]) -> ModelParameters:
+        """A copy with ``"NAME=VALUE"`` strings applied (the command line's ``--set``).
+
+        Raises
+        ------
+        ConfigError
+            For a string without ``=``, an unknown name, a value that is not a number or
+            an invalid value; ``key`` names the parameter.
+        """
+        changes: dict[str, float] = {}
+        for text in assignments:
+            name, sep, raw = text.partition("=")
+            name = name.strip()
+            if not sep or not name:
+                raise ConfigError(f"expected NAME=VALUE, got {text!r}", key=name or text)
+            if name not in self.names():
+                raise ConfigError(
+                    f"unknown model parameter; known: {', '.join(self.names())}", key=name)
+            try:
+                changes[name] = float(raw)
+            except ValueError as err:
+                raise ConfigError(f"expected a number, got {raw.strip()!r}", key=name) from err
+        return self.with_values(changes)
+
+
+class ParameterInfo(NamedTuple):
+    """One row of ``evtribo model --list``."""
+
+    name: str
+    unit: str
+    default: float
+    description: str
+
+
+TABLE_1 = ModelParameters()
+"""Table 1 of the seed paper (mu = 0.5, R = 1 cm, E* = 40 kPa, h_L = 5 um, ...)."""
