@@ -1,0 +1,39 @@
+"""From forces to results: alignment, steady-sliding windows, estimates, spectra, power laws.
+
+The layers, each a module of plain numpy functions:
+
+- :mod:`~evtribo.analysis.align`: the two load cells on one time grid, NaN in gaps;
+- :mod:`~evtribo.analysis.conditions`: ON/OFF per grid point, with guard times at switches;
+- :mod:`~evtribo.analysis.windows`: steady-sliding windows found from the friction itself;
+- :mod:`~evtribo.analysis.estimate`: friction coefficient, inferred electrostatic force and
+  their bootstrap intervals;
+- :mod:`~evtribo.analysis.powerlaw`: ``F_el = k * U**n`` over amplitudes;
+- :mod:`~evtribo.analysis.spectra`: the friction's dominant oscillation frequency.
+"""
+
+from evtribo.analysis.align import AlignedForces, align_forces
+from evtribo.analysis.conditions import condition_from_excitation, constant_condition
+from evtribo.analysis.estimate import (
+    ElectrostaticEstimate,
+    electrostatic_force,
+    estimate_electrostatic,
+    friction_coefficient,
+)
+from evtribo.analysis.powerlaw import PowerLawFit, fit_power_law
+from evtribo.analysis.spectra import dominant_frequency
+from evtribo.analysis.windows import find_windows
+
+__all__ = [
+    "AlignedForces",
+    "ElectrostaticEstimate",
+    "PowerLawFit",
+    "align_forces",
+    "condition_from_excitation",
+    "constant_condition",
+    "dominant_frequency",
+    "electrostatic_force",
+    "estimate_electrostatic",
+    "find_windows",
+    "fit_power_law",
+    "friction_coefficient",
+]

@@ -1,0 +1,85 @@
+"""Dominant frequency of the friction's oscillation (Welch spectrum over windows).
+
+Under a sine voltage the electrostatic force follows ``U(t)**2``, so the friction oscillates
+at twice the drive frequency. Each ON window's friction magnitude, on the uniform grid, is
+split into Hann-windowed, linearly detrended segments; the segments' power spectra are
+averaged over all windows (weighted by segment count), zero-padded for a fine frequency grid,
+and the highest peak above ``min_frequency_Hz`` (slow load changes) is refined by a parabola
+through the peak bin and its neighbours.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+from scipy import signal
+
+log = logging.getLogger(__name__)
+
+
+def dominant_frequency(
+    segments: Sequence[npt.ArrayLike],
+    rate_Hz: float,
+    *,
+    min_frequency_Hz: float = 2.0,
+    max_frequency_Hz: float | None = None,
+    segment_s: float = 1.0,
+    resolution_Hz: float = 0.05,
+) -> float:
+    """Frequency of the highest spectral peak of a signal observed in several windows.
+
+    Parameters
+    ----------
+    segments : sequence of array_like of float
+        The signal in each window, uniformly sampled at *rate_Hz* (no NaN).
+    rate_Hz : float, Hz
+        Sample rate.
+    min_frequency_Hz, max_frequency_Hz : float, Hz
+        Band searched (default up to the Nyquist frequency).
+    segment_s : float, s
+        Longest Welch segment; windows shorter than the segment length used are skipped.
+    resolution_Hz : float, Hz
+        Frequency step of the zero-padded spectrum.
+
+    Returns
+    -------
+    float
+        Frequency in Hz, NaN when no window is long enough or the band is empty.
+    """
+    arrays = [np.asarray(s, dtype=np.float64) for s in segments]
+    arrays = [a for a in arrays if a.size >= 16 and np.all(np.isfinite(a))]
+    if not arrays:
+        return float("nan")
+    lengths = np.array([a.size for a in arrays])
+    nperseg = int(min(round(segment_s * rate_Hz), np.median(lengths)))
+    nfft = max(nperseg, int(2 ** np.ceil(np.log2(rate_Hz / resolution_Hz))))
+    total = None
+    weight = 0
+    for a in arrays:
+        if a.size < nperseg:
+            continue
+        freqs, pxx = signal.welch(a, fs=rate_Hz, window="hann", nperseg=nperseg, nfft=nfft,
+                                  detrend="linear")
+        nseg = 1 + (a.size - nperseg) // (nperseg // 2)
+        total = pxx * nseg if total is None else total + pxx * nseg
+        weight += nseg
+    if total is None:
+        return float("nan")
+    fmax = rate_Hz / 2 if max_frequency_Hz is None else min(max_frequency_Hz, rate_Hz / 2)
+    band = (freqs >= min_frequency_Hz) & (freqs <= fmax)
+    if not band.any():
+        return float("nan")
+    idx = np.flatnonzero(band)
+    k = int(idx[np.argmax(total[idx])])
+    if 0 < k < total.size - 1:
+        y0, y1, y2 = np.log(total[k - 1: k + 2] + 1e-300)
+        denom = y0 - 2 * y1 + y2
+        shift = 0.5 * (y0 - y2) / denom if denom < 0 else 0.0
+        return float(freqs[k] + shift * (freqs[1] - freqs[0]))
+    return float(freqs[k])
+
+
+__all__ = ["dominant_frequency"]

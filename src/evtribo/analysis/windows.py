@@ -1,0 +1,190 @@
+"""Steady-sliding windows, found from the tangential force itself.
+
+No position sensor is needed (nor used, when the rig has one): the finger slides back and
+forth, and the friction force's sign follows the sliding direction. On a uniform grid
+(:mod:`evtribo.analysis.align`):
+
+1. both forces are smoothed with a centred moving average (``smooth_s``; NaN wherever the
+   average would reach into a gap);
+2. a *stroke* is a run where the smoothed friction keeps one sign and stays above
+   ``sign_fraction`` of the trial's sliding level (90th percentile of ``|F_t|``): reversals,
+   rest and the start of the trial before sliding are outside every stroke;
+3. each stroke is cut where the condition (ON/OFF, with guard times) changes;
+4. inside each piece, steady sliding is where the friction-to-normal ratio ``|F_t|/F_n``
+   is at least ``level_fraction`` of the piece's median ratio (this removes the stick phase
+   and the start-up after a reversal, and any stick-slip event, without mistaking a change
+   of normal force for one), eroded by half the smoothing length on both sides;
+5. steady runs shorter than ``min_window_s`` are dropped, longer than ``max_window_s`` split
+   into equal parts (windows are the units the bootstrap resamples).
+
+Each window's forces are the means of the *unsmoothed* grid samples it spans.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from evtribo.analysis.conditions import EXCLUDED, ON
+
+log = logging.getLogger(__name__)
+
+#: Columns of the table :func:`find_windows` returns.
+WINDOW_COLUMNS = ("i_start", "i_stop", "t_start", "t_end", "condition", "direction",
+                  "normal_force_N", "friction_force_N")
+
+DEFAULT_SMOOTH_S = 0.1
+DEFAULT_MIN_WINDOW_S = 0.2
+DEFAULT_MAX_WINDOW_S = 1.0
+
+
+def moving_average(x: npt.ArrayLike, n: int) -> npt.NDArray[np.float64]:
+    """Centred moving average over *n* samples (odd), NaN wherever the span holds a NaN.
+
+    Parameters
+    ----------
+    x : array_like of float
+        Samples on a uniform grid.
+    n : int
+        Span in samples (rounded up to odd).
+
+    Returns
+    -------
+    ndarray of float64
+        Same length as *x*; NaN near the ends and around NaNs.
+    """
+    x = np.asarray(x, dtype=np.float64)
+    n = max(1, int(n)) | 1
+    h = n // 2
+    out = np.full(x.shape, np.nan)
+    if x.size < n:
+        return out
+    bad = ~np.isfinite(x)
+    csum = np.concatenate(([0.0], np.cumsum(np.where(bad, 0.0, x))))
+    cbad = np.concatenate(([0], np.cumsum(bad)))
+    total = csum[n:] - csum[:-n]
+    nbad = cbad[n:] - cbad[:-n]
+    out[h:x.size - h] = np.where(nbad == 0, total / n, np.nan)
+    return out
+
+
+def _runs(code: npt.NDArray[np.int64]) -> list[tuple[int, int, int]]:
+    """``(start, stop, value)`` of the runs of equal values of *code*."""
+    if code.size == 0:
+        return []
+    edges = np.flatnonzero(np.diff(code)) + 1
+    starts = np.concatenate(([0], edges))
+    stops = np.concatenate((edges, [code.size]))
+    return [(int(a), int(b), int(code[a])) for a, b in zip(starts, stops, strict=True)]
+
+
+def _true_runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
+    return [(a, b) for a, b, v in _runs(mask.astype(np.int64)) if v]
+
+
+def find_windows(
+    t: npt.ArrayLike,
+    normal: npt.ArrayLike,
+    tangential: npt.ArrayLike,
+    condition: npt.ArrayLike,
+    *,
+    smooth_s: float = DEFAULT_SMOOTH_S,
+    sign_fraction: float = 0.25,
+    level_fraction: float = 0.85,
+    min_window_s: float = DEFAULT_MIN_WINDOW_S,
+    max_window_s: float = DEFAULT_MAX_WINDOW_S,
+    skip_start_s: float = 0.0,
+) -> pd.DataFrame:
+    """Steady-sliding windows of one trial, split by condition.
+
+    Parameters
+    ----------
+    t : array_like of float, s
+        Uniform grid times.
+    normal, tangential : array_like of float, N
+        Forces on the grid (NaN in gaps); the tangential force keeps its sign.
+    condition : array_like of int
+        ``ON``, ``OFF`` or ``EXCLUDED`` per grid point (:mod:`evtribo.analysis.conditions`).
+    smooth_s : float, s
+        Moving-average span used to find strokes and steady parts (at least one or two
+        periods of any oscillation the excitation causes).
+    sign_fraction : float
+        Friction below this fraction of the sliding level counts as a reversal or rest.
+    level_fraction : float
+        Steady sliding needs ``|F_t|/F_n`` at least this fraction of the piece's median.
+    min_window_s, max_window_s : float, s
+        Shortest window kept; longer steady runs are split into parts no longer than this.
+    skip_start_s : float, s
+        Time at the start of the grid never used.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per window, columns :data:`WINDOW_COLUMNS`: grid indices ``i_start`` and
+        ``i_stop`` (exclusive), ``t_start`` and ``t_end`` (s, grid clock), ``condition``
+        (``"on"``/``"off"``), ``direction`` (sign of the friction), and the mean normal force
+        and mean friction magnitude (N).
+    """
+    t = np.asarray(t, dtype=np.float64)
+    fn = np.asarray(normal, dtype=np.float64)
+    ft = np.asarray(tangential, dtype=np.float64)
+    cond = np.asarray(condition).astype(np.int64)
+    empty = pd.DataFrame({c: pd.Series(dtype=float) for c in WINDOW_COLUMNS})
+    if t.size < 3:
+        return empty
+    dt = float(np.median(np.diff(t)))
+    w = max(1, round(smooth_s / dt)) | 1
+    h = w // 2
+    ft_s = moving_average(ft, w)
+    fn_s = moving_average(fn, w)
+    usable = np.isfinite(ft_s) & np.isfinite(fn_s) & (fn_s > 0) & (cond != EXCLUDED)
+    usable &= t >= t[0] + skip_start_s
+    if not usable.any():
+        return empty
+    level = float(np.percentile(np.abs(ft_s[usable]), 90))
+    if not level > 0:
+        return empty
+    label = np.where(ft_s > sign_fraction * level, 1, np.where(ft_s < -sign_fraction * level,
+                                                                -1, 0))
+    label[~usable] = 0
+    # piece code: direction x condition, 0 outside strokes
+    code = np.where(label == 0, 0, label * (np.where(cond == ON, 2, 1)))
+    ratio = np.abs(ft_s) / np.where(fn_s > 0, fn_s, np.nan)
+    min_len = max(2, round(min_window_s / dt))
+    max_len = max(min_len, round(max_window_s / dt))
+    rows = []
+    for a, b, v in _runs(code):
+        if v == 0 or b - a < min_len:
+            continue
+        r = ratio[a:b]
+        ok = r >= level_fraction * np.median(r)
+        if h:  # erode by h samples on each side (outside the piece counts as not steady)
+            okc = np.concatenate(([0], np.cumsum(ok)))
+            full = np.zeros(ok.size, dtype=bool)
+            lo = np.arange(ok.size) - h
+            hi = np.arange(ok.size) + h + 1
+            inside = (lo >= 0) & (hi <= ok.size)
+            full[inside] = (okc[hi[inside]] - okc[lo[inside]]) == w
+            ok = full
+        for s, e in _true_runs(ok):
+            length = e - s
+            if length < min_len:
+                continue
+            parts = int(np.ceil(length / max_len))
+            bounds = np.linspace(0, length, parts + 1).round().astype(int)
+            for p0, p1 in itertools.pairwise(bounds):
+                i0, i1 = a + s + int(p0), a + s + int(p1)
+                rows.append((i0, i1, t[i0], t[i1 - 1] + dt,
+                             "on" if abs(v) == 2 else "off", int(np.sign(v)),
+                             float(np.mean(fn[i0:i1])), float(abs(np.mean(ft[i0:i1])))))
+    if not rows:
+        return empty
+    return pd.DataFrame.from_records(rows, columns=list(WINDOW_COLUMNS))
+
+
+__all__ = ["DEFAULT_MAX_WINDOW_S", "DEFAULT_MIN_WINDOW_S", "DEFAULT_SMOOTH_S", "WINDOW_COLUMNS",
+           "find_windows", "moving_average"]
