@@ -190,3 +190,9 @@ def test_time_series_accepts_callables_and_varying_load():
     assert np.allclose(model.friction_time_series(t, load, 0.0), TABLE_1.mu * load)
     with pytest.raises(ValueError, match="voltage"):
         model.friction_time_series(t, 0.5, np.zeros(3))
+
+
+def test_area_increase_is_ratio_of_areas():
+    f, u = np.array([0.01, 0.1, 2.0]), np.array([[30.0], [150.0]])
+    direct = 100 * (model.contact_area_jkr(f, u) / model.contact_area_hertz(f) - 1)
+    assert np.allclose(model.area_increase_pct(f, u), direct, rtol=1e-10)

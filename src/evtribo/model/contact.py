@@ -200,7 +200,12 @@ def area_increase_pct(normal_force: ArrayLike, voltage: ArrayLike,
     ndarray
         Percent (>= 0).
     """
-    on = _f(contact_area_jkr(normal_force, voltage, params))
-    off = _f(contact_area_hertz(normal_force, params))
+    # (A_JKR / A_Hertz) = (1 + t)^(4/3), t = (sqrt(x) + sqrt(x + y) - sqrt(y)) / sqrt(y),
+    # written without cancellation so that it is exactly 0 without voltage.
+    dg = _f(surface_energy(voltage, params))
+    x = 9.0 * np.pi * dg / (8.0 * params.E_star * params.R)
+    y = 3.0 * _f(normal_force) / (4.0 * params.E_star * params.R**2)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return _out(100.0 * (on / off - 1.0))
+        ry = np.sqrt(y)
+        t = (np.sqrt(x) + x / (np.sqrt(x + y) + ry)) / ry
+        return _out(100.0 * np.expm1(4.0 / 3.0 * np.log1p(t)))
