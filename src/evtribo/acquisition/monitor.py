@@ -1,0 +1,273 @@
+"""Live display while a trial records: the normal force against its target band, and the bus.
+
+The display runs in its own thread, reading the writer's :class:`~evtribo.acquisition.logger.
+LogStats` a few times a second (never in the receive path). On a terminal it redraws a small
+block with ANSI escapes; on a pipe or file it writes one line every few seconds.
+:func:`render_band` and :func:`render_status` are pure functions of a :class:`Snapshot`.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any, TextIO
+
+from evtribo.acquisition.logger import LogStats
+
+log = logging.getLogger(__name__)
+
+_GREEN, _RED, _RESET = "\x1b[32m", "\x1b[31m", "\x1b[0m"
+
+
+@dataclass
+class Snapshot:
+    """What the display shows at one instant.
+
+    Attributes
+    ----------
+    elapsed_s : float, s
+    remaining_s : float or None, s
+        None when the trial has no set duration.
+    normal_force_N, tangential_force_N : float or None, N
+        Latest decoded values (None before the first frame).
+    rates_Hz : dict
+        Frames per second per message name (``"other"`` for frames the rig does not describe).
+    frames, dropped, bus_errors : int
+    """
+
+    elapsed_s: float
+    remaining_s: float | None = None
+    normal_force_N: float | None = None
+    tangential_force_N: float | None = None
+    rates_Hz: dict[str, float] = field(default_factory=dict)
+    frames: int = 0
+    dropped: int = 0
+    bus_errors: int = 0
+
+
+def band_state(value: float | None, target: float, band: float) -> str:
+    """``"in"``, ``"low"``, ``"high"`` (or ``"none"`` without a value) for target ± band, N."""
+    if value is None or math.isnan(value):
+        return "none"
+    if value < target - band:
+        return "low"
+    if value > target + band:
+        return "high"
+    return "in"
+
+
+def render_band(value: float | None, target: float, band: float, width: int = 41) -> str:
+    """A one-line gauge of *value* against ``target ± band`` (all in N).
+
+    The gauge spans ``target ± 4·band``: ``-`` outside the band, ``=`` inside, ``|`` at the
+    target, ``O`` at the value (``<`` / ``>`` at the ends when it is off the scale).
+
+    Parameters
+    ----------
+    value : float or None, N
+        Current normal force (None: no marker).
+    target, band : float, N
+        Target force and half-width of the band.
+    width : int
+        Characters between the brackets.
+
+    Returns
+    -------
+    str
+        For instance ``"[--------========|=====O==--------]"``.
+    """
+    half = 4 * band if band > 0 else max(abs(target), 1e-3)
+    lo, hi = target - half, target + half
+
+    def col(x: float) -> int:
+        return round((x - lo) / (hi - lo) * (width - 1))
+
+    cells = ["-"] * width
+    for i in range(max(col(target - band), 0), min(col(target + band), width - 1) + 1):
+        cells[i] = "="
+    cells[col(target)] = "|"
+    if value is not None and not math.isnan(value):
+        if value < lo:
+            cells[0] = "<"
+        elif value > hi:
+            cells[-1] = ">"
+        else:
+            cells[col(value)] = "O"
+    return "[" + "".join(cells) + "]"
+
+
+def _fmt(value: float | None, unit: str = "N") -> str:
+    return "   --   " if value is None or math.isnan(value) else f"{value:8.3f} {unit}"
+
+
+def render_status(snap: Snapshot, *, target: float | None = None, band: float = 0.1,
+                  width: int = 41, colour: bool = False, title: str = "") -> list[str]:
+    """The display's lines for *snap* (no newlines, no cursor movement).
+
+    Parameters
+    ----------
+    snap : Snapshot
+    target : float or None, N
+        Target normal force; None shows the value without a gauge.
+    band : float, N
+        Half-width of the target band.
+    width : int
+        Width of the gauge.
+    colour : bool
+        Colour the band verdict with ANSI codes.
+    title : str
+        First words of the first line (``P01/run-01``).
+    """
+    remaining = "" if snap.remaining_s is None else f"   remaining {snap.remaining_s:6.1f} s"
+    lines = [f"{title}   elapsed {snap.elapsed_s:6.1f} s{remaining}".strip()]
+    normal = f"normal force     {_fmt(snap.normal_force_N)}"
+    if target is not None:
+        state = band_state(snap.normal_force_N, target, band)
+        word = {"in": "IN BAND", "low": "TOO LOW", "high": "TOO HIGH", "none": "NO DATA"}[state]
+        if colour:
+            word = (_GREEN if state == "in" else _RED) + word + _RESET
+        normal += (f"  {render_band(snap.normal_force_N, target, band, width)}  {word}"
+                   f"  (target {target:.3f} ± {band:.3f} N)")
+    lines.append(normal)
+    lines.append(f"tangential force {_fmt(snap.tangential_force_N)}")
+    rates = "   ".join(f"{name} {rate:6.0f}" for name, rate in snap.rates_Hz.items())
+    lines.append(f"frames/s   {rates or '--'}")
+    lines.append(f"frames {snap.frames}   dropped {snap.dropped}   bus errors {snap.bus_errors}")
+    return lines
+
+
+def render_line(snap: Snapshot, *, target: float | None = None, band: float = 0.1) -> str:
+    """A one-line summary for logs and pipes."""
+    fn = "--" if snap.normal_force_N is None else f"{snap.normal_force_N:.3f} N"
+    if target is not None:
+        fn += f" ({band_state(snap.normal_force_N, target, band)})"
+    ft = "--" if snap.tangential_force_N is None else f"{snap.tangential_force_N:.3f} N"
+    total = sum(snap.rates_Hz.values())
+    return (f"t={snap.elapsed_s:.1f} s  Fn={fn}  Ft={ft}  frames={snap.frames} "
+            f"({total:.0f}/s)  dropped={snap.dropped}  bus errors={snap.bus_errors}")
+
+
+class Monitor:
+    """A thread that shows the trial's state on *stream* while it records.
+
+    Parameters
+    ----------
+    rig : AcquisitionRig
+        For decoding the force signals and naming messages.
+    stream : text file
+        Where to write (the terminal).
+    duration : float or None, s
+        Planned duration (for the remaining time).
+    target, band : float, N
+        Target normal force and half-width of its band; ``target=None`` for no gauge.
+    tty : bool or None
+        Redraw in place (default: ``stream.isatty()``).
+    interval : float, s
+        Refresh period on a terminal; a line every ``line_interval`` s otherwise.
+    title : str
+        Shown on the first line.
+    """
+
+    def __init__(self, rig: Any, stream: TextIO, *, duration: float | None = None,
+                 target: float | None = None, band: float = 0.1, tty: bool | None = None,
+                 interval: float = 0.25, line_interval: float = 5.0, title: str = "") -> None:
+        self.rig = rig
+        self.stream = stream
+        self.duration = duration
+        self.target = target
+        self.band = band
+        self.tty = stream.isatty() if tty is None else tty
+        self.interval = interval if self.tty else line_interval
+        self.title = title
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._stats: LogStats | None = None
+        self._t0 = 0.0
+        self._last: tuple[float, dict[str, int]] = (0.0, {})
+        self._drawn = 0
+        self._forces = [self._signal(key) for key in ("normal_force", "tangential_force")]
+
+    def _signal(self, key: str) -> tuple[int, str] | None:
+        spec = self.rig.signals.get(key)
+        if spec is None:
+            return None
+        message, signal = spec.split(".")
+        return int(self.rig.database.get_message_by_name(message).frame_id), signal
+
+    def start(self, stats: LogStats, t0: float | None = None) -> Monitor:
+        """Show *stats* from now on; *t0* is the trial's start (``time.monotonic()``)."""
+        self._stats = stats
+        self._t0 = time.monotonic() if t0 is None else t0
+        self._last = (self._t0, {})
+        self._thread = threading.Thread(target=self._run, name="evtribo-monitor", daemon=True)
+        self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        """Stop refreshing (after a last refresh on a terminal)."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+        if self.tty and self._stats is not None:
+            self._draw()
+
+    def _run(self) -> None:
+        while not self._stop.wait(self.interval):
+            try:
+                self._draw()
+            except Exception as err:  # the display must never stop the recording
+                log.warning("display failed: %s", err)
+
+    def _decode(self, latest: dict[int, Any], which: tuple[int, str] | None) -> float | None:
+        if which is None or which[0] not in latest:
+            return None
+        try:
+            decoded = self.rig.database.decode_message(which[0], bytes(latest[which[0]].data),
+                                                       decode_choices=False)
+            return float(decoded[which[1]])
+        except Exception:
+            return None
+
+    def snapshot(self) -> Snapshot:
+        """The current state (frame rates over the time since the previous snapshot)."""
+        stats = self._stats if self._stats is not None else LogStats()
+        now = time.monotonic()
+        elapsed = now - self._t0
+        counts = dict(stats.frames_by_id)
+        t_prev, prev = self._last
+        dt = max(now - t_prev, 1e-9)
+        rates: dict[str, float] = {}
+        for key, n in counts.items():
+            name = None
+            if key != "error" and len(key) == 3:
+                name = self.rig.message_name(int(key, 16))
+            name = name or "other"
+            rates[name] = rates.get(name, 0.0) + (n - prev.get(key, 0)) / dt
+        self._last = (now, counts)
+        latest = dict(stats.latest)
+        remaining = None if self.duration is None else max(self.duration - elapsed, 0.0)
+        return Snapshot(elapsed_s=elapsed, remaining_s=remaining,
+                        normal_force_N=self._decode(latest, self._forces[0]),
+                        tangential_force_N=self._decode(latest, self._forces[1]),
+                        rates_Hz=rates, frames=stats.frames, dropped=stats.dropped,
+                        bus_errors=stats.error_frames)
+
+    def _draw(self) -> None:
+        snap = self.snapshot()
+        if not self.tty:
+            self.stream.write(render_line(snap, target=self.target, band=self.band) + "\n")
+            self.stream.flush()
+            return
+        lines = render_status(snap, target=self.target, band=self.band, colour=True,
+                              title=self.title)
+        out = f"\x1b[{self._drawn}F" if self._drawn else ""
+        out += "".join(f"\x1b[2K{line}\n" for line in lines)
+        self.stream.write(out)
+        self.stream.flush()
+        self._drawn = len(lines)
+
+
+__all__ = ["Monitor", "Snapshot", "band_state", "render_band", "render_line", "render_status"]

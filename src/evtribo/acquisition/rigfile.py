@@ -1,0 +1,274 @@
+"""The rig as acquisition needs it: a rig TOML or a study's ``study.toml``, and its DBC.
+
+A rig TOML (``src/evtribo/data/rigs/default.toml``) holds the keys of the ``[rig]`` table of
+``study.toml`` (spec §1) at top level, plus ``name`` and, optionally, the rolling counters of
+the load cells (``normal_force_counter``, ``tangential_force_counter``), with ``dbc``
+relative to the TOML. A new study folder gets a copy of the DBC under ``rig/`` and a
+``study.toml`` whose ``[rig]`` table names it.
+"""
+
+from __future__ import annotations
+
+import difflib
+import logging
+import re
+import shutil
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import cantools
+
+from evtribo.acquisition.logger import CounterSpec, counter_spec_from_dbc
+from evtribo.errors import RigConfigError
+from evtribo.study import read_study_toml, validate_name, write_study_toml
+
+log = logging.getLogger(__name__)
+
+#: Keys of the ``[rig]`` table naming a ``"<Message>.<Signal>"``.
+SIGNAL_KEYS = (
+    "normal_force",
+    "tangential_force",
+    "excitation_enabled",
+    "excitation_amplitude",
+    "excitation_frequency",
+    "excitation_waveform",
+)
+REQUIRED_KEYS = ("dbc", "normal_force", "tangential_force")
+COUNTER_KEYS = ("normal_force_counter", "tangential_force_counter")
+_COUNTER_NAME = re.compile(r"(counter|cnt)$", re.IGNORECASE)
+
+
+def default_rig_path() -> Path:
+    """The default rig's TOML (the one ``evtribo simulate`` sends)."""
+    return Path(str(resources.files("evtribo") / "data" / "rigs" / "default.toml"))
+
+
+def check_name(value: str, key: str) -> str:
+    """Return *value* if it is a plain name (letters, digits, ``-``, ``_``).
+
+    Raises
+    ------
+    StudyError
+        For anything else (a path, ``..``, spaces, an empty name), naming *key*.
+    """
+    return validate_name(value, what=key, key=key)
+
+
+@dataclass
+class AcquisitionRig:
+    """A rig: its DBC, which signals mean what, and the counters to check for lost frames.
+
+    Attributes
+    ----------
+    name : str
+        Free text.
+    dbc_path : Path
+        The DBC file.
+    database : cantools.database.can.Database
+        The parsed DBC.
+    signals : dict
+        ``{"normal_force": "FzCell.Fz", ...}`` for the keys of :data:`SIGNAL_KEYS` present.
+    counters : list of CounterSpec
+        Rolling frame counters (explicit keys, or signals named ``*Counter`` / ``*Cnt`` in
+        the force messages).
+    source : Path
+        The TOML it was read from.
+    """
+
+    name: str
+    dbc_path: Path
+    database: Any
+    signals: dict[str, str]
+    counters: list[CounterSpec] = field(default_factory=list)
+    source: Path | None = None
+
+    def message_name(self, arbitration_id: int) -> str | None:
+        """The DBC message name of an identifier, or None."""
+        try:
+            return str(self.database.get_message_by_frame_id(arbitration_id).name)
+        except KeyError:
+            return None
+
+
+def _read_toml(path: Path) -> dict[str, Any]:
+    try:
+        with path.open("rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError as err:
+        raise RigConfigError("file not found", path=path) from err
+    except tomllib.TOMLDecodeError as err:
+        m = re.search(r"line (\d+)", str(err))
+        raise RigConfigError(f"not valid TOML: {err}", path=path,
+                             line=int(m.group(1)) if m else None) from err
+
+
+def _load_dbc(path: Path, toml_path: Path, key: str) -> Any:
+    if not path.is_file():
+        raise RigConfigError(f"DBC file not found: {path}", path=toml_path, key=key)
+    try:
+        return cantools.database.load_file(str(path), strict=False)
+    except Exception as err:  # cantools raises many kinds (ParseError, UnsupportedDatabase...)
+        raise RigConfigError(f"the DBC {path} does not parse: {err}", path=toml_path,
+                             key=key) from err
+
+
+def _check_signal(database: Any, value: Any, toml_path: Path, key: str) -> str:
+    if not isinstance(value, str) or value.count(".") != 1:
+        raise RigConfigError(f"expected \"<Message>.<Signal>\", got {value!r}", path=toml_path,
+                             key=key)
+    message, signal = value.split(".")
+    names = [m.name for m in database.messages]
+    try:
+        msg = database.get_message_by_name(message)
+    except KeyError:
+        close = difflib.get_close_matches(message, names, n=3)
+        raise RigConfigError(f"message {message!r} is not in the DBC"
+                             + (f"; closest: {', '.join(close)}" if close else
+                                f"; it has: {', '.join(names)}"),
+                             path=toml_path, key=key) from None
+    sig_names = [s.name for s in msg.signals]
+    if signal not in sig_names:
+        close = difflib.get_close_matches(signal, sig_names, n=3) or sig_names
+        raise RigConfigError(f"signal {signal!r} is not in message {message!r}; closest: "
+                             f"{', '.join(close)}", path=toml_path, key=key)
+    return value
+
+
+def _counters(database: Any, signals: dict[str, str]) -> list[CounterSpec]:
+    specs: list[CounterSpec] = []
+    for key, force_key in zip(COUNTER_KEYS, ("normal_force", "tangential_force"), strict=True):
+        if key in signals:
+            message, signal = signals[key].split(".")
+        else:  # a signal named like a counter in the force's message
+            message = signals[force_key].split(".")[0]
+            found = [s.name for s in database.get_message_by_name(message).signals
+                     if _COUNTER_NAME.search(s.name)]
+            if not found:
+                continue
+            signal = found[0]
+        spec = counter_spec_from_dbc(database, message, signal)
+        if spec.arbitration_id not in {s.arbitration_id for s in specs}:
+            specs.append(spec)
+    return specs
+
+
+def _rig_from_table(table: dict[str, Any], toml_path: Path, prefix: str,
+                    name: str) -> AcquisitionRig:
+    for key in REQUIRED_KEYS:
+        if key not in table:
+            raise RigConfigError("missing key", path=toml_path, key=prefix + key)
+    if not isinstance(table["dbc"], str):
+        raise RigConfigError(f"expected a path, got {table['dbc']!r}", path=toml_path,
+                             key=prefix + "dbc")
+    dbc_path = (toml_path.parent / table["dbc"]).resolve()
+    database = _load_dbc(dbc_path, toml_path, prefix + "dbc")
+    signals = {key: _check_signal(database, table[key], toml_path, prefix + key)
+               for key in SIGNAL_KEYS + COUNTER_KEYS if key in table}
+    counters = _counters(database, signals)
+    return AcquisitionRig(name=name, dbc_path=dbc_path, database=database, signals=signals,
+                          counters=counters, source=toml_path)
+
+
+def load_rig_toml(path: str | Path) -> AcquisitionRig:
+    """Read a rig TOML (keys of spec §1's ``[rig]`` at top level, ``dbc`` relative to it).
+
+    Raises
+    ------
+    RigConfigError
+        Unreadable TOML, missing key, DBC not found or not parsing, unknown message/signal.
+    """
+    path = Path(path)
+    table = _read_toml(path)
+    name = table.get("name", path.stem)
+    return _rig_from_table(table, path, "", str(name))
+
+
+def load_study_rig(study: str | Path) -> AcquisitionRig:
+    """The rig named by ``STUDY/study.toml``'s ``[rig]`` table.
+
+    Raises
+    ------
+    StudyError
+        study.toml unreadable, with unknown keys, or without ``[rig]``.
+    RigConfigError
+        The ``[rig]`` table is wrong.
+    """
+    path = Path(study) / "study.toml"
+    table = read_study_toml(path)["rig"]
+    out = _rig_from_table(table, path, "rig.", "")
+    out.name = str(table.get("name") or out.database.version or out.dbc_path.name)
+    return out
+
+
+def create_study(study: str | Path, rig: AcquisitionRig, name: str | None = None) -> Path:
+    """Make *study* a study folder for *rig*: copy its DBC to ``rig/``, write ``study.toml``.
+
+    Returns
+    -------
+    Path
+        The new ``study.toml``.
+
+    Raises
+    ------
+    OutputExistsError
+        If the folder already has a ``study.toml`` (it is left alone).
+    """
+    study = Path(study)
+    (study / "rig").mkdir(parents=True, exist_ok=True)
+    dbc_rel = f"rig/{rig.dbc_path.name}"
+    if not (study / dbc_rel).exists():
+        shutil.copyfile(rig.dbc_path, study / dbc_rel)
+    table = {"name": rig.name, "dbc": dbc_rel, **rig.signals}
+    path = write_study_toml(study, name=name or study.resolve().name, rig=table)
+    log.info("new study folder %s for rig %r", study, rig.name)
+    return path
+
+
+def open_study(study: str | Path, rig_path: str | Path | None = None) -> AcquisitionRig:
+    """The rig of *study*, creating the study folder for *rig_path* when it has none.
+
+    Parameters
+    ----------
+    study : path
+        The study folder (created if missing).
+    rig_path : path, optional
+        Rig TOML for a new study (default: :func:`default_rig_path`). For an existing study
+        it must describe the same DBC as the study's.
+
+    Raises
+    ------
+    RigConfigError
+        Bad rig, or *rig_path* disagrees with the existing study's rig.
+    """
+    study = Path(study)
+    if (study / "study.toml").exists():
+        rig = load_study_rig(study)
+        if rig_path is not None:
+            given = load_rig_toml(rig_path)
+            if given.dbc_path.read_bytes() != rig.dbc_path.read_bytes():
+                raise RigConfigError(
+                    f"the study already uses the DBC {rig.dbc_path}, which differs from "
+                    f"{given.dbc_path} of --rig {rig_path}", path=study / "study.toml",
+                    key="rig.dbc")
+            rig.counters = rig.counters or given.counters
+        return rig
+    given = load_rig_toml(rig_path if rig_path is not None else default_rig_path())
+    create_study(study, given)
+    rig = load_study_rig(study)
+    rig.name = given.name
+    rig.counters = given.counters or rig.counters
+    return rig
+
+
+__all__ = [
+    "AcquisitionRig",
+    "check_name",
+    "create_study",
+    "default_rig_path",
+    "load_rig_toml",
+    "load_study_rig",
+    "open_study",
+]

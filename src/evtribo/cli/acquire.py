@@ -1,0 +1,129 @@
+"""``evtribo acquire``: record one trial from any python-can bus into a study folder."""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import signal
+import sys
+import threading
+from typing import Any
+
+from evtribo.acquisition.bus import BusSettings, open_bus, parse_bus_options
+from evtribo.acquisition.monitor import Monitor
+from evtribo.acquisition.rigfile import AcquisitionRig, check_name, open_study
+from evtribo.acquisition.trial import CONDITIONS, WAVEFORMS, StopFlag, TrialInfo, record_trial
+from evtribo.errors import ConfigError
+
+log = logging.getLogger(__name__)
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``evtribo acquire``."""
+    p = subparsers.add_parser(
+        "acquire", help="record one trial from a CAN bus into a study folder",
+        description="Record every frame of a python-can bus into STUDY/SUBJECT/TRIAL.log "
+                    "(candump -L) and its sidecar STUDY/SUBJECT/TRIAL.json, with a live "
+                    "display of the normal force. Stops after --duration, or on Ctrl-C / "
+                    "SIGTERM (exit 0); exit 1 if the bus fails mid-trial (what was received "
+                    "is kept), 2 for bad usage or an existing trial without --force.")
+    p.add_argument("--study", required=True, metavar="DIR",
+                   help="study folder (created with a study.toml for --rig if new)")
+    p.add_argument("--subject", required=True, help="subject name (letters, digits, - and _)")
+    p.add_argument("--trial", required=True, help="trial name, e.g. run-01")
+    p.add_argument("--duration", type=float, default=None, metavar="S",
+                   help="recording time in s (default: until Ctrl-C / SIGTERM)")
+    bus = p.add_argument_group("bus (python-can's configuration file/environment when omitted)")
+    bus.add_argument("--interface", help="python-can interface: socketcan, slcan, slcan_bulk, "
+                     "pcan, kvaser, virtual...")
+    bus.add_argument("--channel", help="channel: can0, vcan0, /dev/ttyACM0, PCAN_USBBUS1...")
+    bus.add_argument("--bitrate", type=int, help="bit/s, e.g. 1000000")
+    bus.add_argument("--bus-option", action="append", default=[], metavar="KEY=VALUE",
+                     help="extra argument of the python-can bus (repeatable), "
+                     "e.g. sleep_after_open=0")
+    bus.add_argument("--log-channel", metavar="NAME",
+                     help="channel name written in the log (default: --channel)")
+    meta = p.add_argument_group("trial metadata (sidecar)")
+    meta.add_argument("--waveform", choices=WAVEFORMS)
+    meta.add_argument("--frequency", type=float, metavar="HZ", help="excitation frequency, Hz")
+    meta.add_argument("--amplitude", type=float, metavar="V", help="excitation amplitude, V")
+    meta.add_argument("--condition", choices=CONDITIONS)
+    meta.add_argument("--notes", help="free text")
+    p.add_argument("--rig", metavar="RIG.toml",
+                   help="rig description for a new study (default: the simulator's rig)")
+    p.add_argument("--force", action="store_true", help="replace an existing trial")
+    disp = p.add_argument_group("display")
+    disp.add_argument("--target-force", type=float, metavar="N",
+                      help="target normal force shown as a band, N")
+    disp.add_argument("--band", type=float, default=0.1, metavar="N",
+                      help="half-width of the target band, N (default 0.1)")
+    disp.add_argument("--quiet", action="store_true", help="no display, no summary")
+    p.set_defaults(func=run)
+    return p
+
+
+class _Signals:
+    """SIGINT/SIGTERM set the stop flag (a second SIGINT raises KeyboardInterrupt)."""
+
+    def __init__(self, flag: StopFlag) -> None:
+        self.flag = flag
+        self.saved: dict[int, Any] = {}
+
+    def _handler(self, signum: int, _frame: Any) -> None:
+        name = signal.Signals(signum).name
+        if self.flag() and signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        self.flag.set(f"stopped by {name}")
+
+    def __enter__(self) -> _Signals:
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self.saved[sig] = signal.signal(sig, self._handler)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for sig, old in self.saved.items():
+            signal.signal(sig, old)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Record the trial; return 0 (completed or stopped), 1 (bus or disk failed)."""
+    check_name(args.subject, "subject")
+    check_name(args.trial, "trial")
+    if args.duration is not None and args.duration <= 0:
+        raise ConfigError(f"expected a positive duration, got {args.duration}", key="--duration")
+    if args.band < 0:
+        raise ConfigError(f"expected a band >= 0 N, got {args.band}", key="--band")
+    info = TrialInfo(waveform=args.waveform, frequency_Hz=args.frequency,
+                     amplitude_V=args.amplitude, condition=args.condition, notes=args.notes)
+    info.check()
+    rig: AcquisitionRig = open_study(args.study, args.rig)  # check the rig before the bus
+    settings = BusSettings(interface=args.interface, channel=args.channel,
+                           bitrate=args.bitrate, options=parse_bus_options(args.bus_option))
+    bus = open_bus(settings)
+    flag = StopFlag()
+    monitor = None
+    if not args.quiet:
+        monitor = Monitor(rig, sys.stdout, duration=args.duration, target=args.target_force,
+                          band=args.band, title=f"{args.subject}/{args.trial}")
+    try:
+        with _Signals(flag):
+            result = record_trial(
+                bus, args.study, args.subject, args.trial, duration=args.duration, info=info,
+                rig=args.rig, force=args.force, settings=settings,
+                log_channel=args.log_channel, should_stop=flag, monitor=monitor)
+    finally:
+        try:
+            bus.shutdown()
+        except Exception as err:  # a vanished adapter may fail to close
+            log.warning("closing the bus failed: %s", err)
+    side = result.sidecar
+    summary = (f"{args.subject}/{args.trial}: {result.ended}, {side['frames']} frames in "
+               f"{side['duration_s']:.1f} s, {side['dropped_frames']} dropped, "
+               f"{side['bus_errors']} bus errors -> {result.paths.log}")
+    if result.exit_code:
+        print(f"evtribo acquire: error: {side.get('end_detail', result.ended)}; "
+              f"what was received is kept.\n{summary}", file=sys.stderr)
+    elif not args.quiet:
+        print(summary)
+    return result.exit_code

@@ -1,0 +1,227 @@
+"""``record_trial``: every frame of a python-can bus into a study folder, nothing lost."""
+
+import json
+import threading
+import time
+
+import can
+import cantools
+import pytest
+
+from evtribo.acquisition.bus import BusSettings
+from evtribo.acquisition.rigfile import default_rig_path
+from evtribo.acquisition.trial import TrialInfo, record_trial
+from evtribo.errors import OutputExistsError, SidecarError, StudyError
+from evtribo.study import load_study, read_sidecar
+
+DBC = cantools.database.load_file(str(default_rig_path().with_name("default.dbc")))
+
+
+def rig_frames(n, *, skip=(), extra=True):
+    """*n* rig-like frames: FzCell and FxCell alternating with counters, HvStatus every 100,
+    plus (with *extra*) a foreign extended frame and an error frame. Counter values in *skip*
+    (for FzCell) are left out, as if lost on the bus."""
+    fz, fx, hv = (DBC.get_message_by_name(m) for m in ("FzCell", "FxCell", "HvStatus"))
+    frames = []
+    count = {"fz": 0, "fx": 0, "hv": 0}
+    for i in range(n):
+        if i % 100 == 99:
+            c = count["hv"]
+            msg, data = hv, hv.encode({"HvOn": c % 2, "HvWave": 1, "HvCounter": c % 16,
+                                       "HvAmp": 140, "HvFreq": 10000, "HvCurrent": 1})
+            count["hv"] += 1
+        elif i % 2 == 0:
+            c = count["fz"]
+            count["fz"] += 1
+            if c in skip:
+                continue
+            msg, data = fz, fz.encode({"Fz": 0.5, "FzStatus": 0, "FzTemp": 25,
+                                       "FzCounter": c % 256})
+        else:
+            c = count["fx"]
+            count["fx"] += 1
+            msg, data = fx, fx.encode({"Fx": 0.25, "FxStatus": 0, "FxTemp": 25,
+                                       "FxCounter": c % 256})
+        frames.append(can.Message(arbitration_id=msg.frame_id, is_extended_id=False, data=data))
+    if extra:
+        frames.insert(n // 3, can.Message(arbitration_id=0x18FF0001, is_extended_id=True,
+                                          data=b"\x01\x02\x03"))
+        frames.insert(n // 2, can.Message(is_error_frame=True, data=bytes(8)))
+    return frames
+
+
+class Sender(threading.Thread):
+    """Sends *frames* on a virtual channel at *rate* frames/s, in 5 ms bursts."""
+
+    def __init__(self, channel, frames, rate=8400.0):
+        super().__init__(daemon=True)
+        self.bus = can.Bus(interface="virtual", channel=channel)
+        self.frames = frames
+        self.rate = rate
+
+    def run(self):
+        t0 = time.perf_counter()
+        n = 0
+        while n < len(self.frames):
+            due = min(int((time.perf_counter() - t0) * self.rate) + 1, len(self.frames))
+            while n < due:
+                self.bus.send(self.frames[n])
+                n += 1
+            time.sleep(0.005)
+        self.bus.shutdown()
+
+
+def record_from_sender(tmp_path, channel, frames, duration=1.5, **kwargs):
+    study = tmp_path / "study"
+    sender = Sender(channel, frames)
+    with can.Bus(interface="virtual", channel=channel) as bus:
+        result = record_trial(bus, study, "P01", "run-01", duration=duration,
+                              settings=BusSettings("virtual", channel, 1_000_000),
+                              started=lambda _paths: sender.start(), **kwargs)
+    sender.join()
+    return study, result
+
+
+def test_records_every_frame_and_a_spec_sidecar(tmp_path):
+    frames = rig_frames(8400)                       # 1 s at a saturated 1 Mbit/s
+    info = TrialInfo(waveform="square", frequency_Hz=10000, amplitude_V=140,
+                     condition="alternating", notes="first try")
+    study, result = record_from_sender(tmp_path, "acq_every_frame", frames, info=info)
+    assert result.ended == "completed"
+    assert result.exit_code == 0
+    log = study / "P01" / "run-01.log"
+    assert not (study / "P01" / "run-01.log.part").exists()
+
+    back = list(can.LogReader(log))
+    assert len(back) == len(frames)
+    for sent, got in zip(frames, back, strict=True):
+        assert got.is_error_frame == sent.is_error_frame
+        if not sent.is_error_frame:
+            assert (got.arbitration_id, got.is_extended_id, bytes(got.data)) == \
+                (sent.arbitration_id, sent.is_extended_id, bytes(sent.data))
+    first = log.read_text().splitlines()[0]
+    assert first.split()[1] == "acq_every_frame"
+
+    side = json.loads((study / "P01" / "run-01.json").read_text())
+    assert side["subject"] == "P01"
+    assert side["waveform"] == "square"
+    assert side["frequency_Hz"] == 10000
+    assert side["amplitude_V"] == 140
+    assert side["condition"] == "alternating"
+    assert side["notes"] == "first try"
+    assert side["ended"] == "completed"
+    assert side["frames"] == len(frames)
+    n_hv = 84
+    assert side["frames_by_id"] == {"0C1": 4200, "0C2": 4200 - n_hv, "1A0": n_hv,
+                                    "18FF0001": 1, "error": 1}
+    assert side["dropped_frames"] == 0
+    assert side["dropped_frames_by_message"] == {"FzCell": 0, "FxCell": 0}
+    assert side["error_frames"] == 1
+    assert side["bus_errors"] == 1
+    assert side["interface"] == "virtual"
+    assert side["channel"] == "acq_every_frame"
+    assert side["bitrate"] == 1_000_000
+    assert side["rig"]["dbc"] == "rig/default.dbc"
+    assert side["evtribo_version"]
+    assert side["python_can_version"] == can.__version__
+    assert side["start_time"].endswith("Z") and side["end_time"] > side["start_time"]
+    assert side["duration_s"] == pytest.approx(1.5, abs=0.2)
+    # the lead's readers accept what acquire writes
+    assert read_sidecar(study / "P01" / "run-01.json", default_subject="P01").amplitude_V == 140
+    loaded = load_study(study)
+    assert [t.key for t in loaded.trials] == ["P01/run-01"]
+    assert loaded.rig.normal_force.qualified_name == "FzCell.Fz"
+    assert (study / "rig" / "default.dbc").read_bytes() == \
+        default_rig_path().with_name("default.dbc").read_bytes()
+
+
+def test_counts_frames_lost_by_the_counters(tmp_path):
+    lost = {7, 8, 9, 200, 201, 1000}                # FzCell counter values never sent
+    frames = rig_frames(3000, skip=lost, extra=False)
+    _study, result = record_from_sender(tmp_path, "acq_counts_lost", frames, duration=1.0)
+    side = result.sidecar
+    assert side["frames"] == len(frames)
+    assert side["dropped_frames"] == len(lost)
+    assert side["dropped_frames_by_message"] == {"FzCell": len(lost), "FxCell": 0}
+
+
+def test_stop_request_ends_as_interrupted(tmp_path):
+    stop = threading.Event()
+    threading.Timer(0.3, stop.set).start()
+    with can.Bus(interface="virtual", channel="acq_stop") as bus:
+        result = record_trial(bus, tmp_path / "s", "P02", "run-02", duration=20.0,
+                              should_stop=stop.is_set)
+    assert result.ended == "interrupted"
+    assert result.exit_code == 0
+    assert result.sidecar["duration_s"] < 2.0
+    assert (tmp_path / "s" / "P02" / "run-02.log").read_text() == ""
+
+
+class VanishingBus(can.BusABC):
+    """Delivers *n* FzCell frames, then fails as an unplugged adapter does."""
+
+    def __init__(self, n, **kwargs):
+        super().__init__(channel="ttyACM0", **kwargs)
+        self.n = n
+        self.i = 0
+
+    def _recv_internal(self, timeout):
+        if self.i >= self.n:
+            raise can.CanOperationError("Could not read from serial device")
+        data = DBC.get_message_by_name("FzCell").encode(
+            {"Fz": 0.5, "FzStatus": 0, "FzTemp": 25, "FzCounter": self.i % 256})
+        self.i += 1
+        return can.Message(timestamp=time.time(), arbitration_id=0xC1, is_extended_id=False,
+                           data=data), False
+
+    def send(self, msg, timeout=None):
+        raise can.CanOperationError("read-only")
+
+
+def test_adapter_vanishing_keeps_the_log_and_says_so(tmp_path):
+    bus = VanishingBus(5000)
+    try:
+        result = record_trial(bus, tmp_path / "s", "P01", "run-01", duration=10.0)
+    finally:
+        bus.shutdown()
+    assert result.ended == "bus-error"
+    assert result.exit_code == 1
+    log = tmp_path / "s" / "P01" / "run-01.log"
+    assert len(list(can.LogReader(log))) == 5000
+    side = json.loads((tmp_path / "s" / "P01" / "run-01.json").read_text())
+    assert side["ended"] == "bus-error"
+    assert side["frames"] == 5000
+    assert side["dropped_frames"] == 0
+    assert "Could not read from serial device" in side["end_detail"]
+    assert side["bus_errors"] == 1
+    assert side["bus_exceptions"] == ["CanOperationError: Could not read from serial device"]
+
+
+@pytest.mark.parametrize("leftover", ["run-01.log", "run-01.json", "run-01.log.part"])
+def test_refuses_to_overwrite_a_trial(tmp_path, leftover):
+    study = tmp_path / "s"
+    (study / "P01").mkdir(parents=True)
+    (study / "P01" / leftover).write_text("precious\n")
+    with can.Bus(interface="virtual", channel=f"acq_refuse_{leftover}") as bus:
+        with pytest.raises(OutputExistsError, match=leftover):
+            record_trial(bus, study, "P01", "run-01", duration=0.1)
+        assert (study / "P01" / leftover).read_text() == "precious\n"
+        result = record_trial(bus, study, "P01", "run-01", duration=0.1, force=True)
+    assert result.ended == "completed"
+    assert sorted(p.name for p in (study / "P01").iterdir()) == ["run-01.json", "run-01.log"]
+
+
+@pytest.mark.parametrize("subject,trial", [("../P01", "run-01"), ("P01", "a/b"),
+                                           ("P 01", "run"), ("P01", "")])
+def test_refuses_names_that_are_not_plain(tmp_path, subject, trial):
+    with can.Bus(interface="virtual", channel="acq_names") as bus:
+        with pytest.raises(StudyError):
+            record_trial(bus, tmp_path / "s", subject, trial, duration=0.1)
+    assert not (tmp_path / "s").exists()
+
+
+def test_refuses_bad_metadata(tmp_path):
+    with can.Bus(interface="virtual", channel="acq_meta") as bus:
+        with pytest.raises(SidecarError, match="waveform"):
+            record_trial(bus, tmp_path / "s", "P01", "r", duration=0.1,
+                         info=TrialInfo(waveform="sawtooth"))

@@ -1,0 +1,181 @@
+"""The trial logger: candump lines, rolling counters, periodic flush, receive loop."""
+
+import random
+import threading
+import time
+
+import can
+import cantools
+import pytest
+
+from evtribo.acquisition.logger import (
+    CounterSpec,
+    CounterTracker,
+    LogWriter,
+    counter_spec_from_dbc,
+    format_candump_line,
+    receive,
+)
+
+FRAMES = [
+    can.Message(timestamp=1763700000.000123, arbitration_id=0x0C1, is_extended_id=False,
+                data=bytes.fromhex("1122334455667788")),
+    can.Message(timestamp=1763700000.5, arbitration_id=0x18FF0001, is_extended_id=True,
+                data=b"\x01\x02"),
+    can.Message(timestamp=1763700001.0, arbitration_id=0x123, is_extended_id=False,
+                is_remote_frame=True, dlc=8),
+    can.Message(timestamp=1763700001.25, arbitration_id=0x7FF, is_extended_id=False, data=b""),
+    can.Message(timestamp=1763700002.0, is_error_frame=True, data=bytes(8)),
+]
+
+
+def test_candump_line_is_the_spec_format():
+    assert format_candump_line(FRAMES[0], "vcan0") == \
+        "(1763700000.000123) vcan0 0C1#1122334455667788\n"
+    assert format_candump_line(FRAMES[1], "can0") == "(1763700000.500000) can0 18FF0001#0102\n"
+    assert format_candump_line(FRAMES[2], "can0") == "(1763700001.000000) can0 123#R8\n"
+    assert format_candump_line(FRAMES[3], "can0") == "(1763700001.250000) can0 7FF#\n"
+    assert format_candump_line(FRAMES[4], "can0") == \
+        "(1763700002.000000) can0 20000080#0000000000000000\n"
+    # an error frame that names its class (here CAN_ERR_CTRL) keeps it
+    ctrl = can.Message(timestamp=1.0, is_error_frame=True, arbitration_id=0x4,
+                       data=bytes([0, 4, 0, 0, 0, 0, 0, 0]))
+    assert format_candump_line(ctrl, "can0") == "(1.000000) can0 20000004#0004000000000000\n"
+
+
+def test_candump_lines_read_back_with_python_can(tmp_path):
+    path = tmp_path / "t.log"
+    path.write_text("".join(format_candump_line(m, "vcan0") for m in FRAMES))
+    back = list(can.CanutilsLogReader(path))
+    assert len(back) == len(FRAMES)
+    for orig, got in zip(FRAMES, back, strict=True):
+        assert got.timestamp == pytest.approx(orig.timestamp, abs=1e-6)
+        assert got.is_error_frame == orig.is_error_frame
+        if not orig.is_error_frame:
+            assert got.arbitration_id == orig.arbitration_id
+            assert got.is_extended_id == orig.is_extended_id
+            assert got.is_remote_frame == orig.is_remote_frame
+            assert got.dlc == orig.dlc
+            if not orig.is_remote_frame:
+                assert bytes(got.data) == bytes(orig.data)
+
+
+DBC = """VERSION ""
+BS_:
+BU_: A
+BO_ 100 Intel: 8 A
+ SG_ Cnt : 52|7@1+ (1,0) [0|127] "" A
+BO_ 101 Moto: 8 A
+ SG_ Cnt : 13|10@0+ (1,0) [0|1023] "" A
+BO_ 102 MotoShort: 4 A
+ SG_ Seq : 7|4@0+ (1,0) [0|15] "" A
+"""
+
+
+@pytest.mark.parametrize("message,signal", [("Intel", "Cnt"), ("Moto", "Cnt"),
+                                            ("MotoShort", "Seq")])
+def test_counter_extraction_matches_cantools(message, signal):
+    db = cantools.database.load_string(DBC, database_format="dbc")
+    spec = counter_spec_from_dbc(db, message, signal)
+    msg = db.get_message_by_name(message)
+    top = (1 << spec.length) - 1
+    for value in (0, 1, 5, top // 2, top):
+        data = msg.encode({signal: value})
+        assert spec.extract(data) == value
+    # arbitrary payloads: the other bits must not leak into the counter
+    rng = random.Random(1)
+    for _ in range(200):
+        data = bytes(rng.randrange(256) for _ in range(msg.length))
+        assert spec.extract(data) == db.decode_message(message, data)[signal]
+
+
+def test_counter_tracker_counts_gaps_and_wraps():
+    spec = CounterSpec(message="M", arbitration_id=1, start=56, length=8)
+    tracker = CounterTracker([spec])
+
+    def frame(c):
+        return bytes(7) + bytes([c % 256])
+
+    t = 0.0
+    sent = [c for c in range(600) if c not in (10, 11, 12, 300)]   # 4 lost, across a wrap
+    for c in sent:
+        t += 0.001
+        tracker.update(1, frame(c), t)
+    assert tracker.dropped == 4
+    assert tracker.dropped_by_message() == {"M": 4}
+    assert tracker.update(1, frame(sent[-1] + 6), t + 0.5) == 5
+    assert tracker.longest_gap_by_message() == {"M": pytest.approx(0.5)}
+    assert tracker.update(2, b"anything", t) == 0          # not a counted message
+
+
+def test_writer_flushes_within_a_second_without_closing(tmp_path):
+    path = tmp_path / "run.log.part"
+    fh = path.open("w", buffering=1 << 20)
+    writer = LogWriter(fh, "vcan0", flush_interval=0.3).start()
+    try:
+        writer.put(FRAMES[:2])
+        deadline = time.monotonic() + 1.0
+        content = ""
+        while time.monotonic() < deadline and content.count("\n") < 2:
+            time.sleep(0.05)
+            content = path.read_text()      # another reader, as after a crash
+        assert content.splitlines() == [format_candump_line(m, "vcan0").strip()
+                                        for m in FRAMES[:2]]
+    finally:
+        writer.close()
+        fh.close()
+    assert writer.stats.frames == 2
+    assert writer.stats.frames_by_id == {"0C1": 1, "18FF0001": 1}
+
+
+class FailingBus(can.BusABC):
+    """A bus that delivers *n* frames, then fails the way a vanished adapter does."""
+
+    def __init__(self, n, exc, **kwargs):
+        super().__init__(channel="fake", **kwargs)
+        self.n = n
+        self.exc = exc
+        self.i = 0
+
+    def _recv_internal(self, timeout):
+        if self.i >= self.n:
+            raise self.exc
+        self.i += 1
+        return can.Message(timestamp=time.time(), arbitration_id=0xC1, is_extended_id=False,
+                           data=bytes(8)), False
+
+    def send(self, msg, timeout=None):
+        raise can.CanOperationError("read-only")
+
+
+@pytest.mark.parametrize("exc", [can.CanOperationError("Could not read from serial device"),
+                                 OSError(5, "Input/output error")])
+def test_receive_stops_on_a_bus_fault_and_keeps_what_came(tmp_path, exc):
+    fh = (tmp_path / "x.log").open("w")
+    writer = LogWriter(fh, "can0").start()
+    bus = FailingBus(1234, exc)
+    try:
+        result = receive(bus, writer, duration=5.0, should_stop=lambda: False)
+    finally:
+        writer.close()
+        fh.close()
+        bus.shutdown()
+    assert result.reason == "bus-error"
+    assert result.error is exc
+    assert result.frames == 1234
+    assert len(list(can.CanutilsLogReader(tmp_path / "x.log"))) == 1234
+
+
+def test_receive_stops_when_asked(tmp_path):
+    fh = (tmp_path / "x.log").open("w")
+    writer = LogWriter(fh, "can0").start()
+    stop = threading.Event()
+    threading.Timer(0.2, stop.set).start()
+    with can.Bus(interface="virtual", channel="test_receive_stops_when_asked") as bus:
+        t0 = time.monotonic()
+        result = receive(bus, writer, duration=10.0, should_stop=stop.is_set)
+        elapsed = time.monotonic() - t0
+    writer.close()
+    fh.close()
+    assert result.reason == "interrupted"
+    assert 0.15 < elapsed < 1.0
