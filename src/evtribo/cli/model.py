@@ -1,0 +1,165 @@
+"""``evtribo model``: the seed paper's model at one normal force and voltage, and its figures.
+
+::
+
+    evtribo model --normal-force 0.5 --voltage 140 --set h_L=3e-6 --json
+    evtribo model --list
+    evtribo model --figures out/figures [--force]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from typing import Any
+
+import numpy as np
+
+from evtribo import model
+from evtribo.errors import ConfigError
+from evtribo.model import ModelParameters
+
+# (JSON key, unit shown in the table, description)
+_ROWS: tuple[tuple[str, str, str], ...] = (
+    ("normal_force_N", "N", "external normal force F_ext"),
+    ("voltage_V", "V", "applied voltage U (amplitude)"),
+    ("adhesion_stress_Pa", "Pa", "adhesion stress sigma_0 (eq. 8)"),
+    ("surface_energy_J_m2", "J/m^2", "relative surface energy Delta-gamma (eq. 9)"),
+    ("contact_area_hertz_m2", "m^2", "contact area, Hertz (voltage off)"),
+    ("contact_area_m2", "m^2", "contact area, JKR (eq. 3)"),
+    ("area_increase_pct", "%", "contact area increase, JKR over Hertz"),
+    ("contact_radius_hertz_m", "m", "contact radius, Hertz"),
+    ("contact_radius_m", "m", "contact radius, JKR"),
+    ("electrostatic_force_N", "N", "electrostatic force F_el (eq. 11)"),
+    ("friction_force_N", "N", "friction force, ON (eq. 5)"),
+    ("friction_force_off_N", "N", "friction force, OFF (mu F_ext)"),
+    ("adhesion_load_ratio", "1", "3 pi R Delta-gamma / (2 F_ext) (eqs. 12, 13)"),
+    ("electrostatic_force_exponent", "1", "local exponent d ln F_el / d ln U"),
+    ("maugis_parameter", "1", "Maugis parameter lambda"),
+    ("md_contact_radius_m", "m", "contact radius a, Maugis-Dugdale"),
+    ("md_cohesive_radius_m", "m", "cohesive-zone radius b = c, Maugis-Dugdale"),
+    ("md_contact_area_m2", "m^2", "contact area pi a^2, Maugis-Dugdale"),
+    ("md_electrostatic_force_N", "N", "sigma_0 pi b^2, Maugis-Dugdale"),
+    ("md_friction_force_N", "N", "friction force, eq. (1) with Maugis-Dugdale b"),
+)
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``evtribo model``."""
+    parser = subparsers.add_parser(
+        "model",
+        help="the seed paper's friction model at one point; its figures",
+        description="Evaluate the voltage-induced friction model (Table 1 parameters unless "
+                    "--set) at one external normal force and voltage amplitude, or write "
+                    "Figures 5-7 of the paper and the Maugis-Dugdale comparison.",
+    )
+    parser.add_argument("--normal-force", type=float, default=0.5, metavar="N",
+                        help="external normal force F_ext in N (default 0.5)")
+    parser.add_argument("--voltage", type=float, default=140.0, metavar="V",
+                        help="voltage amplitude U in V (default 140)")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        dest="assignments",
+                        help="set a model parameter, SI units (repeatable; see --list)")
+    parser.add_argument("--json", action="store_true", help="print one JSON object")
+    parser.add_argument("--list", action="store_true",
+                        help="list the parameters: names, units, defaults, descriptions")
+    parser.add_argument("--figures", metavar="DIR",
+                        help="write Figures 5, 6, 7 and the Maugis-Dugdale figure as PNG "
+                             "and SVG into DIR")
+    parser.add_argument("--force", action="store_true",
+                        help="overwrite existing figure files")
+    parser.set_defaults(func=run)
+    return parser
+
+
+def _finite(x: Any) -> float | None:
+    value = float(x)
+    return value if math.isfinite(value) else None
+
+
+def evaluate(normal_force: float, voltage: float,
+             params: ModelParameters = model.TABLE_1) -> dict[str, float | None]:
+    """Every quantity of the table at one point (non-finite values become ``None``)."""
+    f, u = normal_force, voltage
+    md = model.maugis_dugdale(f, u, params)
+    values = {
+        "normal_force_N": f,
+        "voltage_V": u,
+        "adhesion_stress_Pa": model.adhesion_stress(u, params),
+        "surface_energy_J_m2": model.surface_energy(u, params),
+        "contact_area_hertz_m2": model.contact_area_hertz(f, params),
+        "contact_area_m2": model.contact_area_jkr(f, u, params),
+        "area_increase_pct": model.area_increase_pct(f, u, params),
+        "contact_radius_hertz_m": model.contact_radius_hertz(f, params),
+        "contact_radius_m": model.contact_radius_jkr(f, u, params),
+        "electrostatic_force_N": model.electrostatic_force(f, u, params),
+        "friction_force_N": model.friction_force(f, u, params),
+        "friction_force_off_N": model.friction_force(f, 0.0, params),
+        "adhesion_load_ratio": model.adhesion_load_ratio(f, u, params),
+        "electrostatic_force_exponent": model.electrostatic_force_exponent(f, u, params),
+        "maugis_parameter": md.lam,
+        "md_contact_radius_m": md.a,
+        "md_cohesive_radius_m": md.c,
+        "md_contact_area_m2": np.pi * np.asarray(md.a) ** 2,
+        "md_electrostatic_force_N": model.adhesion_stress(u, params) * np.pi
+        * np.asarray(md.c) ** 2,
+        "md_friction_force_N": model.friction_force_md(f, u, params),
+    }
+    return {key: _finite(value) for key, value in values.items()}
+
+
+def _check_point(value: float, key: str, *, minimum: float | None = None) -> float:
+    if not math.isfinite(value):
+        raise ConfigError(f"must be finite, got {value!r}", key=key)
+    if minimum is not None and value < minimum:
+        raise ConfigError(f"must be >= {minimum:g}, got {value!r}", key=key)
+    return value
+
+
+def _print_list(as_json: bool) -> None:
+    info = ModelParameters.info()
+    if as_json:
+        print(json.dumps([row._asdict() for row in info], indent=2))
+        return
+    print(f"{'name':<8} {'unit':<5} {'default':>10}  description")
+    for row in info:
+        print(f"{row.name:<8} {row.unit:<5} {row.default:>10.4g}  {row.description}")
+
+
+def _print_table(values: dict[str, float | None], params: ModelParameters) -> None:
+    changed = {k: v for k, v in params.as_dict().items()
+               if v != getattr(model.TABLE_1, k)}
+    print("parameters: Table 1" + (" with " + ", ".join(f"{k}={v:g}" for k, v in
+                                                      changed.items()) if changed else ""))
+    for key, unit, description in _ROWS:
+        value = values[key]
+        shown = "n/a" if value is None else f"{value:.6g}"
+        print(f"  {description:<48} {shown:>12} {unit}")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Evaluate the model, list its parameters or write its figures; return 0."""
+    params = model.TABLE_1.with_assignments(args.assignments)
+    if args.list:
+        _print_list(args.json)
+        return 0
+    normal_force = _check_point(args.normal_force, "--normal-force", minimum=0.0)
+    voltage = _check_point(args.voltage, "--voltage")
+    result: dict[str, Any] = evaluate(normal_force, voltage, params)
+    written: list[str] = []
+    if args.figures is not None:
+        from evtribo.model.figures import save_figures  # noqa: PLC0415 - matplotlib on demand
+
+        written = [str(p) for p in save_figures(args.figures, force=args.force,
+                                                params=params)]
+    if args.json:
+        result["parameters"] = params.as_dict()
+        if args.figures is not None:
+            result["figures"] = written
+        print(json.dumps(result, indent=2))
+        return 0
+    _print_table(result, params)
+    for path in written:
+        print(f"wrote {path}")
+    return 0

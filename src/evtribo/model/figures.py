@@ -1,0 +1,257 @@
+"""Figures 5, 6 and 7 of the seed paper, and the Maugis-Dugdale comparison it leaves out.
+
+Each ``plot_*`` function draws on the Axes it is given (or on a new one, of a new
+:class:`matplotlib.figure.Figure`, without pyplot's global state) and returns the Axes.
+:func:`save_figures` writes them all as PNG and SVG with the Agg backend.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from evtribo.errors import OutputExistsError
+from evtribo.model.contact import area_increase_pct, contact_area_jkr
+from evtribo.model.friction import (
+    friction_force,
+    friction_time_series,
+    sine_voltage,
+    square_voltage,
+)
+from evtribo.model.maugis import contact_area_md, maugis_parameter, md_jkr_departure
+from evtribo.model.params import TABLE_1, ModelParameters
+
+__all__ = [
+    "FIGURES",
+    "plot_area_increase",
+    "plot_friction_time",
+    "plot_friction_vs_load",
+    "plot_maugis",
+    "save_figures",
+]
+
+log = logging.getLogger(__name__)
+
+
+def _axes(ax: Axes | None, figsize: tuple[float, float] = (6.4, 4.2)) -> Axes:
+    if ax is not None:
+        return ax
+    fig = Figure(figsize=figsize, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig.add_subplot()
+
+
+def plot_friction_time(ax: Axes | None = None, *, normal_force: float = 0.5,
+                       amplitude: float = 140.0, frequency: float = 10.0,
+                       duration: float = 0.3, params: ModelParameters = TABLE_1) -> Axes:
+    """Figure 5: friction versus time for a sine voltage, ON and OFF, and the external force.
+
+    Parameters
+    ----------
+    ax : Axes, optional
+        Where to draw; a new figure's Axes by default.
+    normal_force : float
+        External normal force F_ext, N.
+    amplitude : float
+        Voltage amplitude, V.
+    frequency : float
+        Voltage frequency, Hz.
+    duration : float
+        Time shown, s.
+    params : ModelParameters
+        Table 1 by default.
+
+    Returns
+    -------
+    Axes
+    """
+    ax = _axes(ax)
+    t = np.linspace(0.0, duration, 3001)
+    on = friction_time_series(t, normal_force, sine_voltage(t, amplitude, frequency), params)
+    off = friction_time_series(t, normal_force, 0.0, params)
+    ax.plot(t, np.full_like(t, normal_force), color="tab:green", label="external force")
+    ax.plot(t, on, color="tab:red", label=f"friction, ON ({amplitude:g} V, {frequency:g} Hz)")
+    ax.plot(t, off, color="tab:blue", label="friction, OFF")
+    ax.set(xlabel="time t (s)", ylabel="force (N)", xlim=(0, duration), ylim=(0, None),
+           title=f"Friction under a sine voltage (mu = {params.mu:g})")
+    ax.legend(loc="lower right")
+    return ax
+
+
+def plot_friction_vs_load(ax: Axes | None = None, *, amplitude: float = 140.0,
+                          frequency: float = 10e3, max_force: float = 2.0,
+                          params: ModelParameters = TABLE_1) -> Axes:
+    """Figure 6: friction versus external force, OFF and ON under a square-wave voltage.
+
+    The ON friction is the time average over one period of the square wave (steady, since
+    U^2 is constant for an ideal square wave).
+
+    Parameters
+    ----------
+    ax : Axes, optional
+        Where to draw.
+    amplitude : float
+        Square-wave amplitude, V.
+    frequency : float
+        Square-wave frequency, Hz.
+    max_force : float
+        Largest external force shown, N.
+    params : ModelParameters
+        Table 1 by default.
+
+    Returns
+    -------
+    Axes
+    """
+    ax = _axes(ax)
+    forces = np.linspace(0.0, max_force, 201)
+    t = np.linspace(0.0, 1.0 / frequency, 200, endpoint=False)
+    u = square_voltage(t, amplitude, frequency)
+    on = friction_force(forces[:, None], u[None, :], params).mean(axis=1)
+    ax.plot(forces, friction_force(forces, 0.0, params), color="tab:green", label="OFF")
+    ax.plot(forces, on, color="tab:orange",
+            label=f"ON ({amplitude:g} V square, {frequency / 1e3:g} kHz)")
+    ax.set(xlabel="external normal force F_ext (N)", ylabel="friction force F_R (N)",
+           xlim=(0, max_force), ylim=(0, None), title="Friction versus external force")
+    ax.legend(loc="upper left")
+    return ax
+
+
+def plot_area_increase(ax: Axes | None = None, *,
+                       normal_forces: Sequence[float] = (0.1, 0.5, 2.0),
+                       max_voltage: float = 150.0,
+                       params: ModelParameters = TABLE_1) -> Axes:
+    """Figure 7: percentage increase of the contact area (JKR over Hertz) versus voltage.
+
+    Parameters
+    ----------
+    ax : Axes, optional
+        Where to draw.
+    normal_forces : sequence of float
+        External normal forces, N, one curve each.
+    max_voltage : float
+        Largest voltage amplitude shown, V.
+    params : ModelParameters
+        Table 1 by default.
+
+    Returns
+    -------
+    Axes
+    """
+    ax = _axes(ax)
+    u = np.linspace(0.0, max_voltage, 301)
+    for f in normal_forces:
+        ax.plot(u, area_increase_pct(f, u, params), label=f"F_ext = {f:g} N")
+    ax.set(xlabel="voltage amplitude U (V)", ylabel="contact area increase (%)",
+           xlim=(0, max_voltage), ylim=(0, None), title="Contact area increase, JKR vs Hertz")
+    ax.legend(loc="upper left")
+    return ax
+
+
+def plot_maugis(ax: Axes | None = None, *, normal_forces: Sequence[float] = (0.1, 0.5, 2.0),
+                max_voltage: float = 150.0, params: ModelParameters = TABLE_1) -> Axes:
+    """Where Maugis-Dugdale departs from the JKR asymptote: percent differences versus voltage.
+
+    Solid: electrostatic force sigma_0 pi c^2 over eq. (11); dashed: contact area
+    pi a^2 over eq. (3). The Maugis parameter lambda (which grows as U^(4/3)) is on the
+    right-hand axis.
+
+    Parameters
+    ----------
+    ax : Axes, optional
+        Where to draw.
+    normal_forces : sequence of float
+        External normal forces, N.
+    max_voltage : float
+        Largest voltage amplitude shown, V.
+    params : ModelParameters
+        Table 1 by default.
+
+    Returns
+    -------
+    Axes
+        The left (percent) Axes; the lambda axis is its twin.
+    """
+    ax = _axes(ax)
+    u = np.linspace(max_voltage / 60, max_voltage, 60)
+    for i, f in enumerate(normal_forces):
+        color = f"C{i}"
+        ax.plot(u, 100 * md_jkr_departure(f, u, params), color=color,
+                label=f"force, F_ext = {f:g} N")
+        area = 100 * (contact_area_md(f, u, params) / contact_area_jkr(f, u, params) - 1)
+        ax.plot(u, area, color=color, linestyle="--", label=f"area, F_ext = {f:g} N")
+    ax.axhline(0.0, color="0.5", linewidth=0.8)
+    ax.set(xlabel="voltage amplitude U (V)", ylabel="Maugis-Dugdale vs JKR (%)",
+           xlim=(0, max_voltage), title="Maugis-Dugdale departure from JKR")
+    twin = ax.twinx()
+    twin.plot(u, maugis_parameter(u, params), color="k", linestyle=":", label="lambda")
+    twin.set_ylabel("Maugis parameter lambda (1)")
+    twin.set_ylim(0, None)
+    handles, labels = ax.get_legend_handles_labels()
+    h2, l2 = twin.get_legend_handles_labels()
+    ax.legend(handles + h2, labels + l2, loc="upper right", fontsize="small", ncol=2)
+    return ax
+
+
+#: name -> plotting function, in the order :func:`save_figures` writes them.
+FIGURES = {
+    "fig5_friction_time": plot_friction_time,
+    "fig6_friction_vs_load": plot_friction_vs_load,
+    "fig7_area_increase": plot_area_increase,
+    "maugis_vs_jkr": plot_maugis,
+}
+
+
+def save_figures(directory: str | os.PathLike[str], *, force: bool = False,
+                 formats: Sequence[str] = ("png", "svg"),
+                 params: ModelParameters = TABLE_1) -> list[Path]:
+    """Write every figure of :data:`FIGURES` into *directory* (created if missing).
+
+    Parameters
+    ----------
+    directory : path
+        Output folder.
+    force : bool
+        Overwrite existing files; otherwise an existing file is an error and nothing is
+        written.
+    formats : sequence of str
+        File suffixes understood by matplotlib.
+    params : ModelParameters
+        Table 1 by default.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+
+    Raises
+    ------
+    OutputExistsError
+        If a file exists and *force* is false.
+    """
+    out = Path(directory)
+    paths = [out / f"{name}.{fmt}" for name in FIGURES for fmt in formats]
+    existing = [p for p in paths if p.exists()]
+    if existing and not force:
+        raise OutputExistsError(
+            f"{len(existing)} figure file(s) already exist; use --force to overwrite",
+            path=existing[0])
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, plot in FIGURES.items():
+        ax = plot(params=params)
+        fig = ax.get_figure()
+        assert fig is not None
+        for fmt in formats:
+            path = out / f"{name}.{fmt}"
+            fig.savefig(path, dpi=150)
+            written.append(path)
+            log.info("wrote %s", path)
+    return written
