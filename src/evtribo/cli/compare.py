@@ -1,0 +1,47 @@
+"""``evtribo compare OUT``: fit the model to a result folder, write fit.csv and figures."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``compare`` on *subparsers*."""
+    p = subparsers.add_parser(
+        "compare", help="fit the model to analysis results; write fit.csv and figures",
+        description="Fit the seed paper's model to the per-subject results of "
+                    "`evtribo analyze` (the equivalent air gap h_L by default) by weighted "
+                    "least squares, and write OUT/fit.csv, OUT/fit.json and OUT/figures/ "
+                    "(PNG and SVG).")
+    p.add_argument("out", metavar="OUT", help="result folder written by `evtribo analyze`")
+    p.add_argument("--fit", metavar="NAMES", default=None,
+                   help="comma-separated model parameters to fit per subject "
+                        "(default: h_L; e.g. h_L,E_star; see `evtribo model --list`)")
+    p.add_argument("--params", metavar="PARAMS.toml", default=None,
+                   help="TOML of fixed model parameters, `name = value` in SI units "
+                        "(default: the paper's Table 1)")
+    p.add_argument("--dpi", type=float, default=150, help="PNG resolution (default 150)")
+    p.add_argument("--force", action="store_true",
+                   help="overwrite the outputs of a previous comparison")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``evtribo compare``; return the exit code."""
+    from evtribo.compare.run import compare  # noqa: PLC0415 - matplotlib only when used
+
+    result = compare(args.out, fit=args.fit, params=args.params, force=args.force,
+                     dpi=args.dpi)
+    for f in result.fits:
+        parts = ", ".join(
+            f"{e.name} = {e.value:.4g} {e.unit} [{e.ci_low:.4g}, {e.ci_high:.4g}]"
+            for e in f.estimates)
+        print(f"{f.subject}: {parts}; RMSE {f.rmse_N:.3g} N, R² {f.r2:.3f}")
+    for note in result.notes:
+        print(f"note: {note}", file=sys.stderr)
+    print(f"wrote {result.out / 'fit.csv'} and {len(result.figures)} figures in "
+          f"{result.out / 'figures'}")
+    return 0

@@ -1,0 +1,417 @@
+"""Fitting the seed paper's model to per-subject results by weighted least squares.
+
+For each subject the free parameters (the equivalent air gap ``h_L`` by default) are chosen so
+that the model's electrostatic force (eq. 11) at each measured point (mean normal force ON,
+voltage amplitude) matches the inferred electrostatic force of ``electrostatic.csv``. Each
+point is weighted by its standard error, taken from the width of its 95 % interval
+(``(ci_high - ci_low) / (2 * 1.96)``).
+
+The friction coefficient does not enter eq. 11, so when ``mu`` is fitted the friction forces
+of the subject's steady-sliding windows (``windows.csv``, eq. 5 with U = 0 OFF and the
+amplitude ON) are added to the residuals; their weight is the RMS misfit of a first pass
+(one step of iterative reweighting), since windows carry no interval of their own.
+
+Uncertainties come from the Jacobian at the solution (``cov = (J^T J)^-1``, as in
+``scipy.optimize.curve_fit``). Because the weights are real standard errors the covariance is
+absolute; when the model misfits by more than they allow (reduced chi-square > 1) it is
+inflated by the reduced chi-square and the interval uses Student's t, never shrunk. A
+parameter the data cannot determine (a zero singular value, e.g. ``h_L`` and ``E_star``
+together, which enter eq. 11 almost only through the same combination) gets an infinite
+interval and a warning.
+
+Sine-wave points are compared with the model averaged over one period of U(t) = A sin(wt),
+square-wave points with the model at U = A (U^2 is constant for a square wave).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike, NDArray
+from scipy import optimize, stats
+
+from evtribo.compare.params import DEFAULT_FIT, parameter_unit
+from evtribo.compare.tables import ResultTables
+from evtribo.errors import AnalysisError
+from evtribo.model import electrostatic_force, friction_force
+from evtribo.model.params import TABLE_1, ModelParameters
+
+log = logging.getLogger(__name__)
+
+__all__ = ["FIT_COLUMNS", "ParameterEstimate", "SubjectFit", "fit_study", "fit_subject",
+           "fit_table", "mean_electrostatic_force", "mean_friction_force", "model_exponent"]
+
+#: Columns of ``fit.csv``, one row per subject and fitted parameter.
+FIT_COLUMNS: tuple[str, ...] = (
+    "subject", "parameter", "value", "ci_low", "ci_high", "stderr", "unit", "rmse_N", "r2",
+    "chi2_reduced", "n_points", "waveform", "exponent", "exponent_ci_low", "exponent_ci_high",
+    "exponent_model", "mu_measured")
+
+_Z95 = float(stats.norm.ppf(0.975))
+_PHASES = np.linspace(0.0, 2.0 * np.pi, 64, endpoint=False)
+
+
+# ------------------------------------------------------------------------ model at points
+def _is_sine(waveform: ArrayLike) -> NDArray[np.bool_]:
+    w = np.asarray(waveform, dtype=object)
+    return np.array([str(x).strip().lower() == "sine" for x in np.atleast_1d(w)]).reshape(
+        np.shape(w))
+
+
+def mean_electrostatic_force(normal_force: ArrayLike, amplitude: ArrayLike,
+                             waveform: ArrayLike = "square",
+                             params: ModelParameters = TABLE_1) -> NDArray[np.float64]:
+    """Time-averaged model electrostatic force (eq. 11) for a drive of given amplitude.
+
+    Parameters
+    ----------
+    normal_force : float or ndarray
+        External normal force, N.
+    amplitude : float or ndarray
+        Voltage amplitude A, V.
+    waveform : str or ndarray of str
+        ``"sine"`` (average over U = A sin(phi)) or anything else (square: U = A).
+    params : ModelParameters
+        Model parameters.
+
+    Returns
+    -------
+    ndarray
+        Mean electrostatic force, N.
+    """
+    fn, amp = np.broadcast_arrays(np.asarray(normal_force, float), np.asarray(amplitude, float))
+    sine = np.broadcast_to(_is_sine(waveform), fn.shape)
+    out = np.asarray(electrostatic_force(fn, amp, params), dtype=float).copy()
+    if np.any(sine):
+        u = amp[sine][:, None] * np.sin(_PHASES)[None, :]
+        out[sine] = np.asarray(electrostatic_force(fn[sine][:, None], u, params),
+                               dtype=float).mean(axis=1)
+    return out
+
+
+def mean_friction_force(normal_force: ArrayLike, amplitude: ArrayLike,
+                        waveform: ArrayLike = "square",
+                        params: ModelParameters = TABLE_1) -> NDArray[np.float64]:
+    """Time-averaged model friction force (eq. 5); amplitude 0 is the OFF condition.
+
+    Parameters are those of :func:`mean_electrostatic_force`; returns N.
+    """
+    fn, amp = np.broadcast_arrays(np.asarray(normal_force, float), np.asarray(amplitude, float))
+    sine = np.broadcast_to(_is_sine(waveform), fn.shape)
+    out = np.asarray(friction_force(fn, amp, params), dtype=float).copy()
+    if np.any(sine):
+        u = amp[sine][:, None] * np.sin(_PHASES)[None, :]
+        out[sine] = np.asarray(friction_force(fn[sine][:, None], u, params),
+                               dtype=float).mean(axis=1)
+    return out
+
+
+def model_exponent(normal_force: float, u_min: float, u_max: float,
+                   params: ModelParameters, waveform: str = "square") -> float:
+    """Mean local slope d ln F_el / d ln U of the model between two amplitudes.
+
+    It is the exponent a power law fitted to the model over [u_min, u_max] would have
+    (2 when the contact area does not depend on the voltage, up to 10/3, eq. 12).
+
+    Parameters
+    ----------
+    normal_force : float
+        External normal force, N.
+    u_min, u_max : float
+        Amplitude range, V (NaN when they are equal).
+    params : ModelParameters
+        Model parameters.
+    waveform : str
+        Drive waveform.
+    """
+    if not (u_min > 0 and u_max > u_min):
+        return math.nan
+    f = mean_electrostatic_force(normal_force, np.array([u_min, u_max]), waveform, params)
+    return float(np.log(f[1] / f[0]) / np.log(u_max / u_min))
+
+
+# ------------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class ParameterEstimate:
+    """One fitted parameter: value, standard error and 95 % interval, SI units."""
+
+    name: str
+    value: float
+    stderr: float
+    ci_low: float
+    ci_high: float
+    unit: str
+
+    def contains(self, value: float) -> bool:
+        """Whether *value* lies inside the 95 % interval."""
+        return self.ci_low <= value <= self.ci_high
+
+
+@dataclass(frozen=True)
+class SubjectFit:
+    """The fit for one subject.
+
+    Attributes
+    ----------
+    subject : str
+    params : ModelParameters
+        Fixed parameters with the fitted ones replaced (``mu`` is the measured one unless
+        fitted).
+    estimates : tuple of ParameterEstimate
+    correlation : ndarray
+        Correlation matrix of the fitted parameters (NaN where undetermined).
+    rmse_N : float
+        Root-mean-square misfit of the electrostatic force, N.
+    r2 : float
+        Coefficient of determination of the electrostatic force.
+    chi2_reduced : float
+        Weighted sum of squares per degree of freedom (NaN without a free degree).
+    n_points : int
+        Electrostatic points fitted.
+    mu_measured : float
+        Friction coefficient from the OFF windows (``electrostatic.csv``'s ``mu``).
+    """
+
+    subject: str
+    params: ModelParameters
+    estimates: tuple[ParameterEstimate, ...]
+    correlation: NDArray[np.float64]
+    rmse_N: float
+    r2: float
+    chi2_reduced: float
+    n_points: int
+    mu_measured: float
+
+    def __getitem__(self, name: str) -> ParameterEstimate:
+        for e in self.estimates:
+            if e.name == name:
+                return e
+        raise KeyError(name)
+
+
+def _sigmas(rows: pd.DataFrame, subject: str) -> NDArray[np.float64]:
+    width = (rows["electrostatic_force_ci_high_N"].to_numpy(float)
+             - rows["electrostatic_force_ci_low_N"].to_numpy(float))
+    sigma = width / (2.0 * _Z95)
+    ok = np.isfinite(sigma) & (sigma > 0)
+    if not ok.all():
+        if ok.any():
+            fill = float(np.median(sigma[ok]))
+            log.warning("subject %s: %d point(s) without a usable interval; weighted like "
+                        "the median point (%.3g N)", subject, int((~ok).sum()), fill)
+        else:
+            fill = 1.0
+            log.warning("subject %s: no usable intervals in electrostatic.csv; fitting "
+                        "unweighted, uncertainty from the scatter", subject)
+        sigma = np.where(ok, sigma, fill)
+    return sigma
+
+
+def _covariance(jac: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(J^T J)^-1 by SVD, infinite along directions the data do not determine."""
+    _, s, vt = np.linalg.svd(jac, full_matrices=False)
+    tol = np.finfo(float).eps * max(jac.shape) * (s[0] if s.size else 0.0)
+    # a ratio of singular values beyond 1e-6 means a correlation indistinguishable from 1
+    bad = (s <= tol) | (s < 1e-6 * (s[0] if s.size else 0.0))
+    s_inv2 = np.where(bad, 0.0, 1.0 / np.where(bad, 1.0, s) ** 2)
+    cov = (vt.T * s_inv2) @ vt
+    if bad.any():
+        undetermined = np.any(np.abs(vt[bad]) > 1e-3, axis=0)
+        cov[undetermined, :] = np.inf
+        cov[:, undetermined] = np.inf
+    return cov
+
+
+def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_1,
+                fit: Sequence[str] = DEFAULT_FIT,
+                windows: pd.DataFrame | None = None) -> SubjectFit:
+    """Fit the model's parameters *fit* to one subject's electrostatic results.
+
+    Parameters
+    ----------
+    subject : str
+        The subject's name (for messages).
+    rows : DataFrame
+        The subject's rows of ``electrostatic.csv``.
+    base : ModelParameters
+        Starting values and the fixed parameters.
+    fit : sequence of str
+        Names of the parameters to fit (validated by
+        :func:`evtribo.compare.params.resolve_fit_names`).
+    windows : DataFrame, optional
+        The subject's rows of ``windows.csv``; needed when ``mu`` is fitted.
+
+    Returns
+    -------
+    SubjectFit
+
+    Raises
+    ------
+    AnalysisError
+        When there are fewer points than parameters or the optimiser fails.
+    """
+    names = tuple(fit)
+    rows = rows.reset_index(drop=True)
+    fn = rows["normal_force_on_N"].to_numpy(float)
+    amp = rows["amplitude_V"].to_numpy(float)
+    wave = rows["waveform"].astype(str).to_numpy(object)
+    measured = rows["electrostatic_force_N"].to_numpy(float)
+    good = np.isfinite(fn) & np.isfinite(amp) & np.isfinite(measured) & (fn > 0)
+    if not good.all():
+        log.warning("subject %s: %d point(s) with missing values left out", subject,
+                    int((~good).sum()))
+    fn, amp, wave, measured = fn[good], amp[good], wave[good], measured[good]
+    sigma = _sigmas(rows[good], subject)
+    mus = rows["mu"].to_numpy(float)
+    mu_measured = float(np.nanmean(mus)) if np.isfinite(mus).any() else math.nan
+    if "mu" not in names and mu_measured > 0:
+        base = base.with_values(mu=mu_measured)
+
+    use_windows = "mu" in names
+    if use_windows:
+        if windows is None or windows.empty:
+            raise AnalysisError(f"subject {subject}: fitting mu needs its windows "
+                                "(windows.csv has none)")
+        w_fn = windows["normal_force_N"].to_numpy(float)
+        w_ft = windows["friction_force_N"].to_numpy(float)
+        w_on = windows["condition"].astype(str).str.lower().to_numpy() == "on"
+        w_amp = np.where(w_on, windows["amplitude_V"].to_numpy(float), 0.0)
+        w_wave = windows["waveform"].astype(str).to_numpy(object)
+        keep = np.isfinite(w_fn) & np.isfinite(w_ft) & np.isfinite(w_amp) & (w_fn > 0)
+        w_fn, w_ft, w_amp, w_wave = w_fn[keep], w_ft[keep], w_amp[keep], w_wave[keep]
+    n_res = len(measured) + (len(w_fn) if use_windows else 0)
+    if n_res < len(names) or len(measured) == 0:
+        raise AnalysisError(f"subject {subject}: {len(measured)} usable point(s) for "
+                            f"{len(names)} parameter(s) ({', '.join(names)})")
+
+    start = np.array([getattr(base, n) for n in names], dtype=float)
+    start = np.where(start > 0, start, [getattr(TABLE_1, n) or 1e-6 for n in names])
+    lower = np.array([0.0 if n.startswith("h_") else 1e-6 for n in names])
+
+    def params_at(x: NDArray[np.float64]) -> ModelParameters:
+        return base.with_values(dict(zip(names, (start * x).tolist(), strict=True)))
+
+    w_sigma = 1.0
+
+    def residuals(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        p = params_at(x)
+        r = (measured - mean_electrostatic_force(fn, amp, wave, p)) / sigma
+        if use_windows:
+            rw = (w_ft - mean_friction_force(w_fn, w_amp, w_wave, p)) / w_sigma
+            r = np.concatenate([r, rw])
+        return np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6)
+
+    def solve(x0: NDArray[np.float64]) -> optimize.OptimizeResult:
+        res = optimize.least_squares(residuals, x0, jac="3-point", bounds=(lower, np.inf),
+                                     method="trf", x_scale=1.0, xtol=1e-12, ftol=1e-12,
+                                     gtol=1e-12, max_nfev=2000)
+        if not res.success:
+            raise AnalysisError(f"subject {subject}: the fit did not converge: {res.message}")
+        return res
+
+    res = solve(np.ones(len(names)))
+    if use_windows:  # weight the windows by their own misfit, then refit once
+        rw = res.fun[len(measured):] * w_sigma
+        w_sigma = max(float(np.sqrt(np.mean(rw**2))), 1e-9)
+        res = solve(res.x)
+
+    dof = n_res - len(names)
+    chi2 = float(np.sum(res.fun**2))
+    chi2_red = chi2 / dof if dof > 0 else math.nan
+    cov_x = _covariance(res.jac)
+    scale = max(1.0, chi2_red) if math.isfinite(chi2_red) else 1.0
+    quantile = float(stats.t.ppf(0.975, dof)) if scale > 1.0 else _Z95
+    cov = cov_x * scale * np.outer(start, start)
+    values = start * res.x
+    estimates = []
+    for i, name in enumerate(names):
+        se = float(np.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) else math.inf
+        lo = max(values[i] - quantile * se, start[i] * lower[i]) if math.isfinite(se) \
+            else -math.inf
+        hi = values[i] + quantile * se
+        if not math.isfinite(se):
+            log.warning("subject %s: %s is not determined by these data (its effect cannot "
+                        "be told apart from the other fitted parameters'); interval is "
+                        "infinite", subject, name)
+        estimates.append(ParameterEstimate(name, float(values[i]), se, float(lo), float(hi),
+                                           parameter_unit(name)))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d = np.sqrt(np.diag(cov))
+        corr = cov / np.outer(d, d)
+    n = len(names)
+    for i in range(n):
+        for j in range(i + 1, n):
+            if np.isfinite(corr[i, j]) and abs(corr[i, j]) > 0.99:
+                log.warning("subject %s: %s and %s are strongly correlated (r = %.3f): the "
+                            "data hardly tell them apart", subject, names[i], names[j],
+                            corr[i, j])
+    fitted = params_at(res.x)
+    model = mean_electrostatic_force(fn, amp, wave, fitted)
+    resid = measured - model
+    ss_tot = float(np.sum((measured - measured.mean()) ** 2))
+    r2 = 1.0 - float(np.sum(resid**2)) / ss_tot if ss_tot > 0 else math.nan
+    log.info("subject %s: %s (chi2_red %.3g, %d points)", subject,
+             ", ".join(f"{e.name} = {e.value:.4g} {e.unit}" for e in estimates), chi2_red,
+             len(measured))
+    return SubjectFit(subject=subject, params=fitted, estimates=tuple(estimates),
+                      correlation=np.asarray(corr, float),
+                      rmse_N=float(np.sqrt(np.mean(resid**2))), r2=r2,
+                      chi2_reduced=chi2_red, n_points=len(measured), mu_measured=mu_measured)
+
+
+def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
+              fit: Sequence[str] = DEFAULT_FIT) -> list[SubjectFit]:
+    """Fit every subject of a result folder (see :func:`fit_subject`)."""
+    fits = []
+    for subject in tables.subjects:
+        rows = tables.electrostatic[tables.electrostatic["subject"] == subject]
+        win = tables.windows[tables.windows["subject"] == subject]
+        fits.append(fit_subject(subject, rows, base, fit, win))
+    return fits
+
+
+def _exponent_row(tables: ResultTables, subject: str) -> pd.Series | None:
+    ex = tables.exponents[tables.exponents["subject"] == subject]
+    if ex.empty:
+        return None
+    square = ex[ex["waveform"].astype(str).str.lower() == "square"]
+    return (square if not square.empty else ex).iloc[0]
+
+
+def fit_table(fits: Sequence[SubjectFit], tables: ResultTables) -> pd.DataFrame:
+    """The rows of ``fit.csv`` (:data:`FIT_COLUMNS`) for *fits*.
+
+    The exponent columns compare the measured power law of ``exponents.csv`` (the square
+    wave's when the subject has one) with the fitted model's exponent over the same
+    waveform's measured amplitude range, at the subject's mean normal force ON.
+    """
+    records = []
+    for f in fits:
+        rows = tables.electrostatic[tables.electrostatic["subject"] == f.subject]
+        ex = _exponent_row(tables, f.subject)
+        waveform = str(ex["waveform"]) if ex is not None else str(rows["waveform"].iloc[0])
+        sel = rows[rows["waveform"].astype(str) == waveform]
+        sel = sel if not sel.empty else rows
+        amps = sel["amplitude_V"].to_numpy(float)
+        slope = model_exponent(float(np.nanmean(sel["normal_force_on_N"].to_numpy(float))),
+                               float(np.nanmin(amps)), float(np.nanmax(amps)), f.params,
+                               waveform)
+        for e in f.estimates:
+            records.append({
+                "subject": f.subject, "parameter": e.name, "value": e.value,
+                "ci_low": e.ci_low, "ci_high": e.ci_high, "stderr": e.stderr,
+                "unit": e.unit, "rmse_N": f.rmse_N, "r2": f.r2,
+                "chi2_reduced": f.chi2_reduced, "n_points": f.n_points,
+                "waveform": waveform,
+                "exponent": float(ex["exponent"]) if ex is not None else math.nan,
+                "exponent_ci_low": float(ex["exponent_ci_low"]) if ex is not None
+                else math.nan,
+                "exponent_ci_high": float(ex["exponent_ci_high"]) if ex is not None
+                else math.nan,
+                "exponent_model": slope, "mu_measured": f.mu_measured})
+    return pd.DataFrame.from_records(records, columns=list(FIT_COLUMNS))

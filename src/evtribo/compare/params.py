@@ -1,0 +1,128 @@
+"""Which model parameters to fit, and the fixed ones from Table 1 or the user's TOML.
+
+Names are read from :class:`evtribo.model.ModelParameters` itself (its dataclass fields), so a
+parameter added to the model can be fitted without touching this module.
+
+The user's parameter file is a TOML file of ``name = value`` pairs in SI units, at top level
+or under a ``[model]`` table::
+
+    # my-params.toml
+    E_star = 55e3     # Pa
+    h_sc = 250e-6     # m
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from collections.abc import Iterable
+from pathlib import Path
+
+from evtribo.errors import ConfigError
+from evtribo.model.params import TABLE_1, ModelParameters
+
+__all__ = ["DEFAULT_FIT", "load_parameters", "parameter_names", "parameter_unit",
+           "resolve_fit_names"]
+
+#: Fitted by default: the equivalent air gap, per subject.
+DEFAULT_FIT: tuple[str, ...] = ("h_L",)
+
+
+def parameter_names() -> tuple[str, ...]:
+    """Names of the model's parameters, from the ``ModelParameters`` fields."""
+    return tuple(f.name for f in dataclasses.fields(ModelParameters))
+
+
+def parameter_unit(name: str) -> str:
+    """SI unit of parameter *name* (``"1"`` for dimensionless ones)."""
+    for f in dataclasses.fields(ModelParameters):
+        if f.name == name:
+            return str(f.metadata.get("unit", ""))
+    raise ConfigError(f"unknown model parameter; known: {', '.join(parameter_names())}",
+                      key=name)
+
+
+def resolve_fit_names(names: str | Iterable[str] | None) -> tuple[str, ...]:
+    """Validate the names of the parameters to fit.
+
+    Parameters
+    ----------
+    names : str or iterable of str or None
+        ``"h_L,E_star"`` or ``["h_L", "E_star"]``; None gives :data:`DEFAULT_FIT`.
+
+    Returns
+    -------
+    tuple of str
+        The names, without duplicates, in the order given.
+
+    Raises
+    ------
+    ConfigError
+        Naming every unknown parameter and listing the known ones (``key="fit"``).
+    """
+    if names is None:
+        return DEFAULT_FIT
+    items = names.split(",") if isinstance(names, str) else list(names)
+    wanted = list(dict.fromkeys(n.strip() for n in items if n.strip()))
+    if not wanted:
+        raise ConfigError("no parameter to fit", key="fit")
+    known = parameter_names()
+    unknown = [n for n in wanted if n not in known]
+    if unknown:
+        raise ConfigError(f"unknown model parameter(s) {', '.join(map(repr, unknown))}; "
+                          f"known: {', '.join(known)}", key="fit")
+    fixed_by_nature = [n for n in wanted if n == "eps_0"]
+    if fixed_by_nature:
+        raise ConfigError("eps_0 is a physical constant and cannot be fitted", key="fit")
+    return tuple(wanted)
+
+
+def load_parameters(path: str | Path | None,
+                    base: ModelParameters = TABLE_1) -> ModelParameters:
+    """The fixed parameters: *base* (Table 1) updated from a TOML file.
+
+    Parameters
+    ----------
+    path : str or Path or None
+        TOML of ``name = value`` pairs in SI units (top level or under ``[model]``);
+        None returns *base*.
+    base : ModelParameters
+        Values for the names the file does not set.
+
+    Raises
+    ------
+    ConfigError
+        For a missing or unreadable file, an unknown name, a value that is not a number or
+        is out of range; ``path`` is the file and ``key`` the parameter.
+    """
+    if path is None:
+        return base
+    file = Path(path)
+    try:
+        text = file.read_text(encoding="utf-8")
+    except OSError as err:
+        raise ConfigError(f"cannot read the parameter file: {err.strerror or err}",
+                          path=file) from err
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise ConfigError(f"not valid TOML: {err}", path=file) from err
+    if set(data) == {"model"} and isinstance(data["model"], dict):
+        data, prefix = data["model"], "model."
+    else:
+        prefix = ""
+    known = parameter_names()
+    values: dict[str, float] = {}
+    for key, value in data.items():
+        if key not in known:
+            raise ConfigError(f"unknown model parameter; known: {', '.join(known)}",
+                              path=file, key=prefix + key)
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise ConfigError(f"expected a number in SI units "
+                              f"({parameter_unit(key)}), got {value!r}",
+                              path=file, key=prefix + key)
+        values[key] = float(value)
+    try:
+        return base.with_values(values)
+    except ConfigError as err:
+        raise ConfigError(err.message, path=file, key=prefix + (err.key or "")) from err

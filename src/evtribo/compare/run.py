@@ -1,0 +1,232 @@
+"""``evtribo compare``: fit the model to a result folder and draw the comparison figures.
+
+Writes into the result folder:
+
+- ``fit.csv``: one row per subject and fitted parameter (:data:`~evtribo.compare.fit.FIT_COLUMNS`);
+- ``fit.json``: what was fitted, the fixed parameters, each subject's full parameter set,
+  the figures and notes (read by ``evtribo report``);
+- ``figures/``: each figure as PNG and SVG.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from evtribo import __version__
+from evtribo.compare.fit import SubjectFit, fit_study, fit_table
+from evtribo.compare.params import load_parameters, resolve_fit_names
+from evtribo.compare.plots import (
+    plot_area_increase,
+    plot_electrostatic_force,
+    plot_friction_normal_force,
+    plot_friction_time,
+    safe_name,
+    save_figure,
+)
+from evtribo.compare.tables import ResultTables, read_results
+from evtribo.errors import OutputExistsError
+from evtribo.model.params import ModelParameters
+
+log = logging.getLogger(__name__)
+
+__all__ = ["CompareResult", "FigureRecord", "compare", "figure_stems"]
+
+FIT_CSV = "fit.csv"
+FIT_JSON = "fit.json"
+FIGURES = "figures"
+
+
+@dataclass(frozen=True)
+class FigureRecord:
+    """One figure written by :func:`compare`: its kind, subject (or None) and files."""
+
+    kind: str
+    title: str
+    stem: str
+    subject: str | None
+    caption: str
+
+
+@dataclass
+class CompareResult:
+    """What :func:`compare` did."""
+
+    out: Path
+    fits: list[SubjectFit]
+    files: list[Path] = field(default_factory=list)
+    figures: list[FigureRecord] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+
+def figure_stems(subjects: Iterable[str]) -> list[str]:
+    """File stems of the figures :func:`compare` writes for these subjects."""
+    stems = ["friction_time", "area_increase"]
+    for s in subjects:
+        stems += [f"electrostatic_force_{safe_name(s)}", f"friction_normal_force_{safe_name(s)}"]
+    return stems
+
+
+def _check_outputs(out: Path, subjects: list[str], force: bool) -> None:
+    targets = [out / FIT_CSV, out / FIT_JSON]
+    targets += [out / FIGURES / f"{stem}.{ext}" for stem in figure_stems(subjects)
+                for ext in ("png", "svg")]
+    existing = [p for p in targets if p.exists()]
+    if existing and not force:
+        raise OutputExistsError(f"{len(existing)} output file(s) of a previous comparison "
+                                "exist; use --force to overwrite them", path=existing[0])
+
+
+def _jsonable(x: float) -> float | None:
+    return x if math.isfinite(x) else None
+
+
+def _trace_subject(tables: ResultTables) -> str | None:
+    trace = tables.sine_trace
+    if trace is None or "subject" not in trace.columns or trace.empty:
+        return None
+    return str(trace["subject"].iloc[0])
+
+
+def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
+            params: str | Path | None = None, force: bool = False, dpi: float = 150,
+            formats: tuple[str, ...] = ("png", "svg")) -> CompareResult:
+    """Fit the model to the results in *out* and write ``fit.csv``, ``fit.json``, figures.
+
+    Parameters
+    ----------
+    out : str or Path
+        Folder written by ``evtribo analyze``.
+    fit : str or iterable of str, optional
+        Parameters to fit per subject (``"h_L,E_star"``); default ``h_L``.
+    params : str or Path, optional
+        TOML file of fixed parameters (SI units); Table 1 for those it does not set.
+    force : bool
+        Overwrite the outputs of a previous comparison.
+    dpi : float
+        Resolution of the PNG figures, dots per inch.
+    formats : tuple of str
+        Figure formats.
+
+    Returns
+    -------
+    CompareResult
+
+    Raises
+    ------
+    UserInputError
+        Missing folder or tables, bad ``fit`` names or parameter file (exit code 2).
+    OutputExistsError
+        When outputs exist and *force* is False.
+    AnalysisError
+        When a fit cannot be made.
+    """
+    names = resolve_fit_names(fit)
+    base = load_parameters(params)
+    tables = read_results(out)
+    folder = tables.out
+    subjects = tables.subjects
+    _check_outputs(folder, subjects, force)
+
+    fits = fit_study(tables, base, names)
+    result = CompareResult(out=folder, fits=fits)
+    table = fit_table(fits, tables)
+    table.to_csv(folder / FIT_CSV, index=False)
+    result.files.append(folder / FIT_CSV)
+
+    by_subject = {f.subject: f for f in fits}
+    fig_dir = folder / FIGURES
+
+    def emit(ax: Any, kind: str, title: str, stem: str, *, subject: str | None,
+             caption: str) -> None:
+        result.files += save_figure(ax.figure, fig_dir, stem, dpi=dpi, formats=formats)
+        result.figures.append(FigureRecord(kind, title, stem, subject, caption))
+
+    mu_how = "fitted." if "mu" in names else "from the measured OFF windows."
+    for s in subjects:
+        f = by_subject[s]
+        rows = tables.electrostatic[tables.electrostatic["subject"] == s]
+        emit(plot_electrostatic_force(rows, f.params, subject=s), "electrostatic_force",
+             f"Electrostatic force vs voltage, {s}", f"electrostatic_force_{safe_name(s)}",
+             subject=s,
+             caption="Inferred electrostatic force (95 % intervals) and the fitted model at "
+                     "the subject's mean normal force ON; dotted: a U² power law for "
+                     "reference.")
+        win = tables.windows[tables.windows["subject"] == s]
+        emit(plot_friction_normal_force(win, f.params, subject=s), "friction_normal_force",
+             f"Friction vs normal force, {s}", f"friction_normal_force_{safe_name(s)}",
+             subject=s,
+             caption="Steady-sliding windows OFF and ON and the model (eq. 5, cf. the "
+                     f"paper's Figure 6); μ {mu_how}")
+
+    trace_subject = _trace_subject(tables)
+    pick = by_subject.get(trace_subject or "", fits[0])
+    sine_rows = tables.electrostatic[tables.electrostatic["waveform"].astype(str) == "sine"]
+    amp = float(sine_rows["amplitude_V"].max()) if not sine_rows.empty else 140.0
+    fn_mean = float(np.nanmean(tables.electrostatic["normal_force_on_N"].to_numpy(float)))
+    if tables.sine_trace is None:
+        result.notes.append("No sine_trace.csv in the result folder: the friction-versus-time "
+                            "figure shows the model alone (10 Hz sine, "
+                            f"{amp:g} V, {fn_mean:.2g} N), without a measured trace.")
+        caption = ("Model only (no measured sine trace was available): friction with the "
+                   "voltage ON and OFF, cf. the paper's Figure 5.")
+    else:
+        caption = (f"Measured sine trial of {pick.subject} and the model evaluated at its "
+                   "measured normal force and voltage, cf. the paper's Figure 5.")
+    emit(plot_friction_time(tables.sine_trace, pick.params, amplitude=amp,
+                            normal_force=fn_mean, subject=pick.subject),
+         "friction_time", "Friction vs time, sine drive", "friction_time", subject=None,
+         caption=caption)
+
+    mean_fn = {s: float(np.nanmean(tables.electrostatic.loc[
+        tables.electrostatic["subject"] == s, "normal_force_on_N"].to_numpy(float)))
+        for s in subjects}
+    u_max = max(150.0, float(tables.electrostatic["amplitude_V"].max()))
+    emit(plot_area_increase(mean_fn, {s: by_subject[s].params for s in subjects},
+                            u_max=u_max),
+         "area_increase", "Predicted contact-area increase", "area_increase", subject=None,
+         caption="JKR over Hertz contact area at each subject's mean normal force ON with "
+                 "the fitted parameters, cf. the paper's Figure 7.")
+
+    _write_json(folder / FIT_JSON, result, names, base, params)
+    result.files.append(folder / FIT_JSON)
+    log.info("compare: wrote %d files into %s", len(result.files), folder)
+    return result
+
+
+def _write_json(path: Path, result: CompareResult, names: tuple[str, ...],
+                base: ModelParameters, params_file: str | Path | None) -> None:
+    pfile: dict[str, Any] | None = None
+    if params_file is not None:
+        p = Path(params_file)
+        pfile = {"path": str(p), "sha256": hashlib.sha256(p.read_bytes()).hexdigest()}
+    doc = {
+        "software": {"evtribo": __version__},
+        "fit": list(names),
+        "parameters_file": pfile,
+        "fixed_parameters": base.as_dict(),
+        "subjects": {
+            f.subject: {
+                "parameters": f.params.as_dict(),
+                "estimates": {e.name: {"value": e.value, "stderr": _jsonable(e.stderr),
+                                       "ci_low": _jsonable(e.ci_low),
+                                       "ci_high": _jsonable(e.ci_high), "unit": e.unit}
+                              for e in f.estimates},
+                "correlation": [[_jsonable(float(c)) for c in row] for row in f.correlation],
+                "rmse_N": _jsonable(f.rmse_N), "r2": _jsonable(f.r2),
+                "chi2_reduced": _jsonable(f.chi2_reduced), "n_points": f.n_points,
+                "mu_measured": _jsonable(f.mu_measured),
+            } for f in result.fits},
+        "figures": [{"kind": r.kind, "title": r.title, "stem": r.stem, "subject": r.subject,
+                     "caption": r.caption} for r in result.figures],
+        "notes": result.notes,
+    }
+    path.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")

@@ -1,0 +1,102 @@
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+from matplotlib.image import imread
+from synthetic import TRUE_H_L
+
+from evtribo.cli import main
+from evtribo.compare import (
+    FIT_COLUMNS,
+    compare,
+    plot_electrostatic_force,
+    plot_friction_time,
+    read_results,
+    save_figure,
+)
+from evtribo.compare.plots import new_axes
+from evtribo.errors import OutputExistsError
+from evtribo.model import TABLE_1
+
+
+def test_compare_writes_fit_and_figures(compared_out):
+    fit = pd.read_csv(compared_out / "fit.csv")
+    assert tuple(fit.columns) == FIT_COLUMNS
+    for _, row in fit.iterrows():
+        truth = TRUE_H_L[row["subject"]]
+        assert row["ci_low"] <= truth <= row["ci_high"]
+    figs = sorted(p.name for p in (compared_out / "figures").iterdir())
+    for stem in ("area_increase", "friction_time", "electrostatic_force_P01",
+                 "electrostatic_force_P02", "friction_normal_force_P01",
+                 "friction_normal_force_P02"):
+        assert f"{stem}.png" in figs and f"{stem}.svg" in figs
+    doc = json.loads((compared_out / "fit.json").read_text())
+    assert doc["fit"] == ["h_L"]
+    assert doc["subjects"]["P02"]["parameters"]["h_L"] == pytest.approx(
+        fit.loc[fit["subject"] == "P02", "value"].item())
+    assert doc["notes"] == []
+
+
+def test_refuses_to_overwrite(compared_out):
+    before = (compared_out / "fit.csv").read_bytes()
+    with pytest.raises(OutputExistsError):
+        compare(compared_out, dpi=40)
+    assert (compared_out / "fit.csv").read_bytes() == before
+
+
+def test_without_sine_trace_says_model_only(out_dir):
+    (out_dir / "sine_trace.csv").unlink()
+    result = compare(out_dir, dpi=30, formats=("png",))
+    assert any("sine_trace.csv" in n for n in result.notes)
+    assert "sine_trace.csv" in json.loads((out_dir / "fit.json").read_text())["notes"][0]
+    ax = plot_friction_time(None, TABLE_1)
+    assert any("model only" in t.get_text() for t in ax.texts)
+    again = compare(out_dir, dpi=30, formats=("png",), force=True, fit="h_L,mu")
+    assert {e.name for e in again.fits[0].estimates} == {"h_L", "mu"}
+
+
+def _pixel_variance(path) -> float:
+    img = imread(path)
+    return float(np.var(img[..., :3]))
+
+
+def test_figure_is_not_blank(out_dir, tmp_path):
+    tables = read_results(out_dir)
+    rows = tables.electrostatic[tables.electrostatic["subject"] == "P01"]
+    ax = plot_electrostatic_force(rows, TABLE_1.with_values(h_L=3e-6), subject="P01")
+    assert ax.get_xscale() == "log" and "(V)" in ax.get_xlabel() and "(N)" in ax.get_ylabel()
+    (png,) = save_figure(ax.figure, tmp_path, "fel", dpi=40, formats=("png",))
+    assert _pixel_variance(png) > 1e-3
+    # a figure with nothing drawn is uniform: the measure can tell
+    empty = new_axes()
+    empty.set_axis_off()
+    (blank,) = save_figure(empty.figure, tmp_path, "blank", dpi=40, formats=("png",))
+    assert _pixel_variance(blank) == 0.0
+
+
+def test_plot_draws_on_given_axes(out_dir):
+    tables = read_results(out_dir)
+    ax = new_axes()
+    rows = tables.electrostatic[tables.electrostatic["subject"] == "P02"]
+    assert plot_electrostatic_force(rows, TABLE_1, ax=ax) is ax
+    assert len(ax.lines) >= 2
+
+
+def test_cli_exit_codes(out_dir, tmp_path, capsys):
+    assert main(["compare", str(tmp_path / "missing")]) == 2
+    assert "missing" in capsys.readouterr().err
+    assert main(["compare", str(out_dir), "--fit", "h_L,nonsense"]) == 2
+    assert "nonsense" in capsys.readouterr().err
+    bad = tmp_path / "p.toml"
+    bad.write_text("E_star = 'soft'\n")
+    assert main(["compare", str(out_dir), "--params", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "p.toml" in err and "E_star" in err
+    assert not (out_dir / "fit.csv").exists()
+    assert main(["compare", str(out_dir), "--dpi", "30"]) == 0
+    assert "P01: h_L" in capsys.readouterr().out
+    assert main(["compare", str(out_dir), "--dpi", "30"]) == 2
+    assert "--force" in capsys.readouterr().err
