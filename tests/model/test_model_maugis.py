@@ -2,6 +2,7 @@
 come out of the general solution (checked against the independent closed forms)."""
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -114,3 +115,14 @@ def test_broadcasting_shapes():
     md = model.maugis_dugdale(np.linspace(0.1, 1, 4)[:, None], np.array([60.0, 140.0]))
     assert md.a.shape == md.c.shape == md.lam.shape == (4, 2)
     assert np.all(md.c >= md.a)
+
+
+def test_documented_lambda_table_is_current():
+    """The lambda-versus-voltage table in the module's docstring matches the code."""
+    from evtribo.model import maugis  # noqa: PLC0415
+
+    lines = maugis.__doc__.splitlines()
+    volts = [float(v) for v in next(ln for ln in lines if ln.startswith("U (V)")).split()[2:]]
+    lams = [float(v) for v in next(ln for ln in lines if re.match(r"lambda\s+\d", ln)).split()[1:]]
+    assert len(volts) == len(lams) == 6
+    assert np.allclose(model.maugis_parameter(np.array(volts)), lams, atol=6e-4)

@@ -33,10 +33,6 @@ __all__ = [
     "jkr_radius",
 ]
 
-#: Functions of (normal_force[, voltage], params) returning non-negative quantities.
-functions = ("contact_radius_hertz", "contact_area_hertz", "contact_radius_jkr",
-             "contact_area_jkr", "area_increase_pct")
-
 
 def _f(x: ArrayLike) -> NDArray[np.float64]:
     return np.asarray(x, dtype=float)

@@ -27,9 +27,6 @@ __all__ = [
     "surface_energy",
 ]
 
-#: The electrostatic functions of ``voltage`` (and ``area``) that take ``params``.
-functions = ("capacitance", "attraction_force", "adhesion_stress", "surface_energy")
-
 
 def _out(x: NDArray[np.float64]) -> NDArray[np.float64]:
     """Return a 0-d result as a numpy scalar, arrays unchanged."""

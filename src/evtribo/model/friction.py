@@ -34,11 +34,6 @@ __all__ = [
     "square_voltage",
 ]
 
-#: Functions of (normal_force, voltage, params) returning non-negative quantities.
-functions = ("electrostatic_force", "friction_force", "adhesion_load_ratio",
-             "electrostatic_force_exponent", "electrostatic_force_adhesive_limit",
-             "electrostatic_force_load_limit")
-
 
 def _f(x: ArrayLike) -> NDArray[np.float64]:
     return np.asarray(x, dtype=float)

@@ -7,7 +7,7 @@ cohesive-zone radius c (the paper's b). With K = 4 E* / 3 and Maugis' scales
     A = a / (pi dg R^2 / K)^(1/3),   P = F / (pi dg R),   m = c / a,
     lambda = 2 sigma_0 (R / (pi dg K^2))^(1/3),
 
-the solution satisfies (Maugis 1992, eqs. 6.17-6.19, with s = sqrt(m^2 - 1))
+the solution satisfies (D. Maugis, J. Colloid Interface Sci. 150, 243, 1992; s = sqrt(m^2 - 1))
 
     lambda A^2 / 2 [s + (m^2 - 2) atan s] + 4 lambda^2 A / 3 [s atan s - m + 1] = 1
     P = A^3 - lambda A^2 [s + m^2 atan s]
@@ -26,12 +26,13 @@ U (V)        10      30      60     100     140     150
 lambda      0.071   0.306   0.772   1.525   2.389   2.619
 =========  ======  ======  ======  ======  ======  ======
 
-so the contact is DMT-like below about 50 V and in the transition above, never JKR-like. Yet
-the loads of electrovibration are hundreds to thousands of pi dg R, where every lambda gives
-nearly the same contact: at 0.5 N the cohesive zone is thin (c/a - 1 from 1.7 % at 10 V to
-0.8 % at 140 V), the Maugis-Dugdale area is 0.3-1.2 % below JKR's, and sigma_0 pi c^2 exceeds
-eq. (11) by 3.1 % at 10 V and 0.7 % at 140 V. At 0.1 N the departures grow to 2.4 % (area,
-near 60 V) and 6.2 % (force, at 10 V); they shrink as the load grows (0.4-1.7 % at 2 N).
+so the contact is DMT-like only below about 13 V (lambda < 0.1), passes lambda = 1 at 73 V and
+would need 244 V to reach lambda = 5 (JKR-like). Yet the loads of electrovibration are
+hundreds to thousands of pi dg R, where every lambda gives nearly the same contact: at 0.5 N
+the cohesive zone is thin (c/a - 1 from 1.7 % at 10 V to 0.8 % at 140 V), the
+Maugis-Dugdale area is 0.3-1.2 % below JKR's, and sigma_0 pi c^2 exceeds eq. (11) by 3.1 %
+at 10 V and 0.7 % at 140 V. At 0.1 N the departures grow to 2.5 % (area, near 70 V) and
+6.2 % (force, at 10 V); at 2 N they shrink to 0.2-0.7 % (area) and 0.4-1.7 % (force).
 """
 
 from __future__ import annotations
@@ -59,10 +60,6 @@ __all__ = [
     "md_jkr_departure",
     "md_pulloff_load",
 ]
-
-#: Functions of (normal_force, voltage, params) returning non-negative quantities.
-functions = ("maugis_parameter", "contact_area_md", "electrostatic_force_md",
-             "friction_force_md")
 
 _X_GRID = np.linspace(-32.0, 18.0, 201)  # ln s; s from 1e-14 to 6.6e7 (round-off beyond)
 
