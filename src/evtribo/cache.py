@@ -1,0 +1,203 @@
+"""Decoded trials cached as Parquet, so a second analysis does not decode again.
+
+>>> trial = load_trial("P01/run-01.log", rig, cache_dir="~/.cache/evtribo")  # doctest: +SKIP
+
+The key is the SHA-256 of the log's bytes, the rig's fingerprint (DBC bytes and role
+mapping, :meth:`~evtribo.rig.Rig.fingerprint`) and :data:`CACHE_VERSION`; a changed log, DBC
+or mapping misses the cache. One file per trial, ``<key>.parquet``, holding the three streams
+one after the other (column ``stream``: 0 normal, 1 tangential, 2 excitation) and the counts
+in the schema metadata. Written to a temporary name and renamed, so a crash never leaves a
+half-written entry.
+
+Where: ``cache_dir`` if given, else ``$EVTRIBO_CACHE_DIR``, else ``$XDG_CACHE_HOME/evtribo``
+or ``~/.cache/evtribo``; never beside the raw logs unless that is the directory asked for.
+``cache=False`` reads and decodes without touching any cache.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from evtribo.decode import CellSignals, ExcitationSignals, TrialSignals, decode_trial
+from evtribo.frames import read_frames
+from evtribo.rig import Rig
+
+log = logging.getLogger(__name__)
+
+#: Bumped whenever what is stored, or how it is decoded, changes.
+CACHE_VERSION = 1
+_META = b"evtribo.trial"
+
+
+def default_cache_dir() -> Path:
+    """``$EVTRIBO_CACHE_DIR``, else ``$XDG_CACHE_HOME/evtribo``, else ``~/.cache/evtribo``."""
+    env = os.environ.get("EVTRIBO_CACHE_DIR")
+    if env:
+        return Path(env).expanduser()
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "evtribo"
+
+
+def file_hash(path: str | os.PathLike[str]) -> str:
+    """SHA-256 of a file's bytes, hex."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        while chunk := fh.read(1 << 22):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def cache_key(log_path: str | os.PathLike[str], rig: Rig) -> str:
+    """Key of a trial: log content, rig content, cache format version."""
+    h = hashlib.sha256(f"v{CACHE_VERSION}".encode())
+    h.update(file_hash(log_path).encode())
+    h.update(rig.fingerprint().encode())
+    return h.hexdigest()[:40]
+
+
+def _to_table(trial: TrialSignals) -> pa.Table:
+    cells = (trial.normal, trial.tangential)
+    ex = trial.excitation
+    n_ex = 0 if ex is None else len(ex.t)
+    parts = [len(c.t) for c in cells] + [n_ex]
+    total = sum(parts)
+    stream = np.repeat(np.arange(3, dtype=np.int8), parts)
+    t = np.concatenate([c.t for c in cells] + ([ex.t] if ex is not None else []))
+    value = np.full(total, np.nan)
+    counter = np.full(total, -1, dtype=np.int64)
+    off = 0
+    for c in cells:
+        value[off:off + len(c.t)] = c.value
+        if c.counter is not None:
+            counter[off:off + len(c.t)] = c.counter
+        off += len(c.t)
+    cols: dict[str, pa.Array] = {
+        "stream": pa.array(stream), "t": pa.array(t), "value": pa.array(value),
+        "counter": pa.array(counter),
+    }
+    for name in ("enabled", "amplitude", "frequency", "waveform"):
+        vals = None if ex is None else getattr(ex, name)
+        if vals is None:
+            cols[name] = pa.nulls(total, pa.string() if name == "waveform" else
+                                  pa.bool_() if name == "enabled" else pa.float64())
+            continue
+        pad = [None] * (total - n_ex)
+        arr = vals.tolist() if name == "waveform" else vals
+        cols[name] = pa.concat_arrays([pa.array(pad, type=pa.array(arr).type)
+                                       if pad else pa.array([], type=pa.array(arr).type),
+                                       pa.array(arr)])
+    meta = {
+        "version": CACHE_VERSION, "frames": trial.frames, "ignored_frames": trial.ignored_frames,
+        "skipped_lines": trial.skipped_lines,
+        "dropped": [trial.normal.dropped, trial.tangential.dropped],
+        "counter": [trial.normal.counter is not None, trial.tangential.counter is not None],
+        "excitation": None if ex is None else
+        [k for k in ("enabled", "amplitude", "frequency", "waveform")
+         if getattr(ex, k) is not None],
+    }
+    return pa.table(cols).replace_schema_metadata({_META: json.dumps(meta).encode()})
+
+
+def _from_table(table: pa.Table) -> TrialSignals:
+    meta = json.loads(table.schema.metadata[_META])
+    if meta.get("version") != CACHE_VERSION:
+        raise ValueError("cache format version differs")
+    stream = table.column("stream").to_numpy()
+    t = table.column("t").to_numpy()
+    value = table.column("value").to_numpy()
+    counter = table.column("counter").to_numpy()
+    cells = []
+    for k in (0, 1):
+        sel = stream == k
+        cnt = counter[sel].astype(np.int64) if meta["counter"][k] else None
+        cells.append(CellSignals(t[sel].copy(), value[sel].copy(), cnt, int(meta["dropped"][k])))
+    ex = None
+    if meta["excitation"] is not None:
+        sel = np.flatnonzero(stream == 2)
+        ex = ExcitationSignals(t=t[sel].copy())
+        for name in meta["excitation"]:
+            col = table.column(name).take(pa.array(sel))
+            if name == "waveform":
+                vals = np.array(col.to_pylist(), dtype=object)
+            elif name == "enabled":
+                vals = np.asarray(col.to_numpy(zero_copy_only=False), dtype=bool)
+            else:
+                vals = col.to_numpy()
+            setattr(ex, name, vals)
+    return TrialSignals(cells[0], cells[1], ex, frames=int(meta["frames"]),
+                        ignored_frames=int(meta["ignored_frames"]),
+                        skipped_lines=int(meta["skipped_lines"]))
+
+
+def load_trial(log_path: str | os.PathLike[str], rig: Rig,
+               cache_dir: str | os.PathLike[str] | None = None, strict: bool = False, *,
+               cache: bool = True) -> TrialSignals:
+    """A trial's decoded signals, from the cache when it holds them.
+
+    Parameters
+    ----------
+    log_path : path-like
+        The raw log (any format :func:`~evtribo.frames.read_frames` reads).
+    rig : Rig
+    cache_dir : path-like, optional
+        Cache directory (default: :func:`default_cache_dir`).
+    strict : bool
+        Damaged lines are errors (a cached trial that had skipped lines is read again, so
+        that the error is raised).
+    cache : bool
+        False: read and decode, neither reading nor writing the cache.
+
+    Returns
+    -------
+    TrialSignals
+        With ``skipped_lines`` from reading the log.
+
+    Raises
+    ------
+    LogFormatError
+        As :func:`~evtribo.frames.read_frames`.
+    """
+    path = None
+    if cache:
+        directory = Path(cache_dir).expanduser() if cache_dir is not None \
+            else default_cache_dir()
+        path = directory / f"{cache_key(log_path, rig)}.parquet"
+        if path.is_file():
+            try:
+                trial = _from_table(pq.read_table(path))
+            except Exception as err:  # a damaged or foreign entry: decode again
+                log.warning("%s: unreadable cache entry (%s); decoding again", path, err)
+            else:
+                if not (strict and trial.skipped_lines):
+                    log.debug("%s: decoded trial from cache %s", log_path, path)
+                    return trial
+    frames, report = read_frames(log_path, strict=strict)
+    trial = decode_trial(frames, rig)
+    trial.skipped_lines = report.skipped_lines
+    if path is not None:
+        _write_atomic(path, _to_table(trial))
+    return trial
+
+
+def _write_atomic(path: Path, table: pa.Table) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            pq.write_table(table, fh)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+__all__ = ["CACHE_VERSION", "cache_key", "default_cache_dir", "file_hash", "load_trial"]

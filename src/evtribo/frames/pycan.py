@@ -1,0 +1,155 @@
+"""Logs read through python-can's readers (``.asc``, ``.blf``, ``.trc``, ``.csv``, ``.db``...).
+
+python-can parses these one message at a time; the messages are gathered into a
+:class:`~evtribo.frames.table.FrameTable`. A record python-can's reader cannot parse is
+reported to ``on_bad`` with its line number (text formats); reading then resumes on the next
+line for ``.asc``, ``.trc`` and ``.csv``. A binary file (``.blf``) cannot be resynchronised:
+reading stops at the damaged object, and what was read before it is kept.
+"""
+
+from __future__ import annotations
+
+import gzip
+import os
+from collections.abc import Callable, Iterable, Iterator
+from typing import IO, Any
+
+import can
+import numpy as np
+from can.io.generic import BinaryIOMessageReader
+from can.io.player import MESSAGE_READERS
+
+from evtribo.frames.table import CLASSIC_WIDTH, FD_WIDTH, FrameTable
+
+BadLineHandler = Callable[[int | None, str], None]
+
+
+class _CountingFile:
+    """A text file that counts the lines handed out (to name a damaged line)."""
+
+    def __init__(self, raw: IO[str]) -> None:
+        self._raw = raw
+        self.line = 0
+        self._pending: list[str] = []
+
+    def push(self, text: str) -> None:
+        """Hand *text* out again before the rest of the file (not counted)."""
+        self._pending.append(text)
+        self.line -= 1
+
+    def __iter__(self) -> _CountingFile:
+        return self
+
+    def __next__(self) -> str:
+        text = self.readline()
+        if not text:
+            raise StopIteration
+        return text
+
+    def readline(self, *_args: Any) -> str:
+        text = self._pending.pop() if self._pending else self._raw.readline()
+        if text:
+            self.line += 1
+        return text
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._raw, name)
+
+
+def frames_from_messages(messages: Iterable[can.Message], channel: str | None = None
+                         ) -> FrameTable:
+    """Gather python-can messages into a :class:`FrameTable`.
+
+    Parameters
+    ----------
+    messages : iterable of can.Message
+        The frames; ``dlc`` of a remote frame is its requested length, otherwise the
+        payload's length.
+    channel : str, optional
+        Channel name for the table (default: the first message's channel, if any).
+    """
+    ts, ids, ext, rem, err, fd, dlc, payloads = [], [], [], [], [], [], [], []
+    for msg in messages:
+        ts.append(msg.timestamp)
+        ids.append(msg.arbitration_id)
+        ext.append(msg.is_extended_id)
+        rem.append(msg.is_remote_frame)
+        err.append(msg.is_error_frame)
+        fd.append(msg.is_fd)
+        data = bytes(msg.data or b"")
+        dlc.append(msg.dlc if msg.is_remote_frame else len(data))
+        payloads.append(data)
+        if channel is None and msg.channel is not None:
+            channel = str(msg.channel)
+    n = len(ts)
+    width = FD_WIDTH if any(len(p) > CLASSIC_WIDTH for p in payloads) else CLASSIC_WIDTH
+    data_arr = np.zeros((n, width), dtype=np.uint8)
+    for i, p in enumerate(payloads):
+        if p:
+            data_arr[i, :len(p)] = np.frombuffer(p, dtype=np.uint8)
+    return FrameTable(
+        timestamp=np.asarray(ts, dtype=np.float64).reshape(n),
+        arbitration_id=np.asarray(ids, dtype=np.uint32).reshape(n),
+        is_extended=np.asarray(ext, dtype=bool).reshape(n),
+        is_remote=np.asarray(rem, dtype=bool).reshape(n),
+        is_error=np.asarray(err, dtype=bool).reshape(n),
+        is_fd=np.asarray(fd, dtype=bool).reshape(n),
+        dlc=np.asarray(dlc, dtype=np.uint8).reshape(n),
+        data=data_arr,
+        channel=channel,
+    )
+
+
+def _resumable(reader: Any, counter: _CountingFile | None, suffix: str,
+               on_bad: BadLineHandler) -> Iterator[can.Message]:
+    it = iter(reader)
+    while True:
+        try:
+            msg = next(it)
+        except StopIteration:
+            return
+        except Exception as err:  # python-can raises ValueError, IndexError, struct.error...
+            if counter is None:
+                on_bad(None, f"cannot be read past this point ({type(err).__name__}: {err})")
+                return
+            on_bad(counter.line, f"{type(err).__name__}: {err}")
+            # start a fresh generator on the rest of the file, header already parsed
+            reader._extract_header = lambda: None
+            if suffix == ".csv":
+                counter.push("timestamp,arbitration_id,extended,remote,error,dlc,data\n")
+            it = iter(reader)
+            continue
+        yield msg
+
+
+def read_with_python_can(path: str | os.PathLike[str], on_bad: BadLineHandler
+                         ) -> tuple[FrameTable, int]:
+    """Read *path* with the python-can reader its suffix names (``.gz`` decompressed).
+
+    Returns
+    -------
+    frames : FrameTable
+    lines : int
+        Lines read (text formats), else 0.
+    """
+    name = os.fspath(path).lower()
+    gz = name.endswith(".gz")
+    suffix = os.path.splitext(name[:-3] if gz else name)[1]
+    reader_cls = MESSAGE_READERS[suffix]
+    binary = issubclass(reader_cls, BinaryIOMessageReader) or suffix == ".db"
+    counter: _CountingFile | None = None
+    if suffix == ".db":
+        reader = reader_cls(os.fspath(path))
+    elif binary:
+        handle: Any = gzip.open(path, "rb") if gz else open(path, "rb")  # noqa: SIM115
+        reader = reader_cls(handle)
+    else:
+        raw: Any = gzip.open(path, "rt") if gz else open(path, encoding="utf-8",  # noqa: SIM115
+                                                          errors="replace")
+        counter = _CountingFile(raw)
+        reader = reader_cls(counter)
+    try:
+        frames = frames_from_messages(_resumable(reader, counter, suffix, on_bad))
+    finally:
+        reader.stop()
+    return frames, (counter.line if counter is not None else 0)
