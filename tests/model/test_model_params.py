@@ -3,6 +3,7 @@
 import dataclasses
 import math
 
+import numpy as np
 import pytest
 
 from evtribo.errors import ConfigError
@@ -46,12 +47,18 @@ def test_effective_gap():
     ("h_sc", -1e-6), ("h_i", -1e-9), ("h_L", -5e-6), ("E_star", 0.0), ("E_star", -1.0),
     ("mu", 0.0), ("mu", -0.1), ("R", 0.0), ("eps_sc", 0.0), ("eps_0", -1.0),
     ("R", math.nan), ("E_star", math.inf), ("mu", "0.5"), ("mu", True), ("R", None),
+    ("R", [0.01]), ("mu", 0.5 + 0j),
 ])
 def test_bad_values_raise_config_error_naming_the_parameter(name, value):
     with pytest.raises(ValueError, match=name) as exc:
         ModelParameters(**{name: value})
     assert isinstance(exc.value, ConfigError)
     assert exc.value.key == name
+
+
+def test_numpy_numbers_accepted():
+    p = ModelParameters(h_L=np.float32(2e-6), R=np.array(0.02), mu=1)
+    assert p.h_L == pytest.approx(2e-6) and p.R == 0.02 and type(p.mu) is float
 
 
 def test_zero_thicknesses_allowed_but_not_all():

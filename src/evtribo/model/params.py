@@ -13,10 +13,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import numbers
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
+
+import numpy as np
 
 from evtribo.errors import ConfigError
 
@@ -68,9 +69,14 @@ class ModelParameters:
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
-            if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            # real numbers of any kind (int, float, numpy scalars or 0-d arrays), not bool/str
+            if (isinstance(value, (bool, np.bool_, str, bytes, complex))
+                    or np.ndim(value) != 0):
                 raise ConfigError(f"expected a number, got {value!r}", key=f.name)
-            number = float(value)
+            try:
+                number = float(value)
+            except (TypeError, ValueError) as err:
+                raise ConfigError(f"expected a number, got {value!r}", key=f.name) from err
             if not math.isfinite(number):
                 raise ConfigError(f"must be finite, got {number!r}", key=f.name)
             rule = f.metadata["rule"]
