@@ -82,6 +82,12 @@ def test_moving_average_does_not_reach_into_gaps():
     m = moving_average(x, 5)
     assert np.all(np.isnan(m[8:13])) and np.all(np.isnan(m[:2]))
     np.testing.assert_allclose(m[2:8], 1.0)
+    x = np.arange(20.0)
+    x[10] = np.nan
+    x[14:16] = np.nan
+    m = moving_average(x, 5, min_fraction=0.75)
+    assert m[10] == pytest.approx((8 + 9 + 11 + 12) / 4)
+    assert np.isnan(m[14]) and np.isnan(m[15])  # 2 of 5 missing
 
 
 def test_windows_avoid_reversals_startup_gaps_and_switches():

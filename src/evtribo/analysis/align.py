@@ -22,7 +22,7 @@ log = logging.getLogger(__name__)
 FloatArray = npt.NDArray[np.float64]
 
 #: A pause longer than this many nominal sample periods is a gap (not interpolated through).
-DEFAULT_MAX_GAP_PERIODS = 3.0
+DEFAULT_MAX_GAP_PERIODS = 5.0
 
 
 @dataclass(frozen=True)

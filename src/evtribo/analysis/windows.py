@@ -4,8 +4,8 @@ No position sensor is needed (nor used, when the rig has one): the finger slides
 forth, and the friction force's sign follows the sliding direction. On a uniform grid
 (:mod:`evtribo.analysis.align`):
 
-1. both forces are smoothed with a centred moving average (``smooth_s``; NaN wherever the
-   average would reach into a gap);
+1. both forces are smoothed with a centred moving average (``smooth_s``) of the samples
+   present (NaN where more than a quarter of its span is missing);
 2. a *stroke* is a run where the smoothed friction keeps one sign and stays above
    ``sign_fraction`` of the trial's sliding level (90th percentile of ``|F_t|``): reversals,
    rest and the start of the trial before sliding are outside every stroke;
@@ -14,10 +14,12 @@ forth, and the friction force's sign follows the sliding direction. On a uniform
    is at least ``level_fraction`` of the piece's median ratio (this removes the stick phase
    and the start-up after a reversal, and any stick-slip event, without mistaking a change
    of normal force for one), eroded by half the smoothing length on both sides;
-5. steady runs shorter than ``min_window_s`` are dropped, longer than ``max_window_s`` split
-   into equal parts (windows are the units the bootstrap resamples).
+5. a hole in the data longer than half the smoothing span ends a steady run; runs shorter
+   than ``min_window_s`` are dropped, longer than ``max_window_s`` split into equal parts
+   (windows are the units the bootstrap resamples).
 
-Each window's forces are the means of the *unsmoothed* grid samples it spans.
+Each window's forces are the means of the *unsmoothed* grid samples it spans, the
+samples present only (shorter holes are skipped, never filled).
 """
 
 from __future__ import annotations
@@ -42,8 +44,9 @@ DEFAULT_MIN_WINDOW_S = 0.2
 DEFAULT_MAX_WINDOW_S = 1.0
 
 
-def moving_average(x: npt.ArrayLike, n: int) -> npt.NDArray[np.float64]:
-    """Centred moving average over *n* samples (odd), NaN wherever the span holds a NaN.
+def moving_average(x: npt.ArrayLike, n: int, *, min_fraction: float = 1.0
+                   ) -> npt.NDArray[np.float64]:
+    """Centred moving average over *n* samples (odd), ignoring NaNs.
 
     Parameters
     ----------
@@ -51,6 +54,9 @@ def moving_average(x: npt.ArrayLike, n: int) -> npt.NDArray[np.float64]:
         Samples on a uniform grid.
     n : int
         Span in samples (rounded up to odd).
+    min_fraction : float
+        Fraction of the span's samples that must be finite (1: NaN wherever the span holds
+        a NaN); else the average is NaN.
 
     Returns
     -------
@@ -68,7 +74,9 @@ def moving_average(x: npt.ArrayLike, n: int) -> npt.NDArray[np.float64]:
     cbad = np.concatenate(([0], np.cumsum(bad)))
     total = csum[n:] - csum[:-n]
     nbad = cbad[n:] - cbad[:-n]
-    out[h:x.size - h] = np.where(nbad == 0, total / n, np.nan)
+    good = n - nbad
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out[h:x.size - h] = np.where(good >= min_fraction * n - 1e-9, total / good, np.nan)
     return out
 
 
@@ -139,8 +147,9 @@ def find_windows(
     dt = float(np.median(np.diff(t)))
     w = max(1, round(smooth_s / dt)) | 1
     h = w // 2
-    ft_s = moving_average(ft, w)
-    fn_s = moving_average(fn, w)
+    ft_s = moving_average(ft, w, min_fraction=0.75)
+    fn_s = moving_average(fn, w, min_fraction=0.75)
+    hole = ~(np.isfinite(fn) & np.isfinite(ft))
     usable = np.isfinite(ft_s) & np.isfinite(fn_s) & (fn_s > 0) & (cond != EXCLUDED)
     usable &= t >= t[0] + skip_start_s
     if not usable.any():
@@ -170,6 +179,10 @@ def find_windows(
             inside = (lo >= 0) & (hi <= ok.size)
             full[inside] = (okc[hi[inside]] - okc[lo[inside]]) == w
             ok = full
+        # a hole in the data longer than half the smoothing span ends a steady run
+        for hs, he in _true_runs(hole[a:b]):
+            if he - hs > h:
+                ok[hs:he] = False
         for s, e in _true_runs(ok):
             length = e - s
             if length < min_len:
@@ -180,7 +193,8 @@ def find_windows(
                 i0, i1 = a + s + int(p0), a + s + int(p1)
                 rows.append((i0, i1, t[i0], t[i1 - 1] + dt,
                              "on" if abs(v) == 2 else "off", int(np.sign(v)),
-                             float(np.mean(fn[i0:i1])), float(abs(np.mean(ft[i0:i1])))))
+                             float(np.nanmean(fn[i0:i1])),
+                             float(abs(np.nanmean(ft[i0:i1])))))
     if not rows:
         return empty
     return pd.DataFrame.from_records(rows, columns=list(WINDOW_COLUMNS))
