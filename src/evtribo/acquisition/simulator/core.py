@@ -1,0 +1,351 @@
+"""The simulated rig's frames, generated chunk by chunk: offline in one call, or streamed.
+
+Each node (normal-force cell, tangential-force cell, amplifier) samples the trial's physics
+on its own clock (nominal rate, ppm error, random phase) and its frames reach the logger
+after a fixed latency plus exponential jitter. Frames are produced in reception order, one
+chunk of :data:`CHUNK_S` seconds of true time at a time, so that the offline trial and the
+real-time stream give the same frames for the same seed.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import cantools
+import numpy as np
+import numpy.typing as npt
+
+from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
+from evtribo.acquisition.simulator.encode import pack_signals
+from evtribo.acquisition.simulator.physics import (
+    FORCE_STEP_S,
+    NormalForceProcess,
+    Strokes,
+    electrostatic,
+    excitation_gate,
+    expected_electrostatic_force,
+    model_parameters,
+    on_off_schedule,
+    voltage,
+)
+from evtribo.errors import RigConfigError
+from evtribo.frames.table import FrameTable
+
+__all__ = ["CHUNK_S", "DEFAULT_DBC", "TrialGenerator", "TrialTruth", "simulate_trial"]
+
+#: The default rig's CAN database (FzCell 0x0C1, FxCell 0x0C2, HvStatus 0x1A0).
+DEFAULT_DBC = Path(__file__).resolve().parents[2] / "data" / "rigs" / "default.dbc"
+#: Frames are generated this many seconds of trial time at a time.
+CHUNK_S = 1.0
+#: Ids of other nodes on the bus when foreign traffic is asked for (standard and extended).
+FOREIGN_IDS = ((0x123, False), (0x7E8, False), (0x18FEF100, True), (0x0CF00400, True))
+#: Rolling counter of each message (+1 per frame, modulo its bit width).
+COUNTERS = {"FzCell": "FzCounter", "FxCell": "FxCounter", "HvStatus": "HvCounter"}
+#: Waveform code in HvStatus.HvWave (the DBC's value table).
+WAVE_CODE = {"sine": 0, "square": 1}
+#: Nominal leakage current reported by the amplifier at 140 V, uA (not modelled further).
+LEAK_UA_AT_140V = 4.0
+
+# Independent random streams, by purpose (seeded as [seed, stream, chunk]).
+_S_CLOCK, _S_STROKE, _S_FORCE, _S_NOISE, _S_DROP, _S_FOREIGN, _S_FORCE0 = range(7)
+
+
+@dataclass
+class _Node:
+    name: str  # message name in the DBC
+    message: Any  # cantools Message
+    rate_eff: float  # Hz, nominal rate with the clock error
+    offset: float  # s, true time of sample 0
+    last_rx: float = -math.inf  # reception time of the node's last frame
+    frames: int = 0
+    dropped: int = 0
+
+    def indices(self, t0: float, t1: float) -> npt.NDArray[np.int64]:
+        k0 = max(0, math.ceil((t0 - self.offset) * self.rate_eff))
+        k1 = max(k0, math.ceil((t1 - self.offset) * self.rate_eff))
+        return np.arange(k0, k1, dtype=np.int64)
+
+
+@dataclass
+class TrialTruth:
+    """What the analysis of a simulated trial should recover.
+
+    Attributes
+    ----------
+    subject : SubjectParams
+    config : TrialConfig
+    schedule : list of (start_s, end_s, on)
+        The voltage's ON/OFF phases, s from the trial's start.
+    slides : list of (start_s, end_s, direction)
+        Steady slides between reversals (direction: sign of the friction force).
+    normal_force_on_N, normal_force_off_N : float or None, N
+        Mean of the true (noise-free) normal force over the normal cell's samples while ON
+        and while OFF (None if there was no such phase).
+    electrostatic_force_N : float or None, N
+        The model's electrostatic force at the realised ``normal_force_on_N`` and the trial's
+        amplitude (period-averaged for a sine): what ``electrostatic.csv`` should infer.
+    electrostatic_force_mean_N : float or None, N
+        Mean of the instantaneous electrostatic force over the tangential cell's ON samples.
+    friction_modulation_Hz : float or None, Hz
+        Twice the drive frequency for a sine trial with ON phases, else None.
+    nodes : dict
+        Per message: effective rate (Hz), clock offset (s), frames sent, frames dropped.
+    foreign_frames : int
+        Frames of other nodes.
+    """
+
+    subject: SubjectParams
+    config: TrialConfig
+    schedule: list[tuple[float, float, bool]]
+    slides: list[tuple[float, float, int]]
+    normal_force_on_N: float | None = None
+    normal_force_off_N: float | None = None
+    electrostatic_force_N: float | None = None
+    electrostatic_force_mean_N: float | None = None
+    friction_modulation_Hz: float | None = None
+    nodes: dict[str, dict[str, float]] = field(default_factory=dict)
+    foreign_frames: int = 0
+
+    @property
+    def mu(self) -> float:
+        """The subject's friction coefficient."""
+        return self.subject.mu
+
+    def to_dict(self) -> dict[str, Any]:
+        """The truth as a JSON-ready mapping."""
+        return {
+            "subject": self.subject.to_dict(), "config": self.config.to_dict(),
+            "mu": self.mu,
+            "schedule": [[a, b, on] for a, b, on in self.schedule],
+            "slides": [[a, b, d] for a, b, d in self.slides],
+            "normal_force_on_N": self.normal_force_on_N,
+            "normal_force_off_N": self.normal_force_off_N,
+            "electrostatic_force_N": self.electrostatic_force_N,
+            "electrostatic_force_mean_N": self.electrostatic_force_mean_N,
+            "friction_modulation_Hz": self.friction_modulation_Hz,
+            "nodes": self.nodes, "foreign_frames": self.foreign_frames,
+        }
+
+
+def _load_dbc(dbc: str | os.PathLike[str] | None) -> Any:
+    path = Path(dbc) if dbc is not None else DEFAULT_DBC
+    try:
+        db = cantools.database.load_file(str(path))
+    except (OSError, cantools.database.UnsupportedDatabaseFormatError) as err:
+        raise RigConfigError(f"cannot load the CAN database: {err}", path=path) from err
+    for name in ("FzCell", "FxCell", "HvStatus"):
+        try:
+            db.get_message_by_name(name)
+        except KeyError as err:
+            raise RigConfigError(f"the simulated rig needs message {name!r}, which the DBC "
+                                 "lacks", path=path, key=name) from err
+    return db
+
+
+class TrialGenerator:
+    """Frames of one simulated trial, chunk after chunk, in reception order.
+
+    Parameters
+    ----------
+    subject : SubjectParams
+    config : TrialConfig
+    dbc : path-like, optional
+        The rig's DBC (default: the default rig). It must have the default rig's messages
+        ``FzCell`` (``Fz``, ``FzCounter``), ``FxCell`` (``Fx``, ``FxCounter``) and
+        ``HvStatus`` (``HvOn``, ``HvWave``, ``HvAmp``, ``HvFreq``, ``HvCounter``).
+    """
+
+    def __init__(self, subject: SubjectParams, config: TrialConfig,
+                 dbc: str | os.PathLike[str] | None = None) -> None:
+        self.subject, self.config = subject, config
+        self.db = _load_dbc(dbc)
+        self.params = model_parameters(subject)
+        seed = config.seed
+        clock_rng = np.random.default_rng([seed, _S_CLOCK])
+        self.nodes = []
+        for name, rate, ppm in (("FzCell", config.fz_rate_Hz, config.fz_ppm),
+                                ("FxCell", config.fx_rate_Hz, config.fx_ppm),
+                                ("HvStatus", config.hv_rate_Hz, config.hv_ppm)):
+            rate_eff = rate * (1 + ppm * 1e-6)
+            self.nodes.append(_Node(name, self.db.get_message_by_name(name), rate_eff,
+                                    float(clock_rng.uniform(0, 1 / rate_eff))))
+        self.strokes = Strokes.draw(subject, config.duration_s,
+                                    np.random.default_rng([seed, _S_STROKE]))
+        self.force = NormalForceProcess(subject, np.random.default_rng([seed, _S_FORCE0]))
+        self.foreign_frames = 0
+        self._sums = {"fn_on": 0.0, "n_on": 0, "fn_off": 0.0, "n_off": 0, "fel": 0.0,
+                      "n_fel": 0}
+        self._carry = FrameTable.empty(channel=config.channel)
+        self._chunk = 0
+        self._done = False
+
+    # -- one node's frames -------------------------------------------------------------
+    def _rx_times(self, node: _Node, t: npt.NDArray[np.float64],
+                  rng: np.random.Generator) -> npt.NDArray[np.float64]:
+        rx = t + self.config.latency_s
+        if self.config.jitter_s > 0:
+            rx = rx + rng.exponential(self.config.jitter_s, t.shape)
+        rx = np.maximum.accumulate(np.concatenate([[node.last_rx], rx]))[1:]
+        if rx.size:
+            node.last_rx = float(rx[-1])
+        return rx
+
+    def _frames(self, node: _Node, k: npt.NDArray[np.int64], rx: npt.NDArray[np.float64],
+                values: dict[str, Any], rng: np.random.Generator) -> FrameTable:
+        counter = node.message.get_signal_by_name(COUNTERS[node.name])
+        values[counter.name + "_raw"] = k % (1 << counter.length)
+        data = pack_signals(node.message, values, k.size)
+        keep = np.ones(k.size, dtype=bool)
+        if self.config.drop_probability > 0:
+            keep = rng.random(k.size) >= self.config.drop_probability
+        node.frames += int(keep.sum())
+        node.dropped += int(k.size - keep.sum())
+        n = int(keep.sum())
+        return FrameTable(
+            timestamp=rx[keep], arbitration_id=np.full(n, node.message.frame_id, np.uint32),
+            is_extended=np.full(n, node.message.is_extended_frame), is_remote=np.zeros(n, bool),
+            is_error=np.zeros(n, bool), is_fd=np.zeros(n, bool),
+            dlc=np.full(n, node.message.length, np.uint8), data=data[keep],
+            channel=self.config.channel)
+
+    def _foreign(self, t0: float, t1: float, rng: np.random.Generator) -> FrameTable:
+        n = int(rng.poisson(self.config.foreign_rate_Hz * (t1 - t0)))
+        which = rng.integers(0, len(FOREIGN_IDS), n)
+        dlc = rng.integers(0, 9, n).astype(np.uint8)
+        data = rng.integers(0, 256, (n, 8), dtype=np.uint8)
+        data[np.arange(8)[None, :] >= dlc[:, None]] = 0
+        self.foreign_frames += n
+        return FrameTable(
+            timestamp=np.sort(rng.uniform(t0, t1, n)) + self.config.latency_s,
+            arbitration_id=np.array([FOREIGN_IDS[i][0] for i in which], dtype=np.uint32),
+            is_extended=np.array([FOREIGN_IDS[i][1] for i in which], dtype=bool),
+            is_remote=np.zeros(n, bool), is_error=np.zeros(n, bool), is_fd=np.zeros(n, bool),
+            dlc=dlc, data=data, channel=self.config.channel)
+
+    # -- one chunk -----------------------------------------------------------------------
+    def _chunk_frames(self, t0: float, t1: float) -> FrameTable:
+        cfg, seed, c = self.config, self.config.seed, self._chunk
+        noise = np.random.default_rng([seed, _S_NOISE, c])
+        drop = np.random.default_rng([seed, _S_DROP, c])
+        # the normal force on its grid, covering [t0, t1]
+        j0 = self.force.index
+        j1 = math.ceil(t1 / FORCE_STEP_S)
+        grid_f = self.force.advance(j1 - j0, np.random.default_rng([seed, _S_FORCE, c]))
+        grid_t = np.arange(j0, j1 + 1) * FORCE_STEP_S
+
+        def fn_at(t: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+            return np.maximum(np.interp(t, grid_t, grid_f), 0.0)
+
+        fz, fx, hv = self.nodes
+        tables = []
+        # normal-force cell
+        k = fz.indices(t0, t1)
+        t = fz.offset + k / fz.rate_eff
+        fn = fn_at(t)
+        gate = excitation_gate(t, cfg)
+        s = self._sums
+        s["fn_on"] += float(fn[gate].sum())
+        s["n_on"] += int(gate.sum())
+        s["fn_off"] += float(fn[~gate].sum())
+        s["n_off"] += int((~gate).sum())
+        values = {"Fz": fn + cfg.noise_N * noise.standard_normal(k.size),
+                  "FzTemp": 24.0 + 0.5 * np.sin(2 * np.pi * t / 600.0)}
+        tables.append(self._frames(fz, k, self._rx_times(fz, t, noise), values, drop))
+        # tangential-force cell
+        k = fx.indices(t0, t1)
+        t = fx.offset + k / fx.rate_eff
+        fn = fn_at(t)
+        u = np.where(excitation_gate(t, cfg), voltage(t, cfg), 0.0)
+        fel = electrostatic(fn, u, self.params)
+        on = excitation_gate(t, cfg)
+        s["fel"] += float(fel[on].sum())
+        s["n_fel"] += int(on.sum())
+        ft = self.subject.mu * (fn + fel) * self.strokes.factor(t)
+        values = {"Fx": ft + cfg.noise_N * noise.standard_normal(k.size),
+                  "FxTemp": 24.5 + 0.5 * np.sin(2 * np.pi * t / 700.0)}
+        tables.append(self._frames(fx, k, self._rx_times(fx, t, noise), values, drop))
+        # amplifier status
+        k = hv.indices(t0, t1)
+        t = hv.offset + k / hv.rate_eff
+        on = excitation_gate(t, cfg)
+        values = {"HvOn_raw": on.astype(np.int64), "HvWave_raw": WAVE_CODE[cfg.waveform],
+                  "HvAmp": cfg.amplitude_V, "HvFreq": cfg.frequency_Hz,
+                  "HvCurrent": np.where(on, LEAK_UA_AT_140V * cfg.amplitude_V / 140.0, 0.0)}
+        tables.append(self._frames(hv, k, self._rx_times(hv, t, noise), values, drop))
+        if cfg.foreign_rate_Hz > 0:
+            tables.append(self._foreign(t0, t1, np.random.default_rng([seed, _S_FOREIGN, c])))
+        return FrameTable.concat(tables)
+
+    def chunks(self) -> Iterator[FrameTable]:
+        """Frames in reception order, about :data:`CHUNK_S` s at a time, to the trial's end.
+
+        Timestamps are ``config.start_time`` plus the reception time in the trial.
+        """
+        cfg = self.config
+        n_chunks = math.ceil(cfg.duration_s / CHUNK_S)
+        while self._chunk < n_chunks:
+            t0 = self._chunk * CHUNK_S
+            t1 = min(t0 + CHUNK_S, cfg.duration_s)
+            new = self._chunk_frames(t0, t1)
+            self._chunk += 1
+            table = FrameTable.concat([self._carry, new]).sorted_by_time()
+            last = self._chunk == n_chunks
+            cut = len(table) if last else int(np.searchsorted(table.timestamp, t1, "left"))
+            self._carry = table.take(np.arange(cut, len(table)))
+            out = table.take(np.arange(cut))
+            out.timestamp = out.timestamp + cfg.start_time
+            yield out
+        self._done = True
+
+    def truth(self) -> TrialTruth:
+        """The truth record (complete once :meth:`chunks` is exhausted)."""
+        s, cfg = self._sums, self.config
+        fn_on = s["fn_on"] / s["n_on"] if s["n_on"] else None
+        fel_model = None
+        if fn_on is not None:
+            fel_model = expected_electrostatic_force(fn_on, cfg, self.params)
+        sine_on = cfg.waveform == "sine" and s["n_on"] > 0 and cfg.amplitude_V > 0
+        return TrialTruth(
+            subject=self.subject, config=cfg, schedule=on_off_schedule(cfg),
+            slides=self.strokes.slides(cfg.duration_s),
+            normal_force_on_N=fn_on,
+            normal_force_off_N=s["fn_off"] / s["n_off"] if s["n_off"] else None,
+            electrostatic_force_N=fel_model,
+            electrostatic_force_mean_N=s["fel"] / s["n_fel"] if s["n_fel"] else None,
+            friction_modulation_Hz=2 * cfg.frequency_Hz if sine_on else None,
+            nodes={n.name: {"frame_id": n.message.frame_id, "rate_Hz": n.rate_eff,
+                            "clock_offset_s": n.offset, "frames": n.frames,
+                            "dropped": n.dropped} for n in self.nodes},
+            foreign_frames=self.foreign_frames,
+        )
+
+
+def simulate_trial(subject: SubjectParams | None = None, config: TrialConfig | None = None,
+                   dbc: str | os.PathLike[str] | None = None) -> tuple[FrameTable, TrialTruth]:
+    """Simulate one trial offline: every frame the logger would receive, and the truth.
+
+    Parameters
+    ----------
+    subject : SubjectParams, optional
+        The subject (default: Table 1's mu and air gap, 0.5 N).
+    config : TrialConfig, optional
+        The trial (default: 30 s, 140 V square at 10 kHz, alternating 2 s / 2 s).
+    dbc : path-like, optional
+        The rig's DBC (default: the default rig).
+
+    Returns
+    -------
+    frames : FrameTable
+        In reception order; timestamps in s since the epoch (``config.start_time`` + t).
+    truth : TrialTruth
+        What the analysis should recover.
+    """
+    gen = TrialGenerator(subject or SubjectParams(), config or TrialConfig(), dbc)
+    frames = FrameTable.concat(list(gen.chunks()))
+    frames.channel = gen.config.channel
+    return frames, gen.truth()

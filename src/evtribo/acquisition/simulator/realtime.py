@@ -1,0 +1,193 @@
+"""The simulated rig in real time: its frames paced by the clock, on a bus or an slcan pty."""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import os
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import can
+import numpy as np
+
+from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
+from evtribo.acquisition.simulator.core import TrialGenerator
+from evtribo.frames.table import FrameTable
+
+if TYPE_CHECKING:  # pragma: no cover
+    from evtribo.acquisition.slcan import SlcanPtyAdapter
+
+__all__ = ["MAX_DURATION_S", "RunStats", "Simulator"]
+
+log = logging.getLogger(__name__)
+
+#: A run without a duration stops after this long (one day), s.
+MAX_DURATION_S = 86_400.0
+#: Longest wait between two looks at the clock (and at the pty's commands), s.
+TICK_S = 0.005
+
+
+@dataclass
+class RunStats:
+    """What a real-time run did.
+
+    Attributes
+    ----------
+    generated : int
+        Frames the rig produced while the run lasted.
+    sent : int
+        Frames handed to the bus or written to the pty.
+    not_sent : int
+        Frames lost on the way: send errors, the pty's port closed, or its buffer full
+        (a real adapter drops them too).
+    elapsed_s : float, s
+        Length of the run.
+    """
+
+    generated: int = 0
+    sent: int = 0
+    not_sent: int = 0
+    elapsed_s: float = 0.0
+
+
+Deliver = Callable[[FrameTable, int, int], int]
+
+
+class Simulator:
+    """The simulated rig, streaming the frames of :func:`simulate_trial` in real time.
+
+    Parameters
+    ----------
+    subject : SubjectParams, optional
+    config : TrialConfig, optional
+        Its ``duration_s`` and ``start_time`` are replaced by those of each run.
+    dbc : path-like, optional
+        The rig's DBC (default: the default rig).
+
+    Examples
+    --------
+    >>> bus = can.Bus(interface="virtual", channel="vcan0")  # doctest: +SKIP
+    >>> Simulator(config=TrialConfig(amplitude_V=100)).run(bus, duration=10)  # doctest: +SKIP
+    """
+
+    def __init__(self, subject: SubjectParams | None = None, config: TrialConfig | None = None,
+                 dbc: str | os.PathLike[str] | None = None) -> None:
+        self.subject = subject or SubjectParams()
+        self.config = config or TrialConfig()
+        self.dbc = dbc
+        self.generator: TrialGenerator | None = None
+
+    def _generator(self, duration: float | None) -> TrialGenerator:
+        cfg = dataclasses.replace(self.config, duration_s=float(duration or MAX_DURATION_S),
+                                  start_time=time.time())
+        self.generator = TrialGenerator(self.subject, cfg, self.dbc)
+        return self.generator
+
+    @staticmethod
+    def _pace(gen: TrialGenerator, deliver: Deliver, stop_event: threading.Event | None,
+              wait: Callable[[float], None]) -> RunStats:
+        stats = RunStats()
+        m0 = time.monotonic()
+        start = gen.config.start_time
+        try:
+            for chunk in gen.chunks():
+                rel = chunk.timestamp - start
+                i, n = 0, len(chunk)
+                stats.generated += n
+                while i < n:
+                    if stop_event is not None and stop_event.is_set():
+                        stats.generated -= n - i
+                        return stats
+                    now = time.monotonic() - m0
+                    j = int(np.searchsorted(rel, now, side="right"))
+                    if j > i:
+                        sent = deliver(chunk, i, j)
+                        stats.sent += sent
+                        stats.not_sent += (j - i) - sent
+                        i = j
+                    else:
+                        wait(min(float(rel[i]) - now, TICK_S))
+            return stats
+        finally:
+            stats.elapsed_s = time.monotonic() - m0
+
+    def run(self, bus: can.BusABC, duration: float | None = None,
+            stop_event: threading.Event | None = None) -> RunStats:
+        """Send the rig's frames on *bus* as their time comes.
+
+        Parameters
+        ----------
+        bus : can.BusABC
+            Any python-can bus.
+        duration : float, optional, s
+            Length of the run (default: until *stop_event* is set, at most a day).
+        stop_event : threading.Event, optional
+            Set it to stop the run.
+
+        Returns
+        -------
+        RunStats
+        """
+        gen = self._generator(duration)
+        errors = 0
+
+        def deliver(table: FrameTable, i: int, j: int) -> int:
+            nonlocal errors
+            sent = 0
+            for k in range(i, j):
+                dlc = int(table.dlc[k])
+                msg = can.Message(
+                    timestamp=float(table.timestamp[k]),
+                    arbitration_id=int(table.arbitration_id[k]),
+                    is_extended_id=bool(table.is_extended[k]),
+                    is_remote_frame=bool(table.is_remote[k]),
+                    dlc=dlc, data=None if table.is_remote[k] else table.data[k, :dlc].tobytes(),
+                    channel=table.channel)
+                try:
+                    bus.send(msg)
+                    sent += 1
+                except can.CanError as err:
+                    errors += 1
+                    if errors == 1 or errors % 1000 == 0:
+                        log.warning("could not send frame (%d so far): %s", errors, err)
+            return sent
+
+        def wait(seconds: float) -> None:
+            if stop_event is not None:
+                stop_event.wait(max(seconds, 0.0))
+            elif seconds > 0:
+                time.sleep(seconds)
+
+        return self._pace(gen, deliver, stop_event, wait)
+
+    def run_pty(self, adapter: SlcanPtyAdapter, duration: float | None = None,
+                stop_event: threading.Event | None = None) -> RunStats:
+        """Stream the rig's frames through an emulated slcan adapter.
+
+        The trial's clock starts when a client opens the channel (``O``); frames that come
+        due while the channel is closed are not sent (counted in ``not_sent``).
+
+        Parameters
+        ----------
+        adapter : SlcanPtyAdapter
+        duration : float, optional, s
+            Length of the trial from the first ``O`` (default: until *stop_event*).
+        stop_event : threading.Event, optional
+        """
+        while not adapter.is_open:
+            if stop_event is not None and stop_event.is_set():
+                return RunStats()
+            adapter.poll(0.05)
+        log.info("slcan channel opened: streaming")
+        gen = self._generator(duration)
+
+        def deliver(table: FrameTable, i: int, j: int) -> int:
+            return adapter.send_frames(table, i, j)
+
+        stats = self._pace(gen, deliver, stop_event, adapter.poll)
+        adapter.drain(timeout=2.0)
+        return stats

@@ -1,0 +1,169 @@
+"""Simulated trials written as a study folder (spec §1): logs, sidecars, ``study.toml``."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+import os
+import shutil
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from evtribo import __version__
+from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
+from evtribo.acquisition.simulator.core import DEFAULT_DBC, TrialTruth, simulate_trial
+from evtribo.acquisition.simulator.encode import write_candump_text
+from evtribo.errors import OutputExistsError
+from evtribo.frames.table import FrameTable
+from evtribo.study import STUDY_FILE, validate_name, write_sidecar, write_study_toml
+
+__all__ = ["default_subjects", "simulate_study", "write_candump", "write_trial"]
+
+log = logging.getLogger(__name__)
+
+#: The study's copy of the rig's DBC, relative to ``study.toml``.
+RIG_DBC = "rig/default.dbc"
+#: ``[rig]`` keys of the default rig, as ``study.toml`` names them.
+RIG_KEYS = {
+    "normal_force": "FzCell.Fz",
+    "tangential_force": "FxCell.Fx",
+    "excitation_enabled": "HvStatus.HvOn",
+    "excitation_amplitude": "HvStatus.HvAmp",
+    "excitation_frequency": "HvStatus.HvFreq",
+    "excitation_waveform": "HvStatus.HvWave",
+}
+
+
+def write_candump(table: FrameTable, path: str | os.PathLike[str],
+                  channel: str | None = None) -> None:
+    """Write *table* as a candump ``-L`` log."""
+    write_candump_text(table, path, channel=channel)
+
+
+def default_subjects(n: int = 3, seed: int = 0) -> list[SubjectParams]:
+    """*n* plausible, different subjects ``P01``, ``P02``...: mu 0.3-0.7, air gap 3-8 um,
+    target force 0.4-1.0 N (drawn with *seed*)."""
+    rng = np.random.default_rng([seed, 1001])
+    return [
+        SubjectParams(name=f"P{i + 1:02d}", mu=round(float(rng.uniform(0.3, 0.7)), 3),
+                      h_L=round(float(rng.uniform(3e-6, 8e-6)), 8),
+                      normal_force_N=round(float(rng.uniform(0.4, 1.0)), 2),
+                      force_drift=round(float(rng.uniform(0.03, 0.08)), 3),
+                      sliding_speed_m_s=round(float(rng.uniform(0.015, 0.03)), 4))
+        for i in range(n)
+    ]
+
+
+def _ensure_study(root: Path, name: str) -> None:
+    if (root / STUDY_FILE).exists():
+        return
+    dbc = root / RIG_DBC
+    dbc.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(DEFAULT_DBC, dbc)
+    write_study_toml(root, name=name, rig={"dbc": RIG_DBC, **RIG_KEYS})
+
+
+def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams,
+                config: TrialConfig, *, force: bool = False, notes: str = "",
+                study_name: str = "simulated study") -> TrialTruth:
+    """Simulate one trial into a study folder: ``<subject>/<trial>.log`` and ``.json``.
+
+    The study folder and its ``study.toml`` (with a copy of the default rig's DBC) are
+    created if missing. The sidecar holds the spec's keys, the frame counts, and the truth
+    under ``"simulation"``.
+
+    Parameters
+    ----------
+    root : path-like
+        The study folder.
+    trial : str
+        Trial name (``run-01``).
+    subject : SubjectParams
+        The subject; its ``name`` is the subject folder.
+    config : TrialConfig
+    force : bool
+        Overwrite an existing trial.
+    notes : str
+        Free text for the sidecar.
+
+    Returns
+    -------
+    TrialTruth
+    """
+    root = Path(root)
+    validate_name(subject.name, what="subject", key="subject")
+    validate_name(trial, what="trial", key="trial")
+    log_path = root / subject.name / f"{trial}.log"
+    if log_path.exists() and not force:
+        raise OutputExistsError("exists already; use --force to overwrite", path=log_path)
+    _ensure_study(root, study_name)
+    frames, truth = simulate_trial(subject, config)
+    log_path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = log_path.with_name(log_path.name + ".part")
+    write_candump(frames, tmp, channel=config.channel)
+    os.replace(tmp, log_path)
+    dropped = sum(int(n["dropped"]) for n in truth.nodes.values())
+    sidecar: dict[str, Any] = {
+        "subject": subject.name, "waveform": config.waveform,
+        "frequency_Hz": config.frequency_Hz, "amplitude_V": config.amplitude_V,
+        "condition": config.condition, "notes": notes,
+        "rig": RIG_DBC, "bus": {"interface": "simulated", "channel": config.channel},
+        "software": f"evtribo {__version__}", "start_time": config.start_time,
+        "frames": len(frames), "dropped_frames": dropped, "bus_errors": 0,
+        "simulation": truth.to_dict(),
+    }
+    write_sidecar(log_path.with_suffix(".json"), json.loads(json.dumps(sidecar)), force=force)
+    log.info("wrote %s (%d frames)", log_path, len(frames))
+    return truth
+
+
+def simulate_study(root: str | os.PathLike[str], subjects: Sequence[SubjectParams] | None = None,
+                   amplitudes: Sequence[float] = (60.0, 80.0, 100.0, 120.0, 140.0), *,
+                   config: TrialConfig | None = None, sine_trial: bool = True,
+                   force: bool = False, name: str = "simulated study"
+                   ) -> dict[str, dict[str, TrialTruth]]:
+    """Write a whole simulated study: every subject at every amplitude.
+
+    Each subject gets one trial per amplitude (``run-01``...) with *config*'s waveform
+    (default: 10 kHz square, alternating 2 s / 2 s, 30 s), and, if *sine_trial*, one more at
+    the highest amplitude with a 10 Hz sine. Seeds differ per trial and follow
+    ``config.seed``.
+
+    Parameters
+    ----------
+    root : path-like
+        The study folder (created).
+    subjects : sequence of SubjectParams, optional
+        Default: :func:`default_subjects` (3 subjects).
+    amplitudes : sequence of float, V
+    config : TrialConfig, optional
+        Template for every trial.
+    sine_trial : bool
+    force : bool
+        Overwrite existing trials.
+
+    Returns
+    -------
+    dict
+        ``{subject: {trial: TrialTruth}}``.
+    """
+    base = config or TrialConfig()
+    subjects = list(subjects) if subjects is not None else default_subjects(seed=base.seed)
+    out: dict[str, dict[str, TrialTruth]] = {}
+    for si, subject in enumerate(subjects):
+        trials = [dataclasses.replace(base, amplitude_V=float(a)) for a in amplitudes]
+        if sine_trial:
+            trials.append(dataclasses.replace(base, waveform="sine", frequency_Hz=10.0,
+                                              amplitude_V=float(max(amplitudes))))
+        out[subject.name] = {}
+        for ti, template in enumerate(trials):
+            cfg = dataclasses.replace(template, seed=base.seed * 100_003 + si * 1000 + ti,
+                                      start_time=base.start_time + 3600 * si + 120 * ti)
+            trial = f"run-{ti + 1:02d}"
+            out[subject.name][trial] = write_trial(root, trial, subject, cfg, force=force,
+                                                   study_name=name)
+    return out

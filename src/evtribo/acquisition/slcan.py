@@ -1,0 +1,296 @@
+"""slcan (Lawicel) both ways: a bulk-reading python-can bus, and an emulated adapter on a pty.
+
+:class:`BulkSlcanBus` is python-can's :class:`can.interfaces.slcan.slcanBus` with one change:
+it reads the serial port in bulk (every byte waiting, in one call) and splits the stream into
+lines itself, where python-can reads one byte per system call. The lines go through
+python-can's own parser, so the frames are the same. It is registered as the python-can
+interface ``slcan_bulk``::
+
+    bus = can.Bus(interface="slcan_bulk", channel="/dev/ttyACM0", bitrate=1_000_000)
+
+:class:`SlcanPtyAdapter` is the other end: a pseudo-terminal that answers the Lawicel
+commands the way a USB-CAN adapter does and writes frames as ``tIIILDD..\\r`` lines, for
+``evtribo simulate --pty``.
+"""
+
+from __future__ import annotations
+
+import errno
+import fcntl
+import logging
+import os
+import re
+import select
+import struct
+import termios
+import time
+import tty
+from collections import deque
+from typing import Any
+
+import serial
+from can.exceptions import error_check
+from can.interfaces.slcan import slcanBus
+
+from evtribo.frames.table import FrameTable
+
+__all__ = ["BulkSlcanBus", "SlcanPtyAdapter", "encode_slcan"]
+
+log = logging.getLogger(__name__)
+
+_TERMINATOR = re.compile(rb"[\r\a]")
+
+
+class BulkSlcanBus(slcanBus):
+    """python-can's slcan interface, reading the serial port in bulk.
+
+    Takes the same arguments as :class:`can.interfaces.slcan.slcanBus` (``channel``,
+    ``bitrate``, ``tty_baudrate``, ``sleep_after_open``, ``timeout``...). Each read takes
+    every byte the port holds (at least one, waiting up to the port's ``timeout``), keeps a
+    partial line for the next read, and hands complete lines (ending in ``\\r`` or the error
+    bell ``\\a``) one by one to python-can's parser.
+    """
+
+    def __init__(self, channel: Any, *args: Any, **kwargs: Any) -> None:
+        self._lines: deque[bytes] = deque()
+        super().__init__(channel, *args, **kwargs)
+
+    def _split(self, chunk: bytes) -> None:
+        buf = self._buffer
+        buf += chunk
+        start = 0
+        for m in _TERMINATOR.finditer(buf):
+            self._lines.append(bytes(buf[start:m.end()]))
+            start = m.end()
+        if start:
+            del buf[:start]
+
+    def _read(self, timeout: float | None) -> str | None:
+        with error_check("Could not read from serial device"):
+            if self._lines:
+                return self._lines.popleft().decode()
+            deadline = serial.Timeout(timeout)
+            port = self.serialPortOrig
+            while True:
+                waiting = port.in_waiting
+                chunk = port.read(waiting if waiting else 1)
+                if chunk:
+                    self._split(chunk)
+                    if self._lines:
+                        return self._lines.popleft().decode()
+                if deadline.expired():
+                    return None
+
+    def flush(self) -> None:
+        """Discard what was received and not yet parsed."""
+        self._lines.clear()
+        super().flush()
+
+
+def encode_slcan(table: FrameTable, start: int = 0, stop: int | None = None) -> bytes:
+    """Frames ``start:stop`` of *table* as slcan lines (``t``/``T``/``r``/``R``), bytes."""
+    stop = len(table) if stop is None else stop
+    blob = table.data[start:stop, :8].tobytes().hex().upper().encode("ascii")
+    ids = table.arbitration_id[start:stop].tolist()
+    ext = table.is_extended[start:stop].tolist()
+    remote = table.is_remote[start:stop].tolist()
+    dlc = table.dlc[start:stop].tolist()
+    parts = []
+    for i, aid in enumerate(ids):
+        n = min(dlc[i], 8)
+        if remote[i]:
+            parts.append(b"R%08X%d\r" % (aid, n) if ext[i] else b"r%03X%d\r" % (aid, n))
+        else:
+            head = b"T%08X%d" % (aid, n) if ext[i] else b"t%03X%d" % (aid, n)
+            parts.append(head + blob[16 * i: 16 * i + 2 * n] + b"\r")
+    return b"".join(parts)
+
+
+def _valid_transmit(cmd: bytes) -> bool:
+    """Whether *cmd* is a well-formed ``t``/``T``/``r``/``R`` command."""
+    width = 8 if cmd[:1] in (b"T", b"R") else 3
+    m = re.fullmatch(rb"[tTrR]([0-9A-Fa-f]{%d})([0-8])([0-9A-Fa-f]*)" % width, cmd)
+    if m is None:
+        return False
+    if cmd[:1] in (b"r", b"R"):
+        return m.group(3) == b""
+    return len(m.group(3)) == 2 * int(m.group(2))
+
+
+class SlcanPtyAdapter:
+    """A pseudo-terminal that behaves as an slcan (Lawicel) USB-CAN adapter.
+
+    A client opens :attr:`path` as a serial port (python-can's ``slcan`` interface does) and
+    talks Lawicel: ``O``/``L`` open (normal / listen-only), ``C`` close, ``S0``-``S8``
+    bitrate and ``sXXYY`` bit timing (channel closed only), ``V`` and ``v`` versions, ``N``
+    serial number, ``F`` status flags (bit 3: frames lost to a full buffer since the last
+    ``F``), ``Z0``, ``M``/``m``/``W``/``X``/``Q``/``U`` acknowledged. Transmit commands
+    ``t``/``T``/``r``/``R`` are acknowledged with ``z``/``Z`` while open and counted in
+    :attr:`transmitted`, not echoed. Every command is answered ``\\r`` on success and
+    ``\\a`` on error, as the adapters do.
+
+    Frames are written with :meth:`send_frames` while the channel is open. If the client
+    falls behind and more than *max_pending* bytes wait, new frames are dropped (counted in
+    :attr:`dropped`), as an adapter's full buffer does. Closing the adapter (or the process
+    exiting) closes the pty: the client's next read fails.
+
+    Parameters
+    ----------
+    max_pending : int
+        Bytes that may wait for the client before frames are dropped.
+    """
+
+    VERSION = b"1013"
+    SW_VERSION = b"0107"
+    SERIAL_NUMBER = b"EV01"
+
+    def __init__(self, max_pending: int = 256 * 1024) -> None:
+        self._master, self._slave = os.openpty()
+        tty.setraw(self._slave)  # no echo, no line discipline until the client sets its own
+        os.set_blocking(self._master, False)
+        self.path: str = os.ttyname(self._slave)
+        self.max_pending = max_pending
+        self.is_open = False
+        self.listen_only = False
+        self.bitrate_command = b"S6"
+        self.transmitted = 0
+        self.dropped = 0
+        self._overrun = False
+        self._commands = bytearray()
+        self._pending = bytearray()
+        self._closed = False
+
+    def fileno(self) -> int:
+        """The pty's master file descriptor."""
+        return self._master
+
+    # -- commands ------------------------------------------------------------------------
+    def _answer(self, cmd: bytes) -> bytes:  # noqa: PLR0911 - one answer per command
+        ok, bell = b"\r", b"\a"
+        c = cmd[:1]
+        if not cmd:
+            return ok
+        if c in (b"O", b"L"):
+            if self.is_open:
+                return bell
+            self.is_open, self.listen_only = True, c == b"L"
+            log.info("slcan: channel opened (%s)", cmd.decode("ascii", "replace"))
+            return ok
+        if c == b"C":
+            if self.is_open:
+                log.info("slcan: channel closed")
+            self.is_open = False
+            return ok
+        if c == b"S":
+            if self.is_open or re.fullmatch(rb"S[0-8]", cmd) is None:
+                return bell
+            self.bitrate_command = cmd
+            return ok
+        if c == b"s":
+            if self.is_open or re.fullmatch(rb"s[0-9A-Fa-f]{4}", cmd) is None:
+                return bell
+            self.bitrate_command = cmd
+            return ok
+        if cmd == b"V":
+            return b"V" + self.VERSION + ok
+        if cmd == b"v":
+            return b"v" + self.SW_VERSION + ok
+        if cmd == b"N":
+            return b"N" + self.SERIAL_NUMBER + ok
+        if cmd == b"F":
+            if not self.is_open:
+                return bell
+            flags, self._overrun = (0x08 if self._overrun else 0), False
+            return b"F%02X" % flags + ok
+        if c in (b"t", b"T", b"r", b"R"):
+            if not self.is_open or self.listen_only or not _valid_transmit(cmd):
+                return bell
+            self.transmitted += 1
+            return (b"Z" if c in (b"T", b"R") else b"z") + ok
+        if cmd in (b"Z0",) or c in (b"M", b"m", b"W", b"X", b"Q", b"U"):
+            return ok
+        return bell
+
+    def _read_commands(self) -> None:
+        try:
+            data = os.read(self._master, 4096)
+        except BlockingIOError:
+            return
+        except OSError as err:  # EIO: no client has the port open (not with our slave fd)
+            if err.errno != errno.EIO:
+                raise
+            return
+        self._commands += data.replace(b"\n", b"")
+        while (end := self._commands.find(b"\r")) >= 0:
+            cmd = bytes(self._commands[:end])
+            del self._commands[: end + 1]
+            answer = self._answer(cmd)
+            log.debug("slcan: %r -> %r", cmd, answer)
+            self._pending += answer
+
+    def _flush(self) -> None:
+        if not self._pending:
+            return
+        try:
+            written = os.write(self._master, self._pending)
+        except BlockingIOError:
+            return
+        del self._pending[:written]
+
+    def poll(self, timeout: float = 0.0) -> None:
+        """Answer waiting commands and write pending bytes; wait at most *timeout* s."""
+        wlist = [self._master] if self._pending else []
+        r, _, _ = select.select([self._master], wlist, [], max(timeout, 0.0))
+        if r:
+            self._read_commands()
+        if self._pending:
+            self._flush()
+
+    # -- frames --------------------------------------------------------------------------
+    def send_frames(self, table: FrameTable, start: int = 0, stop: int | None = None) -> int:
+        """Queue frames ``start:stop`` of *table* for the client; return how many were taken.
+
+        Nothing is taken while the channel is closed; frames are dropped (and counted) while
+        more than ``max_pending`` bytes wait.
+        """
+        stop = len(table) if stop is None else stop
+        if not self.is_open or stop <= start:
+            return 0
+        if len(self._pending) > self.max_pending:
+            self.dropped += stop - start
+            self._overrun = True
+            return 0
+        self._pending += encode_slcan(table, start, stop)
+        self._flush()
+        return stop - start
+
+    def unread(self) -> int:
+        """Bytes written to the pty that the client has not read yet, plus those pending."""
+        buf = fcntl.ioctl(self._slave, termios.FIONREAD, b"\0\0\0\0")
+        return struct.unpack("i", buf)[0] + len(self._pending)
+
+    def drain(self, timeout: float = 2.0) -> bool:
+        """Wait until the client has read everything (at most *timeout* s); True if it has."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if self.unread() == 0:
+                return True
+            self.poll(0.01)
+        return self.unread() == 0
+
+    def close(self) -> None:
+        """Close the pty: the adapter vanishes for the client."""
+        if self._closed:
+            return
+        self._closed = True
+        for fd in (self._master, self._slave):
+            try:
+                os.close(fd)
+            except OSError:  # pragma: no cover - already gone
+                pass
+
+    def __enter__(self) -> SlcanPtyAdapter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

@@ -1,0 +1,346 @@
+"""The simulated rig: frames, clocks, physics against the model, streaming, study folders."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+import threading
+import time
+
+import can
+import cantools
+import numpy as np
+import pytest
+
+from evtribo.acquisition.simulator import (
+    DEFAULT_DBC,
+    Simulator,
+    SubjectParams,
+    TrialConfig,
+    simulate_study,
+    simulate_trial,
+)
+from evtribo.acquisition.simulator.encode import pack_signals
+from evtribo.errors import ConfigError, OutputExistsError
+from evtribo.model import TABLE_1, electrostatic_force
+from evtribo.study import discover_trials, read_sidecar, read_study_toml
+
+DB = cantools.database.load_file(str(DEFAULT_DBC))
+FZ, FX, HV = 0x0C1, 0x0C2, 0x1A0
+
+
+def decode(frames, frame_id, names):
+    """Signals of every frame with *frame_id*, decoded by cantools (not by our packer)."""
+    msg = DB.get_message_by_frame_id(frame_id)
+    rows = frames.data[frames.arbitration_id == frame_id]
+    decoded = [msg.decode(bytes(r[: msg.length]), decode_choices=False) for r in rows]
+    ts = frames.timestamp[frames.arbitration_id == frame_id]
+    return ts, {n: np.array([d[n] for d in decoded], dtype=float) for n in names}
+
+
+def short(**kw):
+    base = {"duration_s": 6.0, "fz_rate_Hz": 500.0, "fx_rate_Hz": 1000.0}
+    base.update(kw)
+    return TrialConfig(**base)
+
+
+def test_same_seed_same_frames_other_seed_other_frames():
+    a, ta = simulate_trial(config=short(seed=3))
+    b, tb = simulate_trial(config=short(seed=3))
+    c, _ = simulate_trial(config=short(seed=4))
+    np.testing.assert_array_equal(a.timestamp, b.timestamp)
+    np.testing.assert_array_equal(a.data, b.data)
+    np.testing.assert_array_equal(a.arbitration_id, b.arbitration_id)
+    assert ta.to_dict() == tb.to_dict()
+    assert not np.array_equal(a.data[:100], c.data[:100])
+
+
+def test_thirty_seconds_at_two_kilohertz_per_cell_in_well_under_a_second():
+    cfg = TrialConfig(duration_s=30.0, fz_rate_Hz=2000.0, fx_rate_Hz=2000.0)
+    simulate_trial(config=dataclasses.replace(cfg, duration_s=1.0))  # warm imports
+    t0 = time.perf_counter()
+    frames, _ = simulate_trial(config=cfg)
+    elapsed = time.perf_counter() - t0
+    assert len(frames) > 120_000
+    assert elapsed < 0.8, f"{elapsed:.2f} s"
+
+
+def test_frames_are_in_reception_order_with_the_rig_ids():
+    frames, truth = simulate_trial(config=short())
+    assert np.all(np.diff(frames.timestamp) >= 0)
+    ids, counts = np.unique(frames.arbitration_id, return_counts=True)
+    assert list(ids) == [FZ, FX, HV]
+    assert dict(zip(ids.tolist(), counts.tolist(), strict=True)) == {
+        FZ: truth.nodes["FzCell"]["frames"], FX: truth.nodes["FxCell"]["frames"],
+        HV: truth.nodes["HvStatus"]["frames"]}
+    assert frames.channel == "vcan0"
+    assert not frames.is_extended.any() and (frames.dlc == 8).all()
+
+
+def test_cantools_decodes_what_the_packer_encodes_including_motorola_and_offsets():
+    rng = np.random.default_rng(0)
+    msg = DB.get_message_by_name("FzCell")
+    fz = rng.uniform(-80, 80, 500)
+    temp = rng.uniform(-300, 300, 500)
+    data = pack_signals(msg, {"Fz": fz, "FzTemp": temp, "FzCounter_raw": np.arange(500) % 256},
+                        500)
+    for i in range(500):
+        d = msg.decode(bytes(data[i]))
+        assert d["Fz"] == pytest.approx(fz[i], abs=0.5e-5 + 1e-12)
+        assert d["FzTemp"] == pytest.approx(temp[i], abs=0.005 + 1e-9)
+        assert d["FzCounter"] == i % 256
+    dbc = """VERSION ""
+BO_ 2566844926 Mixed: 8 Node
+ SG_ A : 7|12@0- (0.5,-10) [-1034|1013.5] "" Node
+ SG_ B : 11|20@0+ (0.001,2) [2|1050.575] "" Node
+ SG_ C : 48|10@1- (1,0) [-512|511] "" Node
+ SG_ D : 63|6@0+ (1,0) [0|63] "" Node
+"""
+    mixed = cantools.database.load_string(dbc, database_format="dbc").get_message_by_name("Mixed")
+    vals = {"A": rng.uniform(-1000, 1000, 200), "B": rng.uniform(2, 1000, 200),
+            "C": rng.integers(-512, 512, 200), "D": rng.integers(0, 64, 200)}
+    data = pack_signals(mixed, vals, 200)
+    for i in range(200):
+        d = mixed.decode(bytes(data[i]))
+        assert d["A"] == pytest.approx(vals["A"][i], abs=0.25 + 1e-9)
+        assert d["B"] == pytest.approx(vals["B"][i], abs=0.0005 + 1e-9)
+        assert d["C"] == vals["C"][i] and d["D"] == vals["D"][i]
+        assert bytes(data[i]) == mixed.encode({k: d[k] for k in d})
+
+
+def test_decoded_values_follow_the_physics_and_quantisation():
+    frames, truth = simulate_trial(config=short(noise_N=0.0))
+    _, fz = decode(frames, FZ, ["Fz", "FzStatus"])
+    raw = fz["Fz"] / 1e-5
+    np.testing.assert_allclose(raw, np.rint(raw), atol=1e-6)  # 24-bit ADC steps of 10 uN
+    assert abs(fz["Fz"].mean() / truth.subject.normal_force_N - 1) < 0.15
+    assert (fz["FzStatus"] == 0).all()
+    _, hv = decode(frames, HV, ["HvAmp", "HvFreq", "HvWave"])
+    assert (hv["HvAmp"] == 140.0).all() and (hv["HvFreq"] == 10_000.0).all()
+    assert (hv["HvWave"] == 1).all()  # "square" in the DBC's value table
+
+
+@pytest.mark.parametrize(("frame_id", "signal", "modulo"),
+                         [(FZ, "FzCounter", 256), (FX, "FxCounter", 256),
+                          (HV, "HvCounter", 16)])
+def test_counters_increment_modulo_their_width(frame_id, signal, modulo):
+    frames, _ = simulate_trial(config=short())
+    _, d = decode(frames, frame_id, [signal])
+    steps = np.diff(d[signal]) % modulo
+    assert (steps == 1).all()
+    if modulo == 256:
+        assert d[signal].max() == 255  # it wraps
+
+
+def test_dropped_frames_leave_counter_gaps_that_the_truth_counts():
+    frames, truth = simulate_trial(config=short(drop_probability=0.01, seed=5))
+    for frame_id, name, signal in ((FZ, "FzCell", "FzCounter"), (FX, "FxCell", "FxCounter")):
+        _, d = decode(frames, frame_id, [signal])
+        missing = int(((np.diff(d[signal]) - 1) % 256).sum())
+        assert missing == truth.nodes[name]["dropped"] > 0
+
+
+def test_each_cell_runs_at_its_own_rate_and_clock_drift():
+    cfg = short(duration_s=10.0, fz_rate_Hz=1000.0, fx_rate_Hz=1800.0, fz_ppm=300.0,
+                fx_ppm=-500.0)
+    frames, truth = simulate_trial(config=cfg)
+    for frame_id, rate, ppm in ((FZ, 1000.0, 300.0), (FX, 1800.0, -500.0)):
+        ts, d = decode(frames, frame_id, ["FzCounter" if frame_id == FZ else "FxCounter"])
+        counter = next(iter(d.values()))
+        index = np.concatenate([[0], np.cumsum(np.diff(counter) % 256)])
+        slope = np.polyfit(index, ts - ts[0], 1)[0]
+        assert 1 / slope == pytest.approx(rate * (1 + ppm * 1e-6), rel=2e-6)
+        assert abs(1 / slope / rate - 1) == pytest.approx(abs(ppm) * 1e-6, rel=0.05)
+        # reception jitter: spread around the line, always after the sample
+        resid = ts - ts[0] - slope * index
+        assert 1e-5 < resid.std() < 5e-4
+    assert truth.nodes["FzCell"]["rate_Hz"] == pytest.approx(1000.3)
+
+
+def test_hvstatus_follows_the_on_off_schedule():
+    cfg = short(duration_s=9.0, on_s=1.0, off_s=2.0, start_on=True, hv_rate_Hz=80.0)
+    frames, truth = simulate_trial(config=cfg)
+    assert truth.schedule == [(0.0, 1.0, True), (1.0, 3.0, False), (3.0, 4.0, True),
+                              (4.0, 6.0, False), (6.0, 7.0, True), (7.0, 9.0, False)]
+    ts, hv = decode(frames, HV, ["HvOn"])
+    t = ts - cfg.start_time
+    checked = 0
+    for a, b, on in truth.schedule:
+        inside = (t > a + 0.01) & (t < b)
+        assert (hv["HvOn"][inside] == on).all()
+        checked += int(inside.sum())
+    assert checked > 0.95 * len(t)
+
+
+def test_whole_trial_conditions():
+    for condition, expected in (("on", 1), ("off", 0)):
+        frames, truth = simulate_trial(config=short(condition=condition, duration_s=2.0))
+        _, hv = decode(frames, HV, ["HvOn"])
+        assert (hv["HvOn"] == expected).all()
+        assert truth.schedule == [(0.0, 2.0, bool(expected))]
+    assert truth.electrostatic_force_N is None and truth.normal_force_on_N is None
+
+
+def _forces_on_fx_times(frames, start):
+    tz, fz = decode(frames, FZ, ["Fz"])
+    tx, fx = decode(frames, FX, ["Fx"])
+    return tx - start, fx["Fx"], np.interp(tx, tz, fz["Fz"])
+
+
+def _in_slides(t, truth, margin=0.05):
+    mask = np.zeros(t.shape, bool)
+    for a, b, _ in truth.slides:
+        mask |= (t > a + margin) & (t < b - margin)
+    return mask
+
+
+def test_truth_is_the_model_and_the_frames_carry_it():
+    subject = SubjectParams(mu=0.6, h_L=4e-6, normal_force_N=0.8)
+    cfg = short(duration_s=16.0, amplitude_V=120.0, seed=2)
+    frames, truth = simulate_trial(subject, cfg)
+    params = dataclasses.replace(TABLE_1, mu=0.6, h_L=4e-6)
+    assert truth.mu == 0.6
+    assert truth.electrostatic_force_N == pytest.approx(
+        float(electrostatic_force(truth.normal_force_on_N, 120.0, params)), rel=1e-12)
+    assert truth.electrostatic_force_mean_N == pytest.approx(truth.electrostatic_force_N,
+                                                             rel=0.02)
+    # what the analysis does, crudely: F_el = mean(|F_t| / mu - F_n) over ON slides
+    t, ft, fn = _forces_on_fx_times(frames, cfg.start_time)
+    slide = _in_slides(t, truth)
+    on = np.zeros(t.shape, bool)
+    for a, b, is_on in truth.schedule:
+        on |= is_on & (t > a + 0.02) & (t < b)
+    inferred_on = np.mean(np.abs(ft[slide & on]) / truth.mu - fn[slide & on])
+    inferred_off = np.mean(np.abs(ft[slide & ~on]) / truth.mu - fn[slide & ~on])
+    assert inferred_on == pytest.approx(truth.electrostatic_force_N, rel=0.05)
+    assert abs(inferred_off) < 0.02 * truth.electrostatic_force_N
+    # the friction force changes sign between slides and passes through zero
+    assert ft.max() > 0.4 and ft.min() < -0.4
+    assert np.any(np.abs(ft) < 0.02)
+
+
+def test_normal_force_drifts_by_a_few_percent_around_the_target():
+    subject = SubjectParams(normal_force_N=1.0, force_drift=0.06)
+    frames, _ = simulate_trial(subject, short(duration_s=30.0, noise_N=0.0, seed=9))
+    _, fz = decode(frames, FZ, ["Fz"])
+    rel = fz["Fz"] / 1.0 - 1
+    assert abs(rel.mean()) < 0.06
+    assert 0.015 < rel.std() < 0.12
+
+
+def test_sine_trial_modulates_friction_at_twice_the_drive_frequency_during_on():
+    subject = SubjectParams(stroke_length_m=0.5, normal_force_N=0.5)  # one long slide
+    cfg = short(duration_s=8.0, waveform="sine", frequency_Hz=10.0, on_s=4.0, off_s=4.0,
+                fx_rate_Hz=1000.0)
+    frames, truth = simulate_trial(subject, cfg)
+    assert truth.friction_modulation_Hz == 20.0
+    t, ft, _ = _forces_on_fx_times(frames, cfg.start_time)
+    slide = _in_slides(t, truth)
+    def peak(mask):
+        x = np.abs(ft[mask])
+        x = x - np.polyval(np.polyfit(t[mask], x, 2), t[mask])
+        grid = np.arange(t[mask][0], t[mask][-1], 1e-3)
+        spectrum = np.abs(np.fft.rfft(np.interp(grid, t[mask], x) * np.hanning(grid.size)))
+        freqs = np.fft.rfftfreq(grid.size, 1e-3)
+        band = freqs > 2
+        return freqs[band][np.argmax(spectrum[band])], spectrum[band].max()
+    on_mask = slide & (t > 4.2) & (t < 8.0)
+    off_mask = slide & (t > 0.2) & (t < 3.9)
+    f_on, p_on = peak(on_mask)
+    _, p_off = peak(off_mask)
+    assert f_on == pytest.approx(20.0, abs=0.5)
+    assert p_on > 20 * p_off
+
+
+def test_foreign_traffic_uses_other_ids():
+    frames, truth = simulate_trial(config=short(foreign_rate_Hz=200.0, duration_s=3.0))
+    foreign = ~np.isin(frames.arbitration_id, [FZ, FX, HV])
+    assert foreign.sum() == truth.foreign_frames > 300
+    assert frames.is_extended[foreign].any() and not frames.is_extended[~foreign].any()
+    assert np.all(np.diff(frames.timestamp) >= 0)
+
+
+@pytest.mark.parametrize(("kwargs", "key"), [({"waveform": "triangle"}, "TrialConfig.waveform"),
+                                             ({"amplitude_V": -1.0}, "TrialConfig.amplitude_V"),
+                                             ({"fz_rate_Hz": 0.0}, "TrialConfig.fz_rate_Hz")])
+def test_bad_settings_name_the_key(kwargs, key):
+    with pytest.raises(ConfigError) as err:
+        TrialConfig(**kwargs)
+    assert err.value.key == key
+
+
+def test_streaming_on_a_virtual_bus_delivers_every_frame():
+    cfg = short(fz_rate_Hz=1000.0, fx_rate_Hz=2000.0, foreign_rate_Hz=50.0, seed=11)
+    offline, _ = simulate_trial(config=dataclasses.replace(cfg, duration_s=1.5))
+    channel = f"sim-test-{time.monotonic_ns()}"
+    rx = can.Bus(interface="virtual", channel=channel)
+    tx = can.Bus(interface="virtual", channel=channel)
+    received = []
+    stop = threading.Event()
+
+    def receive():
+        while True:
+            msg = rx.recv(0.3)
+            if msg is None:
+                if stop.is_set():
+                    return
+                continue
+            received.append(msg)
+
+    reader = threading.Thread(target=receive)
+    reader.start()
+    try:
+        stats = Simulator(config=cfg).run(tx, duration=1.5)
+    finally:
+        stop.set()
+        reader.join()
+        tx.shutdown()
+        rx.shutdown()
+    assert stats.sent == stats.generated == len(offline) == len(received)
+    assert stats.not_sent == 0
+    assert 1.4 < stats.elapsed_s < 2.5
+    got_ids = np.array([m.arbitration_id for m in received])
+    np.testing.assert_array_equal(got_ids, offline.arbitration_id)
+    got = [bytes(m.data).ljust(8, b"\0") for m in received]
+    assert got == [bytes(r) for r in offline.data]
+    fz_counters = np.array([m.data[7] for m in received if m.arbitration_id == FZ])
+    assert (np.diff(fz_counters) % 256 == 1).all()
+
+
+def test_stop_event_ends_a_stream_early():
+    bus = can.Bus(interface="virtual", channel=f"sim-stop-{time.monotonic_ns()}")
+    stop = threading.Event()
+    timer = threading.Timer(0.3, stop.set)
+    timer.start()
+    try:
+        t0 = time.monotonic()
+        stats = Simulator().run(bus, stop_event=stop)
+    finally:
+        bus.shutdown()
+    assert time.monotonic() - t0 < 1.0
+    assert 0 < stats.sent < 3050
+
+
+def test_simulate_study_writes_a_study_folder(tmp_path):
+    cfg = short(duration_s=2.0, start_on=True, on_s=1.0, off_s=1.0)
+    truths = simulate_study(tmp_path / "s", [SubjectParams(name="P01"),
+                                             SubjectParams(name="P02", mu=0.3)],
+                            amplitudes=(60.0, 140.0), config=cfg)
+    root = tmp_path / "s"
+    config = read_study_toml(root / "study.toml")
+    assert (root / config["rig"]["dbc"]).read_text() == DEFAULT_DBC.read_text()
+    assert config["rig"]["normal_force"] == "FzCell.Fz"
+    trials, _ = discover_trials(root)
+    assert sorted(t.key for t in trials) == ["P01/run-01", "P01/run-02", "P01/run-03",
+                                              "P02/run-01", "P02/run-02", "P02/run-03"]
+    side = read_sidecar(root / "P02" / "run-03.json", default_subject="P02")
+    assert (side.waveform, side.frequency_Hz, side.amplitude_V) == ("sine", 10.0, 140.0)
+    assert side.extra["simulation"]["mu"] == 0.3
+    assert truths["P02"]["run-03"].friction_modulation_Hz == 20.0
+    lines = (root / "P01" / "run-01.log").read_text().splitlines()
+    pattern = re.compile(r"^\(\d+\.\d{6}\) vcan0 (0C1|0C2|1A0)#[0-9A-F]{16}$")
+    assert all(pattern.match(line) for line in lines)
+    first = read_sidecar(root / "P01" / "run-01.json", default_subject="P01")
+    assert len(lines) == first.extra["frames"] > 2000
+    with pytest.raises(OutputExistsError):
+        simulate_study(root, [SubjectParams(name="P01")], amplitudes=(60.0,), config=cfg)
