@@ -110,7 +110,7 @@ def test_counter_tracker_counts_gaps_and_wraps():
 
 def test_writer_flushes_within_a_second_without_closing(tmp_path):
     path = tmp_path / "run.log.part"
-    fh = path.open("w", buffering=1 << 20)
+    fh = path.open("wb", buffering=0)
     writer = LogWriter(fh, "vcan0", flush_interval=0.3).start()
     try:
         writer.put(FRAMES[:2])
@@ -151,7 +151,7 @@ class FailingBus(can.BusABC):
 @pytest.mark.parametrize("exc", [can.CanOperationError("Could not read from serial device"),
                                  OSError(5, "Input/output error")])
 def test_receive_stops_on_a_bus_fault_and_keeps_what_came(tmp_path, exc):
-    fh = (tmp_path / "x.log").open("w")
+    fh = (tmp_path / "x.log").open("wb", buffering=0)
     writer = LogWriter(fh, "can0").start()
     bus = FailingBus(1234, exc)
     try:
@@ -167,7 +167,7 @@ def test_receive_stops_on_a_bus_fault_and_keeps_what_came(tmp_path, exc):
 
 
 def test_receive_stops_when_asked(tmp_path):
-    fh = (tmp_path / "x.log").open("w")
+    fh = (tmp_path / "x.log").open("wb", buffering=0)
     writer = LogWriter(fh, "can0").start()
     stop = threading.Event()
     threading.Timer(0.2, stop.set).start()

@@ -225,12 +225,13 @@ def id_key(msg: can.Message) -> str:
 
 
 class LogWriter:
-    """Writer thread: formats batches of frames into an open text file, flushing often.
+    """Writer thread: formats batches of frames into an open file, fsyncing often.
 
     Parameters
     ----------
-    file : file object
-        Text file opened for writing (the trial's ``.log.part``).
+    file : binary file object
+        Opened for writing, unbuffered (``open(path, "wb", buffering=0)``): each batch is
+        written with whole lines, so a killed process leaves no line cut in two.
     channel : str
         Channel name written in every line.
     counters : CounterTracker, optional
@@ -239,7 +240,7 @@ class LogWriter:
         Longest time between two ``flush`` + ``os.fsync`` of the file.
     """
 
-    def __init__(self, file: IO[str], channel: str, counters: CounterTracker | None = None,
+    def __init__(self, file: IO[bytes], channel: str, counters: CounterTracker | None = None,
                  flush_interval: float = FLUSH_INTERVAL_S) -> None:
         self.file = file
         self.channel = channel
@@ -292,6 +293,12 @@ class LogWriter:
     def _flush(self) -> None:
         self.file.flush()
         os.fsync(self.file.fileno())
+
+    def _write_all(self, data: bytes) -> None:
+        view = memoryview(data)
+        while view:
+            written = self.file.write(view)
+            view = view[written if written is not None else len(view):]
         self._last_flush = time.monotonic()
 
     def _write(self, batch: list[can.Message]) -> None:
@@ -323,7 +330,7 @@ class LogWriter:
                     stats.dropped += tracker.update(msg.arbitration_id, msg.data,
                                                     msg.timestamp)
             by_id[key] = by_id.get(key, 0) + 1
-        self.file.write("".join(lines))
+        self._write_all("".join(lines).encode())
         stats.frames += len(batch)
         if stats.first_timestamp is None:
             stats.first_timestamp = batch[0].timestamp

@@ -228,8 +228,7 @@ def record_trial(
     channel = _log_channel(log_channel or settings.channel, bus)
     paths.folder.mkdir(parents=True, exist_ok=True)
     try:
-        fh = paths.part.open("w" if force else "x", encoding="ascii", newline="\n",
-                             buffering=1 << 20)
+        fh = paths.part.open("wb" if force else "xb", buffering=0)
     except FileExistsError as err:
         raise OutputExistsError("another recording of this trial is in progress",
                                 path=paths.part) from err

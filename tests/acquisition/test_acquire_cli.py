@@ -1,0 +1,222 @@
+"""``evtribo acquire`` as a process, recording python-can's ``slcan`` driver on a pty that
+emulates a USB-CAN adapter: SIGTERM / SIGINT mid-trial, the adapter vanishing, exit codes."""
+
+import json
+import os
+import select
+import signal
+import subprocess
+import sys
+import threading
+import time
+import tty
+
+import can
+import cantools
+import pytest
+
+from evtribo.acquisition.rigfile import default_rig_path
+from evtribo.cli import main
+
+pytestmark = pytest.mark.skipif(not hasattr(os, "openpty"), reason="needs a pseudo-terminal")
+
+DBC = cantools.database.load_file(str(default_rig_path().with_name("default.dbc")))
+
+
+def _slcan_lines():
+    fz, fx = DBC.get_message_by_name("FzCell"), DBC.get_message_by_name("FxCell")
+    lines = []
+    for c in range(256):
+        for msg, sig in ((fz, "Fz"), (fx, "Fx")):
+            prefix = sig[:2]
+            data = msg.encode({sig: 0.5, f"{prefix}Status": 0, f"{prefix}Temp": 25,
+                               f"{prefix}Counter": c})
+            lines.append(f"t{msg.frame_id:03X}8{data.hex().upper()}\r".encode())
+    return lines
+
+
+class SlcanPty(threading.Thread):
+    """A pseudo-terminal answering as an slcan adapter: once opened (``O``), it streams
+    FzCell/FxCell frames with rolling counters at *rate* frames/s."""
+
+    LINES = _slcan_lines()
+
+    def __init__(self, rate=2000.0):
+        super().__init__(daemon=True)
+        self.master, self.slave = os.openpty()
+        tty.setraw(self.slave)
+        self.path = os.ttyname(self.slave)
+        self.rate = rate
+        self.sent = 0
+        self.opened = threading.Event()
+        self.stop = threading.Event()
+
+    def run(self):
+        buf = b""
+        while b"O\r" not in buf and not self.stop.is_set():
+            if select.select([self.master], [], [], 0.05)[0]:
+                buf += os.read(self.master, 1024)
+        self.opened.set()
+        t0 = time.perf_counter()
+        lines = self.LINES
+        while not self.stop.is_set():
+            due = int((time.perf_counter() - t0) * self.rate)
+            chunk = b"".join(lines[k % len(lines)] for k in range(self.sent, due))
+            while chunk and not self.stop.is_set():
+                if select.select([], [self.master], [], 0.05)[1]:
+                    chunk = chunk[os.write(self.master, chunk):]
+            self.sent = due
+            if select.select([self.master], [], [], 0.005)[0]:
+                os.read(self.master, 1024)         # drain the driver's commands
+
+    def vanish(self):
+        """Stop and close the master side, as an adapter pulled out of its USB port."""
+        self.stop.set()
+        self.join()
+        os.close(self.master)
+        self.master = None
+
+    def close(self):
+        if self.is_alive():
+            self.stop.set()
+            self.join()
+        for fd in (self.master, self.slave):
+            if fd is not None:
+                os.close(fd)
+
+
+@pytest.fixture
+def adapter():
+    pty = SlcanPty()
+    pty.start()
+    yield pty
+    pty.close()
+
+
+def acquire_cmd(study, path, *extra):
+    return [sys.executable, "-m", "evtribo", "acquire", "--study", str(study),
+            "--subject", "P01", "--trial", "run-01", "--interface", "slcan",
+            "--channel", path, "--bitrate", "1000000", "--bus-option", "sleep_after_open=0",
+            "--log-channel", "vcan0", *extra]
+
+
+def wait_for_frames(part, proc, n_bytes=2000, timeout=15.0):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        assert proc.poll() is None, proc.communicate()
+        if part.exists() and part.stat().st_size >= n_bytes:
+            return
+        time.sleep(0.05)
+    pytest.fail("no frames reached the log")
+
+
+def check_log(log, side):
+    """Every line reads back; the counters of each load cell never skip."""
+    frames = list(can.LogReader(log))
+    assert len(frames) == side["frames"] > 0
+    last = {}
+    for f in frames:
+        counter = f.data[7]
+        if f.arbitration_id in last:
+            assert counter == (last[f.arbitration_id] + 1) % 256
+        last[f.arbitration_id] = counter
+    assert {ln.split()[1] for ln in log.read_text().splitlines()} == {"vcan0"}
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_signal_mid_trial_leaves_a_complete_log(tmp_path, adapter, sig):
+    study = tmp_path / "study"
+    proc = subprocess.Popen(acquire_cmd(study, adapter.path, "--duration", "60", "--quiet"),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        wait_for_frames(study / "P01" / "run-01.log.part", proc)
+        side = json.loads((study / "P01" / "run-01.json").read_text())
+        assert side["ended"] == "recording"          # what a killed process would leave
+        proc.send_signal(sig)
+        _out, err = proc.communicate(timeout=15)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, err
+    log = study / "P01" / "run-01.log"
+    assert not (study / "P01" / "run-01.log.part").exists()
+    side = json.loads((study / "P01" / "run-01.json").read_text())
+    assert side["ended"] == "interrupted"
+    assert side["end_detail"] == f"stopped by {sig.name}"
+    assert side["interface"] == "slcan"
+    assert side["bitrate"] == 1_000_000
+    assert side["dropped_frames"] == 0
+    assert side["duration_s"] < 30
+    check_log(log, side)
+
+
+def test_adapter_vanishing_mid_trial_exits_1_with_the_log(tmp_path, adapter):
+    study = tmp_path / "study"
+    proc = subprocess.Popen(acquire_cmd(study, adapter.path, "--duration", "60"),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        wait_for_frames(study / "P01" / "run-01.log.part", proc)
+        adapter.vanish()
+        _out, err = proc.communicate(timeout=15)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 1, err
+    assert "what was received is kept" in err
+    assert "Traceback" not in err
+    side = json.loads((study / "P01" / "run-01.json").read_text())
+    assert side["ended"] == "bus-error"
+    assert "CanOperationError" in side["end_detail"]
+    assert side["bus_errors"] == 1
+    check_log(study / "P01" / "run-01.log", side)
+
+
+def test_second_acquire_into_the_same_trial_is_refused(tmp_path, capsys):
+    study = tmp_path / "study"
+    args = ["acquire", "--study", str(study), "--subject", "P01", "--trial", "t1",
+            "--interface", "virtual", "--channel", "cli_refused", "--duration", "0.2"]
+    assert main([*args, "--quiet"]) == 0
+    before = (study / "P01" / "t1.json").read_text()
+    assert main(args) == 2
+    assert "--force" in capsys.readouterr().err
+    assert (study / "P01" / "t1.json").read_text() == before
+    assert main([*args, "--force", "--notes", "again"]) == 0
+    assert "completed, 0 frames" in capsys.readouterr().out
+    assert json.loads((study / "P01" / "t1.json").read_text())["notes"] == "again"
+
+
+@pytest.mark.parametrize("args,key", [
+    (["--subject", "../x"], "subject"),
+    (["--interface", "no_such_interface"], "--interface"),
+    (["--bus-option", "novalue"], "--bus-option"),
+    (["--duration", "-1"], "--duration"),
+])
+def test_bad_usage_exits_2_naming_the_key(tmp_path, capsys, args, key):
+    base = {"--study": str(tmp_path / "s"), "--subject": "P01", "--trial": "t",
+            "--interface": "virtual", "--channel": "cli_bad", "--duration": "0.1"}
+    for flag, value in zip(args[::2], args[1::2], strict=True):
+        base[flag] = value
+    argv = ["acquire", "--quiet"] + [x for kv in base.items() for x in kv]
+    assert main(argv) == 2
+    assert f"'{key}'" in capsys.readouterr().err
+
+
+def test_sigkill_leaves_whole_lines_up_to_the_last_flush(tmp_path, adapter):
+    study = tmp_path / "study"
+    proc = subprocess.Popen(acquire_cmd(study, adapter.path, "--duration", "60", "--quiet"),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        wait_for_frames(study / "P01" / "run-01.log.part", proc, n_bytes=20000)
+    finally:
+        proc.kill()
+        proc.communicate()
+    part = study / "P01" / "run-01.log.part"
+    text = part.read_text()
+    assert text.endswith("\n")                      # no line cut in two
+    frames = list(can.CanutilsLogReader(part))
+    assert len(frames) == text.count("\n") >= 20000 // 40
+    side = json.loads((study / "P01" / "run-01.json").read_text())
+    assert side["ended"] == "recording"
+    assert side["log"] == "run-01.log.part"

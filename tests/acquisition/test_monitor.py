@@ -1,0 +1,107 @@
+"""The live display: the target band gauge, the status block, the refresh thread."""
+
+import io
+import time
+
+import can
+import pytest
+
+from evtribo.acquisition.logger import LogStats
+from evtribo.acquisition.monitor import (
+    Monitor,
+    Snapshot,
+    band_state,
+    render_band,
+    render_line,
+    render_status,
+)
+from evtribo.acquisition.rigfile import default_rig_path, load_rig_toml
+
+
+@pytest.mark.parametrize("value,state", [(0.5, "in"), (0.41, "in"), (0.6, "in"),
+                                         (0.39, "low"), (0.61, "high"), (None, "none"),
+                                         (float("nan"), "none")])
+def test_band_state(value, state):
+    assert band_state(value, 0.5, 0.1) == state
+
+
+def test_band_gauge_marks_band_target_and_value():
+    # 0.5 ± 0.1 N on a 41-character gauge spanning 0.1..0.9 N: 0.02 N per character
+    gauge = render_band(0.5, 0.5, 0.1, width=41)
+    assert len(gauge) == 43 and gauge[0] == "[" and gauge[-1] == "]"
+    cells = gauge[1:-1]
+    assert cells.index("=") == 15 and cells.rindex("=") == 25     # 0.4 N .. 0.6 N
+    assert cells[20] == "O"                                        # the value hides the target
+    assert set(cells[:15]) == set(cells[26:]) == {"-"}
+
+    inside = render_band(0.56, 0.5, 0.1, width=41)[1:-1]
+    assert inside[20] == "|" and inside[23] == "O"
+    low = render_band(0.3, 0.5, 0.1, width=41)[1:-1]
+    assert low[10] == "O" and low.index("=") == 15
+    assert render_band(0.0, 0.5, 0.1, width=41)[1] == "<"          # off the scale
+    assert render_band(5.0, 0.5, 0.1, width=41)[-2] == ">"
+    assert "O" not in render_band(None, 0.5, 0.1)
+
+
+def test_status_block_shows_everything_asked():
+    snap = Snapshot(elapsed_s=12.34, remaining_s=17.66, normal_force_N=0.712,
+                    tangential_force_N=-0.25, rates_Hz={"FzCell": 1000.0, "FxCell": 800.0},
+                    frames=21600, dropped=3, bus_errors=1)
+    lines = render_status(snap, target=0.5, band=0.1, title="P01/run-01")
+    text = "\n".join(lines)
+    assert lines[0].startswith("P01/run-01")
+    assert "elapsed   12.3 s" in lines[0] and "remaining   17.7 s" in lines[0]
+    assert "0.712 N" in lines[1] and "TOO HIGH" in lines[1] and "0.500 ± 0.100 N" in lines[1]
+    assert "-0.250 N" in lines[2]
+    assert "FzCell   1000" in text and "FxCell    800" in text
+    assert "dropped 3" in text and "bus errors 1" in text
+    assert "\x1b" not in text
+    coloured = render_status(snap, target=0.5, band=0.1, colour=True)
+    assert "\x1b[31mTOO HIGH" in coloured[1]
+    assert "IN BAND" in render_status(Snapshot(1.0, normal_force_N=0.45), target=0.5)[1]
+    # no target: the value without a gauge
+    assert "[" not in render_status(snap)[1]
+    assert "Fn=0.712 N (high)" in render_line(snap, target=0.5, band=0.1)
+
+
+def _stats(rig, fz, fx):
+    fz_msg, fx_msg = (rig.database.get_message_by_name(m) for m in ("FzCell", "FxCell"))
+    stats = LogStats()
+    stats.latest[fz_msg.frame_id] = can.Message(arbitration_id=fz_msg.frame_id, data=fz_msg.encode(
+        {"Fz": fz, "FzStatus": 0, "FzTemp": 20, "FzCounter": 1}))
+    stats.latest[fx_msg.frame_id] = can.Message(arbitration_id=fx_msg.frame_id, data=fx_msg.encode(
+        {"Fx": fx, "FxStatus": 0, "FxTemp": 20, "FxCounter": 1}))
+    return stats
+
+
+def test_monitor_decodes_forces_and_rates_with_the_rig():
+    rig = load_rig_toml(default_rig_path())
+    stats = _stats(rig, 0.55, 0.2)
+    mon = Monitor(rig, io.StringIO(), duration=10.0, target=0.5, band=0.1, tty=False)
+    mon._stats, mon._t0 = stats, time.monotonic() - 2.0
+    mon._last = (mon._t0, {})
+    stats.frames_by_id.update({"0C1": 2000, "0C2": 2000, "18FF0001": 10})
+    snap = mon.snapshot()
+    assert snap.normal_force_N == pytest.approx(0.55, abs=1e-5)
+    assert snap.tangential_force_N == pytest.approx(0.2, abs=1e-5)
+    assert snap.rates_Hz["FzCell"] == pytest.approx(1000, rel=0.01)
+    assert snap.rates_Hz["other"] == pytest.approx(5, rel=0.01)
+    assert snap.remaining_s == pytest.approx(8.0, abs=0.1)
+
+
+@pytest.mark.parametrize("tty", [True, False])
+def test_monitor_thread_redraws_on_a_terminal_and_prints_lines_otherwise(tty):
+    rig = load_rig_toml(default_rig_path())
+    out = io.StringIO()
+    mon = Monitor(rig, out, duration=5.0, target=0.5, band=0.1, tty=tty, interval=0.05,
+                  line_interval=0.05)
+    mon.start(_stats(rig, 0.5, 0.1))
+    time.sleep(0.3)
+    mon.stop()
+    text = out.getvalue()
+    if tty:
+        assert text.count("\x1b[5F") >= 2            # cursor back up over the 5-line block
+        assert "IN BAND" in text
+    else:
+        assert "\x1b" not in text
+        assert text.count("\n") >= 2 and "Fn=0.500 N (in)" in text
