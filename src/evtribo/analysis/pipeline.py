@@ -33,6 +33,7 @@ from evtribo.analysis.trial import (
     empty_windows,
     failed_row,
 )
+from evtribo.cache import load_trial
 from evtribo.errors import AnalysisError, OutputExistsError, StudyError, UserInputError
 from evtribo.study import load_study
 
@@ -92,8 +93,6 @@ def _init_worker(root: str, cache_dir: str | None, strict: bool,
 
 
 def _analyze_one(index: int) -> tuple[int, dict[str, Any], pd.DataFrame, list[str], str | None]:
-    from evtribo.cache import load_trial  # noqa: PLC0415 - pyarrow only where trials are read
-
     study, strict = _WORKER["study"], _WORKER["strict"]
     ref = study.trials[index]
     sc = ref.sidecar
