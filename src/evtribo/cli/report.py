@@ -1,0 +1,35 @@
+"""``evtribo report OUT -o report.html``: one self-contained HTML page of a result folder."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``report`` on *subparsers*."""
+    p = subparsers.add_parser(
+        "report", help="write a self-contained HTML report of a result folder",
+        description="Write one HTML file (figures embedded, works offline) with the study "
+                    "summary, per-subject results, the model fit, warnings and provenance. "
+                    "Figures are also written as PNG and SVG into <report>_files/. Runs "
+                    "`evtribo compare` first when OUT has no fit.csv.")
+    p.add_argument("out", metavar="OUT", help="result folder written by `evtribo analyze`")
+    p.add_argument("-o", "--output", metavar="REPORT.html", default=None,
+                   help="the HTML file to write (default: OUT/report.html)")
+    p.add_argument("--no-compare", action="store_true",
+                   help="fail instead of running `evtribo compare` when fit.csv is missing")
+    p.add_argument("--force", action="store_true", help="overwrite an existing report")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``evtribo report``; return the exit code."""
+    from evtribo.compare.study_report import build_report  # noqa: PLC0415 - lazy matplotlib
+
+    output = Path(args.output) if args.output else Path(args.out) / "report.html"
+    path = build_report(args.out, output, force=args.force, run_compare=not args.no_compare)
+    print(f"wrote {path}")
+    return 0

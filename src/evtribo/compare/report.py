@@ -1,0 +1,244 @@
+"""A self-contained HTML report, built like MNE's ``Report``: add figures, tables, text.
+
+>>> report = Report("My study")                                     # doctest: +SKIP
+>>> report.add_table(df, "Results", section="Summary")              # doctest: +SKIP
+>>> report.add_figure(fig, "F_el vs U", caption="...", section="P01")  # doctest: +SKIP
+>>> report.save("report.html")                                      # doctest: +SKIP
+
+The page is one file: figures are embedded as base64 PNG (``data:`` URIs), the style sheet is
+inline, nothing is loaded from anywhere, so it opens offline and can be mailed. Each figure is
+also written as PNG and SVG into a folder beside it (``report_files/`` for ``report.html``).
+
+The page is rendered from the Jinja2 template ``templates/report.html.j2`` with autoescaping
+on: every title, caption, table cell and text item is escaped, so a subject's note holding
+``<script>`` shows as text. Only :meth:`Report.add_html` inserts markup as given; it is for
+HTML the program writes itself, never for user text.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import logging
+import math
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import jinja2
+import numpy as np
+import pandas as pd
+from markupsafe import Markup
+
+from evtribo import __version__
+from evtribo.errors import OutputExistsError, UserInputError
+
+log = logging.getLogger(__name__)
+
+__all__ = ["Report", "files_dir_for"]
+
+_env = jinja2.Environment(
+    loader=jinja2.PackageLoader("evtribo.compare", "templates"),
+    autoescape=True, undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True)
+
+
+def files_dir_for(path: str | Path) -> Path:
+    """The folder beside a report for its figure files: ``report.html`` -> ``report_files``."""
+    p = Path(path)
+    return p.with_name(f"{p.stem}_files")
+
+
+def _slug(text: str, used: set[str]) -> str:
+    base = re.sub(r"[^a-z0-9]+", "-", text.lower()).strip("-") or "item"
+    slug, k = base, 2
+    while slug in used:
+        slug, k = f"{base}-{k}", k + 1
+    used.add(slug)
+    return slug
+
+
+def _cell(value: Any, float_format: str) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float | np.floating):
+        v = float(value)
+        if math.isnan(v):
+            return ""
+        return format(v, float_format)
+    return str(value)
+
+
+@dataclass
+class _Item:
+    kind: str  # "figure", "table", "text", "html", "list"
+    title: str
+    caption: str = ""
+    data: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class _Section:
+    title: str
+    slug: str
+    items: list[_Item] = field(default_factory=list)
+
+
+class Report:
+    """Builder of a self-contained HTML report.
+
+    Parameters
+    ----------
+    title : str
+        Title of the page (escaped).
+    dpi : float
+        Resolution of figures given as matplotlib Figures, dots per inch.
+    """
+
+    def __init__(self, title: str, *, dpi: float = 110) -> None:
+        self.title = title
+        self.dpi = dpi
+        self._sections: list[_Section] = []
+        self._slugs: set[str] = set()
+        self._figure_files: list[tuple[str, bytes, bytes | None]] = []
+
+    # ------------------------------------------------------------------------- building
+    def _section(self, name: str | None) -> _Section:
+        name = name or self.title
+        for s in self._sections:
+            if s.title == name:
+                return s
+        section = _Section(name, _slug(name, self._slugs))
+        self._sections.append(section)
+        return section
+
+    @property
+    def sections(self) -> list[str]:
+        """Section titles, in order."""
+        return [s.title for s in self._sections]
+
+    def add_figure(self, fig: Any, title: str, *, caption: str = "",
+                   section: str | None = None) -> None:
+        """Add a figure.
+
+        Parameters
+        ----------
+        fig : matplotlib Figure or Axes, or str or Path
+            A figure (rendered here as PNG and SVG) or the path of a PNG file (a sibling
+            ``.svg`` with the same stem is used when present).
+        title, caption : str
+            Shown above and below the figure (escaped).
+        section : str, optional
+            Section title (default: the report's title).
+        """
+        if isinstance(fig, str | Path):
+            path = Path(fig)
+            if path.suffix.lower() != ".png" or not path.is_file():
+                raise UserInputError("expected an existing PNG file", path=path)
+            png = path.read_bytes()
+            svg_path = path.with_suffix(".svg")
+            svg = svg_path.read_bytes() if svg_path.is_file() else None
+        else:
+            figure = getattr(fig, "figure", fig) if not hasattr(fig, "savefig") else fig
+            png_buf, svg_buf = io.BytesIO(), io.BytesIO()
+            figure.savefig(png_buf, format="png", dpi=self.dpi)
+            figure.savefig(svg_buf, format="svg", metadata={"Date": None})
+            png, svg = png_buf.getvalue(), svg_buf.getvalue()
+        sec = self._section(section)
+        slug = _slug(f"{sec.slug}-{title}", self._slugs)
+        self._figure_files.append((slug, png, svg))
+        sec.items.append(_Item("figure", title, caption, {
+            "slug": slug, "src": "data:image/png;base64," + base64.b64encode(png).decode()}))
+
+    def add_table(self, table: pd.DataFrame, title: str, *, caption: str = "",
+                  section: str | None = None, float_format: str = ".4g",
+                  columns: Sequence[str] | None = None) -> None:
+        """Add a table (every cell escaped).
+
+        Parameters
+        ----------
+        table : DataFrame
+            The rows; NaN shows as an empty cell.
+        title, caption : str
+            Shown above and below (escaped).
+        section : str, optional
+            Section title.
+        float_format : str
+            Format of floating-point cells.
+        columns : sequence of str, optional
+            Columns to show (default: all).
+        """
+        cols = [c for c in (columns or list(table.columns)) if c in table.columns]
+        rows = [[_cell(v, float_format) for v in rec]
+                for rec in table[cols].itertuples(index=False, name=None)]
+        self._section(section).items.append(
+            _Item("table", title, caption, {"columns": [str(c) for c in cols], "rows": rows}))
+
+    def add_text(self, text: str, title: str = "", *, section: str | None = None) -> None:
+        """Add a paragraph of plain text (escaped)."""
+        self._section(section).items.append(_Item("text", title, "", {"text": text}))
+
+    def add_list(self, items: Iterable[str], title: str = "", *, caption: str = "",
+                 section: str | None = None) -> None:
+        """Add a bulleted list of plain-text items (escaped)."""
+        self._section(section).items.append(
+            _Item("list", title, caption, {"items": [str(i) for i in items]}))
+
+    def add_html(self, html: str, title: str = "", *, section: str | None = None) -> None:
+        """Add HTML as given (NOT escaped: only for markup the program writes itself)."""
+        self._section(section).items.append(_Item("html", title, "", {"html": Markup(html)}))
+
+    # ------------------------------------------------------------------------ rendering
+    def render(self) -> str:
+        """The page as one HTML string."""
+        template = _env.get_template("report.html.j2")
+        return template.render(title=self.title, sections=self._sections, version=__version__)
+
+    def save(self, path: str | Path, *, overwrite: bool = False,
+             figure_files: bool = True) -> Path:
+        """Write the page, and each figure as PNG and SVG into :func:`files_dir_for`.
+
+        Parameters
+        ----------
+        path : str or Path
+            The HTML file.
+        overwrite : bool
+            Replace an existing report and its figure files.
+        figure_files : bool
+            Also write the figures beside the report.
+
+        Returns
+        -------
+        Path
+            The HTML file.
+
+        Raises
+        ------
+        OutputExistsError
+            When the report or one of its figure files exists and *overwrite* is False.
+        """
+        html_path = Path(path)
+        files_dir = files_dir_for(html_path)
+        targets = [html_path]
+        if figure_files:
+            for slug, _, svg in self._figure_files:
+                targets.append(files_dir / f"{slug}.png")
+                if svg is not None:
+                    targets.append(files_dir / f"{slug}.svg")
+        existing = [t for t in targets if t.exists()]
+        if existing and not overwrite:
+            raise OutputExistsError("the report already exists; use --force to overwrite it",
+                                    path=existing[0])
+        text = self.render()
+        html_path.parent.mkdir(parents=True, exist_ok=True)
+        if figure_files and self._figure_files:
+            files_dir.mkdir(parents=True, exist_ok=True)
+            for slug, png, svg in self._figure_files:
+                (files_dir / f"{slug}.png").write_bytes(png)
+                if svg is not None:
+                    (files_dir / f"{slug}.svg").write_bytes(svg)
+        html_path.write_text(text, encoding="utf-8")
+        log.info("report: wrote %s (%d figures, %.0f kB)", html_path, len(self._figure_files),
+                 len(text) / 1024)
+        return html_path

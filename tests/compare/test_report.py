@@ -1,0 +1,190 @@
+from __future__ import annotations
+
+import base64
+import hashlib
+import io
+import json
+from html.parser import HTMLParser
+
+import numpy as np
+import pandas as pd
+import pytest
+from matplotlib.image import imread
+from synthetic import make_out
+
+from evtribo.cli import main
+from evtribo.compare.plots import new_axes
+from evtribo.compare.report import Report, files_dir_for
+from evtribo.compare.study_report import build_report
+from evtribo.errors import OutputExistsError, UserInputError
+
+NOTE = "<script>alert('x')</script> & notes"
+
+
+class _Page(HTMLParser):
+    """Collects tags, reference attributes, text and table headers of a page."""
+
+    def __init__(self) -> None:
+        super().__init__(convert_charrefs=True)
+        self.tags: list[str] = []
+        self.refs: list[tuple[str, str, str]] = []
+        self.text: list[str] = []
+        self.headers: list[str] = []
+        self.imgs: list[str] = []
+        self._in_th = False
+
+    def handle_starttag(self, tag, attrs):
+        self.tags.append(tag)
+        for name, value in attrs:
+            if name in {"src", "href", "srcset", "data", "action", "poster"} or (
+                    name == "style" and "url(" in (value or "")):
+                self.refs.append((tag, name, value or ""))
+        if tag == "img":
+            self.imgs.append(dict(attrs)["src"])
+        self._in_th = tag == "th"
+
+    def handle_endtag(self, tag):
+        if tag == "th":
+            self._in_th = False
+
+    def handle_data(self, data):
+        self.text.append(data)
+        if self._in_th:
+            self.headers.append(data)
+
+
+def _parse(path) -> tuple[_Page, str]:
+    html = path.read_text(encoding="utf-8")
+    page = _Page()
+    page.feed(html)
+    page.close()
+    return page, html
+
+
+@pytest.fixture(scope="module")
+def report_page(compared_out, tmp_path_factory):
+    path = tmp_path_factory.mktemp("rep") / "report.html"
+    build_report(compared_out, path)
+    page, html = _parse(path)
+    return path, page, html
+
+
+def test_report_is_self_contained(report_page):
+    _, page, html = report_page
+    assert page.tags[0] == "html" and "body" in page.tags
+    assert "script" not in page.tags and "link" not in page.tags and "iframe" not in page.tags
+    for tag, name, value in page.refs:
+        assert value.startswith(("data:image/png;base64,", "#")), (tag, name, value[:60])
+    assert "@import" not in html and "url(" not in html
+
+
+def test_report_holds_every_figure_and_table(report_page, compared_out):
+    path, page, _ = report_page
+    fit_doc = json.loads((compared_out / "fit.json").read_text())
+    assert len(page.imgs) == len(fit_doc["figures"]) == 6
+    text = " ".join(page.text)
+    for fig in fit_doc["figures"]:
+        assert fig["title"] in text
+    for section in ("Study summary", "Model fit", "Subject P01", "Subject P02", "Warnings",
+                    "Provenance"):
+        assert section in text
+    for table_title in ("Fitted parameters (fit.csv)", "Electrostatic force (electrostatic.csv)",
+                        "Trials", "Power laws", "Model parameters", "Result files", "Software"):
+        assert table_title in text
+    for col in ("parameter", "ci_low", "ci_high", "rmse_N", "exponent_model",
+                "electrostatic_force_N", "dropped_frames", "sha256"):
+        assert col in page.headers
+    # the fitted values are in the page
+    fit = pd.read_csv(compared_out / "fit.csv")
+    assert format(fit["value"].iloc[0], ".4g") in text
+    # figures also beside the report, as PNG and SVG
+    files = sorted(p.name for p in files_dir_for(path).iterdir())
+    assert sum(f.endswith(".png") for f in files) == 6
+    assert sum(f.endswith(".svg") for f in files) == 6
+
+
+def test_embedded_figure_is_a_real_image(report_page):
+    _, page, _ = report_page
+    png = base64.b64decode(page.imgs[0].split(",", 1)[1])
+    img = imread(io.BytesIO(png), format="png")
+    assert img.shape[0] > 50 and float(np.var(img[..., :3])) > 1e-3
+
+
+def test_user_text_is_escaped(report_page):
+    _, page, html = report_page
+    assert NOTE in " ".join(page.text)  # shown as text ...
+    assert "&lt;script&gt;alert(" in html  # ... because it was escaped
+    assert "<script>alert(" not in html
+
+
+def test_warnings_and_provenance(report_page, compared_out):
+    _, page, _ = report_page
+    text = " ".join(page.text)
+    assert "P02/run-02: 3 dropped frame(s)" in text
+    assert "P01/run-03: 1 damaged line(s) skipped" in text
+    assert "skipped damaged line" in text  # from summary.json
+    digest = hashlib.sha256((compared_out / "fit.csv").read_bytes()).hexdigest()
+    assert digest in text
+    recorded = json.loads((compared_out / "summary.json").read_text())["inputs"][0]["sha256"]
+    assert recorded in text
+
+
+def test_notes_and_hashes_from_study_folder(tmp_path):
+    study = tmp_path / "study"
+    (study / "P01").mkdir(parents=True)
+    (study / "study.toml").write_text('name = "s"\n[rig]\ndbc = "rig.dbc"\n')
+    log_bytes = b"(1763700000.000123) vcan0 0C1#1122334455667788\n"
+    (study / "P01" / "run-01.log").write_bytes(log_bytes)
+    (study / "P01" / "run-01.json").write_text(json.dumps(
+        {"subject": "P01", "condition": "alternating", "notes": "<b>finger</b> <script>"}))
+    out = make_out(tmp_path / "out", sine_trace=False)
+    trials = pd.read_csv(out / "trials.csv").drop(columns=["notes"])
+    trials.to_csv(out / "trials.csv", index=False)
+    summary = json.loads((out / "summary.json").read_text())
+    summary["study_dir"] = str(study)
+    (out / "summary.json").write_text(json.dumps(summary))
+    path = build_report(out, tmp_path / "r.html", dpi=30)
+    page, html = _parse(path)
+    text = " ".join(page.text)
+    assert "<b>finger</b> <script>" in text and "&lt;b&gt;finger" in html
+    assert hashlib.sha256(log_bytes).hexdigest() in text
+    assert "model only" in text.lower() or "sine_trace.csv" in text
+
+
+def test_report_refuses_to_overwrite(compared_out, tmp_path, capsys):
+    path = tmp_path / "report.html"
+    assert main(["report", str(compared_out), "-o", str(path)]) == 0
+    first = path.read_bytes()
+    with pytest.raises(OutputExistsError):
+        build_report(compared_out, path)
+    assert main(["report", str(compared_out), "-o", str(path)]) == 2
+    assert "--force" in capsys.readouterr().err
+    assert path.read_bytes() == first
+    assert main(["report", str(compared_out), "-o", str(path), "--force"]) == 0
+
+
+def test_report_without_fit(tmp_path, capsys):
+    out = make_out(tmp_path / "out", sine_trace=False)
+    assert main(["report", str(out), "--no-compare", "-o", str(tmp_path / "r.html")]) == 2
+    assert "evtribo compare" in capsys.readouterr().err
+    with pytest.raises(UserInputError):
+        build_report(out, tmp_path / "r.html", run_compare=False)
+    assert main(["report", str(tmp_path / "missing"), "-o", str(tmp_path / "r.html")]) == 2
+
+
+def test_builder_escapes_all_but_add_html(tmp_path):
+    report = Report("T <i>")
+    ax = new_axes()
+    ax.plot([0, 1], [0, 1])
+    report.add_figure(ax.figure, "fig <1>", caption="c & d", section="S")
+    report.add_table(pd.DataFrame({"a<": [1.5, np.nan], "b": ["<x>", "y"]}), "tab",
+                     section="S")
+    report.add_text("<em>t</em>", section="S")
+    report.add_html("<em>trusted</em>", section="S")
+    html = report.render()
+    assert "<em>trusted</em>" in html and "&lt;em&gt;t&lt;/em&gt;" in html
+    assert "&lt;x&gt;" in html and "a&lt;" in html and "fig &lt;1&gt;" in html
+    assert "T &lt;i&gt;" in html and "c &amp; d" in html
+    assert report.sections == ["S"]
+    saved = report.save(tmp_path / "x.html")
+    assert {p.suffix for p in files_dir_for(saved).iterdir()} == {".png", ".svg"}
