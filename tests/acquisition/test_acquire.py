@@ -10,6 +10,7 @@ import pytest
 
 from evtribo.acquisition.bus import BusSettings
 from evtribo.acquisition.rigfile import default_rig_path
+from evtribo.acquisition.simulator import Simulator, TrialConfig
 from evtribo.acquisition.trial import TrialInfo, record_trial
 from evtribo.errors import OutputExistsError, SidecarError, StudyError
 from evtribo.study import load_study, read_sidecar
@@ -225,3 +226,30 @@ def test_refuses_bad_metadata(tmp_path):
         with pytest.raises(SidecarError, match="waveform"):
             record_trial(bus, tmp_path / "s", "P01", "r", duration=0.1,
                          info=TrialInfo(waveform="sawtooth"))
+
+
+def test_records_the_simulated_rig_at_a_saturated_rate(tmp_path):
+    # ~8,400 frames/s: a saturated 1 Mbit/s bus of 8-byte frames; 1 % of the load cells'
+    # frames lost on the bus (gaps in their counters) and some foreign traffic
+    cfg = TrialConfig(fz_rate_Hz=2800, fx_rate_Hz=5550, hv_rate_Hz=50, drop_probability=0.01,
+                      foreign_rate_Hz=20, seed=3)
+    sim = Simulator(config=cfg)
+    out = {}
+    channel = "acq_simulated_rig"
+    tx = can.Bus(interface="virtual", channel=channel)
+    sender = threading.Thread(target=lambda: out.update(stats=sim.run(tx, duration=1.0)))
+    with can.Bus(interface="virtual", channel=channel) as rx:
+        result = record_trial(rx, tmp_path / "s", "P01", "run-01", duration=1.8,
+                              started=lambda _paths: sender.start())
+    sender.join()
+    tx.shutdown()
+    stats, truth = out["stats"], sim.generator.truth()
+    side = result.sidecar
+    assert stats.not_sent == 0
+    assert side["frames"] == stats.sent > 8000
+    assert len(list(can.LogReader(tmp_path / "s" / "P01" / "run-01.log"))) == stats.sent
+    assert side["dropped_frames_by_message"] == {
+        "FzCell": truth.nodes["FzCell"]["dropped"], "FxCell": truth.nodes["FxCell"]["dropped"]}
+    assert side["dropped_frames"] > 50
+    assert sum(n for k, n in side["frames_by_id"].items()
+               if k not in ("0C1", "0C2", "1A0")) == truth.foreign_frames > 0

@@ -116,6 +116,8 @@ def check_log(log, side):
     assert len(frames) == side["frames"] > 0
     last = {}
     for f in frames:
+        if f.arbitration_id not in (0x0C1, 0x0C2):
+            continue
         counter = f.data[7]
         if f.arbitration_id in last:
             assert counter == (last[f.arbitration_id] + 1) % 256
@@ -220,3 +222,27 @@ def test_sigkill_leaves_whole_lines_up_to_the_last_flush(tmp_path, adapter):
     side = json.loads((study / "P01" / "run-01.json").read_text())
     assert side["ended"] == "recording"
     assert side["log"] == "run-01.log.part"
+
+
+@pytest.mark.parametrize("interface,rates", [
+    ("slcan", ["--fz-rate", "1000", "--fx-rate", "2000"]),            # python-can's driver
+    ("slcan_bulk", ["--fz-rate", "2800", "--fx-rate", "5550"]),       # saturated 1 Mbit/s
+])
+def test_acquire_from_simulate_pty_loses_nothing(tmp_path, simulate_pty, interface, rates):
+    sim, path = simulate_pty(*rates)
+    study = tmp_path / "study"
+    code = main(["acquire", "--study", str(study), "--subject", "P01", "--trial", "run-01",
+                 "--interface", interface, "--channel", path, "--bitrate", "1000000",
+                 "--bus-option", "sleep_after_open=0", "--log-channel", "vcan0",
+                 "--duration", "1.5", "--quiet"])
+    sim.send_signal(signal.SIGTERM)
+    _out, err = sim.communicate(timeout=10)
+    assert code == 0
+    assert "(0 to a full buffer)" in err            # the adapter never had to drop a frame
+    side = json.loads((study / "P01" / "run-01.json").read_text())
+    assert side["ended"] == "completed"
+    assert side["interface"] == interface
+    assert side["dropped_frames"] == 0
+    rate = (side["frames_by_id"]["0C1"] + side["frames_by_id"]["0C2"]) / side["duration_s"]
+    assert rate > (2500 if interface == "slcan" else 7000)
+    check_log(study / "P01" / "run-01.log", side)
