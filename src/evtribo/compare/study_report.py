@@ -77,14 +77,19 @@ def _study_name(summary: dict[str, Any], out: Path) -> str:
     return str(study) if study else out.name
 
 
-def _study_dir(summary: dict[str, Any]) -> Path | None:
+def _study_dir(summary: dict[str, Any], out: Path) -> Path | None:
+    """The study folder summary.json names, if it exists (a relative path is tried from
+    the working directory, then from the result folder's parent)."""
     raw = summary.get("study_dir")
     if raw is None and isinstance(summary.get("study"), dict):
         raw = summary["study"].get("path")
     if not raw:
         return None
     path = Path(str(raw))
-    return path if path.is_dir() else None
+    for candidate in (path, out.parent / path) if not path.is_absolute() else (path,):
+        if candidate.is_dir():
+            return candidate
+    return None
 
 
 def _study_inputs(study_dir: Path) -> tuple[list[Path], dict[str, str], dict[str, Any]]:
@@ -216,7 +221,7 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
 
     summary = tables.summary
     name = _study_name(summary, folder)
-    study_dir = _study_dir(summary)
+    study_dir = _study_dir(summary, folder)
     inputs, notes, rig = _study_inputs(study_dir) if study_dir else ([], {}, {})
     trials = _trials_table(tables, notes)
     report = Report(f"evtribo report: {name}")
