@@ -17,9 +17,9 @@ from evtribo.compare import (
     read_results,
     save_figure,
 )
-from evtribo.compare.plots import new_axes
+from evtribo.compare.plots import new_axes, trace_voltage
 from evtribo.errors import OutputExistsError
-from evtribo.model import TABLE_1
+from evtribo.model import TABLE_1, friction_force
 
 
 def test_compare_writes_fit_and_figures(compared_out):
@@ -38,6 +38,22 @@ def test_compare_writes_fit_and_figures(compared_out):
     assert doc["subjects"]["P02"]["parameters"]["h_L"] == pytest.approx(
         fit.loc[fit["subject"] == "P02", "value"].item())
     assert doc["notes"] == []
+    captions = {f["stem"]: f["caption"] for f in doc["figures"]}
+    assert captions["friction_time"].startswith("Measured sine trial of P01")
+
+
+def test_params_file_is_used(out_dir, tmp_path):
+    params = tmp_path / "stiff.toml"
+    params.write_text("E_star = 80e3  # Pa\n")
+    default = compare(out_dir, dpi=30, formats=("png",))
+    stiff = compare(out_dir, dpi=30, formats=("png",), params=params, force=True)
+    doc = json.loads((out_dir / "fit.json").read_text())
+    assert doc["fixed_parameters"]["E_star"] == 80e3
+    assert doc["parameters_file"]["path"] == str(params)
+    # a stiffer finger has a smaller contact: the same forces need a thinner gap
+    for d, s in zip(default.fits, stiff.fits, strict=True):
+        assert s["h_L"].value < 0.95 * d["h_L"].value
+        assert s.params.E_star == 80e3
 
 
 def test_refuses_to_overwrite(compared_out):
@@ -100,3 +116,18 @@ def test_cli_exit_codes(out_dir, tmp_path, capsys):
     assert "P01: h_L" in capsys.readouterr().out
     assert main(["compare", str(out_dir), "--dpi", "30"]) == 2
     assert "--force" in capsys.readouterr().err
+
+
+def test_trace_voltage_phase_from_friction():
+    # a trace that only reports the drive's amplitude and frequency: the phase that best
+    # explains the friction is found, modulo pi
+    p = TABLE_1.with_values(h_L=3e-6)
+    t = np.arange(0.0, 0.2, 5e-4)
+    true_u = 140.0 * np.sin(2 * np.pi * 10.0 * t + 1.0)
+    fn = np.full_like(t, 0.5)
+    trace = pd.DataFrame({"time_s": t, "normal_force_N": fn,
+                          "friction_force_N": friction_force(fn, true_u, p),
+                          "amplitude_V": 140.0, "frequency_Hz": 10.0})
+    u = trace_voltage(trace, p)
+    np.testing.assert_allclose(np.abs(u), np.abs(true_u), atol=0.03 * 140)
+    assert np.array_equal(trace_voltage(trace.assign(voltage_V=true_u), p), true_u)

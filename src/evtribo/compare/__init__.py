@@ -32,7 +32,9 @@ from evtribo.compare.plots import (
     plot_friction_time,
     save_figure,
 )
+from evtribo.compare.report import Report
 from evtribo.compare.run import CompareResult, FigureRecord, compare
+from evtribo.compare.study_report import build_report
 from evtribo.compare.tables import ResultTables, read_results
 
 __all__ = [
@@ -41,8 +43,10 @@ __all__ = [
     "CompareResult",
     "FigureRecord",
     "ParameterEstimate",
+    "Report",
     "ResultTables",
     "SubjectFit",
+    "build_report",
     "compare",
     "fit_study",
     "fit_subject",

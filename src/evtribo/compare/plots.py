@@ -18,15 +18,22 @@ import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from numpy.typing import NDArray
 
 from evtribo.compare.fit import mean_electrostatic_force, mean_friction_force
-from evtribo.model import area_increase_pct, friction_time_series, sine_voltage
+from evtribo.model import (
+    area_increase_pct,
+    friction_force,
+    friction_time_series,
+    sine_voltage,
+)
 from evtribo.model.params import TABLE_1, ModelParameters
 
 log = logging.getLogger(__name__)
 
 __all__ = ["new_axes", "plot_area_increase", "plot_electrostatic_force",
-           "plot_friction_normal_force", "plot_friction_time", "safe_name", "save_figure"]
+           "plot_friction_normal_force", "plot_friction_time", "safe_name", "save_figure",
+           "trace_voltage"]
 
 _WAVE_MARKERS = {"square": "o", "sine": "s"}
 
@@ -161,6 +168,37 @@ def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = 
     return ax
 
 
+def trace_voltage(trace: pd.DataFrame, params: ModelParameters = TABLE_1,
+                  n_phases: int = 90) -> NDArray[np.float64]:
+    """Instantaneous voltage U(t) of a sine trace, V.
+
+    ``voltage_V`` when the trace has it; otherwise A(t) sin(2 pi f t + phi) from
+    ``amplitude_V`` and ``frequency_Hz``, with the phase phi in [0, pi) that best matches the
+    measured friction (the model's friction depends on U^2, so phi + pi gives the same).
+
+    Parameters
+    ----------
+    trace : DataFrame
+        Rows of ``sine_trace.csv`` (one trial).
+    params : ModelParameters
+        Model parameters for matching the phase.
+    n_phases : int
+        Phases tried.
+    """
+    if "voltage_V" in trace.columns:
+        return trace["voltage_V"].to_numpy(float)
+    t = trace["time_s"].to_numpy(float)
+    amp = np.nan_to_num(trace["amplitude_V"].to_numpy(float))
+    freq = np.nan_to_num(trace["frequency_Hz"].to_numpy(float))
+    fn = trace["normal_force_N"].to_numpy(float)
+    ft = trace["friction_force_N"].to_numpy(float)
+    phases = np.linspace(0.0, np.pi, n_phases, endpoint=False)
+    u = amp[None, :] * np.sin(2 * np.pi * freq[None, :] * t[None, :] + phases[:, None])
+    model = np.asarray(friction_force(fn[None, :], u, params), dtype=float)
+    err = np.nansum((model - ft[None, :]) ** 2, axis=1)
+    return u[int(np.argmin(err))]
+
+
 def plot_friction_time(trace: pd.DataFrame | None, params: ModelParameters = TABLE_1, *,
                        amplitude: float = 140.0, frequency: float = 10.0,
                        normal_force: float = 0.5, subject: str | None = None,
@@ -195,7 +233,7 @@ def plot_friction_time(trace: pd.DataFrame | None, params: ModelParameters = TAB
     if trace is not None and len(trace):
         t = trace["time_s"].to_numpy(float)
         fn = trace["normal_force_N"].to_numpy(float)
-        u = trace["voltage_V"].to_numpy(float)
+        u = trace_voltage(trace, params)
         ax.plot(t, fn, "-", color="C2", lw=1, label="normal force (measured)")
         ax.plot(t, trace["friction_force_N"].to_numpy(float), "-", color="0.35", lw=1,
                 label="friction (measured)")

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
 
 from evtribo import __version__
 from evtribo.compare.fit import SubjectFit, fit_study, fit_table
@@ -89,11 +90,16 @@ def _jsonable(x: float) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def _trace_subject(tables: ResultTables) -> str | None:
+def _first_trace(tables: ResultTables) -> tuple[pd.DataFrame | None, str | None]:
+    """The first trial of ``sine_trace.csv`` (when it holds several) and its subject."""
     trace = tables.sine_trace
-    if trace is None or "subject" not in trace.columns or trace.empty:
-        return None
-    return str(trace["subject"].iloc[0])
+    if trace is None or trace.empty:
+        return None, None
+    for col in ("subject", "trial"):
+        if col in trace.columns:
+            trace = trace[trace[col].astype(str) == str(trace[col].iloc[0])]
+    subject = str(trace["subject"].iloc[0]) if "subject" in trace.columns else None
+    return trace, subject
 
 
 def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
@@ -167,12 +173,12 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
              caption="Steady-sliding windows OFF and ON and the model (eq. 5, cf. the "
                      f"paper's Figure 6); μ {mu_how}")
 
-    trace_subject = _trace_subject(tables)
+    trace, trace_subject = _first_trace(tables)
     pick = by_subject.get(trace_subject or "", fits[0])
     sine_rows = tables.electrostatic[tables.electrostatic["waveform"].astype(str) == "sine"]
     amp = float(sine_rows["amplitude_V"].max()) if not sine_rows.empty else 140.0
     fn_mean = float(np.nanmean(tables.electrostatic["normal_force_on_N"].to_numpy(float)))
-    if tables.sine_trace is None:
+    if trace is None:
         result.notes.append("No sine_trace.csv in the result folder: the friction-versus-time "
                             "figure shows the model alone (10 Hz sine, "
                             f"{amp:g} V, {fn_mean:.2g} N), without a measured trace.")
@@ -181,7 +187,7 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     else:
         caption = (f"Measured sine trial of {pick.subject} and the model evaluated at its "
                    "measured normal force and voltage, cf. the paper's Figure 5.")
-    emit(plot_friction_time(tables.sine_trace, pick.params, amplitude=amp,
+    emit(plot_friction_time(trace, pick.params, amplitude=amp,
                             normal_force=fn_mean, subject=pick.subject),
          "friction_time", "Friction vs time, sine drive", "friction_time", subject=None,
          caption=caption)

@@ -11,7 +11,12 @@ one sine trial, for the friction-versus-time figure (the seed paper's Figure 5).
 ``time_s``         seconds from the start of the trace
 ``normal_force_N`` normal force, N
 ``friction_force_N`` friction (tangential) force magnitude, N
-``voltage_V``      instantaneous applied voltage U(t), V (0 while OFF)
+``voltage_V``      instantaneous applied voltage U(t), V (0 while OFF); or, when the
+                   rig only reports the drive's settings, ``amplitude_V`` (0 while OFF)
+                   and ``frequency_Hz``: the sine's phase is then taken as the one that
+                   best matches the measured friction (friction oscillates at twice the
+                   drive frequency, so the phase is known modulo pi, which is all the
+                   model needs)
 ``subject``        optional: whose trace it is (else the first subject)
 ``trial``          optional: the trial's name
 =================  ==========================================================
@@ -45,9 +50,9 @@ REQUIRED_COLUMNS: dict[str, tuple[str, ...]] = {
     "trials.csv": ("subject", "trial"),
 }
 
-#: Columns ``sine_trace.csv`` must have.
-SINE_TRACE_COLUMNS: tuple[str, ...] = ("time_s", "normal_force_N", "friction_force_N",
-                                       "voltage_V")
+#: Columns ``sine_trace.csv`` must have (plus ``voltage_V``, or ``amplitude_V`` and
+#: ``frequency_Hz``).
+SINE_TRACE_COLUMNS: tuple[str, ...] = ("time_s", "normal_force_N", "friction_force_N")
 
 _OPTIONAL = frozenset({"exponents.csv", "trials.csv"})
 
@@ -151,6 +156,8 @@ def read_results(out: str | Path) -> ResultTables:
     trace_path = folder / "sine_trace.csv"
     if trace_path.is_file():
         trace = _read_csv(trace_path, SINE_TRACE_COLUMNS)
+        if "voltage_V" not in trace.columns:
+            _read_csv(trace_path, (*SINE_TRACE_COLUMNS, "amplitude_V", "frequency_Hz"))
     return ResultTables(out=folder, electrostatic=tables["electrostatic.csv"],
                         windows=tables["windows.csv"], exponents=tables["exponents.csv"],
                         trials=tables["trials.csv"], summary=summary, sine_trace=trace)
