@@ -21,6 +21,7 @@ from evtribo.acquisition.simulator import (
     simulate_trial,
 )
 from evtribo.acquisition.simulator.encode import pack_signals
+from evtribo.cli import main
 from evtribo.errors import ConfigError, OutputExistsError
 from evtribo.model import TABLE_1, electrostatic_force
 from evtribo.study import discover_trials, read_sidecar, read_study_toml
@@ -344,3 +345,45 @@ def test_simulate_study_writes_a_study_folder(tmp_path):
     assert len(lines) == first.extra["frames"] > 2000
     with pytest.raises(OutputExistsError):
         simulate_study(root, [SubjectParams(name="P01")], amplitudes=(60.0,), config=cfg)
+
+
+# -- the command line ----------------------------------------------------------------------
+def test_cli_writes_a_trial_to_a_study(tmp_path, capsys):
+    code = main(["simulate", "--study", str(tmp_path / "st"), "--subject", "P07", "--trial",
+                 "sine-1", "--duration", "1.5", "--waveform", "sine", "--frequency", "10",
+                 "--mu", "0.4", "--air-gap", "6e-6", "--condition", "on"])
+    assert code == 0
+    side = read_sidecar(tmp_path / "st" / "P07" / "sine-1.json", default_subject="P07")
+    assert (side.waveform, side.frequency_Hz, side.condition) == ("sine", 10.0, "on")
+    assert side.extra["simulation"]["subject"]["h_L"] == 6e-6
+    assert "frames" in capsys.readouterr().out
+    assert main(["simulate", "--study", str(tmp_path / "st"), "--subject", "P07", "--trial",
+                 "sine-1", "--duration", "1"]) == 2  # exists: needs --force
+
+
+@pytest.mark.parametrize(("argv", "needle"), [
+    (["--amplitude", "-5"], "--amplitude"),
+    (["--fz-rate", "0"], "--fz-rate"),
+    (["--pty", "--interface", "virtual"], "choose one of"),
+    (["--target-force", "nan"], "--target-force"),
+])
+def test_cli_bad_options_exit_2_naming_the_option(tmp_path, capsys, argv, needle):
+    prefix = [] if "--pty" in argv else ["--study", str(tmp_path)]
+    assert main(["simulate", *prefix, *argv]) == 2
+    assert needle in capsys.readouterr().err
+
+
+def test_cli_streams_on_a_virtual_bus():
+    channel = f"sim-cli-{time.monotonic_ns()}"
+    rx = can.Bus(interface="virtual", channel=channel)
+    try:
+        code = main(["simulate", "--interface", "virtual", "--channel", channel,
+                     "--duration", "0.5", "--fz-rate", "400", "--fx-rate", "400"])
+        got = []
+        while (msg := rx.recv(0.05)) is not None:
+            got.append(msg.arbitration_id)
+    finally:
+        rx.shutdown()
+    assert code == 0
+    assert got.count(FZ) == pytest.approx(200, abs=3) and got.count(FX) == pytest.approx(200,
+                                                                                           abs=3)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import os
 import re
 import signal
@@ -132,7 +133,7 @@ def _encode(item):
 def test_bulk_parser_matches_python_can_on_any_stream_cut_anywhere(items, cuts):
     stream = b"".join(_encode(i) for i in items)
     points = sorted({min(c, len(stream)) for c in cuts} | {0, len(stream)})
-    pieces = [stream[a:b] for a, b in zip(points, points[1:], strict=False) if b > a]
+    pieces = [stream[a:b] for a, b in itertools.pairwise(points) if b > a]
     classic, bulk = parse_both(pieces)
     assert classic == bulk
     n_frames = sum(1 for i in items if i[0] in "tTrR")

@@ -271,10 +271,18 @@ class SlcanPtyAdapter:
 
     def drain(self, timeout: float = 2.0) -> bool:
         """Wait until the client has read everything (at most *timeout* s); True if it has."""
+        # FIONREAD misses bytes still in the kernel's flip buffer on their way to the client's
+        # queue: only trust an empty queue that stays empty for a while.
         deadline = time.monotonic() + timeout
+        empty_since = None
         while time.monotonic() < deadline:
+            now = time.monotonic()
             if self.unread() == 0:
-                return True
+                empty_since = now if empty_since is None else empty_since
+                if now - empty_since >= 0.1:
+                    return True
+            else:
+                empty_since = None
             self.poll(0.01)
         return self.unread() == 0
 

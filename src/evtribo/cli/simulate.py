@@ -11,9 +11,11 @@ Examples::
 from __future__ import annotations
 
 import argparse
+import contextlib
 import signal
 import sys
 import threading
+from collections.abc import Iterator
 from typing import Any
 
 from evtribo.errors import ConfigError
@@ -126,15 +128,20 @@ def _build(args: argparse.Namespace, duration: float) -> tuple[Any, Any]:
         raise ConfigError(err.message, key=options.get(field, err.key)) from err
 
 
-def _stop_on_signals() -> threading.Event:
+@contextlib.contextmanager
+def _stop_on_signals() -> Iterator[threading.Event]:
+    """An event set by SIGTERM or Ctrl-C while the block runs (handlers restored after)."""
     stop = threading.Event()
 
     def handler(_signum: int, _frame: object) -> None:
         stop.set()
 
-    signal.signal(signal.SIGTERM, handler)
-    signal.signal(signal.SIGINT, handler)
-    return stop
+    previous = {s: signal.signal(s, handler) for s in (signal.SIGTERM, signal.SIGINT)}
+    try:
+        yield stop
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -157,11 +164,10 @@ def run(args: argparse.Namespace) -> int:
 
     subject, config = _build(args, args.duration or 1.0)
     sim = Simulator(subject, config)
-    stop = _stop_on_signals()
     if args.pty:
         from evtribo.acquisition.slcan import SlcanPtyAdapter  # noqa: PLC0415
 
-        with SlcanPtyAdapter() as adapter:
+        with _stop_on_signals() as stop, SlcanPtyAdapter() as adapter:
             print(adapter.path, flush=True)
             stats = sim.run_pty(adapter, duration=args.duration, stop_event=stop)
             dropped = adapter.dropped
@@ -177,7 +183,8 @@ def run(args: argparse.Namespace) -> int:
         except (can.CanError, ValueError, ImportError, OSError) as err:
             raise ConfigError(f"cannot open the bus: {err}", key="--interface") from err
         try:
-            stats = sim.run(bus, duration=args.duration, stop_event=stop)
+            with _stop_on_signals() as stop:
+                stats = sim.run(bus, duration=args.duration, stop_event=stop)
         finally:
             bus.shutdown()
         dropped = 0
