@@ -212,7 +212,7 @@ class Monitor:
         if self._thread is not None:
             self._thread.join()
         if self.tty and self._stats is not None:
-            self._draw()
+            self._draw(final=True)
 
     def _run(self) -> None:
         while not self._stop.wait(self.interval):
@@ -231,13 +231,16 @@ class Monitor:
         except Exception:
             return None
 
-    def snapshot(self) -> Snapshot:
-        """The current state (frame rates over the time since the previous snapshot)."""
+    def snapshot(self, final: bool = False) -> Snapshot:
+        """The current state: frame rates over the time since the previous snapshot (or,
+        with *final*, over the whole trial)."""
         stats = self._stats if self._stats is not None else LogStats()
         now = time.monotonic()
         elapsed = now - self._t0
         counts = dict(stats.frames_by_id)
         t_prev, prev = self._last
+        if final:  # the last picture: mean rates over the whole trial
+            t_prev, prev = self._t0, {}
         dt = max(now - t_prev, 1e-9)
         rates: dict[str, float] = {}
         for key, n in counts.items():
@@ -255,8 +258,8 @@ class Monitor:
                         rates_Hz=rates, frames=stats.frames, dropped=stats.dropped,
                         bus_errors=stats.error_frames)
 
-    def _draw(self) -> None:
-        snap = self.snapshot()
+    def _draw(self, final: bool = False) -> None:
+        snap = self.snapshot(final)
         if not self.tty:
             self.stream.write(render_line(snap, target=self.target, band=self.band) + "\n")
             self.stream.flush()
