@@ -23,6 +23,7 @@ from evtribo.acquisition.simulator import (
 from evtribo.acquisition.simulator.encode import pack_signals
 from evtribo.cli import main
 from evtribo.errors import ConfigError, OutputExistsError
+from evtribo.frames import read_frames
 from evtribo.model import TABLE_1, electrostatic_force
 from evtribo.study import discover_trials, read_sidecar, read_study_toml
 
@@ -343,6 +344,11 @@ def test_simulate_study_writes_a_study_folder(tmp_path):
     assert all(pattern.match(line) for line in lines)
     first = read_sidecar(root / "P01" / "run-01.json", default_subject="P01")
     assert len(lines) == first.extra["frames"] > 2000
+    back, _ = read_frames(root / "P01" / "run-01.log")
+    again, _ = simulate_trial(SubjectParams(name="P01"), dataclasses.replace(
+        cfg, seed=0, amplitude_V=60.0))
+    np.testing.assert_array_equal(back.data, again.data)
+    np.testing.assert_allclose(back.timestamp, again.timestamp, atol=1e-6)
     with pytest.raises(OutputExistsError):
         simulate_study(root, [SubjectParams(name="P01")], amplitudes=(60.0,), config=cfg)
 

@@ -11,6 +11,12 @@ interface ``slcan_bulk``::
 :class:`SlcanPtyAdapter` is the other end: a pseudo-terminal that answers the Lawicel
 commands the way a USB-CAN adapter does and writes frames as ``tIIILDD..\\r`` lines, for
 ``evtribo simulate --pty``.
+
+When the adapter vanishes (the pty closes: ``evtribo simulate`` ended or was killed, or a USB
+adapter was unplugged), ``recv()`` of both ``slcan`` and ``slcan_bulk`` raises
+:class:`can.CanOperationError` ("Could not read from serial device", caused by
+:class:`serial.SerialException`) once every byte received before has been returned; the bus's
+``shutdown()`` then raises :class:`can.CanOperationError` too (it cannot send ``C``).
 """
 
 from __future__ import annotations

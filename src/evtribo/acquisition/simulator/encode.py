@@ -1,4 +1,4 @@
-"""Physical values to CAN payloads, vectorised; frames to candump ``-L`` text.
+"""Physical values to CAN payloads, vectorised.
 
 The packer reads the signal layout from a cantools message (start bit, length, byte order,
 sign, scale and offset) and packs whole columns at once with 64-bit integer arithmetic, so a
@@ -7,16 +7,13 @@ trial of 100,000 frames is encoded in a few milliseconds. cantools decodes the r
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping
 
 import cantools.database
 import numpy as np
 import numpy.typing as npt
 
-from evtribo.frames.table import FrameTable
-
-__all__ = ["pack_signals", "scaled_to_raw", "write_candump_text"]
+__all__ = ["pack_signals", "scaled_to_raw"]
 
 
 def scaled_to_raw(signal: cantools.database.can.Signal,
@@ -89,31 +86,3 @@ def pack_signals(message: cantools.database.can.Message,
     out |= big.astype(">u8").view(np.uint8).reshape(n, 8)
     out[:, message.length:] = 0
     return out
-
-
-def write_candump_text(table: FrameTable, path: str | os.PathLike[str],
-                       channel: str | None = None) -> None:
-    """Write *table* as a candump ``-L`` log (classic CAN frames).
-
-    Parameters
-    ----------
-    table : FrameTable
-        Frames; timestamps in seconds since the epoch.
-    path : path-like
-        The log to write.
-    channel : str, optional
-        Channel name written on each line (default: the table's, else ``can0``).
-    """
-    chan = channel or table.channel or "can0"
-    blob = np.ascontiguousarray(table.data[:, :8]).tobytes().hex().upper()  # 16 chars a row
-    ids = table.arbitration_id.tolist()
-    ext = table.is_extended.tolist()
-    remote = table.is_remote.tolist()
-    dlc = table.dlc.tolist()
-    lines = []
-    for i, ts in enumerate(table.timestamp.tolist()):
-        ident = f"{ids[i]:08X}" if ext[i] else f"{ids[i]:03X}"
-        body = "R" if remote[i] else blob[16 * i: 16 * i + 2 * min(dlc[i], 8)]
-        lines.append(f"({ts:.6f}) {chan} {ident}#{body}\n")
-    with open(path, "w", encoding="ascii", newline="\n") as fh:
-        fh.writelines(lines)

@@ -16,12 +16,11 @@ import numpy as np
 from evtribo import __version__
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.core import DEFAULT_DBC, TrialTruth, simulate_trial
-from evtribo.acquisition.simulator.encode import write_candump_text
 from evtribo.errors import OutputExistsError
-from evtribo.frames.table import FrameTable
+from evtribo.frames import write_candump
 from evtribo.study import STUDY_FILE, validate_name, write_sidecar, write_study_toml
 
-__all__ = ["default_subjects", "simulate_study", "write_candump", "write_trial"]
+__all__ = ["default_subjects", "simulate_study", "write_trial"]
 
 log = logging.getLogger(__name__)
 
@@ -36,12 +35,6 @@ RIG_KEYS = {
     "excitation_frequency": "HvStatus.HvFreq",
     "excitation_waveform": "HvStatus.HvWave",
 }
-
-
-def write_candump(table: FrameTable, path: str | os.PathLike[str],
-                  channel: str | None = None) -> None:
-    """Write *table* as a candump ``-L`` log."""
-    write_candump_text(table, path, channel=channel)
 
 
 def default_subjects(n: int = 3, seed: int = 0) -> list[SubjectParams]:
@@ -104,7 +97,7 @@ def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams
     frames, truth = simulate_trial(subject, config)
     log_path.parent.mkdir(parents=True, exist_ok=True)
     tmp = log_path.with_name(log_path.name + ".part")
-    write_candump(frames, tmp, channel=config.channel)
+    write_candump(tmp, frames, config.channel)
     os.replace(tmp, log_path)
     dropped = sum(int(n["dropped"]) for n in truth.nodes.values())
     sidecar: dict[str, Any] = {
