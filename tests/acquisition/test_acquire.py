@@ -253,3 +253,50 @@ def test_records_the_simulated_rig_at_a_saturated_rate(tmp_path):
     assert side["dropped_frames"] > 50
     assert sum(n for k, n in side["frames_by_id"].items()
                if k not in ("0C1", "0C2", "1A0")) == truth.foreign_frames > 0
+
+
+def test_disk_full_mid_trial_keeps_the_log_so_far(tmp_path, monkeypatch):
+    from evtribo.acquisition.logger import LogWriter  # noqa: PLC0415
+
+    original = LogWriter._write_all
+    calls = []
+
+    def fill_up(self, data):
+        calls.append(len(data))
+        if len(calls) > 1:
+            raise OSError(28, "No space left on device")
+        original(self, data)
+
+    monkeypatch.setattr(LogWriter, "_write_all", fill_up)
+    bus = VanishingBus(10**9)                      # frames as fast as they can be made
+    try:
+        result = record_trial(bus, tmp_path / "s", "P01", "run-01", duration=5.0)
+    finally:
+        bus.shutdown()
+    assert result.ended == "disk-error"
+    assert result.exit_code == 1
+    assert result.sidecar["duration_s"] < 2.0
+    assert "No space left on device" in result.sidecar["end_detail"]
+    log = tmp_path / "s" / "P01" / "run-01.log"
+    lines = log.read_text().splitlines()
+    assert len(lines) > 0 and log.stat().st_size == calls[0]   # the first batch, whole
+    assert len(list(can.LogReader(log))) == len(lines)
+
+
+def test_bus_options_and_python_can_configuration(monkeypatch):
+    from evtribo.acquisition.bus import open_bus, parse_bus_options  # noqa: PLC0415
+
+    assert parse_bus_options(["sleep_after_open=0", "fd=True", "app_name=my rig",
+                              "timeout=0.5"]) == \
+        {"sleep_after_open": 0, "fd": True, "app_name": "my rig", "timeout": 0.5}
+    monkeypatch.setenv("CAN_INTERFACE", "virtual")
+    monkeypatch.setenv("CAN_CHANNEL", "acq_from_env")
+    monkeypatch.setenv("CAN_BITRATE", "500000")
+    settings = BusSettings()
+    bus = open_bus(settings)
+    try:
+        assert (settings.interface, settings.channel, settings.bitrate) == \
+            ("virtual", "acq_from_env", 500000)
+        assert bus.channel_info == "Virtual bus channel acq_from_env"
+    finally:
+        bus.shutdown()
