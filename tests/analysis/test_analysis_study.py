@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study, simulate_trial
-from evtribo.acquisition.simulator.encode import write_candump_text
+from evtribo.frames import write_candump
 from evtribo.analysis.aggregate import ELECTROSTATIC_COLUMNS, EXPONENT_COLUMNS
 from evtribo.analysis.pipeline import OUTPUT_FILES, analyze_study
 from evtribo.analysis.trial import TRIAL_COLUMNS, WINDOW_CSV_COLUMNS
@@ -182,7 +182,7 @@ def _other_rig_study(root, damage=True):
         frames, truth = simulate_trial(subject, cfg, dbc=dbc)
         log_path = root / "S1" / f"{name}.log"
         log_path.parent.mkdir(exist_ok=True)
-        write_candump_text(frames, log_path)
+        write_candump(log_path, frames)
         if damage and k == 1:
             lines = log_path.read_text(encoding="ascii").splitlines(keepends=True)
             lines[100] = "(17637xx.000) vcan0 zz#1\n"
