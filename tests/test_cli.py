@@ -22,3 +22,20 @@ def test_unknown_command_is_usage_error(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["no-such-command"])
     assert exc.value.code == 2
+
+
+def test_only_the_chosen_subcommand_is_imported():
+    import subprocess
+    import sys
+
+    code = ("import sys; from evtribo.cli import main; main(['model', '--list']); "
+            "print('evtribo.analysis.pipeline' in sys.modules, 'evtribo.cli.model' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().splitlines()[-1] == "False True"
+
+
+def test_subcommand_help_lists_its_options(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["model", "--help"])
+    assert exc.value.code == 0
+    assert "--normal-force" in capsys.readouterr().out

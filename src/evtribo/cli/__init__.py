@@ -17,17 +17,19 @@ from collections.abc import Callable, Sequence
 from evtribo import __version__
 from evtribo.errors import EvtriboError
 
-SUBCOMMANDS: tuple[str, ...] = (
-    "model",
-    "simulate",
-    "acquire",
-    "inspect",
-    "decode",
-    "analyze",
-    "compare",
-    "report",
-    "demo",
-)
+#: Subcommands in the order ``evtribo --help`` lists them, with a line of help each.
+#: Only the module of the subcommand being run is imported (start-up stays fast).
+SUBCOMMANDS: dict[str, str] = {
+    "model": "the seed paper's model at a point; its figures",
+    "simulate": "run the simulated rig on a CAN bus, a pty (slcan) or into a study folder",
+    "acquire": "record one trial from a CAN bus into a study folder",
+    "inspect": "what a CAN log holds: ids, counts, rates, gaps, what decodes to what",
+    "decode": "decode a CAN log through a DBC into Parquet or CSV",
+    "analyze": "friction, windows and the inferred electrostatic force of a study",
+    "compare": "fit the model to the results of analyze; figures",
+    "report": "one self-contained HTML report of a study's results",
+    "demo": "simulate, record, analyse, compare and report a small study",
+}
 
 log = logging.getLogger(__name__)
 
@@ -48,8 +50,20 @@ def _unavailable(name: str, err: BaseException) -> Callable[[argparse.Namespace]
     return run
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The ``evtribo`` parser with every subcommand registered."""
+def _chosen(argv: Sequence[str]) -> str | None:
+    """The subcommand named in *argv* (its first word that is one), if any."""
+    return next((a for a in argv if a in SUBCOMMANDS), None)
+
+
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The ``evtribo`` parser.
+
+    Parameters
+    ----------
+    only : str, optional
+        Import and register fully only this subcommand; the others are listed with their
+        help line. By default every subcommand's module is imported.
+    """
     parser = argparse.ArgumentParser(
         prog="evtribo",
         description="Tribometer experiments on electrovibration: acquire, analyse, compare.",
@@ -57,11 +71,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"evtribo {__version__}")
     _add_common(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
-    for name in SUBCOMMANDS:
+    for name, help_line in SUBCOMMANDS.items():
+        if only is not None and name != only:
+            sub.add_parser(name, help=help_line, add_help=False)
+            continue
         try:
             module = importlib.import_module(f"evtribo.cli.{name}")
         except ImportError as err:
-            p = sub.add_parser(name, help=f"(unavailable: {err})")
+            p = sub.add_parser(name, help=f"{help_line} (unavailable: {err})")
             p.set_defaults(func=_unavailable(name, err))
             p.add_argument("rest", nargs=argparse.REMAINDER)
             continue
@@ -78,7 +95,9 @@ def _configure_logging(verbose: int, debug: bool) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``evtribo`` with *argv*; return the exit code (0 done, 1 failed, 2 bad input)."""
-    parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
+    chosen = _chosen(argv)
+    parser = build_parser(only=chosen or "")
     args = parser.parse_args(argv)
     debug = bool(getattr(args, "debug", False))
     _configure_logging(int(getattr(args, "verbose", 0) or 0), debug)
