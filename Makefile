@@ -14,7 +14,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/evtribo model --figures demo-output/figures --force
+	$(VENV)/bin/evtribo demo --out demo-output --force
 
 test: $(STAMP)
 	$(PY) -m pytest -n $(JOBS) -q

@@ -362,7 +362,8 @@ class ReceiveResult:
 
 
 def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
-            should_stop: Callable[[], bool], timeout: float = 0.1) -> ReceiveResult:
+            should_stop: Callable[[], bool], timeout: float = 0.1,
+            until: Callable[[], bool] | None = None) -> ReceiveResult:
     """Receive frames from *bus* into *writer* until *duration* s or *should_stop*.
 
     Parameters
@@ -377,6 +378,9 @@ def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
         Polled at least every *timeout* s; returning True ends with ``"interrupted"``.
     timeout : float, s
         ``recv`` timeout, the stop latency.
+    until : callable, optional
+        Polled like *should_stop* when the bus is idle; returning True ends the trial as
+        ``"completed"`` (the source is done and every frame it sent was received).
 
     Returns
     -------
@@ -415,6 +419,8 @@ def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
                 break
             if should_stop():
                 reason = "interrupted"
+                break
+            if until is not None and msg is None and until():
                 break
     except (can.CanError, OSError, ValueError) as err:
         # CanOperationError, serial.SerialException (an OSError), a pty closed under the

@@ -168,6 +168,7 @@ def record_trial(
     should_stop: Callable[[], bool] | None = None,
     monitor: Any = None,
     started: Callable[[TrialPaths], None] | None = None,
+    until: Callable[[], bool] | None = None,
 ) -> TrialResult:
     """Record one trial from *bus* into *study* until *duration*, a stop, or a fault.
 
@@ -197,6 +198,9 @@ def record_trial(
         Live display, started with the writer's statistics.
     started : callable, optional
         Called with the trial's paths once the log file is open.
+    until : callable, optional
+        Polled when the bus is idle; True ends the trial as ``completed`` (for a source
+        that knows when it is done, such as the simulated rig).
 
     Returns
     -------
@@ -266,7 +270,7 @@ def record_trial(
     log.info("recording %s/%s from %s %s into %s", subject, trial, settings.interface,
              settings.channel, paths.part)
     try:
-        result = receive(bus, writer, duration=duration, should_stop=stop)
+        result = receive(bus, writer, duration=duration, should_stop=stop, until=until)
         ended, error = result.reason, result.error
     except KeyboardInterrupt:
         ended, error = "interrupted", None

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import can
 import numpy as np
 
+from evtribo.errors import ConfigError
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.core import TrialGenerator
 from evtribo.frames.table import FrameTable
@@ -67,6 +68,10 @@ class Simulator:
         Its ``duration_s`` and ``start_time`` are replaced by those of each run.
     dbc : path-like, optional
         The rig's DBC (default: the default rig).
+    speed : float
+        Time-lapse factor: 1 sends the frames in real time, 4 four times faster (their
+        timestamps still follow the trial's own clock; a virtual bus opened with
+        ``preserve_timestamps=True`` passes them on).
 
     Examples
     --------
@@ -75,10 +80,13 @@ class Simulator:
     """
 
     def __init__(self, subject: SubjectParams | None = None, config: TrialConfig | None = None,
-                 dbc: str | os.PathLike[str] | None = None) -> None:
+                 dbc: str | os.PathLike[str] | None = None, *, speed: float = 1.0) -> None:
+        if not speed > 0:
+            raise ConfigError(f"{speed!r} is not allowed: the speed must be > 0", key="speed")
         self.subject = subject or SubjectParams()
         self.config = config or TrialConfig()
         self.dbc = dbc
+        self.speed = float(speed)
         self.generator: TrialGenerator | None = None
 
     def _generator(self, duration: float | None) -> TrialGenerator:
@@ -87,10 +95,10 @@ class Simulator:
         self.generator = TrialGenerator(self.subject, cfg, self.dbc)
         return self.generator
 
-    @staticmethod
-    def _pace(gen: TrialGenerator, deliver: Deliver, stop_event: threading.Event | None,
+    def _pace(self, gen: TrialGenerator, deliver: Deliver, stop_event: threading.Event | None,
               wait: Callable[[float], None]) -> RunStats:
         stats = RunStats()
+        speed = self.speed
         m0 = time.monotonic()
         start = gen.config.start_time
         try:
@@ -102,7 +110,7 @@ class Simulator:
                     if stop_event is not None and stop_event.is_set():
                         stats.generated -= n - i
                         return stats
-                    now = time.monotonic() - m0
+                    now = (time.monotonic() - m0) * speed
                     j = int(np.searchsorted(rel, now, side="right"))
                     if j > i:
                         sent = deliver(chunk, i, j)
@@ -110,7 +118,7 @@ class Simulator:
                         stats.not_sent += (j - i) - sent
                         i = j
                     else:
-                        wait(min(float(rel[i]) - now, TICK_S))
+                        wait(min((float(rel[i]) - now) / speed, TICK_S))
             return stats
         finally:
             stats.elapsed_s = time.monotonic() - m0

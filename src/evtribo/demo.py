@@ -1,0 +1,197 @@
+"""The demo: a small study simulated, recorded, analysed, compared and reported.
+
+Every step is the real one: the simulated rig streams its frames on a python-can ``virtual``
+bus, :func:`evtribo.acquisition.trial.record_trial` records them into a study folder (the
+code ``evtribo acquire`` runs), then ``analyze``, ``compare`` and ``report`` run on that
+folder. The rig runs in time-lapse (``speed``), with the frames keeping the trial's own
+timestamps, so the demo takes about a minute on two cores.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import threading
+import uuid
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import can
+
+from evtribo.acquisition.simulator import Simulator, SubjectParams, TrialConfig, default_subjects
+from evtribo.acquisition.trial import TrialInfo, record_trial
+from evtribo.errors import AcquisitionError, OutputExistsError
+
+log = logging.getLogger(__name__)
+
+#: Square-wave amplitudes of the demo study, V (as in the seed paper's Section 3.3).
+AMPLITUDES_V = (60.0, 80.0, 100.0, 120.0, 140.0)
+STUDY, RESULTS, REPORT, TRUTH = "study", "results", "report.html", "truth.json"
+
+Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class PlannedTrial:
+    """One trial of the demo study."""
+
+    subject: SubjectParams
+    name: str
+    config: TrialConfig
+
+    def info(self) -> TrialInfo:
+        c = self.config
+        return TrialInfo(waveform=c.waveform, frequency_Hz=c.frequency_Hz,
+                         amplitude_V=c.amplitude_V, condition=c.condition,
+                         notes="simulated rig (evtribo demo)")
+
+
+@dataclass
+class DemoResult:
+    """Where the demo wrote what, and the truth it can be checked against."""
+
+    out: Path
+    study: Path
+    results: Path
+    report: Path
+    truth: dict[str, Any] = field(default_factory=dict)
+    fitted_air_gaps: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+
+
+def plan(subjects: Sequence[SubjectParams], amplitudes: Sequence[float] = AMPLITUDES_V, *,
+         trial_s: float = 10.0, seed: int = 0) -> list[PlannedTrial]:
+    """The demo's trials: per subject, alternating square-wave trials at 10 kHz for each
+    amplitude, then one alternating 10 Hz sine trial at the highest amplitude."""
+    trials = []
+    for i, subject in enumerate(subjects):
+        specs = [("square", 10_000.0, float(a)) for a in amplitudes]
+        specs.append(("sine", 10.0, float(max(amplitudes))))
+        for k, (waveform, freq, amp) in enumerate(specs):
+            cfg = TrialConfig(duration_s=trial_s, waveform=waveform, frequency_Hz=freq,
+                              amplitude_V=amp, condition="alternating",
+                              seed=seed * 1000 + i * 100 + k)
+            trials.append(PlannedTrial(subject, f"run-{k + 1:02d}", cfg))
+    return trials
+
+
+def record(trial: PlannedTrial, study: Path, *, speed: float) -> dict[str, Any]:
+    """Stream one simulated trial on a virtual bus and record it into *study*.
+
+    Returns the simulator's truth for the trial.
+    """
+    channel = f"evtribo-demo-{uuid.uuid4().hex}"
+    tx = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
+    rx = can.Bus(interface="virtual", channel=channel)
+    sim = Simulator(trial.subject, trial.config, speed=speed)
+    done = threading.Event()
+    failure: list[BaseException] = []
+
+    def stream() -> None:
+        try:
+            sim.run(tx, duration=trial.config.duration_s)
+        except BaseException as err:  # reported below, after the recording is closed
+            failure.append(err)
+        finally:
+            done.set()
+
+    thread = threading.Thread(target=stream, name="simulated-rig", daemon=True)
+    try:
+        result = record_trial(rx, study, trial.subject.name, trial.name, duration=None,
+                              info=trial.info(), log_channel="vcan0",
+                              started=lambda _paths: thread.start(), until=done.is_set)
+    finally:
+        done.set()
+        if thread.is_alive() or thread.ident is not None:
+            thread.join()
+        tx.shutdown()
+        rx.shutdown()
+    if failure:
+        raise AcquisitionError(f"the simulated rig failed: {failure[0]}",
+                               path=result.paths.log) from failure[0]
+    if result.ended != "completed":
+        raise AcquisitionError(f"recording ended {result.ended}: {result.error}",
+                               path=result.paths.log)
+    assert sim.generator is not None
+    truth = sim.generator.truth().to_dict()
+    truth.update(subject=trial.subject.to_dict(), frames=result.sidecar["frames"],
+                 dropped_frames=result.sidecar["dropped_frames"])
+    return truth
+
+
+def _check_out(out: Path, force: bool) -> None:
+    taken = [out / name for name in (STUDY, RESULTS, REPORT, TRUTH) if (out / name).exists()]
+    if taken and not force:
+        raise OutputExistsError("holds a previous demo (" + ", ".join(p.name for p in taken)
+                                + "); use --force to replace it", path=out)
+    if force and (out / STUDY).exists():
+        # The demo's own simulated study is the only thing it ever replaces.
+        import shutil
+
+        shutil.rmtree(out / STUDY)
+
+
+def run_demo(out: str | Path, *, subjects: int = 3, amplitudes: Sequence[float] = AMPLITUDES_V,
+             trial_s: float = 16.0, speed: float = 8.0, seed: int = 0, jobs: int | None = None,
+             force: bool = False, progress: Progress | None = None) -> DemoResult:
+    """Simulate, record, analyse, compare and report a small study under *out*.
+
+    Parameters
+    ----------
+    out : path-like
+        Output folder: ``study/``, ``results/``, ``report.html``, ``truth.json``.
+    subjects : int
+        Number of simulated subjects (their μ, air gap and force drawn with *seed*).
+    amplitudes : sequence of float, V
+        Square-wave amplitudes.
+    trial_s : float, s
+        Length of each trial.
+    speed : float
+        Time-lapse factor of the simulated rig.
+    seed : int
+    jobs : int, optional
+        Worker processes for the analysis.
+    force : bool
+        Replace a previous demo in *out*.
+    progress : callable, optional
+        Called with a line of text after each step.
+    """
+    from evtribo.analysis.pipeline import analyze_study
+    from evtribo.compare import build_report, compare
+
+    say = progress or (lambda _line: None)
+    out = Path(out)
+    _check_out(out, force)
+    out.mkdir(parents=True, exist_ok=True)
+    res = DemoResult(out=out, study=out / STUDY, results=out / RESULTS, report=out / REPORT)
+    people = default_subjects(subjects, seed=seed)
+    trials = plan(people, amplitudes, trial_s=trial_s, seed=seed)
+    truths: dict[str, Any] = {"subjects": {p.name: p.to_dict() for p in people}, "trials": {}}
+    for n, trial in enumerate(trials, 1):
+        truth = record(trial, res.study, speed=speed)
+        truths["trials"][f"{trial.subject.name}/{trial.name}"] = truth
+        c = trial.config
+        say(f"[{n}/{len(trials)}] recorded {trial.subject.name}/{trial.name}: {c.waveform} "
+            f"{c.amplitude_V:g} V {c.frequency_Hz:g} Hz, {truth['frames']} frames, "
+            f"{truth['dropped_frames']} dropped")
+    (out / TRUTH).write_text(json.dumps(truths, indent=2) + "\n", encoding="utf-8")
+    res.truth = truths
+
+    def analysis_progress(done: int, total: int) -> None:
+        if done == total:
+            say(f"analysed {total} trials")
+
+    analyze_study(res.study, res.results, jobs=jobs, force=force, progress=analysis_progress)
+    say(f"results in {res.results}")
+    cmp = compare(res.results, force=force)
+    for fit in cmp.fits:
+        est = next((e for e in fit.estimates if e.name == "h_L"), None)
+        if est is not None:
+            res.fitted_air_gaps[fit.subject] = (est.value, est.ci_low, est.ci_high)
+            true_gap = truths["subjects"].get(fit.subject, {}).get("h_L")
+            say(f"{fit.subject}: air gap fitted {est.value * 1e6:.2f} µm "
+                f"[{est.ci_low * 1e6:.2f}, {est.ci_high * 1e6:.2f}], simulated with "
+                f"{true_gap * 1e6:.2f} µm")
+    build_report(res.results, res.report, force=force, run_compare=False)
+    return res

@@ -1,0 +1,37 @@
+"""The demo end to end: simulated rig -> virtual bus -> acquire -> analyze -> compare -> report."""
+
+import json
+from html.parser import HTMLParser
+
+import pytest
+
+from evtribo.cli import main
+from evtribo.demo import run_demo
+from evtribo.errors import OutputExistsError
+from evtribo.study import load_study
+
+
+def test_demo_end_to_end(tmp_path):
+    lines = []
+    res = run_demo(tmp_path / "demo", subjects=1, amplitudes=(80.0, 140.0), trial_s=8.0,
+                   speed=8.0, jobs=1, progress=lines.append)
+    study = load_study(res.study)
+    assert [t.name for t in study.trials] == ["run-01", "run-02", "run-03"]
+    for t in study.trials:  # recorded by the acquisition code, every frame kept
+        side = json.loads(t.sidecar_path.read_text())
+        assert side["ended"] == "completed" and side["dropped_frames"] == 0
+        assert side["frames"] == res.truth["trials"][t.key]["frames"] > 10_000
+    truth_gap = res.truth["subjects"]["P01"]["h_L"]
+    value, low, high = res.fitted_air_gaps["P01"]
+    assert value == pytest.approx(truth_gap, rel=0.1)
+    HTMLParser().feed(res.report.read_text(encoding="utf-8"))
+    assert res.report.stat().st_size > 50_000
+    assert any("air gap fitted" in line for line in lines)
+    with pytest.raises(OutputExistsError):
+        run_demo(tmp_path / "demo", subjects=1, amplitudes=(80.0,), trial_s=8.0)
+
+
+def test_demo_cli_refuses_bad_options(tmp_path, capsys):
+    assert main(["demo", "--out", str(tmp_path / "d"), "--subjects", "0"]) == 2
+    assert "--subjects" in capsys.readouterr().err
+    assert not (tmp_path / "d").exists()
