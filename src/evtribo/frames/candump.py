@@ -33,6 +33,7 @@ import numpy.typing as npt
 from evtribo.frames.table import CLASSIC_WIDTH, FD_WIDTH, FrameTable
 
 CAN_ERR_FLAG = 0x20000000
+CAN_ERR_BUSERROR = 0x00000080
 CAN_EFF_MASK = 0x1FFFFFFF
 #: Payload sizes a CAN FD frame can have, bytes.
 FD_SIZES = (0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64)
@@ -70,7 +71,7 @@ class _Chunk:
         self.channel: str | None = None
 
     def table(self) -> FrameTable:
-        v = self.valid
+        v: Any = slice(None) if self.valid.all() else self.valid
         return FrameTable(
             timestamp=self.timestamp[v], arbitration_id=self.arbitration_id[v],
             is_extended=self.is_extended[v], is_remote=self.is_remote[v],
@@ -126,9 +127,32 @@ def parse_line(text: str) -> tuple[Any, ...] | str:
 
 
 def _digits_value(mat: npt.NDArray[np.uint8]) -> npt.NDArray[np.float64]:
-    """Decimal digit columns to exact integers (float64; exact below 2**53)."""
-    w = 10.0 ** np.arange(mat.shape[1] - 1, -1, -1)
-    return (mat - np.uint8(48)).astype(np.float64) @ w
+    """Decimal digit columns (at most 16) to exact integers, as float64 (exact below 2**53).
+
+    Eight ASCII digits at a time are read as one little-endian uint64 and folded in three
+    multiply-shift-mask steps (the "SWAR" trick), instead of a loop over columns.
+    """
+    n, k = mat.shape
+    padded = np.full((n, 16), 48, dtype=np.uint8)
+    padded[:, 16 - k:] = mat
+    words = padded.view("<u8") - np.uint64(0x3030303030303030)
+    words = (words * np.uint64(10) + (words >> np.uint64(8))) & np.uint64(0x00FF00FF00FF00FF)
+    words = (words * np.uint64(100) + (words >> np.uint64(16))) & np.uint64(0x0000FFFF0000FFFF)
+    words = (words * np.uint64(10000) + (words >> np.uint64(32))) & np.uint64(0xFFFFFFFF)
+    return words[:, 0].astype(np.float64) * 1e8 + words[:, 1].astype(np.float64)
+
+
+def _hex_nibbles(chars: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
+    """Values of hex digits (garbage for other characters: check :func:`_is_hex`)."""
+    return (chars & np.uint8(15)) + np.uint8(9) * (chars >> np.uint8(6))
+
+
+def _is_hex(chars: npt.NDArray[np.uint8]) -> npt.NDArray[np.bool_]:
+    return ((chars - np.uint8(48)) < 10) | (((chars | np.uint8(0x20)) - np.uint8(97)) < 6)
+
+
+def _is_digit(chars: npt.NDArray[np.uint8]) -> npt.NDArray[np.bool_]:
+    return (chars - np.uint8(48)) < 10
 
 
 def _hex_value(nib: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint32]:
@@ -158,30 +182,55 @@ def _layout(line: bytes) -> dict[str, int] | None:
     }
 
 
-def _parse_group(mat: npt.NDArray[np.uint8], lay: dict[str, int], rows: npt.NDArray[np.intp],
-                 out: _Chunk) -> npt.NDArray[np.bool_]:
-    """Parse the rows of *mat* that follow *lay* into *out*; return which rows did."""
-    ok = (mat[:, 0] == ord("(")) & (mat[:, lay["int1"] if lay["dot"] < 0 else lay["frac1"]]
-                                      == ord(")"))
-    ok &= (mat[:, lay["ch0"] - 1] == ord(" ")) & (mat[:, lay["ch1"]] == ord(" "))
-    ok &= mat[:, lay["id1"]] == ord("#")
-    int_d = mat[:, lay["int0"]:lay["int1"]]
-    ok &= ((int_d - np.uint8(48)) < 10).all(axis=1)
+def _row_checks(mat: npt.NDArray[np.uint8], lay: dict[str, int]
+                ) -> list[tuple[npt.NDArray[np.uint8], Callable[..., Any] | int]]:
+    """(columns, test) pairs a row of the layout must pass: a character or a predicate."""
+    close = lay["int1"] if lay["dot"] < 0 else lay["frac1"]
+    checks: list[tuple[npt.NDArray[np.uint8], Callable[..., Any] | int]] = [
+        (mat[:, 0], ord("(")), (mat[:, close], ord(")")),
+        (mat[:, lay["ch0"] - 1], ord(" ")), (mat[:, lay["ch1"]], ord(" ")),
+        (mat[:, lay["id1"]], ord("#")),
+        (mat[:, lay["int0"]:lay["int1"]], _is_digit),
+        (mat[:, lay["id0"]:lay["id1"]], _is_hex),
+        (mat[:, lay["data0"]:lay["data0"] + 2 * lay["nbytes"]], _is_hex),
+    ]
     if lay["dot"] >= 0:
-        frac_d = mat[:, lay["dot"] + 1:lay["frac1"]]
-        ok &= (mat[:, lay["dot"]] == ord(".")) & ((frac_d - np.uint8(48)) < 10).all(axis=1)
-    id_nib = _HEX[mat[:, lay["id0"]:lay["id1"]]]
-    ok &= (id_nib != 255).all(axis=1)
-    nb = lay["nbytes"]
-    d_nib = _HEX[mat[:, lay["data0"]:lay["data0"] + 2 * nb]]
-    ok &= (d_nib != 255).all(axis=1)
+        checks += [(mat[:, lay["dot"]], ord(".")),
+                   (mat[:, lay["dot"] + 1:lay["frac1"]], _is_digit)]
     if lay["fd"]:
-        ok &= (mat[:, lay["flags"] - 1] == ord("#")) & (_HEX[mat[:, lay["flags"]]] != 255)
+        checks += [(mat[:, lay["flags"] - 1], ord("#")), (mat[:, lay["flags"]], _is_hex)]
     if lay["dir"] >= 0:
-        ok &= (mat[:, lay["dir"]] == ord(" ")) & np.isin(mat[:, lay["dir"] + 1],
-                                                         np.frombuffer(b"RTrt", np.uint8))
-    if not ok.all():
-        mat, id_nib, d_nib, rows = mat[ok], id_nib[ok], d_nib[ok], rows[ok]
+        checks += [(mat[:, lay["dir"]], ord(" ")),
+                   (mat[:, lay["dir"] + 1] | np.uint8(0x20), lambda c: (c == ord("r"))
+                    | (c == ord("t")))]
+    return checks
+
+
+def _parse_group(mat: npt.NDArray[np.uint8], lay: dict[str, int],
+                 rows_in: npt.NDArray[np.intp] | None, out: _Chunk) -> npt.NDArray[np.bool_]:
+    """Parse the rows of *mat* that follow *lay* into *out*; return which rows did.
+
+    *rows_in* gives each row's index in *out* (None: row ``i`` of *mat* is row ``i``).
+    """
+    checks = _row_checks(mat, lay)
+    rows: Any = slice(None) if rows_in is None else rows_in
+    if lay["nbytes"] > out.data.shape[1]:
+        wide = np.zeros((len(out.valid), FD_WIDTH), dtype=np.uint8)
+        wide[:, :out.data.shape[1]] = out.data
+        out.data = wide
+
+    def passes(cols: npt.NDArray[np.uint8], test: Callable[..., Any] | int
+               ) -> npt.NDArray[np.bool_]:
+        return cols == test if isinstance(test, int) else test(cols)
+
+    # whole-matrix tests first (one reduction each); per-row masks only when one fails
+    ok = np.ones(len(mat), dtype=bool)
+    if not all(bool(passes(c, t).all()) for c, t in checks):
+        for c, t in checks:
+            r = passes(c, t)
+            ok &= r if r.ndim == 1 else r.all(axis=1)
+        rows = np.flatnonzero(ok) if rows_in is None else rows_in[ok]
+        mat = mat[ok]
     if lay["dot"] >= 0:
         num = np.concatenate([mat[:, lay["int0"]:lay["int1"]],
                               mat[:, lay["dot"] + 1:lay["frac1"]]], axis=1)
@@ -190,36 +239,55 @@ def _parse_group(mat: npt.NDArray[np.uint8], lay: dict[str, int], rows: npt.NDAr
     else:
         whole = _digits_value(mat[:, lay["int0"]:lay["int1"]])
         scale = 1.0
-    exact = whole < 2.0**53  # integers below 2**53 are exact, and so is one division
-    if not exact.all():  # leave the others to the slow path (float() of the text)
-        ok[np.flatnonzero(ok)[~exact]] = False
-        mat, id_nib, d_nib, rows, whole = (mat[exact], id_nib[exact], d_nib[exact],
-                                           rows[exact], whole[exact])
-    ts = whole / scale
-    can_id = _hex_value(id_nib)
+    can_id = _hex_value(_hex_nibbles(mat[:, lay["id0"]:lay["id1"]]))
     long_id = lay["id1"] - lay["id0"] == 8
-    error = (can_id & np.uint32(CAN_ERR_FLAG)) != 0 if long_id else np.zeros(len(rows), bool)
-    std_ok = long_id or bool((can_id <= 0x7FF).all())
-    if not std_ok:  # 3 hex digits above 0x7FF: leave those rows to the slow path
-        keep = can_id <= 0x7FF
+    # integers below 2**53 are exact (and so is one division); 3-digit IDs must be <= 0x7FF
+    keep = whole < 2.0**53
+    if not long_id:
+        keep &= can_id <= 0x7FF
+    if not keep.all():  # the others go to the slow path
         ok[np.flatnonzero(ok)[~keep]] = False
-        ts, can_id, d_nib, rows, error = ts[keep], can_id[keep], d_nib[keep], rows[keep], \
-            error[keep]
+        if isinstance(rows, slice):
+            rows = np.arange(len(keep))
+        mat, rows, whole, can_id = mat[keep], rows[keep], whole[keep], can_id[keep]
+    ts = whole / scale
+    if long_id:
+        error = (can_id & np.uint32(CAN_ERR_FLAG)) != 0
+        out.is_extended[rows] = ~error
+        out.is_error[rows] = error
     out.timestamp[rows] = ts
     out.arbitration_id[rows] = can_id & np.uint32(CAN_EFF_MASK)
-    out.is_extended[rows] = long_id & ~error
-    out.is_error[rows] = error
     out.is_fd[rows] = bool(lay["fd"])
+    nb = lay["nbytes"]
     out.dlc[rows] = nb
     if nb:
+        d_nib = _hex_nibbles(mat[:, lay["data0"]:lay["data0"] + 2 * nb])
         out.data[rows, :nb] = (d_nib[:, 0::2] << np.uint8(4)) | d_nib[:, 1::2]
     out.valid[rows] = True
     return ok
 
 
-def _parse_block(block: bytes, first_line: int, on_bad: BadLineHandler) -> FrameTable:
+def _parse_block(block: bytes, first_line: int, on_bad: BadLineHandler
+                 ) -> tuple[FrameTable, int]:
+    """Frames of a block of whole lines, and the number of lines."""
     buf = np.frombuffer(block, dtype=np.uint8)
     nl = np.flatnonzero(buf == 10)
+    step = int(nl[0]) + 1 if len(nl) else 0
+    if (step > 2 and len(block) == step * len(nl) and block[step - 2] != 13
+            and bool((nl[1:] - nl[:-1] == step).all())):
+        # every line has the same length: the block is already a (lines, length) matrix
+        n = len(nl)
+        out = _Chunk(n, CLASSIC_WIDTH)
+        mat = buf.reshape(n, step)[:, :step - 1]
+        lay = _layout(mat[0].tobytes())
+        if lay is not None:
+            out.channel = mat[0, lay["ch0"]:lay["ch1"]].tobytes().decode("ascii", "replace")
+            ok = _parse_group(mat, lay, None, out)
+            if not ok.all():
+                starts = np.arange(n) * step
+                _slow_lines(block, starts, starts + step - 1, np.flatnonzero(~ok), first_line,
+                            on_bad, out)
+            return out.table(), n
     starts = np.concatenate(([0], nl + 1))
     ends = np.concatenate((nl, [len(buf)]))
     if starts[-1] >= len(buf):  # block ends with a newline
@@ -227,14 +295,15 @@ def _parse_block(block: bytes, first_line: int, on_bad: BadLineHandler) -> Frame
     cr = (ends > starts) & (buf[np.maximum(ends - 1, 0)] == 13)
     ends = ends - cr
     lengths = ends - starts
-    width = FD_WIDTH if b"##" in block else CLASSIC_WIDTH
-    out = _Chunk(len(starts), width)
+    out = _Chunk(len(starts), CLASSIC_WIDTH)
     slow = np.zeros(len(starts), dtype=bool)
     windows = np.lib.stride_tricks.sliding_window_view
-    for length in np.unique(lengths):
-        rows = np.flatnonzero(lengths == length)
+    counts = np.bincount(lengths)
+    for length in np.flatnonzero(counts):
         if length == 0:
             continue
+        rows = np.flatnonzero(lengths == length) if counts[length] < len(lengths) \
+            else np.arange(len(lengths))
         mat = windows(buf, int(length))[starts[rows]]
         lay = _layout(mat[0].tobytes())
         if lay is None:
@@ -244,7 +313,18 @@ def _parse_block(block: bytes, first_line: int, on_bad: BadLineHandler) -> Frame
             out.channel = mat[0, lay["ch0"]:lay["ch1"]].tobytes().decode("ascii", "replace")
         ok = _parse_group(mat, lay, rows, out)
         slow[rows[~ok]] = True
-    for i in np.flatnonzero(slow):
+    _slow_lines(block, starts, ends, np.flatnonzero(slow), first_line, on_bad, out)
+    valid = np.flatnonzero(out.valid)
+    if len(valid):  # the channel named on the first frame's line
+        words = block[starts[valid[0]]:ends[valid[0]]].split()
+        out.channel = words[1].decode("ascii", "replace") if len(words) > 1 else out.channel
+    return out.table(), len(starts)
+
+
+def _slow_lines(block: bytes, starts: npt.NDArray[np.intp], ends: npt.NDArray[np.intp],
+                which: npt.NDArray[np.intp], first_line: int, on_bad: BadLineHandler,
+                out: _Chunk) -> None:
+    for i in which:
         text = block[starts[i]:ends[i]].decode("utf-8", "replace")
         if not text.strip():
             continue
@@ -265,7 +345,6 @@ def _parse_block(block: bytes, first_line: int, on_bad: BadLineHandler) -> Frame
         out.valid[i] = True
         if out.channel is None:
             out.channel = ch
-    return out.table()
 
 
 def _open_binary(path: str | os.PathLike[str]) -> IO[bytes]:
@@ -274,10 +353,9 @@ def _open_binary(path: str | os.PathLike[str]) -> IO[bytes]:
     return open(path, "rb")  # noqa: SIM115 - closed by the caller
 
 
-def iter_blocks(stream: IO[bytes], block_size: int = _BLOCK) -> Iterator[tuple[bytes, int]]:
-    """Blocks of whole lines of *stream*, with the 1-based number of each block's first line."""
+def iter_blocks(stream: IO[bytes], block_size: int = _BLOCK) -> Iterator[bytes]:
+    """Blocks of whole lines of *stream* (the last may lack its newline)."""
     rest = b""
-    line = 1
     while True:
         chunk = stream.read(block_size)
         if not chunk:
@@ -288,10 +366,9 @@ def iter_blocks(stream: IO[bytes], block_size: int = _BLOCK) -> Iterator[tuple[b
             rest = data
             continue
         block, rest = data[:cut + 1], data[cut + 1:]
-        yield block, line
-        line += block.count(b"\n")
+        yield block
     if rest:
-        yield rest, line
+        yield rest
 
 
 def read_candump(path: str | os.PathLike[str], on_bad: BadLineHandler,
@@ -317,9 +394,10 @@ def read_candump(path: str | os.PathLike[str], on_bad: BadLineHandler,
     tables = []
     lines = 0
     with _open_binary(path) as stream:
-        for block, first in iter_blocks(stream, block_size):
-            tables.append(_parse_block(block, first, on_bad))
-            lines = first - 1 + block.count(b"\n") + (0 if block.endswith(b"\n") else 1)
+        for block in iter_blocks(stream, block_size):
+            table, n = _parse_block(block, lines + 1, on_bad)
+            tables.append(table)
+            lines += n
     if not tables:
         return FrameTable.empty(), 0
     table = tables[0] if len(tables) == 1 else FrameTable.concat(tables)
@@ -344,7 +422,9 @@ def _format_block(frames: FrameTable, channel: bytes, fd_flags: npt.NDArray[np.u
     out = np.zeros(int(offsets[-1]), dtype=np.uint8)
     key = np.stack([int_digits, long_id, frames.is_remote, fd, dlc], axis=1)
     groups, inverse = np.unique(key, axis=0, return_inverse=True)
-    can_id = np.where(frames.is_error, frames.arbitration_id | CAN_ERR_FLAG,
+    # an error frame without an error class is written as a bus error, as python-can does
+    err_class = np.where(frames.arbitration_id == 0, CAN_ERR_BUSERROR, frames.arbitration_id)
+    can_id = np.where(frames.is_error, err_class | CAN_ERR_FLAG,
                       frames.arbitration_id).astype(np.int64)
     for g, (nd, lid, rem, isfd, nb) in enumerate(groups):
         rows = np.flatnonzero(inverse.ravel() == g)

@@ -72,7 +72,7 @@ def frames_from_messages(messages: Iterable[can.Message], channel: str | None = 
     for msg in messages:
         ts.append(msg.timestamp)
         ids.append(msg.arbitration_id)
-        ext.append(msg.is_extended_id)
+        ext.append(msg.is_extended_id and not msg.is_error_frame)
         rem.append(msg.is_remote_frame)
         err.append(msg.is_error_frame)
         fd.append(msg.is_fd)
