@@ -1,0 +1,88 @@
+"""Trial cache: a second load does not decode again; keys follow log and rig content."""
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import evtribo.cache as cache
+from evtribo.errors import LogFormatError
+from evtribo.rig import Rig, default_rig
+
+from test_decode import _second_rig_trial  # noqa: I001
+
+
+@pytest.fixture
+def trial_files(tmp_path):
+    rig, path, _fn, _ft = _second_rig_trial(tmp_path)
+    return rig, path
+
+
+def test_second_load_comes_from_cache(trial_files, tmp_path, monkeypatch):
+    rig, path = trial_files
+    cdir = tmp_path / "cache"
+    first = cache.load_trial(path, rig, cache_dir=cdir)
+    assert len(list(cdir.glob("*.parquet"))) == 1
+    assert not list(path.parent.glob("*.parquet"))  # nothing beside the raw log
+
+    def no_read(*_a, **_k):
+        raise AssertionError("decoded again")
+
+    monkeypatch.setattr(cache, "read_frames", no_read)
+    second = cache.load_trial(path, rig, cache_dir=cdir)
+    for cell in ("normal", "tangential"):
+        a, b = getattr(first, cell), getattr(second, cell)
+        np.testing.assert_array_equal(a.t, b.t)
+        np.testing.assert_array_equal(a.value, b.value)
+        np.testing.assert_array_equal(a.counter, b.counter)
+        assert a.dropped == b.dropped
+    assert second.excitation.waveform.tolist() == first.excitation.waveform.tolist()
+    np.testing.assert_array_equal(second.excitation.enabled, first.excitation.enabled)
+    np.testing.assert_array_equal(second.excitation.amplitude, first.excitation.amplitude)
+    assert (second.frames, second.ignored_frames) == (first.frames, first.ignored_frames)
+
+
+def test_changed_log_or_rig_misses_the_cache(trial_files, tmp_path):
+    rig, path = trial_files
+    cdir = tmp_path / "cache"
+    cache.load_trial(path, rig, cache_dir=cdir)
+    with path.open("a") as fh:
+        fh.write("(200.000000) vcan0 701#00\n")
+    cache.load_trial(path, rig, cache_dir=cdir)
+    other = Rig.from_mapping({"dbc": str(rig.dbc), "normal_force": "NormalCell.Force_mN",
+                              "tangential_force": "TangentialCell.Ft"}, tmp_path)
+    trial = cache.load_trial(path, other, cache_dir=cdir)
+    assert trial.excitation is None and trial.normal.counter is None
+    assert len(list(cdir.glob("*.parquet"))) == 3
+
+
+def test_strict_rereads_a_trial_with_skipped_lines(tmp_path):
+    rig = default_rig()
+    log = tmp_path / "t.log"
+    log.write_text("(1.000000) vcan0 0C1#0000000000000000\n(1.001000) vcan0 0C1#00ZZ\n")
+    cdir = tmp_path / "cache"
+    assert cache.load_trial(log, rig, cache_dir=cdir).skipped_lines == 1
+    assert cache.load_trial(log, rig, cache_dir=cdir).skipped_lines == 1
+    with pytest.raises(LogFormatError):
+        cache.load_trial(log, rig, cache_dir=cdir, strict=True)
+
+
+def test_default_cache_dir_from_environment(tmp_path, monkeypatch):
+    monkeypatch.setenv("EVTRIBO_CACHE_DIR", str(tmp_path / "c"))
+    assert cache.default_cache_dir() == tmp_path / "c"
+    monkeypatch.delenv("EVTRIBO_CACHE_DIR")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "x"))
+    assert cache.default_cache_dir() == tmp_path / "x" / "evtribo"
+
+
+def test_corrupt_entry_is_decoded_again(trial_files, tmp_path):
+    rig, path = trial_files
+    cdir = tmp_path / "cache"
+    cache.load_trial(path, rig, cache_dir=cdir)
+    entry = next(cdir.glob("*.parquet"))
+    entry.write_bytes(b"not parquet")
+    trial = cache.load_trial(path, rig, cache_dir=cdir)
+    assert trial.frames > 0
+    assert entry.read_bytes()[:4] == b"PAR1"
+    shutil.rmtree(cdir)

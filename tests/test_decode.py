@@ -1,0 +1,213 @@
+"""Vectorised decoding equals cantools; a second rig's trial decodes to the right forces."""
+
+import math
+from pathlib import Path
+
+import can
+import cantools
+import numpy as np
+import pytest
+from cantools.database.can import Database, Message, Signal
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from evtribo.decode import (SignalCodec, decode_message, decode_messages, decode_trial,
+                            dropped_frames)
+from evtribo.frames import FrameTable, frames_from_messages, read_frames, write_candump
+from evtribo.rig import default_rig, load_rig
+
+RIGS = Path(__file__).parent / "data" / "rigs"
+
+
+@st.composite
+def layouts(draw):
+    n_bytes = draw(st.sampled_from([1, 2, 5, 8, 8, 8, 12, 16, 64]))
+    is_float = draw(st.booleans()) and n_bytes >= 4
+    if is_float:
+        length = draw(st.sampled_from([32, 64] if n_bytes >= 8 else [32]))
+    else:
+        length = draw(st.integers(1, min(64, 8 * n_bytes)))
+    little = draw(st.booleans())
+    pos = draw(st.integers(0, 8 * n_bytes - length))  # sequential bit position
+    if little:
+        start = pos
+    else:  # DBC "sawtooth" numbering of the MSB
+        start = (pos // 8) * 8 + (7 - pos % 8)
+    scale = draw(st.sampled_from([1, 2, 10, 0.5, 1e-5, 0.01])
+                 | st.floats(1e-6, 1e3, allow_nan=False))
+    offset = draw(st.sampled_from([0, -40, 1000]) | st.floats(-1e4, 1e4, allow_nan=False))
+    signal = Signal("S", start, length, "little_endian" if little else "big_endian",
+                    is_signed=draw(st.booleans()) and not is_float,
+                    conversion=cantools.database.conversion.BaseConversion.factory(
+                        scale=scale, offset=offset, is_float=is_float))
+    ext = draw(st.booleans())
+    frame_id = draw(st.integers(0, 0x1FFFFFFF if ext else 0x7FF))
+    message = Message(frame_id, "M", n_bytes, [signal], is_extended_frame=ext)
+    payloads = draw(st.lists(st.binary(min_size=n_bytes, max_size=n_bytes), min_size=1,
+                             max_size=20))
+    return message, payloads
+
+
+def _table(message: Message, payloads: list[bytes]) -> FrameTable:
+    return frames_from_messages(
+        can.Message(timestamp=i * 1e-3, arbitration_id=message.frame_id,
+                    is_extended_id=message.is_extended_frame, data=p, is_fd=len(p) > 8)
+        for i, p in enumerate(payloads))
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(layouts())
+def test_vectorised_decoder_equals_cantools(case):
+    message, payloads = case
+    frames = _table(message, payloads)
+    decoded = decode_message(frames, message)
+    assert len(decoded) == len(payloads)
+    sig = message.signals[0]
+    for i, p in enumerate(payloads):
+        raw = message.decode(p, decode_choices=False, scaling=False)["S"]
+        scaled = message.decode(p, decode_choices=False)["S"]
+        ours_raw = decoded.raw["S"][i]
+        ours = decoded.scaled("S")[i]
+        if sig.is_float:
+            assert (math.isnan(raw) and math.isnan(ours_raw)) or ours_raw == raw
+            assert (math.isnan(scaled) and math.isnan(ours)) or ours == scaled \
+                or (math.isinf(scaled) and ours == scaled)
+        else:
+            assert int(ours_raw) == raw
+            if isinstance(scaled, int):  # cantools computed it exactly: compare rounded
+                tol = 4 * np.spacing(abs(raw * sig.scale) + abs(sig.offset) + 1.0)
+                assert abs(ours - scaled) <= tol
+            else:
+                assert ours == scaled
+
+
+def test_value_tables_give_raw_codes_and_names():
+    db = default_rig().database
+    msg = db.get_message_by_name("HvStatus")
+    payloads = [msg.encode({"HvOn": 1, "HvWave": w, "HvCounter": 0, "HvAmp": 140,
+                            "HvFreq": 10000, "HvCurrent": 1}) for w in (0, 1, 3)]
+    decoded = decode_messages(_table(msg, payloads), db)["HvStatus"]
+    assert decoded.raw["HvWave"].tolist() == [0, 1, 3]
+    assert decoded.choice_names("HvWave").tolist() == ["sine", "square", "dc"]
+    np.testing.assert_allclose(decoded.scaled("HvAmp"), 140)
+    assert decoded.units["HvAmp"] == "V"
+
+
+def test_multiplexed_message_falls_back_to_cantools():
+    db = cantools.database.load_string(
+        'VERSION ""\nNS_ :\nBS_:\nBU_: A\n'
+        'BO_ 100 Mux: 8 A\n'
+        ' SG_ Sel M : 0|8@1+ (1,0) [0|255] "" A\n'
+        ' SG_ X m0 : 8|16@1+ (0.5,0) [0|1000] "" A\n'
+        ' SG_ Y m1 : 8|16@1- (1,-3) [-100|100] "" A\n', database_format="dbc")
+    msg = db.get_message_by_name("Mux")
+    payloads = [msg.encode({"Sel": 0, "X": 10.5}), msg.encode({"Sel": 1, "Y": -7})]
+    decoded = decode_messages(_table(msg, payloads), db)["Mux"]
+    np.testing.assert_array_equal(decoded.scaled("X"), [10.5, np.nan])
+    np.testing.assert_array_equal(decoded.scaled("Y"), [np.nan, -7])
+
+
+def test_dropped_frames_counter_wraps_and_long_gaps():
+    t = np.arange(1000) * 1e-3
+    counter = np.arange(1000) % 16
+    keep = np.ones(1000, bool)
+    keep[[10, 11, 500]] = False  # 3 frames lost
+    keep[700:740] = False  # 40 frames lost: more than the counter's period
+    assert dropped_frames(t[keep], counter[keep], 16) == 43
+    assert dropped_frames(t[keep]) == 43  # timing alone finds them on a clean clock
+    # a late frame (jitter) is no loss when the counter says so
+    t2 = t.copy()
+    t2[300] += 0.0009
+    assert dropped_frames(t2, counter, 16) == 0
+
+
+def _second_rig_trial(tmp_path):
+    rig = load_rig(RIGS / "motorola.toml")
+    db = rig.database
+    nmsg, tmsg, amsg = (db.get_message_by_name(n)
+                        for n in ("NormalCell", "TangentialCell", "AmpState"))
+    rng = np.random.default_rng(5)
+    msgs, fn, ft = [], [], []
+    for k in range(400):
+        t = 100.0 + k * 2e-3
+        if k not in (50, 51, 52):  # normal cell: 3 frames lost
+            fn.append(round(rng.uniform(-20, 20), 3))
+            msgs.append(can.Message(timestamp=t, arbitration_id=nmsg.frame_id,
+                                    data=nmsg.encode({"Force_mN": fn[-1], "Seq": k % 16,
+                                                      "Spare": 7})))
+        ft.append(round(rng.uniform(-3, 3), 5))
+        msgs.append(can.Message(timestamp=t + 7e-4, arbitration_id=tmsg.frame_id,
+                                data=tmsg.encode({"Ft": ft[-1], "SeqT": k % 256})))
+        if k % 40 == 0:
+            msgs.append(can.Message(timestamp=t + 1e-4, arbitration_id=amsg.frame_id,
+                                    is_extended_id=False, data=amsg.encode(
+                                        {"Enabled": (k // 40) % 2, "Shape": (k // 80) % 2,
+                                         "Volts": 140.5, "Hertz": 250})))
+            msgs.append(can.Message(timestamp=t + 2e-4, arbitration_id=0x701,
+                                    is_extended_id=False, data=bytes(8)))
+            msgs.append(can.Message(timestamp=t + 3e-4, is_error_frame=True))
+            msgs.append(can.Message(timestamp=t + 4e-4, arbitration_id=0x0C1,
+                                    is_extended_id=False, data=bytes(8)))
+    path = tmp_path / "trial.log"
+    write_candump(path, frames_from_messages(msgs))
+    return rig, path, np.array(fn), np.array(ft)
+
+
+def test_second_rig_extended_ids_motorola_other_scalings(tmp_path):
+    rig, path, fn, ft = _second_rig_trial(tmp_path)
+    frames, report = read_frames(path)
+    assert report.skipped_lines == 0
+    trial = decode_trial(frames, rig)
+    np.testing.assert_allclose(trial.normal.value, fn, atol=1e-9)
+    np.testing.assert_allclose(trial.tangential.value, ft, atol=1e-9)
+    assert trial.normal.dropped == 3 and trial.tangential.dropped == 0
+    assert trial.dropped_frames == 3
+    assert trial.frames == 397 + 400 + 10
+    assert trial.ignored_frames == 30  # Other, error frames, a default-rig ID
+    ex = trial.excitation
+    assert ex.enabled.tolist() == [bool(i % 2) for i in range(10)]
+    assert ex.waveform.tolist() == ["sine", "sine", "square", "square"] * 2 + ["sine"] * 2
+    np.testing.assert_allclose(ex.amplitude, 140.5)
+    np.testing.assert_allclose(ex.frequency, 250)
+    assert np.all(np.diff(trial.normal.t) > 0)
+
+
+def test_default_rig_trial_without_excitation_roles(tmp_path):
+    rig = default_rig()
+    toml = tmp_path / "rig.toml"
+    toml.write_text(f'dbc = "{rig.dbc}"\nnormal_force = "FzCell.Fz"\n'
+                    'tangential_force = "FxCell.Fx"\n')
+    plain = load_rig(toml)
+    fz = rig.database.get_message_by_name("FzCell")
+    frames = frames_from_messages(
+        can.Message(timestamp=i * 1e-3, arbitration_id=fz.frame_id, is_extended_id=False,
+                    data=fz.encode({"Fz": 0.5, "FzStatus": 0, "FzTemp": 20,
+                                    "FzCounter": i % 256})) for i in range(10))
+    trial = decode_trial(frames, plain)
+    assert trial.excitation is None
+    assert trial.normal.counter is None
+    np.testing.assert_allclose(trial.normal.value, 0.5)
+    assert len(trial.tangential.t) == 0 and trial.frames == 10
+
+
+def test_signal_codec_matches_cantools_naming():
+    sig = default_rig().normal_force.signal
+    codec = SignalCodec.from_signal(sig)
+    raw = np.array([-50000, 0, 123456])
+    np.testing.assert_allclose(codec.raw_to_scaled(raw),
+                               [sig.conversion.raw_to_scaled(int(r)) for r in raw])
+
+
+@pytest.mark.parametrize("db_case", ["default"])
+def test_decode_messages_covers_every_message(db_case):
+    db: Database = default_rig().database
+    payload = bytes(range(8))
+    frames = frames_from_messages(
+        can.Message(timestamp=i, arbitration_id=m.frame_id, is_extended_id=False, data=payload)
+        for i, m in enumerate(db.messages))
+    out = decode_messages(frames, db)
+    assert list(out) == [m.name for m in db.messages]
+    for m in db.messages:
+        ref = m.decode(payload, decode_choices=False)
+        for name, value in ref.items():
+            assert out[m.name].scaled(name)[0] == pytest.approx(value, rel=1e-12)
