@@ -114,7 +114,8 @@ class SignalCodec:
         u = self._unsigned(data)
         if self.is_float:
             if self.length == 32:
-                return u.astype(np.uint32).view(np.float32).astype(np.float64)
+                with np.errstate(invalid="ignore"):  # signalling NaNs stay NaN
+                    return u.astype(np.uint32).view(np.float32).astype(np.float64)
             if self.length == 64:
                 return u.view(np.float64)
             raise ValueError(f"signal {self.name}: float of {self.length} bits")
@@ -128,11 +129,12 @@ class SignalCodec:
 
     def raw_to_scaled(self, raw: npt.NDArray[np.generic]) -> Array:
         """Physical values, ``raw * scale + offset`` in float64."""
-        value = raw.astype(np.float64)
-        if self.scale != 1:
-            value *= self.scale
-        if self.offset != 0:
-            value += self.offset
+        with np.errstate(invalid="ignore", over="ignore"):  # NaN and inf as cantools gives
+            value = raw.astype(np.float64)
+            if self.scale != 1:
+                value *= self.scale
+            if self.offset != 0:
+                value += self.offset
         return value
 
     def decode(self, data: npt.NDArray[np.uint8]) -> Array:
