@@ -211,3 +211,57 @@ def test_decode_messages_covers_every_message(db_case):
         ref = m.decode(payload, decode_choices=False)
         for name, value in ref.items():
             assert out[m.name].scaled(name)[0] == pytest.approx(value, rel=1e-12)
+
+
+# --- the inspect and decode commands -----------------------------------------------------------
+
+def test_decode_command_writes_one_column_per_signal(tmp_path, capsys):
+    import pandas as pd
+
+    from evtribo.cli import main
+
+    rig, path, fn, ft = _second_rig_trial(tmp_path)
+    out = tmp_path / "out.parquet"
+    assert main(["decode", str(path), "--dbc", str(rig.dbc), "-o", str(out)]) == 0
+    table = pd.read_parquet(out)
+    assert list(table.columns[:2]) == ["timestamp", "message"]
+    assert {"Force_mN", "Ft", "Seq", "Volts", "Shape", "Junk"} <= set(table.columns)
+    frames, _ = read_frames(path)  # rows in log order: every frame of a DBC message
+    known = np.isin(frames.arbitration_id, [m.frame_id for m in rig.database.messages])
+    known &= ~frames.is_error & (frames.arbitration_id != 0x0C1)
+    np.testing.assert_array_equal(table["timestamp"], frames.timestamp[known])
+    normal = table[table["message"] == "NormalCell"]
+    np.testing.assert_allclose(normal["Force_mN"], fn, atol=1e-9)
+    assert normal["Ft"].isna().all()
+    # refuses to overwrite, then does with --force; CSV with value-table names
+    assert main(["decode", str(path), "--dbc", str(rig.dbc), "-o", str(out)]) == 2
+    assert "--force" in capsys.readouterr().err
+    csv = tmp_path / "out.csv"
+    assert main(["decode", str(path), "--dbc", str(rig.dbc), "-o", str(csv), "--choices"]) == 0
+    shapes = pd.read_csv(csv)["Shape"].dropna().unique().tolist()
+    assert sorted(shapes) == ["sine", "square"]
+
+
+def test_inspect_command_names_ids_rates_and_messages(tmp_path, capsys):
+    from evtribo.cli import main
+
+    rig, path, _fn, _ft = _second_rig_trial(tmp_path)
+    assert main(["inspect", str(path), "--dbc", str(rig.dbc)]) == 0
+    out = capsys.readouterr().out
+    assert "18FF0000x" in out and "NormalCell: Force_mN [N]" in out
+    assert "0C1" in out and "(not in the DBC)" in out
+    row = next(line for line in out.splitlines() if "18FF0001x" in line)
+    assert row.split()[1] == "400" and float(row.split()[2]) == pytest.approx(500, rel=1e-3)
+
+
+def test_commands_strict_exit_code_on_damaged_line(tmp_path, capsys):
+    from evtribo.cli import main
+
+    log = tmp_path / "bad.log"
+    log.write_text("(1.000000) vcan0 0C1#0000000000000000\n(1.001000) vcan0 0C1#00Z\n")
+    assert main(["inspect", str(log)]) == 0
+    assert main(["inspect", str(log), "--strict"]) == 2
+    assert f"{log}:2" in capsys.readouterr().err
+    dbc = default_rig().dbc
+    assert main(["decode", str(log), "--dbc", str(dbc), "-o", str(tmp_path / "o.csv"),
+                 "--strict"]) == 2
