@@ -1,16 +1,14 @@
 """Trial cache: a second load does not decode again; keys follow log and rig content."""
 
 import shutil
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-import evtribo.cache as cache
+from evtribo import cache
 from evtribo.errors import LogFormatError
 from evtribo.rig import Rig, default_rig
-
-from test_decode import _second_rig_trial  # noqa: I001
+from test_decode import _second_rig_trial
 
 
 @pytest.fixture

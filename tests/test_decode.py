@@ -6,13 +6,20 @@ from pathlib import Path
 import can
 import cantools
 import numpy as np
+import pandas as pd
 import pytest
 from cantools.database.can import Database, Message, Signal
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from evtribo.decode import (SignalCodec, decode_message, decode_messages, decode_trial,
-                            dropped_frames)
+from evtribo.cli import main
+from evtribo.decode import (
+    SignalCodec,
+    decode_message,
+    decode_messages,
+    decode_trial,
+    dropped_frames,
+)
 from evtribo.frames import FrameTable, frames_from_messages, read_frames, write_candump
 from evtribo.rig import default_rig, load_rig
 
@@ -216,11 +223,7 @@ def test_decode_messages_covers_every_message(db_case):
 # --- the inspect and decode commands -----------------------------------------------------------
 
 def test_decode_command_writes_one_column_per_signal(tmp_path, capsys):
-    import pandas as pd
-
-    from evtribo.cli import main
-
-    rig, path, fn, ft = _second_rig_trial(tmp_path)
+    rig, path, fn, _ft = _second_rig_trial(tmp_path)
     out = tmp_path / "out.parquet"
     assert main(["decode", str(path), "--dbc", str(rig.dbc), "-o", str(out)]) == 0
     table = pd.read_parquet(out)
@@ -243,8 +246,6 @@ def test_decode_command_writes_one_column_per_signal(tmp_path, capsys):
 
 
 def test_inspect_command_names_ids_rates_and_messages(tmp_path, capsys):
-    from evtribo.cli import main
-
     rig, path, _fn, _ft = _second_rig_trial(tmp_path)
     assert main(["inspect", str(path), "--dbc", str(rig.dbc)]) == 0
     out = capsys.readouterr().out
@@ -255,8 +256,6 @@ def test_inspect_command_names_ids_rates_and_messages(tmp_path, capsys):
 
 
 def test_commands_strict_exit_code_on_damaged_line(tmp_path, capsys):
-    from evtribo.cli import main
-
     log = tmp_path / "bad.log"
     log.write_text("(1.000000) vcan0 0C1#0000000000000000\n(1.001000) vcan0 0C1#00Z\n")
     assert main(["inspect", str(log)]) == 0

@@ -55,7 +55,7 @@ def test_unknown_signal_names_closest_signals(tmp_path):
 
 
 def test_malformed_name(tmp_path):
-    with pytest.raises(RigConfigError, match="Message.Signal") as exc:
+    with pytest.raises(RigConfigError, match=r"Message\.Signal") as exc:
         Rig.from_mapping(_study(tmp_path, excitation_enabled="HvOn"), tmp_path)
     assert exc.value.key == "rig.excitation_enabled"
 

@@ -161,7 +161,7 @@ class Rig:
             raise RigConfigError(
                 "unknown key(s) " + ", ".join(hints) + "; allowed: "
                 + ", ".join(OTHER_KEYS + ROLES), path=src, key=key(unknown[0]))
-        for k in ("dbc",) + REQUIRED_ROLES:
+        for k in ("dbc", *REQUIRED_ROLES):
             if k not in mapping:
                 raise RigConfigError("missing (required)", path=src, key=key(k))
         for k, v in mapping.items():

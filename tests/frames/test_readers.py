@@ -11,6 +11,7 @@ import pytest
 
 from evtribo.errors import LogFormatError
 from evtribo.frames import FrameTable, frames_from_messages, read_frames, write_candump
+from evtribo.frames.candump import read_candump
 
 DATA = Path(__file__).parent.parent / "data" / "logs"
 PEER_LOGS = sorted(p for p in DATA.iterdir() if p.suffix != ".md")
@@ -125,14 +126,13 @@ def test_fast_and_slow_paths_agree_on_a_large_mixed_log(tmp_path):
     with can.CanutilsLogWriter(path) as w:
         for m in msgs:
             w.on_message_received(m)
-    from evtribo.frames.candump import read_candump
     frames, lines = read_candump(path, lambda *a: pytest.fail(f"damaged {a}"), block_size=4096)
     assert lines == len(msgs)
     assert_same_frames(frames, frames_from_messages(can.LogReader(path)))
 
 
 def test_write_candump_reads_back_identically(tmp_path):
-    msgs = _trace(fd=True) + [can.Message(timestamp=T0 + 1, is_error_frame=True)]
+    msgs = [*_trace(fd=True), can.Message(timestamp=T0 + 1, is_error_frame=True)]
     frames = frames_from_messages(msgs)
     for name in ("out.log", "out.log.gz"):
         path = tmp_path / name

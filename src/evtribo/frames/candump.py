@@ -80,7 +80,7 @@ class _Chunk:
         )
 
 
-def parse_line(text: str) -> tuple[Any, ...] | str:
+def parse_line(text: str) -> tuple[Any, ...] | str:  # noqa: PLR0911 - one reason each
     """Parse one candump line (slow path).
 
     Returns
@@ -285,8 +285,8 @@ def _parse_block(block: bytes, first_line: int, on_bad: BadLineHandler
             ok = _parse_group(mat, lay, None, out)
             if not ok.all():
                 starts = np.arange(n) * step
-                _slow_lines(block, starts, starts + step - 1, np.flatnonzero(~ok), first_line,
-                            on_bad, out)
+                _slow_lines(block, starts, starts + step - 1, np.flatnonzero(~ok),
+                            first_line=first_line, on_bad=on_bad, out=out)
             return out.table(), n
     starts = np.concatenate(([0], nl + 1))
     ends = np.concatenate((nl, [len(buf)]))
@@ -313,7 +313,8 @@ def _parse_block(block: bytes, first_line: int, on_bad: BadLineHandler
             out.channel = mat[0, lay["ch0"]:lay["ch1"]].tobytes().decode("ascii", "replace")
         ok = _parse_group(mat, lay, rows, out)
         slow[rows[~ok]] = True
-    _slow_lines(block, starts, ends, np.flatnonzero(slow), first_line, on_bad, out)
+    _slow_lines(block, starts, ends, np.flatnonzero(slow), first_line=first_line,
+                on_bad=on_bad, out=out)
     valid = np.flatnonzero(out.valid)
     if len(valid):  # the channel named on the first frame's line
         words = block[starts[valid[0]]:ends[valid[0]]].split()
@@ -322,7 +323,7 @@ def _parse_block(block: bytes, first_line: int, on_bad: BadLineHandler
 
 
 def _slow_lines(block: bytes, starts: npt.NDArray[np.intp], ends: npt.NDArray[np.intp],
-                which: npt.NDArray[np.intp], first_line: int, on_bad: BadLineHandler,
+                which: npt.NDArray[np.intp], *, first_line: int, on_bad: BadLineHandler,
                 out: _Chunk) -> None:
     for i in which:
         text = block[starts[i]:ends[i]].decode("utf-8", "replace")
@@ -350,7 +351,7 @@ def _slow_lines(block: bytes, starts: npt.NDArray[np.intp], ends: npt.NDArray[np
 def _open_binary(path: str | os.PathLike[str]) -> IO[bytes]:
     if os.fspath(path).lower().endswith(".gz"):
         return gzip.open(path, "rb")
-    return open(path, "rb")  # noqa: SIM115 - closed by the caller
+    return open(path, "rb")
 
 
 def iter_blocks(stream: IO[bytes], block_size: int = _BLOCK) -> Iterator[bytes]:

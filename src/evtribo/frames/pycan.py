@@ -141,10 +141,10 @@ def read_with_python_can(path: str | os.PathLike[str], on_bad: BadLineHandler
     if suffix == ".db":
         reader = reader_cls(os.fspath(path))
     elif binary:
-        handle: Any = gzip.open(path, "rb") if gz else open(path, "rb")  # noqa: SIM115
+        handle: Any = gzip.open(path, "rb") if gz else open(path, "rb")
         reader = reader_cls(handle)
     else:
-        raw: Any = gzip.open(path, "rt") if gz else open(path, encoding="utf-8",  # noqa: SIM115
+        raw: Any = gzip.open(path, "rt") if gz else open(path, encoding="utf-8",
                                                           errors="replace")
         counter = _CountingFile(raw)
         reader = reader_cls(counter)
