@@ -9,12 +9,12 @@ import pandas as pd
 import pytest
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study, simulate_trial
-from evtribo.frames import write_candump
 from evtribo.analysis.aggregate import ELECTROSTATIC_COLUMNS, EXPONENT_COLUMNS
-from evtribo.analysis.pipeline import OUTPUT_FILES, analyze_study
+from evtribo.analysis.pipeline import OUTPUT_FILES, SINE_TRACE_FILE, analyze_study
 from evtribo.analysis.trial import TRIAL_COLUMNS, WINDOW_CSV_COLUMNS
 from evtribo.cli import main
 from evtribo.errors import LogFormatError, OutputExistsError
+from evtribo.frames import write_candump
 from evtribo.study import write_sidecar, write_study_toml
 
 AMPLITUDES = (60.0, 100.0, 140.0)
@@ -58,7 +58,9 @@ def test_outputs_have_the_spec_columns(default_study):
     summary = json.loads((res.out_dir / "summary.json").read_text(encoding="utf-8"))
     assert summary["trials"] == summary["trials_analysed"] == 8
     assert isinstance(summary["warnings"], list)
-    assert sorted(p.name for p in res.out_dir.iterdir()) == sorted(OUTPUT_FILES)
+    # the study has sine trials: their traces are written for the model comparison
+    assert sorted(p.name for p in res.out_dir.iterdir()) == sorted(
+        [*OUTPUT_FILES, SINE_TRACE_FILE])
 
 
 def test_recovers_mu_electrostatic_force_exponent_and_modulation(default_study):

@@ -24,7 +24,9 @@ import pandas as pd
 
 from evtribo import __version__
 from evtribo.analysis.aggregate import ELECTROSTATIC_COLUMNS, EXPONENT_COLUMNS, summarize
+from evtribo.analysis.provenance import provenance
 from evtribo.analysis.trial import (
+    SINE_TRACE_CSV_COLUMNS,
     TRIAL_COLUMNS,
     WINDOW_CSV_COLUMNS,
     AnalysisSettings,
@@ -42,6 +44,9 @@ log = logging.getLogger(__name__)
 #: The files ``analyze_study`` writes into its output folder.
 OUTPUT_FILES = ("trials.csv", "windows.csv", "electrostatic.csv", "exponents.csv",
                 "summary.json")
+#: Written too when the study has sine trials: a stretch of each one's forces around a
+#: switch from OFF to ON, for the model comparison (columns in evtribo.compare.tables).
+SINE_TRACE_FILE = "sine_trace.csv"
 #: Most warnings kept per trial in summary.json (the rest are counted).
 MAX_WARNINGS_PER_TRIAL = 20
 
@@ -86,26 +91,43 @@ class _Collector(logging.Handler):
 _WORKER: dict[str, Any] = {}
 
 
+def _counter_moduli(rig: Any) -> dict[str, int]:
+    """Period (``2**bits``) of each load cell's rolling counter the rig names."""
+    out = {}
+    for name in ("normal", "tangential"):
+        ref = getattr(rig, f"{name}_force_counter", None)
+        if ref is not None:
+            out[name] = 1 << int(ref.signal.length)
+    return out
+
+
 def _init_worker(root: str, cache_dir: str | None, strict: bool,
                  settings: AnalysisSettings) -> None:
-    _WORKER.update(study=load_study(root), cache_dir=cache_dir, strict=strict,
-                   settings=settings)
+    study = load_study(root)
+    _WORKER.update(study=study, cache_dir=cache_dir, strict=strict, settings=settings,
+                   moduli=_counter_moduli(study.rig))
 
 
-def _analyze_one(index: int) -> tuple[int, dict[str, Any], pd.DataFrame, list[str], str | None]:
+_Result = tuple[int, dict[str, Any], pd.DataFrame, list[str], str | None, pd.DataFrame | None]
+
+
+def _analyze_one(index: int) -> _Result:
     study, strict = _WORKER["study"], _WORKER["strict"]
     ref = study.trials[index]
     sc = ref.sidecar
     meta = TrialMeta(subject=ref.subject, trial=ref.name, waveform=sc.waveform,
                      frequency_Hz=sc.frequency_Hz, amplitude_V=sc.amplitude_V,
                      condition=sc.condition)
+    trace: pd.DataFrame | None = None
     collector = _Collector()
     root_logger = logging.getLogger("evtribo")
     root_logger.addHandler(collector)
     try:
         signals = load_trial(ref.log_path, study.rig, _WORKER["cache_dir"], strict)
-        result = analyze_signals(signals, meta, settings=_WORKER["settings"])
+        result = analyze_signals(signals, meta, settings=_WORKER["settings"],
+                                 counter_moduli=_WORKER["moduli"])
         row, windows, warnings, error = result.row, result.windows, result.warnings, None
+        trace = result.trace
         if row.get("skipped_lines"):
             warnings.append(f"{ref.key}: {row['skipped_lines']} damaged line(s) skipped in "
                             f"{ref.log_path}")
@@ -121,13 +143,13 @@ def _analyze_one(index: int) -> tuple[int, dict[str, Any], pd.DataFrame, list[st
     if len(details) > MAX_WARNINGS_PER_TRIAL:
         extra = len(details) - MAX_WARNINGS_PER_TRIAL
         details = [*details[:MAX_WARNINGS_PER_TRIAL], f"{ref.key}: ... and {extra} more"]
-    return index, row, windows, details + warnings, error
+    return index, row, windows, details + warnings, error, trace
 
 
 def _check_outputs(out_dir: Path, force: bool) -> None:
     if force:
         return
-    for name in OUTPUT_FILES:
+    for name in (*OUTPUT_FILES, SINE_TRACE_FILE):
         if (out_dir / name).exists():
             raise OutputExistsError("already exists; give --force to overwrite the results",
                                     path=out_dir / name)
@@ -193,6 +215,7 @@ def analyze_study(
         A damaged line under ``strict``.
     """
     started = time.perf_counter()
+    started_at = time.time()
     settings = settings or AnalysisSettings()
     out = Path(out_dir)
     _check_outputs(out, force)
@@ -204,7 +227,7 @@ def analyze_study(
     jobs = (os.cpu_count() or 1) if jobs is None else max(1, int(jobs))
     jobs = min(jobs, n)
     cache = None if cache_dir is None else os.fspath(cache_dir)
-    results: list[tuple[int, dict[str, Any], pd.DataFrame, list[str], str | None]] = []
+    results: list[_Result] = []
     init_args = (os.fspath(study.root), cache, strict, settings)
     if jobs == 1:
         _init_worker(*init_args)
@@ -229,7 +252,7 @@ def analyze_study(
 
     warnings = list(study.warnings)
     failed = []
-    for _, row, _, warns, error in results:
+    for _, row, _, warns, error, _ in results:
         warnings.extend(warns)
         if error is not None:
             key = f"{row['subject']}/{row['trial']}"
@@ -242,6 +265,9 @@ def analyze_study(
     electrostatic, exponents, agg_warnings = summarize(windows, trials, n_boot=settings.n_boot,
                                                        seed=settings.seed)
     warnings.extend(agg_warnings)
+    traces = [r[5] for r in results if r[5] is not None and not r[5].empty]
+    trace = (pd.concat(traces, ignore_index=True).reindex(columns=list(SINE_TRACE_CSV_COLUMNS))
+             if traces else None)
     electrostatic = _typed(electrostatic, ELECTROSTATIC_COLUMNS)
     exponents = _typed(exponents, EXPONENT_COLUMNS)
 
@@ -250,9 +276,9 @@ def analyze_study(
 
     summary: dict[str, Any] = {
         "study": study.name,
-        "study_dir": os.fspath(study.root),
         "evtribo_version": __version__,
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        **provenance(study, started_at),
         "subjects": study.subjects,
         "trials": n,
         "trials_analysed": n - len(failed),
@@ -267,7 +293,7 @@ def analyze_study(
         "settings": {**settings.to_dict(), "confidence": 0.95, "mu_estimator": "ratio of means",
                      "interval": "percentile bootstrap over windows"},
         "warnings": warnings,
-        "outputs": list(OUTPUT_FILES),
+        "outputs": list(OUTPUT_FILES) + ([SINE_TRACE_FILE] if trace is not None else []),
         "elapsed_s": None,
     }
     out.mkdir(parents=True, exist_ok=True)
@@ -276,6 +302,10 @@ def analyze_study(
     _write_csv(windows, out / "windows.csv")
     _write_csv(electrostatic, out / "electrostatic.csv")
     _write_csv(exponents, out / "exponents.csv")
+    if trace is not None:
+        _write_csv(trace, out / SINE_TRACE_FILE)
+    elif force and (out / SINE_TRACE_FILE).exists():  # stale: from an earlier analysis
+        (out / SINE_TRACE_FILE).unlink()
     summary["elapsed_s"] = round(time.perf_counter() - started, 3)
     tmp = out / ".summary.json.tmp"
     tmp.write_text(json.dumps(summary, indent=2, ensure_ascii=False, default=str) + "\n",
@@ -286,4 +316,4 @@ def analyze_study(
                         electrostatic=electrostatic, exponents=exponents, summary=summary)
 
 
-__all__ = ["OUTPUT_FILES", "StudyResults", "analyze_study"]
+__all__ = ["OUTPUT_FILES", "SINE_TRACE_FILE", "StudyResults", "analyze_study"]

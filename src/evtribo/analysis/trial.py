@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 from collections import Counter
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -20,10 +21,13 @@ import pandas as pd
 from evtribo.analysis.align import DEFAULT_MAX_GAP_PERIODS, AlignedForces, align_forces
 from evtribo.analysis.conditions import (
     DEFAULT_GUARD_S,
+    ON,
     condition_from_excitation,
     constant_condition,
 )
+from evtribo.analysis.drops import missing_frames
 from evtribo.analysis.spectra import dominant_frequency
+from evtribo.analysis.trace import TRACE_COLUMNS, sine_trace
 from evtribo.analysis.windows import DEFAULT_MAX_WINDOW_S, DEFAULT_MIN_WINDOW_S, find_windows
 from evtribo.errors import AnalysisError
 
@@ -36,6 +40,9 @@ TRIAL_COLUMNS = ("subject", "trial", "waveform", "frequency_Hz", "amplitude_V", 
 #: Columns of windows.csv (study format, section 2).
 WINDOW_CSV_COLUMNS = ("subject", "trial", "condition", "amplitude_V", "waveform", "t_start_s",
                       "t_end_s", "normal_force_N", "friction_force_N")
+
+#: Columns of sine_trace.csv (read by :mod:`evtribo.compare.tables`).
+SINE_TRACE_CSV_COLUMNS = TRACE_COLUMNS
 
 _WAVE_CODES = {0: "sine", 1: "square", 2: "triangle", 3: "dc"}
 
@@ -59,6 +66,11 @@ class AnalysisSettings:
         Bootstrap replicates of the electrostatic force.
     seed : int
         Seed of the bootstrap.
+    trace_off_s, trace_on_s : float, s
+        Extent of the sine trace written for the model comparison (sine_trace.csv): this
+        long before and after a switch from OFF to ON.
+    trace_rate_Hz : float, Hz
+        Highest sample rate of the sine trace (block means of the aligned forces).
     """
 
     smooth_s: float = 0.1
@@ -68,6 +80,9 @@ class AnalysisSettings:
     max_gap_periods: float = DEFAULT_MAX_GAP_PERIODS
     n_boot: int = 2000
     seed: int = 0
+    trace_off_s: float = 0.5
+    trace_on_s: float = 1.0
+    trace_rate_Hz: float = 1000.0
 
     def to_dict(self) -> dict[str, Any]:
         """The settings as a JSON-ready mapping."""
@@ -97,11 +112,15 @@ class TrialResult:
     windows : pandas.DataFrame
         :data:`WINDOW_CSV_COLUMNS`.
     warnings : list of str
+    trace : pandas.DataFrame or None
+        For a sine trial with ON phases: :data:`SINE_TRACE_CSV_COLUMNS` over a stretch
+        around a switch from OFF to ON (see :func:`sine_trace`).
     """
 
     row: dict[str, Any]
     windows: pd.DataFrame
     warnings: list[str] = field(default_factory=list)
+    trace: pd.DataFrame | None = None
 
 
 def empty_windows() -> pd.DataFrame:
@@ -188,8 +207,31 @@ def _sine_segments(aligned: AlignedForces, windows: pd.DataFrame) -> list[npt.ND
     return [np.abs(aligned.tangential[a:b]) for a, b in segs]
 
 
+def _dropped(signals: Any, counter_moduli: Mapping[str, int] | None,
+             warn: Callable[[str], None]) -> int:
+    """Frames missing from both load cells: by their counters when the rig names them,
+    else by the timing (:func:`evtribo.analysis.drops.missing_frames`)."""
+    total = 0
+    for name in ("normal", "tangential"):
+        ch = _get(signals, name)
+        t = _get(ch, "t")
+        if t is None:
+            continue
+        counter = _get(ch, "counter")
+        modulus = (counter_moduli or {}).get(name) if counter is not None else None
+        count = missing_frames(np.asarray(t, dtype=np.float64), counter, modulus)
+        if count.note:
+            warn(f"{name} force: {count.note}")
+        if count.method == "counter+timing":
+            warn(f"{name} force: {count.count} frames missing, including whole counter "
+                 "periods lost at once (found from the timing)")
+        total += count.count
+    return total
+
+
 def analyze_signals(signals: Any, meta: TrialMeta, *,
-                    settings: AnalysisSettings | None = None) -> TrialResult:
+                    settings: AnalysisSettings | None = None,
+                    counter_moduli: Mapping[str, int] | None = None) -> TrialResult:
     """Analyse one decoded trial.
 
     Parameters
@@ -201,6 +243,9 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
     meta : TrialMeta
         Names and the sidecar's values.
     settings : AnalysisSettings, optional
+    counter_moduli : mapping, optional
+        Period of each load cell's rolling counter (``{"normal": 256, ...}``, ``2**bits``
+        of the rig's counter signals); inferred from the values when absent.
 
     Returns
     -------
@@ -306,8 +351,25 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
             else:
                 warn("ON windows too short for a spectrum of the friction force")
 
-    dropped = sum(int(_get(_get(signals, name), "dropped", 0) or 0)
-                  for name in ("normal", "tangential"))
+    trace = None
+    if info["waveform"] == "sine":
+        if exc_t is not None and exc is not None and exc.enabled is not None:
+            enabled = np.asarray(exc.enabled).astype(bool)
+            idx = np.searchsorted(exc_t, aligned.t, side="right") - 1
+            on_now = np.where(idx >= 0, enabled[np.clip(idx, 0, None)], False)
+        else:
+            on_now = cond == ON
+        steady = np.zeros(aligned.t.size, dtype=bool)
+        for a, b in zip(w.i_start.to_numpy(int), w.i_stop.to_numpy(int), strict=True):
+            steady[a:b] = True
+        trace = sine_trace(aligned.t, aligned.normal, aligned.tangential, on_now, steady,
+                           amplitude_V=float(info["amplitude_V"] or np.nan),
+                           frequency_Hz=float(info["frequency_Hz"] or np.nan),
+                           subject=meta.subject, trial=meta.trial,
+                           off_s=settings.trace_off_s, on_s=settings.trace_on_s,
+                           rate_Hz=settings.trace_rate_Hz)
+
+    dropped = _dropped(signals, counter_moduli, warn)
     row = {
         "subject": meta.subject, "trial": meta.trial, "waveform": info["waveform"],
         "frequency_Hz": info["frequency_Hz"], "amplitude_V": info["amplitude_V"],
@@ -316,7 +378,7 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
         "skipped_lines": _get(signals, "skipped_lines"),
         "friction_modulation_Hz": modulation,
     }
-    return TrialResult(row=row, windows=windows, warnings=warnings)
+    return TrialResult(row=row, windows=windows, warnings=warnings, trace=trace)
 
 
 def failed_row(meta: TrialMeta) -> dict[str, Any]:
@@ -328,5 +390,6 @@ def failed_row(meta: TrialMeta) -> dict[str, Any]:
     return row
 
 
-__all__ = ["TRIAL_COLUMNS", "WINDOW_CSV_COLUMNS", "AnalysisSettings", "TrialMeta",
-           "TrialResult", "analyze_signals", "empty_windows", "failed_row", "trial_start"]
+__all__ = ["SINE_TRACE_CSV_COLUMNS", "TRIAL_COLUMNS", "WINDOW_CSV_COLUMNS", "AnalysisSettings",
+           "TrialMeta", "TrialResult", "analyze_signals", "empty_windows", "failed_row",
+           "trial_start"]

@@ -1,0 +1,123 @@
+"""What an analysis was run on and with: the provenance block of ``summary.json``.
+
+``evtribo report`` shows it (:mod:`evtribo.compare.study_report` reads ``inputs``, whose
+entries carry ``file``, ``bytes`` and ``sha256``, ``rig``, ``software`` and ``settings``),
+so that a result folder says exactly which recorded files, rig and software produced it,
+even when the study folder is no longer at hand.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import hashlib
+import os
+import platform
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import Any
+
+from evtribo import __version__
+
+__all__ = ["file_record", "input_files", "provenance", "software_versions"]
+
+_PACKAGES = {"python-can": "python-can", "cantools": "cantools", "numpy": "numpy",
+             "scipy": "scipy", "pandas": "pandas", "pyarrow": "pyarrow"}
+
+
+def _sha256(path: Path) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def file_record(path: Path, root: Path, role: str) -> dict[str, Any]:
+    """``{"file", "role", "bytes", "sha256"}`` of one input file (name relative to *root*)."""
+    try:
+        name = path.resolve().relative_to(root.resolve()).as_posix()
+    except ValueError:
+        name = str(path.resolve())
+    return {"file": name, "role": role, "bytes": path.stat().st_size, "sha256": _sha256(path)}
+
+
+def input_files(study: Any) -> list[dict[str, Any]]:
+    """Records of a study's inputs: study.toml, the rig's DBC, each trial's log and sidecar.
+
+    Parameters
+    ----------
+    study : evtribo.study.Study
+
+    Returns
+    -------
+    list of dict
+    """
+    root = Path(study.root)
+    records = []
+    toml = root / "study.toml"
+    if toml.is_file():
+        records.append(file_record(toml, root, "study"))
+    rig = getattr(study, "rig", None)
+    if rig is not None and Path(rig.dbc).is_file():
+        records.append(file_record(Path(rig.dbc), root, "dbc"))
+    for ref in study.trials:
+        records.append(file_record(Path(ref.log_path), root, "log"))
+        if ref.sidecar_path is not None and Path(ref.sidecar_path).is_file():
+            records.append(file_record(Path(ref.sidecar_path), root, "sidecar"))
+    return records
+
+
+def rig_roles(study: Any) -> dict[str, Any]:
+    """The rig as a flat mapping: name, DBC (relative to the study) and each role's signal."""
+    rig = getattr(study, "rig", None)
+    if rig is None:
+        return {}
+    root = Path(study.root).resolve()
+    dbc = Path(rig.dbc).resolve()
+    try:
+        dbc_name = dbc.relative_to(root).as_posix()
+    except ValueError:
+        dbc_name = str(dbc)
+    out: dict[str, Any] = {"name": rig.name, "dbc": dbc_name,
+                           "dbc_version": getattr(rig.database, "version", None)}
+    out.update({role: ref.qualified_name for role, ref in rig.roles.items()})
+    return out
+
+
+def software_versions() -> dict[str, str | None]:
+    """Versions of evtribo, Python and the libraries the analysis relies on."""
+    out: dict[str, str | None] = {"evtribo": __version__,
+                                  "python": platform.python_version()}
+    for key, dist in _PACKAGES.items():
+        try:
+            out[key] = version(dist)
+        except PackageNotFoundError:
+            out[key] = None
+    return out
+
+
+def provenance(study: Any, started: float) -> dict[str, Any]:
+    """The provenance keys of summary.json.
+
+    Parameters
+    ----------
+    study : evtribo.study.Study
+    started : float, s
+        Epoch time at which the analysis started.
+
+    Returns
+    -------
+    dict
+        ``study_dir`` (absolute), ``started`` (ISO 8601, UTC), ``inputs`` (see
+        :func:`input_files`), ``rig`` (:func:`rig_roles`), ``software``
+        (:func:`software_versions`), ``host`` (platform).
+    """
+    return {
+        "study_dir": os.fspath(Path(study.root).resolve()),
+        "started": dt.datetime.fromtimestamp(started, dt.UTC)
+        .isoformat(timespec="seconds").replace("+00:00", "Z"),
+        "inputs": input_files(study),
+        "rig": rig_roles(study),
+        "software": software_versions(),
+        "host": {"platform": platform.platform(), "machine": platform.machine()},
+    }
