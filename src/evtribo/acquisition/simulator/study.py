@@ -30,6 +30,8 @@ RIG_DBC = "rig/default.dbc"
 RIG_KEYS = {
     "normal_force": "FzCell.Fz",
     "tangential_force": "FxCell.Fx",
+    "normal_force_counter": "FzCell.FzCounter",
+    "tangential_force_counter": "FxCell.FxCounter",
     "excitation_enabled": "HvStatus.HvOn",
     "excitation_amplitude": "HvStatus.HvAmp",
     "excitation_frequency": "HvStatus.HvFreq",
