@@ -18,6 +18,8 @@ import pytest
 from evtribo.acquisition.bus import BusSettings
 from evtribo.acquisition.trial import TrialInfo, record_trial
 from evtribo.analysis.pipeline import SINE_TRACE_FILE, analyze_study
+from evtribo.compare import build_report
+from evtribo.compare.run import compare
 from evtribo.compare.tables import read_results
 from evtribo.frames import read_frames
 from evtribo.study import load_study
@@ -166,3 +168,18 @@ def test_sine_traces_and_provenance_are_what_the_report_reads(analysed):
     assert summary["software"]["python-can"] == can.__version__
     assert summary["software"]["cantools"] and summary["software"]["evtribo"]
     assert summary["started"].endswith("Z") and summary["settings"]["n_boot"] > 0
+
+
+def test_the_report_shows_the_recorded_provenance_and_the_measured_sine_trace(analysed):
+    compare(analysed.out_dir, dpi=50, formats=("png",))
+    html_path = analysed.out_dir / "report.html"
+    build_report(analysed.out_dir, html_path, dpi=50)
+    html = html_path.read_text(encoding="utf-8")
+    summary = json.loads((analysed.out_dir / "summary.json").read_text(encoding="utf-8"))
+    log_record = next(r for r in summary["inputs"] if r["file"] == "P02/run-04.log.gz")
+    assert "Input files (as recorded in summary.json)" in html
+    assert log_record["sha256"] in html
+    assert "python-can (analysis)" in html and "cantools (analysis)" in html
+    assert "FzCell.FzCounter" in html  # the rig's roles
+    fit = json.loads((analysed.out_dir / "fit.json").read_text(encoding="utf-8"))
+    assert not any("No sine_trace.csv" in n for n in fit.get("notes", []))

@@ -30,7 +30,7 @@ log = logging.getLogger(__name__)
 
 __all__ = ["build_report", "file_hashes"]
 
-_SUMMARY_KEYS = ("study", "study_dir", "created", "evtribo_version", "trials",
+_SUMMARY_KEYS = ("study", "study_dir", "started", "created", "evtribo_version", "trials",
                  "trials_analysed", "windows_on", "windows_off", "frames", "dropped_frames",
                  "skipped_lines", "strict", "elapsed_s")
 
@@ -298,12 +298,19 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
                  "version": summary.get("evtribo_version",
                                         (summary.get("software") or {}).get("evtribo", ""))},
                 {"component": "evtribo (compare)",
-                 "version": (fit_doc.get("software") or {}).get("evtribo", "")},
-                {"component": "python", "version": platform.python_version()}]
+                 "version": (fit_doc.get("software") or {}).get("evtribo", "")}]
+    # what the analysis ran with, as summary.json recorded it
+    analysis_software = summary.get("software") if isinstance(summary.get("software"),
+                                                              dict) else {}
+    software += [{"component": f"{name} (analysis)", "version": v}
+                 for name, v in analysis_software.items() if name != "evtribo"]
+    software.append({"component": "python (report)", "version": platform.python_version()})
     for module in ("numpy", "scipy", "pandas", "matplotlib", "cantools", "can"):
         try:
             mod = __import__(module)
-            software.append({"component": module, "version": getattr(mod, "__version__", "")})
+            name = "python-can" if module == "can" else module
+            software.append({"component": f"{name} (report)",
+                             "version": getattr(mod, "__version__", "")})
         except ImportError:
             continue
     report.add_table(pd.DataFrame(software), "Software", section=sec)
