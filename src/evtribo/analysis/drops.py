@@ -37,18 +37,21 @@ MIN_FRAMES = 16
 #: Least coherence (see :func:`coherence`) at which the timing is trusted.
 MIN_COHERENCE = 0.15
 #: Candidate periods evaluated per refinement stage.
-_N_CANDIDATES = 41
+_N_CANDIDATES = 25
+#: Elements of the (candidates x timestamps) phase matrix computed at once.
+_CHUNK = 1 << 20
 #: Largest number of timestamps used per stage (evenly thinned beyond that).
-_MAX_POINTS = 20_000
+_MAX_POINTS = 8_000
 
 
 def _coherence(t: npt.NDArray[np.float64], periods: npt.NDArray[np.float64]
                ) -> npt.NDArray[np.float64]:
-    """``|mean(exp(2 pi i t / P))|`` for each candidate period (rows: candidates)."""
+    """``|mean(exp(2 pi i t / P))|`` for each candidate period."""
     out = np.empty(periods.size)
-    for j, p in enumerate(periods):
-        phase = (2 * np.pi / p) * t
-        out[j] = np.hypot(np.cos(phase).mean(), np.sin(phase).mean())
+    rows = max(1, _CHUNK // max(t.size, 1))
+    for a in range(0, periods.size, rows):
+        phase = np.outer(2 * np.pi / periods[a:a + rows], t)
+        out[a:a + rows] = np.hypot(np.cos(phase).mean(axis=1), np.sin(phase).mean(axis=1))
     return out
 
 
