@@ -15,7 +15,7 @@ jitter showed 3,400 "missing" frames where 600 were lost). Here:
   longer than ``modulus`` frames): the offset between the timestamps' grid position and the
   counter's running index is compared at the start and the end of the trial (medians over
   many frames, so that a burst of late frames after a logger stall is not mistaken for an
-  outage);
+  outage). This is only looked at when some step is longer than half a counter period;
 - **without a counter**, the missing frames are the grid positions between the first and
   last frame, minus the frames received.
 """
@@ -175,6 +175,10 @@ def _with_counter(t: npt.NDArray[np.float64], c: npt.NDArray[np.int64],
     missing = (np.diff(c) - 1) % modulus
     by_counter = int(missing.sum())
     if n < MIN_FRAMES:
+        return DropCount(by_counter, "counter")
+    dt = np.diff(t)
+    if dt.max() < 0.5 * modulus * float(np.median(dt)):
+        # no pause long enough to hide a whole counter period: the counter says it all
         return DropCount(by_counter, "counter")
     period = estimate_period(t)
     coh = coherence(t, period) if np.isfinite(period) else 0.0
