@@ -17,6 +17,7 @@ import pytest
 
 from evtribo.acquisition.bus import BusSettings
 from evtribo.acquisition.trial import TrialInfo, record_trial
+from evtribo.analysis.drops import missing_frames
 from evtribo.analysis.pipeline import SINE_TRACE_FILE, analyze_study
 from evtribo.compare import build_report
 from evtribo.compare.run import compare
@@ -183,3 +184,14 @@ def test_the_report_shows_the_recorded_provenance_and_the_measured_sine_trace(an
     assert "FzCell.FzCounter" in html  # the rig's roles
     fit = json.loads((analysed.out_dir / "fit.json").read_text(encoding="utf-8"))
     assert not any("No sine_trace.csv" in n for n in fit.get("notes", []))
+
+
+def test_without_counters_the_timing_of_the_recorded_logs_counts_the_lost_frames():
+    # software timestamps of a real-time recording; the counters are ignored here
+    for key in ("P01/run-01", "P02/run-03", "P03/run-06"):
+        frames, _ = read_frames(STUDY / f"{key}.log.gz")
+        for frame_id, name in ((0x0C1, "FzCell"), (0x0C2, "FxCell")):
+            t = frames.timestamp[frames.arbitration_id == frame_id]
+            lost = TRUTH["trials"][key]["dropped_by_simulator"][name]
+            got = missing_frames(t)
+            assert got.note is None and abs(got.count - lost) <= 2, (key, name, got, lost)

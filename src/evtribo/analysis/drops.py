@@ -17,7 +17,8 @@ jitter showed 3,400 "missing" frames where 600 were lost). Here:
   many frames, so that a burst of late frames after a logger stall is not mistaken for an
   outage). This is only looked at when some step is longer than half a counter period;
 - **without a counter**, the missing frames are the grid positions between the first and
-  last frame, minus the frames received.
+  last frame, minus the frames received (the ends taken as medians over their first and
+  last frames, so that frames stamped together when the logger starts do not count).
 """
 
 from __future__ import annotations
@@ -38,6 +39,8 @@ MIN_FRAMES = 16
 MIN_COHERENCE = 0.15
 #: Candidate periods evaluated per refinement stage.
 _N_CANDIDATES = 25
+#: Frames at each end whose median position gives the stream's start and end (no counter).
+_EDGE_FRAMES = 32
 #: Elements of the (candidates x timestamps) phase matrix computed at once.
 _CHUNK = 1 << 20
 #: Largest number of timestamps used per stage (evenly thinned beyond that).
@@ -230,8 +233,13 @@ def missing_frames(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
     if not np.isfinite(period):
         return DropCount(0, "timing")
     coh = coherence(t, period)
-    k = _steps(t, period)
-    count = max(int(k[-1] - k[0]) + 1 - n, 0)
+    # grid position minus rank grows by one at each missing frame; its medians over the
+    # first and last frames are not fooled by a burst of late frames at either end
+    lag = _steps(t, period) - np.arange(n)
+    edge = min(_EDGE_FRAMES, max(n // 4, 1))
+    inner = float(np.median(lag[-edge:]) - np.median(lag[:edge]))
+    # the medians sit (edge - 1) / 2 frames inside each end: scale to the whole stream
+    count = max(int(np.rint(inner * (n - 1) / max(n - edge, 1))), 0)
     note = None if _regular(coh, n) else (
         f"timestamps too irregular (coherence {coh:.2f}) to count missing frames reliably "
         "without a counter")
