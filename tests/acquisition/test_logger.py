@@ -178,4 +178,4 @@ def test_receive_stops_when_asked(tmp_path):
     writer.close()
     fh.close()
     assert result.reason == "interrupted"
-    assert 0.15 < elapsed < 1.0
+    assert 0.15 < elapsed < 5.0                     # stopped when asked, not after 10 s

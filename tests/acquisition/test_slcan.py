@@ -278,7 +278,6 @@ def test_bulk_reader_takes_a_saturated_bus_without_loss(simulate_pty):
     proc, path = simulate_pty("--duration", "1.5", "--fz-rate", "4150", "--fx-rate", "4200",
                               "--hv-rate", "50")
     bus = can.Bus(interface="slcan_bulk", channel=path, bitrate=1_000_000, sleep_after_open=0)
-    t0 = time.monotonic()
     try:
         msgs, err = _receive_until_gone(bus, limit_s=10)
     finally:
@@ -289,4 +288,3 @@ def test_bulk_reader_takes_a_saturated_bus_without_loss(simulate_pty):
     sent = int(re.search(r"(\d+) frames sent", proc.stderr.read()).group(1))
     assert len(msgs) == sent > 12_000
     _check_counters(msgs)
-    assert time.monotonic() - t0 < 6
