@@ -66,6 +66,8 @@ def _cell(value: Any, float_format: str) -> str:
         v = float(value)
         if math.isnan(v):
             return ""
+        if v.is_integer() and abs(v) < 1e9:  # 10000 Hz, not 1e+04
+            return str(int(v))
         return format(v, float_format)
     return str(value)
 
