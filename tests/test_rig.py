@@ -93,3 +93,19 @@ def test_fingerprint_follows_dbc_and_mapping(tmp_path):
     b = Rig.from_mapping(_study(tmp_path, normal_force="FxCell.Fx"), tmp_path)
     assert a.fingerprint() != b.fingerprint()
     assert a.fingerprint() == Rig.from_mapping(_study(tmp_path), tmp_path).fingerprint()
+
+
+def test_dbc_with_overlapping_signals_loads_with_a_warning(tmp_path, caplog):
+    # Vendors' DBCs often fail cantools' strict checks; each signal still decodes on its own.
+    (tmp_path / "quirky.dbc").write_text(
+        'VERSION ""\n\nNS_ :\n\nBS_:\n\nBU_: N\n\n'
+        'BO_ 193 FzCell: 8 N\n'
+        ' SG_ Fz : 0|24@1- (1e-05,0) [-83|83] "N" N\n'
+        ' SG_ FzHigh : 16|16@1+ (1,0) [0|65535] "" N\n\n'
+        'BO_ 194 FxCell: 8 N\n'
+        ' SG_ Fx : 0|24@1- (1e-05,0) [-83|83] "N" N\n')
+    with caplog.at_level("WARNING", logger="evtribo.rig"):
+        rig = Rig.from_mapping({"dbc": "quirky.dbc", "normal_force": "FzCell.Fz",
+                                "tangential_force": "FxCell.Fx"}, tmp_path)
+    assert rig.normal_force.qualified_name == "FzCell.Fz"
+    assert "decoding it anyway" in caplog.text

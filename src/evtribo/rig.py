@@ -23,6 +23,7 @@ from __future__ import annotations
 import difflib
 import hashlib
 import json
+import logging
 import os
 import tomllib
 from collections.abc import Mapping
@@ -36,6 +37,8 @@ import cantools.database
 from cantools.database.can import Database, Message, Signal
 
 from evtribo.errors import RigConfigError
+
+log = logging.getLogger(__name__)
 
 #: Roles a rig must name.
 REQUIRED_ROLES = ("normal_force", "tangential_force")
@@ -171,16 +174,37 @@ class Rig:
         dbc = Path(base_dir) / mapping["dbc"]
         if not dbc.is_file():
             raise RigConfigError(f"DBC file not found: {dbc}", path=src, key=key("dbc"))
-        try:
-            db = cantools.database.load_file(os.fspath(dbc), database_format="dbc",
-                                             strict=True)
-        except Exception as err:  # cantools raises ParseError, UnsupportedDatabaseFormatError..
-            raise RigConfigError(f"cannot parse DBC {dbc}: {err}", path=src,
-                                 key=key("dbc")) from err
+        db = load_dbc(dbc, source=src, key=key("dbc"))
         refs = {r: resolve_signal(db, mapping[r], key=key(r), source=src)
                 for r in ROLES if r in mapping}
         return cls(name=str(mapping.get("name", dbc.stem)), dbc=dbc.resolve(), database=db,
                    source=src, **refs)
+
+
+def load_dbc(path: str | os.PathLike[str], *, source: str | None = None,
+             key: str | None = None) -> Database:
+    """Parse a DBC with cantools.
+
+    A DBC whose signals overlap or overrun their message (cantools' strict checks) is still
+    loaded, with a warning: vendors' DBCs often have such quirks, and each signal is decoded
+    on its own.
+
+    Raises
+    ------
+    RigConfigError
+        The file does not parse (cantools' message, naming *source* and *key*).
+    """
+    try:
+        return cantools.database.load_file(os.fspath(path), database_format="dbc", strict=True)
+    except Exception as strict_err:  # ParseError, UnsupportedDatabaseFormatError, Error...
+        try:
+            db = cantools.database.load_file(os.fspath(path), database_format="dbc",
+                                             strict=False)
+        except Exception as err:
+            raise RigConfigError(f"cannot parse DBC {path}: {err}", path=source,
+                                 key=key) from err
+        log.warning("%s: %s; decoding it anyway", path, strict_err)
+        return db
 
 
 def resolve_signal(db: Database, qualified: str, *, key: str, source: str | None = None
@@ -250,5 +274,5 @@ def default_rig() -> Rig:
     return load_rig(default_rig_path())
 
 
-__all__ = ["ROLES", "Rig", "SignalRef", "default_rig", "default_rig_path", "load_rig",
-           "resolve_signal"]
+__all__ = ["ROLES", "Rig", "SignalRef", "default_rig", "default_rig_path", "load_dbc",
+           "load_rig", "resolve_signal"]

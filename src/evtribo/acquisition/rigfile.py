@@ -9,41 +9,22 @@ relative to the TOML. A new study folder gets a copy of the DBC under ``rig/`` a
 
 from __future__ import annotations
 
-import difflib
 import logging
 import re
 import shutil
-import tomllib
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import cantools
-
 from evtribo.acquisition.logger import CounterSpec, counter_spec_from_dbc
 from evtribo.errors import RigConfigError
+from evtribo.rig import Rig, default_rig_path, load_rig
 from evtribo.study import read_study_toml, validate_name, write_study_toml
 
 log = logging.getLogger(__name__)
 
-#: Keys of the ``[rig]`` table naming a ``"<Message>.<Signal>"``.
-SIGNAL_KEYS = (
-    "normal_force",
-    "tangential_force",
-    "excitation_enabled",
-    "excitation_amplitude",
-    "excitation_frequency",
-    "excitation_waveform",
-)
-REQUIRED_KEYS = ("dbc", "normal_force", "tangential_force")
 COUNTER_KEYS = ("normal_force_counter", "tangential_force_counter")
 _COUNTER_NAME = re.compile(r"(counter|cnt)$", re.IGNORECASE)
-
-
-def default_rig_path() -> Path:
-    """The default rig's TOML (the one ``evtribo simulate`` sends)."""
-    return Path(str(resources.files("evtribo") / "data" / "rigs" / "default.toml"))
 
 
 def check_name(value: str, key: str) -> str:
@@ -59,7 +40,7 @@ def check_name(value: str, key: str) -> str:
 
 @dataclass
 class AcquisitionRig:
-    """A rig: its DBC, which signals mean what, and the counters to check for lost frames.
+    """A rig as the logger needs it: its DBC, its roles, the counters to check for losses.
 
     Attributes
     ----------
@@ -70,10 +51,10 @@ class AcquisitionRig:
     database : cantools.database.can.Database
         The parsed DBC.
     signals : dict
-        ``{"normal_force": "FzCell.Fz", ...}`` for the keys of :data:`SIGNAL_KEYS` present.
+        ``{"normal_force": "FzCell.Fz", ...}``: the roles the rig names.
     counters : list of CounterSpec
-        Rolling frame counters (explicit keys, or signals named ``*Counter`` / ``*Cnt`` in
-        the force messages).
+        Rolling frame counters (the rig's counter roles, or signals named ``*Counter`` /
+        ``*Cnt`` in the force messages).
     source : Path
         The TOML it was read from.
     """
@@ -85,56 +66,20 @@ class AcquisitionRig:
     counters: list[CounterSpec] = field(default_factory=list)
     source: Path | None = None
 
+    @classmethod
+    def from_rig(cls, rig: Rig, name: str | None = None) -> AcquisitionRig:
+        """Wrap a :class:`evtribo.rig.Rig` (names already checked against its DBC)."""
+        signals = {role: ref.qualified_name for role, ref in rig.roles.items()}
+        return cls(name=name or rig.name, dbc_path=rig.dbc, database=rig.database,
+                   signals=signals, counters=_counters(rig.database, signals),
+                   source=None if rig.source is None else Path(rig.source))
+
     def message_name(self, arbitration_id: int) -> str | None:
         """The DBC message name of an identifier, or None."""
         try:
             return str(self.database.get_message_by_frame_id(arbitration_id).name)
         except KeyError:
             return None
-
-
-def _read_toml(path: Path) -> dict[str, Any]:
-    try:
-        with path.open("rb") as fh:
-            return tomllib.load(fh)
-    except FileNotFoundError as err:
-        raise RigConfigError("file not found", path=path) from err
-    except tomllib.TOMLDecodeError as err:
-        m = re.search(r"line (\d+)", str(err))
-        raise RigConfigError(f"not valid TOML: {err}", path=path,
-                             line=int(m.group(1)) if m else None) from err
-
-
-def _load_dbc(path: Path, toml_path: Path, key: str) -> Any:
-    if not path.is_file():
-        raise RigConfigError(f"DBC file not found: {path}", path=toml_path, key=key)
-    try:
-        return cantools.database.load_file(str(path), strict=False)
-    except Exception as err:  # cantools raises many kinds (ParseError, UnsupportedDatabase...)
-        raise RigConfigError(f"the DBC {path} does not parse: {err}", path=toml_path,
-                             key=key) from err
-
-
-def _check_signal(database: Any, value: Any, toml_path: Path, key: str) -> str:
-    if not isinstance(value, str) or value.count(".") != 1:
-        raise RigConfigError(f"expected \"<Message>.<Signal>\", got {value!r}", path=toml_path,
-                             key=key)
-    message, signal = value.split(".")
-    names = [m.name for m in database.messages]
-    try:
-        msg = database.get_message_by_name(message)
-    except KeyError:
-        close = difflib.get_close_matches(message, names, n=3)
-        raise RigConfigError(f"message {message!r} is not in the DBC"
-                             + (f"; closest: {', '.join(close)}" if close else
-                                f"; it has: {', '.join(names)}"),
-                             path=toml_path, key=key) from None
-    sig_names = [s.name for s in msg.signals]
-    if signal not in sig_names:
-        close = difflib.get_close_matches(signal, sig_names, n=3) or sig_names
-        raise RigConfigError(f"signal {signal!r} is not in message {message!r}; closest: "
-                             f"{', '.join(close)}", path=toml_path, key=key)
-    return value
 
 
 def _counters(database: Any, signals: dict[str, str]) -> list[CounterSpec]:
@@ -155,35 +100,16 @@ def _counters(database: Any, signals: dict[str, str]) -> list[CounterSpec]:
     return specs
 
 
-def _rig_from_table(table: dict[str, Any], toml_path: Path, prefix: str,
-                    name: str) -> AcquisitionRig:
-    for key in REQUIRED_KEYS:
-        if key not in table:
-            raise RigConfigError("missing key", path=toml_path, key=prefix + key)
-    if not isinstance(table["dbc"], str):
-        raise RigConfigError(f"expected a path, got {table['dbc']!r}", path=toml_path,
-                             key=prefix + "dbc")
-    dbc_path = (toml_path.parent / table["dbc"]).resolve()
-    database = _load_dbc(dbc_path, toml_path, prefix + "dbc")
-    signals = {key: _check_signal(database, table[key], toml_path, prefix + key)
-               for key in SIGNAL_KEYS + COUNTER_KEYS if key in table}
-    counters = _counters(database, signals)
-    return AcquisitionRig(name=name, dbc_path=dbc_path, database=database, signals=signals,
-                          counters=counters, source=toml_path)
-
-
 def load_rig_toml(path: str | Path) -> AcquisitionRig:
     """Read a rig TOML (keys of spec §1's ``[rig]`` at top level, ``dbc`` relative to it).
 
     Raises
     ------
     RigConfigError
-        Unreadable TOML, missing key, DBC not found or not parsing, unknown message/signal.
+        Unreadable TOML, missing or unknown key, DBC not found or not parsing, unknown
+        message or signal.
     """
-    path = Path(path)
-    table = _read_toml(path)
-    name = table.get("name", path.stem)
-    return _rig_from_table(table, path, "", str(name))
+    return AcquisitionRig.from_rig(load_rig(path))
 
 
 def load_study_rig(study: str | Path) -> AcquisitionRig:
@@ -198,9 +124,9 @@ def load_study_rig(study: str | Path) -> AcquisitionRig:
     """
     path = Path(study) / "study.toml"
     table = read_study_toml(path)["rig"]
-    out = _rig_from_table(table, path, "rig.", "")
-    out.name = str(table.get("name") or out.database.version or out.dbc_path.name)
-    return out
+    rig = Rig.from_mapping(table, path.parent, source=path, key_prefix="rig")
+    return AcquisitionRig.from_rig(
+        rig, name=str(table.get("name") or rig.database.version or rig.dbc.name))
 
 
 def create_study(study: str | Path, rig: AcquisitionRig, name: str | None = None) -> Path:
