@@ -28,6 +28,7 @@ shorter than the message's length are not decoded (cantools refuses them too).
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -337,6 +338,11 @@ class TrialSignals:
         return self.normal.dropped + self.tangential.dropped
 
 
+#: Most frames one timing gap can count as missing (a damaged timestamp can make a gap of
+#: centuries; the count stays a finite integer).
+_MAX_GAP_FRAMES = float(2**40)
+
+
 def dropped_frames(t: Array, counter: npt.NDArray[np.int64] | None = None,
                    modulus: int | None = None, *, gap_factor: float = 1.5) -> int:
     """Frames missing from a periodic stream.
@@ -362,12 +368,14 @@ def dropped_frames(t: Array, counter: npt.NDArray[np.int64] | None = None,
     """
     if len(t) < 2:
         return 0
-    dt = np.diff(t)
-    period = float(np.median(dt))
-    by_time = np.zeros(len(dt), dtype=np.int64)
-    if period > 0:
-        gap = dt > gap_factor * period
-        by_time[gap] = np.maximum(np.rint(dt[gap] / period).astype(np.int64) - 1, 0)
+    with np.errstate(over="ignore", invalid="ignore"):  # damaged logs: huge or NaN times
+        dt = np.diff(t)
+        period = float(np.median(dt))
+        by_time = np.zeros(len(dt), dtype=np.int64)
+        if period > 0 and math.isfinite(period):
+            gap = np.isfinite(dt) & (dt > gap_factor * period)
+            est = np.clip(np.rint(dt[gap] / period), 1, _MAX_GAP_FRAMES)
+            by_time[gap] = est.astype(np.int64) - 1
     if counter is None or modulus is None:
         return int(by_time.sum())
     by_count = (np.diff(counter.astype(np.int64)) - 1) % modulus
@@ -383,8 +391,8 @@ def _cell(frames: FrameTable, force: SignalRef, counter: SignalRef | None) -> Ce
     names = [force.signal.name] + ([counter.signal.name] if counter is not None
                                    and counter.message is force.message else [])
     msg = decode_message(frames, force.message, names)
-    order = np.argsort(msg.timestamp, kind="stable") if np.any(np.diff(msg.timestamp) < 0) \
-        else None
+    backwards = np.any(msg.timestamp[1:] < msg.timestamp[:-1])
+    order = np.argsort(msg.timestamp, kind="stable") if backwards else None
     t = msg.timestamp if order is None else msg.timestamp[order]
     value = msg.scaled(force.signal.name)
     value = value if order is None else value[order]
@@ -450,6 +458,15 @@ def decode_trial(frames: FrameTable, rig: Rig) -> TrialSignals:
     -------
     TrialSignals
     """
+    total = len(frames)
+    finite = np.isfinite(frames.timestamp)
+    if not finite.all():
+        log.warning("%d frames with a timestamp that is not a finite number: not decoded",
+                    total - int(np.count_nonzero(finite)))
+        frames = frames.take(finite)
+    ts = frames.timestamp
+    if np.any(ts[1:] < ts[:-1]):  # logs merged or written out of order
+        frames = frames.sorted_by_time()
     normal = _cell(frames, rig.normal_force, rig.normal_force_counter)
     tangential = _cell(frames, rig.tangential_force, rig.tangential_force_counter)
     excitation = _excitation(frames, rig)
@@ -459,7 +476,7 @@ def decode_trial(frames: FrameTable, rig: Rig) -> TrialSignals:
         decoded |= message_mask(frames, m) & (frames.dlc >= m.length)
     n = int(np.count_nonzero(decoded))
     return TrialSignals(normal, tangential, excitation, frames=n,
-                        ignored_frames=len(frames) - n)
+                        ignored_frames=total - n)
 
 
 __all__ = ["CellSignals", "DecodedMessage", "ExcitationSignals", "SignalCodec",

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import gzip
 import io
+import math
 import os
 import re
 from collections.abc import Callable, Iterator
@@ -93,6 +94,8 @@ def parse_line(text: str) -> tuple[Any, ...] | str:  # noqa: PLR0911 - one reaso
     if m is None:
         return "not a candump -L line '(time) channel id#data'"
     ts = float(m["ts"])
+    if not math.isfinite(ts):
+        return f"timestamp {m['ts'][:20]}... is too large"
     id_text, data = m["id"], m["data"]
     can_id = int(id_text, 16)
     extended = len(id_text) > 3
@@ -349,7 +352,7 @@ def _slow_lines(block: bytes, starts: npt.NDArray[np.intp], ends: npt.NDArray[np
 
 
 def _open_binary(path: str | os.PathLike[str]) -> IO[bytes]:
-    if os.fspath(path).lower().endswith(".gz"):
+    if os.fspath(path).lower().removesuffix(".part").endswith(".gz"):
         return gzip.open(path, "rb")
     return open(path, "rb")
 

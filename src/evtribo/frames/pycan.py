@@ -10,6 +10,7 @@ reading stops at the damaged object, and what was read before it is kept.
 from __future__ import annotations
 
 import gzip
+import math
 import os
 from collections.abc import Callable, Iterable, Iterator
 from typing import IO, Any
@@ -119,7 +120,27 @@ def _resumable(reader: Any, counter: _CountingFile | None, suffix: str,
                 counter.push("timestamp,arbitration_id,extended,remote,error,dlc,data\n")
             it = iter(reader)
             continue
+        problem = _implausible(msg)
+        if problem is not None:
+            on_bad(None if counter is None else counter.line, problem)
+            continue
         yield msg
+
+
+def _implausible(msg: can.Message) -> str | None:
+    """Why a message python-can parsed cannot be a CAN frame, or None if it can."""
+    try:
+        ts = float(msg.timestamp)
+    except (TypeError, ValueError):
+        return f"timestamp {msg.timestamp!r} is not a number"
+    if not math.isfinite(ts):
+        return f"timestamp {msg.timestamp!r} is not a finite number"
+    if not 0 <= msg.arbitration_id <= 0x1FFFFFFF:
+        return f"identifier {msg.arbitration_id:#x} is out of range"
+    size = msg.dlc if msg.is_remote_frame else len(msg.data or b"")
+    if not 0 <= size <= FD_WIDTH:
+        return f"payload length {size} is out of range 0..{FD_WIDTH}"
+    return None
 
 
 def read_with_python_can(path: str | os.PathLike[str], on_bad: BadLineHandler
@@ -132,22 +153,33 @@ def read_with_python_can(path: str | os.PathLike[str], on_bad: BadLineHandler
     lines : int
         Lines read (text formats), else 0.
     """
-    name = os.fspath(path).lower()
+    name = os.fspath(path).lower().removesuffix(".part")  # an unfinished acquisition's name
     gz = name.endswith(".gz")
     suffix = os.path.splitext(name[:-3] if gz else name)[1]
     reader_cls = MESSAGE_READERS[suffix]
     binary = issubclass(reader_cls, BinaryIOMessageReader) or suffix == ".db"
     counter: _CountingFile | None = None
-    if suffix == ".db":
-        reader = reader_cls(os.fspath(path))
-    elif binary:
-        handle: Any = gzip.open(path, "rb") if gz else open(path, "rb")
-        reader = reader_cls(handle)
-    else:
-        raw: Any = gzip.open(path, "rt") if gz else open(path, encoding="utf-8",
-                                                          errors="replace")
-        counter = _CountingFile(raw)
-        reader = reader_cls(counter)
+    handle: Any = None
+    try:
+        if suffix == ".db":
+            reader = reader_cls(os.fspath(path))
+        elif binary:
+            handle = gzip.open(path, "rb") if gz else open(path, "rb")
+            reader = reader_cls(handle)
+        else:
+            handle = gzip.open(path, "rt") if gz else open(path, encoding="utf-8",
+                                                           errors="replace")
+            counter = _CountingFile(handle)
+            reader = reader_cls(counter)
+    except OSError:
+        if handle is not None:
+            handle.close()
+        raise
+    except Exception as err:  # python-can's readers check their header with struct, asserts...
+        if handle is not None:
+            handle.close()
+        raise ValueError(f"not a {suffix} file python-can can read "
+                         f"({type(err).__name__}: {err})") from err
     try:
         frames = frames_from_messages(_resumable(reader, counter, suffix, on_bad))
     finally:

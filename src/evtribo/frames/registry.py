@@ -15,6 +15,7 @@ from __future__ import annotations
 import difflib
 import logging
 import os
+import zlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -69,9 +70,19 @@ class ReadReport:
     skipped: list[tuple[int | None, str]] = field(default_factory=list)
 
 
+#: Suffix of a log left under its temporary name by an acquisition that did not finish
+#: (``run-01.log.part``); it is read by the reader of the suffix before it.
+PARTIAL_SUFFIX = ".part"
+
+
 def log_suffix(path: str | os.PathLike[str]) -> str:
-    """The format suffix of *path*: ``.log``, ``.asc``..., or ``.log.gz`` for gzip."""
+    """The format suffix of *path*: ``.log``, ``.asc``..., or ``.log.gz`` for gzip.
+
+    A trailing :data:`PARTIAL_SUFFIX` is ignored: ``run-01.log.part`` is a ``.log``.
+    """
     name = os.path.basename(os.fspath(path)).lower()
+    if name.endswith(PARTIAL_SUFFIX) and len(name) > len(PARTIAL_SUFFIX):
+        name = name[: -len(PARTIAL_SUFFIX)]
     stem, ext = os.path.splitext(name)
     if ext == ".gz":
         return os.path.splitext(stem)[1] + ext
@@ -90,7 +101,8 @@ def read_frames(path: str | os.PathLike[str], *, strict: bool = False
     Parameters
     ----------
     path : path-like
-        The log; its suffix picks the reader (see :data:`READERS`), ``.gz`` is decompressed.
+        The log; its suffix picks the reader (see :data:`READERS`), ``.gz`` is decompressed,
+        and ``.part`` (an acquisition's temporary name) is ignored.
     strict : bool
         Raise at the first damaged line instead of skipping it.
 
@@ -134,7 +146,7 @@ def read_frames(path: str | os.PathLike[str], *, strict: bool = False
         frames, lines = reader(path, on_bad)
     except LogFormatError:
         raise
-    except (OSError, EOFError, ValueError) as err:
+    except (OSError, EOFError, ValueError, zlib.error) as err:
         raise LogFormatError(f"cannot read {fmt} log: {err}", path=path) from err
     report.frames = len(frames)
     report.lines = lines
