@@ -1,0 +1,222 @@
+"""Every bad input of docs/errors.md, run: the exit code and the message the table gives,
+no traceback, and nothing written.
+
+The table in docs/errors.md is the specification: each row names a case (``id``), the
+command (``STUDY``, ``OUT``, ``TMP`` stand for the folders the test makes), the exit code and
+text the error message contains. :data:`BUILD` makes each case's input from a valid study;
+a row without a builder, or a builder without a row, fails the suite.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import shlex
+import shutil
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from evtribo.cli import main
+from evtribo.rig import default_rig_path
+
+ERRORS_MD = Path(__file__).parents[1] / "docs" / "errors.md"
+DBC = default_rig_path().with_name("default.dbc")
+LOG = ("(1763700000.000000) vcan0 0C1#0000000000000000\n"
+       "(1763700000.001000) vcan0 0C2#0000000000000000\n")
+SIDECAR = {"subject": "P01", "waveform": "square", "frequency_Hz": 10000, "amplitude_V": 140,
+           "condition": "alternating"}
+STUDY_TOML = """name = "bad input"
+
+[rig]
+dbc = "rig/default.dbc"
+normal_force = "FzCell.Fz"
+tangential_force = "FxCell.Fx"
+"""
+
+
+def make_study(root: Path) -> None:
+    """A valid study: study.toml, the default rig's DBC, one trial with its sidecar."""
+    (root / "rig").mkdir(parents=True)
+    shutil.copy(DBC, root / "rig" / "default.dbc")
+    (root / "study.toml").write_text(STUDY_TOML, encoding="utf-8")
+    (root / "P01").mkdir()
+    (root / "P01" / "run-01.log").write_text(LOG, encoding="utf-8")
+    (root / "P01" / "run-01.json").write_text(json.dumps(SIDECAR), encoding="utf-8")
+
+
+def _toml(study: Path, old: str, new: str) -> None:
+    path = study / "study.toml"
+    text = path.read_text(encoding="utf-8")
+    assert old in text
+    path.write_text(text.replace(old, new), encoding="utf-8")
+
+
+def _sidecar(study: Path, **values: object) -> None:
+    (study / "P01" / "run-01.json").write_text(json.dumps({**SIDECAR, **values}),
+                                               encoding="utf-8")
+
+
+def _text(path: Path, text: str) -> Callable[[Path], None]:
+    def build(tmp: Path) -> None:
+        (tmp / path).parent.mkdir(parents=True, exist_ok=True)
+        (tmp / path).write_text(text, encoding="utf-8")
+    return build
+
+
+#: case id -> how to make its input (in TMP, which holds a valid study in TMP/study).
+BUILD: dict[str, Callable[[Path], None]] = {
+    "toml-syntax": lambda t: _toml(t / "study", 'name = "bad input"', 'name = "bad input'),
+    "toml-unknown-key": lambda t: _toml(t / "study", "name =", "subject = 'P01'\nname ="),
+    "toml-wrong-type": lambda t: _toml(t / "study", 'name = "bad input"', "name = 3"),
+    "toml-no-rig": lambda t: (t / "study" / "study.toml").write_text('name = "x"\n'),
+    "rig-unknown-key": lambda t: _toml(t / "study", "normal_force =", "normal_forse ="),
+    "rig-missing-key": lambda t: _toml(t / "study", 'tangential_force = "FxCell.Fx"\n', ""),
+    "rig-not-a-string": lambda t: _toml(t / "study", '"FzCell.Fz"', "3"),
+    "dbc-missing": lambda t: _toml(t / "study", "rig/default.dbc", "rig/loadcells.dbc"),
+    "dbc-not-parsing": lambda t: (t / "study" / "rig" / "default.dbc").write_text(
+        'VERSION ""\n\nBO_ 193 FzCell: 8 Vector__XXX\n SG_ Fz : 0|16@1+ (0.001,0) [0|65] "N"\n'
+        " Vector__XXX\nBO_ this line is not DBC\n"),
+    "signal-missing": lambda t: _toml(t / "study", '"FzCell.Fz"', '"FzCell.Force"'),
+    "message-missing": lambda t: _toml(t / "study", '"FzCell.Fz"', '"NormalCell.Fz"'),
+    "signal-malformed": lambda t: _toml(t / "study", '"FzCell.Fz"', '"Fz"'),
+    "sidecar-json": lambda t: (t / "study" / "P01" / "run-01.json").write_text(
+        '{"subject": "P01",\n "amplitude_V": 140,\n}\n'),
+    "sidecar-subject-path": lambda t: _sidecar(t / "study", subject="../P02"),
+    "sidecar-waveform": lambda t: _sidecar(t / "study", waveform="triangle"),
+    "sidecar-amplitude-string": lambda t: _sidecar(t / "study", amplitude_V="140 V"),
+    "sidecar-negative": lambda t: _sidecar(t / "study", frequency_Hz=-10000),
+    "sidecar-condition": lambda t: _sidecar(t / "study", condition="half"),
+    "subject-folder-name": lambda t: (t / "study" / "P01").rename(t / "study" / "P 01"),
+    "two-logs-one-trial": lambda t: (t / "study" / "P01" / "run-01.asc").write_text(""),
+    "duplicate-trial": lambda t: (
+        shutil.copytree(t / "study" / "P01", t / "study" / "P01-again")),
+    "not-a-study": lambda t: (t / "study" / "study.toml").unlink(),
+    "no-such-study": lambda t: None,
+    "no-trials": lambda t: shutil.rmtree(t / "study" / "P01"),
+    "results-exist": _text(Path("out/trials.csv"), "subject,trial\n"),
+    "strict-damaged-line": lambda t: (t / "study" / "P01" / "run-01.log").write_text(
+        LOG + "(1763700000.002000) vcan0 0C1#000000000000000\n"),
+    "jobs-zero": lambda t: None,
+    "log-unknown-suffix": _text(Path("run-01.txt"), LOG),
+    "log-suffix-typo": _text(Path("run-01.lgo"), LOG),
+    "log-missing": lambda t: None,
+    "decode-output-suffix": lambda t: None,
+    "decode-output-exists": _text(Path("run-01.csv"), "timestamp\n"),
+    "decode-dbc-missing": lambda t: None,
+    "model-set-unknown": lambda t: None,
+    "model-set-not-a-number": lambda t: None,
+    "model-set-syntax": lambda t: None,
+    "model-set-negative": lambda t: None,
+    "compare-no-results": lambda t: None,
+    "compare-fit-unknown": _text(Path("out/electrostatic.csv"), "subject\n"),
+    "compare-params-not-toml": _text(Path("params.toml"), "h_L = = 3\n"),
+    "report-no-results": lambda t: None,
+    "acquire-subject-path": lambda t: None,
+    "acquire-amplitude-string": lambda t: None,
+    "acquire-waveform": lambda t: None,
+    "acquire-rig-not-toml": _text(Path("rig.toml"), "dbc = default.dbc\n"),
+    "acquire-trial-exists": lambda t: None,
+    "acquire-bus-option": lambda t: None,
+}
+
+
+def parse_table(path: Path = ERRORS_MD) -> list[dict[str, str]]:
+    """The rows of the first Markdown table in *path* whose header starts ``| id |``."""
+    rows, header = [], None
+    for line in path.read_text(encoding="utf-8").splitlines():
+        if not line.startswith("|"):
+            if header is not None and rows:
+                break
+            continue
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if header is None:
+            if cells and cells[0] == "id":
+                header = cells
+            continue
+        if set(line) <= set("|-: "):
+            continue
+        rows.append(dict(zip(header, cells, strict=True)))
+    return rows
+
+
+def _code(cell: str) -> str:
+    m = re.fullmatch(r"(`+) ?(.*?) ?\1", cell)
+    assert m, f"expected `code` in {cell!r}"
+    return m.group(2)
+
+
+def _tree(root: Path) -> dict[str, tuple[int, int]]:
+    return {os.fspath(p.relative_to(root)): (p.stat().st_size, p.stat().st_mtime_ns)
+            for p in root.rglob("*")}
+
+
+def places(tmp: Path) -> dict[str, str]:
+    """What the table's placeholders stand for."""
+    return {"STUDY": os.fspath(tmp / "study"), "OUT": os.fspath(tmp / "out"),
+            "TMP": os.fspath(tmp)}
+
+
+def substitute(text: str, tmp: Path) -> str:
+    """*text* with STUDY, OUT and TMP replaced by the folders under *tmp*."""
+    where = places(tmp)
+    return re.sub(r"\b(STUDY|OUT|TMP)\b", lambda m: where[m.group(1)], text)
+
+
+def run_case(case: dict[str, str], tmp: Path, capsys: pytest.CaptureFixture[str]
+             ) -> tuple[int, str, dict[str, tuple[int, int]]]:
+    """Build the case's input under *tmp* and run its command.
+
+    Returns the exit code, stderr, and the files under *tmp* before the command ran.
+    """
+    make_study(tmp / "study")
+    BUILD[case["id"]](tmp)
+    capsys.readouterr()
+    argv = [substitute(a, tmp) for a in shlex.split(_code(case["command"]))]
+    assert argv[0] == "evtribo"
+    before = _tree(tmp)
+    try:
+        code = main(argv[1:])
+    except SystemExit as exc:  # argparse's own usage errors
+        code = int(exc.code or 0)
+    return code, capsys.readouterr().err, before
+
+
+CASES = parse_table()
+
+
+def test_the_table_and_the_builders_name_the_same_cases():
+    ids = [c["id"] for c in CASES]
+    assert len(ids) == len(set(ids)), "a case id appears twice in docs/errors.md"
+    assert set(ids) == set(BUILD)
+
+
+@pytest.mark.parametrize("case", CASES, ids=[c["id"] for c in CASES])
+def test_bad_input(case, tmp_path, capsys):
+    code, err, before = run_case(case, tmp_path, capsys)
+    assert code == int(case["exit"]), err
+    expected = substitute(_code(case["message"]), tmp_path)
+    assert expected in err, f"\nexpected: {expected}\n     got: {err}"
+    assert "Traceback" not in err
+    assert _tree(tmp_path) == before, "the command wrote or changed files"
+
+
+@pytest.mark.parametrize("case_id", ["sidecar-subject-path", "dbc-not-parsing",
+                                     "acquire-amplitude-string"])
+def test_bad_input_as_a_process(case_id, tmp_path):
+    """The same through ``python -m evtribo``: the process's exit code, no traceback."""
+    case = next(c for c in CASES if c["id"] == case_id)
+    make_study(tmp_path / "study")
+    BUILD[case_id](tmp_path)
+    argv = [substitute(a, tmp_path) for a in shlex.split(_code(case["command"]))]
+    before = _tree(tmp_path)
+    proc = subprocess.run([sys.executable, "-m", "evtribo", *argv[1:]], capture_output=True,
+                          text=True, timeout=60, check=False)
+    assert proc.returncode == int(case["exit"])
+    assert substitute(_code(case["message"]), tmp_path) in proc.stderr
+    assert "Traceback" not in proc.stderr
+    assert _tree(tmp_path) == before
