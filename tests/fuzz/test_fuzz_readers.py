@@ -102,3 +102,26 @@ def test_empty_file(work, fmt):
     path = work / f"empty{fmt}"
     write(path, b"", compress=fmt.endswith(".gz"))
     check_read(path)
+
+
+@pytest.mark.parametrize("fmt", TEXT_FORMATS)
+def test_a_frame_line_cut_anywhere_is_read_or_counted(seeds, work, fmt):
+    """No frame vanishes in silence: a frame line cut at any position is still read (a
+    shorter payload), or counted as a damaged line. python-can's .asc and .trc readers pass
+    such lines over without a word; evtribo reports them."""
+    lines = plain_bytes(fmt, seeds).split(b"\n")
+    path = work / f"cut{fmt}"
+    path.write_bytes(b"\n".join(lines))
+    n0 = len(read_frames(path)[0])
+    body = [i for i, ln in enumerate(lines) if ln.strip() and not ln.startswith((b";", b"//"))]
+    for i in (body[1], body[len(body) // 2], body[-1]):
+        for cut in range(len(lines[i].rstrip(b"\r"))):
+            kept = lines[i][:cut]
+            if not kept.strip():
+                continue  # a blank line is no frame
+            if fmt == ".trc" and kept.split()[-1] == b"D":
+                continue  # the type column cut to 'D': a record type python-can skips
+            damaged = [*lines[:i], kept, *lines[i + 1:]]
+            path.write_bytes(b"\n".join(damaged))
+            frames, report = read_frames(path)
+            assert len(frames) + report.skipped_lines == n0, (cut, kept)

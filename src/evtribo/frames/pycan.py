@@ -12,6 +12,7 @@ from __future__ import annotations
 import gzip
 import math
 import os
+import re
 from collections.abc import Callable, Iterable, Iterator
 from typing import IO, Any
 
@@ -25,6 +26,16 @@ from evtribo.frames.table import CLASSIC_WIDTH, FD_WIDTH, FrameTable
 BadLineHandler = Callable[[int | None, str], None]
 
 
+#: Lines kept between two frames (a longer run of comments or events is not checked).
+_MAX_RECENT = 10_000
+
+#: An ``.asc`` line python-can passes over in silence although it starts like a frame
+#: (time, channel, identifier): a frame line cut short or damaged. Events, comments and
+#: status lines (``CAN 1 Status:...``, ``1 Statistic:``...) do not match.
+_ASC_FRAME_LIKE = re.compile(r"\s*\d+(?:\.\d*)?(?:\s+(?:\d+|CANFD)(?:\s+[0-9A-Fa-f]+x?"
+                             r"(?:\s.*)?)?)?\s*")
+
+
 class _CountingFile:
     """A text file that counts the lines handed out (to name a damaged line)."""
 
@@ -32,6 +43,8 @@ class _CountingFile:
         self._raw = raw
         self.line = 0
         self._pending: list[str] = []
+        #: Lines handed out since the last frame came back: (line number, text).
+        self.recent: list[tuple[int, str]] = []
 
     def push(self, text: str) -> None:
         """Hand *text* out again before the rest of the file (not counted)."""
@@ -51,6 +64,8 @@ class _CountingFile:
         text = self._pending.pop() if self._pending else self._raw.readline()
         if text:
             self.line += 1
+            if len(self.recent) < _MAX_RECENT:
+                self.recent.append((self.line, text))
         return text
 
     def __getattr__(self, name: str) -> Any:
@@ -101,18 +116,50 @@ def frames_from_messages(messages: Iterable[can.Message], channel: str | None = 
     )
 
 
+def _passed_over(counter: _CountingFile | None, suffix: str, on_bad: BadLineHandler,
+                 keep_last: bool) -> None:
+    """Report the ``.asc`` lines python-can skipped in silence that look like frames."""
+    if counter is None:
+        return
+    lines = counter.recent[:-1] if keep_last else counter.recent
+    if suffix == ".asc":
+        for number, text in lines:
+            if text.strip() and _ASC_FRAME_LIKE.fullmatch(text.rstrip("\r\n")):
+                on_bad(number, f"not a complete frame record: {text.strip()[:60]!r}")
+    counter.recent.clear()
+
+
+def _checked_trc_lines(reader: Any, counter: _CountingFile | None,
+                       on_bad: BadLineHandler) -> None:
+    """Make python-can's TRC reader report lines it cannot split into columns (it logs them
+    and goes on, uncounted)."""
+    def parse_line(line: str) -> can.Message | None:
+        try:  # _parse_cols is chosen by the header's version: look it up at each call
+            return reader._parse_cols(tuple(line.split(maxsplit=reader._num_columns)))
+        except IndexError:
+            on_bad(None if counter is None else counter.line,
+                   f"not a complete frame record: {line.strip()[:60]!r}")
+            return None
+
+    reader._parse_line = parse_line
+
+
 def _resumable(reader: Any, counter: _CountingFile | None, suffix: str,
                on_bad: BadLineHandler) -> Iterator[can.Message]:
+    if suffix == ".trc":
+        _checked_trc_lines(reader, counter, on_bad)
     it = iter(reader)
     while True:
         try:
             msg = next(it)
         except StopIteration:
+            _passed_over(counter, suffix, on_bad, keep_last=False)
             return
         except Exception as err:  # python-can raises ValueError, IndexError, struct.error...
             if counter is None:
                 on_bad(None, f"cannot be read past this point ({type(err).__name__}: {err})")
                 return
+            _passed_over(counter, suffix, on_bad, keep_last=True)
             on_bad(counter.line, f"{type(err).__name__}: {err}")
             # start a fresh generator on the rest of the file, header already parsed
             reader._extract_header = lambda: None
@@ -120,6 +167,7 @@ def _resumable(reader: Any, counter: _CountingFile | None, suffix: str,
                 counter.push("timestamp,arbitration_id,extended,remote,error,dlc,data\n")
             it = iter(reader)
             continue
+        _passed_over(counter, suffix, on_bad, keep_last=True)
         problem = _implausible(msg)
         if problem is not None:
             on_bad(None if counter is None else counter.line, problem)
