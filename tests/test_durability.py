@@ -26,9 +26,11 @@ import textwrap
 import time
 from pathlib import Path
 
+import can
 import pandas as pd
 import pytest
 
+from evtribo.acquisition.logger import FLUSH_INTERVAL_S, LogWriter
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_trial
 from evtribo.cli import main
 from evtribo.frames import read_frames, write_candump
@@ -41,7 +43,8 @@ DBC = default_rig_path().with_name("default.dbc")
 RECORDER = textwrap.dedent("""
     import sys, threading, uuid
     import can
-    from evtribo.acquisition.simulator import Simulator, SubjectParams, TrialConfig
+    from evtribo.acquisition.logger import FLUSH_INTERVAL_S, LogWriter
+from evtribo.acquisition.simulator import Simulator, SubjectParams, TrialConfig
     from evtribo.acquisition.trial import TrialInfo, record_trial
 
     study = sys.argv[1]
@@ -255,3 +258,25 @@ def test_read_only_study_every_command_but_acquire_only_reads(study, tmp_path, m
         key = os.fspath(p.relative_to(ro))
         assert after[key][0] == before[key][0] and after[key][2] == before[key][2], key
     assert set(after) == set(before), "files appeared in the study"
+
+
+def test_the_log_reaches_the_disk_twice_a_second(tmp_path):
+    """With its default interval the logger's writer makes frames readable by another
+    reader (as after a crash) within half a second, without closing the file."""
+    assert FLUSH_INTERVAL_S <= 0.5
+    path = tmp_path / "run-01.log.part"
+    fh = path.open("wb", buffering=0)
+    writer = LogWriter(fh, "vcan0").start()
+    try:
+        for k in range(3):
+            msg = can.Message(timestamp=1763700000.0 + k, arbitration_id=0xC1,
+                              is_extended_id=False, data=bytes(8))
+            t0 = time.monotonic()
+            writer.put([msg])
+            while path.read_bytes().count(b"\n") < k + 1:
+                assert time.monotonic() - t0 < FLUSH_INTERVAL_S + 0.25, "not on disk in time"
+                time.sleep(0.01)
+    finally:
+        writer.close()
+        fh.close()
+    assert len(read_frames(path)[0]) == 3
