@@ -43,8 +43,7 @@ DBC = default_rig_path().with_name("default.dbc")
 RECORDER = textwrap.dedent("""
     import sys, threading, uuid
     import can
-    from evtribo.acquisition.logger import FLUSH_INTERVAL_S, LogWriter
-from evtribo.acquisition.simulator import Simulator, SubjectParams, TrialConfig
+    from evtribo.acquisition.simulator import Simulator, SubjectParams, TrialConfig
     from evtribo.acquisition.trial import TrialInfo, record_trial
 
     study = sys.argv[1]
