@@ -24,6 +24,7 @@ def test_demo_end_to_end(tmp_path):
     truth_gap = res.truth["subjects"]["P01"]["h_L"]
     value, low, high = res.fitted_air_gaps["P01"]
     assert value == pytest.approx(truth_gap, rel=0.1)
+    assert low < value < high
     HTMLParser().feed(res.report.read_text(encoding="utf-8"))
     assert res.report.stat().st_size > 50_000
     assert any("air gap fitted" in line for line in lines)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import logging
+import shutil
 import threading
 import uuid
 from collections.abc import Callable, Sequence
@@ -127,8 +128,6 @@ def _check_out(out: Path, force: bool) -> None:
                                 + "); use --force to replace it", path=out)
     if force and (out / STUDY).exists():
         # The demo's own simulated study is the only thing it ever replaces.
-        import shutil
-
         shutil.rmtree(out / STUDY)
 
 

@@ -20,6 +20,7 @@ first, the way compilers do: ``study.toml: key 'rig.dbc': file not found``.
 from __future__ import annotations
 
 import os
+import re
 from typing import Any
 
 
@@ -62,6 +63,12 @@ class EvtriboError(Exception):
 def _rebuild(cls: type[EvtriboError], message: str, path: str | None, line: int | None,
              key: str | None) -> EvtriboError:
     return cls(message, path=path, line=line, key=key)
+
+
+def toml_error_line(err: BaseException) -> int | None:
+    """The line number a ``tomllib.TOMLDecodeError`` names in its message, if any."""
+    m = re.search(r"line (\d+)", str(err))
+    return int(m.group(1)) if m else None
 
 
 class UserInputError(EvtriboError):
@@ -113,4 +120,5 @@ __all__ = [
     "SidecarError",
     "StudyError",
     "UserInputError",
+    "toml_error_line",
 ]

@@ -36,7 +36,7 @@ import cantools
 import cantools.database
 from cantools.database.can import Database, Message, Signal
 
-from evtribo.errors import RigConfigError
+from evtribo.errors import RigConfigError, toml_error_line
 
 log = logging.getLogger(__name__)
 
@@ -258,7 +258,8 @@ def load_rig(toml_path: str | os.PathLike[str]) -> Rig:
     except FileNotFoundError as err:
         raise RigConfigError("rig file not found", path=path) from err
     except tomllib.TOMLDecodeError as err:
-        raise RigConfigError(f"not valid TOML: {err}", path=path) from err
+        raise RigConfigError(f"not valid TOML: {err}", path=path,
+                             line=toml_error_line(err)) from err
     if "rig" in table and isinstance(table["rig"], dict):
         return Rig.from_mapping(table["rig"], path.parent, source=path, key_prefix="rig")
     return Rig.from_mapping(table, path.parent, source=path, key_prefix="")

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from evtribo.errors import SidecarError, StudyError
+from evtribo.errors import OutputExistsError, SidecarError, StudyError, toml_error_line
 
 if TYPE_CHECKING:  # pragma: no cover
     from evtribo.rig import Rig
@@ -174,8 +174,6 @@ def read_sidecar(path: str | os.PathLike[str], *, default_subject: str) -> Sidec
 def write_sidecar(path: str | os.PathLike[str], sidecar: Sidecar | Mapping[str, Any], *,
                   force: bool = False) -> Path:
     """Write a sidecar atomically (temporary file, then rename); refuse to overwrite."""
-    from evtribo.errors import OutputExistsError
-
     p = Path(path)
     if p.exists() and not force:
         raise OutputExistsError("exists already; use --force to overwrite", path=p)
@@ -252,11 +250,6 @@ class Study:
         return list(dict.fromkeys(t.subject for t in self.trials))
 
 
-def _toml_line(err: tomllib.TOMLDecodeError) -> int | None:
-    m = re.search(r"line (\d+)", str(err))
-    return int(m.group(1)) if m else None
-
-
 def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Read ``study.toml`` and check its top-level keys and their types."""
     p = Path(path)
@@ -267,7 +260,7 @@ def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
         raise StudyError(f"no {STUDY_FILE}: this folder is not a study "
                          "(evtribo acquire creates one)", path=p) from err
     except tomllib.TOMLDecodeError as err:
-        raise StudyError(f"invalid TOML: {err}", path=p, line=_toml_line(err)) from err
+        raise StudyError(f"invalid TOML: {err}", path=p, line=toml_error_line(err)) from err
     except UnicodeDecodeError as err:
         raise StudyError(f"not UTF-8 text: {err.reason}", path=p) from err
     for key, value in config.items():
@@ -378,8 +371,6 @@ def _toml_value(value: Any) -> str:
 
 def write_study_toml(root: str | os.PathLike[str], *, name: str, rig: Mapping[str, Any]) -> Path:
     """Create ``study.toml`` in *root* with a ``[rig]`` table; refuses to overwrite one."""
-    from evtribo.errors import OutputExistsError
-
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     p = root / STUDY_FILE

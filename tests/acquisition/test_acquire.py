@@ -256,7 +256,7 @@ def test_records_the_simulated_rig_at_a_saturated_rate(tmp_path):
 
 
 def test_disk_full_mid_trial_keeps_the_log_so_far(tmp_path, monkeypatch):
-    from evtribo.acquisition.logger import LogWriter  # noqa: PLC0415
+    from evtribo.acquisition.logger import LogWriter
 
     original = LogWriter._write_all
     calls = []
@@ -284,7 +284,7 @@ def test_disk_full_mid_trial_keeps_the_log_so_far(tmp_path, monkeypatch):
 
 
 def test_bus_options_and_python_can_configuration(monkeypatch):
-    from evtribo.acquisition.bus import open_bus, parse_bus_options  # noqa: PLC0415
+    from evtribo.acquisition.bus import open_bus, parse_bus_options
 
     assert parse_bus_options(["sleep_after_open=0", "fd=True", "app_name=my rig",
                               "timeout=0.5"]) == \

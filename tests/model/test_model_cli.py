@@ -79,7 +79,7 @@ def test_table(capsys):
 
 
 def test_figures_written_not_blank_and_not_overwritten(tmp_path, capsys):
-    from matplotlib import image  # noqa: PLC0415
+    from matplotlib import image
 
     out = tmp_path / "new" / "figures"
     assert main(["model", "--figures", str(out)]) == 0
@@ -100,7 +100,7 @@ def test_figures_written_not_blank_and_not_overwritten(tmp_path, capsys):
 
 
 def test_save_figures_raises_output_exists(tmp_path):
-    from evtribo.model.figures import save_figures  # noqa: PLC0415
+    from evtribo.model.figures import save_figures
 
     (tmp_path / "fig7_area_increase.svg").write_text("keep")
     with pytest.raises(OutputExistsError):

@@ -119,7 +119,7 @@ def test_broadcasting_shapes():
 
 def test_documented_lambda_table_is_current():
     """The lambda-versus-voltage table in the module's docstring matches the code."""
-    from evtribo.model import maugis  # noqa: PLC0415
+    from evtribo.model import maugis
 
     lines = maugis.__doc__.splitlines()
     volts = [float(v) for v in next(ln for ln in lines if ln.startswith("U (V)")).split()[2:]]

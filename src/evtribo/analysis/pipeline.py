@@ -137,6 +137,13 @@ def _analyze_one(index: int) -> _Result:
         if strict:
             raise
         row, windows, warnings, error = failed_row(meta), empty_windows(), [], str(err)
+    except Exception as err:  # one trial's fault must not cost the others their results
+        if strict:
+            raise
+        log.debug("%s: analysis failed", ref.key, exc_info=True)
+        row, windows, warnings = failed_row(meta), empty_windows(), []
+        error = f"{ref.log_path}: {type(err).__name__}: {err} (run with --strict --debug " \
+                "for the traceback)"
     finally:
         root_logger.removeHandler(collector)
     details = [f"{ref.key}: {m}" for m in collector.messages]

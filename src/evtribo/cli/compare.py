@@ -31,7 +31,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``evtribo compare``; return the exit code."""
-    from evtribo.compare.run import compare  # noqa: PLC0415 - matplotlib only when used
+    from evtribo.compare.run import compare
 
     result = compare(args.out, fit=args.fit, params=args.params, force=args.force,
                      dpi=args.dpi)

@@ -149,7 +149,7 @@ def run(args: argparse.Namespace) -> int:
     result: dict[str, Any] = evaluate(normal_force, voltage, params)
     written: list[str] = []
     if args.figures is not None:
-        from evtribo.model.figures import save_figures  # noqa: PLC0415 - matplotlib on demand
+        from evtribo.model.figures import save_figures
 
         written = [str(p) for p in save_figures(args.figures, force=args.force,
                                                 params=params)]

@@ -27,7 +27,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``evtribo report``; return the exit code."""
-    from evtribo.compare.study_report import build_report  # noqa: PLC0415 - lazy matplotlib
+    from evtribo.compare.study_report import build_report
 
     output = Path(args.output) if args.output else Path(args.out) / "report.html"
     path = build_report(args.out, output, force=args.force, run_compare=not args.no_compare)

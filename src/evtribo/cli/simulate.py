@@ -103,7 +103,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _build(args: argparse.Namespace, duration: float) -> tuple[Any, Any]:
-    from evtribo.acquisition.simulator import SubjectParams, TrialConfig  # noqa: PLC0415
+    from evtribo.acquisition.simulator import SubjectParams, TrialConfig
 
     subject_kw = {"name": args.subject, "mu": args.mu, "h_L": args.air_gap,
                   "normal_force_N": args.target_force, "force_drift": args.force_drift,
@@ -151,7 +151,7 @@ def run(args: argparse.Namespace) -> int:
     if args.duration is not None and args.duration <= 0:
         raise ConfigError(f"{args.duration!r} is not allowed: must be > 0", key="--duration")
     if args.study is not None:
-        from evtribo.acquisition.simulator import write_trial  # noqa: PLC0415
+        from evtribo.acquisition.simulator import write_trial
 
         subject, config = _build(args, args.duration or 30.0)
         truth = write_trial(args.study, args.trial, subject, config, force=args.force)
@@ -160,19 +160,19 @@ def run(args: argparse.Namespace) -> int:
               f"{sum(int(n['frames']) for n in nodes.values()) + truth.foreign_frames} frames")
         return 0
 
-    from evtribo.acquisition.simulator import Simulator  # noqa: PLC0415
+    from evtribo.acquisition.simulator import Simulator
 
     subject, config = _build(args, args.duration or 1.0)
     sim = Simulator(subject, config)
     if args.pty:
-        from evtribo.acquisition.slcan import SlcanPtyAdapter  # noqa: PLC0415
+        from evtribo.acquisition.slcan import SlcanPtyAdapter
 
         with _stop_on_signals() as stop, SlcanPtyAdapter() as adapter:
             print(adapter.path, flush=True)
             stats = sim.run_pty(adapter, duration=args.duration, stop_event=stop)
             dropped = adapter.dropped
     else:
-        import can  # noqa: PLC0415
+        import can
 
         kwargs: dict[str, Any] = {}
         for key in ("interface", "channel", "bitrate"):

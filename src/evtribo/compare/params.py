@@ -18,7 +18,7 @@ import tomllib
 from collections.abc import Iterable
 from pathlib import Path
 
-from evtribo.errors import ConfigError
+from evtribo.errors import ConfigError, toml_error_line
 from evtribo.model.params import TABLE_1, ModelParameters
 
 __all__ = ["DEFAULT_FIT", "load_parameters", "parameter_names", "parameter_unit",
@@ -106,7 +106,7 @@ def load_parameters(path: str | Path | None,
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise ConfigError(f"not valid TOML: {err}", path=file) from err
+        raise ConfigError(f"not valid TOML: {err}", path=file, line=toml_error_line(err)) from err
     if set(data) == {"model"} and isinstance(data["model"], dict):
         data, prefix = data["model"], "model."
     else:

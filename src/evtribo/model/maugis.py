@@ -312,7 +312,7 @@ def md_jkr_departure(normal_force: ArrayLike, voltage: ArrayLike,
         sigma_0 pi c^2 / (sigma_0 pi a_JKR^2) - 1, dimensionless (0 when JKR holds, and
         without voltage).
     """
-    from evtribo.model.contact import contact_area_jkr  # noqa: PLC0415
+    from evtribo.model.contact import contact_area_jkr
 
     md = np.asarray(electrostatic_force_md(normal_force, voltage, params))
     jkr = np.asarray(adhesion_stress(voltage, params)) * np.asarray(

@@ -14,9 +14,9 @@ from typing import TYPE_CHECKING
 import can
 import numpy as np
 
-from evtribo.errors import ConfigError
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.core import TrialGenerator
+from evtribo.errors import ConfigError
 from evtribo.frames.table import FrameTable
 
 if TYPE_CHECKING:  # pragma: no cover
