@@ -17,11 +17,11 @@ import pytest
 
 from evtribo.acquisition.bus import BusSettings
 from evtribo.acquisition.trial import TrialInfo, record_trial
-from evtribo.analysis.drops import missing_frames
 from evtribo.analysis.pipeline import SINE_TRACE_FILE, analyze_study
 from evtribo.compare import build_report
 from evtribo.compare.run import compare
 from evtribo.compare.tables import read_results
+from evtribo.dropped import missing_frames
 from evtribo.frames import read_frames
 from evtribo.study import load_study
 

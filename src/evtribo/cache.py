@@ -34,7 +34,7 @@ from evtribo.rig import Rig
 log = logging.getLogger(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
-CACHE_VERSION = 1
+CACHE_VERSION = 2  # 2: dropped frames counted by evtribo.dropped
 _META = b"evtribo.trial"
 
 

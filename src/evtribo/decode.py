@@ -28,13 +28,13 @@ shorter than the message's length are not decoded (cantools refuses them too).
 from __future__ import annotations
 
 import logging
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
 from cantools.database.can import Database, Message, Signal
 
+from evtribo.dropped import missing_frames
 from evtribo.frames.table import FrameTable
 from evtribo.rig import Rig, SignalRef
 
@@ -338,14 +338,9 @@ class TrialSignals:
         return self.normal.dropped + self.tangential.dropped
 
 
-#: Most frames one timing gap can count as missing (a damaged timestamp can make a gap of
-#: centuries; the count stays a finite integer).
-_MAX_GAP_FRAMES = float(2**40)
-
-
 def dropped_frames(t: Array, counter: npt.NDArray[np.int64] | None = None,
-                   modulus: int | None = None, *, gap_factor: float = 1.5) -> int:
-    """Frames missing from a periodic stream.
+                   modulus: int | None = None) -> int:
+    """Frames missing from a periodic stream (one load cell).
 
     Parameters
     ----------
@@ -355,36 +350,15 @@ def dropped_frames(t: Array, counter: npt.NDArray[np.int64] | None = None,
         Rolling counter, +1 per frame, wrapping at *modulus*.
     modulus : int, optional
         Counter period (``2**bits`` for an unsigned counter).
-    gap_factor : float
-        A step longer than this many median periods is a timing gap.
 
     Returns
     -------
     int
-        Per step, the counter's count of missing frames (``(Δcounter - 1) mod modulus``);
-        where the timing says more frames are missing (a gap of a whole counter period or
-        more), the count congruent to the counter's that is nearest the timing's estimate.
-        Without a counter, the timing's estimate ``round(Δt / period) - 1`` for each gap.
+        The counter's count, plus whole counter periods the timing shows were lost at once;
+        without a counter, the timing's count. See :mod:`evtribo.dropped`, which is robust
+        to reception jitter.
     """
-    if len(t) < 2:
-        return 0
-    with np.errstate(over="ignore", invalid="ignore"):  # damaged logs: huge or NaN times
-        dt = np.diff(t)
-        period = float(np.median(dt))
-        by_time = np.zeros(len(dt), dtype=np.int64)
-        if period > 0 and math.isfinite(period):
-            gap = np.isfinite(dt) & (dt > gap_factor * period)
-            est = np.clip(np.rint(dt[gap] / period), 1, _MAX_GAP_FRAMES)
-            by_time[gap] = est.astype(np.int64) - 1
-    if counter is None or modulus is None:
-        return int(by_time.sum())
-    by_count = (np.diff(counter.astype(np.int64)) - 1) % modulus
-    more = by_time > by_count
-    if more.any():
-        extra = np.rint((by_time[more] - by_count[more]) / modulus).astype(np.int64)
-        by_count = by_count.copy()
-        by_count[more] += extra * modulus
-    return int(by_count.sum())
+    return missing_frames(t, counter, modulus).count
 
 
 def _cell(frames: FrameTable, force: SignalRef, counter: SignalRef | None) -> CellSignals:

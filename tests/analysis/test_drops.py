@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_trial
-from evtribo.analysis.drops import coherence, count_dropped, estimate_period, missing_frames
-from evtribo.decode import dropped_frames as step_heuristic
+from evtribo.dropped import coherence, count_dropped, estimate_period, missing_frames
+from evtribo.dropped import count_by_steps as step_heuristic
 
 
 def _stream(*, rate_hz=2000.0, duration_s=10.0, drop=0.03, jitter_s=2e-4, seed=0, ppm=-25.0):

@@ -25,10 +25,10 @@ from evtribo.analysis.conditions import (
     condition_from_excitation,
     constant_condition,
 )
-from evtribo.analysis.drops import missing_frames
 from evtribo.analysis.spectra import dominant_frequency
 from evtribo.analysis.trace import TRACE_COLUMNS, sine_trace
 from evtribo.analysis.windows import DEFAULT_MAX_WINDOW_S, DEFAULT_MIN_WINDOW_S, find_windows
+from evtribo.dropped import missing_frames
 from evtribo.errors import AnalysisError
 
 log = logging.getLogger(__name__)
@@ -210,7 +210,7 @@ def _sine_segments(aligned: AlignedForces, windows: pd.DataFrame) -> list[npt.ND
 def _dropped(signals: Any, counter_moduli: Mapping[str, int] | None,
              warn: Callable[[str], None]) -> int:
     """Frames missing from both load cells: by their counters when the rig names them,
-    else by the timing (:func:`evtribo.analysis.drops.missing_frames`)."""
+    else by the timing (:func:`evtribo.dropped.missing_frames`)."""
     total = 0
     for name in ("normal", "tangential"):
         ch = _get(signals, name)

@@ -31,12 +31,19 @@ import numpy.typing as npt
 
 log = logging.getLogger(__name__)
 
-__all__ = ["DropCount", "coherence", "count_dropped", "estimate_period", "missing_frames"]
+__all__ = ["DropCount", "coherence", "count_by_steps", "count_dropped", "estimate_period",
+           "missing_frames"]
 
 #: Fewest frames for the coherent estimate; shorter streams use the step heuristic.
 MIN_FRAMES = 16
 #: Least coherence (see :func:`coherence`) at which the timing is trusted.
 MIN_COHERENCE = 0.15
+#: Coherence of a clean clock (jitter a few % of the period), where no step is stretched
+#: to 1.5 periods by jitter and the per-step rule (:func:`count_by_steps`) is exact.
+CLEAN_COHERENCE = 0.98
+#: Most frames reported missing from one stream (a damaged timestamp can make a gap of
+#: centuries; the count stays a finite integer).
+MAX_COUNT = 2**40
 #: Candidate periods evaluated per refinement stage.
 _N_CANDIDATES = 25
 #: Frames at each end whose median position gives the stream's start and end (no counter).
@@ -127,14 +134,16 @@ def _steps(t: npt.NDArray[np.float64], period: float) -> npt.NDArray[np.int64]:
     return np.rint((t - t[0]) / period - phase).astype(np.int64)
 
 
-def _by_steps(t: npt.NDArray[np.float64], gap_factor: float = 1.5) -> int:
-    """Short streams: ``round(dt / median) - 1`` summed over steps longer than gap_factor."""
-    dt = np.diff(t)
+def count_by_steps(t: npt.ArrayLike, gap_factor: float = 1.5) -> int:
+    """The per-step rule: ``round(dt / median) - 1`` summed over steps longer than
+    *gap_factor* median periods. Exact on a clean clock and for short streams; overcounts
+    as soon as the jitter stretches steps (see the module's docstring)."""
+    dt = np.diff(np.asarray(t, dtype=np.float64))
     period = float(np.median(dt)) if dt.size else 0.0
     if not period > 0:
         return 0
     gap = dt > gap_factor * period
-    return int(np.maximum(np.rint(dt[gap] / period) - 1, 0).sum())
+    return int(np.clip(np.rint(dt[gap] / period) - 1, 0, MAX_COUNT).sum())
 
 
 @dataclass
@@ -222,17 +231,33 @@ def missing_frames(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
         Without: the timing's count.
     """
     t = np.asarray(t, dtype=np.float64)
+    c = None if counter is None else np.asarray(counter, dtype=np.int64)
+    finite = np.isfinite(t)
+    if not finite.all():  # a damaged log's times: count on the frames that have one
+        t = t[finite]
+        c = None if c is None else c[finite]
+    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
+        found = _missing_frames(t, c, modulus)
+    found.count = int(min(max(found.count, 0), MAX_COUNT))
+    return found
+
+
+def _missing_frames(t: npt.NDArray[np.float64], counter: npt.NDArray[np.int64] | None,
+                    modulus: int | None) -> DropCount:
+    t = np.asarray(t, dtype=np.float64)
     n = t.size
     if counter is not None:
         return _with_counter(t, np.asarray(counter, dtype=np.int64), modulus)
     if n < 2:
         return DropCount(0, "timing")
     if n < MIN_FRAMES:
-        return DropCount(_by_steps(t), "steps")
+        return DropCount(count_by_steps(t), "steps")
     period = estimate_period(t)
     if not np.isfinite(period):
         return DropCount(0, "timing")
     coh = coherence(t, period)
+    if coh >= CLEAN_COHERENCE:
+        return DropCount(count_by_steps(t), "timing", period, coh)
     # grid position minus rank grows by one at each missing frame; its medians over the
     # first and last frames are not fooled by a burst of late frames at either end
     lag = _steps(t, period) - np.arange(n)
