@@ -30,6 +30,7 @@ import can
 import pandas as pd
 import pytest
 
+import evtribo.acquisition.logger as logger_module
 from evtribo.acquisition.logger import FLUSH_INTERVAL_S, LogWriter
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_trial
 from evtribo.cli import main
@@ -259,14 +260,24 @@ def test_read_only_study_every_command_but_acquire_only_reads(study, tmp_path, m
     assert set(after) == set(before), "files appeared in the study"
 
 
-def test_the_log_reaches_the_disk_twice_a_second(tmp_path):
+def test_the_log_reaches_the_disk_twice_a_second(tmp_path, monkeypatch):
     """With its default interval the logger's writer makes frames readable by another
-    reader (as after a crash) within half a second, without closing the file."""
+    reader (as after a crash) within half a second, without closing the file, and fsyncs
+    them (so they survive a power cut) within the interval, while frames keep coming."""
     assert FLUSH_INTERVAL_S <= 0.5
+    synced = []
+    real_fsync = os.fsync
+
+    def fsync(fd):
+        synced.append(time.monotonic())
+        real_fsync(fd)
+
+    monkeypatch.setattr(logger_module.os, "fsync", fsync)
     path = tmp_path / "run-01.log.part"
     fh = path.open("wb", buffering=0)
     writer = LogWriter(fh, "vcan0").start()
     try:
+        t_first = time.monotonic()
         for k in range(3):
             msg = can.Message(timestamp=1763700000.0 + k, arbitration_id=0xC1,
                               is_extended_id=False, data=bytes(8))
@@ -275,7 +286,16 @@ def test_the_log_reaches_the_disk_twice_a_second(tmp_path):
             while path.read_bytes().count(b"\n") < k + 1:
                 assert time.monotonic() - t0 < FLUSH_INTERVAL_S + 0.25, "not on disk in time"
                 time.sleep(0.01)
+        # continuous traffic (a frame every 20 ms) must not postpone the fsync
+        k = 3
+        while not synced and time.monotonic() - t_first < FLUSH_INTERVAL_S + 0.5:
+            writer.put([can.Message(timestamp=1763700000.0 + k, arbitration_id=0xC1,
+                                    is_extended_id=False, data=bytes(8))])
+            k += 1
+            time.sleep(0.02)
+        assert synced, "no fsync while recording"
+        assert synced[0] - t_first < FLUSH_INTERVAL_S + 0.5
     finally:
         writer.close()
         fh.close()
-    assert len(read_frames(path)[0]) == 3
+    assert len(read_frames(path)[0]) == k

@@ -1,5 +1,6 @@
 """The trial logger: candump lines, rolling counters, periodic flush, receive loop."""
 
+import os
 import random
 import threading
 import time
@@ -8,6 +9,7 @@ import can
 import cantools
 import pytest
 
+import evtribo.acquisition.logger as logger_module
 from evtribo.acquisition.logger import (
     CounterSpec,
     CounterTracker,
@@ -108,11 +110,26 @@ def test_counter_tracker_counts_gaps_and_wraps():
     assert tracker.update(2, b"anything", t) == 0          # not a counted message
 
 
-def test_writer_flushes_within_a_second_without_closing(tmp_path):
+class FsyncRecorder:
+    """Stands in for ``os.fsync``: records (time, fd) of each call, then really syncs."""
+
+    def __init__(self):
+        self.calls = []
+        self._real = os.fsync
+
+    def __call__(self, fd):
+        self.calls.append((time.monotonic(), fd))
+        self._real(fd)
+
+
+def test_writer_flushes_within_a_second_without_closing(tmp_path, monkeypatch):
+    fsync = FsyncRecorder()
+    monkeypatch.setattr(logger_module.os, "fsync", fsync)
     path = tmp_path / "run.log.part"
     fh = path.open("wb", buffering=0)
     writer = LogWriter(fh, "vcan0", flush_interval=0.3).start()
     try:
+        t0 = time.monotonic()
         writer.put(FRAMES[:2])
         deadline = time.monotonic() + 1.0
         content = ""
@@ -121,11 +138,41 @@ def test_writer_flushes_within_a_second_without_closing(tmp_path):
             content = path.read_text()      # another reader, as after a crash
         assert content.splitlines() == [format_candump_line(m, "vcan0").strip()
                                         for m in FRAMES[:2]]
+        while time.monotonic() < deadline and not fsync.calls:
+            time.sleep(0.02)
+        # fsynced (not only written) within the second, before close
+        assert [fd for t, fd in fsync.calls if t > t0][:1] == [fh.fileno()]
     finally:
         writer.close()
         fh.close()
     assert writer.stats.frames == 2
     assert writer.stats.frames_by_id == {"0C1": 1, "18FF0001": 1}
+
+
+def test_writer_fsyncs_under_continuous_traffic(tmp_path, monkeypatch):
+    """A batch every 20 ms, for 4 flush intervals: the log is fsynced during the recording,
+    about once per interval, not only when the writer closes."""
+    fsync = FsyncRecorder()
+    monkeypatch.setattr(logger_module.os, "fsync", fsync)
+    interval = 0.2
+    fh = (tmp_path / "run.log.part").open("wb", buffering=0)
+    writer = LogWriter(fh, "vcan0", flush_interval=interval).start()
+    try:
+        t0 = time.monotonic()
+        k = 0
+        while time.monotonic() - t0 < 4 * interval:
+            writer.put([can.Message(timestamp=1763700000.0 + k, arbitration_id=0xC1,
+                                    is_extended_id=False, data=bytes([k % 256]))])
+            k += 1
+            time.sleep(0.02)
+        t_end = time.monotonic()
+        during = [t for t, _ in fsync.calls if t < t_end]
+    finally:
+        writer.close()
+        fh.close()
+    assert len(during) >= 2, f"{len(during)} fsync in {t_end - t0:.2f} s of traffic"
+    assert during[0] - t0 < 2 * interval
+    assert len(fsync.calls) > len(during)            # and once more when closing
 
 
 class FailingBus(can.BusABC):

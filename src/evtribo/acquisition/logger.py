@@ -293,13 +293,13 @@ class LogWriter:
     def _flush(self) -> None:
         self.file.flush()
         os.fsync(self.file.fileno())
+        self._last_flush = time.monotonic()
 
     def _write_all(self, data: bytes) -> None:
         view = memoryview(data)
         while view:
             written = self.file.write(view)
             view = view[written if written is not None else len(view):]
-        self._last_flush = time.monotonic()
 
     def _write(self, batch: list[can.Message]) -> None:
         channel = self.channel
