@@ -297,7 +297,7 @@ def test_streaming_on_a_virtual_bus_delivers_every_frame():
         rx.shutdown()
     assert stats.sent == stats.generated == len(offline) == len(received)
     assert stats.not_sent == 0
-    assert 1.4 < stats.elapsed_s < 2.5
+    assert 1.4 < stats.elapsed_s < 10.0            # paced, with room for a loaded machine
     got_ids = np.array([m.arbitration_id for m in received])
     np.testing.assert_array_equal(got_ids, offline.arbitration_id)
     got = [bytes(m.data).ljust(8, b"\0") for m in received]
@@ -362,6 +362,25 @@ def test_cli_writes_a_trial_to_a_study(tmp_path, capsys):
     assert "frames" in capsys.readouterr().out
     assert main(["simulate", "--study", str(tmp_path / "st"), "--subject", "P07", "--trial",
                  "sine-1", "--duration", "1"]) == 2  # exists: needs --force
+
+
+@pytest.mark.parametrize("leftover", ["run-01.log.part", "run-01.json"])
+def test_simulated_trial_never_overwrites_a_partial_log_or_sidecar_without_force(
+        tmp_path, capsys, leftover):
+    """A killed recording's ``.log.part``, or a sidecar alone, is a trial: left untouched
+    without --force, replaced (with nothing else left behind) with it."""
+    folder = tmp_path / "st" / "P01"
+    folder.mkdir(parents=True)
+    (folder / leftover).write_text("precious\n")
+    argv = ["simulate", "--study", str(tmp_path / "st"), "--subject", "P01", "--trial",
+            "run-01", "--duration", "0.5"]
+    assert main(argv) == 2
+    assert "--force" in capsys.readouterr().err
+    assert sorted(p.name for p in folder.iterdir()) == [leftover]
+    assert (folder / leftover).read_text() == "precious\n"
+    assert main([*argv, "--force"]) == 0
+    assert sorted(p.name for p in folder.iterdir()) == ["run-01.json", "run-01.log"]
+    assert read_frames(folder / "run-01.log")[0].arbitration_id.size > 0
 
 
 @pytest.mark.parametrize(("argv", "needle"), [

@@ -7,6 +7,7 @@ import json
 import logging
 import os
 import shutil
+import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -93,14 +94,27 @@ def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams
     validate_name(subject.name, what="subject", key="subject")
     validate_name(trial, what="trial", key="trial")
     log_path = root / subject.name / f"{trial}.log"
-    if log_path.exists() and not force:
-        raise OutputExistsError("exists already; use --force to overwrite", path=log_path)
-    _ensure_study(root, study_name)
+    sidecar_path = log_path.with_suffix(".json")
+    existing = [p for p in (log_path, log_path.with_name(log_path.name + ".part"),
+                            sidecar_path) if p.exists()]
+    if existing and not force:
+        raise OutputExistsError("trial exists already (use --force to overwrite): "
+                                + ", ".join(str(p) for p in existing), path=existing[0])
     frames, truth = simulate_trial(subject, config)
+    _ensure_study(root, study_name)
     log_path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = log_path.with_name(log_path.name + ".part")
-    write_candump(tmp, frames, config.channel)
-    os.replace(tmp, log_path)
+    # a name of its own (not TRIAL.log.part, which may be a killed recording of this trial)
+    fd, tmp_name = tempfile.mkstemp(prefix=f".{trial}.", suffix=".log.tmp",
+                                    dir=log_path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            write_candump(fh, frames, config.channel)
+        os.replace(tmp_name, log_path)
+    except BaseException:
+        Path(tmp_name).unlink(missing_ok=True)
+        raise
+    if force:
+        log_path.with_name(log_path.name + ".part").unlink(missing_ok=True)
     dropped = sum(int(n["dropped"]) for n in truth.nodes.values())
     sidecar: dict[str, Any] = {
         "subject": subject.name, "waveform": config.waveform,
@@ -111,7 +125,7 @@ def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams
         "frames": len(frames), "dropped_frames": dropped, "bus_errors": 0,
         "simulation": truth.to_dict(),
     }
-    write_sidecar(log_path.with_suffix(".json"), json.loads(json.dumps(sidecar)), force=force)
+    write_sidecar(sidecar_path, json.loads(json.dumps(sidecar)), force=force)
     log.info("wrote %s (%d frames)", log_path, len(frames))
     return truth
 
