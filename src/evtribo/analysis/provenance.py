@@ -18,13 +18,14 @@ from typing import Any
 
 from evtribo import __version__
 
-__all__ = ["file_record", "input_files", "provenance", "software_versions"]
+__all__ = ["file_record", "input_files", "provenance", "sha256_file", "software_versions"]
 
 _PACKAGES = {"python-can": "python-can", "cantools": "cantools", "numpy": "numpy",
              "scipy": "scipy", "pandas": "pandas", "pyarrow": "pyarrow"}
 
 
-def _sha256(path: Path) -> str:
+def sha256_file(path: Path) -> str:
+    """SHA-256 of a file's bytes, hex, read in 1 MiB blocks."""
     digest = hashlib.sha256()
     with path.open("rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):
@@ -38,7 +39,7 @@ def file_record(path: Path, root: Path, role: str) -> dict[str, Any]:
         name = path.resolve().relative_to(root.resolve()).as_posix()
     except ValueError:
         name = str(path.resolve())
-    return {"file": name, "role": role, "bytes": path.stat().st_size, "sha256": _sha256(path)}
+    return {"file": name, "role": role, "bytes": path.stat().st_size, "sha256": sha256_file(path)}
 
 
 def input_files(study: Any) -> list[dict[str, Any]]:

@@ -15,7 +15,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "analyze", help="friction coefficient and electrostatic force of every subject",
         description="Analyse every trial of STUDY: align the load cells, find the steady-"
                     "sliding windows, estimate mu from the OFF windows and the electrostatic "
-                    "force from the ON windows (95 %% bootstrap intervals), fit F_el = k*U^n "
+                    "force from the ON windows (95 % bootstrap intervals), fit F_el = k*U^n "
                     f"per subject. Writes {', '.join(OUTPUT_FILES)} into --out. Exit 0 done, "
                     "1 failed, 2 bad input or existing outputs without --force.")
     p.add_argument("study", metavar="STUDY", help="the study folder (with study.toml)")

@@ -140,7 +140,7 @@ def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = 
     -------
     Axes
     """
-    ax = new_axes() if ax is None else ax
+    ax = new_axes((7.6, 3.8)) if ax is None else ax  # room for the legend on the right
     fn = windows["normal_force_N"].to_numpy(float)
     top = float(np.nanmax(fn)) * 1.15 if fn.size and np.isfinite(fn).any() else 1.0
     grid = np.linspace(0.02 * top, top, 60)
@@ -156,15 +156,16 @@ def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = 
         color = f"C{(k % 8) + 3}" if k else "C1"
         ax.plot(sel["normal_force_N"], sel["friction_force_N"], _WAVE_MARKERS.get(wave, "D"),
                 color=color, alpha=0.7, label=f"measured ON {amp:g} V {wave}")
-        ax.plot(grid, mean_friction_force(grid, float(amp), wave, params), "--", color=color,
-                label=f"model ON {amp:g} V")
+        ax.plot(grid, mean_friction_force(grid, float(amp), wave, params),
+                ":" if wave == "sine" else "--", color=color, label=f"model ON {amp:g} V {wave}")
     ax.set_xlabel("normal force F_n (N)")
     ax.set_ylabel("friction force F_t (N)")
     ax.set_title(f"Friction vs normal force, {subject}" if subject
                  else "Friction vs normal force")
     ax.set_xlim(0, top)
     ax.set_ylim(bottom=0)
-    ax.legend(fontsize="x-small", ncols=2)
+    ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(1.02, 1.0),
+              borderaxespad=0.0)
     return ax
 
 
@@ -234,13 +235,16 @@ def plot_friction_time(trace: pd.DataFrame | None, params: ModelParameters = TAB
         t = trace["time_s"].to_numpy(float)
         fn = trace["normal_force_N"].to_numpy(float)
         u = trace_voltage(trace, params)
+        fitted_phase = "voltage_V" not in trace.columns
         ax.plot(t, fn, "-", color="C2", lw=1, label="normal force (measured)")
-        ax.plot(t, trace["friction_force_N"].to_numpy(float), "-", color="0.35", lw=1,
-                label="friction (measured)")
-        ax.plot(t, friction_time_series(t, fn, u, params), "-", color="C3", lw=1.2,
-                label="friction (model)")
+        # the model underneath, wide and pale, so that the measured trace stays visible
+        ax.plot(t, friction_time_series(t, fn, u, params), "-", color="C3", lw=3.5, alpha=0.45,
+                label="friction (model, drive phase fitted)" if fitted_phase
+                else "friction (model)")
         ax.plot(t, friction_time_series(t, fn, np.zeros_like(t), params), "--", color="C0",
                 lw=1, label="friction (model, OFF)")
+        ax.plot(t, trace["friction_force_N"].to_numpy(float), "-", color="k", lw=0.8,
+                label="friction (measured)")
         title = "Friction vs time, sine drive"
     else:
         t = np.linspace(0.0, 3.0 / frequency, 600)

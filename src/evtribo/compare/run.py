@@ -185,8 +185,11 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         caption = ("Model only (no measured sine trace was available): friction with the "
                    "voltage ON and OFF, cf. the paper's Figure 5.")
     else:
+        voltage = ("measured voltage" if "voltage_V" in trace.columns else
+                   "drive's amplitude and frequency (its phase, which the rig does not record, "
+                   "chosen to match the measured friction)")
         caption = (f"Measured sine trial of {pick.subject} and the model evaluated at its "
-                   "measured normal force and voltage, cf. the paper's Figure 5.")
+                   f"measured normal force and the {voltage}, cf. the paper's Figure 5.")
     emit(plot_friction_time(trace, pick.params, amplitude=amp,
                             normal_force=fn_mean, subject=pick.subject),
          "friction_time", "Friction vs time, sine drive", "friction_time", subject=None,

@@ -8,7 +8,6 @@ files (for their SHA-256 hashes).
 
 from __future__ import annotations
 
-import hashlib
 import json
 import logging
 import platform
@@ -18,6 +17,7 @@ from typing import Any
 import pandas as pd
 
 from evtribo import __version__
+from evtribo.analysis.provenance import sha256_file
 from evtribo.compare.params import parameter_unit
 from evtribo.compare.report import Report
 from evtribo.compare.run import FIGURES, FIT_CSV, FIT_JSON, compare, figure_stems
@@ -35,14 +35,6 @@ _SUMMARY_KEYS = ("study", "study_dir", "started", "created", "evtribo_version", 
                  "skipped_lines", "strict", "elapsed_s")
 
 
-def _sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with path.open("rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def file_hashes(paths: list[Path], root: Path) -> pd.DataFrame:
     """``file, bytes, sha256`` of each existing file, names relative to *root*."""
     rows = []
@@ -52,7 +44,7 @@ def file_hashes(paths: list[Path], root: Path) -> pd.DataFrame:
                 name = str(p.relative_to(root))
             except ValueError:
                 name = str(p)
-            rows.append({"file": name, "bytes": p.stat().st_size, "sha256": _sha256(p)})
+            rows.append({"file": name, "bytes": p.stat().st_size, "sha256": sha256_file(p)})
     return pd.DataFrame(rows, columns=["file", "bytes", "sha256"])
 
 

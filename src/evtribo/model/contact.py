@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from evtribo.model.electrostatics import _out, surface_energy
+from evtribo.model.electrostatics import _f, _out, surface_energy
 from evtribo.model.params import TABLE_1, ModelParameters
 
 __all__ = [
@@ -34,8 +34,24 @@ __all__ = [
 ]
 
 
-def _f(x: ArrayLike) -> NDArray[np.float64]:
-    return np.asarray(x, dtype=float)
+def jkr_terms(normal_force: ArrayLike, delta_gamma: ArrayLike, R: ArrayLike,
+              E_star: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The two dimensionless terms of eq. (3): ``x = 9 pi dg / (8 E* R)`` (adhesion) and
+    ``y = 3 F / (4 E* R^2)`` (load); ``A / (pi R^2) = (sqrt(x) + sqrt(x + y))^(4/3)``.
+
+    Parameters
+    ----------
+    normal_force : float or ndarray
+        External normal force F_ext, N.
+    delta_gamma : float or ndarray
+        Relative surface energy, J/m^2.
+    R : float or ndarray
+        Radius of the parabolic profile, m.
+    E_star : float or ndarray
+        Effective modulus, Pa.
+    """
+    dg, r, e = _f(delta_gamma), _f(R), _f(E_star)
+    return 9.0 * np.pi * dg / (8.0 * e * r), 3.0 * _f(normal_force) / (4.0 * e * r**2)
 
 
 def hertz_radius(normal_force: ArrayLike, R: ArrayLike, E_star: ArrayLike) -> NDArray[np.float64]:
@@ -84,12 +100,10 @@ def jkr_radius(normal_force: ArrayLike, delta_gamma: ArrayLike, R: ArrayLike,
     ndarray
         a, m.
     """
-    f, dg, r, e = _f(normal_force), _f(delta_gamma), _f(R), _f(E_star)
-    x = 9.0 * np.pi * dg / (8.0 * e * r)
-    y = 3.0 * f / (4.0 * e * r**2)
+    x, y = jkr_terms(normal_force, delta_gamma, R, E_star)
     with np.errstate(invalid="ignore"):
         s = np.sqrt(x) + np.sqrt(x + y)
-    return _out(r * s ** (2.0 / 3.0))
+    return _out(_f(R) * s ** (2.0 / 3.0))
 
 
 def dmt_radius(normal_force: ArrayLike, delta_gamma: ArrayLike, R: ArrayLike,
@@ -198,9 +212,7 @@ def area_increase_pct(normal_force: ArrayLike, voltage: ArrayLike,
     """
     # (A_JKR / A_Hertz) = (1 + t)^(4/3), t = (sqrt(x) + sqrt(x + y) - sqrt(y)) / sqrt(y),
     # written without cancellation so that it is exactly 0 without voltage.
-    dg = _f(surface_energy(voltage, params))
-    x = 9.0 * np.pi * dg / (8.0 * params.E_star * params.R)
-    y = 3.0 * _f(normal_force) / (4.0 * params.E_star * params.R**2)
+    x, y = jkr_terms(normal_force, surface_energy(voltage, params), params.R, params.E_star)
     with np.errstate(divide="ignore", invalid="ignore"):
         ry = np.sqrt(y)
         t = (np.sqrt(x) + x / (np.sqrt(x + y) + ry)) / ry

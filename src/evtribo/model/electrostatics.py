@@ -28,6 +28,11 @@ __all__ = [
 ]
 
 
+def _f(x: ArrayLike) -> NDArray[np.float64]:
+    """An input as a float array (the model's functions broadcast)."""
+    return np.asarray(x, dtype=float)
+
+
 def _out(x: NDArray[np.float64]) -> NDArray[np.float64]:
     """Return a 0-d result as a numpy scalar, arrays unchanged."""
     return x[()] if x.ndim == 0 else x

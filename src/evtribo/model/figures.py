@@ -196,7 +196,9 @@ def plot_maugis(ax: Axes | None = None, *, normal_forces: Sequence[float] = (0.1
     twin.set_ylim(0, None)
     handles, labels = ax.get_legend_handles_labels()
     h2, l2 = twin.get_legend_handles_labels()
-    ax.legend(handles + h2, labels + l2, loc="upper right", fontsize="small", ncol=2)
+    # below the plot: inside, it would hide a curve whatever the corner
+    ax.legend(handles + h2, labels + l2, loc="upper center", bbox_to_anchor=(0.5, -0.18),
+              fontsize="small", ncol=3)
     return ax
 
 

@@ -17,8 +17,8 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from evtribo.model.contact import contact_area_hertz, contact_area_jkr
-from evtribo.model.electrostatics import _out, adhesion_stress, surface_energy
+from evtribo.model.contact import contact_area_hertz, contact_area_jkr, jkr_terms
+from evtribo.model.electrostatics import _f, _out, adhesion_stress, surface_energy
 from evtribo.model.params import TABLE_1, ModelParameters
 
 __all__ = [
@@ -33,10 +33,6 @@ __all__ = [
     "sine_voltage",
     "square_voltage",
 ]
-
-
-def _f(x: ArrayLike) -> NDArray[np.float64]:
-    return np.asarray(x, dtype=float)
 
 
 def friction_force_dugdale(normal_force: ArrayLike, radius: ArrayLike, voltage: ArrayLike,
@@ -153,9 +149,7 @@ def electrostatic_force_exponent(normal_force: ArrayLike, voltage: ArrayLike,
     ndarray
         n, dimensionless, between 2 and 10/3 for F_ext >= 0.
     """
-    dg = _f(surface_energy(voltage, params))
-    x = 9.0 * np.pi * dg / (8.0 * params.E_star * params.R)
-    y = 3.0 * _f(normal_force) / (4.0 * params.E_star * params.R**2)
+    x, y = jkr_terms(normal_force, surface_energy(voltage, params), params.R, params.E_star)
     rx, rxy = np.sqrt(x), np.sqrt(x + y)
     with np.errstate(divide="ignore", invalid="ignore"):
         n = 2.0 + 4.0 / 3.0 * (rx + x / rxy) / (rx + rxy)
@@ -169,9 +163,8 @@ def electrostatic_force_adhesive_limit(normal_force: ArrayLike, voltage: ArrayLi
     sigma_0 pi R^2 (2 sqrt(9 pi dg / (8 E* R)))^(4/3): the contact is held by adhesion alone.
     ``normal_force`` is accepted for a uniform signature and does not enter.
     """
-    dg = _f(surface_energy(voltage, params))
     sigma0 = _f(adhesion_stress(voltage, params))
-    x = 9.0 * np.pi * dg / (8.0 * params.E_star * params.R)
+    x, _ = jkr_terms(0.0, surface_energy(voltage, params), params.R, params.E_star)
     out = sigma0 * np.pi * params.R**2 * (2.0 * np.sqrt(x)) ** (4.0 / 3.0)
     return _out(np.broadcast_arrays(out, _f(normal_force))[0].copy())
 
