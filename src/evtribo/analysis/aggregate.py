@@ -35,6 +35,8 @@ ELECTROSTATIC_COLUMNS = ("subject", "waveform", "amplitude_V", "mu", "normal_for
 #: Columns of exponents.csv (study format, section 2).
 EXPONENT_COLUMNS = ("subject", "waveform", "exponent", "exponent_ci_low", "exponent_ci_high",
                     "prefactor_N")
+#: Below this many ON or OFF windows behind an amplitude, summary.json says so.
+MIN_WINDOWS = 10
 
 
 def _seed(base: int, *names: str) -> np.random.SeedSequence:
@@ -127,9 +129,11 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
                     "electrostatic_force_ci_low_N": est.ci_low_N[j],
                     "electrostatic_force_ci_high_N": est.ci_high_N[j],
                     "n_on": int(est.n_on[j]), "n_off": int(est.n_off[j])})
-                if est.n_on[j] < 5 or est.n_off[j] < 5:
+                if est.n_on[j] < MIN_WINDOWS or est.n_off[j] < MIN_WINDOWS:
                     warnings.append(f"{where} at {amp:g} V: only {est.n_on[j]} ON and "
-                                    f"{est.n_off[j]} OFF windows; the interval is unreliable")
+                                    f"{est.n_off[j]} OFF windows (fewer than {MIN_WINDOWS}); "
+                                    "the interval is calibrated for small counts but rests "
+                                    "on few windows")
             pos = est.amplitudes_V > 0
             if np.count_nonzero(pos) < 2:
                 continue

@@ -16,10 +16,34 @@ Electrostatic force
 Uncertainty
     Stratified bootstrap over windows: every replicate resamples, with replacement, the OFF
     windows of each reference and the ON windows of each (amplitude, reference) stratum
-    together, recomputes each reference's ``mu`` and every amplitude's force. Intervals are
-    the replicates' percentiles, so they carry ``mu``'s uncertainty. Replicates are shared by
-    the amplitudes of a subject (an OFF trial serving several amplitudes is resampled once),
-    and feed the power-law exponent's interval. The generator is seeded for reproducible output.
+    together, recomputes each reference's ``mu`` and every amplitude's force, so the
+    replicates carry ``mu``'s uncertainty. Replicates are shared by the amplitudes of a
+    subject (an OFF trial serving several amplitudes is resampled once: their errors are
+    correlated, as in the data), and feed the power-law exponent's interval and the model
+    fit of ``evtribo compare``. The generator is seeded for reproducible output.
+
+    Small-sample calibration. A trial gives 6-10 windows per condition, and at such counts
+    the plain percentile bootstrap is too narrow: it uses the plug-in variance (biased low
+    by ``(n-1)/n``) and normal rather than Student tails (Monte Carlo, independent window
+    noise, 400 repeats: 88 % coverage at 6 windows per group, 92.5 % at 10, 94.5 % at 25).
+    The replicates of each amplitude are therefore stretched about the point estimate by
+
+        ``c = sqrt(sum_i v_i n_i/(n_i-1) / sum_i v_i) * t(1-alpha/2, nu) / z(1-alpha/2)``
+
+    where the sum runs over the force's independent error sources: each ON stratum's window
+    scatter (``n_i`` its ON windows) and each reference's ``mu`` (``n_i`` its OFF windows);
+    ``v_i`` is that source's bootstrap variance (the ON part with ``mu`` held at its
+    estimate, the ``mu`` part with the ON windows held), and ``nu`` the Welch-Satterthwaite
+    degrees of freedom ``(sum w_i)^2 / sum w_i^2/(n_i-1)`` with ``w_i = v_i n_i/(n_i-1)``.
+    For one Gaussian mean this turns the percentile interval into the Student-t interval;
+    for the difference of two groups it is Welch's interval, the classic answer to unequal
+    variances and counts. It keeps the bootstrap's shape (skew from ``1/mu``) and was chosen
+    over a studentized bootstrap, which needs a variance per replicate and is erratic with
+    6 windows, and over the ``min(n_on, n_off)`` rule, which over-widens when a subject's
+    shared OFF reference has many more windows than an amplitude's ON phases. The intervals
+    are the percentiles of the stretched replicates, which are also what
+    :attr:`ElectrostaticEstimate.replicates_N` holds. Measured coverage of the 95 %
+    interval (same Monte Carlo): see ``tests/analysis/test_analysis_core.py``.
 """
 
 from __future__ import annotations
@@ -30,6 +54,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+from scipy import stats
 
 from evtribo.errors import AnalysisError
 
@@ -111,7 +136,13 @@ class ElectrostaticEstimate:
     n_on, n_off : ndarray of int
         Windows used.
     replicates_N : ndarray, shape (n_boot, n_amplitudes), N
-        Bootstrap replicates of the forces (shared resampling across amplitudes).
+        Bootstrap replicates of the forces (shared resampling across amplitudes), stretched
+        about ``force_N`` by ``interval_scale`` (the module's small-sample calibration); the
+        intervals are their percentiles.
+    interval_scale : ndarray
+        The stretch ``c`` of each amplitude's replicates (1 with no calibration).
+    dof : ndarray
+        Welch-Satterthwaite degrees of freedom of each amplitude's force.
     """
 
     amplitudes_V: FloatArray
@@ -126,6 +157,42 @@ class ElectrostaticEstimate:
     n_on: npt.NDArray[np.int64]
     n_off: npt.NDArray[np.int64]
     replicates_N: FloatArray
+    interval_scale: FloatArray
+    dof: FloatArray
+
+
+def small_sample_scale(variances: npt.ArrayLike, counts: npt.ArrayLike,
+                       confidence: float = DEFAULT_CONFIDENCE) -> tuple[float, float]:
+    """Stretch of a percentile-bootstrap interval for few windows (Welch-Satterthwaite).
+
+    Parameters
+    ----------
+    variances : array_like of float, N^2
+        Bootstrap (plug-in) variance of each independent error source of the estimate.
+    counts : array_like of int
+        Windows behind each source.
+    confidence : float
+        Coverage of the interval.
+
+    Returns
+    -------
+    scale : float
+        ``sqrt(sum w_i / sum v_i) * t(q, nu) / z(q)`` with ``w_i = v_i n_i / (n_i - 1)``
+        (1 when the variances are all zero).
+    dof : float
+        ``nu = (sum w_i)^2 / sum(w_i^2 / (n_i - 1))`` (inf when the variances are zero).
+    """
+    v = np.asarray(variances, dtype=np.float64).ravel()
+    n = np.asarray(counts, dtype=np.float64).ravel()
+    use = np.isfinite(v) & (v > 0) & (n > 1)
+    if not use.any():
+        return 1.0, float("inf")
+    v, n = v[use], n[use]
+    w = v * n / (n - 1.0)
+    dof = float(np.sum(w) ** 2 / np.sum(w**2 / (n - 1.0)))
+    q = 1.0 - (1.0 - confidence) / 2.0
+    ratio = float(stats.t.ppf(q, dof) / stats.norm.ppf(q))
+    return float(np.sqrt(np.sum(w) / np.sum(v))) * ratio, dof
 
 
 def _resampled_sums(rng: np.random.Generator, values: Sequence[FloatArray],
@@ -207,16 +274,25 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     stats = {name: np.empty(k) for name in ("mu", "n_on_N", "n_off_N", "f_on_N", "f_off_N")}
     n_on = np.empty(k, dtype=np.int64)
     n_off = np.empty(k, dtype=np.int64)
+    scale = np.ones(k)
+    dof = np.full(k, np.inf)
     for j, a in enumerate(amps):
         sel = amp == a
         refs = np.unique(ref[sel])
         force[j] = electrostatic_force(onn[sel], ont[sel], mu[ref[sel]])
         acc = np.zeros(n_boot)
+        parts: list[float] = []
+        counts: list[int] = []
         for r in refs:
             s = sel & (ref == r)
             sn, st = _resampled_sums(rng, [onn[s], ont[s]], n_boot)
             acc += st / mu_b[:, r] - sn
-        reps[:, j] = acc / np.count_nonzero(sel)
+            # the two error sources of this stratum: ON scatter at fixed mu, mu at fixed ON
+            parts += [float(np.var(st / mu[r] - sn)), float(np.var(ont[s].sum() / mu_b[:, r]))]
+            counts += [int(np.count_nonzero(s)), int(offn[r].size)]
+        m = np.count_nonzero(sel)
+        scale[j], dof[j] = small_sample_scale(np.asarray(parts) / m**2, counts, confidence)
+        reps[:, j] = force[j] + scale[j] * (acc / m - force[j])
         pool_n = np.concatenate([offn[r] for r in refs])
         pool_t = np.concatenate([offt[r] for r in refs])
         stats["mu"][j] = friction_coefficient(pool_n, pool_t)
@@ -232,8 +308,10 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
         amplitudes_V=amps, force_N=force, ci_low_N=low, ci_high_N=high, mu=stats["mu"],
         normal_on_N=stats["n_on_N"], normal_off_N=stats["n_off_N"],
         friction_on_N=stats["f_on_N"], friction_off_N=stats["f_off_N"],
-        n_on=n_on, n_off=n_off, replicates_N=reps)
+        n_on=n_on, n_off=n_off, replicates_N=reps,
+        interval_scale=scale, dof=dof)
 
 
 __all__ = ["DEFAULT_CONFIDENCE", "DEFAULT_N_BOOT", "ElectrostaticEstimate",
-           "electrostatic_force", "estimate_electrostatic", "friction_coefficient"]
+           "electrostatic_force", "estimate_electrostatic", "friction_coefficient",
+           "small_sample_scale"]
