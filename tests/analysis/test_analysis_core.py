@@ -246,6 +246,46 @@ def test_power_law_interval_from_replicates_with_two_amplitudes():
         fit_power_law([50, 100], [0.02, -0.01])
 
 
+def _exponent_coverage(shared, repeats=300, *, n=6, sd=0.005, n_boot=300):
+    """Share of repeated five-amplitude studies whose exponent interval holds 2."""
+    amps = np.array([60.0, 80, 100, 120, 140])
+    k = 0.3 / 140**2
+    covered = 0
+    for r in range(repeats):
+        rng = np.random.default_rng(5000 + r)
+        off_n, off_t, on_n, on_t, ref, amp = [], [], [], [], [], []
+        for _ in range(1 if shared else amps.size):
+            fn = rng.uniform(0.45, 0.55, n)
+            off_n.append(fn)
+            off_t.append(0.4 * fn + rng.normal(0, sd, n))
+        for j, u in enumerate(amps):
+            fn = rng.uniform(0.45, 0.55, n)
+            on_n += list(fn)
+            on_t += list(0.4 * (fn + k * u**2) + rng.normal(0, sd, n))
+            ref += [0 if shared else j] * n
+            amp += [u] * n
+        e = estimate_electrostatic(off_n, off_t, on_n, on_t, ref, amp, n_boot=n_boot, seed=r)
+        fit = fit_power_law(e.amplitudes_V, e.force_N, replicates_N=e.replicates_N)
+        covered += fit.exponent_ci_low <= 2.0 <= fit.exponent_ci_high
+    return covered / repeats
+
+
+@pytest.mark.parametrize("shared", [False, True], ids=["reference-per-amplitude",
+                                                       "shared-reference"])
+def test_exponent_interval_coverage(shared):
+    assert _exponent_coverage(shared) >= 0.92
+
+
+def test_replicate_with_a_non_positive_force_is_refitted_without_it():
+    from evtribo.analysis.powerlaw import _replicate_slopes
+
+    x = np.log([50.0, 100.0, 200.0])
+    reps = np.array([[-0.001, 0.04, 0.16], [0.01, 0.04, 0.16], [-1.0, -1.0, 0.16]])
+    slopes = _replicate_slopes(x, reps, np.ones(3, bool))
+    # the first is fitted over its last two points, the third (one point left) is dropped
+    np.testing.assert_allclose(slopes, [2.0, 2.0])
+
+
 # --- spectra ---------------------------------------------------------------------------------
 
 @pytest.mark.parametrize("drive_Hz", [7.0, 10.0, 33.0])

@@ -1,13 +1,24 @@
 """Power law ``F_el = k * U**n`` over a subject's amplitudes, with an interval on ``n``.
 
-The fit is a least-squares line through ``(log U, log F_el)``. Two sources of uncertainty
-are combined, and the reported interval covers both:
+The fit is a least-squares line through ``(log U, log F_el)``. Its target is the exponent of
+that line through the *true* forces at the measured amplitudes (which is the power law's
+exponent when the forces follow one), so its uncertainty is the forces' measurement error,
+and the interval is the percentile interval of the slope refitted to every bootstrap
+replicate of the forces (:func:`evtribo.analysis.estimate.estimate_electrostatic`). The
+replicates keep the correlation between amplitudes that share an OFF reference (a common
+error in ``mu`` scales every force alike and leaves the slope almost unchanged, which a
+scatter-based interval cannot know), are already calibrated for few windows, and work with
+two amplitudes as well. A replicate in which some force is not positive (near-zero forces
+at low voltage) is refitted without those points rather than dropped, so the low tail of
+the forces is not cut off (that truncation biased the interval). Only without replicates
+(or with fewer than 20 usable ones) is the interval the Student-t interval from the points'
+scatter about the line (three amplitudes or more).
 
-- the scatter of the points about the line (Student-t interval from the slope's standard
-  error; needs three amplitudes or more), which holds any departure from a pure power law;
-- the measurement error of each point (percentiles of the slope fitted to every bootstrap
-  replicate of the forces, :func:`evtribo.analysis.estimate.estimate_electrostatic`), which
-  works with two amplitudes as well.
+Earlier versions reported the union of both intervals; Monte Carlo through the real
+estimator (five amplitudes, six windows each) gave 97 % coverage with a reference per
+amplitude and 93 % with a shared one for the union, 91 % / 82 % for the scatter interval
+alone. The coverage of the bootstrap interval is checked in
+``tests/analysis/test_analysis_core.py``.
 """
 
 from __future__ import annotations
@@ -22,6 +33,10 @@ from scipy import stats
 from evtribo.errors import AnalysisError
 
 log = logging.getLogger(__name__)
+
+
+#: Fewest usable replicates for a bootstrap interval on the exponent.
+MIN_REPLICATES = 20
 
 
 @dataclass(frozen=True)
@@ -47,6 +62,34 @@ class PowerLawFit:
     n_points: int
 
 
+def _replicate_slopes(x: npt.NDArray[np.float64], reps: npt.NDArray[np.float64],
+                      keep: npt.NDArray[np.bool_]) -> npt.NDArray[np.float64]:
+    """Log-log slope of each replicate over its own positive points (at least two amplitudes).
+
+    Parameters
+    ----------
+    x : ndarray
+        ``log U`` of the points kept in the fit.
+    reps : ndarray, shape (n_boot, n_amplitudes)
+        Replicates of all the amplitudes given to the fit.
+    keep : ndarray of bool
+        Which amplitudes the fit kept.
+    """
+    if reps.ndim != 2 or reps.shape[1] != keep.size:
+        raise ValueError("replicates_N must have one column per amplitude")
+    reps = reps[:, keep]
+    w = (np.isfinite(reps) & (reps > 0)).astype(np.float64)
+    ly = np.log(np.where(w > 0, reps, 1.0))
+    count = w.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        xm = (w @ x) / count
+        dx = (x[None, :] - xm[:, None]) * w
+        sxx = np.sum(dx * (x[None, :] - xm[:, None]), axis=1)
+        slopes = np.sum(dx * ly, axis=1) / sxx
+    ok = (count >= 2) & (sxx > 1e-12 * max(float(np.ptp(x)), 1.0) ** 2) & np.isfinite(slopes)
+    return slopes[ok]
+
+
 def fit_power_law(
     voltage_V: npt.ArrayLike,
     force_N: npt.ArrayLike,
@@ -63,7 +106,8 @@ def fit_power_law(
     force_N : array_like of float, N
         Force at each amplitude; non-positive or non-finite points are left out.
     replicates_N : array_like of float, shape (n_boot, n_amplitudes), optional
-        Bootstrap replicates of *force_N*; replicates with a non-positive value are left out.
+        Bootstrap replicates of *force_N*; in each, non-positive or non-finite values are
+        left out of that replicate's fit (which needs two amplitudes left).
     confidence : float
         Coverage of the interval on ``n``.
 
@@ -88,28 +132,21 @@ def fit_power_law(
     slope = float(np.sum((x - xm) * (y - y.mean())) / sxx)
     intercept = float(y.mean() - slope * xm)
     alpha = (1.0 - confidence) / 2.0
-    lows, highs = [], []
+    low = high = float("nan")
+    if replicates_N is not None:
+        slopes = _replicate_slopes(x, np.asarray(replicates_N, dtype=np.float64), keep)
+        if slopes.size >= MIN_REPLICATES:
+            low, high = (float(q) for q in np.quantile(slopes, [alpha, 1.0 - alpha]))
     dof = x.size - 2
-    if dof >= 1:
+    if not np.isfinite(low) and dof >= 1:
         resid = y - (intercept + slope * x)
         se = float(np.sqrt(np.sum(resid**2) / dof / sxx))
         q = float(stats.t.ppf(1.0 - alpha, dof))
-        lows.append(slope - q * se)
-        highs.append(slope + q * se)
-    if replicates_N is not None:
-        reps = np.asarray(replicates_N, dtype=np.float64)
-        reps = reps[:, keep] if reps.ndim == 2 else reps.reshape(0, x.size)
-        good = np.all(reps > 0, axis=1) & np.all(np.isfinite(reps), axis=1)
-        if np.count_nonzero(good) >= 20:
-            ly = np.log(reps[good])
-            slopes = ((ly - ly.mean(axis=1, keepdims=True)) @ (x - xm)) / sxx
-            lo, hi = np.quantile(slopes, [alpha, 1.0 - alpha])
-            lows.append(float(lo))
-            highs.append(float(hi))
+        low, high = slope - q * se, slope + q * se
     return PowerLawFit(
         exponent=slope,
-        exponent_ci_low=min(lows) if lows else float("nan"),
-        exponent_ci_high=max(highs) if highs else float("nan"),
+        exponent_ci_low=low,
+        exponent_ci_high=high,
         prefactor_N=float(np.exp(intercept)),
         n_points=int(x.size),
     )
