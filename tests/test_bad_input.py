@@ -122,6 +122,15 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "acquire-rig-not-toml": _text(Path("rig.toml"), "dbc = default.dbc\n"),
     "acquire-trial-exists": lambda t: None,
     "acquire-bus-option": lambda t: None,
+    "acquire-duration-inf": lambda t: None,
+    "acquire-amplitude-inf": lambda t: None,
+    "acquire-band-nan": lambda t: None,
+    "acquire-target-force-nan": lambda t: None,
+    "acquire-study-is-a-file": _text(Path("notes.txt"), "not a study\n"),
+    "acquire-rig-is-a-folder": lambda t: (t / "rigs").mkdir(),
+    "acquire-rig-not-utf8": lambda t: (t / "rig.toml").write_bytes(b'name = "caf\xe9"\n'),
+    "acquire-trial-exists-bad-interface": lambda t: None,
+    "acquire-new-study-bad-interface": lambda t: None,
 }
 
 

@@ -109,3 +109,15 @@ def test_dbc_with_overlapping_signals_loads_with_a_warning(tmp_path, caplog):
                                 "tangential_force": "FxCell.Fx"}, tmp_path)
     assert rig.normal_force.qualified_name == "FzCell.Fz"
     assert "decoding it anyway" in caplog.text
+
+
+@pytest.mark.parametrize(("make", "needle"), [
+    (lambda p: p.mkdir(), "is a folder"),
+    (lambda p: p.write_bytes(b'dbc = "caf\xe9.dbc"\n'), "not UTF-8"),
+])
+def test_rig_file_that_is_a_folder_or_not_utf8_is_a_named_rig_error(tmp_path, make, needle):
+    path = tmp_path / "rig.toml"
+    make(path)
+    with pytest.raises(RigConfigError, match=needle) as err:
+        load_rig(path)
+    assert err.value.path == str(path)

@@ -95,6 +95,15 @@ def test_write_sidecar_refuses_overwrite(tmp_path):
     assert json.loads(p.read_text())["subject"] == "P02"
 
 
+def test_write_sidecar_that_fails_leaves_no_temporary_file(tmp_path):
+    p = tmp_path / "run-01.json"
+    with pytest.raises(ValueError):
+        study.write_sidecar(p, {"subject": "P01", "amplitude_V": float("inf")})
+    assert list(tmp_path.iterdir()) == []
+    study.write_sidecar(p, {"subject": "P01"})          # and a retry is not blocked
+    assert [f.name for f in tmp_path.iterdir()] == ["run-01.json"]
+
+
 def test_discovery(tmp_path):
     root = make_study(tmp_path / "s", {
         "P01/run-01": {"condition": "on", "amplitude_V": 60},

@@ -249,7 +249,8 @@ def load_rig(toml_path: str | os.PathLike[str]) -> Rig:
     Raises
     ------
     RigConfigError
-        The file is missing or not TOML, or :meth:`Rig.from_mapping` refuses it.
+        The file is missing, a folder, unreadable, not UTF-8 or not TOML, or
+        :meth:`Rig.from_mapping` refuses it.
     """
     path = Path(toml_path)
     try:
@@ -257,6 +258,14 @@ def load_rig(toml_path: str | os.PathLike[str]) -> Rig:
             table = tomllib.load(fh)
     except FileNotFoundError as err:
         raise RigConfigError("rig file not found", path=path) from err
+    except IsADirectoryError as err:
+        raise RigConfigError("is a folder, not a rig TOML file", path=path) from err
+    except OSError as err:  # permission denied, I/O error...
+        raise RigConfigError(f"cannot read the rig file: {err.strerror or err}",
+                             path=path) from err
+    except UnicodeDecodeError as err:
+        raise RigConfigError(f"not UTF-8 text: {err.reason} at byte {err.start}",
+                             path=path) from err
     except tomllib.TOMLDecodeError as err:
         raise RigConfigError(f"not valid TOML: {err}", path=path,
                              line=toml_error_line(err)) from err

@@ -179,12 +179,16 @@ def write_sidecar(path: str | os.PathLike[str], sidecar: Sidecar | Mapping[str, 
         raise OutputExistsError("exists already; use --force to overwrite", path=p)
     payload = sidecar.to_dict() if isinstance(sidecar, Sidecar) else dict(sidecar)
     tmp = p.with_name(p.name + ".tmp")
-    with open(tmp, "w", encoding="utf-8") as fh:
-        json.dump(payload, fh, indent=2, ensure_ascii=False, allow_nan=False)
-        fh.write("\n")
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, p)
+    try:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            json.dump(payload, fh, indent=2, ensure_ascii=False, allow_nan=False)
+            fh.write("\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, p)
+    except BaseException:  # a value JSON cannot hold, a full disk: leave nothing behind
+        tmp.unlink(missing_ok=True)
+        raise
     return p
 
 

@@ -8,11 +8,18 @@ import can
 import cantools
 import pytest
 
+import evtribo.acquisition.trial as trial_module
 from evtribo.acquisition.bus import BusSettings
 from evtribo.acquisition.rigfile import default_rig_path
 from evtribo.acquisition.simulator import Simulator, TrialConfig
-from evtribo.acquisition.trial import TrialInfo, record_trial
-from evtribo.errors import OutputExistsError, SidecarError, StudyError
+from evtribo.acquisition.trial import TrialInfo, TrialPaths, record_trial
+from evtribo.errors import (
+    AcquisitionError,
+    ConfigError,
+    OutputExistsError,
+    SidecarError,
+    StudyError,
+)
 from evtribo.study import load_study, read_sidecar
 
 DBC = cantools.database.load_file(str(default_rig_path().with_name("default.dbc")))
@@ -210,6 +217,75 @@ def test_refuses_to_overwrite_a_trial(tmp_path, leftover):
         result = record_trial(bus, study, "P01", "run-01", duration=0.1, force=True)
     assert result.ended == "completed"
     assert sorted(p.name for p in (study / "P01").iterdir()) == ["run-01.json", "run-01.log"]
+
+
+def test_forced_trial_keeps_the_previous_one_until_it_ends(tmp_path):
+    study = tmp_path / "s"
+    old = {}
+    with can.Bus(interface="virtual", channel="acq_force_keep") as bus:
+        record_trial(bus, study, "P01", "run-01", duration=0.1, info=TrialInfo(notes="first"))
+        paths = TrialPaths.of(study, "P01", "run-01")
+        before = {p.name: p.read_bytes() for p in (paths.log, paths.sidecar)}
+
+        def started(p):
+            old.update({q.name: q.read_bytes() for q in (p.log, p.sidecar) if q.exists()})
+            old["part"] = p.part.exists()
+
+        result = record_trial(bus, study, "P01", "run-01", duration=0.1, force=True,
+                              info=TrialInfo(notes="second"), started=started)
+    assert old == {**before, "part": True}       # while recording: old trial intact
+    assert result.ended == "completed" and not result.kept_previous
+    assert json.loads(paths.sidecar.read_text())["notes"] == "second"
+    assert sorted(p.name for p in paths.folder.iterdir()) == ["run-01.json", "run-01.log"]
+
+
+def test_forced_trial_failing_before_any_frame_keeps_the_previous_one(tmp_path):
+    study = tmp_path / "s"
+    with can.Bus(interface="virtual", channel="acq_force_fail") as bus:
+        record_trial(bus, study, "P01", "run-01", duration=0.1)
+    paths = TrialPaths.of(study, "P01", "run-01")
+    before = {p.name: p.read_bytes() for p in paths.folder.iterdir()}
+    bus = VanishingBus(0)
+    try:
+        result = record_trial(bus, study, "P01", "run-01", duration=5.0, force=True)
+    finally:
+        bus.shutdown()
+    assert (result.ended, result.exit_code, result.kept_previous) == ("bus-error", 1, True)
+    assert {p.name: p.read_bytes() for p in paths.folder.iterdir()} == before
+
+
+def test_first_sidecar_failing_leaves_nothing_that_blocks_a_retry(tmp_path, monkeypatch):
+    study = tmp_path / "s"
+    real = trial_module._write_json
+
+    def full_disk(path, data):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(trial_module, "_write_json", full_disk)
+    with can.Bus(interface="virtual", channel="acq_first_sidecar") as bus:
+        with pytest.raises(AcquisitionError, match="No space left"):
+            record_trial(bus, study, "P01", "run-01", duration=0.1)
+        assert list((study / "P01").iterdir()) == []
+        monkeypatch.setattr(trial_module, "_write_json", real)
+        result = record_trial(bus, study, "P01", "run-01", duration=0.1)   # no --force
+    assert result.ended == "completed"
+    assert sorted(p.name for p in (study / "P01").iterdir()) == ["run-01.json", "run-01.log"]
+
+
+@pytest.mark.parametrize(("kwargs", "error", "key"), [
+    ({"duration": float("inf")}, ConfigError, "duration"),
+    ({"duration": float("nan")}, ConfigError, "duration"),
+    ({"info": TrialInfo(amplitude_V=float("inf"))}, SidecarError, "amplitude_V"),
+    ({"info": TrialInfo(frequency_Hz=float("nan"))}, SidecarError, "frequency_Hz"),
+])
+def test_non_finite_duration_or_metadata_is_refused_before_writing(tmp_path, kwargs, error,
+                                                                     key):
+    kwargs = {"duration": 0.1, **kwargs}
+    with can.Bus(interface="virtual", channel="acq_nonfinite") as bus:
+        with pytest.raises(error) as err:
+            record_trial(bus, tmp_path / "s", "P01", "run-01", **kwargs)
+    assert err.value.key == key
+    assert not (tmp_path / "s").exists()
 
 
 @pytest.mark.parametrize("subject,trial", [("../P01", "run-01"), ("P01", "a/b"),

@@ -153,6 +153,63 @@ def test_signal_mid_trial_leaves_a_complete_log(tmp_path, adapter, sig):
     check_log(log, side)
 
 
+SLOW_DISK_ACQUIRE = """
+import os, sys, threading, time
+import can
+from evtribo.cli import main
+
+real_fsync = os.fsync
+
+def slow_fsync(fd):            # a disk slow to sync: saving the trial takes seconds
+    time.sleep(1.0)
+    real_fsync(fd)
+
+os.fsync = slow_fsync
+
+def send():
+    bus = can.Bus(interface="virtual", channel="slow-disk")
+    k = 0
+    while True:
+        bus.send(can.Message(arbitration_id=0xC1, is_extended_id=False,
+                             data=bytes(7) + bytes([k % 256])))
+        k += 1
+        time.sleep(0.002)
+
+threading.Thread(target=send, daemon=True).start()
+sys.exit(main(["acquire", "--study", sys.argv[1], "--subject", "P01", "--trial", "run-01",
+               "--interface", "virtual", "--channel", "slow-disk", "--quiet"]))
+"""
+
+
+def test_more_signals_while_the_trial_is_saved_do_not_abandon_it(tmp_path):
+    """Ctrl-C, then Ctrl-C and SIGTERM again while the log is being saved (a slow disk):
+    the trial still ends as interrupted, with every frame received in its log."""
+    study = tmp_path / "study"
+    proc = subprocess.Popen([sys.executable, "-c", SLOW_DISK_ACQUIRE, str(study)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        wait_for_frames(study / "P01" / "run-01.log.part", proc, n_bytes=200)
+        proc.send_signal(signal.SIGINT)
+        time.sleep(0.3)
+        proc.send_signal(signal.SIGINT)
+        time.sleep(0.3)
+        proc.send_signal(signal.SIGTERM)
+        _out, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, err
+    assert "Traceback" not in err
+    assert "ignored: saving the trial" in err
+    assert not (study / "P01" / "run-01.log.part").exists()
+    side = json.loads((study / "P01" / "run-01.json").read_text())
+    assert side["ended"] == "interrupted"
+    assert side["end_detail"] == "stopped by SIGINT"
+    log = study / "P01" / "run-01.log"
+    assert len(log.read_text().splitlines()) == side["frames"] > 0
+
+
 def test_adapter_vanishing_mid_trial_exits_1_with_the_log(tmp_path, adapter):
     study = tmp_path / "study"
     proc = subprocess.Popen(acquire_cmd(study, adapter.path, "--duration", "60"),

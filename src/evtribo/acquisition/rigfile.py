@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from evtribo.acquisition.logger import CounterSpec, counter_spec_from_dbc
-from evtribo.errors import RigConfigError
+from evtribo.errors import OutputExistsError, RigConfigError, StudyError
 from evtribo.rig import Rig, default_rig_path, load_rig
 from evtribo.study import read_study_toml, validate_name, write_study_toml
 
@@ -143,17 +143,27 @@ def create_study(study: str | Path, rig: AcquisitionRig, name: str | None = None
         If the folder already has a ``study.toml`` (it is left alone).
     """
     study = Path(study)
-    (study / "rig").mkdir(parents=True, exist_ok=True)
     dbc_rel = f"rig/{rig.dbc_path.name}"
-    if not (study / dbc_rel).exists():
-        shutil.copyfile(rig.dbc_path, study / dbc_rel)
-    table = {"name": rig.name, "dbc": dbc_rel, **rig.signals}
-    path = write_study_toml(study, name=name or study.resolve().name, rig=table)
+    try:
+        (study / "rig").mkdir(parents=True, exist_ok=True)
+        if not (study / dbc_rel).exists():
+            shutil.copyfile(rig.dbc_path, study / dbc_rel)
+        table = {"name": rig.name, "dbc": dbc_rel, **rig.signals}
+        path = write_study_toml(study, name=name or study.resolve().name, rig=table)
+    except OutputExistsError:
+        raise
+    except (NotADirectoryError, FileExistsError) as err:
+        raise StudyError("cannot create the study folder: a file is in the way "
+                         f"({err.filename})", path=study) from err
+    except PermissionError as err:
+        raise StudyError(f"cannot create the study folder: {err.strerror} "
+                         f"({err.filename})", path=study) from err
     log.info("new study folder %s for rig %r", study, rig.name)
     return path
 
 
-def open_study(study: str | Path, rig_path: str | Path | None = None) -> AcquisitionRig:
+def open_study(study: str | Path, rig_path: str | Path | None = None, *,
+               create: bool = True) -> AcquisitionRig:
     """The rig of *study*, creating the study folder for *rig_path* when it has none.
 
     Parameters
@@ -164,12 +174,19 @@ def open_study(study: str | Path, rig_path: str | Path | None = None) -> Acquisi
         Rig TOML for a new study (default: :func:`default_rig_path`). For an existing study
         it must describe the same DBC as the study's.
 
+    create : bool
+        False: only say which rig the study would use (nothing is written).
+
     Raises
     ------
     RigConfigError
         Bad rig, or *rig_path* disagrees with the existing study's rig.
+    StudyError
+        *study* is a file, or its folder cannot be created.
     """
     study = Path(study)
+    if study.exists() and not study.is_dir():
+        raise StudyError("expected a study folder, found a file", path=study)
     if (study / "study.toml").exists():
         rig = load_study_rig(study)
         if rig_path is not None:
@@ -182,6 +199,8 @@ def open_study(study: str | Path, rig_path: str | Path | None = None) -> Acquisi
             rig.counters = rig.counters or given.counters
         return rig
     given = load_rig_toml(rig_path if rig_path is not None else default_rig_path())
+    if not create:
+        return given
     create_study(study, given)
     rig = load_study_rig(study)
     rig.name = given.name

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import datetime as dt
 import logging
+import math
 import os
 import sys
 import threading
@@ -40,7 +41,7 @@ import evtribo
 from evtribo.acquisition.bus import BusSettings
 from evtribo.acquisition.logger import CounterTracker, LogWriter, receive
 from evtribo.acquisition.rigfile import AcquisitionRig, check_name, open_study
-from evtribo.errors import AcquisitionError, OutputExistsError, SidecarError
+from evtribo.errors import AcquisitionError, ConfigError, OutputExistsError, SidecarError
 from evtribo.study import CONDITIONS, WAVEFORMS, write_sidecar
 
 log = logging.getLogger(__name__)
@@ -80,8 +81,9 @@ class TrialInfo:
                                f"{', '.join(CONDITIONS)}", key="condition")
         for key in ("frequency_Hz", "amplitude_V"):
             value = getattr(self, key)
-            if value is not None and not (isinstance(value, (int, float)) and value >= 0):
-                raise SidecarError(f"expected a number >= 0, got {value!r}", key=key)
+            if value is not None and not (isinstance(value, (int, float))
+                                          and math.isfinite(value) and value >= 0):
+                raise SidecarError(f"expected a finite number >= 0, got {value!r}", key=key)
 
     def as_dict(self) -> dict[str, Any]:
         """The keys that were given (absent ones are left to the excitation signals)."""
@@ -121,8 +123,11 @@ class TrialResult:
         0 for a deliberate end, 1 for a fault.
     paths : TrialPaths
     sidecar : dict
-        The sidecar as written.
+        The sidecar as written (or, with *kept_previous*, as it would have been).
     error : BaseException or None
+    kept_previous : bool
+        With ``force``, the new trial failed before receiving any frame: nothing of it was
+        kept, and the trial recorded before stays as it was.
     """
 
     ended: str
@@ -130,6 +135,7 @@ class TrialResult:
     paths: TrialPaths
     sidecar: dict[str, Any] = field(default_factory=dict)
     error: BaseException | None = None
+    kept_previous: bool = False
 
 
 def _iso(t: float) -> str:
@@ -144,6 +150,16 @@ def _write_json(path: Path, data: dict[str, Any]) -> None:
 def _log_channel(name: str | None, bus: can.BusABC) -> str:
     name = name or str(getattr(bus, "channel", None) or "can0")
     return "_".join(name.split()) or "can0"
+
+
+def _close_writer(writer: LogWriter) -> None:
+    """Wait until the writer has written every queued batch, even through Ctrl-C."""
+    while True:
+        try:
+            writer.close()
+            return
+        except KeyboardInterrupt:
+            log.warning("interrupted while saving the log; finishing it first")
 
 
 def _pkg_version(name: str) -> str | None:
@@ -187,7 +203,10 @@ def record_trial(
     rig : path, optional
         Rig TOML for a new study (default: the simulator's rig).
     force : bool
-        Replace an existing trial of that name (its ``.log``, ``.log.part``, ``.json``).
+        Replace an existing trial of that name. Its ``.log`` and ``.json`` are replaced only
+        when the new trial ends (the new one is recorded to ``.log.part`` meanwhile, and the
+        old ones stay if it ends in a fault before any frame arrived); a leftover
+        ``.log.part`` of a killed recording is replaced at once.
     settings : BusSettings, optional
         How the bus was opened (recorded in the sidecar).
     log_channel : str, optional
@@ -209,8 +228,8 @@ def record_trial(
 
     Raises
     ------
-    StudyError, SidecarError, RigConfigError
-        Bad names, metadata or rig (nothing written).
+    StudyError, SidecarError, RigConfigError, ConfigError
+        Bad names, metadata, duration or rig (nothing written).
     OutputExistsError
         The trial exists and *force* is False.
     AcquisitionError
@@ -218,6 +237,8 @@ def record_trial(
     """
     check_name(subject, "subject")
     check_name(trial, "trial")
+    if duration is not None and not (math.isfinite(duration) and duration > 0):
+        raise ConfigError(f"expected a finite duration > 0 s, got {duration}", key="duration")
     info = info or TrialInfo()
     info.check()
     study = Path(study)
@@ -230,17 +251,16 @@ def record_trial(
     settings = settings or BusSettings(channel=str(getattr(bus, "channel", None) or "") or None)
     settings.interface = settings.interface or type(bus).__name__
     channel = _log_channel(log_channel or settings.channel, bus)
-    paths.folder.mkdir(parents=True, exist_ok=True)
+    # with force, the previous trial's log and sidecar stay until this one has ended
+    previous = [p for p in (paths.log, paths.sidecar) if p.exists()]
     try:
+        paths.folder.mkdir(parents=True, exist_ok=True)
         fh = paths.part.open("wb" if force else "xb", buffering=0)
     except FileExistsError as err:
         raise OutputExistsError("another recording of this trial is in progress",
                                 path=paths.part) from err
     except OSError as err:
         raise AcquisitionError(f"cannot create the log: {err}", path=paths.part) from err
-    if force:
-        for old in (paths.log, paths.sidecar):
-            old.unlink(missing_ok=True)
 
     t_start = time.time()
     sidecar: dict[str, Any] = {"subject": subject, "trial": trial, **info.as_dict()}
@@ -258,26 +278,48 @@ def record_trial(
         "log": paths.part.name,
         "ended": "recording",
     })
-    _write_json(paths.sidecar, sidecar)
-    if started is not None:
-        started(paths)
+    try:
+        if paths.sidecar in previous:
+            log.info("%s is kept until the new trial has ended", paths.sidecar)
+        else:
+            try:
+                _write_json(paths.sidecar, sidecar)
+            except OSError as err:
+                raise AcquisitionError(f"cannot write the sidecar: {err}",
+                                       path=paths.sidecar) from err
+        if started is not None:
+            started(paths)
+    except BaseException:
+        # nothing of this trial may stay behind to block the next attempt
+        fh.close()
+        paths.part.unlink(missing_ok=True)
+        if paths.sidecar not in previous:
+            paths.sidecar.unlink(missing_ok=True)
+        raise
 
     writer = LogWriter(fh, channel, CounterTracker(acq_rig.counters)).start()
     t0 = time.monotonic()
     if monitor is not None:
         monitor.start(writer.stats, t0)
     stop = should_stop or (lambda: False)
+    flag = should_stop if isinstance(should_stop, StopFlag) else None
     log.info("recording %s/%s from %s %s into %s", subject, trial, settings.interface,
              settings.channel, paths.part)
     try:
+        if flag is not None:
+            flag.interruptible = True
         result = receive(bus, writer, duration=duration, should_stop=stop, until=until)
+        if flag is not None:
+            flag.interruptible = False  # from here on, the trial is saved whatever comes
         ended, error = result.reason, result.error
     except KeyboardInterrupt:
         ended, error = "interrupted", None
     finally:
+        if flag is not None:
+            flag.interruptible = False
         elapsed = time.monotonic() - t0
         t_end = time.time()
-        writer.close()
+        _close_writer(writer)
         if monitor is not None:
             monitor.stop()
     if writer.error is not None and ended not in ("bus-error",):
@@ -287,6 +329,15 @@ def record_trial(
     except OSError as err:  # the final flush failed (disk full)
         log.error("closing the log failed: %s", err)
         ended, error = "disk-error", err
+    if previous and error is not None and writer.stats.frames == 0:
+        paths.part.unlink(missing_ok=True)
+        log.error("%s/%s: %s before any frame arrived; the trial recorded before is kept",
+                  subject, trial, ended)
+        sidecar.update({"ended": ended, "frames": 0, "duration_s": round(elapsed, 6),
+                        "dropped_frames": 0, "bus_errors": int(ended == "bus-error"),
+                        "end_detail": f"{type(error).__name__}: {error}", "log": None})
+        return TrialResult(ended=ended, exit_code=EXIT_CODES[ended], paths=paths,
+                           sidecar=sidecar, error=error, kept_previous=True)
     paths.part.replace(paths.log)
 
     stats = writer.stats
@@ -323,11 +374,22 @@ def record_trial(
 
 
 class StopFlag:
-    """A stop request settable from a signal handler or another thread."""
+    """A stop request settable from a signal handler or another thread.
+
+    Attributes
+    ----------
+    reason : str or None
+        Why the stop was requested (the sidecar's ``end_detail``).
+    interruptible : bool
+        True while :func:`record_trial` receives frames: only then may a signal handler
+        raise ``KeyboardInterrupt`` to cut a receive that hangs. Once it is False the
+        trial's log and sidecar are being saved, and must not be interrupted.
+    """
 
     def __init__(self) -> None:
         self._event = threading.Event()
         self.reason: str | None = None
+        self.interruptible = False
 
     def set(self, reason: str = "stop requested") -> None:
         """Ask the recording to stop."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import logging
+import math
 import signal
 import sys
 import threading
@@ -12,8 +13,15 @@ from typing import Any
 from evtribo.acquisition.bus import BusSettings, open_bus, parse_bus_options
 from evtribo.acquisition.monitor import Monitor
 from evtribo.acquisition.rigfile import AcquisitionRig, check_name, open_study
-from evtribo.acquisition.trial import CONDITIONS, WAVEFORMS, StopFlag, TrialInfo, record_trial
-from evtribo.errors import ConfigError
+from evtribo.acquisition.trial import (
+    CONDITIONS,
+    WAVEFORMS,
+    StopFlag,
+    TrialInfo,
+    TrialPaths,
+    record_trial,
+)
+from evtribo.errors import ConfigError, OutputExistsError
 
 log = logging.getLogger(__name__)
 
@@ -63,7 +71,12 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 class _Signals:
-    """SIGINT/SIGTERM set the stop flag (a second SIGINT raises KeyboardInterrupt)."""
+    """SIGINT/SIGTERM set the stop flag.
+
+    A second SIGINT while frames are being received raises KeyboardInterrupt (to cut a
+    receive that hangs in a driver); once the receive has ended, further signals are only
+    logged: the trial's log and sidecar are being saved.
+    """
 
     def __init__(self, flag: StopFlag) -> None:
         self.flag = flag
@@ -71,9 +84,13 @@ class _Signals:
 
     def _handler(self, signum: int, _frame: Any) -> None:
         name = signal.Signals(signum).name
-        if self.flag() and signum == signal.SIGINT:
+        if not self.flag():
+            self.flag.set(f"stopped by {name}")
+        elif signum == signal.SIGINT and self.flag.interruptible:
+            self.flag.interruptible = False
             raise KeyboardInterrupt
-        self.flag.set(f"stopped by {name}")
+        else:
+            log.warning("%s ignored: saving the trial's log and sidecar", name)
 
     def __enter__(self) -> _Signals:
         if threading.current_thread() is threading.main_thread():
@@ -86,10 +103,19 @@ class _Signals:
             signal.signal(sig, old)
 
 
+def _check_finite(args: argparse.Namespace) -> None:
+    """Non-finite numbers (``inf``, ``nan``) would run forever or break the sidecar."""
+    for flag in ("--duration", "--frequency", "--amplitude", "--target-force", "--band"):
+        value = getattr(args, flag[2:].replace("-", "_"))
+        if value is not None and not math.isfinite(value):
+            raise ConfigError(f"expected a finite number, got {value}", key=flag)
+
+
 def run(args: argparse.Namespace) -> int:
     """Record the trial; return 0 (completed or stopped), 1 (bus or disk failed)."""
     check_name(args.subject, "subject")
     check_name(args.trial, "trial")
+    _check_finite(args)
     if args.duration is not None and args.duration <= 0:
         raise ConfigError(f"expected a positive duration, got {args.duration}", key="--duration")
     if args.band < 0:
@@ -97,7 +123,13 @@ def run(args: argparse.Namespace) -> int:
     info = TrialInfo(waveform=args.waveform, frequency_Hz=args.frequency,
                      amplitude_V=args.amplitude, condition=args.condition, notes=args.notes)
     info.check()
-    rig: AcquisitionRig = open_study(args.study, args.rig)  # check the rig before the bus
+    # everything the user can get wrong is checked before the bus opens and before the
+    # study folder is created
+    rig: AcquisitionRig = open_study(args.study, args.rig, create=False)
+    existing = TrialPaths.of(args.study, args.subject, args.trial).existing()
+    if existing and not args.force:
+        raise OutputExistsError("trial already recorded (use --force to replace it): "
+                                + ", ".join(str(p) for p in existing), path=existing[0])
     settings = BusSettings(interface=args.interface, channel=args.channel,
                            bitrate=args.bitrate, options=parse_bus_options(args.bus_option))
     bus = open_bus(settings)
@@ -118,6 +150,10 @@ def run(args: argparse.Namespace) -> int:
         except Exception as err:  # a vanished adapter may fail to close
             log.warning("closing the bus failed: %s", err)
     side = result.sidecar
+    if result.kept_previous:
+        print(f"evtribo acquire: error: {side['end_detail']} before any frame arrived; "
+              f"the trial recorded before is kept: {result.paths.log}", file=sys.stderr)
+        return result.exit_code
     summary = (f"{args.subject}/{args.trial}: {result.ended}, {side['frames']} frames in "
                f"{side['duration_s']:.1f} s, {side['dropped_frames']} dropped, "
                f"{side['bus_errors']} bus errors -> {result.paths.log}")
