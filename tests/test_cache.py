@@ -84,3 +84,24 @@ def test_corrupt_entry_is_decoded_again(trial_files, tmp_path):
     assert trial.frames > 0
     assert entry.read_bytes()[:4] == b"PAR1"
     shutil.rmtree(cdir)
+
+
+@pytest.mark.parametrize("how", ["file-in-the-way", "write-fails"])
+def test_unwritable_cache_still_returns_the_trial(trial_files, tmp_path, monkeypatch, caplog,
+                                                  how):
+    rig, path = trial_files
+    if how == "file-in-the-way":           # the cache folder's parent is a file
+        (tmp_path / "afile").write_text("")
+        cdir = tmp_path / "afile" / "cache"
+    else:                                  # read-only or full disk, even as root
+        cdir = tmp_path / "cache"
+
+        def full_disk(*_a, **_k):
+            raise OSError(28, "No space left on device")
+
+        monkeypatch.setattr(cache.pq, "write_table", full_disk)
+    trial = cache.load_trial(path, rig, cache_dir=cdir)
+    assert trial.frames > 0
+    assert trial.frames == cache.load_trial(path, rig, cache=False).frames
+    assert "cannot write the cache entry" in caplog.text
+    assert not list(tmp_path.rglob("*.tmp"))

@@ -184,7 +184,11 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
     trial = decode_trial(frames, rig)
     trial.skipped_lines = report.skipped_lines
     if path is not None:
-        _write_atomic(path, _to_table(trial))
+        try:
+            _write_atomic(path, _to_table(trial))
+        except OSError as err:  # read-only, full, or a file in the way: the trial stands
+            log.warning("%s: cannot write the cache entry (%s); the trial is decoded but "
+                        "not cached", path, err)
     return trial
 
 
