@@ -9,8 +9,14 @@ import pandas as pd
 import pytest
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study, simulate_trial
-from evtribo.analysis.aggregate import ELECTROSTATIC_COLUMNS, EXPONENT_COLUMNS
-from evtribo.analysis.pipeline import OUTPUT_FILES, SINE_TRACE_FILE, analyze_study
+from evtribo.analysis.aggregate import (
+    BOOTSTRAP_COLUMNS,
+    ELECTROSTATIC_COLUMNS,
+    EXPONENT_COLUMNS,
+    N_BOOTSTRAP_SAVED,
+    summarize,
+)
+from evtribo.analysis.pipeline import BOOTSTRAP_FILE, OUTPUT_FILES, SINE_TRACE_FILE, analyze_study
 from evtribo.analysis.trial import TRIAL_COLUMNS, WINDOW_CSV_COLUMNS
 from evtribo.cli import main
 from evtribo.errors import LogFormatError, OutputExistsError
@@ -68,6 +74,7 @@ def test_recovers_mu_electrostatic_force_exponent_and_modulation(default_study):
     el = pd.read_csv(res.out_dir / "electrostatic.csv")
     trials = pd.read_csv(res.out_dir / "trials.csv")
     assert len(el) == 2 * (len(AMPLITUDES) + 1)
+    truth_inside = []
     for subject in SUBJECTS:
         runs = truth[subject.name]
         for _, t in runs.items():
@@ -79,6 +86,8 @@ def test_recovers_mu_electrostatic_force_exponent_and_modulation(default_study):
                 subject.name, wave, amp, row.electrostatic_force_N, t.electrostatic_force_N)
             assert row.electrostatic_force_ci_low_N < row.electrostatic_force_N
             assert row.electrostatic_force_N < row.electrostatic_force_ci_high_N
+            truth_inside.append(row.electrostatic_force_ci_low_N <= t.electrostatic_force_N
+                                <= row.electrostatic_force_ci_high_N)
             assert row.n_on >= 4 and row.n_off >= 4
         square = [t for t in runs.values() if t.config.waveform == "square"]
         ex = pd.read_csv(res.out_dir / "exponents.csv")
@@ -86,12 +95,59 @@ def test_recovers_mu_electrostatic_force_exponent_and_modulation(default_study):
         assert ex.exponent == pytest.approx(_truth_exponent(square), abs=0.05)
         assert ex.exponent == pytest.approx(2.0, abs=0.1)
         assert ex.exponent_ci_low < ex.exponent < ex.exponent_ci_high
+        assert ex.exponent_ci_low <= _truth_exponent(square) <= ex.exponent_ci_high
+    assert all(truth_inside), truth_inside
     sine = trials[trials.waveform == "sine"]
     square = trials[trials.waveform == "square"]
     np.testing.assert_allclose(sine.friction_modulation_Hz, 2 * sine.frequency_Hz, rtol=0.02)
     assert square.friction_modulation_Hz.isna().all()
     assert (trials.dropped_frames > 0).all() and (trials.skipped_lines == 0).all()
     assert (trials.duration_s.between(9.9, 10.0)).all()
+
+
+def test_bootstrap_replicates_are_written_for_compare(default_study):
+    _, _, res = default_study
+    el = pd.read_csv(res.out_dir / "electrostatic.csv")
+    boot = pd.read_csv(res.out_dir / BOOTSTRAP_FILE)
+    assert list(boot.columns) == list(BOOTSTRAP_COLUMNS)
+    assert len(boot) == len(el) * N_BOOTSTRAP_SAVED
+    for row in el.itertuples():
+        reps = boot[(boot.subject == row.subject) & (boot.waveform == row.waveform)
+                    & (boot.amplitude_V == row.amplitude_V)]
+        assert list(reps.replicate) == list(range(N_BOOTSTRAP_SAVED))
+        lo, hi = np.quantile(reps.electrostatic_force_N, [0.025, 0.975])
+        width = row.electrostatic_force_ci_high_N - row.electrostatic_force_ci_low_N
+        # the replicates the interval was taken from (200 of them: a noisy percentile)
+        assert abs(lo - row.electrostatic_force_ci_low_N) < 0.35 * width
+        assert abs(hi - row.electrostatic_force_ci_high_N) < 0.35 * width
+
+
+def test_points_sharing_an_off_reference_share_its_resampling():
+    # a whole-OFF trial serves both waveforms' ON trials; noise-free ON windows, so every
+    # replicate's error is the OFF reference's mu: common to all the subject's points
+    rng = np.random.default_rng(4)
+    rows = []
+    for _ in range(12):
+        fn = 0.5 + 0.02 * rng.standard_normal()
+        rows.append(("S", "off-1", "off", 0.0, "square", fn,
+                     0.4 * fn * (1 + 0.03 * rng.standard_normal())))
+    for trial, wave, amp in (("sq-60", "square", 60.0), ("sq-140", "square", 140.0),
+                             ("si-140", "sine", 140.0)):
+        for _ in range(6):
+            fn = 0.5 + 0.02 * rng.standard_normal()
+            rows.append(("S", trial, "on", amp, wave, fn, 0.4 * (fn + 1e-5 * amp**2)))
+    windows = pd.DataFrame(rows, columns=["subject", "trial", "condition", "amplitude_V",
+                                          "waveform", "normal_force_N", "friction_force_N"])
+    trials = pd.DataFrame({"subject": "S", "trial": ["off-1", "sq-60", "sq-140", "si-140"],
+                           "condition": ["off", "on", "on", "on"]})
+    el, ex, boot, _ = summarize(windows, trials, n_boot=300, n_saved=100)
+    assert list(zip(el.waveform, el.amplitude_V, strict=True)) == [
+        ("sine", 140.0), ("square", 60.0), ("square", 140.0)]
+    assert len(ex) == 1 and ex.waveform.iloc[0] == "square"
+    wide = boot.pivot(index="replicate", columns=["waveform", "amplitude_V"],
+                      values="electrostatic_force_N")
+    assert wide.shape == (100, 3)
+    assert np.corrcoef(wide.to_numpy().T).min() > 0.95
 
 
 def test_windows_lie_inside_the_true_slides_and_phases(default_study):

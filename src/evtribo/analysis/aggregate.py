@@ -7,10 +7,14 @@ Each ON window is compared with a *reference* set of OFF windows:
   every OFF window of the subject (reported as a warning).
 
 The estimates and their bootstrap are :func:`evtribo.analysis.estimate.estimate_electrostatic`,
-run once per subject and waveform so that the replicates are shared by its amplitudes and
-feed the power law's interval (:func:`evtribo.analysis.powerlaw.fit_power_law`). Each
-subject and waveform gets its own seed (derived from the names and the settings' seed), so
-the output does not depend on the order of the trials or on the number of processes.
+run once per subject over all its (waveform, amplitude) groups, so that the replicates are
+shared by the subject's points (an OFF reference serving several of them is resampled once
+per replicate, and its error in ``mu`` is common to them, as in the data). They feed the
+power law's interval (:func:`evtribo.analysis.powerlaw.fit_power_law`, one per waveform)
+and, through ``electrostatic_bootstrap.csv`` (:data:`BOOTSTRAP_COLUMNS`), the model fit of
+``evtribo compare``. Each subject gets its own seed (derived from its name and the settings'
+seed), so the output does not depend on the order of the trials or on the number of
+processes.
 """
 
 from __future__ import annotations
@@ -19,6 +23,7 @@ import logging
 import zlib
 
 import numpy as np
+import numpy.typing as npt
 import pandas as pd
 
 from evtribo.analysis.estimate import DEFAULT_N_BOOT, estimate_electrostatic
@@ -35,6 +40,12 @@ ELECTROSTATIC_COLUMNS = ("subject", "waveform", "amplitude_V", "mu", "normal_for
 #: Columns of exponents.csv (study format, section 2).
 EXPONENT_COLUMNS = ("subject", "waveform", "exponent", "exponent_ci_low", "exponent_ci_high",
                     "prefactor_N")
+#: Columns of electrostatic_bootstrap.csv (not in the study format: an addition for
+#: ``evtribo compare``): one row per electrostatic.csv row and bootstrap replicate.
+BOOTSTRAP_COLUMNS = ("subject", "waveform", "amplitude_V", "replicate",
+                     "electrostatic_force_N")
+#: Bootstrap replicates written to electrostatic_bootstrap.csv per row of electrostatic.csv.
+N_BOOTSTRAP_SAVED = 200
 #: Below this many ON or OFF windows behind an amplitude, summary.json says so.
 MIN_WINDOWS = 10
 
@@ -43,9 +54,41 @@ def _seed(base: int, *names: str) -> np.random.SeedSequence:
     return np.random.SeedSequence([base, *(zlib.crc32(n.encode()) for n in names)])
 
 
+def _references(subject: str, on: pd.DataFrame, off: pd.DataFrame, whole_off: pd.DataFrame,
+                *, condition_of: dict[tuple[str, str], str], warnings: list[str]
+                ) -> tuple[list[pd.DataFrame], npt.NDArray[np.int64]]:
+    """The OFF reference of each ON window: the sets of OFF windows and each one's index."""
+    subject_ref = whole_off if len(whole_off) else off
+    refs: list[pd.DataFrame] = []
+    ref_index: dict[str, int] = {}
+    on_ref = np.empty(len(on), dtype=np.int64)
+    for k, (trial, waveform) in enumerate(zip(on.trial, on.waveform, strict=True)):
+        where = f"{subject} ({waveform or 'unknown waveform'})"
+        own = off[off.trial == trial]
+        if condition_of.get((subject, trial)) == "alternating" and len(own):
+            key, frame = f"trial:{trial}", own
+        else:
+            if condition_of.get((subject, trial)) == "alternating":
+                msg = (f"{where}: trial {trial} alternates but has no OFF window; "
+                       "using the subject's OFF windows")
+            elif not len(whole_off):
+                msg = (f"{where}: no whole-OFF trial; trial {trial} is compared with "
+                       "the OFF phases of alternating trials")
+            else:
+                msg = ""
+            if msg and msg not in warnings:
+                warnings.append(msg)
+            key, frame = "subject", subject_ref
+        if key not in ref_index:
+            ref_index[key] = len(refs)
+            refs.append(frame)
+        on_ref[k] = ref_index[key]
+    return refs, on_ref
+
+
 def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFAULT_N_BOOT,
-              seed: int = 0, confidence: float = 0.95
-              ) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
+              seed: int = 0, confidence: float = 0.95, n_saved: int = N_BOOTSTRAP_SAVED
+              ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame, list[str]]:
     """Electrostatic force per subject, waveform and amplitude, and the power laws.
 
     Parameters
@@ -60,86 +103,86 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
         Base seed.
     confidence : float
         Coverage of the intervals.
+    n_saved : int
+        Replicates kept in the bootstrap table (the first ones; at most *n_boot*).
 
     Returns
     -------
     electrostatic, exponents : pandas.DataFrame
         The tables of electrostatic.csv and exponents.csv.
+    bootstrap : pandas.DataFrame
+        The table of electrostatic_bootstrap.csv (:data:`BOOTSTRAP_COLUMNS`): the
+        calibrated bootstrap replicates of every electrostatic.csv row, replicate ``i`` of
+        a subject's rows coming from the same resampling.
     warnings : list of str
     """
     warnings: list[str] = []
     condition_of = {(r.subject, r.trial): r.condition for r in trials.itertuples()}
     el_rows: list[dict[str, object]] = []
     ex_rows: list[dict[str, object]] = []
+    boot_parts: list[pd.DataFrame] = []
+    empty = (pd.DataFrame(columns=list(ELECTROSTATIC_COLUMNS)),
+             pd.DataFrame(columns=list(EXPONENT_COLUMNS)),
+             pd.DataFrame(columns=list(BOOTSTRAP_COLUMNS)))
     if windows.empty:
-        return (pd.DataFrame(columns=list(ELECTROSTATIC_COLUMNS)),
-                pd.DataFrame(columns=list(EXPONENT_COLUMNS)), warnings)
+        return (*empty, warnings)
     wf = windows.assign(waveform=windows.waveform.fillna(""))
     for subject, sub in wf.groupby("subject", sort=True):
         off = sub[sub.condition == "off"]
         whole_off = off[[condition_of.get((subject, t)) == "off" for t in off.trial]]
-        subject_ref = whole_off if len(whole_off) else off
-        on_all = sub[sub.condition == "on"]
-        if on_all.empty:
+        on = sub[(sub.condition == "on") & np.isfinite(sub.amplitude_V.to_numpy(float))]
+        if on.empty:
             continue
-        for waveform, on_wave in on_all.groupby("waveform", sort=True):
+        refs, on_ref = _references(str(subject), on, off, whole_off,
+                                   condition_of=condition_of, warnings=warnings)
+        if any(r.empty for r in refs):
+            warnings.append(f"{subject}: no OFF windows to estimate mu from; no "
+                            "electrostatic force")
+            continue
+        # one group per (waveform, amplitude), numbered in sorted order
+        groups = sorted(set(zip(on.waveform, on.amplitude_V.to_numpy(float), strict=True)))
+        code = {g: float(i) for i, g in enumerate(groups)}
+        on_group = np.array([code[g] for g in zip(on.waveform, on.amplitude_V.to_numpy(float),
+                                                   strict=True)])
+        est = estimate_electrostatic(
+            [r.normal_force_N.to_numpy(float) for r in refs],
+            [r.friction_force_N.to_numpy(float) for r in refs],
+            on.normal_force_N.to_numpy(float), on.friction_force_N.to_numpy(float),
+            on_ref, on_group, n_boot=n_boot, confidence=confidence,
+            seed=_seed(seed, str(subject)))
+        keep = min(n_saved, est.replicates_N.shape[0])
+        for j, g in enumerate(est.amplitudes_V.astype(int)):
+            waveform, amp = groups[g]
             where = f"{subject} ({waveform or 'unknown waveform'})"
-            on = on_wave[np.isfinite(on_wave.amplitude_V.to_numpy(float))]
-            refs: list[pd.DataFrame] = []
-            ref_index: dict[str, int] = {}
-            on_ref = np.empty(len(on), dtype=np.int64)
-            for k, trial in enumerate(on.trial):
-                own = off[off.trial == trial]
-                if condition_of.get((subject, trial)) == "alternating" and len(own):
-                    key, frame = f"trial:{trial}", own
-                else:
-                    if condition_of.get((subject, trial)) == "alternating":
-                        msg = (f"{where}: trial {trial} alternates but has no OFF window; "
-                               "using the subject's OFF windows")
-                    elif not len(whole_off):
-                        msg = (f"{where}: no whole-OFF trial; trial {trial} is compared with "
-                               "the OFF phases of alternating trials")
-                    else:
-                        msg = ""
-                    if msg and msg not in warnings:
-                        warnings.append(msg)
-                    key, frame = "subject", subject_ref
-                if key not in ref_index:
-                    ref_index[key] = len(refs)
-                    refs.append(frame)
-                on_ref[k] = ref_index[key]
-            if any(r.empty for r in refs):
-                warnings.append(f"{where}: no OFF windows to estimate mu from; no "
-                                "electrostatic force")
+            el_rows.append({
+                "subject": subject, "waveform": waveform or None, "amplitude_V": amp,
+                "mu": est.mu[j], "normal_force_on_N": est.normal_on_N[j],
+                "normal_force_off_N": est.normal_off_N[j],
+                "friction_on_N": est.friction_on_N[j],
+                "friction_off_N": est.friction_off_N[j],
+                "electrostatic_force_N": est.force_N[j],
+                "electrostatic_force_ci_low_N": est.ci_low_N[j],
+                "electrostatic_force_ci_high_N": est.ci_high_N[j],
+                "n_on": int(est.n_on[j]), "n_off": int(est.n_off[j])})
+            boot_parts.append(pd.DataFrame({
+                "subject": subject, "waveform": waveform or None, "amplitude_V": amp,
+                "replicate": np.arange(keep), "electrostatic_force_N":
+                est.replicates_N[:keep, j]}))
+            if est.n_on[j] < MIN_WINDOWS or est.n_off[j] < MIN_WINDOWS:
+                warnings.append(f"{where} at {amp:g} V: only {est.n_on[j]} ON and "
+                                f"{est.n_off[j]} OFF windows (fewer than {MIN_WINDOWS}); "
+                                "the interval is calibrated for small counts but rests "
+                                "on few windows")
+        for waveform in dict.fromkeys(w for w, _ in groups):
+            where = f"{subject} ({waveform or 'unknown waveform'})"
+            cols = np.array([groups[g][0] == waveform and groups[g][1] > 0
+                             for g in est.amplitudes_V.astype(int)])
+            if np.count_nonzero(cols) < 2:
                 continue
-            est = estimate_electrostatic(
-                [r.normal_force_N.to_numpy(float) for r in refs],
-                [r.friction_force_N.to_numpy(float) for r in refs],
-                on.normal_force_N.to_numpy(float), on.friction_force_N.to_numpy(float),
-                on_ref, on.amplitude_V.to_numpy(float), n_boot=n_boot, confidence=confidence,
-                seed=_seed(seed, str(subject), str(waveform)))
-            for j, amp in enumerate(est.amplitudes_V):
-                el_rows.append({
-                    "subject": subject, "waveform": waveform or None, "amplitude_V": amp,
-                    "mu": est.mu[j], "normal_force_on_N": est.normal_on_N[j],
-                    "normal_force_off_N": est.normal_off_N[j],
-                    "friction_on_N": est.friction_on_N[j],
-                    "friction_off_N": est.friction_off_N[j],
-                    "electrostatic_force_N": est.force_N[j],
-                    "electrostatic_force_ci_low_N": est.ci_low_N[j],
-                    "electrostatic_force_ci_high_N": est.ci_high_N[j],
-                    "n_on": int(est.n_on[j]), "n_off": int(est.n_off[j])})
-                if est.n_on[j] < MIN_WINDOWS or est.n_off[j] < MIN_WINDOWS:
-                    warnings.append(f"{where} at {amp:g} V: only {est.n_on[j]} ON and "
-                                    f"{est.n_off[j]} OFF windows (fewer than {MIN_WINDOWS}); "
-                                    "the interval is calibrated for small counts but rests "
-                                    "on few windows")
-            pos = est.amplitudes_V > 0
-            if np.count_nonzero(pos) < 2:
-                continue
+            amps = np.array([groups[g][1] for g in est.amplitudes_V.astype(int)])[cols]
             try:
-                fit = fit_power_law(est.amplitudes_V[pos], est.force_N[pos],
-                                    replicates_N=est.replicates_N[:, pos],
+                fit = fit_power_law(amps, est.force_N[cols],
+                                    replicates_N=est.replicates_N[:, cols],
                                     confidence=confidence)
             except AnalysisError as err:
                 warnings.append(f"{where}: no power law: {err}")
@@ -150,8 +193,11 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
                             "prefactor_N": fit.prefactor_N})
     for w in warnings:
         log.warning("%s", w)
+    boot = (pd.concat(boot_parts, ignore_index=True).reindex(columns=list(BOOTSTRAP_COLUMNS))
+            if boot_parts else empty[2])
     return (pd.DataFrame(el_rows, columns=list(ELECTROSTATIC_COLUMNS)),
-            pd.DataFrame(ex_rows, columns=list(EXPONENT_COLUMNS)), warnings)
+            pd.DataFrame(ex_rows, columns=list(EXPONENT_COLUMNS)), boot, warnings)
 
 
-__all__ = ["ELECTROSTATIC_COLUMNS", "EXPONENT_COLUMNS", "summarize"]
+__all__ = ["BOOTSTRAP_COLUMNS", "ELECTROSTATIC_COLUMNS", "EXPONENT_COLUMNS", "MIN_WINDOWS",
+           "N_BOOTSTRAP_SAVED", "summarize"]

@@ -5,6 +5,15 @@ processes, one trial per task; the per-subject estimates are then computed from 
 together. Warnings (the analysis's own, and the readers': damaged lines, unknown frames...)
 are collected per trial into ``summary.json``. Nothing already in the output folder is
 overwritten unless ``force`` is given.
+
+Besides the study format's tables, ``electrostatic_bootstrap.csv`` holds the first
+:data:`~evtribo.analysis.aggregate.N_BOOTSTRAP_SAVED` bootstrap replicates of every row of
+``electrostatic.csv`` (columns subject, waveform, amplitude_V, replicate,
+electrostatic_force_N; one row per electrostatic.csv row and replicate). The replicates are
+the ones the intervals are the percentiles of (calibrated for few windows, see
+:mod:`evtribo.analysis.estimate`), and replicate ``i`` of all a subject's rows comes from one
+resampling of its windows, so they carry the correlation between points that share an OFF
+reference. ``evtribo compare`` refits the model to each replicate for its intervals.
 """
 
 from __future__ import annotations
@@ -23,7 +32,12 @@ import numpy as np
 import pandas as pd
 
 from evtribo import __version__
-from evtribo.analysis.aggregate import ELECTROSTATIC_COLUMNS, EXPONENT_COLUMNS, summarize
+from evtribo.analysis.aggregate import (
+    BOOTSTRAP_COLUMNS,
+    ELECTROSTATIC_COLUMNS,
+    EXPONENT_COLUMNS,
+    summarize,
+)
 from evtribo.analysis.provenance import provenance
 from evtribo.analysis.trial import (
     SINE_TRACE_CSV_COLUMNS,
@@ -43,7 +57,9 @@ log = logging.getLogger(__name__)
 
 #: The files ``analyze_study`` writes into its output folder.
 OUTPUT_FILES = ("trials.csv", "windows.csv", "electrostatic.csv", "exponents.csv",
-                "summary.json")
+                "summary.json", "electrostatic_bootstrap.csv")
+#: The bootstrap replicates of electrostatic.csv (an addition to the study format).
+BOOTSTRAP_FILE = "electrostatic_bootstrap.csv"
 #: Written too when the study has sine trials: a stretch of each one's forces around a
 #: switch from OFF to ON, for the model comparison (columns in evtribo.compare.tables).
 SINE_TRACE_FILE = "sine_trace.csv"
@@ -269,8 +285,8 @@ def analyze_study(
     frames = [r[2] for r in results if not r[2].empty]
     windows = (pd.concat(frames, ignore_index=True) if frames else empty_windows())
     windows = windows.reindex(columns=list(WINDOW_CSV_COLUMNS))
-    electrostatic, exponents, agg_warnings = summarize(windows, trials, n_boot=settings.n_boot,
-                                                       seed=settings.seed)
+    electrostatic, exponents, bootstrap, agg_warnings = summarize(
+        windows, trials, n_boot=settings.n_boot, seed=settings.seed)
     warnings.extend(agg_warnings)
     traces = [r[5] for r in results if r[5] is not None and not r[5].empty]
     trace = (pd.concat(traces, ignore_index=True).reindex(columns=list(SINE_TRACE_CSV_COLUMNS))
@@ -298,7 +314,10 @@ def analyze_study(
         "strict": strict,
         "jobs": jobs,
         "settings": {**settings.to_dict(), "confidence": 0.95, "mu_estimator": "ratio of means",
-                     "interval": "percentile bootstrap over windows"},
+                     "interval": "percentile bootstrap over windows, stretched by a "
+                                 "Welch-Satterthwaite Student-t factor for few windows",
+                     "bootstrap_replicates_saved": int(bootstrap.replicate.nunique())
+                     if not bootstrap.empty else 0},
         "warnings": warnings,
         "outputs": list(OUTPUT_FILES) + ([SINE_TRACE_FILE] if trace is not None else []),
         "elapsed_s": None,
@@ -309,6 +328,7 @@ def analyze_study(
     _write_csv(windows, out / "windows.csv")
     _write_csv(electrostatic, out / "electrostatic.csv")
     _write_csv(exponents, out / "exponents.csv")
+    _write_csv(bootstrap.reindex(columns=list(BOOTSTRAP_COLUMNS)), out / BOOTSTRAP_FILE)
     if trace is not None:
         _write_csv(trace, out / SINE_TRACE_FILE)
     elif force and (out / SINE_TRACE_FILE).exists():  # stale: from an earlier analysis
@@ -323,4 +343,4 @@ def analyze_study(
                         electrostatic=electrostatic, exponents=exponents, summary=summary)
 
 
-__all__ = ["OUTPUT_FILES", "SINE_TRACE_FILE", "StudyResults", "analyze_study"]
+__all__ = ["BOOTSTRAP_FILE", "OUTPUT_FILES", "SINE_TRACE_FILE", "StudyResults", "analyze_study"]
