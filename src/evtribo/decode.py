@@ -14,14 +14,16 @@ Two entry points:
     ``value`` N, ``counter``, ``dropped`` frames), ``.excitation`` (None, or
     :class:`ExcitationSignals`: ``t``, ``enabled``, ``amplitude`` V, ``frequency`` Hz,
     ``waveform`` names), and the counts ``frames`` (rig frames decoded) and
-    ``ignored_frames`` (other IDs, error and remote frames, frames too short).
+    ``ignored_frames`` (other IDs, error and remote frames, frames too short, frames of a
+    multiplexed message whose multiplexer value the DBC does not know).
 
 How a signal is extracted (:class:`SignalCodec`): Intel (little-endian) and Motorola
 (big-endian, DBC "sawtooth" start bit) layouts of any start bit and length up to 64 bits are
 assembled from byte columns into a uint64, shifted and masked; with 8-byte payloads a whole
 column is read as one uint64 (``'<u8'`` or ``'>u8'``). Signed values are sign-extended;
 32- and 64-bit IEEE floats are reinterpreted. Multiplexed messages fall back to cantools'
-``decode`` frame by frame. Frames match a message by ID and standard/extended kind; frames
+``decode`` frame by frame; a frame cantools refuses (an unknown multiplexer value) gets NaN
+signals and is counted, not fatal. Frames match a message by ID and standard/extended kind; frames
 shorter than the message's length are not decoded (cantools refuses them too).
 """
 
@@ -32,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
+from cantools.database import DecodeError
 from cantools.database.can import Database, Message, Signal
 
 from evtribo.dropped import missing_frames
@@ -173,6 +176,9 @@ class DecodedMessage:
         Raw code of each signal (NaN where a multiplexed signal is absent).
     codecs : dict of str to SignalCodec
     units : dict of str to str
+    undecoded : ndarray of int64
+        Rows (in the frame table) of frames cantools refused, such as a multiplexer value
+        the DBC does not know; their signals are NaN.
     """
 
     name: str
@@ -183,6 +189,8 @@ class DecodedMessage:
     raw: dict[str, npt.NDArray[np.generic]] = field(default_factory=dict)
     codecs: dict[str, SignalCodec] = field(default_factory=dict)
     units: dict[str, str] = field(default_factory=dict)
+    undecoded: npt.NDArray[np.int64] = field(
+        default_factory=lambda: np.zeros(0, dtype=np.int64))
 
     def __len__(self) -> int:
         return int(self.timestamp.shape[0])
@@ -226,7 +234,12 @@ def decode_message(frames: FrameTable, message: Message, signals: list[str] | No
         out.codecs[sig.name] = SignalCodec.from_signal(sig)
         out.units[sig.name] = sig.unit or ""
     if message.is_multiplexed():
-        _decode_multiplexed(message, data, frames.dlc[index], out)
+        failed, first_error = _decode_multiplexed(message, data, frames.dlc[index], out)
+        if failed.size:
+            out.undecoded = index[failed]
+            log.warning("%d frames of %s (0x%X) could not be decoded (first, frame %d: %s): "
+                        "their signals are NaN", failed.size, message.name, message.frame_id,
+                        out.undecoded[0], first_error)
     else:
         for name, codec in out.codecs.items():
             out.raw[name] = codec.raw(data)
@@ -234,15 +247,26 @@ def decode_message(frames: FrameTable, message: Message, signals: list[str] | No
 
 
 def _decode_multiplexed(message: Message, data: npt.NDArray[np.uint8],
-                        dlc: npt.NDArray[np.uint8], out: DecodedMessage) -> None:
+                        dlc: npt.NDArray[np.uint8], out: DecodedMessage
+                        ) -> tuple[npt.NDArray[np.int64], str]:
+    """Decode frame by frame with cantools; return the positions of the frames it refused,
+    and cantools' message for the first one."""
     cols = {name: np.full(len(dlc), np.nan) for name in out.codecs}
+    failed: list[int] = []
+    first_error = ""
     for i in range(len(dlc)):
-        values = message.decode(data[i, :dlc[i]].tobytes(), decode_choices=False,
-                                scaling=False)
+        try:
+            values = message.decode(data[i, :dlc[i]].tobytes(), decode_choices=False,
+                                    scaling=False)
+        except DecodeError as err:  # a multiplexer value the DBC does not know...
+            first_error = first_error or str(err)
+            failed.append(i)
+            continue
         for name, v in values.items():
             if name in cols:
                 cols[name][i] = float(v)
     out.raw.update(cols)
+    return np.asarray(failed, dtype=np.int64), first_error
 
 
 def decode_messages(frames: FrameTable, db: Database, *, messages: list[str] | None = None
@@ -320,7 +344,8 @@ class TrialSignals:
     frames : int
         Frames of the rig's messages decoded.
     ignored_frames : int
-        Other frames: other IDs, error and remote frames, frames too short.
+        Other frames: other IDs, error and remote frames, frames too short, frames
+        cantools refuses (a multiplexer value the DBC does not know).
     skipped_lines : int
         Damaged lines skipped while reading (set by the reader's caller).
     """
@@ -361,10 +386,23 @@ def dropped_frames(t: Array, counter: npt.NDArray[np.int64] | None = None,
     return missing_frames(t, counter, modulus).count
 
 
-def _cell(frames: FrameTable, force: SignalRef, counter: SignalRef | None) -> CellSignals:
+def _decoded_only(msg: DecodedMessage, undecoded: list[npt.NDArray[np.int64]]
+                  ) -> DecodedMessage:
+    """*msg* without the frames cantools refused (noted in *undecoded*): they are no samples."""
+    if not msg.undecoded.size:
+        return msg
+    undecoded.append(msg.undecoded)
+    keep = ~np.isin(msg.index, msg.undecoded)
+    return DecodedMessage(msg.name, msg.frame_id, msg.is_extended, msg.timestamp[keep],
+                          msg.index[keep], {k: v[keep] for k, v in msg.raw.items()},
+                          msg.codecs, msg.units)
+
+
+def _cell(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
+          undecoded: list[npt.NDArray[np.int64]]) -> CellSignals:
     names = [force.signal.name] + ([counter.signal.name] if counter is not None
                                    and counter.message is force.message else [])
-    msg = decode_message(frames, force.message, names)
+    msg = _decoded_only(decode_message(frames, force.message, names), undecoded)
     backwards = np.any(msg.timestamp[1:] < msg.timestamp[:-1])
     order = np.argsort(msg.timestamp, kind="stable") if backwards else None
     t = msg.timestamp if order is None else msg.timestamp[order]
@@ -391,7 +429,8 @@ def _hold(t_src: Array, values: npt.NDArray[np.generic], t: Array) -> npt.NDArra
     return values[idx] if len(t_src) else np.zeros(len(t), dtype=values.dtype)
 
 
-def _excitation(frames: FrameTable, rig: Rig) -> ExcitationSignals | None:
+def _excitation(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]]
+                ) -> ExcitationSignals | None:
     roles = {r: ref for r, ref in rig.roles.items() if r.startswith("excitation_")}
     if not roles:
         return None
@@ -399,7 +438,8 @@ def _excitation(frames: FrameTable, rig: Rig) -> ExcitationSignals | None:
     for ref in roles.values():
         if ref.message.name not in by_msg:
             names = [r.signal.name for r in roles.values() if r.message is ref.message]
-            by_msg[ref.message.name] = decode_message(frames, ref.message, names)
+            by_msg[ref.message.name] = _decoded_only(
+                decode_message(frames, ref.message, names), undecoded)
     base = next(iter(roles.values()))
     t = by_msg[base.message.name].timestamp
     out = ExcitationSignals(t=t)
@@ -441,13 +481,16 @@ def decode_trial(frames: FrameTable, rig: Rig) -> TrialSignals:
     ts = frames.timestamp
     if np.any(ts[1:] < ts[:-1]):  # logs merged or written out of order
         frames = frames.sorted_by_time()
-    normal = _cell(frames, rig.normal_force, rig.normal_force_counter)
-    tangential = _cell(frames, rig.tangential_force, rig.tangential_force_counter)
-    excitation = _excitation(frames, rig)
+    undecoded: list[npt.NDArray[np.int64]] = []
+    normal = _cell(frames, rig.normal_force, rig.normal_force_counter, undecoded)
+    tangential = _cell(frames, rig.tangential_force, rig.tangential_force_counter, undecoded)
+    excitation = _excitation(frames, rig, undecoded)
     decoded = np.zeros(len(frames), dtype=bool)
     for ref in rig.roles.values():
         m = ref.message
         decoded |= message_mask(frames, m) & (frames.dlc >= m.length)
+    for rows in undecoded:
+        decoded[rows] = False
     n = int(np.count_nonzero(decoded))
     return TrialSignals(normal, tangential, excitation, frames=n,
                         ignored_frames=total - n)

@@ -2,8 +2,10 @@
 
 One row per decoded frame, in log order: ``timestamp`` (s), ``message``, then one column
 per signal (physical values after DBC scaling; ``--choices`` writes value-table names
-instead of codes). A signal name used by two messages becomes ``Message.Signal``. Output
-format by suffix: ``.parquet`` or ``.csv``. An existing output is kept unless ``--force``.
+instead of codes). A signal name used by two messages, or named ``timestamp`` or ``message``,
+becomes ``Message.Signal``. A frame cantools cannot decode (a multiplexer value the DBC does
+not know) keeps its row, with empty signals. Output format by suffix: ``.parquet`` or
+``.csv``. An existing output is kept unless ``--force``.
 """
 
 from __future__ import annotations
@@ -39,7 +41,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 def decoded_table(frames: object, db: object, choices: bool = False) -> pd.DataFrame:
     """The decoded frames as one DataFrame (see the module docstring)."""
     decoded = decode_messages(frames, db)  # type: ignore[arg-type]
-    uses = Counter(s for m in decoded.values() for s in m.raw)
+    # a signal named like a fixed column, or by two messages, is written Message.Signal
+    uses = Counter(["timestamp", "message"] + [s for m in decoded.values() for s in m.raw])
     index = np.concatenate([m.index for m in decoded.values()]) if decoded else np.zeros(0, int)
     order = np.argsort(index, kind="stable")
     n = len(index)

@@ -14,6 +14,7 @@ import numpy as np
 
 from evtribo.errors import RigConfigError
 from evtribo.frames import read_frames
+from evtribo.rig import load_dbc as rig_load_dbc
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -28,13 +29,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def load_dbc(path: str) -> cantools.database.can.Database:
-    """A DBC, or a :class:`RigConfigError` naming the file."""
+    """A DBC as the rig loads it (one with overlapping signals loads with a warning), or a
+    :class:`RigConfigError` naming the file."""
     if not os.path.isfile(path):
         raise RigConfigError("DBC file not found", path=path)
-    try:
-        return cantools.database.load_file(path, database_format="dbc", strict=True)
-    except Exception as err:  # cantools raises several error types
-        raise RigConfigError(f"cannot parse DBC: {err}", path=path) from err
+    return rig_load_dbc(path, source=path)
 
 
 def run(args: argparse.Namespace) -> int:
