@@ -168,3 +168,48 @@ def test_study_toml_round_trip_and_no_overwrite(tmp_path):
     assert config == {"name": 'a "quoted" name', "rig": RIG}
     with pytest.raises(OutputExistsError):
         study.write_study_toml(tmp_path, name="other", rig=RIG)
+
+
+def test_discovery_knows_every_format_the_readers_read(tmp_path):
+    """Discovery's log suffixes are the reader registry's, each also gzipped and .part."""
+    from evtribo.frames.registry import supported_suffixes
+
+    suffixes = supported_suffixes()
+    assert {".log", ".asc", ".blf", ".trc", ".csv"} <= set(suffixes)
+    root = make_study(tmp_path / "s", {})
+    (root / "P01").mkdir()
+    expected = []
+    for k, suffix in enumerate(suffixes):
+        for extra in ("", ".gz", ".part", ".gz.part"):
+            trial = f"run-{k:02d}-{len(extra)}"
+            (root / "P01" / f"{trial}{suffix}{extra}").write_bytes(b"")
+            expected.append(f"P01/{trial}")
+    trials, _ = study.discover_trials(root)
+    assert sorted(t.key for t in trials) == sorted(expected)
+
+
+def test_sidecar_without_a_log_is_reported(tmp_path):
+    root = make_study(tmp_path / "s", {"P01/run-01": {"condition": "on"}})
+    (root / "P01" / "run-02.json").write_text(json.dumps({"condition": "off"}))
+    (root / "P01" / "run-03.json").write_text(json.dumps({"condition": "off"}))
+    (root / "P01" / "run-03.lgo").write_text("")
+    (root / "P02").mkdir()
+    (root / "P02" / "run-01.json").write_text(json.dumps({"condition": "off"}))
+    s = study.load_study(root, with_rig=False)
+    assert [t.key for t in s.trials] == ["P01/run-01"]
+    assert sorted(w.split(": ", 1)[1] for w in s.warnings) == [
+        "sidecar without a log (run-03.lgo: not a log format); not analysed",
+        "sidecar without a log; not analysed",
+        "sidecar without a log; not analysed"]
+    assert sorted(w.split(": ", 1)[0] for w in s.warnings) == sorted(
+        str(root / p) for p in ("P01/run-02.json", "P01/run-03.json", "P02/run-01.json"))
+
+
+def test_importing_the_study_module_does_not_import_python_can():
+    import subprocess
+    import sys
+
+    code = "import sys, evtribo.study; print('can' in sys.modules, 'numpy' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.split() == ["False", "False"]

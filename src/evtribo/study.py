@@ -14,6 +14,7 @@ for ``evtribo acquire``. It reads no CAN log. Every error names the file and the
 
 from __future__ import annotations
 
+import functools
 import json
 import logging
 import math
@@ -37,10 +38,18 @@ STUDY_FILE = "study.toml"
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
 CONDITIONS = ("on", "off", "alternating")
 WAVEFORMS = ("sine", "square")
-#: Suffixes of raw logs, longest first (``.log.gz`` before ``.log``).
-LOG_SUFFIXES = (".log.gz", ".asc.gz", ".log", ".asc", ".blf", ".trc", ".csv")
 #: A log left under its temporary name by an acquisition that was killed.
 PARTIAL_SUFFIX = ".part"
+
+
+@functools.cache
+def log_suffixes() -> tuple[str, ...]:
+    """Suffixes of raw logs, longest first (``.log.gz`` before ``.log``): every format
+    :func:`evtribo.frames.read_frames` reads, each also gzipped."""
+    from evtribo.frames.registry import supported_suffixes  # imports python-can: on use
+
+    plain = supported_suffixes()
+    return tuple(sorted([*plain, *(f"{x}.gz" for x in plain)], key=lambda x: (-len(x), x)))
 #: Top-level keys of study.toml and their types.
 STUDY_KEYS: dict[str, type | tuple[type, ...]] = {"name": str, "rig": dict, "analysis": dict}
 #: Folders of a study that are not subjects.
@@ -202,7 +211,7 @@ def log_stem(path: Path) -> tuple[str, str] | None:
     partial = name.endswith(PARTIAL_SUFFIX)
     if partial:
         name = name[: -len(PARTIAL_SUFFIX)]
-    for suffix in LOG_SUFFIXES:
+    for suffix in log_suffixes():
         if name.lower().endswith(suffix) and len(name) > len(suffix):
             return name[: -len(suffix)], suffix + (PARTIAL_SUFFIX if partial else "")
     return None
@@ -289,9 +298,12 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
         if folder.name.startswith(".") or folder.name in NOT_SUBJECTS:
             continue
         logs: dict[str, tuple[Path, bool]] = {}
+        others: dict[str, list[str]] = {}   # files that are no log, by stem
         for f in sorted(folder.iterdir()):
             split = log_stem(f) if f.is_file() else None
             if split is None:
+                if f.is_file():
+                    others.setdefault(f.name.split(".", 1)[0], []).append(f.name)
                 continue
             trial, suffix = split
             partial = suffix.endswith(PARTIAL_SUFFIX)
@@ -304,6 +316,13 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
                                      path=folder)
                 continue
             logs[trial] = (f, partial)
+        for stem, names in others.items():
+            if f"{stem}.json" in names and stem not in logs:
+                besides = [n for n in names if not n.startswith(f"{stem}.json")]
+                warnings.append(
+                    f"{folder / (stem + '.json')}: sidecar without a log"
+                    + (f" ({', '.join(besides)}: not a log format)" if besides else "")
+                    + "; not analysed")
         if not logs:
             continue
         validate_name(folder.name, what="subject folder", path=folder)
