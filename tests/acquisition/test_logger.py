@@ -4,6 +4,7 @@ import os
 import random
 import threading
 import time
+from pathlib import Path
 
 import can
 import cantools
@@ -18,6 +19,7 @@ from evtribo.acquisition.logger import (
     format_candump_line,
     receive,
 )
+from evtribo.acquisition.rigfile import load_rig_toml
 
 FRAMES = [
     can.Message(timestamp=1763700000.000123, arbitration_id=0x0C1, is_extended_id=False,
@@ -173,6 +175,32 @@ def test_writer_fsyncs_under_continuous_traffic(tmp_path, monkeypatch):
     assert len(during) >= 2, f"{len(during)} fsync in {t_end - t0:.2f} s of traffic"
     assert during[0] - t0 < 2 * interval
     assert len(fsync.calls) > len(during)            # and once more when closing
+
+
+MOTOROLA_RIG = Path(__file__).parents[1] / "data" / "rigs" / "motorola.toml"
+
+
+def test_counters_of_extended_id_load_cells_are_checked(tmp_path):
+    """The Motorola rig's load cells have 29-bit IDs: their counters count lost frames, and a
+    standard frame with the same number is another message."""
+    rig = load_rig_toml(MOTOROLA_RIG)
+    assert {(s.message, s.is_extended) for s in rig.counters} == {
+        ("NormalCell", True), ("TangentialCell", True)}
+    normal = rig.database.get_message_by_name("NormalCell")
+    fh = (tmp_path / "run.log.part").open("wb", buffering=0)
+    writer = LogWriter(fh, "vcan0", CounterTracker(rig.counters))
+    batch = []
+    for k in [c for c in range(40) if c not in (5, 6, 7, 20)]:      # 4 frames lost
+        batch.append(can.Message(timestamp=k * 1e-3, arbitration_id=normal.frame_id,
+                                 is_extended_id=True, data=normal.encode(
+                                     {"Force_mN": 0.5, "Seq": k % 16, "Spare": 0})))
+        # a standard frame with the same number: not NormalCell, not counted
+        batch.append(can.Message(timestamp=k * 1e-3, arbitration_id=normal.frame_id & 0x7FF,
+                                 is_extended_id=False, data=bytes(8)))
+    writer._write(batch)
+    fh.close()
+    assert writer.stats.dropped == 4
+    assert writer.stats.dropped_by_message == {"NormalCell": 4, "TangentialCell": 0}
 
 
 class FailingBus(can.BusABC):

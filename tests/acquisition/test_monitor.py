@@ -2,11 +2,12 @@
 
 import io
 import time
+from pathlib import Path
 
 import can
 import pytest
 
-from evtribo.acquisition.logger import LogStats
+from evtribo.acquisition.logger import LogStats, frame_key
 from evtribo.acquisition.monitor import (
     Monitor,
     Snapshot,
@@ -105,3 +106,24 @@ def test_monitor_thread_redraws_on_a_terminal_and_prints_lines_otherwise(tty):
     else:
         assert "\x1b" not in text
         assert text.count("\n") >= 2 and "Fn=0.500 N (in)" in text
+
+
+def test_monitor_names_and_decodes_extended_id_messages():
+    rig = load_rig_toml(Path(__file__).parents[1] / "data" / "rigs" / "motorola.toml")
+    normal = rig.database.get_message_by_name("NormalCell")
+    stats = LogStats()
+    msg = can.Message(arbitration_id=normal.frame_id, is_extended_id=True,
+                      data=normal.encode({"Force_mN": 0.75, "Seq": 1, "Spare": 0}))
+    stats.latest[frame_key(normal.frame_id, True)] = msg
+    # a standard frame with the same number is another message
+    stats.latest[normal.frame_id & 0x7FF] = can.Message(arbitration_id=normal.frame_id & 0x7FF,
+                                                        data=bytes(8))
+    mon = Monitor(rig, io.StringIO(), duration=10.0, tty=False)
+    mon._stats, mon._t0 = stats, time.monotonic() - 2.0
+    mon._last = (mon._t0, {})
+    stats.frames_by_id.update({f"{normal.frame_id:08X}": 1000, "700": 20, "0C1": 30})
+    snap = mon.snapshot()
+    assert snap.normal_force_N == pytest.approx(0.75, abs=1e-6)
+    assert snap.rates_Hz["NormalCell"] == pytest.approx(500, rel=0.01)
+    assert snap.rates_Hz["AmpState"] == pytest.approx(10, rel=0.01)
+    assert snap.rates_Hz["other"] == pytest.approx(15, rel=0.01)

@@ -94,6 +94,8 @@ class CounterSpec:
         Width in bits; the counter wraps at ``2**length``.
     big_endian : bool
         Motorola byte order.
+    is_extended : bool
+        The message has a 29-bit identifier.
     """
 
     message: str
@@ -101,6 +103,12 @@ class CounterSpec:
     start: int
     length: int
     big_endian: bool = False
+    is_extended: bool = False
+
+    @property
+    def key(self) -> int:
+        """:func:`frame_key` of the message."""
+        return frame_key(self.arbitration_id, self.is_extended)
 
     def extract(self, data: bytes | bytearray) -> int:
         """The raw counter value in *data* (no scaling: counts)."""
@@ -109,6 +117,13 @@ class CounterSpec:
             nbits = 8 * len(data)
             return (int.from_bytes(data, "big") >> (nbits - self.start - self.length)) & mask
         return (int.from_bytes(data, "little") >> self.start) & mask
+
+
+def frame_key(arbitration_id: int, is_extended: bool) -> int:
+    """One integer per identifier and kind: the ID, with bit 31 set for a 29-bit ID (as
+    cantools numbers extended frames), so that standard ``0x0C1`` and extended
+    ``0x000000C1`` differ."""
+    return arbitration_id | (0x80000000 if is_extended else 0)
 
 
 def counter_spec_from_dbc(database: object, message: str, signal: str) -> CounterSpec:
@@ -127,6 +142,7 @@ def counter_spec_from_dbc(database: object, message: str, signal: str) -> Counte
         start=int(start_bit(sig)),
         length=int(sig.length),
         big_endian=sig.byte_order == "big_endian",
+        is_extended=bool(msg.is_extended_frame),
     )
 
 
@@ -149,15 +165,18 @@ class CounterTracker:
     """
 
     def __init__(self, specs: Iterable[CounterSpec]) -> None:
-        self.specs = {s.arbitration_id: s for s in specs}
+        #: Specs by :func:`frame_key` (identifier and kind).
+        self.specs = {s.key: s for s in specs}
         self._state = {i: _CounterState() for i in self.specs}
 
-    def update(self, arbitration_id: int, data: bytes | bytearray, timestamp: float) -> int:
+    def update(self, arbitration_id: int, data: bytes | bytearray, timestamp: float,
+               is_extended: bool = False) -> int:
         """Account for one frame (*timestamp* in s); return the frames missing just before it."""
-        spec = self.specs.get(arbitration_id)
+        key = frame_key(arbitration_id, is_extended)
+        spec = self.specs.get(key)
         if spec is None:
             return 0
-        st = self._state[arbitration_id]
+        st = self._state[key]
         value = spec.extract(data)
         lost = 0
         if st.last is not None:
@@ -202,7 +221,7 @@ class LogStats:
     dropped_by_message : dict
         The same per message name.
     latest : dict
-        The latest frame per arbitration id (data frames only).
+        The latest frame per :func:`frame_key` (data frames only).
     first_timestamp, last_timestamp : float or None
         Reception times, s, of the first and last frame.
     """
@@ -325,10 +344,11 @@ class LogWriter:
                     prefix = prefix_cache[ckey] = f" {key}#"
                 key = prefix[1:-1]
                 append(f"({msg.timestamp:.6f}) {channel}{prefix}{msg.data.hex().upper()}\n")
-                latest[msg.arbitration_id] = msg
-                if msg.arbitration_id in counted and not msg.is_extended_id:
+                fkey = msg.arbitration_id | (0x80000000 if msg.is_extended_id else 0)
+                latest[fkey] = msg
+                if fkey in counted:
                     stats.dropped += tracker.update(msg.arbitration_id, msg.data,
-                                                    msg.timestamp)
+                                                    msg.timestamp, msg.is_extended_id)
             by_id[key] = by_id.get(key, 0) + 1
         self._write_all("".join(lines).encode())
         stats.frames += len(batch)
@@ -442,6 +462,7 @@ __all__ = [
     "ReceiveResult",
     "counter_spec_from_dbc",
     "format_candump_line",
+    "frame_key",
     "id_key",
     "receive",
 ]

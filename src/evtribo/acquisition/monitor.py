@@ -15,7 +15,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any, TextIO
 
-from evtribo.acquisition.logger import LogStats
+from evtribo.acquisition.logger import LogStats, frame_key
 
 log = logging.getLogger(__name__)
 
@@ -190,12 +190,14 @@ class Monitor:
         self._drawn = 0
         self._forces = [self._signal(key) for key in ("normal_force", "tangential_force")]
 
-    def _signal(self, key: str) -> tuple[int, str] | None:
+    def _signal(self, key: str) -> tuple[int, str, str] | None:
+        """(frame key, message, signal) of a role."""
         spec = self.rig.signals.get(key)
         if spec is None:
             return None
         message, signal = spec.split(".")
-        return int(self.rig.database.get_message_by_name(message).frame_id), signal
+        msg = self.rig.database.get_message_by_name(message)
+        return frame_key(int(msg.frame_id), bool(msg.is_extended_frame)), message, signal
 
     def start(self, stats: LogStats, t0: float | None = None) -> Monitor:
         """Show *stats* from now on; *t0* is the trial's start (``time.monotonic()``)."""
@@ -221,13 +223,14 @@ class Monitor:
             except Exception as err:  # the display must never stop the recording
                 log.warning("display failed: %s", err)
 
-    def _decode(self, latest: dict[int, Any], which: tuple[int, str] | None) -> float | None:
+    def _decode(self, latest: dict[int, Any], which: tuple[int, str, str] | None
+                ) -> float | None:
         if which is None or which[0] not in latest:
             return None
         try:
-            decoded = self.rig.database.decode_message(which[0], bytes(latest[which[0]].data),
-                                                       decode_choices=False)
-            return float(decoded[which[1]])
+            decoded = self.rig.database.get_message_by_name(which[1]).decode(
+                bytes(latest[which[0]].data), decode_choices=False)
+            return float(decoded[which[2]])
         except Exception:
             return None
 
@@ -245,8 +248,8 @@ class Monitor:
         rates: dict[str, float] = {}
         for key, n in counts.items():
             name = None
-            if key != "error" and len(key) == 3:
-                name = self.rig.message_name(int(key, 16))
+            if key != "error":
+                name = self.rig.message_name(int(key, 16), is_extended=len(key) == 8)
             name = name or "other"
             rates[name] = rates.get(name, 0.0) + (n - prev.get(key, 0)) / dt
         self._last = (now, counts)

@@ -74,12 +74,13 @@ class AcquisitionRig:
                    signals=signals, counters=_counters(rig.database, signals),
                    source=None if rig.source is None else Path(rig.source))
 
-    def message_name(self, arbitration_id: int) -> str | None:
-        """The DBC message name of an identifier, or None."""
-        try:
-            return str(self.database.get_message_by_frame_id(arbitration_id).name)
-        except KeyError:
-            return None
+    def message_name(self, arbitration_id: int, is_extended: bool = False) -> str | None:
+        """The DBC message name of a standard (or, with *is_extended*, 29-bit) identifier,
+        or None."""
+        for msg in self.database.messages:
+            if msg.frame_id == arbitration_id and bool(msg.is_extended_frame) == is_extended:
+                return str(msg.name)
+        return None
 
 
 def _counters(database: Any, signals: dict[str, str]) -> list[CounterSpec]:
@@ -95,7 +96,7 @@ def _counters(database: Any, signals: dict[str, str]) -> list[CounterSpec]:
                 continue
             signal = found[0]
         spec = counter_spec_from_dbc(database, message, signal)
-        if spec.arbitration_id not in {s.arbitration_id for s in specs}:
+        if spec.key not in {s.key for s in specs}:
             specs.append(spec)
     return specs
 
