@@ -1,5 +1,6 @@
 """The trial logger: candump lines, rolling counters, periodic flush, receive loop."""
 
+import io
 import os
 import random
 import threading
@@ -8,6 +9,7 @@ from pathlib import Path
 
 import can
 import cantools
+import numpy as np
 import pytest
 
 import evtribo.acquisition.logger as logger_module
@@ -20,6 +22,7 @@ from evtribo.acquisition.logger import (
     receive,
 )
 from evtribo.acquisition.rigfile import load_rig_toml
+from evtribo.frames import candump, frames_from_messages, write_candump
 
 FRAMES = [
     can.Message(timestamp=1763700000.000123, arbitration_id=0x0C1, is_extended_id=False,
@@ -45,6 +48,35 @@ def test_candump_line_is_the_spec_format():
     ctrl = can.Message(timestamp=1.0, is_error_frame=True, arbitration_id=0x4,
                        data=bytes([0, 4, 0, 0, 0, 0, 0, 0]))
     assert format_candump_line(ctrl, "can0") == "(1.000000) can0 20000004#0004000000000000\n"
+
+
+def test_logger_and_vectorised_writer_write_the_same_lines():
+    """One formatting of a frame: the logger (a frame at a time) and write_candump (whole
+    tables) give the same line for every kind of frame, remote lengths included."""
+    frames = [*FRAMES,
+              can.Message(timestamp=3.0, arbitration_id=0x123, is_extended_id=False,
+                          is_remote_frame=True, dlc=4),
+              can.Message(timestamp=3.5, arbitration_id=0x123, is_extended_id=False,
+                          is_remote_frame=True, dlc=0),
+              can.Message(timestamp=4.0, arbitration_id=0x1ABCDEF0, is_extended_id=True,
+                          is_remote_frame=True, dlc=2),
+              can.Message(timestamp=4.5, is_error_frame=True, arbitration_id=0x4,
+                          data=bytes([0, 4, 0, 0, 0, 0, 0, 0])),
+              can.Message(timestamp=5.0, arbitration_id=0x0C2, is_extended_id=False,
+                          is_fd=True, bitrate_switch=True, data=bytes(range(12))),
+              can.Message(timestamp=5.5, arbitration_id=0x18FF0002, is_extended_id=True,
+                          is_fd=True, error_state_indicator=True, data=bytes(range(8)))]
+    table = frames_from_messages(frames)
+    table.extras["fd_flags"] = np.array(
+        [(1 if m.bitrate_switch else 0) | (2 if m.error_state_indicator else 0)
+         for m in frames], dtype=np.uint8)
+    out = io.BytesIO()
+    write_candump(out, table, "can0")
+    assert out.getvalue().decode().splitlines(keepends=True) == [
+        format_candump_line(m, "can0") for m in frames]
+    assert "(3.000000) can0 123#R4\n" in out.getvalue().decode()
+    assert logger_module.CAN_ERR_FLAG is candump.CAN_ERR_FLAG
+    assert logger_module.CAN_ERR_BUSERROR is candump.CAN_ERR_BUSERROR
 
 
 def test_candump_lines_read_back_with_python_can(tmp_path):

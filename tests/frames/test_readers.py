@@ -224,3 +224,17 @@ def test_gzipped_peer_log_copy(tmp_path):
     shutil.copy(DATA / "test_CanMessage.blf", path)
     frames, _ = read_frames(path)
     assert_same_frames(frames, frames_from_messages(can.LogReader(DATA / "test_CanMessage.blf")))
+
+
+def test_write_candump_keeps_a_remote_frames_length(tmp_path):
+    msgs = [can.Message(timestamp=T0 + k, arbitration_id=0x123, is_remote_frame=True, dlc=k,
+                        is_extended_id=bool(k % 2)) for k in range(9)]
+    path = tmp_path / "remote.log"
+    write_candump(path, frames_from_messages(msgs))
+    lines = path.read_text().splitlines()
+    assert lines[0].endswith(" 123#R") and lines[4].endswith(" 123#R4")
+    assert lines[3].endswith(" 00000123#R3")
+    back, _ = read_frames(path)
+    assert back.dlc.tolist() == list(range(9)) and back.is_remote.all()
+    ref = list(can.CanutilsLogReader(path))
+    assert [m.dlc for m in ref] == list(range(9))

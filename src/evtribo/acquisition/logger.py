@@ -26,12 +26,10 @@ from typing import IO
 import can
 from cantools.database.utils import start_bit
 
+from evtribo.frames.candump import CAN_ERR_BUSERROR, CAN_ERR_FLAG, frame_field
+
 log = logging.getLogger(__name__)
 
-#: Linux ``CAN_ERR_FLAG``: set in the identifier of an error frame.
-CAN_ERR_FLAG = 0x20000000
-#: Linux ``CAN_ERR_BUSERROR``: the error class written when the frame names none.
-CAN_ERR_BUSERROR = 0x00000080
 #: Seconds between two hand-overs from the receive loop to the writer thread.
 HANDOFF_INTERVAL_S = 0.05
 #: Frames after which the receive loop hands over a batch early.
@@ -42,17 +40,10 @@ FLUSH_INTERVAL_S = 0.5
 
 def _frame_field(msg: can.Message) -> str:
     """``ID#DATA`` of one frame, candump style (without timestamp and channel)."""
-    if msg.is_error_frame:
-        err_class = msg.arbitration_id & 0x1FFFFFFF
-        can_id = CAN_ERR_FLAG | (err_class or CAN_ERR_BUSERROR)
-        return f"{can_id:08X}#{bytes(msg.data).hex().upper()}"
-    ident = f"{msg.arbitration_id:08X}" if msg.is_extended_id else f"{msg.arbitration_id:03X}"
-    if msg.is_remote_frame:
-        return f"{ident}#R{msg.dlc:X}" if msg.dlc else f"{ident}#R"
-    if msg.is_fd:
-        flags = (1 if msg.bitrate_switch else 0) | (2 if msg.error_state_indicator else 0)
-        return f"{ident}##{flags:X}{bytes(msg.data).hex().upper()}"
-    return f"{ident}#{bytes(msg.data).hex().upper()}"
+    flags = (1 if msg.bitrate_switch else 0) | (2 if msg.error_state_indicator else 0)
+    return frame_field(msg.arbitration_id, msg.data, is_extended=msg.is_extended_id,
+                       is_remote=msg.is_remote_frame, is_error=msg.is_error_frame,
+                       is_fd=msg.is_fd, dlc=msg.dlc, fd_flags=flags)
 
 
 def format_candump_line(msg: can.Message, channel: str) -> str:
@@ -455,6 +446,8 @@ def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
 
 
 __all__ = [
+    "CAN_ERR_BUSERROR",
+    "CAN_ERR_FLAG",
     "CounterSpec",
     "CounterTracker",
     "LogStats",
