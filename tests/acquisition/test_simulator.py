@@ -409,3 +409,29 @@ def test_cli_streams_on_a_virtual_bus():
     assert code == 0
     assert got.count(FZ) == pytest.approx(200, abs=3) and got.count(FX) == pytest.approx(200,
                                                                                            abs=3)
+
+
+def test_cli_opens_its_bus_as_acquire_does_with_bus_options(capsys):
+    """--bus-option reaches the python-can bus (here: the virtual bus receives its own
+    frames), and a bus python-can refuses is a named usage error (exit 2)."""
+    channel = f"sim-opt-{time.monotonic_ns()}"
+    got = []
+    original = can.Bus
+
+    def spy(*args, **kwargs):
+        bus = original(*args, **kwargs)
+        got.append(kwargs)
+        return bus
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(can, "Bus", spy)
+        code = main(["simulate", "--interface", "virtual", "--channel", channel,
+                     "--duration", "0.2", "--fz-rate", "100", "--fx-rate", "100",
+                     "--bus-option", "receive_own_messages=True"])
+    assert code == 0
+    assert got == [{"receive_own_messages": True, "interface": "virtual", "channel": channel}]
+    assert main(["simulate", "--interface", "no_such_interface", "--duration", "0.1"]) == 2
+    assert "'--interface'" in capsys.readouterr().err
+    assert main(["simulate", "--interface", "virtual", "--bus-option", "novalue",
+                 "--duration", "0.1"]) == 2
+    assert "'--bus-option'" in capsys.readouterr().err

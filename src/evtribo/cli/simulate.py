@@ -50,6 +50,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                      "slcan, pcan...; default: python-can's configuration)")
     out.add_argument("--channel", "-c", help="python-can channel (vcan0, can0, ...)")
     out.add_argument("--bitrate", "-b", type=int, help="bus bitrate, bit/s")
+    out.add_argument("--bus-option", action="append", default=[], metavar="KEY=VALUE",
+                     help="extra argument of the python-can bus (repeatable), "
+                          "e.g. receive_own_messages=True")
     out.add_argument("--pty", action="store_true",
                      help="act as an slcan USB-CAN adapter on a new pseudo-terminal; its path "
                           "is the first line of stdout; frames flow once a client sends 'O'")
@@ -148,6 +151,8 @@ def run(args: argparse.Namespace) -> int:
     """Run ``evtribo simulate``."""
     if sum((args.pty, args.study is not None, args.interface is not None)) > 1:
         raise ConfigError("choose one of --interface, --pty and --study", key="--pty")
+    if args.bus_option and (args.pty or args.study is not None):
+        raise ConfigError("only for a python-can bus (--interface)", key="--bus-option")
     if args.duration is not None and args.duration <= 0:
         raise ConfigError(f"{args.duration!r} is not allowed: must be > 0", key="--duration")
     if args.study is not None:
@@ -172,16 +177,11 @@ def run(args: argparse.Namespace) -> int:
             stats = sim.run_pty(adapter, duration=args.duration, stop_event=stop)
             dropped = adapter.dropped
     else:
-        import can
+        from evtribo.acquisition.bus import BusSettings, open_bus, parse_bus_options
 
-        kwargs: dict[str, Any] = {}
-        for key in ("interface", "channel", "bitrate"):
-            if getattr(args, key) is not None:
-                kwargs[key] = getattr(args, key)
-        try:
-            bus = can.Bus(**kwargs)
-        except (can.CanError, ValueError, ImportError, OSError) as err:
-            raise ConfigError(f"cannot open the bus: {err}", key="--interface") from err
+        bus = open_bus(BusSettings(interface=args.interface, channel=args.channel,
+                                   bitrate=args.bitrate,
+                                   options=parse_bus_options(args.bus_option)))
         try:
             with _stop_on_signals() as stop:
                 stats = sim.run(bus, duration=args.duration, stop_event=stop)
