@@ -18,8 +18,8 @@ from evtribo.decode import (
     decode_message,
     decode_messages,
     decode_trial,
-    dropped_frames,
 )
+from evtribo.dropped import count_dropped
 from evtribo.frames import FrameTable, frames_from_messages, read_frames, write_candump
 from evtribo.rig import default_rig, load_rig
 
@@ -122,12 +122,12 @@ def test_dropped_frames_counter_wraps_and_long_gaps():
     keep = np.ones(1000, bool)
     keep[[10, 11, 500]] = False  # 3 frames lost
     keep[700:740] = False  # 40 frames lost: more than the counter's period
-    assert dropped_frames(t[keep], counter[keep], 16) == 43
-    assert dropped_frames(t[keep]) == 43  # timing alone finds them on a clean clock
+    assert count_dropped(t[keep], counter[keep], 16) == 43
+    assert count_dropped(t[keep]) == 43  # timing alone finds them on a clean clock
     # a late frame (jitter) is no loss when the counter says so
     t2 = t.copy()
     t2[300] += 0.0009
-    assert dropped_frames(t2, counter, 16) == 0
+    assert count_dropped(t2, counter, 16) == 0
 
 
 def _second_rig_trial(tmp_path):
@@ -194,7 +194,8 @@ def test_default_rig_trial_without_excitation_roles(tmp_path):
                                     "FzCounter": i % 256})) for i in range(10))
     trial = decode_trial(frames, plain)
     assert trial.excitation is None
-    assert trial.normal.counter is None
+    # no counter role: FzCell's FzCounter is used, as the logger does (Rig.counter)
+    assert trial.normal.counter.tolist() == list(range(10))
     np.testing.assert_allclose(trial.normal.value, 0.5)
     assert len(trial.tangential.t) == 0 and trial.frames == 10
 
@@ -345,3 +346,30 @@ def test_inspect_and_decode_load_a_dbc_the_rig_loads(tmp_path, capsys):
     assert main(["decode", str(log), "--dbc", dbc, "-o", str(out)]) == 0
     table = pd.read_csv(out)
     assert table["A"].tolist() == [0x0201] and table["B"].tolist() == [2]
+
+
+def test_logger_and_decoder_count_lost_frames_with_the_same_counter(tmp_path):
+    """A rig naming no counter role: the logger's check and decode_trial both use the
+    force message's *Counter signal (Rig.counter), and agree on the frames lost."""
+    from evtribo.acquisition.logger import CounterTracker
+    from evtribo.acquisition.rigfile import AcquisitionRig
+
+    rig = default_rig()
+    toml = tmp_path / "rig.toml"
+    toml.write_text(f'dbc = "{rig.dbc}"\nnormal_force = "FzCell.Fz"\n'
+                    'tangential_force = "FxCell.Fx"\n')
+    plain = load_rig(toml)
+    assert plain.normal_force_counter is None
+    assert plain.counter("normal").qualified_name == "FzCell.FzCounter"
+    assert plain.counter("tangential").qualified_name == "FxCell.FxCounter"
+    fz = rig.database.get_message_by_name("FzCell")
+    # stamped on the host in bursts of 50 (as slcan adapters are): timing cannot see the
+    # frames lost inside a burst, the counter can
+    msgs = [can.Message(timestamp=(i // 50) * 0.05, arbitration_id=fz.frame_id,
+                        is_extended_id=False, data=fz.encode(
+                            {"Fz": 0.5, "FzStatus": 0, "FzTemp": 20, "FzCounter": i % 256}))
+            for i in range(600) if i not in (110, 111, 112, 420)]
+    tracker = CounterTracker(AcquisitionRig.from_rig(plain).counters)
+    logged = sum(tracker.update(m.arbitration_id, m.data, m.timestamp) for m in msgs)
+    trial = decode_trial(frames_from_messages(msgs), plain)
+    assert logged == trial.normal.dropped == 4

@@ -121,3 +121,16 @@ def test_rig_file_that_is_a_folder_or_not_utf8_is_a_named_rig_error(tmp_path, ma
     with pytest.raises(RigConfigError, match=needle) as err:
         load_rig(path)
     assert err.value.path == str(path)
+
+
+def test_counter_is_the_role_or_a_counter_named_signal_of_the_force_message(tmp_path):
+    rig = default_rig()
+    assert rig.counter("normal") is rig.normal_force_counter
+    toml = tmp_path / "rig.toml"
+    toml.write_text(f'dbc = "{rig.dbc}"\nnormal_force = "FzCell.Fz"\n'
+                    'tangential_force = "FxCell.Fx"\n')
+    plain = load_rig(toml)
+    assert plain.counter("normal").qualified_name == "FzCell.FzCounter"
+    toml.write_text(f'dbc = "{rig.dbc}"\nnormal_force = "HvStatus.HvAmp"\n'
+                    'tangential_force = "FxCell.Fx"\n')
+    assert load_rig(toml).counter("normal").qualified_name == "HvStatus.HvCounter"

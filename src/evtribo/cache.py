@@ -34,7 +34,8 @@ from evtribo.rig import Rig
 log = logging.getLogger(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
-CACHE_VERSION = 2  # 2: dropped frames counted by evtribo.dropped
+CACHE_VERSION = 3  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
+#                    frames with an unknown multiplexer value ignored
 _META = b"evtribo.trial"
 
 

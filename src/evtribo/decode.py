@@ -37,7 +37,7 @@ import numpy.typing as npt
 from cantools.database import DecodeError
 from cantools.database.can import Database, Message, Signal
 
-from evtribo.dropped import missing_frames
+from evtribo.dropped import count_dropped
 from evtribo.frames.table import FrameTable
 from evtribo.rig import Rig, SignalRef
 
@@ -363,29 +363,6 @@ class TrialSignals:
         return self.normal.dropped + self.tangential.dropped
 
 
-def dropped_frames(t: Array, counter: npt.NDArray[np.int64] | None = None,
-                   modulus: int | None = None) -> int:
-    """Frames missing from a periodic stream (one load cell).
-
-    Parameters
-    ----------
-    t : ndarray of float64, s
-        Timestamps, increasing.
-    counter : ndarray of int, optional
-        Rolling counter, +1 per frame, wrapping at *modulus*.
-    modulus : int, optional
-        Counter period (``2**bits`` for an unsigned counter).
-
-    Returns
-    -------
-    int
-        The counter's count, plus whole counter periods the timing shows were lost at once;
-        without a counter, the timing's count. See :mod:`evtribo.dropped`, which is robust
-        to reception jitter.
-    """
-    return missing_frames(t, counter, modulus).count
-
-
 def _decoded_only(msg: DecodedMessage, undecoded: list[npt.NDArray[np.int64]]
                   ) -> DecodedMessage:
     """*msg* without the frames cantools refused (noted in *undecoded*): they are no samples."""
@@ -420,7 +397,7 @@ def _cell(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
         else:
             log.warning("counter %s is not in the force's message %s: timing gaps only",
                         counter.qualified_name, force.message.name)
-    return CellSignals(t, value, count, dropped_frames(t, count, modulus))
+    return CellSignals(t, value, count, count_dropped(t, count, modulus))
 
 
 def _hold(t_src: Array, values: npt.NDArray[np.generic], t: Array) -> npt.NDArray[np.generic]:
@@ -482,8 +459,9 @@ def decode_trial(frames: FrameTable, rig: Rig) -> TrialSignals:
     if np.any(ts[1:] < ts[:-1]):  # logs merged or written out of order
         frames = frames.sorted_by_time()
     undecoded: list[npt.NDArray[np.int64]] = []
-    normal = _cell(frames, rig.normal_force, rig.normal_force_counter, undecoded)
-    tangential = _cell(frames, rig.tangential_force, rig.tangential_force_counter, undecoded)
+    # the counter the logger checks too: the rig's role, or a *Counter signal of the cell
+    normal = _cell(frames, rig.normal_force, rig.counter("normal"), undecoded)
+    tangential = _cell(frames, rig.tangential_force, rig.counter("tangential"), undecoded)
     excitation = _excitation(frames, rig, undecoded)
     decoded = np.zeros(len(frames), dtype=bool)
     for ref in rig.roles.values():
@@ -498,4 +476,4 @@ def decode_trial(frames: FrameTable, rig: Rig) -> TrialSignals:
 
 __all__ = ["CellSignals", "DecodedMessage", "ExcitationSignals", "SignalCodec",
            "TrialSignals", "decode_message", "decode_messages", "decode_trial",
-           "dropped_frames", "message_mask"]
+           "message_mask"]

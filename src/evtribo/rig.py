@@ -25,6 +25,7 @@ import hashlib
 import json
 import logging
 import os
+import re
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -54,6 +55,8 @@ OPTIONAL_ROLES = (
 ROLES = REQUIRED_ROLES + OPTIONAL_ROLES
 #: Keys of a rig table besides the roles.
 OTHER_KEYS = ("name", "dbc")
+#: A signal named like a rolling frame counter (see :meth:`Rig.counter`).
+COUNTER_NAME = re.compile(r"(counter|cnt)$", re.IGNORECASE)
 
 
 @dataclass(frozen=True, repr=False)
@@ -118,6 +121,23 @@ class Rig:
     def has_excitation(self) -> bool:
         """Whether the rig broadcasts any of the amplifier's status signals."""
         return any(r.startswith("excitation_") for r in self.roles)
+
+    def counter(self, cell: str) -> SignalRef | None:
+        """The rolling frame counter of a load cell (``"normal"`` or ``"tangential"``).
+
+        The rig's ``<cell>_force_counter`` role when it names one; otherwise the first
+        signal of the force's message named like a counter (``...Counter``, ``...Cnt``);
+        otherwise None. The logger and the decoder both use this, so that they count lost
+        frames with the same counter.
+        """
+        named = getattr(self, f"{cell}_force_counter")
+        if named is not None:
+            return named
+        force: SignalRef = getattr(self, f"{cell}_force")
+        for sig in force.message.signals:
+            if COUNTER_NAME.search(sig.name) and sig is not force.signal:
+                return SignalRef(message=force.message, signal=sig)
+        return None
 
     def fingerprint(self) -> str:
         """Hash of the DBC's bytes and the role mapping (a cache key part)."""

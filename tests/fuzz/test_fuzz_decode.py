@@ -13,7 +13,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from evtribo.cli.decode import decoded_table
-from evtribo.decode import decode_messages, decode_trial, dropped_frames
+from evtribo.decode import decode_messages, decode_trial
+from evtribo.dropped import count_dropped
 from evtribo.frames import FrameTable
 from evtribo.rig import default_rig, load_rig
 
@@ -102,4 +103,4 @@ def test_decode_messages_and_the_decode_table_never_fail(rig_name, data):
 def test_dropped_frames_of_any_timestamps(t, counter):
     t = np.asarray(t, dtype=np.float64)
     count = None if counter is None else np.resize(np.asarray(counter, np.int64), len(t))
-    assert dropped_frames(t, count, None if count is None else 256) >= 0
+    assert count_dropped(t, count, None if count is None else 256) >= 0

@@ -10,7 +10,6 @@ relative to the TOML. A new study folder gets a copy of the DBC under ``rig/`` a
 from __future__ import annotations
 
 import logging
-import re
 import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -23,8 +22,6 @@ from evtribo.study import read_study_toml, validate_name, write_study_toml
 
 log = logging.getLogger(__name__)
 
-COUNTER_KEYS = ("normal_force_counter", "tangential_force_counter")
-_COUNTER_NAME = re.compile(r"(counter|cnt)$", re.IGNORECASE)
 
 
 def check_name(value: str, key: str) -> str:
@@ -71,7 +68,7 @@ class AcquisitionRig:
         """Wrap a :class:`evtribo.rig.Rig` (names already checked against its DBC)."""
         signals = {role: ref.qualified_name for role, ref in rig.roles.items()}
         return cls(name=name or rig.name, dbc_path=rig.dbc, database=rig.database,
-                   signals=signals, counters=_counters(rig.database, signals),
+                   signals=signals, counters=_counters(rig),
                    source=None if rig.source is None else Path(rig.source))
 
     def message_name(self, arbitration_id: int, is_extended: bool = False) -> str | None:
@@ -83,19 +80,13 @@ class AcquisitionRig:
         return None
 
 
-def _counters(database: Any, signals: dict[str, str]) -> list[CounterSpec]:
+def _counters(rig: Rig) -> list[CounterSpec]:
     specs: list[CounterSpec] = []
-    for key, force_key in zip(COUNTER_KEYS, ("normal_force", "tangential_force"), strict=True):
-        if key in signals:
-            message, signal = signals[key].split(".")
-        else:  # a signal named like a counter in the force's message
-            message = signals[force_key].split(".")[0]
-            found = [s.name for s in database.get_message_by_name(message).signals
-                     if _COUNTER_NAME.search(s.name)]
-            if not found:
-                continue
-            signal = found[0]
-        spec = counter_spec_from_dbc(database, message, signal)
+    for cell in ("normal", "tangential"):
+        ref = rig.counter(cell)  # the rig's counter role, or a *Counter signal: as decoding
+        if ref is None:
+            continue
+        spec = counter_spec_from_dbc(rig.database, ref.message.name, ref.signal.name)
         if spec.key not in {s.key for s in specs}:
             specs.append(spec)
     return specs
