@@ -2,7 +2,9 @@
 
 Each subject has a known equivalent air gap; measured electrostatic forces are the model's
 times log-normal noise of a stated relative size, and their 95 % intervals have the width
-that noise implies, so a correct fit recovers the truth within its interval.
+that noise implies, so a correct fit recovers the truth within its interval. The points'
+errors are independent here, so ``electrostatic_bootstrap.csv`` (written unless
+``bootstrap=False``) holds independent draws of that noise about each measured force.
 """
 
 from __future__ import annotations
@@ -22,9 +24,13 @@ MU = {"P01": 0.45, "P02": 0.6}
 NOISE = 0.05  # relative standard error of each electrostatic point
 
 
+N_REPLICATES = 200
+
+
 def make_out(folder: Path, *, seed: int = 1, note: str = "ok",
-             sine_trace: bool = True) -> Path:
-    """Write trials.csv, windows.csv, electrostatic.csv, exponents.csv, summary.json."""
+             sine_trace: bool = True, bootstrap: bool = True) -> Path:
+    """Write trials.csv, windows.csv, electrostatic.csv, exponents.csv, summary.json and
+    electrostatic_bootstrap.csv."""
     rng = np.random.default_rng(seed)
     folder.mkdir(parents=True, exist_ok=True)
     trials, windows, elec, expo = [], [], [], []
@@ -72,6 +78,13 @@ def make_out(folder: Path, *, seed: int = 1, note: str = "ok",
     pd.DataFrame(windows).to_csv(folder / "windows.csv", index=False)
     pd.DataFrame(elec).to_csv(folder / "electrostatic.csv", index=False)
     pd.DataFrame(expo).to_csv(folder / "exponents.csv", index=False)
+    if bootstrap:
+        boot = [{"subject": e["subject"], "waveform": e["waveform"],
+                 "amplitude_V": e["amplitude_V"], "replicate": i,
+                 "electrostatic_force_N": e["electrostatic_force_N"]
+                 * float(np.exp(NOISE * z))}
+                for e in elec for i, z in enumerate(rng.standard_normal(N_REPLICATES))]
+        pd.DataFrame(boot).to_csv(folder / "electrostatic_bootstrap.csv", index=False)
     if sine_trace:
         t = np.arange(0.0, 0.3, 1e-3)
         fn = 0.5 + 0.1 * np.sin(2 * np.pi * 2 * t)

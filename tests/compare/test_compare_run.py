@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 from matplotlib.image import imread
-from synthetic import TRUE_H_L
+from synthetic import TRUE_H_L, make_out
 
 from evtribo.cli import main
 from evtribo.compare import (
@@ -37,7 +37,10 @@ def test_compare_writes_fit_and_figures(compared_out):
     assert doc["fit"] == ["h_L"]
     assert doc["subjects"]["P02"]["parameters"]["h_L"] == pytest.approx(
         fit.loc[fit["subject"] == "P02", "value"].item())
-    assert doc["notes"] == []
+    for subject in TRUE_H_L:
+        assert doc["subjects"][subject]["interval"] == {"method": "bootstrap",
+                                                        "replicates": 200, "note": ""}
+    assert len(doc["notes"]) == 1 and "electrostatic_bootstrap.csv" in doc["notes"][0]
     captions = {f["stem"]: f["caption"] for f in doc["figures"]}
     assert captions["friction_time"].startswith("Measured sine trial of P01")
 
@@ -67,11 +70,26 @@ def test_without_sine_trace_says_model_only(out_dir):
     (out_dir / "sine_trace.csv").unlink()
     result = compare(out_dir, dpi=30, formats=("png",))
     assert any("sine_trace.csv" in n for n in result.notes)
-    assert "sine_trace.csv" in json.loads((out_dir / "fit.json").read_text())["notes"][0]
+    notes = json.loads((out_dir / "fit.json").read_text())["notes"]
+    assert any("sine_trace.csv" in n for n in notes)
     ax = plot_friction_time(None, TABLE_1)
     assert any("model only" in t.get_text() for t in ax.texts)
     again = compare(out_dir, dpi=30, formats=("png",), force=True, fit="h_L,mu")
     assert {e.name for e in again.fits[0].estimates} == {"h_L", "mu"}
+    # mu is fitted with the windows, which have no replicates: the Jacobian, said so
+    assert all(f.interval_method == "jacobian" for f in again.fits)
+    assert any("mu is fitted with the windows" in n for n in again.notes)
+
+
+def test_without_bootstrap_file_falls_back_to_the_jacobian(tmp_path):
+    folder = make_out(tmp_path / "out", bootstrap=False, sine_trace=False)
+    result = compare(folder, dpi=30, formats=("png",))
+    doc = json.loads((folder / "fit.json").read_text())
+    for subject, truth in TRUE_H_L.items():
+        assert doc["subjects"][subject]["interval"]["method"] == "jacobian"
+        est = doc["subjects"][subject]["estimates"]["h_L"]
+        assert est["ci_low"] <= truth <= est["ci_high"]
+    assert any("No electrostatic_bootstrap.csv" in n for n in result.notes)
 
 
 def _pixel_variance(path) -> float:

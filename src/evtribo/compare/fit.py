@@ -11,9 +11,20 @@ of the subject's steady-sliding windows (``windows.csv``, eq. 5 with U = 0 OFF a
 amplitude ON) are added to the residuals; their weight is the RMS misfit of a first pass
 (one step of iterative reweighting), since windows carry no interval of their own.
 
-Uncertainties come from the Jacobian at the solution (``cov = (J^T J)^-1``, as in
-``scipy.optimize.curve_fit``). Because the weights are real standard errors the covariance is
-absolute; when the model misfits by more than they allow (reduced chi-square > 1) it is
+Uncertainties. Points sharing an OFF reference share its error in ``mu`` (every force moves
+by about ``-F_n dmu/mu``), so they are not independent and an interval that treats them so
+is too narrow (Monte Carlo through the real estimator, one shared reference: 85 % coverage
+of h_L's 95 % interval). When the result folder has ``electrostatic_bootstrap.csv``
+(bootstrap replicates of the forces, one resampling of a subject's windows per replicate,
+so with their true correlation) the free parameters are refitted to each of the first
+:data:`N_REFITS` replicates (Gauss-Newton from the solution, same weights) and the
+interval is the replicates' 2.5-97.5 % percentiles: this propagates the correlated errors
+through the nonlinear model without assuming a covariance form. Otherwise (no file, ``mu``
+fitted with the windows, which have no replicates, or a parameter undetermined) they come
+from the Jacobian at the solution (``cov = (J^T J)^-1``, as in
+``scipy.optimize.curve_fit``), which takes each point's interval as an independent error;
+``SubjectFit.interval_method`` and ``fit.json`` say which was used. Either way, when the
+model misfits by more than the weights allow (reduced chi-square > 1) the spread is
 inflated by the reduced chi-square and the interval uses Student's t, never shrunk. A
 parameter the data cannot determine (a zero singular value, e.g. ``h_L`` and ``E_star``
 together, which enter eq. 11 almost only through the same combination) gets an infinite
@@ -27,7 +38,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -36,15 +47,16 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, stats
 
 from evtribo.compare.params import DEFAULT_FIT, parameter_unit
-from evtribo.compare.tables import ResultTables
+from evtribo.compare.tables import MIN_REPLICATES, ResultTables, replicate_matrix
 from evtribo.errors import AnalysisError
 from evtribo.model import electrostatic_force, friction_force
 from evtribo.model.params import TABLE_1, ModelParameters
 
 log = logging.getLogger(__name__)
 
-__all__ = ["FIT_COLUMNS", "ParameterEstimate", "SubjectFit", "fit_study", "fit_subject",
-           "fit_table", "mean_electrostatic_force", "mean_friction_force", "model_exponent"]
+__all__ = ["FIT_COLUMNS", "N_REFITS", "ParameterEstimate", "SubjectFit", "fit_study",
+           "fit_subject", "fit_table", "mean_electrostatic_force", "mean_friction_force",
+           "model_exponent"]
 
 #: Columns of ``fit.csv``, one row per subject and fitted parameter.
 FIT_COLUMNS: tuple[str, ...] = (
@@ -53,6 +65,10 @@ FIT_COLUMNS: tuple[str, ...] = (
     "exponent_model", "mu_measured")
 
 _Z95 = float(stats.norm.ppf(0.975))
+#: Bootstrap replicates refitted per subject (the first ones of electrostatic_bootstrap.csv).
+N_REFITS = 200
+#: Fewest converged refits for a bootstrap interval (else the Jacobian's).
+MIN_REFITS = MIN_REPLICATES
 _PHASES = np.linspace(0.0, 2.0 * np.pi, 64, endpoint=False)
 
 
@@ -175,6 +191,12 @@ class SubjectFit:
         Electrostatic points fitted.
     mu_measured : float
         Friction coefficient from the OFF windows (``electrostatic.csv``'s ``mu``).
+    interval_method : str
+        ``"bootstrap"`` (refits to the force replicates) or ``"jacobian"``.
+    n_replicates : int
+        Replicates refitted (0 for the Jacobian).
+    interval_note : str
+        Why the Jacobian was used although replicates were given ("" otherwise).
     """
 
     subject: str
@@ -186,6 +208,9 @@ class SubjectFit:
     chi2_reduced: float
     n_points: int
     mu_measured: float
+    interval_method: str = "jacobian"
+    n_replicates: int = 0
+    interval_note: str = ""
 
     def __getitem__(self, name: str) -> ParameterEstimate:
         for e in self.estimates:
@@ -227,9 +252,75 @@ def _covariance(jac: NDArray[np.float64]) -> NDArray[np.float64]:
     return cov
 
 
+def _refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                      x0: NDArray[np.float64], targets: NDArray[np.float64],
+                      sigma: NDArray[np.float64], lower: NDArray[np.float64],
+                      *, max_iter: int = 30, tol: float = 1e-6) -> NDArray[np.float64]:
+    """Weighted least-squares solution for each row of *targets*, by Gauss-Newton from *x0*.
+
+    Parameters
+    ----------
+    model : callable
+        Model forces at the (scaled) parameters, N.
+    x0 : ndarray
+        The solution for the measured forces (the start of every refit).
+    targets : ndarray, shape (n_replicates, n_points), N
+        Replicates of the measured forces.
+    sigma : ndarray, N
+        Weights (the same as the fit's).
+    lower : ndarray
+        Lower bounds of the scaled parameters.
+    max_iter : int
+        Iterations before a refit counts as failed.
+    tol : float
+        Convergence: the size of the next Gauss-Newton step relative to the parameters
+        (which are scaled so that 1 is the solution for the measured forces).
+
+    Returns
+    -------
+    ndarray, shape (n_converged, n_parameters)
+        The refitted (scaled) parameters of the replicates whose refit converged.
+    """
+    def weighted(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        m = model(x)
+        jac = np.empty((m.size, x.size))
+        for i in range(x.size):
+            h = 1e-7 * max(abs(x[i]), 1.0)
+            xi = x.copy()
+            xi[i] += h
+            jac[:, i] = (model(xi) - m) / h / sigma
+        return m, jac
+
+    m0, g0 = weighted(x0)
+    out = []
+    for t in targets:
+        if not np.all(np.isfinite(t)):
+            continue
+        x, m, g = x0, m0, g0
+        cost = float(np.sum(((t - m) / sigma) ** 2))
+        for _ in range(max_iter):
+            step = np.linalg.lstsq(g, (t - m) / sigma, rcond=None)[0]
+            if np.all(np.abs(step) <= tol * np.maximum(np.abs(x), 1.0)):
+                out.append(np.maximum(x + step, lower))  # Gauss-Newton's last step is tiny
+                break
+            for _ in range(10):  # backtrack while the step raises the misfit
+                x_new = np.maximum(x + step, lower)
+                m_new, g_new = weighted(x_new)
+                cost_new = float(np.sum(((t - m_new) / sigma) ** 2))
+                if cost_new <= cost:
+                    break
+                step = step / 2.0
+            else:
+                out.append(x)  # no descent left: a minimum to the model's precision
+                break
+            x, m, g, cost = x_new, m_new, g_new, cost_new
+    return np.asarray(out, dtype=float).reshape(-1, x0.size)
+
+
 def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_1,
                 fit: Sequence[str] = DEFAULT_FIT,
-                windows: pd.DataFrame | None = None) -> SubjectFit:
+                windows: pd.DataFrame | None = None, *,
+                replicates: ArrayLike | None = None) -> SubjectFit:
     """Fit the model's parameters *fit* to one subject's electrostatic results.
 
     Parameters
@@ -245,6 +336,10 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
         :func:`evtribo.compare.params.resolve_fit_names`).
     windows : DataFrame, optional
         The subject's rows of ``windows.csv``; needed when ``mu`` is fitted.
+    replicates : array_like, shape (n_replicates, len(rows)), optional
+        Bootstrap replicates of the rows' electrostatic forces, N
+        (:func:`evtribo.compare.tables.replicate_matrix`); the intervals then come from
+        refits to them.
 
     Returns
     -------
@@ -320,6 +415,9 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
         w_sigma = max(float(np.sqrt(np.mean(rw**2))), 1e-9)
         res = solve(res.x)
 
+    def model_at(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return mean_electrostatic_force(fn, amp, wave, params_at(x))
+
     dof = n_res - len(names)
     chi2 = float(np.sum(res.fun**2))
     chi2_red = chi2 / dof if dof > 0 else math.nan
@@ -328,12 +426,40 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
     quantile = float(stats.t.ppf(0.975, dof)) if scale > 1.0 else _Z95
     cov = cov_x * scale * np.outer(start, start)
     values = start * res.x
+    boot, note = None, ""
+    if replicates is not None:
+        reps = np.asarray(replicates, dtype=float)
+        if reps.ndim != 2 or reps.shape[1] != len(rows):
+            raise ValueError(f"subject {subject}: replicates need one column per row")
+        if use_windows:
+            note = "mu is fitted with the windows, which have no bootstrap replicates"
+        elif not np.all(np.isfinite(cov_x)):
+            note = "a parameter is not determined by the data"
+        else:
+            refits = _refit_replicates(model_at, res.x, reps[:, good], sigma, lower)
+            if refits.shape[0] >= MIN_REFITS:
+                # replicate spread, inflated like the Jacobian's when the model misfits
+                stretch = math.sqrt(scale) * quantile / _Z95
+                boot = values + stretch * (start * refits - values)
+            else:
+                note = f"only {refits.shape[0]} of {reps.shape[0]} refits converged"
+        if note:
+            log.log(logging.WARNING if note.startswith("only") else logging.INFO,
+                    "subject %s: intervals from the Jacobian (points taken as "
+                    "independent): %s", subject, note)
+    if boot is not None:
+        cov = np.atleast_2d(np.cov(boot, rowvar=False))
+        quantile_lo, quantile_hi = np.quantile(boot, [0.025, 0.975], axis=0)
     estimates = []
     for i, name in enumerate(names):
         se = float(np.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) else math.inf
-        lo = max(values[i] - quantile * se, start[i] * lower[i]) if math.isfinite(se) \
-            else -math.inf
-        hi = values[i] + quantile * se
+        if boot is not None:
+            lo = max(float(quantile_lo[i]), start[i] * lower[i])
+            hi = float(quantile_hi[i])
+        else:
+            lo = max(values[i] - quantile * se, start[i] * lower[i]) if math.isfinite(se) \
+                else -math.inf
+            hi = values[i] + quantile * se
         if not math.isfinite(se):
             log.warning("subject %s: %s is not determined by these data (its effect cannot "
                         "be told apart from the other fitted parameters'); interval is "
@@ -361,17 +487,32 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
     return SubjectFit(subject=subject, params=fitted, estimates=tuple(estimates),
                       correlation=np.asarray(corr, float),
                       rmse_N=float(np.sqrt(np.mean(resid**2))), r2=r2,
-                      chi2_reduced=chi2_red, n_points=len(measured), mu_measured=mu_measured)
+                      chi2_reduced=chi2_red, n_points=len(measured), mu_measured=mu_measured,
+                      interval_method="jacobian" if boot is None else "bootstrap",
+                      n_replicates=0 if boot is None else int(boot.shape[0]),
+                      interval_note=note)
 
 
 def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
               fit: Sequence[str] = DEFAULT_FIT) -> list[SubjectFit]:
-    """Fit every subject of a result folder (see :func:`fit_subject`)."""
+    """Fit every subject of a result folder (see :func:`fit_subject`).
+
+    The intervals come from refits to ``electrostatic_bootstrap.csv``'s replicates when the
+    folder has them for all of a subject's points, else from the Jacobian.
+    """
     fits = []
+    boot = tables.bootstrap
     for subject in tables.subjects:
         rows = tables.electrostatic[tables.electrostatic["subject"] == subject]
         win = tables.windows[tables.windows["subject"] == subject]
-        fits.append(fit_subject(subject, rows, base, fit, win))
+        reps = None
+        if boot is not None:
+            reps = replicate_matrix(rows, boot[boot["subject"].astype(str) == str(subject)],
+                                    max_replicates=N_REFITS)
+            if reps is None:
+                log.warning("subject %s: electrostatic_bootstrap.csv lacks replicates of "
+                            "some of its points; intervals from the Jacobian", subject)
+        fits.append(fit_subject(subject, rows, base, fit, win, replicates=reps))
     return fits
 
 

@@ -4,7 +4,9 @@ Writes into the result folder:
 
 - ``fit.csv``: one row per subject and fitted parameter (:data:`~evtribo.compare.fit.FIT_COLUMNS`);
 - ``fit.json``: what was fitted, the fixed parameters, each subject's full parameter set,
-  the figures and notes (read by ``evtribo report``);
+  how its intervals were obtained (``interval``: ``bootstrap``, refits to the force
+  replicates of ``electrostatic_bootstrap.csv``, or ``jacobian``, the fallback that takes
+  the points' errors as independent), the figures and notes (read by ``evtribo report``);
 - ``figures/``: each figure as PNG and SVG.
 """
 
@@ -144,6 +146,7 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
 
     fits = fit_study(tables, base, names)
     result = CompareResult(out=folder, fits=fits)
+    result.notes += _interval_notes(fits, has_bootstrap=tables.bootstrap is not None)
     table = fit_table(fits, tables)
     table.to_csv(folder / FIT_CSV, index=False)
     result.files.append(folder / FIT_CSV)
@@ -211,6 +214,31 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     return result
 
 
+def _interval_notes(fits: list[SubjectFit], *, has_bootstrap: bool) -> list[str]:
+    """What fit.json's notes say about how the intervals were obtained."""
+    jac = [f for f in fits if f.interval_method != "bootstrap"]
+    boot = [f for f in fits if f.interval_method == "bootstrap"]
+    notes = []
+    if boot:
+        notes.append(f"Intervals of {', '.join(f.subject for f in boot)}: 2.5-97.5 % "
+                     "percentiles of the parameters refitted to the bootstrap replicates of "
+                     f"the electrostatic forces ({boot[0].n_replicates} replicates, "
+                     "electrostatic_bootstrap.csv), which carry the errors the points share "
+                     "through a common OFF reference.")
+    if jac and not has_bootstrap:
+        notes.append("No electrostatic_bootstrap.csv in the result folder (results of an "
+                     "older evtribo analyze?): intervals from the Jacobian, with each "
+                     "point's error taken as independent; they are too narrow when several "
+                     "amplitudes share an OFF reference. Re-run evtribo analyze to get the "
+                     "replicates.")
+    elif jac:
+        for f in jac:
+            why = f.interval_note or "no replicates for some of its points"
+            notes.append(f"Intervals of {f.subject} from the Jacobian (each point's error "
+                         f"taken as independent): {why}.")
+    return notes
+
+
 def _write_json(path: Path, result: CompareResult, names: tuple[str, ...],
                 base: ModelParameters, params_file: str | Path | None) -> None:
     pfile: dict[str, Any] | None = None
@@ -233,6 +261,8 @@ def _write_json(path: Path, result: CompareResult, names: tuple[str, ...],
                 "rmse_N": _jsonable(f.rmse_N), "r2": _jsonable(f.r2),
                 "chi2_reduced": _jsonable(f.chi2_reduced), "n_points": f.n_points,
                 "mu_measured": _jsonable(f.mu_measured),
+                "interval": {"method": f.interval_method, "replicates": f.n_replicates,
+                             "note": f.interval_note},
             } for f in result.fits},
         "figures": [{"kind": r.kind, "title": r.title, "stem": r.stem, "subject": r.subject,
                      "caption": r.caption} for r in result.figures],

@@ -20,6 +20,12 @@ one sine trial, for the friction-versus-time figure (the seed paper's Figure 5).
 ``subject``        optional: whose trace it is (else the first subject)
 ``trial``          optional: the trial's name
 =================  ==========================================================
+
+It also reads an optional ``electrostatic_bootstrap.csv`` (written by ``evtribo analyze``
+next to electrostatic.csv; columns :data:`BOOTSTRAP_COLUMNS`): bootstrap replicates of every
+electrostatic.csv row, replicate ``i`` of one subject's rows coming from one resampling of
+its windows. :mod:`evtribo.compare.fit` refits the model to them for its intervals, and falls
+back to the Jacobian when the file is absent.
 """
 
 from __future__ import annotations
@@ -30,13 +36,16 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
+from numpy.typing import NDArray
 
 from evtribo.errors import UserInputError
 
 log = logging.getLogger(__name__)
 
-__all__ = ["REQUIRED_COLUMNS", "SINE_TRACE_COLUMNS", "ResultTables", "read_results"]
+__all__ = ["BOOTSTRAP_COLUMNS", "BOOTSTRAP_CSV", "MIN_REPLICATES", "REQUIRED_COLUMNS",
+           "SINE_TRACE_COLUMNS", "ResultTables", "read_results", "replicate_matrix"]
 
 #: Columns each table must have for the comparison (study-format §2).
 REQUIRED_COLUMNS: dict[str, tuple[str, ...]] = {
@@ -53,6 +62,14 @@ REQUIRED_COLUMNS: dict[str, tuple[str, ...]] = {
 #: Columns ``sine_trace.csv`` must have (plus ``voltage_V``, or ``amplitude_V`` and
 #: ``frequency_Hz``).
 SINE_TRACE_COLUMNS: tuple[str, ...] = ("time_s", "normal_force_N", "friction_force_N")
+
+#: The optional table of bootstrap replicates of electrostatic.csv, and its columns.
+BOOTSTRAP_CSV = "electrostatic_bootstrap.csv"
+BOOTSTRAP_COLUMNS: tuple[str, ...] = ("subject", "waveform", "amplitude_V", "replicate",
+                                      "electrostatic_force_N")
+
+#: Fewest replicates :func:`replicate_matrix` accepts.
+MIN_REPLICATES = 20
 
 _OPTIONAL = frozenset({"exponents.csv", "trials.csv"})
 
@@ -73,6 +90,8 @@ class ResultTables:
         ``summary.json`` (empty when absent).
     sine_trace : DataFrame or None
         ``sine_trace.csv`` when present.
+    bootstrap : DataFrame or None
+        ``electrostatic_bootstrap.csv`` when present.
     """
 
     out: Path
@@ -82,6 +101,7 @@ class ResultTables:
     trials: pd.DataFrame
     summary: dict[str, Any] = field(default_factory=dict)
     sine_trace: pd.DataFrame | None = None
+    bootstrap: pd.DataFrame | None = None
 
     @property
     def subjects(self) -> list[str]:
@@ -158,6 +178,49 @@ def read_results(out: str | Path) -> ResultTables:
         trace = _read_csv(trace_path, SINE_TRACE_COLUMNS)
         if "voltage_V" not in trace.columns:
             _read_csv(trace_path, (*SINE_TRACE_COLUMNS, "amplitude_V", "frequency_Hz"))
+    boot = None
+    boot_path = folder / BOOTSTRAP_CSV
+    if boot_path.is_file():
+        boot = _read_csv(boot_path, BOOTSTRAP_COLUMNS)
     return ResultTables(out=folder, electrostatic=tables["electrostatic.csv"],
                         windows=tables["windows.csv"], exponents=tables["exponents.csv"],
-                        trials=tables["trials.csv"], summary=summary, sine_trace=trace)
+                        trials=tables["trials.csv"], summary=summary, sine_trace=trace,
+                        bootstrap=boot)
+
+
+def replicate_matrix(rows: pd.DataFrame, bootstrap: pd.DataFrame | None,
+                     max_replicates: int = 200) -> NDArray[np.float64] | None:
+    """The bootstrap replicates of *rows*' forces as a matrix (None when some row has none).
+
+    Parameters
+    ----------
+    rows : DataFrame
+        One subject's rows of ``electrostatic.csv``.
+    bootstrap : DataFrame or None
+        The subject's rows of ``electrostatic_bootstrap.csv``.
+    max_replicates : int
+        Replicates kept (the first ones).
+
+    Returns None as well with fewer than :data:`MIN_REPLICATES` complete replicates.
+
+    Returns
+    -------
+    ndarray, shape (n_replicates, len(rows)), N, or None
+    """
+    if bootstrap is None or bootstrap.empty or rows.empty:
+        return None
+
+    def keys(df: pd.DataFrame) -> pd.MultiIndex:
+        return pd.MultiIndex.from_arrays(
+            [df["waveform"].fillna("").astype(str).to_numpy(),
+             np.round(df["amplitude_V"].to_numpy(float), 6)])
+
+    boot = bootstrap.assign(_key=keys(bootstrap))
+    wide = boot.pivot_table(index="replicate", columns="_key",
+                            values="electrostatic_force_N", aggfunc="first")
+    want = list(keys(rows))
+    if any(k not in wide.columns for k in want):
+        return None
+    mat = wide[want].to_numpy(float)
+    mat = mat[np.all(np.isfinite(mat), axis=1)][:max_replicates]
+    return mat if mat.shape[0] >= MIN_REPLICATES else None
