@@ -213,3 +213,11 @@ def test_importing_the_study_module_does_not_import_python_can():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.split() == ["False", "False"]
+
+
+def test_operating_system_clutter_is_no_trial(tmp_path):
+    root = make_study(tmp_path / "s", {"P01/run-01": {}})
+    for name in ("Thumbs.db", "desktop.ini", ".DS_Store", "._run-01.log", "~$notes.log"):
+        (root / "P01" / name).write_bytes(b"\x00\x01")
+    s = study.load_study(root, with_rig=False)
+    assert [t.key for t in s.trials] == ["P01/run-01"]

@@ -43,6 +43,7 @@ PARTIAL_SUFFIX = ".part"
 
 
 @functools.cache
+@functools.cache
 def log_suffixes() -> tuple[str, ...]:
     """Suffixes of raw logs, longest first (``.log.gz`` before ``.log``): every format
     :func:`evtribo.frames.read_frames` reads, each also gzipped."""
@@ -50,6 +51,10 @@ def log_suffixes() -> tuple[str, ...]:
 
     plain = supported_suffixes()
     return tuple(sorted([*plain, *(f"{x}.gz" for x in plain)], key=lambda x: (-len(x), x)))
+
+
+#: Files an operating system leaves in folders (``Thumbs.db`` would read as a SQLite log).
+OS_CLUTTER = {"thumbs.db", "ehthumbs.db", "desktop.ini", ".ds_store"}
 #: Top-level keys of study.toml and their types.
 STUDY_KEYS: dict[str, type | tuple[type, ...]] = {"name": str, "rig": dict, "analysis": dict}
 #: Folders of a study that are not subjects.
@@ -300,6 +305,8 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
         logs: dict[str, tuple[Path, bool]] = {}
         others: dict[str, list[str]] = {}   # files that are no log, by stem
         for f in sorted(folder.iterdir()):
+            if f.name.startswith((".", "~$")) or f.name.lower() in OS_CLUTTER:
+                continue
             split = log_stem(f) if f.is_file() else None
             if split is None:
                 if f.is_file():
