@@ -6,7 +6,9 @@ The layers, each a module of plain numpy functions:
 - :mod:`~evtribo.analysis.conditions`: ON/OFF per grid point, with guard times at switches;
 - :mod:`~evtribo.analysis.windows`: steady-sliding windows found from the friction itself;
 - :mod:`~evtribo.analysis.estimate`: friction coefficient, inferred electrostatic force and
-  their bootstrap intervals;
+  their bootstrap intervals (calibrated for the few windows a trial gives; the replicates
+  are written to ``electrostatic_bootstrap.csv`` for ``evtribo compare``, see
+  :mod:`~evtribo.analysis.pipeline`);
 - :mod:`~evtribo.analysis.powerlaw`: ``F_el = k * U**n`` over amplitudes;
 - :mod:`~evtribo.analysis.spectra`: the friction's dominant oscillation frequency.
 """
