@@ -7,7 +7,8 @@ frames) for ``--duration`` s through
 (b) an slcan adapter emulated on a pty by ``evtribo simulate --pty`` (another process), read
     with python-can's ``slcan`` driver and with evtribo's ``slcan_bulk``;
 
-and prints frames/s sustained, frames lost (by the load cells' rolling counters, or, on the
+and prints frames/s sustained, the backlog (frames sent but not yet read when the trial
+ended: the reader falling behind), frames lost (by the load cells' rolling counters, or, on the
 pty, dropped by the emulated adapter when the reader falls behind, whichever is more) and CPU
 time per frame: ``time.process_time`` of this process, and the part spent in the logger's
 two threads (receive loop and writer; for (a) the rest is the simulator's sender).
@@ -109,6 +110,10 @@ def bench_slcan(study: Path, duration: float, interface: str) -> dict:
     # runs that can span whole 256-frame counter periods, invisible to the counters.
     m = re.search(r"(\d+) to a full buffer", full)
     at_adapter = int(m.group(1)) if m else 0
+    sent = re.search(r"(\d+) frames sent", full)
+    # frames the adapter sent that the reader had not taken when the trial ended: it was
+    # falling behind (a longer trial fills the adapter's buffer and frames are dropped)
+    figures["backlog"] = max(int(sent.group(1)) - figures["frames"], 0) if sent else 0
     if at_adapter > figures["lost"]:
         figures["lost"] = at_adapter
         figures["lost_pct"] = 100.0 * at_adapter / max(figures["frames"] + at_adapter, 1)
@@ -124,6 +129,7 @@ def _figures(side: dict, process_cpu: float, logger_cpu: float, span: float) -> 
         "frames_per_s": frames / span if span else 0.0,
         "lost_by_counters": side["dropped_frames"],
         "lost": side["dropped_frames"],
+        "backlog": 0,
         "lost_pct": 100.0 * side["dropped_frames"] / max(rig + side["dropped_frames"], 1),
         "process_cpu_us_per_frame": 1e6 * process_cpu / max(frames, 1),
         "logger_cpu_us_per_frame": 1e6 * logger_cpu / max(frames, 1),
@@ -154,11 +160,11 @@ def main() -> int:
     if not args.json:
         print(f"evtribo acquire, {args.duration:.0f} s per run, offered "
               f"{FZ_RATE + FX_RATE + HV_RATE:.0f} frames/s of 8-byte frames")
-        print(f"{'path':<24} {'frames/s':>9} {'lost':>7} {'lost %':>7} "
+        print(f"{'path':<24} {'frames/s':>9} {'lost':>7} {'lost %':>7} {'backlog':>8} "
               f"{'CPU us/frame':>13} {'logger us/frame':>16}")
         for r in results:
             print(f"{r['path']:<24} {r['frames_per_s']:9.0f} {r['lost']:7d} "
-                  f"{r['lost_pct']:7.2f} {r['process_cpu_us_per_frame']:13.1f} "
+                  f"{r['lost_pct']:7.2f} {r['backlog']:8d} {r['process_cpu_us_per_frame']:13.1f} "
                   f"{r['logger_cpu_us_per_frame']:16.1f}")
             if r.get("simulator"):
                 print(f"    ({r['simulator']})")
@@ -168,7 +174,8 @@ def main() -> int:
             print(f"ratio slcan_bulk / python-can slcan: "
                   f"{bulk['frames_per_s'] / base['frames_per_s']:.2f}x frames/s, "
                   f"{base['logger_cpu_us_per_frame'] / bulk['logger_cpu_us_per_frame']:.1f}x "
-                  f"less CPU per frame; lost {bulk['lost_pct']:.2f} % vs {base['lost_pct']:.2f} %")
+                  f"less CPU per frame; lost {bulk['lost_pct']:.2f} % vs {base['lost_pct']:.2f} %, "
+                  f"unread at the end {bulk['backlog']} vs {base['backlog']} frames")
     return 0
 
 
