@@ -134,7 +134,7 @@ def test_records_every_frame_and_a_spec_sidecar(tmp_path):
     assert side["python_can_version"] == can.__version__
     assert side["start_time"].endswith("Z") and side["end_time"] > side["start_time"]
     assert side["duration_s"] == pytest.approx(1.5, abs=0.2)
-    # the lead's readers accept what acquire writes
+    # the study module's readers accept what acquire writes
     assert read_sidecar(study / "P01" / "run-01.json", default_subject="P01").amplitude_V == 140
     loaded = load_study(study)
     assert [t.key for t in loaded.trials] == ["P01/run-01"]
