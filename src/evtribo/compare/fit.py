@@ -46,10 +46,14 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, stats
 
+from evtribo.compare.model_points import (
+    mean_electrostatic_force,
+    mean_friction_force,
+    model_exponent,
+)
 from evtribo.compare.params import DEFAULT_FIT, parameter_unit
 from evtribo.compare.tables import MIN_REPLICATES, ResultTables, replicate_matrix
 from evtribo.errors import AnalysisError
-from evtribo.model import electrostatic_force, friction_force
 from evtribo.model.params import TABLE_1, ModelParameters
 
 log = logging.getLogger(__name__)
@@ -69,89 +73,8 @@ _Z95 = float(stats.norm.ppf(0.975))
 N_REFITS = 200
 #: Fewest converged refits for a bootstrap interval (else the Jacobian's).
 MIN_REFITS = MIN_REPLICATES
-_PHASES = np.linspace(0.0, 2.0 * np.pi, 64, endpoint=False)
 
 
-# ------------------------------------------------------------------------ model at points
-def _is_sine(waveform: ArrayLike) -> NDArray[np.bool_]:
-    w = np.asarray(waveform, dtype=object)
-    return np.array([str(x).strip().lower() == "sine" for x in np.atleast_1d(w)]).reshape(
-        np.shape(w))
-
-
-def mean_electrostatic_force(normal_force: ArrayLike, amplitude: ArrayLike,
-                             waveform: ArrayLike = "square",
-                             params: ModelParameters = TABLE_1) -> NDArray[np.float64]:
-    """Time-averaged model electrostatic force (eq. 11) for a drive of given amplitude.
-
-    Parameters
-    ----------
-    normal_force : float or ndarray
-        External normal force, N.
-    amplitude : float or ndarray
-        Voltage amplitude A, V.
-    waveform : str or ndarray of str
-        ``"sine"`` (average over U = A sin(phi)) or anything else (square: U = A).
-    params : ModelParameters
-        Model parameters.
-
-    Returns
-    -------
-    ndarray
-        Mean electrostatic force, N.
-    """
-    fn, amp = np.broadcast_arrays(np.asarray(normal_force, float), np.asarray(amplitude, float))
-    sine = np.broadcast_to(_is_sine(waveform), fn.shape)
-    out = np.asarray(electrostatic_force(fn, amp, params), dtype=float).copy()
-    if np.any(sine):
-        u = amp[sine][:, None] * np.sin(_PHASES)[None, :]
-        out[sine] = np.asarray(electrostatic_force(fn[sine][:, None], u, params),
-                               dtype=float).mean(axis=1)
-    return out
-
-
-def mean_friction_force(normal_force: ArrayLike, amplitude: ArrayLike,
-                        waveform: ArrayLike = "square",
-                        params: ModelParameters = TABLE_1) -> NDArray[np.float64]:
-    """Time-averaged model friction force (eq. 5); amplitude 0 is the OFF condition.
-
-    Parameters are those of :func:`mean_electrostatic_force`; returns N.
-    """
-    fn, amp = np.broadcast_arrays(np.asarray(normal_force, float), np.asarray(amplitude, float))
-    sine = np.broadcast_to(_is_sine(waveform), fn.shape)
-    out = np.asarray(friction_force(fn, amp, params), dtype=float).copy()
-    if np.any(sine):
-        u = amp[sine][:, None] * np.sin(_PHASES)[None, :]
-        out[sine] = np.asarray(friction_force(fn[sine][:, None], u, params),
-                               dtype=float).mean(axis=1)
-    return out
-
-
-def model_exponent(normal_force: float, u_min: float, u_max: float,
-                   params: ModelParameters, waveform: str = "square") -> float:
-    """Mean local slope d ln F_el / d ln U of the model between two amplitudes.
-
-    It is the exponent a power law fitted to the model over [u_min, u_max] would have
-    (2 when the contact area does not depend on the voltage, up to 10/3, eq. 12).
-
-    Parameters
-    ----------
-    normal_force : float
-        External normal force, N.
-    u_min, u_max : float
-        Amplitude range, V (NaN when they are equal).
-    params : ModelParameters
-        Model parameters.
-    waveform : str
-        Drive waveform.
-    """
-    if not (u_min > 0 and u_max > u_min):
-        return math.nan
-    f = mean_electrostatic_force(normal_force, np.array([u_min, u_max]), waveform, params)
-    return float(np.log(f[1] / f[0]) / np.log(u_max / u_min))
-
-
-# ------------------------------------------------------------------------------- results
 @dataclass(frozen=True)
 class ParameterEstimate:
     """One fitted parameter: value, standard error and 95 % interval, SI units."""

@@ -20,7 +20,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from evtribo.compare.fit import mean_electrostatic_force, mean_friction_force
+from evtribo.compare.model_points import mean_electrostatic_force, mean_friction_force
 from evtribo.model import (
     area_increase_pct,
     friction_force,
