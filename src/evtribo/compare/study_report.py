@@ -235,8 +235,14 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
 
     # --------------------------------------------------------------------- model fit
     sec = "Model fit"
+    methods = {str(v.get("interval", {}).get("method", "jacobian"))
+               for v in (fit_doc.get("subjects") or {}).values() if isinstance(v, dict)}
+    how = {"bootstrap": "refits to the bootstrap replicates of the electrostatic force "
+                        "(electrostatic_bootstrap.csv)",
+           "jacobian": "the fit's Jacobian"}
+    intervals = " or ".join(how.get(m, m) for m in sorted(methods)) or how["jacobian"]
     report.add_table(fit, "Fitted parameters (fit.csv)", section=sec,
-                     caption="95 % intervals from the fit's Jacobian; rmse_N and r2 describe "
+                     caption=f"95 % intervals from {intervals}; rmse_N and r2 describe "
                              "the electrostatic-force misfit; exponent: measured power law, "
                              "exponent_model: the fitted model's slope over the same "
                              "amplitudes.")
