@@ -36,6 +36,30 @@ def test_the_switch_inside_steady_sliding_is_chosen_and_decimated():
                                np.mean(fn[int(5.5 * 2000):int(5.5 * 2000) + 2]))
 
 
+def test_the_stretch_stops_short_of_the_fingers_reversals():
+    t, fn, _ = _grid()
+    rel = t - t[0]
+    on = (rel % 4.0) >= 2.0                       # switches at 2 s and 6 s
+    ft = np.where(rel < 6.6, -0.25, 0.25)          # the finger reverses 0.6 s after 6 s...
+    ft[rel < 1.0] = 0.25                           # ...and 1 s before the switch at 2 s
+    steady = np.abs(rel - 6.6) > 0.1               # reversals are not steady sliding
+    steady &= np.abs(rel - 1.0) > 0.1
+    trace = sine_trace(t, fn, ft, on, steady, amplitude_V=120.0, frequency_Hz=10.0,
+                       subject="P01", trial="run-01", off_s=0.5, on_s=1.0, rate_Hz=1000.0)
+    # the switch at 2 s has 1 s of steady ON after it and 0.5 s before: it is chosen over
+    # the one at 6 s, cut by the reversal at 6.6 s
+    start = 100.0 + 1.5
+    assert trace.time_s.iloc[-1] == pytest.approx(1.5, abs=2e-3)
+    np.testing.assert_allclose(trace.normal_force_N.iloc[0],
+                               np.mean(fn[int((start - 100.0) * 2000):][:2]))
+    # cut at the reversal when no better switch exists
+    late = sine_trace(t[rel > 4.0], fn[rel > 4.0], ft[rel > 4.0], on[rel > 4.0],
+                      steady[rel > 4.0], amplitude_V=120.0, frequency_Hz=10.0,
+                      subject="P01", trial="run-01", off_s=0.5, on_s=1.0, rate_Hz=1000.0)
+    switch = late.time_s[late.amplitude_V > 0].iloc[0]
+    assert late.time_s.iloc[-1] - switch == pytest.approx(0.5, abs=2e-3)  # 6.0 to 6.5 s
+
+
 def test_a_trial_on_from_the_start_and_one_without_on():
     t, fn, ft = _grid(duration=3.0)
     on = np.ones(t.size, bool)

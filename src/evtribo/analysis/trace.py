@@ -3,9 +3,10 @@
 ``evtribo analyze`` writes ``sine_trace.csv`` (its columns are documented in
 :mod:`evtribo.compare.tables`): for each sine trial with ON phases, a few seconds of the
 aligned normal and friction forces around a switch from OFF to ON, averaged in blocks down
-to at most ``rate_Hz``, with the drive's amplitude (0 while OFF) and frequency. The switch
-chosen is the one whose stretch lies most in steady sliding (the finger's reversals make
-the friction swing through zero, which the model does not describe).
+to at most ``rate_Hz``, with the drive's amplitude (0 while OFF) and frequency. The stretch
+around each switch is cut at the finger's nearest reversals (where the friction swings
+through zero, which the model does not describe), back to the last steady-sliding sample;
+the switch chosen is the one whose stretch is longest in steady sliding.
 """
 
 from __future__ import annotations
@@ -33,6 +34,21 @@ def _block_mean(x: npt.NDArray[np.float64], k: int) -> npt.NDArray[np.float64]:
     total = np.where(valid, blocks, 0.0).sum(axis=1)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(count > 0, total / np.maximum(count, 1), np.nan)
+
+
+def _between_reversals(a: int, i: int, b: int, flips: npt.NDArray[np.int64],
+                       steady: npt.NDArray[np.bool_]) -> tuple[int, int]:
+    """Narrow ``[a, b)`` around the switch *i* to the steady sliding between the nearest
+    reversals (sign changes of the friction at *flips*) on either side."""
+    after = flips[(flips > i) & (flips < b)]
+    if after.size:
+        st = np.flatnonzero(steady[i:after[0]])
+        b = i + int(st[-1]) + 1 if st.size else int(after[0])
+    before = flips[(flips >= a) & (flips <= i)]
+    if before.size:
+        st = np.flatnonzero(steady[before[-1]:i])
+        a = int(before[-1]) + (int(st[0]) if st.size else 0)
+    return a, b
 
 
 def sine_trace(t: npt.NDArray[np.float64], normal: npt.NDArray[np.float64],
@@ -72,10 +88,13 @@ def sine_trace(t: npt.NDArray[np.float64], normal: npt.NDArray[np.float64],
     n_off = round(off_s / step)
     n_on = round(on_s / step)
     switches = np.flatnonzero(on[1:] & ~on[:-1]) + 1
+    sign = np.sign(np.nan_to_num(np.asarray(tangential, dtype=np.float64)))
+    flips = np.flatnonzero(sign[:-1] * sign[1:] < 0) + 1  # the finger reverses
     best: tuple[float, int, int] | None = None
     for i in switches:
         a, b = max(0, i - n_off), min(t.size, i + n_on)
-        score = float(np.mean(steady[a:b])) * (b - a) / (n_off + n_on)
+        a, b = _between_reversals(a, i, b, flips, steady)
+        score = float(np.mean(steady[a:b])) * (b - a) / (n_off + n_on) if b > a else 0.0
         if best is None or score > best[0]:
             best = (score, a, b)
     if best is None:  # ON from the start (or the switch is not in the data)
