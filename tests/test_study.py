@@ -128,6 +128,8 @@ def test_partial_log_superseded_by_complete_one(tmp_path):
     (root / "P01" / "run-01.log.part").write_text("")
     s = study.load_study(root, with_rig=False)
     assert len(s.trials) == 1 and not s.trials[0].partial
+    assert s.trials[0].log_path.name == "run-01.log"
+    assert any("run-01.log.part: not analysed" in w for w in s.warnings)
 
 
 def test_sidecar_subject_overrides_folder_and_duplicates_refused(tmp_path):

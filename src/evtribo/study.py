@@ -316,11 +316,14 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
             partial = suffix.endswith(PARTIAL_SUFFIX)
             if trial in logs:
                 kept, kept_partial = logs[trial]
-                if kept_partial and not partial:
-                    logs[trial] = (f, False)
-                elif partial == kept_partial:
+                if partial == kept_partial:
                     raise StudyError(f"two logs for trial {trial!r}: {kept.name} and {f.name}",
                                      path=folder)
+                complete, part = (f, kept) if kept_partial else (kept, f)
+                logs[trial] = (complete, False)
+                warnings.append(f"{part}: not analysed, {complete.name} is the trial's complete "
+                                "log (the .part is a recording that did not finish, e.g. a "
+                                "--force re-recording that was killed); nothing was deleted")
                 continue
             logs[trial] = (f, partial)
         for stem, names in others.items():
