@@ -35,6 +35,7 @@ def test_second_load_comes_from_cache(trial_files, tmp_path, monkeypatch):
         np.testing.assert_array_equal(a.value, b.value)
         np.testing.assert_array_equal(a.counter, b.counter)
         assert a.dropped == b.dropped
+        assert (a.dropped_method, a.dropped_note) == (b.dropped_method, b.dropped_note)
     assert second.excitation.waveform.tolist() == first.excitation.waveform.tolist()
     np.testing.assert_array_equal(second.excitation.enabled, first.excitation.enabled)
     np.testing.assert_array_equal(second.excitation.amplitude, first.excitation.amplitude)

@@ -34,7 +34,7 @@ from evtribo.rig import Rig
 log = logging.getLogger(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
-CACHE_VERSION = 3  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
+CACHE_VERSION = 4  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
 #                    frames with an unknown multiplexer value ignored
 _META = b"evtribo.trial"
 
@@ -100,6 +100,8 @@ def _to_table(trial: TrialSignals) -> pa.Table:
         "version": CACHE_VERSION, "frames": trial.frames, "ignored_frames": trial.ignored_frames,
         "skipped_lines": trial.skipped_lines,
         "dropped": [trial.normal.dropped, trial.tangential.dropped],
+        "dropped_method": [trial.normal.dropped_method, trial.tangential.dropped_method],
+        "dropped_note": [trial.normal.dropped_note, trial.tangential.dropped_note],
         "counter": [trial.normal.counter is not None, trial.tangential.counter is not None],
         "excitation": None if ex is None else
         [k for k in ("enabled", "amplitude", "frequency", "waveform")
@@ -120,7 +122,8 @@ def _from_table(table: pa.Table) -> TrialSignals:
     for k in (0, 1):
         sel = stream == k
         cnt = counter[sel].astype(np.int64) if meta["counter"][k] else None
-        cells.append(CellSignals(t[sel].copy(), value[sel].copy(), cnt, int(meta["dropped"][k])))
+        cells.append(CellSignals(t[sel].copy(), value[sel].copy(), cnt, int(meta["dropped"][k]),
+                                 meta["dropped_method"][k], meta["dropped_note"][k]))
     ex = None
     if meta["excitation"] is not None:
         sel = np.flatnonzero(stream == 2)

@@ -37,7 +37,7 @@ import numpy.typing as npt
 from cantools.database import DecodeError
 from cantools.database.can import Database, Message, Signal
 
-from evtribo.dropped import count_dropped
+from evtribo.dropped import missing_frames
 from evtribo.frames.table import FrameTable
 from evtribo.rig import Rig, SignalRef
 
@@ -303,12 +303,18 @@ class CellSignals:
         The cell's rolling frame counter, when the rig names one.
     dropped : int
         Frames missing, by the counter (wrap-around aware) and by timing gaps.
+    dropped_method : str
+        How they were counted (:class:`evtribo.dropped.DropCount`'s ``method``).
+    dropped_note : str or None
+        Why the count may be unreliable.
     """
 
     t: Array
     value: Array
     counter: npt.NDArray[np.int64] | None
     dropped: int
+    dropped_method: str = "counter"
+    dropped_note: str | None = None
 
 
 @dataclass
@@ -397,7 +403,8 @@ def _cell(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
         else:
             log.warning("counter %s is not in the force's message %s: timing gaps only",
                         counter.qualified_name, force.message.name)
-    return CellSignals(t, value, count, count_dropped(t, count, modulus))
+    found = missing_frames(t, count, modulus)
+    return CellSignals(t, value, count, found.count, found.method, found.note)
 
 
 def _hold(t_src: Array, values: npt.NDArray[np.generic], t: Array) -> npt.NDArray[np.generic]:

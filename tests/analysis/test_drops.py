@@ -97,3 +97,24 @@ def test_simulated_trial_counts_match_the_simulator():
         dropped = truth.nodes[name]["dropped"]
         assert dropped - 2 <= count_dropped(t, counter, 256) <= dropped
         assert abs(count_dropped(t) - dropped) <= 3
+
+
+def test_the_decoders_count_is_carried_into_the_analysis_not_recounted(monkeypatch):
+    from types import SimpleNamespace
+
+    from evtribo.analysis import trial
+    from evtribo.decode import CellSignals
+
+    def recount(*_a, **_k):
+        raise AssertionError("counted again")
+
+    monkeypatch.setattr(trial, "missing_frames", recount)
+    t = np.arange(10.0)
+    signals = SimpleNamespace(
+        normal=CellSignals(t, np.zeros(10), None, 600, "counter+timing"),
+        tangential=CellSignals(t, np.zeros(10), None, 3, "timing",
+                               "timestamps too irregular to count missing frames reliably"))
+    warnings = []
+    assert trial._dropped(signals, None, warnings.append) == 603
+    assert any("whole counter periods" in w for w in warnings)
+    assert any("too irregular" in w for w in warnings)

@@ -107,21 +107,10 @@ class _Collector(logging.Handler):
 _WORKER: dict[str, Any] = {}
 
 
-def _counter_moduli(rig: Any) -> dict[str, int]:
-    """Period (``2**bits``) of each load cell's rolling counter the rig names."""
-    out = {}
-    for name in ("normal", "tangential"):
-        ref = getattr(rig, f"{name}_force_counter", None)
-        if ref is not None:
-            out[name] = 1 << int(ref.signal.length)
-    return out
-
-
 def _init_worker(root: str, cache_dir: str | None, strict: bool,
                  settings: AnalysisSettings) -> None:
     study = load_study(root)
-    _WORKER.update(study=study, cache_dir=cache_dir, strict=strict, settings=settings,
-                   moduli=_counter_moduli(study.rig))
+    _WORKER.update(study=study, cache_dir=cache_dir, strict=strict, settings=settings)
 
 
 _Result = tuple[int, dict[str, Any], pd.DataFrame, list[str], str | None, pd.DataFrame | None]
@@ -140,8 +129,7 @@ def _analyze_one(index: int) -> _Result:
     root_logger.addHandler(collector)
     try:
         signals = load_trial(ref.log_path, study.rig, _WORKER["cache_dir"], strict)
-        result = analyze_signals(signals, meta, settings=_WORKER["settings"],
-                                 counter_moduli=_WORKER["moduli"])
+        result = analyze_signals(signals, meta, settings=_WORKER["settings"])
         row, windows, warnings, error = result.row, result.windows, result.warnings, None
         trace = result.trace
         if row.get("skipped_lines"):

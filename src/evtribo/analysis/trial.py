@@ -28,7 +28,7 @@ from evtribo.analysis.conditions import (
 from evtribo.analysis.spectra import dominant_frequency
 from evtribo.analysis.trace import TRACE_COLUMNS, sine_trace
 from evtribo.analysis.windows import DEFAULT_MAX_WINDOW_S, DEFAULT_MIN_WINDOW_S, find_windows
-from evtribo.dropped import missing_frames
+from evtribo.dropped import DropCount, missing_frames
 from evtribo.errors import AnalysisError
 
 log = logging.getLogger(__name__)
@@ -209,17 +209,22 @@ def _sine_segments(aligned: AlignedForces, windows: pd.DataFrame) -> list[npt.ND
 
 def _dropped(signals: Any, counter_moduli: Mapping[str, int] | None,
              warn: Callable[[str], None]) -> int:
-    """Frames missing from both load cells: by their counters when the rig names them,
-    else by the timing (:func:`evtribo.dropped.missing_frames`)."""
+    """Frames missing from both load cells, as the decoder counted them
+    (:func:`evtribo.dropped.missing_frames`: counters first, else the timing); counted here
+    only for signals that come without a count."""
     total = 0
     for name in ("normal", "tangential"):
         ch = _get(signals, name)
         t = _get(ch, "t")
         if t is None:
             continue
-        counter = _get(ch, "counter")
-        modulus = (counter_moduli or {}).get(name) if counter is not None else None
-        count = missing_frames(np.asarray(t, dtype=np.float64), counter, modulus)
+        if _get(ch, "dropped") is not None:
+            count = DropCount(int(_get(ch, "dropped")), _get(ch, "dropped_method", "counter"),
+                              note=_get(ch, "dropped_note"))
+        else:
+            counter = _get(ch, "counter")
+            modulus = (counter_moduli or {}).get(name) if counter is not None else None
+            count = missing_frames(np.asarray(t, dtype=np.float64), counter, modulus)
         if count.note:
             warn(f"{name} force: {count.note}")
         if count.method == "counter+timing":
@@ -244,8 +249,9 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
         Names and the sidecar's values.
     settings : AnalysisSettings, optional
     counter_moduli : mapping, optional
-        Period of each load cell's rolling counter (``{"normal": 256, ...}``, ``2**bits``
-        of the rig's counter signals); inferred from the values when absent.
+        For signals without a dropped-frame count of their own (the decoder's carry one):
+        period of each load cell's rolling counter (``{"normal": 256, ...}``); inferred
+        from the values when absent.
 
     Returns
     -------
