@@ -30,6 +30,19 @@ def test_demo_end_to_end(tmp_path):
     assert any("air gap fitted" in line for line in lines)
     with pytest.raises(OutputExistsError):
         run_demo(tmp_path / "demo", subjects=1, amplitudes=(80.0,), trial_s=8.0)
+    again = run_demo(tmp_path / "demo", subjects=1, amplitudes=(80.0,), trial_s=8.0,
+                     speed=8.0, jobs=1, force=True)   # its own previous demo: replaced
+    assert [t.name for t in load_study(again.study).trials] == ["run-01", "run-02"]
+
+
+def test_demo_never_replaces_a_folder_it_did_not_write(tmp_path):
+    lab = tmp_path / "lab"
+    (lab / "study" / "P01").mkdir(parents=True)
+    recorded = lab / "study" / "P01" / "run-01.log"
+    recorded.write_text("(1.000000) vcan0 0C1#00\n")
+    with pytest.raises(OutputExistsError, match="not written by evtribo demo"):
+        run_demo(lab, subjects=1, amplitudes=(80.0,), trial_s=8.0, force=True)
+    assert recorded.read_text() == "(1.000000) vcan0 0C1#00\n"
 
 
 def test_demo_cli_refuses_bad_options(tmp_path, capsys):

@@ -121,13 +121,23 @@ def record(trial: PlannedTrial, study: Path, *, speed: float) -> dict[str, Any]:
     return truth
 
 
+#: Left in a demo's output folder: --force replaces only folders that carry it.
+MARKER = ".evtribo-demo"
+
+
 def _check_out(out: Path, force: bool) -> None:
     taken = [out / name for name in (STUDY, RESULTS, REPORT, TRUTH) if (out / name).exists()]
-    if taken and not force:
+    if not taken:
+        return
+    if not (out / MARKER).is_file():
+        # not written by the demo: it may hold a lab's recordings; never replaced, even forced
+        raise OutputExistsError("holds " + ", ".join(p.name for p in taken) + " not written "
+                                "by evtribo demo; choose another --out", path=out)
+    if not force:
         raise OutputExistsError("holds a previous demo (" + ", ".join(p.name for p in taken)
                                 + "); use --force to replace it", path=out)
-    if force and (out / STUDY).exists():
-        # The demo's own simulated study is the only thing it ever replaces.
+    if (out / STUDY).exists():
+        # The demo's own simulated study is the only thing it ever deletes.
         shutil.rmtree(out / STUDY)
 
 
@@ -163,6 +173,8 @@ def run_demo(out: str | Path, *, subjects: int = 3, amplitudes: Sequence[float] 
     out = Path(out)
     _check_out(out, force)
     out.mkdir(parents=True, exist_ok=True)
+    (out / MARKER).write_text("written by evtribo demo: --force may replace this folder's "
+                              "study/, results/ and report\n", encoding="utf-8")
     res = DemoResult(out=out, study=out / STUDY, results=out / RESULTS, report=out / REPORT)
     people = default_subjects(subjects, seed=seed)
     trials = plan(people, amplitudes, trial_s=trial_s, seed=seed)
