@@ -79,8 +79,8 @@ def frames_from_messages(messages: Iterable[can.Message], channel: str | None = 
     Parameters
     ----------
     messages : iterable of can.Message
-        The frames; ``dlc`` of a remote frame is its requested length, otherwise the
-        payload's length.
+        The frames; ``dlc`` of a remote frame is its requested length (at most 8),
+        otherwise the payload's length.
     channel : str, optional
         Channel name for the table (default: the first message's channel, if any).
     """
@@ -93,7 +93,9 @@ def frames_from_messages(messages: Iterable[can.Message], channel: str | None = 
         err.append(msg.is_error_frame)
         fd.append(msg.is_fd)
         data = bytes(msg.data or b"")
-        dlc.append(msg.dlc if msg.is_remote_frame else len(data))
+        # a remote frame asks for at most 8 bytes (DLC codes 9-15 of classic CAN mean 8;
+        # CAN FD has no remote frames)
+        dlc.append(min(msg.dlc, CLASSIC_WIDTH) if msg.is_remote_frame else len(data))
         payloads.append(data)
         if channel is None and msg.channel is not None:
             channel = str(msg.channel)
