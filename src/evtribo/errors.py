@@ -71,6 +71,32 @@ def toml_error_line(err: BaseException) -> int | None:
     return int(m.group(1)) if m else None
 
 
+def toml_key_line(text: str, table: str, key: str) -> int | None:
+    """The line (1-based) where *key* is set in ``[table]`` of a TOML document's *text*.
+
+    Finds ``key = ...`` under the header ``[table]`` (or ``table.key = ...`` / an inline
+    ``table = {key = ...}`` elsewhere); None when it cannot tell.
+    """
+    current = ""
+    header = re.compile(r"^\s*\[\s*([^\[\]]+?)\s*\]\s*(#.*)?$")
+    assign = re.compile(r"^\s*([A-Za-z0-9_.\-\"' ]+?)\s*=")
+    for number, line in enumerate(text.splitlines(), 1):
+        m = header.match(line)
+        if m:
+            current = m.group(1).replace(" ", "").replace('"', "")
+            continue
+        a = assign.match(line)
+        if a is None:
+            continue
+        name = a.group(1).replace(" ", "").replace('"', "")
+        full = f"{current}.{name}" if current else name
+        if full == (f"{table}.{key}" if table else key):
+            return number
+        if full == table and re.search(rf"[{{,]\s*{re.escape(key)}\s*=", line):
+            return number
+    return None
+
+
 class UserInputError(EvtriboError):
     """Bad usage, configuration or input: the user can fix it (exit code 2)."""
 
@@ -121,4 +147,5 @@ __all__ = [
     "StudyError",
     "UserInputError",
     "toml_error_line",
+    "toml_key_line",
 ]

@@ -13,9 +13,11 @@ names the DBC has.
 Keys of the table: ``dbc`` (path, relative to the TOML file), ``normal_force`` and
 ``tangential_force`` (required), ``normal_force_counter``, ``tangential_force_counter``,
 ``excitation_enabled``, ``excitation_amplitude``, ``excitation_frequency``,
-``excitation_waveform`` (optional), each ``"Message.Signal"``; ``name`` (free text).
-An unknown key is an error (a misspelt optional role would otherwise be silently ignored);
-so is a value that is not a string.
+``excitation_waveform`` (optional), each ``"Message.Signal"``; ``name`` (free text); and the
+optional sub-table ``calibration`` (``[rig.calibration]`` in study.toml, :class:`Calibration`):
+the load cells' known zero offsets and cross-talk matrix. An unknown key is an error (a
+misspelt optional role would otherwise be silently ignored); so is a value that is not a
+string.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ import difflib
 import hashlib
 import json
 import logging
+import math
 import os
 import re
 import tomllib
@@ -37,7 +40,7 @@ import cantools
 import cantools.database
 from cantools.database.can import Database, Message, Signal
 
-from evtribo.errors import RigConfigError, toml_error_line
+from evtribo.errors import RigConfigError, toml_error_line, toml_key_line
 
 log = logging.getLogger(__name__)
 
@@ -54,7 +57,11 @@ OPTIONAL_ROLES = (
 )
 ROLES = REQUIRED_ROLES + OPTIONAL_ROLES
 #: Keys of a rig table besides the roles.
-OTHER_KEYS = ("name", "dbc")
+OTHER_KEYS = ("name", "dbc", "calibration")
+#: Keys of the rig's ``calibration`` table.
+CALIBRATION_KEYS = ("normal_offset_N", "tangential_offset_N", "matrix")
+
+Matrix2 = tuple[tuple[float, float], tuple[float, float]]
 #: A signal named like a rolling frame counter (see :meth:`Rig.counter`).
 COUNTER_NAME = re.compile(r"(counter|cnt)$", re.IGNORECASE)
 
@@ -73,6 +80,99 @@ class SignalRef:
     def qualified_name(self) -> str:
         """``"Message.Signal"``."""
         return f"{self.message.name}.{self.signal.name}"
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """The load cells' own calibration, applied after DBC scaling (``[rig.calibration]``).
+
+    ``[Fn, Ft]_true = matrix @ ([Fn, Ft]_measured - [normal_offset_N, tangential_offset_N])``
+
+    Attributes
+    ----------
+    normal_offset_N, tangential_offset_N : float or None, N
+        Known zero offsets of the cells (None: not known; the analysis tares them).
+    matrix : ((float, float), (float, float)) or None
+        Cross-talk correction (None: the identity).
+    """
+
+    normal_offset_N: float | None = None
+    tangential_offset_N: float | None = None
+    matrix: Matrix2 | None = None
+
+    @property
+    def empty(self) -> bool:
+        """Whether the calibration says nothing."""
+        return (self.normal_offset_N is None and self.tangential_offset_N is None
+                and self.matrix is None)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The keys given, JSON-ready."""
+        out: dict[str, Any] = {}
+        for k in CALIBRATION_KEYS:
+            v = getattr(self, k)
+            if v is not None:
+                out[k] = [list(r) for r in v] if k == "matrix" else v
+        return out
+
+    @classmethod
+    def from_mapping(cls, mapping: object, *, source: str | None = None,
+                     key: str = "rig.calibration") -> Calibration:
+        """Check and read a calibration table.
+
+        Raises
+        ------
+        RigConfigError
+            Not a table, an unknown key (with the closest), a value that is not a finite
+            number, a matrix that is not 2x2 or is singular; naming the file, line and key.
+        """
+        text = _read_text(source)
+
+        def fail(message: str, k: str | None = None) -> RigConfigError:
+            line = toml_key_line(text, key, k) if text and k else None
+            return RigConfigError(message, path=source, line=line,
+                                  key=f"{key}.{k}" if k else key)
+
+        if not isinstance(mapping, Mapping):
+            raise fail(f"must be a table, got {mapping!r}")
+        for k in mapping:
+            if k not in CALIBRATION_KEYS:
+                close = difflib.get_close_matches(k, CALIBRATION_KEYS, n=1, cutoff=0.5)
+                raise fail("unknown key" + (f" (did you mean {close[0]!r}?)" if close else "")
+                           + f"; allowed: {', '.join(CALIBRATION_KEYS)}", k)
+        values: dict[str, Any] = {}
+        for k in ("normal_offset_N", "tangential_offset_N"):
+            if k in mapping:
+                v = mapping[k]
+                if isinstance(v, bool) or not isinstance(v, int | float) \
+                        or not math.isfinite(v):
+                    raise fail(f"expected a finite number (N), got {v!r}", k)
+                values[k] = float(v)
+        if "matrix" in mapping:
+            m = mapping["matrix"]
+            ok = (isinstance(m, list) and len(m) == 2
+                  and all(isinstance(r, list) and len(r) == 2 for r in m)
+                  and all(isinstance(x, int | float) and not isinstance(x, bool)
+                          and math.isfinite(x) for r in m for x in r))
+            if not ok:
+                raise fail(f"expected a 2x2 matrix of finite numbers such as "
+                           f"[[1.0, 0.0], [0.0, 1.0]], got {m!r}", "matrix")
+            det = m[0][0] * m[1][1] - m[0][1] * m[1][0]
+            if abs(det) < 1e-6:
+                raise fail(f"the matrix {m!r} is singular (determinant {det:g})", "matrix")
+            values["matrix"] = ((float(m[0][0]), float(m[0][1])),
+                                (float(m[1][0]), float(m[1][1])))
+        return cls(**values)
+
+
+def _read_text(source: str | None) -> str | None:
+    """The text of a configuration file, to find a key's line in (None if unreadable)."""
+    if source is None:
+        return None
+    try:
+        return Path(source).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None
 
 
 @dataclass(frozen=True)
@@ -96,6 +196,8 @@ class Rig:
         The high-voltage amplifier's status (on/off, V, Hz, value table of waveforms).
     source : str or None
         The file the rig was read from (for messages).
+    calibration : Calibration
+        The load cells' known offsets and cross-talk matrix (empty when not given).
     """
 
     name: str
@@ -110,6 +212,7 @@ class Rig:
     excitation_frequency: SignalRef | None = None
     excitation_waveform: SignalRef | None = None
     source: str | None = None
+    calibration: Calibration = field(default_factory=Calibration)
 
     @property
     def roles(self) -> dict[str, SignalRef]:
@@ -188,7 +291,7 @@ class Rig:
             if k not in mapping:
                 raise RigConfigError("missing (required)", path=src, key=key(k))
         for k, v in mapping.items():
-            if not isinstance(v, str):
+            if not isinstance(v, str) and k != "calibration":
                 raise RigConfigError(f"must be a string, got {type(v).__name__} {v!r}",
                                      path=src, key=key(k))
         dbc = Path(base_dir) / mapping["dbc"]
@@ -197,8 +300,12 @@ class Rig:
         db = load_dbc(dbc, source=src, key=key("dbc"))
         refs = {r: resolve_signal(db, mapping[r], key=key(r), source=src)
                 for r in ROLES if r in mapping}
+        calibration = Calibration()
+        if "calibration" in mapping:
+            calibration = Calibration.from_mapping(mapping["calibration"], source=src,
+                                                   key=key("calibration"))
         return cls(name=str(mapping.get("name", dbc.stem)), dbc=dbc.resolve(), database=db,
-                   source=src, **refs)
+                   source=src, calibration=calibration, **refs)
 
 
 def load_dbc(path: str | os.PathLike[str], *, source: str | None = None,
@@ -304,5 +411,5 @@ def default_rig() -> Rig:
     return load_rig(default_rig_path())
 
 
-__all__ = ["ROLES", "Rig", "SignalRef", "default_rig", "default_rig_path", "load_dbc",
+__all__ = ["CALIBRATION_KEYS", "ROLES", "Calibration", "Rig", "SignalRef", "default_rig", "default_rig_path", "load_dbc",
            "load_rig", "resolve_signal"]

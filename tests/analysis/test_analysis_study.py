@@ -60,7 +60,8 @@ def test_outputs_have_the_spec_columns(default_study):
         assert header.split(",") == list(cols)
     assert {"subject", "trial", "waveform", "frequency_Hz", "amplitude_V", "condition",
             "duration_s", "frames", "dropped_frames", "skipped_lines",
-            "friction_modulation_Hz"} == set(TRIAL_COLUMNS)
+            "friction_modulation_Hz", "normal_offset_N", "tangential_offset_N",
+            "tare"} == set(TRIAL_COLUMNS)
     summary = json.loads((res.out_dir / "summary.json").read_text(encoding="utf-8"))
     assert summary["trials"] == summary["trials_analysed"] == 8
     assert isinstance(summary["warnings"], list)

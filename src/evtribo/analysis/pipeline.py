@@ -22,7 +22,7 @@ import json
 import logging
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,11 +39,11 @@ from evtribo.analysis.aggregate import (
     summarize,
 )
 from evtribo.analysis.provenance import provenance
+from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import (
     SINE_TRACE_CSV_COLUMNS,
     TRIAL_COLUMNS,
     WINDOW_CSV_COLUMNS,
-    AnalysisSettings,
     TrialMeta,
     analyze_signals,
     empty_windows,
@@ -51,7 +51,7 @@ from evtribo.analysis.trial import (
 )
 from evtribo.cache import load_trial
 from evtribo.errors import AnalysisError, OutputExistsError, StudyError, UserInputError
-from evtribo.study import load_study
+from evtribo.study import STUDY_FILE, Study, load_study
 
 log = logging.getLogger(__name__)
 
@@ -120,16 +120,19 @@ def _analyze_one(index: int) -> _Result:
     study, strict = _WORKER["study"], _WORKER["strict"]
     ref = study.trials[index]
     sc = ref.sidecar
+    tare_s = sc.extra.get("tare_s")
     meta = TrialMeta(subject=ref.subject, trial=ref.name, waveform=sc.waveform,
                      frequency_Hz=sc.frequency_Hz, amplitude_V=sc.amplitude_V,
-                     condition=sc.condition)
+                     condition=sc.condition,
+                     tare_s=float(tare_s) if isinstance(tare_s, int | float) else None)
     trace: pd.DataFrame | None = None
     collector = _Collector()
     root_logger = logging.getLogger("evtribo")
     root_logger.addHandler(collector)
     try:
         signals = load_trial(ref.log_path, study.rig, _WORKER["cache_dir"], strict)
-        result = analyze_signals(signals, meta, settings=_WORKER["settings"])
+        result = analyze_signals(signals, meta, settings=_WORKER["settings"],
+                                 calibration=study.rig.calibration)
         row, windows, warnings, error = result.row, result.windows, result.warnings, None
         trace = result.trace
         if row.get("skipped_lines"):
@@ -180,6 +183,30 @@ def _typed(df: pd.DataFrame, columns: tuple[str, ...]) -> pd.DataFrame:
     return df
 
 
+def study_settings(study: Study, overrides: Mapping[str, Any] | None = None,
+                   base: AnalysisSettings | None = None) -> AnalysisSettings:
+    """The analysis settings of a study: *base* (default: the package's defaults), then the
+    ``[analysis]`` table of its study.toml, then *overrides* (the command line's).
+
+    Raises
+    ------
+    ConfigError
+        An unknown key or a bad value, naming study.toml's line and key (or the option).
+    """
+    settings = base or AnalysisSettings()
+    table = study.config.get("analysis") or {}
+    if table:
+        path = study.root / STUDY_FILE
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            text = None
+        settings = settings.updated(table, source=path, text=text)
+    if overrides:
+        settings = settings.updated(overrides, table="")
+    return settings
+
+
 def analyze_study(
     study_dir: str | os.PathLike[str],
     out_dir: str | os.PathLike[str],
@@ -189,6 +216,7 @@ def analyze_study(
     *,
     cache_dir: str | os.PathLike[str] | None = None,
     settings: AnalysisSettings | None = None,
+    overrides: Mapping[str, Any] | None = None,
     progress: ProgressCallback | None = None,
 ) -> StudyResults:
     """Analyse every trial of a study and write the study format's result tables.
@@ -209,6 +237,10 @@ def analyze_study(
     cache_dir : path-like, optional
         Cache of decoded trials (default: :func:`evtribo.cache.default_cache_dir`).
     settings : AnalysisSettings, optional
+        The settings to start from (default: the package's defaults); the study's
+        ``[analysis]`` table and *overrides* apply on top.
+    overrides : mapping, optional
+        Settings that take precedence over the study's (``{"tare": "none"}``).
     progress : callable, optional
         Called as ``progress(done, total)`` after each trial.
 
@@ -227,10 +259,10 @@ def analyze_study(
     """
     started = time.perf_counter()
     started_at = time.time()
-    settings = settings or AnalysisSettings()
     out = Path(out_dir)
     _check_outputs(out, force)
     study = load_study(study_dir)
+    settings = study_settings(study, overrides, settings)
     if not study.trials:
         raise StudyError("the study holds no trials (no <subject>/<trial>.log files)",
                          path=study.root)
@@ -274,7 +306,8 @@ def analyze_study(
     windows = (pd.concat(frames, ignore_index=True) if frames else empty_windows())
     windows = windows.reindex(columns=list(WINDOW_CSV_COLUMNS))
     electrostatic, exponents, bootstrap, agg_warnings = summarize(
-        windows, trials, n_boot=settings.n_boot, seed=settings.seed)
+        windows, trials, n_boot=settings.n_boot, seed=settings.seed,
+        confidence=settings.confidence)
     warnings.extend(agg_warnings)
     traces = [r[5] for r in results if r[5] is not None and not r[5].empty]
     trace = (pd.concat(traces, ignore_index=True).reindex(columns=list(SINE_TRACE_CSV_COLUMNS))
@@ -301,7 +334,8 @@ def analyze_study(
         "skipped_lines": total("skipped_lines"),
         "strict": strict,
         "jobs": jobs,
-        "settings": {**settings.to_dict(), "confidence": 0.95, "mu_estimator": "ratio of means",
+        "calibration": study.rig.calibration.to_dict() if study.rig is not None else {},
+        "settings": {**settings.to_dict(), "mu_estimator": "ratio of means",
                      "interval": "percentile bootstrap over windows, stretched by a "
                                  "Welch-Satterthwaite Student-t factor for few windows",
                      "bootstrap_replicates_saved": int(bootstrap.replicate.nunique())
@@ -331,4 +365,5 @@ def analyze_study(
                         electrostatic=electrostatic, exponents=exponents, summary=summary)
 
 
-__all__ = ["BOOTSTRAP_FILE", "OUTPUT_FILES", "SINE_TRACE_FILE", "StudyResults", "analyze_study"]
+__all__ = ["BOOTSTRAP_FILE", "OUTPUT_FILES", "SINE_TRACE_FILE", "StudyResults", "analyze_study",
+           "study_settings"]

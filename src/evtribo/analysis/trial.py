@@ -4,6 +4,12 @@ The trial's condition, waveform, frequency and amplitude come from the amplifier
 signals when the rig broadcasts them (what was applied), else from the sidecar (what was
 intended); a disagreement between the two is reported. Every window's time is counted from
 the trial's start, the first decoded frame of the rig's messages.
+
+The steps: the two load cells on one grid (:mod:`.align`), the ON/OFF condition
+(:mod:`.conditions`), mains hum notched out (:mod:`.hum`), the calibration applied and the
+zero offsets removed (:mod:`.tare`), steady-sliding windows (:mod:`.windows`); the friction
+loop's tangential offset is then taken out and the windows found again on the corrected
+forces.
 """
 
 from __future__ import annotations
@@ -18,25 +24,36 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from evtribo.analysis.align import DEFAULT_MAX_GAP_PERIODS, AlignedForces, align_forces
+from evtribo.analysis.align import AlignedForces, align_forces
 from evtribo.analysis.conditions import (
-    DEFAULT_GUARD_S,
     ON,
     condition_from_excitation,
     constant_condition,
 )
+from evtribo.analysis.hum import find_hum, modulation_lines, remove_hum
+from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.spectra import dominant_frequency
+from evtribo.analysis.tare import (
+    EDGE_S,
+    Tared,
+    calibrate,
+    friction_loop_offset,
+    removed_offsets,
+    tare_lifted,
+    tare_loop,
+)
 from evtribo.analysis.trace import TRACE_COLUMNS, sine_trace
-from evtribo.analysis.windows import DEFAULT_MAX_WINDOW_S, DEFAULT_MIN_WINDOW_S, find_windows
+from evtribo.analysis.windows import find_windows
 from evtribo.dropped import DropCount, missing_frames
 from evtribo.errors import AnalysisError
+from evtribo.rig import Calibration
 
 log = logging.getLogger(__name__)
 
 #: Columns of trials.csv (study format, section 2).
 TRIAL_COLUMNS = ("subject", "trial", "waveform", "frequency_Hz", "amplitude_V", "condition",
                  "duration_s", "frames", "dropped_frames", "skipped_lines",
-                 "friction_modulation_Hz")
+                 "friction_modulation_Hz", "normal_offset_N", "tangential_offset_N", "tare")
 #: Columns of windows.csv (study format, section 2).
 WINDOW_CSV_COLUMNS = ("subject", "trial", "condition", "amplitude_V", "waveform", "t_start_s",
                       "t_end_s", "normal_force_N", "friction_force_N")
@@ -45,48 +62,6 @@ WINDOW_CSV_COLUMNS = ("subject", "trial", "condition", "amplitude_V", "waveform"
 SINE_TRACE_CSV_COLUMNS = TRACE_COLUMNS
 
 _WAVE_CODES = {0: "sine", 1: "square", 2: "triangle", 3: "dc"}
-
-
-@dataclass(frozen=True)
-class AnalysisSettings:
-    """Tunable constants of the per-trial analysis (all times in s).
-
-    Attributes
-    ----------
-    smooth_s : float, s
-        Moving-average span for finding strokes; for a sine drive at least one period of
-        the drive (two of the friction's modulation) is used.
-    guard_s : float, s
-        Excluded on both sides of an ON/OFF switch.
-    min_window_s, max_window_s : float, s
-        Shortest window kept, longest window (longer steady runs are split).
-    max_gap_periods : float
-        A pause of a load cell longer than this many sample periods is a gap.
-    n_boot : int
-        Bootstrap replicates of the electrostatic force.
-    seed : int
-        Seed of the bootstrap.
-    trace_off_s, trace_on_s : float, s
-        Extent of the sine trace written for the model comparison (sine_trace.csv): this
-        long before and after a switch from OFF to ON.
-    trace_rate_Hz : float, Hz
-        Highest sample rate of the sine trace (block means of the aligned forces).
-    """
-
-    smooth_s: float = 0.1
-    guard_s: float = DEFAULT_GUARD_S
-    min_window_s: float = DEFAULT_MIN_WINDOW_S
-    max_window_s: float = DEFAULT_MAX_WINDOW_S
-    max_gap_periods: float = DEFAULT_MAX_GAP_PERIODS
-    n_boot: int = 2000
-    seed: int = 0
-    trace_off_s: float = 0.5
-    trace_on_s: float = 1.0
-    trace_rate_Hz: float = 1000.0
-
-    def to_dict(self) -> dict[str, Any]:
-        """The settings as a JSON-ready mapping."""
-        return dict(self.__dict__)
 
 
 @dataclass(frozen=True)
@@ -99,6 +74,7 @@ class TrialMeta:
     frequency_Hz: float | None = None
     amplitude_V: float | None = None
     condition: str | None = None
+    tare_s: float | None = None
 
 
 @dataclass
@@ -234,9 +210,165 @@ def _dropped(signals: Any, counter_moduli: Mapping[str, int] | None,
     return total
 
 
+@dataclass
+class _Excitation:
+    """What the trial's excitation was, and when it was on."""
+
+    info: dict[str, Any]
+    condition: npt.NDArray[np.int8]
+    t: npt.NDArray[np.float64] | None = None
+    enabled: npt.NDArray[np.bool_] | None = None
+    amplitude: npt.NDArray[np.float64] | None = None
+
+
+def _excitation(signals: Any, meta: TrialMeta, grid_t: npt.NDArray[np.float64],
+                guard_s: float, warn: Callable[[str], None]) -> _Excitation:
+    """The condition of every grid point and the trial's waveform, frequency, amplitude:
+    from the excitation signals when the rig has them, else from the sidecar."""
+    info: dict[str, Any] = {"waveform": meta.waveform, "frequency_Hz": meta.frequency_Hz,
+                            "amplitude_V": meta.amplitude_V, "condition": meta.condition}
+    exc = _get(signals, "excitation")
+    exc_t = _get(exc, "t")
+    if exc is not None and exc_t is not None and len(exc_t) and exc.enabled is not None:
+        exc_t = np.asarray(exc_t, dtype=np.float64)
+        enabled = np.asarray(exc.enabled).astype(bool)
+        cond = condition_from_excitation(grid_t, exc_t, enabled, guard_s=guard_s)
+        observed = {"condition": "alternating" if enabled.any() and not enabled.all()
+                    else "on" if enabled.all() else "off"}
+        observed.update(_excitation_summary(exc, enabled))
+        for key, value in observed.items():
+            given = info.get(key)
+            if given is not None and not _same(given, value):
+                warn(f"the sidecar says {key} = {given!r} but the excitation signals say "
+                     f"{value!r}; using the signals")
+            info[key] = value
+        amp = _get(exc, "amplitude")
+        return _Excitation(info, cond, exc_t, enabled,
+                           None if amp is None else np.asarray(amp, dtype=np.float64))
+    if info["condition"] in ("on", "off"):
+        return _Excitation(info, constant_condition(grid_t.size, info["condition"]))
+    if info["condition"] == "alternating":
+        raise AnalysisError("the sidecar says the trial alternates, but the rig has no "
+                            "excitation signals to tell ON from OFF")
+    raise AnalysisError("the trial's condition is unknown: the rig has no excitation "
+                        "signals and the sidecar gives no 'condition'")
+
+
+def _window_amplitudes(w: pd.DataFrame, exc: _Excitation) -> npt.NDArray[np.float64]:
+    """Amplitude of each window (0 for OFF; the amplitude reported during an ON window,
+    which follows an amplitude sweep inside a trial), V."""
+    amplitude = np.zeros(len(w))
+    is_on = (w.condition == "on").to_numpy()
+    if not is_on.any():
+        return amplitude
+    given = exc.info["amplitude_V"]
+    amplitude[is_on] = np.nan if given is None else float(given)
+    if exc.amplitude is not None and exc.t is not None and exc.enabled is not None:
+        enabled_t, enabled_a = exc.t[exc.enabled], exc.amplitude[exc.enabled]
+        for k in np.flatnonzero(is_on):
+            sel = (enabled_t >= w.t_start.iat[k]) & (enabled_t <= w.t_end.iat[k])
+            if sel.any():
+                amplitude[k] = float(np.median(enabled_a[sel]))
+    return amplitude
+
+
+def _dehum(aligned: AlignedForces, info: Mapping[str, Any]) -> AlignedForces:
+    """The forces with mains hum notched out (each cell on its own)."""
+    avoid = modulation_lines(info.get("waveform"), info.get("frequency_Hz"), aligned.rate_Hz)
+    out = {}
+    for name in ("normal", "tangential"):
+        x = getattr(aligned, name)
+        hum = find_hum(x, aligned.rate_Hz, avoid_Hz=avoid)
+        if hum is not None:
+            log.info("%s force: %g Hz hum of %.2g N removed (lines %s%s)", name, hum.mains_Hz,
+                     hum.amplitude, ", ".join(f"{f:g}" for f in hum.lines_Hz),
+                     f"; left in at {hum.kept_Hz} Hz, where the friction oscillates"
+                     if hum.kept_Hz else "")
+            x = remove_hum(x, aligned.rate_Hz, hum)
+        out[name] = x
+    return AlignedForces(aligned.t, out["normal"], out["tangential"], aligned.rate_Hz)
+
+
+def _windows(tared: Tared, cond: npt.NDArray[np.int8], smooth: float,
+             settings: AnalysisSettings) -> pd.DataFrame:
+    f = tared.forces
+    exclude = np.zeros(f.t.size, dtype=bool)
+    for s in tared.lifted:  # the lifted stretch and the finger leaving or touching down
+        exclude |= (f.t >= s.t_start - 2 * EDGE_S) & (f.t <= s.t_end + 2 * EDGE_S)
+    return find_windows(f.t, f.normal, f.tangential, cond, smooth_s=smooth,
+                        min_window_s=settings.min_window_s, max_window_s=settings.max_window_s,
+                        exclude=exclude)
+
+
+def _tare(aligned: AlignedForces, exc: _Excitation, smooth: float, meta: TrialMeta,
+          settings: AnalysisSettings, calibration: Calibration | None,
+          warn: Callable[[str], None]) -> tuple[Tared, pd.DataFrame]:
+    """Calibration and taring (:mod:`.tare`), and the steady-sliding windows they give."""
+    mode = settings.tare
+    cal = calibration or Calibration()
+    tared = calibrate(aligned, cal if mode != "none" else
+                      Calibration(matrix=cal.matrix), warn)
+    if mode in ("auto", "lifted"):
+        tared = tare_lifted(tared, min_s=settings.min_lift_s)
+        if not tared.lifted and meta.tare_s:
+            warn(f"the sidecar says the finger was lifted for the first {meta.tare_s:g} s, "
+                 "but no finger-lifted stretch was found in the forces (was it kept on the "
+                 "screen?)")
+    w = _windows(tared, exc.condition, smooth, settings)
+    if mode in ("auto", "friction-loop") and not w.empty:
+        amps = _window_amplitudes(w, exc)
+        groups = [None if c != "on" else ("on" if not np.isfinite(a) else a)
+                  for c, a in zip(w.condition, amps, strict=True)]
+        loop = friction_loop_offset(tared.forces.t, tared.forces.normal,
+                                    tared.forces.tangential, w, groups,
+                                    max_knots=2 if tared.lifted else None)
+        if loop is not None and (loop.significant or not tared.lifted):
+            tared = tare_loop(tared, loop)
+            w = _windows(tared, exc.condition, smooth, settings)
+        elif not tared.lifted and cal.tangential_offset_N is None:
+            warn("the tangential cell's zero is unknown: no finger-lifted stretch, no "
+                 "[rig.calibration] tangential_offset_N, and too few strokes in both "
+                 "directions for the friction loop; an offset adds to the friction one way "
+                 "and subtracts the other")
+    if mode != "none" and not tared.normal_known:
+        fn = float(np.nanmean(w.normal_force_N)) if len(w) else float(
+            np.nanmedian(tared.forces.normal))
+        warn(f"the normal cell's zero is unknown (no finger-lifted stretch and no "
+             f"[rig.calibration] normal_offset_N): an offset of 10 mN would change F_el by "
+             f"{1.0 / fn:.1f} % (offset / F_n, at this trial's {fn:.2f} N); record a tare "
+             "stretch (evtribo acquire --tare-s) or give [rig.calibration] normal_offset_N")
+    return tared, w
+
+
+def _offset_warnings(tared: Tared, w: pd.DataFrame, offsets: tuple[float | None, float | None],
+                     warn: Callable[[str], None]) -> None:
+    """Offsets large against the forces measured, and zeros that drifted beyond the noise."""
+    if w.empty:
+        return
+    scale = {"normal": float(np.mean(w.normal_force_N)),
+             "tangential": float(np.mean(w.friction_force_N))}
+    for name, value in zip(("normal", "tangential"), offsets, strict=True):
+        if value is not None and scale[name] > 0 and abs(value) > 0.1 * scale[name]:
+            warn(f"the {name} cell's zero offset was {1e3 * value:+.1f} mN, "
+                 f"{100 * abs(value) / scale[name]:.0f} % of the {name} force measured "
+                 f"({scale[name]:.3f} N); removed, but tare the load cells before recording")
+    if len(tared.lifted) < 2:
+        return
+    first, last = tared.lifted[0], tared.lifted[-1]
+    for name, se_name in (("normal", "normal_se_N"), ("tangential", "tangential_se_N")):
+        moved = getattr(last, f"{name}_N") - getattr(first, f"{name}_N")
+        noise = 3 * float(np.hypot(getattr(first, se_name), getattr(last, se_name)))
+        if abs(moved) > max(noise, 0.01 * scale["normal"]):
+            warn(f"the {name} cell's zero drifted by {1e3 * moved:+.1f} mN between the "
+                 f"finger-lifted stretches at {first.t_mid - tared.forces.t[0]:.1f} s and "
+                 f"{last.t_mid - tared.forces.t[0]:.1f} s (noise {1e3 * noise / 3:.2f} mN); "
+                 "interpolated between them")
+
+
 def analyze_signals(signals: Any, meta: TrialMeta, *,
                     settings: AnalysisSettings | None = None,
-                    counter_moduli: Mapping[str, int] | None = None) -> TrialResult:
+                    counter_moduli: Mapping[str, int] | None = None,
+                    calibration: Calibration | None = None) -> TrialResult:
     """Analyse one decoded trial.
 
     Parameters
@@ -252,6 +384,8 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
         For signals without a dropped-frame count of their own (the decoder's carry one):
         period of each load cell's rolling counter (``{"normal": 256, ...}``); inferred
         from the values when absent.
+    calibration : Calibration, optional
+        The rig's ``[rig.calibration]``: known offsets and cross-talk matrix.
 
     Returns
     -------
@@ -276,66 +410,25 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
     tn, fn = _channel(signals, "normal")
     tt, ft = _channel(signals, "tangential")
     aligned = align_forces(tn, fn, tt, ft, max_gap_periods=settings.max_gap_periods)
-    if np.nanmedian(aligned.normal) < 0:
-        warn("the normal force is negative: its sign is flipped (compression counted "
-             "positive)")
-        aligned = AlignedForces(aligned.t, -aligned.normal, aligned.tangential, aligned.rate_Hz)
-
-    info: dict[str, Any] = {"waveform": meta.waveform, "frequency_Hz": meta.frequency_Hz,
-                            "amplitude_V": meta.amplitude_V, "condition": meta.condition}
-    exc = _get(signals, "excitation")
-    exc_t = _get(exc, "t")
-    amp_at: npt.NDArray[np.float64] | None = None
-    if exc is not None and exc_t is not None and len(exc_t) and exc.enabled is not None:
-        exc_t = np.asarray(exc_t, dtype=np.float64)
-        enabled = np.asarray(exc.enabled).astype(bool)
-        cond = condition_from_excitation(aligned.t, exc_t, enabled, guard_s=settings.guard_s)
-        observed = {"condition": "alternating" if enabled.any() and not enabled.all()
-                    else "on" if enabled.all() else "off"}
-        observed.update(_excitation_summary(exc, enabled))
-        for key, value in observed.items():
-            given = info.get(key)
-            if given is not None and not _same(given, value):
-                warn(f"the sidecar says {key} = {given!r} but the excitation signals say "
-                     f"{value!r}; using the signals")
-            info[key] = value
-        amp = _get(exc, "amplitude")
-        if amp is not None:
-            amp_at = np.asarray(amp, dtype=np.float64)
-    else:
-        exc_t = None
-        if info["condition"] in ("on", "off"):
-            cond = constant_condition(aligned.t.size, info["condition"])
-        elif info["condition"] == "alternating":
-            raise AnalysisError("the sidecar says the trial alternates, but the rig has no "
-                                "excitation signals to tell ON from OFF")
-        else:
-            raise AnalysisError("the trial's condition is unknown: the rig has no excitation "
-                                "signals and the sidecar gives no 'condition'")
-
+    exc = _excitation(signals, meta, aligned.t, settings.guard_s, warn)
+    info = exc.info
+    if settings.remove_hum:
+        aligned = _dehum(aligned, info)
     smooth = settings.smooth_s
     if info["waveform"] == "sine" and info.get("frequency_Hz"):
         smooth = max(smooth, 1.0 / float(info["frequency_Hz"]))
-    w = find_windows(aligned.t, aligned.normal, aligned.tangential, cond, smooth_s=smooth,
-                     min_window_s=settings.min_window_s, max_window_s=settings.max_window_s)
+    tared, w = _tare(aligned, exc, smooth, meta, settings, calibration, warn)
+    aligned = tared.forces
+    offsets = removed_offsets(tared, calibration if settings.tare != "none" else None)
+    _offset_warnings(tared, w, offsets, warn)
     if w.empty:
         warn("no steady-sliding window found")
 
-    amplitude = np.zeros(len(w))
+    amplitude = _window_amplitudes(w, exc)
     is_on = (w.condition == "on").to_numpy()
-    if is_on.any():
-        amplitude[is_on] = np.nan if info["amplitude_V"] is None else float(info["amplitude_V"])
-        if amp_at is not None and exc_t is not None:
-            # the amplitude reported during each ON window (amplitude sweeps inside a trial)
-            enabled_t = exc_t[np.asarray(exc.enabled).astype(bool)]
-            enabled_a = amp_at[np.asarray(exc.enabled).astype(bool)]
-            for k in np.flatnonzero(is_on):
-                sel = (enabled_t >= w.t_start.iat[k]) & (enabled_t <= w.t_end.iat[k])
-                if sel.any():
-                    amplitude[k] = float(np.median(enabled_a[sel]))
-        if np.isnan(amplitude).any():
-            warn("the amplitude of the ON windows is unknown (no excitation amplitude "
-                 "signal, no 'amplitude_V' in the sidecar)")
+    if np.isnan(amplitude).any():
+        warn("the amplitude of the ON windows is unknown (no excitation amplitude "
+             "signal, no 'amplitude_V' in the sidecar)")
     windows = pd.DataFrame({
         "subject": meta.subject, "trial": meta.trial, "condition": w.condition,
         "amplitude_V": np.round(amplitude, 3), "waveform": info["waveform"],
@@ -359,12 +452,11 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
 
     trace = None
     if info["waveform"] == "sine":
-        if exc_t is not None and exc is not None and exc.enabled is not None:
-            enabled = np.asarray(exc.enabled).astype(bool)
-            idx = np.searchsorted(exc_t, aligned.t, side="right") - 1
-            on_now = np.where(idx >= 0, enabled[np.clip(idx, 0, None)], False)
+        if exc.t is not None and exc.enabled is not None:
+            idx = np.searchsorted(exc.t, aligned.t, side="right") - 1
+            on_now = np.where(idx >= 0, exc.enabled[np.clip(idx, 0, None)], False)
         else:
-            on_now = cond == ON
+            on_now = exc.condition == ON
         steady = np.zeros(aligned.t.size, dtype=bool)
         for a, b in zip(w.i_start.to_numpy(int), w.i_stop.to_numpy(int), strict=True):
             steady[a:b] = True
@@ -383,6 +475,9 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
         "frames": _get(signals, "frames"), "dropped_frames": dropped,
         "skipped_lines": _get(signals, "skipped_lines"),
         "friction_modulation_Hz": modulation,
+        "normal_offset_N": None if offsets[0] is None else round(offsets[0], 6),
+        "tangential_offset_N": None if offsets[1] is None else round(offsets[1], 6),
+        "tare": "+".join(tared.methods) or "none",
     }
     return TrialResult(row=row, windows=windows, warnings=warnings, trace=trace)
 

@@ -13,7 +13,9 @@ forth, and the friction force's sign follows the sliding direction. On a uniform
 4. inside each piece, steady sliding is where the friction-to-normal ratio ``|F_t|/F_n``
    is at least ``level_fraction`` of the piece's median ratio (this removes the stick phase
    and the start-up after a reversal, and any stick-slip event, without mistaking a change
-   of normal force for one), eroded by half the smoothing length on both sides;
+   of normal force for one) and the normal force at least ``contact_fraction`` of the
+   piece's median (the finger leaving the screen or touching down), eroded by half the
+   smoothing length on both sides;
 5. a hole in the data longer than half the smoothing span ends a steady run; runs shorter
    than ``min_window_s`` are dropped, longer than ``max_window_s`` split into equal parts
    (windows are the units the bootstrap resamples).
@@ -90,7 +92,8 @@ def _runs(code: npt.NDArray[np.int64]) -> list[tuple[int, int, int]]:
     return [(int(a), int(b), int(code[a])) for a, b in zip(starts, stops, strict=True)]
 
 
-def _true_runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
+def true_runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
+    """``(start, stop)`` of the runs of True in *mask* (stop exclusive)."""
     return [(a, b) for a, b, v in _runs(mask.astype(np.int64)) if v]
 
 
@@ -106,6 +109,8 @@ def find_windows(
     min_window_s: float = DEFAULT_MIN_WINDOW_S,
     max_window_s: float = DEFAULT_MAX_WINDOW_S,
     skip_start_s: float = 0.0,
+    contact_fraction: float = 0.7,
+    exclude: npt.ArrayLike | None = None,
 ) -> pd.DataFrame:
     """Steady-sliding windows of one trial, split by condition.
 
@@ -128,6 +133,10 @@ def find_windows(
         Shortest window kept; longer steady runs are split into parts no longer than this.
     skip_start_s : float, s
         Time at the start of the grid never used.
+    contact_fraction : float
+        Steady sliding needs the normal force at least this fraction of the piece's median.
+    exclude : array_like of bool, optional
+        Grid points never used (e.g. where the finger was found lifted).
 
     Returns
     -------
@@ -152,6 +161,8 @@ def find_windows(
     hole = ~(np.isfinite(fn) & np.isfinite(ft))
     usable = np.isfinite(ft_s) & np.isfinite(fn_s) & (fn_s > 0) & (cond != EXCLUDED)
     usable &= t >= t[0] + skip_start_s
+    if exclude is not None:
+        usable &= ~np.asarray(exclude, dtype=bool)
     if not usable.any():
         return empty
     level = float(np.percentile(np.abs(ft_s[usable]), 90))
@@ -171,6 +182,7 @@ def find_windows(
             continue
         r = ratio[a:b]
         ok = r >= level_fraction * np.median(r)
+        ok &= fn_s[a:b] >= contact_fraction * np.median(fn_s[a:b])
         if h:  # erode by h samples on each side (outside the piece counts as not steady)
             okc = np.concatenate(([0], np.cumsum(ok)))
             full = np.zeros(ok.size, dtype=bool)
@@ -180,10 +192,10 @@ def find_windows(
             full[inside] = (okc[hi[inside]] - okc[lo[inside]]) == w
             ok = full
         # a hole in the data longer than half the smoothing span ends a steady run
-        for hs, he in _true_runs(hole[a:b]):
+        for hs, he in true_runs(hole[a:b]):
             if he - hs > h:
                 ok[hs:he] = False
-        for s, e in _true_runs(ok):
+        for s, e in true_runs(ok):
             length = e - s
             if length < min_len:
                 continue
@@ -201,4 +213,4 @@ def find_windows(
 
 
 __all__ = ["DEFAULT_MAX_WINDOW_S", "DEFAULT_MIN_WINDOW_S", "DEFAULT_SMOOTH_S", "WINDOW_COLUMNS",
-           "find_windows", "moving_average"]
+           "find_windows", "moving_average", "true_runs"]

@@ -25,6 +25,32 @@ def _check_positive(obj: object, names: tuple[str, ...], *, allow_zero: bool = F
                               key=f"{type(obj).__name__}.{name}")
 
 
+def _check_finite(obj: object, name: str) -> None:
+    value = getattr(obj, name)
+    if isinstance(value, bool) or not isinstance(value, int | float) \
+            or not math.isfinite(value):
+        raise ConfigError(f"{value!r} is not allowed: must be a finite number",
+                          key=f"{type(obj).__name__}.{name}")
+
+
+def _matrix(value: object) -> tuple[tuple[float, float], tuple[float, float]]:
+    """A 2x2 matrix of finite numbers, as nested tuples, invertible."""
+    key = "TrialConfig.crosstalk"
+    try:
+        rows = [[float(x) for x in row] for row in value]  # type: ignore[union-attr]
+    except (TypeError, ValueError) as err:
+        raise ConfigError(f"{value!r} is not allowed: must be a 2x2 matrix of numbers",
+                          key=key) from err
+    if len(rows) != 2 or any(len(r) != 2 for r in rows) \
+            or not all(math.isfinite(x) for r in rows for x in r):
+        raise ConfigError(f"{value!r} is not allowed: must be a 2x2 matrix of finite numbers",
+                          key=key)
+    det = rows[0][0] * rows[1][1] - rows[0][1] * rows[1][0]
+    if abs(det) < 1e-6:
+        raise ConfigError(f"{value!r} is not allowed: the matrix is singular", key=key)
+    return (rows[0][0], rows[0][1]), (rows[1][0], rows[1][1])
+
+
 @dataclass(frozen=True)
 class SubjectParams:
     """A simulated subject: their skin, their finger's motion and how steadily they press.
@@ -53,7 +79,19 @@ class SubjectParams:
         Duration of a reversal: the finger sticks and the friction force swings through
         zero to the opposite sign.
     stroke_jitter : float
-        Relative spread of stroke durations (uniform, +/-).
+        Relative spread of stroke durations, from stroke to stroke (uniform, +/-): a person's
+        strokes differ in length and speed.
+    dwell_s : float, s
+        Mean time the finger rests at a reversal before sliding back (each dwell drawn
+        uniformly from 0 to twice this); 0 for a reversal without rest. While it rests the
+        friction force relaxes towards a small value of either sign.
+    lifts_per_min : float, 1/min
+        Rate of lift-offs (Poisson): the finger leaves the screen, normal and friction force
+        fall to zero, and it comes back down.
+    lift_s : float, s
+        Mean duration of a lift-off with the finger fully off (each drawn uniformly from
+        half to one and a half times this), plus :data:`~evtribo.acquisition.simulator.
+        physics.CONTACT_RAMP_S` to leave and to come back.
     """
 
     name: str = "P01"
@@ -66,11 +104,15 @@ class SubjectParams:
     stroke_length_m: float = 0.04
     reversal_s: float = 0.15
     stroke_jitter: float = 0.1
+    dwell_s: float = 0.0
+    lifts_per_min: float = 0.0
+    lift_s: float = 0.4
 
     def __post_init__(self) -> None:
         _check_positive(self, ("mu", "h_L", "normal_force_N", "drift_time_s",
-                               "sliding_speed_m_s", "stroke_length_m", "reversal_s"))
-        _check_positive(self, ("force_drift", "stroke_jitter"), allow_zero=True)
+                               "sliding_speed_m_s", "stroke_length_m", "reversal_s", "lift_s"))
+        _check_positive(self, ("force_drift", "stroke_jitter", "dwell_s", "lifts_per_min"),
+                        allow_zero=True)
         if self.stroke_jitter >= 1:
             raise ConfigError(f"{self.stroke_jitter!r} is not allowed: must be < 1",
                               key="SubjectParams.stroke_jitter")
@@ -113,6 +155,25 @@ class TrialConfig:
         Probability that any rig frame is lost (a gap in its counter).
     foreign_rate_Hz : float, Hz
         Rate of frames from other nodes on the bus (ids the rig does not describe).
+    tare_s : float, s
+        The finger is off the screen for this long at the start of the trial (the tare
+        stretch an operator asks for), then comes down and starts sliding.
+    fz_offset_N, fx_offset_N : float, N
+        Zero offset of each load cell at the trial's start: what it reads with no force.
+    fz_drift_N_per_s, fx_drift_N_per_s : float, N/s
+        Linear drift of each cell's zero.
+    fz_thermal_N, fx_thermal_N : float, N
+        Slow thermal drift of each cell's zero: ``A * (1 - exp(-t / thermal_time_s))``.
+    thermal_time_s : float, s
+        Time constant of the thermal drift.
+    fz_hum_N, fx_hum_N : float, N
+        Amplitude of the mains hum each cell picks up (a sine at ``mains_Hz``, with a
+        phase of its own, plus a third harmonic of a fifth of it).
+    mains_Hz : float, Hz
+        Mains frequency (50 or 60).
+    crosstalk : ((float, float), (float, float))
+        The cells' axis cross-talk: ``[Fn, Ft]_measured = crosstalk @ [Fn, Ft]_true`` (plus
+        the offsets); its inverse is the ``[rig.calibration] matrix`` that undoes it.
     start_time : float, s
         Epoch time of the trial's start, for the frames' timestamps.
     channel : str
@@ -140,6 +201,18 @@ class TrialConfig:
     jitter_s: float = 5e-5
     drop_probability: float = 0.0
     foreign_rate_Hz: float = 0.0
+    tare_s: float = 0.0
+    fz_offset_N: float = 0.0
+    fx_offset_N: float = 0.0
+    fz_drift_N_per_s: float = 0.0
+    fx_drift_N_per_s: float = 0.0
+    fz_thermal_N: float = 0.0
+    fx_thermal_N: float = 0.0
+    thermal_time_s: float = 60.0
+    fz_hum_N: float = 0.0
+    fx_hum_N: float = 0.0
+    mains_Hz: float = 50.0
+    crosstalk: tuple[tuple[float, float], tuple[float, float]] = ((1.0, 0.0), (0.0, 1.0))
     start_time: float = 1_763_700_000.0
     channel: str = "vcan0"
     seed: int = 0
@@ -154,7 +227,17 @@ class TrialConfig:
         _check_positive(self, ("duration_s", "frequency_Hz", "on_s", "off_s", "fz_rate_Hz",
                                "fx_rate_Hz", "hv_rate_Hz"))
         _check_positive(self, ("amplitude_V", "noise_N", "latency_s", "jitter_s",
-                               "foreign_rate_Hz", "drop_probability"), allow_zero=True)
+                               "foreign_rate_Hz", "drop_probability", "tare_s", "fz_hum_N",
+                               "fx_hum_N"), allow_zero=True)
+        _check_positive(self, ("thermal_time_s", "mains_Hz"))
+        for name in ("fz_offset_N", "fx_offset_N", "fz_drift_N_per_s", "fx_drift_N_per_s",
+                     "fz_thermal_N", "fx_thermal_N"):
+            _check_finite(self, name)
+        if self.tare_s >= self.duration_s:
+            raise ConfigError(f"{self.tare_s!r} is not allowed: the tare stretch must be "
+                              f"shorter than the trial ({self.duration_s:g} s)",
+                              key="TrialConfig.tare_s")
+        object.__setattr__(self, "crosstalk", _matrix(self.crosstalk))
         if self.drop_probability >= 1:
             raise ConfigError(f"{self.drop_probability!r} is not allowed: must be < 1",
                               key="TrialConfig.drop_probability")

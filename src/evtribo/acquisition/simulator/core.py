@@ -2,7 +2,8 @@
 
 Each node (normal-force cell, tangential-force cell, amplifier) samples the trial's physics
 on its own clock (nominal rate, ppm error, random phase) and its frames reach the logger
-after a fixed latency plus exponential jitter. Frames are produced in reception order, one
+after a fixed latency plus exponential jitter. The load cells report the true forces through
+their cross-talk, zero offset, drift and hum (:mod:`~evtribo.acquisition.simulator.physics`). Frames are produced in reception order, one
 chunk of :data:`CHUNK_S` seconds of true time at a time, so that the offline trial and the
 real-time stream give the same frames for the same seed.
 """
@@ -24,11 +25,14 @@ from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.encode import pack_signals
 from evtribo.acquisition.simulator.physics import (
     FORCE_STEP_S,
+    CellZero,
+    Contact,
     NormalForceProcess,
     Strokes,
     electrostatic,
     excitation_gate,
     expected_electrostatic_force,
+    measured,
     model_parameters,
     on_off_schedule,
     voltage,
@@ -51,8 +55,14 @@ WAVE_CODE = {"sine": 0, "square": 1}
 #: Nominal leakage current reported by the amplifier at 140 V, uA (not modelled further).
 LEAK_UA_AT_140V = 4.0
 
+#: Bins of the electrostatic-force record of the truth (see TrialTruth.electrostatic_between), s.
+FEL_BIN_S = 0.01
+#: Contact above this counts as full contact in the truth's means.
+FULL_CONTACT = 0.999
+
 # Independent random streams, by purpose (seeded as [seed, stream, chunk]).
-_S_CLOCK, _S_STROKE, _S_FORCE, _S_NOISE, _S_DROP, _S_FOREIGN, _S_FORCE0 = range(7)
+(_S_CLOCK, _S_STROKE, _S_FORCE, _S_NOISE, _S_DROP, _S_FOREIGN, _S_FORCE0, _S_DWELL, _S_LIFT,
+ _S_HUM) = range(10)
 
 
 @dataclass
@@ -97,6 +107,24 @@ class TrialTruth:
         Per message: effective rate (Hz), clock offset (s), frames sent, frames dropped.
     foreign_frames : int
         Frames of other nodes.
+    lifted : list of (start_s, end_s)
+        Stretches with the finger fully off the screen (the tare stretch, lift-offs).
+    contact_lost : list of (start_s, end_s)
+        The same, widened by the time the finger takes to leave and to come back.
+    steady : list of (start_s, end_s, direction, on)
+        Steady sliding in one condition: the slides, less the lift-offs, cut at the
+        voltage's switches.
+    cells : dict
+        Per cell (``"normal"``, ``"tangential"``): the zero offset at the start, its drift,
+        thermal term and hum (N, N/s, s, Hz) and ``mean_offset_N``, the zero's mean over
+        the trial (what ``trials.csv`` reports as removed).
+    crosstalk : list of list of float
+        ``[Fn, Ft]_measured = crosstalk @ [Fn, Ft]_true`` (+ the zeros).
+    calibration_matrix : list of list of float
+        Its inverse: the ``[rig.calibration] matrix`` that undoes it.
+    first_frame_s : float or None, s
+        Reception time of the trial's first frame, from the trial's start: the analysis
+        counts its windows' times from there.
     """
 
     subject: SubjectParams
@@ -110,11 +138,31 @@ class TrialTruth:
     friction_modulation_Hz: float | None = None
     nodes: dict[str, dict[str, float]] = field(default_factory=dict)
     foreign_frames: int = 0
+    lifted: list[tuple[float, float]] = field(default_factory=list)
+    contact_lost: list[tuple[float, float]] = field(default_factory=list)
+    steady: list[tuple[float, float, int, bool]] = field(default_factory=list)
+    cells: dict[str, dict[str, float]] = field(default_factory=dict)
+    crosstalk: list[list[float]] = field(default_factory=list)
+    calibration_matrix: list[list[float]] = field(default_factory=list)
+    first_frame_s: float | None = None
+    fel_sum: npt.NDArray[np.float64] | None = field(default=None, repr=False)
+    fel_count: npt.NDArray[np.int64] | None = field(default=None, repr=False)
 
     @property
     def mu(self) -> float:
         """The subject's friction coefficient."""
         return self.subject.mu
+
+    def electrostatic_between(self, t0: float, t1: float) -> float:
+        """Mean of the electrostatic force over the tangential cell's samples in
+        ``[t0, t1)`` (s from the trial's start, to :data:`FEL_BIN_S`), N; NaN without
+        samples or without the record (only offline trials keep it)."""
+        if self.fel_sum is None or self.fel_count is None:
+            return float("nan")
+        b0 = max(round(t0 / FEL_BIN_S), 0)
+        b1 = min(round(t1 / FEL_BIN_S), self.fel_sum.size)
+        n = int(self.fel_count[b0:b1].sum())
+        return float(self.fel_sum[b0:b1].sum() / n) if n else float("nan")
 
     def to_dict(self) -> dict[str, Any]:
         """The truth as a JSON-ready mapping."""
@@ -129,6 +177,12 @@ class TrialTruth:
             "electrostatic_force_mean_N": self.electrostatic_force_mean_N,
             "friction_modulation_Hz": self.friction_modulation_Hz,
             "nodes": self.nodes, "foreign_frames": self.foreign_frames,
+            "lifted": [[a, b] for a, b in self.lifted],
+            "contact_lost": [[a, b] for a, b in self.contact_lost],
+            "steady": [[a, b, d, on] for a, b, d, on in self.steady],
+            "cells": self.cells, "crosstalk": self.crosstalk,
+            "calibration_matrix": self.calibration_matrix,
+            "first_frame_s": self.first_frame_s,
         }
 
 
@@ -161,8 +215,10 @@ class TrialGenerator:
     """
 
     def __init__(self, subject: SubjectParams, config: TrialConfig,
-                 dbc: str | os.PathLike[str] | None = None) -> None:
+                 dbc: str | os.PathLike[str] | None = None, *,
+                 record_electrostatic: bool = False) -> None:
         self.subject, self.config = subject, config
+        self.record_electrostatic = record_electrostatic
         self.db = _load_dbc(dbc)
         self.params = model_parameters(subject)
         seed = config.seed
@@ -175,11 +231,27 @@ class TrialGenerator:
             self.nodes.append(_Node(name, self.db.get_message_by_name(name), rate_eff,
                                     float(clock_rng.uniform(0, 1 / rate_eff))))
         self.strokes = Strokes.draw(subject, config.duration_s,
-                                    np.random.default_rng([seed, _S_STROKE]))
+                                    np.random.default_rng([seed, _S_STROKE]),
+                                    np.random.default_rng([seed, _S_DWELL]))
+        self.contact = Contact.draw(subject, config.tare_s, config.duration_s,
+                                    np.random.default_rng([seed, _S_LIFT]))
+        phases = np.random.default_rng([seed, _S_HUM]).uniform(0, 2 * np.pi, 4)
+        self.zeros = {
+            "normal": CellZero(config.fz_offset_N, config.fz_drift_N_per_s,
+                               config.fz_thermal_N, config.thermal_time_s, config.fz_hum_N,
+                               config.mains_Hz, (float(phases[0]), float(phases[1]))),
+            "tangential": CellZero(config.fx_offset_N, config.fx_drift_N_per_s,
+                                   config.fx_thermal_N, config.thermal_time_s,
+                                   config.fx_hum_N, config.mains_Hz,
+                                   (float(phases[2]), float(phases[3]))),
+        }
         self.force = NormalForceProcess(subject, np.random.default_rng([seed, _S_FORCE0]))
         self.foreign_frames = 0
         self._sums = {"fn_on": 0.0, "n_on": 0, "fn_off": 0.0, "n_off": 0, "fel": 0.0,
                       "n_fel": 0}
+        self._fel_sum: list[npt.NDArray[np.float64]] = []
+        self._fel_count: list[npt.NDArray[np.int64]] = []
+        self._first_rx: float | None = None
         self._carry = FrameTable.empty(channel=config.channel)
         self._chunk = 0
         self._done = False
@@ -227,6 +299,16 @@ class TrialGenerator:
             is_remote=np.zeros(n, bool), is_error=np.zeros(n, bool), is_fd=np.zeros(n, bool),
             dlc=dlc, data=data, channel=self.config.channel)
 
+    def _friction(self, t: npt.NDArray[np.float64], fn: npt.NDArray[np.float64],
+                  contact: npt.NDArray[np.float64]
+                  ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+        """True friction force (signed) and electrostatic force at times *t*, N, given the
+        true normal force *fn* there and the finger's contact."""
+        u = np.where(excitation_gate(t, self.config), voltage(t, self.config), 0.0)
+        fel = contact * electrostatic(np.where(contact > 0, fn / np.maximum(contact, 1e-12),
+                                               0.0), u, self.params)
+        return self.subject.mu * (fn + fel) * self.strokes.factor(t), fel
+
     # -- one chunk -----------------------------------------------------------------------
     def _chunk_frames(self, t0: float, t1: float) -> FrameTable:
         cfg, seed, c = self.config, self.config.seed, self._chunk
@@ -243,30 +325,42 @@ class TrialGenerator:
 
         fz, fx, hv = self.nodes
         tables = []
+        xtalk = cfg.crosstalk
         # normal-force cell
         k = fz.indices(t0, t1)
         t = fz.offset + k / fz.rate_eff
-        fn = fn_at(t)
+        contact = self.contact.factor(t)
+        fn = contact * fn_at(t)
         gate = excitation_gate(t, cfg)
+        full = contact >= FULL_CONTACT
         s = self._sums
-        s["fn_on"] += float(fn[gate].sum())
-        s["n_on"] += int(gate.sum())
-        s["fn_off"] += float(fn[~gate].sum())
-        s["n_off"] += int((~gate).sum())
-        values = {"Fz": fn + cfg.noise_N * noise.standard_normal(k.size),
+        s["fn_on"] += float(fn[gate & full].sum())
+        s["n_on"] += int((gate & full).sum())
+        s["fn_off"] += float(fn[~gate & full].sum())
+        s["n_off"] += int((~gate & full).sum())
+        ft = self._friction(t, fn, contact)[0] if xtalk[0][1] else 0.0
+        values = {"Fz": measured(xtalk[0], fn, ft, self.zeros["normal"], t)
+                  + cfg.noise_N * noise.standard_normal(k.size),
                   "FzTemp": 24.0 + 0.5 * np.sin(2 * np.pi * t / 600.0)}
         tables.append(self._frames(fz, k, self._rx_times(fz, t, noise), values, drop))
         # tangential-force cell
         k = fx.indices(t0, t1)
         t = fx.offset + k / fx.rate_eff
-        fn = fn_at(t)
-        u = np.where(excitation_gate(t, cfg), voltage(t, cfg), 0.0)
-        fel = electrostatic(fn, u, self.params)
+        contact = self.contact.factor(t)
+        fn = contact * fn_at(t)
+        ft, fel = self._friction(t, fn, contact)
         on = excitation_gate(t, cfg)
-        s["fel"] += float(fel[on].sum())
-        s["n_fel"] += int(on.sum())
-        ft = self.subject.mu * (fn + fel) * self.strokes.factor(t)
-        values = {"Fx": ft + cfg.noise_N * noise.standard_normal(k.size),
+        full = contact >= FULL_CONTACT
+        s["fel"] += float(fel[on & full].sum())
+        s["n_fel"] += int((on & full).sum())
+        if self.record_electrostatic:
+            b0 = round(t0 / FEL_BIN_S)
+            bins = np.floor(t / FEL_BIN_S).astype(np.int64) - b0
+            size = max(round(t1 / FEL_BIN_S) - b0, int(bins.max()) + 1 if bins.size else 0)
+            self._fel_sum.append(np.bincount(bins, weights=fel, minlength=size)[:size])
+            self._fel_count.append(np.bincount(bins, minlength=size)[:size])
+        values = {"Fx": measured(xtalk[1], fn, ft, self.zeros["tangential"], t)
+                  + cfg.noise_N * noise.standard_normal(k.size),
                   "FxTemp": 24.5 + 0.5 * np.sin(2 * np.pi * t / 700.0)}
         tables.append(self._frames(fx, k, self._rx_times(fx, t, noise), values, drop))
         # amplifier status
@@ -298,6 +392,8 @@ class TrialGenerator:
             cut = len(table) if last else int(np.searchsorted(table.timestamp, t1, "left"))
             self._carry = table.take(np.arange(cut, len(table)))
             out = table.take(np.arange(cut))
+            if self._first_rx is None and len(out):
+                self._first_rx = float(out.timestamp[0])
             out.timestamp = out.timestamp + cfg.start_time
             yield out
         self._done = True
@@ -322,7 +418,36 @@ class TrialGenerator:
                             "clock_offset_s": n.offset, "frames": n.frames,
                             "dropped": n.dropped} for n in self.nodes},
             foreign_frames=self.foreign_frames,
+            lifted=self.contact.lifted(cfg.duration_s),
+            contact_lost=self.contact.periods(cfg.duration_s),
+            steady=self._steady(),
+            cells={name: {"offset_N": z.offset_N, "drift_N_per_s": z.drift_N_per_s,
+                          "thermal_N": z.thermal_N, "thermal_time_s": z.thermal_time_s,
+                          "hum_N": z.hum_N, "mains_Hz": z.mains_Hz,
+                          "mean_offset_N": z.mean_offset(0.0, cfg.duration_s)}
+                   for name, z in self.zeros.items()},
+            crosstalk=[list(row) for row in cfg.crosstalk],
+            calibration_matrix=np.linalg.inv(np.asarray(cfg.crosstalk)).tolist(),
+            first_frame_s=self._first_rx,
+            fel_sum=np.concatenate(self._fel_sum) if self._fel_sum else None,
+            fel_count=np.concatenate(self._fel_count) if self._fel_count else None,
         )
+
+    def _steady(self) -> list[tuple[float, float, int, bool]]:
+        """Steady sliding in one condition: slides less contact losses, cut at switches."""
+        lost = self.contact.periods(self.config.duration_s)
+        out = []
+        for a, b, d in self.strokes.slides(self.config.duration_s):
+            pieces = [(a, b)]
+            for la, lb in lost:
+                pieces = [q for p0, p1 in pieces
+                          for q in ((p0, min(p1, la)), (max(p0, lb), p1)) if q[1] > q[0]]
+            for p0, p1 in pieces:
+                for s0, s1, on in on_off_schedule(self.config):
+                    lo, hi = max(p0, s0), min(p1, s1)
+                    if hi > lo:
+                        out.append((lo, hi, d, on))
+        return out
 
 
 def simulate_trial(subject: SubjectParams | None = None, config: TrialConfig | None = None,
@@ -345,7 +470,8 @@ def simulate_trial(subject: SubjectParams | None = None, config: TrialConfig | N
     truth : TrialTruth
         What the analysis should recover.
     """
-    gen = TrialGenerator(subject or SubjectParams(), config or TrialConfig(), dbc)
+    gen = TrialGenerator(subject or SubjectParams(), config or TrialConfig(), dbc,
+                         record_electrostatic=True)
     frames = FrameTable.concat(list(gen.chunks()))
     frames.channel = gen.config.channel
     return frames, gen.truth()

@@ -1,9 +1,15 @@
-"""The physics of the simulated trial: finger strokes, the pressing force, the voltage.
+"""The physics of the simulated trial: finger strokes, contact, the pressing force, the voltage,
+and what the load cells add to it.
 
 Everything here is a function of the trial's true time ``t`` (s from the trial's start); the
 load cells sample it on their own clocks. The electrostatic force comes from
 :func:`evtribo.model.electrostatic_force` with the subject's air gap; friction is Coulomb's,
-``mu * (F_n + F_el(U(t)))``, with the sign of the sliding direction.
+``mu * (F_n + F_el(U(t)))``, with the sign of the sliding direction. While the finger is off
+the screen (:class:`Contact`: the tare stretch at the start, lift-offs) both forces are zero.
+
+The cells do not read the true forces (:class:`CellZero`, :func:`measured`): each has a zero
+offset that drifts (linearly and with a slow thermal settling), picks up mains hum, and the
+two axes leak into each other through a cross-talk matrix.
 """
 
 from __future__ import annotations
@@ -20,10 +26,14 @@ from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.model import TABLE_1, ModelParameters, electrostatic_force
 
 __all__ = [
+    "CONTACT_RAMP_S",
+    "CellZero",
+    "Contact",
     "NormalForceProcess",
     "Strokes",
     "electrostatic",
     "excitation_gate",
+    "measured",
     "model_parameters",
     "on_off_schedule",
     "voltage",
@@ -36,6 +46,12 @@ FORCE_STEP_S = 1e-3
 #: Correlation time and relative size of the fast wobble on top of the slow drift.
 WOBBLE_TIME_S = 0.1
 WOBBLE_FRACTION = 0.25
+#: Time the finger takes to leave the screen, and to come back into full contact, s.
+CONTACT_RAMP_S = 0.08
+#: Shortest time in contact between two lift-offs, s.
+MIN_CONTACT_S = 1.0
+#: Largest magnitude of the friction force's rest level during a dwell (fraction of sliding).
+DWELL_LEVEL = 0.15
 
 
 def model_parameters(subject: SubjectParams) -> ModelParameters:
@@ -121,9 +137,11 @@ def on_off_schedule(config: TrialConfig) -> list[tuple[float, float, bool]]:
 class Strokes:
     """The finger's strokes: slides at constant speed separated by reversals.
 
-    During a slide the friction force has the sign of ``direction``; during the reversal
-    that follows, the finger sticks and the force swings through zero (as ``cos``) to the
-    opposite sign.
+    During a slide the friction force has the sign of ``direction``. In the reversal that
+    follows, the finger sticks and the force swings through zero to the opposite sign as
+    ``cos(pi p) + r sin(pi p)`` with ``p`` going from 0 to 1 in ``reversal_s``, except that a
+    person may rest at the turning point: ``p`` then stays at 1/2 for the reversal's dwell,
+    while the force rests at ``r`` (a small level of either sign, the skin's relaxed shear).
 
     Attributes
     ----------
@@ -132,32 +150,55 @@ class Strokes:
     direction : ndarray of +1/-1
         Sign of the friction force during each slide.
     reversal_s : float, s
+    dwell : ndarray, s
+        Rest at the reversal after each slide.
+    rest_level : ndarray
+        ``r`` of each reversal.
     """
 
     slide_start: FloatArray
     slide_end: FloatArray
     direction: FloatArray
     reversal_s: float
+    dwell: FloatArray
+    rest_level: FloatArray
 
     @classmethod
-    def draw(cls, subject: SubjectParams, duration_s: float,
-             rng: np.random.Generator) -> Strokes:
-        """Strokes covering ``[0, duration_s]``, starting at a random point of a slide."""
+    def draw(cls, subject: SubjectParams, duration_s: float, rng: np.random.Generator,
+             dwell_rng: np.random.Generator | None = None) -> Strokes:
+        """Strokes covering ``[0, duration_s]``, starting at a random point of a slide.
+
+        The dwells and rest levels come from *dwell_rng* (only drawn when the subject
+        dwells, so that a subject without dwells gets the same strokes for a seed as ever).
+        """
         base = subject.stroke_length_m / subject.sliding_speed_m_s
         shortest = base * (1 - subject.stroke_jitter) + subject.reversal_s
         n = math.ceil(duration_s / shortest) + 2
         slides = base * (1 + subject.stroke_jitter * rng.uniform(-1, 1, n))
         first = -rng.uniform(0, 1) * slides[0]
-        start = first + np.concatenate([[0.0], np.cumsum(slides + subject.reversal_s)[:-1]])
+        if subject.dwell_s > 0:
+            drng = dwell_rng or rng
+            dwell = drng.uniform(0.0, 2.0 * subject.dwell_s, n)
+            rest = drng.uniform(-DWELL_LEVEL, DWELL_LEVEL, n)
+        else:
+            dwell, rest = np.zeros(n), np.zeros(n)
+        start = first + np.concatenate(
+            [[0.0], np.cumsum(slides + subject.reversal_s + dwell)[:-1]])
         direction = np.where(np.arange(n) % 2 == 0, 1.0, -1.0) * rng.choice([-1.0, 1.0])
-        return cls(start, start + slides, direction, subject.reversal_s)
+        return cls(start, start + slides, direction, subject.reversal_s, dwell, rest)
 
     def factor(self, t: FloatArray) -> FloatArray:
         """Signed fraction of full sliding friction at times *t* (-1 to 1)."""
         i = np.clip(np.searchsorted(self.slide_start, t, side="right") - 1, 0,
                     len(self.slide_start) - 1)
-        tau = (t - self.slide_end[i]) / self.reversal_s
-        return self.direction[i] * np.where(tau <= 0, 1.0, np.cos(np.pi * np.clip(tau, 0, 1)))
+        tau = t - self.slide_end[i]
+        half = 0.5 * self.reversal_s
+        dwell = self.dwell[i]
+        # phase of the reversal: 0 at the slide's end, 1/2 through the dwell, 1 at the next
+        p = np.where(tau <= half, tau, np.maximum(tau - dwell, half)) / self.reversal_s
+        p = np.clip(p, 0.0, 1.0)
+        swing = np.cos(np.pi * p) + self.rest_level[i] * np.sin(np.pi * p)
+        return self.direction[i] * np.where(tau <= 0, 1.0, swing)
 
     def slides(self, duration_s: float) -> list[tuple[float, float, int]]:
         """Steady slides inside the trial as ``(start_s, end_s, direction)``."""
@@ -202,3 +243,136 @@ class NormalForceProcess:
                 self._state[c] = y[-1]
         self.index += n
         return out
+
+
+@dataclass
+class Contact:
+    """Whether the finger touches the screen: 1 in contact, 0 off, ramps in between.
+
+    The finger is off for the trial's tare stretch (from the start to ``tare_s``) and during
+    lift-offs. Each off-period ``(a, b)`` starts leaving contact at ``a`` (fully off at
+    ``a + CONTACT_RAMP_S``) and is back in full contact at ``b`` (touching from
+    ``b - CONTACT_RAMP_S``).
+
+    Attributes
+    ----------
+    start, end : ndarray, s
+        The off-periods, sorted and disjoint (the tare stretch's starts before 0).
+    """
+
+    start: FloatArray
+    end: FloatArray
+
+    @classmethod
+    def draw(cls, subject: SubjectParams, tare_s: float, duration_s: float,
+             rng: np.random.Generator) -> Contact:
+        """The tare stretch, then lift-offs at the subject's rate (Poisson), each one
+        ``lift_s`` long on average, at least :data:`MIN_CONTACT_S` of contact apart."""
+        starts: list[float] = []
+        ends: list[float] = []
+        if tare_s > 0:
+            starts.append(-CONTACT_RAMP_S)
+            ends.append(tare_s + CONTACT_RAMP_S)
+        rate = subject.lifts_per_min / 60.0
+        t = (ends[-1] if ends else 0.0) + MIN_CONTACT_S
+        while rate > 0:
+            t += float(rng.exponential(1.0 / rate))
+            if t >= duration_s:
+                break
+            off = subject.lift_s * float(rng.uniform(0.5, 1.5)) + 2 * CONTACT_RAMP_S
+            starts.append(t)
+            ends.append(t + off)
+            t += off + MIN_CONTACT_S
+        return cls(np.asarray(starts, dtype=np.float64), np.asarray(ends, dtype=np.float64))
+
+    def factor(self, t: FloatArray) -> FloatArray:
+        """Contact at times *t*: 1 touching, 0 off the screen, linear ramps in between."""
+        t = np.asarray(t, dtype=np.float64)
+        out = np.ones(t.shape)
+        if self.start.size == 0:
+            return out
+        i = np.searchsorted(self.start, t, side="right") - 1
+        inside = (i >= 0) & (t < self.end[np.clip(i, 0, None)])
+        a, b = self.start[i[inside]], self.end[i[inside]]
+        ti = t[inside]
+        out[inside] = np.clip(np.maximum(a + CONTACT_RAMP_S - ti, ti - (b - CONTACT_RAMP_S))
+                              / CONTACT_RAMP_S, 0.0, 1.0)
+        return out
+
+    def periods(self, duration_s: float) -> list[tuple[float, float]]:
+        """Off-periods inside the trial as ``(start_s, end_s)``, ramps included."""
+        return [(max(float(a), 0.0), min(float(b), duration_s))
+                for a, b in zip(self.start, self.end, strict=True) if b > 0 and a < duration_s]
+
+    def lifted(self, duration_s: float) -> list[tuple[float, float]]:
+        """Stretches with the finger fully off the screen, as ``(start_s, end_s)``."""
+        out = []
+        for a, b in zip(self.start, self.end, strict=True):
+            lo, hi = max(float(a) + CONTACT_RAMP_S, 0.0), min(float(b) - CONTACT_RAMP_S,
+                                                              duration_s)
+            if hi > lo:
+                out.append((lo, hi))
+        return out
+
+
+@dataclass(frozen=True)
+class CellZero:
+    """What a load cell reads with no force on it: offset, drift, thermal settling, hum.
+
+    ``zero(t) = offset + drift * t + thermal * (1 - exp(-t / thermal_time)) + hum(t)``, the
+    hum a sine at the mains frequency with a third harmonic of a fifth of its amplitude.
+
+    Attributes
+    ----------
+    offset_N : float, N
+    drift_N_per_s : float, N/s
+    thermal_N : float, N
+    thermal_time_s : float, s
+    hum_N : float, N
+    mains_Hz : float, Hz
+    hum_phase : tuple of float, rad
+        Phases of the fundamental and of the third harmonic.
+    """
+
+    offset_N: float = 0.0
+    drift_N_per_s: float = 0.0
+    thermal_N: float = 0.0
+    thermal_time_s: float = 60.0
+    hum_N: float = 0.0
+    mains_Hz: float = 50.0
+    hum_phase: tuple[float, float] = (0.0, 0.0)
+
+    def offset(self, t: npt.ArrayLike) -> FloatArray:
+        """The zero without the hum at times *t* (s), N."""
+        t = np.asarray(t, dtype=np.float64)
+        return (self.offset_N + self.drift_N_per_s * t
+                + self.thermal_N * -np.expm1(-t / self.thermal_time_s))
+
+    def mean_offset(self, t0: float, t1: float) -> float:
+        """Mean of :meth:`offset` over ``[t0, t1]`` (s), N."""
+        if t1 <= t0:
+            return float(self.offset(t0))
+        tau = self.thermal_time_s
+        thermal = 1.0 + tau * (math.exp(-t1 / tau) - math.exp(-t0 / tau)) / (t1 - t0)
+        return (self.offset_N + self.drift_N_per_s * 0.5 * (t0 + t1)
+                + self.thermal_N * thermal)
+
+    def hum(self, t: npt.ArrayLike) -> FloatArray:
+        """The mains hum at times *t* (s), N."""
+        t = np.asarray(t, dtype=np.float64)
+        if self.hum_N == 0:
+            return np.zeros(t.shape)
+        w = 2 * np.pi * self.mains_Hz * t
+        return self.hum_N * (np.sin(w + self.hum_phase[0])
+                             + 0.2 * np.sin(3 * w + self.hum_phase[1]))
+
+    def __call__(self, t: npt.ArrayLike) -> FloatArray:
+        return self.offset(t) + self.hum(t)
+
+
+def measured(row: tuple[float, float], normal_N: npt.ArrayLike, tangential_N: npt.ArrayLike,
+             zero: CellZero, t: npt.ArrayLike) -> FloatArray:
+    """One cell's reading: its row of the cross-talk matrix applied to the true forces, plus
+    its zero (noise is added by the caller), N."""
+    return (row[0] * np.asarray(normal_N, dtype=np.float64)
+            + row[1] * np.asarray(tangential_N, dtype=np.float64) + zero(t))

@@ -1,0 +1,210 @@
+"""The analysis's settings: defaults, ``[analysis]`` of study.toml, and overrides.
+
+:class:`AnalysisSettings` is the one place the defaults live; ``analysis/default.toml`` at the
+top of the repository lists every key with its default and meaning (a test keeps the two
+equal). A study overrides them in the ``[analysis]`` table of its study.toml, and the command
+line overrides both (``evtribo analyze --tare none --set guard_s=0.3``). Every key is checked:
+an unknown key (``guard_sec``) or a value of the wrong type or range stops with the file,
+the line and the key, and the closest valid name.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass, fields
+from typing import Any
+
+from evtribo.errors import ConfigError, toml_key_line
+
+__all__ = ["SETTING_HELP", "TARE_MODES", "AnalysisSettings", "parse_setting"]
+
+#: Values of ``tare``: how the load cells' zero offsets are found (see :mod:`.tare`).
+TARE_MODES = ("auto", "lifted", "friction-loop", "calibration", "none")
+
+#: One line per key: its meaning (``analysis/default.toml`` carries the same words).
+SETTING_HELP = {
+    "tare": "how the load cells' zero offsets are removed: auto (calibration, then the "
+            "finger-lifted stretches, then the friction loop), lifted, friction-loop, "
+            "calibration ([rig.calibration] only) or none",
+    "guard_s": "time excluded on each side of an ON/OFF switch, s",
+    "smooth_s": "moving-average span for finding strokes, s (at least a period of a sine "
+                "drive)",
+    "min_window_s": "shortest steady-sliding window kept, s",
+    "max_window_s": "longest window; longer steady runs are split, s",
+    "confidence": "coverage of the confidence intervals",
+    "n_boot": "bootstrap replicates of the electrostatic force",
+    "seed": "seed of the bootstrap",
+    "remove_hum": "find mains hum (50/60 Hz and harmonics) on the load cells and notch it out",
+    "min_lift_s": "shortest finger-lifted stretch used to tare the load cells, s",
+    "max_gap_periods": "a pause of a load cell longer than this many sample periods is a "
+                       "gap, never interpolated through",
+    "trace_off_s": "sine trace for the model comparison: seconds before a switch to ON",
+    "trace_on_s": "sine trace: seconds after the switch",
+    "trace_rate_Hz": "highest sample rate of the sine trace, Hz",
+}
+
+
+@dataclass(frozen=True)
+class AnalysisSettings:
+    """Tunable constants of the analysis (all times in s).
+
+    Attributes
+    ----------
+    tare : {"auto", "lifted", "friction-loop", "calibration", "none"}
+        How the load cells' zero offsets are removed (:mod:`evtribo.analysis.tare`).
+    guard_s : float, s
+        Excluded on both sides of an ON/OFF switch.
+    smooth_s : float, s
+        Moving-average span for finding strokes; for a sine drive at least one period of
+        the drive (two of the friction's modulation) is used.
+    min_window_s, max_window_s : float, s
+        Shortest window kept, longest window (longer steady runs are split).
+    confidence : float
+        Coverage of the intervals.
+    n_boot : int
+        Bootstrap replicates of the electrostatic force.
+    seed : int
+        Seed of the bootstrap.
+    remove_hum : bool
+        Notch out mains hum found on the load cells.
+    min_lift_s : float, s
+        Shortest finger-lifted stretch used for taring.
+    max_gap_periods : float
+        A pause of a load cell longer than this many sample periods is a gap.
+    trace_off_s, trace_on_s : float, s
+        Extent of the sine trace written for the model comparison (sine_trace.csv): this
+        long before and after a switch from OFF to ON.
+    trace_rate_Hz : float, Hz
+        Highest sample rate of the sine trace (block means of the aligned forces).
+    """
+
+    tare: str = "auto"
+    guard_s: float = 0.15
+    smooth_s: float = 0.1
+    min_window_s: float = 0.2
+    max_window_s: float = 1.0
+    confidence: float = 0.95
+    n_boot: int = 2000
+    seed: int = 0
+    remove_hum: bool = True
+    min_lift_s: float = 0.2
+    max_gap_periods: float = 5.0
+    trace_off_s: float = 0.5
+    trace_on_s: float = 1.0
+    trace_rate_Hz: float = 1000.0
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            object.__setattr__(self, f.name, _checked(f.name, getattr(self, f.name)))
+        if self.max_window_s < self.min_window_s:
+            raise ConfigError(f"{self.max_window_s!r} is not allowed: must be >= min_window_s "
+                              f"({self.min_window_s!r})", key="max_window_s")
+
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as a JSON-ready mapping."""
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    def updated(self, values: Mapping[str, Any], *, source: str | os.PathLike[str] | None = None,
+                table: str = "analysis", text: str | None = None) -> AnalysisSettings:
+        """These settings with *values* replacing some of them.
+
+        Parameters
+        ----------
+        values : mapping
+            ``{key: value}``, as in ``[analysis]`` of study.toml.
+        source : path-like, optional
+            The file the values come from, named in errors.
+        table : str
+            Their table, named in errors (``analysis.guard_s``).
+        text : str, optional
+            The file's text, to name the line of a key at fault.
+
+        Raises
+        ------
+        ConfigError
+            An unknown key (with the closest valid name) or a bad value.
+        """
+        names = [f.name for f in fields(self)]
+        src = None if source is None else os.fspath(source)
+
+        def where(key: str) -> dict[str, Any]:
+            line = toml_key_line(text, table, key) if text is not None else None
+            return {"path": src, "line": line, "key": f"{table}.{key}" if table else key}
+
+        for key in values:
+            if key not in names:
+                close = difflib.get_close_matches(key, names, n=1, cutoff=0.5)
+                hint = f"did you mean {close[0]!r}? " if close else ""
+                raise ConfigError(f"unknown setting; {hint}known: {', '.join(names)}",
+                                  **where(key))
+        try:
+            return dataclasses.replace(self, **dict(values))
+        except ConfigError as err:
+            key = err.key or ""
+            raise ConfigError(err.message, **where(key)) from err
+
+
+def _checked(name: str, value: Any) -> Any:
+    """*value* for setting *name*, of the right type and range, or ConfigError."""
+    kind = {f.name: f.type for f in fields(AnalysisSettings)}[name]
+    if kind == "str":
+        if value not in TARE_MODES:
+            raise ConfigError(f"{value!r} is not allowed: choose one of "
+                              f"{', '.join(TARE_MODES)}", key=name)
+        return value
+    if kind == "bool":
+        if not isinstance(value, bool):
+            raise ConfigError(f"expected true or false, got {value!r}", key=name)
+        return value
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ConfigError(f"expected a number, got {value!r}", key=name)
+    if kind == "int":
+        if value != int(value):
+            raise ConfigError(f"expected a whole number, got {value!r}", key=name)
+        value = int(value)
+    elif not math.isfinite(value):
+        raise ConfigError(f"expected a finite number, got {value!r}", key=name)
+    else:
+        value = float(value)
+    low, strict = _RANGES.get(name, (0.0, True))
+    if value < low or (strict and value == low):
+        raise ConfigError(f"{value!r} is not allowed: must be {'>' if strict else '>='} "
+                          f"{low:g}", key=name)
+    if name == "confidence" and value >= 1:
+        raise ConfigError(f"{value!r} is not allowed: must be between 0 and 1", key=name)
+    return value
+
+
+#: Lowest value of each numeric setting, and whether it is excluded (default: > 0).
+_RANGES = {"guard_s": (0.0, False), "seed": (0.0, False), "n_boot": (10.0, False)}
+
+
+def parse_setting(text: str) -> tuple[str, Any]:
+    """``"guard_s=0.3"`` to ``("guard_s", 0.3)`` (numbers, true/false, or a word).
+
+    Raises
+    ------
+    ConfigError
+        No ``=``.
+    """
+    key, sep, raw = text.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise ConfigError(f"expected KEY=VALUE, got {text!r}", key=key or text)
+    raw = raw.strip()
+    value: Any
+    if raw.lower() in ("true", "false"):
+        value = raw.lower() == "true"
+    else:
+        try:
+            value = int(raw)
+        except ValueError:
+            try:
+                value = float(raw)
+            except ValueError:
+                value = raw
+    return key, value
