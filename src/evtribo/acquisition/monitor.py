@@ -1,5 +1,9 @@
 """Live display while a trial records: the normal force against its target band, and the bus.
 
+A trial may start with a tare stretch (``evtribo acquire --tare-s``): for its first seconds
+the display asks the operator to keep the finger off the screen (``LIFT THE FINGER``), then
+to slide (``SLIDE``); the analysis takes the load cells' zero offsets from that stretch.
+
 The display runs in its own thread, reading the writer's :class:`~evtribo.acquisition.logger.
 LogStats` a few times a second (never in the receive path). On a terminal it redraws a small
 block with ANSI escapes; on a pipe or file it writes one line every few seconds.
@@ -19,7 +23,7 @@ from evtribo.acquisition.logger import LogStats, frame_key
 
 log = logging.getLogger(__name__)
 
-_GREEN, _RED, _RESET = "\x1b[32m", "\x1b[31m", "\x1b[0m"
+_GREEN, _RED, _YELLOW, _RESET = "\x1b[32m", "\x1b[31m", "\x1b[33m", "\x1b[0m"
 
 
 @dataclass
@@ -36,6 +40,9 @@ class Snapshot:
     rates_Hz : dict
         Frames per second per message name (``"other"`` for frames the rig does not describe).
     frames, dropped, bus_errors : int
+    tare_left_s : float or None, s
+        Time left of the tare stretch (finger lifted): positive while it lasts, 0 once it is
+        over, None for a trial without one.
     """
 
     elapsed_s: float
@@ -46,6 +53,17 @@ class Snapshot:
     frames: int = 0
     dropped: int = 0
     bus_errors: int = 0
+    tare_left_s: float | None = None
+
+
+def instruction(snap: Snapshot) -> str:
+    """What the operator should do now: ``LIFT THE FINGER`` during the tare stretch,
+    ``SLIDE`` after it, nothing for a trial without one."""
+    if snap.tare_left_s is None:
+        return ""
+    if snap.tare_left_s > 0:
+        return f"LIFT THE FINGER off the screen (taring, {snap.tare_left_s:.1f} s)"
+    return "SLIDE"
 
 
 def band_state(value: float | None, target: float, band: float) -> str:
@@ -122,13 +140,21 @@ def render_status(snap: Snapshot, *, target: float | None = None, band: float = 
         First words of the first line (``P01/run-01``).
     """
     remaining = "" if snap.remaining_s is None else f"   remaining {snap.remaining_s:6.1f} s"
-    lines = [f"{title}   elapsed {snap.elapsed_s:6.1f} s{remaining}".strip()]
+    todo = instruction(snap)
+    if todo:
+        lifting = todo != "SLIDE"
+        todo = f"   >> {todo} <<"
+        if colour:
+            todo = (_YELLOW if lifting else _GREEN) + todo + _RESET
+    lines = [f"{title}   elapsed {snap.elapsed_s:6.1f} s{remaining}{todo}".strip()]
     normal = f"normal force     {_fmt(snap.normal_force_N)}"
     if target is not None:
         state = band_state(snap.normal_force_N, target, band)
         word = {"in": "IN BAND", "low": "TOO LOW", "high": "TOO HIGH", "none": "NO DATA"}[state]
+        if snap.tare_left_s is not None and snap.tare_left_s > 0 and state != "none":
+            state, word = "tare", "TARING"
         if colour:
-            word = (_GREEN if state == "in" else _RED) + word + _RESET
+            word = (_GREEN if state in ("in", "tare") else _RED) + word + _RESET
         normal += (f"  {render_band(snap.normal_force_N, target, band, width)}  {word}"
                    f"  (target {target:.3f} ± {band:.3f} N)")
     lines.append(normal)
@@ -146,8 +172,10 @@ def render_line(snap: Snapshot, *, target: float | None = None, band: float = 0.
         fn += f" ({band_state(snap.normal_force_N, target, band)})"
     ft = "--" if snap.tangential_force_N is None else f"{snap.tangential_force_N:.3f} N"
     total = sum(snap.rates_Hz.values())
+    todo = instruction(snap)
     return (f"t={snap.elapsed_s:.1f} s  Fn={fn}  Ft={ft}  frames={snap.frames} "
-            f"({total:.0f}/s)  dropped={snap.dropped}  bus errors={snap.bus_errors}")
+            f"({total:.0f}/s)  dropped={snap.dropped}  bus errors={snap.bus_errors}"
+            + (f"  {todo}" if todo else ""))
 
 
 class Monitor:
@@ -169,11 +197,15 @@ class Monitor:
         Refresh period on a terminal; a line every ``line_interval`` s otherwise.
     title : str
         Shown on the first line.
+    tare_s : float, s
+        Length of the tare stretch at the start (0: none): the display asks for the finger
+        to be lifted that long, then to slide.
     """
 
     def __init__(self, rig: Any, stream: TextIO, *, duration: float | None = None,
                  target: float | None = None, band: float = 0.1, tty: bool | None = None,
-                 interval: float = 0.25, line_interval: float = 5.0, title: str = "") -> None:
+                 interval: float = 0.25, line_interval: float = 5.0, title: str = "",
+                 tare_s: float = 0.0) -> None:
         self.rig = rig
         self.stream = stream
         self.duration = duration
@@ -182,6 +214,7 @@ class Monitor:
         self.tty = stream.isatty() if tty is None else tty
         self.interval = interval if self.tty else line_interval
         self.title = title
+        self.tare_s = tare_s
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._stats: LogStats | None = None
@@ -204,6 +237,10 @@ class Monitor:
         self._stats = stats
         self._t0 = time.monotonic() if t0 is None else t0
         self._last = (self._t0, {})
+        if self.tare_s > 0 and not self.tty:  # a pipe or a file: say it at once
+            self.stream.write(f"lift the finger off the screen for {self.tare_s:g} s "
+                              "(taring), then slide\n")
+            self.stream.flush()
         self._thread = threading.Thread(target=self._run, name="evtribo-monitor", daemon=True)
         self._thread.start()
         return self
@@ -255,11 +292,12 @@ class Monitor:
         self._last = (now, counts)
         latest = dict(stats.latest)
         remaining = None if self.duration is None else max(self.duration - elapsed, 0.0)
+        tare_left = max(self.tare_s - elapsed, 0.0) if self.tare_s > 0 else None
         return Snapshot(elapsed_s=elapsed, remaining_s=remaining,
                         normal_force_N=self._decode(latest, self._forces[0]),
                         tangential_force_N=self._decode(latest, self._forces[1]),
                         rates_Hz=rates, frames=stats.frames, dropped=stats.dropped,
-                        bus_errors=stats.error_frames)
+                        bus_errors=stats.error_frames, tare_left_s=tare_left)
 
     def _draw(self, final: bool = False) -> None:
         snap = self.snapshot(final)
@@ -276,4 +314,5 @@ class Monitor:
         self._drawn = len(lines)
 
 
-__all__ = ["Monitor", "Snapshot", "band_state", "render_band", "render_line", "render_status"]
+__all__ = ["Monitor", "Snapshot", "band_state", "instruction", "render_band", "render_line",
+           "render_status"]

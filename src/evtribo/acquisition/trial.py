@@ -63,6 +63,9 @@ class TrialInfo:
     condition : str or None
         ``"on"``, ``"off"`` or ``"alternating"``.
     notes : str or None
+    tare_s : float or None, s
+        The finger was kept off the screen for this long at the start (the tare stretch
+        the analysis takes the load cells' zero offsets from).
     """
 
     waveform: str | None = None
@@ -70,6 +73,7 @@ class TrialInfo:
     amplitude_V: float | None = None
     condition: str | None = None
     notes: str | None = None
+    tare_s: float | None = None
 
     def check(self) -> None:
         """Raise SidecarError (with the key) for a value outside what spec §1 allows."""
@@ -79,7 +83,7 @@ class TrialInfo:
         if self.condition is not None and self.condition not in CONDITIONS:
             raise SidecarError(f"unknown condition {self.condition!r}; allowed: "
                                f"{', '.join(CONDITIONS)}", key="condition")
-        for key in ("frequency_Hz", "amplitude_V"):
+        for key in ("frequency_Hz", "amplitude_V", "tare_s"):
             value = getattr(self, key)
             if value is not None and not (isinstance(value, (int, float))
                                           and math.isfinite(value) and value >= 0):

@@ -18,6 +18,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
+from evtribo.analysis.align import DEFAULT_MAX_GAP_PERIODS
+from evtribo.analysis.conditions import DEFAULT_GUARD_S
+from evtribo.analysis.estimate import DEFAULT_CONFIDENCE, DEFAULT_N_BOOT
+from evtribo.analysis.windows import DEFAULT_MAX_WINDOW_S, DEFAULT_MIN_WINDOW_S, DEFAULT_SMOOTH_S
 from evtribo.errors import ConfigError, toml_key_line
 
 __all__ = ["SETTING_HELP", "TARE_MODES", "AnalysisSettings", "parse_setting"]
@@ -83,16 +87,16 @@ class AnalysisSettings:
     """
 
     tare: str = "auto"
-    guard_s: float = 0.15
-    smooth_s: float = 0.1
-    min_window_s: float = 0.2
-    max_window_s: float = 1.0
-    confidence: float = 0.95
-    n_boot: int = 2000
+    guard_s: float = DEFAULT_GUARD_S
+    smooth_s: float = DEFAULT_SMOOTH_S
+    min_window_s: float = DEFAULT_MIN_WINDOW_S
+    max_window_s: float = DEFAULT_MAX_WINDOW_S
+    confidence: float = DEFAULT_CONFIDENCE
+    n_boot: int = DEFAULT_N_BOOT
     seed: int = 0
     remove_hum: bool = True
     min_lift_s: float = 0.2
-    max_gap_periods: float = 5.0
+    max_gap_periods: float = DEFAULT_MAX_GAP_PERIODS
     trace_off_s: float = 0.5
     trace_on_s: float = 1.0
     trace_rate_Hz: float = 1000.0

@@ -25,6 +25,9 @@ from evtribo.errors import ConfigError, OutputExistsError
 
 log = logging.getLogger(__name__)
 
+#: Finger-lifted stretch at the start of a trial, s.
+DEFAULT_TARE_S = 1.5
+
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``evtribo acquire``."""
@@ -41,6 +44,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--trial", required=True, help="trial name, e.g. run-01")
     p.add_argument("--duration", type=float, default=None, metavar="S",
                    help="recording time in s (default: until Ctrl-C / SIGTERM)")
+    p.add_argument("--tare-s", type=float, default=None, metavar="S",
+                   help="the first S seconds are recorded with the finger lifted off the "
+                        "screen (the display says when to slide); the analysis takes the "
+                        f"load cells' zero offsets from them (default {DEFAULT_TARE_S:g}, at "
+                        "most half of --duration; 0: no tare)")
     bus = p.add_argument_group("bus (python-can's configuration file/environment when omitted)")
     bus.add_argument("--interface", help="python-can interface: socketcan, slcan, slcan_bulk, "
                      "pcan, kvaser, virtual...")
@@ -105,7 +113,8 @@ class _Signals:
 
 def _check_finite(args: argparse.Namespace) -> None:
     """Non-finite numbers (``inf``, ``nan``) would run forever or break the sidecar."""
-    for flag in ("--duration", "--frequency", "--amplitude", "--target-force", "--band"):
+    for flag in ("--duration", "--frequency", "--amplitude", "--target-force", "--band",
+                 "--tare-s"):
         value = getattr(args, flag[2:].replace("-", "_"))
         if value is not None and not math.isfinite(value):
             raise ConfigError(f"expected a finite number, got {value}", key=flag)
@@ -120,8 +129,15 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError(f"expected a positive duration, got {args.duration}", key="--duration")
     if args.band < 0:
         raise ConfigError(f"expected a band >= 0 N, got {args.band}", key="--band")
+    if args.tare_s is None:
+        args.tare_s = DEFAULT_TARE_S if args.duration is None else min(DEFAULT_TARE_S,
+                                                                         args.duration / 2)
+    elif args.tare_s < 0 or (args.duration is not None and args.tare_s >= args.duration):
+        raise ConfigError(f"expected a tare stretch >= 0 s and shorter than the trial, got "
+                          f"{args.tare_s}", key="--tare-s")
     info = TrialInfo(waveform=args.waveform, frequency_Hz=args.frequency,
-                     amplitude_V=args.amplitude, condition=args.condition, notes=args.notes)
+                     amplitude_V=args.amplitude, condition=args.condition, notes=args.notes,
+                     tare_s=args.tare_s)
     info.check()
     # everything the user can get wrong is checked before the bus opens and before the
     # study folder is created
@@ -137,7 +153,8 @@ def run(args: argparse.Namespace) -> int:
     monitor = None
     if not args.quiet:
         monitor = Monitor(rig, sys.stdout, duration=args.duration, target=args.target_force,
-                          band=args.band, title=f"{args.subject}/{args.trial}")
+                          band=args.band, title=f"{args.subject}/{args.trial}",
+                          tare_s=args.tare_s)
     try:
         with _Signals(flag):
             result = record_trial(

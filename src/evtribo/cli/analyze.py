@@ -7,6 +7,7 @@ import sys
 from typing import Any, TextIO
 
 from evtribo.analysis.pipeline import OUTPUT_FILES, analyze_study
+from evtribo.analysis.settings import TARE_MODES, parse_setting
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -28,6 +29,15 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--cache-dir", metavar="DIR",
                    help="cache of decoded trials (default: $EVTRIBO_CACHE_DIR or "
                         "~/.cache/evtribo)")
+    settings = p.add_argument_group(
+        "analysis settings (override the [analysis] table of study.toml; every key and its "
+        "default: analysis/default.toml)")
+    settings.add_argument("--tare", choices=TARE_MODES,
+                          help="how the load cells' zero offsets are removed (default auto: "
+                               "[rig.calibration], then the finger-lifted stretches, then the "
+                               "friction loop)")
+    settings.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                          help="any analysis setting, e.g. --set guard_s=0.3 (repeatable)")
     p.set_defaults(func=run)
     return p
 
@@ -51,9 +61,13 @@ def run(args: argparse.Namespace) -> int:
     if args.jobs is not None and args.jobs < 1:
         print("evtribo analyze: error: --jobs must be 1 or more", file=sys.stderr)
         return 2
+    overrides = dict(parse_setting(text) for text in args.set)
+    if args.tare is not None:
+        overrides["tare"] = args.tare
     progress = _ProgressBar(sys.stderr) if sys.stderr.isatty() else None
     res = analyze_study(args.study, args.out, jobs=args.jobs, strict=args.strict,
-                        force=args.force, cache_dir=args.cache_dir, progress=progress)
+                        force=args.force, cache_dir=args.cache_dir, overrides=overrides,
+                        progress=progress)
     s = res.summary
     print(f"analysed {s['trials_analysed']} of {s['trials']} trials "
           f"({s['windows_on']} ON and {s['windows_off']} OFF windows) into {res.out_dir}")

@@ -6,6 +6,13 @@ Examples::
     evtribo simulate --interface socketcan --channel vcan0 --amplitude 100 --condition on
     evtribo simulate --pty            # prints the pty's path, then acts as an slcan adapter
     evtribo simulate --study my-study --subject P01 --trial run-01   # offline, no waiting
+    evtribo simulate --study my-study --subject P01 --trial run-02 --ideal
+
+By default the rig is a real one (:mod:`evtribo.acquisition.simulator.realism`): its load
+cells have zero offsets (drawn with ``--seed`` up to +/-50 mN), drift and 50 Hz hum, the
+finger is lifted for ``--tare-s`` at the start, and the subject's strokes are a person's
+(irregular, resting at the reversals, lifting now and then). ``--ideal`` gives exact load
+cells and a machine's strokes; each of the options below sets one imperfection.
 """
 
 from __future__ import annotations
@@ -25,7 +32,8 @@ _SUBJECT_OPTIONS = {
     "mu": "--mu", "h_L": "--air-gap", "normal_force_N": "--target-force",
     "force_drift": "--force-drift", "drift_time_s": "--drift-time",
     "sliding_speed_m_s": "--speed", "stroke_length_m": "--stroke-length",
-    "reversal_s": "--reversal-time",
+    "reversal_s": "--reversal-time", "stroke_jitter": "--stroke-jitter", "dwell_s": "--dwell",
+    "lifts_per_min": "--lifts-per-min", "lift_s": "--lift-time",
 }
 _TRIAL_OPTIONS = {
     "duration_s": "--duration", "waveform": "--waveform", "frequency_Hz": "--frequency",
@@ -34,6 +42,9 @@ _TRIAL_OPTIONS = {
     "hv_rate_Hz": "--hv-rate", "fz_ppm": "--fz-ppm", "fx_ppm": "--fx-ppm",
     "hv_ppm": "--hv-ppm", "noise_N": "--noise", "jitter_s": "--jitter",
     "drop_probability": "--drop-probability", "foreign_rate_Hz": "--foreign-rate",
+    "tare_s": "--tare-s", "fz_offset_N": "--offsets", "fx_offset_N": "--offsets",
+    "fz_drift_N_per_s": "--drift", "fx_drift_N_per_s": "--drift", "fz_hum_N": "--hum",
+    "fx_hum_N": "--hum", "mains_Hz": "--mains", "crosstalk": "--crosstalk",
 }
 
 
@@ -75,17 +86,27 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     trial.add_argument("--start-on", action="store_true", help="alternate starting ON")
     trial.add_argument("--seed", type=int, default=0, help="random seed (0)")
 
-    subj = p.add_argument_group("the subject")
+    subj = p.add_argument_group(
+        "the subject (defaults: a person's strokes, drawn with --seed; with --ideal, a "
+        "machine's)")
     subj.add_argument("--mu", type=float, default=0.5, help="friction coefficient (0.5)")
     subj.add_argument("--air-gap", type=float, default=5e-6,
                       help="equivalent air gap h_L, m (5e-6)")
     subj.add_argument("--target-force", type=float, default=0.5, help="normal force, N (0.5)")
-    subj.add_argument("--force-drift", type=float, default=0.05,
-                      help="relative wander of the normal force (0.05)")
+    subj.add_argument("--force-drift", type=float,
+                      help="relative wander of the normal force (0.08-0.15; ideal 0.05)")
     subj.add_argument("--drift-time", type=float, default=1.5, help="its time constant, s")
-    subj.add_argument("--speed", type=float, default=0.02, help="sliding speed, m/s (0.02)")
+    subj.add_argument("--speed", type=float, help="sliding speed, m/s (0.03-0.06; ideal 0.02)")
     subj.add_argument("--stroke-length", type=float, default=0.04, help="m (0.04)")
     subj.add_argument("--reversal-time", type=float, default=0.15, help="s (0.15)")
+    subj.add_argument("--stroke-jitter", type=float,
+                      help="stroke-to-stroke spread of durations (0.2-0.35; ideal 0.1)")
+    subj.add_argument("--dwell", type=float, metavar="S",
+                      help="mean rest at a reversal, s (0.1-0.25; ideal 0)")
+    subj.add_argument("--lifts-per-min", type=float, metavar="RATE",
+                      help="finger lift-offs per minute (2-4; ideal 0)")
+    subj.add_argument("--lift-time", type=float, metavar="S",
+                      help="mean time off the screen per lift-off, s (0.3-0.5)")
 
     rig = p.add_argument_group("the rig")
     rig.add_argument("--fz-rate", type=float, default=1000.0, help="normal cell, Hz (1000)")
@@ -101,17 +122,43 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                      help="probability that a frame is lost (0)")
     rig.add_argument("--foreign-rate", type=float, default=0.0,
                      help="frames/s from other nodes (0)")
+    real = p.add_argument_group(
+        "a real rig's load cells (defaults drawn with --seed; all off with --ideal)")
+    real.add_argument("--ideal", action="store_true",
+                      help="exact load cells, no tare stretch, a machine's strokes")
+    real.add_argument("--tare-s", type=float, metavar="S",
+                      help="finger lifted at the start of the trial, s (1.5; ideal 0)")
+    real.add_argument("--offsets", type=float, nargs=2, metavar=("FN", "FT"),
+                      help="zero offsets of the normal and tangential cells, N "
+                           "(drawn in +/-0.05)")
+    real.add_argument("--drift", type=float, nargs=2, metavar=("FN", "FT"),
+                      help="linear drift of each cell's zero over the trial, N "
+                           "(drawn in +/-0.01, with a thermal part)")
+    real.add_argument("--hum", type=float, metavar="N",
+                      help="mains hum on each cell, N (0.01)")
+    real.add_argument("--mains", type=float, choices=(50.0, 60.0), help="mains, Hz (50)")
+    real.add_argument("--crosstalk", type=float, nargs=2, metavar=("N_FROM_T", "T_FROM_N"),
+                      help="cross-talk: share of the tangential force the normal cell "
+                           "reads, and of the normal force the tangential cell reads (0 0)")
     p.set_defaults(func=run)
     return p
 
 
-def _build(args: argparse.Namespace, duration: float) -> tuple[Any, Any]:
+def _build(args: argparse.Namespace, duration: float, trial_s: float) -> tuple[Any, Any]:
+    """The subject and the trial the options ask for; *trial_s* is the time over which the
+    cells' drift accrues (the trial's length, or a nominal one for an open-ended stream)."""
+    import dataclasses
+
     from evtribo.acquisition.simulator import SubjectParams, TrialConfig
+    from evtribo.acquisition.simulator.realism import IDEAL_SUBJECT, human, realistic_rig
 
     subject_kw = {"name": args.subject, "mu": args.mu, "h_L": args.air_gap,
-                  "normal_force_N": args.target_force, "force_drift": args.force_drift,
-                  "drift_time_s": args.drift_time, "sliding_speed_m_s": args.speed,
+                  "normal_force_N": args.target_force, "drift_time_s": args.drift_time,
                   "stroke_length_m": args.stroke_length, "reversal_s": args.reversal_time}
+    given_subject = {k: v for k, v in (
+        ("force_drift", args.force_drift), ("sliding_speed_m_s", args.speed),
+        ("stroke_jitter", args.stroke_jitter), ("dwell_s", args.dwell),
+        ("lifts_per_min", args.lifts_per_min), ("lift_s", args.lift_time)) if v is not None}
     trial_kw = {"duration_s": duration, "waveform": args.waveform,
                 "frequency_Hz": args.frequency, "amplitude_V": args.amplitude,
                 "condition": args.condition, "on_s": args.on_time, "off_s": args.off_time,
@@ -123,9 +170,30 @@ def _build(args: argparse.Namespace, duration: float) -> tuple[Any, Any]:
                 "foreign_rate_Hz": args.foreign_rate, "seed": args.seed}
     if args.channel:
         trial_kw["channel"] = args.channel
+    given_rig: dict[str, Any] = {}
+    if args.tare_s is not None:
+        given_rig["tare_s"] = args.tare_s
+    if args.offsets is not None:
+        given_rig.update(fz_offset_N=args.offsets[0], fx_offset_N=args.offsets[1])
+    if args.drift is not None:
+        given_rig.update(fz_drift_N_per_s=args.drift[0] / trial_s,
+                         fx_drift_N_per_s=args.drift[1] / trial_s,
+                         fz_thermal_N=0.0, fx_thermal_N=0.0)
+    if args.hum is not None:
+        given_rig.update(fz_hum_N=args.hum, fx_hum_N=args.hum)
+    if args.mains is not None:
+        given_rig["mains_Hz"] = args.mains
+    if args.crosstalk is not None:
+        given_rig["crosstalk"] = ((1.0, args.crosstalk[0]), (args.crosstalk[1], 1.0))
     options = {**_SUBJECT_OPTIONS, **_TRIAL_OPTIONS}
     try:
-        return SubjectParams(**subject_kw), TrialConfig(**trial_kw)
+        subject = SubjectParams(**subject_kw, **IDEAL_SUBJECT)
+        config = TrialConfig(**trial_kw)
+        if not args.ideal:
+            subject = human(subject, seed=args.seed)
+            config = realistic_rig(config, trial_s=trial_s)
+        return (dataclasses.replace(subject, **given_subject),
+                dataclasses.replace(config, **given_rig))
     except ConfigError as err:
         field = (err.key or "").rpartition(".")[2]
         raise ConfigError(err.message, key=options.get(field, err.key)) from err
@@ -158,7 +226,7 @@ def run(args: argparse.Namespace) -> int:
     if args.study is not None:
         from evtribo.acquisition.simulator import write_trial
 
-        subject, config = _build(args, args.duration or 30.0)
+        subject, config = _build(args, args.duration or 30.0, args.duration or 30.0)
         truth = write_trial(args.study, args.trial, subject, config, force=args.force)
         nodes = truth.nodes
         print(f"{args.study}/{subject.name}/{args.trial}.log: "
@@ -167,7 +235,8 @@ def run(args: argparse.Namespace) -> int:
 
     from evtribo.acquisition.simulator import Simulator
 
-    subject, config = _build(args, args.duration or 1.0)
+    # an open-ended stream: the cells drift as they would over a 30-s trial
+    subject, config = _build(args, args.duration or 30.0, args.duration or 30.0)
     sim = Simulator(subject, config)
     if args.pty:
         from evtribo.acquisition.slcan import SlcanPtyAdapter

@@ -17,6 +17,7 @@ import numpy as np
 from evtribo import __version__
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.core import DEFAULT_DBC, TrialTruth, simulate_trial
+from evtribo.acquisition.simulator.realism import human, realistic_rig
 from evtribo.errors import OutputExistsError
 from evtribo.frames import write_candump
 from evtribo.study import STUDY_FILE, validate_name, write_sidecar, write_study_toml
@@ -119,7 +120,7 @@ def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams
     sidecar: dict[str, Any] = {
         "subject": subject.name, "waveform": config.waveform,
         "frequency_Hz": config.frequency_Hz, "amplitude_V": config.amplitude_V,
-        "condition": config.condition, "notes": notes,
+        "condition": config.condition, "notes": notes, "tare_s": config.tare_s,
         "rig": RIG_DBC, "bus": {"interface": "simulated", "channel": config.channel},
         "software": f"evtribo {__version__}", "start_time": config.start_time,
         "frames": len(frames), "dropped_frames": dropped, "bus_errors": 0,
@@ -133,8 +134,8 @@ def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams
 def simulate_study(root: str | os.PathLike[str], subjects: Sequence[SubjectParams] | None = None,
                    amplitudes: Sequence[float] = (60.0, 80.0, 100.0, 120.0, 140.0), *,
                    config: TrialConfig | None = None, sine_trial: bool = True,
-                   force: bool = False, name: str = "simulated study"
-                   ) -> dict[str, dict[str, TrialTruth]]:
+                   force: bool = False, name: str = "simulated study",
+                   realistic: bool = False) -> dict[str, dict[str, TrialTruth]]:
     """Write a whole simulated study: every subject at every amplitude.
 
     Each subject gets one trial per amplitude (``run-01``...) with *config*'s waveform
@@ -154,6 +155,10 @@ def simulate_study(root: str | os.PathLike[str], subjects: Sequence[SubjectParam
     sine_trial : bool
     force : bool
         Overwrite existing trials.
+    realistic : bool
+        A real rig and real people (:mod:`~evtribo.acquisition.simulator.realism`): every
+        trial's load cells get their own offsets, drift and hum and a tare stretch, every
+        subject a person's strokes.
 
     Returns
     -------
@@ -162,6 +167,8 @@ def simulate_study(root: str | os.PathLike[str], subjects: Sequence[SubjectParam
     """
     base = config or TrialConfig()
     subjects = list(subjects) if subjects is not None else default_subjects(seed=base.seed)
+    if realistic:
+        subjects = [human(s, seed=base.seed * 100 + i) for i, s in enumerate(subjects)]
     out: dict[str, dict[str, TrialTruth]] = {}
     for si, subject in enumerate(subjects):
         trials = [dataclasses.replace(base, amplitude_V=float(a)) for a in amplitudes]
@@ -172,6 +179,8 @@ def simulate_study(root: str | os.PathLike[str], subjects: Sequence[SubjectParam
         for ti, template in enumerate(trials):
             cfg = dataclasses.replace(template, seed=base.seed * 100_003 + si * 1000 + ti,
                                       start_time=base.start_time + 3600 * si + 120 * ti)
+            if realistic:
+                cfg = realistic_rig(cfg)
             trial = f"run-{ti + 1:02d}"
             out[subject.name][trial] = write_trial(root, trial, subject, cfg, force=force,
                                                    study_name=name)
