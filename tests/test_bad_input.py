@@ -56,6 +56,11 @@ def _toml(study: Path, old: str, new: str) -> None:
     path.write_text(text.replace(old, new), encoding="utf-8")
 
 
+def _append(study: Path, text: str) -> None:
+    path = study / "study.toml"
+    path.write_text(path.read_text(encoding="utf-8") + "\n" + text, encoding="utf-8")
+
+
 def _sidecar(study: Path, **values: object) -> None:
     (study / "P01" / "run-01.json").write_text(json.dumps({**SIDECAR, **values}),
                                                encoding="utf-8")
@@ -99,6 +104,21 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "no-such-study": lambda t: None,
     "no-trials": lambda t: shutil.rmtree(t / "study" / "P01"),
     "results-exist": _text(Path("out/trials.csv"), "subject,trial\n"),
+    "analysis-unknown-key": lambda t: _append(t / "study", "[analysis]\nguard_sec = 0.3\n"),
+    "analysis-tare-mode": lambda t: _append(t / "study", '[analysis]\ntare = "zero"\n'),
+    "analysis-negative": lambda t: _append(t / "study", "[analysis]\nguard_s = -0.1\n"),
+    "analysis-not-a-number": lambda t: _append(t / "study", '[analysis]\nn_boot = "many"\n'),
+    "analyze-set-unknown": lambda t: None,
+    "analyze-set-syntax": lambda t: None,
+    "calibration-unknown-key": lambda t: _append(
+        t / "study", "[rig.calibration]\nnormal_offset = 0.01\n"),
+    "calibration-not-a-number": lambda t: _append(
+        t / "study", '[rig.calibration]\ntangential_offset_N = "0.01 N"\n'),
+    "calibration-matrix-shape": lambda t: _append(
+        t / "study", "[rig.calibration]\nmatrix = [[1.0, 0.0]]\n"),
+    "calibration-matrix-singular": lambda t: _append(
+        t / "study", "[rig.calibration]\nmatrix = [[1.0, 2.0], [2.0, 4.0]]\n"),
+    "acquire-tare-negative": lambda t: None,
     "strict-damaged-line": lambda t: (t / "study" / "P01" / "run-01.log").write_text(
         LOG + "(1763700000.002000) vcan0 0C1#000000000000000\n"),
     "jobs-zero": lambda t: None,

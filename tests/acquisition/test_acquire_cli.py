@@ -246,6 +246,22 @@ def test_second_acquire_into_the_same_trial_is_refused(tmp_path, capsys):
     assert json.loads((study / "P01" / "t1.json").read_text())["notes"] == "again"
 
 
+def test_acquire_records_the_tare_stretch_it_asked_for(tmp_path, capsys):
+    study = tmp_path / "study"
+    args = ["acquire", "--study", str(study), "--subject", "P01", "--interface", "virtual",
+            "--channel", "cli_tare", "--duration", "0.4"]
+    assert main([*args, "--trial", "t1", "--tare-s", "0.3"]) == 0
+    out = capsys.readouterr().out
+    assert "lift the finger off the screen for 0.3 s (taring), then slide" in out
+    assert json.loads((study / "P01" / "t1.json").read_text())["tare_s"] == 0.3
+    assert main([*args, "--trial", "t2"]) == 0  # by default 1.5 s, at most half the trial
+    assert json.loads((study / "P01" / "t2.json").read_text())["tare_s"] == 0.2
+    assert main([*args, "--trial", "t3", "--tare-s", "0", "--quiet"]) == 0
+    assert json.loads((study / "P01" / "t3.json").read_text())["tare_s"] == 0.0
+    assert main([*args, "--trial", "t4", "--tare-s", "0.4"]) == 2  # as long as the trial
+    assert "'--tare-s'" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("args,key", [
     (["--subject", "../x"], "subject"),
     (["--interface", "no_such_interface"], "--interface"),

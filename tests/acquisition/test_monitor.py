@@ -127,3 +127,22 @@ def test_monitor_names_and_decodes_extended_id_messages():
     assert snap.rates_Hz["NormalCell"] == pytest.approx(500, rel=0.01)
     assert snap.rates_Hz["AmpState"] == pytest.approx(10, rel=0.01)
     assert snap.rates_Hz["other"] == pytest.approx(15, rel=0.01)
+
+
+def test_the_display_asks_for_the_finger_lifted_then_sliding():
+    lifting = Snapshot(0.4, normal_force_N=0.031, tare_left_s=1.1)
+    lines = render_status(lifting, target=0.5, band=0.1)
+    assert "LIFT THE FINGER" in lines[0] and "1.1 s" in lines[0]
+    assert "TARING" in lines[1] and "TOO LOW" not in lines[1]  # no alarm while lifted
+    assert "LIFT THE FINGER" in render_line(lifting)
+    sliding = Snapshot(2.0, normal_force_N=0.35, tare_left_s=0.0)
+    lines = render_status(sliding, target=0.5, band=0.1)
+    assert "SLIDE" in lines[0] and "TOO LOW" in lines[1]
+    assert "LIFT" not in render_status(Snapshot(2.0), target=0.5)[0]  # a trial without tare
+    rig = load_rig_toml(default_rig_path())
+    mon = Monitor(rig, io.StringIO(), duration=10.0, tty=False, tare_s=1.5)
+    mon._stats, mon._t0 = _stats(rig, 0.0, 0.0), time.monotonic() - 0.5
+    mon._last = (mon._t0, {})
+    assert mon.snapshot().tare_left_s == pytest.approx(1.0, abs=0.05)
+    mon._t0 = time.monotonic() - 3.0
+    assert mon.snapshot().tare_left_s == 0.0

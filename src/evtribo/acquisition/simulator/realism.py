@@ -46,7 +46,7 @@ _S_RIG, _S_PERSON = 2001, 2002
 
 def realistic_rig(config: TrialConfig, *, offset_N: float = 0.05, drift_N: float = 0.01,
                   hum_N: float = 0.01, mains_Hz: float = 50.0, tare_s: float = 1.5,
-                  crosstalk: float = 0.0, trial_s: float | None = None,
+                  crosstalk: float | None = None, trial_s: float | None = None,
                   seed: int | None = None) -> TrialConfig:
     """*config* with a real rig's load cells: offsets, drift, hum, (cross-talk), a tare stretch.
 
@@ -65,9 +65,10 @@ def realistic_rig(config: TrialConfig, *, offset_N: float = 0.05, drift_N: float
         50 or 60.
     tare_s : float, s
         Finger lifted at the start of the trial (at most half the trial).
-    crosstalk : float
+    crosstalk : float, optional
         Each off-diagonal term of the cross-talk matrix is drawn uniformly in
-        ``[-crosstalk, crosstalk]`` (0: none).
+        ``[-crosstalk, crosstalk]`` (default: the trial's own matrix is kept; a rig's
+        cross-talk is the rig's, not the trial's).
     trial_s : float, s, optional
         The time over which *drift_N* accrues (default: the trial's duration; give it for
         a stream of open-ended length).
@@ -84,7 +85,9 @@ def realistic_rig(config: TrialConfig, *, offset_N: float = 0.05, drift_N: float
     drifts = rng.uniform(-drift_N, drift_N, 2)
     tau = float(rng.uniform(20.0, 60.0))
     settle = -math.expm1(-span / tau)
-    off_diag = rng.uniform(-crosstalk, crosstalk, 2)
+    off_diag = rng.uniform(-(crosstalk or 0.0), crosstalk or 0.0, 2)
+    matrix = config.crosstalk if crosstalk is None else (
+        (1.0, float(off_diag[0])), (float(off_diag[1]), 1.0))
     return dataclasses.replace(
         config,
         tare_s=min(tare_s, 0.5 * config.duration_s),
@@ -94,7 +97,7 @@ def realistic_rig(config: TrialConfig, *, offset_N: float = 0.05, drift_N: float
         fz_thermal_N=float(0.4 * drifts[0] / settle),
         fx_thermal_N=float(0.4 * drifts[1] / settle),
         thermal_time_s=tau, fz_hum_N=hum_N, fx_hum_N=hum_N, mains_Hz=mains_Hz,
-        crosstalk=((1.0, float(off_diag[0])), (float(off_diag[1]), 1.0)))
+        crosstalk=matrix)
 
 
 def human(subject: SubjectParams, seed: int = 0) -> SubjectParams:
