@@ -39,13 +39,13 @@ def test_values_are_checked_and_errors_name_the_line_and_key():
     assert err.value.line == 8 and err.value.key == "analysis.guard_sec"
     assert "did you mean 'guard_s'?" in str(err.value)
     for bad in ({"min_window_s": 0}, {"confidence": 1.0}, {"n_boot": 10.5},
-                {"remove_hum": 1}, {"tare": "lift"}, {"seed": -1}, {"smooth_s": "0.1"},
+                {"hum": "notch"}, {"tare": "lift"}, {"seed": -1}, {"smooth_s": "0.1"},
                 {"max_window_s": 0.1}):
         with pytest.raises(ConfigError):
             AnalysisSettings().updated(bad)
     assert AnalysisSettings().updated({"n_boot": 500.0, "guard_s": 1}).n_boot == 500
     assert parse_setting("guard_s=0.3") == ("guard_s", 0.3)
-    assert parse_setting("remove_hum=false") == ("remove_hum", False)
+    assert parse_setting("hum=keep") == ("hum", "keep")
     assert parse_setting("tare = none") == ("tare", "none")
     assert toml_key_line("analysis.seed = 3\n", "analysis", "seed") == 1
     assert toml_key_line("[rig]\ncalibration = {matrix = 1}\n", "rig.calibration",
@@ -91,12 +91,12 @@ def test_the_command_line_overrides_the_study(small_study, tmp_path, capsys):
     _with_analysis(small_study, 'tare = "none"\n')
     try:
         assert main(["analyze", str(small_study), "--out", str(tmp_path / "o"), "--jobs", "1",
-                     "--tare", "lifted", "--set", "n_boot=200", "--set", "remove_hum=false"]
+                     "--tare", "lifted", "--set", "n_boot=200", "--set", "hum=keep"]
                     ) == 0
         summary = json.loads((tmp_path / "o" / "summary.json").read_text(encoding="utf-8"))
         assert summary["settings"]["tare"] == "lifted"
         assert summary["settings"]["n_boot"] == 200
-        assert summary["settings"]["remove_hum"] is False
+        assert summary["settings"]["hum"] == "keep"
         trials = pd.read_csv(tmp_path / "o" / "trials.csv")
         assert (trials.tare == "lifted").all()
         assert trials.normal_offset_N.tolist() == pytest.approx([0.03, 0.03], abs=0.002)

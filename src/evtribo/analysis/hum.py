@@ -99,7 +99,7 @@ def find_hum(x: npt.ArrayLike, rate_Hz: float, *, avoid_Hz: Sequence[float] = ()
         return None
     y = _filled(x)
     nper = int(min(y.size, round(2.0 * rate_Hz)))  # 0.5 Hz resolution
-    f, pxx = signal.welch(y, fs=rate_Hz, nperseg=nper, detrend="linear")
+    f, pxx = signal.welch(y, fs=rate_Hz, nperseg=nper, detrend="constant")
     df = f[1] - f[0]
 
     def line(freq: float) -> tuple[float, float]:

@@ -24,10 +24,14 @@ from evtribo.analysis.estimate import DEFAULT_CONFIDENCE, DEFAULT_N_BOOT
 from evtribo.analysis.windows import DEFAULT_MAX_WINDOW_S, DEFAULT_MIN_WINDOW_S, DEFAULT_SMOOTH_S
 from evtribo.errors import ConfigError, toml_key_line
 
-__all__ = ["SETTING_HELP", "TARE_MODES", "AnalysisSettings", "parse_setting"]
+__all__ = ["HUM_MODES", "SETTING_HELP", "TARE_MODES", "AnalysisSettings", "parse_setting"]
 
 #: Values of ``tare``: how the load cells' zero offsets are found (see :mod:`.tare`).
 TARE_MODES = ("auto", "lifted", "friction-loop", "calibration", "none")
+#: Values of ``hum``: where mains hum is notched out (see :mod:`.hum`).
+HUM_MODES = ("auto", "remove", "keep")
+#: The allowed values of each setting that is a word.
+CHOICES = {"tare": TARE_MODES, "hum": HUM_MODES}
 
 #: One line per key: its meaning (``analysis/default.toml`` carries the same words).
 SETTING_HELP = {
@@ -42,7 +46,10 @@ SETTING_HELP = {
     "confidence": "coverage of the confidence intervals",
     "n_boot": "bootstrap replicates of the electrostatic force",
     "seed": "seed of the bootstrap",
-    "remove_hum": "find mains hum (50/60 Hz and harmonics) on the load cells and notch it out",
+    "hum": "mains hum (50/60 Hz and harmonics) on the load cells: auto (notched out in sine "
+           "trials, whose windows span whole periods of the friction's oscillation; "
+           "elsewhere every window spans whole periods of 50 and 60 Hz, which cancels it), "
+           "remove (notched out in every trial) or keep",
     "min_lift_s": "shortest finger-lifted stretch used to tare the load cells, s",
     "max_gap_periods": "a pause of a load cell longer than this many sample periods is a "
                        "gap, never interpolated through",
@@ -73,8 +80,9 @@ class AnalysisSettings:
         Bootstrap replicates of the electrostatic force.
     seed : int
         Seed of the bootstrap.
-    remove_hum : bool
-        Notch out mains hum found on the load cells.
+    hum : {"auto", "remove", "keep"}
+        Mains hum on the load cells: notched out in sine trials (``auto``), in every trial
+        (``remove``) or never (``keep``); windows of other trials span whole mains periods.
     min_lift_s : float, s
         Shortest finger-lifted stretch used for taring.
     max_gap_periods : float
@@ -94,7 +102,7 @@ class AnalysisSettings:
     confidence: float = DEFAULT_CONFIDENCE
     n_boot: int = DEFAULT_N_BOOT
     seed: int = 0
-    remove_hum: bool = True
+    hum: str = "auto"
     min_lift_s: float = 0.2
     max_gap_periods: float = DEFAULT_MAX_GAP_PERIODS
     trace_off_s: float = 0.5
@@ -156,9 +164,9 @@ def _checked(name: str, value: Any) -> Any:
     """*value* for setting *name*, of the right type and range, or ConfigError."""
     kind = {f.name: f.type for f in fields(AnalysisSettings)}[name]
     if kind == "str":
-        if value not in TARE_MODES:
+        if value not in CHOICES[name]:
             raise ConfigError(f"{value!r} is not allowed: choose one of "
-                              f"{', '.join(TARE_MODES)}", key=name)
+                              f"{', '.join(CHOICES[name])}", key=name)
         return value
     if kind == "bool":
         if not isinstance(value, bool):

@@ -35,6 +35,7 @@ from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.spectra import dominant_frequency
 from evtribo.analysis.tare import (
     EDGE_S,
+    HUM_FREE_S,
     Tared,
     calibrate,
     friction_loop_offset,
@@ -43,7 +44,7 @@ from evtribo.analysis.tare import (
     tare_loop,
 )
 from evtribo.analysis.trace import TRACE_COLUMNS, sine_trace
-from evtribo.analysis.windows import find_windows
+from evtribo.analysis.windows import find_windows, with_means
 from evtribo.dropped import DropCount, missing_frames
 from evtribo.errors import AnalysisError
 from evtribo.rig import Calibration
@@ -264,11 +265,15 @@ def _window_amplitudes(w: pd.DataFrame, exc: _Excitation) -> npt.NDArray[np.floa
     given = exc.info["amplitude_V"]
     amplitude[is_on] = np.nan if given is None else float(given)
     if exc.amplitude is not None and exc.t is not None and exc.enabled is not None:
-        enabled_t, enabled_a = exc.t[exc.enabled], exc.amplitude[exc.enabled]
-        for k in np.flatnonzero(is_on):
-            sel = (enabled_t >= w.t_start.iat[k]) & (enabled_t <= w.t_end.iat[k])
-            if sel.any():
-                amplitude[k] = float(np.median(enabled_a[sel]))
+        order = np.argsort(exc.t[exc.enabled], kind="stable")
+        enabled_t = exc.t[exc.enabled][order]
+        enabled_a = exc.amplitude[exc.enabled][order]
+        on = np.flatnonzero(is_on)
+        lo = np.searchsorted(enabled_t, w.t_start.to_numpy()[on], side="left")
+        hi = np.searchsorted(enabled_t, w.t_end.to_numpy()[on], side="right")
+        for k, a, b in zip(on, lo, hi, strict=True):
+            if b > a:
+                amplitude[k] = float(np.median(enabled_a[a:b]))
     return amplitude
 
 
@@ -289,7 +294,7 @@ def _dehum(aligned: AlignedForces, info: Mapping[str, Any]) -> AlignedForces:
     return AlignedForces(aligned.t, out["normal"], out["tangential"], aligned.rate_Hz)
 
 
-def _windows(tared: Tared, cond: npt.NDArray[np.int8], smooth: float,
+def _windows(tared: Tared, cond: npt.NDArray[np.int8], smooth: float, quantum: float,
              settings: AnalysisSettings) -> pd.DataFrame:
     f = tared.forces
     exclude = np.zeros(f.t.size, dtype=bool)
@@ -297,10 +302,11 @@ def _windows(tared: Tared, cond: npt.NDArray[np.int8], smooth: float,
         exclude |= (f.t >= s.t_start - 2 * EDGE_S) & (f.t <= s.t_end + 2 * EDGE_S)
     return find_windows(f.t, f.normal, f.tangential, cond, smooth_s=smooth,
                         min_window_s=settings.min_window_s, max_window_s=settings.max_window_s,
-                        exclude=exclude)
+                        exclude=exclude, quantum_s=quantum)
 
 
-def _tare(aligned: AlignedForces, exc: _Excitation, smooth: float, meta: TrialMeta,
+def _tare(aligned: AlignedForces, exc: _Excitation, smooth: float, quantum: float,
+          meta: TrialMeta,
           settings: AnalysisSettings, calibration: Calibration | None,
           warn: Callable[[str], None]) -> tuple[Tared, pd.DataFrame]:
     """Calibration and taring (:mod:`.tare`), and the steady-sliding windows they give."""
@@ -314,7 +320,7 @@ def _tare(aligned: AlignedForces, exc: _Excitation, smooth: float, meta: TrialMe
             warn(f"the sidecar says the finger was lifted for the first {meta.tare_s:g} s, "
                  "but no finger-lifted stretch was found in the forces (was it kept on the "
                  "screen?)")
-    w = _windows(tared, exc.condition, smooth, settings)
+    w = _windows(tared, exc.condition, smooth, quantum, settings)
     if mode in ("auto", "friction-loop") and not w.empty:
         amps = _window_amplitudes(w, exc)
         groups = [None if c != "on" else ("on" if not np.isfinite(a) else a)
@@ -323,8 +329,10 @@ def _tare(aligned: AlignedForces, exc: _Excitation, smooth: float, meta: TrialMe
                                     tared.forces.tangential, w, groups,
                                     max_knots=2 if tared.lifted else None)
         if loop is not None and (loop.significant or not tared.lifted):
+            # the same windows (found with relative thresholds, which an offset does not
+            # move), their means from the corrected forces
             tared = tare_loop(tared, loop)
-            w = _windows(tared, exc.condition, smooth, settings)
+            w = with_means(w, tared.forces.normal, tared.forces.tangential)
         elif not tared.lifted and cal.tangential_offset_N is None:
             warn("the tangential cell's zero is unknown: no finger-lifted stretch, no "
                  "[rig.calibration] tangential_offset_N, and too few strokes in both "
@@ -412,12 +420,15 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
     aligned = align_forces(tn, fn, tt, ft, max_gap_periods=settings.max_gap_periods)
     exc = _excitation(signals, meta, aligned.t, settings.guard_s, warn)
     info = exc.info
-    if settings.remove_hum:
-        aligned = _dehum(aligned, info)
-    smooth = settings.smooth_s
-    if info["waveform"] == "sine" and info.get("frequency_Hz"):
+    smooth, quantum = settings.smooth_s, HUM_FREE_S
+    oscillates = (info["waveform"] == "sine" and bool(info.get("frequency_Hz"))
+                  and 2 * float(info["frequency_Hz"]) < 0.4 * aligned.rate_Hz)
+    if oscillates:  # windows span whole periods of the friction's own oscillation
         smooth = max(smooth, 1.0 / float(info["frequency_Hz"]))
-    tared, w = _tare(aligned, exc, smooth, meta, settings, calibration, warn)
+        quantum = 0.5 / float(info["frequency_Hz"])
+    if settings.hum == "remove" or (settings.hum == "auto" and oscillates):
+        aligned = _dehum(aligned, info)
+    tared, w = _tare(aligned, exc, smooth, quantum, meta, settings, calibration, warn)
     aligned = tared.forces
     offsets = removed_offsets(tared, calibration if settings.tare != "none" else None)
     _offset_warnings(tared, w, offsets, warn)

@@ -18,7 +18,9 @@ forth, and the friction force's sign follows the sliding direction. On a uniform
    smoothing length on both sides;
 5. a hole in the data longer than half the smoothing span ends a steady run; runs shorter
    than ``min_window_s`` are dropped, longer than ``max_window_s`` split into equal parts
-   (windows are the units the bootstrap resamples).
+   (windows are the units the bootstrap resamples); with ``quantum_s``, every window lasts
+   a whole number of quanta (whole periods of mains hum, or of a sine drive's friction
+   oscillation), so that its mean holds no part-period of them.
 
 Each window's forces are the means of the *unsmoothed* grid samples it spans, the
 samples present only (shorter holes are skipped, never filled).
@@ -72,7 +74,13 @@ def moving_average(x: npt.ArrayLike, n: int, *, min_fraction: float = 1.0
     if x.size < n:
         return out
     bad = ~np.isfinite(x)
-    csum = np.concatenate(([0.0], np.cumsum(np.where(bad, 0.0, x))))
+    csum = np.empty(x.size + 1)
+    csum[0] = 0.0
+    if not bad.any():  # the common case: no gap, one running sum
+        np.cumsum(x, out=csum[1:])
+        out[h:x.size - h] = (csum[n:] - csum[:-n]) / n
+        return out
+    np.cumsum(np.where(bad, 0.0, x), out=csum[1:])
     cbad = np.concatenate(([0], np.cumsum(bad)))
     total = csum[n:] - csum[:-n]
     nbad = cbad[n:] - cbad[:-n]
@@ -111,6 +119,7 @@ def find_windows(
     skip_start_s: float = 0.0,
     contact_fraction: float = 0.7,
     exclude: npt.ArrayLike | None = None,
+    quantum_s: float | None = None,
 ) -> pd.DataFrame:
     """Steady-sliding windows of one trial, split by condition.
 
@@ -137,6 +146,11 @@ def find_windows(
         Steady sliding needs the normal force at least this fraction of the piece's median.
     exclude : array_like of bool, optional
         Grid points never used (e.g. where the finger was found lifted).
+    quantum_s : float, s, optional
+        Every window lasts a whole number of these (a steady run is trimmed about its
+        middle to whole quanta, then split): with 0.1 s, a window's mean holds whole
+        periods of 50 Hz and 60 Hz hum, which it then cancels; with a period of the
+        friction's own oscillation (a sine drive's), whole periods of that.
 
     Returns
     -------
@@ -176,6 +190,7 @@ def find_windows(
     ratio = np.abs(ft_s) / np.where(fn_s > 0, fn_s, np.nan)
     min_len = max(2, round(min_window_s / dt))
     max_len = max(min_len, round(max_window_s / dt))
+    q = max(1, round(quantum_s / dt)) if quantum_s else 1
     rows = []
     for a, b, v in _runs(code):
         if v == 0 or b - a < min_len:
@@ -196,21 +211,56 @@ def find_windows(
             if he - hs > h:
                 ok[hs:he] = False
         for s, e in true_runs(ok):
-            length = e - s
-            if length < min_len:
-                continue
-            parts = int(np.ceil(length / max_len))
-            bounds = np.linspace(0, length, parts + 1).round().astype(int)
-            for p0, p1 in itertools.pairwise(bounds):
-                i0, i1 = a + s + int(p0), a + s + int(p1)
+            for i0, i1 in _split(a + s, a + e, min_len, max_len, q):
                 rows.append((i0, i1, t[i0], t[i1 - 1] + dt,
-                             "on" if abs(v) == 2 else "off", int(np.sign(v)),
-                             float(np.nanmean(fn[i0:i1])),
-                             float(abs(np.nanmean(ft[i0:i1])))))
+                             "on" if abs(v) == 2 else "off", int(np.sign(v)), 0.0, 0.0))
     if not rows:
         return empty
-    return pd.DataFrame.from_records(rows, columns=list(WINDOW_COLUMNS))
+    return with_means(pd.DataFrame.from_records(rows, columns=list(WINDOW_COLUMNS)), fn, ft)
+
+
+def _split(start: int, stop: int, min_len: int, max_len: int, q: int
+           ) -> list[tuple[int, int]]:
+    """Windows of a steady run ``[start, stop)``: a whole number of quanta of *q* samples
+    (the run trimmed about its middle), split into parts of at most *max_len* samples (or
+    one quantum, if longer) as equal as whole quanta allow, none shorter than *min_len*."""
+    n_q = (stop - start) // q
+    if n_q * q < min_len:
+        return []
+    first = start + ((stop - start) - n_q * q) // 2
+    parts = max(1, min(n_q, int(np.ceil(n_q * q / max_len))))
+    sizes = np.full(parts, n_q // parts)
+    sizes[: n_q % parts] += 1
+    edges = first + q * np.concatenate(([0], np.cumsum(sizes)))
+    return [(int(a), int(b)) for a, b in itertools.pairwise(edges) if b - a >= min_len]
+
+
+def with_means(windows: pd.DataFrame, normal: npt.ArrayLike, tangential: npt.ArrayLike
+               ) -> pd.DataFrame:
+    """*windows* with ``normal_force_N`` and ``friction_force_N`` (the magnitude) the means
+    of the samples present in each (``i_start`` to ``i_stop``) of the given forces.
+
+    Parameters
+    ----------
+    windows : pandas.DataFrame
+        Windows of :func:`find_windows` (their grid indices are used).
+    normal, tangential : array_like of float, N
+        Forces on the grid the windows index (NaN in gaps).
+    """
+    if windows.empty:
+        return windows
+    i0 = windows.i_start.to_numpy(np.int64)
+    i1 = windows.i_stop.to_numpy(np.int64)
+    means = []
+    for x in (normal, tangential):
+        x = np.asarray(x, dtype=np.float64)
+        good = np.isfinite(x)
+        total = np.concatenate(([0.0], np.cumsum(np.where(good, x, 0.0))))
+        count = np.concatenate(([0], np.cumsum(good)))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            means.append((total[i1] - total[i0]) / (count[i1] - count[i0]))
+    return windows.assign(normal_force_N=means[0], friction_force_N=np.abs(means[1]))
 
 
 __all__ = ["DEFAULT_MAX_WINDOW_S", "DEFAULT_MIN_WINDOW_S", "DEFAULT_SMOOTH_S", "WINDOW_COLUMNS",
-           "find_windows", "moving_average", "true_runs"]
+           "find_windows", "moving_average", "true_runs", "with_means"]
