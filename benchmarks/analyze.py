@@ -20,16 +20,15 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-from collections.abc import Callable
+import logging
 import os
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import can
 import cantools
-
-import logging
 
 from evtribo.acquisition.simulator import TrialConfig, default_subjects, simulate_study
 from evtribo.analysis.pipeline import analyze_study

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import shutil
 import threading
 import uuid
@@ -136,7 +137,7 @@ def taring_line(trials: Any, truth: dict[str, Any]) -> str:
         cells = truth.get(f"{row.subject}/{row.trial}", {}).get("cells", {})
         for cell in ("normal", "tangential"):
             removed = getattr(row, f"{cell}_offset_N")
-            if cell in cells and removed is not None and removed == removed:
+            if cell in cells and removed is not None and not math.isnan(removed):
                 diffs.append(abs(float(removed) - cells[cell]["mean_offset_N"]))
                 largest = max(largest, abs(cells[cell]["mean_offset_N"]))
     if not diffs:

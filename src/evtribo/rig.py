@@ -411,5 +411,5 @@ def default_rig() -> Rig:
     return load_rig(default_rig_path())
 
 
-__all__ = ["CALIBRATION_KEYS", "ROLES", "Calibration", "Rig", "SignalRef", "default_rig", "default_rig_path", "load_dbc",
-           "load_rig", "resolve_signal"]
+__all__ = ["CALIBRATION_KEYS", "ROLES", "Calibration", "Rig", "SignalRef", "default_rig",
+           "default_rig_path", "load_dbc", "load_rig", "resolve_signal"]

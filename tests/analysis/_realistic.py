@@ -11,6 +11,7 @@ simulated electrostatic force over the samples each window spans.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -96,9 +97,8 @@ def run_study(seed: int, *, n_subjects: int = 4, amplitudes=AMPLITUDES,
     rows, wins, warnings = [], [], []
     truths: dict[tuple[str, str], TrialTruth] = {}
     mu_of = {}
-    for si, subject in enumerate(default_subjects(n_subjects, seed=seed)):
-        if realistic:
-            subject = human(subject, seed=seed * 100 + si)
+    for si, drawn in enumerate(default_subjects(n_subjects, seed=seed)):
+        subject = human(drawn, seed=seed * 100 + si) if realistic else drawn
         if subject_changes is not None:
             subject = subject_changes(subject)
         mu_of[subject.name] = subject.mu
@@ -147,7 +147,7 @@ def offsets_error(trials: pd.DataFrame, truths: dict[tuple[str, str], TrialTruth
 
 
 def _minus(a: float | None, b: float) -> float:
-    return float("nan") if a is None or a != a else float(a) - b
+    return float("nan") if a is None or math.isnan(a) else float(a) - b
 
 
 def replace(obj, **changes):

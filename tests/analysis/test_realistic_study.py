@@ -14,7 +14,6 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
-
 from _realistic import (
     AMPLITUDES,
     attach_truth,
@@ -23,6 +22,7 @@ from _realistic import (
     run_study,
     window_truth,
 )
+
 from evtribo.acquisition.simulator import TrialConfig, default_subjects, simulate_study
 from evtribo.acquisition.simulator.realism import human
 from evtribo.analysis.pipeline import analyze_study

@@ -65,7 +65,7 @@ def trace(*, duration=12.0, press=0.5, mu=0.5, wander=0.1, lifts=((0.0, 1.5),),
 @given(press=st.floats(0.15, 1.5), mu=st.floats(0.2, 1.5), wander=st.floats(0.0, 0.25),
        off_n=st.floats(-0.1, 0.1), off_t=st.floats(-0.1, 0.1), lift_at=st.floats(3.0, 9.0),
        lift_s=st.floats(0.55, 1.5), noise=st.floats(1e-4, 2e-3), seed=st.integers(0, 999))
-def test_lifted_stretches_are_found_and_give_the_offsets(press, mu, wander, off_n, off_t,
+def test_lifted_stretches_are_found_and_give_the_offsets(*, press, mu, wander, off_n, off_t,
                                                          lift_at, lift_s, noise, seed):
     # a lift-off counts from 0.35 s fully off (0.2 s used, 0.15 s at its ends left out)
     lifts = ((-0.1, 1.5), (lift_at, lift_at + lift_s))
@@ -85,7 +85,7 @@ def test_lifted_stretches_are_found_and_give_the_offsets(press, mu, wander, off_
 @settings(deadline=None)
 @given(press=st.floats(0.1, 1.5), mu=st.floats(0.2, 1.5), wander=st.floats(0.0, 0.3),
        dwell=st.floats(0.0, 0.6), noise=st.floats(1e-4, 3e-3), seed=st.integers(0, 999))
-def test_a_finger_that_never_lifts_gives_no_lifted_stretch(press, mu, wander, dwell, noise,
+def test_a_finger_that_never_lifts_gives_no_lifted_stretch(*, press, mu, wander, dwell, noise,
                                                            seed):
     t, fn, ft, _ = trace(press=press, mu=mu, wander=wander, lifts=(), dwell_s=dwell,
                          noise=noise, seed=seed)
@@ -187,7 +187,7 @@ def test_removed_offsets_are_in_the_cells_own_units():
 
 @pytest.mark.parametrize("mains", [50.0, 60.0])
 def test_hum_is_found_at_the_mains_and_notched_out(mains):
-    t, fn, ft, _ = trace(hum=0.01, mains=mains, noise=1e-3, seed=5)
+    t, fn, _ft, _ = trace(hum=0.01, mains=mains, noise=1e-3, seed=5)
     hum = find_hum(fn, RATE)
     assert hum is not None and hum.mains_Hz == mains
     assert hum.amplitude == pytest.approx(0.01, rel=0.25)
@@ -205,7 +205,7 @@ def test_hum_is_found_at_the_mains_and_notched_out(mains):
 
 
 def test_a_hum_line_where_the_friction_oscillates_is_left_in():
-    t, fn, ft, _ = trace(hum=0.01, mains=50.0, seed=6)
+    _t, _fn, ft, _ = trace(hum=0.01, mains=50.0, seed=6)
     avoid = modulation_lines("sine", 25.0, RATE)  # the friction oscillates at 50 Hz
     assert avoid[:3] == [50.0, 100.0, 150.0] and modulation_lines("square", 25.0, RATE) == []
     hum = find_hum(ft, RATE, avoid_Hz=avoid)

@@ -305,7 +305,7 @@ def _windows(tared: Tared, cond: npt.NDArray[np.int8], smooth: float, quantum: f
                         exclude=exclude, quantum_s=quantum)
 
 
-def _tare(aligned: AlignedForces, exc: _Excitation, smooth: float, quantum: float,
+def _tare(aligned: AlignedForces, exc: _Excitation, *, smooth: float, quantum: float,
           meta: TrialMeta,
           settings: AnalysisSettings, calibration: Calibration | None,
           warn: Callable[[str], None]) -> tuple[Tared, pd.DataFrame]:
@@ -428,7 +428,8 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
         quantum = 0.5 / float(info["frequency_Hz"])
     if settings.hum == "remove" or (settings.hum == "auto" and oscillates):
         aligned = _dehum(aligned, info)
-    tared, w = _tare(aligned, exc, smooth, quantum, meta, settings, calibration, warn)
+    tared, w = _tare(aligned, exc, smooth=smooth, quantum=quantum, meta=meta,
+                     settings=settings, calibration=calibration, warn=warn)
     aligned = tared.forces
     offsets = removed_offsets(tared, calibration if settings.tare != "none" else None)
     _offset_warnings(tared, w, offsets, warn)

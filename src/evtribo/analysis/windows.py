@@ -252,8 +252,8 @@ def with_means(windows: pd.DataFrame, normal: npt.ArrayLike, tangential: npt.Arr
     i0 = windows.i_start.to_numpy(np.int64)
     i1 = windows.i_stop.to_numpy(np.int64)
     means = []
-    for x in (normal, tangential):
-        x = np.asarray(x, dtype=np.float64)
+    for force in (normal, tangential):
+        x = np.asarray(force, dtype=np.float64)
         good = np.isfinite(x)
         total = np.concatenate(([0.0], np.cumsum(np.where(good, x, 0.0))))
         count = np.concatenate(([0], np.cumsum(good)))

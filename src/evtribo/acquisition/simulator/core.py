@@ -3,9 +3,10 @@
 Each node (normal-force cell, tangential-force cell, amplifier) samples the trial's physics
 on its own clock (nominal rate, ppm error, random phase) and its frames reach the logger
 after a fixed latency plus exponential jitter. The load cells report the true forces through
-their cross-talk, zero offset, drift and hum (:mod:`~evtribo.acquisition.simulator.physics`). Frames are produced in reception order, one
-chunk of :data:`CHUNK_S` seconds of true time at a time, so that the offline trial and the
-real-time stream give the same frames for the same seed.
+their cross-talk, zero offset, drift and hum (:mod:`~evtribo.acquisition.simulator.physics`).
+Frames are produced in reception order, one chunk of :data:`CHUNK_S` seconds of true time at
+a time, so that the offline trial and the real-time stream give the same frames for the same
+seed.
 """
 
 from __future__ import annotations
