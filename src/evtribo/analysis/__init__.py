@@ -2,8 +2,14 @@
 
 The layers, each a module of plain numpy functions:
 
+- :mod:`~evtribo.analysis.settings`: the settings, their defaults and ``[analysis]``;
 - :mod:`~evtribo.analysis.align`: the two load cells on one time grid, NaN in gaps;
-- :mod:`~evtribo.analysis.conditions`: ON/OFF per grid point, with guard times at switches;
+- :mod:`~evtribo.analysis.excitation`, :mod:`~evtribo.analysis.conditions`: what the
+  excitation was, and ON/OFF per grid point, with guard times at switches;
+- :mod:`~evtribo.analysis.hum`: mains hum found and notched out;
+- :mod:`~evtribo.analysis.tare`, :mod:`~evtribo.analysis.lifted`: the load cells'
+  calibration, their zero offsets and drift from finger-lifted stretches and the friction
+  loop;
 - :mod:`~evtribo.analysis.windows`: steady-sliding windows found from the friction itself;
 - :mod:`~evtribo.analysis.estimate`: friction coefficient, inferred electrostatic force and
   their bootstrap intervals (calibrated for the few windows a trial gives; the replicates

@@ -8,14 +8,13 @@ the trial's start, the first decoded frame of the rig's messages.
 The steps: the two load cells on one grid (:mod:`.align`), the ON/OFF condition
 (:mod:`.conditions`), mains hum notched out (:mod:`.hum`), the calibration applied and the
 zero offsets removed (:mod:`.tare`), steady-sliding windows (:mod:`.windows`); the friction
-loop's tangential offset is then taken out and the windows found again on the corrected
-forces.
+loop's tangential offset is then taken out and the windows' means taken again from the
+corrected forces.
 """
 
 from __future__ import annotations
 
 import logging
-from collections import Counter
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -25,11 +24,9 @@ import numpy.typing as npt
 import pandas as pd
 
 from evtribo.analysis.align import AlignedForces, align_forces
-from evtribo.analysis.conditions import (
-    ON,
-    condition_from_excitation,
-    constant_condition,
-)
+from evtribo.analysis.conditions import ON
+from evtribo.analysis.excitation import Excitation, excitation_of, window_amplitudes
+from evtribo.analysis.excitation import get_field as _get
 from evtribo.analysis.hum import find_hum, modulation_lines, remove_hum
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.spectra import dominant_frequency
@@ -62,7 +59,6 @@ WINDOW_CSV_COLUMNS = ("subject", "trial", "condition", "amplitude_V", "waveform"
 #: Columns of sine_trace.csv (read by :mod:`evtribo.compare.tables`).
 SINE_TRACE_CSV_COLUMNS = TRACE_COLUMNS
 
-_WAVE_CODES = {0: "sine", 1: "square", 2: "triangle", 3: "dc"}
 
 
 @dataclass(frozen=True)
@@ -105,46 +101,6 @@ def empty_windows() -> pd.DataFrame:
     return pd.DataFrame({c: pd.Series(dtype=object if c in {"subject", "trial", "condition",
                                                             "waveform"} else float)
                          for c in WINDOW_CSV_COLUMNS})
-
-
-def _get(obj: Any, name: str, default: Any = None) -> Any:
-    return getattr(obj, name, default) if obj is not None else default
-
-
-def _waveform_names(values: npt.ArrayLike) -> list[str]:
-    out = []
-    for v in np.asarray(values, dtype=object).ravel():
-        if isinstance(v, bytes | str):
-            out.append(v.decode() if isinstance(v, bytes) else str(v))
-        elif v is not None and np.isfinite(float(v)):
-            out.append(_WAVE_CODES.get(int(v), str(int(v))))
-    return out
-
-
-def _excitation_summary(exc: Any, on_mask: npt.NDArray[np.bool_]) -> dict[str, Any]:
-    """Waveform (most common), frequency and amplitude (medians) while the voltage is on."""
-    out: dict[str, Any] = {}
-    if not on_mask.any():
-        return out
-    for key, name in (("amplitude_V", "amplitude"), ("frequency_Hz", "frequency")):
-        values = _get(exc, name)
-        if values is not None:
-            arr = np.asarray(values, dtype=np.float64)[on_mask]
-            arr = arr[np.isfinite(arr)]
-            if arr.size:
-                out[key] = float(np.median(arr))
-    waves = _get(exc, "waveform")
-    if waves is not None:
-        names = _waveform_names(np.asarray(waves, dtype=object)[on_mask])
-        if names:
-            out["waveform"] = Counter(names).most_common(1)[0][0]
-    return out
-
-
-def _same(a: Any, b: Any) -> bool:
-    if isinstance(a, float) or isinstance(b, float):
-        return bool(np.isclose(float(a), float(b), rtol=1e-3, atol=1e-6))
-    return bool(a == b)
 
 
 def _channel(signals: Any, name: str) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
@@ -211,72 +167,6 @@ def _dropped(signals: Any, counter_moduli: Mapping[str, int] | None,
     return total
 
 
-@dataclass
-class _Excitation:
-    """What the trial's excitation was, and when it was on."""
-
-    info: dict[str, Any]
-    condition: npt.NDArray[np.int8]
-    t: npt.NDArray[np.float64] | None = None
-    enabled: npt.NDArray[np.bool_] | None = None
-    amplitude: npt.NDArray[np.float64] | None = None
-
-
-def _excitation(signals: Any, meta: TrialMeta, grid_t: npt.NDArray[np.float64],
-                guard_s: float, warn: Callable[[str], None]) -> _Excitation:
-    """The condition of every grid point and the trial's waveform, frequency, amplitude:
-    from the excitation signals when the rig has them, else from the sidecar."""
-    info: dict[str, Any] = {"waveform": meta.waveform, "frequency_Hz": meta.frequency_Hz,
-                            "amplitude_V": meta.amplitude_V, "condition": meta.condition}
-    exc = _get(signals, "excitation")
-    exc_t = _get(exc, "t")
-    if exc is not None and exc_t is not None and len(exc_t) and exc.enabled is not None:
-        exc_t = np.asarray(exc_t, dtype=np.float64)
-        enabled = np.asarray(exc.enabled).astype(bool)
-        cond = condition_from_excitation(grid_t, exc_t, enabled, guard_s=guard_s)
-        observed = {"condition": "alternating" if enabled.any() and not enabled.all()
-                    else "on" if enabled.all() else "off"}
-        observed.update(_excitation_summary(exc, enabled))
-        for key, value in observed.items():
-            given = info.get(key)
-            if given is not None and not _same(given, value):
-                warn(f"the sidecar says {key} = {given!r} but the excitation signals say "
-                     f"{value!r}; using the signals")
-            info[key] = value
-        amp = _get(exc, "amplitude")
-        return _Excitation(info, cond, exc_t, enabled,
-                           None if amp is None else np.asarray(amp, dtype=np.float64))
-    if info["condition"] in ("on", "off"):
-        return _Excitation(info, constant_condition(grid_t.size, info["condition"]))
-    if info["condition"] == "alternating":
-        raise AnalysisError("the sidecar says the trial alternates, but the rig has no "
-                            "excitation signals to tell ON from OFF")
-    raise AnalysisError("the trial's condition is unknown: the rig has no excitation "
-                        "signals and the sidecar gives no 'condition'")
-
-
-def _window_amplitudes(w: pd.DataFrame, exc: _Excitation) -> npt.NDArray[np.float64]:
-    """Amplitude of each window (0 for OFF; the amplitude reported during an ON window,
-    which follows an amplitude sweep inside a trial), V."""
-    amplitude = np.zeros(len(w))
-    is_on = (w.condition == "on").to_numpy()
-    if not is_on.any():
-        return amplitude
-    given = exc.info["amplitude_V"]
-    amplitude[is_on] = np.nan if given is None else float(given)
-    if exc.amplitude is not None and exc.t is not None and exc.enabled is not None:
-        order = np.argsort(exc.t[exc.enabled], kind="stable")
-        enabled_t = exc.t[exc.enabled][order]
-        enabled_a = exc.amplitude[exc.enabled][order]
-        on = np.flatnonzero(is_on)
-        lo = np.searchsorted(enabled_t, w.t_start.to_numpy()[on], side="left")
-        hi = np.searchsorted(enabled_t, w.t_end.to_numpy()[on], side="right")
-        for k, a, b in zip(on, lo, hi, strict=True):
-            if b > a:
-                amplitude[k] = float(np.median(enabled_a[a:b]))
-    return amplitude
-
-
 def _dehum(aligned: AlignedForces, info: Mapping[str, Any]) -> AlignedForces:
     """The forces with mains hum notched out (each cell on its own)."""
     avoid = modulation_lines(info.get("waveform"), info.get("frequency_Hz"), aligned.rate_Hz)
@@ -305,7 +195,7 @@ def _windows(tared: Tared, cond: npt.NDArray[np.int8], smooth: float, quantum: f
                         exclude=exclude, quantum_s=quantum)
 
 
-def _tare(aligned: AlignedForces, exc: _Excitation, *, smooth: float, quantum: float,
+def _tare(aligned: AlignedForces, exc: Excitation, *, smooth: float, quantum: float,
           meta: TrialMeta,
           settings: AnalysisSettings, calibration: Calibration | None,
           warn: Callable[[str], None]) -> tuple[Tared, pd.DataFrame]:
@@ -322,7 +212,7 @@ def _tare(aligned: AlignedForces, exc: _Excitation, *, smooth: float, quantum: f
                  "screen?)")
     w = _windows(tared, exc.condition, smooth, quantum, settings)
     if mode in ("auto", "friction-loop") and not w.empty:
-        amps = _window_amplitudes(w, exc)
+        amps = window_amplitudes(w, exc)
         groups = [None if c != "on" else ("on" if not np.isfinite(a) else a)
                   for c, a in zip(w.condition, amps, strict=True)]
         loop = friction_loop_offset(tared.forces.t, tared.forces.normal,
@@ -418,7 +308,9 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
     tn, fn = _channel(signals, "normal")
     tt, ft = _channel(signals, "tangential")
     aligned = align_forces(tn, fn, tt, ft, max_gap_periods=settings.max_gap_periods)
-    exc = _excitation(signals, meta, aligned.t, settings.guard_s, warn)
+    given = {"waveform": meta.waveform, "frequency_Hz": meta.frequency_Hz,
+             "amplitude_V": meta.amplitude_V, "condition": meta.condition}
+    exc = excitation_of(signals, given, aligned.t, settings.guard_s, warn)
     info = exc.info
     smooth, quantum = settings.smooth_s, HUM_FREE_S
     oscillates = (info["waveform"] == "sine" and bool(info.get("frequency_Hz"))
@@ -436,7 +328,7 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
     if w.empty:
         warn("no steady-sliding window found")
 
-    amplitude = _window_amplitudes(w, exc)
+    amplitude = window_amplitudes(w, exc)
     is_on = (w.condition == "on").to_numpy()
     if np.isnan(amplitude).any():
         warn("the amplitude of the ON windows is unknown (no excitation amplitude "
