@@ -98,8 +98,13 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "sidecar-condition": lambda t: _sidecar(t / "study", condition="half"),
     "subject-folder-name": lambda t: (t / "study" / "P01").rename(t / "study" / "P 01"),
     "two-logs-one-trial": lambda t: (t / "study" / "P01" / "run-01.asc").write_text(""),
-    "duplicate-trial": lambda t: (
-        shutil.copytree(t / "study" / "P01", t / "study" / "P01-again")),
+    "sidecar-subject-folder": lambda t: _sidecar(t / "study", subject="P02"),
+    "sidecar-fifo": lambda t: (t / "study" / "P01" / "run-01.json").unlink()
+    or os.mkfifo(t / "study" / "P01" / "run-01.json"),
+    "sidecar-device": lambda t: (t / "study" / "P01" / "run-01.json").unlink()
+    or (t / "study" / "P01" / "run-01.json").symlink_to("/dev/zero"),
+    "sidecar-nested-deep": lambda t: (t / "study" / "P01" / "run-01.json").write_text(
+        "[" * 100_000 + "]" * 100_000),
     "not-a-study": lambda t: (t / "study" / "study.toml").unlink(),
     "no-such-study": lambda t: None,
     "no-trials": lambda t: shutil.rmtree(t / "study" / "P01"),
@@ -119,6 +124,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "calibration-matrix-singular": lambda t: _append(
         t / "study", "[rig.calibration]\nmatrix = [[1.0, 2.0], [2.0, 4.0]]\n"),
     "acquire-tare-negative": lambda t: None,
+    "acquire-name-too-long": lambda t: None,
     "strict-damaged-line": lambda t: (t / "study" / "P01" / "run-01.log").write_text(
         LOG + "(1763700000.002000) vcan0 0C1#000000000000000\n"),
     "jobs-zero": lambda t: None,
@@ -191,8 +197,10 @@ def places(tmp: Path) -> dict[str, str]:
 
 
 def substitute(text: str, tmp: Path) -> str:
-    """*text* with STUDY, OUT and TMP replaced by the folders under *tmp*."""
+    """*text* with STUDY, OUT and TMP replaced by the folders under *tmp*, and ``r*300``
+    by 300 r's (a name too long to show)."""
     where = places(tmp)
+    text = text.replace("r*300", "r" * 300)
     return re.sub(r"\b(STUDY|OUT|TMP)\b", lambda m: where[m.group(1)], text)
 
 

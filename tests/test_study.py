@@ -1,6 +1,7 @@
 """The study folder: discovery, names, study.toml and sidecars."""
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -132,11 +133,53 @@ def test_partial_log_superseded_by_complete_one(tmp_path):
     assert any("run-01.log.part: not analysed" in w for w in s.warnings)
 
 
-def test_sidecar_subject_overrides_folder_and_duplicates_refused(tmp_path):
-    root = make_study(tmp_path / "s", {"P01/run-01": {"subject": "P02"},
-                                       "P02/run-01": {}})
-    with pytest.raises(StudyError, match="appears twice"):
+def test_a_sidecar_subject_other_than_its_folder_is_refused(tmp_path):
+    """A sidecar saying "S1" in folder S01 silently made a second subject: now exit 2,
+    naming the sidecar; the folder's own name in the sidecar is fine."""
+    root = make_study(tmp_path / "s", {"S01/run-01": {"subject": "S1"},
+                                       "S01/run-02": {"subject": "S01"}})
+    with pytest.raises(SidecarError) as err:
         study.load_study(root, with_rig=False)
+    assert err.value.key == "subject" and err.value.path.endswith("S01/run-01.json")
+    assert err.value.exit_code == 2
+
+
+def test_a_misspelt_sidecar_key_is_a_warning_with_the_closest_key(tmp_path):
+    root = make_study(tmp_path / "s", {"P01/run-01": {"amplitde_V": 140, "frames": 3,
+                                                      "operator": "JD"}})
+    loaded = study.load_study(root, with_rig=False)
+    warned = [w for w in loaded.warnings if "run-01.json" in w]
+    assert any("unknown key 'amplitde_V' ignored (did you mean 'amplitude_V'?)" in w
+               for w in warned)
+    assert any("unknown key 'operator' ignored" in w for w in warned)
+    assert not any("'frames'" in w for w in warned)  # a key evtribo writes
+    assert loaded.trials[0].sidecar.amplitude_V is None
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "huge", "deep"])
+def test_a_sidecar_that_is_no_small_regular_file_is_refused_not_read(tmp_path, kind):
+    """A FIFO hung the analysis, a link to /dev/zero was read without end, JSON nested
+    100,000 deep gave a RecursionError: each is a bad input now, naming the sidecar."""
+    root = make_study(tmp_path / "s", {"P01/run-01": {}})
+    sidecar = root / "P01" / "run-01.json"
+    sidecar.unlink()
+    if kind == "fifo":
+        os.mkfifo(sidecar)
+    elif kind == "device":
+        sidecar.symlink_to("/dev/zero")
+    elif kind == "huge":
+        sidecar.write_text('{"notes": "' + "x" * (2 << 20) + '"}')
+    else:
+        sidecar.write_text("[" * 100_000 + "]" * 100_000)
+    with pytest.raises(SidecarError) as err:
+        study.load_study(root, with_rig=False)
+    assert err.value.path.endswith("run-01.json") and err.value.exit_code == 2
+
+
+def test_names_too_long_for_a_file_system_are_refused(tmp_path):
+    with pytest.raises(StudyError, match="at most 100"):
+        study.validate_name("r" * 300, what="trial")
+    assert study.validate_name("r" * 100, what="trial") == "r" * 100
 
 
 @pytest.mark.parametrize(

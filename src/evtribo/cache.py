@@ -4,10 +4,12 @@
 
 The key is the SHA-256 of the log's bytes, the rig's fingerprint (DBC bytes and role
 mapping, :meth:`~evtribo.rig.Rig.fingerprint`) and :data:`CACHE_VERSION`; a changed log, DBC
-or mapping misses the cache. One file per trial, ``<key>.parquet``, holding the three streams
-one after the other (column ``stream``: 0 normal, 1 tangential, 2 excitation) and the counts
-in the schema metadata. Written to a temporary name and renamed, so a crash never leaves a
-half-written entry.
+or mapping misses the cache. One file per trial, ``<key>.<checksum>.parquet``, holding the
+three streams one after the other (column ``stream``: 0 normal, 1 tangential, 2 excitation)
+and the counts in the schema metadata; ``<checksum>`` is the start of the SHA-256 of the
+file's own bytes, verified on every read: an entry whose bytes changed on disk (a flipped
+bit) is dropped and the trial decoded again, with a warning. Written to a temporary name and
+renamed, so a crash never leaves a half-written entry.
 
 Where: ``cache_dir`` if given, else ``$EVTRIBO_CACHE_DIR``, else ``$XDG_CACHE_HOME/evtribo``
 or ``~/.cache/evtribo``; never beside the raw logs unless that is the directory asked for.
@@ -34,9 +36,11 @@ from evtribo.rig import Rig
 log = logging.getLogger(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
-CACHE_VERSION = 4  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
-#                    frames with an unknown multiplexer value ignored
+CACHE_VERSION = 5  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
+#                    frames with an unknown multiplexer value ignored; 5: checksummed entries
 _META = b"evtribo.trial"
+#: Hex digits of the entry's SHA-256 in its file name.
+CHECKSUM_DIGITS = 16
 
 
 def default_cache_dir() -> Path:
@@ -170,42 +174,68 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
     LogFormatError
         As :func:`~evtribo.frames.read_frames`.
     """
-    path = None
+    directory, key = None, None
     if cache:
         directory = Path(cache_dir).expanduser() if cache_dir is not None \
             else default_cache_dir()
-        path = directory / f"{cache_key(log_path, rig)}.parquet"
-        if path.is_file():
-            try:
-                trial = _from_table(pq.read_table(path))
-            except Exception as err:  # a damaged or foreign entry: decode again
-                log.warning("%s: unreadable cache entry (%s); decoding again", path, err)
-            else:
-                if not (strict and trial.skipped_lines):
-                    log.debug("%s: decoded trial from cache %s", log_path, path)
-                    return trial
+        key = cache_key(log_path, rig)
+        trial = _read_entry(directory, key)
+        if trial is not None and not (strict and trial.skipped_lines):
+            log.debug("%s: decoded trial from the cache in %s", log_path, directory)
+            return trial
     frames, report = read_frames(log_path, strict=strict)
     trial = decode_trial(frames, rig)
     trial.skipped_lines = report.skipped_lines
-    if path is not None:
+    if directory is not None and key is not None:
         try:
-            _write_atomic(path, _to_table(trial))
+            _write_atomic(directory, key, _to_table(trial))
         except OSError as err:  # read-only, full, or a file in the way: the trial stands
             log.warning("%s: cannot write the cache entry (%s); the trial is decoded but "
-                        "not cached", path, err)
+                        "not cached", directory, err)
     return trial
 
 
-def _write_atomic(path: Path, table: pa.Table) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".tmp", dir=path.parent)
+def _entries(directory: Path, key: str) -> list[Path]:
+    try:
+        return sorted(directory.glob(f"{key}.*.parquet"))
+    except OSError:
+        return []
+
+
+def _read_entry(directory: Path, key: str) -> TrialSignals | None:
+    """The trial cached under *key*, or None; a damaged entry is removed (with a warning)."""
+    for path in _entries(directory, key):
+        try:
+            checksum = path.name[len(key) + 1:-len(".parquet")]
+            if file_hash(path)[:CHECKSUM_DIGITS] != checksum:
+                raise ValueError("its bytes do not match its checksum")
+            return _from_table(pq.read_table(path))
+        except Exception as err:  # damaged, foreign or unreadable: decode again
+            log.warning("%s: damaged cache entry (%s); removed, the trial is decoded again",
+                        path, err)
+            try:
+                path.unlink()
+            except OSError:
+                pass
+    return None
+
+
+def _write_atomic(directory: Path, key: str, table: pa.Table) -> Path:
+    """Write *table* as the entry of *key*, named after its checksum; returns its path."""
+    directory.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{key}.", suffix=".tmp", dir=directory)
     try:
         with os.fdopen(fd, "wb") as fh:
             pq.write_table(table, fh)
+        path = directory / f"{key}.{file_hash(tmp)[:CHECKSUM_DIGITS]}.parquet"
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+    for other in _entries(directory, key):
+        if other != path:
+            other.unlink(missing_ok=True)
+    return path
 
 
 __all__ = ["CACHE_VERSION", "cache_key", "default_cache_dir", "file_hash", "load_trial"]

@@ -41,6 +41,7 @@ import cantools.database
 from cantools.database.can import Database, Message, Signal
 
 from evtribo.errors import RigConfigError, toml_error_line, toml_key_line
+from evtribo.files import check_regular_file, read_limited
 
 log = logging.getLogger(__name__)
 
@@ -58,6 +59,8 @@ OPTIONAL_ROLES = (
 ROLES = REQUIRED_ROLES + OPTIONAL_ROLES
 #: Keys of a rig table besides the roles.
 OTHER_KEYS = ("name", "dbc", "calibration")
+#: Largest DBC file read, bytes.
+MAX_DBC_BYTES = 64 << 20
 #: Keys of the rig's ``calibration`` table.
 CALIBRATION_KEYS = ("normal_offset_N", "tangential_offset_N", "matrix")
 
@@ -295,8 +298,15 @@ class Rig:
                 raise RigConfigError(f"must be a string, got {type(v).__name__} {v!r}",
                                      path=src, key=key(k))
         dbc = Path(base_dir) / mapping["dbc"]
-        if not dbc.is_file():
+        if not dbc.exists():
             raise RigConfigError(f"DBC file not found: {dbc}", path=src, key=key("dbc"))
+        try:
+            size = check_regular_file(dbc, RigConfigError, what="DBC file").st_size
+        except RigConfigError as err:
+            raise RigConfigError(f"{dbc} {err.message}", path=src, key=key("dbc")) from err
+        if size > MAX_DBC_BYTES:
+            raise RigConfigError(f"{dbc} is {size:,} bytes, too large for a DBC file (at "
+                                 f"most {MAX_DBC_BYTES:,})", path=src, key=key("dbc"))
         db = load_dbc(dbc, source=src, key=key("dbc"))
         refs = {r: resolve_signal(db, mapping[r], key=key(r), source=src)
                 for r in ROLES if r in mapping}
@@ -381,12 +391,12 @@ def load_rig(toml_path: str | os.PathLike[str]) -> Rig:
     """
     path = Path(toml_path)
     try:
-        with path.open("rb") as fh:
-            table = tomllib.load(fh)
+        table = tomllib.loads(read_limited(path, RigConfigError,
+                                           what="rig TOML file").decode("utf-8"))
     except FileNotFoundError as err:
         raise RigConfigError("rig file not found", path=path) from err
-    except IsADirectoryError as err:
-        raise RigConfigError("is a folder, not a rig TOML file", path=path) from err
+    except RecursionError as err:
+        raise RigConfigError("not valid TOML: nested too deeply", path=path) from err
     except OSError as err:  # permission denied, I/O error...
         raise RigConfigError(f"cannot read the rig file: {err.strerror or err}",
                              path=path) from err

@@ -14,6 +14,7 @@ for ``evtribo acquire``. It reads no CAN log. Every error names the file and the
 
 from __future__ import annotations
 
+import difflib
 import functools
 import json
 import logging
@@ -27,6 +28,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from evtribo.errors import OutputExistsError, SidecarError, StudyError, toml_error_line
+from evtribo.files import read_limited
 
 if TYPE_CHECKING:  # pragma: no cover
     from evtribo.rig import Rig
@@ -55,6 +57,21 @@ def log_suffixes() -> tuple[str, ...]:
 
 #: Files an operating system leaves in folders (``Thumbs.db`` would read as a SQLite log).
 OS_CLUTTER = {"thumbs.db", "ehthumbs.db", "desktop.ini", ".ds_store"}
+#: Sidecar keys evtribo reads (spec) or writes (``evtribo acquire``, ``evtribo simulate
+#: --study``, ``scripts/record_traces.py``); any other key is reported with the closest of
+#: these (a misspelt ``amplitde_V`` would otherwise be ignored in silence).
+SIDECAR_KEYS = frozenset({
+    "subject", "waveform", "frequency_Hz", "amplitude_V", "condition", "notes", "tare_s",
+    "trial", "rig", "interface", "channel", "bitrate", "bus_options", "log_channel",
+    "evtribo_version", "python_can_version", "cantools_version", "python_version",
+    "start_time", "end_time", "requested_duration_s", "duration_s", "log", "log_compressed",
+    "ended", "end_detail", "frames", "frames_by_id", "first_frame_time", "error_frames",
+    "dropped_frames", "dropped_frames_by_message", "longest_gap_s_by_message", "bus_errors",
+    "bus_exceptions", "damaged_lines", "bus", "software", "simulation",
+})
+#: Longest subject or trial name, bytes (the file system allows 255 for a whole file name,
+#: which adds suffixes such as ``.log.part``).
+MAX_NAME_BYTES = 100
 #: Top-level keys of study.toml and their types.
 STUDY_KEYS: dict[str, type | tuple[type, ...]] = {"name": str, "rig": dict, "analysis": dict}
 #: Folders of a study that are not subjects.
@@ -83,6 +100,10 @@ def validate_name(value: object, *, what: str, path: str | os.PathLike[str] | No
             "(no paths, no spaces)",
             path=path, key=key,
         )
+    if len(value.encode()) > MAX_NAME_BYTES:
+        raise error(f"{what} name {value[:20]}... is {len(value)} characters long; at most "
+                    f"{MAX_NAME_BYTES} are allowed (file names have a length limit)",
+                    path=path, key=key)
     return value
 
 
@@ -145,13 +166,18 @@ def _choice(value: object, key: str, path: Path, allowed: tuple[str, ...]) -> st
 
 
 def parse_sidecar(data: object, *, path: str | os.PathLike[str], default_subject: str) -> Sidecar:
-    """Validate a sidecar's decoded JSON; *default_subject* is the folder's name."""
+    """Validate a sidecar's decoded JSON; *default_subject* is the folder's name, which a
+    ``subject`` in the sidecar must equal."""
     p = Path(path)
     if not isinstance(data, dict):
         raise SidecarError(f"expected a JSON object, got {type(data).__name__}", path=p)
     data = dict(data)
     subject = validate_name(data.pop("subject", default_subject), what="subject", path=p,
                             key="subject", error=SidecarError)
+    if subject != default_subject:
+        raise SidecarError(f"says subject {subject!r}, but the trial is in the folder "
+                           f"{default_subject!r}: a subject's trials are in the folder of "
+                           "its name (rename one of them)", path=p, key="subject")
     notes = data.pop("notes", "")
     if notes is None:
         notes = ""
@@ -169,10 +195,11 @@ def parse_sidecar(data: object, *, path: str | os.PathLike[str], default_subject
 
 
 def read_sidecar(path: str | os.PathLike[str], *, default_subject: str) -> Sidecar:
-    """Read and validate a trial's JSON sidecar."""
+    """Read and validate a trial's JSON sidecar (a regular file of at most 1 MiB)."""
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
+        raw = read_limited(p, SidecarError, what="sidecar")
+        text = raw.decode("utf-8")
     except UnicodeDecodeError as err:
         raise SidecarError(f"not UTF-8 text ({err.reason} at byte {err.start})", path=p) from err
     except OSError as err:
@@ -182,7 +209,20 @@ def read_sidecar(path: str | os.PathLike[str], *, default_subject: str) -> Sidec
     except json.JSONDecodeError as err:
         raise SidecarError(f"invalid JSON: {err.msg} (column {err.colno})", path=p,
                            line=err.lineno) from err
+    except RecursionError as err:
+        raise SidecarError("invalid JSON: nested too deeply to be a sidecar", path=p) from err
     return parse_sidecar(data, path=p, default_subject=default_subject)
+
+
+def unknown_sidecar_keys(sidecar: Sidecar) -> list[tuple[str, str | None]]:
+    """Keys of *sidecar* evtribo neither reads nor writes, each with the closest known key
+    (or None)."""
+    out = []
+    for key in sidecar.extra:
+        if key not in SIDECAR_KEYS:
+            close = difflib.get_close_matches(key, sorted(SIDECAR_KEYS), n=1, cutoff=0.6)
+            out.append((key, close[0] if close else None))
+    return out
 
 
 def write_sidecar(path: str | os.PathLike[str], sidecar: Sidecar | Mapping[str, Any], *,
@@ -272,8 +312,7 @@ def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Read ``study.toml`` and check its top-level keys and their types."""
     p = Path(path)
     try:
-        with open(p, "rb") as fh:
-            config = tomllib.load(fh)
+        config = tomllib.loads(read_limited(p, StudyError, what=STUDY_FILE).decode("utf-8"))
     except FileNotFoundError as err:
         raise StudyError(f"no {STUDY_FILE}: this folder is not a study "
                          "(evtribo acquire creates one)", path=p) from err
@@ -281,6 +320,10 @@ def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
         raise StudyError(f"invalid TOML: {err}", path=p, line=toml_error_line(err)) from err
     except UnicodeDecodeError as err:
         raise StudyError(f"not UTF-8 text: {err.reason}", path=p) from err
+    except RecursionError as err:
+        raise StudyError("invalid TOML: nested too deeply", path=p) from err
+    except OSError as err:
+        raise StudyError(f"cannot read: {err.strerror or err}", path=p) from err
     for key, value in config.items():
         if key not in STUDY_KEYS:
             raise StudyError(f"unknown key; allowed: {', '.join(STUDY_KEYS)}", path=p, key=key)
@@ -341,6 +384,9 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
             sidecar_path = folder / f"{trial}.json"
             if sidecar_path.exists():
                 sidecar = read_sidecar(sidecar_path, default_subject=folder.name)
+                for key, close in unknown_sidecar_keys(sidecar):
+                    warnings.append(f"{sidecar_path}: unknown key {key!r} ignored"
+                                    + (f" (did you mean {close!r}?)" if close else ""))
             else:
                 sidecar_path = None
                 sidecar = Sidecar(subject=folder.name)
