@@ -14,6 +14,7 @@ corrected forces.
 
 from __future__ import annotations
 
+import itertools
 import logging
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -28,6 +29,7 @@ from evtribo.analysis.conditions import ON
 from evtribo.analysis.excitation import Excitation, excitation_of, window_amplitudes
 from evtribo.analysis.excitation import get_field as _get
 from evtribo.analysis.hum import find_hum, modulation_lines, remove_hum
+from evtribo.analysis.pieces import check_seconds, continuous_pieces, describe_gap, restrict
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.spectra import dominant_frequency
 from evtribo.analysis.tare import (
@@ -263,11 +265,134 @@ def _offset_warnings(tared: Tared, w: pd.DataFrame, offsets: tuple[float | None,
                  "interpolated between them")
 
 
+@dataclass
+class _PieceResult:
+    """What one continuous piece of a trial gives."""
+
+    windows: pd.DataFrame
+    info: dict[str, Any]
+    offsets: tuple[float | None, float | None]
+    methods: list[str]
+    span_s: float
+    modulation: float | None = None
+    trace: pd.DataFrame | None = None
+
+
+def _analyze_piece(signals: Any, meta: TrialMeta, t0: float, *, settings: AnalysisSettings,
+                   calibration: Calibration | None, warn: Callable[[str], None]
+                   ) -> _PieceResult:
+    """Align, read the excitation, remove hum and offsets, find the windows of a stretch of
+    a trial with no long pause; window times from *t0*, the trial's start."""
+    tn, fn = _channel(signals, "normal")
+    tt, ft = _channel(signals, "tangential")
+    aligned = align_forces(tn, fn, tt, ft, max_gap_periods=settings.max_gap_periods)
+    given = {"waveform": meta.waveform, "frequency_Hz": meta.frequency_Hz,
+             "amplitude_V": meta.amplitude_V, "condition": meta.condition}
+    exc = excitation_of(signals, given, aligned.t, settings.guard_s, warn)
+    info = exc.info
+    smooth, quantum = settings.smooth_s, HUM_FREE_S
+    oscillates = (info["waveform"] == "sine" and bool(info.get("frequency_Hz"))
+                  and 2 * float(info["frequency_Hz"]) < 0.4 * aligned.rate_Hz)
+    if oscillates:  # windows span whole periods of the friction's own oscillation
+        smooth = max(smooth, 1.0 / float(info["frequency_Hz"]))
+        quantum = 0.5 / float(info["frequency_Hz"])
+    if settings.hum == "remove" or (settings.hum == "auto" and oscillates):
+        aligned = _dehum(aligned, info)
+    tared, w = _tare(aligned, exc, smooth=smooth, quantum=quantum, meta=meta,
+                     settings=settings, calibration=calibration, warn=warn)
+    aligned = tared.forces
+    offsets = removed_offsets(tared, calibration if settings.tare != "none" else None)
+    _offset_warnings(tared, w, offsets, warn)
+    amplitude = window_amplitudes(w, exc)
+    if np.isnan(amplitude).any():
+        warn("the amplitude of the ON windows is unknown (no excitation amplitude "
+             "signal, no 'amplitude_V' in the sidecar)")
+    windows = pd.DataFrame({
+        "subject": meta.subject, "trial": meta.trial, "condition": w.condition,
+        "amplitude_V": np.round(amplitude, 3), "waveform": info["waveform"],
+        "t_start_s": np.round(w.t_start.to_numpy() - t0, 6),
+        "t_end_s": np.round(w.t_end.to_numpy() - t0, 6),
+        "normal_force_N": w.normal_force_N, "friction_force_N": w.friction_force_N,
+    }, columns=list(WINDOW_CSV_COLUMNS)) if len(w) else empty_windows()
+    result = _PieceResult(windows, info, offsets, tared.methods,
+                          span_s=float(aligned.t[-1] - aligned.t[0]))
+    if info["waveform"] == "sine":
+        result.modulation = _modulation(aligned, w, info, warn)
+        result.trace = _trace(aligned, w, exc, meta, settings)
+    return result
+
+
+def _modulation(aligned: AlignedForces, w: pd.DataFrame, info: Mapping[str, Any],
+                warn: Callable[[str], None]) -> float | None:
+    """The friction's dominant frequency over the ON windows of a sine trial, Hz."""
+    if not (w.condition == "on").any():
+        return None
+    drive = info.get("frequency_Hz")
+    if drive and 2 * float(drive) >= 0.8 * aligned.rate_Hz / 2:
+        warn(f"friction modulation at 2 x {drive:g} Hz is beyond what the load cells' "
+             f"{aligned.rate_Hz:.0f} Hz sampling can resolve")
+        return None
+    f = dominant_frequency(_sine_segments(aligned, w), aligned.rate_Hz)
+    if not np.isfinite(f):
+        warn("ON windows too short for a spectrum of the friction force")
+        return None
+    return float(f)
+
+
+def _trace(aligned: AlignedForces, w: pd.DataFrame, exc: Excitation, meta: TrialMeta,
+           settings: AnalysisSettings) -> pd.DataFrame | None:
+    """A sine trial's forces around a switch to ON (sine_trace.csv)."""
+    if exc.t is not None and exc.enabled is not None:
+        idx = np.searchsorted(exc.t, aligned.t, side="right") - 1
+        on_now = np.where(idx >= 0, exc.enabled[np.clip(idx, 0, None)], False)
+    else:
+        on_now = exc.condition == ON
+    steady = np.zeros(aligned.t.size, dtype=bool)
+    for a, b in zip(w.i_start.to_numpy(int), w.i_stop.to_numpy(int), strict=True):
+        steady[a:b] = True
+    info = exc.info
+    return sine_trace(aligned.t, aligned.normal, aligned.tangential, on_now, steady,
+                      amplitude_V=float(info["amplitude_V"] or np.nan),
+                      frequency_Hz=float(info["frequency_Hz"] or np.nan),
+                      subject=meta.subject, trial=meta.trial, off_s=settings.trace_off_s,
+                      on_s=settings.trace_on_s, rate_Hz=settings.trace_rate_Hz)
+
+
+def _pieces(signals: Any, meta: TrialMeta, t0: float, *, settings: AnalysisSettings,
+            calibration: Calibration | None, warn: Callable[[str], None]
+            ) -> list[_PieceResult]:
+    """Each continuous piece of the trial analysed (one for a trial without long pauses)."""
+    check_seconds(signals)
+    pieces = continuous_pieces(signals)
+    if len(pieces) <= 1:
+        return [_analyze_piece(signals, meta, t0, settings=settings, calibration=calibration,
+                               warn=warn)]
+    for before, after in itertools.pairwise(pieces):
+        warn(describe_gap(before, after, t0))
+    warn(f"analysed in {len(pieces)} continuous pieces")
+    out, failures = [], []
+    for lo, hi in pieces:
+        try:
+            out.append(_analyze_piece(restrict(signals, lo, hi), meta, t0,
+                                      settings=settings, calibration=calibration, warn=warn))
+        except AnalysisError as err:
+            failures.append(err)
+            warn(f"the piece from {lo - t0:.3f} s to {hi - t0:.3f} s is not analysed: {err}")
+    if not out:
+        raise failures[0]
+    return out
+
+
 def analyze_signals(signals: Any, meta: TrialMeta, *,
                     settings: AnalysisSettings | None = None,
                     counter_moduli: Mapping[str, int] | None = None,
                     calibration: Calibration | None = None) -> TrialResult:
     """Analyse one decoded trial.
+
+    A trial whose load cells both fall silent for more than a second (a jump of the log's
+    clock, a pause of the recording) is analysed in its continuous pieces
+    (:mod:`evtribo.analysis.pieces`), so that memory follows its frames, not its time span;
+    ``duration_s`` is then the pieces' total.
 
     Parameters
     ----------
@@ -292,8 +417,8 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
     Raises
     ------
     AnalysisError
-        The trial cannot be analysed (no overlap of the load cells, an alternating trial
-        without excitation signals, no condition known).
+        The trial cannot be analysed (no overlap of the load cells, timestamps not in
+        seconds, an alternating trial without excitation signals, no condition known).
     """
     settings = settings or AnalysisSettings()
     warnings: list[str] = []
@@ -304,86 +429,44 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
         warnings.append(f"{where}: {msg}")
 
     t0 = trial_start(signals)
-    duration = _trial_end(signals) - t0
-    tn, fn = _channel(signals, "normal")
-    tt, ft = _channel(signals, "tangential")
-    aligned = align_forces(tn, fn, tt, ft, max_gap_periods=settings.max_gap_periods)
-    given = {"waveform": meta.waveform, "frequency_Hz": meta.frequency_Hz,
-             "amplitude_V": meta.amplitude_V, "condition": meta.condition}
-    exc = excitation_of(signals, given, aligned.t, settings.guard_s, warn)
-    info = exc.info
-    smooth, quantum = settings.smooth_s, HUM_FREE_S
-    oscillates = (info["waveform"] == "sine" and bool(info.get("frequency_Hz"))
-                  and 2 * float(info["frequency_Hz"]) < 0.4 * aligned.rate_Hz)
-    if oscillates:  # windows span whole periods of the friction's own oscillation
-        smooth = max(smooth, 1.0 / float(info["frequency_Hz"]))
-        quantum = 0.5 / float(info["frequency_Hz"])
-    if settings.hum == "remove" or (settings.hum == "auto" and oscillates):
-        aligned = _dehum(aligned, info)
-    tared, w = _tare(aligned, exc, smooth=smooth, quantum=quantum, meta=meta,
-                     settings=settings, calibration=calibration, warn=warn)
-    aligned = tared.forces
-    offsets = removed_offsets(tared, calibration if settings.tare != "none" else None)
-    _offset_warnings(tared, w, offsets, warn)
-    if w.empty:
+    parts = _pieces(signals, meta, t0, settings=settings, calibration=calibration, warn=warn)
+    longest = max(parts, key=lambda p: p.span_s)
+    info = longest.info
+    frames = [p.windows for p in parts if not p.windows.empty]
+    windows = pd.concat(frames, ignore_index=True) if frames else empty_windows()
+    if windows.empty:
         warn("no steady-sliding window found")
-
-    amplitude = window_amplitudes(w, exc)
-    is_on = (w.condition == "on").to_numpy()
-    if np.isnan(amplitude).any():
-        warn("the amplitude of the ON windows is unknown (no excitation amplitude "
-             "signal, no 'amplitude_V' in the sidecar)")
-    windows = pd.DataFrame({
-        "subject": meta.subject, "trial": meta.trial, "condition": w.condition,
-        "amplitude_V": np.round(amplitude, 3), "waveform": info["waveform"],
-        "t_start_s": np.round(w.t_start.to_numpy() - t0, 6),
-        "t_end_s": np.round(w.t_end.to_numpy() - t0, 6),
-        "normal_force_N": w.normal_force_N, "friction_force_N": w.friction_force_N,
-    }, columns=list(WINDOW_CSV_COLUMNS)) if len(w) else empty_windows()
-
-    modulation = None
-    if info["waveform"] == "sine" and is_on.any():
-        drive = info.get("frequency_Hz")
-        if drive and 2 * float(drive) >= 0.8 * aligned.rate_Hz / 2:
-            warn(f"friction modulation at 2 x {drive:g} Hz is beyond what the load cells' "
-                 f"{aligned.rate_Hz:.0f} Hz sampling can resolve")
-        else:
-            f = dominant_frequency(_sine_segments(aligned, w), aligned.rate_Hz)
-            if np.isfinite(f):
-                modulation = f
-            else:
-                warn("ON windows too short for a spectrum of the friction force")
-
-    trace = None
-    if info["waveform"] == "sine":
-        if exc.t is not None and exc.enabled is not None:
-            idx = np.searchsorted(exc.t, aligned.t, side="right") - 1
-            on_now = np.where(idx >= 0, exc.enabled[np.clip(idx, 0, None)], False)
-        else:
-            on_now = exc.condition == ON
-        steady = np.zeros(aligned.t.size, dtype=bool)
-        for a, b in zip(w.i_start.to_numpy(int), w.i_stop.to_numpy(int), strict=True):
-            steady[a:b] = True
-        trace = sine_trace(aligned.t, aligned.normal, aligned.tangential, on_now, steady,
-                           amplitude_V=float(info["amplitude_V"] or np.nan),
-                           frequency_Hz=float(info["frequency_Hz"] or np.nan),
-                           subject=meta.subject, trial=meta.trial,
-                           off_s=settings.trace_off_s, on_s=settings.trace_on_s,
-                           rate_Hz=settings.trace_rate_Hz)
-
-    dropped = _dropped(signals, counter_moduli, warn)
+    duration = (_trial_end(signals) - t0 if len(parts) == 1
+                else sum(p.span_s for p in parts))
+    offsets = tuple(_span_mean([(p.offsets[k], p.span_s) for p in parts]) for k in (0, 1))
+    methods = list(dict.fromkeys(m for p in parts for m in p.methods))
+    modulation = next((p.modulation for p in sorted(parts, key=lambda p: -p.span_s)
+                       if p.modulation is not None), None)
+    trace = next((p.trace for p in parts if p.trace is not None), None)
     row = {
         "subject": meta.subject, "trial": meta.trial, "waveform": info["waveform"],
         "frequency_Hz": info["frequency_Hz"], "amplitude_V": info["amplitude_V"],
         "condition": info["condition"], "duration_s": round(duration, 6),
-        "frames": _get(signals, "frames"), "dropped_frames": dropped,
+        "frames": _get(signals, "frames"),
+        "dropped_frames": _dropped(signals, counter_moduli, warn),
         "skipped_lines": _get(signals, "skipped_lines"),
         "friction_modulation_Hz": modulation,
         "normal_offset_N": None if offsets[0] is None else round(offsets[0], 6),
         "tangential_offset_N": None if offsets[1] is None else round(offsets[1], 6),
-        "tare": "+".join(tared.methods) or "none",
+        "tare": "+".join(methods) or "none",
     }
     return TrialResult(row=row, windows=windows, warnings=warnings, trace=trace)
+
+
+def _span_mean(values: list[tuple[float | None, float]]) -> float | None:
+    """Mean of the values given (None left out), weighted by their spans; None if none."""
+    known = [(v, w) for v, w in values if v is not None]
+    if not known:
+        return None
+    total = sum(w for _, w in known)
+    if total <= 0:
+        return float(np.mean([v for v, _ in known]))
+    return float(sum(v * w for v, w in known) / total)
 
 
 def failed_row(meta: TrialMeta) -> dict[str, Any]:
