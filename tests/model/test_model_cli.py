@@ -1,6 +1,7 @@
 """``evtribo model``: JSON, --set, --list, --figures, exit codes."""
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -28,7 +29,9 @@ def test_json_matches_the_library(capsys):
     assert out["electrostatic_force_N"] == pytest.approx(model.electrostatic_force(0.5, 140))
     assert out["md_cohesive_radius_m"] > out["md_contact_radius_m"] > 0
     assert out["maugis_parameter"] == pytest.approx(model.maugis_parameter(140))
-    assert out["parameters"] == model.TABLE_1.as_dict()
+    # an infinite resistance (the paper's insulators) is null in JSON
+    assert out["parameters"] == {k: None if math.isinf(v) else v
+                                 for k, v in model.TABLE_1.as_dict().items()}
 
 
 def test_set_changes_the_result(capsys):
@@ -85,7 +88,7 @@ def test_figures_written_not_blank_and_not_overwritten(tmp_path, capsys):
     assert main(["model", "--figures", str(out)]) == 0
     names = {p.name for p in out.iterdir()}
     for stem in ("fig5_friction_time", "fig6_friction_vs_load", "fig7_area_increase",
-                 "maugis_vs_jkr"):
+                 "maugis_vs_jkr", "frequency"):
         assert {f"{stem}.png", f"{stem}.svg"} <= names
         pixels = image.imread(out / f"{stem}.png")
         assert pixels.shape[0] > 300 and np.var(pixels[..., :3]) > 1e-3
@@ -96,7 +99,7 @@ def test_figures_written_not_blank_and_not_overwritten(tmp_path, capsys):
     assert "--force" in capsys.readouterr().err
     assert (out / "fig5_friction_time.png").stat().st_mtime_ns == before
     assert main(["model", "--figures", str(out), "--force", "--json"]) == 0
-    assert len(json.loads(capsys.readouterr().out)["figures"]) == 8
+    assert len(json.loads(capsys.readouterr().out)["figures"]) == 10
 
 
 def test_save_figures_raises_output_exists(tmp_path):

@@ -3,6 +3,7 @@
 ::
 
     evtribo model --normal-force 0.5 --voltage 140 --set h_L=3e-6 --json
+    evtribo model --voltage 100 --frequency 50 --waveform square --set r_g=80 --json
     evtribo model --list
     evtribo model --figures out/figures [--force]
 """
@@ -24,6 +25,8 @@ from evtribo.model import ModelParameters
 _ROWS: tuple[tuple[str, str, str], ...] = (
     ("normal_force_N", "N", "external normal force F_ext"),
     ("voltage_V", "V", "applied voltage U (amplitude)"),
+    ("gap_factor", "1", "gap's share |H| of the voltage at f (1: the paper)"),
+    ("effective_voltage_V", "V", "effective amplitude U_eff the gap sees"),
     ("adhesion_stress_Pa", "Pa", "adhesion stress sigma_0 (eq. 8)"),
     ("surface_energy_J_m2", "J/m^2", "relative surface energy Delta-gamma (eq. 9)"),
     ("contact_area_hertz_m2", "m^2", "contact area, Hertz (voltage off)"),
@@ -58,6 +61,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         help="external normal force F_ext in N (default 0.5)")
     parser.add_argument("--voltage", type=float, default=140.0, metavar="V",
                         help="voltage amplitude U in V (default 140)")
+    parser.add_argument("--frequency", type=float, metavar="HZ",
+                        help="frequency of the drive, Hz: the model is evaluated at the "
+                             "amplitude the gap sees (the paper's model, with r_sc and r_g "
+                             "finite, depends on it; without: the paper's high-frequency "
+                             "limit)")
+    parser.add_argument("--waveform", choices=("sine", "square"), default="square",
+                        help="waveform of the drive with --frequency (default square; for a "
+                             "sine, F_el and the friction are means over a period)")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         dest="assignments",
                         help="set a model parameter, SI units (repeatable; see --list)")
@@ -79,13 +90,25 @@ def _finite(x: Any) -> float | None:
 
 
 def evaluate(normal_force: float, voltage: float,
-             params: ModelParameters = model.TABLE_1) -> dict[str, float | None]:
-    """Every quantity of the table at one point (non-finite values become ``None``)."""
-    f, u = normal_force, voltage
+             params: ModelParameters = model.TABLE_1, *, frequency: float | None = None,
+             waveform: str = "square") -> dict[str, float | None]:
+    """Every quantity of the table at one point (non-finite values become ``None``).
+
+    With *frequency* (Hz), the voltage-dependent quantities are those at the effective
+    amplitude the gap sees (:func:`evtribo.model.effective_voltage`); for a sine drive the
+    electrostatic and friction forces are their means over a period."""
+    f = normal_force
+    if frequency is None:
+        gain, u = 1.0, voltage
+    else:
+        u = float(model.effective_voltage(voltage, frequency, waveform, params))
+        gain = float(abs(model.gap_factor(frequency, params)))
     md = model.maugis_dugdale(f, u, params)
     values = {
         "normal_force_N": f,
-        "voltage_V": u,
+        "voltage_V": voltage,
+        "gap_factor": gain,
+        "effective_voltage_V": u,
         "adhesion_stress_Pa": model.adhesion_stress(u, params),
         "surface_energy_J_m2": model.surface_energy(u, params),
         "contact_area_hertz_m2": model.contact_area_hertz(f, params),
@@ -106,7 +129,16 @@ def evaluate(normal_force: float, voltage: float,
         * np.asarray(md.c) ** 2,
         "md_friction_force_N": model.friction_force_md(f, u, params),
     }
+    if frequency is not None and waveform == "sine":
+        fel = float(model.electrostatic_force_drive(f, voltage, frequency, "sine", params))
+        values["electrostatic_force_N"] = fel
+        values["friction_force_N"] = params.mu * (f + fel)
     return {key: _finite(value) for key, value in values.items()}
+
+
+def _json_number(value: float) -> float | None:
+    """A parameter for JSON: an infinite resistance (none) becomes null."""
+    return value if math.isfinite(value) else None
 
 
 def _check_point(value: float, key: str, *, minimum: float | None = None) -> float:
@@ -120,11 +152,12 @@ def _check_point(value: float, key: str, *, minimum: float | None = None) -> flo
 def _print_list(as_json: bool) -> None:
     info = ModelParameters.info()
     if as_json:
-        print(json.dumps([row._asdict() for row in info], indent=2))
+        print(json.dumps([{**row._asdict(), "default": _json_number(row.default)}
+                          for row in info], indent=2))
         return
-    print(f"{'name':<8} {'unit':<5} {'default':>10}  description")
+    print(f"{'name':<8} {'unit':<7} {'default':>10}  description")
     for row in info:
-        print(f"{row.name:<8} {row.unit:<5} {row.default:>10.4g}  {row.description}")
+        print(f"{row.name:<8} {row.unit:<7} {row.default:>10.4g}  {row.description}")
 
 
 def _print_table(values: dict[str, float | None], params: ModelParameters) -> None:
@@ -133,6 +166,8 @@ def _print_table(values: dict[str, float | None], params: ModelParameters) -> No
     print("parameters: Table 1" + (" with " + ", ".join(f"{k}={v:g}" for k, v in
                                                       changed.items()) if changed else ""))
     for key, unit, description in _ROWS:
+        if key in ("gap_factor", "effective_voltage_V") and "frequency_Hz" not in values:
+            continue  # without a frequency: the paper's model, U as given
         value = values[key]
         shown = "n/a" if value is None else f"{value:.6g}"
         print(f"  {description:<48} {shown:>12} {unit}")
@@ -146,7 +181,15 @@ def run(args: argparse.Namespace) -> int:
         return 0
     normal_force = _check_point(args.normal_force, "--normal-force", minimum=0.0)
     voltage = _check_point(args.voltage, "--voltage")
-    result: dict[str, Any] = evaluate(normal_force, voltage, params)
+    frequency = None
+    if args.frequency is not None:
+        frequency = _check_point(args.frequency, "--frequency")
+        if frequency <= 0:
+            raise ConfigError(f"must be > 0, got {frequency!r}", key="--frequency")
+    result: dict[str, Any] = evaluate(normal_force, voltage, params, frequency=frequency,
+                                      waveform=args.waveform)
+    if frequency is not None:
+        result.update(frequency_Hz=frequency, waveform=args.waveform)
     written: list[str] = []
     if args.figures is not None:
         from evtribo.model.figures import save_figures
@@ -154,11 +197,13 @@ def run(args: argparse.Namespace) -> int:
         written = [str(p) for p in save_figures(args.figures, force=args.force,
                                                 params=params)]
     if args.json:
-        result["parameters"] = params.as_dict()
+        result["parameters"] = {k: _json_number(v) for k, v in params.as_dict().items()}
         if args.figures is not None:
             result["figures"] = written
         print(json.dumps(result, indent=2))
         return 0
+    if frequency is not None:
+        print(f"drive: {args.waveform} at {frequency:g} Hz")
     _print_table(result, params)
     for path in written:
         print(f"wrote {path}")

@@ -4,7 +4,8 @@ Modules, lowest first: :mod:`~evtribo.model.params` (Table 1 in one frozen objec
 :mod:`~evtribo.model.electrostatics` (capacitor, eqs. 4, 6-10),
 :mod:`~evtribo.model.contact` (Hertz, JKR eq. 3, DMT), :mod:`~evtribo.model.maugis`
 (the full Maugis-Dugdale contact), :mod:`~evtribo.model.friction` (eqs. 1, 2, 5, 11-13 and
-waveforms). :mod:`~evtribo.model.figures` (Figures 5-7, matplotlib) is imported on demand.
+waveforms), :mod:`~evtribo.model.circuit` (the drive's frequency: the layers as a circuit,
+an extension of the paper's model). :mod:`~evtribo.model.figures` (Figures 5-7, matplotlib) is imported on demand.
 
 Every function broadcasts over numpy arrays; ``voltage`` is the instantaneous or amplitude
 value in V (only U^2 matters), ``normal_force`` the external normal force in N, and
@@ -15,6 +16,12 @@ of those arguments) whose results are non-negative; the tests sweep all of them 
 code reads their signatures.
 """
 
+from evtribo.model.circuit import (
+    effective_voltage,
+    electrostatic_force_drive,
+    gap_factor,
+    layer_elastances,
+)
 from evtribo.model.contact import (
     area_increase_pct,
     contact_area_hertz,
@@ -101,7 +108,9 @@ __all__ = [
     "dugdale_range",
     "effective_modulus",
     "effective_modulus_soft",
+    "effective_voltage",
     "electrostatic_force",
+    "electrostatic_force_drive",
     "electrostatic_force_adhesive_limit",
     "electrostatic_force_exponent",
     "electrostatic_force_load_limit",
@@ -111,9 +120,11 @@ __all__ = [
     "friction_force_md",
     "friction_time_series",
     "functions",
+    "gap_factor",
     "hertz_radius",
     "jkr_pulloff_force",
     "jkr_radius",
+    "layer_elastances",
     "maugis_dugdale",
     "maugis_parameter",
     "md_dimensionless",

@@ -18,6 +18,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from evtribo.errors import OutputExistsError
+from evtribo.model.circuit import electrostatic_force_drive, layer_elastances
 from evtribo.model.contact import area_increase_pct, contact_area_jkr
 from evtribo.model.friction import (
     friction_force,
@@ -31,6 +32,7 @@ from evtribo.model.params import TABLE_1, ModelParameters
 __all__ = [
     "FIGURES",
     "plot_area_increase",
+    "plot_frequency",
     "plot_friction_time",
     "plot_friction_vs_load",
     "plot_maugis",
@@ -202,12 +204,60 @@ def plot_maugis(ax: Axes | None = None, *, normal_forces: Sequence[float] = (0.1
     return ax
 
 
+def plot_frequency(ax: Axes | None = None, *, normal_force: float = 0.5,
+                   amplitude: float = 100.0, corners_Hz: Sequence[float] = (20.0, 100.0, 300.0),
+                   params: ModelParameters = TABLE_1) -> Axes:
+    """The electrostatic force against the drive's frequency (:mod:`evtribo.model.circuit`):
+    the paper's model (a perfectly insulating gap: no frequency dependence) and gaps that
+    leak, with their corner frequencies, under a square and a sine drive.
+
+    Parameters
+    ----------
+    ax : Axes, optional
+        Where to draw.
+    normal_force : float
+        External normal force, N.
+    amplitude : float
+        Voltage amplitude, V.
+    corners_Hz : sequence of float
+        Corner frequencies of the leaky gaps shown, Hz: ``r_g`` is chosen so that
+        ``2 pi f r_g (c_g + c_rest) = 1``, ``c_rest`` the other layers in series.
+    params : ModelParameters
+        Table 1 by default (its ``r_sc``, ``r_g`` for the first curve).
+
+    Returns
+    -------
+    Axes
+    """
+    ax = _axes(ax)
+    f = np.geomspace(1.0, 1e5, 121)
+    for waveform, style in (("square", "-"), ("sine", "--")):
+        ax.plot(f, 1e3 * electrostatic_force_drive(normal_force, amplitude, f, waveform,
+                                                   params),
+                color="k", linestyle=style, label=f"paper, r_g = inf ({waveform})")
+    s_sc, s_g, s_i = layer_elastances(params)
+    c_total = 1.0 / s_g + 1.0 / (s_sc + s_i)
+    for i, corner in enumerate(corners_Hz):
+        leaky = params.with_values(r_g=1.0 / (2.0 * np.pi * corner * c_total))
+        for waveform, style in (("square", "-"), ("sine", "--")):
+            ax.plot(f, 1e3 * electrostatic_force_drive(normal_force, amplitude, f, waveform,
+                                                       leaky),
+                    color=f"C{i}", linestyle=style,
+                    label=f"leaky gap, corner {corner:g} Hz ({waveform})")
+    ax.set(xscale="log", xlabel="drive frequency f (Hz)",
+           ylabel="electrostatic force F_el (mN)", ylim=(0, None),
+           title=f"F_el against frequency ({amplitude:g} V, F_ext = {normal_force:g} N)")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.18), fontsize="small", ncol=2)
+    return ax
+
+
 #: name -> plotting function, in the order :func:`save_figures` writes them.
 FIGURES = {
     "fig5_friction_time": plot_friction_time,
     "fig6_friction_vs_load": plot_friction_vs_load,
     "fig7_area_increase": plot_area_increase,
     "maugis_vs_jkr": plot_maugis,
+    "frequency": plot_frequency,
 }
 
 

@@ -29,7 +29,7 @@ def _p(default: float, unit: str, description: str, rule: str) -> Any:
                                             "rule": rule})
 
 
-# rule: "positive" (> 0) or "nonnegative" (>= 0)
+# rule: "positive" (> 0), "nonnegative" (>= 0) or "resistance" (> 0, and inf for none)
 @dataclass(frozen=True, slots=True)
 class ModelParameters:
     """Material and geometrical parameters of the fingertip-screen contact (SI units).
@@ -52,6 +52,11 @@ class ModelParameters:
         Thicknesses of stratum corneum, insulating layer and equivalent air gap, m.
     eps_0 : float
         Permittivity of free space, F/m (the paper's rounded 8.854e-12).
+    r_sc, r_g : float
+        Area-specific resistances of the stratum corneum and of the air gap (its leakage),
+        Ohm m^2; infinite by default, the paper's perfect insulators (see
+        :mod:`evtribo.model.circuit`: with finite values the force depends on the drive's
+        frequency).
     """
 
     mu: float = _p(0.5, "1", "Coulomb friction coefficient", "positive")
@@ -65,6 +70,12 @@ class ModelParameters:
     h_i: float = _p(1e-6, "m", "thickness of the screen's insulating layer", "nonnegative")
     h_L: float = _p(5e-6, "m", "thickness of the equivalent air gap", "nonnegative")
     eps_0: float = _p(8.854e-12, "F/m", "permittivity of free space", "positive")
+    r_sc: float = _p(float("inf"), "Ohm m^2",
+                     "area-specific resistance of the stratum corneum (inf: insulator)",
+                     "resistance")
+    r_g: float = _p(float("inf"), "Ohm m^2",
+                    "area-specific leakage resistance of the air gap (inf: none)",
+                    "resistance")
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -77,10 +88,10 @@ class ModelParameters:
                 number = float(value)
             except (TypeError, ValueError) as err:
                 raise ConfigError(f"expected a number, got {value!r}", key=f.name) from err
-            if not math.isfinite(number):
-                raise ConfigError(f"must be finite, got {number!r}", key=f.name)
             rule = f.metadata["rule"]
-            if rule == "positive" and number <= 0:
+            if not math.isfinite(number) and not (rule == "resistance" and number == math.inf):
+                raise ConfigError(f"must be finite, got {number!r}", key=f.name)
+            if rule in ("positive", "resistance") and number <= 0:
                 raise ConfigError(f"must be > 0 ({f.metadata['unit']}), got {number!r}",
                                   key=f.name)
             if rule == "nonnegative" and number < 0:
