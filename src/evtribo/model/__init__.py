@@ -5,7 +5,8 @@ Modules, lowest first: :mod:`~evtribo.model.params` (Table 1 in one frozen objec
 :mod:`~evtribo.model.contact` (Hertz, JKR eq. 3, DMT), :mod:`~evtribo.model.maugis`
 (the full Maugis-Dugdale contact), :mod:`~evtribo.model.friction` (eqs. 1, 2, 5, 11-13 and
 waveforms), :mod:`~evtribo.model.circuit` (the drive's frequency: the layers as a circuit,
-an extension of the paper's model). :mod:`~evtribo.model.figures` (Figures 5-7, matplotlib) is imported on demand.
+an extension of the paper's model). :mod:`~evtribo.model.figures` (Figures 5-7 and F_el
+against frequency, matplotlib) is imported on demand.
 
 Every function broadcasts over numpy arrays; ``voltage`` is the instantaneous or amplitude
 value in V (only U^2 matters), ``normal_force`` the external normal force in N, and
@@ -110,8 +111,8 @@ __all__ = [
     "effective_modulus_soft",
     "effective_voltage",
     "electrostatic_force",
-    "electrostatic_force_drive",
     "electrostatic_force_adhesive_limit",
+    "electrostatic_force_drive",
     "electrostatic_force_exponent",
     "electrostatic_force_load_limit",
     "electrostatic_force_md",
