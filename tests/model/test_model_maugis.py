@@ -126,3 +126,23 @@ def test_documented_lambda_table_is_current():
     lams = [float(v) for v in next(ln for ln in lines if re.match(r"lambda\s+\d", ln)).split()[1:]]
     assert len(volts) == len(lams) == 6
     assert np.allclose(model.maugis_parameter(np.array(volts)), lams, atol=6e-4)
+
+
+@settings(deadline=None)
+@given(lam=st.lists(st.floats(0.005, 80.0), min_size=1, max_size=40),
+       offset=st.floats(-0.01, 1e5), seed=st.integers(0, 99))
+def test_the_vectorised_solver_is_the_point_by_point_one(lam, offset, seed):
+    """Every point solved in lockstep agrees with the scalar root search to 1e-9 (here
+    1e-11), near the pull-off and below it (NaN) included."""
+    from evtribo.model import maugis
+
+    lam_a = np.asarray(lam)
+    rng = np.random.default_rng(seed)
+    pull = np.array([maugis._pulloff(float(v))[1] for v in lam_a])
+    load = pull + offset * rng.uniform(0.0, 1.0, lam_a.size)
+    a_v, m_v = maugis.md_dimensionless(load, lam_a)
+    ref = np.array([maugis._solve(float(p), float(v)) for p, v in zip(load, lam_a,
+                                                                      strict=True)])
+    np.testing.assert_array_equal(np.isnan(np.atleast_1d(a_v)), np.isnan(ref[:, 0]))
+    np.testing.assert_allclose(a_v, ref[:, 0], rtol=1e-11)
+    np.testing.assert_allclose(m_v, ref[:, 1], rtol=1e-11)

@@ -16,6 +16,12 @@ the solution satisfies (D. Maugis, J. Colloid Interface Sci. 150, 243, 1992; s =
 For a given s the first equation is a quadratic in A, so A(s) and P(s) are closed forms; the
 load-controlled, stable solution for a given P is found with one bracketed root search in
 ln s on the branch between s -> 0 (A -> infinity) and the pull-off point (the minimum of P).
+Arrays are solved all at once (:func:`md_dimensionless`): P is evaluated on a coarse grid of
+ln s for every point, the first grid step where it falls below the point's load brackets the
+stable root (P falls monotonically on the stable branch, so that step holds exactly one
+root), and a bisection in lockstep narrows every bracket to 1e-14 in ln s. Only points the
+coarse grid cannot place (loads within a grid step of the pull-off, or beyond the grid)
+are solved one by one, with the pull-off point found first.
 
 Here dg / sigma_0 = eps_L * gap is the same at every voltage (5.48 um for Table 1), so
 lambda = 2 sigma_0^(2/3) (R / (pi h_0 K^2))^(1/3) grows as U^(4/3). For Table 1 (computed by
@@ -62,6 +68,9 @@ __all__ = [
 ]
 
 _X_GRID = np.linspace(-32.0, 18.0, 201)  # ln s; s from 1e-14 to 6.6e7 (round-off beyond)
+_X_COARSE = np.linspace(-32.0, 18.0, 51)  # the vectorised solver's brackets
+#: Bisection steps of the vectorised solver (a bracket of 1 in ln s down to 1e-15).
+_BISECTIONS = 52
 
 
 def _f1(s: float) -> float:
@@ -152,6 +161,50 @@ def _solve(load: float, lam: float) -> tuple[float, float]:
     return a, m
 
 
+def _state_v(x: NDArray[np.float64], lam: NDArray[np.float64]
+             ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """:func:`_state` for arrays (broadcast): (A, m, P) at s = exp(x)."""
+    s = np.exp(x)
+    s2 = s * s
+    m = np.sqrt(1.0 + s2)
+    at = np.arctan(s)
+    small = s < 1e-2
+    f1 = np.where(small, s * s2 * (4.0 / 3.0 - s2 * (8.0 / 15.0 - s2 * 12.0 / 35.0)),
+                  s + (s2 - 1.0) * at)
+    f2 = s * at - s2 / (m + 1.0)
+    alpha = 0.5 * lam * f1
+    beta = 4.0 / 3.0 * lam * lam * f2
+    a = 2.0 / (beta + np.sqrt(beta * beta + 4.0 * alpha))
+    p = a**3 - lam * a * a * (s + m * m * at)
+    return a, m, p
+
+
+def _solve_many(load: NDArray[np.float64], lam: NDArray[np.float64]
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """(A, m, solved) for 1-d arrays: the stable root bracketed on the coarse grid, then
+    bisected in lockstep; ``solved`` is False where the grid cannot place it."""
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        p_grid = _state_v(_X_COARSE[None, :], lam[:, None])[2]
+        below = p_grid <= load[:, None]
+    first = np.argmax(below, axis=1)
+    solved = below.any(axis=1) & (first > 0) & (lam > 0) & np.isfinite(load)
+    idx = np.flatnonzero(solved)
+    lo = _X_COARSE[first[idx] - 1]
+    hi = _X_COARSE[first[idx]]
+    target, lam_s = load[idx], lam[idx]
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        with np.errstate(over="ignore", invalid="ignore"):
+            above = _state_v(mid, lam_s)[2] > target
+        lo = np.where(above, mid, lo)
+        hi = np.where(above, hi, mid)
+    a_out = np.full(load.shape, np.nan)
+    m_out = np.full(load.shape, np.nan)
+    a, m, _ = _state_v(0.5 * (lo + hi), lam_s)
+    a_out[idx], m_out[idx] = a, m
+    return a_out, m_out, solved
+
+
 def md_dimensionless(load: ArrayLike, lam: ArrayLike) -> tuple[NDArray[np.float64],
                                                                NDArray[np.float64]]:
     """Dimensionless Maugis-Dugdale solution under load control.
@@ -171,11 +224,11 @@ def md_dimensionless(load: ArrayLike, lam: ArrayLike) -> tuple[NDArray[np.float6
         c / a >= 1.
     """
     p_b, l_b = np.broadcast_arrays(np.asarray(load, dtype=float), np.asarray(lam, dtype=float))
-    a_out = np.full(p_b.shape, np.nan)
-    m_out = np.full(p_b.shape, np.nan)
-    for idx in np.ndindex(p_b.shape):
-        a_out[idx], m_out[idx] = _solve(float(p_b[idx]), float(l_b[idx]))
-    return _out(a_out), _out(m_out)
+    flat_p, flat_l = p_b.ravel(), l_b.ravel()
+    a_out, m_out, solved = _solve_many(flat_p, flat_l)
+    for i in np.flatnonzero(~solved):  # near the pull-off, or off the grid: one by one
+        a_out[i], m_out[i] = _solve(float(flat_p[i]), float(flat_l[i]))
+    return _out(a_out.reshape(p_b.shape)), _out(m_out.reshape(p_b.shape))
 
 
 class MaugisDugdale(NamedTuple):
