@@ -207,7 +207,8 @@ def test_hum_is_found_at_the_mains_and_notched_out(mains):
 def test_a_hum_line_where_the_friction_oscillates_is_left_in():
     _t, _fn, ft, _ = trace(hum=0.01, mains=50.0, seed=6)
     avoid = modulation_lines("sine", 25.0, RATE)  # the friction oscillates at 50 Hz
-    assert avoid[:3] == [50.0, 100.0, 150.0] and modulation_lines("square", 25.0, RATE) == []
+    assert avoid[:3] == [50.0, 100.0, 150.0] and modulation_lines(None, 25.0, RATE) == []
+    assert modulation_lines("square", 25.0, RATE)[:2] == [50.0, 100.0]  # pulses, if leaky
     hum = find_hum(ft, RATE, avoid_Hz=avoid)
     assert hum is not None and hum.kept_Hz == (50.0,) and 50.0 not in hum.lines_Hz
     np.testing.assert_array_equal(remove_hum(ft, RATE, hum), ft)

@@ -8,7 +8,7 @@ sine drive's modulation is sought. :func:`find_hum` looks for a narrow peak at 5
 notches those lines out with zero-phase IIR notch filters (``scipy.signal.iirnotch``, run
 forwards and backwards), which leave the rest of the spectrum, steps included, as it was.
 
-A harmonic that coincides with a frequency the friction itself oscillates at (twice a sine
+A harmonic that coincides with a frequency the friction itself oscillates at (twice the
 drive's frequency and its multiples) is not notched: it cannot be told apart from the physics.
 """
 
@@ -166,9 +166,10 @@ def remove_hum(x: npt.ArrayLike, rate_Hz: float, hum: Hum) -> FloatArray:
 
 def modulation_lines(waveform: str | None, frequency_Hz: float | None,
                      rate_Hz: float) -> list[float]:
-    """Frequencies the friction itself oscillates at: ``2 k f`` for a sine drive (up to the
-    Nyquist frequency), none for a square wave (its ``U^2`` is constant), Hz."""
-    if waveform != "sine" or not frequency_Hz:
+    """Frequencies the friction itself may oscillate at: ``2 k f`` (up to the Nyquist
+    frequency), for a sine drive and for a square wave (whose force pulses after each edge
+    when the layers conduct), Hz."""
+    if waveform not in ("sine", "square") or not frequency_Hz:
         return []
     f2 = 2.0 * float(frequency_Hz)
     n = int(0.5 * rate_Hz // f2) if f2 > 0 else 0

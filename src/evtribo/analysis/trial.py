@@ -291,9 +291,12 @@ def _analyze_piece(signals: Any, meta: TrialMeta, t0: float, *, settings: Analys
     exc = excitation_of(signals, given, aligned.t, settings.guard_s, warn)
     info = exc.info
     smooth, quantum = settings.smooth_s, HUM_FREE_S
-    oscillates = (info["waveform"] == "sine" and bool(info.get("frequency_Hz"))
+    # the friction oscillates at twice the drive's frequency: a sine's always, a square
+    # wave's when the layers conduct (a pulse after each edge); slow enough to be seen,
+    # windows span whole periods of it
+    oscillates = (info["waveform"] in ("sine", "square") and bool(info.get("frequency_Hz"))
                   and 2 * float(info["frequency_Hz"]) < 0.4 * aligned.rate_Hz)
-    if oscillates:  # windows span whole periods of the friction's own oscillation
+    if oscillates:
         smooth = max(smooth, 1.0 / float(info["frequency_Hz"]))
         quantum = 0.5 / float(info["frequency_Hz"])
     if settings.hum == "remove" or (settings.hum == "auto" and oscillates):
@@ -334,7 +337,9 @@ def _modulation(aligned: AlignedForces, w: pd.DataFrame, info: Mapping[str, Any]
         return None
     f = dominant_frequency(_sine_segments(aligned, w), aligned.rate_Hz)
     if not np.isfinite(f):
-        warn("ON windows too short for a spectrum of the friction force")
+        warn("no oscillation of the friction stands out in the ON windows' spectrum (too "
+             "short, or too weak against the noise and the pressing force's wander): no "
+             "friction_modulation_Hz")
         return None
     return float(f)
 

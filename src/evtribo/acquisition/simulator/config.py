@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 from evtribo.errors import ConfigError
+from evtribo.model import TABLE_1
 
 __all__ = ["CONDITIONS", "WAVEFORMS", "SubjectParams", "TrialConfig"]
 
@@ -92,6 +93,10 @@ class SubjectParams:
         Mean duration of a lift-off with the finger fully off (each drawn uniformly from
         half to one and a half times this), plus :data:`~evtribo.acquisition.simulator.
         physics.CONTACT_RAMP_S` to leave and to come back.
+    model : dict
+        Other parameters of the model for this subject (``ModelParameters`` names, SI
+        units), e.g. ``{"r_g": 80.0}``: a gap that leaks, so that the force depends on the
+        drive's frequency.
     """
 
     name: str = "P01"
@@ -107,6 +112,7 @@ class SubjectParams:
     dwell_s: float = 0.0
     lifts_per_min: float = 0.0
     lift_s: float = 0.4
+    model: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         _check_positive(self, ("mu", "h_L", "normal_force_N", "drift_time_s",
@@ -116,10 +122,21 @@ class SubjectParams:
         if self.stroke_jitter >= 1:
             raise ConfigError(f"{self.stroke_jitter!r} is not allowed: must be < 1",
                               key="SubjectParams.stroke_jitter")
+        reserved = {"mu", "h_L"} & set(self.model)
+        if reserved:
+            raise ConfigError(f"{sorted(reserved)[0]} is a subject's own parameter, not one "
+                              "of its model's", key=f"SubjectParams.model.{sorted(reserved)[0]}")
+        try:  # every name and value checked by the model's own parameters
+            TABLE_1.with_values(dict(self.model))
+        except ConfigError as err:
+            raise ConfigError(err.message, key=f"SubjectParams.model.{err.key}") from err
+        object.__setattr__(self, "model", {k: float(v) for k, v in self.model.items()})
 
     def to_dict(self) -> dict[str, Any]:
-        """The parameters as a JSON-ready mapping."""
-        return asdict(self)
+        """The parameters as a JSON-ready mapping (an infinite value as the text "inf")."""
+        out = asdict(self)
+        out["model"] = {k: v if math.isfinite(v) else str(v) for k, v in self.model.items()}
+        return out
 
 
 @dataclass(frozen=True)

@@ -30,13 +30,12 @@ from evtribo.acquisition.simulator.physics import (
     Contact,
     NormalForceProcess,
     Strokes,
-    electrostatic,
+    drive_force,
     excitation_gate,
     expected_electrostatic_force,
     measured,
     model_parameters,
     on_off_schedule,
-    voltage,
 )
 from evtribo.errors import RigConfigError
 from evtribo.frames.table import FrameTable
@@ -301,13 +300,13 @@ class TrialGenerator:
             dlc=dlc, data=data, channel=self.config.channel)
 
     def _friction(self, t: npt.NDArray[np.float64], fn: npt.NDArray[np.float64],
-                  contact: npt.NDArray[np.float64]
+                  contact: npt.NDArray[np.float64], interval_s: float
                   ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-        """True friction force (signed) and electrostatic force at times *t*, N, given the
-        true normal force *fn* there and the finger's contact."""
-        u = np.where(excitation_gate(t, self.config), voltage(t, self.config), 0.0)
-        fel = contact * electrostatic(np.where(contact > 0, fn / np.maximum(contact, 1e-12),
-                                               0.0), u, self.params)
+        """True friction force (signed) and electrostatic force at times *t*, N, as a cell
+        sampling every *interval_s* reports them, given the true normal force *fn* there
+        and the finger's contact."""
+        press = np.where(contact > 0, fn / np.maximum(contact, 1e-12), 0.0)
+        fel = contact * drive_force(t, press, self.config, self.params, interval_s)
         return self.subject.mu * (fn + fel) * self.strokes.factor(t), fel
 
     # -- one chunk -----------------------------------------------------------------------
@@ -339,7 +338,7 @@ class TrialGenerator:
         s["n_on"] += int((gate & full).sum())
         s["fn_off"] += float(fn[~gate & full].sum())
         s["n_off"] += int((~gate & full).sum())
-        ft = self._friction(t, fn, contact)[0] if xtalk[0][1] else 0.0
+        ft = self._friction(t, fn, contact, 1 / fz.rate_eff)[0] if xtalk[0][1] else 0.0
         values = {"Fz": measured(xtalk[0], fn, ft, self.zeros["normal"], t)
                   + cfg.noise_N * noise.standard_normal(k.size),
                   "FzTemp": 24.0 + 0.5 * np.sin(2 * np.pi * t / 600.0)}
@@ -349,7 +348,7 @@ class TrialGenerator:
         t = fx.offset + k / fx.rate_eff
         contact = self.contact.factor(t)
         fn = contact * fn_at(t)
-        ft, fel = self._friction(t, fn, contact)
+        ft, fel = self._friction(t, fn, contact, 1 / fx.rate_eff)
         on = excitation_gate(t, cfg)
         full = contact >= FULL_CONTACT
         s["fel"] += float(fel[on & full].sum())

@@ -14,7 +14,7 @@ two axes leak into each other through a cross-talk matrix.
 
 from __future__ import annotations
 
-import dataclasses
+import functools
 import math
 from dataclasses import dataclass
 
@@ -23,7 +23,16 @@ import numpy.typing as npt
 from scipy.signal import lfilter
 
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
-from evtribo.model import TABLE_1, ModelParameters, electrostatic_force
+from evtribo.model import (
+    TABLE_1,
+    ModelParameters,
+    adhesion_stress,
+    contact_area_jkr,
+    effective_voltage,
+    electrostatic_force,
+    electrostatic_force_drive,
+    gap_factor,
+)
 
 __all__ = [
     "CONTACT_RAMP_S",
@@ -31,6 +40,7 @@ __all__ = [
     "Contact",
     "NormalForceProcess",
     "Strokes",
+    "drive_force",
     "electrostatic",
     "excitation_gate",
     "measured",
@@ -55,8 +65,9 @@ DWELL_LEVEL = 0.15
 
 
 def model_parameters(subject: SubjectParams) -> ModelParameters:
-    """The seed paper's Table 1 with the subject's friction coefficient and air gap."""
-    return dataclasses.replace(TABLE_1, mu=subject.mu, h_L=subject.h_L)
+    """The seed paper's Table 1 with the subject's friction coefficient, air gap and other
+    model parameters (``SubjectParams.model``: e.g. the resistances ``r_sc``, ``r_g``)."""
+    return TABLE_1.with_values(dict(subject.model), mu=subject.mu, h_L=subject.h_L)
 
 
 def electrostatic(normal_force: npt.ArrayLike, voltage: npt.ArrayLike,
@@ -84,26 +95,109 @@ def electrostatic(normal_force: npt.ArrayLike, voltage: npt.ArrayLike,
 
 def expected_electrostatic_force(normal_force: float, config: TrialConfig,
                                  params: ModelParameters) -> float:
-    """Time-averaged electrostatic force while ON at a steady normal force, N.
-
-    For a square wave ``U^2`` is constant: the model at the amplitude. For a sine it is the
-    model's force averaged over a period of the voltage.
-    """
+    """Time-averaged electrostatic force while ON at a steady normal force, N: the model
+    under the trial's drive (:func:`evtribo.model.electrostatic_force_drive`; for a square
+    wave through a perfectly insulating gap, the model at the amplitude; for a sine, the
+    model's force averaged over a period)."""
     if config.amplitude_V == 0:
         return 0.0
-    if config.waveform == "square":
-        return float(electrostatic(normal_force, config.amplitude_V, params))
-    phase = (np.arange(512) + 0.5) / 512
-    u = config.amplitude_V * np.sin(2 * np.pi * phase)
-    return float(np.mean(electrostatic(np.full(u.shape, normal_force), u, params)))
+    return float(electrostatic_force_drive(normal_force, config.amplitude_V,
+                                           config.frequency_Hz, config.waveform, params))
 
 
-def voltage(t: FloatArray, config: TrialConfig) -> FloatArray:
-    """Voltage of the amplifier's waveform at times *t* (s), before the ON/OFF gate, V."""
-    arg = np.sin(2 * np.pi * config.frequency_Hz * t)
+#: Odd harmonics of a square drive whose filtering by the layers is simulated.
+GAP_HARMONICS = 200
+#: Phases of one period on which a square drive's filtering is tabulated.
+GAP_PHASES = 4096
+#: Sub-samples of a load cell's sampling interval when the force oscillates within it.
+SUBSAMPLES = 8
+
+
+def _leaky(params: ModelParameters | None) -> bool:
+    return params is not None and not (np.isinf(params.r_sc) and np.isinf(params.r_g))
+
+
+@functools.lru_cache(maxsize=64)
+def _square_correction(frequency_Hz: float, params: ModelParameters) -> FloatArray:
+    """One period (:data:`GAP_PHASES` phases) of ``sum_k 4/(k pi) Im((H(k w) - 1)
+    e^(j k 2 pi phase))`` for a square wave of amplitude 1: what the layers change of it."""
+    k = 2.0 * np.arange(GAP_HARMONICS) + 1.0
+    correction = (gap_factor(frequency_Hz * k, params) - 1.0) / k
+    phase = np.arange(GAP_PHASES + 1) / GAP_PHASES
+    return (4 / np.pi) * np.imag(np.exp(2j * np.pi * phase[:, None] * k) @ correction)
+
+
+def voltage(t: FloatArray, config: TrialConfig, params: ModelParameters | None = None
+            ) -> FloatArray:
+    """The amplifier's waveform at times *t* (s), before the ON/OFF gate, V.
+
+    With *params* whose layers conduct (finite ``r_sc`` or ``r_g``), the voltage the
+    paper's model sees: the applied one as the circuit of :mod:`evtribo.model.circuit`
+    passes it to the gap (relative to the paper's capacitive division), in the periodic
+    steady state. A sine is scaled and shifted by ``H(w)``; a square wave is the applied
+    one plus the series of ``(H(k w) - 1)`` over its odd harmonics (which converges fast:
+    the edges themselves pass, ``H -> 1``; tabulated over one period), so that its force
+    pulses after each edge.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    w = 2 * np.pi * config.frequency_Hz
+    u = config.amplitude_V
+    arg = np.sin(w * t)
+    applied = u * arg if config.waveform == "sine" else np.where(arg >= 0, u, -u)
+    if not _leaky(params):
+        return applied
+    assert params is not None
     if config.waveform == "sine":
-        return config.amplitude_V * arg
-    return np.where(arg >= 0, config.amplitude_V, -config.amplitude_V)
+        h = complex(gap_factor(config.frequency_Hz, params))
+        return u * np.imag(h * np.exp(1j * w * t))
+    table = _square_correction(float(config.frequency_Hz), params)
+    phase = np.mod(t * config.frequency_Hz, 1.0)
+    return applied + u * np.interp(phase, np.arange(table.size) / GAP_PHASES, table)
+
+
+def drive_force(t: FloatArray, normal_force: FloatArray, config: TrialConfig,
+                params: ModelParameters, interval_s: float) -> FloatArray:
+    """The electrostatic force a load cell reports at times *t* (s): its mean over the
+    cell's sampling interval before each sample (as an integrating converter gives), N.
+
+    The stress follows the voltage the gap sees (:func:`voltage`); under a square drive the
+    contact area is that of its mean-square voltage (a soft fingertip does not follow the
+    pulses after each edge), so that the mean force is the model's
+    (:func:`evtribo.model.electrostatic_force_drive`). A drive whose force oscillates faster
+    than the cell samples gives the period's mean; slower, the interval is averaged over
+    :data:`SUBSAMPLES` instants. Zero where the excitation is off.
+
+    Parameters
+    ----------
+    t : ndarray, s
+        Sample times.
+    normal_force : ndarray, N
+        The pressing force at those times (the contact's load).
+    config : TrialConfig
+    params : ModelParameters
+    interval_s : float, s
+        The cell's sampling interval.
+    """
+    fn = np.asarray(normal_force, dtype=np.float64)
+    on = excitation_gate(t, config)
+    out = np.zeros(t.shape)
+    if not on.any() or config.amplitude_V == 0:
+        return out
+    amplitude, f = config.amplitude_V, config.frequency_Hz
+    steady = config.waveform == "square" and not _leaky(params)
+    if steady or 2.0 * f * interval_s > 2.0:  # constant, or many periods per sample
+        out[on] = electrostatic_force_drive(fn[on], amplitude, f, config.waveform, params)
+        return out
+    sub = t[on, None] - interval_s * (np.arange(SUBSAMPLES) + 0.5) / SUBSAMPLES
+    u = voltage(sub.ravel(), config, params).reshape(sub.shape)
+    load = np.broadcast_to(fn[on, None], sub.shape)
+    if config.waveform == "square":
+        u_eff = float(effective_voltage(amplitude, f, "square", params))
+        force = adhesion_stress(u, params) * contact_area_jkr(load, u_eff, params)
+    else:
+        force = electrostatic(load, u, params)
+    out[on] = np.mean(force, axis=1)
+    return out
 
 
 def excitation_gate(t: FloatArray, config: TrialConfig) -> npt.NDArray[np.bool_]:
