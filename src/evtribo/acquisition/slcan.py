@@ -52,6 +52,10 @@ _TERMINATOR = re.compile(rb"[\r\a]")
 #: ``H`` stands for a hex digit.
 _FRAME = re.compile(rb"([tdb])(H{3})(H)(H*)|([TxDB])(H{8})(H)(H*)|(r)(H{3})([0-8])(H*)"
                     rb"|(R)(H{8})([0-8])(H*)".replace(b"H", b"[0-9A-Fa-f]"))
+#: A classic data frame with an 11-bit identifier: length code, payload.
+_CLASSIC = re.compile(rb"t[0-7][0-9A-Fa-f]{2}([0-8])([0-9A-Fa-f]*)")
+#: Hex digits of a classic payload (and the adapter's timestamp) by length code (a byte).
+_CLASSIC_DIGITS = {ord(str(n)): (2 * n, 2 * n + 4) for n in range(9)}
 #: Answers of the adapter to commands (ignored when receiving, as python-can does).
 _ANSWER = re.compile(rb"|[zZ]|[Vv]H{4}|N[0-9A-Za-z]{4}|FH{2}".replace(b"H", b"[0-9A-Fa-f]"))
 _FD_LENGTHS = (0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64)
@@ -67,6 +71,9 @@ def check_slcan_line(line: bytes) -> None:
     optionally followed by the adapter's 4-digit timestamp.
     """
     body = line[:-1] if line[-1:] in (b"\r", b"\a") else line
+    m = _CLASSIC.fullmatch(body)  # the common case, quickly
+    if m is not None and len(m.group(2)) in _CLASSIC_DIGITS[m.group(1)[0]]:
+        return
     if _ANSWER.fullmatch(body):
         return
     m = _FRAME.fullmatch(body)
