@@ -390,8 +390,8 @@ def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig, *,
 def _no_rig_data(acq_rig: AcquisitionRig, within: float | None) -> str:
     names = ", ".join(f"{n} (0x{k & 0x1FFFFFFF:03X})"
                       for n, k in acq_rig.role_messages().items())
-    return (f"none of the rig's load-cell messages ({names}) arrived within {within:g} s: "
-            f"is the bus right, and is the study's rig ({acq_rig.dbc_path.name}) this rig's?")
+    return (f"none of the rig's load-cell messages ({names}) arrived within {within:g} s "
+            f"(the wrong bus, or the study's DBC {acq_rig.dbc_path.name} is not this rig's)")
 
 
 def _detail(error: BaseException, ended: str, unwritten: int) -> str:
