@@ -22,6 +22,7 @@ from pathlib import Path
 import pytest
 
 from evtribo.cli import main
+from evtribo.lock import WriteLock
 from evtribo.rig import default_rig_path
 
 ERRORS_MD = Path(__file__).parents[1] / "docs" / "errors.md"
@@ -71,6 +72,23 @@ def _text(path: Path, text: str) -> Callable[[Path], None]:
         (tmp / path).parent.mkdir(parents=True, exist_ok=True)
         (tmp / path).write_text(text, encoding="utf-8")
     return build
+
+
+#: Locks the builders hold while their case runs (released after it).
+HELD: list[WriteLock] = []
+
+
+def _being_recorded(tmp: Path) -> None:
+    """P01/run-01 is being recorded: its lock is held (here, by this process)."""
+    HELD.append(WriteLock(tmp / "study" / "P01" / "run-01.lock", "the trial P01/run-01",
+                          "recorded").acquire())
+
+
+@pytest.fixture(autouse=True)
+def _release_held_locks():
+    yield
+    while HELD:
+        HELD.pop().release()
 
 
 #: case id -> how to make its input (in TMP, which holds a valid study in TMP/study).
@@ -157,6 +175,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "acquire-rig-not-utf8": lambda t: (t / "rig.toml").write_bytes(b'name = "caf\xe9"\n'),
     "acquire-trial-exists-bad-interface": lambda t: None,
     "acquire-new-study-bad-interface": lambda t: None,
+    "acquire-trial-locked": _being_recorded,
+    "simulate-trial-locked": _being_recorded,
 }
 
 

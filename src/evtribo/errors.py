@@ -10,6 +10,7 @@
      |    +-- SidecarError         a trial's JSON sidecar                    (also ValueError)
      |    +-- StudyError           the study folder's layout or names        (also ValueError)
      |    +-- OutputExistsError    refusing to overwrite without --force     (also FileExistsError)
+     |         +-- LockedError     another process is writing it (--force does not override)
      +-- AcquisitionError          the bus or the disk failed while recording (exit code 1)
      +-- AnalysisError             the analysis could not produce a result    (exit code 1)
 
@@ -127,6 +128,10 @@ class OutputExistsError(UserInputError, FileExistsError):
     """An output already exists and ``--force`` was not given."""
 
 
+class LockedError(OutputExistsError):
+    """Another process is writing this output right now (its lock file names it)."""
+
+
 class AcquisitionError(EvtriboError, OSError):
     """Recording failed (bus error, adapter gone, disk full); what was logged is kept."""
 
@@ -140,6 +145,7 @@ __all__ = [
     "AnalysisError",
     "ConfigError",
     "EvtriboError",
+    "LockedError",
     "LogFormatError",
     "OutputExistsError",
     "RigConfigError",

@@ -205,6 +205,63 @@ def test_adapter_vanishing_keeps_the_log_and_says_so(tmp_path):
     assert side["bus_exceptions"] == ["CanOperationError: Could not read from serial device"]
 
 
+class GlitchingBus(VanishingBus):
+    """Delivers *n* FzCell frames with *exc* raised once after the first *n* // 2, then
+    nothing (the trial ends by its duration)."""
+
+    def __init__(self, n, exc, **kwargs):
+        super().__init__(n, **kwargs)
+        self.exc = exc
+
+    def _recv_internal(self, timeout):
+        if self.exc is not None and self.i == self.n // 2:
+            exc, self.exc = self.exc, None
+            raise exc
+        if self.i >= self.n:
+            time.sleep(timeout or 0)
+            return None, False
+        return super()._recv_internal(timeout)
+
+
+def _undecodable():
+    try:
+        b"\xff\xfe\r".decode()
+    except UnicodeDecodeError as err:
+        exc = can.CanOperationError("Could not read from serial device")
+        exc.__cause__ = err
+        return exc
+    raise AssertionError
+
+
+@pytest.mark.parametrize(("exc", "damaged"), [
+    (ValueError("invalid literal for int() with base 16: '0CZ'"), True),
+    (IndexError("string index out of range"), True),
+    (_undecodable(), True),
+    (can.CanOperationError("Could not read from serial device"), False),
+    (OSError(5, "Input/output error"), False),
+    (TypeError("unsupported operand"), False),
+    (AttributeError("'NoneType' object has no attribute 'read'"), False),
+    (RuntimeError("driver bug"), False),
+])
+def test_no_exception_from_the_bus_leaves_the_sidecar_recording(tmp_path, exc, damaged):
+    """A line the driver cannot parse is counted and the trial goes on; anything else the
+    bus raises ends it as bus-error. Either way the sidecar says how it ended."""
+    bus = GlitchingBus(400, exc)
+    try:
+        result = record_trial(bus, tmp_path / "s", "P01", "run-01", duration=0.6)
+    finally:
+        bus.shutdown()
+    side = json.loads((tmp_path / "s" / "P01" / "run-01.json").read_text())
+    assert side == result.sidecar
+    assert side["ended"] == ("completed" if damaged else "bus-error")
+    assert result.exit_code == (0 if damaged else 1)
+    assert side["frames"] == (400 if damaged else 200)
+    assert side["damaged_lines"] == int(damaged)
+    assert side["bus_errors"] == 1
+    assert len(side["bus_exceptions"]) == 1 and type(exc).__name__ in side["bus_exceptions"][0]
+    assert len(list(can.LogReader(tmp_path / "s" / "P01" / "run-01.log"))) == side["frames"]
+
+
 @pytest.mark.parametrize("leftover", ["run-01.log", "run-01.json", "run-01.log.part"])
 def test_refuses_to_overwrite_a_trial(tmp_path, leftover):
     study = tmp_path / "s"

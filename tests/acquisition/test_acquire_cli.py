@@ -3,6 +3,7 @@ emulates a USB-CAN adapter: SIGTERM / SIGINT mid-trial, the adapter vanishing, e
 
 import json
 import os
+import queue
 import select
 import signal
 import subprocess
@@ -37,7 +38,8 @@ def _slcan_lines():
 
 class SlcanPty(threading.Thread):
     """A pseudo-terminal answering as an slcan adapter: once opened (``O``), it streams
-    FzCell/FxCell frames with rolling counters at *rate* frames/s."""
+    FzCell/FxCell frames with rolling counters at *rate* frames/s; :meth:`inject` slips raw
+    bytes in between two of its lines."""
 
     LINES = _slcan_lines()
 
@@ -50,6 +52,11 @@ class SlcanPty(threading.Thread):
         self.sent = 0
         self.opened = threading.Event()
         self.stop = threading.Event()
+        self.injected: queue.SimpleQueue[bytes] = queue.SimpleQueue()
+
+    def inject(self, raw):
+        """Write *raw* between two frame lines, as an adapter that garbles one would."""
+        self.injected.put(raw)
 
     def run(self):
         buf = b""
@@ -62,6 +69,8 @@ class SlcanPty(threading.Thread):
         while not self.stop.is_set():
             due = int((time.perf_counter() - t0) * self.rate)
             chunk = b"".join(lines[k % len(lines)] for k in range(self.sent, due))
+            while not self.injected.empty():
+                chunk = self.injected.get() + chunk
             while chunk and not self.stop.is_set():
                 if select.select([], [self.master], [], 0.05)[1]:
                     chunk = chunk[os.write(self.master, chunk):]
@@ -230,6 +239,38 @@ def test_adapter_vanishing_mid_trial_exits_1_with_the_log(tmp_path, adapter):
     assert "CanOperationError" in side["end_detail"]
     assert side["bus_errors"] == 1
     check_log(study / "P01" / "run-01.log", side)
+
+
+#: Lines an slcan adapter garbled: a bad hex digit, cut short, no text, an extended frame cut.
+DAMAGED = [b"t0CZ8" + b"00" * 8 + b"\r", b"t0C1\r", b"\xff\xfe\r", b"T1\r"]
+
+
+@pytest.mark.parametrize("interface", ["slcan", "slcan_bulk"])
+def test_damaged_lines_are_counted_and_the_recording_goes_on(tmp_path, adapter, interface):
+    study = tmp_path / "study"
+    argv = acquire_cmd(study, adapter.path, "--duration", "3")
+    argv[argv.index("slcan")] = interface
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        wait_for_frames(study / "P01" / "run-01.log.part", proc)
+        for k, raw in enumerate(DAMAGED):
+            adapter.inject(raw)
+            time.sleep(0.1)
+            if k == 1:
+                time.sleep(0.3)  # some between two flushes, some in one
+        out, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, err
+    assert "(4 damaged lines)" in out and "Traceback" not in err
+    side = json.loads((study / "P01" / "run-01.json").read_text())
+    assert side["ended"] == "completed"
+    assert side["damaged_lines"] == 4 and side["bus_errors"] == 4
+    assert len(side["bus_exceptions"]) == 4
+    assert side["dropped_frames"] == 0 and side["duration_s"] > 2.5
+    check_log(study / "P01" / "run-01.log", side)   # not one good frame lost around them
 
 
 def test_second_acquire_into_the_same_trial_is_refused(tmp_path, capsys):

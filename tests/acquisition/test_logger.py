@@ -273,6 +273,24 @@ def test_receive_stops_on_a_bus_fault_and_keeps_what_came(tmp_path, exc):
     assert len(list(can.CanutilsLogReader(tmp_path / "x.log"))) == 1234
 
 
+def test_an_adapter_sending_only_damaged_lines_is_taken_for_dead(tmp_path):
+    """A driver that fails to parse every line (a wrong serial speed) does not record
+    garbage counts until the end: after MAX_DAMAGED_IN_A_ROW lines and no frame, bus-error."""
+    fh = (tmp_path / "x.log").open("wb", buffering=0)
+    writer = LogWriter(fh, "can0").start()
+    bus = FailingBus(10, ValueError("invalid literal for int() with base 16: 'Z'"))
+    try:
+        result = receive(bus, writer, duration=60.0, should_stop=lambda: False)
+    finally:
+        writer.close()
+        fh.close()
+        bus.shutdown()
+    assert result.reason == "bus-error" and result.frames == 10
+    assert result.damaged_lines == logger_module.MAX_DAMAGED_IN_A_ROW
+    assert "damaged lines in a row and no frame" in str(result.error)
+    assert len(result.damaged_examples) == logger_module.DAMAGED_EXAMPLES
+
+
 def test_receive_stops_when_asked(tmp_path):
     fh = (tmp_path / "x.log").open("wb", buffering=0)
     writer = LogWriter(fh, "can0").start()

@@ -288,3 +288,76 @@ def test_bulk_reader_takes_a_saturated_bus_without_loss(simulate_pty):
     sent = int(re.search(r"(\d+) frames sent", proc.stderr.read()).group(1))
     assert len(msgs) == sent > 12_000
     _check_counters(msgs)
+
+
+# -- damaged lines ---------------------------------------------------------------------------
+#: The lines a tester saw end a trial: a bad hex digit, cut short, no text, an extended frame
+#: cut short.
+REPORTED = [b"t0CZ8" + b"00" * 8 + b"\r", b"t0C1\r", b"\xff\xfe\r", b"T1\r"]
+
+
+def _damage(line, how, k):
+    """A damaged version of the frame line *line* (``\\r`` included)."""
+    body = line[:-1]
+    if how == "cut":                               # cut short, the kind letter kept
+        return body[:len(body) - 1 - k % (len(body) - 1)] + b"\r"
+    if how == "hex":                               # a digit of the identifier garbled
+        return body[:1] + b"Z" + body[2:] + b"\r"
+    return b"\xff" + body[1:] + b"\r"              # a byte that is no text
+
+
+damaged_strategy = st.one_of(
+    st.sampled_from(REPORTED),
+    st.builds(_damage, st.sampled_from([b"t1238DEADBEEF01020304\r", b"T1FFFFFFF4deadBEEF\r",
+                                        b"t0C10\r", b"r7FF3\r", b"R123456780\r"]),
+              st.sampled_from(["cut", "hex", "text"]), st.integers(0, 30)),
+    st.binary(min_size=1, max_size=12).map(
+        lambda b: b"\x80" + b.replace(b"\r", b"").replace(b"\a", b"") + b"\r"),
+)
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.lists(st.one_of(frame_strategy.map(lambda i: ("good", _encode(i), i)),
+                          damaged_strategy.map(lambda d: ("bad", d, None))),
+                min_size=1, max_size=30))
+def test_bulk_reader_skips_each_damaged_line_and_nothing_else(items):
+    """Whatever the damage, a damaged line is one ``ValueError`` naming it, in its place in
+    the stream, and every good line around it gives its frame."""
+    stream = b"".join(raw for _kind, raw, _item in items)
+    with bus_on_pty("slcan_bulk") as (bus, master):
+        for k in range(0, len(stream), 1024):
+            os.write(master, stream[k:k + 1024])
+        got = _drain(bus)
+    expected = []
+    for kind, _raw, item in items:
+        if kind == "bad":
+            expected.append(("ValueError", "ValueError"))
+        elif item[0] in "tTrR":
+            expected.append("frame")
+    assert [g if g[0] == "ValueError" else "frame" for g in got] == expected
+    frames = [g for g in got if g[0] != "ValueError"]
+    good = [i for kind, _r, i in items if kind == "good" and i[0] in "tTrR"]
+    assert [(f[0], f[1]) for f in frames] == [(i[1], i[0] in "TR") for i in good]
+
+
+@pytest.mark.parametrize("interface", ["slcan", "slcan_bulk"])
+def test_receive_counts_damaged_lines_of_either_driver_and_goes_on(tmp_path, interface):
+    """python-can's ``slcan`` raises ValueError, IndexError, or (bytes that are no text) a
+    CanOperationError that would poison its line buffer; ``slcan_bulk`` a ValueError. The
+    receive loop counts each as one damaged line and loses no good frame."""
+    from evtribo.acquisition.logger import LogWriter, receive
+
+    good = [b"t0C18%016X\r" % k for k in range(40)]
+    stream = b"".join(good[:10] + REPORTED[:2] + good[10:20] + REPORTED[2:3] + good[20:30]
+                      + REPORTED[3:] + good[30:])
+    fh = (tmp_path / "x.log").open("wb", buffering=0)
+    writer = LogWriter(fh, "can0").start()
+    with bus_on_pty(interface) as (bus, master):
+        os.write(master, stream)
+        result = receive(bus, writer, duration=1.0, should_stop=lambda: False)
+    writer.close()
+    fh.close()
+    assert (result.reason, result.frames, result.damaged_lines) == ("completed", 40, 4)
+    assert writer.stats.damaged_lines == 4 and len(result.damaged_examples) == 4
+    frames = list(can.CanutilsLogReader(tmp_path / "x.log"))
+    assert [int.from_bytes(f.data, "big") for f in frames] == list(range(40))

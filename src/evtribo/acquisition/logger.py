@@ -19,13 +19,18 @@ import os
 import queue
 import threading
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import IO
 
 import can
-from cantools.database.utils import start_bit
 
+from evtribo.acquisition.counters import (
+    CounterSpec,
+    CounterTracker,
+    counter_spec_from_dbc,
+    frame_key,
+)
 from evtribo.frames.candump import CAN_ERR_BUSERROR, CAN_ERR_FLAG, frame_field
 
 log = logging.getLogger(__name__)
@@ -36,6 +41,11 @@ HANDOFF_INTERVAL_S = 0.05
 HANDOFF_FRAMES = 512
 #: Longest time, s, between two flushes (``flush`` + ``os.fsync``) of the log.
 FLUSH_INTERVAL_S = 0.5
+#: Damaged lines kept (as text) for the sidecar's ``bus_exceptions``.
+DAMAGED_EXAMPLES = 10
+#: Damaged lines in a row, without a frame between them, after which the adapter is taken
+#: for dead (a wrong serial speed, a driver that fails on every read).
+MAX_DAMAGED_IN_A_ROW = 1000
 
 
 def _frame_field(msg: can.Message) -> str:
@@ -65,134 +75,6 @@ def format_candump_line(msg: can.Message, channel: str) -> str:
 
 
 # ----------------------------------------------------------------------------------------
-# Rolling counters
-# ----------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class CounterSpec:
-    """Where a message's rolling frame counter sits in its payload.
-
-    Attributes
-    ----------
-    message : str
-        Message name in the rig's DBC (``FzCell``).
-    arbitration_id : int
-        Its CAN identifier.
-    start : int
-        Bit position of the counter's least significant bit (little endian) or most
-        significant bit counted from the first byte's MSB (big endian), as
-        :func:`cantools.database.utils.start_bit` gives it.
-    length : int
-        Width in bits; the counter wraps at ``2**length``.
-    big_endian : bool
-        Motorola byte order.
-    is_extended : bool
-        The message has a 29-bit identifier.
-    """
-
-    message: str
-    arbitration_id: int
-    start: int
-    length: int
-    big_endian: bool = False
-    is_extended: bool = False
-
-    @property
-    def key(self) -> int:
-        """:func:`frame_key` of the message."""
-        return frame_key(self.arbitration_id, self.is_extended)
-
-    def extract(self, data: bytes | bytearray) -> int:
-        """The raw counter value in *data* (no scaling: counts)."""
-        mask = (1 << self.length) - 1
-        if self.big_endian:
-            nbits = 8 * len(data)
-            return (int.from_bytes(data, "big") >> (nbits - self.start - self.length)) & mask
-        return (int.from_bytes(data, "little") >> self.start) & mask
-
-
-def frame_key(arbitration_id: int, is_extended: bool) -> int:
-    """One integer per identifier and kind: the ID, with bit 31 set for a 29-bit ID (as
-    cantools numbers extended frames), so that standard ``0x0C1`` and extended
-    ``0x000000C1`` differ."""
-    return arbitration_id | (0x80000000 if is_extended else 0)
-
-
-def counter_spec_from_dbc(database: object, message: str, signal: str) -> CounterSpec:
-    """A :class:`CounterSpec` for ``message.signal`` of a cantools *database*.
-
-    Raises
-    ------
-    KeyError
-        If the message or the signal is not in the database.
-    """
-    msg = database.get_message_by_name(message)  # type: ignore[attr-defined]
-    sig = msg.get_signal_by_name(signal)
-    return CounterSpec(
-        message=message,
-        arbitration_id=int(msg.frame_id),
-        start=int(start_bit(sig)),
-        length=int(sig.length),
-        big_endian=sig.byte_order == "big_endian",
-        is_extended=bool(msg.is_extended_frame),
-    )
-
-
-@dataclass
-class _CounterState:
-    last: int | None = None
-    last_time: float = 0.0
-    longest_gap: float = 0.0
-    dropped: int = 0
-
-
-class CounterTracker:
-    """Count frames missing from each message's rolling counter (+1 per frame).
-
-    A step of ``k`` between two consecutive counter values (modulo ``2**length``) means
-    ``k - 1`` frames lost. A run of ``2**length`` or more consecutive lost frames of one
-    message is therefore counted modulo ``2**length``; the longest silence between two frames
-    of each message (:meth:`longest_gap_by_message`) shows such holes. (Time cannot correct
-    the count: adapters such as slcan stamp frames on the host, in bursts.)
-    """
-
-    def __init__(self, specs: Iterable[CounterSpec]) -> None:
-        #: Specs by :func:`frame_key` (identifier and kind).
-        self.specs = {s.key: s for s in specs}
-        self._state = {i: _CounterState() for i in self.specs}
-
-    def update(self, arbitration_id: int, data: bytes | bytearray, timestamp: float,
-               is_extended: bool = False) -> int:
-        """Account for one frame (*timestamp* in s); return the frames missing just before it."""
-        key = frame_key(arbitration_id, is_extended)
-        spec = self.specs.get(key)
-        if spec is None:
-            return 0
-        st = self._state[key]
-        value = spec.extract(data)
-        lost = 0
-        if st.last is not None:
-            lost = (value - st.last - 1) % (1 << spec.length)
-            st.dropped += lost
-            st.longest_gap = max(st.longest_gap, timestamp - st.last_time)
-        st.last = value
-        st.last_time = timestamp
-        return lost
-
-    def longest_gap_by_message(self) -> dict[str, float]:
-        """Longest time, s, between two consecutive frames of each counted message."""
-        return {self.specs[i].message: round(st.longest_gap, 6) for i, st in self._state.items()}
-
-    def dropped_by_message(self) -> dict[str, int]:
-        """Frames lost so far, per message name."""
-        return {self.specs[i].message: st.dropped for i, st in self._state.items()}
-
-    @property
-    def dropped(self) -> int:
-        """Frames lost so far, all messages together."""
-        return sum(st.dropped for st in self._state.values())
-
-
-# ----------------------------------------------------------------------------------------
 # Statistics shared with the monitor
 # ----------------------------------------------------------------------------------------
 @dataclass
@@ -215,6 +97,8 @@ class LogStats:
         The latest frame per :func:`frame_key` (data frames only).
     first_timestamp, last_timestamp : float or None
         Reception times, s, of the first and last frame.
+    damaged_lines : int
+        Lines the bus's driver could not parse (counted by :func:`receive`, skipped).
     """
 
     frames: int = 0
@@ -225,6 +109,7 @@ class LogStats:
     latest: dict[int, can.Message] = field(default_factory=dict)
     first_timestamp: float | None = None
     last_timestamp: float | None = None
+    damaged_lines: int = 0
 
 
 def id_key(msg: can.Message) -> str:
@@ -248,6 +133,13 @@ class LogWriter:
         The rig's rolling counters to check.
     flush_interval : float, s
         Longest time between two ``flush`` + ``os.fsync`` of the file.
+
+    Attributes
+    ----------
+    error : BaseException or None
+        Why writing stopped (a full disk...). The file then ends with the last whole line
+        that was written: a line cut by the error is truncated away, and :attr:`stats`
+        count the frames of the whole lines only.
     """
 
     def __init__(self, file: IO[bytes], channel: str, counters: CounterTracker | None = None,
@@ -262,6 +154,8 @@ class LogWriter:
         self._thread = threading.Thread(target=self._run, name="evtribo-log-writer",
                                         daemon=True)
         self._last_flush = time.monotonic()
+        self._size = file.tell()  # bytes of whole lines in the file
+        self._pending = 0  # bytes of the batch being written that reached the file
 
     def start(self) -> LogWriter:
         """Start the thread; return self."""
@@ -309,11 +203,38 @@ class LogWriter:
         view = memoryview(data)
         while view:
             written = self.file.write(view)
-            view = view[written if written is not None else len(view):]
+            written = len(view) if written is None else written
+            self._pending += written
+            view = view[written:]
+
+    def _keep_whole_lines(self, data: bytes, batch: list[can.Message],
+                          before: tuple[dict[str, int], int]) -> None:
+        """After a write of *batch* (as *data*) failed part way: truncate the file to its
+        last whole line, and count only the frames whose lines are whole."""
+        keep = data.rfind(b"\n", 0, self._pending) + 1
+        try:
+            os.ftruncate(self.file.fileno(), self._size + keep)
+            self.file.seek(self._size + keep)
+        except OSError as err:
+            log.error("cannot drop the line cut by the failed write: %s", err)
+            return
+        self._size += keep
+        stats = self.stats
+        stats.frames_by_id, stats.error_frames = before
+        kept = batch[:data.count(b"\n", 0, keep)]
+        for msg in kept:
+            key = id_key(msg)
+            stats.frames_by_id[key] = stats.frames_by_id.get(key, 0) + 1
+            stats.error_frames += msg.is_error_frame
+        if kept:
+            stats.frames += len(kept)
+            stats.first_timestamp = stats.first_timestamp or kept[0].timestamp
+            stats.last_timestamp = kept[-1].timestamp
 
     def _write(self, batch: list[can.Message]) -> None:
         channel = self.channel
         stats = self.stats
+        before = (dict(stats.frames_by_id), stats.error_frames)
         by_id = stats.frames_by_id
         latest = stats.latest
         tracker = self.counters
@@ -341,7 +262,14 @@ class LogWriter:
                     stats.dropped += tracker.update(msg.arbitration_id, msg.data,
                                                     msg.timestamp, msg.is_extended_id)
             by_id[key] = by_id.get(key, 0) + 1
-        self._write_all("".join(lines).encode())
+        data = "".join(lines).encode()
+        self._pending = 0
+        try:
+            self._write_all(data)
+        except BaseException:
+            self._keep_whole_lines(data, batch, before)
+            raise
+        self._size += len(data)
         stats.frames += len(batch)
         if stats.first_timestamp is None:
             stats.first_timestamp = batch[0].timestamp
@@ -360,22 +288,89 @@ class ReceiveResult:
     ----------
     reason : str
         ``"completed"`` (duration reached), ``"interrupted"`` (stop requested),
-        ``"bus-error"`` (``recv`` raised) or ``"disk-error"`` (the writer failed).
+        ``"bus-error"`` (``recv`` raised: the adapter is gone), ``"disk-error"`` (the writer
+        failed) or ``"no-rig-data"`` (none of the expected frames within the time allowed).
     error : BaseException or None
         The exception behind ``bus-error`` / ``disk-error``.
     frames : int
         Frames received.
+    damaged_lines : int
+        Lines the driver could not parse (skipped; the recording went on).
+    damaged_examples : list of str
+        The first :data:`DAMAGED_EXAMPLES` of them, as ``"ValueError: ..."``.
     """
 
     reason: str
     error: BaseException | None = None
     frames: int = 0
+    damaged_lines: int = 0
+    damaged_examples: list[str] = field(default_factory=list)
+
+
+def is_damaged_line(err: BaseException) -> bool:
+    """Whether *err*, raised by a bus's ``recv``, is one line the driver could not parse
+    (the adapter still works) rather than a failed adapter.
+
+    A parser raises ``ValueError`` or ``IndexError`` on a malformed line (python-can's
+    ``slcan``: ``int('0CZ', 16)``, ``string[9]`` of a line cut short; evtribo's
+    ``slcan_bulk``: ``ValueError``); bytes that are no text surface as a
+    :class:`can.CanOperationError` caused by a ``UnicodeDecodeError``. An adapter that is
+    gone raises :class:`can.CanOperationError` caused by an ``OSError``
+    (``serial.SerialException``), or an ``OSError``.
+    """
+    if isinstance(err, (ValueError, IndexError, KeyError)):
+        return True
+    return isinstance(err, can.CanError) and isinstance(err.__cause__, UnicodeError)
+
+
+def _drop_stuck_line(bus: can.BusABC) -> None:
+    """Forget a complete line the driver failed to decode and still holds.
+
+    python-can's ``slcan`` driver decodes its line buffer before clearing it: a line that is
+    no text would fail again with every later byte. Its buffer then ends with the line's
+    terminator; a buffer that holds part of a line (``slcan_bulk``'s) never does.
+    """
+    buffer = getattr(bus, "_buffer", None)
+    if isinstance(buffer, bytearray) and buffer.endswith((b"\r", b"\a")):
+        buffer.clear()
+
+
+class _Damaged:
+    """Counts damaged lines; says when there were too many in a row."""
+
+    def __init__(self, stats: LogStats) -> None:
+        self.stats = stats
+        self.count = 0
+        self.in_a_row = 0
+        self.examples: list[str] = []
+
+    def add(self, err: BaseException, bus: can.BusABC) -> None:
+        self.count += 1
+        self.in_a_row += 1
+        self.stats.damaged_lines += 1
+        text = f"{type(err).__name__}: {err}"
+        if err.__cause__ is not None:
+            text += f" ({type(err.__cause__).__name__}: {err.__cause__})"
+        if len(self.examples) < DAMAGED_EXAMPLES:
+            self.examples.append(text)
+        if self.count <= DAMAGED_EXAMPLES:
+            log.warning("damaged line from the bus, skipped: %s", text)
+        _drop_stuck_line(bus)
+        if self.in_a_row >= MAX_DAMAGED_IN_A_ROW:
+            raise can.CanOperationError(
+                f"{self.in_a_row} damaged lines in a row and no frame: the adapter sends "
+                "nothing readable (a wrong serial speed?)") from err
 
 
 def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
             should_stop: Callable[[], bool], timeout: float = 0.1,
-            until: Callable[[], bool] | None = None) -> ReceiveResult:
+            until: Callable[[], bool] | None = None,
+            expect: frozenset[int] | None = None,
+            expect_within: float | None = None) -> ReceiveResult:
     """Receive frames from *bus* into *writer* until *duration* s or *should_stop*.
+
+    A line the driver cannot parse (:func:`is_damaged_line`) is counted and skipped; any
+    other exception from ``recv`` ends the trial as ``"bus-error"``.
 
     Parameters
     ----------
@@ -392,6 +387,11 @@ def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
     until : callable, optional
         Polled like *should_stop* when the bus is idle; returning True ends the trial as
         ``"completed"`` (the source is done and every frame it sent was received).
+    expect : frozenset of int, optional
+        :func:`frame_key` of the frames the rig must send (its load cells).
+    expect_within : float, s, optional
+        With *expect*: when none of those frames arrived within this time, the trial ends
+        as ``"no-rig-data"``.
 
     Returns
     -------
@@ -401,23 +401,35 @@ def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
     monotonic = time.monotonic
     start = monotonic()
     end = float("inf") if duration is None else start + duration
+    waiting = expect is not None and expect_within is not None
+    deadline = start + (expect_within or 0.0)
     batch: list[can.Message] = []
     append = batch.append
     next_handoff = start + HANDOFF_INTERVAL_S
     frames = 0
+    damaged = _Damaged(writer.stats)
     reason = "completed"
     error: BaseException | None = None
     now = start
     try:
         while True:
-            msg = recv(min(timeout, max(end - now, 0.0)))
+            try:
+                msg = recv(min(timeout, max(end - now, 0.0)))
+            except Exception as err:
+                if not is_damaged_line(err):
+                    raise
+                damaged.add(err, bus)
+                msg = None
             now = monotonic()
             if msg is not None:
                 append(msg)
+                damaged.in_a_row = 0
                 if len(batch) < HANDOFF_FRAMES and now < next_handoff:
                     if now < end:
                         continue
             if batch:
+                if waiting and _any_expected(batch, expect):  # type: ignore[arg-type]
+                    waiting = False
                 frames += len(batch)
                 writer.put(batch)
                 batch = []
@@ -431,18 +443,27 @@ def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
             if should_stop():
                 reason = "interrupted"
                 break
+            if waiting and now >= deadline:
+                reason = "no-rig-data"
+                break
             if until is not None and msg is None and until():
                 break
-    except (can.CanError, OSError, ValueError) as err:
+    except Exception as err:
         # CanOperationError, serial.SerialException (an OSError), a pty closed under the
-        # driver (OSError), a garbled adapter answer (ValueError): the adapter is gone.
+        # driver (OSError), or anything else a driver raises: the adapter is gone.
         log.error("the bus failed: %s: %s", type(err).__name__, err)
         reason, error = "bus-error", err
     finally:
         if batch:
             frames += len(batch)
             writer.put(batch)
-    return ReceiveResult(reason=reason, error=error, frames=frames)
+    return ReceiveResult(reason=reason, error=error, frames=frames,
+                         damaged_lines=damaged.count, damaged_examples=damaged.examples)
+
+
+def _any_expected(batch: list[can.Message], keys: frozenset[int]) -> bool:
+    return any(frame_key(m.arbitration_id, m.is_extended_id) in keys
+               for m in batch if not m.is_error_frame)
 
 
 __all__ = [
@@ -457,5 +478,6 @@ __all__ = [
     "format_candump_line",
     "frame_key",
     "id_key",
+    "is_damaged_line",
     "receive",
 ]

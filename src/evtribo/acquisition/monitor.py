@@ -4,6 +4,10 @@ A trial may start with a tare stretch (``evtribo acquire --tare-s``): for its fi
 the display asks the operator to keep the finger off the screen (``LIFT THE FINGER``), then
 to slide (``SLIDE``); the analysis takes the load cells' zero offsets from that stretch.
 
+When none of the rig's load-cell messages has arrived a few seconds into the trial, the
+display says so (``NO DATA FROM THE RIG``): the bus is the wrong one, or the study's DBC is
+not this rig's (the trial then ends as ``no-rig-data``).
+
 The display runs in its own thread, reading the writer's :class:`~evtribo.acquisition.logger.
 LogStats` a few times a second (never in the receive path). On a terminal it redraws a small
 block with ANSI escapes; on a pipe or file it writes one line every few seconds.
@@ -43,6 +47,10 @@ class Snapshot:
     tare_left_s : float or None, s
         Time left of the tare stretch (finger lifted): positive while it lasts, 0 once it is
         over, None for a trial without one.
+    damaged_lines : int
+        Lines from the adapter that could not be parsed (counted in *bus_errors* too).
+    alert : str
+        Something wrong the operator must see (``NO DATA FROM THE RIG ...``), or empty.
     """
 
     elapsed_s: float
@@ -54,6 +62,8 @@ class Snapshot:
     dropped: int = 0
     bus_errors: int = 0
     tare_left_s: float | None = None
+    damaged_lines: int = 0
+    alert: str = ""
 
 
 def instruction(snap: Snapshot) -> str:
@@ -161,7 +171,11 @@ def render_status(snap: Snapshot, *, target: float | None = None, band: float = 
     lines.append(f"tangential force {_fmt(snap.tangential_force_N)}")
     rates = "   ".join(f"{name} {rate:6.0f}" for name, rate in snap.rates_Hz.items())
     lines.append(f"frames/s   {rates or '--'}")
-    lines.append(f"frames {snap.frames}   dropped {snap.dropped}   bus errors {snap.bus_errors}")
+    damaged = f" ({snap.damaged_lines} damaged lines)" if snap.damaged_lines else ""
+    lines.append(f"frames {snap.frames}   dropped {snap.dropped}   bus errors {snap.bus_errors}"
+                 + damaged)
+    if snap.alert:
+        lines.append(f"{_RED}{snap.alert}{_RESET}" if colour else snap.alert)
     return lines
 
 
@@ -175,7 +189,15 @@ def render_line(snap: Snapshot, *, target: float | None = None, band: float = 0.
     todo = instruction(snap)
     return (f"t={snap.elapsed_s:.1f} s  Fn={fn}  Ft={ft}  frames={snap.frames} "
             f"({total:.0f}/s)  dropped={snap.dropped}  bus errors={snap.bus_errors}"
-            + (f"  {todo}" if todo else ""))
+            + (f"  {todo}" if todo else "") + (f"  {snap.alert}" if snap.alert else ""))
+
+
+def no_rig_data_alert(messages: dict[str, int], within: float) -> str:
+    """The display's alert when none of *messages* (``{name: frame_key}``) came in
+    *within* s."""
+    names = " or ".join(f"{name} (0x{key & 0x1FFFFFFF:03X})" for name, key in messages.items())
+    return (f"NO DATA FROM THE RIG: no {names} frame in {within:g} s; wrong bus, or the "
+            "study's DBC is not this rig's?")
 
 
 class Monitor:
@@ -200,12 +222,15 @@ class Monitor:
     tare_s : float, s
         Length of the tare stretch at the start (0: none): the display asks for the finger
         to be lifted that long, then to slide.
+    rig_data_timeout : float or None, s
+        Say so (:attr:`Snapshot.alert`) when none of the rig's load-cell messages arrived
+        within this time; None: never.
     """
 
     def __init__(self, rig: Any, stream: TextIO, *, duration: float | None = None,
                  target: float | None = None, band: float = 0.1, tty: bool | None = None,
                  interval: float = 0.25, line_interval: float = 5.0, title: str = "",
-                 tare_s: float = 0.0) -> None:
+                 tare_s: float = 0.0, rig_data_timeout: float | None = None) -> None:
         self.rig = rig
         self.stream = stream
         self.duration = duration
@@ -222,6 +247,8 @@ class Monitor:
         self._last: tuple[float, dict[str, int]] = (0.0, {})
         self._drawn = 0
         self._forces = [self._signal(key) for key in ("normal_force", "tangential_force")]
+        self.rig_data_timeout = rig_data_timeout
+        self._cells = rig.role_messages() if rig_data_timeout is not None else {}
 
     def _signal(self, key: str) -> tuple[int, str, str] | None:
         """(frame key, message, signal) of a role."""
@@ -246,12 +273,24 @@ class Monitor:
         return self
 
     def stop(self) -> None:
-        """Stop refreshing (after a last refresh on a terminal)."""
+        """Stop refreshing (after a last refresh on a terminal, or, on a pipe, a last line
+        when there is an alert)."""
         self._stop.set()
         if self._thread is not None:
             self._thread.join()
-        if self.tty and self._stats is not None:
+        if self._stats is not None and (self.tty or self._alert()):
             self._draw(final=True)
+
+    def _alert(self) -> str:
+        """The no-rig-data alert, when it applies now."""
+        if not self._cells or self._stats is None or self.rig_data_timeout is None:
+            return ""
+        if time.monotonic() - self._t0 < self.rig_data_timeout:
+            return ""
+        latest = self._stats.latest
+        if any(key in latest for key in self._cells.values()):
+            return ""
+        return no_rig_data_alert(self._cells, self.rig_data_timeout)
 
     def _run(self) -> None:
         while not self._stop.wait(self.interval):
@@ -297,7 +336,9 @@ class Monitor:
                         normal_force_N=self._decode(latest, self._forces[0]),
                         tangential_force_N=self._decode(latest, self._forces[1]),
                         rates_Hz=rates, frames=stats.frames, dropped=stats.dropped,
-                        bus_errors=stats.error_frames, tare_left_s=tare_left)
+                        bus_errors=stats.error_frames + stats.damaged_lines,
+                        tare_left_s=tare_left, damaged_lines=stats.damaged_lines,
+                        alert=self._alert())
 
     def _draw(self, final: bool = False) -> None:
         snap = self.snapshot(final)
@@ -308,11 +349,11 @@ class Monitor:
         lines = render_status(snap, target=self.target, band=self.band, colour=True,
                               title=self.title)
         out = f"\x1b[{self._drawn}F" if self._drawn else ""
-        out += "".join(f"\x1b[2K{line}\n" for line in lines)
+        out += "".join(f"\x1b[2K{line}\n" for line in lines) + "\x1b[J"
         self.stream.write(out)
         self.stream.flush()
         self._drawn = len(lines)
 
 
-__all__ = ["Monitor", "Snapshot", "band_state", "instruction", "render_band", "render_line",
-           "render_status"]
+__all__ = ["Monitor", "Snapshot", "band_state", "instruction", "no_rig_data_alert",
+           "render_band", "render_line", "render_status"]

@@ -4,24 +4,29 @@ A rig TOML (``src/evtribo/data/rigs/default.toml``) holds the keys of the ``[rig
 ``study.toml`` (spec §1) at top level, plus ``name`` and, optionally, the rolling counters of
 the load cells (``normal_force_counter``, ``tangential_force_counter``), with ``dbc``
 relative to the TOML. A new study folder gets a copy of the DBC under ``rig/`` and a
-``study.toml`` whose ``[rig]`` table names it.
+``study.toml`` whose ``[rig]`` table names it, both written under temporary names and renamed
+into place (``study.toml`` last): a failure (a full disk) leaves nothing that blocks a retry.
 """
 
 from __future__ import annotations
 
 import logging
+import os
 import shutil
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from evtribo.acquisition.logger import CounterSpec, counter_spec_from_dbc
-from evtribo.errors import OutputExistsError, RigConfigError, StudyError
+from evtribo.acquisition.counters import CounterSpec, counter_spec_from_dbc, frame_key
+from evtribo.errors import AcquisitionError, OutputExistsError, RigConfigError, StudyError
 from evtribo.rig import Rig, default_rig_path, load_rig
-from evtribo.study import read_study_toml, validate_name, write_study_toml
+from evtribo.study import STUDY_FILE, read_study_toml, validate_name, write_study_toml
 
 log = logging.getLogger(__name__)
 
+#: The roles of the load cells, whose frames a recording must receive.
+LOAD_CELL_ROLES = ("normal_force", "tangential_force")
 
 
 def check_name(value: str, key: str) -> str:
@@ -70,6 +75,32 @@ class AcquisitionRig:
         return cls(name=name or rig.name, dbc_path=rig.dbc, database=rig.database,
                    signals=signals, counters=_counters(rig),
                    source=None if rig.source is None else Path(rig.source))
+
+    def role_messages(self, roles: tuple[str, ...] = LOAD_CELL_ROLES) -> dict[str, int]:
+        """``{message name: frame_key}`` of the messages carrying *roles* (by default the
+        load cells'), in the order of the roles."""
+        out: dict[str, int] = {}
+        for role in roles:
+            if role in self.signals:
+                msg = self.database.get_message_by_name(self.signals[role].split(".")[0])
+                out[str(msg.name)] = frame_key(int(msg.frame_id), bool(msg.is_extended_frame))
+        return out
+
+    def describe(self) -> str:
+        """Its messages and what they carry, for a person: ``FzCell (0x0C1): normal_force;
+        FxCell (0x0C2): tangential_force; HvStatus (0x1A0): excitation_enabled, ...``."""
+        by_message: dict[str, list[str]] = {}
+        for role, ref in self.signals.items():
+            if role.endswith("_counter"):
+                continue
+            by_message.setdefault(ref.split(".")[0], []).append(role)
+        parts = []
+        for name, roles in by_message.items():
+            msg = self.database.get_message_by_name(name)
+            ident = (f"0x{msg.frame_id:08X}" if msg.is_extended_frame
+                     else f"0x{msg.frame_id:03X}")
+            parts.append(f"{name} ({ident}): {', '.join(roles)}")
+        return "; ".join(parts)
 
     def message_name(self, arbitration_id: int, is_extended: bool = False) -> str | None:
         """The DBC message name of a standard (or, with *is_extended*, 29-bit) identifier,
@@ -121,8 +152,116 @@ def load_study_rig(study: str | Path) -> AcquisitionRig:
         rig, name=str(table.get("name") or rig.database.version or rig.dbc.name))
 
 
+def _make_dirs(folder: Path) -> list[Path]:
+    """Create *folder* and its missing parents; return those created, deepest first."""
+    missing = []
+    for p in [folder, *folder.parents]:
+        if p.exists():
+            break
+        missing.append(p)
+    folder.mkdir(parents=True, exist_ok=True)
+    return missing
+
+
+def _place(src: Path, dst: Path) -> bool:
+    """Move the finished file *src* to *dst* unless *dst* exists; True if it was moved."""
+    try:
+        os.link(src, dst)  # fails if dst exists, even if another process just made it
+    except FileExistsError:
+        return False
+    except OSError:  # a file system without hard links
+        if dst.exists():
+            return False
+        os.replace(src, dst)
+        return True
+    src.unlink()
+    return True
+
+
+def _place_dbc(staged: Path, target: Path) -> bool:
+    """Put the rig's DBC in the study; True if this call put it there.
+
+    A DBC already there with the same bytes is kept; an empty one (left by an older,
+    interrupted study creation) is replaced; another one is an error.
+    """
+    if _place(staged, target):
+        return True
+    old = target.read_bytes()
+    if old == staged.read_bytes():
+        return False
+    if not old:
+        os.replace(staged, target)
+        return True
+    raise StudyError(f"a different DBC is in the way of the rig's {staged.name} (move it "
+                     "away, or give --rig for it)", path=target)
+
+
+def write_new_study(study: str | Path, dbc: str | Path, *, dbc_rel: str, name: str,
+                    rig: dict[str, Any]) -> Path:
+    """Create the study folder *study*: a copy of *dbc* at *dbc_rel* and ``study.toml``.
+
+    Everything is written under temporary names in *study* and renamed into place,
+    ``study.toml`` last; on a failure, what this call created is removed again.
+
+    Parameters
+    ----------
+    study : path
+        The study folder (created with its parents if missing).
+    dbc : path
+        The rig's DBC.
+    dbc_rel : str
+        Where its copy goes, relative to the study (``rig/default.dbc``).
+    name : str
+        The study's ``name``.
+    rig : dict
+        The ``[rig]`` table (its ``dbc`` key should be *dbc_rel*).
+
+    Returns
+    -------
+    Path
+        The new ``study.toml``.
+
+    Raises
+    ------
+    OutputExistsError
+        The folder has a ``study.toml`` already (it is left alone).
+    StudyError
+        A different DBC is in the way.
+    OSError
+        Writing failed (a full disk...): nothing of this call is left behind.
+    """
+    study = Path(study)
+    toml = study / STUDY_FILE
+    if toml.exists():
+        raise OutputExistsError("exists already", path=toml)
+    target = study / dbc_rel
+    created = _make_dirs(target.parent)
+    placed_dbc = False
+    staging = Path(tempfile.mkdtemp(prefix=".evtribo-new-study-", dir=study))
+    try:
+        staged = staging / target.name
+        shutil.copyfile(dbc, staged)
+        written = write_study_toml(staging, name=name, rig=rig)
+        placed_dbc = _place_dbc(staged, target)
+        if not _place(written, toml):
+            raise OutputExistsError("exists already", path=toml)
+    except BaseException:
+        if placed_dbc:
+            target.unlink(missing_ok=True)
+        shutil.rmtree(staging, ignore_errors=True)
+        for folder in created:  # deepest first
+            try:
+                folder.rmdir()
+            except OSError:
+                break
+        raise
+    shutil.rmtree(staging, ignore_errors=True)
+    return toml
+
+
 def create_study(study: str | Path, rig: AcquisitionRig, name: str | None = None) -> Path:
-    """Make *study* a study folder for *rig*: copy its DBC to ``rig/``, write ``study.toml``.
+    """Make *study* a study folder for *rig*: copy its DBC to ``rig/``, write ``study.toml``
+    (:func:`write_new_study`).
 
     Returns
     -------
@@ -133,16 +272,18 @@ def create_study(study: str | Path, rig: AcquisitionRig, name: str | None = None
     ------
     OutputExistsError
         If the folder already has a ``study.toml`` (it is left alone).
+    StudyError
+        A file is in the way, or the folder cannot be written.
+    AcquisitionError
+        Writing failed (a full disk): nothing of the new study is left.
     """
     study = Path(study)
     dbc_rel = f"rig/{rig.dbc_path.name}"
+    table = {"name": rig.name, "dbc": dbc_rel, **rig.signals}
     try:
-        (study / "rig").mkdir(parents=True, exist_ok=True)
-        if not (study / dbc_rel).exists():
-            shutil.copyfile(rig.dbc_path, study / dbc_rel)
-        table = {"name": rig.name, "dbc": dbc_rel, **rig.signals}
-        path = write_study_toml(study, name=name or study.resolve().name, rig=table)
-    except OutputExistsError:
+        path = write_new_study(study, rig.dbc_path, dbc_rel=dbc_rel,
+                               name=name or study.resolve().name, rig=table)
+    except (OutputExistsError, StudyError):
         raise
     except (NotADirectoryError, FileExistsError) as err:
         raise StudyError("cannot create the study folder: a file is in the way "
@@ -150,6 +291,10 @@ def create_study(study: str | Path, rig: AcquisitionRig, name: str | None = None
     except PermissionError as err:
         raise StudyError(f"cannot create the study folder: {err.strerror} "
                          f"({err.filename})", path=study) from err
+    except OSError as err:  # a full disk: not the user's mistake (exit code 1)
+        raise AcquisitionError(f"cannot create the study folder: {err.strerror or err} "
+                               f"({err.filename or study}); nothing of it was kept",
+                               path=study) from err
     log.info("new study folder %s for rig %r", study, rig.name)
     return path
 
@@ -193,7 +338,10 @@ def open_study(study: str | Path, rig_path: str | Path | None = None, *,
     given = load_rig_toml(rig_path if rig_path is not None else default_rig_path())
     if not create:
         return given
-    create_study(study, given)
+    try:
+        create_study(study, given)
+    except OutputExistsError:  # another process created it meanwhile: use it
+        return open_study(study, rig_path, create=False)
     rig = load_study_rig(study)
     rig.name = given.name
     rig.counters = given.counters or rig.counters
@@ -201,6 +349,7 @@ def open_study(study: str | Path, rig_path: str | Path | None = None, *,
 
 
 __all__ = [
+    "LOAD_CELL_ROLES",
     "AcquisitionRig",
     "check_name",
     "create_study",
@@ -208,4 +357,5 @@ __all__ = [
     "load_rig_toml",
     "load_study_rig",
     "open_study",
+    "write_new_study",
 ]

@@ -1,10 +1,13 @@
 """slcan (Lawicel) both ways: a bulk-reading python-can bus, and an emulated adapter on a pty.
 
-:class:`BulkSlcanBus` is python-can's :class:`can.interfaces.slcan.slcanBus` with one change:
+:class:`BulkSlcanBus` is python-can's :class:`can.interfaces.slcan.slcanBus` with two changes:
 it reads the serial port in bulk (every byte waiting, in one call) and splits the stream into
-lines itself, where python-can reads one byte per system call. The lines go through
-python-can's own parser, so the frames are the same. It is registered as the python-can
-interface ``slcan_bulk``::
+lines itself, where python-can reads one byte per system call; and it checks every line
+(:func:`check_slcan_line`) before python-can's own parser makes a frame of it, so that a
+damaged line (``t0CZ8...``, ``t0C1``, bytes that are no text, ``T1``) raises one
+``ValueError`` naming the line, and the next line is read as if nothing happened. The
+frames of good lines are python-can's. It is registered as the python-can interface
+``slcan_bulk``::
 
     bus = can.Bus(interface="slcan_bulk", channel="/dev/ttyACM0", bitrate=1_000_000)
 
@@ -40,11 +43,58 @@ from can.interfaces.slcan import slcanBus
 
 from evtribo.frames.table import FrameTable
 
-__all__ = ["BulkSlcanBus", "SlcanPtyAdapter", "encode_slcan"]
+__all__ = ["BulkSlcanBus", "SlcanPtyAdapter", "check_slcan_line", "encode_slcan"]
 
 log = logging.getLogger(__name__)
 
 _TERMINATOR = re.compile(rb"[\r\a]")
+#: A frame line: kind, identifier, length code, payload (and an adapter's 4-digit timestamp);
+#: ``H`` stands for a hex digit.
+_FRAME = re.compile(rb"([tdb])(H{3})(H)(H*)|([TxDB])(H{8})(H)(H*)|(r)(H{3})([0-8])(H*)"
+                    rb"|(R)(H{8})([0-8])(H*)".replace(b"H", b"[0-9A-Fa-f]"))
+#: A classic data frame with an 11-bit identifier: length code, payload.
+_CLASSIC = re.compile(rb"t[0-7][0-9A-Fa-f]{2}([0-8])([0-9A-Fa-f]*)")
+#: Hex digits of a classic payload (and the adapter's timestamp) by length code (a byte).
+_CLASSIC_DIGITS = {ord(str(n)): (2 * n, 2 * n + 4) for n in range(9)}
+#: Answers of the adapter to commands (ignored when receiving, as python-can does).
+_ANSWER = re.compile(rb"|[zZ]|[Vv]H{4}|N[0-9A-Za-z]{4}|FH{2}".replace(b"H", b"[0-9A-Fa-f]"))
+_FD_LENGTHS = (0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64)
+
+
+def check_slcan_line(line: bytes) -> None:
+    """Raise ``ValueError`` naming *line* unless it is a well-formed slcan line.
+
+    *line* ends with its terminator (``\\r``, or the error bell ``\\a``). Well formed: an
+    answer (empty, ``z``/``Z``, ``Vxxxx``, ``vxxxx``, ``Nxxxx``, ``Fxx``) or a frame
+    (``t``/``T``/``x``/``r``/``R`` and CAN FD's ``d``/``D``/``b``/``B``) whose identifier fits
+    its kind (11 or 29 bits) and whose payload has as many hex digits as its length code says,
+    optionally followed by the adapter's 4-digit timestamp.
+    """
+    body = line[:-1] if line[-1:] in (b"\r", b"\a") else line
+    m = _CLASSIC.fullmatch(body)  # the common case, quickly
+    if m is not None and len(m.group(2)) in _CLASSIC_DIGITS[m.group(1)[0]]:
+        return
+    if _ANSWER.fullmatch(body):
+        return
+    m = _FRAME.fullmatch(body)
+    why = "not a frame or an answer"
+    if m is not None:
+        kind, ident, code, payload = (g for g in m.groups() if g is not None)
+        if kind in b"dDbB":
+            size = _FD_LENGTHS[int(code, 16)]
+        elif kind in b"rR":
+            size = 0
+        else:
+            size = int(code, 16) if code.isdigit() and int(code) <= 8 else -1
+        if int(ident, 16) > (0x7FF if len(ident) == 3 else 0x1FFFFFFF):
+            why = f"identifier {ident.decode()} out of range"
+        elif size < 0:
+            why = f"length {code.decode()} out of range"
+        elif len(payload) in (2 * size, 2 * size + 4):
+            return
+        else:
+            why = f"payload of {len(payload)} hex digits for a length of {size} bytes"
+    raise ValueError(f"damaged slcan line {line[:40]!r}: {why}")
 
 
 class BulkSlcanBus(slcanBus):
@@ -71,10 +121,10 @@ class BulkSlcanBus(slcanBus):
         if start:
             del buf[:start]
 
-    def _read(self, timeout: float | None) -> str | None:
+    def _read_line(self, timeout: float | None) -> bytes | None:
         with error_check("Could not read from serial device"):
             if self._lines:
-                return self._lines.popleft().decode()
+                return self._lines.popleft()
             deadline = serial.Timeout(timeout)
             port = self.serialPortOrig
             while True:
@@ -83,9 +133,17 @@ class BulkSlcanBus(slcanBus):
                 if chunk:
                     self._split(chunk)
                     if self._lines:
-                        return self._lines.popleft().decode()
+                        return self._lines.popleft()
                 if deadline.expired():
                     return None
+
+    def _read(self, timeout: float | None) -> str | None:
+        """The next line, checked (``ValueError`` for a damaged one; it is gone then)."""
+        line = self._read_line(timeout)
+        if line is None:
+            return None
+        check_slcan_line(line)
+        return line.decode("ascii")
 
     def flush(self) -> None:
         """Discard what was received and not yet parsed."""

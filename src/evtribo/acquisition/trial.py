@@ -4,7 +4,9 @@
 ``TRIAL.log.part`` and renamed when the trial ends; ``STUDY/SUBJECT/TRIAL.json`` is the
 sidecar (spec §1 plus the recording's facts). The sidecar is first written when recording
 starts, with ``"ended": "recording"``, so a trial whose process was killed still says what it
-is; it is rewritten, atomically, when the trial ends.
+is; it is rewritten, atomically, when the trial ends. While it records, the trial is locked
+(``TRIAL.lock``: PID, host, command; :mod:`evtribo.lock`), and ``.TRIAL.reserve`` holds a
+little disk space, freed to write the last sidecar even when the disk has filled up.
 
 How a trial ends (``ended`` in the sidecar):
 
@@ -15,9 +17,29 @@ completed     the duration elapsed                                   0
 interrupted   Ctrl-C, SIGTERM, or the caller's stop request          0
 bus-error     the bus raised on receive (adapter unplugged, pty      1
               closed, driver error)
-disk-error    the log could not be written (disk full...)            1
+disk-error    the log could not be written (disk full...); the log   1
+              ends with the last whole line written
+no-rig-data   none of the rig's load-cell messages arrived within    1
+              ``rig_data_timeout`` (3 s): the wrong bus, or a study
+              whose DBC is not this rig's; the log keeps what came
 recording     (only in a sidecar left by a killed process)
 ============  =====================================================  =========
+
+Keys the recording adds to the sidecar (besides spec §1's and the bus settings):
+
+========================  ===============================================================
+key                       meaning
+========================  ===============================================================
+frames, frames_by_id      frames written to the log, in all and per identifier
+error_frames              CAN error frames received
+damaged_lines             lines the adapter's driver could not parse (``t0CZ8...``); each
+                          is skipped and the recording goes on
+dropped_frames(_by_...)   frames missing by the load cells' rolling counters
+bus_errors                error_frames + damaged_lines (+ 1 when the bus failed)
+bus_exceptions            the first damaged lines' errors, and the one that ended a trial
+                          as bus-error
+ended, end_detail         how the trial ended (above), and why
+========================  ===============================================================
 """
 
 from __future__ import annotations
@@ -27,10 +49,9 @@ import logging
 import math
 import os
 import sys
-import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
@@ -39,107 +60,33 @@ import can
 
 import evtribo
 from evtribo.acquisition.bus import BusSettings
-from evtribo.acquisition.logger import CounterTracker, LogWriter, receive
+from evtribo.acquisition.logger import CounterTracker, LogWriter, ReceiveResult, receive
 from evtribo.acquisition.rigfile import AcquisitionRig, check_name, open_study
-from evtribo.errors import AcquisitionError, ConfigError, OutputExistsError, SidecarError
+from evtribo.acquisition.trialdata import (
+    RESERVE_BYTES,
+    StopFlag,
+    TrialInfo,
+    TrialPaths,
+    TrialResult,
+    keep_reserve,
+    refuse_existing,
+    trial_lock,
+)
+from evtribo.errors import (
+    AcquisitionError,
+    ConfigError,
+    EvtriboError,
+    OutputExistsError,
+)
 from evtribo.study import CONDITIONS, WAVEFORMS, write_sidecar
 
 log = logging.getLogger(__name__)
 
 #: Exit code of the command line for each way a trial ends.
-EXIT_CODES = {"completed": 0, "interrupted": 0, "bus-error": 1, "disk-error": 1}
-
-
-@dataclass
-class TrialInfo:
-    """What the experimenter says about a trial (spec §1's sidecar keys).
-
-    Attributes
-    ----------
-    waveform : str or None
-        ``"sine"`` or ``"square"``.
-    frequency_Hz : float or None, Hz
-    amplitude_V : float or None, V
-    condition : str or None
-        ``"on"``, ``"off"`` or ``"alternating"``.
-    notes : str or None
-    tare_s : float or None, s
-        The finger was kept off the screen for this long at the start (the tare stretch
-        the analysis takes the load cells' zero offsets from).
-    """
-
-    waveform: str | None = None
-    frequency_Hz: float | None = None
-    amplitude_V: float | None = None
-    condition: str | None = None
-    notes: str | None = None
-    tare_s: float | None = None
-
-    def check(self) -> None:
-        """Raise SidecarError (with the key) for a value outside what spec §1 allows."""
-        if self.waveform is not None and self.waveform not in WAVEFORMS:
-            raise SidecarError(f"unknown waveform {self.waveform!r}; allowed: "
-                               f"{', '.join(WAVEFORMS)}", key="waveform")
-        if self.condition is not None and self.condition not in CONDITIONS:
-            raise SidecarError(f"unknown condition {self.condition!r}; allowed: "
-                               f"{', '.join(CONDITIONS)}", key="condition")
-        for key in ("frequency_Hz", "amplitude_V", "tare_s"):
-            value = getattr(self, key)
-            if value is not None and not (isinstance(value, (int, float))
-                                          and math.isfinite(value) and value >= 0):
-                raise SidecarError(f"expected a finite number >= 0, got {value!r}", key=key)
-
-    def as_dict(self) -> dict[str, Any]:
-        """The keys that were given (absent ones are left to the excitation signals)."""
-        return {k: v for k, v in vars(self).items() if v is not None}
-
-
-@dataclass
-class TrialPaths:
-    """Where a trial's files go."""
-
-    folder: Path
-    log: Path
-    part: Path
-    sidecar: Path
-
-    @classmethod
-    def of(cls, study: Path, subject: str, trial: str) -> TrialPaths:
-        """Paths of *trial* of *subject* in *study*."""
-        folder = Path(study) / subject
-        return cls(folder=folder, log=folder / f"{trial}.log",
-                   part=folder / f"{trial}.log.part", sidecar=folder / f"{trial}.json")
-
-    def existing(self) -> list[Path]:
-        """The files of this trial already on disk."""
-        return [p for p in (self.log, self.part, self.sidecar) if p.exists()]
-
-
-@dataclass
-class TrialResult:
-    """What :func:`record_trial` did.
-
-    Attributes
-    ----------
-    ended : str
-        ``completed``, ``interrupted``, ``bus-error``, ``disk-error``.
-    exit_code : int
-        0 for a deliberate end, 1 for a fault.
-    paths : TrialPaths
-    sidecar : dict
-        The sidecar as written (or, with *kept_previous*, as it would have been).
-    error : BaseException or None
-    kept_previous : bool
-        With ``force``, the new trial failed before receiving any frame: nothing of it was
-        kept, and the trial recorded before stays as it was.
-    """
-
-    ended: str
-    exit_code: int
-    paths: TrialPaths
-    sidecar: dict[str, Any] = field(default_factory=dict)
-    error: BaseException | None = None
-    kept_previous: bool = False
+EXIT_CODES = {"completed": 0, "interrupted": 0, "bus-error": 1, "disk-error": 1,
+              "no-rig-data": 1}
+#: Time within which the rig's load cells must be heard from, s (else ``no-rig-data``).
+RIG_DATA_TIMEOUT_S = 3.0
 
 
 def _iso(t: float) -> str:
@@ -189,8 +136,12 @@ def record_trial(
     monitor: Any = None,
     started: Callable[[TrialPaths], None] | None = None,
     until: Callable[[], bool] | None = None,
+    rig_data_timeout: float | None = RIG_DATA_TIMEOUT_S,
 ) -> TrialResult:
     """Record one trial from *bus* into *study* until *duration*, a stop, or a fault.
+
+    The trial is locked while it records (``TRIAL.lock``, :class:`~evtribo.lock.WriteLock`):
+    a second recording of it, by this process or another, is refused.
 
     Parameters
     ----------
@@ -210,7 +161,8 @@ def record_trial(
         Replace an existing trial of that name. Its ``.log`` and ``.json`` are replaced only
         when the new trial ends (the new one is recorded to ``.log.part`` meanwhile, and the
         old ones stay if it ends in a fault before any frame arrived); a leftover
-        ``.log.part`` of a killed recording is replaced at once.
+        ``.log.part`` of a killed recording is replaced at once. It never replaces a trial
+        that another process is recording.
     settings : BusSettings, optional
         How the bus was opened (recorded in the sidecar).
     log_channel : str, optional
@@ -224,6 +176,9 @@ def record_trial(
     until : callable, optional
         Polled when the bus is idle; True ends the trial as ``completed`` (for a source
         that knows when it is done, such as the simulated rig).
+    rig_data_timeout : float or None, s
+        The trial ends as ``no-rig-data`` when none of the rig's load-cell messages arrived
+        within this time (None: never).
 
     Returns
     -------
@@ -234,6 +189,8 @@ def record_trial(
     ------
     StudyError, SidecarError, RigConfigError, ConfigError
         Bad names, metadata, duration or rig (nothing written).
+    LockedError
+        Another recording of this trial is under way (whatever *force* says).
     OutputExistsError
         The trial exists and *force* is False.
     AcquisitionError
@@ -243,31 +200,67 @@ def record_trial(
     check_name(trial, "trial")
     if duration is not None and not (math.isfinite(duration) and duration > 0):
         raise ConfigError(f"expected a finite duration > 0 s, got {duration}", key="duration")
+    if rig_data_timeout is not None and not rig_data_timeout > 0:
+        raise ConfigError(f"expected a time > 0 s, got {rig_data_timeout}",
+                          key="rig_data_timeout")
     info = info or TrialInfo()
     info.check()
     study = Path(study)
     paths = TrialPaths.of(study, subject, trial)
-    if not force and paths.existing():
-        raise OutputExistsError(
-            "trial already recorded (use --force to replace it): "
-            + ", ".join(str(p) for p in paths.existing()), path=paths.existing()[0])
+    lock = trial_lock(paths, subject, trial)
+    lock.check()
+    refuse_existing(paths, force)
     acq_rig: AcquisitionRig = open_study(study, rig)
+    try:
+        paths.folder.mkdir(parents=True, exist_ok=True)
+        lock.acquire()
+    except EvtriboError:
+        raise
+    except OSError as err:
+        raise AcquisitionError(f"cannot create the trial's lock file: {err}",
+                               path=paths.lock) from err
+    try:
+        refuse_existing(paths, force)  # again: now nobody else can record it
+        recording = _start(bus, paths, acq_rig, info, duration=duration, force=force,
+                           settings=settings, log_channel=log_channel, started=started)
+        return _run(recording, bus, acq_rig, duration=duration, should_stop=should_stop,
+                    monitor=monitor, until=until, rig_data_timeout=rig_data_timeout)
+    finally:
+        paths.reserve.unlink(missing_ok=True)
+        lock.release()
+
+
+@dataclass
+class _Recording:
+    """A trial whose log is open: what :func:`_run` needs to record and end it."""
+
+    paths: TrialPaths
+    fh: Any
+    sidecar: dict[str, Any]
+    previous: list[Path]
+    channel: str
+
+
+def _start(bus: can.BusABC, paths: TrialPaths, acq_rig: AcquisitionRig, info: TrialInfo, *,
+           duration: float | None, force: bool, settings: BusSettings | None,
+           log_channel: str | None, started: Callable[[TrialPaths], None] | None
+           ) -> _Recording:
+    """Open the log, write the first sidecar, keep disk space for the last one."""
     settings = settings or BusSettings(channel=str(getattr(bus, "channel", None) or "") or None)
     settings.interface = settings.interface or type(bus).__name__
     channel = _log_channel(log_channel or settings.channel, bus)
     # with force, the previous trial's log and sidecar stay until this one has ended
     previous = [p for p in (paths.log, paths.sidecar) if p.exists()]
     try:
-        paths.folder.mkdir(parents=True, exist_ok=True)
         fh = paths.part.open("wb" if force else "xb", buffering=0)
     except FileExistsError as err:
         raise OutputExistsError("another recording of this trial is in progress",
                                 path=paths.part) from err
     except OSError as err:
         raise AcquisitionError(f"cannot create the log: {err}", path=paths.part) from err
-
-    t_start = time.time()
-    sidecar: dict[str, Any] = {"subject": subject, "trial": trial, **info.as_dict()}
+    study = paths.folder.parent
+    sidecar: dict[str, Any] = {"subject": paths.folder.name, "trial": paths.log.stem,
+                               **info.as_dict()}
     sidecar.update({
         "rig": {"name": acq_rig.name, "dbc": os.path.relpath(acq_rig.dbc_path, study),
                 "dbc_version": acq_rig.database.version},
@@ -277,7 +270,7 @@ def record_trial(
         "python_can_version": can.__version__,
         "cantools_version": _pkg_version("cantools"),
         "python_version": sys.version.split()[0],
-        "start_time": _iso(t_start),
+        "start_time": _iso(time.time()),
         "requested_duration_s": duration,
         "log": paths.part.name,
         "ended": "recording",
@@ -291,33 +284,54 @@ def record_trial(
             except OSError as err:
                 raise AcquisitionError(f"cannot write the sidecar: {err}",
                                        path=paths.sidecar) from err
+        try:
+            keep_reserve(paths.reserve)
+        except OSError as err:
+            raise AcquisitionError(
+                f"the disk is full: not even {RESERVE_BYTES // 1024} KiB are free for the "
+                f"trial ({err.strerror or err}); nothing was recorded",
+                path=paths.reserve) from err
         if started is not None:
             started(paths)
     except BaseException:
         # nothing of this trial may stay behind to block the next attempt
         fh.close()
         paths.part.unlink(missing_ok=True)
+        paths.reserve.unlink(missing_ok=True)
         if paths.sidecar not in previous:
             paths.sidecar.unlink(missing_ok=True)
         raise
+    return _Recording(paths=paths, fh=fh, sidecar=sidecar, previous=previous,
+                      channel=channel)
 
-    writer = LogWriter(fh, channel, CounterTracker(acq_rig.counters)).start()
+
+def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig, *,
+         duration: float | None, should_stop: Callable[[], bool] | None, monitor: Any,
+         until: Callable[[], bool] | None, rig_data_timeout: float | None) -> TrialResult:
+    """Record into the open log until the trial ends; save the log and the sidecar."""
+    paths = rec.paths
+    writer = LogWriter(rec.fh, rec.channel, CounterTracker(acq_rig.counters)).start()
     t0 = time.monotonic()
     if monitor is not None:
         monitor.start(writer.stats, t0)
     stop = should_stop or (lambda: False)
     flag = should_stop if isinstance(should_stop, StopFlag) else None
-    log.info("recording %s/%s from %s %s into %s", subject, trial, settings.interface,
-             settings.channel, paths.part)
+    expect = frozenset(acq_rig.role_messages().values()) or None
+    log.info("recording %s/%s from %s %s into %s", paths.folder.name, paths.log.stem,
+             rec.sidecar["interface"], rec.sidecar["channel"], paths.part)
+    result = ReceiveResult(reason="interrupted")
     try:
         if flag is not None:
             flag.interruptible = True
-        result = receive(bus, writer, duration=duration, should_stop=stop, until=until)
+        result = receive(bus, writer, duration=duration, should_stop=stop, until=until,
+                         expect=expect, expect_within=rig_data_timeout)
         if flag is not None:
             flag.interruptible = False  # from here on, the trial is saved whatever comes
-        ended, error = result.reason, result.error
     except KeyboardInterrupt:
-        ended, error = "interrupted", None
+        result.reason = "interrupted"
+    except Exception as err:  # never leave the sidecar at "recording"
+        log.exception("receiving failed")
+        result.reason, result.error = "bus-error", err
     finally:
         if flag is not None:
             flag.interruptible = False
@@ -326,26 +340,24 @@ def record_trial(
         _close_writer(writer)
         if monitor is not None:
             monitor.stop()
-    if writer.error is not None and ended not in ("bus-error",):
+    ended, error = result.reason, result.error
+    if writer.error is not None and ended != "bus-error":
         ended, error = "disk-error", writer.error
     try:
-        fh.close()
+        rec.fh.close()
     except OSError as err:  # the final flush failed (disk full)
         log.error("closing the log failed: %s", err)
         ended, error = "disk-error", err
-    if previous and error is not None and writer.stats.frames == 0:
-        paths.part.unlink(missing_ok=True)
-        log.error("%s/%s: %s before any frame arrived; the trial recorded before is kept",
-                  subject, trial, ended)
-        sidecar.update({"ended": ended, "frames": 0, "duration_s": round(elapsed, 6),
-                        "dropped_frames": 0, "bus_errors": int(ended == "bus-error"),
-                        "end_detail": f"{type(error).__name__}: {error}", "log": None})
-        return TrialResult(ended=ended, exit_code=EXIT_CODES[ended], paths=paths,
-                           sidecar=sidecar, error=error, kept_previous=True)
+    if ended == "no-rig-data":
+        error = AcquisitionError(_no_rig_data(acq_rig, rig_data_timeout))
+    sidecar = rec.sidecar
+    if rec.previous and error is not None and writer.stats.frames == 0:
+        return _keep_previous(rec, ended, error, elapsed)
     paths.part.replace(paths.log)
-
     stats = writer.stats
-    exceptions = [f"{type(error).__name__}: {error}"] if ended == "bus-error" else []
+    exceptions = [*result.damaged_examples]
+    if ended == "bus-error":
+        exceptions.append(f"{type(error).__name__}: {error}")
     sidecar.update({
         "end_time": _iso(t_end),
         "duration_s": round(elapsed, 6),
@@ -355,53 +367,72 @@ def record_trial(
         "first_frame_time": None if stats.first_timestamp is None
         else _iso(stats.first_timestamp),
         "error_frames": stats.error_frames,
+        "damaged_lines": stats.damaged_lines,
         "dropped_frames": stats.dropped,
         "dropped_frames_by_message": stats.dropped_by_message,
         "longest_gap_s_by_message": writer.counters.longest_gap_by_message(),
-        "bus_errors": stats.error_frames + len(exceptions),
+        "bus_errors": stats.error_frames + stats.damaged_lines + int(ended == "bus-error"),
         "bus_exceptions": exceptions,
         "ended": ended,
     })
     if error is not None:
-        sidecar["end_detail"] = f"{type(error).__name__}: {error}"
+        sidecar["end_detail"] = _detail(error, ended, max(result.frames - stats.frames, 0))
     elif ended == "interrupted":
         sidecar["end_detail"] = getattr(should_stop, "reason", None) or "stop requested"
-    try:
-        _write_json(paths.sidecar, sidecar)
-    except OSError as err:
-        raise AcquisitionError(f"the log is complete in {paths.log}, but its sidecar could "
-                               f"not be written: {err}", path=paths.sidecar) from err
-    log.info("%s/%s %s: %d frames in %.1f s, %d dropped, %d bus errors", subject, trial,
-             ended, stats.frames, elapsed, stats.dropped, sidecar["bus_errors"])
+    _save_sidecar(rec, sidecar)
+    log.info("%s/%s %s: %d frames in %.1f s, %d dropped, %d bus errors", paths.folder.name,
+             paths.log.stem, ended, stats.frames, elapsed, stats.dropped,
+             sidecar["bus_errors"])
     return TrialResult(ended=ended, exit_code=EXIT_CODES[ended], paths=paths, sidecar=sidecar,
                        error=error)
 
 
-class StopFlag:
-    """A stop request settable from a signal handler or another thread.
-
-    Attributes
-    ----------
-    reason : str or None
-        Why the stop was requested (the sidecar's ``end_detail``).
-    interruptible : bool
-        True while :func:`record_trial` receives frames: only then may a signal handler
-        raise ``KeyboardInterrupt`` to cut a receive that hangs. Once it is False the
-        trial's log and sidecar are being saved, and must not be interrupted.
-    """
-
-    def __init__(self) -> None:
-        self._event = threading.Event()
-        self.reason: str | None = None
-        self.interruptible = False
-
-    def set(self, reason: str = "stop requested") -> None:
-        """Ask the recording to stop."""
-        self.reason = self.reason or reason
-        self._event.set()
-
-    def __call__(self) -> bool:
-        return self._event.is_set()
+def _no_rig_data(acq_rig: AcquisitionRig, within: float | None) -> str:
+    names = ", ".join(f"{n} (0x{k & 0x1FFFFFFF:03X})"
+                      for n, k in acq_rig.role_messages().items())
+    return (f"none of the rig's load-cell messages ({names}) arrived within {within:g} s "
+            f"(the wrong bus, or the study's DBC {acq_rig.dbc_path.name} is not this rig's)")
 
 
-__all__ = ["EXIT_CODES", "StopFlag", "TrialInfo", "TrialPaths", "TrialResult", "record_trial"]
+def _detail(error: BaseException, ended: str, unwritten: int) -> str:
+    if ended == "no-rig-data":
+        return str(error)
+    text = f"{type(error).__name__}: {error}"
+    if ended == "disk-error":
+        text += (f"; the log ends with the last whole line written ({unwritten} frames "
+                 "received after it are not in it)")
+    return text
+
+
+def _keep_previous(rec: _Recording, ended: str, error: BaseException,
+                   elapsed: float) -> TrialResult:
+    """The forced trial failed before any frame arrived: the one recorded before stays."""
+    paths = rec.paths
+    paths.part.unlink(missing_ok=True)
+    paths.reserve.unlink(missing_ok=True)
+    log.error("%s/%s: %s before any frame arrived; the trial recorded before is kept",
+              paths.folder.name, paths.log.stem, ended)
+    sidecar = rec.sidecar
+    sidecar.update({"ended": ended, "frames": 0, "duration_s": round(elapsed, 6),
+                    "dropped_frames": 0, "damaged_lines": 0,
+                    "bus_errors": int(ended == "bus-error"),
+                    "end_detail": _detail(error, ended, 0), "log": None})
+    return TrialResult(ended=ended, exit_code=EXIT_CODES[ended], paths=paths,
+                       sidecar=sidecar, error=error, kept_previous=True)
+
+
+def _save_sidecar(rec: _Recording, sidecar: dict[str, Any]) -> None:
+    """Write the last sidecar, with the reserved disk space freed for it."""
+    paths = rec.paths
+    paths.reserve.unlink(missing_ok=True)
+    try:
+        _write_json(paths.sidecar, sidecar)
+    except OSError as err:
+        raise AcquisitionError(
+            f"the log is saved in {paths.log} ({sidecar['frames']} frames, whole lines), but "
+            f"its sidecar could not be updated ({err}): it says how the trial started, "
+            f"and the trial ended as {sidecar['ended']!r}", path=paths.sidecar) from err
+
+
+__all__ = ["CONDITIONS", "EXIT_CODES", "RIG_DATA_TIMEOUT_S", "WAVEFORMS", "StopFlag",
+           "TrialInfo", "TrialPaths", "TrialResult", "record_trial", "trial_lock"]

@@ -8,18 +8,26 @@ import math
 import signal
 import sys
 import threading
+from pathlib import Path
 from typing import Any
 
 from evtribo.acquisition.bus import BusSettings, open_bus, parse_bus_options
 from evtribo.acquisition.monitor import Monitor
-from evtribo.acquisition.rigfile import AcquisitionRig, check_name, open_study
+from evtribo.acquisition.rigfile import (
+    AcquisitionRig,
+    check_name,
+    default_rig_path,
+    open_study,
+)
 from evtribo.acquisition.trial import (
     CONDITIONS,
+    RIG_DATA_TIMEOUT_S,
     WAVEFORMS,
     StopFlag,
     TrialInfo,
     TrialPaths,
     record_trial,
+    trial_lock,
 )
 from evtribo.errors import ConfigError, OutputExistsError
 
@@ -36,8 +44,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Record every frame of a python-can bus into STUDY/SUBJECT/TRIAL.log "
                     "(candump -L) and its sidecar STUDY/SUBJECT/TRIAL.json, with a live "
                     "display of the normal force. Stops after --duration, or on Ctrl-C / "
-                    "SIGTERM (exit 0); exit 1 if the bus fails mid-trial (what was received "
-                    "is kept), 2 for bad usage or an existing trial without --force.")
+                    "SIGTERM (exit 0); exit 1 if the bus or the disk fails mid-trial, or if "
+                    f"none of the rig's load-cell messages arrives within "
+                    f"{RIG_DATA_TIMEOUT_S:g} s (what was received is kept); 2 for bad usage, "
+                    "an existing trial without --force, or a trial another process is "
+                    "recording.")
     p.add_argument("--study", required=True, metavar="DIR",
                    help="study folder (created with a study.toml for --rig if new)")
     p.add_argument("--subject", required=True, help="subject name (letters, digits, - and _)")
@@ -121,7 +132,8 @@ def _check_finite(args: argparse.Namespace) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Record the trial; return 0 (completed or stopped), 1 (bus or disk failed)."""
+    """Record the trial; return 0 (completed or stopped), 1 (bus or disk failed, or no
+    frame of the rig's load cells)."""
     check_name(args.subject, "subject")
     check_name(args.trial, "trial")
     _check_finite(args)
@@ -142,10 +154,16 @@ def run(args: argparse.Namespace) -> int:
     # everything the user can get wrong is checked before the bus opens and before the
     # study folder is created
     rig: AcquisitionRig = open_study(args.study, args.rig, create=False)
-    existing = TrialPaths.of(args.study, args.subject, args.trial).existing()
+    paths = TrialPaths.of(args.study, args.subject, args.trial)
+    trial_lock(paths, args.subject, args.trial).check()  # --force included
+    existing = paths.existing()
     if existing and not args.force:
         raise OutputExistsError("trial already recorded (use --force to replace it): "
                                 + ", ".join(str(p) for p in existing), path=existing[0])
+    if args.rig is None and not (Path(args.study) / "study.toml").exists():
+        print(f"evtribo acquire: {args.study} has no study.toml: it is made for the default "
+              f"rig, {default_rig_path()}: {rig.describe()} (give --rig RIG.toml for "
+              "another rig)", file=sys.stderr)
     settings = BusSettings(interface=args.interface, channel=args.channel,
                            bitrate=args.bitrate, options=parse_bus_options(args.bus_option))
     bus = open_bus(settings)
@@ -154,7 +172,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         monitor = Monitor(rig, sys.stdout, duration=args.duration, target=args.target_force,
                           band=args.band, title=f"{args.subject}/{args.trial}",
-                          tare_s=args.tare_s)
+                          tare_s=args.tare_s, rig_data_timeout=RIG_DATA_TIMEOUT_S)
     try:
         with _Signals(flag):
             result = record_trial(
@@ -168,12 +186,14 @@ def run(args: argparse.Namespace) -> int:
             log.warning("closing the bus failed: %s", err)
     side = result.sidecar
     if result.kept_previous:
-        print(f"evtribo acquire: error: {side['end_detail']} before any frame arrived; "
+        print(f"evtribo acquire: error: no frame arrived ({side['end_detail']}); "
               f"the trial recorded before is kept: {result.paths.log}", file=sys.stderr)
         return result.exit_code
     summary = (f"{args.subject}/{args.trial}: {result.ended}, {side['frames']} frames in "
                f"{side['duration_s']:.1f} s, {side['dropped_frames']} dropped, "
-               f"{side['bus_errors']} bus errors -> {result.paths.log}")
+               f"{side['bus_errors']} bus errors"
+               + (f" ({side['damaged_lines']} damaged lines)" if side["damaged_lines"] else "")
+               + f" -> {result.paths.log}")
     if result.exit_code:
         print(f"evtribo acquire: error: {side.get('end_detail', result.ended)}; "
               f"what was received is kept.\n{summary}", file=sys.stderr)

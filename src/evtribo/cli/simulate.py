@@ -199,6 +199,18 @@ def _build(args: argparse.Namespace, duration: float, trial_s: float) -> tuple[A
         raise ConfigError(err.message, key=options.get(field, err.key)) from err
 
 
+def _say_new_study(study: str) -> None:
+    """Say which rig a new study is made for (the simulator's, the default rig)."""
+    from pathlib import Path
+
+    from evtribo.acquisition.rigfile import default_rig_path, load_rig_toml
+
+    if not (Path(study) / "study.toml").exists():
+        rig = load_rig_toml(default_rig_path())
+        print(f"evtribo simulate: {study} has no study.toml: it is made for the default rig, "
+              f"{default_rig_path()}: {rig.describe()}", file=sys.stderr)
+
+
 @contextlib.contextmanager
 def _stop_on_signals() -> Iterator[threading.Event]:
     """An event set by SIGTERM or Ctrl-C while the block runs (handlers restored after)."""
@@ -227,6 +239,7 @@ def run(args: argparse.Namespace) -> int:
         from evtribo.acquisition.simulator import write_trial
 
         subject, config = _build(args, args.duration or 30.0, args.duration or 30.0)
+        _say_new_study(args.study)
         truth = write_trial(args.study, args.trial, subject, config, force=args.force)
         nodes = truth.nodes
         print(f"{args.study}/{subject.name}/{args.trial}.log: "

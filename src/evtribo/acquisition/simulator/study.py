@@ -6,7 +6,6 @@ import dataclasses
 import json
 import logging
 import os
-import shutil
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
@@ -15,12 +14,15 @@ from typing import Any
 import numpy as np
 
 from evtribo import __version__
+from evtribo.acquisition.rigfile import write_new_study
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.core import DEFAULT_DBC, TrialTruth, simulate_trial
 from evtribo.acquisition.simulator.realism import human, realistic_rig
 from evtribo.errors import OutputExistsError
 from evtribo.frames import write_candump
-from evtribo.study import STUDY_FILE, validate_name, write_sidecar, write_study_toml
+from evtribo.frames.table import FrameTable
+from evtribo.lock import WriteLock
+from evtribo.study import STUDY_FILE, validate_name, write_sidecar
 
 __all__ = ["default_subjects", "simulate_study", "write_trial"]
 
@@ -58,10 +60,12 @@ def default_subjects(n: int = 3, seed: int = 0) -> list[SubjectParams]:
 def _ensure_study(root: Path, name: str) -> None:
     if (root / STUDY_FILE).exists():
         return
-    dbc = root / RIG_DBC
-    dbc.parent.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(DEFAULT_DBC, dbc)
-    write_study_toml(root, name=name, rig={"dbc": RIG_DBC, **RIG_KEYS})
+    try:
+        write_new_study(root, DEFAULT_DBC, dbc_rel=RIG_DBC, name=name,
+                        rig={"dbc": RIG_DBC, **RIG_KEYS})
+    except OutputExistsError:  # another process created it meanwhile
+        return
+    log.info("new study folder %s for the default rig (%s)", root, DEFAULT_DBC)
 
 
 def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams,
@@ -90,20 +94,43 @@ def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams
     Returns
     -------
     TrialTruth
+
+    Raises
+    ------
+    LockedError
+        Another process is writing that trial (``--force`` included).
+    OutputExistsError
+        The trial exists and *force* is False.
     """
     root = Path(root)
     validate_name(subject.name, what="subject", key="subject")
     validate_name(trial, what="trial", key="trial")
     log_path = root / subject.name / f"{trial}.log"
-    sidecar_path = log_path.with_suffix(".json")
-    existing = [p for p in (log_path, log_path.with_name(log_path.name + ".part"),
-                            sidecar_path) if p.exists()]
-    if existing and not force:
-        raise OutputExistsError("trial exists already (use --force to overwrite): "
-                                + ", ".join(str(p) for p in existing), path=existing[0])
+    lock = WriteLock(log_path.with_suffix(".lock"), f"the trial {subject.name}/{trial}",
+                     "recorded")
+    lock.check()  # --force included: never into a trial another process writes
+    _refuse_existing(log_path, force)
     frames, truth = simulate_trial(subject, config)
     _ensure_study(root, study_name)
     log_path.parent.mkdir(parents=True, exist_ok=True)
+    with lock:
+        _refuse_existing(log_path, force)  # again, now that nobody else can write it
+        _write_files(log_path, frames, truth, subject, config, force=force, notes=notes)
+    return truth
+
+
+def _refuse_existing(log_path: Path, force: bool) -> None:
+    existing = [p for p in (log_path, log_path.with_name(log_path.name + ".part"),
+                            log_path.with_suffix(".json")) if p.exists()]
+    if existing and not force:
+        raise OutputExistsError("trial exists already (use --force to overwrite): "
+                                + ", ".join(str(p) for p in existing), path=existing[0])
+
+
+def _write_files(log_path: Path, frames: FrameTable, truth: TrialTruth, subject: SubjectParams,
+                 config: TrialConfig, *, force: bool, notes: str) -> None:
+    trial = log_path.stem
+    sidecar_path = log_path.with_suffix(".json")
     # a name of its own (not TRIAL.log.part, which may be a killed recording of this trial)
     fd, tmp_name = tempfile.mkstemp(prefix=f".{trial}.", suffix=".log.tmp",
                                     dir=log_path.parent)
@@ -128,7 +155,6 @@ def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams
     }
     write_sidecar(sidecar_path, json.loads(json.dumps(sidecar)), force=force)
     log.info("wrote %s (%d frames)", log_path, len(frames))
-    return truth
 
 
 def simulate_study(root: str | os.PathLike[str], subjects: Sequence[SubjectParams] | None = None,

@@ -1,0 +1,186 @@
+"""What a trial is while it records: its metadata, its files and lock, how it ended."""
+
+from __future__ import annotations
+
+import errno
+import logging
+import math
+import os
+import threading
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from evtribo.errors import OutputExistsError, SidecarError
+from evtribo.lock import WriteLock
+from evtribo.study import CONDITIONS, WAVEFORMS
+
+log = logging.getLogger(__name__)
+
+#: Disk space held while recording, freed to write the last sidecar on a full disk, bytes.
+RESERVE_BYTES = 256 * 1024
+
+
+@dataclass
+class TrialInfo:
+    """What the experimenter says about a trial (spec §1's sidecar keys).
+
+    Attributes
+    ----------
+    waveform : str or None
+        ``"sine"`` or ``"square"``.
+    frequency_Hz : float or None, Hz
+    amplitude_V : float or None, V
+    condition : str or None
+        ``"on"``, ``"off"`` or ``"alternating"``.
+    notes : str or None
+    tare_s : float or None, s
+        The finger was kept off the screen for this long at the start (the tare stretch
+        the analysis takes the load cells' zero offsets from).
+    """
+
+    waveform: str | None = None
+    frequency_Hz: float | None = None
+    amplitude_V: float | None = None
+    condition: str | None = None
+    notes: str | None = None
+    tare_s: float | None = None
+
+    def check(self) -> None:
+        """Raise SidecarError (with the key) for a value outside what spec §1 allows."""
+        if self.waveform is not None and self.waveform not in WAVEFORMS:
+            raise SidecarError(f"unknown waveform {self.waveform!r}; allowed: "
+                               f"{', '.join(WAVEFORMS)}", key="waveform")
+        if self.condition is not None and self.condition not in CONDITIONS:
+            raise SidecarError(f"unknown condition {self.condition!r}; allowed: "
+                               f"{', '.join(CONDITIONS)}", key="condition")
+        for key in ("frequency_Hz", "amplitude_V", "tare_s"):
+            value = getattr(self, key)
+            if value is not None and not (isinstance(value, (int, float))
+                                          and math.isfinite(value) and value >= 0):
+                raise SidecarError(f"expected a finite number >= 0, got {value!r}", key=key)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The keys that were given (absent ones are left to the excitation signals)."""
+        return {k: v for k, v in vars(self).items() if v is not None}
+
+
+@dataclass
+class TrialPaths:
+    """Where a trial's files go."""
+
+    folder: Path
+    log: Path
+    part: Path
+    sidecar: Path
+    lock: Path
+    reserve: Path
+
+    @classmethod
+    def of(cls, study: str | Path, subject: str, trial: str) -> TrialPaths:
+        """Paths of *trial* of *subject* in *study*."""
+        folder = Path(study) / subject
+        return cls(folder=folder, log=folder / f"{trial}.log",
+                   part=folder / f"{trial}.log.part", sidecar=folder / f"{trial}.json",
+                   lock=folder / f"{trial}.lock", reserve=folder / f".{trial}.reserve")
+
+    def existing(self) -> list[Path]:
+        """The files of this trial already on disk."""
+        return [p for p in (self.log, self.part, self.sidecar) if p.exists()]
+
+
+@dataclass
+class TrialResult:
+    """What :func:`record_trial` did.
+
+    Attributes
+    ----------
+    ended : str
+        ``completed``, ``interrupted``, ``bus-error``, ``disk-error``, ``no-rig-data``.
+    exit_code : int
+        0 for a deliberate end, 1 for a fault.
+    paths : TrialPaths
+    sidecar : dict
+        The sidecar as written (or, with *kept_previous*, as it would have been).
+    error : BaseException or None
+    kept_previous : bool
+        With ``force``, the new trial failed before receiving any frame: nothing of it was
+        kept, and the trial recorded before stays as it was.
+    """
+
+    ended: str
+    exit_code: int
+    paths: TrialPaths
+    sidecar: dict[str, Any] = field(default_factory=dict)
+    error: BaseException | None = None
+    kept_previous: bool = False
+
+
+def trial_lock(paths: TrialPaths, subject: str, trial: str) -> WriteLock:
+    """The lock of a trial (``TRIAL.lock``), held by whoever writes it."""
+    return WriteLock(paths.lock, f"the trial {subject}/{trial}", "recorded")
+
+
+def refuse_existing(paths: TrialPaths, force: bool) -> None:
+    """Raise OutputExistsError, naming the files, if the trial has any and not *force*."""
+    existing = paths.existing()
+    if existing and not force:
+        raise OutputExistsError("trial already recorded (use --force to replace it): "
+                                + ", ".join(str(p) for p in existing), path=existing[0])
+
+
+def keep_reserve(path: Path) -> None:
+    """Take :data:`RESERVE_BYTES` of disk in *path*, to be freed for the last sidecar.
+
+    Raises
+    ------
+    OSError
+        The disk has not that much room left (nothing is left behind).
+    """
+    try:
+        with path.open("wb") as fh:
+            fallocate = getattr(os, "posix_fallocate", None)
+            try:
+                if fallocate is None:
+                    raise OSError(errno.EOPNOTSUPP, "no posix_fallocate")
+                fallocate(fh.fileno(), 0, RESERVE_BYTES)
+            except OSError as err:
+                if err.errno == errno.ENOSPC:
+                    raise
+                fh.write(bytes(RESERVE_BYTES))  # a system or file system without it
+            fh.flush()
+            os.fsync(fh.fileno())
+    except BaseException:
+        path.unlink(missing_ok=True)
+        raise
+
+
+class StopFlag:
+    """A stop request settable from a signal handler or another thread.
+
+    Attributes
+    ----------
+    reason : str or None
+        Why the stop was requested (the sidecar's ``end_detail``).
+    interruptible : bool
+        True while :func:`record_trial` receives frames: only then may a signal handler
+        raise ``KeyboardInterrupt`` to cut a receive that hangs. Once it is False the
+        trial's log and sidecar are being saved, and must not be interrupted.
+    """
+
+    def __init__(self) -> None:
+        self._event = threading.Event()
+        self.reason: str | None = None
+        self.interruptible = False
+
+    def set(self, reason: str = "stop requested") -> None:
+        """Ask the recording to stop."""
+        self.reason = self.reason or reason
+        self._event.set()
+
+    def __call__(self) -> bool:
+        return self._event.is_set()
+
+
+__all__ = ["RESERVE_BYTES", "StopFlag", "TrialInfo", "TrialPaths", "TrialResult",
+           "keep_reserve", "refuse_existing", "trial_lock"]

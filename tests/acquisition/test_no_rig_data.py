@@ -1,0 +1,137 @@
+"""The wrong rig: when none of the rig's load-cell messages arrives within a few seconds,
+the display says so, the trial ends as ``no-rig-data`` (exit 1) and its log is kept; a new
+study made without ``--rig`` says which rig it assumed."""
+
+from __future__ import annotations
+
+import io
+import json
+import threading
+import time
+from pathlib import Path
+
+import can
+import pytest
+
+from evtribo.acquisition.logger import LogStats
+from evtribo.acquisition.monitor import Monitor, Snapshot, render_line, render_status
+from evtribo.acquisition.rigfile import default_rig_path, load_rig_toml
+from evtribo.acquisition.trial import RIG_DATA_TIMEOUT_S, record_trial
+from evtribo.cli import main
+
+MOTOROLA = Path(__file__).parents[1] / "data" / "rigs" / "motorola.toml"
+
+
+class Sender(threading.Thread):
+    """Sends frames with identifiers *ids* on a virtual channel (FzCell's data, counting)
+    until stopped, after *delay* s."""
+
+    def __init__(self, channel, ids, delay=0.0):
+        super().__init__(daemon=True)
+        self.channel, self.ids, self.delay = channel, ids, delay
+        self.done = threading.Event()
+        self.bus = can.Bus(interface="virtual", channel=channel)
+
+    def run(self):
+        time.sleep(self.delay)
+        k = 0
+        while not self.done.is_set():
+            for ident in self.ids:
+                self.bus.send(can.Message(arbitration_id=ident, is_extended_id=ident > 0x7FF,
+                                          data=bytes(7) + bytes([k % 256])))
+            k += 1
+            time.sleep(0.002)
+
+    def __enter__(self):
+        self.start()
+        return self
+
+    def __exit__(self, *exc):
+        self.done.set()
+        self.join()
+        self.bus.shutdown()
+
+
+def test_the_timeout_is_a_named_constant_of_a_few_seconds():
+    assert 1.0 <= RIG_DATA_TIMEOUT_S <= 5.0
+
+
+@pytest.mark.parametrize(("ids", "delay", "ended"), [
+    ((0x123, 0x18FF0001), 0.0, "no-rig-data"),   # traffic, none of it the rig's
+    ((0x0C2,), 0.0, "completed"),                # the tangential cell alone will do
+    ((0x0C1, 0x123), 0.3, "completed"),          # the rig, a little late
+])
+def test_a_trial_without_the_rigs_frames_ends_as_no_rig_data(tmp_path, ids, delay, ended):
+    channel = f"no-rig-{ids[0]}-{delay}"
+    with Sender(channel, ids, delay), can.Bus(interface="virtual", channel=channel) as bus:
+        result = record_trial(bus, tmp_path / "s", "P01", "run-01", duration=1.5,
+                              rig_data_timeout=0.8)
+    side = json.loads((tmp_path / "s" / "P01" / "run-01.json").read_text())
+    assert (result.ended, side["ended"]) == (ended, ended)
+    assert result.exit_code == (1 if ended == "no-rig-data" else 0)
+    log = tmp_path / "s" / "P01" / "run-01.log"
+    assert len(list(can.LogReader(log))) == side["frames"] > 0   # the log is kept
+    if ended == "no-rig-data":
+        assert side["duration_s"] < 1.4
+        assert "FzCell (0x0C1), FxCell (0x0C2)" in side["end_detail"]
+        assert "0.8 s" in side["end_detail"]
+
+
+def test_acquire_with_the_wrong_rig_says_so_and_exits_1(tmp_path, capsys):
+    """The study's DBC is another rig's (extended NormalCell...), the bus carries the
+    default rig's FzCell/FxCell: the display's line says so, exit 1, not "completed"."""
+    study = tmp_path / "study"
+    with Sender("wrong-rig", (0x0C1, 0x0C2)):
+        code = main(["acquire", "--study", str(study), "--subject", "P01", "--trial",
+                     "run-01", "--interface", "virtual", "--channel", "wrong-rig",
+                     "--duration", "20", "--rig", str(MOTOROLA), "--tare-s", "0"])
+    out, err = capsys.readouterr()
+    assert code == 1, err
+    assert "NO DATA FROM THE RIG: no NormalCell (0x" in out and "TangentialCell" in out
+    assert "error: none of the rig's load-cell messages (NormalCell" in err
+    assert "P01/run-01: no-rig-data," in err
+    assert "has no study.toml" not in err                     # --rig was given
+    side = json.loads((study / "P01" / "run-01.json").read_text())
+    assert side["ended"] == "no-rig-data" and side["frames"] > 100
+    assert side["duration_s"] < 10
+
+
+def test_a_new_study_without_rig_says_which_rig_it_assumed(tmp_path, capsys):
+    study = tmp_path / "study"
+    argv = ["acquire", "--study", str(study), "--subject", "P01", "--interface", "virtual",
+            "--channel", "default-rig-line", "--duration", "0.1", "--quiet"]
+    assert main([*argv, "--trial", "run-01"]) == 0
+    err = capsys.readouterr().err
+    assert (f"evtribo acquire: {study} has no study.toml: it is made for the default rig, "
+            f"{default_rig_path()}: FzCell (0x0C1): normal_force; FxCell (0x0C2): "
+            "tangential_force; HvStatus (0x1A0): excitation_enabled") in err
+    assert main([*argv, "--trial", "run-02"]) == 0            # an existing study: no word
+    assert "default rig" not in capsys.readouterr().err
+    assert main(["simulate", "--study", str(tmp_path / "sim"), "--duration", "0.5"]) == 0
+    assert "has no study.toml: it is made for the default rig" in capsys.readouterr().err
+
+
+def test_the_display_shows_the_alert_on_a_terminal_and_in_its_line():
+    snap = Snapshot(elapsed_s=3.2, alert="NO DATA FROM THE RIG: no FzCell")
+    assert render_status(snap, target=0.5)[-1] == "NO DATA FROM THE RIG: no FzCell"
+    assert "\x1b[31mNO DATA FROM THE RIG" in render_status(snap, colour=True)[-1]
+    assert render_line(snap).endswith("NO DATA FROM THE RIG: no FzCell")
+    assert "NO DATA" not in "".join(render_status(Snapshot(elapsed_s=3.2)))
+
+
+@pytest.mark.parametrize("rig_frames", [False, True])
+def test_the_monitor_raises_the_alert_only_without_the_rigs_frames(rig_frames):
+    rig = load_rig_toml(default_rig_path())
+    out = io.StringIO()
+    mon = Monitor(rig, out, duration=10.0, tty=False, rig_data_timeout=3.0)
+    stats = LogStats()
+    if rig_frames:
+        stats.latest[0x0C2] = can.Message(arbitration_id=0x0C2, data=bytes(8))
+    mon.start(stats, time.monotonic() - 1.0)
+    assert mon.snapshot().alert == ""                          # not yet
+    mon._t0 -= 2.5
+    alert = mon.snapshot().alert
+    assert bool(alert) != rig_frames
+    mon.stop()                                                 # a pipe: a last line, if alert
+    assert ("NO DATA FROM THE RIG: no FzCell (0x0C1) or FxCell (0x0C2) frame in 3 s"
+            in out.getvalue()) != rig_frames
