@@ -208,7 +208,7 @@ def test_estimate_pools_references_and_amplitudes():
     fel = np.where(amp == 60, 0.02, 0.08)
     on_t = np.where(ref == 0, 0.5, 0.4) * (on_n + fel)
     e = estimate_electrostatic(off_n, off_t, on_n, on_t, ref, amp, n_boot=200)
-    np.testing.assert_allclose(e.amplitudes_V, [60, 120])
+    np.testing.assert_allclose(e.groups, [60, 120])
     np.testing.assert_allclose(e.force_N, [0.02, 0.08])
     np.testing.assert_allclose(e.mu, 0.45)
     np.testing.assert_allclose(e.n_off, 10)
@@ -265,7 +265,7 @@ def _exponent_coverage(shared, repeats=300, *, n=6, sd=0.005, n_boot=300):
             ref += [0 if shared else j] * n
             amp += [u] * n
         e = estimate_electrostatic(off_n, off_t, on_n, on_t, ref, amp, n_boot=n_boot, seed=r)
-        fit = fit_power_law(e.amplitudes_V, e.force_N, replicates_N=e.replicates_N)
+        fit = fit_power_law(e.groups, e.force_N, replicates_N=e.replicates_N)
         covered += fit.exponent_ci_low <= 2.0 <= fit.exponent_ci_high
     return covered / repeats
 

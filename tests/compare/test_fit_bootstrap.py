@@ -30,7 +30,7 @@ def _shared_reference_points(seed: int, *, n: int = 6, rel: float = 0.02, n_boot
     e = estimate_electrostatic([fn_off], [ft_off], fn_on.ravel(), ft_on.ravel(),
                                np.zeros(fn_on.size, int), np.repeat(AMPS, n), n_boot=n_boot,
                                seed=seed)
-    rows = pd.DataFrame({"subject": "S", "waveform": "square", "amplitude_V": e.amplitudes_V,
+    rows = pd.DataFrame({"subject": "S", "waveform": "square", "amplitude_V": e.groups,
                          "mu": e.mu, "normal_force_on_N": e.normal_on_N,
                          "electrostatic_force_N": e.force_N,
                          "electrostatic_force_ci_low_N": e.ci_low_N,

@@ -7,10 +7,12 @@ Each ON window is compared with a *reference* set of OFF windows:
   every OFF window of the subject (reported as a warning).
 
 The estimates and their bootstrap are :func:`evtribo.analysis.estimate.estimate_electrostatic`,
-run once per subject over all its (waveform, amplitude) groups, so that the replicates are
+run once per subject over all its (waveform, frequency, amplitude) groups, so that the
+replicates are
 shared by the subject's points (an OFF reference serving several of them is resampled once
 per replicate, and its error in ``mu`` is common to them, as in the data). They feed the
-power law's interval (:func:`evtribo.analysis.powerlaw.fit_power_law`, one per waveform)
+power law's interval (:func:`evtribo.analysis.powerlaw.fit_power_law`, one per waveform and
+frequency)
 and, through ``electrostatic_bootstrap.csv`` (:data:`BOOTSTRAP_COLUMNS`), the model fit of
 ``evtribo compare``. Each subject gets its own seed (derived from its name and the settings'
 seed), so the output does not depend on the order of the trials or on the number of
@@ -33,16 +35,18 @@ from evtribo.errors import AnalysisError
 log = logging.getLogger(__name__)
 
 #: Columns of electrostatic.csv (study format, section 2).
-ELECTROSTATIC_COLUMNS = ("subject", "waveform", "amplitude_V", "mu", "normal_force_on_N",
+ELECTROSTATIC_COLUMNS = ("subject", "waveform", "frequency_Hz", "amplitude_V", "mu",
+                         "normal_force_on_N",
                          "normal_force_off_N", "friction_on_N", "friction_off_N",
                          "electrostatic_force_N", "electrostatic_force_ci_low_N",
                          "electrostatic_force_ci_high_N", "n_on", "n_off")
 #: Columns of exponents.csv (study format, section 2).
-EXPONENT_COLUMNS = ("subject", "waveform", "exponent", "exponent_ci_low", "exponent_ci_high",
+EXPONENT_COLUMNS = ("subject", "waveform", "frequency_Hz", "exponent", "exponent_ci_low",
+                    "exponent_ci_high",
                     "prefactor_N")
 #: Columns of electrostatic_bootstrap.csv (not in the study format: an addition for
 #: ``evtribo compare``): one row per electrostatic.csv row and bootstrap replicate.
-BOOTSTRAP_COLUMNS = ("subject", "waveform", "amplitude_V", "replicate",
+BOOTSTRAP_COLUMNS = ("subject", "waveform", "frequency_Hz", "amplitude_V", "replicate",
                      "electrostatic_force_N")
 #: Bootstrap replicates written to electrostatic_bootstrap.csv per row of electrostatic.csv.
 N_BOOTSTRAP_SAVED = 200
@@ -50,6 +54,29 @@ N_BOOTSTRAP_SAVED = 200
 #: intervals are calibrated for small counts (Student-t widening, 95 % coverage measured at
 #: 6 windows), so the warning is kept for counts where they become very wide.
 MIN_WINDOWS = 5
+
+
+#: Group key of windows whose trial's drive frequency is unknown.
+_NO_FREQUENCY = -1.0
+
+
+def _frequency(value: object) -> float:
+    """A trial's drive frequency as a group key, Hz: to three significant digits (an
+    amplifier reporting 9999.8 Hz and 10000.2 Hz in two trials drove them alike), or
+    :data:`_NO_FREQUENCY`."""
+    try:
+        f = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return _NO_FREQUENCY
+    return float(f"{f:.3g}") if np.isfinite(f) and f > 0 else _NO_FREQUENCY
+
+
+def _where(subject: object, waveform: str, frequency: float) -> str:
+    """``P01 (square, 10000 Hz)`` for messages."""
+    drive = waveform or "unknown waveform"
+    if frequency != _NO_FREQUENCY:
+        drive += f", {frequency:g} Hz"
+    return f"{subject} ({drive})"
 
 
 def _seed(base: int, *names: str) -> np.random.SeedSequence:
@@ -91,7 +118,8 @@ def _references(subject: str, on: pd.DataFrame, off: pd.DataFrame, whole_off: pd
 def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFAULT_N_BOOT,
               seed: int = 0, confidence: float = 0.95, n_saved: int = N_BOOTSTRAP_SAVED
               ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame, list[str]]:
-    """Electrostatic force per subject, waveform and amplitude, and the power laws.
+    """Electrostatic force per subject, waveform, frequency and amplitude, and the power laws
+    (per subject, waveform and frequency).
 
     Parameters
     ----------
@@ -120,6 +148,15 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
     """
     warnings: list[str] = []
     condition_of = {(r.subject, r.trial): r.condition for r in trials.itertuples()}
+    frequency_of = {(r.subject, r.trial): _frequency(getattr(r, "frequency_Hz", None))
+                    for r in trials.itertuples()}
+    # each group's frequency as reported: the median of its trials'
+    reported: dict[float, list[float]] = {}
+    for r in trials.itertuples():
+        key = frequency_of[(r.subject, r.trial)]
+        if key != _NO_FREQUENCY:
+            reported.setdefault(key, []).append(float(r.frequency_Hz))
+    shown = {k: float(np.median(v)) for k, v in reported.items()}
     el_rows: list[dict[str, object]] = []
     ex_rows: list[dict[str, object]] = []
     boot_parts: list[pd.DataFrame] = []
@@ -128,7 +165,10 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
              pd.DataFrame(columns=list(BOOTSTRAP_COLUMNS)))
     if windows.empty:
         return (*empty, warnings)
-    wf = windows.assign(waveform=windows.waveform.fillna(""))
+    wf = windows.assign(waveform=windows.waveform.fillna(""),
+                        frequency_Hz=[frequency_of.get((s, t), _NO_FREQUENCY)
+                                      for s, t in zip(windows.subject, windows.trial,
+                                                      strict=True)])
     for subject, sub in wf.groupby("subject", sort=True):
         off = sub[sub.condition == "off"]
         whole_off = off[[condition_of.get((subject, t)) == "off" for t in off.trial]]
@@ -141,24 +181,24 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
             warnings.append(f"{subject}: no OFF windows to estimate mu from; no "
                             "electrostatic force")
             continue
-        # one group per (waveform, amplitude), numbered in sorted order
-        groups = sorted(set(zip(on.waveform, on.amplitude_V.to_numpy(float), strict=True)))
-        code = {g: float(i) for i, g in enumerate(groups)}
-        on_group = np.array([code[g] for g in zip(on.waveform, on.amplitude_V.to_numpy(float),
-                                                   strict=True)])
+        # one group per (waveform, frequency, amplitude), numbered in sorted order
+        keys = list(zip(on.waveform, on.frequency_Hz, on.amplitude_V.to_numpy(float),
+                        strict=True))
+        groups = sorted(set(keys))
+        number = {g: float(i) for i, g in enumerate(groups)}
         est = estimate_electrostatic(
             [r.normal_force_N.to_numpy(float) for r in refs],
             [r.friction_force_N.to_numpy(float) for r in refs],
             on.normal_force_N.to_numpy(float), on.friction_force_N.to_numpy(float),
-            on_ref, on_group, n_boot=n_boot, confidence=confidence,
+            on_ref, [number[k] for k in keys], n_boot=n_boot, confidence=confidence,
             seed=_seed(seed, str(subject)))
+        order = [groups[int(g)] for g in est.groups]  # each estimate's group
         keep = min(n_saved, est.replicates_N.shape[0])
-        for j, g in enumerate(est.amplitudes_V.astype(int)):
-            waveform, amp = groups[g]
-            where = f"{subject} ({waveform or 'unknown waveform'})"
+        for j, (waveform, freq, amp) in enumerate(order):
+            names = {"subject": subject, "waveform": waveform or None,
+                     "frequency_Hz": shown.get(freq), "amplitude_V": amp}
             el_rows.append({
-                "subject": subject, "waveform": waveform or None, "amplitude_V": amp,
-                "mu": est.mu[j], "normal_force_on_N": est.normal_on_N[j],
+                **names, "mu": est.mu[j], "normal_force_on_N": est.normal_on_N[j],
                 "normal_force_off_N": est.normal_off_N[j],
                 "friction_on_N": est.friction_on_N[j],
                 "friction_off_N": est.friction_off_N[j],
@@ -167,29 +207,27 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
                 "electrostatic_force_ci_high_N": est.ci_high_N[j],
                 "n_on": int(est.n_on[j]), "n_off": int(est.n_off[j])})
             boot_parts.append(pd.DataFrame({
-                "subject": subject, "waveform": waveform or None, "amplitude_V": amp,
-                "replicate": np.arange(keep), "electrostatic_force_N":
-                est.replicates_N[:keep, j]}))
+                **names, "replicate": np.arange(keep),
+                "electrostatic_force_N": est.replicates_N[:keep, j]}))
             if est.n_on[j] < MIN_WINDOWS or est.n_off[j] < MIN_WINDOWS:
-                warnings.append(f"{where} at {amp:g} V: only {est.n_on[j]} ON and "
-                                f"{est.n_off[j]} OFF windows (fewer than {MIN_WINDOWS}); "
-                                "the interval is calibrated for small counts but rests "
-                                "on few windows")
-        for waveform in dict.fromkeys(w for w, _ in groups):
-            where = f"{subject} ({waveform or 'unknown waveform'})"
-            cols = np.array([groups[g][0] == waveform and groups[g][1] > 0
-                             for g in est.amplitudes_V.astype(int)])
+                warnings.append(f"{_where(subject, waveform, freq)} at {amp:g} V: only "
+                                f"{est.n_on[j]} ON and {est.n_off[j]} OFF windows (fewer "
+                                f"than {MIN_WINDOWS}); the interval is calibrated for small "
+                                "counts but rests on few windows")
+        for waveform, freq in dict.fromkeys((w, f) for w, f, _ in order):
+            cols = np.array([w == waveform and f == freq and a > 0 for w, f, a in order])
             if np.count_nonzero(cols) < 2:
                 continue
-            amps = np.array([groups[g][1] for g in est.amplitudes_V.astype(int)])[cols]
+            amps = np.array([a for _, _, a in order])[cols]
             try:
                 fit = fit_power_law(amps, est.force_N[cols],
                                     replicates_N=est.replicates_N[:, cols],
                                     confidence=confidence)
             except AnalysisError as err:
-                warnings.append(f"{where}: no power law: {err}")
+                warnings.append(f"{_where(subject, waveform, freq)}: no power law: {err}")
                 continue
             ex_rows.append({"subject": subject, "waveform": waveform or None,
+                            "frequency_Hz": shown.get(freq),
                             "exponent": fit.exponent, "exponent_ci_low": fit.exponent_ci_low,
                             "exponent_ci_high": fit.exponent_ci_high,
                             "prefactor_N": fit.prefactor_N})

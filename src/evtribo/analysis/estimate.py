@@ -121,14 +121,15 @@ def electrostatic_force(normal_on_N: npt.ArrayLike, friction_on_N: npt.ArrayLike
 
 @dataclass(frozen=True)
 class ElectrostaticEstimate:
-    """Electrostatic force per amplitude for one subject and waveform.
+    """Electrostatic force per group of ON windows (an amplitude, or any label the caller
+    numbers its groups with) for one subject.
 
     Attributes
     ----------
-    amplitudes_V : ndarray, V
-        Distinct amplitudes, ascending.
+    groups : ndarray
+        Distinct group labels, ascending (amplitudes in V, when the groups are amplitudes).
     force_N, ci_low_N, ci_high_N : ndarray, N
-        Point estimate and bootstrap interval per amplitude.
+        Point estimate and bootstrap interval per group.
     mu : ndarray
         Pooled ratio-of-means ``mu`` of the OFF windows each amplitude's ON windows refer to.
     normal_on_N, normal_off_N, friction_on_N, friction_off_N : ndarray, N
@@ -145,7 +146,7 @@ class ElectrostaticEstimate:
         Welch-Satterthwaite degrees of freedom of each amplitude's force.
     """
 
-    amplitudes_V: FloatArray
+    groups: FloatArray
     force_N: FloatArray
     ci_low_N: FloatArray
     ci_high_N: FloatArray
@@ -209,13 +210,14 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     on_normal_N: npt.ArrayLike,
     on_friction_N: npt.ArrayLike,
     on_reference: npt.ArrayLike,
-    on_amplitude_V: npt.ArrayLike,
+    on_group: npt.ArrayLike,
     *,
     n_boot: int = DEFAULT_N_BOOT,
     confidence: float = DEFAULT_CONFIDENCE,
     seed: int | np.random.SeedSequence | None = 0,
 ) -> ElectrostaticEstimate:
-    """Electrostatic force per amplitude, with bootstrap intervals that carry ``mu``'s error.
+    """Electrostatic force per group of ON windows, with bootstrap intervals that carry
+    ``mu``'s error.
 
     Parameters
     ----------
@@ -226,8 +228,9 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
         Mean normal force and friction magnitude of each ON window.
     on_reference : array_like of int
         Index of each ON window's reference in ``off_*``.
-    on_amplitude_V : array_like of float, V
-        Amplitude of each ON window.
+    on_group : array_like of float
+        Each ON window's group: one estimate per distinct value (its amplitude in V, or a
+        group number the caller keeps the meaning of).
     n_boot : int
         Bootstrap replicates.
     confidence : float
@@ -238,7 +241,7 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     Returns
     -------
     ElectrostaticEstimate
-        One entry per distinct amplitude.
+        One entry per distinct group.
 
     Raises
     ------
@@ -250,7 +253,7 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     onn = np.asarray(on_normal_N, dtype=np.float64).ravel()
     ont = np.asarray(on_friction_N, dtype=np.float64).ravel()
     ref = np.asarray(on_reference, dtype=np.int64).ravel()
-    amp = np.asarray(on_amplitude_V, dtype=np.float64).ravel()
+    amp = np.asarray(on_group, dtype=np.float64).ravel()
     if onn.size == 0:
         raise AnalysisError("no ON windows to infer the electrostatic force from")
     if not (onn.size == ont.size == ref.size == amp.size):
@@ -305,7 +308,7 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     alpha = (1.0 - confidence) / 2.0
     low, high = np.quantile(reps, [alpha, 1.0 - alpha], axis=0)
     return ElectrostaticEstimate(
-        amplitudes_V=amps, force_N=force, ci_low_N=low, ci_high_N=high, mu=stats["mu"],
+        groups=amps, force_N=force, ci_low_N=low, ci_high_N=high, mu=stats["mu"],
         normal_on_N=stats["n_on_N"], normal_off_N=stats["n_off_N"],
         friction_on_N=stats["f_on_N"], friction_off_N=stats["f_off_N"],
         n_on=n_on, n_off=n_off, replicates_N=reps,
