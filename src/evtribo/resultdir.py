@@ -135,7 +135,7 @@ def holder(unit: str | os.PathLike[str]) -> dict[str, Any] | None:
     return None
 
 
-def _busy(unit: Path) -> OutputBusyError:
+def _busy(unit: Path, shown: str | os.PathLike[str]) -> OutputBusyError:
     who = holder(unit) or {}
     pid = who.get("pid")
     what = f"process {pid}" if pid else "another process"
@@ -144,10 +144,10 @@ def _busy(unit: Path) -> OutputBusyError:
     return OutputBusyError(
         f"being written by {what}{f' ({details}{since})' if details else since}; wait until it "
         "has finished (or stop it), then run this again (--force does not override this)",
-        path=unit)
+        path=shown)
 
 
-def _acquire(unit: Path, command: str) -> int:
+def _acquire(unit: Path, command: str, shown: str | os.PathLike[str]) -> int:
     path = lock_path(unit)
     while True:
         try:
@@ -160,7 +160,7 @@ def _acquire(unit: Path, command: str) -> int:
                 f"{unit.name}, then swapped in)", path=path) from err
         if not _try_lock(fd):
             os.close(fd)
-            raise _busy(unit)
+            raise _busy(unit, shown)
         try:  # the file may have been removed by the holder that just released it
             same = os.path.samestat(os.fstat(fd), os.stat(path))
         except FileNotFoundError:
@@ -207,9 +207,9 @@ def locked(unit: str | os.PathLike[str], command: str) -> Iterator[None]:
     with _HELD_GUARD:
         held = _HELD.get(key)
         if held is not None and held.thread != me:
-            raise _busy(path)
+            raise _busy(path, unit)
         if held is None:
-            held = _HELD[key] = _Held(_acquire(path, command), me, 0)
+            held = _HELD[key] = _Held(_acquire(path, command, unit), me, 0)
         held.count += 1
     try:
         yield

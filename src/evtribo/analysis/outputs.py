@@ -117,8 +117,8 @@ def check_out_dir(out: Path, study_root: Path) -> None:
     where = Path(out).resolve()
     if where == study or study in where.parents:
         raise UserInputError(
-            f"the output folder is inside the study folder {study}: the next analysis would "
-            "read the results as part of the study; choose a folder outside it, e.g. "
-            f"{study.parent / (study.name + '-results')}", path=out, key="--out")
+            f"the output folder is inside the study folder {study_root}: the next analysis "
+            "would read the results as part of the study; choose a folder outside it, e.g. "
+            f"{Path(study_root).parent / (study.name + '-results')}", path=out, key="--out")
     if Path(out).exists() and not Path(out).is_dir():
         raise UserInputError("is a file, not a folder for the results", path=out, key="--out")

@@ -334,10 +334,11 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: dict[str, Any],
          "subject": next((x for x in tables.subjects if s.endswith(f"_{x}")), None)}
         for s in figure_stems(tables.subjects)]
     for f in figures:
-        png = folder / FIGURES / f"{f['stem']}.png"
-        if not png.is_file():
+        png = inside(folder, f"{FIGURES}/{f.get('stem')}.png")
+        if png is None or not png.is_file():
             raise ResultFolderError(f"figure missing: run `evtribo compare {folder} --force`",
-                                    path=png)
+                                    path=png or folder / FIT_JSON)
+        f["png"] = png
 
     summary = tables.summary
     name = _study_name(summary, folder)
@@ -376,7 +377,7 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: dict[str, Any],
                              "amplitudes.")
     for f in figures:
         if f.get("subject") is None:
-            report.add_figure(folder / FIGURES / f"{f['stem']}.png", f["title"],
+            report.add_figure(f["png"], f["title"],
                               caption=f.get("caption", ""), section=sec)
     report.add_table(_parameters_table(fit_doc), "Model parameters", section=sec)
 
@@ -389,7 +390,7 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: dict[str, Any],
         report.add_table(trials[trials["subject"] == subject], "Trials", section=sec)
         for f in figures:
             if f.get("subject") == subject:
-                report.add_figure(folder / FIGURES / f"{f['stem']}.png", f["title"],
+                report.add_figure(f["png"], f["title"],
                                   caption=f.get("caption", ""), section=sec)
 
     # -------------------------------------------------------------------- warnings
@@ -416,6 +417,7 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: dict[str, Any],
     out_files = [p for p in sorted(folder.iterdir())
                  if p.is_file() and p.resolve() != html_path and not p.name.startswith(".")]
     out_files += sorted((folder / FIGURES).glob("*")) if (folder / FIGURES).is_dir() else []
+    out_files = [p for p in out_files if inside(folder, p.relative_to(folder).as_posix())]
     report.add_table(file_hashes(out_files, folder), "Result files", section=sec)
     rig_info = summary.get("rig") if isinstance(summary.get("rig"), dict) else \
         _study_rig(study_dir)
