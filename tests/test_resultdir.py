@@ -256,3 +256,26 @@ def test_the_module_names_each_step_it_counts():
     for call in ("os.rename(", "shutil.move(", "os.remove(", ".rename("):
         assert call not in source, call
     assert all(s in source for s in _STEPS)
+
+
+def test_an_output_on_its_own_file_system_is_written_from_inside(tmp_path, monkeypatch):
+    # a mount point: a rename from beside it would cross file systems
+    out = tmp_path / "usb"
+    write_tree(out, {"a.csv": b"old", "notes.txt": b"mine"})
+    real = os.path.ismount
+    monkeypatch.setattr(os.path, "ismount", lambda p: Path(p) == out or real(p))
+    assert lock_path(out).parent == out
+    with locked(out, "t"), Staging(out) as stage:
+        assert stage.folder.parent == out
+        stage.path("a.csv").write_bytes(b"new")
+        stage.path("figures/f.png").write_bytes(b"png")
+        stage.commit()
+    assert tree(out) == {"a.csv": b"new", "figures/f.png": b"png", "notes.txt": b"mine"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["usb"]
+    # an interrupted one is found there too
+    with locked(out, "t"):
+        stage = Staging(out).__enter__()
+        stage.path("b.csv").write_bytes(b"b")
+        assert not pending(out)
+        recover(out)
+    assert not stage.folder.exists()

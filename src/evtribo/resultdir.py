@@ -82,10 +82,24 @@ def inside(root: Path, rel: str) -> Path | None:
 
 # ------------------------------------------------------------------------------ the lock
 
+def _real(unit: str | os.PathLike[str]) -> Path:
+    return Path(os.path.realpath(unit))
+
+
+def _home(unit: Path) -> tuple[Path, str]:
+    """Where an output's lock file and new folders go, and the prefix of their names:
+    beside it (``.NAME``), or inside it when it is a folder on its own file system (a mount
+    point: a rename from beside it would cross file systems) or in a folder this process
+    cannot write."""
+    if unit.is_dir() and (os.path.ismount(unit) or not os.access(unit.parent, os.W_OK)):
+        return unit, ""
+    return unit.parent, f".{unit.name}"
+
+
 def lock_path(unit: str | os.PathLike[str]) -> Path:
-    """The lock file of an output: ``.NAME.evtribo-lock`` beside it."""
-    p = Path(os.path.abspath(unit))
-    return p.parent / f".{p.name}{LOCK_SUFFIX}"
+    """The lock file of an output: ``.NAME.evtribo-lock`` beside it (see :func:`_home`)."""
+    folder, prefix = _home(_real(unit))
+    return folder / f"{prefix}{LOCK_SUFFIX}"
 
 
 @dataclass
@@ -201,7 +215,7 @@ def locked(unit: str | os.PathLike[str], command: str) -> Iterator[None]:
     OutputBusyError
         Another process (or thread) holds the lock.
     """
-    path = Path(os.path.abspath(unit))
+    path = _real(unit)
     key = os.fspath(lock_path(path))
     me = threading.get_ident()
     with _HELD_GUARD:
@@ -239,25 +253,30 @@ def _holds(unit: Path) -> bool:
 # -------------------------------------------------------------------- staging and commit
 
 def _stages(unit: Path) -> list[Path]:
-    prefix = f".{unit.name}{STAGE_INFIX}"
+    folder, prefix = _home(unit)
     try:
-        names = os.listdir(unit.parent)
+        names = os.listdir(folder)
     except FileNotFoundError:
         return []
-    return sorted(unit.parent / n for n in names if n.startswith(prefix))
+    return sorted(folder / n for n in names if n.startswith(f"{prefix}{STAGE_INFIX}"))
 
 
 def pending(unit: str | os.PathLike[str]) -> list[Path]:
     """New folders of *unit* whose commit is written but whose swap is not finished."""
-    return [s for s in _stages(Path(os.path.abspath(unit))) if (s / JOURNAL).is_file()]
+    return [s for s in _stages(_real(unit)) if (s / JOURNAL).is_file()]
 
 
 def _fsync(path: Path, directory: bool = False) -> None:
+    """Flush a file (or a folder's entries) to disk; a file system that cannot flush a folder
+    (or a file: EINVAL) is not an error."""
     if directory and sys.platform == "win32":  # pragma: no cover
         return
     fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)
+    except OSError as err:
+        if not directory and err.errno not in (errno.EINVAL, errno.ENOTSUP):
+            raise
     finally:
         os.close(fd)
 
@@ -301,7 +320,7 @@ def recover(unit: str | os.PathLike[str]) -> list[str]:
     list of str
         What was done, one line each (also logged).
     """
-    path = Path(os.path.abspath(unit))
+    path = _real(unit)
     if not _holds(path):
         raise RuntimeError(f"recover({path}) without holding its lock")
     done = []
@@ -339,9 +358,10 @@ class Staging:
 
     def __init__(self, unit: str | os.PathLike[str],
                  target: str | os.PathLike[str] | None = None) -> None:
-        self.unit = Path(os.path.abspath(unit))
-        self.target = Path(os.path.abspath(target)) if target is not None else self.unit
-        self.folder = self.unit.parent / f".{self.unit.name}{STAGE_INFIX}{uuid.uuid4().hex}"
+        self.unit = _real(unit)
+        self.target = _real(target) if target is not None else self.unit
+        home, prefix = _home(self.unit)
+        self.folder = home / f"{prefix}{STAGE_INFIX}{uuid.uuid4().hex}"
         self.committed = False
 
     def __enter__(self) -> Staging:
@@ -379,12 +399,8 @@ class Staging:
         stale = sorted(set(remove) - set(install))
         try:
             for rel in install:
-                fd = os.open(self.folder / rel, os.O_RDONLY)
-                try:
-                    os.fsync(fd)
-                finally:
-                    os.close(fd)
-            doc = {"target": os.path.relpath(self.target, self.unit.parent),
+                _fsync(self.folder / rel)
+            doc = {"target": os.path.relpath(self.target, self.folder.parent),
                    "install": install, "remove": stale}
             tmp = self.folder / f"{JOURNAL}.tmp"
             with open(tmp, "w", encoding="utf-8") as fh:

@@ -60,7 +60,7 @@ from evtribo.analysis.outputs import (
     compare_files,
     report_files,
 )
-from evtribo.analysis.provenance import input_files, provenance
+from evtribo.analysis.provenance import changed_since, input_files, provenance
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import (
     SINE_TRACE_CSV_COLUMNS,
@@ -268,22 +268,6 @@ def _plan(study: Study, inputs: list[dict[str, Any]]
     return tasks, failed, duplicates, warnings
 
 
-def _changed_since(inputs: list[dict[str, Any]]) -> list[str]:
-    """Warnings for the inputs that changed while the study was analysed."""
-    out = []
-    for rec in inputs:
-        try:
-            st = os.stat(rec["_path"])
-            now: tuple[int, int] | None = (st.st_size, st.st_mtime_ns)
-        except OSError:
-            now = None
-        if now != (rec["bytes"], rec["_mtime_ns"]) and rec["_mtime_ns"] >= 0:
-            out.append(f"{rec['file']}: changed during the analysis; the results are of the "
-                       f"file as it was when the analysis started (sha256 "
-                       f"{rec['sha256'][:12]}...)")
-    return out
-
-
 def _write_csv(df: pd.DataFrame, path: Path) -> str:
     """Write a table; return the SHA-256 of the bytes written."""
     data = df.to_csv(index=False).encode("utf-8")
@@ -438,7 +422,7 @@ def _analyze_locked(study: Study, out: Path, settings: AnalysisSettings, started
         windows, trials, n_boot=settings.n_boot, seed=settings.seed,
         confidence=settings.confidence)
     warnings.extend(agg_warnings)
-    warnings.extend(_changed_since(inputs))
+    warnings.extend(changed_since(inputs))
     traces = [r[5] for r in results if r[5] is not None and not r[5].empty]
     trace = (pd.concat(traces, ignore_index=True).reindex(columns=list(SINE_TRACE_CSV_COLUMNS))
              if traces else None)

@@ -23,7 +23,8 @@ from typing import Any
 from evtribo import __version__
 from evtribo.resultdir import sha256_file
 
-__all__ = ["file_record", "input_files", "provenance", "sha256_file", "software_versions"]
+__all__ = ["changed_since", "file_record", "input_files", "provenance", "sha256_file",
+           "software_versions"]
 
 _PACKAGES = {"python-can": "python-can", "cantools": "cantools", "numpy": "numpy",
              "scipy": "scipy", "pandas": "pandas", "pyarrow": "pyarrow"}
@@ -134,3 +135,29 @@ def provenance(study: Any, started: float,
         "software": software_versions(),
         "host": {"platform": platform.platform(), "machine": platform.machine()},
     }
+
+
+def changed_since(inputs: list[dict[str, Any]]) -> list[str]:
+    """A warning for each input that changed since :func:`input_files` hashed it.
+
+    Parameters
+    ----------
+    inputs : list of dict
+        :func:`input_files`'s records.
+
+    Returns
+    -------
+    list of str
+    """
+    out = []
+    for rec in inputs:
+        try:
+            st = os.stat(rec["_path"])
+            now: tuple[int, int] | None = (st.st_size, st.st_mtime_ns)
+        except OSError:
+            now = None
+        if now != (rec["bytes"], rec["_mtime_ns"]) and rec["_mtime_ns"] >= 0:
+            out.append(f"{rec['file']}: changed during the analysis; the results are of the "
+                       f"file as it was when the analysis started (sha256 "
+                       f"{rec['sha256'][:12]}...)")
+    return out
