@@ -295,11 +295,13 @@ def _workers_sleep():
     pipeline.analyze_signals = slow
 
 
-def test_sigterm_stops_the_workers_and_leaves_out_as_it_was(study, complete, tmp_path):
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])
+def test_a_stopped_analyze_leaves_no_worker_and_out_as_it_was(study, complete, tmp_path,
+                                                              sig):
     out = _copy(complete, tmp_path / "out")
     before = tree(out)
     argv = ["analyze", str(study), "--out", str(out), "--jobs", "2", "--force"]
-    proc = start(argv, tmp_path / "term.log", _workers_sleep)
+    proc = start(argv, tmp_path / "stop.log", _workers_sleep)
     workers: list[int] = []
     try:
         deadline = time.monotonic() + 60
@@ -308,9 +310,10 @@ def test_sigterm_stops_the_workers_and_leaves_out_as_it_was(study, complete, tmp
             time.sleep(0.05)
             workers = [p for p in children(proc.pid) if alive(p)]
         time.sleep(0.2)  # the workers are in their trials
-        os.kill(proc.pid, signal.SIGTERM)
+        os.kill(proc.pid, sig)
         proc.join(30)
-        assert proc.exitcode == 128 + signal.SIGTERM, (tmp_path / "term.log").read_text()
+        expected = 128 + signal.SIGTERM if sig == signal.SIGTERM else -signal.SIGKILL
+        assert proc.exitcode == expected, (tmp_path / "stop.log").read_text()
         deadline = time.monotonic() + 10
         while any(alive(p) for p in workers) and time.monotonic() < deadline:
             time.sleep(0.05)
@@ -321,7 +324,9 @@ def test_sigterm_stops_the_workers_and_leaves_out_as_it_was(study, complete, tmp
                 os.kill(p, signal.SIGKILL)
         if proc.is_alive():
             proc.kill()
-    log = (tmp_path / "term.log").read_text()
-    assert "terminated" in log and "Traceback" not in log
     assert tree(out) == before
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "term.log"]
+    log = (tmp_path / "stop.log").read_text()
+    assert "Traceback" not in log
+    if sig == signal.SIGTERM:  # it cleaned up: its message, nothing left beside OUT
+        assert "terminated" in log
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "stop.log"]

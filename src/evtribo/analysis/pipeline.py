@@ -31,6 +31,7 @@ import json
 import logging
 import os
 import signal
+import threading
 import time
 import uuid
 from collections.abc import Callable, Mapping
@@ -136,10 +137,19 @@ def _setup(rig: Rig, cache_dir: str | None, strict: bool, settings: AnalysisSett
     _WORKER.update(rig=rig, cache_dir=cache_dir, strict=strict, settings=settings)
 
 
+def _watch_parent(parent: int) -> None:
+    while os.getppid() == parent:
+        time.sleep(0.5)
+    os._exit(1)  # the analysis was killed (SIGKILL, a crash): nobody wants our results
+
+
 def _init_process(*args: Any) -> None:
     """A worker process: the parent stops it (Ctrl-C reaches the whole process group, the
-    parent handles it), and it does not keep the parent's locks."""
+    parent handles it), it ends when the parent is gone, and it does not keep the parent's
+    locks."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True,
+                     name="evtribo-parent-watch").start()
     release_inherited_locks()
     _setup(*args)
 
