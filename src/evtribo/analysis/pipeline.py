@@ -126,9 +126,10 @@ _WORKER: dict[str, Any] = {}
 
 @dataclass(frozen=True)
 class _Task:
-    """One trial for a worker: where it is, what its sidecar says, and its log as hashed
-    when the analysis started (sha256, size, modification time in ns)."""
+    """One trial for a worker: its place in the study, where it is, what its sidecar says,
+    and its log as hashed when the analysis started (sha256, size, modification time ns)."""
 
+    index: int
     ref: TrialRef
     log: tuple[str, int, int]
 
@@ -166,7 +167,7 @@ def _meta(ref: TrialRef) -> TrialMeta:
                      tare_s=float(tare_s) if isinstance(tare_s, int | float) else None)
 
 
-def _analyze_one(index: int, task: _Task) -> _Result:
+def _analyze_one(task: _Task) -> _Result:
     strict, rig = _WORKER["strict"], _WORKER["rig"]
     ref = task.ref
     meta = _meta(ref)
@@ -203,7 +204,7 @@ def _analyze_one(index: int, task: _Task) -> _Result:
     if len(details) > MAX_WARNINGS_PER_TRIAL:
         extra = len(details) - MAX_WARNINGS_PER_TRIAL
         details = [*details[:MAX_WARNINGS_PER_TRIAL], f"{ref.key}: ... and {extra} more"]
-    return index, row, windows, details + warnings, error, trace
+    return task.index, row, windows, details + warnings, error, trace
 
 
 def _stop_workers(pool: ProcessPoolExecutor) -> None:
@@ -218,19 +219,19 @@ def _stop_workers(pool: ProcessPoolExecutor) -> None:
 
 def _run_tasks(tasks: list[_Task], jobs: int, init_args: tuple[Any, ...],
                progress: ProgressCallback | None) -> list[_Result]:
-    """Each task's result, in worker processes (*jobs* > 1) or here; in the tasks' order."""
+    """Each task's result, in worker processes (*jobs* > 1) or here."""
     results: list[_Result] = []
     if jobs == 1:
         _setup(*init_args)
-        for i, task in enumerate(tasks):
-            results.append(_analyze_one(i, task))
+        for task in tasks:
+            results.append(_analyze_one(task))
             if progress:
                 progress(len(results), len(tasks))
         return results
     pool = ProcessPoolExecutor(max_workers=jobs, initializer=_init_process,
                                initargs=init_args)
     try:
-        futures = [pool.submit(_analyze_one, i, task) for i, task in enumerate(tasks)]
+        futures = [pool.submit(_analyze_one, task) for task in tasks]
         for fut in as_completed(futures):
             results.append(fut.result())
             if progress:
@@ -240,7 +241,7 @@ def _run_tasks(tasks: list[_Task], jobs: int, init_args: tuple[Any, ...],
         raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
-    return sorted(results, key=lambda r: r[0])
+    return results
 
 
 def _plan(study: Study, inputs: list[dict[str, Any]]
@@ -255,10 +256,10 @@ def _plan(study: Study, inputs: list[dict[str, Any]]
     duplicates: list[dict[str, Any]] = []
     warnings: list[str] = []
     first: dict[str, TrialRef] = {}
-    for ref in study.trials:
+    for index, ref in enumerate(study.trials):
         rec = by_path[os.path.abspath(ref.log_path)]
         if rec["_mtime_ns"] < 0:
-            failed.append((-1, failed_row(_meta(ref)), empty_windows(), [],
+            failed.append((index, failed_row(_meta(ref)), empty_windows(), [],
                            f"{ref.log_path}: was being written while the analysis read it "
                            "(a recording in progress?); not analysed", None))
             continue
@@ -274,7 +275,7 @@ def _plan(study: Study, inputs: list[dict[str, Any]]
                 f"({same.log_path}, sha256 {rec['sha256'][:12]}...): the same recording under "
                 f"two names, counted once, as {same.key}{differ}")
             continue
-        tasks.append(_Task(ref, (rec["sha256"], rec["bytes"], rec["_mtime_ns"])))
+        tasks.append(_Task(index, ref, (rec["sha256"], rec["bytes"], rec["_mtime_ns"])))
     return tasks, failed, duplicates, warnings
 
 
@@ -412,9 +413,7 @@ def _analyze_locked(study: Study, out: Path, settings: AnalysisSettings, started
     cache = None if cache_dir is None else os.fspath(cache_dir)
     assert study.rig is not None
     results = _run_tasks(tasks, jobs, (study.rig, cache, strict, settings), progress)
-    order = {ref.key: i for i, ref in enumerate(study.trials)}
-    results = sorted([*results, *not_run],
-                     key=lambda r: order[f"{r[1]['subject']}/{r[1]['trial']}"])
+    results = sorted([*results, *not_run], key=lambda r: r[0])  # the study's order
 
     warnings = [*study.warnings, *warnings]
     failed = []
