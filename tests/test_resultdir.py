@@ -279,3 +279,16 @@ def test_an_output_on_its_own_file_system_is_written_from_inside(tmp_path, monke
         assert not pending(out)
         recover(out)
     assert not stage.folder.exists()
+
+
+@pytest.mark.parametrize(("cls", "builtin", "code"), [
+    (OutputBusyError, BlockingIOError, 2), (OutputWriteError, OSError, 1)])
+def test_the_errors_are_in_the_tree(cls, builtin, code):
+    import pickle
+
+    from evtribo.errors import EvtriboError, ResultFolderError, UserInputError
+
+    err = cls("x", path="OUT")
+    assert isinstance(err, EvtriboError) and isinstance(err, builtin)
+    assert err.exit_code == code and str(pickle.loads(pickle.dumps(err))) == "OUT: x"
+    assert issubclass(ResultFolderError, UserInputError) and ResultFolderError("x").exit_code == 2
