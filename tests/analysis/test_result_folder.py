@@ -257,6 +257,67 @@ def test_analyze_killed_at_random_moments_leaves_the_old_or_the_new_results(
         ["out"], (seed, outcomes)
 
 
+def _compare_outcome(out: Path, old: dict[str, bytes]) -> str:
+    from evtribo.compare.study_report import _fit_doc
+
+    if pending(out):
+        with locked(out, "test"):
+            recover(out)
+    now = tree(out)
+    if now == old:
+        return "old"
+    summary = json.loads(now["summary.json"])
+    doc = _fit_doc(out, summary)  # fit.json of this analysis, its files as written
+    fit_files = {f for f in now if f in ("fit.csv", "fit.json") or (
+        f.startswith("figures/") and f not in USER_FILES)}
+    assert fit_files == {*doc["output_sha256"], "fit.json"}
+    assert {k: v for k, v in now.items() if k not in fit_files} == \
+        {k: v for k, v in old.items() if k not in fit_files}  # nothing else touched
+    return "new"
+
+
+def _report_outcome(out: Path, old: dict[str, bytes]) -> str:
+    if pending(out):  # the report in OUT is written as part of OUT
+        with locked(out, "test"):
+            recover(out)
+    now = tree(out)
+    if now == old:
+        return "old"
+    assert set(now) == set(old)  # the same files, each whole
+    assert now["report.html"].rstrip().endswith(b"</html>")
+    for name, data in now.items():
+        if name.startswith("report_files/"):
+            assert data.endswith(b"IEND\xaeB`\x82" if name.endswith(".png") else b"</svg>\n")
+    return "new"
+
+
+@pytest.mark.parametrize("command", ["compare", "report"])
+def test_compare_and_report_killed_at_random_moments_leave_old_or_new_files(
+        complete, tmp_path, command):
+    out = tmp_path / "out"
+    argv = [command, str(out), "--force"] + (["--dpi", "30"] if command == "compare" else [])
+    _copy(complete, out)
+    t0 = time.monotonic()
+    code, log = run(argv, tmp_path / "timing.log", _slow_commit)
+    duration = time.monotonic() - t0
+    assert code == 0, log
+    rng = random.Random()
+    outcomes = []
+    for k in range(5):
+        shutil.rmtree(out)
+        _copy(complete, out)
+        old = tree(out)
+        proc = start(argv, tmp_path / f"kill-{k}.log", _slow_commit)
+        time.sleep(duration * (k + rng.random()) / 5)
+        os.kill(proc.pid, signal.SIGKILL)
+        proc.join(30)
+        check = _compare_outcome if command == "compare" else _report_outcome
+        outcomes.append(check(out, old))
+    assert main([command, str(out), "--force"]) == 0, outcomes
+    assert sorted(p.name for p in tmp_path.iterdir() if not p.name.endswith(".log")) == \
+        ["out"], outcomes
+
+
 @pytest.mark.parametrize("limit", [300, 1000, 10_000])
 def test_analyze_on_a_full_disk_leaves_the_old_results(study, complete, tmp_path, limit):
     out = _copy(complete, tmp_path / "out")

@@ -206,7 +206,7 @@ class Report:
         return template.render(title=self.title, sections=self._sections, version=__version__)
 
     def save(self, path: str | Path, *, overwrite: bool = False,
-             figure_files: bool = True) -> Path:
+             figure_files: bool = True, unit: str | Path | None = None) -> Path:
         """Write the page, and each figure as PNG and SVG into :func:`files_dir_for`.
 
         Parameters
@@ -217,6 +217,9 @@ class Report:
             Replace an existing report and its figure files.
         figure_files : bool
             Also write the figures beside the report.
+        unit : str or Path, optional
+            The output the report is part of, locked and written as one unit with it (a
+            result folder holding the report; default: the report itself).
 
         Returns
         -------
@@ -247,12 +250,13 @@ class Report:
                     names.append(f"{files_dir.name}/{slug}.svg")
         self._refuse_existing(html_path.parent, names, overwrite)
         text = self.render()
-        with locked(html_path, "evtribo report"):
-            recover(html_path)
+        unit = html_path if unit is None else Path(unit)
+        with locked(unit, "evtribo report"):
+            recover(unit)
             self._refuse_existing(html_path.parent, names, overwrite)
             stale = [f"{files_dir.name}/{p.name}" for p in sorted(files_dir.glob("*"))
                      if p.suffix.lower() in (".png", ".svg")] if files_dir.is_dir() else []
-            with Staging(html_path, target=html_path.parent) as stage:
+            with Staging(unit, target=html_path.parent) as stage:
                 if figure_files:
                     for slug, png, svg in self._figure_files:
                         stage.path(f"{files_dir.name}/{slug}.png").write_bytes(png)

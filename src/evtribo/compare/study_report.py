@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import json
 import logging
+import os
 import platform
 from pathlib import Path
 from typing import Any
@@ -322,7 +323,9 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
                                     "--force`", path=folder / FIT_CSV)
         fit = pd.read_csv(folder / FIT_CSV, dtype={"subject": str})
         report = _page(tables, fit, fit_doc, Path(output))
-        return report.save(output, overwrite=force)
+        html = Path(os.path.realpath(output))
+        in_folder = html.is_relative_to(Path(os.path.realpath(folder)))
+        return report.save(output, overwrite=force, unit=folder if in_folder else None)
 
 
 def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: dict[str, Any],
