@@ -84,9 +84,10 @@ def _hold_out(tmp: Path) -> None:
 
 
 def _results(tmp: Path, *, summary: bool = True, fit_of: str | None = None,
-             changed: bool = False) -> None:
+             changed: bool = False, cut: str | None = None) -> None:
     """A small result folder of analysis ``aaaa``: its tables, summary.json (optional), a
-    model fit of analysis *fit_of*, a table *changed* after the analysis."""
+    model fit of analysis *fit_of*, a table *changed* after the analysis, a file *cut* to
+    half its length."""
     import hashlib
 
     out = tmp / "out"
@@ -109,9 +110,17 @@ def _results(tmp: Path, *, summary: bool = True, fit_of: str | None = None,
     if fit_of is not None:
         (out / "fit.csv").write_text("subject,parameter,value\nP01,h_L,5e-06\n")
         (out / "fit.json").write_text(json.dumps({"run_id": fit_of, "figures": []}))
+    if fit_of == "aaaa":  # fit.json records what compare wrote
+        doc = json.loads((out / "fit.json").read_text())
+        doc["output_sha256"] = {"fit.csv": hashlib.sha256(
+            (out / "fit.csv").read_bytes()).hexdigest()}
+        (out / "fit.json").write_text(json.dumps(doc))
     if changed:
         (out / "electrostatic.csv").write_text(tables["electrostatic.csv"].replace(
             "0.1,", "0.2,"), encoding="utf-8")
+    if cut is not None:
+        data = (out / cut).read_bytes()
+        (out / cut).write_bytes(data[: len(data) // 2])
 
 
 def _text(path: Path, text: str) -> Callable[[Path], None]:
@@ -204,6 +213,9 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "compare-results-mixed": lambda t: _results(t, changed=True),
     "compare-results-partial": lambda t: _results(t, summary=False),
     "report-fit-of-another-analysis": lambda t: _results(t, fit_of="bbbb"),
+    "report-fit-half-written": lambda t: _results(t, fit_of="aaaa", cut="fit.csv"),
+    "compare-summary-half-written": lambda t: _results(t, cut="summary.json"),
+    "analyze-out-is-a-file": _text(Path("out"), "not a folder\n"),
 }
 
 
