@@ -67,6 +67,63 @@ def _sidecar(study: Path, **values: object) -> None:
                                                encoding="utf-8")
 
 
+#: Lock files held open by :func:`_hold_out`, for the rest of the test session.
+_HELD: list[int] = []
+
+
+def _hold_out(tmp: Path) -> None:
+    """Another writer holds the lock on OUT (a lock file beside it, flock'ed)."""
+    import fcntl
+
+    from evtribo.resultdir import lock_path
+
+    path = lock_path(tmp / "out")
+    fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)
+    fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    os.write(fd, json.dumps({"pid": 4321, "command": "evtribo analyze"}).encode())
+    _HELD.append(fd)
+
+
+def _results(tmp: Path, *, summary: bool = True, fit_of: str | None = None,
+             changed: bool = False, cut: str | None = None) -> None:
+    """A small result folder of analysis ``aaaa``: its tables, summary.json (optional), a
+    model fit of analysis *fit_of*, a table *changed* after the analysis, a file *cut* to
+    half its length."""
+    import hashlib
+
+    out = tmp / "out"
+    out.mkdir()
+    tables = {
+        "trials.csv": "subject,trial\nP01,run-01\n",
+        "windows.csv": "subject,trial,condition,amplitude_V,waveform,normal_force_N,"
+                       "friction_force_N\nP01,run-01,on,140,square,0.5,0.3\n",
+        "electrostatic.csv": "subject,waveform,amplitude_V,mu,normal_force_on_N,"
+                             "electrostatic_force_N,electrostatic_force_ci_low_N,"
+                             "electrostatic_force_ci_high_N\nP01,square,140,0.5,0.5,0.1,"
+                             "0.09,0.11\n"}
+    for name, text in tables.items():
+        (out / name).write_text(text, encoding="utf-8")
+    if summary:
+        (out / "summary.json").write_text(json.dumps({
+            "run_id": "aaaa", "study_dir": str(tmp / "study"),
+            "output_sha256": {n: hashlib.sha256(t.encode()).hexdigest()
+                              for n, t in tables.items()}}), encoding="utf-8")
+    if fit_of is not None:
+        (out / "fit.csv").write_text("subject,parameter,value\nP01,h_L,5e-06\n")
+        (out / "fit.json").write_text(json.dumps({"run_id": fit_of, "figures": []}))
+    if fit_of == "aaaa":  # fit.json records what compare wrote
+        doc = json.loads((out / "fit.json").read_text())
+        doc["output_sha256"] = {"fit.csv": hashlib.sha256(
+            (out / "fit.csv").read_bytes()).hexdigest()}
+        (out / "fit.json").write_text(json.dumps(doc))
+    if changed:
+        (out / "electrostatic.csv").write_text(tables["electrostatic.csv"].replace(
+            "0.1,", "0.2,"), encoding="utf-8")
+    if cut is not None:
+        data = (out / cut).read_bytes()
+        (out / cut).write_bytes(data[: len(data) // 2])
+
+
 def _text(path: Path, text: str) -> Callable[[Path], None]:
     def build(tmp: Path) -> None:
         (tmp / path).parent.mkdir(parents=True, exist_ok=True)
@@ -177,6 +234,14 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "acquire-new-study-bad-interface": lambda t: None,
     "acquire-trial-locked": _being_recorded,
     "simulate-trial-locked": _being_recorded,
+    "analyze-out-inside-study": lambda t: None,
+    "analyze-out-busy": _hold_out,
+    "compare-results-mixed": lambda t: _results(t, changed=True),
+    "compare-results-partial": lambda t: _results(t, summary=False),
+    "report-fit-of-another-analysis": lambda t: _results(t, fit_of="bbbb"),
+    "report-fit-half-written": lambda t: _results(t, fit_of="aaaa", cut="fit.csv"),
+    "compare-summary-half-written": lambda t: _results(t, cut="summary.json"),
+    "analyze-out-is-a-file": _text(Path("out"), "not a folder\n"),
 }
 
 

@@ -30,7 +30,9 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from evtribo.decode import CellSignals, ExcitationSignals, TrialSignals, decode_trial
+from evtribo.errors import AnalysisError
 from evtribo.frames import read_frames
+from evtribo.resultdir import sha256_file
 from evtribo.rig import Rig
 
 log = logging.getLogger(__name__)
@@ -52,19 +54,16 @@ def default_cache_dir() -> Path:
     return (Path(xdg) if xdg else Path.home() / ".cache") / "evtribo"
 
 
-def file_hash(path: str | os.PathLike[str]) -> str:
-    """SHA-256 of a file's bytes, hex."""
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        while chunk := fh.read(1 << 22):
-            h.update(chunk)
-    return h.hexdigest()
+#: SHA-256 of a file's bytes, hex.
+file_hash = sha256_file
 
 
-def cache_key(log_path: str | os.PathLike[str], rig: Rig) -> str:
-    """Key of a trial: log content, rig content, cache format version."""
+def cache_key(log_path: str | os.PathLike[str], rig: Rig, *,
+              log_sha256: str | None = None) -> str:
+    """Key of a trial: log content (*log_sha256*, when the log's hash is known), rig content,
+    cache format version."""
     h = hashlib.sha256(f"v{CACHE_VERSION}".encode())
-    h.update(file_hash(log_path).encode())
+    h.update((log_sha256 or file_hash(log_path)).encode())
     h.update(rig.fingerprint().encode())
     return h.hexdigest()[:40]
 
@@ -146,9 +145,20 @@ def _from_table(table: pa.Table) -> TrialSignals:
                         skipped_lines=int(meta["skipped_lines"]))
 
 
+def _check_unchanged(log_path: str | os.PathLike[str], expect: tuple[str, int, int],
+                     when: str) -> None:
+    st = os.stat(log_path)
+    if (st.st_size, st.st_mtime_ns) != (expect[1], expect[2]):
+        raise AnalysisError(f"changed {when} (it is not the file of sha256 {expect[0][:12]}... "
+                            "hashed when the analysis started: a recording in progress, or a "
+                            "file replaced?); not analysed, analyse the study again",
+                            path=log_path)
+
+
 def load_trial(log_path: str | os.PathLike[str], rig: Rig,
                cache_dir: str | os.PathLike[str] | None = None, strict: bool = False, *,
-               cache: bool = True) -> TrialSignals:
+               cache: bool = True,
+               expect: tuple[str, int, int] | None = None) -> TrialSignals:
     """A trial's decoded signals, from the cache when it holds them.
 
     Parameters
@@ -163,6 +173,10 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
         that the error is raised).
     cache : bool
         False: read and decode, neither reading nor writing the cache.
+    expect : (str, int, int), optional
+        The log as it was hashed: ``(sha256, size in bytes, modification time in ns)``. Its
+        hash is the cache key (the log is not hashed again), and the log is decoded only if
+        its size and time are still those (before and after reading it).
 
     Returns
     -------
@@ -173,17 +187,23 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
     ------
     LogFormatError
         As :func:`~evtribo.frames.read_frames`.
+    AnalysisError
+        The log is not the one *expect* describes.
     """
     directory, key = None, None
     if cache:
         directory = Path(cache_dir).expanduser() if cache_dir is not None \
             else default_cache_dir()
-        key = cache_key(log_path, rig)
+        key = cache_key(log_path, rig, log_sha256=expect[0] if expect else None)
         trial = _read_entry(directory, key)
         if trial is not None and not (strict and trial.skipped_lines):
             log.debug("%s: decoded trial from the cache in %s", log_path, directory)
             return trial
+    if expect is not None:
+        _check_unchanged(log_path, expect, "since the analysis started")
     frames, report = read_frames(log_path, strict=strict)
+    if expect is not None:
+        _check_unchanged(log_path, expect, "while it was read")
     trial = decode_trial(frames, rig)
     trial.skipped_lines = report.skipped_lines
     if directory is not None and key is not None:

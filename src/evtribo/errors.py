@@ -11,8 +11,11 @@
      |    +-- StudyError           the study folder's layout or names        (also ValueError)
      |    +-- OutputExistsError    refusing to overwrite without --force     (also FileExistsError)
      |         +-- LockedError     another process is writing it (--force does not override)
+     |    +-- OutputBusyError      another process is writing that output    (also BlockingIOError)
+     |    +-- ResultFolderError    a result folder that is partial, mixed or stale (also ValueError)
      +-- AcquisitionError          the bus or the disk failed while recording (exit code 1)
      +-- AnalysisError             the analysis could not produce a result    (exit code 1)
+     +-- OutputWriteError          results could not be written (disk full); the old ones kept (1)
 
 Every error can carry where it happened (``path``, ``line``, ``key``); ``str(err)`` puts that
 first, the way compilers do: ``study.toml: key 'rig.dbc': file not found``.
@@ -132,12 +135,26 @@ class LockedError(OutputExistsError):
     """Another process is writing this output right now (its lock file names it)."""
 
 
+class OutputBusyError(UserInputError, BlockingIOError):
+    """Another process is writing the same output (a result folder, a report) right now."""
+
+
+class ResultFolderError(UserInputError, ValueError):
+    """A result folder that is not one analysis's complete results (a file missing, changed
+    or half-written, files of two analyses, or a model fit of another analysis)."""
+
+
 class AcquisitionError(EvtriboError, OSError):
     """Recording failed (bus error, adapter gone, disk full); what was logged is kept."""
 
 
 class AnalysisError(EvtriboError, RuntimeError):
     """The analysis could not produce a result from valid input."""
+
+
+class OutputWriteError(EvtriboError, OSError):
+    """Results could not be written (a full disk, a folder that is not writable); the
+    results that were there before are left as they were."""
 
 
 __all__ = [
@@ -147,7 +164,10 @@ __all__ = [
     "EvtriboError",
     "LockedError",
     "LogFormatError",
+    "OutputBusyError",
     "OutputExistsError",
+    "OutputWriteError",
+    "ResultFolderError",
     "RigConfigError",
     "SidecarError",
     "StudyError",

@@ -1,10 +1,18 @@
 """``analyze_study``: a study folder in, the result tables of the study format out.
 
-Trials are read (through the decoded-trial cache), aligned and cut into windows in worker
-processes, one trial per task; the per-subject estimates are then computed from all windows
-together. Warnings (the analysis's own, and the readers': damaged lines, unknown frames...)
-are collected per trial into ``summary.json``. Nothing already in the output folder is
-overwritten unless ``force`` is given.
+Every input (study.toml, the DBC, each log and sidecar) is hashed once, when the analysis
+starts; each worker process gets the trials it is to analyse (their paths, sidecars and log
+hashes), reads them through the decoded-trial cache, aligns them and cuts them into windows;
+the per-subject estimates are then computed from all windows together. A log identical to
+another trial's is the same recording: it is counted once (``duplicate_trials`` and a
+warning in ``summary.json``). Warnings (the analysis's own, and the readers': damaged lines,
+unknown frames...) are collected per trial into ``summary.json``.
+
+The output folder is written as one unit (:mod:`evtribo.resultdir`): locked, written into a
+new folder beside it and swapped in at the end, with a ``run_id`` in ``summary.json`` and the
+SHA-256 of every table under ``output_sha256``. Nothing already in it is overwritten unless
+``force`` is given; ``force`` replaces analyze's files and those of ``compare`` and
+``report`` (:mod:`evtribo.analysis.outputs`), and no others.
 
 Besides the study format's tables, ``electrostatic_bootstrap.csv`` holds the first
 :data:`~evtribo.analysis.aggregate.N_BOOTSTRAP_SAVED` bootstrap replicates of every row of
@@ -18,10 +26,14 @@ reference. ``evtribo compare`` refits the model to each replicate for its interv
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import os
+import signal
+import threading
 import time
+import uuid
 from collections.abc import Callable, Mapping
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -38,7 +50,18 @@ from evtribo.analysis.aggregate import (
     EXPONENT_COLUMNS,
     summarize,
 )
-from evtribo.analysis.provenance import provenance
+from evtribo.analysis.outputs import (
+    ANALYSIS_FILES,
+    BOOTSTRAP_FILE,
+    OUTPUT_FILES,
+    SINE_TRACE_FILE,
+    SUMMARY_FILE,
+    check_out_dir,
+    check_overwrite,
+    compare_files,
+    report_files,
+)
+from evtribo.analysis.provenance import changed_since, input_files, provenance
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import (
     SINE_TRACE_CSV_COLUMNS,
@@ -50,19 +73,13 @@ from evtribo.analysis.trial import (
     failed_row,
 )
 from evtribo.cache import load_trial
-from evtribo.errors import AnalysisError, OutputExistsError, StudyError, UserInputError
-from evtribo.study import STUDY_FILE, Study, load_study
+from evtribo.errors import AnalysisError, StudyError, UserInputError
+from evtribo.resultdir import Staging, locked, recover, release_inherited_locks
+from evtribo.rig import Rig
+from evtribo.study import STUDY_FILE, Study, TrialRef, load_study
 
 log = logging.getLogger(__name__)
 
-#: The files ``analyze_study`` writes into its output folder.
-OUTPUT_FILES = ("trials.csv", "windows.csv", "electrostatic.csv", "exponents.csv",
-                "summary.json", "electrostatic_bootstrap.csv")
-#: The bootstrap replicates of electrostatic.csv (an addition to the study format).
-BOOTSTRAP_FILE = "electrostatic_bootstrap.csv"
-#: Written too when the study has sine trials: a stretch of each one's forces around a
-#: switch from OFF to ON, for the model comparison (columns in evtribo.compare.tables).
-SINE_TRACE_FILE = "sine_trace.csv"
 #: Most warnings kept per trial in summary.json (the rest are counted).
 MAX_WARNINGS_PER_TRIAL = 20
 
@@ -107,32 +124,62 @@ class _Collector(logging.Handler):
 _WORKER: dict[str, Any] = {}
 
 
-def _init_worker(root: str, cache_dir: str | None, strict: bool,
-                 settings: AnalysisSettings) -> None:
-    study = load_study(root)
-    _WORKER.update(study=study, cache_dir=cache_dir, strict=strict, settings=settings)
+@dataclass(frozen=True)
+class _Task:
+    """One trial for a worker: its place in the study, where it is, what its sidecar says,
+    and its log as hashed when the analysis started (sha256, size, modification time ns)."""
+
+    index: int
+    ref: TrialRef
+    log: tuple[str, int, int]
+
+
+def _setup(rig: Rig, cache_dir: str | None, strict: bool, settings: AnalysisSettings) -> None:
+    _WORKER.update(rig=rig, cache_dir=cache_dir, strict=strict, settings=settings)
+
+
+def _watch_parent(parent: int) -> None:
+    while os.getppid() == parent:
+        time.sleep(0.5)
+    os._exit(1)  # the analysis was killed (SIGKILL, a crash): nobody wants our results
+
+
+def _init_process(*args: Any) -> None:
+    """A worker process: the parent stops it (Ctrl-C reaches the whole process group, the
+    parent handles it), it ends when the parent is gone, and it does not keep the parent's
+    locks."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True,
+                     name="evtribo-parent-watch").start()
+    release_inherited_locks()
+    _setup(*args)
 
 
 _Result = tuple[int, dict[str, Any], pd.DataFrame, list[str], str | None, pd.DataFrame | None]
 
 
-def _analyze_one(index: int) -> _Result:
-    study, strict = _WORKER["study"], _WORKER["strict"]
-    ref = study.trials[index]
+def _meta(ref: TrialRef) -> TrialMeta:
     sc = ref.sidecar
     tare_s = sc.extra.get("tare_s")
-    meta = TrialMeta(subject=ref.subject, trial=ref.name, waveform=sc.waveform,
+    return TrialMeta(subject=ref.subject, trial=ref.name, waveform=sc.waveform,
                      frequency_Hz=sc.frequency_Hz, amplitude_V=sc.amplitude_V,
                      condition=sc.condition,
                      tare_s=float(tare_s) if isinstance(tare_s, int | float) else None)
+
+
+def _analyze_one(task: _Task) -> _Result:
+    strict, rig = _WORKER["strict"], _WORKER["rig"]
+    ref = task.ref
+    meta = _meta(ref)
     trace: pd.DataFrame | None = None
     collector = _Collector()
     root_logger = logging.getLogger("evtribo")
     root_logger.addHandler(collector)
     try:
-        signals = load_trial(ref.log_path, study.rig, _WORKER["cache_dir"], strict)
+        signals = load_trial(ref.log_path, rig, _WORKER["cache_dir"], strict,
+                             expect=task.log)
         result = analyze_signals(signals, meta, settings=_WORKER["settings"],
-                                 calibration=study.rig.calibration)
+                                 calibration=rig.calibration)
         row, windows, warnings, error = result.row, result.windows, result.warnings, None
         trace = result.trace
         if row.get("skipped_lines"):
@@ -157,22 +204,86 @@ def _analyze_one(index: int) -> _Result:
     if len(details) > MAX_WARNINGS_PER_TRIAL:
         extra = len(details) - MAX_WARNINGS_PER_TRIAL
         details = [*details[:MAX_WARNINGS_PER_TRIAL], f"{ref.key}: ... and {extra} more"]
-    return index, row, windows, details + warnings, error, trace
+    return task.index, row, windows, details + warnings, error, trace
 
 
-def _check_outputs(out_dir: Path, force: bool) -> None:
-    if force:
-        return
-    for name in (*OUTPUT_FILES, SINE_TRACE_FILE):
-        if (out_dir / name).exists():
-            raise OutputExistsError("already exists; give --force to overwrite the results",
-                                    path=out_dir / name)
+def _stop_workers(pool: ProcessPoolExecutor) -> None:
+    """Stop a pool's worker processes now (they would finish their trial otherwise)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        proc.terminate()
+    for proc in processes:
+        proc.join(10)
 
 
-def _write_csv(df: pd.DataFrame, path: Path) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    df.to_csv(tmp, index=False, encoding="utf-8")
-    os.replace(tmp, path)
+def _run_tasks(tasks: list[_Task], jobs: int, init_args: tuple[Any, ...],
+               progress: ProgressCallback | None) -> list[_Result]:
+    """Each task's result, in worker processes (*jobs* > 1) or here."""
+    results: list[_Result] = []
+    if jobs == 1:
+        _setup(*init_args)
+        for task in tasks:
+            results.append(_analyze_one(task))
+            if progress:
+                progress(len(results), len(tasks))
+        return results
+    pool = ProcessPoolExecutor(max_workers=jobs, initializer=_init_process,
+                               initargs=init_args)
+    try:
+        futures = [pool.submit(_analyze_one, task) for task in tasks]
+        for fut in as_completed(futures):
+            results.append(fut.result())
+            if progress:
+                progress(len(results), len(tasks))
+    except BaseException:  # an error, Ctrl-C, SIGTERM: no worker outlives the analysis
+        _stop_workers(pool)
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+    return results
+
+
+def _plan(study: Study, inputs: list[dict[str, Any]]
+          ) -> tuple[list[_Task], list[_Result], list[dict[str, Any]], list[str]]:
+    """The trials to analyse, as hashed; those not analysed: logs being written while
+    hashed (failed) and logs identical to another trial's (counted once, as that trial).
+
+    Returns (tasks, failed results, duplicates, warnings)."""
+    by_path = {r["_path"]: r for r in inputs}
+    tasks: list[_Task] = []
+    failed: list[_Result] = []
+    duplicates: list[dict[str, Any]] = []
+    warnings: list[str] = []
+    first: dict[str, TrialRef] = {}
+    for index, ref in enumerate(study.trials):
+        rec = by_path[os.path.abspath(ref.log_path)]
+        if rec["_mtime_ns"] < 0:
+            failed.append((index, failed_row(_meta(ref)), empty_windows(), [],
+                           f"{ref.log_path}: was being written while the analysis read it "
+                           "(a recording in progress?); not analysed", None))
+            continue
+        same = first.setdefault(rec["sha256"], ref)
+        if same is not ref:
+            duplicates.append({"trial": ref.key, "same_as": same.key, "sha256": rec["sha256"]})
+            diff = [k for k in ("waveform", "frequency_Hz", "amplitude_V", "condition")
+                    if getattr(same.sidecar, k) != getattr(ref.sidecar, k)]
+            differ = (f"; their sidecars differ in {', '.join(diff)} ({same.key}'s values "
+                      "are used)") if diff else ""
+            warnings.append(
+                f"{ref.key}: its log {ref.log_path} is identical to {same.key}'s "
+                f"({same.log_path}, sha256 {rec['sha256'][:12]}...): the same recording under "
+                f"two names, counted once, as {same.key}{differ}")
+            continue
+        tasks.append(_Task(index, ref, (rec["sha256"], rec["bytes"], rec["_mtime_ns"])))
+    return tasks, failed, duplicates, warnings
+
+
+def _write_csv(df: pd.DataFrame, path: Path) -> str:
+    """Write a table; return the SHA-256 of the bytes written."""
+    data = df.to_csv(index=False).encode("utf-8")
+    path.write_bytes(data)
+    return hashlib.sha256(data).hexdigest()
 
 
 def _typed(df: pd.DataFrame, columns: tuple[str, ...]) -> pd.DataFrame:
@@ -233,7 +344,8 @@ def analyze_study(
     strict : bool
         A damaged line in a log is an error instead of a warning.
     force : bool
-        Overwrite existing outputs.
+        Replace the results in *out_dir*: analyze's, and the model fit, figures and reports
+        of ``evtribo compare`` and ``evtribo report`` (their files only).
     cache_dir : path-like, optional
         Cache of decoded trials (default: :func:`evtribo.cache.default_cache_dir`).
     settings : AnalysisSettings, optional
@@ -252,48 +364,58 @@ def analyze_study(
     ------
     OutputExistsError
         An output exists and ``force`` is False.
+    OutputBusyError
+        Another process is writing *out_dir*.
     StudyError, SidecarError, RigConfigError
         The study folder is wrong.
+    UserInputError
+        *out_dir* is inside the study folder.
     LogFormatError
         A damaged line under ``strict``.
+    OutputWriteError
+        The results could not be written (a full disk); *out_dir* is left as it was.
+
+    Notes
+    -----
+    *out_dir* is written as one unit (:mod:`evtribo.resultdir`): under a lock, into a new
+    folder beside it, swapped in at the end; killed at any moment, it holds the results it
+    held before or all of the new ones. Each input is hashed once, when the analysis starts;
+    ``summary.json`` records those hashes and a ``run_id`` that ``compare`` and ``report``
+    check the rest of the folder against.
     """
     started = time.perf_counter()
     started_at = time.time()
     out = Path(out_dir)
-    _check_outputs(out, force)
+    check_overwrite(out, force)
     study = load_study(study_dir)
+    check_out_dir(out, study.root)
     settings = study_settings(study, overrides, settings)
     if not study.trials:
         raise StudyError("the study holds no trials (no <subject>/<trial>.log files)",
                          path=study.root)
-    n = len(study.trials)
-    jobs = (os.cpu_count() or 1) if jobs is None else max(1, int(jobs))
-    jobs = min(jobs, n)
-    cache = None if cache_dir is None else os.fspath(cache_dir)
-    results: list[_Result] = []
-    init_args = (os.fspath(study.root), cache, strict, settings)
-    if jobs == 1:
-        _init_worker(*init_args)
-        for i in range(n):
-            results.append(_analyze_one(i))
-            if progress:
-                progress(len(results), n)
-    else:
-        with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker,
-                                 initargs=init_args) as pool:
-            futures = [pool.submit(_analyze_one, i) for i in range(n)]
-            try:
-                for fut in as_completed(futures):
-                    results.append(fut.result())
-                    if progress:
-                        progress(len(results), n)
-            except BaseException:
-                for f in futures:
-                    f.cancel()
-                raise
-    results.sort(key=lambda r: r[0])
+    with locked(out, "evtribo analyze"):
+        recover(out)
+        check_overwrite(out, force)
+        return _analyze_locked(study, out, settings, started, started_at, jobs=jobs,
+                               strict=strict, cache_dir=cache_dir, progress=progress)
 
-    warnings = list(study.warnings)
+
+def _analyze_locked(study: Study, out: Path, settings: AnalysisSettings, started: float,
+                    started_at: float, *, jobs: int | None, strict: bool,
+                    cache_dir: str | os.PathLike[str] | None,
+                    progress: ProgressCallback | None) -> StudyResults:
+    """:func:`analyze_study` once the output folder is locked."""
+    n = len(study.trials)
+    inputs = input_files(study)  # each input hashed once, here
+    tasks, not_run, duplicates, warnings = _plan(study, inputs)
+    jobs = (os.cpu_count() or 1) if jobs is None else max(1, int(jobs))
+    jobs = max(1, min(jobs, len(tasks)))
+    cache = None if cache_dir is None else os.fspath(cache_dir)
+    assert study.rig is not None
+    results = _run_tasks(tasks, jobs, (study.rig, cache, strict, settings), progress)
+    results = sorted([*results, *not_run], key=lambda r: r[0])  # the study's order
+
+    warnings = [*study.warnings, *warnings]
     failed = []
     for _, row, _, warns, error, _ in results:
         warnings.extend(warns)
@@ -309,6 +431,7 @@ def analyze_study(
         windows, trials, n_boot=settings.n_boot, seed=settings.seed,
         confidence=settings.confidence)
     warnings.extend(agg_warnings)
+    warnings.extend(changed_since(inputs))
     traces = [r[5] for r in results if r[5] is not None and not r[5].empty]
     trace = (pd.concat(traces, ignore_index=True).reindex(columns=list(SINE_TRACE_CSV_COLUMNS))
              if traces else None)
@@ -320,13 +443,15 @@ def analyze_study(
 
     summary: dict[str, Any] = {
         "study": study.name,
+        "run_id": uuid.uuid4().hex,
         "evtribo_version": __version__,
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
-        **provenance(study, started_at),
+        **provenance(study, started_at, inputs),
         "subjects": study.subjects,
         "trials": n,
-        "trials_analysed": n - len(failed),
+        "trials_analysed": n - len(failed) - len(duplicates),
         "failed_trials": failed,
+        "duplicate_trials": duplicates,
         "windows_on": int(np.count_nonzero(windows.condition == "on")),
         "windows_off": int(np.count_nonzero(windows.condition == "off")),
         "frames": total("frames"),
@@ -334,7 +459,7 @@ def analyze_study(
         "skipped_lines": total("skipped_lines"),
         "strict": strict,
         "jobs": jobs,
-        "calibration": study.rig.calibration.to_dict() if study.rig is not None else {},
+        "calibration": study.rig.calibration.to_dict(),
         "settings": {**settings.to_dict(), "mu_estimator": "ratio of means",
                      "interval": "percentile bootstrap over windows, stretched by a "
                                  "Welch-Satterthwaite Student-t factor for few windows",
@@ -342,25 +467,27 @@ def analyze_study(
                      if not bootstrap.empty else 0},
         "warnings": warnings,
         "outputs": list(OUTPUT_FILES) + ([SINE_TRACE_FILE] if trace is not None else []),
+        "output_sha256": {},
         "elapsed_s": None,
     }
-    out.mkdir(parents=True, exist_ok=True)
-    _check_outputs(out, force)
-    _write_csv(trials, out / "trials.csv")
-    _write_csv(windows, out / "windows.csv")
-    _write_csv(electrostatic, out / "electrostatic.csv")
-    _write_csv(exponents, out / "exponents.csv")
-    _write_csv(bootstrap.reindex(columns=list(BOOTSTRAP_COLUMNS)), out / BOOTSTRAP_FILE)
+    tables = {"trials.csv": trials, "windows.csv": windows,
+              "electrostatic.csv": electrostatic, "exponents.csv": exponents,
+              BOOTSTRAP_FILE: bootstrap.reindex(columns=list(BOOTSTRAP_COLUMNS))}
     if trace is not None:
-        _write_csv(trace, out / SINE_TRACE_FILE)
-    elif force and (out / SINE_TRACE_FILE).exists():  # stale: from an earlier analysis
-        (out / SINE_TRACE_FILE).unlink()
-    summary["elapsed_s"] = round(time.perf_counter() - started, 3)
-    tmp = out / ".summary.json.tmp"
-    tmp.write_text(json.dumps(summary, indent=2, ensure_ascii=False, default=str) + "\n",
-                   encoding="utf-8")
-    os.replace(tmp, out / "summary.json")
-    log.info("analysed %d of %d trials of %s into %s", n - len(failed), n, study.root, out)
+        tables[SINE_TRACE_FILE] = trace
+    # what this analysis replaces: analyze's files, and compare's and report's of them
+    stale = [n for n in ANALYSIS_FILES if (out / n).is_file()]
+    stale += [*compare_files(out), *report_files(out)] if out.is_dir() else []
+    with Staging(out) as stage:
+        for name, table in tables.items():
+            summary["output_sha256"][name] = _write_csv(table, stage.path(name))
+        summary["elapsed_s"] = round(time.perf_counter() - started, 3)
+        stage.path(SUMMARY_FILE).write_text(
+            json.dumps(summary, indent=2, ensure_ascii=False, default=str) + "\n",
+            encoding="utf-8")
+        stage.commit(remove=stale, last=[SUMMARY_FILE])
+    log.info("analysed %d of %d trials of %s into %s", summary["trials_analysed"], n,
+             study.root, out)
     return StudyResults(out_dir=out, trials=trials, windows=windows,
                         electrostatic=electrostatic, exponents=exponents, summary=summary)
 

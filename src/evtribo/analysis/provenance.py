@@ -4,12 +4,16 @@
 entries carry ``file``, ``bytes`` and ``sha256``, ``rig``, ``software`` and ``settings``),
 so that a result folder says exactly which recorded files, rig and software produced it,
 even when the study folder is no longer at hand.
+
+Each input is hashed once, when the analysis starts (:func:`input_files`); the workers
+analyse a log only if it still is the file of that hash (see
+:func:`evtribo.cache.load_trial`), so the hashes in ``summary.json`` are those of the bytes
+analysed.
 """
 
 from __future__ import annotations
 
 import datetime as dt
-import hashlib
 import os
 import platform
 from importlib.metadata import PackageNotFoundError, version
@@ -17,29 +21,33 @@ from pathlib import Path
 from typing import Any
 
 from evtribo import __version__
+from evtribo.resultdir import sha256_file
 
-__all__ = ["file_record", "input_files", "provenance", "sha256_file", "software_versions"]
+__all__ = ["changed_since", "file_record", "input_files", "provenance", "sha256_file",
+           "software_versions"]
 
 _PACKAGES = {"python-can": "python-can", "cantools": "cantools", "numpy": "numpy",
              "scipy": "scipy", "pandas": "pandas", "pyarrow": "pyarrow"}
 
 
-def sha256_file(path: Path) -> str:
-    """SHA-256 of a file's bytes, hex, read in 1 MiB blocks."""
-    digest = hashlib.sha256()
-    with path.open("rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def file_record(path: Path, root: Path, role: str) -> dict[str, Any]:
-    """``{"file", "role", "bytes", "sha256"}`` of one input file (name relative to *root*)."""
+    """``{"file", "role", "bytes", "sha256"}`` of one input file (name relative to *root*).
+
+    The size is the one of the bytes hashed. For the analysis (not written out): the
+    file's absolute path under ``"_path"`` and its modification time (ns) when hashed under
+    ``"_mtime_ns"`` (-1 when the file changed while it was hashed).
+    """
     try:
         name = path.resolve().relative_to(root.resolve()).as_posix()
     except ValueError:
         name = str(path.resolve())
-    return {"file": name, "role": role, "bytes": path.stat().st_size, "sha256": sha256_file(path)}
+    before = path.stat()
+    digest = sha256_file(path)
+    after = path.stat()
+    stamp = after.st_mtime_ns if (before.st_size, before.st_mtime_ns) == (
+        after.st_size, after.st_mtime_ns) else -1  # written to while hashed
+    return {"file": name, "role": role, "bytes": after.st_size, "sha256": digest,
+            "_mtime_ns": stamp, "_path": os.path.abspath(path)}
 
 
 def input_files(study: Any) -> list[dict[str, Any]]:
@@ -97,7 +105,8 @@ def software_versions() -> dict[str, str | None]:
     return out
 
 
-def provenance(study: Any, started: float) -> dict[str, Any]:
+def provenance(study: Any, started: float,
+               inputs: list[dict[str, Any]] | None = None) -> dict[str, Any]:
     """The provenance keys of summary.json.
 
     Parameters
@@ -105,6 +114,9 @@ def provenance(study: Any, started: float) -> dict[str, Any]:
     study : evtribo.study.Study
     started : float, s
         Epoch time at which the analysis started.
+    inputs : list of dict, optional
+        :func:`input_files` of the study, as taken when the analysis started (default: hash
+        them now).
 
     Returns
     -------
@@ -117,8 +129,35 @@ def provenance(study: Any, started: float) -> dict[str, Any]:
         "study_dir": os.fspath(Path(study.root).resolve()),
         "started": dt.datetime.fromtimestamp(started, dt.UTC)
         .isoformat(timespec="seconds").replace("+00:00", "Z"),
-        "inputs": input_files(study),
+        "inputs": [{k: v for k, v in r.items() if not k.startswith("_")}
+                   for r in (input_files(study) if inputs is None else inputs)],
         "rig": rig_roles(study),
         "software": software_versions(),
         "host": {"platform": platform.platform(), "machine": platform.machine()},
     }
+
+
+def changed_since(inputs: list[dict[str, Any]]) -> list[str]:
+    """A warning for each input that changed since :func:`input_files` hashed it.
+
+    Parameters
+    ----------
+    inputs : list of dict
+        :func:`input_files`'s records.
+
+    Returns
+    -------
+    list of str
+    """
+    out = []
+    for rec in inputs:
+        try:
+            st = os.stat(rec["_path"])
+            now: tuple[int, int] | None = (st.st_size, st.st_mtime_ns)
+        except OSError:
+            now = None
+        if now != (rec["bytes"], rec["_mtime_ns"]) and rec["_mtime_ns"] >= 0:
+            out.append(f"{rec['file']}: changed during the analysis; the results are of the "
+                       f"file as it was when the analysis started (sha256 "
+                       f"{rec['sha256'][:12]}...)")
+    return out

@@ -8,6 +8,7 @@ from typing import Any, TextIO
 
 from evtribo.analysis.pipeline import OUTPUT_FILES, analyze_study
 from evtribo.analysis.settings import TARE_MODES, parse_setting
+from evtribo.cli._signals import EXIT_TERMINATED, Terminated, sigterm_interrupts
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -17,15 +18,21 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Analyse every trial of STUDY: align the load cells, find the steady-"
                     "sliding windows, estimate mu from the OFF windows and the electrostatic "
                     "force from the ON windows (95 % bootstrap intervals), fit F_el = k*U^n "
-                    f"per subject. Writes {', '.join(OUTPUT_FILES)} into --out. Exit 0 done, "
-                    "1 failed, 2 bad input or existing outputs without --force.")
+                    f"per subject. Writes {', '.join(OUTPUT_FILES)} into --out, as one unit: "
+                    "into a new folder beside it, swapped in at the end (stopped at any "
+                    "moment, --out keeps the results it had). Exit 0 done, 1 failed, 2 bad "
+                    "input, existing outputs without --force, --out inside the study, or "
+                    "another process writing --out.")
     p.add_argument("study", metavar="STUDY", help="the study folder (with study.toml)")
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder (created)")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="output folder (created; outside the study folder)")
     p.add_argument("--jobs", type=int, default=None, metavar="N",
                    help="worker processes (default: the number of CPUs)")
     p.add_argument("--strict", action="store_true",
                    help="a damaged line in a log is an error, not a warning")
-    p.add_argument("--force", action="store_true", help="overwrite existing outputs")
+    p.add_argument("--force", action="store_true",
+                   help="replace the results in --out: analyze's, and the fit, figures and "
+                        "reports of compare and report (their files only)")
     p.add_argument("--cache-dir", metavar="DIR",
                    help="cache of decoded trials (default: $EVTRIBO_CACHE_DIR or "
                         "~/.cache/evtribo)")
@@ -65,11 +72,19 @@ def run(args: argparse.Namespace) -> int:
     if args.tare is not None:
         overrides["tare"] = args.tare
     progress = _ProgressBar(sys.stderr) if sys.stderr.isatty() else None
-    res = analyze_study(args.study, args.out, jobs=args.jobs, strict=args.strict,
-                        force=args.force, cache_dir=args.cache_dir, overrides=overrides,
-                        progress=progress)
+    try:
+        with sigterm_interrupts():
+            res = analyze_study(args.study, args.out, jobs=args.jobs, strict=args.strict,
+                                force=args.force, cache_dir=args.cache_dir,
+                                overrides=overrides, progress=progress)
+    except Terminated:
+        print(f"evtribo analyze: terminated; {args.out} holds the results it held before "
+              "(or all of the new ones), nothing half-written", file=sys.stderr)
+        return EXIT_TERMINATED
     s = res.summary
-    print(f"analysed {s['trials_analysed']} of {s['trials']} trials "
+    dup = len(s.get("duplicate_trials") or [])
+    same = f"; {dup} the same log as another trial, counted once" if dup else ""
+    print(f"analysed {s['trials_analysed']} of {s['trials']} trials{same} "
           f"({s['windows_on']} ON and {s['windows_off']} OFF windows) into {res.out_dir}")
     if s["warnings"]:
         print(f"{len(s['warnings'])} warning(s), listed in {res.out_dir / 'summary.json'}",

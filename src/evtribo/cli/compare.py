@@ -14,7 +14,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Fit the seed paper's model to the per-subject results of "
                     "`evtribo analyze` (the equivalent air gap h_L by default) by weighted "
                     "least squares, and write OUT/fit.csv, OUT/fit.json and OUT/figures/ "
-                    "(PNG and SVG).")
+                    "(PNG and SVG), as one unit. OUT must hold one analysis's complete "
+                    "results (exit 2 otherwise, as when another process is writing OUT).")
     p.add_argument("out", metavar="OUT", help="result folder written by `evtribo analyze`")
     p.add_argument("--fit", metavar="NAMES", default=None,
                    help="comma-separated model parameters to fit per subject "
@@ -31,10 +32,17 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``evtribo compare``; return the exit code."""
+    from evtribo.cli._signals import EXIT_TERMINATED, Terminated, sigterm_interrupts
     from evtribo.compare.run import compare
 
-    result = compare(args.out, fit=args.fit, params=args.params, force=args.force,
-                     dpi=args.dpi)
+    try:
+        with sigterm_interrupts():
+            result = compare(args.out, fit=args.fit, params=args.params, force=args.force,
+                             dpi=args.dpi)
+    except Terminated:
+        print(f"evtribo compare: terminated; {args.out} holds the fit it held before (or all "
+              "of the new one), nothing half-written", file=sys.stderr)
+        return EXIT_TERMINATED
     for f in result.fits:
         parts = ", ".join(
             f"{e.name} = {e.value:.4g} {e.unit} [{e.ci_low:.4g}, {e.ci_high:.4g}]"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -14,7 +15,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Write one HTML file (figures embedded, works offline) with the study "
                     "summary, per-subject results, the model fit, warnings and provenance. "
                     "Figures are also written as PNG and SVG into <report>_files/. Runs "
-                    "`evtribo compare` first when OUT has no fit.csv.")
+                    "`evtribo compare` first when OUT has no fit.csv. Refuses (exit 2) a "
+                    "folder that is not one analysis's complete results, or whose fit is of "
+                    "another analysis (run `evtribo compare OUT --force`); warns when an input "
+                    "of the study changed since the analysis.")
     p.add_argument("out", metavar="OUT", help="result folder written by `evtribo analyze`")
     p.add_argument("-o", "--output", metavar="REPORT.html", default=None,
                    help="the HTML file to write (default: OUT/report.html)")
@@ -27,9 +31,17 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``evtribo report``; return the exit code."""
+    from evtribo.cli._signals import EXIT_TERMINATED, Terminated, sigterm_interrupts
     from evtribo.compare.study_report import build_report
 
     output = Path(args.output) if args.output else Path(args.out) / "report.html"
-    path = build_report(args.out, output, force=args.force, run_compare=not args.no_compare)
+    try:
+        with sigterm_interrupts():
+            path = build_report(args.out, output, force=args.force,
+                                run_compare=not args.no_compare)
+    except Terminated:
+        print(f"evtribo report: terminated; {output} is the report it was before (if any), "
+              "nothing half-written", file=sys.stderr)
+        return EXIT_TERMINATED
     print(f"wrote {path}")
     return 0

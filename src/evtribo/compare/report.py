@@ -34,6 +34,7 @@ from markupsafe import Markup
 
 from evtribo import __version__
 from evtribo.errors import OutputExistsError, UserInputError
+from evtribo.resultdir import Staging, locked, recover
 
 log = logging.getLogger(__name__)
 
@@ -191,6 +192,13 @@ class Report:
         """Add HTML as given (NOT escaped: only for markup the program writes itself)."""
         self._section(section).items.append(_Item("html", title, "", {"html": Markup(html)}))
 
+    @staticmethod
+    def _refuse_existing(folder: Path, names: list[str], overwrite: bool) -> None:
+        existing = [folder / n for n in names if (folder / n).exists()]
+        if existing and not overwrite:
+            raise OutputExistsError("the report already exists; use --force to overwrite it",
+                                    path=existing[0])
+
     # ------------------------------------------------------------------------ rendering
     def render(self) -> str:
         """The page as one HTML string."""
@@ -198,7 +206,7 @@ class Report:
         return template.render(title=self.title, sections=self._sections, version=__version__)
 
     def save(self, path: str | Path, *, overwrite: bool = False,
-             figure_files: bool = True) -> Path:
+             figure_files: bool = True, unit: str | Path | None = None) -> Path:
         """Write the page, and each figure as PNG and SVG into :func:`files_dir_for`.
 
         Parameters
@@ -209,6 +217,9 @@ class Report:
             Replace an existing report and its figure files.
         figure_files : bool
             Also write the figures beside the report.
+        unit : str or Path, optional
+            The output the report is part of, locked and written as one unit with it (a
+            result folder holding the report; default: the report itself).
 
         Returns
         -------
@@ -219,28 +230,40 @@ class Report:
         ------
         OutputExistsError
             When the report or one of its figure files exists and *overwrite* is False.
+        OutputBusyError
+            When another process is writing the same report.
+
+        Notes
+        -----
+        The page and its figure files are written as one unit (:mod:`evtribo.resultdir`):
+        into a new folder beside the page, then swapped in; a report stopped at any moment
+        is the old one or the new one, never half of each. With *overwrite*, figure files
+        of the old report that the new one does not have are removed.
         """
         html_path = Path(path)
         files_dir = files_dir_for(html_path)
-        targets = [html_path]
+        names = [html_path.name]
         if figure_files:
             for slug, _, svg in self._figure_files:
-                targets.append(files_dir / f"{slug}.png")
+                names.append(f"{files_dir.name}/{slug}.png")
                 if svg is not None:
-                    targets.append(files_dir / f"{slug}.svg")
-        existing = [t for t in targets if t.exists()]
-        if existing and not overwrite:
-            raise OutputExistsError("the report already exists; use --force to overwrite it",
-                                    path=existing[0])
+                    names.append(f"{files_dir.name}/{slug}.svg")
+        self._refuse_existing(html_path.parent, names, overwrite)
         text = self.render()
-        html_path.parent.mkdir(parents=True, exist_ok=True)
-        if figure_files and self._figure_files:
-            files_dir.mkdir(parents=True, exist_ok=True)
-            for slug, png, svg in self._figure_files:
-                (files_dir / f"{slug}.png").write_bytes(png)
-                if svg is not None:
-                    (files_dir / f"{slug}.svg").write_bytes(svg)
-        html_path.write_text(text, encoding="utf-8")
+        unit = html_path if unit is None else Path(unit)
+        with locked(unit, "evtribo report"):
+            recover(unit)
+            self._refuse_existing(html_path.parent, names, overwrite)
+            stale = [f"{files_dir.name}/{p.name}" for p in sorted(files_dir.glob("*"))
+                     if p.suffix.lower() in (".png", ".svg")] if files_dir.is_dir() else []
+            with Staging(unit, target=html_path.parent) as stage:
+                if figure_files:
+                    for slug, png, svg in self._figure_files:
+                        stage.path(f"{files_dir.name}/{slug}.png").write_bytes(png)
+                        if svg is not None:
+                            stage.path(f"{files_dir.name}/{slug}.svg").write_bytes(svg)
+                stage.path(html_path.name).write_text(text, encoding="utf-8")
+                stage.commit(remove=stale, last=[html_path.name])
         log.info("report: wrote %s (%d figures, %.0f kB)", html_path, len(self._figure_files),
                  len(text) / 1024)
         return html_path

@@ -8,6 +8,11 @@ Writes into the result folder:
   replicates of ``electrostatic_bootstrap.csv``, or ``jacobian``, the fallback that takes
   the points' errors as independent), the figures and notes (read by ``evtribo report``);
 - ``figures/``: each figure as PNG and SVG.
+
+``fit.json`` also records the ``run_id`` of the analysis it fitted (from ``summary.json``)
+and the SHA-256 of every file compare wrote (``output_sha256``), which ``evtribo report``
+checks. The folder is locked and written as one unit (:mod:`evtribo.resultdir`); it is read
+only if it is one analysis's complete results (:func:`~evtribo.compare.tables.read_results`).
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ import numpy as np
 import pandas as pd
 
 from evtribo import __version__
+from evtribo.analysis.outputs import FIGURES, FIT_CSV, FIT_JSON, compare_files
 from evtribo.compare.fit import SubjectFit, fit_study, fit_table
 from evtribo.compare.params import load_parameters, resolve_fit_names
 from evtribo.compare.plots import (
@@ -35,17 +41,15 @@ from evtribo.compare.plots import (
     safe_name,
     save_figure,
 )
-from evtribo.compare.tables import ResultTables, read_results
+from evtribo.compare.tables import ResultTables, check_out_folder, read_results
 from evtribo.errors import OutputExistsError
 from evtribo.model.params import ModelParameters
+from evtribo.resultdir import Staging, locked, recover, sha256_file
 
 log = logging.getLogger(__name__)
 
-__all__ = ["CompareResult", "FigureRecord", "compare", "figure_stems"]
-
-FIT_CSV = "fit.csv"
-FIT_JSON = "fit.json"
-FIGURES = "figures"
+__all__ = ["FIGURES", "FIT_CSV", "FIT_JSON", "CompareResult", "FigureRecord", "compare",
+           "figure_stems"]
 
 
 @dataclass(frozen=True)
@@ -78,14 +82,11 @@ def figure_stems(subjects: Iterable[str]) -> list[str]:
     return stems
 
 
-def _check_outputs(out: Path, subjects: list[str], force: bool) -> None:
-    targets = [out / FIT_CSV, out / FIT_JSON]
-    targets += [out / FIGURES / f"{stem}.{ext}" for stem in figure_stems(subjects)
-                for ext in ("png", "svg")]
-    existing = [p for p in targets if p.exists()]
+def _check_outputs(out: Path, force: bool) -> None:
+    existing = compare_files(out)
     if existing and not force:
         raise OutputExistsError(f"{len(existing)} output file(s) of a previous comparison "
-                                "exist; use --force to overwrite them", path=existing[0])
+                                "exist; use --force to overwrite them", path=out / existing[0])
 
 
 def _jsonable(x: float) -> float | None:
@@ -134,29 +135,52 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         Missing folder or tables, bad ``fit`` names or parameter file (exit code 2).
     OutputExistsError
         When outputs exist and *force* is False.
+    OutputBusyError
+        Another process is writing the folder.
+    ResultFolderError
+        The folder is not one analysis's complete results (exit code 2).
     AnalysisError
         When a fit cannot be made.
     """
     names = resolve_fit_names(fit)
     base = load_parameters(params)
-    tables = read_results(out)
+    folder = check_out_folder(out)
+    _check_outputs(folder, force)  # before the lock: a refusal writes nothing
+    with locked(folder, "evtribo compare"):
+        recover(folder)
+        tables = read_results(folder)
+        _check_outputs(folder, force)
+        stale = compare_files(folder)
+        with Staging(folder) as stage:
+            result = _compare(tables, stage, names, base, dpi=dpi, formats=formats)
+            _write_json(stage, result, names, base, params,
+                        run_id=tables.summary.get("run_id"))
+            stage.commit(remove=stale, last=[FIT_JSON])
+    result.files = [folder / rel for rel in result.files]
+    log.info("compare: wrote %d files into %s", len(result.files), folder)
+    return result
+
+
+def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
+             base: ModelParameters, *, dpi: float, formats: tuple[str, ...]
+             ) -> CompareResult:
+    """The fits and figures, written into *stage* (``result.files`` relative to it)."""
     folder = tables.out
     subjects = tables.subjects
-    _check_outputs(folder, subjects, force)
-
     fits = fit_study(tables, base, names)
     result = CompareResult(out=folder, fits=fits)
     result.notes += _interval_notes(fits, has_bootstrap=tables.bootstrap is not None)
     table = fit_table(fits, tables)
-    table.to_csv(folder / FIT_CSV, index=False)
-    result.files.append(folder / FIT_CSV)
+    table.to_csv(stage.path(FIT_CSV), index=False)
+    result.files.append(Path(FIT_CSV))
 
     by_subject = {f.subject: f for f in fits}
-    fig_dir = folder / FIGURES
+    fig_dir = stage.folder / FIGURES
 
     def emit(ax: Any, kind: str, title: str, stem: str, *, subject: str | None,
              caption: str) -> None:
-        result.files += save_figure(ax.figure, fig_dir, stem, dpi=dpi, formats=formats)
+        written = save_figure(ax.figure, fig_dir, stem, dpi=dpi, formats=formats)
+        result.files += [Path(FIGURES) / p.name for p in written]
         result.figures.append(FigureRecord(kind, title, stem, subject, caption))
 
     mu_how = "fitted." if "mu" in names else "from the measured OFF windows."
@@ -208,9 +232,6 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
          caption="JKR over Hertz contact area at each subject's mean normal force ON with "
                  "the fitted parameters, cf. the paper's Figure 7.")
 
-    _write_json(folder / FIT_JSON, result, names, base, params)
-    result.files.append(folder / FIT_JSON)
-    log.info("compare: wrote %d files into %s", len(result.files), folder)
     return result
 
 
@@ -239,13 +260,16 @@ def _interval_notes(fits: list[SubjectFit], *, has_bootstrap: bool) -> list[str]
     return notes
 
 
-def _write_json(path: Path, result: CompareResult, names: tuple[str, ...],
-                base: ModelParameters, params_file: str | Path | None) -> None:
+def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],
+                base: ModelParameters, params_file: str | Path | None, *,
+                run_id: str | None) -> None:
+    """fit.json, into *stage*, naming the analysis fitted and the files written."""
     pfile: dict[str, Any] | None = None
     if params_file is not None:
         p = Path(params_file)
         pfile = {"path": str(p), "sha256": hashlib.sha256(p.read_bytes()).hexdigest()}
     doc = {
+        "run_id": run_id,
         "software": {"evtribo": __version__},
         "fit": list(names),
         "parameters_file": pfile,
@@ -267,5 +291,8 @@ def _write_json(path: Path, result: CompareResult, names: tuple[str, ...],
         "figures": [{"kind": r.kind, "title": r.title, "stem": r.stem, "subject": r.subject,
                      "caption": r.caption} for r in result.figures],
         "notes": result.notes,
+        "output_sha256": {rel.as_posix(): sha256_file(stage.path(rel.as_posix()))
+                          for rel in result.files},
     }
-    path.write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    stage.path(FIT_JSON).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    result.files.append(Path(FIT_JSON))

@@ -2,14 +2,22 @@
 
 Reads a result folder (``evtribo analyze``'s tables and ``summary.json``, ``evtribo
 compare``'s ``fit.csv``, ``fit.json`` and ``figures/``) and, when ``summary.json`` names a
-study folder that still exists, the trials' sidecars there (for their notes) and the input
-files (for their SHA-256 hashes).
+study folder that still exists (one with a study.toml), the trials' sidecars there (for their
+notes) and the inputs ``summary.json`` records (hashed again: a warning for each one changed,
+missing or added since the analysis).
+
+The folder must be one unit: the analysis's complete results
+(:func:`~evtribo.compare.tables.read_results`) and a model fit of that analysis (``fit.json``'s
+``run_id`` and the SHA-256 of compare's files); anything else is refused, naming
+``evtribo compare OUT --force``. A ``summary.json`` is not trusted with paths: only inputs
+inside the study folder (and the DBC the study's own study.toml names) are listed or read.
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import os
 import platform
 from pathlib import Path
 from typing import Any
@@ -17,20 +25,21 @@ from typing import Any
 import pandas as pd
 
 from evtribo import __version__
-from evtribo.analysis.provenance import sha256_file
 from evtribo.compare.params import parameter_unit
 from evtribo.compare.report import Report
 from evtribo.compare.run import FIGURES, FIT_CSV, FIT_JSON, compare, figure_stems
-from evtribo.compare.tables import ResultTables, read_results
-from evtribo.errors import EvtriboError, UserInputError
+from evtribo.compare.tables import ResultTables, check_out_folder, read_results
+from evtribo.errors import EvtriboError, OutputExistsError, ResultFolderError, UserInputError
 from evtribo.model.params import ModelParameters
-from evtribo.study import discover_trials, read_study_toml
+from evtribo.resultdir import inside, locked, recover, sha256_file
+from evtribo.study import STUDY_FILE, discover_trials, read_study_toml
 
 log = logging.getLogger(__name__)
 
 __all__ = ["build_report", "file_hashes"]
 
-_SUMMARY_KEYS = ("study", "study_dir", "started", "created", "evtribo_version", "trials",
+_SUMMARY_KEYS = ("study", "run_id", "study_dir", "started", "created", "evtribo_version",
+                 "trials",
                  "trials_analysed", "windows_on", "windows_off", "frames", "dropped_frames",
                  "skipped_lines", "strict", "elapsed_s")
 
@@ -70,48 +79,111 @@ def _study_name(summary: dict[str, Any], out: Path) -> str:
 
 
 def _study_dir(summary: dict[str, Any], out: Path) -> Path | None:
-    """The study folder summary.json names, if it exists (a relative path is tried from
-    the working directory, then from the result folder's parent)."""
+    """The study folder summary.json names, if it exists and is a study (a relative path is
+    tried from the working directory, then from the result folder's parent)."""
     raw = summary.get("study_dir")
     if raw is None and isinstance(summary.get("study"), dict):
         raw = summary["study"].get("path")
-    if not raw:
+    if not raw or not isinstance(raw, str):
         return None
-    path = Path(str(raw))
+    path = Path(raw)
     for candidate in (path, out.parent / path) if not path.is_absolute() else (path,):
-        if candidate.is_dir():
+        if (candidate / STUDY_FILE).is_file():
             return candidate
     return None
 
 
-def _study_inputs(study_dir: Path) -> tuple[list[Path], dict[str, str], dict[str, Any]]:
-    """(input files, notes by subject/trial, rig table) read from the study folder."""
-    files: list[Path] = []
+def _study_rig(study_dir: Path | None) -> dict[str, Any]:
+    """The [rig] table of the study's own study.toml ({} when unreadable)."""
+    if study_dir is None:
+        return {}
+    try:
+        rig = read_study_toml(study_dir / STUDY_FILE).get("rig", {})
+    except EvtriboError as err:
+        log.warning("report: %s", err)
+        return {}
+    return dict(rig) if isinstance(rig, dict) else {}
+
+
+def _study_dbc(study_dir: Path) -> Path | None:
+    """The DBC the study's own study.toml names (it may lie outside the study folder)."""
+    dbc = _study_rig(study_dir).get("dbc")
+    return (study_dir / dbc).resolve() if isinstance(dbc, str) else None
+
+
+def _input_path(name: str, role: Any, study_dir: Path | None,
+                dbc: Path | None) -> Path | bool | None:
+    """Where a recorded input is now: a path inside the study (or the study's DBC); None if
+    the study is not at hand; False if the name is not one to list or read."""
+    if name and not Path(name).is_absolute() and ".." not in Path(name).parts:
+        return None if study_dir is None else inside(study_dir, name) or False
+    if role == "dbc" and dbc is not None and Path(name).resolve() == dbc:
+        return dbc
+    return False
+
+
+def _inputs(summary: dict[str, Any], study_dir: Path | None
+            ) -> tuple[pd.DataFrame, list[str]]:
+    """The inputs summary.json records (those inside the study), and a warning for each one
+    changed, missing or added since the analysis, or not listed."""
+    recorded: list[dict[str, Any]] = []
+    _hashes_in(summary.get("inputs", summary.get("files", [])), recorded)
+    dbc = _study_dbc(study_dir) if study_dir is not None else None
+    rows, warnings, outside = [], [], 0
+    for rec in recorded:
+        where = _input_path(rec["file"], rec.get("role"), study_dir, dbc)
+        if where is False:
+            outside += 1
+            continue
+        row = {"file": rec["file"], "bytes": rec["bytes"], "sha256": rec["sha256"]}
+        if isinstance(where, Path):
+            now = sha256_file(where) if where.is_file() else None
+            row["now"] = "unchanged" if now == rec["sha256"] else \
+                "missing" if now is None else "changed"
+            if now is None:
+                warnings.append(f"{rec['file']}: no longer in the study folder {study_dir} "
+                                "(it was an input of the analysis)")
+            elif now != rec["sha256"]:
+                warnings.append(f"{rec['file']}: changed since the analysis (sha256 "
+                                f"{rec['sha256'][:12]}... then, {now[:12]}... now): these results "
+                                "are not of the study as it is now; analyse it again")
+        rows.append(row)
+    if outside:
+        warnings.append(f"summary.json names {outside} input file(s) outside the study "
+                        "folder: not listed, not read (summary.json was edited?)")
+    if study_dir is not None:
+        warnings += _added(study_dir, {r["file"] for r in rows})
+    columns = ["file", "bytes", "sha256", *(["now"] if study_dir is not None else [])]
+    return pd.DataFrame(rows, columns=columns), warnings
+
+
+def _added(study_dir: Path, recorded: set[str]) -> list[str]:
+    try:
+        trials, _ = discover_trials(study_dir)
+    except (EvtriboError, OSError) as err:
+        return [f"cannot list the study's trials now: {err}"]
+    names = []
+    for t in trials:
+        names += [t.log_path] + ([t.sidecar_path] if t.sidecar_path is not None else [])
+    return [f"{rel}: in the study folder but not in the analysis (added since?)"
+            for rel in (p.relative_to(study_dir).as_posix() for p in names)
+            if rel not in recorded]
+
+
+def _notes(study_dir: Path | None, tables: ResultTables) -> dict[str, str]:
+    """The sidecars' notes of the trials in trials.csv, read from the study folder."""
     notes: dict[str, str] = {}
-    rig: dict[str, Any] = {}
-    toml = study_dir / "study.toml"
-    if toml.is_file():
-        files.append(toml)
-        try:
-            config = read_study_toml(toml)
-            rig = dict(config.get("rig", {}))
-            dbc = rig.get("dbc")
-            if isinstance(dbc, str) and (study_dir / dbc).is_file():
-                files.append(study_dir / dbc)
-        except EvtriboError as err:
-            log.warning("report: %s", err)
+    if study_dir is None:
+        return notes
     try:
         trials, _ = discover_trials(study_dir)
     except (EvtriboError, OSError) as err:
         log.warning("report: cannot list the study's trials: %s", err)
-        trials = []
+        return notes
     for t in trials:
-        files.append(t.log_path)
-        if t.sidecar_path is not None:
-            files.append(t.sidecar_path)
         if t.sidecar.notes:
             notes[t.key] = t.sidecar.notes
-    return files, notes, rig
+    return notes
 
 
 def _trials_table(tables: ResultTables, notes: dict[str, str]) -> pd.DataFrame:
@@ -158,6 +230,44 @@ def _parameters_table(fit_doc: dict[str, Any]) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["parameter", "value", "unit", "role"])
 
 
+def _fit_doc(folder: Path, summary: dict[str, Any]) -> dict[str, Any]:
+    """fit.json, checked: a fit of the analysis now in *folder*, its files as compare wrote
+    them.
+
+    Raises
+    ------
+    ResultFolderError
+        Naming ``evtribo compare OUT --force``.
+    """
+    again = f"run `evtribo compare {folder} --force`"
+    path = folder / FIT_JSON
+    if not path.is_file():
+        if summary.get("run_id") is None:  # results of an older evtribo: a fit.csv alone
+            return {}
+        raise ResultFolderError(f"missing beside fit.csv (a comparison that did not finish?); "
+                                f"{again}", path=path)
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (ValueError, UnicodeDecodeError) as err:
+        raise ResultFolderError(f"not valid JSON ({err}); {again}", path=path) from err
+    if not isinstance(doc, dict):
+        raise ResultFolderError(f"not a model fit written by evtribo compare; {again}",
+                                path=path)
+    run_id = summary.get("run_id")
+    if run_id is not None and doc.get("run_id") != run_id:
+        fitted = doc.get("run_id") or "one without a run_id"
+        raise ResultFolderError(
+            f"the model fit is of another analysis ({fitted}) than the results now in the "
+            f"folder ({run_id}): it was fitted to data that are no longer these; {again}",
+            path=path)
+    for rel, digest in (doc.get("output_sha256") or {}).items():
+        file = inside(folder, str(rel))
+        if file is None or not file.is_file() or sha256_file(file) != digest:
+            raise ResultFolderError(f"missing, or not the file compare wrote (fit.json "
+                                    f"records its SHA-256); {again}", path=folder / str(rel))
+    return doc
+
+
 def build_report(out: str | Path, output: str | Path, *, force: bool = False,
                  run_compare: bool = True, dpi: float = 150) -> Path:
     """Write the HTML report of a result folder.
@@ -185,37 +295,59 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
     ------
     UserInputError
         Missing result folder or tables; missing comparison with *run_compare* False.
+    ResultFolderError
+        The folder is not one analysis's complete results, or its model fit is of another
+        analysis or not whole (exit code 2, naming ``evtribo compare OUT --force``).
     OutputExistsError
         When the report exists and *force* is False.
+    OutputBusyError
+        Another process is writing the folder or the report.
     """
-    tables = read_results(out)
+    folder = check_out_folder(out)
+    if Path(output).exists() and not force:  # before the lock: a refusal writes nothing
+        raise OutputExistsError("the report already exists; use --force to overwrite it",
+                                path=output)
+    with locked(folder, "evtribo report"):
+        recover(folder)
+        tables = read_results(folder)
+        if not (folder / FIT_CSV).is_file() and not (folder / FIT_JSON).is_file():
+            if not run_compare:
+                raise UserInputError(f"no model fit yet: run `evtribo compare {folder}` "
+                                     "first", path=folder / FIT_CSV)
+            log.warning("report: %s has no fit.csv; running `evtribo compare` with its "
+                        "defaults", folder)
+            compare(folder, dpi=dpi)
+        fit_doc = _fit_doc(folder, tables.summary)
+        if not (folder / FIT_CSV).is_file():
+            raise ResultFolderError(f"missing beside fit.json; run `evtribo compare {folder} "
+                                    "--force`", path=folder / FIT_CSV)
+        fit = pd.read_csv(folder / FIT_CSV, dtype={"subject": str})
+        report = _page(tables, fit, fit_doc, Path(output))
+        html = Path(os.path.realpath(output))
+        in_folder = html.is_relative_to(Path(os.path.realpath(folder)))
+        return report.save(output, overwrite=force, unit=folder if in_folder else None)
+
+
+def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: dict[str, Any],
+          output: Path) -> Report:
+    """The report's page (figures from the folder's figures/)."""
     folder = tables.out
-    if not (folder / FIT_CSV).is_file():
-        if not run_compare:
-            raise UserInputError(f"no model fit yet: run `evtribo compare {folder}` first",
-                                 path=folder / FIT_CSV)
-        log.warning("report: %s has no fit.csv; running `evtribo compare` with its defaults",
-                    folder)
-        compare(folder, dpi=dpi)
-    fit = pd.read_csv(folder / FIT_CSV, dtype={"subject": str})
-    fit_doc: dict[str, Any] = {}
-    if (folder / FIT_JSON).is_file():
-        fit_doc = json.loads((folder / FIT_JSON).read_text(encoding="utf-8"))
     figures = fit_doc.get("figures") or [
         {"stem": s, "title": s.replace("_", " "), "caption": "",
          "subject": next((x for x in tables.subjects if s.endswith(f"_{x}")), None)}
         for s in figure_stems(tables.subjects)]
     for f in figures:
-        png = folder / FIGURES / f"{f['stem']}.png"
-        if not png.is_file():
-            raise UserInputError(f"figure missing: run `evtribo compare {folder} --force`",
-                                 path=png)
+        png = inside(folder, f"{FIGURES}/{f.get('stem')}.png")
+        if png is None or not png.is_file():
+            raise ResultFolderError(f"figure missing: run `evtribo compare {folder} --force`",
+                                    path=png or folder / FIT_JSON)
+        f["png"] = png
 
     summary = tables.summary
     name = _study_name(summary, folder)
     study_dir = _study_dir(summary, folder)
-    inputs, notes, rig = _study_inputs(study_dir) if study_dir else ([], {}, {})
-    trials = _trials_table(tables, notes)
+    inputs, input_warnings = _inputs(summary, study_dir)
+    trials = _trials_table(tables, _notes(study_dir, tables))
     report = Report(f"evtribo report: {name}")
 
     # --------------------------------------------------------------- study summary
@@ -248,7 +380,7 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
                              "amplitudes.")
     for f in figures:
         if f.get("subject") is None:
-            report.add_figure(folder / FIGURES / f"{f['stem']}.png", f["title"],
+            report.add_figure(f["png"], f["title"],
                               caption=f.get("caption", ""), section=sec)
     report.add_table(_parameters_table(fit_doc), "Model parameters", section=sec)
 
@@ -261,33 +393,37 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
         report.add_table(trials[trials["subject"] == subject], "Trials", section=sec)
         for f in figures:
             if f.get("subject") == subject:
-                report.add_figure(folder / FIGURES / f"{f['stem']}.png", f["title"],
+                report.add_figure(f["png"], f["title"],
                                   caption=f.get("caption", ""), section=sec)
 
     # -------------------------------------------------------------------- warnings
-    report.add_list(_warnings(tables, fit_doc), "Warnings", section="Warnings",
-                    caption="From summary.json, trials.csv (dropped frames, skipped lines) "
-                            "and the model comparison.")
+    for w in input_warnings:
+        log.warning("report: %s", w)
+    report.add_list([*input_warnings, *_warnings(tables, fit_doc)], "Warnings",
+                    section="Warnings",
+                    caption="The study folder now against the inputs summary.json records; "
+                            "then from summary.json, trials.csv (dropped frames, skipped "
+                            "lines) and the model comparison.")
 
     # ------------------------------------------------------------------ provenance
     sec = "Provenance"
-    recorded: list[dict[str, Any]] = []
-    _hashes_in(summary.get("inputs", summary.get("files", [])), recorded)
-    if recorded:
-        report.add_table(pd.DataFrame(recorded, columns=["file", "bytes", "sha256"]),
-                         "Input files (as recorded in summary.json)", section=sec)
-    if inputs:
-        report.add_table(file_hashes(inputs, study_dir or folder),
-                         f"Input files (study folder {study_dir}, hashed now)", section=sec)
-    if not recorded and not inputs:
-        report.add_text("The study folder named in summary.json is not available here: "
-                        "input files could not be hashed.", section=sec)
-    html_path = Path(output).resolve()
+    if not inputs.empty:
+        caption = (f"now: each file of the study folder {study_dir} hashed again"
+                   if study_dir is not None else "The study folder named in summary.json is "
+                   "not available here: the inputs could not be hashed again.")
+        report.add_table(inputs, "Input files (as recorded in summary.json)", section=sec,
+                         caption=caption)
+    else:
+        report.add_text("summary.json records no input files inside the study folder.",
+                        section=sec)
+    html_path = output.resolve()
     out_files = [p for p in sorted(folder.iterdir())
-                 if p.is_file() and p.resolve() != html_path]
+                 if p.is_file() and p.resolve() != html_path and not p.name.startswith(".")]
     out_files += sorted((folder / FIGURES).glob("*")) if (folder / FIGURES).is_dir() else []
+    out_files = [p for p in out_files if inside(folder, p.relative_to(folder).as_posix())]
     report.add_table(file_hashes(out_files, folder), "Result files", section=sec)
-    rig_info = summary.get("rig") if isinstance(summary.get("rig"), dict) else rig
+    rig_info = summary.get("rig") if isinstance(summary.get("rig"), dict) else \
+        _study_rig(study_dir)
     if rig_info:
         report.add_table(pd.DataFrame([{"key": k, "value": json.dumps(v) if isinstance(
             v, dict | list) else v} for k, v in rig_info.items()]), "Rig", section=sec)
@@ -320,4 +456,4 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
     if pfile:
         report.add_text(f"Model parameter file: {pfile.get('path')} "
                         f"(sha256 {pfile.get('sha256')})", section=sec)
-    return report.save(output, overwrite=force)
+    return report

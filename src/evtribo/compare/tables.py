@@ -26,6 +26,13 @@ next to electrostatic.csv; columns :data:`BOOTSTRAP_COLUMNS`): bootstrap replica
 electrostatic.csv row, replicate ``i`` of one subject's rows coming from one resampling of
 its windows. :mod:`evtribo.compare.fit` refits the model to them for its intervals, and falls
 back to the Jacobian when the file is absent.
+
+A result folder is read only if it is one analysis's complete results: ``summary.json``
+present and whole, and every table the SHA-256 ``summary.json`` records for it
+(``output_sha256``, under the analysis's ``run_id``), with no table of another analysis
+beside them. Anything else (a file changed, missing or half-written, a mix of two analyses)
+raises :class:`~evtribo.errors.ResultFolderError` naming the file. Result folders of an older
+evtribo, without a ``run_id``, are read as they are.
 """
 
 from __future__ import annotations
@@ -40,12 +47,15 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from evtribo.errors import UserInputError
+from evtribo.analysis.outputs import ANALYSIS_FILES, SUMMARY_FILE
+from evtribo.errors import ResultFolderError, UserInputError
+from evtribo.resultdir import locked, pending, recover, sha256_file
 
 log = logging.getLogger(__name__)
 
 __all__ = ["BOOTSTRAP_COLUMNS", "BOOTSTRAP_CSV", "MIN_REPLICATES", "REQUIRED_COLUMNS",
-           "SINE_TRACE_COLUMNS", "ResultTables", "read_results", "replicate_matrix"]
+           "SINE_TRACE_COLUMNS", "ResultTables", "check_analysis", "read_results",
+           "read_summary", "replicate_matrix"]
 
 #: Columns each table must have for the comparison (study-format §2).
 REQUIRED_COLUMNS: dict[str, tuple[str, ...]] = {
@@ -131,6 +141,68 @@ def check_out_folder(out: str | Path) -> Path:
     return path
 
 
+def _again(folder: Path, summary: dict[str, Any]) -> str:
+    study = summary.get("study_dir")
+    return f"run `evtribo analyze {study if isinstance(study, str) else 'STUDY'} --out " \
+           f"{folder} --force` again"
+
+
+def read_summary(folder: Path) -> dict[str, Any]:
+    """``summary.json`` of a result folder ({} when the folder holds no analysis at all).
+
+    Raises
+    ------
+    ResultFolderError
+        summary.json is not whole, or is missing beside tables of an analysis.
+    """
+    path = folder / SUMMARY_FILE
+    if not path.is_file():
+        present = [n for n in ANALYSIS_FILES if (folder / n).is_file()]
+        if present:
+            raise ResultFolderError(
+                f"missing beside {', '.join(present)}: the folder does not hold an "
+                "analysis's complete results (one that was interrupted?); run `evtribo "
+                f"analyze STUDY --out {folder} --force` again", path=path)
+        return {}
+    try:
+        loaded = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise ResultFolderError(f"not valid JSON ({err}): half-written?; run `evtribo "
+                                f"analyze STUDY --out {folder} --force` again",
+                                path=path) from err
+    return loaded if isinstance(loaded, dict) else {"summary": loaded}
+
+
+def check_analysis(folder: Path, summary: dict[str, Any]) -> None:
+    """Refuse a folder whose tables are not those of the analysis *summary* describes.
+
+    Raises
+    ------
+    ResultFolderError
+        Naming the first table missing, changed (or half-written), or of another analysis.
+    """
+    run_id = summary.get("run_id")
+    hashes = summary.get("output_sha256")
+    if run_id is None or not isinstance(hashes, dict):
+        return  # results of an older evtribo: nothing to check them against
+    for name in ANALYSIS_FILES:
+        path = folder / name
+        if name in hashes:
+            if not path.is_file():
+                raise ResultFolderError(
+                    f"missing: the folder holds part of analysis {run_id}'s results only; "
+                    f"{_again(folder, summary)}", path=path)
+            if sha256_file(path) != hashes[name]:
+                raise ResultFolderError(
+                    f"not the file analysis {run_id} wrote (its SHA-256 differs from the one "
+                    "in summary.json: changed since, half-written, or of another analysis); "
+                    f"{_again(folder, summary)}", path=path)
+        elif name != SUMMARY_FILE and path.exists():
+            raise ResultFolderError(
+                f"not written by analysis {run_id} (summary.json does not list it): a file of "
+                f"another analysis; {_again(folder, summary)}", path=path)
+
+
 def read_results(out: str | Path) -> ResultTables:
     """Read the tables of a result folder.
 
@@ -148,8 +220,17 @@ def read_results(out: str | Path) -> ResultTables:
     UserInputError
         When the folder, ``electrostatic.csv`` or ``windows.csv`` is missing, or a table
         lacks a required column.
+    ResultFolderError
+        When the folder is not one analysis's complete results (see the module's notes).
+    OutputBusyError
+        When another process is writing the folder.
     """
     folder = check_out_folder(out)
+    if pending(folder):  # a write that was interrupted after its commit: finish it first
+        with locked(folder, "evtribo (reading results)"):
+            recover(folder)
+    summary = read_summary(folder)
+    check_analysis(folder, summary)
     tables: dict[str, pd.DataFrame] = {}
     for name, required in REQUIRED_COLUMNS.items():
         path = folder / name
@@ -164,14 +245,6 @@ def read_results(out: str | Path) -> ResultTables:
     if tables["electrostatic.csv"].empty:
         raise UserInputError("no electrostatic results (no ON data?): nothing to compare",
                              path=folder / "electrostatic.csv")
-    summary: dict[str, Any] = {}
-    summary_path = folder / "summary.json"
-    if summary_path.is_file():
-        try:
-            loaded = json.loads(summary_path.read_text(encoding="utf-8"))
-        except (json.JSONDecodeError, UnicodeDecodeError) as err:
-            raise UserInputError(f"not valid JSON: {err}", path=summary_path) from err
-        summary = loaded if isinstance(loaded, dict) else {"summary": loaded}
     trace = None
     trace_path = folder / "sine_trace.csv"
     if trace_path.is_file():

@@ -1,0 +1,124 @@
+"""The files of a result folder: which of them ``analyze``, ``compare`` and ``report`` write.
+
+``evtribo analyze --force`` replaces the files of all three commands in OUT, and no others
+(a user's notes beside them stay): this module names them, so that an analysis removes the
+model fit and the report of the results it replaces. :mod:`evtribo.resultdir` writes the
+folder as one unit; :func:`check_out_dir` keeps it out of the study.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+from evtribo.errors import OutputExistsError, UserInputError
+from evtribo.resultdir import inside
+
+__all__ = ["ANALYSIS_FILES", "BOOTSTRAP_FILE", "FIGURES", "FIT_CSV", "FIT_JSON",
+           "OUTPUT_FILES", "SINE_TRACE_FILE", "SUMMARY_FILE", "check_out_dir",
+           "check_overwrite", "compare_files", "report_files"]
+
+SUMMARY_FILE = "summary.json"
+#: The files ``analyze_study`` writes into its output folder.
+OUTPUT_FILES = ("trials.csv", "windows.csv", "electrostatic.csv", "exponents.csv",
+                SUMMARY_FILE, "electrostatic_bootstrap.csv")
+#: The bootstrap replicates of electrostatic.csv (an addition to the study format).
+BOOTSTRAP_FILE = "electrostatic_bootstrap.csv"
+#: Written too when the study has sine trials: a stretch of each one's forces around a
+#: switch from OFF to ON, for the model comparison (columns in evtribo.compare.tables).
+SINE_TRACE_FILE = "sine_trace.csv"
+#: Every file of analyze's.
+ANALYSIS_FILES = (*OUTPUT_FILES, SINE_TRACE_FILE)
+#: compare's files, and the folder of its figures.
+FIT_CSV, FIT_JSON, FIGURES = "fit.csv", "fit.json", "figures"
+#: The stems of compare's figures (``electrostatic_force_P01.png``...).
+_FIGURE = re.compile(r"^(friction_time|area_increase|electrostatic_force_.+|"
+                     r"friction_normal_force_.+)\.(png|svg|pdf)$")
+#: What the first bytes of a report written by ``evtribo report`` hold.
+_REPORT_MARK = b'<meta name="generator" content="evtribo'
+
+
+def compare_files(out: Path) -> list[str]:
+    """compare's files in *out* (relative): fit.csv, fit.json, and its figures (those
+    fit.json lists, and those named as compare names them)."""
+    found = [name for name in (FIT_CSV, FIT_JSON) if (out / name).is_file()]
+    listed: set[str] = set()
+    try:
+        doc = json.loads((out / FIT_JSON).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        doc = {}
+    if isinstance(doc, dict):
+        listed.update(str(k) for k in (doc.get("output_sha256") or {}))
+        for fig in doc.get("figures") or []:
+            if isinstance(fig, dict) and isinstance(fig.get("stem"), str):
+                listed.update(f"{FIGURES}/{fig['stem']}.{ext}" for ext in ("png", "svg"))
+    if (out / FIGURES).is_dir():
+        listed.update(f"{FIGURES}/{p.name}" for p in (out / FIGURES).iterdir()
+                      if _FIGURE.match(p.name))
+    found += sorted(rel for rel in listed - set(found)
+                    if (p := inside(out, rel)) is not None and p.is_file())
+    return found
+
+
+def _is_report(path: Path) -> bool:
+    try:
+        with path.open("rb") as fh:
+            return _REPORT_MARK in fh.read(4096)
+    except OSError:
+        return False
+
+
+def report_files(out: Path) -> list[str]:
+    """The files of reports ``evtribo report`` wrote into *out* (relative): each HTML page
+    that says evtribo generated it, and the PNG and SVG figures of its ``<name>_files/``."""
+    if not out.is_dir():
+        return []
+    found = []
+    for page in sorted(out.glob("*.html")):
+        if page.is_file() and _is_report(page):
+            found.append(page.name)
+            figures = out / f"{page.stem}_files"
+            if figures.is_dir():
+                found += sorted(f"{figures.name}/{p.name}" for p in figures.iterdir()
+                                if p.is_file() and p.suffix.lower() in (".png", ".svg"))
+    return found
+
+
+def check_overwrite(out: Path, force: bool) -> None:
+    """Refuse (unless *force*) an output folder that holds results of analyze, compare or
+    report.
+
+    Raises
+    ------
+    OutputExistsError
+        Naming the first such file.
+    """
+    if force:
+        return
+    taken = [out / n for n in ANALYSIS_FILES if (out / n).exists()]
+    if out.is_dir():
+        taken += [out / rel for rel in (*compare_files(out), *report_files(out))]
+    if taken:
+        raise OutputExistsError("already exists; give --force to overwrite the results",
+                                path=taken[0])
+
+
+def check_out_dir(out: Path, study_root: Path) -> None:
+    """Refuse an output folder inside the study (the next analysis would read its tables as
+    part of the study) or one that is a file.
+
+    Raises
+    ------
+    UserInputError
+        Naming the output folder and the study.
+    """
+    study = Path(study_root).resolve()
+    where = Path(out).resolve()
+    if where == study or study in where.parents:
+        raise UserInputError(
+            f"the output folder is inside the study folder {study_root}: the next analysis "
+            "would read the results as part of the study; choose a folder outside it, e.g. "
+            f"{Path(study_root).parent / (study.name + '-results')}", path=out, key="--out")
+    if Path(out).exists() and not Path(out).is_dir():
+        raise UserInputError("is a file, not a folder for the results", path=out, key="--out")
