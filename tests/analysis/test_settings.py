@@ -91,11 +91,13 @@ def test_the_command_line_overrides_the_study(small_study, tmp_path, capsys):
     _with_analysis(small_study, 'tare = "none"\n')
     try:
         assert main(["analyze", str(small_study), "--out", str(tmp_path / "o"), "--jobs", "1",
-                     "--tare", "lifted", "--set", "n_boot=200", "--set", "hum=keep"]
-                    ) == 0
+                     "--tare", "lifted", "--set", "n_boot=200", "--set", "hum=keep",
+                     "--guard-s", "0.25", "--seed", "7", "--confidence", "0.9"]) == 0
         summary = json.loads((tmp_path / "o" / "summary.json").read_text(encoding="utf-8"))
         assert summary["settings"]["tare"] == "lifted"
         assert summary["settings"]["n_boot"] == 200
+        assert (summary["settings"]["guard_s"], summary["settings"]["seed"],
+                summary["settings"]["confidence"]) == (0.25, 7, 0.9)
         assert summary["settings"]["hum"] == "keep"
         trials = pd.read_csv(tmp_path / "o" / "trials.csv")
         assert (trials.tare == "lifted").all()

@@ -43,10 +43,22 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                           help="how the load cells' zero offsets are removed (default auto: "
                                "[rig.calibration], then the finger-lifted stretches, then the "
                                "friction loop)")
+    settings.add_argument("--guard-s", type=float, metavar="S",
+                          help="time excluded on each side of an ON/OFF switch, s")
+    settings.add_argument("--confidence", type=float, metavar="P",
+                          help="coverage of the confidence intervals (0.95)")
+    settings.add_argument("--n-boot", type=int, metavar="N",
+                          help="bootstrap replicates of the electrostatic force (2000)")
+    settings.add_argument("--seed", type=int, metavar="N", help="seed of the bootstrap (0)")
     settings.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                          help="any analysis setting, e.g. --set guard_s=0.3 (repeatable)")
+                          help="any analysis setting, e.g. --set min_window_s=0.3 "
+                               "(repeatable)")
     p.set_defaults(func=run)
     return p
+
+
+#: Settings that have an option of their own (the others: --set).
+_FLAGS = ("tare", "guard_s", "confidence", "n_boot", "seed")
 
 
 class _ProgressBar:
@@ -69,8 +81,9 @@ def run(args: argparse.Namespace) -> int:
         print("evtribo analyze: error: --jobs must be 1 or more", file=sys.stderr)
         return 2
     overrides = dict(parse_setting(text) for text in args.set)
-    if args.tare is not None:
-        overrides["tare"] = args.tare
+    for key in _FLAGS:
+        if getattr(args, key) is not None:
+            overrides[key] = getattr(args, key)
     progress = _ProgressBar(sys.stderr) if sys.stderr.isatty() else None
     try:
         with sigterm_interrupts():
