@@ -198,3 +198,27 @@ def test_cli_simulates_a_real_rig_by_default_and_an_ideal_one_on_request(tmp_pat
     assert sim["cells"]["normal"]["hum_N"] == 0.0 and given.extra["tare_s"] == 2.0
     assert sim["crosstalk"] == [[1.0, 0.01], [0.02, 1.0]]
     json.dumps(sim)  # the truth is plain JSON
+
+
+def test_cli_sets_the_subjects_model_and_the_force_follows_the_drive_frequency(tmp_path):
+    """--set r_g=... (any model parameter): a leaky gap loses the force at low frequency,
+    as the model under that drive says."""
+    from evtribo import model
+
+    study = tmp_path / "st"
+    for trial, freq in (("f20", "20"), ("f10k", "10000")):
+        assert main(["simulate", "--study", str(study), "--trial", trial, "--duration", "6",
+                     "--ideal", "--condition", "on", "--amplitude", "100", "--frequency",
+                     freq, "--set", "r_g=80", "--set", "E_star=50e3"]) == 0
+    sims = {t: read_sidecar(study / "P01" / f"{t}.json", default_subject="P01")
+            .extra["simulation"] for t in ("f20", "f10k")}
+    assert sims["f20"]["subject"]["model"] == {"r_g": 80.0, "E_star": 50e3}
+    params = model.TABLE_1.with_values(r_g=80.0, E_star=50e3)
+    for trial, freq in (("f20", 20.0), ("f10k", 1e4)):
+        sim = sims[trial]
+        assert sim["electrostatic_force_mean_N"] == pytest.approx(float(
+            model.electrostatic_force_drive(sim["normal_force_on_N"], 100.0, freq,
+                                            "square", params)), rel=0.02)
+    assert sims["f20"]["electrostatic_force_mean_N"] < 0.2 * sims["f10k"][
+        "electrostatic_force_mean_N"]
+    assert main(["simulate", "--study", str(study), "--trial", "bad", "--set", "r_q=1"]) == 2

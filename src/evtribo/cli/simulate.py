@@ -107,6 +107,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                       help="finger lift-offs per minute (2-4; ideal 0)")
     subj.add_argument("--lift-time", type=float, metavar="S",
                       help="mean time off the screen per lift-off, s (0.3-0.5)")
+    subj.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                      dest="model_set",
+                      help="a parameter of the subject's model, SI units (repeatable; "
+                           "evtribo model --list), e.g. --set r_g=80 for a gap that leaks "
+                           "(the force then depends on the drive's frequency)")
 
     rig = p.add_argument_group("the rig")
     rig.add_argument("--fz-rate", type=float, default=1000.0, help="normal cell, Hz (1000)")
@@ -187,6 +192,15 @@ def _build(args: argparse.Namespace, duration: float, trial_s: float) -> tuple[A
         given_rig["crosstalk"] = ((1.0, args.crosstalk[0]), (args.crosstalk[1], 1.0))
     options = {**_SUBJECT_OPTIONS, **_TRIAL_OPTIONS}
     try:
+        if args.model_set:
+            from evtribo.model import TABLE_1
+
+            changed = TABLE_1.with_assignments(args.model_set)
+            given_subject["model"] = {k: v for k, v in changed.as_dict().items()
+                                      if v != getattr(TABLE_1, k) and k not in ("mu", "h_L")}
+            for name in ("mu", "h_L"):  # the subject's own: --mu, --air-gap
+                if getattr(changed, name) != getattr(TABLE_1, name):
+                    subject_kw[name] = getattr(changed, name)
         subject = SubjectParams(**subject_kw, **IDEAL_SUBJECT)
         config = TrialConfig(**trial_kw)
         if not args.ideal:
