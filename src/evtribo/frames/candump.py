@@ -173,7 +173,7 @@ def _row_checks(mat: npt.NDArray[np.uint8], lay: dict[str, int]
     close = lay["int1"] if lay["dot"] < 0 else lay["frac1"]
     checks: list[tuple[npt.NDArray[np.uint8], Callable[..., Any] | int]] = [
         (mat[:, 0], ord("(")), (mat[:, close], ord(")")),
-        (mat[:, close + 1:lay["ch0"]], ord(" ")), (mat[:, lay["ch1"]], ord(" ")),
+        (mat[:, close + 1], ord(" ")), (mat[:, lay["ch1"]], ord(" ")),
         (mat[:, lay["id1"]], ord("#")),
         (mat[:, lay["int0"]:lay["int1"]], _is_digit),
         (mat[:, lay["id0"]:lay["id1"]], _is_hex),
@@ -193,26 +193,34 @@ def _row_checks(mat: npt.NDArray[np.uint8], lay: dict[str, int]
     return checks
 
 
-def _channels(mat: npt.NDArray[np.uint8], lay: dict[str, int], rows: Any, out: _Chunk) -> None:
-    """Code each row's channel name into ``out.channel_index``: one comparison of 8 bytes
-    per row (read as one integer, masked to the name) when every row names the same
-    channel, as a one-bus log does."""
-    n = len(mat)
-    if not n:
-        return
-    ch0, width = lay["ch0"], lay["ch1"] - lay["ch0"]
+def _channels(mat: npt.NDArray[np.uint8], lay: dict[str, int], out: _Chunk
+              ) -> tuple[npt.NDArray[np.int16] | int, npt.NDArray[np.bool_] | None]:
+    """Each row's channel code, and which rows name no valid channel (None: all do).
+
+    The channel field runs from after ``") "`` to the space before the identifier: candump
+    right-aligns the names of a log of several buses, so a shorter name comes with spaces
+    before it. When every row holds the same field (a one-bus log) this is one comparison
+    of 8 bytes per row, read as one integer and masked to the field.
+    """
+    ch0 = (lay["int1"] if lay["dot"] < 0 else lay["frac1"]) + 2
+    width = lay["ch1"] - ch0
     if width <= 8 and ch0 + 8 <= mat.shape[1] and mat.strides[1] == 1:
         mask = np.uint64((1 << (8 * width)) - 1)
         keys = mat[:, ch0:ch0 + 8].view("<u8")[:, 0] & mask
-    else:  # long names: the bytes themselves
+    else:  # long fields: the bytes themselves
         keys = np.ascontiguousarray(mat[:, ch0:ch0 + width]).view(f"V{width}").ravel()
+
+    def code(row: int) -> int:
+        name = mat[row, ch0:ch0 + width].tobytes().lstrip(b" ")
+        return -1 if not name or b" " in name else out.code(name)
+
     if bool((keys == keys[0]).all()):
-        out.channel_index[rows] = out.code(mat[0, ch0:ch0 + width].tobytes())
-        return
-    _unique, first, inverse = np.unique(keys, return_index=True, return_inverse=True)
-    codes = np.array([out.code(mat[i, ch0:ch0 + width].tobytes()) for i in first],
-                     dtype=np.int16)
-    out.channel_index[rows] = codes[inverse.ravel()]
+        first = code(0)
+        return (first, None) if first >= 0 else (first, np.ones(len(mat), dtype=bool))
+    _unique, firsts, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    codes = np.array([code(i) for i in firsts], dtype=np.int16)[inverse.ravel()]
+    bad = codes < 0
+    return codes, bad if bad.any() else None
 
 
 def _parse_group(mat: npt.NDArray[np.uint8], lay: dict[str, int],
@@ -251,18 +259,23 @@ def _parse_group(mat: npt.NDArray[np.uint8], lay: dict[str, int],
     keep = whole < 2.0**53
     if not long_id:
         keep &= can_id <= 0x7FF
+    channels, bad_channel = _channels(mat, lay, out) if len(mat) else (0, None)
+    if bad_channel is not None:
+        keep &= ~bad_channel
     if not keep.all():  # the others go to the slow path
         ok[np.flatnonzero(ok)[~keep]] = False
         if isinstance(rows, slice):
             rows = np.arange(len(keep))
         mat, rows, whole, can_id = mat[keep], rows[keep], whole[keep], can_id[keep]
+        if not isinstance(channels, int):
+            channels = channels[keep]
     ts = whole / scale
     if long_id:
         error = (can_id & np.uint32(CAN_ERR_FLAG)) != 0
         out.is_extended[rows] = ~error
         out.is_error[rows] = error
     out.timestamp[rows] = ts
-    _channels(mat, lay, rows, out)
+    out.channel_index[rows] = channels
     out.arbitration_id[rows] = can_id & np.uint32(CAN_EFF_MASK)
     out.is_fd[rows] = bool(lay["fd"])
     nb = lay["nbytes"]
