@@ -129,13 +129,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run ``evtribo`` with *argv*; return the exit code (0 done, 1 failed, 2 bad input,
     141 standard output closed early)."""
     try:
-        code = _main(argv)
-        sys.stdout.flush()  # here, not at exit, where a closed pipe can only be warned about
+        try:
+            return _main(argv)
+        finally:  # here, not at exit, where a closed pipe could only be warned about
+            if sys.stdout is not None:
+                sys.stdout.flush()
     except BrokenPipeError:
         if not _stdout_closed():
             raise
         return _quiet_exit()
-    return code
 
 
 def _main(argv: Sequence[str] | None) -> int:

@@ -102,14 +102,15 @@ def _refuse_raw_logs(out: str, log_path: str) -> None:
                              "folder, or as .parquet", path=out)
 
 
-def _channel(frames: FrameTable, channel: str | None) -> tuple[FrameTable, bool]:
+def _channel(frames: FrameTable, channel: str | None, log_path: str
+             ) -> tuple[FrameTable, bool]:
     """The frames of *channel* (all without it), and whether to write a channel column."""
     if channel is None:
         return frames, len(frames.channel_names) > 1
     if channel not in frames.channel_names:
         have = ", ".join(frames.channel_names) or "none (its format names no channel)"
         raise UserInputError(f"the log has no channel {channel!r}; its channels: {have}",
-                             key="--channel")
+                             path=log_path, key="--channel")
     return frames.take(frames.on_channel(channel)), True
 
 
@@ -125,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
         raise OutputExistsError("exists; use --force to overwrite", path=out)
     db = load_dbc(args.dbc)
     frames, report = read_frames(args.log, strict=args.strict)
-    frames, with_channel = _channel(frames, args.channel)
+    frames, with_channel = _channel(frames, args.channel, args.log)
     table = decoded_table(frames, db, choices=args.choices, with_channel=with_channel)
     tmp = f"{out}.tmp-{os.getpid()}"
     try:
