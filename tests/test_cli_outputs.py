@@ -9,10 +9,11 @@ from pathlib import Path
 import can
 import pytest
 
-from evtribo.cli import EXIT_BROKEN_PIPE, main
+from evtribo.cli import main
 from evtribo.rig import default_rig
 
 DBC = str(default_rig().dbc)
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, what a shell reports for a tool SIGPIPE ended
 FRAMES = [can.Message(timestamp=1763700000 + i * 1e-3, arbitration_id=0xC1 + i % 2,
                       is_extended_id=False, data=bytes(8)) for i in range(20)]
 
