@@ -64,8 +64,11 @@ def _time(text: str) -> tuple[int, int, bool] | str:
         m = _DATE.fullmatch(text)
         if m is None:
             return f"bad timestamp {text[:30]!r}"
-        stamp = dt.datetime.strptime(m["date"], "%Y-%m-%d %H:%M:%S").replace(tzinfo=dt.UTC)
-        seconds = int(stamp.timestamp())
+        try:
+            stamp = dt.datetime.strptime(m["date"], "%Y-%m-%d %H:%M:%S")
+        except ValueError:
+            return f"bad date {m['date']!r}"
+        seconds = int(stamp.replace(tzinfo=dt.UTC).timestamp())
         date = True
     else:
         seconds = int(m["int"])
