@@ -269,3 +269,19 @@ def test_candump_logs_written_by_evtribo_and_python_can_are_not_refused(tmp_path
                         writer.on_message_received(m)
         frames, _ = read_frames(path)
         assert len(frames) > 50
+
+
+@pytest.mark.parametrize("mode", ["d", None])
+def test_a_run_of_nul_bytes_does_not_hide_what_a_text_log_is(tmp_path, reference, mode):
+    """A power cut can leave a text log with a run of NUL bytes: it stays a damaged line of
+    the log it is (candump -td screen output here, candump -L written by evtribo)."""
+    msgs, ref = reference
+    path = tmp_path / "run-01.log"
+    if mode is None:
+        write_candump(path, ref)
+        text = path.read_bytes()
+    else:
+        text = screen_log(msgs, mode).encode()
+    path.write_bytes(b"\x00" * 300 + text[:2000] + b"\x00" * 3000 + b"\n" + text[2000:])
+    frames, report = read_frames(path)
+    assert report.skipped_lines >= 1 and len(frames) >= len(ref) - 3

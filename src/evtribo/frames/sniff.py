@@ -157,9 +157,12 @@ def sniff_bytes(head: bytes) -> Sniffed | None:
             return Sniffed("gzip", "gzip-compressed data", None)
         return Sniffed(f"gzip:{found.kind}", f"gzip-compressed {found.description}",
                        found.suffix + ".gz", found.first_line)
-    if b"\x00" in head[:4096]:
+    # NUL bytes: binary data, or a text log with a run of them (a file system's answer to a
+    # power cut): the lines decide
+    found = _sniff_text(head.replace(b"\x00", b"").decode("utf-8", "replace"))
+    if b"\x00" in head[:4096] and (found is None or found.kind in ("unknown", "csv")):
         return Sniffed("binary", "binary data of no log format evtribo knows", None)
-    return _sniff_text(head.decode("utf-8", "replace"))
+    return found
 
 
 def _sniff_text(text: str) -> Sniffed | None:
