@@ -99,6 +99,10 @@ class FrameTable:
         """Frames per channel name (None: frames whose log names no channel), in the order
         of ``channel_names``; only the frames selected by *mask* when given."""
         idx = self.channels if mask is None else self.channels[mask]
+        if len(self.channel_names) <= 1:  # one channel or none: one cheap pass
+            none = int(np.count_nonzero(idx < 0))
+            named = {self.channel_names[0]: len(idx) - none} if self.channel_names else {}
+            return {k: v for k, v in ({None: none} | named).items() if v}
         counts = np.bincount(idx.astype(np.int64) + 1, minlength=len(self.channel_names) + 1)
         out: dict[str | None, int] = {}
         if counts[0]:
@@ -157,7 +161,8 @@ class FrameTable:
         for t in tables:
             remap = np.array([NO_CHANNEL] + [_code(names, n) for n in t.channel_names],
                              dtype=np.int16)
-            codes.append(remap[t.channels.astype(np.int64) + 1])
+            same = bool((remap[1:] == np.arange(len(remap) - 1)).all())
+            codes.append(t.channels if same else remap[t.channels.astype(np.int64) + 1])
             for name, count in t.reported_drops.items():
                 drops[name] = drops.get(name, 0) + count
         return FrameTable(
