@@ -9,6 +9,7 @@ a row without a builder, or a builder without a row, fails the suite.
 
 from __future__ import annotations
 
+import gzip
 import json
 import os
 import re
@@ -38,6 +39,24 @@ dbc = "rig/default.dbc"
 normal_force = "FzCell.Fz"
 tangential_force = "FxCell.Fx"
 """
+
+
+PEER_LOGS = Path(__file__).parent / "data" / "logs"
+CANDUMP_PLAIN = ("  vcan0  0C1   [8]  00 00 00 00 00 00 00 00\n"
+                 "  vcan0  0C2   [8]  00 00 00 00 00 00 00 00\n")
+SAVVYCAN = ("Time Stamp,ID,Extended,Dir,Bus,LEN,D1,D2,D3,D4,D5,D6,D7,D8\n"
+            "166064000,000000C1,false,Rx,0,8,00,00,00,00,00,00,00,00,\n")
+
+
+def _csv_log(path: Path) -> None:
+    """A python-can CSV log of two frames."""
+    import can
+
+    with can.Logger(path) as writer:
+        for i in range(2):
+            writer.on_message_received(can.Message(timestamp=1763700000 + i * 1e-3,
+                                                   arbitration_id=0xC1, is_extended_id=False,
+                                                   data=bytes(8)))
 
 
 def make_study(root: Path) -> None:
@@ -242,6 +261,16 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "report-fit-half-written": lambda t: _results(t, fit_of="aaaa", cut="fit.csv"),
     "compare-summary-half-written": lambda t: _results(t, cut="summary.json"),
     "analyze-out-is-a-file": _text(Path("out"), "not a folder\n"),
+    "log-candump-no-timestamps": _text(Path("run-01.log"), CANDUMP_PLAIN),
+    "log-asc-named-log": lambda t: shutil.copy(PEER_LOGS / "logfile.asc", t / "run-01.log"),
+    "log-savvycan-csv": _text(Path("run-01.csv"), SAVVYCAN),
+    "log-no-frame": _text(Path("run-01.log"), "trial 1, P01: finger slipped at 3 s\n"),
+    "log-db-gz": lambda t: (t / "run-01.db.gz").write_bytes(gzip.compress(b"SQLite format 3")),
+    "log-db-unreadable": _text(Path("run-01.db"), "not a database\n"),
+    "decode-output-is-input": lambda t: _csv_log(t / "run-01.csv"),
+    "decode-output-is-a-log": lambda t: _csv_log(t / "run-02.csv"),
+    "decode-csv-in-study": lambda t: None,
+    "decode-channel-missing": lambda t: None,
 }
 
 

@@ -9,22 +9,24 @@ Two entry points:
     ``raw * scale + offset`` as cantools' ``raw_to_scaled``) and ``choice_names(name)``
     (value-table names). Used by ``evtribo decode``.
 
-``decode_trial(frames, rig) -> TrialSignals``
+``decode_trial(frames, rig, channel=None) -> TrialSignals``
     The forces of one trial: ``.normal`` and ``.tangential`` (:class:`CellSignals`: ``t`` s,
     ``value`` N, ``counter``, ``dropped`` frames), ``.excitation`` (None, or
     :class:`ExcitationSignals`: ``t``, ``enabled``, ``amplitude`` V, ``frequency`` Hz,
     ``waveform`` names), and the counts ``frames`` (rig frames decoded) and
-    ``ignored_frames`` (other IDs, error and remote frames, frames too short, frames of a
-    multiplexed message whose multiplexer value the DBC does not know).
+    ``ignored_frames`` (other IDs, other channels, error and remote frames, CAN XL frames,
+    frames too short, frames of a multiplexed message whose multiplexer value the DBC does
+    not know). The rig's frames come from one channel (bus): the one named, else the one
+    carrying most of them, with a warning when the rig's IDs arrive on several (the same ID
+    on two buses is two streams, never merged).
 
-How a signal is extracted (:class:`SignalCodec`): Intel (little-endian) and Motorola
-(big-endian, DBC "sawtooth" start bit) layouts of any start bit and length up to 64 bits are
-assembled from byte columns into a uint64, shifted and masked; with 8-byte payloads a whole
-column is read as one uint64 (``'<u8'`` or ``'>u8'``). Signed values are sign-extended;
-32- and 64-bit IEEE floats are reinterpreted. Multiplexed messages fall back to cantools'
-``decode`` frame by frame; a frame cantools refuses (an unknown multiplexer value) gets NaN
-signals and is counted, not fatal. Frames match a message by ID and standard/extended kind; frames
-shorter than the message's length are not decoded (cantools refuses them too).
+How a signal is extracted: :class:`~evtribo.signal_codec.SignalCodec` (any byte order,
+start bit, length up to 64 bits, sign, IEEE float), vectorised over frames. Multiplexed
+messages fall back to cantools' ``decode`` frame by frame; a frame cantools refuses (an
+unknown multiplexer value) gets NaN signals and is counted, not fatal. Frames match a
+message by ID and standard/extended kind (a standard 0x0C1 frame is not the extended message
+0x000000C1: such frames are not decoded, and a warning says so); frames shorter than the
+message's length are not decoded (cantools refuses them too).
 """
 
 from __future__ import annotations
@@ -35,129 +37,17 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 from cantools.database import DecodeError
-from cantools.database.can import Database, Message, Signal
+from cantools.database.can import Database, Message
 
 from evtribo.dropped import missing_frames
+from evtribo.errors import UserInputError
 from evtribo.frames.table import FrameTable
 from evtribo.rig import Rig, SignalRef
+from evtribo.signal_codec import SignalCodec
 
 log = logging.getLogger(__name__)
 
 Array = npt.NDArray[np.float64]
-
-
-@dataclass(frozen=True)
-class SignalCodec:
-    """How to pull one signal out of payload bytes.
-
-    Attributes mirror cantools' ``Signal``: ``start`` (DBC start bit), ``length`` (bits),
-    ``byte_order`` (``"little_endian"`` or ``"big_endian"``), ``is_signed``, ``is_float``,
-    ``scale``, ``offset``, ``choices`` (raw code -> name, or None).
-    """
-
-    name: str
-    start: int
-    length: int
-    byte_order: str
-    is_signed: bool
-    is_float: bool
-    scale: float
-    offset: float
-    choices: dict[int, str] | None = None
-
-    @classmethod
-    def from_signal(cls, signal: Signal) -> SignalCodec:
-        """Compile a cantools signal."""
-        choices = None
-        if signal.choices:
-            choices = {int(k): str(v) for k, v in signal.choices.items()}
-        return cls(signal.name, signal.start, signal.length, signal.byte_order,
-                   bool(signal.is_signed), bool(signal.is_float), signal.scale, signal.offset,
-                   choices)
-
-    def _lsb_shift_be(self) -> tuple[int, int]:
-        """Motorola: (first byte, big-endian bit position of the MSB)."""
-        p = (self.start // 8) * 8 + (7 - self.start % 8)
-        return p // 8, p
-
-    def _unsigned(self, data: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint64]:
-        n, width = data.shape
-        length = self.length
-        mask = np.uint64((1 << length) - 1)
-        if self.byte_order == "little_endian":
-            first, shift = divmod(self.start, 8)
-            nbytes = (shift + length + 7) // 8
-            if width == 8 and first + nbytes <= 8:
-                word = np.ascontiguousarray(data).view("<u8")[:, 0]
-                return (word >> np.uint64(self.start)) & mask
-            acc = np.zeros(n, dtype=np.uint64)
-            for k in range(min(nbytes, 8)):
-                acc |= _col(data, first + k) << np.uint64(8 * k)
-            acc >>= np.uint64(shift)
-            if nbytes == 9:
-                acc |= _col(data, first + 8) << np.uint64(64 - shift)
-            return acc & mask
-        first, p = self._lsb_shift_be()
-        last = (p + length - 1) // 8
-        tail = 8 * (last + 1) - (p + length)  # bits after the LSB in the last byte
-        if width == 8 and last < 8:
-            word = np.ascontiguousarray(data).view(">u8")[:, 0]
-            return (word >> np.uint64(64 - p - length)) & mask
-        nbytes = last - first + 1
-        lo = max(first, last - 7)
-        acc = np.zeros(n, dtype=np.uint64)
-        for b in range(lo, last + 1):
-            acc |= _col(data, b) << np.uint64(8 * (last - b))
-        acc >>= np.uint64(tail)
-        if nbytes == 9:
-            acc |= _col(data, first) << np.uint64(64 - tail)
-        return acc & mask
-
-    def raw(self, data: npt.NDArray[np.uint8]) -> npt.NDArray[np.generic]:
-        """Raw values from payload rows ``(n, width)``: int64 (signed), uint64 or float64."""
-        u = self._unsigned(data)
-        if self.is_float:
-            if self.length == 32:
-                with np.errstate(invalid="ignore"):  # signalling NaNs stay NaN
-                    return u.astype(np.uint32).view(np.float32).astype(np.float64)
-            if self.length == 64:
-                return u.view(np.float64)
-            raise ValueError(f"signal {self.name}: float of {self.length} bits")
-        if self.is_signed:
-            if self.length == 64:
-                return u.view(np.int64)
-            v = u.astype(np.int64)
-            v -= (v & np.int64(1 << (self.length - 1))) << np.int64(1)
-            return v
-        return u
-
-    def raw_to_scaled(self, raw: npt.NDArray[np.generic]) -> Array:
-        """Physical values, ``raw * scale + offset`` in float64."""
-        with np.errstate(invalid="ignore", over="ignore"):  # NaN and inf as cantools gives
-            value = raw.astype(np.float64)
-            if self.scale != 1:
-                value *= self.scale
-            if self.offset != 0:
-                value += self.offset
-        return value
-
-    def decode(self, data: npt.NDArray[np.uint8]) -> Array:
-        """Physical values from payload rows."""
-        return self.raw_to_scaled(self.raw(data))
-
-    def choice_names(self, raw: npt.NDArray[np.generic]) -> npt.NDArray[np.object_]:
-        """Value-table names of raw codes (the code as text where the table lacks it)."""
-        table = self.choices or {}
-        codes, inverse = np.unique(raw, return_inverse=True)
-        names = np.array([table.get(int(c), str(c)) if not self.is_float else str(c)
-                          for c in codes], dtype=object)
-        return names[inverse.ravel()]
-
-
-def _col(data: npt.NDArray[np.uint8], k: int) -> npt.NDArray[np.uint64]:
-    if k >= data.shape[1]:
-        return np.zeros(data.shape[0], dtype=np.uint64)
-    return data[:, k].astype(np.uint64)
 
 
 @dataclass
@@ -279,12 +169,42 @@ def decode_messages(frames: FrameTable, db: Database, *, messages: list[str] | N
         By message name, in DBC order; messages without frames are left out.
     """
     out = {}
-    for message in db.messages:
-        if messages is not None and message.name not in messages:
-            continue
+    wanted = [m for m in db.messages if messages is None or m.name in messages]
+    for text in kind_mismatches(frames, wanted, db):
+        log.warning("%s", text)
+    for message in wanted:
         mask = message_mask(frames, message)
         if mask.any():
             out[message.name] = decode_message(frames, message, mask=mask)
+    return out
+
+
+def _id_text(frame_id: int, extended: bool) -> str:
+    kind = "extended (29-bit)" if extended else "standard (11-bit)"
+    return f"{kind} ID 0x{frame_id:08X}" if extended else f"{kind} ID 0x{frame_id:03X}"
+
+
+def kind_mismatches(frames: FrameTable, messages: list[Message], db: Database) -> list[str]:
+    """Why frames whose ID number is one of *messages*' but of the other kind (standard
+    or extended) are not decoded as it: one sentence per message, when *db* has no message
+    of that number and kind."""
+    known = {(m.frame_id, bool(m.is_extended_frame)) for m in db.messages}
+    data = ~frames.is_error & ~frames.is_remote
+    ids: dict[bool, npt.NDArray[np.uint32]] = {}  # IDs of the data frames of each kind
+    out = []
+    for m in messages:
+        ext = bool(m.is_extended_frame)
+        other = not ext
+        if (m.frame_id, other) in known:
+            continue
+        if other not in ids:
+            kind = frames.is_extended if other else ~frames.is_extended
+            ids[other] = frames.arbitration_id[kind & data]
+        n = int(np.count_nonzero(ids[other] == np.uint32(m.frame_id)))
+        if n:
+            out.append(f"{n} frames have the {_id_text(m.frame_id, other)}, but the DBC's "
+                       f"message {m.name} has the {_id_text(m.frame_id, ext)}: not decoded as "
+                       f"{m.name} (the kind of ID is part of it)")
     return out
 
 
@@ -350,10 +270,18 @@ class TrialSignals:
     frames : int
         Frames of the rig's messages decoded.
     ignored_frames : int
-        Other frames: other IDs, error and remote frames, frames too short, frames
-        cantools refuses (a multiplexer value the DBC does not know).
+        Other frames: other IDs, other channels, error and remote frames, CAN XL frames,
+        frames too short, frames cantools refuses (a multiplexer value the DBC does not know).
     skipped_lines : int
         Damaged lines skipped while reading (set by the reader's caller).
+    channel : str or None
+        The channel the rig's frames were decoded from (None: the log names none).
+    logger_dropped : int
+        Frames the recording tool said it dropped on that channel (candump's ``DROPCOUNT``
+        notices): frames of any ID, lost before they were logged.
+    warnings : list of str
+        What the decoder found worth saying about this trial (the rig's IDs on several
+        channels, frames whose kind of ID is not the DBC's).
     """
 
     normal: CellSignals
@@ -362,11 +290,17 @@ class TrialSignals:
     frames: int
     ignored_frames: int
     skipped_lines: int = 0
+    channel: str | None = None
+    logger_dropped: int = 0
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def dropped_frames(self) -> int:
-        """Frames missing from both load cells."""
-        return self.normal.dropped + self.tangential.dropped
+        """Frames lost: those missing from both load cells (counters, timing), or those the
+        recording tool said it dropped when it says more (a frame it dropped is also missing
+        from its cell's counter: the two counts overlap, so the larger is taken, not the
+        sum)."""
+        return max(self.normal.dropped + self.tangential.dropped, self.logger_dropped)
 
 
 def _decoded_only(msg: DecodedMessage, undecoded: list[npt.NDArray[np.int64]]
@@ -443,7 +377,46 @@ def _excitation(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int
     return out
 
 
-def decode_trial(frames: FrameTable, rig: Rig) -> TrialSignals:
+def _rig_messages(rig: Rig) -> list[Message]:
+    """The messages of the rig's roles, each once."""
+    return list({id(r.message): r.message for r in rig.roles.values()}.values())
+
+
+def _rig_mask(frames: FrameTable, rig: Rig) -> npt.NDArray[np.bool_]:
+    mask = np.zeros(len(frames), dtype=bool)
+    for m in _rig_messages(rig):
+        mask |= message_mask(frames, m)
+    return mask
+
+
+def _rig_channel(frames: FrameTable, rig: Rig, channel: str | None, warnings: list[str]
+                 ) -> tuple[FrameTable, str | None]:
+    """The frames of the channel the rig is decoded from, and its name."""
+    if channel is not None and channel not in frames.channel_names:
+        have = ", ".join(frames.channel_names) or "none (its format names no channel)"
+        raise UserInputError(f"the log has no channel {channel!r}; its channels: {have}",
+                             key="channel")
+    if len(frames.channel_names) <= 1 and channel is None:
+        return frames, frames.channel
+    counts = frames.channel_counts(_rig_mask(frames, rig))
+    chosen = channel if channel is not None else (
+        max(counts, key=lambda k: counts[k]) if counts else frames.channel)
+    if len(counts) > 1:
+        shared = [m.name for m in _rig_messages(rig)
+                  if len(frames.channel_counts(message_mask(frames, m))) > 1]
+        text = ("the rig's messages arrive on several channels ("
+                + ", ".join(f"{k}: {v} frames" for k, v in counts.items()) + ")"
+                + (f", {', '.join(shared)} on more than one" if shared else "")
+                + f": decoded from {chosen}"
+                + (" (the channel carrying most of them)" if channel is None else "")
+                + "; the others are ignored, never merged (choose with channel=...)")
+        log.warning("%s", text)
+        warnings.append(text)
+    return frames.take(frames.on_channel(chosen)), chosen
+
+
+def decode_trial(frames: FrameTable, rig: Rig, *, channel: str | None = None
+                 ) -> TrialSignals:
     """Decode a trial's frames with *rig*'s roles.
 
     Parameters
@@ -451,16 +424,32 @@ def decode_trial(frames: FrameTable, rig: Rig) -> TrialSignals:
     frames : FrameTable
         The trial's log, any order.
     rig : Rig
+    channel : str, optional
+        The channel (bus) to decode the rig's frames from. Default: the one that carries
+        most of the rig's frames (a warning names the others when there are several).
 
     Returns
     -------
     TrialSignals
+
+    Raises
+    ------
+    UserInputError
+        *channel* is not one of the log's channels.
     """
-    total = len(frames)
+    total = len(frames) + frames.xl_frames
+    warnings: list[str] = []
+    frames, chosen = _rig_channel(frames, rig, channel, warnings)
+    for text in kind_mismatches(frames, _rig_messages(rig), rig.database):
+        log.warning("%s", text)
+        warnings.append(text)
+    drops = frames.reported_drops
+    logger_dropped = (sum(drops.values()) if chosen is None or len(frames.channel_names) <= 1
+                      else drops.get(chosen, 0))
     finite = np.isfinite(frames.timestamp)
     if not finite.all():
         log.warning("%d frames with a timestamp that is not a finite number: not decoded",
-                    total - int(np.count_nonzero(finite)))
+                    len(frames) - int(np.count_nonzero(finite)))
         frames = frames.take(finite)
     ts = frames.timestamp
     if np.any(ts[1:] < ts[:-1]):  # logs merged or written out of order
@@ -477,10 +466,10 @@ def decode_trial(frames: FrameTable, rig: Rig) -> TrialSignals:
     for rows in undecoded:
         decoded[rows] = False
     n = int(np.count_nonzero(decoded))
-    return TrialSignals(normal, tangential, excitation, frames=n,
-                        ignored_frames=total - n)
+    return TrialSignals(normal, tangential, excitation, frames=n, ignored_frames=total - n,
+                        channel=chosen, logger_dropped=logger_dropped, warnings=warnings)
 
 
 __all__ = ["CellSignals", "DecodedMessage", "ExcitationSignals", "SignalCodec",
            "TrialSignals", "decode_message", "decode_messages", "decode_trial",
-           "message_mask"]
+           "kind_mismatches", "message_mask"]

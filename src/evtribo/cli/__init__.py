@@ -4,6 +4,10 @@ Each module ``evtribo.cli.<name>`` exposes ``add_parser(subparsers)`` (returning
 with ``func`` set to its ``run(args)`` through ``set_defaults``) and ``run(args) -> int``.
 A subcommand whose module (or one of its optional dependencies) fails to import is still
 listed, and explains why when it is called; the rest of the tool keeps working.
+
+A command whose standard output is closed early (``evtribo inspect run.log | head -1``)
+stops quietly, as Unix tools do: no message, no traceback, exit code 141 (128 + SIGPIPE,
+what a shell reports for a tool that SIGPIPE ended).
 """
 
 from __future__ import annotations
@@ -11,6 +15,8 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
+import select
 import sys
 from collections.abc import Callable, Sequence
 
@@ -32,6 +38,9 @@ SUBCOMMANDS: dict[str, str] = {
 }
 
 log = logging.getLogger(__name__)
+
+#: Exit code of a command whose standard output was closed early (128 + SIGPIPE).
+EXIT_BROKEN_PIPE = 141
 
 
 def _add_common(parser: argparse.ArgumentParser) -> None:
@@ -93,8 +102,45 @@ def _configure_logging(verbose: int, debug: bool) -> None:
     logging.captureWarnings(True)
 
 
+def _stdout_closed() -> bool:
+    """Whether the reader of standard output has gone (a pipe whose other end is closed)."""
+    try:
+        fd = sys.stdout.fileno()
+        poll = select.poll()
+        poll.register(fd, select.POLLOUT)
+        return any(ev & (select.POLLERR | select.POLLHUP) for _, ev in poll.poll(0))
+    except (AttributeError, OSError, ValueError):  # no file descriptor (captured, closed)
+        return False
+
+
+def _quiet_exit() -> int:
+    """Point standard output at /dev/null (Python's last flush at exit would fail again
+    and print a warning) and return :data:`EXIT_BROKEN_PIPE`."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (AttributeError, OSError, ValueError):
+        pass
+    return EXIT_BROKEN_PIPE
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run ``evtribo`` with *argv*; return the exit code (0 done, 1 failed, 2 bad input)."""
+    """Run ``evtribo`` with *argv*; return the exit code (0 done, 1 failed, 2 bad input,
+    141 standard output closed early)."""
+    try:
+        try:
+            return _main(argv)
+        finally:  # here, not at exit, where a closed pipe could only be warned about
+            if sys.stdout is not None:
+                sys.stdout.flush()
+    except BrokenPipeError:
+        if not _stdout_closed():
+            raise
+        return _quiet_exit()
+
+
+def _main(argv: Sequence[str] | None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     chosen = _chosen(argv)
     parser = build_parser(only=chosen or "")
@@ -112,6 +158,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"evtribo {args.command}: interrupted", file=sys.stderr)
         return 130
     except Exception as err:
+        if isinstance(err, BrokenPipeError) and _stdout_closed():
+            return _quiet_exit()
         if debug:
             raise
         print(f"evtribo {args.command}: failed: {type(err).__name__}: {err}\n"

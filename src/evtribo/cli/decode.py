@@ -1,11 +1,16 @@
 """``evtribo decode LOG --dbc FILE -o OUT``: every decoded signal as a table.
 
-One row per decoded frame, in log order: ``timestamp`` (s), ``message``, then one column
-per signal (physical values after DBC scaling; ``--choices`` writes value-table names
-instead of codes). A signal name used by two messages, or named ``timestamp`` or ``message``,
-becomes ``Message.Signal``. A frame cantools cannot decode (a multiplexer value the DBC does
-not know) keeps its row, with empty signals. Output format by suffix: ``.parquet`` or
-``.csv``. An existing output is kept unless ``--force``.
+One row per decoded frame, in log order: ``timestamp`` (s), ``message``, ``channel`` (only
+when the log holds several channels, or decode one with ``--channel``), then one column per
+signal (physical values after DBC scaling; ``--choices`` writes value-table names instead of
+codes). A signal name used by two messages, or named like a fixed column, becomes
+``Message.Signal``. A frame cantools cannot decode (a multiplexer value the DBC does not
+know) keeps its row, with empty signals. Output format by suffix: ``.parquet`` or ``.csv``.
+
+An existing output is kept unless ``--force``; a raw log never is, ``--force`` included: not
+the log being decoded (whatever the spelling of its path, symbolic links followed), not any
+other CAN log, and no ``.csv`` inside a study's subject folder (``evtribo analyze`` would
+take it for a trial's log).
 """
 
 from __future__ import annotations
@@ -20,7 +25,12 @@ import pandas as pd
 from evtribo.cli.inspect import load_dbc
 from evtribo.decode import decode_messages
 from evtribo.errors import OutputExistsError, UserInputError
-from evtribo.frames import read_frames
+from evtribo.frames import FrameTable, read_frames, supported_suffixes
+from evtribo.frames.sniff import sniff
+
+#: What :func:`~evtribo.frames.sniff.sniff` calls the raw CAN logs decode never overwrites.
+_LOG_KINDS = {"candump-L", "candump-text", "candump-plain", "asc", "trc", "python-can-csv",
+              "savvycan", "blf", "mf4", "mdf", "sqlite"}
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -34,15 +44,18 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="write value-table names instead of raw codes")
     p.add_argument("--force", action="store_true", help="overwrite an existing output")
     p.add_argument("--strict", action="store_true", help="a damaged line is an error")
+    p.add_argument("--channel", help="decode the frames of this channel (bus) only")
     p.set_defaults(func=run)
     return p
 
 
-def decoded_table(frames: object, db: object, choices: bool = False) -> pd.DataFrame:
+def decoded_table(frames: FrameTable, db: object, choices: bool = False,
+                  with_channel: bool = False) -> pd.DataFrame:
     """The decoded frames as one DataFrame (see the module docstring)."""
     decoded = decode_messages(frames, db)  # type: ignore[arg-type]
+    fixed = ["timestamp", "message"] + (["channel"] if with_channel else [])
     # a signal named like a fixed column, or by two messages, is written Message.Signal
-    uses = Counter(["timestamp", "message"] + [s for m in decoded.values() for s in m.raw])
+    uses = Counter(fixed + [s for m in decoded.values() for s in m.raw])
     index = np.concatenate([m.index for m in decoded.values()]) if decoded else np.zeros(0, int)
     order = np.argsort(index, kind="stable")
     n = len(index)
@@ -53,6 +66,9 @@ def decoded_table(frames: object, db: object, choices: bool = False) -> pd.DataF
             [np.full(len(m), m.name, dtype=object) for m in decoded.values()])
             if decoded else []),
     }
+    if with_channel:
+        names = np.array([*frames.channel_names, ""], dtype=object)  # -1: no channel
+        columns["channel"] = pd.Categorical(names[frames.channels[index]])
     offset = 0
     for m in decoded.values():
         rows = slice(offset, offset + len(m))
@@ -67,6 +83,37 @@ def decoded_table(frames: object, db: object, choices: bool = False) -> pd.DataF
     return table.iloc[order].reset_index(drop=True) if n else table
 
 
+def _refuse_raw_logs(out: str, log_path: str) -> None:
+    """Refuse an output that is a raw log (the input, or any CAN log), or a .csv that a
+    study would take for a trial's log; ``--force`` does not change this."""
+    never = "evtribo decode never overwrites a raw log, --force included; choose another output"
+    if os.path.exists(out):
+        if os.path.exists(log_path) and os.path.samefile(out, log_path):
+            raise OutputExistsError(f"is the log being decoded: {never}", path=out)
+        found = sniff(out)
+        if found is not None and found.kind.removeprefix("gzip:") in _LOG_KINDS:
+            raise OutputExistsError(f"is a CAN log ({found.description}): {never}", path=out)
+    folder = os.path.dirname(os.path.abspath(out))
+    suffix = os.path.splitext(out)[1].lower()
+    if suffix in supported_suffixes() and os.path.isfile(
+            os.path.join(os.path.dirname(folder), "study.toml")):
+        raise UserInputError(f"a {suffix} file in a study's subject folder is read as a trial's "
+                             "log by evtribo analyze: write the decoded table outside the study "
+                             "folder, or as .parquet", path=out)
+
+
+def _channel(frames: FrameTable, channel: str | None, log_path: str
+             ) -> tuple[FrameTable, bool]:
+    """The frames of *channel* (all without it), and whether to write a channel column."""
+    if channel is None:
+        return frames, len(frames.channel_names) > 1
+    if channel not in frames.channel_names:
+        have = ", ".join(frames.channel_names) or "none (its format names no channel)"
+        raise UserInputError(f"the log has no channel {channel!r}; its channels: {have}",
+                             path=log_path, key="--channel")
+    return frames.take(frames.on_channel(channel)), True
+
+
 def run(args: argparse.Namespace) -> int:
     """Decode ``args.log`` with ``args.dbc`` into ``args.output``."""
     out = args.output
@@ -74,11 +121,13 @@ def run(args: argparse.Namespace) -> int:
     if suffix not in (".parquet", ".csv"):
         raise UserInputError(f"output must end in .parquet or .csv, not {suffix or '(none)'!r}",
                              path=out)
+    _refuse_raw_logs(out, args.log)
     if os.path.exists(out) and not args.force:
         raise OutputExistsError("exists; use --force to overwrite", path=out)
     db = load_dbc(args.dbc)
     frames, report = read_frames(args.log, strict=args.strict)
-    table = decoded_table(frames, db, choices=args.choices)
+    frames, with_channel = _channel(frames, args.channel, args.log)
+    table = decoded_table(frames, db, choices=args.choices, with_channel=with_channel)
     tmp = f"{out}.tmp-{os.getpid()}"
     try:
         if suffix == ".parquet":
@@ -90,5 +139,6 @@ def run(args: argparse.Namespace) -> int:
         if os.path.exists(tmp):
             os.unlink(tmp)
     print(f"{out}: {len(table)} frames decoded of {len(frames)} "
-          f"({report.skipped_lines} damaged lines skipped), {table.shape[1] - 2} signals")
+          f"({report.skipped_lines} damaged lines skipped), "
+          f"{table.shape[1] - 2 - with_channel} signals")
     return 0

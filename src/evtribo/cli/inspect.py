@@ -1,7 +1,10 @@
 """``evtribo inspect LOG [--dbc FILE]``: what a CAN log holds.
 
-Prints the duration, frame counts by kind, and per identifier: count, mean rate, median and
-longest gap between frames, and (with ``--dbc``) which message and signals it decodes to.
+Prints the duration, frame counts by kind, the frames the recording tool said it dropped
+(candump's ``DROPCOUNT``) and CAN XL frames, and per identifier (per channel and identifier
+when the log holds several channels): count, mean rate, median and longest gap between
+frames, and (with ``--dbc``) which message and signals it decodes to; an identifier whose
+number is a DBC message's but whose kind (standard or extended) is not is said so.
 """
 
 from __future__ import annotations
@@ -13,8 +16,12 @@ import cantools
 import numpy as np
 
 from evtribo.errors import RigConfigError
-from evtribo.frames import read_frames
+from evtribo.frames import FrameTable, ReadReport, read_frames
 from evtribo.rig import load_dbc as rig_load_dbc
+
+_TIME_BASES = {"-tz": "candump -tz: times from the first frame",
+               "-td": "candump -td: times summed from deltas",
+               "-tA": "candump -tA: local times read as UTC"}
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -36,13 +43,38 @@ def load_dbc(path: str) -> cantools.database.can.Database:
     return rig_load_dbc(path, source=path)
 
 
+def _header(path: str, report: ReadReport, frames: FrameTable) -> None:
+    base = f" ({_TIME_BASES[report.time_base]})" if report.time_base in _TIME_BASES else ""
+    print(f"{path}: {report.format} log{base}, {len(frames)} frames, {report.lines} lines, "
+          f"{report.skipped_lines} damaged lines skipped")
+    if report.dropped_frames:
+        by = ", ".join(f"{k or '?'}: {v}" for k, v in frames.reported_drops.items())
+        print(f"dropped: {report.dropped_frames} frames the recording tool reported dropping "
+              f"({by})")
+    if report.xl_frames:
+        print(f"CAN XL: {report.xl_frames} frames (counted, not decoded)")
+
+
+def _describe(db: cantools.database.can.Database, can_id: int, ext: bool) -> str:
+    """``  Message: signals`` of a DBC for an identifier, or why there is none."""
+    by_key = {(m.frame_id, bool(m.is_extended_frame)): m for m in db.messages}
+    msg = by_key.get((can_id, ext))
+    if msg is not None:
+        return f"  {msg.name}: " + ", ".join(
+            f"{s.name}" + (f" [{s.unit}]" if s.unit else "") for s in msg.signals)
+    other = by_key.get((can_id, not ext))
+    if other is not None:
+        kind = "a standard" if ext else "an extended"
+        return f"  (not in the DBC: its {other.name} has this number as {kind} ID)"
+    return "  (not in the DBC)"
+
+
 def run(args: argparse.Namespace) -> int:
     """Print the summary of ``args.log``."""
     db = load_dbc(args.dbc) if args.dbc else None
     frames, report = read_frames(args.log, strict=args.strict)
     n = len(frames)
-    print(f"{args.log}: {report.format} log, {n} frames, {report.lines} lines, "
-          f"{report.skipped_lines} damaged lines skipped")
+    _header(args.log, report, frames)
     if n == 0:
         return 0
     t = frames.timestamp
@@ -51,12 +83,16 @@ def run(args: argparse.Namespace) -> int:
     print(f"kinds: {int(frames.is_extended.sum())} extended, {int(frames.is_remote.sum())} "
           f"remote, {int(frames.is_error.sum())} error, {int(frames.is_fd.sum())} CAN FD")
     data = ~frames.is_error
-    keys = frames.arbitration_id.astype(np.int64) | (frames.is_extended.astype(np.int64) << 32)
+    several = len(frames.channel_names) > 1
+    keys = (frames.arbitration_id.astype(np.int64) | (frames.is_extended.astype(np.int64) << 32)
+            | ((frames.channels.astype(np.int64) + 1) << 33 if several else 0))
+    names = ["", *frames.channel_names]
     header = f"{'id':>10} {'count':>9} {'rate_Hz':>10} {'median_gap_s':>13} {'max_gap_s':>11}"
-    print(header + ("  message: signals" if db else ""))
+    print((f"{'channel':>10} " if several else "") + header
+          + ("  message: signals" if db else ""))
     for key in np.unique(keys[data]):
         sel = data & (keys == key)
-        ext = bool(key >> 32)
+        ext = bool((key >> 32) & 1)
         can_id = int(key & 0xFFFFFFFF)
         ts = np.sort(t[sel])
         count = len(ts)
@@ -67,16 +103,10 @@ def run(args: argparse.Namespace) -> int:
         mx = float(gaps.max()) if len(gaps) else float("nan")
         ident = f"{can_id:08X}x" if ext else f"{can_id:03X}"
         line = f"{ident:>10} {count:>9} {rate:>10.2f} {med:>13.6f} {mx:>11.6f}"
+        if several:
+            line = f"{names[int(key >> 33)] or '?':>10} " + line
         if db is not None:
-            try:
-                msg = db.get_message_by_frame_id(can_id)
-            except KeyError:
-                msg = None
-            if msg is not None and bool(msg.is_extended_frame) == ext:
-                line += f"  {msg.name}: " + ", ".join(
-                    f"{s.name}" + (f" [{s.unit}]" if s.unit else "") for s in msg.signals)
-            else:
-                line += "  (not in the DBC)"
+            line += _describe(db, can_id, ext)
         print(line)
     if frames.is_error.any():
         print(f"{'error':>10} {int(frames.is_error.sum()):>9}")

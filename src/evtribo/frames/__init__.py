@@ -3,9 +3,13 @@
 >>> frames, report = read_frames("P01/run-01.log")      # doctest: +SKIP
 >>> write_candump("copy.log", frames)                     # doctest: +SKIP
 
-``read_frames`` picks the reader by suffix (:data:`READERS`): candump ``-L`` text
-(``.log``, ``.log.gz``) is parsed by evtribo with numpy in bulk; ``.asc``, ``.blf``,
-``.trc``, ``.csv``, ``.db`` (and gzipped text formats) through python-can's readers.
+``read_frames`` picks the reader by suffix (:data:`READERS`), after a look at the content
+(:mod:`~evtribo.frames.sniff`: a log of another format than its suffix says is refused with
+what it looks like and how to convert it): candump ``-L`` text (``.log``, ``.log.gz``) is
+parsed by evtribo with numpy in bulk, candump's screen output with timestamps (``-ta``,
+``-tz``, ``-td``, ``-tA``) line by line (:mod:`~evtribo.frames.candump_text`); ``.asc``,
+``.blf``, ``.trc``, ``.csv``, ``.db``, ``.mf4`` (and gzipped text formats) through
+python-can's readers. Each frame keeps its channel (``FrameTable.channel_index``).
 """
 
 from evtribo.frames.candump import write_candump

@@ -4,7 +4,10 @@ A line looks like ``(1763700000.000123) vcan0 0C1#1122334455667788``: the timest
 seconds, the channel, the identifier (3 hex digits for standard 11-bit IDs, 8 for extended
 29-bit IDs; the ``CAN_ERR_FLAG`` bit ``0x20000000`` marks an error frame), ``#`` and the
 payload in hex. ``123#R`` (or ``123#R4``) is a remote frame, ``123##<flags><hex>`` a CAN FD
-frame. python-can's writer appends `` R``/`` T`` (direction); that is accepted too.
+frame. python-can's writer appends `` R``/`` T`` (direction); that is accepted too. Each
+frame keeps its channel (a log of several buses holds the same ID once per bus; candump pads
+the channel names of such a log to one width). ``DROPCOUNT`` notices, CAN XL frames, raw DLC
+codes and over-long classic frames: see :mod:`evtribo.frames.candump_line`.
 
 How the reader stays fast: the file is read in blocks of whole lines; lines are grouped by
 length, each group is copied as one ``(lines, length)`` byte matrix (a strided view of the
@@ -21,7 +24,6 @@ SocketCAN convention); python-can's reader reports them with ID 0 and no payload
 from __future__ import annotations
 
 import gzip
-import math
 import os
 import re
 from collections.abc import Callable, Iterator
@@ -29,6 +31,8 @@ from typing import IO, Any
 
 import numpy as np
 import numpy.typing as npt
+
+from evtribo.frames.candump_line import FD_SIZES, Notice, parse_line
 
 # the writer (and the CAN_ERR constants the logger shares) live in candump_writer; its
 # names stay importable from here
@@ -39,10 +43,8 @@ from evtribo.frames.candump_writer import (
     frame_field,
     write_candump,
 )
-from evtribo.frames.table import CLASSIC_WIDTH, FD_WIDTH, FrameTable
+from evtribo.frames.table import CLASSIC_WIDTH, FD_WIDTH, NO_CHANNEL, FrameTable
 
-#: Payload sizes a CAN FD frame can have, bytes.
-FD_SIZES = (0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64)
 _BLOCK = 1 << 22  # bytes read at a time
 
 _HEX = np.full(256, 255, dtype=np.uint8)
@@ -50,11 +52,6 @@ for _i, _c in enumerate(b"0123456789abcdef"):
     _HEX[_c] = _i
 for _i, _c in enumerate(b"ABCDEF"):
     _HEX[_c] = 10 + _i
-
-_LINE = re.compile(
-    r"\s*\(\s*(?P<ts>\d+(?:\.\d*)?)\s*\)\s+(?P<ch>\S+)\s+(?P<id>[0-9A-Fa-f]{1,8})#"
-    r"(?P<data>\S*?)(?:\s+(?P<dir>[RTrt]))?\s*"
-)
 
 #: ``on_bad(line_number, reason)`` is called for every damaged line.
 BadLineHandler = Callable[[int, str], None]
@@ -73,64 +70,42 @@ class _Chunk:
         self.dlc = np.zeros(n, dtype=np.uint8)
         self.data = np.zeros((n, width), dtype=np.uint8)
         self.valid = np.zeros(n, dtype=bool)
-        self.channel: str | None = None
+        self.channel_index = np.full(n, NO_CHANNEL, dtype=np.int16)
+        self.names: dict[str, int] = {}
+        self.drops: dict[str, int] = {}
+        self.xl_frames = 0
+
+    def code(self, name: bytes | str) -> int:
+        """The index of channel *name* (numbered in order of first appearance)."""
+        text = name.decode("ascii", "replace") if isinstance(name, bytes) else name
+        return self.names.setdefault(text, len(self.names))
+
+    def widen(self, nbytes: int) -> None:
+        """Make room for payloads of *nbytes*."""
+        if nbytes > self.data.shape[1]:
+            wide = np.zeros((len(self.valid), FD_WIDTH), dtype=np.uint8)
+            wide[:, :self.data.shape[1]] = self.data
+            self.data = wide
 
     def table(self) -> FrameTable:
         v: Any = slice(None) if self.valid.all() else self.valid
+        index = self.channel_index[v]
+        names = tuple(self.names)
+        if len(names) > 1:  # number the channels in order of their first frame
+            _codes, first = np.unique(index, return_index=True)
+            order = index[np.sort(first)]
+            remap = np.zeros(len(names), dtype=np.int16)
+            remap[order] = np.arange(len(order), dtype=np.int16)
+            index = remap[index]
+            names = tuple(names[k] for k in order)
         return FrameTable(
             timestamp=self.timestamp[v], arbitration_id=self.arbitration_id[v],
             is_extended=self.is_extended[v], is_remote=self.is_remote[v],
             is_error=self.is_error[v], is_fd=self.is_fd[v], dlc=self.dlc[v],
-            data=self.data[v], channel=self.channel,
+            data=self.data[v], channel=names[index[0]] if len(index) else None,
+            channel_index=index, channel_names=names, reported_drops=self.drops,
+            xl_frames=self.xl_frames,
         )
-
-
-def parse_line(text: str) -> tuple[Any, ...] | str:  # noqa: PLR0911 - one reason each
-    """Parse one candump line (slow path).
-
-    Returns
-    -------
-    tuple or str
-        ``(timestamp, channel, can_id, extended, remote, error, fd, payload)``, or the reason
-        the line is damaged.
-    """
-    m = _LINE.fullmatch(text)
-    if m is None:
-        return "not a candump -L line '(time) channel id#data'"
-    ts = float(m["ts"])
-    if not math.isfinite(ts):
-        return f"timestamp {m['ts'][:20]}... is too large"
-    id_text, data = m["id"], m["data"]
-    can_id = int(id_text, 16)
-    extended = len(id_text) > 3
-    error = extended and bool(can_id & CAN_ERR_FLAG)
-    fd = data.startswith("#")
-    remote = False
-    if fd:
-        if len(data) < 2 or _HEX[ord(data[1])] == 255:
-            return "CAN FD frame without a flags digit after '##'"
-        data = data[2:]
-    if data[:1] in ("R", "r") and not fd:
-        remote = True
-        if len(data) > 1 and not data[1:].isdigit():
-            return f"bad remote-frame length {data[1:]!r}"
-        payload = bytes(int(data[1:] or 0))
-        if len(payload) > 8:
-            return f"remote-frame length {len(payload)} > 8"
-    else:
-        if len(data) % 2:
-            return f"odd number of hex digits in payload {data!r} (truncated?)"
-        try:
-            payload = bytes.fromhex(data)
-        except ValueError:
-            return f"bad hex in payload {data!r}"
-        if len(payload) > (64 if fd else 8):
-            return f"payload of {len(payload)} bytes is too long for {'CAN FD' if fd else 'CAN'}"
-        if fd and len(payload) not in FD_SIZES:
-            return f"{len(payload)} bytes is not a CAN FD payload size"
-    if not extended and can_id > 0x7FF:
-        return f"standard ID {id_text} > 0x7FF"
-    return ts, m["ch"], can_id & CAN_EFF_MASK, extended and not error, remote, error, fd, payload
 
 
 def _digits_value(mat: npt.NDArray[np.uint8]) -> npt.NDArray[np.float64]:
@@ -172,20 +147,23 @@ def _hex_value(nib: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint32]:
 def _layout(line: bytes) -> dict[str, int] | None:
     """Column layout of a well-formed, fixed-width line, or None to use the slow path."""
     m = re.fullmatch(
-        rb"\((\d+)(?:\.(\d+))?\) (\S+) ([0-9A-Fa-f]{3}|[0-9A-Fa-f]{8})#(#[0-9A-Fa-f])?"
-        rb"((?:[0-9A-Fa-f]{2})*)( [RTrt])?", line)
+        rb"\((\d+)(?:\.(\d+))?\) +(\S+) ([0-9A-Fa-f]{3}|[0-9A-Fa-f]{8})#(#[0-9A-Fa-f])?"
+        rb"((?:[0-9A-Fa-f]{2})*)(_[0-9A-Fa-f])?( [RTrt])?", line)
     if m is None or len(m[1]) + len(m[2] or b"") > 16:
         return None
     fd = m[5] is not None
     nbytes = len(m[6]) // 2
     if nbytes > (64 if fd else 8) or (fd and nbytes not in FD_SIZES):
         return None
+    if m[7] and (fd or nbytes != 8):  # a raw DLC code follows 8 bytes of a classic frame
+        return None
     return {
         "int0": m.start(1), "int1": m.end(1),
         "dot": m.start(2) - 1 if m[2] else -1, "frac1": m.end(2) if m[2] else -1,
         "ch0": m.start(3), "ch1": m.end(3), "id0": m.start(4), "id1": m.end(4),
         "fd": int(fd), "flags": m.start(5) + 1 if fd else -1,
-        "data0": m.start(6), "nbytes": nbytes, "dir": m.start(7) if m[7] else -1,
+        "data0": m.start(6), "nbytes": nbytes, "raw_dlc": m.start(7) if m[7] else -1,
+        "dir": m.start(8) if m[8] else -1,
     }
 
 
@@ -195,7 +173,7 @@ def _row_checks(mat: npt.NDArray[np.uint8], lay: dict[str, int]
     close = lay["int1"] if lay["dot"] < 0 else lay["frac1"]
     checks: list[tuple[npt.NDArray[np.uint8], Callable[..., Any] | int]] = [
         (mat[:, 0], ord("(")), (mat[:, close], ord(")")),
-        (mat[:, lay["ch0"] - 1], ord(" ")), (mat[:, lay["ch1"]], ord(" ")),
+        (mat[:, close + 1], ord(" ")), (mat[:, lay["ch1"]], ord(" ")),
         (mat[:, lay["id1"]], ord("#")),
         (mat[:, lay["int0"]:lay["int1"]], _is_digit),
         (mat[:, lay["id0"]:lay["id1"]], _is_hex),
@@ -206,11 +184,43 @@ def _row_checks(mat: npt.NDArray[np.uint8], lay: dict[str, int]
                    (mat[:, lay["dot"] + 1:lay["frac1"]], _is_digit)]
     if lay["fd"]:
         checks += [(mat[:, lay["flags"] - 1], ord("#")), (mat[:, lay["flags"]], _is_hex)]
+    if lay["raw_dlc"] >= 0:
+        checks += [(mat[:, lay["raw_dlc"]], ord("_")), (mat[:, lay["raw_dlc"] + 1], _is_hex)]
     if lay["dir"] >= 0:
         checks += [(mat[:, lay["dir"]], ord(" ")),
                    (mat[:, lay["dir"] + 1] | np.uint8(0x20), lambda c: (c == ord("r"))
                     | (c == ord("t")))]
     return checks
+
+
+def _channels(mat: npt.NDArray[np.uint8], lay: dict[str, int], out: _Chunk
+              ) -> tuple[npt.NDArray[np.int16] | int, npt.NDArray[np.bool_] | None]:
+    """Each row's channel code, and which rows name no valid channel (None: all do).
+
+    The channel field runs from after ``") "`` to the space before the identifier: candump
+    right-aligns the names of a log of several buses, so a shorter name comes with spaces
+    before it. When every row holds the same field (a one-bus log) this is one comparison
+    of 8 bytes per row, read as one integer and masked to the field.
+    """
+    ch0 = (lay["int1"] if lay["dot"] < 0 else lay["frac1"]) + 2
+    width = lay["ch1"] - ch0
+    if width <= 8 and ch0 + 8 <= mat.shape[1] and mat.strides[1] == 1:
+        mask = np.uint64((1 << (8 * width)) - 1)
+        keys = mat[:, ch0:ch0 + 8].view("<u8")[:, 0] & mask
+    else:  # long fields: the bytes themselves
+        keys = np.ascontiguousarray(mat[:, ch0:ch0 + width]).view(f"V{width}").ravel()
+
+    def code(row: int) -> int:
+        name = mat[row, ch0:ch0 + width].tobytes().lstrip(b" ")
+        return -1 if not name or b" " in name else out.code(name)
+
+    if bool((keys == keys[0]).all()):
+        first = code(0)
+        return (first, None) if first >= 0 else (first, np.ones(len(mat), dtype=bool))
+    _unique, firsts, inverse = np.unique(keys, return_index=True, return_inverse=True)
+    codes = np.array([code(i) for i in firsts], dtype=np.int16)[inverse.ravel()]
+    bad = codes < 0
+    return codes, bad if bad.any() else None
 
 
 def _parse_group(mat: npt.NDArray[np.uint8], lay: dict[str, int],
@@ -221,10 +231,7 @@ def _parse_group(mat: npt.NDArray[np.uint8], lay: dict[str, int],
     """
     checks = _row_checks(mat, lay)
     rows: Any = slice(None) if rows_in is None else rows_in
-    if lay["nbytes"] > out.data.shape[1]:
-        wide = np.zeros((len(out.valid), FD_WIDTH), dtype=np.uint8)
-        wide[:, :out.data.shape[1]] = out.data
-        out.data = wide
+    out.widen(lay["nbytes"])
 
     def passes(cols: npt.NDArray[np.uint8], test: Callable[..., Any] | int
                ) -> npt.NDArray[np.bool_]:
@@ -252,17 +259,23 @@ def _parse_group(mat: npt.NDArray[np.uint8], lay: dict[str, int],
     keep = whole < 2.0**53
     if not long_id:
         keep &= can_id <= 0x7FF
+    channels, bad_channel = _channels(mat, lay, out) if len(mat) else (0, None)
+    if bad_channel is not None:
+        keep &= ~bad_channel
     if not keep.all():  # the others go to the slow path
         ok[np.flatnonzero(ok)[~keep]] = False
         if isinstance(rows, slice):
             rows = np.arange(len(keep))
         mat, rows, whole, can_id = mat[keep], rows[keep], whole[keep], can_id[keep]
+        if not isinstance(channels, int):
+            channels = channels[keep]
     ts = whole / scale
     if long_id:
         error = (can_id & np.uint32(CAN_ERR_FLAG)) != 0
         out.is_extended[rows] = ~error
         out.is_error[rows] = error
     out.timestamp[rows] = ts
+    out.channel_index[rows] = channels
     out.arbitration_id[rows] = can_id & np.uint32(CAN_EFF_MASK)
     out.is_fd[rows] = bool(lay["fd"])
     nb = lay["nbytes"]
@@ -288,7 +301,6 @@ def _parse_block(block: bytes, first_line: int, on_bad: BadLineHandler
         mat = buf.reshape(n, step)[:, :step - 1]
         lay = _layout(mat[0].tobytes())
         if lay is not None:
-            out.channel = mat[0, lay["ch0"]:lay["ch1"]].tobytes().decode("ascii", "replace")
             ok = _parse_group(mat, lay, None, out)
             if not ok.all():
                 starts = np.arange(n) * step
@@ -316,16 +328,10 @@ def _parse_block(block: bytes, first_line: int, on_bad: BadLineHandler
         if lay is None:
             slow[rows] = True
             continue
-        if out.channel is None:
-            out.channel = mat[0, lay["ch0"]:lay["ch1"]].tobytes().decode("ascii", "replace")
         ok = _parse_group(mat, lay, rows, out)
         slow[rows[~ok]] = True
     _slow_lines(block, starts, ends, np.flatnonzero(slow), first_line=first_line,
                 on_bad=on_bad, out=out)
-    valid = np.flatnonzero(out.valid)
-    if len(valid):  # the channel named on the first frame's line
-        words = block[starts[valid[0]]:ends[valid[0]]].split()
-        out.channel = words[1].decode("ascii", "replace") if len(words) > 1 else out.channel
     return out.table(), len(starts)
 
 
@@ -340,19 +346,21 @@ def _slow_lines(block: bytes, starts: npt.NDArray[np.intp], ends: npt.NDArray[np
         if isinstance(parsed, str):
             on_bad(first_line + int(i), parsed)
             continue
+        if isinstance(parsed, Notice):
+            if parsed.kind == "dropped":
+                out.drops[parsed.channel] = out.drops.get(parsed.channel, 0) + parsed.count
+            else:
+                out.xl_frames += 1
+            continue
         ts, ch, can_id, ext, remote, err, fd, payload = parsed
-        if len(payload) > out.data.shape[1]:
-            wide = np.zeros((len(out.valid), FD_WIDTH), dtype=np.uint8)
-            wide[:, :out.data.shape[1]] = out.data
-            out.data = wide
+        out.widen(len(payload))
         out.timestamp[i], out.arbitration_id[i] = ts, can_id
         out.is_extended[i], out.is_remote[i], out.is_error[i], out.is_fd[i] = ext, remote, err, fd
         out.dlc[i] = len(payload)
         if not remote:
             out.data[i, :len(payload)] = np.frombuffer(payload, dtype=np.uint8)
+        out.channel_index[i] = out.code(ch)
         out.valid[i] = True
-        if out.channel is None:
-            out.channel = ch
 
 
 def _open_binary(path: str | os.PathLike[str]) -> IO[bytes]:
@@ -408,9 +416,7 @@ def read_candump(path: str | os.PathLike[str], on_bad: BadLineHandler,
             lines += n
     if not tables:
         return FrameTable.empty(), 0
-    table = tables[0] if len(tables) == 1 else FrameTable.concat(tables)
-    table.channel = next((t.channel for t in tables if t.channel), None)
-    return table, lines
+    return (tables[0] if len(tables) == 1 else FrameTable.concat(tables)), lines
 
 
 __all__ = ["CAN_EFF_MASK", "CAN_ERR_BUSERROR", "CAN_ERR_FLAG", "FD_SIZES", "frame_field",

@@ -5,23 +5,35 @@ python-can parses these one message at a time; the messages are gathered into a
 reported to ``on_bad`` with its line number (text formats); reading then resumes on the next
 line for ``.asc``, ``.trc`` and ``.csv``. A binary file (``.blf``) cannot be resynchronised:
 reading stops at the damaged object, and what was read before it is kept.
+
+``.db`` (python-can's SQLite log) is opened read-only (python-can's reader would open it for
+writing); a file that is no such database is an error. ``.mf4`` needs the optional
+``asammdf`` (``pip install 'evtribo[mf4]'``); without it, reading one says so.
 """
 
 from __future__ import annotations
 
 import gzip
+import importlib.util
 import math
 import os
 import re
+import sqlite3
 from collections.abc import Callable, Iterable, Iterator
+from pathlib import Path
 from typing import IO, Any
 
 import can
 import numpy as np
 from can.io.generic import BinaryIOMessageReader
 from can.io.player import MESSAGE_READERS
+from can.io.sqlite import SqliteReader
 
-from evtribo.frames.table import CLASSIC_WIDTH, FD_WIDTH, FrameTable
+from evtribo.errors import LogFormatError
+from evtribo.frames.table import CLASSIC_WIDTH, FD_WIDTH, NO_CHANNEL, FrameTable
+
+#: The extra that installs what python-can's MF4 reader needs.
+MF4_EXTRA = "pip install 'evtribo[mf4]'"
 
 BadLineHandler = Callable[[int | None, str], None]
 
@@ -82,9 +94,12 @@ def frames_from_messages(messages: Iterable[can.Message], channel: str | None = 
         The frames; ``dlc`` of a remote frame is its requested length (at most 8),
         otherwise the payload's length.
     channel : str, optional
-        Channel name for the table (default: the first message's channel, if any).
+        Channel name of the frames whose message names none (default: none). Each frame
+        keeps its message's channel (python-can's ``msg.channel``, as text).
     """
     ts, ids, ext, rem, err, fd, dlc, payloads = [], [], [], [], [], [], [], []
+    names: dict[str, int] = {}
+    codes: list[int] = []
     for msg in messages:
         ts.append(msg.timestamp)
         ids.append(msg.arbitration_id)
@@ -97,8 +112,8 @@ def frames_from_messages(messages: Iterable[can.Message], channel: str | None = 
         # CAN FD has no remote frames)
         dlc.append(min(msg.dlc, CLASSIC_WIDTH) if msg.is_remote_frame else len(data))
         payloads.append(data)
-        if channel is None and msg.channel is not None:
-            channel = str(msg.channel)
+        name = channel if msg.channel is None else str(msg.channel)
+        codes.append(NO_CHANNEL if name is None else names.setdefault(name, len(names)))
     n = len(ts)
     width = FD_WIDTH if any(len(p) > CLASSIC_WIDTH for p in payloads) else CLASSIC_WIDTH
     data_arr = np.zeros((n, width), dtype=np.uint8)
@@ -114,7 +129,9 @@ def frames_from_messages(messages: Iterable[can.Message], channel: str | None = 
         is_fd=np.asarray(fd, dtype=bool).reshape(n),
         dlc=np.asarray(dlc, dtype=np.uint8).reshape(n),
         data=data_arr,
-        channel=channel,
+        channel=next((k for k, v in names.items() if codes and v == codes[0]), None),
+        channel_index=np.asarray(codes, dtype=np.int16).reshape(n),
+        channel_names=tuple(names),
     )
 
 
@@ -206,14 +223,17 @@ def read_with_python_can(path: str | os.PathLike[str], on_bad: BadLineHandler
     name = os.fspath(path).lower().removesuffix(".part")  # an unfinished acquisition's name
     gz = name.endswith(".gz")
     suffix = os.path.splitext(name[:-3] if gz else name)[1]
+    if suffix == ".db":
+        return frames_from_messages(_sqlite_messages(path, on_bad)), 0
+    if suffix == ".mf4" and importlib.util.find_spec("asammdf") is None:
+        raise LogFormatError(f"reading .mf4 logs needs the optional package asammdf: "
+                             f"{MF4_EXTRA}", path=path)
     reader_cls = MESSAGE_READERS[suffix]
-    binary = issubclass(reader_cls, BinaryIOMessageReader) or suffix == ".db"
+    binary = issubclass(reader_cls, BinaryIOMessageReader)
     counter: _CountingFile | None = None
     handle: Any = None
     try:
-        if suffix == ".db":
-            reader = reader_cls(os.fspath(path))
-        elif binary:
+        if binary:
             handle = gzip.open(path, "rb") if gz else open(path, "rb")
             reader = reader_cls(handle)
         else:
@@ -235,3 +255,55 @@ def read_with_python_can(path: str | os.PathLike[str], on_bad: BadLineHandler
     finally:
         reader.stop()
     return frames, (counter.line if counter is not None else 0)
+
+
+def _sqlite_rows(conn: sqlite3.Connection, on_bad: BadLineHandler) -> Iterator[can.Message]:
+    rows = conn.execute("SELECT * FROM messages")
+    number = 0
+    while True:
+        try:
+            row = rows.fetchone()
+        except sqlite3.DatabaseError as err:  # damaged pages: keep what came before
+            on_bad(None, f"cannot be read past row {number} ({type(err).__name__}: {err})")
+            return
+        if row is None:
+            return
+        number += 1
+        try:
+            msg = SqliteReader._assemble_message(row)
+        except (TypeError, ValueError) as err:
+            on_bad(None, f"row {number}: {type(err).__name__}: {err}")
+            continue
+        problem = _implausible(msg)
+        if problem is not None:
+            on_bad(None, f"row {number}: {problem}")
+            continue
+        yield msg
+
+
+def _sqlite_messages(path: str | os.PathLike[str], on_bad: BadLineHandler
+                     ) -> Iterator[can.Message]:
+    """The messages of python-can's SQLite log, opened read-only (``mode=ro``).
+
+    Raises ValueError when the file is no SQLite database or lacks python-can's
+    ``messages`` table; a row python-can cannot assemble is reported to *on_bad*.
+    """
+    if os.path.getsize(path) == 0:
+        raise ValueError("an empty file, not an SQLite database")
+    uri = Path(path).resolve().as_uri() + "?mode=ro"
+    try:
+        conn = sqlite3.connect(uri, uri=True)
+    except sqlite3.Error as err:
+        raise ValueError(f"not an SQLite database ({err})") from err
+    try:
+        try:
+            tables = [r[0] for r in conn.execute(
+                "SELECT name FROM sqlite_master WHERE type='table'")]
+        except sqlite3.DatabaseError as err:
+            raise ValueError(f"not an SQLite database ({err})") from err
+        if "messages" not in tables:
+            raise ValueError("an SQLite database without python-can's 'messages' table "
+                             f"(tables: {', '.join(tables) or 'none'})")
+        yield from _sqlite_rows(conn, on_bad)
+    finally:
+        conn.close()

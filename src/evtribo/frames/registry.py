@@ -4,6 +4,14 @@ The registry maps a suffix to a reader function ``reader(path, on_bad) -> (Frame
 lines)``, the way python-can's ``MESSAGE_READERS`` maps suffixes to reader classes. A
 ``.gz`` name is read by the reader of the suffix before it (``run-01.log.gz``).
 
+The content is looked at first (:func:`~evtribo.frames.sniff.sniff`): a file that is
+another format than its suffix says (Vector ASC text named ``.log``, a SavvyCAN CSV named
+``.csv``, a BLF named ``.log``) is refused, naming what it looks like and how to convert it,
+instead of being read as zero frames and a damaged line per line. A ``.log`` holding
+candump's screen output with timestamps (``candump -ta``/``-tz``/``-td``/``-tA``) is read by
+:mod:`evtribo.frames.candump_text`; without timestamps it is refused (no time base). A text
+log in which no line is a frame is refused too.
+
 Damaged records: a reader reports each to ``on_bad(line, reason)``. :func:`read_frames`
 logs a warning naming the file and line (the first :data:`MAX_WARNINGS` of them, then a
 summary), counts them in :class:`ReadReport`, and with ``strict=True`` raises
@@ -23,7 +31,9 @@ from can.io.player import MESSAGE_READERS
 
 from evtribo.errors import LogFormatError
 from evtribo.frames.candump import read_candump
+from evtribo.frames.candump_text import read_candump_text
 from evtribo.frames.pycan import read_with_python_can
+from evtribo.frames.sniff import Sniffed, sniff
 from evtribo.frames.table import FrameTable
 
 log = logging.getLogger(__name__)
@@ -37,6 +47,11 @@ READERS: dict[str, Reader] = {".log": read_candump}
 for _suffix in MESSAGE_READERS:
     if _suffix != ".log":
         READERS[_suffix] = read_with_python_can
+
+#: The formats' names, for messages.
+FORMAT_NAMES = {".log": "candump -L", ".asc": "Vector ASC", ".blf": "Vector BLF",
+                ".trc": "PEAK TRC", ".csv": "python-can CSV", ".db": "python-can SQLite",
+                ".mf4": "ASAM MF4"}
 
 #: Damaged lines logged one by one before a summary.
 MAX_WARNINGS = 20
@@ -60,6 +75,16 @@ class ReadReport:
         Damaged lines (or records) skipped.
     skipped : list of (int or None, str)
         Line number and reason of each skipped line (the first 1000).
+    channels : dict of str to int
+        Frames per channel (``""``: frames of a log that names no channel).
+    dropped_frames : int
+        Frames the recording tool said it dropped (candump's ``DROPCOUNT`` notices), on
+        every channel; by channel in ``FrameTable.reported_drops``.
+    xl_frames : int
+        CAN XL frames (counted, not held in the table).
+    time_base : str
+        How the log wrote its times when that is not seconds since the epoch (``"-tz"``,
+        ``"-td"``, ``"-tA"`` for candump's screen output), else ``""``.
     """
 
     path: str
@@ -68,6 +93,10 @@ class ReadReport:
     lines: int = 0
     skipped_lines: int = 0
     skipped: list[tuple[int | None, str]] = field(default_factory=list)
+    channels: dict[str, int] = field(default_factory=dict)
+    dropped_frames: int = 0
+    xl_frames: int = 0
+    time_base: str = ""
 
 
 #: Suffix of a log left under its temporary name by an acquisition that did not finish
@@ -94,6 +123,27 @@ def supported_suffixes() -> list[str]:
     return sorted(READERS)
 
 
+def _looks_like(path: str | os.PathLike[str], found: Sniffed | None) -> str:
+    """`` It looks like ...: how to convert it.`` (empty when nothing is known)."""
+    if found is None or found.kind == "unknown":
+        return ""
+    return f" It looks like {found.description}: {found.hint(path)}."
+
+
+def _reader(path: str | os.PathLike[str], fmt: str, base: str) -> Reader:
+    """The reader for *path*, after a look at its content; or a LogFormatError saying what
+    the file is when it is not what its suffix says."""
+    if fmt == ".db.gz":
+        raise LogFormatError("a gzipped SQLite database cannot be read in place: decompress "
+                             "it first (gunzip), then give evtribo the .db", path=path)
+    found = sniff(path)
+    if found is not None and found.kind not in ("unknown", "binary") and found.suffix != base:
+        raise LogFormatError(f"not a {_name(base)} log.{_looks_like(path, found)}", path=path)
+    if found is not None and found.kind == "candump-text":
+        return read_candump_text
+    return READERS[base]
+
+
 def read_frames(path: str | os.PathLike[str], *, strict: bool = False
                 ) -> tuple[FrameTable, ReadReport]:
     """Read a CAN log into columns.
@@ -116,20 +166,22 @@ def read_frames(path: str | os.PathLike[str], *, strict: bool = False
     Raises
     ------
     LogFormatError
-        Unknown suffix, unreadable file, or (``strict``) a damaged line; the message names
-        the file and the line.
+        Unknown suffix, unreadable file, a file of another format than its suffix says, a
+        text log without one frame, or (``strict``) a damaged line; the message names the
+        file and the line.
     """
     fmt = log_suffix(path)
     base = fmt[:-3] if fmt.endswith(".gz") else fmt
-    reader = READERS.get(base)
-    if reader is None:
+    if base not in READERS:
         close = difflib.get_close_matches(base, READERS, n=1)
         hint = f" (did you mean {close[0]!r}?)" if close and base else ""
+        looks = _looks_like(path, sniff(path)) if os.path.isfile(path) else ""
         raise LogFormatError(
             f"unknown log format {fmt or '(no suffix)'!r}{hint}; supported: "
-            + ", ".join(supported_suffixes()) + " (each also gzipped, .gz)", path=path)
+            + ", ".join(supported_suffixes()) + f" (each also gzipped, .gz).{looks}", path=path)
     if not os.path.isfile(path):
         raise LogFormatError("no such file", path=path)
+    reader = _reader(path, fmt, base)
     report = ReadReport(path=os.fspath(path), format=fmt)
 
     def on_bad(line: int | None, reason: str) -> None:
@@ -148,9 +200,29 @@ def read_frames(path: str | os.PathLike[str], *, strict: bool = False
         raise
     except (OSError, EOFError, ValueError, zlib.error) as err:
         raise LogFormatError(f"cannot read {fmt} log: {err}", path=path) from err
-    report.frames = len(frames)
-    report.lines = lines
+    if not len(frames) and report.skipped_lines and not frames.xl_frames:
+        line, reason = report.skipped[0]
+        if not lines:  # a binary log
+            raise LogFormatError(f"cannot read {fmt} log: {reason}", path=path)
+        raise LogFormatError(f"not a {_name(base)} log: no line of it is a frame (line {line}: "
+                             f"{reason}).{_looks_like(path, sniff(path))}", path=path)
+    _fill(report, frames, lines)
     if report.skipped_lines > MAX_WARNINGS:
         log.warning("%s: %d damaged lines skipped in all (first %d listed)",
                     os.fspath(path), report.skipped_lines, MAX_WARNINGS)
     return frames, report
+
+
+def _name(base: str) -> str:
+    """``candump -L (.log)``: a format's name and suffix."""
+    return f"{FORMAT_NAMES[base]} ({base})" if base in FORMAT_NAMES else base
+
+
+def _fill(report: ReadReport, frames: FrameTable, lines: int) -> None:
+    """The report's counts of *frames*."""
+    report.frames = len(frames)
+    report.lines = lines
+    report.channels = {"" if k is None else k: v for k, v in frames.channel_counts().items()}
+    report.dropped_frames = sum(frames.reported_drops.values())
+    report.xl_frames = frames.xl_frames
+    report.time_base = str(frames.extras.get("time_base", "")).replace("-ta", "")

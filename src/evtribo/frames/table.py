@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -9,8 +10,10 @@ import numpy.typing as npt
 
 #: Payload width of a :class:`FrameTable` holding only classic CAN frames.
 CLASSIC_WIDTH = 8
-#: Payload width once any CAN FD frame is present.
+#: Payload width once any CAN FD frame (or an over-long classic one) is present.
 FD_WIDTH = 64
+#: ``channel_index`` of a frame whose log names no channel.
+NO_CHANNEL = -1
 
 
 @dataclass
@@ -30,7 +33,20 @@ class FrameTable:
     data : ndarray of uint8, shape (n, 8) or (n, 64)
         Payload, zero past ``dlc``.
     channel : str or None
-        Channel name of the log (``vcan0``), when there is one.
+        Channel of the first frame (``vcan0``), when the log names one.
+    extras : dict
+        Reader- or writer-specific columns (``fd_flags``); not carried by :meth:`take`.
+    channel_index : ndarray of int16
+        Each frame's channel, as an index into ``channel_names`` (:data:`NO_CHANNEL` when
+        the log names none). Default: every frame on ``channel``.
+    channel_names : tuple of str
+        The channels of the log, in order of first appearance.
+    reported_drops : dict of str to int
+        Frames the recording tool said it dropped, by channel (candump's ``DROPCOUNT``
+        notices; ``""`` when the notice names no channel). These frames are in no column.
+    xl_frames : int
+        CAN XL frames in the log: counted, not held (a CAN XL frame is no CAN frame a DBC
+        of classic or FD messages describes).
     """
 
     timestamp: npt.NDArray[np.float64]
@@ -43,6 +59,19 @@ class FrameTable:
     data: npt.NDArray[np.uint8]
     channel: str | None = None
     extras: dict[str, object] = field(default_factory=dict)
+    channel_index: npt.NDArray[np.int16] | None = None
+    channel_names: tuple[str, ...] = ()
+    reported_drops: dict[str, int] = field(default_factory=dict)
+    xl_frames: int = 0
+
+    def __post_init__(self) -> None:
+        if self.channel_index is None:
+            n = self.timestamp.shape[0]
+            if self.channel is None:
+                self.channel_index = np.full(n, NO_CHANNEL, dtype=np.int16)
+            else:
+                self.channel_names = (self.channel,)
+                self.channel_index = np.zeros(n, dtype=np.int16)
 
     def __len__(self) -> int:
         return int(self.timestamp.shape[0])
@@ -60,8 +89,40 @@ class FrameTable:
             channel=channel,
         )
 
+    @property
+    def channels(self) -> npt.NDArray[np.int16]:
+        """Each frame's index into ``channel_names`` (an alias of ``channel_index``)."""
+        assert self.channel_index is not None  # set by __post_init__
+        return self.channel_index
+
+    def channel_counts(self, mask: npt.NDArray[np.bool_] | None = None) -> dict[str | None, int]:
+        """Frames per channel name (None: frames whose log names no channel), in the order
+        of ``channel_names``; only the frames selected by *mask* when given."""
+        idx = self.channels if mask is None else self.channels[mask]
+        if len(self.channel_names) <= 1:  # one channel or none: one cheap pass
+            none = int(np.count_nonzero(idx < 0))
+            named = {self.channel_names[0]: len(idx) - none} if self.channel_names else {}
+            return {k: v for k, v in ({None: none} | named).items() if v}
+        counts = np.bincount(idx.astype(np.int64) + 1, minlength=len(self.channel_names) + 1)
+        out: dict[str | None, int] = {}
+        if counts[0]:
+            out[None] = int(counts[0])
+        for k, name in enumerate(self.channel_names):
+            if counts[k + 1]:
+                out[name] = int(counts[k + 1])
+        return out
+
+    def on_channel(self, name: str | None) -> npt.NDArray[np.bool_]:
+        """Mask of the frames on channel *name* (None: the frames without a channel)."""
+        if name is None:
+            return self.channels == NO_CHANNEL
+        if name not in self.channel_names:
+            return np.zeros(len(self), dtype=bool)
+        return self.channels == self.channel_names.index(name)
+
     def take(self, index: npt.ArrayLike) -> FrameTable:
-        """The frames selected by a boolean mask or an integer index."""
+        """The frames selected by a boolean mask or an integer index (the log's counts of
+        dropped and CAN XL frames, which belong to no frame, are kept)."""
         idx = np.asarray(index)
         return FrameTable(
             timestamp=self.timestamp[idx],
@@ -73,11 +134,16 @@ class FrameTable:
             dlc=self.dlc[idx],
             data=self.data[idx],
             channel=self.channel,
+            channel_index=self.channels[idx],
+            channel_names=self.channel_names,
+            reported_drops=dict(self.reported_drops),
+            xl_frames=self.xl_frames,
         )
 
     @staticmethod
-    def concat(tables: list[FrameTable]) -> FrameTable:
-        """Frames of several tables one after the other (payloads widened as needed)."""
+    def concat(tables: Sequence[FrameTable]) -> FrameTable:
+        """Frames of several tables one after the other (payloads widened as needed,
+        channels merged by name, dropped and CAN XL frames added up)."""
         if not tables:
             return FrameTable.empty()
         width = max(t.data.shape[1] for t in tables)
@@ -89,6 +155,16 @@ class FrameTable:
             out[:, : d.shape[1]] = d
             return out
 
+        names: list[str] = []
+        codes = []
+        drops: dict[str, int] = {}
+        for t in tables:
+            remap = np.array([NO_CHANNEL] + [_code(names, n) for n in t.channel_names],
+                             dtype=np.int16)
+            same = bool((remap[1:] == np.arange(len(remap) - 1)).all())
+            codes.append(t.channels if same else remap[t.channels.astype(np.int64) + 1])
+            for name, count in t.reported_drops.items():
+                drops[name] = drops.get(name, 0) + count
         return FrameTable(
             timestamp=np.concatenate([t.timestamp for t in tables]),
             arbitration_id=np.concatenate([t.arbitration_id for t in tables]),
@@ -98,9 +174,20 @@ class FrameTable:
             is_fd=np.concatenate([t.is_fd for t in tables]),
             dlc=np.concatenate([t.dlc for t in tables]),
             data=np.concatenate([widen(t.data) for t in tables]),
-            channel=tables[0].channel,
+            channel=next((t.channel for t in tables if t.channel is not None), None),
+            channel_index=np.concatenate(codes),
+            channel_names=tuple(names),
+            reported_drops=drops,
+            xl_frames=sum(t.xl_frames for t in tables),
         )
 
     def sorted_by_time(self) -> FrameTable:
         """The frames in order of timestamp (stable for equal timestamps)."""
         return self.take(np.argsort(self.timestamp, kind="stable"))
+
+
+def _code(names: list[str], name: str) -> int:
+    """Index of *name* in *names*, appended when new."""
+    if name not in names:
+        names.append(name)
+    return names.index(name)

@@ -1,0 +1,136 @@
+"""How one DBC signal is pulled out of payload bytes, vectorised over frames.
+
+:class:`SignalCodec` is compiled from a cantools ``Signal``: Intel (little-endian) and
+Motorola (big-endian, DBC "sawtooth" start bit) layouts of any start bit and length up to 64
+bits are assembled from byte columns into a uint64, shifted and masked; with 8-byte payloads
+a whole column is read as one uint64 (``'<u8'`` or ``'>u8'``). Signed values are
+sign-extended; 32- and 64-bit IEEE floats are reinterpreted. ``raw_to_scaled`` is cantools'
+``raw * scale + offset``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+from cantools.database.can import Signal
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class SignalCodec:
+    """How to pull one signal out of payload bytes.
+
+    Attributes mirror cantools' ``Signal``: ``start`` (DBC start bit), ``length`` (bits),
+    ``byte_order`` (``"little_endian"`` or ``"big_endian"``), ``is_signed``, ``is_float``,
+    ``scale``, ``offset``, ``choices`` (raw code -> name, or None).
+    """
+
+    name: str
+    start: int
+    length: int
+    byte_order: str
+    is_signed: bool
+    is_float: bool
+    scale: float
+    offset: float
+    choices: dict[int, str] | None = None
+
+    @classmethod
+    def from_signal(cls, signal: Signal) -> SignalCodec:
+        """Compile a cantools signal."""
+        choices = None
+        if signal.choices:
+            choices = {int(k): str(v) for k, v in signal.choices.items()}
+        return cls(signal.name, signal.start, signal.length, signal.byte_order,
+                   bool(signal.is_signed), bool(signal.is_float), signal.scale, signal.offset,
+                   choices)
+
+    def _lsb_shift_be(self) -> tuple[int, int]:
+        """Motorola: (first byte, big-endian bit position of the MSB)."""
+        p = (self.start // 8) * 8 + (7 - self.start % 8)
+        return p // 8, p
+
+    def _unsigned(self, data: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint64]:
+        n, width = data.shape
+        length = self.length
+        mask = np.uint64((1 << length) - 1)
+        if self.byte_order == "little_endian":
+            first, shift = divmod(self.start, 8)
+            nbytes = (shift + length + 7) // 8
+            if width == 8 and first + nbytes <= 8:
+                word = np.ascontiguousarray(data).view("<u8")[:, 0]
+                return (word >> np.uint64(self.start)) & mask
+            acc = np.zeros(n, dtype=np.uint64)
+            for k in range(min(nbytes, 8)):
+                acc |= _col(data, first + k) << np.uint64(8 * k)
+            acc >>= np.uint64(shift)
+            if nbytes == 9:
+                acc |= _col(data, first + 8) << np.uint64(64 - shift)
+            return acc & mask
+        first, p = self._lsb_shift_be()
+        last = (p + length - 1) // 8
+        tail = 8 * (last + 1) - (p + length)  # bits after the LSB in the last byte
+        if width == 8 and last < 8:
+            word = np.ascontiguousarray(data).view(">u8")[:, 0]
+            return (word >> np.uint64(64 - p - length)) & mask
+        nbytes = last - first + 1
+        lo = max(first, last - 7)
+        acc = np.zeros(n, dtype=np.uint64)
+        for b in range(lo, last + 1):
+            acc |= _col(data, b) << np.uint64(8 * (last - b))
+        acc >>= np.uint64(tail)
+        if nbytes == 9:
+            acc |= _col(data, first) << np.uint64(64 - tail)
+        return acc & mask
+
+    def raw(self, data: npt.NDArray[np.uint8]) -> npt.NDArray[np.generic]:
+        """Raw values from payload rows ``(n, width)``: int64 (signed), uint64 or float64."""
+        u = self._unsigned(data)
+        if self.is_float:
+            if self.length == 32:
+                with np.errstate(invalid="ignore"):  # signalling NaNs stay NaN
+                    return u.astype(np.uint32).view(np.float32).astype(np.float64)
+            if self.length == 64:
+                return u.view(np.float64)
+            raise ValueError(f"signal {self.name}: float of {self.length} bits")
+        if self.is_signed:
+            if self.length == 64:
+                return u.view(np.int64)
+            v = u.astype(np.int64)
+            v -= (v & np.int64(1 << (self.length - 1))) << np.int64(1)
+            return v
+        return u
+
+    def raw_to_scaled(self, raw: npt.NDArray[np.generic]) -> Array:
+        """Physical values, ``raw * scale + offset`` in float64."""
+        with np.errstate(invalid="ignore", over="ignore"):  # NaN and inf as cantools gives
+            value = raw.astype(np.float64)
+            if self.scale != 1:
+                value *= self.scale
+            if self.offset != 0:
+                value += self.offset
+        return value
+
+    def decode(self, data: npt.NDArray[np.uint8]) -> Array:
+        """Physical values from payload rows."""
+        return self.raw_to_scaled(self.raw(data))
+
+    def choice_names(self, raw: npt.NDArray[np.generic]) -> npt.NDArray[np.object_]:
+        """Value-table names of raw codes (the code as text where the table lacks it)."""
+        table = self.choices or {}
+        codes, inverse = np.unique(raw, return_inverse=True)
+        names = np.array([table.get(int(c), str(c)) if not self.is_float else str(c)
+                          for c in codes], dtype=object)
+        return names[inverse.ravel()]
+
+
+def _col(data: npt.NDArray[np.uint8], k: int) -> npt.NDArray[np.uint64]:
+    if k >= data.shape[1]:
+        return np.zeros(data.shape[0], dtype=np.uint64)
+    return data[:, k].astype(np.uint64)
+
+
+__all__ = ["SignalCodec"]
