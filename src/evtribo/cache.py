@@ -38,8 +38,9 @@ from evtribo.rig import Rig
 log = logging.getLogger(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
-CACHE_VERSION = 5  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
-#                    frames with an unknown multiplexer value ignored; 5: checksummed entries
+CACHE_VERSION = 6  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
+#                    frames with an unknown multiplexer value ignored; 5: checksummed entries;
+#                    6: channel, logger's DROPCOUNT and decoder warnings kept
 _META = b"evtribo.trial"
 #: Hex digits of the entry's SHA-256 in its file name.
 CHECKSUM_DIGITS = 16
@@ -101,7 +102,8 @@ def _to_table(trial: TrialSignals) -> pa.Table:
                                        pa.array(arr)])
     meta = {
         "version": CACHE_VERSION, "frames": trial.frames, "ignored_frames": trial.ignored_frames,
-        "skipped_lines": trial.skipped_lines,
+        "skipped_lines": trial.skipped_lines, "channel": trial.channel,
+        "logger_dropped": trial.logger_dropped, "warnings": list(trial.warnings),
         "dropped": [trial.normal.dropped, trial.tangential.dropped],
         "dropped_method": [trial.normal.dropped_method, trial.tangential.dropped_method],
         "dropped_note": [trial.normal.dropped_note, trial.tangential.dropped_note],
@@ -142,7 +144,9 @@ def _from_table(table: pa.Table) -> TrialSignals:
             setattr(ex, name, vals)
     return TrialSignals(cells[0], cells[1], ex, frames=int(meta["frames"]),
                         ignored_frames=int(meta["ignored_frames"]),
-                        skipped_lines=int(meta["skipped_lines"]))
+                        skipped_lines=int(meta["skipped_lines"]), channel=meta["channel"],
+                        logger_dropped=int(meta["logger_dropped"]),
+                        warnings=[str(w) for w in meta["warnings"]])
 
 
 def _check_unchanged(log_path: str | os.PathLike[str], expect: tuple[str, int, int],

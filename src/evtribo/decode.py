@@ -39,7 +39,7 @@ import numpy.typing as npt
 from cantools.database import DecodeError
 from cantools.database.can import Database, Message
 
-from evtribo.dropped import missing_frames
+from evtribo.dropped import missing_frames_received
 from evtribo.errors import UserInputError
 from evtribo.frames.table import FrameTable
 from evtribo.rig import Rig, SignalRef
@@ -315,6 +315,16 @@ def _decoded_only(msg: DecodedMessage, undecoded: list[npt.NDArray[np.int64]]
                           msg.codecs, msg.units)
 
 
+def _in_time_order(msg: DecodedMessage) -> DecodedMessage:
+    """*msg* with its frames sorted by time (stable: frames stamped alike keep their order)."""
+    ts = msg.timestamp
+    if not np.any(ts[1:] < ts[:-1]):
+        return msg
+    order = np.argsort(ts, kind="stable")
+    return DecodedMessage(msg.name, msg.frame_id, msg.is_extended, ts[order], msg.index[order],
+                          {k: v[order] for k, v in msg.raw.items()}, msg.codecs, msg.units)
+
+
 def _cell(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
           undecoded: list[npt.NDArray[np.int64]]) -> CellSignals:
     names = [force.signal.name] + ([counter.signal.name] if counter is not None
@@ -325,19 +335,21 @@ def _cell(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
     t = msg.timestamp if order is None else msg.timestamp[order]
     value = msg.scaled(force.signal.name)
     value = value if order is None else value[order]
-    count = None
+    count = received = None
     modulus = None
     if counter is not None:
         cmsg = msg if counter.message is force.message else decode_message(
             frames, counter.message, [counter.signal.name])
         if cmsg is msg:
-            raw = msg.raw[counter.signal.name].astype(np.int64)
-            count = raw if order is None else raw[order]
+            received = msg.raw[counter.signal.name].astype(np.int64)
+            count = received if order is None else received[order]
             modulus = 1 << counter.signal.length
         else:
             log.warning("counter %s is not in the force's message %s: timing gaps only",
                         counter.qualified_name, force.message.name)
-    found = missing_frames(t, count, modulus)
+    # counted in the order the frames came in: a clock that jumped back must not make the
+    # frames from before and after the jump look like gaps in each other
+    found = missing_frames_received(msg.timestamp, received, modulus)
     return CellSignals(t, value, count, found.count, found.method, found.note)
 
 
@@ -356,8 +368,8 @@ def _excitation(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int
     for ref in roles.values():
         if ref.message.name not in by_msg:
             names = [r.signal.name for r in roles.values() if r.message is ref.message]
-            by_msg[ref.message.name] = _decoded_only(
-                decode_message(frames, ref.message, names), undecoded)
+            by_msg[ref.message.name] = _in_time_order(_decoded_only(
+                decode_message(frames, ref.message, names), undecoded))
     base = next(iter(roles.values()))
     t = by_msg[base.message.name].timestamp
     out = ExcitationSignals(t=t)
@@ -451,9 +463,8 @@ def decode_trial(frames: FrameTable, rig: Rig, *, channel: str | None = None
         log.warning("%d frames with a timestamp that is not a finite number: not decoded",
                     len(frames) - int(np.count_nonzero(finite)))
         frames = frames.take(finite)
-    ts = frames.timestamp
-    if np.any(ts[1:] < ts[:-1]):  # logs merged or written out of order
-        frames = frames.sorted_by_time()
+    # logs merged or written out of order, clocks that jumped: each stream is put in time
+    # order on its own, after its lost frames are counted in the order they came in
     undecoded: list[npt.NDArray[np.int64]] = []
     # the counter the logger checks too: the rig's role, or a *Counter signal of the cell
     normal = _cell(frames, rig.normal_force, rig.counter("normal"), undecoded)

@@ -32,7 +32,7 @@ import numpy.typing as npt
 log = logging.getLogger(__name__)
 
 __all__ = ["DropCount", "coherence", "count_by_steps", "count_dropped", "estimate_period",
-           "missing_frames"]
+           "missing_frames", "missing_frames_received"]
 
 #: Fewest frames for the coherent estimate; shorter streams use the step heuristic.
 MIN_FRAMES = 16
@@ -286,3 +286,54 @@ def count_dropped(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
     int
     """
     return missing_frames(t, counter, modulus).count
+
+
+#: A step in time larger than this between frames of one stream received one after the
+#: other is the logger's clock jumping (NTP, a PC's clock set by hand) or the recording
+#: pausing: the timing cannot say how many frames such a step hides, s.
+CLOCK_JUMP_S = 1.0
+
+
+def missing_frames_received(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
+                            modulus: int | None = None) -> DropCount:
+    """:func:`missing_frames` for a stream in the order it was received, whose clock may
+    have jumped.
+
+    Sorting such a stream by time interleaves the frames from before and after a jump back
+    and makes every counter step look like a loss; a jump forward of hours, read as an
+    outage, would make millions of frames "lost". The stream is cut where its clock steps
+    by more than :data:`CLOCK_JUMP_S` either way; each piece is counted on its own (sorted,
+    for frames merely reordered), and across each cut only the counter, when there is one,
+    says how many frames are missing (whole counter periods lost there cannot be seen).
+    """
+    t = np.asarray(t, dtype=np.float64)
+    c = None if counter is None else np.asarray(counter, dtype=np.int64)
+    with np.errstate(invalid="ignore"):
+        cuts = np.flatnonzero(np.abs(np.diff(t)) > CLOCK_JUMP_S) + 1
+    if not cuts.size:
+        if not np.any(t[1:] < t[:-1]):
+            return missing_frames(t, c, modulus)
+        order = np.argsort(t, kind="stable")
+        return missing_frames(t[order], None if c is None else c[order], modulus)
+    if c is not None and modulus is None and c.size:
+        modulus = 1 << max(int(c.max(initial=0)).bit_length(), 1)
+    bounds = np.concatenate([[0], cuts, [t.size]])
+    found = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        order = np.argsort(t[a:b], kind="stable")
+        found.append(missing_frames(t[a:b][order], None if c is None else c[a:b][order],
+                                    modulus))
+    count = sum(f.count for f in found)
+    if c is not None and modulus:
+        count += int(((c[cuts] - c[cuts - 1] - 1) % modulus).sum())
+    methods = list(dict.fromkeys(f.method for f in found))
+    notes = [f.note for f in found if f.note]
+    steps = np.diff(t)[cuts - 1]
+    what = " and ".join(w for w, n in (("jumped back", int((steps < 0).sum())),
+                                       ("jumped ahead or paused", int((steps > 0).sum())))
+                        if n)
+    notes.append(f"the clock {what} by more than {CLOCK_JUMP_S:g} s; frames missing across "
+                 + ("it counted by the counter alone (whole counter periods lost there cannot "
+                    "be seen)" if c is not None else "it cannot be counted"))
+    return DropCount(int(min(count, MAX_COUNT)), "+".join(methods), note="; ".join(
+        dict.fromkeys(notes)))

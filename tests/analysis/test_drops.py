@@ -118,3 +118,70 @@ def test_the_decoders_count_is_carried_into_the_analysis_not_recounted(monkeypat
     assert trial._dropped(signals, None, warnings.append) == 603
     assert any("whole counter periods" in w for w in warnings)
     assert any("too irregular" in w for w in warnings)
+
+
+def test_the_logger_s_dropcount_and_decoder_warnings_reach_trials_csv_cold_and_warm(tmp_path):
+    """A candump DROPCOUNT notice on the decoded channel is part of the trial's lost frames,
+    and what the decoder warned about is said again when the trial comes from the cache."""
+    import json
+
+    from evtribo.acquisition.simulator import simulate_study
+    from evtribo.analysis.pipeline import analyze_study
+
+    study = tmp_path / "study"
+    simulate_study(study, [SubjectParams(name="P01")], amplitudes=(120.0,),
+                   config=TrialConfig(duration_s=6.0, tare_s=1.0), sine_trial=False)
+    log = sorted(study.rglob("*.log"))[0]
+    lines = log.read_text(encoding="ascii").splitlines(keepends=True)
+    channel = lines[10].split()[1]
+    t_mid = lines[len(lines) // 2].split()[0]
+    lines.insert(len(lines) // 2,
+                 f"DROPCOUNT: dropped 250 CAN frames on '{channel}' socket (total drops 250)\n")
+    # the rig's load cell also heard once on another bus: the decoder says which it used
+    lines.append(f"{t_mid} can7 0C1#0000000000000000\n")
+    log.write_text("".join(lines), encoding="ascii")
+    cache = tmp_path / "cache"
+    for out in ("cold", "warm"):
+        res = analyze_study(study, tmp_path / out, jobs=1, cache_dir=cache)
+        row = res.trials.set_index("trial").loc[log.stem]
+        assert row.dropped_frames == 250, out
+        summary = json.loads((tmp_path / out / "summary.json").read_text(encoding="utf-8"))
+        said = json.dumps(summary)
+        assert "DROPCOUNT" in said and "can7" in said, out
+
+
+@pytest.mark.parametrize("jump_s", [-3 * 3600.0, -5.0, 2 * 86400.0])
+def test_a_clock_jump_inside_a_trial_invents_no_lost_frames(jump_s):
+    """A logger's clock stepping back hours halfway through: counted in the order the frames
+    came in, the counter sees exactly the frames lost, not the interleaving of the halves."""
+    from evtribo.decode import decode_trial
+    from evtribo.dropped import missing_frames_received
+    from evtribo.rig import default_rig
+
+    t, counter, lost, _ = _stream(rate_hz=1000.0, jitter_s=1e-4, drop=0.01, seed=3)
+    half = t.size // 2
+    jumped = t.copy()
+    jumped[half:] += jump_s
+    got = missing_frames_received(jumped, counter, 256)
+    assert got.count == lost
+    if jump_s < 0:
+        assert "clock jumped back" in got.note
+    else:
+        assert "jumped ahead or paused" in got.note
+    # a frame lost right at the jump is counted too
+    cut = np.delete(np.arange(t.size), half)
+    assert missing_frames_received(jumped[cut], counter[cut], 256).count == lost + 1
+    # frames merely swapped (a merged log) are put back in order, not cut
+    order = np.arange(t.size)
+    order[[100, 101]] = order[[101, 100]]
+    assert missing_frames_received(t[order], counter[order], 256).count == lost
+
+    frames, truth = simulate_trial(SubjectParams(), TrialConfig(duration_s=6.0, seed=1,
+                                                                drop_probability=0.01))
+    ts = frames.timestamp.copy()
+    ts[len(ts) // 2:] += jump_s
+    frames.timestamp = ts
+    trial = decode_trial(frames, default_rig())
+    for cell, name in ((trial.normal, "FzCell"), (trial.tangential, "FxCell")):
+        assert cell.dropped == truth.nodes[name]["dropped"]
+        assert np.all(np.diff(cell.t) >= 0)

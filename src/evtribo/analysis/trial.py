@@ -166,7 +166,10 @@ def _dropped(signals: Any, counter_moduli: Mapping[str, int] | None,
             warn(f"{name} force: {count.count} frames missing, including whole counter "
                  "periods lost at once (found from the timing)")
         total += count.count
-    return total
+    logged = int(_get(signals, "logger_dropped", 0) or 0)
+    if logged > total:
+        warn(f"the recording tool dropped {logged} frames on this channel (DROPCOUNT)")
+    return max(total, logged)
 
 
 def _dehum(aligned: AlignedForces, info: Mapping[str, Any]) -> AlignedForces:
@@ -433,6 +436,8 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
         log.warning("%s: %s", where, msg)
         warnings.append(f"{where}: {msg}")
 
+    for msg in _get(signals, "warnings", None) or ():
+        warn(msg)
     t0 = trial_start(signals)
     parts = _pieces(signals, meta, t0, settings=settings, calibration=calibration, warn=warn)
     longest = max(parts, key=lambda p: p.span_s)
