@@ -23,6 +23,7 @@ jitter showed 3,400 "missing" frames where 600 were lost). Here:
 
 from __future__ import annotations
 
+import itertools
 import logging
 from dataclasses import dataclass
 
@@ -319,7 +320,7 @@ def missing_frames_received(t: npt.ArrayLike, counter: npt.ArrayLike | None = No
         modulus = 1 << max(int(c.max(initial=0)).bit_length(), 1)
     bounds = np.concatenate([[0], cuts, [t.size]])
     found = []
-    for a, b in zip(bounds[:-1], bounds[1:]):
+    for a, b in itertools.pairwise(bounds):
         order = np.argsort(t[a:b], kind="stable")
         found.append(missing_frames(t[a:b][order], None if c is None else c[a:b][order],
                                     modulus))
