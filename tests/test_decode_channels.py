@@ -140,3 +140,47 @@ def test_dropcount_and_can_xl_frames_reach_the_trial(tmp_path):
     assert trial.normal.dropped == trial.tangential.dropped == 0
     assert trial.dropped_frames == 7           # the larger of the cells' and the logger's
     assert trial.frames == 200 and trial.ignored_frames == 20 + 1
+
+
+def test_the_sidecar_s_log_channel_picks_the_bus_an_analysis_decodes(tmp_path):
+    """A log of two buses that both carry the rig's IDs (a replay on can1, twice over): the
+    analysis takes the bus with most of the rig's frames, unless the sidecar's
+    ``log_channel`` names the one the trial was recorded on; a channel the log lacks is an
+    error naming the sidecar and the key."""
+    import json
+
+    from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
+    from evtribo.analysis.pipeline import analyze_study
+
+    study = tmp_path / "study"
+    simulate_study(study, [SubjectParams(name="P01")], amplitudes=(120.0,),
+                   config=TrialConfig(duration_s=5.0, tare_s=1.0), sine_trial=False)
+    log = sorted(study.rglob("*.log"))[0]
+    lines = log.read_text(encoding="ascii").splitlines()
+    own = lines[0].split()[1]
+    replay = []
+    for line in lines:
+        stamp, _, frame = line.split()
+        t = float(stamp.strip("()"))
+        replay += [f"({t + 1e-4:.6f}) can1 {frame}", f"({t + 2e-4:.6f}) can1 {frame}"]
+    log.write_text("\n".join(lines + replay) + "\n", encoding="ascii")
+    sidecar = log.with_suffix(".json")
+    meta = json.loads(sidecar.read_text(encoding="utf-8"))
+
+    def run(out, log_channel):
+        meta.pop("log_channel", None)
+        if log_channel is not None:
+            meta["log_channel"] = log_channel
+        sidecar.write_text(json.dumps(meta), encoding="utf-8")
+        res = analyze_study(study, tmp_path / out, jobs=1, cache_dir=tmp_path / "cache")
+        return res.trials.iloc[0], json.loads((tmp_path / out / "summary.json").read_text())
+
+    mine, _ = run("own", own)
+    assert mine.frames == len(lines) - sum(1 for line in lines if "#" not in line)
+    assert mine.dropped_frames == 0
+    most, summary = run("most", None)
+    assert most.frames == 2 * mine.frames          # can1 carries most of the rig's frames
+    assert "several channels" in json.dumps(summary)
+    _, summary = run("none", "can9")
+    said = json.dumps(summary)
+    assert "log_channel" in said and "can9" in said and str(sidecar) in said

@@ -60,12 +60,14 @@ file_hash = sha256_file
 
 
 def cache_key(log_path: str | os.PathLike[str], rig: Rig, *,
-              log_sha256: str | None = None) -> str:
+              log_sha256: str | None = None, channel: str | None = None) -> str:
     """Key of a trial: log content (*log_sha256*, when the log's hash is known), rig content,
-    cache format version."""
+    the channel asked for, cache format version."""
     h = hashlib.sha256(f"v{CACHE_VERSION}".encode())
     h.update((log_sha256 or file_hash(log_path)).encode())
     h.update(rig.fingerprint().encode())
+    if channel is not None:
+        h.update(b"\0channel\0" + channel.encode("utf-8", "surrogateescape"))
     return h.hexdigest()[:40]
 
 
@@ -162,7 +164,8 @@ def _check_unchanged(log_path: str | os.PathLike[str], expect: tuple[str, int, i
 def load_trial(log_path: str | os.PathLike[str], rig: Rig,
                cache_dir: str | os.PathLike[str] | None = None, strict: bool = False, *,
                cache: bool = True,
-               expect: tuple[str, int, int] | None = None) -> TrialSignals:
+               expect: tuple[str, int, int] | None = None,
+               channel: str | None = None) -> TrialSignals:
     """A trial's decoded signals, from the cache when it holds them.
 
     Parameters
@@ -181,6 +184,10 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
         The log as it was hashed: ``(sha256, size in bytes, modification time in ns)``. Its
         hash is the cache key (the log is not hashed again), and the log is decoded only if
         its size and time are still those (before and after reading it).
+    channel : str, optional
+        The channel to decode the rig's frames from when the log holds several (a log of one
+        channel is decoded whole, whatever its channel's name). Default: the channel that
+        carries most of the rig's frames.
 
     Returns
     -------
@@ -198,7 +205,8 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
     if cache:
         directory = Path(cache_dir).expanduser() if cache_dir is not None \
             else default_cache_dir()
-        key = cache_key(log_path, rig, log_sha256=expect[0] if expect else None)
+        key = cache_key(log_path, rig, log_sha256=expect[0] if expect else None,
+                        channel=channel)
         trial = _read_entry(directory, key)
         if trial is not None and not (strict and trial.skipped_lines):
             log.debug("%s: decoded trial from the cache in %s", log_path, directory)
@@ -208,7 +216,9 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
     frames, report = read_frames(log_path, strict=strict)
     if expect is not None:
         _check_unchanged(log_path, expect, "while it was read")
-    trial = decode_trial(frames, rig)
+    if channel is not None and len(frames.channel_names) <= 1:
+        channel = None
+    trial = decode_trial(frames, rig, channel=channel)
     trial.skipped_lines = report.skipped_lines
     if directory is not None and key is not None:
         try:

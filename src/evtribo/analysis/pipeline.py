@@ -73,7 +73,8 @@ from evtribo.analysis.trial import (
     failed_row,
 )
 from evtribo.cache import load_trial
-from evtribo.errors import AnalysisError, StudyError, UserInputError
+from evtribo.decode import TrialSignals
+from evtribo.errors import AnalysisError, SidecarError, StudyError, UserInputError
 from evtribo.resultdir import Staging, locked, recover, release_inherited_locks
 from evtribo.rig import Rig
 from evtribo.study import STUDY_FILE, Study, TrialRef, load_study
@@ -167,6 +168,21 @@ def _meta(ref: TrialRef) -> TrialMeta:
                      tare_s=float(tare_s) if isinstance(tare_s, int | float) else None)
 
 
+def _load(ref: TrialRef, rig: Rig, strict: bool, expect: tuple[str, int, int] | None
+          ) -> TrialSignals:
+    """The trial's signals, from the channel its sidecar's ``log_channel`` names when the log
+    holds several."""
+    channel = ref.sidecar.extra.get("log_channel")
+    channel = channel if isinstance(channel, str) and channel else None
+    try:
+        return load_trial(ref.log_path, rig, _WORKER["cache_dir"], strict, expect=expect,
+                          channel=channel)
+    except UserInputError as err:
+        if channel is None or err.key != "channel":
+            raise
+        raise SidecarError(err.message, path=ref.sidecar_path, key="log_channel") from err
+
+
 def _analyze_one(task: _Task) -> _Result:
     strict, rig = _WORKER["strict"], _WORKER["rig"]
     ref = task.ref
@@ -176,8 +192,7 @@ def _analyze_one(task: _Task) -> _Result:
     root_logger = logging.getLogger("evtribo")
     root_logger.addHandler(collector)
     try:
-        signals = load_trial(ref.log_path, rig, _WORKER["cache_dir"], strict,
-                             expect=task.log)
+        signals = _load(ref, rig, strict, task.log)
         result = analyze_signals(signals, meta, settings=_WORKER["settings"],
                                  calibration=rig.calibration)
         row, windows, warnings, error = result.row, result.windows, result.warnings, None
