@@ -22,7 +22,6 @@ import hashlib
 import json
 import logging
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -31,8 +30,8 @@ import pyarrow.parquet as pq
 
 from evtribo.decode import CellSignals, ExcitationSignals, TrialSignals, decode_trial
 from evtribo.errors import AnalysisError
+from evtribo.files import atomic_write, sha256_file
 from evtribo.frames import read_frames
-from evtribo.resultdir import sha256_file
 from evtribo.rig import Rig
 
 log = logging.getLogger(__name__)
@@ -56,7 +55,6 @@ def default_cache_dir() -> Path:
 
 
 #: SHA-256 of a file's bytes, hex.
-file_hash = sha256_file
 
 
 def cache_key(log_path: str | os.PathLike[str], rig: Rig, *,
@@ -64,7 +62,7 @@ def cache_key(log_path: str | os.PathLike[str], rig: Rig, *,
     """Key of a trial: log content (*log_sha256*, when the log's hash is known), rig content,
     the channel asked for, cache format version."""
     h = hashlib.sha256(f"v{CACHE_VERSION}".encode())
-    h.update((log_sha256 or file_hash(log_path)).encode())
+    h.update((log_sha256 or sha256_file(log_path)).encode())
     h.update(rig.fingerprint().encode())
     if channel is not None:
         h.update(b"\0channel\0" + channel.encode("utf-8", "surrogateescape"))
@@ -241,7 +239,7 @@ def _read_entry(directory: Path, key: str) -> TrialSignals | None:
     for path in _entries(directory, key):
         try:
             checksum = path.name[len(key) + 1:-len(".parquet")]
-            if file_hash(path)[:CHECKSUM_DIGITS] != checksum:
+            if sha256_file(path)[:CHECKSUM_DIGITS] != checksum:
                 raise ValueError("its bytes do not match its checksum")
             return _from_table(pq.read_table(path))
         except Exception as err:  # damaged, foreign or unreadable: decode again
@@ -257,19 +255,15 @@ def _read_entry(directory: Path, key: str) -> TrialSignals | None:
 def _write_atomic(directory: Path, key: str, table: pa.Table) -> Path:
     """Write *table* as the entry of *key*, named after its checksum; returns its path."""
     directory.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{key}.", suffix=".tmp", dir=directory)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            pq.write_table(table, fh)
-        path = directory / f"{key}.{file_hash(tmp)[:CHECKSUM_DIGITS]}.parquet"
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink)
+    data = sink.getvalue().to_pybytes()
+    path = directory / f"{key}.{hashlib.sha256(data).hexdigest()[:CHECKSUM_DIGITS]}.parquet"
+    atomic_write(path, data)
     for other in _entries(directory, key):
         if other != path:
             other.unlink(missing_ok=True)
     return path
 
 
-__all__ = ["CACHE_VERSION", "cache_key", "default_cache_dir", "file_hash", "load_trial"]
+__all__ = ["CACHE_VERSION", "cache_key", "default_cache_dir", "load_trial"]

@@ -1,20 +1,40 @@
-"""Reading the small files a study is described by, safely.
+"""Files, read safely and written whole: the one place evtribo does either.
 
-A sidecar, a study.toml, a rig TOML or a DBC is read whole. A hostile or broken study folder
-may name something else under those names: a FIFO (reading blocks forever), a link to a
-device such as ``/dev/zero`` (reading never ends), a file of gigabytes. Only regular files of
-a sane size are read; anything else is the caller's error class (exit 2), naming the file.
+Reading: a sidecar, a study.toml, a rig TOML or a DBC is read whole. A hostile or broken
+study folder may name something else under those names: a FIFO (reading blocks forever), a
+link to a device such as ``/dev/zero`` (reading never ends), a file of gigabytes. Only
+regular files of a sane size are read (:func:`read_limited`); anything else is the caller's
+error class (exit 2), naming the file.
+
+Writing: every file evtribo writes whole (a sidecar, study.toml, a cache entry, a decoded
+table, a figure, a journal) goes through :func:`atomic_open` or :func:`atomic_write`: a
+temporary file beside the target, renamed over it only when it is complete, removed
+otherwise. A reader sees the old file or the new one, never half of one. The exceptions are
+the logs being recorded, which grow as ``TRIAL.log.part`` (:func:`partial_path`).
+
+Hashing: :func:`sha256_file` is the one file hash (inputs, result tables, cache entries).
 """
 
 from __future__ import annotations
 
+import errno
+import hashlib
 import os
 import stat
+import sys
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import IO, Any
 
 from evtribo.errors import UserInputError
 
-__all__ = ["MAX_CONFIG_BYTES", "check_regular_file", "read_limited"]
+__all__ = ["MAX_CONFIG_BYTES", "PARTIAL_SUFFIX", "atomic_open", "atomic_write",
+           "check_regular_file", "fsync_path", "partial_path", "read_limited", "sha256_file"]
+
+#: Suffix of a file still being written by a recording (``run-01.log.part``).
+PARTIAL_SUFFIX = ".part"
 
 #: Largest sidecar, study.toml or rig TOML read, bytes.
 MAX_CONFIG_BYTES = 1 << 20
@@ -71,3 +91,96 @@ def read_limited(path: str | os.PathLike[str], error: type[UserInputError], *,
     if len(data) > limit:  # it grew while being read
         raise error(f"is larger than {limit:,} bytes, too large for a {what}", path=Path(path))
     return data
+
+
+def partial_path(path: str | os.PathLike[str]) -> Path:
+    """Where a recording of *path* grows until it is complete: ``NAME`` + :data:`PARTIAL_SUFFIX`."""
+    p = Path(path)
+    return p.with_name(p.name + PARTIAL_SUFFIX)
+
+
+def sha256_file(path: str | os.PathLike[str]) -> str:
+    """SHA-256 of a file's bytes, hex, read in 1 MiB blocks."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def fsync_path(path: str | os.PathLike[str], *, directory: bool = False) -> None:
+    """Flush a file (or, with *directory*, a folder's entries) to the disk; a file system
+    that cannot flush a folder (or a file: EINVAL) is not an error."""
+    if directory and sys.platform == "win32":  # pragma: no cover
+        return
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    except OSError as err:
+        if not directory and err.errno not in (errno.EINVAL, errno.ENOTSUP):
+            raise
+    finally:
+        os.close(fd)
+
+
+@contextmanager
+def atomic_open(path: str | os.PathLike[str], mode: str = "wb", *,
+                encoding: str | None = None, durable: bool = False) -> Iterator[IO[Any]]:
+    """Open a temporary file beside *path*; it becomes *path* when the block ends without
+    an exception, and is removed otherwise.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to write (its folder must exist). An existing file is replaced; refusing
+        to overwrite is the caller's decision, made before.
+    mode : {"wb", "w"}
+    encoding : str, optional
+        For text mode (default UTF-8).
+    durable : bool
+        Flush the file and its folder to the disk before and after the rename (a sidecar, a
+        journal: what must survive a power cut).
+
+    Yields
+    ------
+    file object
+        The temporary file, named ``.NAME.XXXXXXXX.tmp`` in *path*'s folder.
+
+    Examples
+    --------
+    >>> with atomic_open("fit.csv", "w") as fh:  # doctest: +SKIP
+    ...     table.to_csv(fh, index=False)
+    """
+    if mode not in ("wb", "w"):
+        raise ValueError(f"atomic_open writes whole files: mode 'wb' or 'w', not {mode!r}")
+    target = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp",
+                               dir=target.parent if str(target.parent) else ".")
+    try:
+        with os.fdopen(fd, mode, **({} if mode == "wb" else
+                                    {"encoding": encoding or "utf-8", "newline": ""})) as fh:
+            yield fh
+            fh.flush()
+            if durable:
+                os.fsync(fh.fileno())
+        os.chmod(tmp, 0o666 & ~_UMASK)
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    if durable:
+        fsync_path(target.parent, directory=True)
+
+
+def atomic_write(path: str | os.PathLike[str], data: bytes | str, *,
+                 encoding: str = "utf-8", durable: bool = False) -> Path:
+    """Write *data* to *path* whole or not at all (see :func:`atomic_open`); returns the path."""
+    with atomic_open(path, "wb", durable=durable) as fh:
+        fh.write(data.encode(encoding) if isinstance(data, str) else data)
+    return Path(path)
+
+
+#: The process's umask, read once (mkstemp creates files 0600; written files get the mode
+#: any other file the user writes gets).
+_UMASK = os.umask(0)
+os.umask(_UMASK)

@@ -26,7 +26,6 @@ from __future__ import annotations
 import contextlib
 import datetime as dt
 import errno
-import hashlib
 import json
 import logging
 import os
@@ -43,11 +42,12 @@ from types import TracebackType
 from typing import Any
 
 from evtribo.errors import EvtriboError, OutputBusyError, OutputWriteError
+from evtribo.files import atomic_write, fsync_path
 
 log = logging.getLogger(__name__)
 
 __all__ = ["JOURNAL", "Staging", "holder", "inside", "lock_path", "locked", "pending",
-           "recover", "release_inherited_locks", "sha256_file"]
+           "recover", "release_inherited_locks"]
 
 LOCK_SUFFIX = ".evtribo-lock"
 STAGE_INFIX = ".evtribo-new-"
@@ -55,15 +55,6 @@ STAGE_INFIX = ".evtribo-new-"
 JOURNAL = ".evtribo-commit.json"
 #: Errors of writing, whichever file they name.
 _WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EIO}
-
-
-def sha256_file(path: str | os.PathLike[str]) -> str:
-    """SHA-256 of a file's bytes, hex, read in 1 MiB blocks."""
-    digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def inside(root: Path, rel: str) -> Path | None:
@@ -266,21 +257,6 @@ def pending(unit: str | os.PathLike[str]) -> list[Path]:
     return [s for s in _stages(_real(unit)) if (s / JOURNAL).is_file()]
 
 
-def _fsync(path: Path, directory: bool = False) -> None:
-    """Flush a file (or a folder's entries) to disk; a file system that cannot flush a folder
-    (or a file: EINVAL) is not an error."""
-    if directory and sys.platform == "win32":  # pragma: no cover
-        return
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    except OSError as err:
-        if not directory and err.errno not in (errno.EINVAL, errno.ENOTSUP):
-            raise
-    finally:
-        os.close(fd)
-
-
 def _remove_file(target: Path, rel: str) -> None:
     path = inside(target, rel)
     if path is None or not (path.is_file() or path.is_symlink()):
@@ -306,7 +282,7 @@ def _apply(stage: Path) -> None:
             os.replace(src, dst)
             folders.add(dst.parent)
     for folder in folders:
-        _fsync(folder, directory=True)
+        fsync_path(folder, directory=True)
     (stage / JOURNAL).unlink()
     shutil.rmtree(stage, ignore_errors=True)
 
@@ -399,16 +375,10 @@ class Staging:
         stale = sorted(set(remove) - set(install))
         try:
             for rel in install:
-                _fsync(self.folder / rel)
+                fsync_path(self.folder / rel)
             doc = {"target": os.path.relpath(self.target, self.folder.parent),
                    "install": install, "remove": stale}
-            tmp = self.folder / f"{JOURNAL}.tmp"
-            with open(tmp, "w", encoding="utf-8") as fh:
-                json.dump(doc, fh, indent=1)
-                fh.flush()
-                os.fsync(fh.fileno())
-            os.replace(tmp, self.folder / JOURNAL)
-            _fsync(self.folder, directory=True)
+            atomic_write(self.folder / JOURNAL, json.dumps(doc, indent=1), durable=True)
         except OSError as err:
             raise self._write_error(err) from err
         self.committed = True  # from here on, the new files are the output

@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from evtribo.errors import OutputExistsError, SidecarError, StudyError, toml_error_line
-from evtribo.files import read_limited
+from evtribo.files import PARTIAL_SUFFIX, atomic_write, read_limited
 
 if TYPE_CHECKING:  # pragma: no cover
     from evtribo.rig import Rig
@@ -40,8 +40,6 @@ STUDY_FILE = "study.toml"
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
 CONDITIONS = ("on", "off", "alternating")
 WAVEFORMS = ("sine", "square")
-#: A log left under its temporary name by an acquisition that was killed.
-PARTIAL_SUFFIX = ".part"
 
 
 @functools.cache
@@ -232,17 +230,9 @@ def write_sidecar(path: str | os.PathLike[str], sidecar: Sidecar | Mapping[str, 
     if p.exists() and not force:
         raise OutputExistsError("exists already; use --force to overwrite", path=p)
     payload = sidecar.to_dict() if isinstance(sidecar, Sidecar) else dict(sidecar)
-    tmp = p.with_name(p.name + ".tmp")
-    try:
-        with open(tmp, "w", encoding="utf-8") as fh:
-            json.dump(payload, fh, indent=2, ensure_ascii=False, allow_nan=False)
-            fh.write("\n")
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, p)
-    except BaseException:  # a value JSON cannot hold, a full disk: leave nothing behind
-        tmp.unlink(missing_ok=True)
-        raise
+    # a value JSON cannot hold, a full disk: nothing is left behind
+    text = json.dumps(payload, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
+    atomic_write(p, text, durable=True)
     return p
 
 
@@ -457,7 +447,5 @@ def write_study_toml(root: str | os.PathLike[str], *, name: str, rig: Mapping[st
         raise OutputExistsError("exists already", path=p)
     lines = [f"name = {_toml_value(name)}", "", "[rig]"]
     lines += [f"{k} = {_toml_value(v)}" for k, v in rig.items()]
-    tmp = p.with_name(p.name + ".tmp")
-    tmp.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    os.replace(tmp, p)
+    atomic_write(p, "\n".join(lines) + "\n", durable=True)
     return p

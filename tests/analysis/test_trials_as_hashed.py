@@ -76,7 +76,7 @@ def test_each_input_is_hashed_once(study, tmp_path, monkeypatch):
         return digest
 
     monkeypatch.setattr(provenance, "sha256_file", counting(provenance.sha256_file))
-    monkeypatch.setattr(cache, "file_hash", counting(cache.file_hash))
+    monkeypatch.setattr(cache, "sha256_file", counting(cache.sha256_file))
     for k in range(2):  # decoded, then from the cache
         hashed.clear()
         res = pipeline.analyze_study(study, tmp_path / f"out{k}", jobs=1,

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from evtribo.errors import OutputExistsError, SidecarError
+from evtribo.files import partial_path
 from evtribo.lock import WriteLock
 from evtribo.study import CONDITIONS, WAVEFORMS
 
@@ -81,7 +82,7 @@ class TrialPaths:
         """Paths of *trial* of *subject* in *study*."""
         folder = Path(study) / subject
         return cls(folder=folder, log=folder / f"{trial}.log",
-                   part=folder / f"{trial}.log.part", sidecar=folder / f"{trial}.json",
+                   part=partial_path(folder / f"{trial}.log"), sidecar=folder / f"{trial}.json",
                    lock=folder / f"{trial}.lock", reserve=folder / f".{trial}.reserve")
 
     def existing(self) -> list[Path]:

@@ -21,10 +21,9 @@ from pathlib import Path
 from typing import Any
 
 from evtribo import __version__
-from evtribo.resultdir import sha256_file
+from evtribo.files import sha256_file
 
-__all__ = ["changed_since", "file_record", "input_files", "provenance", "sha256_file",
-           "software_versions"]
+__all__ = ["changed_since", "file_record", "input_files", "provenance", "software_versions"]
 
 _PACKAGES = {"python-can": "python-can", "cantools": "cantools", "numpy": "numpy",
              "scipy": "scipy", "pandas": "pandas", "pyarrow": "pyarrow"}

@@ -25,6 +25,7 @@ import pandas as pd
 from evtribo.cli.inspect import load_dbc
 from evtribo.decode import decode_messages
 from evtribo.errors import OutputExistsError, UserInputError
+from evtribo.files import atomic_open
 from evtribo.frames import FrameTable, read_frames, supported_suffixes
 from evtribo.frames.sniff import sniff
 
@@ -128,16 +129,11 @@ def run(args: argparse.Namespace) -> int:
     frames, report = read_frames(args.log, strict=args.strict)
     frames, with_channel = _channel(frames, args.channel, args.log)
     table = decoded_table(frames, db, choices=args.choices, with_channel=with_channel)
-    tmp = f"{out}.tmp-{os.getpid()}"
-    try:
+    with atomic_open(out, "wb") as fh:
         if suffix == ".parquet":
-            table.to_parquet(tmp, index=False)
+            table.to_parquet(fh, index=False)
         else:
-            table.to_csv(tmp, index=False)
-        os.replace(tmp, out)
-    finally:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
+            table.to_csv(fh, index=False)
     print(f"{out}: {len(table)} frames decoded of {len(frames)} "
           f"({report.skipped_lines} damaged lines skipped), "
           f"{table.shape[1] - 2 - with_channel} signals")

@@ -17,7 +17,6 @@ only if it is one analysis's complete results (:func:`~evtribo.compare.tables.re
 
 from __future__ import annotations
 
-import hashlib
 import json
 import logging
 import math
@@ -43,8 +42,9 @@ from evtribo.compare.plots import (
 )
 from evtribo.compare.tables import ResultTables, check_out_folder, read_results
 from evtribo.errors import OutputExistsError
+from evtribo.files import sha256_file
 from evtribo.model.params import ModelParameters
-from evtribo.resultdir import Staging, locked, recover, sha256_file
+from evtribo.resultdir import Staging, locked, recover
 
 log = logging.getLogger(__name__)
 
@@ -267,7 +267,7 @@ def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],
     pfile: dict[str, Any] | None = None
     if params_file is not None:
         p = Path(params_file)
-        pfile = {"path": str(p), "sha256": hashlib.sha256(p.read_bytes()).hexdigest()}
+        pfile = {"path": str(p), "sha256": sha256_file(p)}
     doc = {
         "run_id": run_id,
         "software": {"evtribo": __version__},

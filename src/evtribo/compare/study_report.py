@@ -30,8 +30,9 @@ from evtribo.compare.report import Report
 from evtribo.compare.run import FIGURES, FIT_CSV, FIT_JSON, compare, figure_stems
 from evtribo.compare.tables import ResultTables, check_out_folder, read_results
 from evtribo.errors import EvtriboError, OutputExistsError, ResultFolderError, UserInputError
+from evtribo.files import sha256_file
 from evtribo.model.params import ModelParameters
-from evtribo.resultdir import inside, locked, recover, sha256_file
+from evtribo.resultdir import inside, locked, recover
 from evtribo.study import STUDY_FILE, discover_trials, read_study_toml
 
 log = logging.getLogger(__name__)

@@ -49,7 +49,8 @@ from numpy.typing import NDArray
 
 from evtribo.analysis.outputs import ANALYSIS_FILES, SUMMARY_FILE
 from evtribo.errors import ResultFolderError, UserInputError
-from evtribo.resultdir import locked, pending, recover, sha256_file
+from evtribo.files import sha256_file
+from evtribo.resultdir import locked, pending, recover
 
 log = logging.getLogger(__name__)
 

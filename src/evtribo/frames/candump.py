@@ -32,6 +32,7 @@ from typing import IO, Any
 import numpy as np
 import numpy.typing as npt
 
+from evtribo.files import PARTIAL_SUFFIX
 from evtribo.frames.candump_line import FD_SIZES, Notice, parse_line
 
 # the writer (and the CAN_ERR constants the logger shares) live in candump_writer; its
@@ -364,7 +365,7 @@ def _slow_lines(block: bytes, starts: npt.NDArray[np.intp], ends: npt.NDArray[np
 
 
 def _open_binary(path: str | os.PathLike[str]) -> IO[bytes]:
-    if os.fspath(path).lower().removesuffix(".part").endswith(".gz"):
+    if os.fspath(path).lower().removesuffix(PARTIAL_SUFFIX).endswith(".gz"):
         return gzip.open(path, "rb")
     return open(path, "rb")
 

@@ -30,6 +30,7 @@ from can.io.player import MESSAGE_READERS
 from can.io.sqlite import SqliteReader
 
 from evtribo.errors import LogFormatError
+from evtribo.files import PARTIAL_SUFFIX
 from evtribo.frames.table import CLASSIC_WIDTH, FD_WIDTH, NO_CHANNEL, FrameTable
 
 #: The extra that installs what python-can's MF4 reader needs.
@@ -220,7 +221,7 @@ def read_with_python_can(path: str | os.PathLike[str], on_bad: BadLineHandler
     lines : int
         Lines read (text formats), else 0.
     """
-    name = os.fspath(path).lower().removesuffix(".part")  # an unfinished acquisition's name
+    name = os.fspath(path).lower().removesuffix(PARTIAL_SUFFIX)  # an unfinished acquisition's name
     gz = name.endswith(".gz")
     suffix = os.path.splitext(name[:-3] if gz else name)[1]
     if suffix == ".db":

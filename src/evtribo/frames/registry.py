@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from can.io.player import MESSAGE_READERS
 
 from evtribo.errors import LogFormatError
+from evtribo.files import PARTIAL_SUFFIX
 from evtribo.frames.candump import read_candump
 from evtribo.frames.candump_text import read_candump_text
 from evtribo.frames.pycan import read_with_python_can
@@ -99,9 +100,6 @@ class ReadReport:
     time_base: str = ""
 
 
-#: Suffix of a log left under its temporary name by an acquisition that did not finish
-#: (``run-01.log.part``); it is read by the reader of the suffix before it.
-PARTIAL_SUFFIX = ".part"
 
 
 def log_suffix(path: str | os.PathLike[str]) -> str:

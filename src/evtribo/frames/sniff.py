@@ -17,6 +17,8 @@ import zlib
 from collections import Counter
 from dataclasses import dataclass
 
+from evtribo.files import PARTIAL_SUFFIX
+
 #: Bytes looked at.
 HEAD_BYTES = 1 << 16
 #: Non-empty lines looked at.
@@ -197,7 +199,7 @@ def sniff(path: str | os.PathLike[str]) -> Sniffed | None:
     head = _head(path)
     if head is None:
         return None
-    if os.fspath(path).lower().removesuffix(".part").endswith(".gz"):
+    if os.fspath(path).lower().removesuffix(PARTIAL_SUFFIX).endswith(".gz"):
         if not head.startswith(b"\x1f\x8b"):
             return None  # not gzip: gzip's own error names it
         try:

@@ -6,7 +6,6 @@ import dataclasses
 import json
 import logging
 import os
-import tempfile
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -19,6 +18,7 @@ from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.core import DEFAULT_DBC, TrialTruth, simulate_trial
 from evtribo.acquisition.simulator.realism import human, realistic_rig
 from evtribo.errors import OutputExistsError
+from evtribo.files import atomic_open, partial_path
 from evtribo.frames import write_candump
 from evtribo.frames.table import FrameTable
 from evtribo.lock import WriteLock
@@ -120,7 +120,7 @@ def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams
 
 
 def _refuse_existing(log_path: Path, force: bool) -> None:
-    existing = [p for p in (log_path, log_path.with_name(log_path.name + ".part"),
+    existing = [p for p in (log_path, partial_path(log_path),
                             log_path.with_suffix(".json")) if p.exists()]
     if existing and not force:
         raise OutputExistsError("trial exists already (use --force to overwrite): "
@@ -129,20 +129,12 @@ def _refuse_existing(log_path: Path, force: bool) -> None:
 
 def _write_files(log_path: Path, frames: FrameTable, truth: TrialTruth, subject: SubjectParams,
                  config: TrialConfig, *, force: bool, notes: str) -> None:
-    trial = log_path.stem
     sidecar_path = log_path.with_suffix(".json")
     # a name of its own (not TRIAL.log.part, which may be a killed recording of this trial)
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{trial}.", suffix=".log.tmp",
-                                    dir=log_path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            write_candump(fh, frames, config.channel)
-        os.replace(tmp_name, log_path)
-    except BaseException:
-        Path(tmp_name).unlink(missing_ok=True)
-        raise
+    with atomic_open(log_path, "wb") as fh:
+        write_candump(fh, frames, config.channel)
     if force:
-        log_path.with_name(log_path.name + ".part").unlink(missing_ok=True)
+        partial_path(log_path).unlink(missing_ok=True)
     dropped = sum(int(n["dropped"]) for n in truth.nodes.values())
     sidecar: dict[str, Any] = {
         "subject": subject.name, "waveform": config.waveform,
