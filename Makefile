@@ -23,7 +23,9 @@ bench: $(STAMP)
 	for b in benchmarks/*.py; do $(PY) $$b || exit 1; done
 
 lint: $(STAMP)
-	$(PY) -m pip install --quiet 'ruff>=0.5,<1' && $(VENV)/bin/ruff check src tests benchmarks
+	$(PY) -m pip install --quiet -e '.[dev]'
+	$(VENV)/bin/ruff check src tests benchmarks
+	$(VENV)/bin/mypy
 
 clean:
 	rm -rf $(VENV) demo-output build src/*.egg-info

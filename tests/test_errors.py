@@ -32,3 +32,21 @@ def test_tree(cls, builtin, code):
     assert err.exit_code == code
     back = pickle.loads(pickle.dumps(err))
     assert type(back) is cls and str(back) == str(err)
+
+
+def test_an_override_is_named_as_python_or_the_command_line_spells_it(tmp_path, capsys):
+    """A refusal names ``force=True`` to Python code and ``--force`` on the command line."""
+    from evtribo.cli import main
+    from evtribo.errors import OutputExistsError
+    from evtribo.study import write_sidecar
+
+    path = tmp_path / "run-01.json"
+    write_sidecar(path, {"subject": "P01"})
+    with pytest.raises(OutputExistsError) as exc:
+        write_sidecar(path, {"subject": "P01"})
+    assert "use force=True to overwrite" in str(exc.value) and "--force" not in str(exc.value)
+    assert "use --force to overwrite" in exc.value.cli_text()
+    figures = tmp_path / "figs"
+    assert main(["model", "--figures", str(figures)]) == 0
+    assert main(["model", "--figures", str(figures)]) == 2
+    assert "use --force to overwrite" in capsys.readouterr().err

@@ -161,7 +161,7 @@ def _check_out(out: Path, force: bool) -> None:
                                 "by evtribo demo; choose another --out", path=out)
     if not force:
         raise OutputExistsError("holds a previous demo (" + ", ".join(p.name for p in taken)
-                                + "); use --force to replace it", path=out)
+                                + "); use {force} to replace it", path=out)
     if (out / STUDY).exists():
         # The demo's own simulated study is the only thing it ever deletes.
         shutil.rmtree(out / STUDY)

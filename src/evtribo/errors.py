@@ -27,9 +27,17 @@ import os
 import re
 from typing import Any
 
+#: Stands in a message for the option that overrides a refusal: the command line shows it as
+#: ``--force``, Python (``str(err)``) as ``force=True``. Messages never spell either.
+FORCE = "{force}"
+
 
 class EvtriboError(Exception):
-    """Root of every error evtribo raises on purpose."""
+    """Root of every error evtribo raises on purpose.
+
+    ``str(err)`` is the message as Python code sees it; :meth:`cli_text` as the command
+    line prints it (an override named as the command's option, ``--force``).
+    """
 
     exit_code = 1
 
@@ -56,9 +64,17 @@ class EvtriboError(Exception):
             parts.append(f"key '{self.key}'")
         return ": ".join(parts)
 
-    def __str__(self) -> str:
+    def _text(self, force: str) -> str:
         where = self.location()
-        return f"{where}: {self.message}" if where else self.message
+        text = f"{where}: {self.message}" if where else self.message
+        return text.replace(FORCE, force)
+
+    def __str__(self) -> str:
+        return self._text("force=True")
+
+    def cli_text(self) -> str:
+        """The message as the command line prints it."""
+        return self._text("--force")
 
     def __reduce__(self) -> tuple[Any, ...]:  # picklable across worker processes
         return (_rebuild, (type(self), self.message, self.path, self.line, self.key))
@@ -70,7 +86,18 @@ def _rebuild(cls: type[EvtriboError], message: str, path: str | None, line: int 
 
 
 def toml_error_line(err: BaseException) -> int | None:
-    """The line number a ``tomllib.TOMLDecodeError`` names in its message, if any."""
+    """The line number a ``tomllib.TOMLDecodeError`` names in its message.
+
+    Parameters
+    ----------
+    err : BaseException
+        The error ``tomllib`` raised.
+
+    Returns
+    -------
+    int or None
+        The line (1-based), None when the message names none.
+    """
     m = re.search(r"line (\d+)", str(err))
     return int(m.group(1)) if m else None
 
@@ -79,7 +106,21 @@ def toml_key_line(text: str, table: str, key: str) -> int | None:
     """The line (1-based) where *key* is set in ``[table]`` of a TOML document's *text*.
 
     Finds ``key = ...`` under the header ``[table]`` (or ``table.key = ...`` / an inline
-    ``table = {key = ...}`` elsewhere); None when it cannot tell.
+    ``table = {key = ...}`` elsewhere).
+
+    Parameters
+    ----------
+    text : str
+        The TOML document.
+    table : str
+        The dotted table name (``"rig.calibration"``; ``""`` for the top level).
+    key : str
+        The key in that table.
+
+    Returns
+    -------
+    int or None
+        The line (1-based), None when it cannot tell.
     """
     current = ""
     header = re.compile(r"^\s*\[\s*([^\[\]]+?)\s*\]\s*(#.*)?$")
@@ -158,6 +199,7 @@ class OutputWriteError(EvtriboError, OSError):
 
 
 __all__ = [
+    "FORCE",
     "AcquisitionError",
     "AnalysisError",
     "ConfigError",

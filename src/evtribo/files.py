@@ -44,6 +44,18 @@ def check_regular_file(path: str | os.PathLike[str], error: type[UserInputError]
                        what: str = "file") -> os.stat_result:
     """The ``stat`` of *path* (links followed) if it is a regular file, else raise *error*.
 
+    Parameters
+    ----------
+    path : path-like
+    error : type
+        The error raised (a :class:`~evtribo.errors.UserInputError`), naming *path*.
+    what : str
+        What the file is, for the message (``"sidecar"``).
+
+    Returns
+    -------
+    os.stat_result
+
     Raises
     ------
     FileNotFoundError
@@ -75,6 +87,10 @@ def read_limited(path: str | os.PathLike[str], error: type[UserInputError], *,
     what : str
         What the file is, for the message (``"sidecar"``).
 
+    Returns
+    -------
+    bytes
+
     Raises
     ------
     FileNotFoundError
@@ -94,13 +110,34 @@ def read_limited(path: str | os.PathLike[str], error: type[UserInputError], *,
 
 
 def partial_path(path: str | os.PathLike[str]) -> Path:
-    """Where a recording of *path* grows until it is complete: ``NAME`` + :data:`PARTIAL_SUFFIX`."""
+    """Where a recording of *path* grows until it is complete.
+
+    Parameters
+    ----------
+    path : path-like
+        The complete file's name (``P01/run-01.log``).
+
+    Returns
+    -------
+    Path
+        ``NAME`` + :data:`PARTIAL_SUFFIX` (``P01/run-01.log.part``).
+    """
     p = Path(path)
     return p.with_name(p.name + PARTIAL_SUFFIX)
 
 
 def sha256_file(path: str | os.PathLike[str]) -> str:
-    """SHA-256 of a file's bytes, hex, read in 1 MiB blocks."""
+    """SHA-256 of a file's bytes, read in 1 MiB blocks.
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    str
+        64 hexadecimal digits.
+    """
     digest = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):
@@ -109,8 +146,16 @@ def sha256_file(path: str | os.PathLike[str]) -> str:
 
 
 def fsync_path(path: str | os.PathLike[str], *, directory: bool = False) -> None:
-    """Flush a file (or, with *directory*, a folder's entries) to the disk; a file system
-    that cannot flush a folder (or a file: EINVAL) is not an error."""
+    """Flush a file (or, with *directory*, a folder's entries) to the disk.
+
+    A file system that cannot flush a folder (or a file: EINVAL) is not an error.
+
+    Parameters
+    ----------
+    path : path-like
+    directory : bool
+        *path* is a folder: flush its entries (a rename in it).
+    """
     if directory and sys.platform == "win32":  # pragma: no cover
         return
     fd = os.open(path, os.O_RDONLY)
@@ -174,7 +219,22 @@ def atomic_open(path: str | os.PathLike[str], mode: str = "wb", *,
 
 def atomic_write(path: str | os.PathLike[str], data: bytes | str, *,
                  encoding: str = "utf-8", durable: bool = False) -> Path:
-    """Write *data* to *path* whole or not at all (see :func:`atomic_open`); returns the path."""
+    """Write *data* to *path* whole or not at all (see :func:`atomic_open`).
+
+    Parameters
+    ----------
+    path : path-like
+    data : bytes or str
+        The file's content (a str is encoded with *encoding*).
+    encoding : str
+    durable : bool
+        Flush to the disk before and after the rename.
+
+    Returns
+    -------
+    Path
+        *path*.
+    """
     with atomic_open(path, "wb", durable=durable) as fh:
         fh.write(data.encode(encoding) if isinstance(data, str) else data)
     return Path(path)

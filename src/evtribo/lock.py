@@ -186,7 +186,7 @@ class WriteLock:
     def refuse(self, holder: dict[str, Any] | None) -> LockedError:
         """The error saying that *holder* has the lock."""
         return LockedError(f"{self.what} is being {self.verb} by {_describe(holder or None)}; "
-                           "wait until it ends (--force does not override this)",
+                           "wait until it ends ({force} does not override this)",
                            path=self.path)
 
     def check(self) -> None:

@@ -148,7 +148,7 @@ def _busy(unit: Path, shown: str | os.PathLike[str]) -> OutputBusyError:
     since = f", since {who['started']}" if who.get("started") else ""
     return OutputBusyError(
         f"being written by {what}{f' ({details}{since})' if details else since}; wait until it "
-        "has finished (or stop it), then run this again (--force does not override this)",
+        "has finished (or stop it), then run this again ({force} does not override this)",
         path=shown)
 
 

@@ -228,7 +228,7 @@ def write_sidecar(path: str | os.PathLike[str], sidecar: Sidecar | Mapping[str, 
     """Write a sidecar atomically (temporary file, then rename); refuse to overwrite."""
     p = Path(path)
     if p.exists() and not force:
-        raise OutputExistsError("exists already; use --force to overwrite", path=p)
+        raise OutputExistsError("exists already; use {force} to overwrite", path=p)
     payload = sidecar.to_dict() if isinstance(sidecar, Sidecar) else dict(sidecar)
     # a value JSON cannot hold, a full disk: nothing is left behind
     text = json.dumps(payload, indent=2, ensure_ascii=False, allow_nan=False) + "\n"

@@ -126,7 +126,7 @@ def refuse_existing(paths: TrialPaths, force: bool) -> None:
     """Raise OutputExistsError, naming the files, if the trial has any and not *force*."""
     existing = paths.existing()
     if existing and not force:
-        raise OutputExistsError("trial already recorded (use --force to replace it): "
+        raise OutputExistsError("trial already recorded (use {force} to replace it): "
                                 + ", ".join(str(p) for p in existing), path=existing[0])
 
 

@@ -152,7 +152,7 @@ def _main(argv: Sequence[str] | None) -> int:
     except EvtriboError as err:
         if debug:
             raise
-        print(f"evtribo {args.command}: error: {err}", file=sys.stderr)
+        print(f"evtribo {args.command}: error: {err.cli_text()}", file=sys.stderr)
         return err.exit_code
     except KeyboardInterrupt:
         print(f"evtribo {args.command}: interrupted", file=sys.stderr)

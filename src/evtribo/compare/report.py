@@ -196,7 +196,7 @@ class Report:
     def _refuse_existing(folder: Path, names: list[str], overwrite: bool) -> None:
         existing = [folder / n for n in names if (folder / n).exists()]
         if existing and not overwrite:
-            raise OutputExistsError("the report already exists; use --force to overwrite it",
+            raise OutputExistsError("the report already exists; use {force} to overwrite it",
                                     path=existing[0])
 
     # ------------------------------------------------------------------------ rendering

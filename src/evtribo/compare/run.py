@@ -86,7 +86,7 @@ def _check_outputs(out: Path, force: bool) -> None:
     existing = compare_files(out)
     if existing and not force:
         raise OutputExistsError(f"{len(existing)} output file(s) of a previous comparison "
-                                "exist; use --force to overwrite them", path=out / existing[0])
+                                "exist; use {force} to overwrite them", path=out / existing[0])
 
 
 def _jsonable(x: float) -> float | None:

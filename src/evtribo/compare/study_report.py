@@ -306,7 +306,7 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
     """
     folder = check_out_folder(out)
     if Path(output).exists() and not force:  # before the lock: a refusal writes nothing
-        raise OutputExistsError("the report already exists; use --force to overwrite it",
+        raise OutputExistsError("the report already exists; use {force} to overwrite it",
                                 path=output)
     with locked(folder, "evtribo report"):
         recover(folder)

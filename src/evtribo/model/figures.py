@@ -293,7 +293,7 @@ def save_figures(directory: str | os.PathLike[str], *, force: bool = False,
     existing = [p for p in paths if p.exists()]
     if existing and not force:
         raise OutputExistsError(
-            f"{len(existing)} figure file(s) already exist; use --force to overwrite",
+            f"{len(existing)} figure file(s) already exist; use {{force}} to overwrite",
             path=existing[0])
     out.mkdir(parents=True, exist_ok=True)
     written = []

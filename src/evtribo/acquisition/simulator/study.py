@@ -123,7 +123,7 @@ def _refuse_existing(log_path: Path, force: bool) -> None:
     existing = [p for p in (log_path, partial_path(log_path),
                             log_path.with_suffix(".json")) if p.exists()]
     if existing and not force:
-        raise OutputExistsError("trial exists already (use --force to overwrite): "
+        raise OutputExistsError("trial exists already (use {force} to overwrite): "
                                 + ", ".join(str(p) for p in existing), path=existing[0])
 
 
