@@ -70,7 +70,7 @@ def test_a_lock_held_by_another_process_is_refused_naming_it(tmp_path, other_pro
     with pytest.raises(LockedError) as err:
         WriteLock(path, "the trial P01/run-01", "recorded").acquire()
     assert isinstance(err.value, OutputExistsError) and err.value.exit_code == 2
-    message = str(err.value)
+    message = err.value.cli_text()  # as the command line prints it
     assert message.startswith(f"{path}: the trial P01/run-01 is being recorded by PID "
                               f"{proc.pid} on {socket.gethostname()}")
     assert "--force does not override" in message
