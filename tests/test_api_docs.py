@@ -58,7 +58,13 @@ GROUPS = {
     "base": ("evtribo.errors", "evtribo.files", "evtribo._docs"),
 }
 #: Groups whose public functions are still being documented.
-PENDING = {"analysis", "acquisition", "compare"}
+PENDING = {
+    "analysis",
+    # (one group a line: each leaves the set when its functions are documented)
+    "acquisition",
+    # ...
+    "compare",
+}
 
 
 @pytest.mark.parametrize("group", [
