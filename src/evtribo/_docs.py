@@ -52,6 +52,12 @@ docdict: dict[str, str] = {
     "params": """params : ModelParameters, optional
     The model's parameters (default: the seed paper's Table 1,
     :class:`evtribo.model.ModelParameters`).""",
+    # --- decoding and analysis (evtribo.decode, evtribo.cache, evtribo.analysis) ---
+
+    # --- acquisition, frames, rig, study ---
+
+    # --- model, compare, command line ---
+
 }
 
 F = TypeVar("F", bound=Callable[..., object])
