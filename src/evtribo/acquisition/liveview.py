@@ -1,0 +1,178 @@
+"""The live view in a browser: a page on 127.0.0.1 that a subject can watch on a second screen.
+
+``evtribo acquire --view [PORT]`` and ``evtribo session --view [PORT]`` serve it while they
+record. The page shows, large, the normal force against its target band, the friction trace
+of the last seconds, the high voltage's state and amplitude, what to do now (lift the finger,
+slide) and the trial's progress; below, for the experimenter, frames per second per message,
+drops and bus errors.
+
+Served by the standard library (:mod:`http.server`, one thread per client) with
+Server-Sent Events: ``GET /`` is the page (no external asset: styles and script inline),
+``GET /events`` a ``text/event-stream`` of the state as JSON at :data:`RATE_HZ`,
+``GET /state`` the latest state once. The recording publishes with :meth:`LiveView.publish`
+(a dict swap, never blocking the receive path); a browser that goes away costs nothing.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import threading
+import time
+from collections.abc import Mapping
+from http import HTTPStatus
+from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+from importlib import resources
+from typing import Any
+
+log = logging.getLogger(__name__)
+
+__all__ = ["RATE_HZ", "LiveView"]
+
+#: Updates per second sent to each browser.
+RATE_HZ = 20.0
+#: Default port of ``--view`` without a number.
+DEFAULT_PORT = 8765
+
+
+def _finite(value: Any) -> Any:
+    """*value* with NaN and infinities (not JSON) as None, in dicts too."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, Mapping):
+        return {k: _finite(v) for k, v in value.items()}
+    return value
+
+
+def _page() -> bytes:
+    """The page's HTML (package data ``evtribo/data/liveview.html``)."""
+    return (resources.files("evtribo") / "data" / "liveview.html").read_bytes()
+
+
+class LiveView:
+    """A live view of the recording, served on ``http://HOST:PORT/``.
+
+    Parameters
+    ----------
+    port : int
+        TCP port (0: any free one; :attr:`url` tells which).
+    host : str
+        Address to bind; the default keeps the page on this machine.
+    rate_Hz : float
+        Updates per second to each browser.
+
+    Examples
+    --------
+    >>> view = LiveView(0).start()                    # doctest: +SKIP
+    >>> view.publish({"normal_force_N": 0.51, "target_N": 0.5, "band_N": 0.1})  # doctest: +SKIP
+    >>> view.stop()                                   # doctest: +SKIP
+    """
+
+    def __init__(self, port: int = DEFAULT_PORT, host: str = "127.0.0.1",
+                 rate_Hz: float = RATE_HZ) -> None:
+        self.host, self.port, self.rate_Hz = host, port, rate_Hz
+        self._state: dict[str, Any] = {"seq": 0}
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._server: ThreadingHTTPServer | None = None
+        self._thread: threading.Thread | None = None
+        self.clients = 0
+
+    @property
+    def url(self) -> str:
+        """The page's address."""
+        return f"http://{self.host}:{self.port}/"
+
+    def publish(self, state: Mapping[str, Any]) -> None:
+        """Make *state* (JSON-ready values; NaN becomes null) what the browsers see next."""
+        clean = {k: _finite(v) for k, v in state.items()}
+        with self._lock:
+            seq = int(self._state.get("seq", 0)) + 1
+            self._state = {**clean, "seq": seq}
+
+    def state(self) -> dict[str, Any]:
+        """The latest state published."""
+        with self._lock:
+            return dict(self._state)
+
+    def start(self) -> LiveView:
+        """Serve in a background thread; returns self.
+
+        Raises
+        ------
+        OSError
+            The port is taken (or not allowed).
+        """
+        view = self
+
+        class Handler(BaseHTTPRequestHandler):
+            server_version = "evtribo-liveview"
+
+            def log_message(self, format: str, *args: Any) -> None:  # noqa: A002
+                log.debug("live view: " + format, *args)
+
+            def do_GET(self) -> None:  # noqa: N802 (the standard library's name)
+                path = self.path.split("?", 1)[0]
+                if path in ("/", "/index.html"):
+                    self._send(_page(), "text/html; charset=utf-8")
+                elif path == "/state":
+                    self._send(json.dumps(view.state()).encode(), "application/json")
+                elif path == "/events":
+                    view._stream(self)
+                else:
+                    self.send_error(HTTPStatus.NOT_FOUND)
+
+            def _send(self, body: bytes, kind: str) -> None:
+                self.send_response(HTTPStatus.OK)
+                self.send_header("Content-Type", kind)
+                self.send_header("Content-Length", str(len(body)))
+                self.send_header("Cache-Control", "no-store")
+                self.end_headers()
+                self.wfile.write(body)
+
+        server = ThreadingHTTPServer((self.host, self.port), Handler)
+        server.daemon_threads = True
+        self._server = server
+        self.port = int(server.server_address[1])
+        self._thread = threading.Thread(target=server.serve_forever, kwargs={
+            "poll_interval": 0.1}, name="evtribo-liveview", daemon=True)
+        self._thread.start()
+        log.info("live view on %s", self.url)
+        return self
+
+    def _stream(self, handler: BaseHTTPRequestHandler) -> None:
+        """Send the state as Server-Sent Events until the browser leaves or the view
+        stops."""
+        handler.send_response(HTTPStatus.OK)
+        handler.send_header("Content-Type", "text/event-stream")
+        handler.send_header("Cache-Control", "no-store")
+        handler.end_headers()
+        self.clients += 1
+        period = 1.0 / self.rate_Hz
+        try:
+            handler.wfile.write(b"retry: 500\n\n")
+            while not self._stop.is_set():
+                data = json.dumps(self.state(), allow_nan=False, default=str)
+                handler.wfile.write(f"data: {data}\n\n".encode())
+                handler.wfile.flush()
+                time.sleep(period)
+        except (BrokenPipeError, ConnectionResetError, ValueError):
+            pass  # the browser went away
+        finally:
+            self.clients -= 1
+
+    def stop(self) -> None:
+        """Stop serving (open pages keep the last picture)."""
+        self._stop.set()
+        if self._server is not None:
+            self._server.shutdown()
+            self._server.server_close()
+        if self._thread is not None:
+            self._thread.join(timeout=2)
+
+    def __enter__(self) -> LiveView:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()

@@ -1,0 +1,85 @@
+"""The live view: a page on 127.0.0.1 fed by Server-Sent Events, looked at in Chromium."""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+import time
+import urllib.request
+
+import pytest
+
+from evtribo.acquisition.liveview import LiveView
+from tests._browser import Browser
+
+
+def _events(url: str, n: int) -> list[dict]:
+    out = []
+    with urllib.request.urlopen(url + "events", timeout=10) as resp:
+        assert resp.headers["Content-Type"] == "text/event-stream"
+        for raw in resp:
+            line = raw.decode().strip()
+            if line.startswith("data: "):
+                out.append(json.loads(line[6:]))
+                if len(out) == n:
+                    return out
+    return out
+
+
+def test_events_carry_the_latest_state_and_no_nan():
+    with LiveView(0) as view:
+        view.publish({"normal_force_N": math.nan, "rates_Hz": {"FzCell": math.inf},
+                      "title": "P01/run-01"})
+        first = _events(view.url, 1)[0]
+        assert first["normal_force_N"] is None and first["rates_Hz"] == {"FzCell": None}
+        view.publish({"normal_force_N": 0.5})
+        with urllib.request.urlopen(view.url + "state", timeout=10) as resp:
+            state = json.load(resp)
+        assert state["normal_force_N"] == 0.5 and state["seq"] == first["seq"] + 1
+        with urllib.request.urlopen(view.url, timeout=10) as resp:
+            page = resp.read().decode()
+        # no external asset: nothing fetched from another origin
+        assert "http://" not in page and "https://" not in page and "src=" not in page
+
+
+def test_unknown_path_is_404():
+    with LiveView(0) as view, pytest.raises(urllib.error.HTTPError) as err:
+        urllib.request.urlopen(view.url + "nope", timeout=10)
+    assert err.value.code == 404
+    err.value.close()
+
+
+def test_chromium_sees_the_gauge_move_and_the_band():
+    with LiveView(0) as view:
+        stop = threading.Event()
+
+        def feed() -> None:
+            t0 = time.monotonic()
+            while not stop.is_set():
+                t = time.monotonic() - t0
+                view.publish({"title": "P01/run-01", "elapsed_s": t, "duration_s": 20.0,
+                              "normal_force_N": 0.5 + 0.1 * math.sin(3 * t),
+                              "target_N": 0.5, "band_N": 0.1, "band_state": "in",
+                              "tangential_force_N": 0.2 * math.sin(2 * t), "hv_on": True,
+                              "hv_amplitude_V": 100.0, "hv_waveform": "square"})
+                time.sleep(0.02)
+
+        thread = threading.Thread(target=feed, daemon=True)
+        thread.start()
+        try:
+            with Browser() as browser:
+                page = browser.open(view.url)
+                assert page.wait_for("Number(document.body.dataset.updates) >= 5")
+                seen = page.wait_for("Number(document.body.dataset.fnMax) - "
+                                     "Number(document.body.dataset.fnMin) > 0.01 && "
+                                     "document.body.dataset.fnMax")
+                assert seen
+                band = float(page.eval("document.getElementById('band').getAttribute('width')"))
+                # target ± band on a scale of target ± 4 band: a quarter of the gauge
+                assert band == pytest.approx(250.0, abs=1)
+                assert page.eval("document.getElementById('hv').textContent").startswith(
+                    "HIGH VOLTAGE ON  100 V")
+        finally:
+            stop.set()
+            thread.join()
