@@ -9,9 +9,9 @@ import time
 import urllib.request
 
 import pytest
+from tests._browser import Browser
 
 from evtribo.acquisition.liveview import LiveView
-from tests._browser import Browser
 
 
 def _events(url: str, n: int) -> list[dict]:

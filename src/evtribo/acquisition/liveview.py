@@ -109,10 +109,10 @@ class LiveView:
         class Handler(BaseHTTPRequestHandler):
             server_version = "evtribo-liveview"
 
-            def log_message(self, format: str, *args: Any) -> None:  # noqa: A002
+            def log_message(self, format: str, *args: Any) -> None:
                 log.debug("live view: " + format, *args)
 
-            def do_GET(self) -> None:  # noqa: N802 (the standard library's name)
+            def do_GET(self) -> None:
                 path = self.path.split("?", 1)[0]
                 if path in ("/", "/index.html"):
                     self._send(_page(), "text/html; charset=utf-8")

@@ -209,12 +209,11 @@ def _unit_role(units: set[str], words: set[str], what: str) -> Callable[[_Candid
 
 
 def _waveform(c: _Candidate) -> Score | None:
-    choices = {str(v).lower() for v in (c.signal.choices or {}).values()}
+    names = [str(v) for v in (c.signal.choices or {}).values()]
     score, why = _hint(c, _WAVEFORM, "waveform")
-    if choices & _WAVE_NAMES:
+    if {n.lower() for n in names} & _WAVE_NAMES:
         score += 5.0
-        why.append("its value table names waveforms (" + ", ".join(
-            str(v) for v in c.signal.choices.values()) + ")")
+        why.append("its value table names waveforms (" + ", ".join(names) + ")")
     elif c.signal.length > 4:
         return None
     return score, why

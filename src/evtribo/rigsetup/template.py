@@ -97,7 +97,7 @@ def render_study_toml(name: str, dbc: str, guesses: Mapping[str, RoleGuess], *,
            f"name = {json.dumps(name)}", "", "[rig]",
            "# the CAN database describing the rig's messages (relative to this file)",
            f"dbc = {json.dumps(dbc)}"]
-    for role, guess in guesses.items():
+    for guess in guesses.values():
         out.append("")
         out += _role_lines(guess)
     out += ["", "# the load cells' own calibration, applied after DBC scaling:",

@@ -8,8 +8,9 @@ layout of the target's signal (any ID, byte order, scale, offset, width) by
 :func:`~evtribo.acquisition.simulator.encode.pack_signals`. A message of the target is sent
 at the times of the node its first role comes from (the normal cell, the tangential cell or
 the amplifier); a role from another node holds that node's latest value. A counter counts
-the frames its node sent, lost ones too. Waveforms go through the value tables by name (``"square"``). Traffic of
-other nodes passes through, unless it collides with one of the target's identifiers.
+the frames its node sent, lost ones too. Waveforms go through the value tables by name
+(``"square"``). Traffic of other nodes passes through, unless it collides with one of the
+target's identifiers.
 """
 
 from __future__ import annotations
@@ -121,7 +122,8 @@ class RigEncoder:
             idx = np.flatnonzero(message_mask(frames, message))
             data = frames.data[idx]
             values = {s: c.decode(data) for s, c in self._codecs[name].items()}
-            values["_counter"] = self._codecs[name][_NODE_COUNTER[name]].raw(data)
+            values["_counter"] = self._codecs[name][_NODE_COUNTER[name]].raw(data).astype(
+                np.float64)
             out[name] = (frames.timestamp[idx], values)
         return out
 
@@ -175,7 +177,6 @@ class RigEncoder:
         tables = []
         for tgt in self.targets:
             t = nodes[tgt.clock][0]
-            n = t.size
             values: dict[str, npt.ArrayLike] = {}
             for role, signal in tgt.roles.items():
                 if role in _COUNTER_OF:
@@ -192,10 +193,10 @@ class RigEncoder:
                     values[signal + "_raw"] = self._wave[v.astype(np.int64)]
                     continue
                 values[signal] = v
-            for signal in tgt.message.signals:
-                key = signal.name + "_raw"
+            for sig in tgt.message.signals:
+                key = sig.name + "_raw"
                 if key in values:
-                    values[key] = np.asarray(values[key], np.int64) % (1 << signal.length)
+                    values[key] = np.asarray(values[key], np.int64) % (1 << sig.length)
             tables.append(_table(tgt.message, t, values, frames.channel))
         keys = frame_keys(frames.arbitration_id, frames.is_extended)
         tables.append(frames.take(np.flatnonzero(~np.isin(keys, self._taken))))
