@@ -52,11 +52,12 @@ def test_commands_reach_the_bus_and_end_off():
 def test_alternating_schedule(t, tare, on_s, off_s):
     command = ExcitationCommand(None, default_rig().database, ROLES)
     state = Excitation(True, 100.0, 10_000.0, "square")
-    h = _Holder(command, state, "alternating", tare, on_s, off_s)
+    kw = {"off_first_s": tare, "on_s": on_s, "off_s": off_s}
+    h = _Holder(command, state, "alternating", **kw)
     expected = t >= tare and ((t - tare) % (on_s + off_s)) >= off_s
     assert h.enabled_at(t) == expected
-    assert not _Holder(command, state, "off", tare, on_s, off_s).enabled_at(t)
-    assert _Holder(command, state, "on", tare, on_s, off_s).enabled_at(t) == (t >= tare)
+    assert not _Holder(command, state, "off", **kw).enabled_at(t)
+    assert _Holder(command, state, "on", **kw).enabled_at(t) == (t >= tare)
 
 
 def test_command_roles_in_two_messages_are_refused():

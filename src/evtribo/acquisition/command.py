@@ -156,7 +156,8 @@ class ExcitationCommand:
         _Holder
             A context manager; leaving it (or ``stop()``) sends the amplifier off.
         """
-        holder = _Holder(self, state, condition, off_first_s, on_s, off_s)
+        holder = _Holder(self, state, condition, off_first_s=off_first_s, on_s=on_s,
+                         off_s=off_s)
         holder.start()
         return holder
 
@@ -164,7 +165,7 @@ class ExcitationCommand:
 class _Holder:
     """The thread that keeps sending the command (see :meth:`ExcitationCommand.hold`)."""
 
-    def __init__(self, command: ExcitationCommand, state: Excitation, condition: str,
+    def __init__(self, command: ExcitationCommand, state: Excitation, condition: str, *,
                  off_first_s: float, on_s: float, off_s: float) -> None:
         self.command, self.state, self.condition = command, state, condition
         self.off_first_s, self.on_s, self.off_s = off_first_s, on_s, off_s
