@@ -58,6 +58,8 @@ class SessionSettings:
         Target normal force and the half-width of its band.
     pause_s : float, s
         Pause between trials (the operator can go on earlier with Enter).
+    on_s, off_s : float, s
+        ON and OFF phases of an alternating trial whose excitation evtribo commands.
     """
 
     trial_s: float = 20.0
@@ -68,6 +70,8 @@ class SessionSettings:
     target_force_N: float = 0.5
     band_N: float = 0.1
     pause_s: float = 0.0
+    on_s: float = 2.0
+    off_s: float = 2.0
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,113 @@
+"""The short check of a trial just recorded: what the analysis makes of it.
+
+The trial is decoded and analysed as ``evtribo analyze`` would (the study's rig, settings and
+calibration), so that the operator sees at once, before the subject's finger is cold, whether
+the forces came, whether steady-sliding windows were found in both conditions, and how many
+frames the bus lost.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from evtribo.analysis.pipeline import study_settings
+from evtribo.analysis.trial import TrialMeta, analyze_signals
+from evtribo.cache import load_trial
+from evtribo.errors import EvtriboError
+from evtribo.study import Study
+
+__all__ = ["DROPPED_SHARE_WARN", "TrialCheck", "check_trial"]
+
+#: Frames lost above this share of a cell's frames are a problem.
+DROPPED_SHARE_WARN = 0.01
+
+
+@dataclass
+class TrialCheck:
+    """What the analysis makes of one trial.
+
+    Attributes
+    ----------
+    normal_frames, tangential_frames : int
+        Samples of each load cell.
+    windows_on, windows_off : int
+        Steady-sliding windows found with the voltage ON and OFF.
+    dropped : int
+        Frames lost (the cells' counters and the recording tool).
+    problems : list of str
+        What should make the operator redo the trial.
+    warnings : list of str
+        The analysis's warnings.
+    """
+
+    normal_frames: int = 0
+    tangential_frames: int = 0
+    windows_on: int = 0
+    windows_off: int = 0
+    dropped: int = 0
+    problems: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        """No problem found."""
+        return not self.problems
+
+    def summary(self) -> str:
+        """One line for the operator."""
+        text = (f"forces {self.normal_frames} + {self.tangential_frames} samples, windows "
+                f"{self.windows_on} ON / {self.windows_off} OFF, {self.dropped} frames "
+                "dropped")
+        return text + ("" if self.ok else ": " + "; ".join(self.problems))
+
+
+def check_trial(study: Study, subject: str, trial: str, condition: str | None) -> TrialCheck:
+    """Analyse one trial of *study* and say what is wrong with it, if anything.
+
+    Parameters
+    ----------
+    study : Study
+        The study (:func:`evtribo.study.load_study`), its trials discovered after the trial
+        was recorded.
+    subject, trial : str
+    condition : str or None
+        What the trial was meant to be (``"alternating"`` needs ON and OFF windows).
+
+    Returns
+    -------
+    TrialCheck
+    """
+    out = TrialCheck()
+    ref = next((r for r in study.trials if r.subject == subject and r.name == trial), None)
+    if ref is None:
+        out.problems.append("the trial's log is not in the study folder")
+        return out
+    try:
+        signals = load_trial(ref.log_path, study.rig, cache=False)
+        result = analyze_signals(signals, TrialMeta.from_sidecar(subject, trial, ref.sidecar),
+                                 settings=study_settings(study),
+                                 calibration=study.rig.calibration)
+    except EvtriboError as err:
+        out.problems.append(f"the analysis failed: {err}")
+        return out
+    out.normal_frames = int(signals.normal.t.size)
+    out.tangential_frames = int(signals.tangential.t.size)
+    out.warnings = list(result.warnings)
+    w = result.windows
+    if len(w):
+        on = w["condition"].astype(str) == "on"
+        out.windows_on, out.windows_off = int(on.sum()), int((~on).sum())
+    dropped = result.row.get("dropped_frames")
+    out.dropped = int(dropped) if isinstance(dropped, int | float) and dropped == dropped \
+        else 0
+    for name, n in (("normal", out.normal_frames), ("tangential", out.tangential_frames)):
+        if n == 0:
+            out.problems.append(f"no {name}-force frames")
+    wants = {"alternating": ("on", "off"), "on": ("on",), "off": ("off",)}
+    for cond in wants.get(condition or "", ()):
+        if (out.windows_on if cond == "on" else out.windows_off) == 0:
+            out.problems.append(f"no steady-sliding window with the voltage {cond.upper()}")
+    total = out.normal_frames + out.tangential_frames
+    if total and out.dropped > DROPPED_SHARE_WARN * total:
+        out.problems.append(f"{out.dropped} frames dropped ({100 * out.dropped / total:.1f} %)")
+    return out

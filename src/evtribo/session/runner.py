@@ -1,0 +1,370 @@
+"""``evtribo session``: a subject's protocol, one trial after another (spec §7).
+
+The plan (the protocol's trials, expanded, repeated, shuffled with a recorded seed) is written
+to ``STUDY/SUBJECT/session.json`` before the first trial; trials are named ``run-01``,
+``run-02``, ... in the order recorded (after any the subject already has). For each trial:
+
+1. the excitation is set: through the rig's command message (``excitation_command_*``), kept
+   sent while the trial records (an alternating trial's ON/OFF phases after the tare
+   stretch), or by asking the operator to set the amplifier;
+2. the trial records like ``evtribo acquire`` (the tare stretch first, the live display and
+   view), into a normal trial of the study (log + sidecar);
+3. the analysis checks it (forces present, windows found, frames dropped) and the operator
+   keeps it or redoes it (the first recording is kept under ``SUBJECT/rejected/``);
+4. ``session.json`` records it done; a pause follows.
+
+Ctrl-C stops the session and keeps every finished trial; a trial it cut short goes to
+``rejected/``. Running the same command again continues with the first trial not done:
+nothing recorded is ever recorded again, nor lost.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import logging
+import os
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TextIO
+
+import can
+
+from evtribo.acquisition.bus import BusSettings
+from evtribo.acquisition.command import Excitation, ExcitationCommand
+from evtribo.acquisition.liveview import LiveView
+from evtribo.acquisition.monitor import Monitor
+from evtribo.acquisition.protocol import Protocol, plan_trials, read_protocol, session_seed
+from evtribo.acquisition.rigfile import AcquisitionRig, check_name, open_study
+from evtribo.acquisition.trial import record_trial
+from evtribo.acquisition.trialdata import RIG_DATA_TIMEOUT_S, TrialInfo, TrialOptions
+from evtribo.documents.session import (
+    FILENAME,
+    PlannedEntry,
+    SessionDocument,
+    read_session,
+    write_session,
+)
+from evtribo.errors import ConfigError
+from evtribo.session.check import TrialCheck, check_trial
+from evtribo.study import load_study, log_stem
+
+log = logging.getLogger(__name__)
+
+__all__ = ["REJECTED", "SessionConfig", "SessionOutcome", "run_session"]
+
+#: Folder of a subject where recordings the operator chose to redo are kept.
+REJECTED = "rejected"
+#: Ways a trial ends that stop the session (the bus or the disk failed).
+FAULTS = ("bus-error", "disk-error", "no-rig-data")
+
+
+@dataclass
+class SessionConfig:
+    """How to run a session.
+
+    Attributes
+    ----------
+    protocol : path
+        The protocol file.
+    study : path
+        The study folder (created for *rig* when it has none).
+    subject : str
+    yes : bool
+        Never ask: keep every trial, go on after each pause.
+    rig : path, optional
+        Rig TOML for a new study.
+    settings : BusSettings, optional
+        How the bus was opened (recorded in every sidecar).
+    view : LiveView, optional
+        The live view in the browser.
+    stream : text file
+        Where the display and messages go.
+    ask : callable
+        Asks the operator a question, returns the answer (``input``).
+    display : bool
+        Show the live display on *stream*.
+    check : bool
+        Check each trial with the analysis.
+    rig_data_timeout : float or None, s
+    """
+
+    protocol: str | Path
+    study: str | Path
+    subject: str
+    yes: bool = False
+    rig: str | Path | None = None
+    settings: BusSettings | None = None
+    view: LiveView | None = None
+    stream: TextIO = field(default_factory=lambda: sys.stdout)
+    ask: Callable[[str], str] = input
+    display: bool = True
+    check: bool = True
+    rig_data_timeout: float | None = RIG_DATA_TIMEOUT_S
+
+
+@dataclass
+class SessionOutcome:
+    """What a run of a session did.
+
+    Attributes
+    ----------
+    session_file : Path
+    recorded : list of str
+        Trials recorded and kept in this run.
+    rejected : list of str
+        Recordings moved to ``rejected/`` in this run.
+    planned, done : int
+        Trials in the plan, and done so far (this run and earlier ones).
+    stopped : str or None
+        Why the run stopped before the end (``"interrupted"``, a fault, ``"stopped"`` by
+        the operator), None when every trial is done.
+    """
+
+    session_file: Path
+    recorded: list[str] = field(default_factory=list)
+    rejected: list[str] = field(default_factory=list)
+    planned: int = 0
+    done: int = 0
+    stopped: str | None = None
+
+
+def _now() -> str:
+    return dt.datetime.now(dt.UTC).isoformat(timespec="seconds").replace("+00:00", "Z")
+
+
+def _first_free(subject_dir: Path) -> int:
+    """The number after the highest ``run-NN`` trial of the subject."""
+    numbers = [0]
+    for f in subject_dir.iterdir() if subject_dir.is_dir() else ():
+        split = log_stem(f) if f.is_file() else None
+        name = split[0] if split else f.name.split(".", 1)[0]
+        if name.startswith("run-") and name[4:].isdigit():
+            numbers.append(int(name[4:]))
+    return max(numbers) + 1
+
+
+def _plan(cfg: SessionConfig, protocol: Protocol, subject_dir: Path) -> SessionDocument:
+    """A new session's document: the plan, with the trials' names."""
+    seed = session_seed(protocol)
+    first = _first_free(subject_dir)
+    planned = [PlannedEntry(trial=f"run-{first + i:02d}", waveform=p.waveform,
+                            frequency_Hz=p.frequency_Hz, amplitude_V=p.amplitude_V,
+                            condition=p.condition, notes=p.notes)
+               for i, p in enumerate(plan_trials(protocol, seed))]
+    now = _now()
+    return SessionDocument(subject=cfg.subject,
+                           protocol_file=str(Path(cfg.protocol).resolve()),
+                           protocol=protocol.to_dict(), seed=seed, planned=planned,
+                           started=now, updated=now)
+
+
+def _load_or_plan(cfg: SessionConfig, protocol: Protocol, subject_dir: Path
+                  ) -> tuple[SessionDocument, bool]:
+    """The session's document: read when the subject has one (and its protocol is the
+    same), else planned and written; and whether it was read."""
+    path = subject_dir / FILENAME
+    if path.exists():
+        doc = read_session(path)
+        if doc.protocol != protocol.to_dict():
+            raise ConfigError(
+                f"differs from the protocol this subject's session began with "
+                f"({doc.protocol_file}, kept in {path}): finish that session with the same "
+                "protocol, or record this one under another subject", path=cfg.protocol)
+        return doc, True
+    doc = _plan(cfg, protocol, subject_dir)
+    subject_dir.mkdir(parents=True, exist_ok=True)
+    write_session(path, doc)
+    return doc, False
+
+
+def _trial_files(subject_dir: Path, trial: str) -> list[Path]:
+    """The files of *trial* in the subject's folder (log, partial log, sidecar)."""
+    out = []
+    for f in sorted(subject_dir.glob(f"{trial}.*")):
+        split = log_stem(f)
+        if (split and split[0] == trial) or f.name == f"{trial}.json":
+            out.append(f)
+    return out
+
+
+def _reject(subject_dir: Path, trial: str) -> str | None:
+    """Move *trial*'s files to ``rejected/`` under a free name; return it (None: nothing to
+    move)."""
+    files = _trial_files(subject_dir, trial)
+    if not files:
+        return None
+    folder = subject_dir / REJECTED
+    folder.mkdir(exist_ok=True)
+    k = 1
+    while any(folder.glob(f"{trial}-{k}.*")):
+        k += 1
+    name = f"{trial}-{k}"
+    for f in files:
+        os.replace(f, folder / (name + f.name[len(trial):]))
+    return name
+
+
+class _Session:
+    """One run of a session (see :func:`run_session`)."""
+
+    def __init__(self, bus: can.BusABC, cfg: SessionConfig) -> None:
+        self.bus, self.cfg = bus, cfg
+        self.protocol = read_protocol(cfg.protocol)
+        check_name(cfg.subject, "subject")
+        self.rig: AcquisitionRig = open_study(cfg.study, cfg.rig)
+        self.subject_dir = Path(cfg.study) / cfg.subject
+        self.doc, resumed = _load_or_plan(cfg, self.protocol, self.subject_dir)
+        self.path = self.subject_dir / FILENAME
+        self.out = SessionOutcome(self.path, planned=len(self.doc.planned), done=self.doc.done)
+        self.command = (ExcitationCommand(bus, self.rig.database, self.rig.signals)
+                        if ExcitationCommand.available(self.rig.signals) else None)
+        if resumed:
+            self.say(f"{self.path}: {self.doc.done} of {len(self.doc.planned)} trials done; "
+                     "going on")
+        else:
+            self.say(f"{self.path}: {len(self.doc.planned)} trials planned (seed "
+                     f"{self.doc.seed})")
+
+    def say(self, text: str) -> None:
+        self.cfg.stream.write(text + "\n")
+        self.cfg.stream.flush()
+
+    def save(self) -> None:
+        self.doc.updated = _now()
+        write_session(self.path, self.doc)
+        self.out.done = self.doc.done
+
+    def ask(self, question: str, default: str) -> str:
+        if self.cfg.yes:
+            return default
+        answer = self.cfg.ask(question).strip().lower()
+        return answer or default
+
+    # -- one trial --------------------------------------------------------------------
+    def excitation(self, entry: PlannedEntry) -> Excitation:
+        state = Excitation(entry.condition != "off", entry.amplitude_V, entry.frequency_Hz,
+                           entry.waveform)
+        if self.command is None:
+            what = (f"{entry.waveform} {entry.frequency_Hz:g} Hz {entry.amplitude_V:g} V, "
+                    f"{entry.condition}")
+            self.say(f"set the amplifier: {what}")
+            self.ask("press Enter when it is set ", "")
+        return state
+
+    def record(self, entry: PlannedEntry, number: int) -> Any:
+        s = self.protocol.session
+        title = (f"{self.cfg.subject}/{entry.trial}  ({number}/{len(self.doc.planned)}: "
+                 f"{entry.waveform} {entry.frequency_Hz:g} Hz {entry.amplitude_V:g} V "
+                 f"{entry.condition})")
+        monitor = Monitor(self.rig, self.cfg.stream, duration=s.trial_s,
+                          target=s.target_force_N, band=s.band_N, title=title,
+                          tare_s=s.tare_s, rig_data_timeout=self.cfg.rig_data_timeout,
+                          view=self.cfg.view) if (self.cfg.display or self.cfg.view) else None
+        info = TrialInfo(waveform=entry.waveform, frequency_Hz=entry.frequency_Hz,
+                         amplitude_V=entry.amplitude_V, condition=entry.condition,
+                         notes=entry.notes or None, tare_s=s.tare_s)
+        options = TrialOptions(duration=s.trial_s, info=info, rig=self.cfg.rig,
+                               settings=self.cfg.settings, monitor=monitor,
+                               rig_data_timeout=self.cfg.rig_data_timeout)
+        state = self.excitation(entry)
+        if self.command is None:
+            return record_trial(self.bus, self.cfg.study, self.cfg.subject, entry.trial,
+                                options)
+        with self.command.hold(state, entry.condition, off_first_s=s.tare_s,
+                               on_s=s.on_s, off_s=s.off_s):
+            return record_trial(self.bus, self.cfg.study, self.cfg.subject, entry.trial,
+                                options)
+
+    def check(self, entry: PlannedEntry) -> TrialCheck | None:
+        if not self.cfg.check:
+            return None
+        result = check_trial(load_study(self.cfg.study), self.cfg.subject, entry.trial,
+                             entry.condition)
+        self.say(f"check: {result.summary()}")
+        return result
+
+    def reject(self, entry: PlannedEntry, why: str) -> None:
+        name = _reject(self.subject_dir, entry.trial)
+        if name is not None:
+            entry.rejected.append(name)
+            self.out.rejected.append(name)
+            self.say(f"{entry.trial} {why}: kept as {self.subject_dir / REJECTED / name}.*")
+        self.save()
+
+    def one(self, entry: PlannedEntry, number: int) -> str | None:
+        """Record *entry* until kept; the reason to stop the session, or None."""
+        while True:
+            if _trial_files(self.subject_dir, entry.trial):
+                self.reject(entry, "was left unfinished by an earlier run")
+            result = self.record(entry, number)
+            if result.ended == "interrupted":
+                self.reject(entry, "was interrupted")
+                return "interrupted"
+            if result.ended in FAULTS:
+                self.reject(entry, f"ended in a fault ({result.ended})")
+                return result.ended
+            check = self.check(entry)
+            default = "k" if check is None or check.ok else "r"
+            answer = self.ask(f"keep {entry.trial}? [k]eep, [r]edo, [s]top "
+                              f"(default {default}): ", default)
+            if answer.startswith("r"):
+                self.reject(entry, "is to be redone")
+                continue
+            entry.status = "done"
+            self.out.recorded.append(entry.trial)
+            self.save()
+            return "stopped" if answer.startswith("s") else None
+
+    def pause(self) -> None:
+        s = self.protocol.session
+        if s.pause_s <= 0:
+            return
+        if self.cfg.yes:
+            self.say(f"pause: {s.pause_s:g} s")
+            time.sleep(s.pause_s)
+        else:
+            self.ask(f"pause ({s.pause_s:g} s suggested); press Enter for the next trial ", "")
+
+    def run(self) -> SessionOutcome:
+        try:
+            while (entry := self.doc.next_pending) is not None:
+                number = self.doc.planned.index(entry) + 1
+                stop = self.one(entry, number)
+                if stop is not None:
+                    self.out.stopped = stop
+                    break
+                if self.doc.next_pending is not None:
+                    self.pause()
+        except KeyboardInterrupt:
+            self.out.stopped = "interrupted"
+        self.save()
+        left = len(self.doc.planned) - self.doc.done
+        self.say(f"{self.doc.done} of {len(self.doc.planned)} trials done"
+                 + (f"; {left} to go: run the same command again to go on" if left else ""))
+        return self.out
+
+
+def run_session(bus: can.BusABC, config: SessionConfig) -> SessionOutcome:
+    """Run (or go on with) a subject's session on *bus*.
+
+    Parameters
+    ----------
+    bus : can.BusABC
+        An open bus (left open).
+    config : SessionConfig
+
+    Returns
+    -------
+    SessionOutcome
+
+    Raises
+    ------
+    ConfigError
+        A bad protocol file, or one that differs from the session's.
+    StudyError, RigConfigError
+        A bad subject name, study or rig.
+    """
+    return _Session(bus, config).run()
