@@ -26,7 +26,8 @@ import os
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from contextlib import AbstractContextManager, nullcontext
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, TextIO
 
@@ -89,6 +90,10 @@ class SessionConfig:
     check : bool
         Check each trial with the analysis.
     rig_data_timeout : float or None, s
+    stop_guard : callable, optional
+        Returns a context manager, entered while a trial records, that gives the trial's
+        stop request (a callable; the command line's turns Ctrl-C and SIGTERM into it, so
+        that the trial ends as ``interrupted`` with its log saved).
     """
 
     protocol: str | Path
@@ -103,6 +108,7 @@ class SessionConfig:
     display: bool = True
     check: bool = True
     rig_data_timeout: float | None = RIG_DATA_TIMEOUT_S
+    stop_guard: Callable[[], AbstractContextManager[Callable[[], bool] | None]] | None = None
 
 
 @dataclass
@@ -270,13 +276,16 @@ class _Session:
                                settings=self.cfg.settings, monitor=monitor,
                                rig_data_timeout=self.cfg.rig_data_timeout)
         state = self.excitation(entry)
-        if self.command is None:
-            return record_trial(self.bus, self.cfg.study, self.cfg.subject, entry.trial,
-                                options)
-        with self.command.hold(state, entry.condition, off_first_s=s.tare_s,
-                               on_s=s.on_s, off_s=s.off_s):
-            return record_trial(self.bus, self.cfg.study, self.cfg.subject, entry.trial,
-                                options)
+        guard = self.cfg.stop_guard() if self.cfg.stop_guard else nullcontext(None)
+        with guard as should_stop:
+            options = replace(options, should_stop=should_stop)
+            if self.command is None:
+                return record_trial(self.bus, self.cfg.study, self.cfg.subject, entry.trial,
+                                    options)
+            with self.command.hold(state, entry.condition, off_first_s=s.tare_s,
+                                   on_s=s.on_s, off_s=s.off_s):
+                return record_trial(self.bus, self.cfg.study, self.cfg.subject,
+                                    entry.trial, options)
 
     def check(self, entry: PlannedEntry) -> TrialCheck | None:
         if not self.cfg.check:
