@@ -72,13 +72,13 @@ from evtribo.acquisition.trialdata import (
     refuse_existing,
     trial_lock,
 )
+from evtribo.documents.sidecar import CONDITIONS, WAVEFORMS, rig_entry, write_sidecar
 from evtribo.errors import (
     AcquisitionError,
     ConfigError,
     EvtriboError,
     OutputExistsError,
 )
-from evtribo.study import CONDITIONS, WAVEFORMS, write_sidecar
 
 log = logging.getLogger(__name__)
 
@@ -262,8 +262,8 @@ def _start(bus: can.BusABC, paths: TrialPaths, acq_rig: AcquisitionRig, info: Tr
     sidecar: dict[str, Any] = {"subject": paths.folder.name, "trial": paths.log.stem,
                                **info.as_dict()}
     sidecar.update({
-        "rig": {"name": acq_rig.name, "dbc": os.path.relpath(acq_rig.dbc_path, study),
-                "dbc_version": acq_rig.database.version},
+        "rig": rig_entry(os.path.relpath(acq_rig.dbc_path, study), name=acq_rig.name,
+                         dbc_version=acq_rig.database.version),
         **settings.as_dict(),
         "log_channel": channel,
         "evtribo_version": evtribo.__version__,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import logging
 import os
@@ -17,12 +18,14 @@ from evtribo.acquisition.rigfile import write_new_study
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.core import DEFAULT_DBC, TrialTruth, simulate_trial
 from evtribo.acquisition.simulator.realism import human, realistic_rig
+from evtribo.documents.sidecar import rig_entry, write_sidecar
 from evtribo.errors import OutputExistsError
 from evtribo.files import atomic_open, partial_path
 from evtribo.frames import write_candump
 from evtribo.frames.table import FrameTable
 from evtribo.lock import WriteLock
-from evtribo.study import STUDY_FILE, validate_name, write_sidecar
+from evtribo.rig import default_rig
+from evtribo.study import STUDY_FILE, validate_name
 
 __all__ = ["default_subjects", "simulate_study", "write_trial"]
 
@@ -55,6 +58,13 @@ def default_subjects(n: int = 3, seed: int = 0) -> list[SubjectParams]:
                       sliding_speed_m_s=round(float(rng.uniform(0.015, 0.03)), 4))
         for i in range(n)
     ]
+
+
+@functools.cache
+def _rig_entry() -> dict[str, Any]:
+    """The sidecar's ``rig``: the default rig's name, its DBC's copy and version."""
+    rig = default_rig()
+    return rig_entry(RIG_DBC, name=rig.name, dbc_version=rig.database.version)
 
 
 def _ensure_study(root: Path, name: str) -> None:
@@ -140,7 +150,7 @@ def _write_files(log_path: Path, frames: FrameTable, truth: TrialTruth, subject:
         "subject": subject.name, "waveform": config.waveform,
         "frequency_Hz": config.frequency_Hz, "amplitude_V": config.amplitude_V,
         "condition": config.condition, "notes": notes, "tare_s": config.tare_s,
-        "rig": RIG_DBC, "bus": {"interface": "simulated", "channel": config.channel},
+        "rig": _rig_entry(), "bus": {"interface": "simulated", "channel": config.channel},
         "software": f"evtribo {__version__}", "start_time": config.start_time,
         "frames": len(frames), "dropped_frames": dropped, "bus_errors": 0,
         "simulation": truth.to_dict(),
