@@ -41,7 +41,7 @@ import cantools.database
 from cantools.database.can import Database, Message, Signal
 
 from evtribo.errors import RigConfigError, toml_error_line, toml_key_line
-from evtribo.files import check_regular_file, read_limited
+from evtribo.files import check_regular_file, read_limited, sha256_file
 
 log = logging.getLogger(__name__)
 
@@ -247,7 +247,7 @@ class Rig:
 
     def fingerprint(self) -> str:
         """Hash of the DBC's bytes and the role mapping (a cache key part)."""
-        h = hashlib.sha256(self.dbc.read_bytes())
+        h = hashlib.sha256(sha256_file(self.dbc).encode())
         h.update(json.dumps({r: ref.qualified_name for r, ref in self.roles.items()},
                             sort_keys=True).encode())
         return h.hexdigest()

@@ -25,13 +25,9 @@ from typing import IO
 
 import can
 
-from evtribo.acquisition.counters import (
-    CounterSpec,
-    CounterTracker,
-    counter_spec_from_dbc,
-    frame_key,
-)
+from evtribo.acquisition.counters import CounterSpec, CounterTracker, counter_spec_from_dbc
 from evtribo.frames.candump import CAN_ERR_BUSERROR, CAN_ERR_FLAG, frame_field
+from evtribo.frames.ids import frame_key, id_text
 
 log = logging.getLogger(__name__)
 
@@ -116,7 +112,7 @@ def id_key(msg: can.Message) -> str:
     """The identifier of *msg* as the sidecar counts it: ``"0C1"``, ``"18FF0001"``, ``"error"``."""
     if msg.is_error_frame:
         return "error"
-    return f"{msg.arbitration_id:08X}" if msg.is_extended_id else f"{msg.arbitration_id:03X}"
+    return id_text(msg.arbitration_id, msg.is_extended_id)
 
 
 class LogWriter:
@@ -232,14 +228,34 @@ class LogWriter:
             stats.last_timestamp = kept[-1].timestamp
 
     def _write(self, batch: list[can.Message]) -> None:
-        channel = self.channel
         stats = self.stats
         before = (dict(stats.frames_by_id), stats.error_frames)
+        lines = self._lines(batch)
+        data = "".join(lines).encode()
+        self._pending = 0
+        try:
+            self._write_all(data)
+        except BaseException:
+            self._keep_whole_lines(data, batch, before)
+            raise
+        self._size += len(data)
+        stats.frames += len(batch)
+        if stats.first_timestamp is None:
+            stats.first_timestamp = batch[0].timestamp
+        stats.last_timestamp = batch[-1].timestamp
+        stats.dropped_by_message = self.counters.dropped_by_message()
+
+    def _lines(self, batch: list[can.Message]) -> list[str]:
+        """The log lines of *batch*; count its frames per identifier, keep each message's
+        latest frame, and check the rolling counters of the counted messages."""
+        channel = self.channel
+        stats = self.stats
         by_id = stats.frames_by_id
         latest = stats.latest
         tracker = self.counters
-        counted = tracker.specs
-        lines = []
+        counted: dict[int, tuple[list[bytearray], list[float]]] = {
+            key: ([], []) for key in tracker.specs}
+        lines: list[str] = []
         append = lines.append
         prefix_cache: dict[tuple[int, bool], str] = {}
         for msg in batch:
@@ -256,25 +272,15 @@ class LogWriter:
                     prefix = prefix_cache[ckey] = f" {key}#"
                 key = prefix[1:-1]
                 append(f"({msg.timestamp:.6f}) {channel}{prefix}{msg.data.hex().upper()}\n")
-                fkey = msg.arbitration_id | (0x80000000 if msg.is_extended_id else 0)
+                fkey = frame_key(msg.arbitration_id, msg.is_extended_id)
                 latest[fkey] = msg
                 if fkey in counted:
-                    stats.dropped += tracker.update(msg.arbitration_id, msg.data,
-                                                    msg.timestamp, msg.is_extended_id)
+                    counted[fkey][0].append(msg.data)
+                    counted[fkey][1].append(msg.timestamp)
             by_id[key] = by_id.get(key, 0) + 1
-        data = "".join(lines).encode()
-        self._pending = 0
-        try:
-            self._write_all(data)
-        except BaseException:
-            self._keep_whole_lines(data, batch, before)
-            raise
-        self._size += len(data)
-        stats.frames += len(batch)
-        if stats.first_timestamp is None:
-            stats.first_timestamp = batch[0].timestamp
-        stats.last_timestamp = batch[-1].timestamp
-        stats.dropped_by_message = tracker.dropped_by_message()
+        for fkey, (payloads, times) in counted.items():
+            stats.dropped += tracker.update_many(fkey, payloads, times)
+        return lines
 
 
 # ----------------------------------------------------------------------------------------

@@ -21,9 +21,13 @@ import math
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
-from evtribo.acquisition.logger import LogStats, frame_key
+from evtribo.acquisition.logger import LogStats
+from evtribo.frames.ids import frame_key, key_id
+
+if TYPE_CHECKING:  # pragma: no cover
+    from evtribo.acquisition.rigfile import AcquisitionRig
 
 log = logging.getLogger(__name__)
 
@@ -195,7 +199,7 @@ def render_line(snap: Snapshot, *, target: float | None = None, band: float = 0.
 def no_rig_data_alert(messages: dict[str, int], within: float) -> str:
     """The display's alert when none of *messages* (``{name: frame_key}``) came in
     *within* s."""
-    names = " or ".join(f"{name} (0x{key & 0x1FFFFFFF:03X})" for name, key in messages.items())
+    names = " or ".join(f"{name} (0x{key_id(key)[0]:03X})" for name, key in messages.items())
     return (f"NO DATA FROM THE RIG: no {names} frame in {within:g} s; wrong bus, or the "
             "study's DBC is not this rig's?")
 
@@ -227,7 +231,7 @@ class Monitor:
         within this time; None: never.
     """
 
-    def __init__(self, rig: Any, stream: TextIO, *, duration: float | None = None,
+    def __init__(self, rig: AcquisitionRig, stream: TextIO, *, duration: float | None = None,
                  target: float | None = None, band: float = 0.1, tty: bool | None = None,
                  interval: float = 0.25, line_interval: float = 5.0, title: str = "",
                  tare_s: float = 0.0, rig_data_timeout: float | None = None) -> None:

@@ -79,6 +79,7 @@ from evtribo.errors import (
     EvtriboError,
     OutputExistsError,
 )
+from evtribo.frames.ids import key_id
 
 log = logging.getLogger(__name__)
 
@@ -388,7 +389,7 @@ def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig, *,
 
 
 def _no_rig_data(acq_rig: AcquisitionRig, within: float | None) -> str:
-    names = ", ".join(f"{n} (0x{k & 0x1FFFFFFF:03X})"
+    names = ", ".join(f"{n} (0x{key_id(k)[0]:03X})"
                       for n, k in acq_rig.role_messages().items())
     return (f"none of the rig's load-cell messages ({names}) arrived within {within:g} s "
             f"(the wrong bus, or the study's DBC {acq_rig.dbc_path.name} is not this rig's)")
