@@ -32,9 +32,7 @@ LONG_IN_ANALYSIS = {
     "analysis/pipeline.py:_analyze_locked",
 }
 
-LONG_IN_ACQUISITION = {
-    "acquisition/trial.py:record_trial", "acquisition/logger.py:receive",
-}
+LONG_IN_ACQUISITION: set[str] = set()
 
 LONG_IN_COMPARE = {
     "compare/fit.py:fit_subject", "compare/study_report.py:_page", "cli/simulate.py:add_parser",

@@ -410,61 +410,74 @@ def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
     waiting = expect is not None and expect_within is not None
     deadline = start + (expect_within or 0.0)
     batch: list[can.Message] = []
-    append = batch.append
     next_handoff = start + HANDOFF_INTERVAL_S
     frames = 0
     damaged = _Damaged(writer.stats)
-    reason = "completed"
-    error: BaseException | None = None
+    stop: tuple[str, BaseException | None] | None = None
     now = start
     try:
-        while True:
-            try:
-                msg = recv(min(timeout, max(end - now, 0.0)))
-            except Exception as err:
-                if not is_damaged_line(err):
-                    raise
-                damaged.add(err, bus)
-                msg = None
+        while stop is None:
+            msg = _recv(bus, recv, min(timeout, max(end - now, 0.0)), damaged)
             now = monotonic()
             if msg is not None:
-                append(msg)
+                batch.append(msg)
                 damaged.in_a_row = 0
-                if len(batch) < HANDOFF_FRAMES and now < next_handoff:
-                    if now < end:
-                        continue
+                if len(batch) < HANDOFF_FRAMES and now < next_handoff and now < end:
+                    continue
             if batch:
-                if waiting and _any_expected(batch, expect):  # type: ignore[arg-type]
+                if waiting and expect is not None and _any_expected(batch, expect):
                     waiting = False
                 frames += len(batch)
                 writer.put(batch)
                 batch = []
-                append = batch.append
             next_handoff = now + HANDOFF_INTERVAL_S
-            if writer.error is not None:
-                reason, error = "disk-error", writer.error
-                break
-            if now >= end:
-                break
-            if should_stop():
-                reason = "interrupted"
-                break
-            if waiting and now >= deadline:
-                reason = "no-rig-data"
-                break
-            if until is not None and msg is None and until():
-                break
+            stop = _stop_reason(writer, now=now, end=end, idle=msg is None,
+                                should_stop=should_stop, until=until,
+                                no_rig_data=waiting and now >= deadline)
     except Exception as err:
         # CanOperationError, serial.SerialException (an OSError), a pty closed under the
         # driver (OSError), or anything else a driver raises: the adapter is gone.
         log.error("the bus failed: %s: %s", type(err).__name__, err)
-        reason, error = "bus-error", err
+        stop = ("bus-error", err)
     finally:
         if batch:
             frames += len(batch)
             writer.put(batch)
+    reason, error = stop
     return ReceiveResult(reason=reason, error=error, frames=frames,
                          damaged_lines=damaged.count, damaged_examples=damaged.examples)
+
+
+def _recv(bus: can.BusABC, recv: Callable[[float], can.Message | None], wait: float,
+          damaged: _Damaged) -> can.Message | None:
+    """One frame from the bus within *wait* s, or None: the bus was idle, or the driver
+    could not parse a line (counted in *damaged* and skipped)."""
+    try:
+        return recv(wait)
+    except Exception as err:
+        if not is_damaged_line(err):
+            raise
+        damaged.add(err, bus)
+        return None
+
+
+def _stop_reason(writer: LogWriter, *, now: float, end: float, idle: bool,
+                 should_stop: Callable[[], bool], until: Callable[[], bool] | None,
+                 no_rig_data: bool) -> tuple[str, BaseException | None] | None:
+    """Why the trial ends now (checked at each hand-over to the writer), or None to go on:
+    the writer failed, the duration elapsed, a stop was asked for, the rig stayed silent,
+    or the source (*until*, polled when the bus is *idle*) is done."""
+    if writer.error is not None:
+        return "disk-error", writer.error
+    if now >= end:
+        return "completed", None
+    if should_stop():
+        return "interrupted", None
+    if no_rig_data:
+        return "no-rig-data", None
+    if until is not None and idle and until():
+        return "completed", None
+    return None
 
 
 def _any_expected(batch: list[can.Message], keys: frozenset[int]) -> bool:
@@ -472,18 +485,6 @@ def _any_expected(batch: list[can.Message], keys: frozenset[int]) -> bool:
                for m in batch if not m.is_error_frame)
 
 
-__all__ = [
-    "CAN_ERR_BUSERROR",
-    "CAN_ERR_FLAG",
-    "CounterSpec",
-    "CounterTracker",
-    "LogStats",
-    "LogWriter",
-    "ReceiveResult",
-    "counter_spec_from_dbc",
-    "format_candump_line",
-    "frame_key",
-    "id_key",
-    "is_damaged_line",
-    "receive",
-]
+__all__ = ["CAN_ERR_BUSERROR", "CAN_ERR_FLAG", "CounterSpec", "CounterTracker", "LogStats",
+           "LogWriter", "ReceiveResult", "counter_spec_from_dbc", "format_candump_line",
+           "frame_key", "id_key", "is_damaged_line", "receive"]
