@@ -156,7 +156,7 @@ def lock_holder(path: str | os.PathLike[str]) -> dict[str, Any] | None:
     try:
         lock = _try_flock(fd, shared=True)
         if lock:
-            fcntl.flock(fd, fcntl.LOCK_UN)  # type: ignore[union-attr]
+            fcntl.flock(fd, fcntl.LOCK_UN)
         return _held_by(fd, lock)
     finally:
         os.close(fd)

@@ -332,7 +332,8 @@ def load_dbc(path: str | os.PathLike[str], *, source: str | None = None,
         The file does not parse (cantools' message, naming *source* and *key*).
     """
     try:
-        return cantools.database.load_file(os.fspath(path), database_format="dbc", strict=True)
+        return _can_database(cantools.database.load_file(os.fspath(path), database_format="dbc",
+                                                         strict=True))
     except Exception as strict_err:  # ParseError, UnsupportedDatabaseFormatError, Error...
         try:
             db = cantools.database.load_file(os.fspath(path), database_format="dbc",
@@ -341,7 +342,14 @@ def load_dbc(path: str | os.PathLike[str], *, source: str | None = None,
             raise RigConfigError(f"cannot parse DBC {path}: {err}", path=source,
                                  key=key) from err
         log.warning("%s: %s; decoding it anyway", path, strict_err)
-        return db
+        return _can_database(db)
+
+
+def _can_database(db: object) -> Database:
+    """*db*, which ``load_file(..., database_format="dbc")`` made a CAN database."""
+    if not isinstance(db, Database):
+        raise TypeError(f"expected a CAN database, got {type(db).__name__}")
+    return db
 
 
 def resolve_signal(db: Database, qualified: str, *, key: str, source: str | None = None

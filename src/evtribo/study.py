@@ -199,8 +199,8 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
         validate_name(folder.name, what="subject folder", path=folder)
         for trial, (log_path, partial) in logs.items():
             validate_name(trial, what="trial", path=log_path)
-            sidecar_path = folder / f"{trial}.json"
-            if sidecar_path.exists():
+            sidecar_path: Path | None = folder / f"{trial}.json"
+            if sidecar_path is not None and sidecar_path.exists():
                 sidecar = read_sidecar(sidecar_path, default_subject=folder.name)
                 for key, close in unknown_sidecar_keys(sidecar):
                     warnings.append(f"{sidecar_path}: unknown key {key!r} ignored"

@@ -310,7 +310,8 @@ class Monitor:
         try:
             decoded = self.rig.database.get_message_by_name(which[1]).decode(
                 bytes(latest[which[0]].data), decode_choices=False)
-            return float(decoded[which[2]])
+            value = decoded[which[2]] if isinstance(decoded, dict) else None
+            return float(value) if isinstance(value, int | float) else None
         except Exception:
             return None
 

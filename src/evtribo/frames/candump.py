@@ -27,7 +27,7 @@ import gzip
 import os
 import re
 from collections.abc import Callable, Iterator
-from typing import IO, Any
+from typing import IO, Any, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -366,7 +366,8 @@ def _slow_lines(block: bytes, starts: npt.NDArray[np.intp], ends: npt.NDArray[np
 
 def _open_binary(path: str | os.PathLike[str]) -> IO[bytes]:
     if os.fspath(path).lower().removesuffix(PARTIAL_SUFFIX).endswith(".gz"):
-        return gzip.open(path, "rb")
+        # a GzipFile is a binary file, though typeshed does not call it IO[bytes]
+        return cast("IO[bytes]", gzip.open(path, "rb"))
     return open(path, "rb")
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import gzip
 import io
 import os
-from typing import IO, Any
+from typing import IO, Any, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -140,8 +140,10 @@ def write_candump(target: str | os.PathLike[str] | IO[Any], frames: FrameTable,
     """
     ch = channel.encode("ascii")
     if isinstance(target, (str, os.PathLike)):
-        opener = gzip.open if os.fspath(target).lower().endswith(".gz") else open
-        with opener(target, "wb") as fh:
+        # a GzipFile is a binary file, though typeshed does not call it IO[bytes]
+        fh = cast("IO[bytes]", gzip.open(target, "wb")) \
+            if os.fspath(target).lower().endswith(".gz") else open(target, "wb")
+        with fh:
             write_candump(fh, frames, channel, block_frames=block_frames)
         return
     text = isinstance(target, io.TextIOBase)
