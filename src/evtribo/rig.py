@@ -326,6 +326,17 @@ def load_dbc(path: str | os.PathLike[str], *, source: str | None = None,
     loaded, with a warning: vendors' DBCs often have such quirks, and each signal is decoded
     on its own.
 
+    Parameters
+    ----------
+    path : path-like
+        The DBC.
+    source, key : str, optional
+        The file and key that named it, for messages.
+
+    Returns
+    -------
+    cantools.database.can.Database
+
     Raises
     ------
     RigConfigError
@@ -355,6 +366,20 @@ def _can_database(db: object) -> Database:
 def resolve_signal(db: Database, qualified: str, *, key: str, source: str | None = None
                    ) -> SignalRef:
     """Find ``"Message.Signal"`` in *db*.
+
+    Parameters
+    ----------
+    db : cantools.database.can.Database
+    qualified : str
+        ``"Message.Signal"``.
+    key : str
+        The key that names it, for messages.
+    source : str, optional
+        The file of that key.
+
+    Returns
+    -------
+    SignalRef
 
     Raises
     ------
@@ -391,6 +416,15 @@ def resolve_signal(db: Database, qualified: str, *, key: str, source: str | None
 def load_rig(toml_path: str | os.PathLike[str]) -> Rig:
     """Read a rig TOML (keys at the top level, ``dbc`` relative to the file).
 
+    Parameters
+    ----------
+    toml_path : path-like
+        The rig TOML.
+
+    Returns
+    -------
+    Rig
+
     Raises
     ------
     RigConfigError
@@ -420,12 +454,22 @@ def load_rig(toml_path: str | os.PathLike[str]) -> Rig:
 
 
 def default_rig_path() -> Path:
-    """The simulator's rig TOML (package data ``evtribo/data/rigs/default.toml``)."""
+    """The simulator's rig TOML (package data ``evtribo/data/rigs/default.toml``).
+
+    Returns
+    -------
+    Path
+    """
     return Path(str(resources.files("evtribo") / "data" / "rigs" / "default.toml"))
 
 
 def default_rig() -> Rig:
-    """The simulator's rig: ``FzCell.Fz``, ``FxCell.Fx``, their counters and ``HvStatus``."""
+    """The simulator's rig: ``FzCell.Fz``, ``FxCell.Fx``, their counters and ``HvStatus``.
+
+    Returns
+    -------
+    Rig
+    """
     return load_rig(default_rig_path())
 
 

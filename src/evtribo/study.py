@@ -69,6 +69,14 @@ def log_stem(path: Path) -> tuple[str, str] | None:
 
     A log left as ``run-01.log.part`` by a killed acquisition is a log too (suffix
     ``.log.part``).
+
+    Parameters
+    ----------
+    path : Path
+
+    Returns
+    -------
+    (str, str) or None
     """
     name = path.name
     partial = name.endswith(PARTIAL_SUFFIX)
@@ -127,7 +135,18 @@ class Study:
 
 
 def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """Read ``study.toml`` and check its top-level keys and their types."""
+    """Read ``study.toml`` and check its top-level keys and their types.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``study.toml``.
+
+    Returns
+    -------
+    dict
+        Its tables and keys.
+    """
     p = Path(path)
     try:
         config = tomllib.loads(read_limited(p, StudyError, what=STUDY_FILE).decode("utf-8"))
@@ -156,7 +175,19 @@ def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
 
 
 def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[str]]:
-    """Find every trial under *root*'s subject folders; returns ``(trials, warnings)``."""
+    """Find every trial under *root*'s subject folders; returns ``(trials, warnings)``.
+
+    Parameters
+    ----------
+    root : path-like
+        The study folder.
+
+    Returns
+    -------
+    trials : list of TrialRef
+    warnings : list of str
+        Logs without sidecars, unknown sidecar keys, partial logs... one line each.
+    """
     root = Path(root)
     trials: list[TrialRef] = []
     warnings: list[str] = []
@@ -234,6 +265,10 @@ def load_study(path: str | os.PathLike[str], *, with_rig: bool = True) -> Study:
     with_rig : bool
         Load and check the rig's DBC and signal names (before any log is read).
 
+    Returns
+    -------
+    Study
+
     Raises
     ------
     StudyError, SidecarError, RigConfigError
@@ -267,7 +302,22 @@ def _toml_value(value: Any) -> str:
 
 
 def write_study_toml(root: str | os.PathLike[str], *, name: str, rig: Mapping[str, Any]) -> Path:
-    """Create ``study.toml`` in *root* with a ``[rig]`` table; refuses to overwrite one."""
+    """Create ``study.toml`` in *root* with a ``[rig]`` table; refuses to overwrite one.
+
+    Parameters
+    ----------
+    root : path-like
+        The study folder (created if missing).
+    name : str
+        The study's ``name``.
+    rig : mapping
+        The ``[rig]`` table.
+
+    Returns
+    -------
+    Path
+        The new ``study.toml``.
+    """
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     p = root / STUDY_FILE

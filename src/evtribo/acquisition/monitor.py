@@ -72,7 +72,17 @@ class Snapshot:
 
 def instruction(snap: Snapshot) -> str:
     """What the operator should do now: ``LIFT THE FINGER`` during the tare stretch,
-    ``SLIDE`` after it, nothing for a trial without one."""
+    ``SLIDE`` after it, nothing for a trial without one.
+
+    Parameters
+    ----------
+    snap : Snapshot
+
+    Returns
+    -------
+    str
+        The instruction, or ``""``.
+    """
     if snap.tare_left_s is None:
         return ""
     if snap.tare_left_s > 0:
@@ -81,7 +91,19 @@ def instruction(snap: Snapshot) -> str:
 
 
 def band_state(value: float | None, target: float, band: float) -> str:
-    """``"in"``, ``"low"``, ``"high"`` (or ``"none"`` without a value) for target ± band, N."""
+    """``"in"``, ``"low"``, ``"high"`` (or ``"none"`` without a value) for target ± band, N.
+
+    Parameters
+    ----------
+    value : float or None, N
+        The current normal force.
+    target, band : float, N
+        Target and half-width of the band.
+
+    Returns
+    -------
+    str
+    """
     if value is None or math.isnan(value):
         return "none"
     if value < target - band:
@@ -152,6 +174,10 @@ def render_status(snap: Snapshot, *, target: float | None = None, band: float = 
         Colour the band verdict with ANSI codes.
     title : str
         First words of the first line (``P01/run-01``).
+
+    Returns
+    -------
+    list of str
     """
     remaining = "" if snap.remaining_s is None else f"   remaining {snap.remaining_s:6.1f} s"
     todo = instruction(snap)
@@ -184,7 +210,21 @@ def render_status(snap: Snapshot, *, target: float | None = None, band: float = 
 
 
 def render_line(snap: Snapshot, *, target: float | None = None, band: float = 0.1) -> str:
-    """A one-line summary for logs and pipes."""
+    """A one-line summary for logs and pipes.
+
+    Parameters
+    ----------
+    snap : Snapshot
+    target : float or None, N
+        Target normal force (None: no band verdict).
+    band : float, N
+        Half-width of the target band.
+
+    Returns
+    -------
+    str
+        The line, without newline.
+    """
     fn = "--" if snap.normal_force_N is None else f"{snap.normal_force_N:.3f} N"
     if target is not None:
         fn += f" ({band_state(snap.normal_force_N, target, band)})"
@@ -198,7 +238,18 @@ def render_line(snap: Snapshot, *, target: float | None = None, band: float = 0.
 
 def no_rig_data_alert(messages: dict[str, int], within: float) -> str:
     """The display's alert when none of *messages* (``{name: frame_key}``) came in
-    *within* s."""
+    *within* s.
+
+    Parameters
+    ----------
+    messages : dict
+        ``{message name: frame key}`` of the load cells.
+    within : float, s
+
+    Returns
+    -------
+    str
+    """
     names = " or ".join(f"{name} (0x{key_id(key)[0]:03X})" for name, key in messages.items())
     return (f"NO DATA FROM THE RIG: no {names} frame in {within:g} s; wrong bus, or the "
             "study's DBC is not this rig's?")

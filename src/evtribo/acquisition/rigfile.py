@@ -35,6 +35,18 @@ LOAD_CELL_ROLES = ("normal_force", "tangential_force")
 def check_name(value: str, key: str) -> str:
     """Return *value* if it is a plain name (letters, digits, ``-``, ``_``).
 
+    Parameters
+    ----------
+    value : str
+        The proposed name.
+    key : str
+        What it names (``"subject"``, ``"trial"``), for the message.
+
+    Returns
+    -------
+    str
+        *value*.
+
     Raises
     ------
     StudyError
@@ -136,6 +148,15 @@ def _counters(rig: Rig) -> list[CounterSpec]:
 def load_rig_toml(path: str | Path) -> AcquisitionRig:
     """Read a rig TOML (keys of spec §1's ``[rig]`` at top level, ``dbc`` relative to it).
 
+    Parameters
+    ----------
+    path : path
+        The rig TOML.
+
+    Returns
+    -------
+    AcquisitionRig
+
     Raises
     ------
     RigConfigError
@@ -147,6 +168,15 @@ def load_rig_toml(path: str | Path) -> AcquisitionRig:
 
 def load_study_rig(study: str | Path) -> AcquisitionRig:
     """The rig named by ``STUDY/study.toml``'s ``[rig]`` table.
+
+    Parameters
+    ----------
+    study : path
+        The study folder.
+
+    Returns
+    -------
+    AcquisitionRig
 
     Raises
     ------
@@ -273,6 +303,14 @@ def create_study(study: str | Path, rig: AcquisitionRig, name: str | None = None
     """Make *study* a study folder for *rig*: copy its DBC to ``rig/``, write ``study.toml``
     (:func:`write_new_study`).
 
+    Parameters
+    ----------
+    study : path
+        The folder (created if missing).
+    rig : AcquisitionRig
+    name : str, optional
+        The study's ``name`` (default: the folder's name).
+
     Returns
     -------
     Path
@@ -323,6 +361,11 @@ def open_study(study: str | Path, rig_path: str | Path | None = None, *,
 
     create : bool
         False: only say which rig the study would use (nothing is written).
+
+    Returns
+    -------
+    AcquisitionRig
+        The study's rig (the new study's, when it was created).
 
     Raises
     ------

@@ -187,12 +187,30 @@ class TrialResult:
 
 
 def trial_lock(paths: TrialPaths, subject: str, trial: str) -> WriteLock:
-    """The lock of a trial (``TRIAL.lock``), held by whoever writes it."""
+    """The lock of a trial (``TRIAL.lock``), held by whoever writes it.
+
+    Parameters
+    ----------
+    paths : TrialPaths
+    subject, trial : str
+        The names, for the message another process gets.
+
+    Returns
+    -------
+    WriteLock
+    """
     return WriteLock(paths.lock, f"the trial {subject}/{trial}", "recorded")
 
 
 def refuse_existing(paths: TrialPaths, force: bool) -> None:
-    """Raise OutputExistsError, naming the files, if the trial has any and not *force*."""
+    """Raise OutputExistsError, naming the files, if the trial has any and not *force*.
+
+    Parameters
+    ----------
+    paths : TrialPaths
+    force : bool
+        Existing files are to be replaced.
+    """
     existing = paths.existing()
     if existing and not force:
         raise OutputExistsError("trial already recorded (use {force} to replace it): "
@@ -201,6 +219,11 @@ def refuse_existing(paths: TrialPaths, force: bool) -> None:
 
 def keep_reserve(path: Path) -> None:
     """Take :data:`RESERVE_BYTES` of disk in *path*, to be freed for the last sidecar.
+
+    Parameters
+    ----------
+    path : Path
+        The reserve file (``.TRIAL.reserve``).
 
     Raises
     ------

@@ -372,7 +372,18 @@ def _open_binary(path: str | os.PathLike[str]) -> IO[bytes]:
 
 
 def iter_blocks(stream: IO[bytes], block_size: int = _BLOCK) -> Iterator[bytes]:
-    """Blocks of whole lines of *stream* (the last may lack its newline)."""
+    """Blocks of whole lines of *stream* (the last may lack its newline).
+
+    Parameters
+    ----------
+    stream : binary file
+    block_size : int
+        About how many bytes a block holds.
+
+    Yields
+    ------
+    bytes
+    """
     rest = b""
     while True:
         chunk = stream.read(block_size)

@@ -47,6 +47,10 @@ def frame_field(arbitration_id: int, data: bytes, *, is_extended: bool = False,
         Requested length of a remote frame, bytes (default ``len(data)``).
     fd_flags : int
         CAN FD flags digit (1 bit-rate switch, 2 error state indicator).
+
+    Returns
+    -------
+    str
     """
     if is_error:
         can_id = CAN_ERR_FLAG | ((arbitration_id & CAN_EFF_MASK) or CAN_ERR_BUSERROR)

@@ -48,7 +48,18 @@ RIG_KEYS = {
 
 def default_subjects(n: int = 3, seed: int = 0) -> list[SubjectParams]:
     """*n* plausible, different subjects ``P01``, ``P02``...: mu 0.3-0.7, air gap 3-8 um,
-    target force 0.4-1.0 N (drawn with *seed*)."""
+    target force 0.4-1.0 N (drawn with *seed*).
+
+    Parameters
+    ----------
+    n : int
+        How many subjects.
+    seed : int
+
+    Returns
+    -------
+    list of SubjectParams
+    """
     rng = np.random.default_rng([seed, 1001])
     return [
         SubjectParams(name=f"P{i + 1:02d}", mu=round(float(rng.uniform(0.3, 0.7)), 3),
@@ -100,6 +111,8 @@ def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams
         Overwrite an existing trial.
     notes : str
         Free text for the sidecar.
+    study_name : str
+        The study's ``name`` in a new ``study.toml``.
 
     Returns
     -------
@@ -183,6 +196,8 @@ def simulate_study(root: str | os.PathLike[str], subjects: Sequence[SubjectParam
     sine_trial : bool
     force : bool
         Overwrite existing trials.
+    name : str
+        The study's ``name`` in a new ``study.toml``.
     realistic : bool
         A real rig and real people (:mod:`~evtribo.acquisition.simulator.realism`): every
         trial's load cells get their own offsets, drift and hum and a tare stretch, every
