@@ -79,7 +79,7 @@ def log_stem(path: Path) -> tuple[str, str] | None:
     (str, str) or None
     """
     name = path.name
-    partial = name.endswith(PARTIAL_SUFFIX)
+    partial = name.lower().endswith(PARTIAL_SUFFIX)  # as the readers: RUN-01.LOG.PART too
     if partial:
         name = name[: -len(PARTIAL_SUFFIX)]
     for suffix in log_suffixes():
