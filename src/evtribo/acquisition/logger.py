@@ -266,7 +266,7 @@ class LogWriter:
             key: ([], []) for key in tracker.specs}
         lines: list[str] = []
         append = lines.append
-        prefix_cache: dict[tuple[int, bool], str] = {}
+        prefix_cache: dict[int, str] = {}
         for msg in batch:
             if msg.is_error_frame or msg.is_remote_frame or msg.is_fd:
                 append(format_candump_line(msg, channel))
@@ -274,14 +274,12 @@ class LogWriter:
                 if msg.is_error_frame:
                     stats.error_frames += 1
             else:
-                ckey = (msg.arbitration_id, msg.is_extended_id)
-                prefix = prefix_cache.get(ckey)
+                fkey = frame_key(msg.arbitration_id, msg.is_extended_id)
+                prefix = prefix_cache.get(fkey)
                 if prefix is None:
-                    key = id_key(msg)
-                    prefix = prefix_cache[ckey] = f" {key}#"
+                    prefix = prefix_cache[fkey] = f" {id_key(msg)}#"
                 key = prefix[1:-1]
                 append(f"({msg.timestamp:.6f}) {channel}{prefix}{msg.data.hex().upper()}\n")
-                fkey = frame_key(msg.arbitration_id, msg.is_extended_id)
                 latest[fkey] = msg
                 if fkey in counted:
                     counted[fkey][0].append(msg.data)

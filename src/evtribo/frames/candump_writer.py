@@ -15,6 +15,7 @@ from typing import IO, Any, cast
 import numpy as np
 import numpy.typing as npt
 
+from evtribo.frames.ids import id_text
 from evtribo.frames.table import FrameTable
 
 #: Linux ``CAN_ERR_FLAG``: set in the identifier of an error frame.
@@ -55,7 +56,7 @@ def frame_field(arbitration_id: int, data: bytes, *, is_extended: bool = False,
     if is_error:
         can_id = CAN_ERR_FLAG | ((arbitration_id & CAN_EFF_MASK) or CAN_ERR_BUSERROR)
         return f"{can_id:08X}#{bytes(data).hex().upper()}"
-    ident = f"{arbitration_id:08X}" if is_extended else f"{arbitration_id:03X}"
+    ident = id_text(arbitration_id, is_extended)
     if is_remote:
         length = len(data) if dlc is None else dlc
         return f"{ident}#R{length:X}" if length else f"{ident}#R"
