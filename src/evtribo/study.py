@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from evtribo.documents.names import MAX_NAME_BYTES, NAME_PATTERN, validate_name
+from evtribo.documents.session import SESSION_FILE
 from evtribo.documents.sidecar import (
     CONDITIONS,
     SIDECAR_KEYS,
@@ -197,7 +198,8 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
         logs: dict[str, tuple[Path, bool]] = {}
         others: dict[str, list[str]] = {}   # files that are no log, by stem
         for f in sorted(folder.iterdir()):
-            if f.name.startswith((".", "~$")) or f.name.lower() in OS_CLUTTER:
+            if f.name.startswith((".", "~$")) or f.name.lower() in OS_CLUTTER \
+                    or f.name == SESSION_FILE:
                 continue
             split = log_stem(f) if f.is_file() else None
             if split is None:
