@@ -160,16 +160,40 @@ def _sigmas(rows: pd.DataFrame, subject: str) -> NDArray[np.float64]:
     return sigma
 
 
-def _covariance(jac: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(J^T J)^-1 by SVD, infinite along directions the data do not determine."""
+def _covariance(jac: NDArray[np.float64],
+                x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """(J^T J)^-1 by SVD, infinite along directions the data do not determine.
+
+    A direction is not determined when its singular value is zero to the precision of the
+    Jacobian (a ratio to the largest beyond 1e-6 means a correlation indistinguishable from
+    1), or when it mixes several parameters and one standard error along it moves every
+    one of them by more than its own value (the combination the data cannot see, whatever
+    the scale the solution ended at).
+
+    Parameters
+    ----------
+    jac : ndarray, shape (n_residuals, n_parameters)
+        Jacobian of the weighted residuals at the solution.
+    x : ndarray, shape (n_parameters,)
+        The solution (in the parameters of *jac*).
+
+    Returns
+    -------
+    ndarray, shape (n_parameters, n_parameters)
+        The covariance, with infinite rows and columns for the undetermined parameters.
+    """
     _, s, vt = np.linalg.svd(jac, full_matrices=False)
     tol = np.finfo(float).eps * max(jac.shape) * (s[0] if s.size else 0.0)
-    # a ratio of singular values beyond 1e-6 means a correlation indistinguishable from 1
     bad = (s <= tol) | (s < 1e-6 * (s[0] if s.size else 0.0))
+    involved = np.abs(vt) > 1e-3
+    with np.errstate(divide="ignore"):
+        move = np.abs(vt) / np.where(bad, 1.0, s)[:, None]
+    unseen = (involved.sum(axis=1) > 1) & np.all(~involved | (move > np.abs(x)), axis=1)
+    bad = bad | unseen
     s_inv2 = np.where(bad, 0.0, 1.0 / np.where(bad, 1.0, s) ** 2)
     cov = (vt.T * s_inv2) @ vt
     if bad.any():
-        undetermined = np.any(np.abs(vt[bad]) > 1e-3, axis=0)
+        undetermined = np.any(involved[bad], axis=0)
         cov[undetermined, :] = np.inf
         cov[:, undetermined] = np.inf
     return cov
@@ -344,7 +368,7 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
     dof = n_res - len(names)
     chi2 = float(np.sum(res.fun**2))
     chi2_red = chi2 / dof if dof > 0 else math.nan
-    cov_x = _covariance(res.jac)
+    cov_x = _covariance(res.jac, res.x)
     scale = max(1.0, chi2_red) if math.isfinite(chi2_red) else 1.0
     quantile = float(stats.t.ppf(0.975, dof)) if scale > 1.0 else _Z95
     cov = cov_x * scale * np.outer(start, start)
