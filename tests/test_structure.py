@@ -37,7 +37,7 @@ LONG_IN_ACQUISITION = {
 }
 
 LONG_IN_COMPARE = {
-    "compare/fit.py:fit_subject", "compare/study_report.py:_page", "cli/simulate.py:add_parser",
+    "compare/study_report.py:_page", "cli/simulate.py:add_parser",
 }
 
 LONG_FUNCTIONS = LONG_IN_ANALYSIS | LONG_IN_ACQUISITION | LONG_IN_COMPARE
