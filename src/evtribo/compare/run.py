@@ -17,7 +17,6 @@ only if it is one analysis's complete results (:func:`~evtribo.compare.tables.re
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 from collections.abc import Iterable
@@ -41,8 +40,9 @@ from evtribo.compare.plots import (
     save_figure,
 )
 from evtribo.compare.tables import ResultTables, check_out_folder, read_results
+from evtribo.documents.fit import write_fit
 from evtribo.errors import OutputExistsError
-from evtribo.files import sha256_file
+from evtribo.files import atomic_write, sha256_file
 from evtribo.model.params import ModelParameters
 from evtribo.resultdir import Staging, locked, recover
 
@@ -154,7 +154,7 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         with Staging(folder) as stage:
             result = _compare(tables, stage, names, base, dpi=dpi, formats=formats)
             _write_json(stage, result, names, base, params,
-                        run_id=tables.summary.get("run_id"))
+                        run_id=tables.summary.run_id)
             stage.commit(remove=stale, last=[FIT_JSON])
     result.files = [folder / rel for rel in result.files]
     log.info("compare: wrote %d files into %s", len(result.files), folder)
@@ -171,7 +171,7 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
     result = CompareResult(out=folder, fits=fits)
     result.notes += _interval_notes(fits, has_bootstrap=tables.bootstrap is not None)
     table = fit_table(fits, tables)
-    table.to_csv(stage.path(FIT_CSV), index=False)
+    atomic_write(stage.path(FIT_CSV), table.to_csv(index=False))
     result.files.append(Path(FIT_CSV))
 
     by_subject = {f.subject: f for f in fits}
@@ -294,5 +294,5 @@ def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],
         "output_sha256": {rel.as_posix(): sha256_file(stage.path(rel.as_posix()))
                           for rel in result.files},
     }
-    stage.path(FIT_JSON).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    write_fit(stage.path(FIT_JSON), doc)
     result.files.append(Path(FIT_JSON))
