@@ -147,7 +147,7 @@ def test_notes_and_hashes_from_study_folder(tmp_path):
     simulate_study(study, [SubjectParams(name="P01")], amplitudes=(80.0, 140.0),
                    config=TrialConfig(duration_s=6.0), sine_trial=False)
     set_notes(study / "P01" / "run-01.json", "<b>finger</b> <script>")
-    analyze_study(study, out, jobs=1)
+    analyze_study(study, out, jobs=1, cache_dir=tmp_path / "cache")
     log_bytes = (study / "P01" / "run-01.log").read_bytes()
     path = build_report(out, tmp_path / "r.html", dpi=30)
     page, html = _parse(path)

@@ -31,7 +31,7 @@ from evtribo.compare.run import FIGURES, FIT_CSV, FIT_JSON, compare, figure_stem
 from evtribo.compare.tables import ResultTables, check_out_folder, read_results
 from evtribo.documents.fit import FitDocument, read_fit
 from evtribo.documents.summary import Summary
-from evtribo.errors import EvtriboError, OutputExistsError, ResultFolderError, UserInputError
+from evtribo.errors import FORCE, EvtriboError, OutputExistsError, ResultFolderError, UserInputError
 from evtribo.files import sha256_file
 from evtribo.model.params import ModelParameters
 from evtribo.resultdir import inside, locked, recover
@@ -225,7 +225,7 @@ def _fit_doc(folder: Path, summary: Summary) -> FitDocument:
     ResultFolderError
         Naming ``evtribo compare OUT --force``.
     """
-    again = f"run `evtribo compare {folder} --force`"
+    again = f"run `evtribo compare {folder} {FORCE}`"
     path = folder / FIT_JSON
     if not path.is_file():
         if summary.run_id is None:  # results of an older evtribo: a fit.csv alone
@@ -300,7 +300,7 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
         fit_doc = _fit_doc(folder, tables.summary)
         if not (folder / FIT_CSV).is_file():
             raise ResultFolderError(f"missing beside fit.json; run `evtribo compare {folder} "
-                                    "--force`", path=folder / FIT_CSV)
+                                    f"{FORCE}`", path=folder / FIT_CSV)
         fit = pd.read_csv(folder / FIT_CSV, dtype={"subject": str})
         report = _page(tables, fit, fit_doc, Path(output))
         html = Path(os.path.realpath(output))
@@ -324,7 +324,7 @@ def _figures(tables: ResultTables, fit_doc: FitDocument) -> list[dict[str, Any]]
     for f in figures:
         png = inside(folder, f"{FIGURES}/{f.get('stem')}.png")
         if png is None or not png.is_file():
-            raise ResultFolderError(f"figure missing: run `evtribo compare {folder} --force`",
+            raise ResultFolderError(f"figure missing: run `evtribo compare {folder} {FORCE}`",
                                     path=png or folder / FIT_JSON)
         f["png"] = png
     return figures

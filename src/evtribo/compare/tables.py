@@ -48,7 +48,7 @@ from numpy.typing import NDArray
 from evtribo.analysis.outputs import ANALYSIS_FILES
 from evtribo.documents.summary import SUMMARY_FILE, Summary
 from evtribo.documents.summary import read_summary as document_summary
-from evtribo.errors import ResultFolderError, UserInputError
+from evtribo.errors import FORCE, ResultFolderError, UserInputError
 from evtribo.files import sha256_file
 from evtribo.resultdir import locked, pending, recover
 
@@ -145,7 +145,7 @@ def check_out_folder(out: str | Path) -> Path:
 def _again(folder: Path, summary: Summary) -> str:
     study = summary.study_dir
     return f"run `evtribo analyze {study or 'STUDY'} --out " \
-           f"{folder} --force` again"
+           f"{folder} {FORCE}` again"
 
 
 def read_summary(folder: Path) -> Summary:
@@ -173,10 +173,10 @@ def read_summary(folder: Path) -> Summary:
             raise ResultFolderError(
                 f"missing beside {', '.join(present)}: the folder does not hold an "
                 "analysis's complete results (one that was interrupted?); run `evtribo "
-                f"analyze STUDY --out {folder} --force` again", path=path)
+                f"analyze STUDY --out {folder} {FORCE}` again", path=path)
         return Summary()
     return document_summary(path, again=f"; run `evtribo analyze STUDY --out {folder} "
-                                        "--force` again")
+                                        f"{FORCE}` again")
 
 
 def check_analysis(folder: Path, summary: Summary) -> None:

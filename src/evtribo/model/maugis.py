@@ -25,7 +25,7 @@ are solved one by one, with the pull-off point found first.
 
 Here dg / sigma_0 = eps_L * gap is the same at every voltage (5.48 um for Table 1), so
 lambda = 2 sigma_0^(2/3) (R / (pi h_0 K^2))^(1/3) grows as U^(4/3). For Table 1 (computed by
-this module; ``md_jkr_departure`` and :func:`evtribo.model.figures.plot_maugis` give them):
+this module; ``md_jkr_departure`` and :func:`evtribo.compare.model_figures.plot_maugis` give them):
 
 =========  ======  ======  ======  ======  ======  ======
 U (V)        10      30      60     100     140     150
