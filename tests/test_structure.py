@@ -36,9 +36,7 @@ LONG_IN_ACQUISITION = {
     "acquisition/trial.py:record_trial", "acquisition/logger.py:receive",
 }
 
-LONG_IN_COMPARE = {
-    "cli/simulate.py:add_parser",
-}
+LONG_IN_COMPARE: set[str] = set()
 
 LONG_FUNCTIONS = LONG_IN_ANALYSIS | LONG_IN_ACQUISITION | LONG_IN_COMPARE
 #: Modules still being split.

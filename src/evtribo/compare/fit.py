@@ -418,6 +418,20 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
 
     The intervals come from refits to ``electrostatic_bootstrap.csv``'s replicates when the
     folder has them for all of a subject's points, else from the Jacobian.
+
+    Parameters
+    ----------
+    tables : ResultTables
+        The result folder's tables (:func:`evtribo.compare.tables.read_results`).
+    base : ModelParameters
+        Starting values and the fixed parameters.
+    fit : sequence of str
+        Names of the parameters to fit per subject.
+
+    Returns
+    -------
+    list of SubjectFit
+        One per subject, in the order of ``electrostatic.csv``.
     """
     fits = []
     boot = tables.bootstrap
@@ -449,6 +463,18 @@ def fit_table(fits: Sequence[SubjectFit], tables: ResultTables) -> pd.DataFrame:
     The exponent columns compare the measured power law of ``exponents.csv`` (the square
     wave's when the subject has one) with the fitted model's exponent over the same
     waveform's measured amplitude range, at the subject's mean normal force ON.
+
+    Parameters
+    ----------
+    fits : sequence of SubjectFit
+        The fits (:func:`fit_study`).
+    tables : ResultTables
+        The tables they were fitted to.
+
+    Returns
+    -------
+    DataFrame
+        One row per subject and fitted parameter.
     """
     records = []
     for f in fits:

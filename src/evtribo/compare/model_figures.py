@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -250,7 +250,7 @@ def plot_frequency(ax: Axes | None = None, *, normal_force: float = 0.5,
 
 
 #: name -> plotting function, in the order :func:`save_model_figures` writes them.
-MODEL_FIGURES = {
+MODEL_FIGURES: dict[str, Callable[..., Axes]] = {
     "fig5_friction_time": plot_paper_friction_time,
     "fig6_friction_vs_load": plot_paper_friction_vs_load,
     "fig7_area_increase": plot_paper_area_increase,

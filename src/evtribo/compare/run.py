@@ -75,7 +75,18 @@ class CompareResult:
 
 
 def figure_stems(subjects: Iterable[str]) -> list[str]:
-    """File stems of the figures :func:`compare` writes for these subjects."""
+    """File stems of the figures :func:`compare` writes for these subjects.
+
+    Parameters
+    ----------
+    subjects : iterable of str
+        The subjects, in order.
+
+    Returns
+    -------
+    list of str
+        The two figures of the whole study, then two per subject.
+    """
     stems = ["friction_time", "area_increase"]
     for s in subjects:
         stems += [f"electrostatic_force_{safe_name(s)}", f"friction_normal_force_{safe_name(s)}"]

@@ -48,7 +48,20 @@ _SUMMARY_KEYS = ("study", "run_id", "study_dir", "started", "created", "evtribo_
 
 
 def file_hashes(paths: list[Path], root: Path) -> pd.DataFrame:
-    """``file, bytes, sha256`` of each existing file, names relative to *root*."""
+    """``file, bytes, sha256`` of each existing file, names relative to *root*.
+
+    Parameters
+    ----------
+    paths : list of Path
+        The files (those that do not exist are left out).
+    root : Path
+        The folder the names are relative to (a file outside it keeps its full path).
+
+    Returns
+    -------
+    DataFrame
+        One row per file.
+    """
     rows = []
     for p in paths:
         if p.is_file():
