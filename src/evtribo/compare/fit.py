@@ -59,15 +59,8 @@ from evtribo.model.params import TABLE_1, ModelParameters
 
 log = logging.getLogger(__name__)
 
-__all__ = ["FIT_COLUMNS", "N_REFITS", "ParameterEstimate", "SubjectFit", "fit_study",
-           "fit_subject", "fit_table", "mean_electrostatic_force", "mean_friction_force",
-           "model_exponent"]
-
-#: Columns of ``fit.csv``, one row per subject and fitted parameter.
-FIT_COLUMNS: tuple[str, ...] = (
-    "subject", "parameter", "value", "ci_low", "ci_high", "stderr", "unit", "rmse_N", "r2",
-    "chi2_reduced", "n_points", "waveform", "exponent", "exponent_ci_low", "exponent_ci_high",
-    "exponent_model", "mu_measured")
+__all__ = ["N_REFITS", "ParameterEstimate", "SubjectFit", "fit_study", "fit_subject",
+           "mean_electrostatic_force", "mean_friction_force", "model_exponent"]
 
 _Z95 = float(stats.norm.ppf(0.975))
 #: Bootstrap replicates refitted per subject (the first ones of electrostatic_bootstrap.csv).
@@ -447,57 +440,3 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
                             "some of its points; intervals from the Jacobian", subject)
         fits.append(fit_subject(subject, rows, base, fit, win, replicates=reps))
     return fits
-
-
-def _exponent_row(tables: ResultTables, subject: str) -> pd.Series | None:
-    ex = tables.exponents[tables.exponents["subject"] == subject]
-    if ex.empty:
-        return None
-    square = ex[ex["waveform"].astype(str).str.lower() == "square"]
-    return (square if not square.empty else ex).iloc[0]
-
-
-def fit_table(fits: Sequence[SubjectFit], tables: ResultTables) -> pd.DataFrame:
-    """The rows of ``fit.csv`` (:data:`FIT_COLUMNS`) for *fits*.
-
-    The exponent columns compare the measured power law of ``exponents.csv`` (the square
-    wave's when the subject has one) with the fitted model's exponent over the same
-    waveform's measured amplitude range, at the subject's mean normal force ON.
-
-    Parameters
-    ----------
-    fits : sequence of SubjectFit
-        The fits (:func:`fit_study`).
-    tables : ResultTables
-        The tables they were fitted to.
-
-    Returns
-    -------
-    DataFrame
-        One row per subject and fitted parameter.
-    """
-    records = []
-    for f in fits:
-        rows = tables.electrostatic[tables.electrostatic["subject"] == f.subject]
-        ex = _exponent_row(tables, f.subject)
-        waveform = str(ex["waveform"]) if ex is not None else str(rows["waveform"].iloc[0])
-        sel = rows[rows["waveform"].astype(str) == waveform]
-        sel = sel if not sel.empty else rows
-        amps = sel["amplitude_V"].to_numpy(float)
-        slope = model_exponent(float(np.nanmean(sel["normal_force_on_N"].to_numpy(float))),
-                               float(np.nanmin(amps)), float(np.nanmax(amps)), f.params,
-                               waveform)
-        for e in f.estimates:
-            records.append({
-                "subject": f.subject, "parameter": e.name, "value": e.value,
-                "ci_low": e.ci_low, "ci_high": e.ci_high, "stderr": e.stderr,
-                "unit": e.unit, "rmse_N": f.rmse_N, "r2": f.r2,
-                "chi2_reduced": f.chi2_reduced, "n_points": f.n_points,
-                "waveform": waveform,
-                "exponent": float(ex["exponent"]) if ex is not None else math.nan,
-                "exponent_ci_low": float(ex["exponent_ci_low"]) if ex is not None
-                else math.nan,
-                "exponent_ci_high": float(ex["exponent_ci_high"]) if ex is not None
-                else math.nan,
-                "exponent_model": slope, "mu_measured": f.mu_measured})
-    return pd.DataFrame.from_records(records, columns=list(FIT_COLUMNS))

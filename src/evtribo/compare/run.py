@@ -2,7 +2,8 @@
 
 Writes into the result folder:
 
-- ``fit.csv``: one row per subject and fitted parameter (:data:`~evtribo.compare.fit.FIT_COLUMNS`);
+- ``fit.csv``: one row per subject and fitted parameter
+  (:data:`~evtribo.compare.fit_csv.FIT_COLUMNS`);
 - ``fit.json``: what was fitted, the fixed parameters, each subject's full parameter set,
   how its intervals were obtained (``interval``: ``bootstrap``, refits to the force
   replicates of ``electrostatic_bootstrap.csv``, or ``jacobian``, the fallback that takes
@@ -29,7 +30,8 @@ import pandas as pd
 
 from evtribo import __version__
 from evtribo.analysis.outputs import FIGURES, FIT_CSV, FIT_JSON, compare_files
-from evtribo.compare.fit import SubjectFit, fit_study, fit_table
+from evtribo.compare.fit import SubjectFit, fit_study
+from evtribo.compare.fit_csv import fit_table
 from evtribo.compare.params import load_parameters, resolve_fit_names
 from evtribo.compare.plots import (
     plot_area_increase,

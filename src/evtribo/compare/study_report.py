@@ -19,6 +19,7 @@ import json
 import logging
 import os
 import platform
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -229,7 +230,7 @@ def _parameters_table(fit_doc: FitDocument) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["parameter", "value", "unit", "role"])
 
 
-def _fit_doc(folder: Path, summary: Summary) -> FitDocument:
+def _fit_doc(folder: Path, summary: Summary | Mapping[str, Any]) -> FitDocument:
     """fit.json, checked: a fit of the analysis now in *folder*, its files as compare wrote
     them.
 
@@ -238,6 +239,8 @@ def _fit_doc(folder: Path, summary: Summary) -> FitDocument:
     ResultFolderError
         Naming ``evtribo compare OUT --force``.
     """
+    if not isinstance(summary, Summary):
+        summary = Summary(dict(summary))
     again = f"run `evtribo compare {folder} {FORCE}`"
     path = folder / FIT_JSON
     if not path.is_file():

@@ -38,8 +38,10 @@ evtribo, without a ``run_id``, are read as they are.
 from __future__ import annotations
 
 import logging
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -179,21 +181,23 @@ def read_summary(folder: Path) -> Summary:
                                         f"{FORCE}` again")
 
 
-def check_analysis(folder: Path, summary: Summary) -> None:
+def check_analysis(folder: Path, summary: Summary | Mapping[str, Any]) -> None:
     """Refuse a folder whose tables are not those of the analysis *summary* describes.
 
     Parameters
     ----------
     folder : Path
         The result folder.
-    summary : Summary
-        Its ``summary.json``.
+    summary : Summary or mapping
+        Its ``summary.json`` (as read, or as the JSON object).
 
     Raises
     ------
     ResultFolderError
         Naming the first table missing, changed (or half-written), or of another analysis.
     """
+    if not isinstance(summary, Summary):
+        summary = Summary(dict(summary), folder / SUMMARY_FILE)
     run_id = summary.run_id
     hashes = summary.output_sha256
     if run_id is None or hashes is None:
