@@ -34,9 +34,7 @@ LONG_IN_ANALYSIS = {
 
 LONG_IN_ACQUISITION: set[str] = set()
 
-LONG_IN_COMPARE = {
-    "compare/fit.py:fit_subject", "compare/study_report.py:_page", "cli/simulate.py:add_parser",
-}
+LONG_IN_COMPARE: set[str] = set()
 
 LONG_FUNCTIONS = LONG_IN_ANALYSIS | LONG_IN_ACQUISITION | LONG_IN_COMPARE
 #: Modules still being split.
