@@ -22,6 +22,7 @@ from pathlib import Path
 
 import pytest
 
+import _studies
 from evtribo.cli import main
 from evtribo.lock import WriteLock
 from evtribo.rig import default_rig_path
@@ -32,13 +33,7 @@ LOG = ("(1763700000.000000) vcan0 0C1#0000000000000000\n"
        "(1763700000.001000) vcan0 0C2#0000000000000000\n")
 SIDECAR = {"subject": "P01", "waveform": "square", "frequency_Hz": 10000, "amplitude_V": 140,
            "condition": "alternating"}
-STUDY_TOML = """name = "bad input"
-
-[rig]
-dbc = "rig/default.dbc"
-normal_force = "FzCell.Fz"
-tangential_force = "FxCell.Fx"
-"""
+RIG = {"dbc": "rig/default.dbc", "normal_force": "FzCell.Fz", "tangential_force": "FxCell.Fx"}
 
 
 PEER_LOGS = Path(__file__).parent / "data" / "logs"
@@ -61,12 +56,8 @@ def _csv_log(path: Path) -> None:
 
 def make_study(root: Path) -> None:
     """A valid study: study.toml, the default rig's DBC, one trial with its sidecar."""
-    (root / "rig").mkdir(parents=True)
-    shutil.copy(DBC, root / "rig" / "default.dbc")
-    (root / "study.toml").write_text(STUDY_TOML, encoding="utf-8")
-    (root / "P01").mkdir()
-    (root / "P01" / "run-01.log").write_text(LOG, encoding="utf-8")
-    (root / "P01" / "run-01.json").write_text(json.dumps(SIDECAR), encoding="utf-8")
+    _studies.make_study(root, {"P01/run-01": SIDECAR}, name="bad input", rig=RIG, log=LOG,
+                        dbc=DBC)
 
 
 def _toml(study: Path, old: str, new: str) -> None:

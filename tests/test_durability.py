@@ -31,6 +31,7 @@ import pandas as pd
 import pytest
 
 import evtribo.acquisition.logger as logger_module
+from _process import kill_and_reap
 from evtribo.acquisition.logger import FLUSH_INTERVAL_S, LogWriter
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_trial
 from evtribo.cli import main
@@ -75,8 +76,7 @@ def test_sigkill_mid_trial_then_analyze_uses_the_partial_trial(tmp_path):
             assert time.monotonic() < deadline, "the recorder wrote too little"
             time.sleep(0.05)
     finally:
-        proc.send_signal(signal.SIGKILL)
-        proc.communicate()
+        kill_and_reap(proc)
     assert proc.returncode == -signal.SIGKILL
     assert not (study / "P01" / "run-01.log").exists()
     sidecar = json.loads((study / "P01" / "run-01.json").read_text())

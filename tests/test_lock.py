@@ -13,6 +13,7 @@ import time
 import pytest
 
 import evtribo.lock as lock_module
+from _process import kill_and_reap
 from evtribo.errors import LockedError, OutputExistsError
 from evtribo.lock import WriteLock, lock_holder
 
@@ -54,11 +55,7 @@ def other_process(tmp_path):
 
     yield start
     for proc in procs:
-        if proc.poll() is None:
-            proc.kill()
-        proc.wait()
-        for stream in (proc.stdin, proc.stdout):
-            stream.close()
+        kill_and_reap(proc)
 
 
 def test_a_lock_held_by_another_process_is_refused_naming_it(tmp_path, other_process):
@@ -147,8 +144,7 @@ def test_without_flock_the_content_decides(tmp_path, monkeypatch, content, held)
             with WriteLock(path, "the thing"):
                 assert json.loads(path.read_text())["pid"] == os.getpid()
     finally:
-        sleeper.kill()
-        sleeper.wait()
+        kill_and_reap(sleeper)
 
 
 def test_an_empty_lock_file_is_one_being_written_unless_old(tmp_path, monkeypatch):

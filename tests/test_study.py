@@ -1,5 +1,6 @@
 """The study folder: discovery, names, study.toml and sidecars."""
 
+import functools
 import json
 import os
 from pathlib import Path
@@ -8,21 +9,14 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+import _studies
 from evtribo import study
 from evtribo.errors import OutputExistsError, SidecarError, StudyError
 
 RIG = {"dbc": "rig/loadcells.dbc", "normal_force": "FzCell.Fz", "tangential_force": "FxCell.Fx"}
 
 
-def make_study(root: Path, trials: dict[str, dict | None]) -> Path:
-    study.write_study_toml(root, name="sweep", rig=RIG)
-    for key, sidecar in trials.items():
-        subject, trial = key.split("/")
-        (root / subject).mkdir(exist_ok=True)
-        (root / subject / f"{trial}.log").write_text("(1.000000) vcan0 0C1#00\n")
-        if sidecar is not None:
-            (root / subject / f"{trial}.json").write_text(json.dumps(sidecar))
-    return root
+make_study = functools.partial(_studies.make_study, rig=RIG)
 
 
 @given(st.text(max_size=20))

@@ -57,6 +57,10 @@ docdict: dict[str, str] = {
     # --- acquisition, frames, rig, study ---
 
     # --- model, compare, command line ---
+    "normal_force": """normal_force : float or ndarray
+    External normal force F_ext, N.""",
+    "voltage": """voltage : float or ndarray
+    Applied voltage U (instantaneous or amplitude), V.""",
 
 }
 

@@ -202,8 +202,9 @@ def atomic_open(path: str | os.PathLike[str], mode: str = "wb", *,
     fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp",
                                dir=target.parent if str(target.parent) else ".")
     try:
-        with os.fdopen(fd, mode, **({} if mode == "wb" else
-                                    {"encoding": encoding or "utf-8", "newline": ""})) as fh:
+        fh: IO[Any] = (os.fdopen(fd, "wb") if mode == "wb" else
+                       os.fdopen(fd, "w", encoding=encoding or "utf-8", newline=""))
+        with fh:
             yield fh
             fh.flush()
             if durable:

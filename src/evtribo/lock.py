@@ -44,7 +44,12 @@ _EMPTY_GRACE_S = 5.0
 
 
 def command_line() -> str:
-    """This process's command line as a user would type it (``evtribo acquire --study ...``)."""
+    """This process's command line as a user would type it (``evtribo acquire --study ...``).
+
+    Returns
+    -------
+    str
+    """
     argv = list(sys.argv) or [sys.executable]
     first = Path(argv[0]).name
     if first == "__main__.py":  # python -m evtribo
@@ -147,7 +152,17 @@ def _held_by(fd: int, lock: bool | None) -> dict[str, Any] | None:
 
 def lock_holder(path: str | os.PathLike[str]) -> dict[str, Any] | None:
     """Who holds the lock file *path*: its content (PID, host, command, since), or None
-    when nobody does (no file, or a stale one). Writes nothing."""
+    when nobody does (no file, or a stale one). Writes nothing.
+
+    Parameters
+    ----------
+    path : path-like
+        The lock file.
+
+    Returns
+    -------
+    dict or None
+    """
     path = Path(path)
     try:
         fd = os.open(path, os.O_RDONLY)
@@ -156,7 +171,7 @@ def lock_holder(path: str | os.PathLike[str]) -> dict[str, Any] | None:
     try:
         lock = _try_flock(fd, shared=True)
         if lock:
-            fcntl.flock(fd, fcntl.LOCK_UN)  # type: ignore[union-attr]
+            fcntl.flock(fd, fcntl.LOCK_UN)
         return _held_by(fd, lock)
     finally:
         os.close(fd)

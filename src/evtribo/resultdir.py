@@ -59,7 +59,18 @@ _WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EIO
 
 def inside(root: Path, rel: str) -> Path | None:
     """``root / rel`` when *rel* is a relative path that stays inside *root* (symbolic links
-    resolved), else None."""
+    resolved), else None.
+
+    Parameters
+    ----------
+    root : Path
+    rel : str
+        A path relative to *root*.
+
+    Returns
+    -------
+    Path or None
+    """
     if not isinstance(rel, str) or not rel or Path(rel).is_absolute() or \
             ".." in Path(rel).parts:
         return None
@@ -88,7 +99,17 @@ def _home(unit: Path) -> tuple[Path, str]:
 
 
 def lock_path(unit: str | os.PathLike[str]) -> Path:
-    """The lock file of an output: ``.NAME.evtribo-lock`` beside it (see :func:`_home`)."""
+    """The lock file of an output: ``.NAME.evtribo-lock`` beside it (see :func:`_home`).
+
+    Parameters
+    ----------
+    unit : path-like
+        The output.
+
+    Returns
+    -------
+    Path
+    """
     folder, prefix = _home(_real(unit))
     return folder / f"{prefix}{LOCK_SUFFIX}"
 
@@ -124,7 +145,17 @@ except ImportError:  # pragma: no cover - Windows
 
 
 def holder(unit: str | os.PathLike[str]) -> dict[str, Any] | None:
-    """What the lock file of *unit* says about its holder (None when there is none)."""
+    """What the lock file of *unit* says about its holder (None when there is none).
+
+    Parameters
+    ----------
+    unit : path-like
+        The output (a result folder, a report).
+
+    Returns
+    -------
+    dict or None
+    """
     path = lock_path(unit)
     for _ in range(10):  # the holder writes its record just after taking the lock
         try:
@@ -201,6 +232,11 @@ def locked(unit: str | os.PathLike[str], command: str) -> Iterator[None]:
     command : str
         What is writing it, for the message another process gets (``"evtribo analyze"``).
 
+    Yields
+    ------
+    None
+        The body of the ``with`` runs holding the lock.
+
     Raises
     ------
     OutputBusyError
@@ -253,7 +289,17 @@ def _stages(unit: Path) -> list[Path]:
 
 
 def pending(unit: str | os.PathLike[str]) -> list[Path]:
-    """New folders of *unit* whose commit is written but whose swap is not finished."""
+    """New folders of *unit* whose commit is written but whose swap is not finished.
+
+    Parameters
+    ----------
+    unit : path-like
+        The output.
+
+    Returns
+    -------
+    list of Path
+    """
     return [s for s in _stages(_real(unit)) if (s / JOURNAL).is_file()]
 
 
@@ -290,6 +336,11 @@ def _apply(stage: Path) -> None:
 def recover(unit: str | os.PathLike[str]) -> list[str]:
     """Finish the swap of a committed write into *unit* that was interrupted, and delete the
     new folders of writes that were killed before their commit. Call it holding the lock.
+
+    Parameters
+    ----------
+    unit : path-like
+        The output.
 
     Returns
     -------

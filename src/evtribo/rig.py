@@ -41,7 +41,7 @@ import cantools.database
 from cantools.database.can import Database, Message, Signal
 
 from evtribo.errors import RigConfigError, toml_error_line, toml_key_line
-from evtribo.files import check_regular_file, read_limited
+from evtribo.files import check_regular_file, read_limited, sha256_file
 
 log = logging.getLogger(__name__)
 
@@ -247,7 +247,7 @@ class Rig:
 
     def fingerprint(self) -> str:
         """Hash of the DBC's bytes and the role mapping (a cache key part)."""
-        h = hashlib.sha256(self.dbc.read_bytes())
+        h = hashlib.sha256(sha256_file(self.dbc).encode())
         h.update(json.dumps({r: ref.qualified_name for r, ref in self.roles.items()},
                             sort_keys=True).encode())
         return h.hexdigest()
@@ -326,13 +326,25 @@ def load_dbc(path: str | os.PathLike[str], *, source: str | None = None,
     loaded, with a warning: vendors' DBCs often have such quirks, and each signal is decoded
     on its own.
 
+    Parameters
+    ----------
+    path : path-like
+        The DBC.
+    source, key : str, optional
+        The file and key that named it, for messages.
+
+    Returns
+    -------
+    cantools.database.can.Database
+
     Raises
     ------
     RigConfigError
         The file does not parse (cantools' message, naming *source* and *key*).
     """
     try:
-        return cantools.database.load_file(os.fspath(path), database_format="dbc", strict=True)
+        return _can_database(cantools.database.load_file(os.fspath(path), database_format="dbc",
+                                                         strict=True))
     except Exception as strict_err:  # ParseError, UnsupportedDatabaseFormatError, Error...
         try:
             db = cantools.database.load_file(os.fspath(path), database_format="dbc",
@@ -341,12 +353,33 @@ def load_dbc(path: str | os.PathLike[str], *, source: str | None = None,
             raise RigConfigError(f"cannot parse DBC {path}: {err}", path=source,
                                  key=key) from err
         log.warning("%s: %s; decoding it anyway", path, strict_err)
-        return db
+        return _can_database(db)
+
+
+def _can_database(db: object) -> Database:
+    """*db*, which ``load_file(..., database_format="dbc")`` made a CAN database."""
+    if not isinstance(db, Database):
+        raise TypeError(f"expected a CAN database, got {type(db).__name__}")
+    return db
 
 
 def resolve_signal(db: Database, qualified: str, *, key: str, source: str | None = None
                    ) -> SignalRef:
     """Find ``"Message.Signal"`` in *db*.
+
+    Parameters
+    ----------
+    db : cantools.database.can.Database
+    qualified : str
+        ``"Message.Signal"``.
+    key : str
+        The key that names it, for messages.
+    source : str, optional
+        The file of that key.
+
+    Returns
+    -------
+    SignalRef
 
     Raises
     ------
@@ -383,6 +416,15 @@ def resolve_signal(db: Database, qualified: str, *, key: str, source: str | None
 def load_rig(toml_path: str | os.PathLike[str]) -> Rig:
     """Read a rig TOML (keys at the top level, ``dbc`` relative to the file).
 
+    Parameters
+    ----------
+    toml_path : path-like
+        The rig TOML.
+
+    Returns
+    -------
+    Rig
+
     Raises
     ------
     RigConfigError
@@ -412,12 +454,22 @@ def load_rig(toml_path: str | os.PathLike[str]) -> Rig:
 
 
 def default_rig_path() -> Path:
-    """The simulator's rig TOML (package data ``evtribo/data/rigs/default.toml``)."""
+    """The simulator's rig TOML (package data ``evtribo/data/rigs/default.toml``).
+
+    Returns
+    -------
+    Path
+    """
     return Path(str(resources.files("evtribo") / "data" / "rigs" / "default.toml"))
 
 
 def default_rig() -> Rig:
-    """The simulator's rig: ``FzCell.Fz``, ``FxCell.Fx``, their counters and ``HvStatus``."""
+    """The simulator's rig: ``FzCell.Fz``, ``FxCell.Fx``, their counters and ``HvStatus``.
+
+    Returns
+    -------
+    Rig
+    """
     return load_rig(default_rig_path())
 
 

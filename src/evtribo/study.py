@@ -14,20 +14,29 @@ for ``evtribo acquire``. It reads no CAN log. Every error names the file and the
 
 from __future__ import annotations
 
-import difflib
 import functools
 import json
 import logging
-import math
 import os
-import re
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from evtribo.errors import OutputExistsError, SidecarError, StudyError, toml_error_line
+from evtribo.documents.names import MAX_NAME_BYTES, NAME_PATTERN, validate_name
+from evtribo.documents.session import SESSION_FILE
+from evtribo.documents.sidecar import (
+    CONDITIONS,
+    SIDECAR_KEYS,
+    WAVEFORMS,
+    Sidecar,
+    parse_sidecar,
+    read_sidecar,
+    unknown_sidecar_keys,
+    write_sidecar,
+)
+from evtribo.errors import OutputExistsError, StudyError, toml_error_line
 from evtribo.files import PARTIAL_SUFFIX, atomic_write, read_limited
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -36,13 +45,8 @@ if TYPE_CHECKING:  # pragma: no cover
 log = logging.getLogger(__name__)
 
 STUDY_FILE = "study.toml"
-#: Plain names: subjects and trials (no path separators, no ``..``).
-NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
-CONDITIONS = ("on", "off", "alternating")
-WAVEFORMS = ("sine", "square")
 
 
-@functools.cache
 @functools.cache
 def log_suffixes() -> tuple[str, ...]:
     """Suffixes of raw logs, longest first (``.log.gz`` before ``.log``): every format
@@ -55,185 +59,10 @@ def log_suffixes() -> tuple[str, ...]:
 
 #: Files an operating system leaves in folders (``Thumbs.db`` would read as a SQLite log).
 OS_CLUTTER = {"thumbs.db", "ehthumbs.db", "desktop.ini", ".ds_store"}
-#: Sidecar keys evtribo reads (spec) or writes (``evtribo acquire``, ``evtribo simulate
-#: --study``, ``scripts/record_traces.py``); any other key is reported with the closest of
-#: these (a misspelt ``amplitde_V`` would otherwise be ignored in silence).
-SIDECAR_KEYS = frozenset({
-    "subject", "waveform", "frequency_Hz", "amplitude_V", "condition", "notes", "tare_s",
-    "trial", "rig", "interface", "channel", "bitrate", "bus_options", "log_channel",
-    "evtribo_version", "python_can_version", "cantools_version", "python_version",
-    "start_time", "end_time", "requested_duration_s", "duration_s", "log", "log_compressed",
-    "ended", "end_detail", "frames", "frames_by_id", "first_frame_time", "error_frames",
-    "dropped_frames", "dropped_frames_by_message", "longest_gap_s_by_message", "bus_errors",
-    "bus_exceptions", "damaged_lines", "bus", "software", "simulation",
-})
-#: Longest subject or trial name, bytes (the file system allows 255 for a whole file name,
-#: which adds suffixes such as ``.log.part``).
-MAX_NAME_BYTES = 100
 #: Top-level keys of study.toml and their types.
 STUDY_KEYS: dict[str, type | tuple[type, ...]] = {"name": str, "rig": dict, "analysis": dict}
 #: Folders of a study that are not subjects.
 NOT_SUBJECTS = {"rig"}
-
-
-def validate_name(value: object, *, what: str, path: str | os.PathLike[str] | None = None,
-                  key: str | None = None, error: type[StudyError] | type[SidecarError] = StudyError
-                  ) -> str:
-    """Return *value* if it is a plain name (letters, digits, ``-``, ``_``), else raise.
-
-    Parameters
-    ----------
-    value : object
-        The proposed subject or trial name.
-    what : str
-        What the name is for, used in the message (``"subject"``, ``"trial"``).
-    path, key : optional
-        Where the name came from, for the message.
-    error : type
-        The error class to raise.
-    """
-    if not isinstance(value, str) or not NAME_PATTERN.fullmatch(value):
-        raise error(
-            f"{what} name {value!r} is not allowed: use letters, digits, '-' and '_' only "
-            "(no paths, no spaces)",
-            path=path, key=key,
-        )
-    if len(value.encode()) > MAX_NAME_BYTES:
-        raise error(f"{what} name {value[:20]}... is {len(value)} characters long; at most "
-                    f"{MAX_NAME_BYTES} are allowed (file names have a length limit)",
-                    path=path, key=key)
-    return value
-
-
-@dataclass(frozen=True)
-class Sidecar:
-    """A trial's metadata, validated.
-
-    Attributes
-    ----------
-    subject : str
-        Subject name (defaults to the folder's).
-    waveform : {"sine", "square"} or None
-    frequency_Hz : float or None
-        Frequency of the applied voltage, Hz.
-    amplitude_V : float or None
-        Amplitude of the applied voltage, V.
-    condition : {"on", "off", "alternating"} or None
-    notes : str
-    extra : dict
-        Every other key, as written (``evtribo acquire`` writes many).
-    """
-
-    subject: str
-    waveform: str | None = None
-    frequency_Hz: float | None = None
-    amplitude_V: float | None = None
-    condition: str | None = None
-    notes: str = ""
-    extra: dict[str, Any] = field(default_factory=dict)
-
-    def to_dict(self) -> dict[str, Any]:
-        """The sidecar as JSON-ready mapping (spec keys first, then the others)."""
-        out: dict[str, Any] = {
-            "subject": self.subject, "waveform": self.waveform,
-            "frequency_Hz": self.frequency_Hz, "amplitude_V": self.amplitude_V,
-            "condition": self.condition, "notes": self.notes,
-        }
-        out.update(self.extra)
-        return out
-
-
-def _number(value: object, key: str, path: Path) -> float | None:
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise SidecarError(f"expected a number, got {value!r} ({type(value).__name__})",
-                           path=path, key=key)
-    if not math.isfinite(value) or value < 0:
-        raise SidecarError(f"expected a finite number >= 0, got {value!r}", path=path, key=key)
-    return float(value)
-
-
-def _choice(value: object, key: str, path: Path, allowed: tuple[str, ...]) -> str | None:
-    if value is None:
-        return None
-    if not isinstance(value, str) or value.lower() not in allowed:
-        raise SidecarError(f"unknown value {value!r}; allowed: {', '.join(allowed)}",
-                           path=path, key=key)
-    return value.lower()
-
-
-def parse_sidecar(data: object, *, path: str | os.PathLike[str], default_subject: str) -> Sidecar:
-    """Validate a sidecar's decoded JSON; *default_subject* is the folder's name, which a
-    ``subject`` in the sidecar must equal."""
-    p = Path(path)
-    if not isinstance(data, dict):
-        raise SidecarError(f"expected a JSON object, got {type(data).__name__}", path=p)
-    data = dict(data)
-    subject = validate_name(data.pop("subject", default_subject), what="subject", path=p,
-                            key="subject", error=SidecarError)
-    if subject != default_subject:
-        raise SidecarError(f"says subject {subject!r}, but the trial is in the folder "
-                           f"{default_subject!r}: a subject's trials are in the folder of "
-                           "its name (rename one of them)", path=p, key="subject")
-    notes = data.pop("notes", "")
-    if notes is None:
-        notes = ""
-    if not isinstance(notes, str):
-        raise SidecarError(f"expected text, got {notes!r}", path=p, key="notes")
-    return Sidecar(
-        subject=subject,
-        waveform=_choice(data.pop("waveform", None), "waveform", p, WAVEFORMS),
-        frequency_Hz=_number(data.pop("frequency_Hz", None), "frequency_Hz", p),
-        amplitude_V=_number(data.pop("amplitude_V", None), "amplitude_V", p),
-        condition=_choice(data.pop("condition", None), "condition", p, CONDITIONS),
-        notes=notes,
-        extra=data,
-    )
-
-
-def read_sidecar(path: str | os.PathLike[str], *, default_subject: str) -> Sidecar:
-    """Read and validate a trial's JSON sidecar (a regular file of at most 1 MiB)."""
-    p = Path(path)
-    try:
-        raw = read_limited(p, SidecarError, what="sidecar")
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as err:
-        raise SidecarError(f"not UTF-8 text ({err.reason} at byte {err.start})", path=p) from err
-    except OSError as err:
-        raise SidecarError(f"cannot read: {err.strerror}", path=p) from err
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as err:
-        raise SidecarError(f"invalid JSON: {err.msg} (column {err.colno})", path=p,
-                           line=err.lineno) from err
-    except RecursionError as err:
-        raise SidecarError("invalid JSON: nested too deeply to be a sidecar", path=p) from err
-    return parse_sidecar(data, path=p, default_subject=default_subject)
-
-
-def unknown_sidecar_keys(sidecar: Sidecar) -> list[tuple[str, str | None]]:
-    """Keys of *sidecar* evtribo neither reads nor writes, each with the closest known key
-    (or None)."""
-    out = []
-    for key in sidecar.extra:
-        if key not in SIDECAR_KEYS:
-            close = difflib.get_close_matches(key, sorted(SIDECAR_KEYS), n=1, cutoff=0.6)
-            out.append((key, close[0] if close else None))
-    return out
-
-
-def write_sidecar(path: str | os.PathLike[str], sidecar: Sidecar | Mapping[str, Any], *,
-                  force: bool = False) -> Path:
-    """Write a sidecar atomically (temporary file, then rename); refuse to overwrite."""
-    p = Path(path)
-    if p.exists() and not force:
-        raise OutputExistsError("exists already; use {force} to overwrite", path=p)
-    payload = sidecar.to_dict() if isinstance(sidecar, Sidecar) else dict(sidecar)
-    # a value JSON cannot hold, a full disk: nothing is left behind
-    text = json.dumps(payload, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
-    atomic_write(p, text, durable=True)
-    return p
 
 
 def log_stem(path: Path) -> tuple[str, str] | None:
@@ -241,9 +70,17 @@ def log_stem(path: Path) -> tuple[str, str] | None:
 
     A log left as ``run-01.log.part`` by a killed acquisition is a log too (suffix
     ``.log.part``).
+
+    Parameters
+    ----------
+    path : Path
+
+    Returns
+    -------
+    (str, str) or None
     """
     name = path.name
-    partial = name.endswith(PARTIAL_SUFFIX)
+    partial = name.lower().endswith(PARTIAL_SUFFIX)  # as the readers: RUN-01.LOG.PART too
     if partial:
         name = name[: -len(PARTIAL_SUFFIX)]
     for suffix in log_suffixes():
@@ -299,7 +136,18 @@ class Study:
 
 
 def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """Read ``study.toml`` and check its top-level keys and their types."""
+    """Read ``study.toml`` and check its top-level keys and their types.
+
+    Parameters
+    ----------
+    path : path-like
+        The ``study.toml``.
+
+    Returns
+    -------
+    dict
+        Its tables and keys.
+    """
     p = Path(path)
     try:
         config = tomllib.loads(read_limited(p, StudyError, what=STUDY_FILE).decode("utf-8"))
@@ -328,7 +176,19 @@ def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
 
 
 def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[str]]:
-    """Find every trial under *root*'s subject folders; returns ``(trials, warnings)``."""
+    """Find every trial under *root*'s subject folders; returns ``(trials, warnings)``.
+
+    Parameters
+    ----------
+    root : path-like
+        The study folder.
+
+    Returns
+    -------
+    trials : list of TrialRef
+    warnings : list of str
+        Logs without sidecars, unknown sidecar keys, partial logs... one line each.
+    """
     root = Path(root)
     trials: list[TrialRef] = []
     warnings: list[str] = []
@@ -338,7 +198,8 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
         logs: dict[str, tuple[Path, bool]] = {}
         others: dict[str, list[str]] = {}   # files that are no log, by stem
         for f in sorted(folder.iterdir()):
-            if f.name.startswith((".", "~$")) or f.name.lower() in OS_CLUTTER:
+            if f.name.startswith((".", "~$")) or f.name.lower() in OS_CLUTTER \
+                    or f.name == SESSION_FILE:
                 continue
             split = log_stem(f) if f.is_file() else None
             if split is None:
@@ -371,8 +232,8 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
         validate_name(folder.name, what="subject folder", path=folder)
         for trial, (log_path, partial) in logs.items():
             validate_name(trial, what="trial", path=log_path)
-            sidecar_path = folder / f"{trial}.json"
-            if sidecar_path.exists():
+            sidecar_path: Path | None = folder / f"{trial}.json"
+            if sidecar_path is not None and sidecar_path.exists():
                 sidecar = read_sidecar(sidecar_path, default_subject=folder.name)
                 for key, close in unknown_sidecar_keys(sidecar):
                     warnings.append(f"{sidecar_path}: unknown key {key!r} ignored"
@@ -405,6 +266,10 @@ def load_study(path: str | os.PathLike[str], *, with_rig: bool = True) -> Study:
         The study folder (or its ``study.toml``).
     with_rig : bool
         Load and check the rig's DBC and signal names (before any log is read).
+
+    Returns
+    -------
+    Study
 
     Raises
     ------
@@ -439,7 +304,22 @@ def _toml_value(value: Any) -> str:
 
 
 def write_study_toml(root: str | os.PathLike[str], *, name: str, rig: Mapping[str, Any]) -> Path:
-    """Create ``study.toml`` in *root* with a ``[rig]`` table; refuses to overwrite one."""
+    """Create ``study.toml`` in *root* with a ``[rig]`` table; refuses to overwrite one.
+
+    Parameters
+    ----------
+    root : path-like
+        The study folder (created if missing).
+    name : str
+        The study's ``name``.
+    rig : mapping
+        The ``[rig]`` table.
+
+    Returns
+    -------
+    Path
+        The new ``study.toml``.
+    """
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     p = root / STUDY_FILE
@@ -449,3 +329,11 @@ def write_study_toml(root: str | os.PathLike[str], *, name: str, rig: Mapping[st
     lines += [f"{k} = {_toml_value(v)}" for k, v in rig.items()]
     atomic_write(p, "\n".join(lines) + "\n", durable=True)
     return p
+
+
+# the sidecar's and the names' definitions live in evtribo.documents; imported from here too
+__all__ = ["CONDITIONS", "MAX_NAME_BYTES", "NAME_PATTERN", "NOT_SUBJECTS", "OS_CLUTTER",
+           "SIDECAR_KEYS", "STUDY_FILE", "STUDY_KEYS", "WAVEFORMS", "Sidecar", "Study",
+           "TrialRef", "discover_trials", "load_study", "log_stem", "log_suffixes",
+           "parse_sidecar", "read_sidecar", "read_study_toml", "unknown_sidecar_keys",
+           "validate_name", "write_sidecar", "write_study_toml"]

@@ -8,6 +8,8 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
+from _process import kill_and_reap
+
 
 @pytest.fixture
 def simulate_pty() -> Iterator[Callable[..., tuple[subprocess.Popen[str], str]]]:
@@ -24,13 +26,10 @@ def simulate_pty() -> Iterator[Callable[..., tuple[subprocess.Popen[str], str]]]
         procs.append(proc)
         path = proc.stdout.readline().strip() if proc.stdout else ""
         if not path.startswith("/dev/"):
-            proc.kill()
-            _, err = proc.communicate(timeout=5)
+            _, err = kill_and_reap(proc, timeout=5)
             pytest.fail(f"simulate --pty printed {path!r}; stderr: {err}")
         return proc, path
 
     yield start
     for proc in procs:
-        if proc.poll() is None:
-            proc.kill()
-        proc.communicate(timeout=5)
+        kill_and_reap(proc, timeout=5)

@@ -12,7 +12,7 @@ import evtribo.acquisition.trial as trial_module
 from evtribo.acquisition.bus import BusSettings
 from evtribo.acquisition.rigfile import default_rig_path
 from evtribo.acquisition.simulator import Simulator, TrialConfig
-from evtribo.acquisition.trial import TrialInfo, TrialPaths, record_trial
+from evtribo.acquisition.trial import TrialInfo, TrialOptions, TrialPaths, record_trial
 from evtribo.errors import (
     AcquisitionError,
     ConfigError,
@@ -433,3 +433,20 @@ def test_bus_options_and_python_can_configuration(monkeypatch):
         assert bus.channel_info == "Virtual bus channel acq_from_env"
     finally:
         bus.shutdown()
+
+
+def test_options_come_as_one_object_or_as_keywords(tmp_path):
+    study = tmp_path / "s"
+    options = TrialOptions(duration=0.1, info=TrialInfo(notes="first"))
+    with can.Bus(interface="virtual", channel="acq_options") as bus:
+        assert record_trial(bus, study, "P01", "run-01", options).ended == "completed"
+        with pytest.raises(OutputExistsError):
+            record_trial(bus, study, "P01", "run-01", options)
+        # keywords override the object's fields
+        result = record_trial(bus, study, "P01", "run-01", options, force=True,
+                              info=TrialInfo(notes="second"))
+    assert result.ended == "completed"
+    assert json.loads((study / "P01" / "run-01.json").read_text())["notes"] == "second"
+    with pytest.raises(ConfigError) as err:
+        record_trial(None, study, "P01", "run-02", TrialOptions(duration=-1.0))
+    assert err.value.key == "duration"

@@ -16,6 +16,7 @@ import can
 import cantools
 import pytest
 
+from _process import kill_and_reap
 from evtribo.acquisition.rigfile import default_rig_path
 from evtribo.cli import main
 
@@ -146,9 +147,7 @@ def test_signal_mid_trial_leaves_a_complete_log(tmp_path, adapter, sig):
         proc.send_signal(sig)
         _out, err = proc.communicate(timeout=15)
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
+        kill_and_reap(proc)
     assert proc.returncode == 0, err
     log = study / "P01" / "run-01.log"
     assert not (study / "P01" / "run-01.log.part").exists()
@@ -205,9 +204,7 @@ def test_more_signals_while_the_trial_is_saved_do_not_abandon_it(tmp_path):
         proc.send_signal(signal.SIGTERM)
         _out, err = proc.communicate(timeout=30)
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
+        kill_and_reap(proc)
     assert proc.returncode == 0, err
     assert "Traceback" not in err
     assert "ignored: saving the trial" in err
@@ -228,9 +225,7 @@ def test_adapter_vanishing_mid_trial_exits_1_with_the_log(tmp_path, adapter):
         adapter.vanish()
         _out, err = proc.communicate(timeout=15)
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
+        kill_and_reap(proc)
     assert proc.returncode == 1, err
     assert "what was received is kept" in err
     assert "Traceback" not in err
@@ -260,9 +255,7 @@ def test_damaged_lines_are_counted_and_the_recording_goes_on(tmp_path, adapter, 
                 time.sleep(0.3)  # some between two flushes, some in one
         out, err = proc.communicate(timeout=30)
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
+        kill_and_reap(proc)
     assert proc.returncode == 0, err
     assert "(4 damaged lines)" in out and "Traceback" not in err
     side = json.loads((study / "P01" / "run-01.json").read_text())
@@ -326,8 +319,7 @@ def test_sigkill_leaves_whole_lines_up_to_the_last_flush(tmp_path, adapter):
     try:
         wait_for_frames(study / "P01" / "run-01.log.part", proc, n_bytes=20000)
     finally:
-        proc.kill()
-        proc.communicate()
+        kill_and_reap(proc)
     part = study / "P01" / "run-01.log.part"
     text = part.read_text()
     assert text.endswith("\n")                      # no line cut in two

@@ -23,6 +23,7 @@ from evtribo.acquisition.logger import (
 )
 from evtribo.acquisition.rigfile import load_rig_toml
 from evtribo.frames import candump, frames_from_messages, write_candump
+from evtribo.signal_codec import SignalCodec
 
 FRAMES = [
     can.Message(timestamp=1763700000.000123, arbitration_id=0x0C1, is_extended_id=False,
@@ -126,7 +127,9 @@ def test_counter_extraction_matches_cantools(message, signal):
 
 
 def test_counter_tracker_counts_gaps_and_wraps():
-    spec = CounterSpec(message="M", arbitration_id=1, start=56, length=8)
+    spec = CounterSpec(message="M", arbitration_id=1, codec=SignalCodec(
+        "MCounter", start=56, length=8, byte_order="little_endian", is_signed=False,
+        is_float=False, scale=1, offset=0))
     tracker = CounterTracker([spec])
 
     def frame(c):
@@ -304,3 +307,17 @@ def test_receive_stops_when_asked(tmp_path):
     fh.close()
     assert result.reason == "interrupted"
     assert 0.15 < elapsed < 5.0                     # stopped when asked, not after 10 s
+
+
+@pytest.mark.parametrize("message,signal", [("Intel", "Cnt"), ("Moto", "Cnt")])
+def test_a_frame_shorter_than_its_counter_is_counted_not_fatal(message, signal):
+    # a frame cut short (a smaller DLC than the DBC's) reads its missing bytes as 0, as the
+    # decoder does; it never stops the recording
+    db = cantools.database.load_string(DBC, database_format="dbc")
+    spec = counter_spec_from_dbc(db, message, signal)
+    tracker = CounterTracker([spec])
+    msg = db.get_message_by_name(message)
+    full = msg.encode({signal: 3})
+    assert tracker.update(msg.frame_id, full, 0.0) == 0
+    assert tracker.update(msg.frame_id, full[:1], 0.01) == spec.extract(full[:1] + bytes(7)) \
+        - 3 - 1 & ((1 << spec.length) - 1)

@@ -1,4 +1,4 @@
-"""Protocol files (spec §7) and the session document."""
+"""Protocol files (spec §7): checked with file, line and key, and the trials they plan."""
 
 from __future__ import annotations
 
@@ -10,13 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from evtribo.acquisition.protocol import plan_trials, read_protocol
-from evtribo.documents.session import (
-    PlannedEntry,
-    SessionDocument,
-    read_session,
-    write_session,
-)
-from evtribo.errors import ConfigError, StudyError
+from evtribo.errors import ConfigError
 
 PROTOCOLS = Path(__file__).parents[2] / "acquisition" / "protocols"
 
@@ -75,21 +69,3 @@ def test_bad_protocols_name_file_line_and_key(tmp_path, text, key, line, message
 def test_missing_protocol_is_a_config_error(tmp_path):
     with pytest.raises(ConfigError, match="not found"):
         read_protocol(tmp_path / "nope.toml")
-
-
-def test_session_document_round_trip_and_errors(tmp_path):
-    doc = SessionDocument(
-        subject="P01", protocol_file="/x/p.toml", protocol={"session": {}, "trial": []},
-        seed=3, started="2026-11-23T08:00:00Z", updated="2026-11-23T08:00:00Z",
-        planned=[PlannedEntry("run-01", "sine", 100.0, 60.0, "alternating"),
-                 PlannedEntry("run-02", "sine", 100.0, 80.0, "on", status="done",
-                              rejected=["run-02-1"])])
-    write_session(tmp_path / "session.json", doc)
-    back = read_session(tmp_path / "session.json")
-    assert back == doc and back.next_pending is back.planned[0] and back.done == 1
-    (tmp_path / "bad.json").write_text('{"version": 1, "subject": "P01"}')
-    with pytest.raises(StudyError, match="missing key"):
-        read_session(tmp_path / "bad.json")
-    (tmp_path / "new.json").write_text('{"version": 9}')
-    with pytest.raises(StudyError, match="version 9"):
-        read_session(tmp_path / "new.json")

@@ -15,6 +15,7 @@ import time
 import can
 import pytest
 
+from _process import kill_and_reap
 from evtribo.acquisition.trial import TrialPaths, record_trial
 from evtribo.cli import main
 from evtribo.errors import LockedError
@@ -46,9 +47,7 @@ def stop(proc, sig=signal.SIGTERM):
     try:
         return proc.communicate(timeout=30)
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
+        kill_and_reap(proc)
 
 
 def check_whole_log(log, channel, frames):

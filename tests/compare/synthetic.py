@@ -10,12 +10,12 @@ errors are independent here, so ``electrostatic_bootstrap.csv`` (written unless
 from __future__ import annotations
 
 import hashlib
-import json
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from evtribo.documents.summary import write_summary
 from evtribo.model import TABLE_1, electrostatic_force, friction_force, sine_voltage
 
 TRUE_H_L = {"P01": 3.0e-6, "P02": 8.0e-6}
@@ -95,11 +95,13 @@ def make_out(folder: Path, *, seed: int = 1, note: str = "ok",
                       "friction_force_N": ft, "voltage_V": u}).to_csv(
             folder / "sine_trace.csv", index=False)
     log_bytes = b"(1763700000.000123) vcan0 0C1#1122334455667788\n"
-    summary = {"study": {"name": f"synthetic {note}", "path": "/data/study"},
-               "software": {"evtribo": "0.1.0"},
-               "rig": {"dbc": "rig/loadcells.dbc", "normal_force": "FzCell.Fz"},
-               "inputs": [{"path": "P01/run-01.log",
-                           "sha256": hashlib.sha256(log_bytes).hexdigest()}],
-               "warnings": [f"P01/run-03.log:17: skipped damaged line ({note})"]}
-    (folder / "summary.json").write_text(json.dumps(summary, indent=2), encoding="utf-8")
+    # summary.json in the shape evtribo analyze writes (older results: no run_id, no hashes)
+    write_summary(folder / "summary.json", {
+        "study": f"synthetic {note}", "evtribo_version": "0.1.0",
+        "study_dir": "/data/study",
+        "inputs": [{"file": "P01/run-01.log", "role": "log", "bytes": len(log_bytes),
+                    "sha256": hashlib.sha256(log_bytes).hexdigest()}],
+        "rig": {"dbc": "rig/loadcells.dbc", "normal_force": "FzCell.Fz"},
+        "software": {"evtribo": "0.1.0"},
+        "warnings": [f"P01/run-03: P01/run-03.log:17: skipped damaged line ({note})"]})
     return folder

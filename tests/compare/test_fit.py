@@ -49,15 +49,34 @@ def test_fit_mu_with_air_gap_uses_windows(out_dir):
         assert f["mu"].contains(MU[f.subject]) or \
             abs(f["mu"].value - MU[f.subject]) < 0.02 * MU[f.subject]
         assert abs(f["h_L"].value - TRUE_H_L[f.subject]) / TRUE_H_L[f.subject] < 0.10
+        # a pair the data determine is not taken for an undetermined one
+        assert math.isfinite(f["h_L"].stderr) and math.isfinite(f["mu"].stderr)
 
 
-def test_degenerate_pair_has_wide_interval(out_dir):
+@pytest.fixture(scope="module")
+def degenerate_fits(tmp_path_factory):
+    """Both subjects of the synthetic folder fitted for h_L and E_star together."""
+    out = make_out(tmp_path_factory.mktemp("degenerate") / "out", sine_trace=False)
+    return fit_study(read_results(out), fit=("h_L", "E_star"))
+
+
+def test_degenerate_pair_has_wide_interval(degenerate_fits):
     # h_L and E_star enter eq. 11 almost only through one combination: the intervals
     # must say the data do not pin them down
-    fits = fit_study(read_results(out_dir), fit=("h_L", "E_star"))
-    for f in fits:
+    for f in degenerate_fits:
         e = f["E_star"]
         assert not math.isfinite(e.stderr) or e.ci_high - e.ci_low > e.value
+
+
+def test_degenerate_pair_is_undetermined_for_every_subject(degenerate_fits):
+    # along the combination the data cannot see, one standard error moves each parameter
+    # by more than its own value: not determined, whatever the scale the solution ended at
+    # (no refits to the bootstrap replicates of an ill-posed fit)
+    assert [f.subject for f in degenerate_fits] == list(TRUE_H_L)
+    for f in degenerate_fits:
+        assert f.interval_method == "jacobian", f.subject
+        assert f.interval_note == "a parameter is not determined by the data", f.subject
+        assert not math.isfinite(f["E_star"].stderr), f.subject
 
 
 def test_fit_table_exponents(out_dir):

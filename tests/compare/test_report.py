@@ -9,10 +9,14 @@ from html.parser import HTMLParser
 import numpy as np
 import pandas as pd
 import pytest
+from analysed import analysed_study, set_notes
 from matplotlib.image import imread
 from synthetic import make_out
 
+from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
+from evtribo.analysis.pipeline import analyze_study
 from evtribo.cli import main
+from evtribo.compare import compare
 from evtribo.compare.plots import new_axes
 from evtribo.compare.report import Report, files_dir_for
 from evtribo.compare.study_report import build_report
@@ -59,6 +63,15 @@ def _parse(path) -> tuple[_Page, str]:
     page.feed(html)
     page.close()
     return page, html
+
+
+@pytest.fixture(scope="module")
+def compared_out(tmp_path_factory):
+    """What `evtribo analyze` writes of a simulated study (with a sidecar note, dropped
+    frames and a damaged line, see analysed.py), and `evtribo compare` of it."""
+    _, out = analysed_study(tmp_path_factory.mktemp("analysed"), note=NOTE)
+    compare(out, dpi=40)
+    return out
 
 
 @pytest.fixture(scope="module")
@@ -130,19 +143,12 @@ def test_warnings_and_provenance(report_page, compared_out):
 
 
 def test_notes_and_hashes_from_study_folder(tmp_path):
-    study = tmp_path / "study"
-    (study / "P01").mkdir(parents=True)
-    (study / "study.toml").write_text('name = "s"\n[rig]\ndbc = "rig.dbc"\n')
-    log_bytes = b"(1763700000.000123) vcan0 0C1#1122334455667788\n"
-    (study / "P01" / "run-01.log").write_bytes(log_bytes)
-    (study / "P01" / "run-01.json").write_text(json.dumps(
-        {"subject": "P01", "condition": "alternating", "notes": "<b>finger</b> <script>"}))
-    out = make_out(tmp_path / "out", sine_trace=False)
-    trials = pd.read_csv(out / "trials.csv").drop(columns=["notes"])
-    trials.to_csv(out / "trials.csv", index=False)
-    summary = json.loads((out / "summary.json").read_text())
-    summary["study_dir"] = str(study)
-    (out / "summary.json").write_text(json.dumps(summary))
+    study, out = tmp_path / "study", tmp_path / "out"
+    simulate_study(study, [SubjectParams(name="P01")], amplitudes=(80.0, 140.0),
+                   config=TrialConfig(duration_s=6.0), sine_trial=False)
+    set_notes(study / "P01" / "run-01.json", "<b>finger</b> <script>")
+    analyze_study(study, out, jobs=1, cache_dir=tmp_path / "cache")
+    log_bytes = (study / "P01" / "run-01.log").read_bytes()
     path = build_report(out, tmp_path / "r.html", dpi=30)
     page, html = _parse(path)
     text = " ".join(page.text)

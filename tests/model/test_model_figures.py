@@ -5,10 +5,11 @@ import pytest
 from matplotlib.figure import Figure
 
 from evtribo import model
-from evtribo.model import figures
+from evtribo.compare import model_figures as figures
 
 
-@pytest.mark.parametrize("plot", list(figures.FIGURES.values()), ids=list(figures.FIGURES))
+@pytest.mark.parametrize("plot", list(figures.MODEL_FIGURES.values()),
+                         ids=list(figures.MODEL_FIGURES))
 def test_draws_on_given_axes_with_units(plot):
     ax = Figure().add_subplot()
     assert plot(ax) is ax
@@ -16,14 +17,15 @@ def test_draws_on_given_axes_with_units(plot):
     assert ax.lines and ax.get_legend() is not None
 
 
-@pytest.mark.parametrize("plot", list(figures.FIGURES.values()), ids=list(figures.FIGURES))
+@pytest.mark.parametrize("plot", list(figures.MODEL_FIGURES.values()),
+                         ids=list(figures.MODEL_FIGURES))
 def test_new_axes_without_pyplot(plot):
     ax = plot()
     assert isinstance(ax.get_figure(), Figure)
 
 
 def test_figure_5_data():
-    ax = figures.plot_friction_time()
+    ax = figures.plot_paper_friction_time()
     ext, on, off = (line.get_ydata() for line in ax.lines[:3])
     assert np.all(ext == 0.5)
     assert np.all(on >= off - 1e-15) and on.max() == pytest.approx(
@@ -31,7 +33,7 @@ def test_figure_5_data():
 
 
 def test_figure_6_on_is_the_square_wave_average():
-    ax = figures.plot_friction_vs_load()
+    ax = figures.plot_paper_friction_vs_load()
     off, on = ax.lines[0], ax.lines[1]
     x = on.get_xdata()
     assert np.allclose(on.get_ydata(), model.friction_force(x, 140.0))
@@ -39,7 +41,7 @@ def test_figure_6_on_is_the_square_wave_average():
 
 
 def test_figure_7_data():
-    ax = figures.plot_area_increase()
+    ax = figures.plot_paper_area_increase()
     assert [line.get_label() for line in ax.lines] == ["F_ext = 0.1 N", "F_ext = 0.5 N",
                                                        "F_ext = 2 N"]
     ends = [line.get_ydata()[-1] for line in ax.lines]

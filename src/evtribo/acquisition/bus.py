@@ -26,6 +26,16 @@ log = logging.getLogger(__name__)
 def parse_bus_options(items: Iterable[str] | None) -> dict[str, Any]:
     """``["sleep_after_open=0", "tty_baudrate=115200"]`` -> ``{"sleep_after_open": 0, ...}``.
 
+    Parameters
+    ----------
+    items : iterable of str or None
+        ``KEY=VALUE`` items (values read as numbers or booleans when they look like ones).
+
+    Returns
+    -------
+    dict
+        ``{key: value}``.
+
     Raises
     ------
     ConfigError
@@ -75,6 +85,17 @@ class BusSettings:
 
 def open_bus(settings: BusSettings) -> can.BusABC:
     """Open the python-can bus *settings* describe; fill in what python-can's config chose.
+
+    Parameters
+    ----------
+    settings : BusSettings
+        Interface, channel, bitrate and options (``interface``/``channel`` filled in from
+        python-can's configuration when not given).
+
+    Returns
+    -------
+    can.BusABC
+        The open bus (the caller shuts it down).
 
     Raises
     ------

@@ -1,17 +1,27 @@
 """Rolling frame counters: which frames of the rig's load cells were lost on the bus.
 
 A load cell that numbers its frames (``FzCell.FzCounter``, +1 per frame, wrapping at
-``2**length``) tells the logger how many of its frames never arrived.
+``2**length``) tells the logger how many of its frames never arrived. The counter is pulled
+out of the payloads by :class:`~evtribo.signal_codec.SignalCodec`, as the decoder pulls every
+signal, a batch of frames at a time; frames are keyed by :func:`evtribo.frames.ids.frame_key`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
-from cantools.database.utils import start_bit
+import numpy as np
+import numpy.typing as npt
+from cantools.database.can import Database
+
+from evtribo.frames.ids import frame_key
+from evtribo.signal_codec import SignalCodec
 
 __all__ = ["CounterSpec", "CounterTracker", "counter_spec_from_dbc", "frame_key"]
+
+#: Width every payload is padded to before the counter is read (a classic frame's).
+_PAYLOAD_BYTES = 8
 
 
 @dataclass(frozen=True)
@@ -24,64 +34,62 @@ class CounterSpec:
         Message name in the rig's DBC (``FzCell``).
     arbitration_id : int
         Its CAN identifier.
-    start : int
-        Bit position of the counter's least significant bit (little endian) or most
-        significant bit counted from the first byte's MSB (big endian), as
-        :func:`cantools.database.utils.start_bit` gives it.
-    length : int
-        Width in bits; the counter wraps at ``2**length``.
-    big_endian : bool
-        Motorola byte order.
+    codec : SignalCodec
+        The counter signal (its start bit, length and byte order).
     is_extended : bool
         The message has a 29-bit identifier.
     """
 
     message: str
     arbitration_id: int
-    start: int
-    length: int
-    big_endian: bool = False
+    codec: SignalCodec
     is_extended: bool = False
 
     @property
     def key(self) -> int:
-        """:func:`frame_key` of the message."""
+        """:func:`~evtribo.frames.ids.frame_key` of the message."""
         return frame_key(self.arbitration_id, self.is_extended)
 
+    @property
+    def length(self) -> int:
+        """Width in bits; the counter wraps at ``2**length``."""
+        return self.codec.length
+
+    def values(self, payloads: Sequence[bytes | bytearray]) -> npt.NDArray[np.int64]:
+        """The raw counter values in *payloads* (no scaling: counts); bytes a short payload
+        lacks read as 0."""
+        width = max([_PAYLOAD_BYTES, *(len(p) for p in payloads)])
+        rows = np.frombuffer(b"".join(bytes(p).ljust(width, b"\0") for p in payloads),
+                             dtype=np.uint8).reshape(len(payloads), width)
+        return self.codec.raw(rows).astype(np.int64)
+
     def extract(self, data: bytes | bytearray) -> int:
-        """The raw counter value in *data* (no scaling: counts)."""
-        mask = (1 << self.length) - 1
-        if self.big_endian:
-            nbits = 8 * len(data)
-            return (int.from_bytes(data, "big") >> (nbits - self.start - self.length)) & mask
-        return (int.from_bytes(data, "little") >> self.start) & mask
+        """The raw counter value in one payload *data*."""
+        return int(self.values([data])[0])
 
 
-def frame_key(arbitration_id: int, is_extended: bool) -> int:
-    """One integer per identifier and kind: the ID, with bit 31 set for a 29-bit ID (as
-    cantools numbers extended frames), so that standard ``0x0C1`` and extended
-    ``0x000000C1`` differ."""
-    return arbitration_id | (0x80000000 if is_extended else 0)
-
-
-def counter_spec_from_dbc(database: object, message: str, signal: str) -> CounterSpec:
+def counter_spec_from_dbc(database: Database, message: str, signal: str) -> CounterSpec:
     """A :class:`CounterSpec` for ``message.signal`` of a cantools *database*.
+
+    Parameters
+    ----------
+    database : cantools.database.can.Database
+    message, signal : str
+        Names in *database*.
+
+    Returns
+    -------
+    CounterSpec
 
     Raises
     ------
     KeyError
         If the message or the signal is not in the database.
     """
-    msg = database.get_message_by_name(message)  # type: ignore[attr-defined]
-    sig = msg.get_signal_by_name(signal)
-    return CounterSpec(
-        message=message,
-        arbitration_id=int(msg.frame_id),
-        start=int(start_bit(sig)),
-        length=int(sig.length),
-        big_endian=sig.byte_order == "big_endian",
-        is_extended=bool(msg.is_extended_frame),
-    )
+    msg = database.get_message_by_name(message)
+    return CounterSpec(message=message, arbitration_id=int(msg.frame_id),
+                       codec=SignalCodec.from_signal(msg.get_signal_by_name(signal)),
+                       is_extended=bool(msg.is_extended_frame))
 
 
 @dataclass
@@ -110,19 +118,28 @@ class CounterTracker:
     def update(self, arbitration_id: int, data: bytes | bytearray, timestamp: float,
                is_extended: bool = False) -> int:
         """Account for one frame (*timestamp* in s); return the frames missing just before it."""
-        key = frame_key(arbitration_id, is_extended)
+        return self.update_many(frame_key(arbitration_id, is_extended), [data], [timestamp])
+
+    def update_many(self, key: int, payloads: Sequence[bytes | bytearray],
+                    timestamps: Sequence[float]) -> int:
+        """Account for frames of one message, in the order received; return the frames
+        missing among them (0 for a message without a counter)."""
         spec = self.specs.get(key)
-        if spec is None:
+        if spec is None or not payloads:
             return 0
         st = self._state[key]
-        value = spec.extract(data)
-        lost = 0
+        values = spec.values(payloads)
+        times = np.asarray(timestamps, dtype=np.float64)
         if st.last is not None:
-            lost = (value - st.last - 1) % (1 << spec.length)
-            st.dropped += lost
-            st.longest_gap = max(st.longest_gap, timestamp - st.last_time)
-        st.last = value
-        st.last_time = timestamp
+            values = np.concatenate(([st.last], values))
+            times = np.concatenate(([st.last_time], times))
+        lost = 0
+        if len(values) > 1:
+            lost = int(((np.diff(values) - 1) % (1 << spec.length)).sum())
+            st.longest_gap = max(st.longest_gap, float(np.diff(times).max()))
+        st.dropped += lost
+        st.last = int(values[-1])
+        st.last_time = float(times[-1])
         return lost
 
     def longest_gap_by_message(self) -> dict[str, float]:

@@ -1,11 +1,11 @@
 """Record every frame of a python-can bus into a candump ``-L`` log, without dropping any.
 
-The receive loop (:func:`receive`) runs in the caller's thread and does nothing but
-``bus.recv(timeout)`` and appending to a list; every 50 ms (or 512 frames) it hands the batch
-to a :class:`LogWriter` thread, which formats the lines, counts frames per identifier, checks
-the rig's rolling counters (:class:`CounterTracker`) and writes to disk, with an explicit
-flush and ``os.fsync`` at least once a second. A disk that stalls on ``fsync`` therefore never
-stalls the bus.
+The receive loop (:func:`~evtribo.acquisition.receive.receive`, importable from here too)
+runs in the caller's thread and does nothing but ``bus.recv(timeout)`` and appending to a
+list; every 50 ms (or 512 frames) it hands the batch to a :class:`LogWriter` thread, which
+formats the lines, counts frames per identifier, checks the rig's rolling counters
+(:class:`CounterTracker`) and writes to disk, with an explicit flush and ``os.fsync`` at
+least once a second. A disk that stalls on ``fsync`` therefore never stalls the bus.
 
 The log line format is candump's ``-L`` one, as read by ``can.CanutilsLogReader``::
 
@@ -19,39 +19,34 @@ import os
 import queue
 import threading
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import IO
 
 import can
 
-from evtribo.acquisition.counters import (
-    CounterSpec,
-    CounterTracker,
-    counter_spec_from_dbc,
-    frame_key,
+from evtribo.acquisition.counters import CounterSpec, CounterTracker, counter_spec_from_dbc
+from evtribo.acquisition.receive import (
+    DAMAGED_EXAMPLES,
+    HANDOFF_FRAMES,
+    HANDOFF_INTERVAL_S,
+    MAX_DAMAGED_IN_A_ROW,
+    ReceiveResult,
+    is_damaged_line,
+    receive,
 )
 from evtribo.frames.candump import CAN_ERR_BUSERROR, CAN_ERR_FLAG, frame_field
+from evtribo.frames.ids import frame_key, id_text
 
 log = logging.getLogger(__name__)
 
-#: Seconds between two hand-overs from the receive loop to the writer thread.
-HANDOFF_INTERVAL_S = 0.05
-#: Frames after which the receive loop hands over a batch early.
-HANDOFF_FRAMES = 512
 #: Longest time, s, between two flushes (``flush`` + ``os.fsync``) of the log.
 FLUSH_INTERVAL_S = 0.5
-#: Damaged lines kept (as text) for the sidecar's ``bus_exceptions``.
-DAMAGED_EXAMPLES = 10
-#: Damaged lines in a row, without a frame between them, after which the adapter is taken
-#: for dead (a wrong serial speed, a driver that fails on every read).
-MAX_DAMAGED_IN_A_ROW = 1000
 
 
 def _frame_field(msg: can.Message) -> str:
     """``ID#DATA`` of one frame, candump style (without timestamp and channel)."""
     flags = (1 if msg.bitrate_switch else 0) | (2 if msg.error_state_indicator else 0)
-    return frame_field(msg.arbitration_id, msg.data, is_extended=msg.is_extended_id,
+    return frame_field(msg.arbitration_id, bytes(msg.data), is_extended=msg.is_extended_id,
                        is_remote=msg.is_remote_frame, is_error=msg.is_error_frame,
                        is_fd=msg.is_fd, dlc=msg.dlc, fd_flags=flags)
 
@@ -113,10 +108,20 @@ class LogStats:
 
 
 def id_key(msg: can.Message) -> str:
-    """The identifier of *msg* as the sidecar counts it: ``"0C1"``, ``"18FF0001"``, ``"error"``."""
+    """The identifier of *msg* as the sidecar counts it.
+
+    Parameters
+    ----------
+    msg : can.Message
+
+    Returns
+    -------
+    str
+        ``"0C1"``, ``"18FF0001"`` (:func:`evtribo.frames.ids.id_text`) or ``"error"``.
+    """
     if msg.is_error_frame:
         return "error"
-    return f"{msg.arbitration_id:08X}" if msg.is_extended_id else f"{msg.arbitration_id:03X}"
+    return id_text(msg.arbitration_id, msg.is_extended_id)
 
 
 class LogWriter:
@@ -232,36 +237,9 @@ class LogWriter:
             stats.last_timestamp = kept[-1].timestamp
 
     def _write(self, batch: list[can.Message]) -> None:
-        channel = self.channel
         stats = self.stats
         before = (dict(stats.frames_by_id), stats.error_frames)
-        by_id = stats.frames_by_id
-        latest = stats.latest
-        tracker = self.counters
-        counted = tracker.specs
-        lines = []
-        append = lines.append
-        prefix_cache: dict[tuple[int, bool], str] = {}
-        for msg in batch:
-            if msg.is_error_frame or msg.is_remote_frame or msg.is_fd:
-                append(format_candump_line(msg, channel))
-                key = id_key(msg)
-                if msg.is_error_frame:
-                    stats.error_frames += 1
-            else:
-                ckey = (msg.arbitration_id, msg.is_extended_id)
-                prefix = prefix_cache.get(ckey)
-                if prefix is None:
-                    key = id_key(msg)
-                    prefix = prefix_cache[ckey] = f" {key}#"
-                key = prefix[1:-1]
-                append(f"({msg.timestamp:.6f}) {channel}{prefix}{msg.data.hex().upper()}\n")
-                fkey = msg.arbitration_id | (0x80000000 if msg.is_extended_id else 0)
-                latest[fkey] = msg
-                if fkey in counted:
-                    stats.dropped += tracker.update(msg.arbitration_id, msg.data,
-                                                    msg.timestamp, msg.is_extended_id)
-            by_id[key] = by_id.get(key, 0) + 1
+        lines = self._lines(batch)
         data = "".join(lines).encode()
         self._pending = 0
         try:
@@ -274,210 +252,45 @@ class LogWriter:
         if stats.first_timestamp is None:
             stats.first_timestamp = batch[0].timestamp
         stats.last_timestamp = batch[-1].timestamp
-        stats.dropped_by_message = tracker.dropped_by_message()
+        stats.dropped_by_message = self.counters.dropped_by_message()
+
+    def _lines(self, batch: list[can.Message]) -> list[str]:
+        """The log lines of *batch*; count its frames per identifier, keep each message's
+        latest frame, and check the rolling counters of the counted messages."""
+        channel = self.channel
+        stats = self.stats
+        by_id = stats.frames_by_id
+        latest = stats.latest
+        tracker = self.counters
+        counted: dict[int, tuple[list[bytearray], list[float]]] = {
+            key: ([], []) for key in tracker.specs}
+        lines: list[str] = []
+        append = lines.append
+        prefix_cache: dict[int, str] = {}
+        for msg in batch:
+            if msg.is_error_frame or msg.is_remote_frame or msg.is_fd:
+                append(format_candump_line(msg, channel))
+                key = id_key(msg)
+                if msg.is_error_frame:
+                    stats.error_frames += 1
+            else:
+                fkey = frame_key(msg.arbitration_id, msg.is_extended_id)
+                prefix = prefix_cache.get(fkey)
+                if prefix is None:
+                    prefix = prefix_cache[fkey] = f" {id_key(msg)}#"
+                key = prefix[1:-1]
+                append(f"({msg.timestamp:.6f}) {channel}{prefix}{msg.data.hex().upper()}\n")
+                latest[fkey] = msg
+                if fkey in counted:
+                    counted[fkey][0].append(msg.data)
+                    counted[fkey][1].append(msg.timestamp)
+            by_id[key] = by_id.get(key, 0) + 1
+        for fkey, (payloads, times) in counted.items():
+            stats.dropped += tracker.update_many(fkey, payloads, times)
+        return lines
 
 
-# ----------------------------------------------------------------------------------------
-# The receive loop
-# ----------------------------------------------------------------------------------------
-@dataclass
-class ReceiveResult:
-    """How :func:`receive` ended.
-
-    Attributes
-    ----------
-    reason : str
-        ``"completed"`` (duration reached), ``"interrupted"`` (stop requested),
-        ``"bus-error"`` (``recv`` raised: the adapter is gone), ``"disk-error"`` (the writer
-        failed) or ``"no-rig-data"`` (none of the expected frames within the time allowed).
-    error : BaseException or None
-        The exception behind ``bus-error`` / ``disk-error``.
-    frames : int
-        Frames received.
-    damaged_lines : int
-        Lines the driver could not parse (skipped; the recording went on).
-    damaged_examples : list of str
-        The first :data:`DAMAGED_EXAMPLES` of them, as ``"ValueError: ..."``.
-    """
-
-    reason: str
-    error: BaseException | None = None
-    frames: int = 0
-    damaged_lines: int = 0
-    damaged_examples: list[str] = field(default_factory=list)
-
-
-def is_damaged_line(err: BaseException) -> bool:
-    """Whether *err*, raised by a bus's ``recv``, is one line the driver could not parse
-    (the adapter still works) rather than a failed adapter.
-
-    A parser raises ``ValueError`` or ``IndexError`` on a malformed line (python-can's
-    ``slcan``: ``int('0CZ', 16)``, ``string[9]`` of a line cut short; evtribo's
-    ``slcan_bulk``: ``ValueError``); bytes that are no text surface as a
-    :class:`can.CanOperationError` caused by a ``UnicodeDecodeError``. An adapter that is
-    gone raises :class:`can.CanOperationError` caused by an ``OSError``
-    (``serial.SerialException``), or an ``OSError``.
-    """
-    if isinstance(err, (ValueError, IndexError, KeyError)):
-        return True
-    return isinstance(err, can.CanError) and isinstance(err.__cause__, UnicodeError)
-
-
-def _drop_stuck_line(bus: can.BusABC) -> None:
-    """Forget a complete line the driver failed to decode and still holds.
-
-    python-can's ``slcan`` driver decodes its line buffer before clearing it: a line that is
-    no text would fail again with every later byte. Its buffer then ends with the line's
-    terminator; a buffer that holds part of a line (``slcan_bulk``'s) never does.
-    """
-    buffer = getattr(bus, "_buffer", None)
-    if isinstance(buffer, bytearray) and buffer.endswith((b"\r", b"\a")):
-        buffer.clear()
-
-
-class _Damaged:
-    """Counts damaged lines; says when there were too many in a row."""
-
-    def __init__(self, stats: LogStats) -> None:
-        self.stats = stats
-        self.count = 0
-        self.in_a_row = 0
-        self.examples: list[str] = []
-
-    def add(self, err: BaseException, bus: can.BusABC) -> None:
-        self.count += 1
-        self.in_a_row += 1
-        self.stats.damaged_lines += 1
-        text = f"{type(err).__name__}: {err}"
-        if err.__cause__ is not None:
-            text += f" ({type(err.__cause__).__name__}: {err.__cause__})"
-        if len(self.examples) < DAMAGED_EXAMPLES:
-            self.examples.append(text)
-        if self.count <= DAMAGED_EXAMPLES:
-            log.warning("damaged line from the bus, skipped: %s", text)
-        _drop_stuck_line(bus)
-        if self.in_a_row >= MAX_DAMAGED_IN_A_ROW:
-            raise can.CanOperationError(
-                f"{self.in_a_row} damaged lines in a row and no frame: the adapter sends "
-                "nothing readable (a wrong serial speed?)") from err
-
-
-def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
-            should_stop: Callable[[], bool], timeout: float = 0.1,
-            until: Callable[[], bool] | None = None,
-            expect: frozenset[int] | None = None,
-            expect_within: float | None = None) -> ReceiveResult:
-    """Receive frames from *bus* into *writer* until *duration* s or *should_stop*.
-
-    A line the driver cannot parse (:func:`is_damaged_line`) is counted and skipped; any
-    other exception from ``recv`` ends the trial as ``"bus-error"``.
-
-    Parameters
-    ----------
-    bus : can.BusABC
-        Any python-can bus, already open.
-    writer : LogWriter
-        A started writer.
-    duration : float or None, s
-        Recording time from the call; ``None`` records until stopped.
-    should_stop : callable
-        Polled at least every *timeout* s; returning True ends with ``"interrupted"``.
-    timeout : float, s
-        ``recv`` timeout, the stop latency.
-    until : callable, optional
-        Polled like *should_stop* when the bus is idle; returning True ends the trial as
-        ``"completed"`` (the source is done and every frame it sent was received).
-    expect : frozenset of int, optional
-        :func:`frame_key` of the frames the rig must send (its load cells).
-    expect_within : float, s, optional
-        With *expect*: when none of those frames arrived within this time, the trial ends
-        as ``"no-rig-data"``.
-
-    Returns
-    -------
-    ReceiveResult
-    """
-    recv = bus.recv
-    monotonic = time.monotonic
-    start = monotonic()
-    end = float("inf") if duration is None else start + duration
-    waiting = expect is not None and expect_within is not None
-    deadline = start + (expect_within or 0.0)
-    batch: list[can.Message] = []
-    append = batch.append
-    next_handoff = start + HANDOFF_INTERVAL_S
-    frames = 0
-    damaged = _Damaged(writer.stats)
-    reason = "completed"
-    error: BaseException | None = None
-    now = start
-    try:
-        while True:
-            try:
-                msg = recv(min(timeout, max(end - now, 0.0)))
-            except Exception as err:
-                if not is_damaged_line(err):
-                    raise
-                damaged.add(err, bus)
-                msg = None
-            now = monotonic()
-            if msg is not None:
-                append(msg)
-                damaged.in_a_row = 0
-                if len(batch) < HANDOFF_FRAMES and now < next_handoff:
-                    if now < end:
-                        continue
-            if batch:
-                if waiting and _any_expected(batch, expect):  # type: ignore[arg-type]
-                    waiting = False
-                frames += len(batch)
-                writer.put(batch)
-                batch = []
-                append = batch.append
-            next_handoff = now + HANDOFF_INTERVAL_S
-            if writer.error is not None:
-                reason, error = "disk-error", writer.error
-                break
-            if now >= end:
-                break
-            if should_stop():
-                reason = "interrupted"
-                break
-            if waiting and now >= deadline:
-                reason = "no-rig-data"
-                break
-            if until is not None and msg is None and until():
-                break
-    except Exception as err:
-        # CanOperationError, serial.SerialException (an OSError), a pty closed under the
-        # driver (OSError), or anything else a driver raises: the adapter is gone.
-        log.error("the bus failed: %s: %s", type(err).__name__, err)
-        reason, error = "bus-error", err
-    finally:
-        if batch:
-            frames += len(batch)
-            writer.put(batch)
-    return ReceiveResult(reason=reason, error=error, frames=frames,
-                         damaged_lines=damaged.count, damaged_examples=damaged.examples)
-
-
-def _any_expected(batch: list[can.Message], keys: frozenset[int]) -> bool:
-    return any(frame_key(m.arbitration_id, m.is_extended_id) in keys
-               for m in batch if not m.is_error_frame)
-
-
-__all__ = [
-    "CAN_ERR_BUSERROR",
-    "CAN_ERR_FLAG",
-    "CounterSpec",
-    "CounterTracker",
-    "LogStats",
-    "LogWriter",
-    "ReceiveResult",
-    "counter_spec_from_dbc",
-    "format_candump_line",
-    "frame_key",
-    "id_key",
-    "is_damaged_line",
-    "receive",
-]
+__all__ = ["CAN_ERR_BUSERROR", "CAN_ERR_FLAG", "DAMAGED_EXAMPLES", "HANDOFF_FRAMES",
+           "HANDOFF_INTERVAL_S", "MAX_DAMAGED_IN_A_ROW", "CounterSpec", "CounterTracker",
+           "LogStats", "LogWriter", "ReceiveResult", "counter_spec_from_dbc",
+           "format_candump_line", "frame_key", "id_key", "is_damaged_line", "receive"]

@@ -21,9 +21,13 @@ import math
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 
-from evtribo.acquisition.logger import LogStats, frame_key
+from evtribo.acquisition.logger import LogStats
+from evtribo.frames.ids import frame_key, key_id
+
+if TYPE_CHECKING:  # pragma: no cover
+    from evtribo.acquisition.rigfile import AcquisitionRig
 
 log = logging.getLogger(__name__)
 
@@ -68,7 +72,17 @@ class Snapshot:
 
 def instruction(snap: Snapshot) -> str:
     """What the operator should do now: ``LIFT THE FINGER`` during the tare stretch,
-    ``SLIDE`` after it, nothing for a trial without one."""
+    ``SLIDE`` after it, nothing for a trial without one.
+
+    Parameters
+    ----------
+    snap : Snapshot
+
+    Returns
+    -------
+    str
+        The instruction, or ``""``.
+    """
     if snap.tare_left_s is None:
         return ""
     if snap.tare_left_s > 0:
@@ -77,7 +91,19 @@ def instruction(snap: Snapshot) -> str:
 
 
 def band_state(value: float | None, target: float, band: float) -> str:
-    """``"in"``, ``"low"``, ``"high"`` (or ``"none"`` without a value) for target ± band, N."""
+    """``"in"``, ``"low"``, ``"high"`` (or ``"none"`` without a value) for target ± band, N.
+
+    Parameters
+    ----------
+    value : float or None, N
+        The current normal force.
+    target, band : float, N
+        Target and half-width of the band.
+
+    Returns
+    -------
+    str
+    """
     if value is None or math.isnan(value):
         return "none"
     if value < target - band:
@@ -148,6 +174,10 @@ def render_status(snap: Snapshot, *, target: float | None = None, band: float = 
         Colour the band verdict with ANSI codes.
     title : str
         First words of the first line (``P01/run-01``).
+
+    Returns
+    -------
+    list of str
     """
     remaining = "" if snap.remaining_s is None else f"   remaining {snap.remaining_s:6.1f} s"
     todo = instruction(snap)
@@ -180,7 +210,21 @@ def render_status(snap: Snapshot, *, target: float | None = None, band: float = 
 
 
 def render_line(snap: Snapshot, *, target: float | None = None, band: float = 0.1) -> str:
-    """A one-line summary for logs and pipes."""
+    """A one-line summary for logs and pipes.
+
+    Parameters
+    ----------
+    snap : Snapshot
+    target : float or None, N
+        Target normal force (None: no band verdict).
+    band : float, N
+        Half-width of the target band.
+
+    Returns
+    -------
+    str
+        The line, without newline.
+    """
     fn = "--" if snap.normal_force_N is None else f"{snap.normal_force_N:.3f} N"
     if target is not None:
         fn += f" ({band_state(snap.normal_force_N, target, band)})"
@@ -194,8 +238,19 @@ def render_line(snap: Snapshot, *, target: float | None = None, band: float = 0.
 
 def no_rig_data_alert(messages: dict[str, int], within: float) -> str:
     """The display's alert when none of *messages* (``{name: frame_key}``) came in
-    *within* s."""
-    names = " or ".join(f"{name} (0x{key & 0x1FFFFFFF:03X})" for name, key in messages.items())
+    *within* s.
+
+    Parameters
+    ----------
+    messages : dict
+        ``{message name: frame key}`` of the load cells.
+    within : float, s
+
+    Returns
+    -------
+    str
+    """
+    names = " or ".join(f"{name} (0x{key_id(key)[0]:03X})" for name, key in messages.items())
     return (f"NO DATA FROM THE RIG: no {names} frame in {within:g} s; wrong bus, or the "
             "study's DBC is not this rig's?")
 
@@ -227,7 +282,7 @@ class Monitor:
         within this time; None: never.
     """
 
-    def __init__(self, rig: Any, stream: TextIO, *, duration: float | None = None,
+    def __init__(self, rig: AcquisitionRig, stream: TextIO, *, duration: float | None = None,
                  target: float | None = None, band: float = 0.1, tty: bool | None = None,
                  interval: float = 0.25, line_interval: float = 5.0, title: str = "",
                  tare_s: float = 0.0, rig_data_timeout: float | None = None) -> None:
@@ -306,7 +361,8 @@ class Monitor:
         try:
             decoded = self.rig.database.get_message_by_name(which[1]).decode(
                 bytes(latest[which[0]].data), decode_choices=False)
-            return float(decoded[which[2]])
+            value = decoded[which[2]] if isinstance(decoded, dict) else None
+            return float(value) if isinstance(value, int | float) else None
         except Exception:
             return None
 

@@ -18,8 +18,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from evtribo.acquisition.counters import CounterSpec, counter_spec_from_dbc, frame_key
+from cantools.database.can import Database, Message
+
+from evtribo.acquisition.counters import CounterSpec, counter_spec_from_dbc
 from evtribo.errors import AcquisitionError, OutputExistsError, RigConfigError, StudyError
+from evtribo.frames.ids import frame_key, id_text
 from evtribo.rig import Rig, default_rig_path, load_rig
 from evtribo.study import STUDY_FILE, read_study_toml, validate_name, write_study_toml
 
@@ -31,6 +34,18 @@ LOAD_CELL_ROLES = ("normal_force", "tangential_force")
 
 def check_name(value: str, key: str) -> str:
     """Return *value* if it is a plain name (letters, digits, ``-``, ``_``).
+
+    Parameters
+    ----------
+    value : str
+        The proposed name.
+    key : str
+        What it names (``"subject"``, ``"trial"``), for the message.
+
+    Returns
+    -------
+    str
+        *value*.
 
     Raises
     ------
@@ -63,10 +78,20 @@ class AcquisitionRig:
 
     name: str
     dbc_path: Path
-    database: Any
+    database: Database
     signals: dict[str, str]
     counters: list[CounterSpec] = field(default_factory=list)
     source: Path | None = None
+    #: The DBC's messages by :func:`~evtribo.frames.ids.frame_key`.
+    messages: dict[int, Message] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.messages = {frame_key(int(m.frame_id), bool(m.is_extended_frame)): m
+                         for m in self.database.messages}
+
+    def _message(self, role: str) -> Message:
+        """The DBC message of a role's signal (``FzCell`` of ``"FzCell.Fz"``)."""
+        return self.database.get_message_by_name(self.signals[role].split(".")[0])
 
     @classmethod
     def from_rig(cls, rig: Rig, name: str | None = None) -> AcquisitionRig:
@@ -82,7 +107,7 @@ class AcquisitionRig:
         out: dict[str, int] = {}
         for role in roles:
             if role in self.signals:
-                msg = self.database.get_message_by_name(self.signals[role].split(".")[0])
+                msg = self._message(role)
                 out[str(msg.name)] = frame_key(int(msg.frame_id), bool(msg.is_extended_frame))
         return out
 
@@ -97,18 +122,15 @@ class AcquisitionRig:
         parts = []
         for name, roles in by_message.items():
             msg = self.database.get_message_by_name(name)
-            ident = (f"0x{msg.frame_id:08X}" if msg.is_extended_frame
-                     else f"0x{msg.frame_id:03X}")
+            ident = "0x" + id_text(int(msg.frame_id), bool(msg.is_extended_frame))
             parts.append(f"{name} ({ident}): {', '.join(roles)}")
         return "; ".join(parts)
 
     def message_name(self, arbitration_id: int, is_extended: bool = False) -> str | None:
         """The DBC message name of a standard (or, with *is_extended*, 29-bit) identifier,
         or None."""
-        for msg in self.database.messages:
-            if msg.frame_id == arbitration_id and bool(msg.is_extended_frame) == is_extended:
-                return str(msg.name)
-        return None
+        msg = self.messages.get(frame_key(arbitration_id, is_extended))
+        return None if msg is None else str(msg.name)
 
 
 def _counters(rig: Rig) -> list[CounterSpec]:
@@ -126,6 +148,15 @@ def _counters(rig: Rig) -> list[CounterSpec]:
 def load_rig_toml(path: str | Path) -> AcquisitionRig:
     """Read a rig TOML (keys of spec §1's ``[rig]`` at top level, ``dbc`` relative to it).
 
+    Parameters
+    ----------
+    path : path
+        The rig TOML.
+
+    Returns
+    -------
+    AcquisitionRig
+
     Raises
     ------
     RigConfigError
@@ -137,6 +168,15 @@ def load_rig_toml(path: str | Path) -> AcquisitionRig:
 
 def load_study_rig(study: str | Path) -> AcquisitionRig:
     """The rig named by ``STUDY/study.toml``'s ``[rig]`` table.
+
+    Parameters
+    ----------
+    study : path
+        The study folder.
+
+    Returns
+    -------
+    AcquisitionRig
 
     Raises
     ------
@@ -263,6 +303,14 @@ def create_study(study: str | Path, rig: AcquisitionRig, name: str | None = None
     """Make *study* a study folder for *rig*: copy its DBC to ``rig/``, write ``study.toml``
     (:func:`write_new_study`).
 
+    Parameters
+    ----------
+    study : path
+        The folder (created if missing).
+    rig : AcquisitionRig
+    name : str, optional
+        The study's ``name`` (default: the folder's name).
+
     Returns
     -------
     Path
@@ -313,6 +361,11 @@ def open_study(study: str | Path, rig_path: str | Path | None = None, *,
 
     create : bool
         False: only say which rig the study would use (nothing is written).
+
+    Returns
+    -------
+    AcquisitionRig
+        The study's rig (the new study's, when it was created).
 
     Raises
     ------

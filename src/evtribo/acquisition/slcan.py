@@ -69,6 +69,11 @@ def check_slcan_line(line: bytes) -> None:
     (``t``/``T``/``x``/``r``/``R`` and CAN FD's ``d``/``D``/``b``/``B``) whose identifier fits
     its kind (11 or 29 bits) and whose payload has as many hex digits as its length code says,
     optionally followed by the adapter's 4-digit timestamp.
+
+    Parameters
+    ----------
+    line : bytes
+        One line with its terminator.
     """
     body = line[:-1] if line[-1:] in (b"\r", b"\a") else line
     m = _CLASSIC.fullmatch(body)  # the common case, quickly
@@ -152,7 +157,19 @@ class BulkSlcanBus(slcanBus):
 
 
 def encode_slcan(table: FrameTable, start: int = 0, stop: int | None = None) -> bytes:
-    """Frames ``start:stop`` of *table* as slcan lines (``t``/``T``/``r``/``R``), bytes."""
+    """Frames ``start:stop`` of *table* as slcan lines (``t``/``T``/``r``/``R``), bytes.
+
+    Parameters
+    ----------
+    table : FrameTable
+    start, stop : int
+        The rows to encode (``stop`` None: to the end).
+
+    Returns
+    -------
+    bytes
+        The slcan lines, each ending in ``\\r``.
+    """
     stop = len(table) if stop is None else stop
     blob = table.data[start:stop, :8].tobytes().hex().upper().encode("ascii")
     ids = table.arbitration_id[start:stop].tolist()

@@ -44,9 +44,9 @@ ended, end_detail         how the trial ended (above), and why
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import logging
-import math
 import os
 import sys
 import time
@@ -54,7 +54,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import can
 
@@ -64,29 +64,30 @@ from evtribo.acquisition.logger import CounterTracker, LogWriter, ReceiveResult,
 from evtribo.acquisition.rigfile import AcquisitionRig, check_name, open_study
 from evtribo.acquisition.trialdata import (
     RESERVE_BYTES,
+    RIG_DATA_TIMEOUT_S,
     StopFlag,
     TrialInfo,
+    TrialOptions,
     TrialPaths,
     TrialResult,
     keep_reserve,
     refuse_existing,
     trial_lock,
 )
+from evtribo.documents.sidecar import CONDITIONS, WAVEFORMS, rig_entry, write_sidecar
 from evtribo.errors import (
     AcquisitionError,
-    ConfigError,
     EvtriboError,
     OutputExistsError,
 )
-from evtribo.study import CONDITIONS, WAVEFORMS, write_sidecar
+from evtribo.frames.ids import key_id
+from evtribo.lock import WriteLock
 
 log = logging.getLogger(__name__)
 
 #: Exit code of the command line for each way a trial ends.
 EXIT_CODES = {"completed": 0, "interrupted": 0, "bus-error": 1, "disk-error": 1,
               "no-rig-data": 1}
-#: Time within which the rig's load cells must be heard from, s (else ``no-rig-data``).
-RIG_DATA_TIMEOUT_S = 3.0
 
 
 def _iso(t: float) -> str:
@@ -120,25 +121,9 @@ def _pkg_version(name: str) -> str | None:
         return None
 
 
-def record_trial(
-    bus: can.BusABC,
-    study: str | Path,
-    subject: str,
-    trial: str,
-    *,
-    duration: float | None,
-    info: TrialInfo | None = None,
-    rig: str | Path | None = None,
-    force: bool = False,
-    settings: BusSettings | None = None,
-    log_channel: str | None = None,
-    should_stop: Callable[[], bool] | None = None,
-    monitor: Any = None,
-    started: Callable[[TrialPaths], None] | None = None,
-    until: Callable[[], bool] | None = None,
-    rig_data_timeout: float | None = RIG_DATA_TIMEOUT_S,
-) -> TrialResult:
-    """Record one trial from *bus* into *study* until *duration*, a stop, or a fault.
+def record_trial(bus: can.BusABC, study: str | Path, subject: str, trial: str,
+                 options: TrialOptions | None = None, **fields: Any) -> TrialResult:
+    """Record one trial from *bus* into *study* until its duration, a stop, or a fault.
 
     The trial is locked while it records (``TRIAL.lock``, :class:`~evtribo.lock.WriteLock`):
     a second recording of it, by this process or another, is refused.
@@ -148,37 +133,15 @@ def record_trial(
     bus : can.BusABC
         An open bus (left open: the caller owns it).
     study : path
-        The study folder; created, with a ``study.toml`` for *rig*, when it has none.
+        The study folder; created, with a ``study.toml`` for the rig, when it has none.
     subject, trial : str
         Plain names (letters, digits, ``-``, ``_``).
-    duration : float or None, s
-        Recording time; None records until *should_stop* returns True.
-    info : TrialInfo, optional
-        Waveform, frequency, amplitude, condition, notes for the sidecar.
-    rig : path, optional
-        Rig TOML for a new study (default: the simulator's rig).
-    force : bool
-        Replace an existing trial of that name. Its ``.log`` and ``.json`` are replaced only
-        when the new trial ends (the new one is recorded to ``.log.part`` meanwhile, and the
-        old ones stay if it ends in a fault before any frame arrived); a leftover
-        ``.log.part`` of a killed recording is replaced at once. It never replaces a trial
-        that another process is recording.
-    settings : BusSettings, optional
-        How the bus was opened (recorded in the sidecar).
-    log_channel : str, optional
-        Channel name written in the log (default: ``settings.channel``, the bus's channel).
-    should_stop : callable, optional
-        Polled about every 0.1 s; True stops the trial as ``interrupted``.
-    monitor : Monitor, optional
-        Live display, started with the writer's statistics.
-    started : callable, optional
-        Called with the trial's paths once the log file is open.
-    until : callable, optional
-        Polled when the bus is idle; True ends the trial as ``completed`` (for a source
-        that knows when it is done, such as the simulated rig).
-    rig_data_timeout : float or None, s
-        The trial ends as ``no-rig-data`` when none of the rig's load-cell messages arrived
-        within this time (None: never).
+    options : TrialOptions, optional
+        How to record (duration, metadata, rig, force, bus settings, stop and display
+        hooks). Its fields may be given as keyword arguments instead (``duration=1.0,
+        force=True``), or as both (the keywords win).
+    **fields
+        Fields of :class:`~evtribo.acquisition.trialdata.TrialOptions`.
 
     Returns
     -------
@@ -190,27 +153,32 @@ def record_trial(
     StudyError, SidecarError, RigConfigError, ConfigError
         Bad names, metadata, duration or rig (nothing written).
     LockedError
-        Another recording of this trial is under way (whatever *force* says).
+        Another recording of this trial is under way (whatever ``force`` says).
     OutputExistsError
-        The trial exists and *force* is False.
+        The trial exists and ``force`` is False.
     AcquisitionError
         The log file cannot be created.
     """
+    opts = TrialOptions(**fields) if options is None else dataclasses.replace(options, **fields)
     check_name(subject, "subject")
     check_name(trial, "trial")
-    if duration is not None and not (math.isfinite(duration) and duration > 0):
-        raise ConfigError(f"expected a finite duration > 0 s, got {duration}", key="duration")
-    if rig_data_timeout is not None and not rig_data_timeout > 0:
-        raise ConfigError(f"expected a time > 0 s, got {rig_data_timeout}",
-                          key="rig_data_timeout")
-    info = info or TrialInfo()
-    info.check()
-    study = Path(study)
+    opts.check()
     paths = TrialPaths.of(study, subject, trial)
     lock = trial_lock(paths, subject, trial)
     lock.check()
-    refuse_existing(paths, force)
-    acq_rig: AcquisitionRig = open_study(study, rig)
+    refuse_existing(paths, opts.force)
+    acq_rig = open_study(Path(study), opts.rig)
+    _lock(paths, lock)
+    try:
+        refuse_existing(paths, opts.force)  # again: now nobody else can record it
+        return _run(_start(bus, paths, acq_rig, opts), bus, acq_rig, opts)
+    finally:
+        paths.reserve.unlink(missing_ok=True)
+        lock.release()
+
+
+def _lock(paths: TrialPaths, lock: WriteLock) -> None:
+    """Create the subject's folder and take the trial's lock."""
     try:
         paths.folder.mkdir(parents=True, exist_ok=True)
         lock.acquire()
@@ -219,15 +187,6 @@ def record_trial(
     except OSError as err:
         raise AcquisitionError(f"cannot create the trial's lock file: {err}",
                                path=paths.lock) from err
-    try:
-        refuse_existing(paths, force)  # again: now nobody else can record it
-        recording = _start(bus, paths, acq_rig, info, duration=duration, force=force,
-                           settings=settings, log_channel=log_channel, started=started)
-        return _run(recording, bus, acq_rig, duration=duration, should_stop=should_stop,
-                    monitor=monitor, until=until, rig_data_timeout=rig_data_timeout)
-    finally:
-        paths.reserve.unlink(missing_ok=True)
-        lock.release()
 
 
 @dataclass
@@ -235,64 +194,32 @@ class _Recording:
     """A trial whose log is open: what :func:`_run` needs to record and end it."""
 
     paths: TrialPaths
-    fh: Any
+    fh: BinaryIO
     sidecar: dict[str, Any]
     previous: list[Path]
     channel: str
 
 
-def _start(bus: can.BusABC, paths: TrialPaths, acq_rig: AcquisitionRig, info: TrialInfo, *,
-           duration: float | None, force: bool, settings: BusSettings | None,
-           log_channel: str | None, started: Callable[[TrialPaths], None] | None
-           ) -> _Recording:
+def _start(bus: can.BusABC, paths: TrialPaths, acq_rig: AcquisitionRig,
+           opts: TrialOptions) -> _Recording:
     """Open the log, write the first sidecar, keep disk space for the last one."""
-    settings = settings or BusSettings(channel=str(getattr(bus, "channel", None) or "") or None)
+    settings = opts.settings or BusSettings(
+        channel=str(getattr(bus, "channel", None) or "") or None)
     settings.interface = settings.interface or type(bus).__name__
-    channel = _log_channel(log_channel or settings.channel, bus)
+    channel = _log_channel(opts.log_channel or settings.channel, bus)
     # with force, the previous trial's log and sidecar stay until this one has ended
     previous = [p for p in (paths.log, paths.sidecar) if p.exists()]
     try:
-        fh = paths.part.open("wb" if force else "xb", buffering=0)
+        fh = paths.part.open("wb" if opts.force else "xb", buffering=0)
     except FileExistsError as err:
         raise OutputExistsError("another recording of this trial is in progress",
                                 path=paths.part) from err
     except OSError as err:
         raise AcquisitionError(f"cannot create the log: {err}", path=paths.part) from err
-    study = paths.folder.parent
-    sidecar: dict[str, Any] = {"subject": paths.folder.name, "trial": paths.log.stem,
-                               **info.as_dict()}
-    sidecar.update({
-        "rig": {"name": acq_rig.name, "dbc": os.path.relpath(acq_rig.dbc_path, study),
-                "dbc_version": acq_rig.database.version},
-        **settings.as_dict(),
-        "log_channel": channel,
-        "evtribo_version": evtribo.__version__,
-        "python_can_version": can.__version__,
-        "cantools_version": _pkg_version("cantools"),
-        "python_version": sys.version.split()[0],
-        "start_time": _iso(time.time()),
-        "requested_duration_s": duration,
-        "log": paths.part.name,
-        "ended": "recording",
-    })
+    rec = _Recording(paths=paths, fh=fh, previous=previous, channel=channel,
+                     sidecar=_first_sidecar(paths, acq_rig, opts, settings, channel))
     try:
-        if paths.sidecar in previous:
-            log.info("%s is kept until the new trial has ended", paths.sidecar)
-        else:
-            try:
-                _write_json(paths.sidecar, sidecar)
-            except OSError as err:
-                raise AcquisitionError(f"cannot write the sidecar: {err}",
-                                       path=paths.sidecar) from err
-        try:
-            keep_reserve(paths.reserve)
-        except OSError as err:
-            raise AcquisitionError(
-                f"the disk is full: not even {RESERVE_BYTES // 1024} KiB are free for the "
-                f"trial ({err.strerror or err}); nothing was recorded",
-                path=paths.reserve) from err
-        if started is not None:
-            started(paths)
+        _prepare(rec, opts.started)
     except BaseException:
         # nothing of this trial may stay behind to block the next attempt
         fh.close()
@@ -301,30 +228,106 @@ def _start(bus: can.BusABC, paths: TrialPaths, acq_rig: AcquisitionRig, info: Tr
         if paths.sidecar not in previous:
             paths.sidecar.unlink(missing_ok=True)
         raise
-    return _Recording(paths=paths, fh=fh, sidecar=sidecar, previous=previous,
-                      channel=channel)
+    return rec
 
 
-def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig, *,
-         duration: float | None, should_stop: Callable[[], bool] | None, monitor: Any,
-         until: Callable[[], bool] | None, rig_data_timeout: float | None) -> TrialResult:
-    """Record into the open log until the trial ends; save the log and the sidecar."""
+def _first_sidecar(paths: TrialPaths, acq_rig: AcquisitionRig, opts: TrialOptions,
+                   settings: BusSettings, channel: str) -> dict[str, Any]:
+    """The sidecar as the recording starts (``"ended": "recording"``): the experimenter's
+    metadata, the rig, the bus, the software and the start time."""
+    info = opts.info or TrialInfo()
+    return {
+        "subject": paths.folder.name, "trial": paths.log.stem, **info.as_dict(),
+        "rig": rig_entry(os.path.relpath(acq_rig.dbc_path, paths.folder.parent),
+                         name=acq_rig.name, dbc_version=acq_rig.database.version),
+        **settings.as_dict(),
+        "log_channel": channel,
+        "evtribo_version": evtribo.__version__,
+        "python_can_version": can.__version__,
+        "cantools_version": _pkg_version("cantools"),
+        "python_version": sys.version.split()[0],
+        "start_time": _iso(time.time()),
+        "requested_duration_s": opts.duration,
+        "log": paths.part.name,
+        "ended": "recording",
+    }
+
+
+def _prepare(rec: _Recording, started: Callable[[TrialPaths], None] | None) -> None:
+    """Write the first sidecar (unless a previous trial's stays until this one ends), hold
+    the disk space for the last one, and tell the caller the log is open."""
     paths = rec.paths
+    if paths.sidecar in rec.previous:
+        log.info("%s is kept until the new trial has ended", paths.sidecar)
+    else:
+        try:
+            _write_json(paths.sidecar, rec.sidecar)
+        except OSError as err:
+            raise AcquisitionError(f"cannot write the sidecar: {err}",
+                                   path=paths.sidecar) from err
+    try:
+        keep_reserve(paths.reserve)
+    except OSError as err:
+        raise AcquisitionError(
+            f"the disk is full: not even {RESERVE_BYTES // 1024} KiB are free for the "
+            f"trial ({err.strerror or err}); nothing was recorded",
+            path=paths.reserve) from err
+    if started is not None:
+        started(paths)
+
+
+@dataclass
+class _Received:
+    """What the receive loop left: how it ended, the writer and the time it took."""
+
+    result: ReceiveResult
+    writer: LogWriter
+    elapsed: float
+    t_end: float
+
+
+def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
+         opts: TrialOptions) -> TrialResult:
+    """Record into the open log until the trial ends; save the log and the sidecar."""
+    got = _receive(rec, bus, acq_rig, opts)
+    ended, error = _how_it_ended(rec, got)
+    if ended == "no-rig-data":
+        error = AcquisitionError(_no_rig_data(acq_rig, opts.rig_data_timeout))
+    if rec.previous and error is not None and got.writer.stats.frames == 0:
+        return _keep_previous(rec, ended, error, got.elapsed)
+    paths = rec.paths
+    paths.part.replace(paths.log)
+    sidecar = _last_sidecar(rec, got, ended, error, opts.should_stop)
+    _save_sidecar(rec, sidecar)
+    stats = got.writer.stats
+    log.info("%s/%s %s: %d frames in %.1f s, %d dropped, %d bus errors", paths.folder.name,
+             paths.log.stem, ended, stats.frames, got.elapsed, stats.dropped,
+             sidecar["bus_errors"])
+    return TrialResult(ended=ended, exit_code=EXIT_CODES[ended], paths=paths, sidecar=sidecar,
+                       error=error)
+
+
+def _receive(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
+             opts: TrialOptions) -> _Received:
+    """Receive into the log through a writer thread (and the display) until the trial ends,
+    whatever ends it; the writer is closed, every queued frame written."""
     writer = LogWriter(rec.fh, rec.channel, CounterTracker(acq_rig.counters)).start()
     t0 = time.monotonic()
+    monitor = opts.monitor
     if monitor is not None:
         monitor.start(writer.stats, t0)
-    stop = should_stop or (lambda: False)
+    should_stop = opts.should_stop
     flag = should_stop if isinstance(should_stop, StopFlag) else None
     expect = frozenset(acq_rig.role_messages().values()) or None
-    log.info("recording %s/%s from %s %s into %s", paths.folder.name, paths.log.stem,
-             rec.sidecar["interface"], rec.sidecar["channel"], paths.part)
+    log.info("recording %s/%s from %s %s into %s", rec.paths.folder.name, rec.paths.log.stem,
+             rec.sidecar["interface"], rec.sidecar["channel"], rec.paths.part)
     result = ReceiveResult(reason="interrupted")
     try:
         if flag is not None:
             flag.interruptible = True
-        result = receive(bus, writer, duration=duration, should_stop=stop, until=until,
-                         expect=expect, expect_within=rig_data_timeout)
+        result = receive(bus, writer, duration=opts.duration,
+                         should_stop=should_stop or (lambda: False), until=opts.until,
+                         expect=expect, expect_within=opts.rig_data_timeout)
         if flag is not None:
             flag.interruptible = False  # from here on, the trial is saved whatever comes
     except KeyboardInterrupt:
@@ -340,28 +343,35 @@ def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig, *,
         _close_writer(writer)
         if monitor is not None:
             monitor.stop()
-    ended, error = result.reason, result.error
-    if writer.error is not None and ended != "bus-error":
-        ended, error = "disk-error", writer.error
+    return _Received(result=result, writer=writer, elapsed=elapsed, t_end=t_end)
+
+
+def _how_it_ended(rec: _Recording, got: _Received) -> tuple[str, BaseException | None]:
+    """How the trial ended and the error that ended it: the receive loop's word, unless
+    the log could not be written or closed (``disk-error``)."""
+    ended, error = got.result.reason, got.result.error
+    if got.writer.error is not None and ended != "bus-error":
+        ended, error = "disk-error", got.writer.error
     try:
         rec.fh.close()
     except OSError as err:  # the final flush failed (disk full)
         log.error("closing the log failed: %s", err)
         ended, error = "disk-error", err
-    if ended == "no-rig-data":
-        error = AcquisitionError(_no_rig_data(acq_rig, rig_data_timeout))
-    sidecar = rec.sidecar
-    if rec.previous and error is not None and writer.stats.frames == 0:
-        return _keep_previous(rec, ended, error, elapsed)
-    paths.part.replace(paths.log)
-    stats = writer.stats
-    exceptions = [*result.damaged_examples]
+    return ended, error
+
+
+def _last_sidecar(rec: _Recording, got: _Received, ended: str, error: BaseException | None,
+                  should_stop: Callable[[], bool] | None) -> dict[str, Any]:
+    """The sidecar as the trial ends: the first one, plus the recording's facts."""
+    stats = got.writer.stats
+    exceptions = [*got.result.damaged_examples]
     if ended == "bus-error":
         exceptions.append(f"{type(error).__name__}: {error}")
+    sidecar = rec.sidecar
     sidecar.update({
-        "end_time": _iso(t_end),
-        "duration_s": round(elapsed, 6),
-        "log": paths.log.name,
+        "end_time": _iso(got.t_end),
+        "duration_s": round(got.elapsed, 6),
+        "log": rec.paths.log.name,
         "frames": stats.frames,
         "frames_by_id": dict(sorted(stats.frames_by_id.items())),
         "first_frame_time": None if stats.first_timestamp is None
@@ -370,25 +380,21 @@ def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig, *,
         "damaged_lines": stats.damaged_lines,
         "dropped_frames": stats.dropped,
         "dropped_frames_by_message": stats.dropped_by_message,
-        "longest_gap_s_by_message": writer.counters.longest_gap_by_message(),
+        "longest_gap_s_by_message": got.writer.counters.longest_gap_by_message(),
         "bus_errors": stats.error_frames + stats.damaged_lines + int(ended == "bus-error"),
         "bus_exceptions": exceptions,
         "ended": ended,
     })
     if error is not None:
-        sidecar["end_detail"] = _detail(error, ended, max(result.frames - stats.frames, 0))
+        sidecar["end_detail"] = _detail(error, ended,
+                                        max(got.result.frames - stats.frames, 0))
     elif ended == "interrupted":
         sidecar["end_detail"] = getattr(should_stop, "reason", None) or "stop requested"
-    _save_sidecar(rec, sidecar)
-    log.info("%s/%s %s: %d frames in %.1f s, %d dropped, %d bus errors", paths.folder.name,
-             paths.log.stem, ended, stats.frames, elapsed, stats.dropped,
-             sidecar["bus_errors"])
-    return TrialResult(ended=ended, exit_code=EXIT_CODES[ended], paths=paths, sidecar=sidecar,
-                       error=error)
+    return sidecar
 
 
 def _no_rig_data(acq_rig: AcquisitionRig, within: float | None) -> str:
-    names = ", ".join(f"{n} (0x{k & 0x1FFFFFFF:03X})"
+    names = ", ".join(f"{n} (0x{key_id(k)[0]:03X})"
                       for n, k in acq_rig.role_messages().items())
     return (f"none of the rig's load-cell messages ({names}) arrived within {within:g} s "
             f"(the wrong bus, or the study's DBC {acq_rig.dbc_path.name} is not this rig's)")
@@ -435,4 +441,4 @@ def _save_sidecar(rec: _Recording, sidecar: dict[str, Any]) -> None:
 
 
 __all__ = ["CONDITIONS", "EXIT_CODES", "RIG_DATA_TIMEOUT_S", "WAVEFORMS", "StopFlag",
-           "TrialInfo", "TrialPaths", "TrialResult", "record_trial", "trial_lock"]
+           "TrialInfo", "TrialOptions", "TrialPaths", "TrialResult", "record_trial", "trial_lock"]

@@ -7,17 +7,24 @@ import logging
 import math
 import os
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from evtribo.errors import OutputExistsError, SidecarError
+from evtribo.acquisition.bus import BusSettings
+from evtribo.errors import ConfigError, OutputExistsError, SidecarError
 from evtribo.files import partial_path
 from evtribo.lock import WriteLock
 from evtribo.study import CONDITIONS, WAVEFORMS
 
+if TYPE_CHECKING:  # pragma: no cover
+    from evtribo.acquisition.monitor import Monitor
+
 log = logging.getLogger(__name__)
 
+#: Time within which the rig's load cells must be heard from, s (else ``no-rig-data``).
+RIG_DATA_TIMEOUT_S = 3.0
 #: Disk space held while recording, freed to write the last sidecar on a full disk, bytes.
 RESERVE_BYTES = 256 * 1024
 
@@ -64,6 +71,68 @@ class TrialInfo:
     def as_dict(self) -> dict[str, Any]:
         """The keys that were given (absent ones are left to the excitation signals)."""
         return {k: v for k, v in vars(self).items() if v is not None}
+
+
+@dataclass
+class TrialOptions:
+    """How to record a trial: :func:`~evtribo.acquisition.trial.record_trial` takes these
+    as one object or as keyword arguments of the same names.
+
+    Attributes
+    ----------
+    duration : float or None, s
+        Recording time; None records until *should_stop* returns True.
+    info : TrialInfo, optional
+        Waveform, frequency, amplitude, condition, notes for the sidecar.
+    rig : path, optional
+        Rig TOML for a new study (default: the simulator's rig).
+    force : bool
+        Replace an existing trial of that name. Its ``.log`` and ``.json`` are replaced only
+        when the new trial ends (the new one is recorded to ``.log.part`` meanwhile, and the
+        old ones stay if it ends in a fault before any frame arrived); a leftover
+        ``.log.part`` of a killed recording is replaced at once. It never replaces a trial
+        that another process is recording.
+    settings : BusSettings, optional
+        How the bus was opened (recorded in the sidecar).
+    log_channel : str, optional
+        Channel name written in the log (default: ``settings.channel``, the bus's channel).
+    should_stop : callable, optional
+        Polled about every 0.1 s; True stops the trial as ``interrupted``.
+    monitor : Monitor, optional
+        Live display, started with the writer's statistics.
+    started : callable, optional
+        Called with the trial's paths once the log file is open.
+    until : callable, optional
+        Polled when the bus is idle; True ends the trial as ``completed`` (for a source
+        that knows when it is done, such as the simulated rig).
+    rig_data_timeout : float or None, s
+        The trial ends as ``no-rig-data`` when none of the rig's load-cell messages arrived
+        within this time (None: never).
+    """
+
+    duration: float | None
+    info: TrialInfo | None = None
+    rig: str | Path | None = None
+    force: bool = False
+    settings: BusSettings | None = None
+    log_channel: str | None = None
+    should_stop: Callable[[], bool] | None = None
+    monitor: Monitor | None = None
+    started: Callable[[TrialPaths], None] | None = None
+    until: Callable[[], bool] | None = None
+    rig_data_timeout: float | None = RIG_DATA_TIMEOUT_S
+
+    def check(self) -> None:
+        """Raise ConfigError (with the key) for a duration or timeout that is not > 0, and
+        SidecarError for metadata outside spec §1."""
+        duration = self.duration
+        if duration is not None and not (math.isfinite(duration) and duration > 0):
+            raise ConfigError(f"expected a finite duration > 0 s, got {duration}",
+                              key="duration")
+        timeout = self.rig_data_timeout
+        if timeout is not None and not timeout > 0:
+            raise ConfigError(f"expected a time > 0 s, got {timeout}", key="rig_data_timeout")
+        (self.info or TrialInfo()).check()
 
 
 @dataclass
@@ -118,12 +187,30 @@ class TrialResult:
 
 
 def trial_lock(paths: TrialPaths, subject: str, trial: str) -> WriteLock:
-    """The lock of a trial (``TRIAL.lock``), held by whoever writes it."""
+    """The lock of a trial (``TRIAL.lock``), held by whoever writes it.
+
+    Parameters
+    ----------
+    paths : TrialPaths
+    subject, trial : str
+        The names, for the message another process gets.
+
+    Returns
+    -------
+    WriteLock
+    """
     return WriteLock(paths.lock, f"the trial {subject}/{trial}", "recorded")
 
 
 def refuse_existing(paths: TrialPaths, force: bool) -> None:
-    """Raise OutputExistsError, naming the files, if the trial has any and not *force*."""
+    """Raise OutputExistsError, naming the files, if the trial has any and not *force*.
+
+    Parameters
+    ----------
+    paths : TrialPaths
+    force : bool
+        Existing files are to be replaced.
+    """
     existing = paths.existing()
     if existing and not force:
         raise OutputExistsError("trial already recorded (use {force} to replace it): "
@@ -132,6 +219,11 @@ def refuse_existing(paths: TrialPaths, force: bool) -> None:
 
 def keep_reserve(path: Path) -> None:
     """Take :data:`RESERVE_BYTES` of disk in *path*, to be freed for the last sidecar.
+
+    Parameters
+    ----------
+    path : Path
+        The reserve file (``.TRIAL.reserve``).
 
     Raises
     ------
@@ -183,5 +275,6 @@ class StopFlag:
         return self._event.is_set()
 
 
-__all__ = ["RESERVE_BYTES", "StopFlag", "TrialInfo", "TrialPaths", "TrialResult",
+__all__ = ["RESERVE_BYTES", "RIG_DATA_TIMEOUT_S", "StopFlag", "TrialInfo", "TrialOptions",
+           "TrialPaths", "TrialResult",
            "keep_reserve", "refuse_existing", "trial_lock"]

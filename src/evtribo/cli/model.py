@@ -15,11 +15,10 @@ import json
 import math
 from typing import Any
 
-import numpy as np
-
 from evtribo import model
 from evtribo.errors import ConfigError
 from evtribo.model import ModelParameters
+from evtribo.model.point import evaluate_point
 
 # (JSON key, unit shown in the table, description)
 _ROWS: tuple[tuple[str, str, str], ...] = (
@@ -84,58 +83,6 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     return parser
 
 
-def _finite(x: Any) -> float | None:
-    value = float(x)
-    return value if math.isfinite(value) else None
-
-
-def evaluate(normal_force: float, voltage: float,
-             params: ModelParameters = model.TABLE_1, *, frequency: float | None = None,
-             waveform: str = "square") -> dict[str, float | None]:
-    """Every quantity of the table at one point (non-finite values become ``None``).
-
-    With *frequency* (Hz), the voltage-dependent quantities are those at the effective
-    amplitude the gap sees (:func:`evtribo.model.effective_voltage`); for a sine drive the
-    electrostatic and friction forces are their means over a period."""
-    f = normal_force
-    if frequency is None:
-        gain, u = 1.0, voltage
-    else:
-        u = float(model.effective_voltage(voltage, frequency, waveform, params))
-        gain = float(abs(model.gap_factor(frequency, params)))
-    md = model.maugis_dugdale(f, u, params)
-    values = {
-        "normal_force_N": f,
-        "voltage_V": voltage,
-        "gap_factor": gain,
-        "effective_voltage_V": u,
-        "adhesion_stress_Pa": model.adhesion_stress(u, params),
-        "surface_energy_J_m2": model.surface_energy(u, params),
-        "contact_area_hertz_m2": model.contact_area_hertz(f, params),
-        "contact_area_m2": model.contact_area_jkr(f, u, params),
-        "area_increase_pct": model.area_increase_pct(f, u, params),
-        "contact_radius_hertz_m": model.contact_radius_hertz(f, params),
-        "contact_radius_m": model.contact_radius_jkr(f, u, params),
-        "electrostatic_force_N": model.electrostatic_force(f, u, params),
-        "friction_force_N": model.friction_force(f, u, params),
-        "friction_force_off_N": model.friction_force(f, 0.0, params),
-        "adhesion_load_ratio": model.adhesion_load_ratio(f, u, params),
-        "electrostatic_force_exponent": model.electrostatic_force_exponent(f, u, params),
-        "maugis_parameter": md.lam,
-        "md_contact_radius_m": md.a,
-        "md_cohesive_radius_m": md.c,
-        "md_contact_area_m2": np.pi * np.asarray(md.a) ** 2,
-        "md_electrostatic_force_N": model.adhesion_stress(u, params) * np.pi
-        * np.asarray(md.c) ** 2,
-        "md_friction_force_N": model.friction_force_md(f, u, params),
-    }
-    if frequency is not None and waveform == "sine":
-        fel = float(model.electrostatic_force_drive(f, voltage, frequency, "sine", params))
-        values["electrostatic_force_N"] = fel
-        values["friction_force_N"] = params.mu * (f + fel)
-    return {key: _finite(value) for key, value in values.items()}
-
-
 def _json_number(value: float) -> float | None:
     """A parameter for JSON: an infinite resistance (none) becomes null."""
     return value if math.isfinite(value) else None
@@ -186,16 +133,16 @@ def run(args: argparse.Namespace) -> int:
         frequency = _check_point(args.frequency, "--frequency")
         if frequency <= 0:
             raise ConfigError(f"must be > 0, got {frequency!r}", key="--frequency")
-    result: dict[str, Any] = evaluate(normal_force, voltage, params, frequency=frequency,
-                                      waveform=args.waveform)
+    result: dict[str, Any] = evaluate_point(normal_force, voltage, params,
+                                            frequency=frequency, waveform=args.waveform)
     if frequency is not None:
         result.update(frequency_Hz=frequency, waveform=args.waveform)
     written: list[str] = []
     if args.figures is not None:
-        from evtribo.model.figures import save_figures
+        from evtribo.compare.model_figures import save_model_figures
 
-        written = [str(p) for p in save_figures(args.figures, force=args.force,
-                                                params=params)]
+        written = [str(p) for p in save_model_figures(args.figures, force=args.force,
+                                                      params=params)]
     if args.json:
         result["parameters"] = {k: _json_number(v) for k, v in params.as_dict().items()}
         if args.figures is not None:

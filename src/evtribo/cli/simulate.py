@@ -48,14 +48,8 @@ _TRIAL_OPTIONS = {
 }
 
 
-def add_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Register ``evtribo simulate``."""
-    p = subparsers.add_parser(
-        "simulate", help="run the simulated rig (bus, slcan pty, or study folder)",
-        description="Send the default rig's frames (two load cells and the amplifier's "
-                    "status) from the seed paper's model, in real time on a python-can bus "
-                    "or an emulated slcan adapter, or write a simulated trial to a study.",
-    )
+def _add_output_options(p: argparse.ArgumentParser) -> None:
+    """Where the frames go: a python-can bus, an slcan pty or a study folder."""
     out = p.add_argument_group("where the frames go (one of)")
     out.add_argument("--interface", "-i", help="python-can interface (virtual, socketcan, "
                      "slcan, pcan...; default: python-can's configuration)")
@@ -73,6 +67,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     out.add_argument("--trial", default="run-01", help="trial name with --study (run-01)")
     out.add_argument("--force", action="store_true", help="overwrite a trial with --study")
 
+
+def _add_trial_options(p: argparse.ArgumentParser) -> None:
+    """The trial: its length, the drive and the schedule of ON and OFF."""
     trial = p.add_argument_group("the trial")
     trial.add_argument("--duration", type=float,
                        help="s (default: until Ctrl-C; 30 with --study)")
@@ -86,6 +83,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     trial.add_argument("--start-on", action="store_true", help="alternate starting ON")
     trial.add_argument("--seed", type=int, default=0, help="random seed (0)")
 
+
+def _add_subject_options(p: argparse.ArgumentParser) -> None:
+    """The subject: friction, air gap, force and strokes."""
     subj = p.add_argument_group(
         "the subject (defaults: a person's strokes, drawn with --seed; with --ideal, a "
         "machine's)")
@@ -113,6 +113,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                            "evtribo model --list), e.g. --set r_g=80 for a gap that leaks "
                            "(the force then depends on the drive's frequency)")
 
+
+def _add_rig_options(p: argparse.ArgumentParser) -> None:
+    """The rig: the nodes' rates and clocks, noise, jitter and lost frames."""
     rig = p.add_argument_group("the rig")
     rig.add_argument("--fz-rate", type=float, default=1000.0, help="normal cell, Hz (1000)")
     rig.add_argument("--fx-rate", type=float, default=2000.0,
@@ -127,6 +130,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                      help="probability that a frame is lost (0)")
     rig.add_argument("--foreign-rate", type=float, default=0.0,
                      help="frames/s from other nodes (0)")
+
+
+def _add_real_rig_options(p: argparse.ArgumentParser) -> None:
+    """A real rig's load cells: offsets, drift, hum, cross-talk and the tare stretch."""
     real = p.add_argument_group(
         "a real rig's load cells (defaults drawn with --seed; all off with --ideal)")
     real.add_argument("--ideal", action="store_true",
@@ -145,6 +152,21 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     real.add_argument("--crosstalk", type=float, nargs=2, metavar=("N_FROM_T", "T_FROM_N"),
                       help="cross-talk: share of the tangential force the normal cell "
                            "reads, and of the normal force the tangential cell reads (0 0)")
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``evtribo simulate``."""
+    p = subparsers.add_parser(
+        "simulate", help="run the simulated rig (bus, slcan pty, or study folder)",
+        description="Send the default rig's frames (two load cells and the amplifier's "
+                    "status) from the seed paper's model, in real time on a python-can bus "
+                    "or an emulated slcan adapter, or write a simulated trial to a study.",
+    )
+    _add_output_options(p)
+    _add_trial_options(p)
+    _add_subject_options(p)
+    _add_rig_options(p)
+    _add_real_rig_options(p)
     p.set_defaults(func=run)
     return p
 
@@ -157,7 +179,7 @@ def _build(args: argparse.Namespace, duration: float, trial_s: float) -> tuple[A
     from evtribo.acquisition.simulator import SubjectParams, TrialConfig
     from evtribo.acquisition.simulator.realism import IDEAL_SUBJECT, human, realistic_rig
 
-    subject_kw = {"name": args.subject, "mu": args.mu, "h_L": args.air_gap,
+    subject_kw: dict[str, Any] = {"name": args.subject, "mu": args.mu, "h_L": args.air_gap,
                   "normal_force_N": args.target_force, "drift_time_s": args.drift_time,
                   "stroke_length_m": args.stroke_length, "reversal_s": args.reversal_time}
     given_subject = {k: v for k, v in (
@@ -201,7 +223,8 @@ def _build(args: argparse.Namespace, duration: float, trial_s: float) -> tuple[A
             for name in ("mu", "h_L"):  # the subject's own: --mu, --air-gap
                 if getattr(changed, name) != getattr(TABLE_1, name):
                     subject_kw[name] = getattr(changed, name)
-        subject = SubjectParams(**subject_kw, **IDEAL_SUBJECT)
+        ideal: dict[str, Any] = dict(IDEAL_SUBJECT)
+        subject = SubjectParams(**subject_kw, **ideal)
         config = TrialConfig(**trial_kw)
         if not args.ideal:
             subject = human(subject, seed=args.seed)

@@ -9,16 +9,15 @@ Layers, lowest first: :mod:`~evtribo.compare.tables` (reading a result folder),
 """
 
 from evtribo.compare.fit import (
-    FIT_COLUMNS,
     ParameterEstimate,
     SubjectFit,
     fit_study,
     fit_subject,
-    fit_table,
     mean_electrostatic_force,
     mean_friction_force,
     model_exponent,
 )
+from evtribo.compare.fit_csv import FIT_COLUMNS, fit_table
 from evtribo.compare.params import (
     DEFAULT_FIT,
     load_parameters,

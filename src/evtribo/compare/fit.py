@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,6 +46,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, stats
 
+from evtribo.compare.intervals import covariance, refit_replicates
 from evtribo.compare.model_points import (
     mean_electrostatic_force,
     mean_friction_force,
@@ -58,15 +59,8 @@ from evtribo.model.params import TABLE_1, ModelParameters
 
 log = logging.getLogger(__name__)
 
-__all__ = ["FIT_COLUMNS", "N_REFITS", "ParameterEstimate", "SubjectFit", "fit_study",
-           "fit_subject", "fit_table", "mean_electrostatic_force", "mean_friction_force",
-           "model_exponent"]
-
-#: Columns of ``fit.csv``, one row per subject and fitted parameter.
-FIT_COLUMNS: tuple[str, ...] = (
-    "subject", "parameter", "value", "ci_low", "ci_high", "stderr", "unit", "rmse_N", "r2",
-    "chi2_reduced", "n_points", "waveform", "exponent", "exponent_ci_low", "exponent_ci_high",
-    "exponent_model", "mu_measured")
+__all__ = ["N_REFITS", "ParameterEstimate", "SubjectFit", "fit_study", "fit_subject",
+           "mean_electrostatic_force", "mean_friction_force", "model_exponent"]
 
 _Z95 = float(stats.norm.ppf(0.975))
 #: Bootstrap replicates refitted per subject (the first ones of electrostatic_bootstrap.csv).
@@ -160,84 +154,180 @@ def _sigmas(rows: pd.DataFrame, subject: str) -> NDArray[np.float64]:
     return sigma
 
 
-def _covariance(jac: NDArray[np.float64]) -> NDArray[np.float64]:
-    """(J^T J)^-1 by SVD, infinite along directions the data do not determine."""
-    _, s, vt = np.linalg.svd(jac, full_matrices=False)
-    tol = np.finfo(float).eps * max(jac.shape) * (s[0] if s.size else 0.0)
-    # a ratio of singular values beyond 1e-6 means a correlation indistinguishable from 1
-    bad = (s <= tol) | (s < 1e-6 * (s[0] if s.size else 0.0))
-    s_inv2 = np.where(bad, 0.0, 1.0 / np.where(bad, 1.0, s) ** 2)
-    cov = (vt.T * s_inv2) @ vt
-    if bad.any():
-        undetermined = np.any(np.abs(vt[bad]) > 1e-3, axis=0)
-        cov[undetermined, :] = np.inf
-        cov[:, undetermined] = np.inf
-    return cov
+@dataclass(frozen=True)
+class _Points:
+    """A subject's usable electrostatic points and the windows fitted with them."""
+
+    fn: NDArray[np.float64]
+    amp: NDArray[np.float64]
+    wave: NDArray[np.object_]
+    measured: NDArray[np.float64]
+    sigma: NDArray[np.float64]
+    good: NDArray[np.bool_]
+    mu_measured: float
+    w_fn: NDArray[np.float64]
+    w_ft: NDArray[np.float64]
+    w_amp: NDArray[np.float64]
+    w_wave: NDArray[np.object_]
 
 
-def _refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]],
-                      x0: NDArray[np.float64], targets: NDArray[np.float64],
-                      sigma: NDArray[np.float64], lower: NDArray[np.float64],
-                      *, max_iter: int = 30, tol: float = 1e-6) -> NDArray[np.float64]:
-    """Weighted least-squares solution for each row of *targets*, by Gauss-Newton from *x0*.
+def _points(subject: str, rows: pd.DataFrame,
+            windows: pd.DataFrame | None, use_windows: bool) -> _Points:
+    """The rows' finite points with their weights, and the windows when *use_windows*."""
+    fn = rows["normal_force_on_N"].to_numpy(float)
+    amp = rows["amplitude_V"].to_numpy(float)
+    wave = rows["waveform"].astype(str).to_numpy(object)
+    measured = rows["electrostatic_force_N"].to_numpy(float)
+    good = np.isfinite(fn) & np.isfinite(amp) & np.isfinite(measured) & (fn > 0)
+    if not good.all():
+        log.warning("subject %s: %d point(s) with missing values left out", subject,
+                    int((~good).sum()))
+    mus = rows["mu"].to_numpy(float)
+    mu_measured = float(np.nanmean(mus)) if np.isfinite(mus).any() else math.nan
+    empty = np.empty(0)
+    w_fn, w_ft, w_amp, w_wave = empty, empty, empty, np.empty(0, object)
+    if use_windows:
+        if windows is None or windows.empty:
+            raise AnalysisError(f"subject {subject}: fitting mu needs its windows "
+                                "(windows.csv has none)")
+        w_fn = windows["normal_force_N"].to_numpy(float)
+        w_ft = windows["friction_force_N"].to_numpy(float)
+        w_on = windows["condition"].astype(str).str.lower().to_numpy() == "on"
+        w_amp = np.where(w_on, windows["amplitude_V"].to_numpy(float), 0.0)
+        w_wave = windows["waveform"].astype(str).to_numpy(object)
+        keep = np.isfinite(w_fn) & np.isfinite(w_ft) & np.isfinite(w_amp) & (w_fn > 0)
+        w_fn, w_ft, w_amp, w_wave = w_fn[keep], w_ft[keep], w_amp[keep], w_wave[keep]
+    return _Points(fn[good], amp[good], wave[good], measured[good],
+                   _sigmas(rows[good], subject), good, mu_measured,
+                   w_fn, w_ft, w_amp, w_wave)
 
-    Parameters
-    ----------
-    model : callable
-        Model forces at the (scaled) parameters, N.
-    x0 : ndarray
-        The solution for the measured forces (the start of every refit).
-    targets : ndarray, shape (n_replicates, n_points), N
-        Replicates of the measured forces.
-    sigma : ndarray, N
-        Weights (the same as the fit's).
-    lower : ndarray
-        Lower bounds of the scaled parameters.
-    max_iter : int
-        Iterations before a refit counts as failed.
-    tol : float
-        Convergence: the size of the next Gauss-Newton step relative to the parameters
-        (which are scaled so that 1 is the solution for the measured forces).
 
-    Returns
-    -------
-    ndarray, shape (n_converged, n_parameters)
-        The refitted (scaled) parameters of the replicates whose refit converged.
-    """
-    def weighted(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        m = model(x)
-        jac = np.empty((m.size, x.size))
-        for i in range(x.size):
-            h = 1e-7 * max(abs(x[i]), 1.0)
-            xi = x.copy()
-            xi[i] += h
-            jac[:, i] = (model(xi) - m) / h / sigma
-        return m, jac
+class _Problem:
+    """The least-squares problem of one subject, in parameters scaled by their start."""
 
-    m0, g0 = weighted(x0)
-    out = []
-    for t in targets:
-        if not np.all(np.isfinite(t)):
-            continue
-        x, m, g = x0, m0, g0
-        cost = float(np.sum(((t - m) / sigma) ** 2))
-        for _ in range(max_iter):
-            step = np.linalg.lstsq(g, (t - m) / sigma, rcond=None)[0]
-            if np.all(np.abs(step) <= tol * np.maximum(np.abs(x), 1.0)):
-                out.append(np.maximum(x + step, lower))  # Gauss-Newton's last step is tiny
-                break
-            for _ in range(10):  # backtrack while the step raises the misfit
-                x_new = np.maximum(x + step, lower)
-                m_new, g_new = weighted(x_new)
-                cost_new = float(np.sum(((t - m_new) / sigma) ** 2))
-                if cost_new <= cost:
-                    break
-                step = step / 2.0
-            else:
-                out.append(x)  # no descent left: a minimum to the model's precision
-                break
-            x, m, g, cost = x_new, m_new, g_new, cost_new
-    return np.asarray(out, dtype=float).reshape(-1, x0.size)
+    def __init__(self, subject: str, names: tuple[str, ...], base: ModelParameters,
+                 pts: _Points, use_windows: bool) -> None:
+        self.subject, self.names, self.base, self.pts = subject, names, base, pts
+        self.use_windows = use_windows
+        self.n_res = len(pts.measured) + (len(pts.w_fn) if use_windows else 0)
+        if self.n_res < len(names) or len(pts.measured) == 0:
+            raise AnalysisError(f"subject {subject}: {len(pts.measured)} usable point(s) "
+                                f"for {len(names)} parameter(s) ({', '.join(names)})")
+        start = np.array([getattr(base, n) for n in names], dtype=float)
+        self.start = np.where(start > 0, start,
+                              [getattr(TABLE_1, n) or 1e-6 for n in names])
+        self.lower = np.array([0.0 if n.startswith("h_") else 1e-6 for n in names])
+        self.w_sigma = 1.0
+
+    def params_at(self, x: NDArray[np.float64]) -> ModelParameters:
+        """The model's parameters at the scaled values *x*."""
+        return self.base.with_values(dict(zip(self.names, (self.start * x).tolist(),
+                                              strict=True)))
+
+    def model_at(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The model's electrostatic force at the points, N."""
+        p = self.pts
+        return mean_electrostatic_force(p.fn, p.amp, p.wave, self.params_at(x))
+
+    def residuals(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Weighted residuals of the points (and of the windows when they are fitted)."""
+        p, params = self.pts, self.params_at(x)
+        r = (p.measured - mean_electrostatic_force(p.fn, p.amp, p.wave, params)) / p.sigma
+        if self.use_windows:
+            rw = (p.w_ft - mean_friction_force(p.w_fn, p.w_amp, p.w_wave, params)) \
+                / self.w_sigma
+            r = np.concatenate([r, rw])
+        return np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6)
+
+    def _least_squares(self, x0: NDArray[np.float64]) -> optimize.OptimizeResult:
+        res = optimize.least_squares(self.residuals, x0, jac="3-point",
+                                     bounds=(self.lower, np.inf), method="trf",
+                                     x_scale=1.0, xtol=1e-12, ftol=1e-12, gtol=1e-12,
+                                     max_nfev=2000)
+        if not res.success:
+            raise AnalysisError(f"subject {self.subject}: the fit did not converge: "
+                                f"{res.message}")
+        return res
+
+    def solve(self) -> optimize.OptimizeResult:
+        """The solution; with windows, weighted by their own misfit and solved once more."""
+        res = self._least_squares(np.ones(len(self.names)))
+        if self.use_windows:
+            rw = res.fun[len(self.pts.measured):] * self.w_sigma
+            self.w_sigma = max(float(np.sqrt(np.mean(rw**2))), 1e-9)
+            res = self._least_squares(res.x)
+        return res
+
+
+def _bootstrap(problem: _Problem, res: optimize.OptimizeResult, cov_x: NDArray[np.float64],
+               replicates: ArrayLike, *, n_rows: int,
+               stretch: float) -> tuple[NDArray[np.float64] | None, str]:
+    """The parameters refitted to the replicates (scaled back, stretched like the
+    Jacobian's spread when the model misfits), or None and why the Jacobian is used."""
+    subject, pts = problem.subject, problem.pts
+    reps = np.asarray(replicates, dtype=float)
+    if reps.ndim != 2 or reps.shape[1] != n_rows:
+        raise ValueError(f"subject {subject}: replicates need one column per row")
+    boot, note = None, ""
+    if problem.use_windows:
+        note = "mu is fitted with the windows, which have no bootstrap replicates"
+    elif not np.all(np.isfinite(cov_x)):
+        note = "a parameter is not determined by the data"
+    else:
+        refits = refit_replicates(problem.model_at, res.x, reps[:, pts.good], pts.sigma,
+                                   problem.lower)
+        if refits.shape[0] >= MIN_REFITS:
+            values = problem.start * res.x
+            boot = values + stretch * (problem.start * refits - values)
+        else:
+            note = f"only {refits.shape[0]} of {reps.shape[0]} refits converged"
+    if note:
+        log.log(logging.WARNING if note.startswith("only") else logging.INFO,
+                "subject %s: intervals from the Jacobian (points taken as "
+                "independent): %s", subject, note)
+    return boot, note
+
+
+def _estimates(problem: _Problem, values: NDArray[np.float64], cov: NDArray[np.float64],
+               boot: NDArray[np.float64] | None,
+               quantile: float) -> list[ParameterEstimate]:
+    """Each parameter's value, standard error and 95 % interval (the replicates'
+    percentiles, else the value plus or minus *quantile* standard errors)."""
+    floor = problem.start * problem.lower
+    if boot is not None:
+        q_lo, q_hi = np.quantile(boot, [0.025, 0.975], axis=0)
+    estimates = []
+    for i, name in enumerate(problem.names):
+        se = float(np.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) else math.inf
+        if boot is not None:
+            lo, hi = max(float(q_lo[i]), floor[i]), float(q_hi[i])
+        else:
+            lo = max(values[i] - quantile * se, floor[i]) if math.isfinite(se) \
+                else -math.inf
+            hi = values[i] + quantile * se
+        if not math.isfinite(se):
+            log.warning("subject %s: %s is not determined by these data (its effect cannot "
+                        "be told apart from the other fitted parameters'); interval is "
+                        "infinite", problem.subject, name)
+        estimates.append(ParameterEstimate(name, float(values[i]), se, float(lo), float(hi),
+                                           parameter_unit(name)))
+    return estimates
+
+
+def _correlation(subject: str, names: Sequence[str],
+                 cov: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The correlation matrix of *cov*, with a warning for each pair beyond 0.99."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d = np.sqrt(np.diag(cov))
+        corr = cov / np.outer(d, d)
+    n = len(names)
+    for i in range(n):
+        for j in range(i + 1, n):
+            if np.isfinite(corr[i, j]) and abs(corr[i, j]) > 0.99:
+                log.warning("subject %s: %s and %s are strongly correlated (r = %.3f): the "
+                            "data hardly tell them apart", subject, names[i], names[j],
+                            corr[i, j])
+    return np.asarray(corr, float)
 
 
 def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_1,
@@ -267,6 +357,7 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
     Returns
     -------
     SubjectFit
+        The estimates, their correlation and the quality of the fit.
 
     Raises
     ------
@@ -275,142 +366,40 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
     """
     names = tuple(fit)
     rows = rows.reset_index(drop=True)
-    fn = rows["normal_force_on_N"].to_numpy(float)
-    amp = rows["amplitude_V"].to_numpy(float)
-    wave = rows["waveform"].astype(str).to_numpy(object)
-    measured = rows["electrostatic_force_N"].to_numpy(float)
-    good = np.isfinite(fn) & np.isfinite(amp) & np.isfinite(measured) & (fn > 0)
-    if not good.all():
-        log.warning("subject %s: %d point(s) with missing values left out", subject,
-                    int((~good).sum()))
-    fn, amp, wave, measured = fn[good], amp[good], wave[good], measured[good]
-    sigma = _sigmas(rows[good], subject)
-    mus = rows["mu"].to_numpy(float)
-    mu_measured = float(np.nanmean(mus)) if np.isfinite(mus).any() else math.nan
-    if "mu" not in names and mu_measured > 0:
-        base = base.with_values(mu=mu_measured)
-
     use_windows = "mu" in names
-    if use_windows:
-        if windows is None or windows.empty:
-            raise AnalysisError(f"subject {subject}: fitting mu needs its windows "
-                                "(windows.csv has none)")
-        w_fn = windows["normal_force_N"].to_numpy(float)
-        w_ft = windows["friction_force_N"].to_numpy(float)
-        w_on = windows["condition"].astype(str).str.lower().to_numpy() == "on"
-        w_amp = np.where(w_on, windows["amplitude_V"].to_numpy(float), 0.0)
-        w_wave = windows["waveform"].astype(str).to_numpy(object)
-        keep = np.isfinite(w_fn) & np.isfinite(w_ft) & np.isfinite(w_amp) & (w_fn > 0)
-        w_fn, w_ft, w_amp, w_wave = w_fn[keep], w_ft[keep], w_amp[keep], w_wave[keep]
-    n_res = len(measured) + (len(w_fn) if use_windows else 0)
-    if n_res < len(names) or len(measured) == 0:
-        raise AnalysisError(f"subject {subject}: {len(measured)} usable point(s) for "
-                            f"{len(names)} parameter(s) ({', '.join(names)})")
+    pts = _points(subject, rows, windows, use_windows)
+    if not use_windows and pts.mu_measured > 0:
+        base = base.with_values(mu=pts.mu_measured)
+    problem = _Problem(subject, names, base, pts, use_windows)
+    res = problem.solve()
 
-    start = np.array([getattr(base, n) for n in names], dtype=float)
-    start = np.where(start > 0, start, [getattr(TABLE_1, n) or 1e-6 for n in names])
-    lower = np.array([0.0 if n.startswith("h_") else 1e-6 for n in names])
-
-    def params_at(x: NDArray[np.float64]) -> ModelParameters:
-        return base.with_values(dict(zip(names, (start * x).tolist(), strict=True)))
-
-    w_sigma = 1.0
-
-    def residuals(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        p = params_at(x)
-        r = (measured - mean_electrostatic_force(fn, amp, wave, p)) / sigma
-        if use_windows:
-            rw = (w_ft - mean_friction_force(w_fn, w_amp, w_wave, p)) / w_sigma
-            r = np.concatenate([r, rw])
-        return np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6)
-
-    def solve(x0: NDArray[np.float64]) -> optimize.OptimizeResult:
-        res = optimize.least_squares(residuals, x0, jac="3-point", bounds=(lower, np.inf),
-                                     method="trf", x_scale=1.0, xtol=1e-12, ftol=1e-12,
-                                     gtol=1e-12, max_nfev=2000)
-        if not res.success:
-            raise AnalysisError(f"subject {subject}: the fit did not converge: {res.message}")
-        return res
-
-    res = solve(np.ones(len(names)))
-    if use_windows:  # weight the windows by their own misfit, then refit once
-        rw = res.fun[len(measured):] * w_sigma
-        w_sigma = max(float(np.sqrt(np.mean(rw**2))), 1e-9)
-        res = solve(res.x)
-
-    def model_at(x: NDArray[np.float64]) -> NDArray[np.float64]:
-        return mean_electrostatic_force(fn, amp, wave, params_at(x))
-
-    dof = n_res - len(names)
-    chi2 = float(np.sum(res.fun**2))
-    chi2_red = chi2 / dof if dof > 0 else math.nan
-    cov_x = _covariance(res.jac)
+    dof = problem.n_res - len(names)
+    chi2_red = float(np.sum(res.fun**2)) / dof if dof > 0 else math.nan
+    cov_x = covariance(res.jac, res.x)
     scale = max(1.0, chi2_red) if math.isfinite(chi2_red) else 1.0
     quantile = float(stats.t.ppf(0.975, dof)) if scale > 1.0 else _Z95
-    cov = cov_x * scale * np.outer(start, start)
-    values = start * res.x
+    cov = cov_x * scale * np.outer(problem.start, problem.start)
+    values = problem.start * res.x
     boot, note = None, ""
     if replicates is not None:
-        reps = np.asarray(replicates, dtype=float)
-        if reps.ndim != 2 or reps.shape[1] != len(rows):
-            raise ValueError(f"subject {subject}: replicates need one column per row")
-        if use_windows:
-            note = "mu is fitted with the windows, which have no bootstrap replicates"
-        elif not np.all(np.isfinite(cov_x)):
-            note = "a parameter is not determined by the data"
-        else:
-            refits = _refit_replicates(model_at, res.x, reps[:, good], sigma, lower)
-            if refits.shape[0] >= MIN_REFITS:
-                # replicate spread, inflated like the Jacobian's when the model misfits
-                stretch = math.sqrt(scale) * quantile / _Z95
-                boot = values + stretch * (start * refits - values)
-            else:
-                note = f"only {refits.shape[0]} of {reps.shape[0]} refits converged"
-        if note:
-            log.log(logging.WARNING if note.startswith("only") else logging.INFO,
-                    "subject %s: intervals from the Jacobian (points taken as "
-                    "independent): %s", subject, note)
+        # replicate spread, inflated like the Jacobian's when the model misfits
+        boot, note = _bootstrap(problem, res, cov_x, replicates, n_rows=len(rows),
+                                stretch=math.sqrt(scale) * quantile / _Z95)
     if boot is not None:
         cov = np.atleast_2d(np.cov(boot, rowvar=False))
-        quantile_lo, quantile_hi = np.quantile(boot, [0.025, 0.975], axis=0)
-    estimates = []
-    for i, name in enumerate(names):
-        se = float(np.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) else math.inf
-        if boot is not None:
-            lo = max(float(quantile_lo[i]), start[i] * lower[i])
-            hi = float(quantile_hi[i])
-        else:
-            lo = max(values[i] - quantile * se, start[i] * lower[i]) if math.isfinite(se) \
-                else -math.inf
-            hi = values[i] + quantile * se
-        if not math.isfinite(se):
-            log.warning("subject %s: %s is not determined by these data (its effect cannot "
-                        "be told apart from the other fitted parameters'); interval is "
-                        "infinite", subject, name)
-        estimates.append(ParameterEstimate(name, float(values[i]), se, float(lo), float(hi),
-                                           parameter_unit(name)))
-    with np.errstate(invalid="ignore", divide="ignore"):
-        d = np.sqrt(np.diag(cov))
-        corr = cov / np.outer(d, d)
-    n = len(names)
-    for i in range(n):
-        for j in range(i + 1, n):
-            if np.isfinite(corr[i, j]) and abs(corr[i, j]) > 0.99:
-                log.warning("subject %s: %s and %s are strongly correlated (r = %.3f): the "
-                            "data hardly tell them apart", subject, names[i], names[j],
-                            corr[i, j])
-    fitted = params_at(res.x)
-    model = mean_electrostatic_force(fn, amp, wave, fitted)
-    resid = measured - model
-    ss_tot = float(np.sum((measured - measured.mean()) ** 2))
+    estimates = _estimates(problem, values, cov, boot, quantile)
+    corr = _correlation(subject, names, cov)
+    fitted = problem.params_at(res.x)
+    resid = pts.measured - mean_electrostatic_force(pts.fn, pts.amp, pts.wave, fitted)
+    ss_tot = float(np.sum((pts.measured - pts.measured.mean()) ** 2))
     r2 = 1.0 - float(np.sum(resid**2)) / ss_tot if ss_tot > 0 else math.nan
     log.info("subject %s: %s (chi2_red %.3g, %d points)", subject,
              ", ".join(f"{e.name} = {e.value:.4g} {e.unit}" for e in estimates), chi2_red,
-             len(measured))
+             len(pts.measured))
     return SubjectFit(subject=subject, params=fitted, estimates=tuple(estimates),
-                      correlation=np.asarray(corr, float),
-                      rmse_N=float(np.sqrt(np.mean(resid**2))), r2=r2,
-                      chi2_reduced=chi2_red, n_points=len(measured), mu_measured=mu_measured,
+                      correlation=corr, rmse_N=float(np.sqrt(np.mean(resid**2))), r2=r2,
+                      chi2_reduced=chi2_red, n_points=len(pts.measured),
+                      mu_measured=pts.mu_measured,
                       interval_method="jacobian" if boot is None else "bootstrap",
                       n_replicates=0 if boot is None else int(boot.shape[0]),
                       interval_note=note)
@@ -422,6 +411,20 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
 
     The intervals come from refits to ``electrostatic_bootstrap.csv``'s replicates when the
     folder has them for all of a subject's points, else from the Jacobian.
+
+    Parameters
+    ----------
+    tables : ResultTables
+        The result folder's tables (:func:`evtribo.compare.tables.read_results`).
+    base : ModelParameters
+        Starting values and the fixed parameters.
+    fit : sequence of str
+        Names of the parameters to fit per subject.
+
+    Returns
+    -------
+    list of SubjectFit
+        One per subject, in the order of ``electrostatic.csv``.
     """
     fits = []
     boot = tables.bootstrap
@@ -437,45 +440,3 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
                             "some of its points; intervals from the Jacobian", subject)
         fits.append(fit_subject(subject, rows, base, fit, win, replicates=reps))
     return fits
-
-
-def _exponent_row(tables: ResultTables, subject: str) -> pd.Series | None:
-    ex = tables.exponents[tables.exponents["subject"] == subject]
-    if ex.empty:
-        return None
-    square = ex[ex["waveform"].astype(str).str.lower() == "square"]
-    return (square if not square.empty else ex).iloc[0]
-
-
-def fit_table(fits: Sequence[SubjectFit], tables: ResultTables) -> pd.DataFrame:
-    """The rows of ``fit.csv`` (:data:`FIT_COLUMNS`) for *fits*.
-
-    The exponent columns compare the measured power law of ``exponents.csv`` (the square
-    wave's when the subject has one) with the fitted model's exponent over the same
-    waveform's measured amplitude range, at the subject's mean normal force ON.
-    """
-    records = []
-    for f in fits:
-        rows = tables.electrostatic[tables.electrostatic["subject"] == f.subject]
-        ex = _exponent_row(tables, f.subject)
-        waveform = str(ex["waveform"]) if ex is not None else str(rows["waveform"].iloc[0])
-        sel = rows[rows["waveform"].astype(str) == waveform]
-        sel = sel if not sel.empty else rows
-        amps = sel["amplitude_V"].to_numpy(float)
-        slope = model_exponent(float(np.nanmean(sel["normal_force_on_N"].to_numpy(float))),
-                               float(np.nanmin(amps)), float(np.nanmax(amps)), f.params,
-                               waveform)
-        for e in f.estimates:
-            records.append({
-                "subject": f.subject, "parameter": e.name, "value": e.value,
-                "ci_low": e.ci_low, "ci_high": e.ci_high, "stderr": e.stderr,
-                "unit": e.unit, "rmse_N": f.rmse_N, "r2": f.r2,
-                "chi2_reduced": f.chi2_reduced, "n_points": f.n_points,
-                "waveform": waveform,
-                "exponent": float(ex["exponent"]) if ex is not None else math.nan,
-                "exponent_ci_low": float(ex["exponent_ci_low"]) if ex is not None
-                else math.nan,
-                "exponent_ci_high": float(ex["exponent_ci_high"]) if ex is not None
-                else math.nan,
-                "exponent_model": slope, "mu_measured": f.mu_measured})
-    return pd.DataFrame.from_records(records, columns=list(FIT_COLUMNS))

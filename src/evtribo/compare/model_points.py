@@ -11,6 +11,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from evtribo._docs import fill_doc
 from evtribo.model import electrostatic_force, friction_force
 from evtribo.model.params import TABLE_1, ModelParameters
 
@@ -56,12 +57,25 @@ def mean_electrostatic_force(normal_force: ArrayLike, amplitude: ArrayLike,
     return out
 
 
+@fill_doc
 def mean_friction_force(normal_force: ArrayLike, amplitude: ArrayLike,
                         waveform: ArrayLike = "square",
                         params: ModelParameters = TABLE_1) -> NDArray[np.float64]:
     """Time-averaged model friction force (eq. 5); amplitude 0 is the OFF condition.
 
-    Parameters are those of :func:`mean_electrostatic_force`; returns N.
+    Parameters
+    ----------
+    %(normal_force)s
+    amplitude : float or ndarray
+        Amplitude of the drive, V (0: OFF).
+    waveform : str or array of str
+        ``"square"`` or ``"sine"`` (the model averaged over one period).
+    %(params)s
+
+    Returns
+    -------
+    ndarray
+        The friction force, N.
     """
     fn, amp = np.broadcast_arrays(np.asarray(normal_force, float), np.asarray(amplitude, float))
     sine = np.broadcast_to(_is_sine(waveform), fn.shape)
@@ -90,6 +104,11 @@ def model_exponent(normal_force: float, u_min: float, u_max: float,
         Model parameters.
     waveform : str
         Drive waveform.
+
+    Returns
+    -------
+    float
+        The mean slope (NaN when the range is empty).
     """
     if not (u_min > 0 and u_max > u_min):
         return math.nan

@@ -29,12 +29,29 @@ DEFAULT_FIT: tuple[str, ...] = ("h_L",)
 
 
 def parameter_names() -> tuple[str, ...]:
-    """Names of the model's parameters, from the ``ModelParameters`` fields."""
+    """Names of the model's parameters, from the ``ModelParameters`` fields.
+
+    Returns
+    -------
+    tuple of str
+        In Table 1's order.
+    """
     return tuple(f.name for f in dataclasses.fields(ModelParameters))
 
 
 def parameter_unit(name: str) -> str:
-    """SI unit of parameter *name* (``"1"`` for dimensionless ones)."""
+    """SI unit of parameter *name* (``"1"`` for dimensionless ones).
+
+    Parameters
+    ----------
+    name : str
+        A parameter of :class:`~evtribo.model.ModelParameters`.
+
+    Returns
+    -------
+    str
+        Its unit.
+    """
     for f in dataclasses.fields(ModelParameters):
         if f.name == name:
             return str(f.metadata.get("unit", ""))
@@ -94,6 +111,11 @@ def load_parameters(path: str | Path | None,
     ConfigError
         For a missing or unreadable file, an unknown name, a value that is not a number or
         is out of range; ``path`` is the file and ``key`` the parameter.
+
+    Returns
+    -------
+    ModelParameters
+        *base* with the file's values.
     """
     if path is None:
         return base

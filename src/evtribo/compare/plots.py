@@ -12,6 +12,7 @@ import logging
 import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 import pandas as pd
@@ -39,12 +40,34 @@ _WAVE_MARKERS = {"square": "o", "sine": "s"}
 
 
 def safe_name(name: str) -> str:
-    """*name* reduced to letters, digits, ``-`` and ``_`` (for file names)."""
+    """*name* reduced to letters, digits, ``-`` and ``_`` (for file names).
+
+    Parameters
+    ----------
+    name : str
+        A subject's name, say.
+
+    Returns
+    -------
+    str
+        Every other character replaced by ``_`` (``"_"`` for an empty name).
+    """
     return re.sub(r"[^A-Za-z0-9_-]", "_", str(name)) or "_"
 
 
 def new_axes(figsize: tuple[float, float] = (5.0, 3.6)) -> Axes:
-    """A fresh Axes on its own Agg-backed figure."""
+    """A fresh Axes on its own Agg-backed figure (no pyplot state).
+
+    Parameters
+    ----------
+    figsize : (float, float)
+        The figure's size, inches.
+
+    Returns
+    -------
+    Axes
+        The figure's one Axes.
+    """
     fig = Figure(figsize=figsize, layout="constrained")
     FigureCanvasAgg(fig)
     return fig.add_subplot()
@@ -52,7 +75,27 @@ def new_axes(figsize: tuple[float, float] = (5.0, 3.6)) -> Axes:
 
 def save_figure(fig: Figure, folder: str | Path, stem: str, *, dpi: float = 150,
                 formats: Sequence[str] = ("png", "svg")) -> list[Path]:
-    """Write *fig* as ``folder/stem.<format>`` for each format; return the paths."""
+    """Write *fig* as ``folder/stem.<format>`` for each format, without a creation date
+    (the same data give byte-identical files).
+
+    Parameters
+    ----------
+    fig : Figure
+        The figure.
+    folder : str or Path
+        Where the files go (created if missing).
+    stem : str
+        The files' name without suffix.
+    dpi : float
+        Resolution of raster formats, dots per inch.
+    formats : sequence of str
+        Suffixes matplotlib knows (``png``, ``svg``, ``pdf``...).
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
@@ -152,11 +195,12 @@ def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = 
             label=f"model OFF (μ = {params.mu:.3g})")
     on = windows[cond == "on"]
     keys = on.groupby([on["waveform"].astype(str), on["amplitude_V"]], sort=True)
-    for k, ((wave, amp), sel) in enumerate(keys):
+    for k, (key, sel) in enumerate(keys):
+        wave, amp = cast(tuple[str, float], key)  # (waveform, amplitude), as grouped
         color = f"C{(k % 8) + 3}" if k else "C1"
         ax.plot(sel["normal_force_N"], sel["friction_force_N"], _WAVE_MARKERS.get(wave, "D"),
                 color=color, alpha=0.7, label=f"measured ON {amp:g} V {wave}")
-        ax.plot(grid, mean_friction_force(grid, float(amp), wave, params),
+        ax.plot(grid, mean_friction_force(grid, amp, wave, params),
                 ":" if wave == "sine" else "--", color=color, label=f"model ON {amp:g} V {wave}")
     ax.set_xlabel("normal force F_n (N)")
     ax.set_ylabel("friction force F_t (N)")
@@ -185,6 +229,11 @@ def trace_voltage(trace: pd.DataFrame, params: ModelParameters = TABLE_1,
         Model parameters for matching the phase.
     n_phases : int
         Phases tried.
+
+    Returns
+    -------
+    ndarray
+        U(t) at the trace's rows, V.
     """
     if "voltage_V" in trace.columns:
         return trace["voltage_V"].to_numpy(float)

@@ -46,7 +46,18 @@ _env = jinja2.Environment(
 
 
 def files_dir_for(path: str | Path) -> Path:
-    """The folder beside a report for its figure files: ``report.html`` -> ``report_files``."""
+    """The folder beside a report for its figure files: ``report.html`` -> ``report_files``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The report's HTML file.
+
+    Returns
+    -------
+    Path
+        The folder.
+    """
     p = Path(path)
     return p.with_name(f"{p.stem}_files")
 

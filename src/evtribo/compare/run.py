@@ -2,7 +2,8 @@
 
 Writes into the result folder:
 
-- ``fit.csv``: one row per subject and fitted parameter (:data:`~evtribo.compare.fit.FIT_COLUMNS`);
+- ``fit.csv``: one row per subject and fitted parameter
+  (:data:`~evtribo.compare.fit_csv.FIT_COLUMNS`);
 - ``fit.json``: what was fitted, the fixed parameters, each subject's full parameter set,
   how its intervals were obtained (``interval``: ``bootstrap``, refits to the force
   replicates of ``electrostatic_bootstrap.csv``, or ``jacobian``, the fallback that takes
@@ -17,7 +18,6 @@ only if it is one analysis's complete results (:func:`~evtribo.compare.tables.re
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 from collections.abc import Iterable
@@ -30,7 +30,8 @@ import pandas as pd
 
 from evtribo import __version__
 from evtribo.analysis.outputs import FIGURES, FIT_CSV, FIT_JSON, compare_files
-from evtribo.compare.fit import SubjectFit, fit_study, fit_table
+from evtribo.compare.fit import SubjectFit, fit_study
+from evtribo.compare.fit_csv import fit_table
 from evtribo.compare.params import load_parameters, resolve_fit_names
 from evtribo.compare.plots import (
     plot_area_increase,
@@ -41,8 +42,9 @@ from evtribo.compare.plots import (
     save_figure,
 )
 from evtribo.compare.tables import ResultTables, check_out_folder, read_results
+from evtribo.documents.fit import write_fit
 from evtribo.errors import OutputExistsError
-from evtribo.files import sha256_file
+from evtribo.files import atomic_write, sha256_file
 from evtribo.model.params import ModelParameters
 from evtribo.resultdir import Staging, locked, recover
 
@@ -75,7 +77,18 @@ class CompareResult:
 
 
 def figure_stems(subjects: Iterable[str]) -> list[str]:
-    """File stems of the figures :func:`compare` writes for these subjects."""
+    """File stems of the figures :func:`compare` writes for these subjects.
+
+    Parameters
+    ----------
+    subjects : iterable of str
+        The subjects, in order.
+
+    Returns
+    -------
+    list of str
+        The two figures of the whole study, then two per subject.
+    """
     stems = ["friction_time", "area_increase"]
     for s in subjects:
         stems += [f"electrostatic_force_{safe_name(s)}", f"friction_normal_force_{safe_name(s)}"]
@@ -154,7 +167,7 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         with Staging(folder) as stage:
             result = _compare(tables, stage, names, base, dpi=dpi, formats=formats)
             _write_json(stage, result, names, base, params,
-                        run_id=tables.summary.get("run_id"))
+                        run_id=tables.summary.run_id)
             stage.commit(remove=stale, last=[FIT_JSON])
     result.files = [folder / rel for rel in result.files]
     log.info("compare: wrote %d files into %s", len(result.files), folder)
@@ -171,7 +184,7 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
     result = CompareResult(out=folder, fits=fits)
     result.notes += _interval_notes(fits, has_bootstrap=tables.bootstrap is not None)
     table = fit_table(fits, tables)
-    table.to_csv(stage.path(FIT_CSV), index=False)
+    atomic_write(stage.path(FIT_CSV), table.to_csv(index=False))
     result.files.append(Path(FIT_CSV))
 
     by_subject = {f.subject: f for f in fits}
@@ -294,5 +307,5 @@ def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],
         "output_sha256": {rel.as_posix(): sha256_file(stage.path(rel.as_posix()))
                           for rel in result.files},
     }
-    stage.path(FIT_JSON).write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    write_fit(stage.path(FIT_JSON), doc)
     result.files.append(Path(FIT_JSON))

@@ -19,6 +19,7 @@ import json
 import logging
 import os
 import platform
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -29,7 +30,9 @@ from evtribo.compare.params import parameter_unit
 from evtribo.compare.report import Report
 from evtribo.compare.run import FIGURES, FIT_CSV, FIT_JSON, compare, figure_stems
 from evtribo.compare.tables import ResultTables, check_out_folder, read_results
-from evtribo.errors import EvtriboError, OutputExistsError, ResultFolderError, UserInputError
+from evtribo.documents.fit import FitDocument, read_fit
+from evtribo.documents.summary import Summary
+from evtribo.errors import FORCE, EvtriboError, OutputExistsError, ResultFolderError, UserInputError
 from evtribo.files import sha256_file
 from evtribo.model.params import ModelParameters
 from evtribo.resultdir import inside, locked, recover
@@ -46,7 +49,20 @@ _SUMMARY_KEYS = ("study", "run_id", "study_dir", "started", "created", "evtribo_
 
 
 def file_hashes(paths: list[Path], root: Path) -> pd.DataFrame:
-    """``file, bytes, sha256`` of each existing file, names relative to *root*."""
+    """``file, bytes, sha256`` of each existing file, names relative to *root*.
+
+    Parameters
+    ----------
+    paths : list of Path
+        The files (those that do not exist are left out).
+    root : Path
+        The folder the names are relative to (a file outside it keeps its full path).
+
+    Returns
+    -------
+    DataFrame
+        One row per file.
+    """
     rows = []
     for p in paths:
         if p.is_file():
@@ -58,34 +74,16 @@ def file_hashes(paths: list[Path], root: Path) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["file", "bytes", "sha256"])
 
 
-def _hashes_in(obj: Any, found: list[dict[str, Any]]) -> None:
-    """Collect every mapping holding a ``sha256`` key, anywhere in a JSON document."""
-    if isinstance(obj, dict):
-        if "sha256" in obj:
-            found.append({"file": str(obj.get("path", obj.get("file", obj.get("name", "")))),
-                          "bytes": obj.get("bytes", obj.get("size")),
-                          "sha256": str(obj["sha256"])})
-        for v in obj.values():
-            _hashes_in(v, found)
-    elif isinstance(obj, list):
-        for v in obj:
-            _hashes_in(v, found)
+def _study_name(summary: Summary, out: Path) -> str:
+    """The study's name as summary.json records it (else the result folder's)."""
+    return summary.study or out.name
 
 
-def _study_name(summary: dict[str, Any], out: Path) -> str:
-    study = summary.get("study")
-    if isinstance(study, dict):
-        study = study.get("name")
-    return str(study) if study else out.name
-
-
-def _study_dir(summary: dict[str, Any], out: Path) -> Path | None:
+def _study_dir(summary: Summary, out: Path) -> Path | None:
     """The study folder summary.json names, if it exists and is a study (a relative path is
     tried from the working directory, then from the result folder's parent)."""
-    raw = summary.get("study_dir")
-    if raw is None and isinstance(summary.get("study"), dict):
-        raw = summary["study"].get("path")
-    if not raw or not isinstance(raw, str):
+    raw = summary.study_dir
+    if not raw:
         return None
     path = Path(raw)
     for candidate in (path, out.parent / path) if not path.is_absolute() else (path,):
@@ -112,7 +110,7 @@ def _study_dbc(study_dir: Path) -> Path | None:
     return (study_dir / dbc).resolve() if isinstance(dbc, str) else None
 
 
-def _input_path(name: str, role: Any, study_dir: Path | None,
+def _input_path(name: str, role: str, study_dir: Path | None,
                 dbc: Path | None) -> Path | bool | None:
     """Where a recorded input is now: a path inside the study (or the study's DBC); None if
     the study is not at hand; False if the name is not one to list or read."""
@@ -123,30 +121,29 @@ def _input_path(name: str, role: Any, study_dir: Path | None,
     return False
 
 
-def _inputs(summary: dict[str, Any], study_dir: Path | None
+def _inputs(summary: Summary, study_dir: Path | None
             ) -> tuple[pd.DataFrame, list[str]]:
     """The inputs summary.json records (those inside the study), and a warning for each one
     changed, missing or added since the analysis, or not listed."""
-    recorded: list[dict[str, Any]] = []
-    _hashes_in(summary.get("inputs", summary.get("files", [])), recorded)
     dbc = _study_dbc(study_dir) if study_dir is not None else None
-    rows, warnings, outside = [], [], 0
-    for rec in recorded:
-        where = _input_path(rec["file"], rec.get("role"), study_dir, dbc)
+    rows: list[dict[str, Any]] = []
+    warnings, outside = [], 0
+    for rec in summary.inputs:
+        where = _input_path(rec.file, rec.role, study_dir, dbc)
         if where is False:
             outside += 1
             continue
-        row = {"file": rec["file"], "bytes": rec["bytes"], "sha256": rec["sha256"]}
+        row: dict[str, Any] = {"file": rec.file, "bytes": rec.bytes, "sha256": rec.sha256}
         if isinstance(where, Path):
             now = sha256_file(where) if where.is_file() else None
-            row["now"] = "unchanged" if now == rec["sha256"] else \
+            row["now"] = "unchanged" if now == rec.sha256 else \
                 "missing" if now is None else "changed"
             if now is None:
-                warnings.append(f"{rec['file']}: no longer in the study folder {study_dir} "
+                warnings.append(f"{rec.file}: no longer in the study folder {study_dir} "
                                 "(it was an input of the analysis)")
-            elif now != rec["sha256"]:
-                warnings.append(f"{rec['file']}: changed since the analysis (sha256 "
-                                f"{rec['sha256'][:12]}... then, {now[:12]}... now): these results "
+            elif now != rec.sha256:
+                warnings.append(f"{rec.file}: changed since the analysis (sha256 "
+                                f"{rec.sha256[:12]}... then, {now[:12]}... now): these results "
                                 "are not of the study as it is now; analyse it again")
         rows.append(row)
     if outside:
@@ -199,11 +196,12 @@ def _trials_table(tables: ResultTables, notes: dict[str, str]) -> pd.DataFrame:
     return trials
 
 
-def _warnings(tables: ResultTables, fit_doc: dict[str, Any]) -> list[str]:
-    items = [str(w) for w in tables.summary.get("warnings", []) or []]
-    for failed in tables.summary.get("failed_trials", []) or []:
-        if isinstance(failed, dict):
-            items.append(f"{failed.get('trial')}: not analysed: {failed.get('error')}")
+def _warnings(tables: ResultTables, fit_doc: FitDocument) -> list[str]:
+    """The analysis's warnings, its failed trials, the trials' dropped frames and damaged
+    lines, and the comparison's notes, each once."""
+    items = tables.summary.warnings
+    for failed in tables.summary.failed_trials:
+        items.append(f"{failed.get('trial')}: not analysed: {failed.get('error')}")
     tr = tables.trials
     for col, what in (("dropped_frames", "dropped frame(s)"),
                       ("skipped_lines", "damaged line(s) skipped")):
@@ -212,13 +210,14 @@ def _warnings(tables: ResultTables, fit_doc: dict[str, Any]) -> list[str]:
             for (_, row), n in zip(tr.iterrows(), counts, strict=True):
                 if n > 0:
                     items.append(f"{row['subject']}/{row['trial']}: {int(n)} {what}")
-    items += [f"model comparison: {n}" for n in fit_doc.get("notes", [])]
+    items += [f"model comparison: {n}" for n in fit_doc.notes]
     return list(dict.fromkeys(items))
 
 
-def _parameters_table(fit_doc: dict[str, Any]) -> pd.DataFrame:
-    fixed = fit_doc.get("fixed_parameters") or ModelParameters().as_dict()
-    fitted = set(fit_doc.get("fit", []))
+def _parameters_table(fit_doc: FitDocument) -> pd.DataFrame:
+    """The model's parameters, fixed or fitted."""
+    fixed = fit_doc.fixed_parameters or ModelParameters().as_dict()
+    fitted = set(fit_doc.fit)
     rows = []
     for name, value in fixed.items():
         try:
@@ -231,7 +230,7 @@ def _parameters_table(fit_doc: dict[str, Any]) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["parameter", "value", "unit", "role"])
 
 
-def _fit_doc(folder: Path, summary: dict[str, Any]) -> dict[str, Any]:
+def _fit_doc(folder: Path, summary: Summary | Mapping[str, Any]) -> FitDocument:
     """fit.json, checked: a fit of the analysis now in *folder*, its files as compare wrote
     them.
 
@@ -240,32 +239,28 @@ def _fit_doc(folder: Path, summary: dict[str, Any]) -> dict[str, Any]:
     ResultFolderError
         Naming ``evtribo compare OUT --force``.
     """
-    again = f"run `evtribo compare {folder} --force`"
+    if not isinstance(summary, Summary):
+        summary = Summary(dict(summary))
+    again = f"run `evtribo compare {folder} {FORCE}`"
     path = folder / FIT_JSON
     if not path.is_file():
-        if summary.get("run_id") is None:  # results of an older evtribo: a fit.csv alone
-            return {}
+        if summary.run_id is None:  # results of an older evtribo: a fit.csv alone
+            return FitDocument()
         raise ResultFolderError(f"missing beside fit.csv (a comparison that did not finish?); "
                                 f"{again}", path=path)
-    try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (ValueError, UnicodeDecodeError) as err:
-        raise ResultFolderError(f"not valid JSON ({err}); {again}", path=path) from err
-    if not isinstance(doc, dict):
-        raise ResultFolderError(f"not a model fit written by evtribo compare; {again}",
-                                path=path)
-    run_id = summary.get("run_id")
+    doc = read_fit(path, again=f"; {again}")
+    run_id = summary.run_id
     if run_id is not None and doc.get("run_id") != run_id:
         fitted = doc.get("run_id") or "one without a run_id"
         raise ResultFolderError(
             f"the model fit is of another analysis ({fitted}) than the results now in the "
             f"folder ({run_id}): it was fitted to data that are no longer these; {again}",
             path=path)
-    for rel, digest in (doc.get("output_sha256") or {}).items():
-        file = inside(folder, str(rel))
+    for rel, digest in doc.output_sha256.items():
+        file = inside(folder, rel)
         if file is None or not file.is_file() or sha256_file(file) != digest:
             raise ResultFolderError(f"missing, or not the file compare wrote (fit.json "
-                                    f"records its SHA-256); {again}", path=folder / str(rel))
+                                    f"records its SHA-256); {again}", path=folder / rel)
     return doc
 
 
@@ -321,7 +316,7 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
         fit_doc = _fit_doc(folder, tables.summary)
         if not (folder / FIT_CSV).is_file():
             raise ResultFolderError(f"missing beside fit.json; run `evtribo compare {folder} "
-                                    "--force`", path=folder / FIT_CSV)
+                                    f"{FORCE}`", path=folder / FIT_CSV)
         fit = pd.read_csv(folder / FIT_CSV, dtype={"subject": str})
         report = _page(tables, fit, fit_doc, Path(output))
         html = Path(os.path.realpath(output))
@@ -329,36 +324,40 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
         return report.save(output, overwrite=force, unit=folder if in_folder else None)
 
 
-def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: dict[str, Any],
-          output: Path) -> Report:
-    """The report's page (figures from the folder's figures/)."""
+def _figures(tables: ResultTables, fit_doc: FitDocument) -> list[dict[str, Any]]:
+    """The figures fit.json lists (else those compare draws), each with its PNG's path.
+
+    Raises
+    ------
+    ResultFolderError
+        A figure's PNG is missing from figures/.
+    """
     folder = tables.out
-    figures = fit_doc.get("figures") or [
+    figures = fit_doc.figures or [
         {"stem": s, "title": s.replace("_", " "), "caption": "",
          "subject": next((x for x in tables.subjects if s.endswith(f"_{x}")), None)}
         for s in figure_stems(tables.subjects)]
     for f in figures:
         png = inside(folder, f"{FIGURES}/{f.get('stem')}.png")
         if png is None or not png.is_file():
-            raise ResultFolderError(f"figure missing: run `evtribo compare {folder} --force`",
+            raise ResultFolderError(f"figure missing: run `evtribo compare {folder} {FORCE}`",
                                     path=png or folder / FIT_JSON)
         f["png"] = png
+    return figures
 
-    summary = tables.summary
-    name = _study_name(summary, folder)
-    study_dir = _study_dir(summary, folder)
-    inputs, input_warnings = _inputs(summary, study_dir)
-    trials = _trials_table(tables, _notes(study_dir, tables))
-    report = Report(f"evtribo report: {name}")
 
-    # --------------------------------------------------------------- study summary
+def _summary_section(report: Report, tables: ResultTables, fit: pd.DataFrame,
+                     fit_doc: FitDocument, trials: pd.DataFrame) -> None:
+    """The study: summary.json's facts, the trials and the power laws."""
     sec = "Study summary"
-    facts = [{"item": "study", "value": name}, {"item": "result folder", "value": str(folder)}]
+    summary, folder = tables.summary, tables.out
+    facts = [{"item": "study", "value": _study_name(summary, folder)},
+             {"item": "result folder", "value": str(folder)}]
     facts += [{"item": k, "value": summary[k] if not isinstance(summary[k], dict | list)
                else json.dumps(summary[k])} for k in _SUMMARY_KEYS
               if k in summary and k != "study"]
     facts.append({"item": "subjects", "value": ", ".join(tables.subjects)})
-    facts.append({"item": "fitted parameters", "value": ", ".join(fit_doc.get("fit", [])) or
+    facts.append({"item": "fitted parameters", "value": ", ".join(fit_doc.fit) or
                   ", ".join(dict.fromkeys(fit["parameter"]))})
     report.add_table(pd.DataFrame(facts, columns=["item", "value"]), "Study", section=sec)
     report.add_table(trials, "Trials", section=sec,
@@ -366,10 +365,13 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: dict[str, Any],
                              "folder is available.")
     report.add_table(tables.exponents, "Power laws F_el = k·U^n (exponents.csv)", section=sec)
 
-    # --------------------------------------------------------------------- model fit
+
+def _fit_section(report: Report, fit: pd.DataFrame, fit_doc: FitDocument,
+                 figures: list[dict[str, Any]]) -> None:
+    """The model fit: fit.csv, the figures of no one subject, the model's parameters."""
     sec = "Model fit"
     methods = {str(v.get("interval", {}).get("method", "jacobian"))
-               for v in (fit_doc.get("subjects") or {}).values() if isinstance(v, dict)}
+               for v in fit_doc.subjects.values() if isinstance(v, dict)}
     how = {"bootstrap": "refits to the bootstrap replicates of the electrostatic force "
                         "(electrostatic_bootstrap.csv)",
            "jacobian": "the fit's Jacobian"}
@@ -385,7 +387,10 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: dict[str, Any],
                               caption=f.get("caption", ""), section=sec)
     report.add_table(_parameters_table(fit_doc), "Model parameters", section=sec)
 
-    # ------------------------------------------------------------------ per subject
+
+def _subject_sections(report: Report, tables: ResultTables, fit: pd.DataFrame,
+                      trials: pd.DataFrame, figures: list[dict[str, Any]]) -> None:
+    """One section per subject: its fit, electrostatic forces, trials and figures."""
     for subject in tables.subjects:
         sec = f"Subject {subject}"
         report.add_table(fit[fit["subject"] == subject], "Fit", section=sec)
@@ -397,17 +402,44 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: dict[str, Any],
                 report.add_figure(f["png"], f["title"],
                                   caption=f.get("caption", ""), section=sec)
 
-    # -------------------------------------------------------------------- warnings
-    for w in input_warnings:
-        log.warning("report: %s", w)
-    report.add_list([*input_warnings, *_warnings(tables, fit_doc)], "Warnings",
-                    section="Warnings",
-                    caption="The study folder now against the inputs summary.json records; "
-                            "then from summary.json, trials.csv (dropped frames, skipped "
-                            "lines) and the model comparison.")
 
-    # ------------------------------------------------------------------ provenance
+def _software(summary: Summary, fit_doc: FitDocument) -> pd.DataFrame:
+    """Who analysed, compared and reported: evtribo's versions and the libraries'."""
+    software = [{"component": "evtribo (report)", "version": __version__},
+                {"component": "evtribo (analysis)",
+                 "version": summary.evtribo_version or summary.software.get("evtribo", "")},
+                {"component": "evtribo (compare)",
+                 "version": fit_doc.software.get("evtribo", "")}]
+    # what the analysis ran with, as summary.json recorded it
+    software += [{"component": f"{name} (analysis)", "version": v}
+                 for name, v in summary.software.items() if name != "evtribo"]
+    software.append({"component": "python (report)", "version": platform.python_version()})
+    for module in ("numpy", "scipy", "pandas", "matplotlib", "cantools", "can"):
+        try:
+            mod = __import__(module)
+        except ImportError:
+            continue
+        name = "python-can" if module == "can" else module
+        software.append({"component": f"{name} (report)",
+                         "version": getattr(mod, "__version__", "")})
+    return pd.DataFrame(software)
+
+
+def _result_files(folder: Path, output: Path) -> pd.DataFrame:
+    """The result folder's files and figures (not the report itself), hashed."""
+    html_path = output.resolve()
+    out_files = [p for p in sorted(folder.iterdir())
+                 if p.is_file() and p.resolve() != html_path and not p.name.startswith(".")]
+    out_files += sorted((folder / FIGURES).glob("*")) if (folder / FIGURES).is_dir() else []
+    out_files = [p for p in out_files if inside(folder, p.relative_to(folder).as_posix())]
+    return file_hashes(out_files, folder)
+
+
+def _provenance_section(report: Report, tables: ResultTables, fit_doc: FitDocument, *,
+                        study_dir: Path | None, inputs: pd.DataFrame, output: Path) -> None:
+    """Provenance: the inputs, the result files, the rig, the software, the settings."""
     sec = "Provenance"
+    summary = tables.summary
     if not inputs.empty:
         caption = (f"now: each file of the study folder {study_dir} hashed again"
                    if study_dir is not None else "The study folder named in summary.json is "
@@ -417,44 +449,40 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: dict[str, Any],
     else:
         report.add_text("summary.json records no input files inside the study folder.",
                         section=sec)
-    html_path = output.resolve()
-    out_files = [p for p in sorted(folder.iterdir())
-                 if p.is_file() and p.resolve() != html_path and not p.name.startswith(".")]
-    out_files += sorted((folder / FIGURES).glob("*")) if (folder / FIGURES).is_dir() else []
-    out_files = [p for p in out_files if inside(folder, p.relative_to(folder).as_posix())]
-    report.add_table(file_hashes(out_files, folder), "Result files", section=sec)
-    rig_info = summary.get("rig") if isinstance(summary.get("rig"), dict) else \
-        _study_rig(study_dir)
+    report.add_table(_result_files(tables.out, output), "Result files", section=sec)
+    rig_info = summary.rig or _study_rig(study_dir)
     if rig_info:
         report.add_table(pd.DataFrame([{"key": k, "value": json.dumps(v) if isinstance(
             v, dict | list) else v} for k, v in rig_info.items()]), "Rig", section=sec)
-    software = [{"component": "evtribo (report)", "version": __version__},
-                {"component": "evtribo (analysis)",
-                 "version": summary.get("evtribo_version",
-                                        (summary.get("software") or {}).get("evtribo", ""))},
-                {"component": "evtribo (compare)",
-                 "version": (fit_doc.get("software") or {}).get("evtribo", "")}]
-    # what the analysis ran with, as summary.json recorded it
-    analysis_software = summary.get("software") if isinstance(summary.get("software"),
-                                                              dict) else {}
-    software += [{"component": f"{name} (analysis)", "version": v}
-                 for name, v in analysis_software.items() if name != "evtribo"]
-    software.append({"component": "python (report)", "version": platform.python_version()})
-    for module in ("numpy", "scipy", "pandas", "matplotlib", "cantools", "can"):
-        try:
-            mod = __import__(module)
-            name = "python-can" if module == "can" else module
-            software.append({"component": f"{name} (report)",
-                             "version": getattr(mod, "__version__", "")})
-        except ImportError:
-            continue
-    report.add_table(pd.DataFrame(software), "Software", section=sec)
-    if summary.get("settings"):
+    report.add_table(_software(summary, fit_doc), "Software", section=sec)
+    if summary.settings:
         report.add_table(pd.DataFrame([{"setting": k, "value": v} for k, v in
-                                       summary["settings"].items()]),
+                                       summary.settings.items()]),
                          "Analysis settings", section=sec)
-    pfile = fit_doc.get("parameters_file")
+    pfile = fit_doc.parameters_file
     if pfile:
         report.add_text(f"Model parameter file: {pfile.get('path')} "
                         f"(sha256 {pfile.get('sha256')})", section=sec)
+
+
+def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
+          output: Path) -> Report:
+    """The report's page (figures from the folder's figures/)."""
+    figures = _figures(tables, fit_doc)
+    study_dir = _study_dir(tables.summary, tables.out)
+    inputs, input_warnings = _inputs(tables.summary, study_dir)
+    trials = _trials_table(tables, _notes(study_dir, tables))
+    report = Report(f"evtribo report: {_study_name(tables.summary, tables.out)}")
+    _summary_section(report, tables, fit, fit_doc, trials)
+    _fit_section(report, fit, fit_doc, figures)
+    _subject_sections(report, tables, fit, trials, figures)
+    for w in input_warnings:
+        log.warning("report: %s", w)
+    report.add_list([*input_warnings, *_warnings(tables, fit_doc)], "Warnings",
+                    section="Warnings",
+                    caption="The study folder now against the inputs summary.json records; "
+                            "then from summary.json, trials.csv (dropped frames, skipped "
+                            "lines) and the model comparison.")
+    _provenance_section(report, tables, fit_doc, study_dir=study_dir, inputs=inputs,
+                        output=output)
     return report

@@ -37,8 +37,8 @@ evtribo, without a ``run_id``, are read as they are.
 
 from __future__ import annotations
 
-import json
 import logging
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -47,8 +47,10 @@ import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
 
-from evtribo.analysis.outputs import ANALYSIS_FILES, SUMMARY_FILE
-from evtribo.errors import ResultFolderError, UserInputError
+from evtribo.analysis.outputs import ANALYSIS_FILES
+from evtribo.documents.summary import SUMMARY_FILE, Summary
+from evtribo.documents.summary import read_summary as document_summary
+from evtribo.errors import FORCE, ResultFolderError, UserInputError
 from evtribo.files import sha256_file
 from evtribo.resultdir import locked, pending, recover
 
@@ -97,7 +99,7 @@ class ResultTables:
         The required tables.
     exponents, trials : DataFrame
         Empty (with the required columns) when the file is absent.
-    summary : dict
+    summary : Summary
         ``summary.json`` (empty when absent).
     sine_trace : DataFrame or None
         ``sine_trace.csv`` when present.
@@ -110,7 +112,7 @@ class ResultTables:
     windows: pd.DataFrame
     exponents: pd.DataFrame
     trials: pd.DataFrame
-    summary: dict[str, Any] = field(default_factory=dict)
+    summary: Summary = field(default_factory=Summary)
     sine_trace: pd.DataFrame | None = None
     bootstrap: pd.DataFrame | None = None
 
@@ -142,14 +144,24 @@ def check_out_folder(out: str | Path) -> Path:
     return path
 
 
-def _again(folder: Path, summary: dict[str, Any]) -> str:
-    study = summary.get("study_dir")
-    return f"run `evtribo analyze {study if isinstance(study, str) else 'STUDY'} --out " \
-           f"{folder} --force` again"
+def _again(folder: Path, summary: Summary) -> str:
+    study = summary.study_dir
+    return f"run `evtribo analyze {study or 'STUDY'} --out " \
+           f"{folder} {FORCE}` again"
 
 
-def read_summary(folder: Path) -> dict[str, Any]:
-    """``summary.json`` of a result folder ({} when the folder holds no analysis at all).
+def read_summary(folder: Path) -> Summary:
+    """``summary.json`` of a result folder (empty when the folder holds no analysis at all).
+
+    Parameters
+    ----------
+    folder : Path
+        The result folder.
+
+    Returns
+    -------
+    Summary
+        Read by :func:`evtribo.documents.summary.read_summary`.
 
     Raises
     ------
@@ -163,28 +175,32 @@ def read_summary(folder: Path) -> dict[str, Any]:
             raise ResultFolderError(
                 f"missing beside {', '.join(present)}: the folder does not hold an "
                 "analysis's complete results (one that was interrupted?); run `evtribo "
-                f"analyze STUDY --out {folder} --force` again", path=path)
-        return {}
-    try:
-        loaded = json.loads(path.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as err:
-        raise ResultFolderError(f"not valid JSON ({err}): half-written?; run `evtribo "
-                                f"analyze STUDY --out {folder} --force` again",
-                                path=path) from err
-    return loaded if isinstance(loaded, dict) else {"summary": loaded}
+                f"analyze STUDY --out {folder} {FORCE}` again", path=path)
+        return Summary()
+    return document_summary(path, again=f"; run `evtribo analyze STUDY --out {folder} "
+                                        f"{FORCE}` again")
 
 
-def check_analysis(folder: Path, summary: dict[str, Any]) -> None:
+def check_analysis(folder: Path, summary: Summary | Mapping[str, Any]) -> None:
     """Refuse a folder whose tables are not those of the analysis *summary* describes.
+
+    Parameters
+    ----------
+    folder : Path
+        The result folder.
+    summary : Summary or mapping
+        Its ``summary.json`` (as read, or as the JSON object).
 
     Raises
     ------
     ResultFolderError
         Naming the first table missing, changed (or half-written), or of another analysis.
     """
-    run_id = summary.get("run_id")
-    hashes = summary.get("output_sha256")
-    if run_id is None or not isinstance(hashes, dict):
+    if not isinstance(summary, Summary):
+        summary = Summary(dict(summary), folder / SUMMARY_FILE)
+    run_id = summary.run_id
+    hashes = summary.output_sha256
+    if run_id is None or hashes is None:
         return  # results of an older evtribo: nothing to check them against
     for name in ANALYSIS_FILES:
         path = folder / name

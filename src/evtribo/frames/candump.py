@@ -27,7 +27,7 @@ import gzip
 import os
 import re
 from collections.abc import Callable, Iterator
-from typing import IO, Any
+from typing import IO, Any, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -366,12 +366,24 @@ def _slow_lines(block: bytes, starts: npt.NDArray[np.intp], ends: npt.NDArray[np
 
 def _open_binary(path: str | os.PathLike[str]) -> IO[bytes]:
     if os.fspath(path).lower().removesuffix(PARTIAL_SUFFIX).endswith(".gz"):
-        return gzip.open(path, "rb")
+        # a GzipFile is a binary file, though typeshed does not call it IO[bytes]
+        return cast("IO[bytes]", gzip.open(path, "rb"))
     return open(path, "rb")
 
 
 def iter_blocks(stream: IO[bytes], block_size: int = _BLOCK) -> Iterator[bytes]:
-    """Blocks of whole lines of *stream* (the last may lack its newline)."""
+    """Blocks of whole lines of *stream* (the last may lack its newline).
+
+    Parameters
+    ----------
+    stream : binary file
+    block_size : int
+        About how many bytes a block holds.
+
+    Yields
+    ------
+    bytes
+    """
     rest = b""
     while True:
         chunk = stream.read(block_size)

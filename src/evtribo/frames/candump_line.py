@@ -61,7 +61,17 @@ class Notice:
 
 
 def notice(text: str) -> Notice | None:
-    """The :class:`Notice` a candump line (``-L`` or screen output) holds, if any."""
+    """The :class:`Notice` a candump line (``-L`` or screen output) holds, if any.
+
+    Parameters
+    ----------
+    text : str
+        One line.
+
+    Returns
+    -------
+    Notice or None
+    """
     m = _DROPCOUNT.fullmatch(text)
     if m is not None:
         return Notice("dropped", m["ch"], int(m["n"]))
@@ -93,6 +103,11 @@ def _payload(data: str, fd: bool) -> bytes | str:
 
 def parse_line(text: str) -> tuple[Any, ...] | Notice | str:  # noqa: PLR0911 - one reason each
     """Parse one candump ``-L`` line (the reader's slow path).
+
+    Parameters
+    ----------
+    text : str
+        One line (without its newline).
 
     Returns
     -------

@@ -10,11 +10,12 @@ from __future__ import annotations
 import gzip
 import io
 import os
-from typing import IO, Any
+from typing import IO, Any, cast
 
 import numpy as np
 import numpy.typing as npt
 
+from evtribo.frames.ids import id_text
 from evtribo.frames.table import FrameTable
 
 #: Linux ``CAN_ERR_FLAG``: set in the identifier of an error frame.
@@ -47,11 +48,15 @@ def frame_field(arbitration_id: int, data: bytes, *, is_extended: bool = False,
         Requested length of a remote frame, bytes (default ``len(data)``).
     fd_flags : int
         CAN FD flags digit (1 bit-rate switch, 2 error state indicator).
+
+    Returns
+    -------
+    str
     """
     if is_error:
         can_id = CAN_ERR_FLAG | ((arbitration_id & CAN_EFF_MASK) or CAN_ERR_BUSERROR)
         return f"{can_id:08X}#{bytes(data).hex().upper()}"
-    ident = f"{arbitration_id:08X}" if is_extended else f"{arbitration_id:03X}"
+    ident = id_text(arbitration_id, is_extended)
     if is_remote:
         length = len(data) if dlc is None else dlc
         return f"{ident}#R{length:X}" if length else f"{ident}#R"
@@ -140,8 +145,10 @@ def write_candump(target: str | os.PathLike[str] | IO[Any], frames: FrameTable,
     """
     ch = channel.encode("ascii")
     if isinstance(target, (str, os.PathLike)):
-        opener = gzip.open if os.fspath(target).lower().endswith(".gz") else open
-        with opener(target, "wb") as fh:
+        # a GzipFile is a binary file, though typeshed does not call it IO[bytes]
+        fh = cast("IO[bytes]", gzip.open(target, "wb")) \
+            if os.fspath(target).lower().endswith(".gz") else open(target, "wb")
+        with fh:
             write_candump(fh, frames, channel, block_frames=block_frames)
         return
     text = isinstance(target, io.TextIOBase)

@@ -148,7 +148,17 @@ def _gunzip_head(raw: bytes) -> bytes | None:
 
 
 def sniff_bytes(head: bytes) -> Sniffed | None:
-    """What a file whose first bytes are *head* looks like (None: empty)."""
+    """What a file whose first bytes are *head* looks like (None: empty).
+
+    Parameters
+    ----------
+    head : bytes
+        The file's first bytes.
+
+    Returns
+    -------
+    Sniffed or None
+    """
     for magic, kind, description, suffix in _MAGIC:
         if head.startswith(magic):
             return Sniffed(kind, description, suffix)
@@ -190,6 +200,10 @@ def _sniff_text(text: str) -> Sniffed | None:
 
 def sniff(path: str | os.PathLike[str]) -> Sniffed | None:
     """What *path* looks like (decompressed first when its name ends in ``.gz``).
+
+    Parameters
+    ----------
+    path : path-like
 
     Returns
     -------

@@ -25,9 +25,12 @@ frequency (the Johnsen-Rahbek regime), raising the force.
 
 from __future__ import annotations
 
+from typing import TypeVar
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from evtribo._docs import fill_doc
 from evtribo.model.friction import electrostatic_force
 from evtribo.model.params import TABLE_1, ModelParameters
 
@@ -46,14 +49,31 @@ def _f(x: ArrayLike) -> NDArray[np.float64]:
     return np.asarray(x, dtype=float)
 
 
-def _out(x: NDArray[np.generic]) -> NDArray[np.generic]:
+_S = TypeVar("_S", bound=np.generic)
+
+
+def _out(x: NDArray[_S]) -> NDArray[_S]:
+    """*x*, or its element when it has no dimension (a scalar in, a scalar out)."""
     return x[()] if x.ndim == 0 else x
 
 
+@fill_doc
 def layer_elastances(params: ModelParameters = TABLE_1, *, h_L: ArrayLike | None = None
                      ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Inverse capacitances per unit area ``1/c = h / (eps_0 eps)`` of the stratum corneum,
-    the air gap and the insulator, m^2/F (0 for a layer of zero thickness)."""
+    the air gap and the insulator, m^2/F (0 for a layer of zero thickness).
+
+    Parameters
+    ----------
+    %(params)s
+    h_L : float or ndarray, optional
+        Air-gap thickness, m; defaults to ``params.h_L``.
+
+    Returns
+    -------
+    (ndarray, ndarray, ndarray)
+        The stratum corneum's, the gap's and the insulator's, m^2/F.
+    """
     h = params.h_L if h_L is None else _f(h_L)
     e0 = params.eps_0
     return (_f(params.h_sc / (e0 * params.eps_sc)), _f(h / (e0 * params.eps_L)),
@@ -65,7 +85,7 @@ def _impedance(elastance: NDArray[np.float64], resistance: float,
     """``r / (1 + j w r c)`` per unit area, written ``s / (s/r + j w)`` with ``s = 1/c``,
     Ohm m^2 (a pure capacitor for ``r = inf``; 0 for a layer of zero thickness)."""
     g = 0.0 if np.isinf(resistance) else 1.0 / resistance
-    return elastance / (elastance * g + 1j * omega)
+    return np.asarray(elastance / (elastance * g + 1j * omega), dtype=complex)
 
 
 def gap_factor(frequency_Hz: ArrayLike, params: ModelParameters = TABLE_1, *,

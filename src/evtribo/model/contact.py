@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from evtribo._docs import fill_doc
 from evtribo.model.electrostatics import _f, _out, surface_energy
 from evtribo.model.params import TABLE_1, ModelParameters
 
@@ -106,23 +107,63 @@ def jkr_radius(normal_force: ArrayLike, delta_gamma: ArrayLike, R: ArrayLike,
     return _out(_f(R) * s ** (2.0 / 3.0))
 
 
+@fill_doc
 def dmt_radius(normal_force: ArrayLike, delta_gamma: ArrayLike, R: ArrayLike,
                E_star: ArrayLike) -> NDArray[np.float64]:
     """DMT contact radius, a^3 = 3 R (F + 2 pi dg R) / (4 E*).
 
-    Parameters are those of :func:`jkr_radius`; NaN below the pull-off force -2 pi dg R.
+    Parameters
+    ----------
+    %(normal_force)s
+    delta_gamma : float or ndarray
+        Relative surface energy, J/m^2.
+    R : float or ndarray
+        Radius of the fingertip, m.
+    E_star : float or ndarray
+        Effective elastic modulus, Pa.
+
+    Returns
+    -------
+    ndarray
+        The contact radius, m; NaN below the pull-off force -2 pi dg R.
     """
     f, dg, r = _f(normal_force), _f(delta_gamma), _f(R)
     return hertz_radius(f + 2.0 * np.pi * dg * r, r, E_star)
 
 
 def jkr_pulloff_force(delta_gamma: ArrayLike, R: ArrayLike) -> NDArray[np.float64]:
-    """Load-controlled JKR pull-off force, -(3/2) pi dg R, N (dg in J/m^2, R in m)."""
+    """Load-controlled JKR pull-off force, -(3/2) pi dg R, N.
+
+    Parameters
+    ----------
+    delta_gamma : float or ndarray
+        Relative surface energy, J/m^2.
+    R : float or ndarray
+        Radius of the fingertip, m.
+
+    Returns
+    -------
+    ndarray
+        The pull-off force (negative), N.
+    """
     return _out(-1.5 * np.pi * _f(delta_gamma) * _f(R))
 
 
 def dmt_pulloff_force(delta_gamma: ArrayLike, R: ArrayLike) -> NDArray[np.float64]:
-    """DMT pull-off force, -2 pi dg R, N (dg in J/m^2, R in m)."""
+    """DMT pull-off force, -2 pi dg R, N.
+
+    Parameters
+    ----------
+    delta_gamma : float or ndarray
+        Relative surface energy, J/m^2.
+    R : float or ndarray
+        Radius of the fingertip, m.
+
+    Returns
+    -------
+    ndarray
+        The pull-off force (negative), N.
+    """
     return _out(-2.0 * np.pi * _f(delta_gamma) * _f(R))
 
 
@@ -137,6 +178,11 @@ def contact_radius_hertz(normal_force: ArrayLike,
         External normal force F_ext, N.
     params : ModelParameters
         Uses ``R`` and ``E_star``.
+
+    Returns
+    -------
+    ndarray
+        The contact radius, m.
     """
     return hertz_radius(normal_force, params.R, params.E_star)
 
@@ -151,6 +197,11 @@ def contact_area_hertz(normal_force: ArrayLike,
         External normal force F_ext, N.
     params : ModelParameters
         Uses ``R`` and ``E_star``.
+
+    Returns
+    -------
+    ndarray
+        The contact area, m^2.
     """
     return _out(np.pi * _f(contact_radius_hertz(normal_force, params)) ** 2)
 
@@ -167,6 +218,11 @@ def contact_radius_jkr(normal_force: ArrayLike, voltage: ArrayLike,
         Applied voltage U (instantaneous or amplitude), V.
     params : ModelParameters
         Table 1 by default.
+
+    Returns
+    -------
+    ndarray
+        The contact radius, m.
     """
     return jkr_radius(normal_force, surface_energy(voltage, params), params.R, params.E_star)
 

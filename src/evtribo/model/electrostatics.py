@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from evtribo._docs import fill_doc
 from evtribo.model.params import TABLE_1, ModelParameters
 
 __all__ = [
@@ -135,11 +136,21 @@ def surface_energy(voltage: ArrayLike, params: ModelParameters = TABLE_1, *,
     return _out(params.eps_0 * u**2 / (2.0 * _gap(params, h_L)))
 
 
+@fill_doc
 def dugdale_range(params: ModelParameters = TABLE_1) -> float:
     """Range of the Dugdale stress, h_0 = Delta-gamma / sigma_0 = eps_L * gap, m.
 
     The same at every voltage, since both sigma_0 and Delta-gamma scale with U^2
     (5.48 um for Table 1).
+
+    Parameters
+    ----------
+    %(params)s
+
+    Returns
+    -------
+    float
+        h_0, m.
     """
     return params.eps_L * params.effective_gap
 

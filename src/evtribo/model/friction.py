@@ -17,6 +17,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from evtribo._docs import fill_doc
 from evtribo.model.contact import contact_area_hertz, contact_area_jkr, jkr_terms
 from evtribo.model.electrostatics import _f, _out, adhesion_stress, surface_energy
 from evtribo.model.params import TABLE_1, ModelParameters
@@ -156,12 +157,24 @@ def electrostatic_force_exponent(normal_force: ArrayLike, voltage: ArrayLike,
     return _out(np.where(x == 0, 2.0, n))
 
 
+@fill_doc
 def electrostatic_force_adhesive_limit(normal_force: ArrayLike, voltage: ArrayLike,
                                        params: ModelParameters = TABLE_1) -> NDArray[np.float64]:
     """Asymptote of eq. (11) when adhesion dominates (eq. 12), proportional to U^(10/3), N.
 
     sigma_0 pi R^2 (2 sqrt(9 pi dg / (8 E* R)))^(4/3): the contact is held by adhesion alone.
-    ``normal_force`` is accepted for a uniform signature and does not enter.
+
+    Parameters
+    ----------
+    normal_force : float or ndarray
+        Accepted for a uniform signature; it does not enter.
+    %(voltage)s
+    %(params)s
+
+    Returns
+    -------
+    ndarray
+        F_el, N.
     """
     sigma0 = _f(adhesion_stress(voltage, params))
     x, _ = jkr_terms(0.0, surface_energy(voltage, params), params.R, params.E_star)
@@ -169,9 +182,22 @@ def electrostatic_force_adhesive_limit(normal_force: ArrayLike, voltage: ArrayLi
     return _out(np.broadcast_arrays(out, _f(normal_force))[0].copy())
 
 
+@fill_doc
 def electrostatic_force_load_limit(normal_force: ArrayLike, voltage: ArrayLike,
                                    params: ModelParameters = TABLE_1) -> NDArray[np.float64]:
-    """Asymptote of eq. (11) when the load dominates (eq. 13), sigma_0 A_Hertz ~ U^2, N."""
+    """Asymptote of eq. (11) when the load dominates (eq. 13), sigma_0 A_Hertz ~ U^2, N.
+
+    Parameters
+    ----------
+    %(normal_force)s
+    %(voltage)s
+    %(params)s
+
+    Returns
+    -------
+    ndarray
+        F_el, N.
+    """
     return _out(_f(adhesion_stress(voltage, params))
                 * _f(contact_area_hertz(normal_force, params)))
 

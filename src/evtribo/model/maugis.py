@@ -25,7 +25,7 @@ are solved one by one, with the pull-off point found first.
 
 Here dg / sigma_0 = eps_L * gap is the same at every voltage (5.48 um for Table 1), so
 lambda = 2 sigma_0^(2/3) (R / (pi h_0 K^2))^(1/3) grows as U^(4/3). For Table 1 (computed by
-this module; ``md_jkr_departure`` and :func:`evtribo.model.figures.plot_maugis` give them):
+this module; ``md_jkr_departure`` and :func:`evtribo.compare.model_figures.plot_maugis` give them):
 
 =========  ======  ======  ======  ======  ======  ======
 U (V)        10      30      60     100     140     150
@@ -51,6 +51,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize
 
+from evtribo._docs import fill_doc
 from evtribo.model.contact import hertz_radius
 from evtribo.model.electrostatics import _out, adhesion_stress, surface_energy
 from evtribo.model.params import TABLE_1, ModelParameters
@@ -306,9 +307,22 @@ def maugis_dugdale(normal_force: ArrayLike, voltage: ArrayLike,
     return MaugisDugdale(_out(a), _out(c), _out(lam), _out(load))
 
 
+@fill_doc
 def contact_area_md(normal_force: ArrayLike, voltage: ArrayLike,
                     params: ModelParameters = TABLE_1) -> NDArray[np.float64]:
-    """Maugis-Dugdale contact area pi a^2, m^2 (inputs as :func:`maugis_dugdale`)."""
+    """Maugis-Dugdale contact area pi a^2, m^2.
+
+    Parameters
+    ----------
+    %(normal_force)s
+    %(voltage)s
+    %(params)s
+
+    Returns
+    -------
+    ndarray
+        The contact area, m^2.
+    """
     return _out(np.pi * np.asarray(maugis_dugdale(normal_force, voltage, params).a) ** 2)
 
 
@@ -324,6 +338,11 @@ def electrostatic_force_md(normal_force: ArrayLike, voltage: ArrayLike,
         Applied voltage U, V.
     params : ModelParameters
         Table 1 by default.
+
+    Returns
+    -------
+    ndarray
+        The force, N.
     """
     c = np.asarray(maugis_dugdale(normal_force, voltage, params).c)
     return _out(np.asarray(adhesion_stress(voltage, params)) * np.pi * c**2)
@@ -341,6 +360,11 @@ def friction_force_md(normal_force: ArrayLike, voltage: ArrayLike,
         Applied voltage U, V.
     params : ModelParameters
         Table 1 by default.
+
+    Returns
+    -------
+    ndarray
+        The friction force, N.
     """
     f = np.asarray(normal_force, dtype=float)
     return _out(params.mu * (f + np.asarray(electrostatic_force_md(f, voltage, params))))

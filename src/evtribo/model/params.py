@@ -117,7 +117,8 @@ class ModelParameters:
     @classmethod
     def info(cls) -> tuple[ParameterInfo, ...]:
         """Name, unit, Table 1 default and description of every parameter."""
-        return tuple(ParameterInfo(f.name, f.metadata["unit"], float(f.default),
+        defaults = cls()
+        return tuple(ParameterInfo(f.name, f.metadata["unit"], float(getattr(defaults, f.name)),
                                    f.metadata["description"])
                      for f in dataclasses.fields(cls))
 

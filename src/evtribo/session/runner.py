@@ -20,7 +20,6 @@ nothing recorded is ever recorded again, nor lost.
 
 from __future__ import annotations
 
-import datetime as dt
 import logging
 import os
 import sys
@@ -42,9 +41,9 @@ from evtribo.acquisition.rigfile import AcquisitionRig, check_name, open_study
 from evtribo.acquisition.trial import record_trial
 from evtribo.acquisition.trialdata import RIG_DATA_TIMEOUT_S, TrialInfo, TrialOptions
 from evtribo.documents.session import (
-    FILENAME,
-    PlannedEntry,
-    SessionDocument,
+    SESSION_FILE,
+    PlannedTrial,
+    Session,
     read_session,
     write_session,
 )
@@ -137,10 +136,6 @@ class SessionOutcome:
     stopped: str | None = None
 
 
-def _now() -> str:
-    return dt.datetime.now(dt.UTC).isoformat(timespec="seconds").replace("+00:00", "Z")
-
-
 def _first_free(subject_dir: Path) -> int:
     """The number after the highest ``run-NN`` trial of the subject."""
     numbers = [0]
@@ -152,33 +147,29 @@ def _first_free(subject_dir: Path) -> int:
     return max(numbers) + 1
 
 
-def _plan(cfg: SessionConfig, protocol: Protocol, subject_dir: Path) -> SessionDocument:
-    """A new session's document: the plan, with the trials' names."""
+def _plan(cfg: SessionConfig, protocol: Protocol, subject_dir: Path) -> Session:
+    """A new session: the plan, with the trials' names."""
     seed = session_seed(protocol)
     first = _first_free(subject_dir)
-    planned = [PlannedEntry(trial=f"run-{first + i:02d}", waveform=p.waveform,
-                            frequency_Hz=p.frequency_Hz, amplitude_V=p.amplitude_V,
-                            condition=p.condition, notes=p.notes)
-               for i, p in enumerate(plan_trials(protocol, seed))]
-    now = _now()
-    return SessionDocument(subject=cfg.subject,
-                           protocol_file=str(Path(cfg.protocol).resolve()),
-                           protocol=protocol.to_dict(), seed=seed, planned=planned,
-                           started=now, updated=now)
+    order = tuple(PlannedTrial(trial=f"run-{first + i:02d}", waveform=p.waveform,
+                               frequency_Hz=p.frequency_Hz, amplitude_V=p.amplitude_V,
+                               condition=p.condition)
+                  for i, p in enumerate(plan_trials(protocol, seed)))
+    return Session(subject=cfg.subject, seed=seed, protocol=protocol.to_dict(), order=order)
 
 
 def _load_or_plan(cfg: SessionConfig, protocol: Protocol, subject_dir: Path
-                  ) -> tuple[SessionDocument, bool]:
-    """The session's document: read when the subject has one (and its protocol is the
-    same), else planned and written; and whether it was read."""
-    path = subject_dir / FILENAME
+                  ) -> tuple[Session, bool]:
+    """The subject's session: read when it has one (and its protocol is the same), else
+    planned and written; and whether it was read."""
+    path = subject_dir / SESSION_FILE
     if path.exists():
         doc = read_session(path)
         if doc.protocol != protocol.to_dict():
             raise ConfigError(
-                f"differs from the protocol this subject's session began with "
-                f"({doc.protocol_file}, kept in {path}): finish that session with the same "
-                "protocol, or record this one under another subject", path=cfg.protocol)
+                f"differs from the protocol this subject's session began with (kept in "
+                f"{path}): finish that session with the same protocol, or record this one "
+                "under another subject", path=cfg.protocol)
         return doc, True
     doc = _plan(cfg, protocol, subject_dir)
     subject_dir.mkdir(parents=True, exist_ok=True)
@@ -223,15 +214,17 @@ class _Session:
         self.rig: AcquisitionRig = open_study(cfg.study, cfg.rig)
         self.subject_dir = Path(cfg.study) / cfg.subject
         self.doc, resumed = _load_or_plan(cfg, self.protocol, self.subject_dir)
-        self.path = self.subject_dir / FILENAME
-        self.out = SessionOutcome(self.path, planned=len(self.doc.planned), done=self.doc.done)
+        self.notes = [p.notes for p in plan_trials(self.protocol, self.doc.seed)]
+        self.path = self.subject_dir / SESSION_FILE
+        self.out = SessionOutcome(self.path, planned=len(self.doc.order),
+                                  done=len(self.doc.done))
         self.command = (ExcitationCommand(bus, self.rig.database, self.rig.signals)
                         if ExcitationCommand.available(self.rig.signals) else None)
         if resumed:
-            self.say(f"{self.path}: {self.doc.done} of {len(self.doc.planned)} trials done; "
-                     "going on")
+            self.say(f"{self.path}: {len(self.doc.done)} of {len(self.doc.order)} trials "
+                     "done; going on")
         else:
-            self.say(f"{self.path}: {len(self.doc.planned)} trials planned (seed "
+            self.say(f"{self.path}: {len(self.doc.order)} trials planned (seed "
                      f"{self.doc.seed})")
 
     def say(self, text: str) -> None:
@@ -239,9 +232,8 @@ class _Session:
         self.cfg.stream.flush()
 
     def save(self) -> None:
-        self.doc.updated = _now()
         write_session(self.path, self.doc)
-        self.out.done = self.doc.done
+        self.out.done = len(self.doc.done)
 
     def ask(self, question: str, default: str) -> str:
         if self.cfg.yes:
@@ -250,7 +242,7 @@ class _Session:
         return answer or default
 
     # -- one trial --------------------------------------------------------------------
-    def excitation(self, entry: PlannedEntry) -> Excitation:
+    def excitation(self, entry: PlannedTrial) -> Excitation:
         state = Excitation(entry.condition != "off", entry.amplitude_V, entry.frequency_Hz,
                            entry.waveform)
         if self.command is None:
@@ -260,9 +252,9 @@ class _Session:
             self.ask("press Enter when it is set ", "")
         return state
 
-    def record(self, entry: PlannedEntry, number: int) -> Any:
+    def record(self, entry: PlannedTrial, number: int) -> Any:
         s = self.protocol.session
-        title = (f"{self.cfg.subject}/{entry.trial}  ({number}/{len(self.doc.planned)}: "
+        title = (f"{self.cfg.subject}/{entry.trial}  ({number}/{len(self.doc.order)}: "
                  f"{entry.waveform} {entry.frequency_Hz:g} Hz {entry.amplitude_V:g} V "
                  f"{entry.condition})")
         monitor = Monitor(self.rig, self.cfg.stream, duration=s.trial_s,
@@ -271,7 +263,7 @@ class _Session:
                           view=self.cfg.view) if (self.cfg.display or self.cfg.view) else None
         info = TrialInfo(waveform=entry.waveform, frequency_Hz=entry.frequency_Hz,
                          amplitude_V=entry.amplitude_V, condition=entry.condition,
-                         notes=entry.notes or None, tare_s=s.tare_s)
+                         notes=self.notes[number - 1] or None, tare_s=s.tare_s)
         options = TrialOptions(duration=s.trial_s, info=info, rig=self.cfg.rig,
                                settings=self.cfg.settings, monitor=monitor,
                                rig_data_timeout=self.cfg.rig_data_timeout)
@@ -287,7 +279,7 @@ class _Session:
                 return record_trial(self.bus, self.cfg.study, self.cfg.subject,
                                     entry.trial, options)
 
-    def check(self, entry: PlannedEntry) -> TrialCheck | None:
+    def check(self, entry: PlannedTrial) -> TrialCheck | None:
         if not self.cfg.check:
             return None
         result = check_trial(load_study(self.cfg.study), self.cfg.subject, entry.trial,
@@ -295,15 +287,14 @@ class _Session:
         self.say(f"check: {result.summary()}")
         return result
 
-    def reject(self, entry: PlannedEntry, why: str) -> None:
+    def reject(self, entry: PlannedTrial, why: str) -> None:
         name = _reject(self.subject_dir, entry.trial)
         if name is not None:
-            entry.rejected.append(name)
             self.out.rejected.append(name)
             self.say(f"{entry.trial} {why}: kept as {self.subject_dir / REJECTED / name}.*")
         self.save()
 
-    def one(self, entry: PlannedEntry, number: int) -> str | None:
+    def one(self, entry: PlannedTrial, number: int) -> str | None:
         """Record *entry* until kept; the reason to stop the session, or None."""
         while True:
             if _trial_files(self.subject_dir, entry.trial):
@@ -322,7 +313,7 @@ class _Session:
             if answer.startswith("r"):
                 self.reject(entry, "is to be redone")
                 continue
-            entry.status = "done"
+            self.doc = self.doc.with_done(entry.trial)
             self.out.recorded.append(entry.trial)
             self.save()
             return "stopped" if answer.startswith("s") else None
@@ -339,19 +330,19 @@ class _Session:
 
     def run(self) -> SessionOutcome:
         try:
-            while (entry := self.doc.next_pending) is not None:
-                number = self.doc.planned.index(entry) + 1
+            while (entry := self.doc.next_trial()) is not None:
+                number = self.doc.order.index(entry) + 1
                 stop = self.one(entry, number)
                 if stop is not None:
                     self.out.stopped = stop
                     break
-                if self.doc.next_pending is not None:
+                if self.doc.next_trial() is not None:
                     self.pause()
         except KeyboardInterrupt:
             self.out.stopped = "interrupted"
         self.save()
-        left = len(self.doc.planned) - self.doc.done
-        self.say(f"{self.doc.done} of {len(self.doc.planned)} trials done"
+        left = len(self.doc.order) - len(self.doc.done)
+        self.say(f"{len(self.doc.done)} of {len(self.doc.order)} trials done"
                  + (f"; {left} to go: run the same command again to go on" if left else ""))
         return self.out
 

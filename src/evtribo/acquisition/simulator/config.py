@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass, field, fields
-from typing import Any
+from typing import Any, cast
 
 from evtribo.errors import ConfigError
 from evtribo.model import TABLE_1
@@ -38,7 +39,8 @@ def _matrix(value: object) -> tuple[tuple[float, float], tuple[float, float]]:
     """A 2x2 matrix of finite numbers, as nested tuples, invertible."""
     key = "TrialConfig.crosstalk"
     try:
-        rows = [[float(x) for x in row] for row in value]  # type: ignore[union-attr]
+        # anything: what is not rows of numbers raises TypeError or ValueError, reported
+        rows = [[float(x) for x in row] for row in cast("Iterable[Iterable[Any]]", value)]
     except (TypeError, ValueError) as err:
         raise ConfigError(f"{value!r} is not allowed: must be a 2x2 matrix of numbers",
                           key=key) from err

@@ -192,6 +192,8 @@ def _load_dbc(dbc: str | os.PathLike[str] | None) -> Any:
         db = cantools.database.load_file(str(path))
     except (OSError, cantools.database.UnsupportedDatabaseFormatError) as err:
         raise RigConfigError(f"cannot load the CAN database: {err}", path=path) from err
+    if not isinstance(db, cantools.database.can.Database):
+        raise RigConfigError("not a CAN database (a DBC, KCD, ARXML or SYM file)", path=path)
     for name in ("FzCell", "FxCell", "HvStatus"):
         try:
             db.get_message_by_name(name)
@@ -339,7 +341,7 @@ class TrialGenerator:
         s["fn_off"] += float(fn[~gate & full].sum())
         s["n_off"] += int((~gate & full).sum())
         ft = self._friction(t, fn, contact, 1 / fz.rate_eff)[0] if xtalk[0][1] else 0.0
-        values = {"Fz": measured(xtalk[0], fn, ft, self.zeros["normal"], t)
+        values: dict[str, Any] = {"Fz": measured(xtalk[0], fn, ft, self.zeros["normal"], t)
                   + cfg.noise_N * noise.standard_normal(k.size),
                   "FzTemp": 24.0 + 0.5 * np.sin(2 * np.pi * t / 600.0)}
         tables.append(self._frames(fz, k, self._rx_times(fz, t, noise), values, drop))
@@ -357,7 +359,8 @@ class TrialGenerator:
             b0 = round(t0 / FEL_BIN_S)
             bins = np.floor(t / FEL_BIN_S).astype(np.int64) - b0
             size = max(round(t1 / FEL_BIN_S) - b0, int(bins.max()) + 1 if bins.size else 0)
-            self._fel_sum.append(np.bincount(bins, weights=fel, minlength=size)[:size])
+            self._fel_sum.append(np.bincount(bins, weights=fel, minlength=size)[:size]
+                                 .astype(np.float64, copy=False))
             self._fel_count.append(np.bincount(bins, minlength=size)[:size])
         values = {"Fx": measured(xtalk[1], fn, ft, self.zeros["tangential"], t)
                   + cfg.noise_N * noise.standard_normal(k.size),

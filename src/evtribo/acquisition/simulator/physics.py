@@ -7,9 +7,8 @@ load cells sample it on their own clocks. The electrostatic force comes from
 ``mu * (F_n + F_el(U(t)))``, with the sign of the sliding direction. While the finger is off
 the screen (:class:`Contact`: the tare stretch at the start, lift-offs) both forces are zero.
 
-The cells do not read the true forces (:class:`CellZero`, :func:`measured`): each has a zero
-offset that drifts (linearly and with a slow thermal settling), picks up mains hum, and the
-two axes leak into each other through a cross-talk matrix.
+The cells do not read the true forces (:mod:`~evtribo.acquisition.simulator.cells`:
+:class:`CellZero`, :func:`measured`, importable from here too).
 """
 
 from __future__ import annotations
@@ -22,6 +21,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy.signal import lfilter
 
+from evtribo.acquisition.simulator.cells import CellZero, measured
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.model import (
     TABLE_1,
@@ -34,20 +34,9 @@ from evtribo.model import (
     gap_factor,
 )
 
-__all__ = [
-    "CONTACT_RAMP_S",
-    "CellZero",
-    "Contact",
-    "NormalForceProcess",
-    "Strokes",
-    "drive_force",
-    "electrostatic",
-    "excitation_gate",
-    "measured",
-    "model_parameters",
-    "on_off_schedule",
-    "voltage",
-]
+__all__ = ["CONTACT_RAMP_S", "CellZero", "Contact", "NormalForceProcess", "Strokes",
+           "drive_force", "electrostatic", "excitation_gate", "measured", "model_parameters",
+           "on_off_schedule", "voltage"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -66,7 +55,16 @@ DWELL_LEVEL = 0.15
 
 def model_parameters(subject: SubjectParams) -> ModelParameters:
     """The seed paper's Table 1 with the subject's friction coefficient, air gap and other
-    model parameters (``SubjectParams.model``: e.g. the resistances ``r_sc``, ``r_g``)."""
+    model parameters (``SubjectParams.model``: e.g. the resistances ``r_sc``, ``r_g``).
+
+    Parameters
+    ----------
+    subject : SubjectParams
+
+    Returns
+    -------
+    ModelParameters
+    """
     return TABLE_1.with_values(dict(subject.model), mu=subject.mu, h_L=subject.h_L)
 
 
@@ -81,6 +79,10 @@ def electrostatic(normal_force: npt.ArrayLike, voltage: npt.ArrayLike,
     voltage : array_like, V
         Instantaneous voltage (its sign does not matter).
     params : evtribo.model.ModelParameters
+
+    Returns
+    -------
+    ndarray, N
     """
     fn = np.asarray(normal_force, dtype=np.float64)
     u = np.abs(np.asarray(voltage, dtype=np.float64))
@@ -138,6 +140,18 @@ def voltage(t: FloatArray, config: TrialConfig, params: ModelParameters | None =
     one plus the series of ``(H(k w) - 1)`` over its odd harmonics (which converges fast:
     the edges themselves pass, ``H -> 1``; tabulated over one period), so that its force
     pulses after each edge.
+
+    Parameters
+    ----------
+    t : ndarray, s
+        Times from the trial's start.
+    config : TrialConfig
+    params : ModelParameters, optional
+        The model, for the voltage at the gap (default: the applied voltage).
+
+    Returns
+    -------
+    ndarray, V
     """
     t = np.asarray(t, dtype=np.float64)
     w = 2 * np.pi * config.frequency_Hz
@@ -177,6 +191,10 @@ def drive_force(t: FloatArray, normal_force: FloatArray, config: TrialConfig,
     params : ModelParameters
     interval_s : float, s
         The cell's sampling interval.
+
+    Returns
+    -------
+    ndarray, N
     """
     fn = np.asarray(normal_force, dtype=np.float64)
     on = excitation_gate(t, config)
@@ -201,7 +219,18 @@ def drive_force(t: FloatArray, normal_force: FloatArray, config: TrialConfig,
 
 
 def excitation_gate(t: FloatArray, config: TrialConfig) -> npt.NDArray[np.bool_]:
-    """Whether the voltage is applied at times *t* (s)."""
+    """Whether the voltage is applied at times *t* (s).
+
+    Parameters
+    ----------
+    t : ndarray, s
+        Times from the trial's start.
+    config : TrialConfig
+
+    Returns
+    -------
+    ndarray of bool
+    """
     t = np.asarray(t, dtype=np.float64)
     if config.condition == "on":
         return np.ones(t.shape, dtype=bool)
@@ -212,7 +241,16 @@ def excitation_gate(t: FloatArray, config: TrialConfig) -> npt.NDArray[np.bool_]
 
 
 def on_off_schedule(config: TrialConfig) -> list[tuple[float, float, bool]]:
-    """The trial's phases as ``(start_s, end_s, on)``, in seconds from the trial's start."""
+    """The trial's phases as ``(start_s, end_s, on)``, in seconds from the trial's start.
+
+    Parameters
+    ----------
+    config : TrialConfig
+
+    Returns
+    -------
+    list of (float, float, bool)
+    """
     end = config.duration_s
     if config.condition != "alternating":
         return [(0.0, end, config.condition == "on")]
@@ -407,66 +445,3 @@ class Contact:
             if hi > lo:
                 out.append((lo, hi))
         return out
-
-
-@dataclass(frozen=True)
-class CellZero:
-    """What a load cell reads with no force on it: offset, drift, thermal settling, hum.
-
-    ``zero(t) = offset + drift * t + thermal * (1 - exp(-t / thermal_time)) + hum(t)``, the
-    hum a sine at the mains frequency with a third harmonic of a fifth of its amplitude.
-
-    Attributes
-    ----------
-    offset_N : float, N
-    drift_N_per_s : float, N/s
-    thermal_N : float, N
-    thermal_time_s : float, s
-    hum_N : float, N
-    mains_Hz : float, Hz
-    hum_phase : tuple of float, rad
-        Phases of the fundamental and of the third harmonic.
-    """
-
-    offset_N: float = 0.0
-    drift_N_per_s: float = 0.0
-    thermal_N: float = 0.0
-    thermal_time_s: float = 60.0
-    hum_N: float = 0.0
-    mains_Hz: float = 50.0
-    hum_phase: tuple[float, float] = (0.0, 0.0)
-
-    def offset(self, t: npt.ArrayLike) -> FloatArray:
-        """The zero without the hum at times *t* (s), N."""
-        t = np.asarray(t, dtype=np.float64)
-        return (self.offset_N + self.drift_N_per_s * t
-                + self.thermal_N * -np.expm1(-t / self.thermal_time_s))
-
-    def mean_offset(self, t0: float, t1: float) -> float:
-        """Mean of :meth:`offset` over ``[t0, t1]`` (s), N."""
-        if t1 <= t0:
-            return float(self.offset(t0))
-        tau = self.thermal_time_s
-        thermal = 1.0 + tau * (math.exp(-t1 / tau) - math.exp(-t0 / tau)) / (t1 - t0)
-        return (self.offset_N + self.drift_N_per_s * 0.5 * (t0 + t1)
-                + self.thermal_N * thermal)
-
-    def hum(self, t: npt.ArrayLike) -> FloatArray:
-        """The mains hum at times *t* (s), N."""
-        t = np.asarray(t, dtype=np.float64)
-        if self.hum_N == 0:
-            return np.zeros(t.shape)
-        w = 2 * np.pi * self.mains_Hz * t
-        return self.hum_N * (np.sin(w + self.hum_phase[0])
-                             + 0.2 * np.sin(3 * w + self.hum_phase[1]))
-
-    def __call__(self, t: npt.ArrayLike) -> FloatArray:
-        return self.offset(t) + self.hum(t)
-
-
-def measured(row: tuple[float, float], normal_N: npt.ArrayLike, tangential_N: npt.ArrayLike,
-             zero: CellZero, t: npt.ArrayLike) -> FloatArray:
-    """One cell's reading: its row of the cross-talk matrix applied to the true forces, plus
-    its zero (noise is added by the caller), N."""
-    return (row[0] * np.asarray(normal_N, dtype=np.float64)
-            + row[1] * np.asarray(tangential_N, dtype=np.float64) + zero(t))

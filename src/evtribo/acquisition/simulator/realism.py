@@ -103,7 +103,17 @@ def realistic_rig(config: TrialConfig, *, offset_N: float = 0.05, drift_N: float
 def human(subject: SubjectParams, seed: int = 0) -> SubjectParams:
     """*subject* with a person's strokes: about a second each, irregular, resting at reversals,
     lifting now and then, pressing with a force that wanders (drawn with *seed*; μ, air gap
-    and target kept)."""
+    and target kept).
+
+    Parameters
+    ----------
+    subject : SubjectParams
+    seed : int
+
+    Returns
+    -------
+    SubjectParams
+    """
     rng = np.random.default_rng([seed, _S_PERSON])
     return dataclasses.replace(
         subject,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import logging
 import os
@@ -17,12 +18,14 @@ from evtribo.acquisition.rigfile import write_new_study
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.core import DEFAULT_DBC, TrialTruth, simulate_trial
 from evtribo.acquisition.simulator.realism import human, realistic_rig
+from evtribo.documents.sidecar import rig_entry, write_sidecar
 from evtribo.errors import OutputExistsError
 from evtribo.files import atomic_open, partial_path
 from evtribo.frames import write_candump
 from evtribo.frames.table import FrameTable
 from evtribo.lock import WriteLock
-from evtribo.study import STUDY_FILE, validate_name, write_sidecar
+from evtribo.rig import default_rig
+from evtribo.study import STUDY_FILE, validate_name
 
 __all__ = ["default_subjects", "simulate_study", "write_trial"]
 
@@ -45,7 +48,18 @@ RIG_KEYS = {
 
 def default_subjects(n: int = 3, seed: int = 0) -> list[SubjectParams]:
     """*n* plausible, different subjects ``P01``, ``P02``...: mu 0.3-0.7, air gap 3-8 um,
-    target force 0.4-1.0 N (drawn with *seed*)."""
+    target force 0.4-1.0 N (drawn with *seed*).
+
+    Parameters
+    ----------
+    n : int
+        How many subjects.
+    seed : int
+
+    Returns
+    -------
+    list of SubjectParams
+    """
     rng = np.random.default_rng([seed, 1001])
     return [
         SubjectParams(name=f"P{i + 1:02d}", mu=round(float(rng.uniform(0.3, 0.7)), 3),
@@ -55,6 +69,13 @@ def default_subjects(n: int = 3, seed: int = 0) -> list[SubjectParams]:
                       sliding_speed_m_s=round(float(rng.uniform(0.015, 0.03)), 4))
         for i in range(n)
     ]
+
+
+@functools.cache
+def _rig_entry() -> dict[str, Any]:
+    """The sidecar's ``rig``: the default rig's name, its DBC's copy and version."""
+    rig = default_rig()
+    return rig_entry(RIG_DBC, name=rig.name, dbc_version=rig.database.version)
 
 
 def _ensure_study(root: Path, name: str) -> None:
@@ -90,6 +111,8 @@ def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams
         Overwrite an existing trial.
     notes : str
         Free text for the sidecar.
+    study_name : str
+        The study's ``name`` in a new ``study.toml``.
 
     Returns
     -------
@@ -140,7 +163,7 @@ def _write_files(log_path: Path, frames: FrameTable, truth: TrialTruth, subject:
         "subject": subject.name, "waveform": config.waveform,
         "frequency_Hz": config.frequency_Hz, "amplitude_V": config.amplitude_V,
         "condition": config.condition, "notes": notes, "tare_s": config.tare_s,
-        "rig": RIG_DBC, "bus": {"interface": "simulated", "channel": config.channel},
+        "rig": _rig_entry(), "bus": {"interface": "simulated", "channel": config.channel},
         "software": f"evtribo {__version__}", "start_time": config.start_time,
         "frames": len(frames), "dropped_frames": dropped, "bus_errors": 0,
         "simulation": truth.to_dict(),
@@ -173,6 +196,8 @@ def simulate_study(root: str | os.PathLike[str], subjects: Sequence[SubjectParam
     sine_trial : bool
     force : bool
         Overwrite existing trials.
+    name : str
+        The study's ``name`` in a new ``study.toml``.
     realistic : bool
         A real rig and real people (:mod:`~evtribo.acquisition.simulator.realism`): every
         trial's load cells get their own offsets, drift and hum and a tare stretch, every

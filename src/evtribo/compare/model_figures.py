@@ -1,22 +1,25 @@
-"""Figures 5, 6 and 7 of the seed paper, and the Maugis-Dugdale comparison it leaves out.
+"""The model alone: Figures 5, 6 and 7 of the seed paper, the Maugis-Dugdale comparison it
+leaves out, and F_el against the drive's frequency (``evtribo model --figures``).
 
-Each ``plot_*`` function draws on the Axes it is given (or on a new one, of a new
-:class:`matplotlib.figure.Figure`, without pyplot's global state) and returns the Axes.
-:func:`save_figures` writes them all as PNG and SVG with the Agg backend.
+Each ``plot_*`` function draws on the Axes it is given (or on a new one,
+:func:`evtribo.compare.plots.new_axes`, without pyplot's global state) and returns the Axes.
+:func:`save_model_figures` writes them all as PNG and SVG
+(:func:`evtribo.compare.plots.save_figure`). The figures of a comparison with measured
+results are :mod:`evtribo.compare.plots`'.
 """
 
 from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from evtribo.compare.plots import new_axes, save_figure
 from evtribo.errors import OutputExistsError
 from evtribo.model.circuit import electrostatic_force_drive, layer_elastances
 from evtribo.model.contact import area_increase_pct, contact_area_jkr
@@ -30,29 +33,24 @@ from evtribo.model.maugis import contact_area_md, maugis_parameter, md_jkr_depar
 from evtribo.model.params import TABLE_1, ModelParameters
 
 __all__ = [
-    "FIGURES",
-    "plot_area_increase",
+    "MODEL_FIGURES",
     "plot_frequency",
-    "plot_friction_time",
-    "plot_friction_vs_load",
     "plot_maugis",
-    "save_figures",
+    "plot_paper_area_increase",
+    "plot_paper_friction_time",
+    "plot_paper_friction_vs_load",
+    "save_model_figures",
 ]
 
 log = logging.getLogger(__name__)
 
-
-def _axes(ax: Axes | None, figsize: tuple[float, float] = (6.4, 4.2)) -> Axes:
-    if ax is not None:
-        return ax
-    fig = Figure(figsize=figsize, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig.add_subplot()
+_FIGSIZE = (6.4, 4.2)
 
 
-def plot_friction_time(ax: Axes | None = None, *, normal_force: float = 0.5,
-                       amplitude: float = 140.0, frequency: float = 10.0,
-                       duration: float = 0.3, params: ModelParameters = TABLE_1) -> Axes:
+def plot_paper_friction_time(ax: Axes | None = None, *, normal_force: float = 0.5,
+                             amplitude: float = 140.0, frequency: float = 10.0,
+                             duration: float = 0.3,
+                             params: ModelParameters = TABLE_1) -> Axes:
     """Figure 5: friction versus time for a sine voltage, ON and OFF, and the external force.
 
     Parameters
@@ -74,7 +72,7 @@ def plot_friction_time(ax: Axes | None = None, *, normal_force: float = 0.5,
     -------
     Axes
     """
-    ax = _axes(ax)
+    ax = ax if ax is not None else new_axes(_FIGSIZE)
     t = np.linspace(0.0, duration, 3001)
     on = friction_time_series(t, normal_force, sine_voltage(t, amplitude, frequency), params)
     off = friction_time_series(t, normal_force, 0.0, params)
@@ -87,9 +85,9 @@ def plot_friction_time(ax: Axes | None = None, *, normal_force: float = 0.5,
     return ax
 
 
-def plot_friction_vs_load(ax: Axes | None = None, *, amplitude: float = 140.0,
-                          frequency: float = 10e3, max_force: float = 2.0,
-                          params: ModelParameters = TABLE_1) -> Axes:
+def plot_paper_friction_vs_load(ax: Axes | None = None, *, amplitude: float = 140.0,
+                                frequency: float = 10e3, max_force: float = 2.0,
+                                params: ModelParameters = TABLE_1) -> Axes:
     """Figure 6: friction versus external force, OFF and ON under a square-wave voltage.
 
     The ON friction is the time average over one period of the square wave (steady, since
@@ -112,7 +110,7 @@ def plot_friction_vs_load(ax: Axes | None = None, *, amplitude: float = 140.0,
     -------
     Axes
     """
-    ax = _axes(ax)
+    ax = ax if ax is not None else new_axes(_FIGSIZE)
     forces = np.linspace(0.0, max_force, 201)
     t = np.linspace(0.0, 1.0 / frequency, 200, endpoint=False)
     u = square_voltage(t, amplitude, frequency)
@@ -126,10 +124,10 @@ def plot_friction_vs_load(ax: Axes | None = None, *, amplitude: float = 140.0,
     return ax
 
 
-def plot_area_increase(ax: Axes | None = None, *,
-                       normal_forces: Sequence[float] = (0.1, 0.5, 2.0),
-                       max_voltage: float = 150.0,
-                       params: ModelParameters = TABLE_1) -> Axes:
+def plot_paper_area_increase(ax: Axes | None = None, *,
+                             normal_forces: Sequence[float] = (0.1, 0.5, 2.0),
+                             max_voltage: float = 150.0,
+                             params: ModelParameters = TABLE_1) -> Axes:
     """Figure 7: percentage increase of the contact area (JKR over Hertz) versus voltage.
 
     Parameters
@@ -147,7 +145,7 @@ def plot_area_increase(ax: Axes | None = None, *,
     -------
     Axes
     """
-    ax = _axes(ax)
+    ax = ax if ax is not None else new_axes(_FIGSIZE)
     u = np.linspace(0.0, max_voltage, 301)
     for f in normal_forces:
         ax.plot(u, area_increase_pct(f, u, params), label=f"F_ext = {f:g} N")
@@ -181,7 +179,7 @@ def plot_maugis(ax: Axes | None = None, *, normal_forces: Sequence[float] = (0.1
     Axes
         The left (percent) Axes; the lambda axis is its twin.
     """
-    ax = _axes(ax)
+    ax = ax if ax is not None else new_axes(_FIGSIZE)
     u = np.linspace(max_voltage / 60, max_voltage, 60)
     for i, f in enumerate(normal_forces):
         color = f"C{i}"
@@ -229,7 +227,7 @@ def plot_frequency(ax: Axes | None = None, *, normal_force: float = 0.5,
     -------
     Axes
     """
-    ax = _axes(ax)
+    ax = ax if ax is not None else new_axes(_FIGSIZE)
     f = np.geomspace(1.0, 1e5, 121)
     for waveform, style in (("square", "-"), ("sine", "--")):
         ax.plot(f, 1e3 * electrostatic_force_drive(normal_force, amplitude, f, waveform,
@@ -251,20 +249,20 @@ def plot_frequency(ax: Axes | None = None, *, normal_force: float = 0.5,
     return ax
 
 
-#: name -> plotting function, in the order :func:`save_figures` writes them.
-FIGURES = {
-    "fig5_friction_time": plot_friction_time,
-    "fig6_friction_vs_load": plot_friction_vs_load,
-    "fig7_area_increase": plot_area_increase,
+#: name -> plotting function, in the order :func:`save_model_figures` writes them.
+MODEL_FIGURES: dict[str, Callable[..., Axes]] = {
+    "fig5_friction_time": plot_paper_friction_time,
+    "fig6_friction_vs_load": plot_paper_friction_vs_load,
+    "fig7_area_increase": plot_paper_area_increase,
     "maugis_vs_jkr": plot_maugis,
     "frequency": plot_frequency,
 }
 
 
-def save_figures(directory: str | os.PathLike[str], *, force: bool = False,
-                 formats: Sequence[str] = ("png", "svg"),
-                 params: ModelParameters = TABLE_1) -> list[Path]:
-    """Write every figure of :data:`FIGURES` into *directory* (created if missing).
+def save_model_figures(directory: str | os.PathLike[str], *, force: bool = False,
+                       formats: Sequence[str] = ("png", "svg"),
+                       params: ModelParameters = TABLE_1) -> list[Path]:
+    """Write every figure of :data:`MODEL_FIGURES` into *directory* (created if missing).
 
     Parameters
     ----------
@@ -289,7 +287,7 @@ def save_figures(directory: str | os.PathLike[str], *, force: bool = False,
         If a file exists and *force* is false.
     """
     out = Path(directory)
-    paths = [out / f"{name}.{fmt}" for name in FIGURES for fmt in formats]
+    paths = [out / f"{name}.{fmt}" for name in MODEL_FIGURES for fmt in formats]
     existing = [p for p in paths if p.exists()]
     if existing and not force:
         raise OutputExistsError(
@@ -297,13 +295,11 @@ def save_figures(directory: str | os.PathLike[str], *, force: bool = False,
             path=existing[0])
     out.mkdir(parents=True, exist_ok=True)
     written = []
-    for name, plot in FIGURES.items():
+    for name, plot in MODEL_FIGURES.items():
         ax = plot(params=params)
         fig = ax.get_figure()
-        assert fig is not None
-        for fmt in formats:
-            path = out / f"{name}.{fmt}"
-            fig.savefig(path, dpi=150)
+        assert isinstance(fig, Figure)
+        for path in save_figure(fig, out, name, dpi=150, formats=formats):
             written.append(path)
             log.info("wrote %s", path)
     return written

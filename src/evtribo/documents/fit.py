@@ -1,0 +1,184 @@
+"""``fit.json``: what one ``evtribo compare`` fitted and wrote.
+
+Keys (in the order ``compare`` writes them, :data:`FIT_KEYS`): ``run_id`` (the analysis
+fitted, from its ``summary.json``), ``software``, ``fit`` (the parameters fitted per subject),
+``parameters_file`` (``{"path", "sha256"}`` or null), ``fixed_parameters``, ``subjects``
+(per subject: ``parameters``, ``estimates``, ``correlation``, ``rmse_N``, ``r2``,
+``chi2_reduced``, ``n_points``, ``mu_measured``, ``interval``), ``figures``, ``notes`` and
+``output_sha256`` (every file compare wrote, which ``evtribo report`` checks). The document
+is JSON with two-space indentation and a final newline; non-finite numbers are written as
+null. It carries no version key of its own: :data:`FIT_VERSION` is the version of the shape
+this module writes and reads.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from evtribo.errors import ResultFolderError
+from evtribo.files import atomic_write
+
+__all__ = ["FIT_JSON", "FIT_KEYS", "FIT_VERSION", "FitDocument", "fit_text", "read_fit",
+           "write_fit"]
+
+#: The file's name in a result folder.
+FIT_JSON = "fit.json"
+#: Version of the shape of the document (not written into it).
+FIT_VERSION = 1
+#: The keys ``evtribo compare`` writes, in its order.
+FIT_KEYS: tuple[str, ...] = ("run_id", "software", "fit", "parameters_file",
+                             "fixed_parameters", "subjects", "figures", "notes",
+                             "output_sha256")
+
+
+@dataclass(frozen=True)
+class FitDocument(Mapping[str, Any]):
+    """``fit.json`` as read: a read-only mapping of its keys, and typed attributes.
+
+    Attributes
+    ----------
+    data : dict
+        The whole document.
+    path : Path or None
+        Where it was read from.
+    """
+
+    data: dict[str, Any] = field(default_factory=dict)
+    path: Path | None = None
+
+    def __getitem__(self, key: str) -> Any:
+        return self.data[key]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.data)
+
+    def __len__(self) -> int:
+        return len(self.data)
+
+    def _typed(self, key: str, kind: type, default: Any) -> Any:
+        value = self.data.get(key)
+        if value is None:
+            return default
+        if not isinstance(value, kind):
+            raise ResultFolderError(f"key {key!r}: a {type(value).__name__} where evtribo "
+                                    f"compare writes a {kind.__name__} (fit.json edited?)",
+                                    path=self.path)
+        return value
+
+    @property
+    def run_id(self) -> str | None:
+        """The analysis fitted (None when it had no ``run_id``)."""
+        value = self._typed("run_id", str, None)
+        return None if value is None else str(value)
+
+    @property
+    def fit(self) -> list[str]:
+        """The parameters fitted per subject."""
+        return [str(n) for n in self._typed("fit", list, [])]
+
+    @property
+    def fixed_parameters(self) -> dict[str, Any]:
+        """The model's parameters before the fit (SI units)."""
+        return dict(self._typed("fixed_parameters", dict, {}))
+
+    @property
+    def subjects(self) -> dict[str, Any]:
+        """Per subject: its parameters, estimates, quality of fit and intervals."""
+        return dict(self._typed("subjects", dict, {}))
+
+    @property
+    def figures(self) -> list[dict[str, Any]]:
+        """``{"kind", "title", "stem", "subject", "caption"}`` of each figure written."""
+        return [dict(f) for f in self._typed("figures", list, []) if isinstance(f, dict)]
+
+    @property
+    def notes(self) -> list[str]:
+        """What the comparison noted (how the intervals were obtained, a missing trace)."""
+        return [str(n) for n in self._typed("notes", list, [])]
+
+    @property
+    def software(self) -> dict[str, Any]:
+        """Versions of the software that compared."""
+        return dict(self._typed("software", dict, {}))
+
+    @property
+    def parameters_file(self) -> dict[str, Any] | None:
+        """``{"path", "sha256"}`` of the parameter file used, or None."""
+        value = self._typed("parameters_file", dict, None)
+        return None if value is None else dict(value)
+
+    @property
+    def output_sha256(self) -> dict[str, str]:
+        """SHA-256 of every file compare wrote, by its path in the result folder."""
+        return {str(k): str(v) for k, v in self._typed("output_sha256", dict, {}).items()}
+
+
+def fit_text(doc: Mapping[str, Any]) -> str:
+    """The text of ``fit.json`` holding *doc*.
+
+    Parameters
+    ----------
+    doc : mapping
+        The document (keys as in :data:`FIT_KEYS`).
+
+    Returns
+    -------
+    str
+        Two-space-indented JSON with a final newline.
+    """
+    return json.dumps(doc, indent=2) + "\n"
+
+
+def write_fit(path: str | os.PathLike[str], doc: Mapping[str, Any]) -> Path:
+    """Write *doc* to *path*, whole or not at all.
+
+    Parameters
+    ----------
+    path : path-like
+        The file (``<out>/fit.json``, or its place in a staging folder).
+    doc : mapping
+        The document (see :func:`fit_text`).
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
+    return atomic_write(path, fit_text(doc))
+
+
+def read_fit(path: str | os.PathLike[str], *, again: str = "") -> FitDocument:
+    """Read ``fit.json``.
+
+    Parameters
+    ----------
+    path : path-like
+        The file.
+    again : str
+        What mends a damaged file, appended to the message (``"; run ..."``).
+
+    Returns
+    -------
+    FitDocument
+
+    Raises
+    ------
+    ResultFolderError
+        The file is missing, not valid JSON, or not a JSON object.
+    """
+    file = Path(path)
+    try:
+        doc = json.loads(file.read_text(encoding="utf-8"))
+    except FileNotFoundError as err:
+        raise ResultFolderError(f"missing{again}", path=file) from err
+    except (ValueError, UnicodeDecodeError) as err:
+        raise ResultFolderError(f"not valid JSON ({err}){again}", path=file) from err
+    if not isinstance(doc, dict):
+        raise ResultFolderError(f"not a model fit written by evtribo compare{again}",
+                                path=file)
+    return FitDocument(doc, file)
