@@ -14,6 +14,7 @@ LAYERS = {
     "evtribo": 0, "errors": 0, "_docs": 0,
     "files": 1, "documents": 1,
     "model": 2, "frames": 2, "signal_codec": 2, "lock": 2, "resultdir": 2, "dropped": 2,
+    "signals": 2,
     "rig": 3,
     "study": 4, "decode": 4,
     "cache": 5,
