@@ -87,8 +87,7 @@ def _warm():
 def test_a_damaged_trial_is_analysed_or_refused_cleanly(frames, meta):
     signals = decode_trial(frames, RIG)
     try:
-        result = analyze_signals(signals, meta, settings=SETTINGS,
-                                 counter_moduli={"normal": 256, "tangential": 256})
+        result = analyze_signals(signals, meta, settings=SETTINGS)
     except (AnalysisError, UserInputError) as err:
         event(f"refused: {type(err).__name__}")
         assert "P01/run-01" in str(err) or str(err)

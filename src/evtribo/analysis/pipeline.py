@@ -73,10 +73,10 @@ from evtribo.analysis.trial import (
     failed_row,
 )
 from evtribo.cache import load_trial
-from evtribo.decode import TrialSignals
 from evtribo.errors import AnalysisError, SidecarError, StudyError, UserInputError
 from evtribo.resultdir import Staging, locked, recover, release_inherited_locks
 from evtribo.rig import Rig
+from evtribo.signals import TrialSignals
 from evtribo.study import STUDY_FILE, Study, TrialRef, load_study
 
 log = logging.getLogger(__name__)
@@ -160,12 +160,8 @@ _Result = tuple[int, dict[str, Any], pd.DataFrame, list[str], str | None, pd.Dat
 
 
 def _meta(ref: TrialRef) -> TrialMeta:
-    sc = ref.sidecar
-    tare_s = sc.extra.get("tare_s")
-    return TrialMeta(subject=ref.subject, trial=ref.name, waveform=sc.waveform,
-                     frequency_Hz=sc.frequency_Hz, amplitude_V=sc.amplitude_V,
-                     condition=sc.condition,
-                     tare_s=float(tare_s) if isinstance(tare_s, int | float) else None)
+    """The trial's names and its sidecar's values."""
+    return TrialMeta.from_sidecar(ref.subject, ref.name, ref.sidecar)
 
 
 def _load(ref: TrialRef, rig: Rig, strict: bool, expect: tuple[str, int, int] | None

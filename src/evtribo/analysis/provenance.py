@@ -22,6 +22,7 @@ from typing import Any
 
 from evtribo import __version__
 from evtribo.files import sha256_file
+from evtribo.study import Study
 
 __all__ = ["changed_since", "file_record", "input_files", "provenance", "software_versions"]
 
@@ -49,12 +50,13 @@ def file_record(path: Path, root: Path, role: str) -> dict[str, Any]:
             "_mtime_ns": stamp, "_path": os.path.abspath(path)}
 
 
-def input_files(study: Any) -> list[dict[str, Any]]:
+def input_files(study: Study) -> list[dict[str, Any]]:
     """Records of a study's inputs: study.toml, the rig's DBC, each trial's log and sidecar.
 
     Parameters
     ----------
     study : evtribo.study.Study
+        The study, as loaded.
 
     Returns
     -------
@@ -65,7 +67,7 @@ def input_files(study: Any) -> list[dict[str, Any]]:
     toml = root / "study.toml"
     if toml.is_file():
         records.append(file_record(toml, root, "study"))
-    rig = getattr(study, "rig", None)
+    rig = study.rig
     if rig is not None and Path(rig.dbc).is_file():
         records.append(file_record(Path(rig.dbc), root, "dbc"))
     for ref in study.trials:
@@ -75,9 +77,9 @@ def input_files(study: Any) -> list[dict[str, Any]]:
     return records
 
 
-def rig_roles(study: Any) -> dict[str, Any]:
+def rig_roles(study: Study) -> dict[str, Any]:
     """The rig as a flat mapping: name, DBC (relative to the study) and each role's signal."""
-    rig = getattr(study, "rig", None)
+    rig = study.rig
     if rig is None:
         return {}
     root = Path(study.root).resolve()
@@ -104,15 +106,16 @@ def software_versions() -> dict[str, str | None]:
     return out
 
 
-def provenance(study: Any, started: float,
+def provenance(study: Study, started: float,
                inputs: list[dict[str, Any]] | None = None) -> dict[str, Any]:
     """The provenance keys of summary.json.
 
     Parameters
     ----------
     study : evtribo.study.Study
-    started : float, s
-        Epoch time at which the analysis started.
+        The study, as loaded.
+    started : float
+        Epoch time at which the analysis started, s.
     inputs : list of dict, optional
         :func:`input_files` of the study, as taken when the analysis started (default: hash
         them now).

@@ -45,7 +45,7 @@ calibration's matrix. What was removed is reported in the cells' own units.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -118,7 +118,7 @@ def _hats(x: FloatArray, knots: FloatArray) -> FloatArray:
 
 
 def friction_loop_offset(t: npt.ArrayLike, normal: npt.ArrayLike, tangential: npt.ArrayLike,
-                         windows: pd.DataFrame, groups: npt.ArrayLike, *,
+                         windows: pd.DataFrame, groups: Sequence[object], *,
                          max_knots: int | None = None) -> LoopFit | None:
     """Fit the tangential offset from forward and backward strokes.
 
@@ -137,7 +137,7 @@ def friction_loop_offset(t: npt.ArrayLike, normal: npt.ArrayLike, tangential: np
     windows : pandas.DataFrame
         Steady-sliding windows (:func:`evtribo.analysis.windows.find_windows`: ``i_start``,
         ``i_stop``, ``direction``).
-    groups : array_like
+    groups : sequence
         Each window's group: None (or NaN) for OFF, any hashable label for an ON group
         (e.g. its amplitude).
     max_knots : int, optional
