@@ -17,7 +17,7 @@ LAYERS = {
     "signals": 2,
     "rig": 3,
     "study": 4, "decode": 4,
-    "cache": 5,
+    "cache": 5, "decode_table": 5,
     "analysis": 6, "acquisition": 6,
     "compare": 7,
     "demo": 8,
