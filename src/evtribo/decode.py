@@ -3,23 +3,20 @@
 Two entry points:
 
 ``decode_messages(frames, db) -> dict[str, DecodedMessage]``
-    Every message of the database found in the frames; each
-    :class:`DecodedMessage` holds ``timestamp`` (s), the ``raw`` codes of each signal
-    (integers, or floats for IEEE float signals) and gives ``scaled(name)`` (physical value,
-    ``raw * scale + offset`` as cantools' ``raw_to_scaled``) and ``choice_names(name)``
-    (value-table names). Used by ``evtribo decode``.
+    Every message of the database found in the frames; each :class:`DecodedMessage` holds
+    ``timestamp`` (s), the ``raw`` codes of each signal (integers, or floats for IEEE float
+    signals) and gives ``scaled(name)`` (physical value, ``raw * scale + offset`` as
+    cantools' ``raw_to_scaled``) and ``choice_names(name)`` (value-table names). Used by
+    ``evtribo decode``.
 
 ``decode_trial(frames, rig, channel=None) -> TrialSignals``
-    The forces of one trial (:mod:`evtribo.signals`, the analysis's input): ``.normal`` and
-    ``.tangential`` (:class:`CellSignals`: ``t`` s, ``value`` N, ``counter``, ``dropped``
-    frames), ``.excitation`` (None, or :class:`ExcitationSignals`: ``t``, ``enabled``,
-    ``amplitude`` V, ``frequency`` Hz, ``waveform`` names: the DBC's value table, else
-    :data:`FALLBACK_WAVEFORMS` with a warning), and the counts ``frames`` (rig frames
-    decoded) and ``ignored_frames`` (other IDs, other channels, error and remote frames, CAN
-    XL frames, frames too short, frames of a multiplexed message whose multiplexer value the
-    DBC does not know). The rig's frames come from one channel (bus): the one named, else the
-    one carrying most of them, with a warning when the rig's IDs arrive on several (the same
-    ID on two buses is two streams, never merged).
+    The forces of one trial (:mod:`evtribo.signals`, the analysis's input): the two load
+    cells, the excitation (waveforms named by the DBC's value table, else
+    :data:`FALLBACK_WAVEFORMS` with a warning), and the counts of frames decoded and ignored
+    (other IDs, other channels, error, remote and CAN XL frames, frames too short, unknown
+    multiplexer values). The rig's frames come from one channel (bus): the one named, else
+    the one carrying most of them, with a warning when the rig's IDs arrive on several (the
+    same ID on two buses is two streams, never merged).
 
 How a signal is extracted: :class:`~evtribo.signal_codec.SignalCodec` (any byte order,
 start bit, length up to 64 bits, sign, IEEE float), vectorised over frames. Multiplexed
@@ -104,7 +101,20 @@ class DecodedMessage:
 
 
 def message_mask(frames: FrameTable, message: Message) -> npt.NDArray[np.bool_]:
-    """Frames carrying *message*: same ID and ID kind, data frames (not error or remote)."""
+    """Frames carrying *message*: same ID and ID kind, data frames (not error or remote).
+
+    Parameters
+    ----------
+    frames : FrameTable
+        The log's frames.
+    message : cantools.database.can.Message
+        The message.
+
+    Returns
+    -------
+    ndarray of bool
+        One per frame.
+    """
     return ((frames.arbitration_id == np.uint32(message.frame_id))
             & (frames.is_extended == bool(message.is_extended_frame))
             & ~frames.is_error & ~frames.is_remote)
@@ -112,7 +122,24 @@ def message_mask(frames: FrameTable, message: Message) -> npt.NDArray[np.bool_]:
 
 def decode_message(frames: FrameTable, message: Message, signals: list[str] | None = None,
                    *, mask: npt.NDArray[np.bool_] | None = None) -> DecodedMessage:
-    """Decode the frames of one message (all its signals, or those named)."""
+    """Decode the frames of one message (all its signals, or those named).
+
+    Parameters
+    ----------
+    frames : FrameTable
+        The log's frames.
+    message : cantools.database.can.Message
+        The message.
+    signals : list of str, optional
+        The signals to decode (default: all).
+    mask : ndarray of bool, optional
+        The frames of the message, when already known (:func:`message_mask`).
+
+    Returns
+    -------
+    DecodedMessage
+        Frames shorter than the message are left out (with a warning).
+    """
     sel = message_mask(frames, message) if mask is None else mask
     full = sel & (frames.dlc >= message.length)
     short = int(np.count_nonzero(sel)) - int(np.count_nonzero(full))
@@ -169,6 +196,15 @@ def decode_messages(frames: FrameTable, db: Database, *, messages: list[str] | N
                     ) -> dict[str, DecodedMessage]:
     """Decode every message of *db* present in *frames* (or the messages named).
 
+    Parameters
+    ----------
+    frames : FrameTable
+        The log's frames.
+    db : cantools.database.can.Database
+        The DBC.
+    messages : list of str, optional
+        Names of the messages to decode (default: all).
+
     Returns
     -------
     dict of str to DecodedMessage
@@ -193,7 +229,21 @@ def _id_text(frame_id: int, extended: bool) -> str:
 def kind_mismatches(frames: FrameTable, messages: list[Message], db: Database) -> list[str]:
     """Why frames whose ID number is one of *messages*' but of the other kind (standard
     or extended) are not decoded as it: one sentence per message, when *db* has no message
-    of that number and kind."""
+    of that number and kind.
+
+    Parameters
+    ----------
+    frames : FrameTable
+        The log's frames.
+    messages : list of cantools.database.can.Message
+        The messages looked for.
+    db : cantools.database.can.Database
+        Their DBC.
+
+    Returns
+    -------
+    list of str
+    """
     known = {(m.frame_id, bool(m.is_extended_frame)) for m in db.messages}
     data = ~frames.is_error & ~frames.is_remote
     ids: dict[bool, npt.NDArray[np.uint32]] = {}  # IDs of the data frames of each kind
@@ -282,9 +332,8 @@ def _hold(t_src: Array, values: npt.NDArray[Any], t: Array) -> npt.NDArray[Any]:
 
 def waveform_names(msg: DecodedMessage, ref: SignalRef, warnings: list[str]
                    ) -> npt.NDArray[np.object_]:
-    """Names of a waveform signal's codes: its value table's, else
-    :data:`FALLBACK_WAVEFORMS` (with a warning naming the signal); None where a frame
-    of a multiplexed message does not carry it.
+    """Names of a waveform signal's codes: its value table's, else :data:`FALLBACK_WAVEFORMS`
+    (with a warning naming the signal); None where a multiplexed frame does not carry it.
 
     Parameters
     ----------

@@ -288,6 +288,10 @@ def offset_curve(t: npt.ArrayLike, at: Sequence[float], values: Sequence[float],
         Times (s, increasing) and offsets (N) measured there.
     slope : float, N/s
         Drift rate through a single point.
+    Returns
+    -------
+    ndarray of float64
+        The offset at each of *t*, N.
     """
     t = np.asarray(t, dtype=np.float64)
     x = np.asarray(at, dtype=np.float64)

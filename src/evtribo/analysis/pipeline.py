@@ -162,6 +162,19 @@ def study_settings(study: Study, overrides: Mapping[str, Any] | None = None,
     """The analysis settings of a study: *base* (default: the package's defaults), then the
     ``[analysis]`` table of its study.toml, then *overrides* (the command line's).
 
+    Parameters
+    ----------
+    study : Study
+        The study, as loaded (its ``[analysis]`` table).
+    overrides : mapping, optional
+        Settings that take precedence (``{"tare": "none"}``).
+    base : AnalysisSettings, optional
+        The settings to start from.
+
+    Returns
+    -------
+    AnalysisSettings
+
     Raises
     ------
     ConfigError

@@ -36,6 +36,18 @@ def file_record(path: Path, root: Path, role: str) -> dict[str, Any]:
     The size is the one of the bytes hashed. For the analysis (not written out): the
     file's absolute path under ``"_path"`` and its modification time (ns) when hashed under
     ``"_mtime_ns"`` (-1 when the file changed while it was hashed).
+    Parameters
+    ----------
+    path : Path
+        The file.
+    root : Path
+        The study folder its name is given relative to.
+    role : str
+        ``"study"``, ``"dbc"``, ``"log"`` or ``"sidecar"``.
+
+    Returns
+    -------
+    dict
     """
     try:
         name = path.resolve().relative_to(root.resolve()).as_posix()
@@ -95,7 +107,13 @@ def rig_roles(study: Study) -> dict[str, Any]:
 
 
 def software_versions() -> dict[str, str | None]:
-    """Versions of evtribo, Python and the libraries the analysis relies on."""
+    """Versions of evtribo, Python and the libraries the analysis relies on.
+
+    Returns
+    -------
+    dict
+        Version by name (None for a library not installed).
+    """
     out: dict[str, str | None] = {"evtribo": __version__,
                                   "python": platform.python_version()}
     for key, dist in _PACKAGES.items():

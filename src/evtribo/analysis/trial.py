@@ -124,7 +124,13 @@ class TrialResult:
 
 
 def empty_windows() -> pd.DataFrame:
-    """A windows table without rows."""
+    """A windows table without rows.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`WINDOW_CSV_COLUMNS`.
+    """
     return pd.DataFrame({c: pd.Series(dtype=object if c in {"subject", "trial", "condition",
                                                             "waveform"} else float)
                          for c in WINDOW_CSV_COLUMNS})
@@ -457,7 +463,18 @@ def _span_mean(values: list[tuple[float | None, float]]) -> float | None:
 
 
 def failed_row(meta: TrialMeta) -> dict[str, Any]:
-    """trials.csv row of a trial that could not be analysed: names and sidecar values only."""
+    """trials.csv row of a trial that could not be analysed: names and sidecar values only.
+
+    Parameters
+    ----------
+    meta : TrialMeta
+        The trial's names and sidecar values.
+
+    Returns
+    -------
+    dict
+        Values of :data:`TRIAL_COLUMNS` (None for the unknown).
+    """
     row = dict.fromkeys(TRIAL_COLUMNS)
     row.update(subject=meta.subject, trial=meta.trial, waveform=meta.waveform,
                frequency_Hz=meta.frequency_Hz, amplitude_V=meta.amplitude_V,

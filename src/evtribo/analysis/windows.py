@@ -102,7 +102,16 @@ def _runs(code: npt.NDArray[np.int64]) -> list[tuple[int, int, int]]:
 
 
 def true_runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
-    """``(start, stop)`` of the runs of True in *mask* (stop exclusive)."""
+    """``(start, stop)`` of the runs of True in *mask* (stop exclusive).
+
+    Parameters
+    ----------
+    mask : ndarray of bool
+
+    Returns
+    -------
+    list of (int, int)
+    """
     return [(a, b) for a, b, v in _runs(mask.astype(np.int64)) if v]
 
 
@@ -307,6 +316,9 @@ def with_means(windows: pd.DataFrame, normal: npt.ArrayLike, tangential: npt.Arr
         Windows of :func:`find_windows` (their grid indices are used).
     normal, tangential : array_like of float, N
         Forces on the grid the windows index (NaN in gaps).
+    Returns
+    -------
+    pandas.DataFrame
     """
     if windows.empty:
         return windows
