@@ -30,6 +30,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
+from evtribo._docs import fill_doc
 from evtribo.decode import decode_trial
 from evtribo.errors import AnalysisError
 from evtribo.files import atomic_write, sha256_file
@@ -64,6 +65,7 @@ def default_cache_dir() -> Path:
     return (Path(xdg) if xdg else Path.home() / ".cache") / "evtribo"
 
 
+@fill_doc
 def cache_key(log_path: str | os.PathLike[str], rig: Rig, *,
               log_sha256: str | None = None, channel: str | None = None) -> str:
     """Key of a trial: log content, rig content, the channel asked for, cache format version.
@@ -72,7 +74,7 @@ def cache_key(log_path: str | os.PathLike[str], rig: Rig, *,
     ----------
     log_path : path-like
         The raw log (hashed unless *log_sha256* is given).
-    rig : Rig
+    %(rig)s
     log_sha256 : str, optional
         The log's SHA-256, when it is known.
     channel : str, optional
@@ -188,6 +190,7 @@ def _check_unchanged(log_path: str | os.PathLike[str], expect: tuple[str, int, i
                             path=log_path)
 
 
+@fill_doc
 def load_trial(log_path: str | os.PathLike[str], rig: Rig,
                cache_dir: str | os.PathLike[str] | None = None, strict: bool = False, *,
                cache: bool = True,
@@ -199,9 +202,8 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
     ----------
     log_path : path-like
         The raw log (any format :func:`~evtribo.frames.read_frames` reads).
-    rig : Rig
-    cache_dir : path-like, optional
-        Cache directory (default: :func:`default_cache_dir`).
+    %(rig)s
+    %(cache_dir)s
     strict : bool
         Damaged lines are errors (a cached trial that had skipped lines is read again, so
         that the error is raised).

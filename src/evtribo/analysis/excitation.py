@@ -12,6 +12,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from evtribo._docs import fill_doc
 from evtribo.analysis.conditions import condition_from_excitation, constant_condition
 from evtribo.decode import FALLBACK_WAVEFORMS
 from evtribo.errors import AnalysisError
@@ -101,6 +102,7 @@ class Excitation:
     amplitude: npt.NDArray[np.float64] | None = None
 
 
+@fill_doc
 def excitation_of(signals: TrialSignals, given: dict[str, Any],
                   grid_t: npt.NDArray[np.float64], guard_s: float,
                   warn: Callable[[str], None]) -> Excitation:
@@ -118,8 +120,8 @@ def excitation_of(signals: TrialSignals, given: dict[str, Any],
         The times of the forces' grid, s.
     guard_s : float
         Time after each switch that belongs to neither condition, s.
-    warn : callable
-        Told of a disagreement between the sidecar and the signals.
+    %(warn)s
+        Here: a disagreement between the sidecar and the signals.
 
     Returns
     -------

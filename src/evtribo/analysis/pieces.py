@@ -18,6 +18,7 @@ import dataclasses
 import numpy as np
 import numpy.typing as npt
 
+from evtribo._docs import fill_doc
 from evtribo.analysis.align import nominal_period
 from evtribo.errors import AnalysisError
 from evtribo.signals import CellSignals, ExcitationSignals, TrialSignals
@@ -141,13 +142,13 @@ def _cut_excitation(exc: ExcitationSignals, lo: float, hi: float) -> ExcitationS
         waveform=None if exc.waveform is None else exc.waveform[keep])
 
 
+@fill_doc
 def restrict(signals: TrialSignals, lo: float, hi: float) -> TrialSignals:
     """The trial's signals between two times.
 
     Parameters
     ----------
-    signals : TrialSignals
-        The decoded trial.
+    %(signals)s
     lo, hi : float
         The stretch's first and last time, s.
 

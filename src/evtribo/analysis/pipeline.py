@@ -41,6 +41,7 @@ import numpy as np
 import pandas as pd
 
 from evtribo import __version__
+from evtribo._docs import fill_doc
 from evtribo.analysis.aggregate import (
     BOOTSTRAP_COLUMNS,
     ELECTROSTATIC_COLUMNS,
@@ -194,6 +195,7 @@ def study_settings(study: Study, overrides: Mapping[str, Any] | None = None,
     return settings
 
 
+@fill_doc
 def analyze_study(
     study_dir: str | os.PathLike[str],
     out_dir: str | os.PathLike[str],
@@ -210,27 +212,22 @@ def analyze_study(
 
     Parameters
     ----------
-    study_dir : path-like
-        The study folder.
+    %(study_dir)s
     out_dir : path-like
         Where ``trials.csv``, ``windows.csv``, ``electrostatic.csv``, ``exponents.csv`` and
         ``summary.json`` go (created if needed).
-    jobs : int, optional
-        Worker processes (default: the number of CPUs; 1 analyses in this process).
-    strict : bool
-        A damaged line in a log is an error instead of a warning.
+    %(jobs)s
+    %(strict)s
     force : bool
         Replace the results in *out_dir*: analyze's, and the model fit, figures and reports
         of ``evtribo compare`` and ``evtribo report`` (their files only).
-    cache_dir : path-like, optional
-        Cache of decoded trials (default: :func:`evtribo.cache.default_cache_dir`).
+    %(cache_dir)s
     settings : AnalysisSettings, optional
         The settings to start from (default: the package's defaults); the study's
         ``[analysis]`` table and *overrides* apply on top.
     overrides : mapping, optional
         Settings that take precedence over the study's (``{"tare": "none"}``).
-    progress : callable, optional
-        Called as ``progress(done, total)`` after each trial.
+    %(progress)s
 
     Returns
     -------

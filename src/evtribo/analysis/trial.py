@@ -24,6 +24,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from evtribo._docs import fill_doc
 from evtribo.analysis.align import AlignedForces, align_forces
 from evtribo.analysis.excitation import Excitation, excitation_of, window_amplitudes
 from evtribo.analysis.hum import find_hum, modulation_lines, remove_hum
@@ -149,13 +150,13 @@ def _sample_times(signals: TrialSignals) -> list[npt.NDArray[np.float64]]:
     return [np.asarray(t, dtype=np.float64) for t in streams if len(t)]
 
 
+@fill_doc
 def trial_start(signals: TrialSignals) -> float:
     """The trial's start: the earliest sample time of its load cells and amplifier.
 
     Parameters
     ----------
-    signals : TrialSignals
-        The decoded trial.
+    %(signals)s
 
     Returns
     -------
@@ -378,6 +379,7 @@ def _pieces(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: Anal
     return out
 
 
+@fill_doc
 def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
                     settings: AnalysisSettings | None = None,
                     calibration: Calibration | None = None) -> TrialResult:
@@ -390,10 +392,7 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
 
     Parameters
     ----------
-    signals : TrialSignals
-        The decoded trial (:func:`evtribo.decode.decode_trial`,
-        :func:`evtribo.cache.load_trial`): its load cells' forces with the frames missing
-        from each, its excitation, its counts and the decoder's warnings.
+    %(signals)s
     meta : TrialMeta
         Names and the sidecar's values.
     settings : AnalysisSettings, optional
