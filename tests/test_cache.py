@@ -138,3 +138,26 @@ def test_a_flipped_bit_in_an_entry_is_caught_and_decoded_again(trial_files, tmp_
             unsaid.append(int(pos))
         assert [p.read_bytes() for p in cdir.glob("*.parquet")] == [original]
     assert wrong == [] and unsaid == []
+
+
+def test_a_loaded_trial_says_where_it_came_from(trial_files, tmp_path):
+    """The decoded trial carries its provenance: the log, its hash (when hashed), the rig's
+    fingerprint, and whether it came from the cache; it is frozen."""
+    import dataclasses
+
+    from evtribo.files import sha256_file
+
+    rig, path = trial_files
+    cdir = tmp_path / "cache"
+    first = cache.load_trial(path, rig, cache_dir=cdir)
+    second = cache.load_trial(path, rig, cache_dir=cdir)
+    plain = cache.load_trial(path, rig, cache=False)
+    for trial in (first, second, plain):
+        assert trial.provenance.log_path == str(path)
+        assert trial.provenance.rig_fingerprint == rig.fingerprint()
+    assert first.provenance.log_sha256 == second.provenance.log_sha256 == sha256_file(path)
+    assert plain.provenance.log_sha256 is None  # not hashed without the cache
+    assert (first.provenance.from_cache, second.provenance.from_cache,
+            plain.provenance.from_cache) == (False, True, False)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        first.frames = 0

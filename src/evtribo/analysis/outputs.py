@@ -41,7 +41,18 @@ _REPORT_MARK = b'<meta name="generator" content="evtribo'
 
 def compare_files(out: Path) -> list[str]:
     """compare's files in *out* (relative): fit.csv, fit.json, and its figures (those
-    fit.json lists, and those named as compare names them)."""
+    fit.json lists, and those named as compare names them).
+
+    Parameters
+    ----------
+    out : Path
+        The output folder.
+
+    Returns
+    -------
+    list of str
+        Names relative to *out*.
+    """
     found = [name for name in (FIT_CSV, FIT_JSON) if (out / name).is_file()]
     listed: set[str] = set()
     try:
@@ -71,7 +82,18 @@ def _is_report(path: Path) -> bool:
 
 def report_files(out: Path) -> list[str]:
     """The files of reports ``evtribo report`` wrote into *out* (relative): each HTML page
-    that says evtribo generated it, and the PNG and SVG figures of its ``<name>_files/``."""
+    that says evtribo generated it, and the PNG and SVG figures of its ``<name>_files/``.
+
+    Parameters
+    ----------
+    out : Path
+        The output folder.
+
+    Returns
+    -------
+    list of str
+        Names relative to *out*.
+    """
     if not out.is_dir():
         return []
     found = []
@@ -88,6 +110,13 @@ def report_files(out: Path) -> list[str]:
 def check_overwrite(out: Path, force: bool) -> None:
     """Refuse (unless *force*) an output folder that holds results of analyze, compare or
     report.
+
+    Parameters
+    ----------
+    out : Path
+        The output folder.
+    force : bool
+        Replace the results it holds.
 
     Raises
     ------
@@ -107,6 +136,13 @@ def check_overwrite(out: Path, force: bool) -> None:
 def check_out_dir(out: Path, study_root: Path) -> None:
     """Refuse an output folder inside the study (the next analysis would read its tables as
     part of the study) or one that is a file.
+
+    Parameters
+    ----------
+    out : Path
+        The output folder.
+    study_root : Path
+        The study folder.
 
     Raises
     ------
