@@ -161,3 +161,25 @@ def test_a_loaded_trial_says_where_it_came_from(trial_files, tmp_path):
             plain.provenance.from_cache) == (False, True, False)
     with pytest.raises(dataclasses.FrozenInstanceError):
         first.frames = 0
+
+
+def test_a_cached_trial_warns_of_its_damaged_lines_as_the_reader_did(trial_files, tmp_path,
+                                                                       caplog):
+    # summary.json of a warm analysis must name the damaged lines as a cold one does
+    rig, path = trial_files
+    with path.open("a") as fh:
+        fh.write("(200.000000) vcan0 0C1#ZZ\n(200.1) garbage\n")
+    cdir = tmp_path / "cache"
+
+    def damaged(records):
+        return [r.getMessage() for r in records if "skipped damaged line" in r.getMessage()]
+
+    with caplog.at_level("WARNING", logger="evtribo"):
+        cold = cache.load_trial(path, rig, cache_dir=cdir)
+    first = damaged(caplog.records)
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="evtribo"):
+        warm = cache.load_trial(path, rig, cache_dir=cdir)
+    assert warm.provenance.from_cache and not cold.provenance.from_cache
+    assert len(first) == 2 and damaged(caplog.records) == first
+    assert warm.skipped_detail == cold.skipped_detail and len(cold.skipped_detail) == 2

@@ -35,16 +35,18 @@ from evtribo.decode import decode_trial
 from evtribo.errors import AnalysisError
 from evtribo.files import atomic_write, sha256_file
 from evtribo.frames import read_frames
+from evtribo.frames.registry import MAX_WARNINGS
 from evtribo.rig import Rig
 from evtribo.signals import CellSignals, ExcitationSignals, TrialProvenance, TrialSignals
 
 log = logging.getLogger(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
-CACHE_VERSION = 7  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
+CACHE_VERSION = 8  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
 #                    frames with an unknown multiplexer value ignored; 5: checksummed entries;
 #                    6: channel, logger's DROPCOUNT and decoder warnings kept; 7: waveform
-#                    codes named without a value table (evtribo.decode.FALLBACK_WAVEFORMS)
+#                    codes named without a value table (evtribo.decode.FALLBACK_WAVEFORMS);
+#                    8: the reader's damaged lines kept, warned of again from the cache
 _META = b"evtribo.trial"
 #: Hex digits of the entry's SHA-256 in its file name.
 CHECKSUM_DIGITS = 16
@@ -132,6 +134,7 @@ def _to_table(trial: TrialSignals) -> pa.Table:
     meta = {
         "version": CACHE_VERSION, "frames": trial.frames, "ignored_frames": trial.ignored_frames,
         "skipped_lines": trial.skipped_lines, "channel": trial.channel,
+        "skipped_detail": [list(d) for d in trial.skipped_detail],
         "logger_dropped": trial.logger_dropped, "warnings": list(trial.warnings),
         "dropped": [trial.normal.dropped, trial.tangential.dropped],
         "dropped_method": [trial.normal.dropped_method, trial.tangential.dropped_method],
@@ -166,7 +169,10 @@ def _from_table(table: pa.Table) -> TrialSignals:
             for name in meta["excitation"]})
     return TrialSignals(cells[0], cells[1], ex, frames=int(meta["frames"]),
                         ignored_frames=int(meta["ignored_frames"]),
-                        skipped_lines=int(meta["skipped_lines"]), channel=meta["channel"],
+                        skipped_lines=int(meta["skipped_lines"]),
+                        skipped_detail=tuple((None if d[0] is None else int(d[0]), str(d[1]))
+                                             for d in meta["skipped_detail"]),
+                        channel=meta["channel"],
                         logger_dropped=int(meta["logger_dropped"]),
                         warnings=tuple(str(w) for w in meta["warnings"]))
 
@@ -245,6 +251,9 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
         trial = _read_entry(directory, key)
         if trial is not None and not (strict and trial.skipped_lines):
             log.debug("%s: decoded trial from the cache in %s", log_path, directory)
+            for line, reason in trial.skipped_detail:  # as the reader warned of them
+                where = os.fspath(log_path) if line is None else f"{os.fspath(log_path)}:{line}"
+                log.warning("%s: skipped damaged line: %s", where, reason)
             return dataclasses.replace(
                 trial, provenance=dataclasses.replace(source, from_cache=True))
     trial = _decode(log_path, rig, strict, expect, channel)
@@ -270,7 +279,8 @@ def _decode(log_path: str | os.PathLike[str], rig: Rig, strict: bool,
     if channel is not None and len(frames.channel_names) <= 1:
         channel = None
     trial = decode_trial(frames, rig, channel=channel)
-    return dataclasses.replace(trial, skipped_lines=report.skipped_lines)
+    return dataclasses.replace(trial, skipped_lines=report.skipped_lines,
+                               skipped_detail=tuple(report.skipped[:MAX_WARNINGS]))
 
 
 def _entries(directory: Path, key: str) -> list[Path]:

@@ -113,6 +113,9 @@ class TrialSignals:
         frames too short, frames cantools refuses (a multiplexer value the DBC does not know).
     skipped_lines : int
         Damaged lines skipped while reading (set by the reader's caller).
+    skipped_detail : tuple of (int or None, str)
+        Line number and reason of the first damaged lines (as many as the reader warns of),
+        so that a trial read from the cache warns of them as the reader did.
     channel : str or None
         The channel the rig's frames were decoded from (None: the log names none).
     logger_dropped : int
@@ -131,6 +134,7 @@ class TrialSignals:
     frames: int
     ignored_frames: int
     skipped_lines: int = 0
+    skipped_detail: tuple[tuple[int | None, str], ...] = ()
     channel: str | None = None
     logger_dropped: int = 0
     warnings: tuple[str, ...] = ()

@@ -12,6 +12,8 @@ import json
 import re
 from pathlib import Path
 
+from evtribo.documents.fit import FIT_JSON
+from evtribo.documents.summary import SUMMARY_FILE
 from evtribo.errors import OutputExistsError, UserInputError
 from evtribo.resultdir import inside
 
@@ -19,7 +21,6 @@ __all__ = ["ANALYSIS_FILES", "BOOTSTRAP_FILE", "FIGURES", "FIT_CSV", "FIT_JSON",
            "OUTPUT_FILES", "SINE_TRACE_FILE", "SUMMARY_FILE", "check_out_dir",
            "check_overwrite", "compare_files", "report_files"]
 
-SUMMARY_FILE = "summary.json"
 #: The files ``analyze_study`` writes into its output folder.
 OUTPUT_FILES = ("trials.csv", "windows.csv", "electrostatic.csv", "exponents.csv",
                 SUMMARY_FILE, "electrostatic_bootstrap.csv")
@@ -31,7 +32,7 @@ SINE_TRACE_FILE = "sine_trace.csv"
 #: Every file of analyze's.
 ANALYSIS_FILES = (*OUTPUT_FILES, SINE_TRACE_FILE)
 #: compare's files, and the folder of its figures.
-FIT_CSV, FIT_JSON, FIGURES = "fit.csv", "fit.json", "figures"
+FIT_CSV, FIGURES = "fit.csv", "figures"
 #: The stems of compare's figures (``electrostatic_force_P01.png``...).
 _FIGURE = re.compile(r"^(friction_time|area_increase|electrostatic_force_.+|"
                      r"friction_normal_force_.+)\.(png|svg|pdf)$")

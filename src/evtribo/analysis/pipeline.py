@@ -27,7 +27,6 @@ reference. ``evtribo compare`` refits the model to each replicate for its interv
 from __future__ import annotations
 
 import hashlib
-import json
 import logging
 import os
 import time
@@ -76,6 +75,7 @@ from evtribo.analysis.workers import (
     run_tasks,
     trial_meta,
 )
+from evtribo.documents.summary import write_summary
 from evtribo.errors import StudyError
 from evtribo.resultdir import Staging, locked, recover
 from evtribo.study import STUDY_FILE, Study, TrialRef, load_study
@@ -404,9 +404,7 @@ def _write(out: Path, tables: _Tables, summary: dict[str, Any], started: float) 
         for name, table in tables.files().items():
             summary["output_sha256"][name] = _write_csv(table, stage.path(name))
         summary["elapsed_s"] = round(time.perf_counter() - started, 3)
-        stage.path(SUMMARY_FILE).write_text(
-            json.dumps(summary, indent=2, ensure_ascii=False, default=str) + "\n",
-            encoding="utf-8")
+        write_summary(stage.path(SUMMARY_FILE), summary)
         stage.commit(remove=stale, last=[SUMMARY_FILE])
 
 

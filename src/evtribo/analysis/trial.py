@@ -43,10 +43,10 @@ from evtribo.analysis.tare import (
 )
 from evtribo.analysis.trace import TRACE_COLUMNS
 from evtribo.analysis.windows import find_windows, with_means
+from evtribo.documents.sidecar import Sidecar
 from evtribo.errors import AnalysisError
 from evtribo.rig import Calibration
 from evtribo.signals import CellSignals, TrialSignals
-from evtribo.study import Sidecar
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +67,7 @@ SINE_TRACE_CSV_COLUMNS = TRACE_COLUMNS
 class TrialMeta:
     """What the study folder says about a trial (sidecar values may be None).
 
-    The sidecar's values come from :class:`evtribo.study.Sidecar` through
+    The sidecar's values come from :class:`evtribo.documents.sidecar.Sidecar` through
     :meth:`from_sidecar`, the one place that reads them.
     """
 
