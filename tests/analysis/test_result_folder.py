@@ -291,6 +291,7 @@ def _report_outcome(out: Path, old: dict[str, bytes]) -> str:
     return "new"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["compare", "report"])
 def test_compare_and_report_killed_at_random_moments_leave_old_or_new_files(
         complete, tmp_path, command):
