@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 JOBS   ?= 2
 
-.PHONY: demo test bench lint clean
+.PHONY: demo test test-quick bench lint clean
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -18,6 +18,11 @@ demo: $(STAMP)
 
 test: $(STAMP)
 	$(PY) -m pytest -n $(JOBS) -q
+
+# the suite without the tests marked slow (real-time recordings across processes, coverage
+# over many seeds, kill-at-every-step): for the edit-and-test loop; `make test` runs them all
+test-quick: $(STAMP)
+	$(PY) -m pytest -n $(JOBS) -q -m "not slow"
 
 bench: $(STAMP)
 	for b in benchmarks/*.py; do $(PY) $$b || exit 1; done

@@ -95,10 +95,11 @@ def _hold_out(tmp: Path) -> None:
 
 
 def _results(tmp: Path, *, summary: bool = True, fit_of: str | None = None,
-             changed: bool = False, cut: str | None = None) -> None:
-    """A small result folder of analysis ``aaaa``: its tables, summary.json (optional), a
-    model fit of analysis *fit_of*, a table *changed* after the analysis, a file *cut* to
-    half its length."""
+             changed: bool = False, cut: str | None = None,
+             edit: dict[str, object] | None = None) -> None:
+    """A small result folder of analysis ``aaaa``: its tables, summary.json (optional, with
+    the keys *edit* sets), a model fit of analysis *fit_of*, a table *changed* after the
+    analysis, a file *cut* to half its length."""
     import hashlib
 
     out = tmp / "out"
@@ -117,7 +118,8 @@ def _results(tmp: Path, *, summary: bool = True, fit_of: str | None = None,
         (out / "summary.json").write_text(json.dumps({
             "run_id": "aaaa", "study_dir": str(tmp / "study"),
             "output_sha256": {n: hashlib.sha256(t.encode()).hexdigest()
-                              for n, t in tables.items()}}), encoding="utf-8")
+                              for n, t in tables.items()}, **(edit or {})}),
+            encoding="utf-8")
     if fit_of is not None:
         (out / "fit.csv").write_text("subject,parameter,value\nP01,h_L,5e-06\n")
         (out / "fit.json").write_text(json.dumps({"run_id": fit_of, "figures": []}))
@@ -262,6 +264,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "decode-output-is-a-log": lambda t: _csv_log(t / "run-02.csv"),
     "decode-csv-in-study": lambda t: None,
     "decode-channel-missing": lambda t: None,
+    "compare-summary-edited": lambda t: _results(t, edit={"study": {"name": "x"}}),
 }
 
 

@@ -138,3 +138,48 @@ def test_a_flipped_bit_in_an_entry_is_caught_and_decoded_again(trial_files, tmp_
             unsaid.append(int(pos))
         assert [p.read_bytes() for p in cdir.glob("*.parquet")] == [original]
     assert wrong == [] and unsaid == []
+
+
+def test_a_loaded_trial_says_where_it_came_from(trial_files, tmp_path):
+    """The decoded trial carries its provenance: the log, its hash (when hashed), the rig's
+    fingerprint, and whether it came from the cache; it is frozen."""
+    import dataclasses
+
+    from evtribo.files import sha256_file
+
+    rig, path = trial_files
+    cdir = tmp_path / "cache"
+    first = cache.load_trial(path, rig, cache_dir=cdir)
+    second = cache.load_trial(path, rig, cache_dir=cdir)
+    plain = cache.load_trial(path, rig, cache=False)
+    for trial in (first, second, plain):
+        assert trial.provenance.log_path == str(path)
+        assert trial.provenance.rig_fingerprint == rig.fingerprint()
+    assert first.provenance.log_sha256 == second.provenance.log_sha256 == sha256_file(path)
+    assert plain.provenance.log_sha256 is None  # not hashed without the cache
+    assert (first.provenance.from_cache, second.provenance.from_cache,
+            plain.provenance.from_cache) == (False, True, False)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        first.frames = 0
+
+
+def test_a_cached_trial_warns_of_its_damaged_lines_as_the_reader_did(trial_files, tmp_path,
+                                                                       caplog):
+    # summary.json of a warm analysis must name the damaged lines as a cold one does
+    rig, path = trial_files
+    with path.open("a") as fh:
+        fh.write("(200.000000) vcan0 0C1#ZZ\n(200.1) garbage\n")
+    cdir = tmp_path / "cache"
+
+    def damaged(records):
+        return [r.getMessage() for r in records if "skipped damaged line" in r.getMessage()]
+
+    with caplog.at_level("WARNING", logger="evtribo"):
+        cold = cache.load_trial(path, rig, cache_dir=cdir)
+    first = damaged(caplog.records)
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="evtribo"):
+        warm = cache.load_trial(path, rig, cache_dir=cdir)
+    assert warm.provenance.from_cache and not cold.provenance.from_cache
+    assert len(first) == 2 and damaged(caplog.records) == first
+    assert warm.skipped_detail == cold.skipped_detail and len(cold.skipped_detail) == 2

@@ -373,3 +373,33 @@ def test_logger_and_decoder_count_lost_frames_with_the_same_counter(tmp_path):
     logged = sum(tracker.update(m.arbitration_id, m.data, m.timestamp) for m in msgs)
     trial = decode_trial(frames_from_messages(msgs), plain)
     assert logged == trial.normal.dropped == 4
+
+
+def test_a_waveform_without_value_table_is_named_by_the_fallback_with_a_warning(tmp_path):
+    """A rig whose DBC gives the waveform signal no value table: its codes are named by
+    evtribo.decode.FALLBACK_WAVEFORMS, and the trial says so; the DBC's own table wins."""
+    from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_trial
+    from evtribo.rig import default_rig_path
+
+    frames, _ = simulate_trial(SubjectParams(), TrialConfig(duration_s=2.0, seed=3))
+    source = default_rig_path()
+    dbc_name = "default.dbc"
+    dbc = (source.parent / dbc_name).read_text(encoding="utf-8")
+    val = next(line for line in dbc.splitlines() if line.startswith("VAL_") and "HvWave" in line)
+    variants = {"plain": dbc.replace(val, ""),
+                "renamed": dbc.replace(val, val.replace('"sine"', '"sinus"')
+                                       .replace('"square"', '"rect"'))}
+    found = {}
+    for name, text in variants.items():
+        folder = tmp_path / name
+        folder.mkdir()
+        (folder / dbc_name).write_text(text, encoding="utf-8")
+        (folder / "rig.toml").write_text(source.read_text(encoding="utf-8"), encoding="utf-8")
+        found[name] = decode_trial(frames, load_rig(folder / "rig.toml"))
+    plain = found["plain"]
+    assert any("HvWave" in w and "no value table" in w for w in plain.warnings)
+    assert set(plain.excitation.waveform.tolist()) <= {"sine", "square", "triangle", "dc"}
+    renamed = found["renamed"]
+    assert not any("no value table" in w for w in renamed.warnings)
+    assert set(renamed.excitation.waveform.tolist()) <= {"sinus", "rect", "triangle", "dc"}
+    assert set(renamed.excitation.waveform.tolist()) & {"sinus", "rect"}

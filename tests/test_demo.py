@@ -11,6 +11,7 @@ from evtribo.errors import OutputExistsError
 from evtribo.study import load_study
 
 
+@pytest.mark.slow
 def test_demo_end_to_end(tmp_path):
     lines = []
     res = run_demo(tmp_path / "demo", subjects=1, amplitudes=(80.0, 140.0), trial_s=8.0,

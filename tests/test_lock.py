@@ -147,6 +147,7 @@ def test_without_flock_the_content_decides(tmp_path, monkeypatch, content, held)
         kill_and_reap(sleeper)
 
 
+@pytest.mark.slow
 def test_an_empty_lock_file_is_one_being_written_unless_old(tmp_path, monkeypatch):
     monkeypatch.setattr(lock_module, "_try_flock", lambda fd, shared=False: None)
     path = tmp_path / "x.lock"

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from _checks import fel_ok
 from evtribo.acquisition.bus import BusSettings
 from evtribo.acquisition.trial import TrialInfo, record_trial
 from evtribo.analysis.pipeline import SINE_TRACE_FILE, analyze_study
@@ -27,10 +28,6 @@ from evtribo.study import load_study
 
 STUDY = Path(__file__).resolve().parents[1] / "data" / "reference-study"
 TRUTH = json.loads((STUDY / "truth.json").read_text(encoding="utf-8"))
-
-
-def _fel_ok(measured: float, true: float) -> bool:
-    return abs(measured - true) <= max(0.05 * abs(true), 0.003)
 
 
 def test_the_study_is_small_compressed_and_on_vcan0():
@@ -114,7 +111,7 @@ def test_the_analysis_recovers_what_the_simulator_was_given(analysed):
         assert len(row) == 1, key
         row = row.iloc[0]
         assert row.mu == pytest.approx(truth["mu"], rel=0.02), key
-        assert _fel_ok(row.electrostatic_force_N, truth["electrostatic_force_N"]), (
+        assert fel_ok(row.electrostatic_force_N, truth["electrostatic_force_N"]), (
             key, row.electrostatic_force_N, truth["electrostatic_force_N"])
         tr = trials[(trials.subject == subject) & (trials.trial == trial)].iloc[0]
         # counters miss only frames lost before the first or after the last one received

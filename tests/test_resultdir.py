@@ -194,6 +194,7 @@ contents = st.binary(min_size=0, max_size=8)
        user=st.dictionaries(st.sampled_from(["notes.txt", "figures/mine.png", "old/x.csv"]),
                             contents, max_size=3),
        fraction=st.floats(0, 1))
+@pytest.mark.slow
 def test_killed_at_any_step_the_folder_is_old_or_new(tmp_path_factory, old, new, user,
                                                      fraction):
     root = tmp_path_factory.mktemp("kill")

@@ -53,6 +53,13 @@ docdict: dict[str, str] = {
     The model's parameters (default: the seed paper's Table 1,
     :class:`evtribo.model.ModelParameters`).""",
     # --- decoding and analysis (evtribo.decode, evtribo.cache, evtribo.analysis) ---
+    "signals": """signals : TrialSignals
+    The decoded trial (:class:`evtribo.signals.TrialSignals`, from
+    :func:`evtribo.decode.decode_trial` or :func:`evtribo.cache.load_trial`): its load
+    cells' forces with the frames missing from each, its excitation, its counts and the
+    decoder's warnings.""",
+    "warn": """warn : callable
+    Called with each warning (a sentence) about the trial.""",
 
     # --- acquisition, frames, rig, study ---
 

@@ -18,35 +18,48 @@ or ``~/.cache/evtribo``; never beside the raw logs unless that is the directory 
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import logging
 import os
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from evtribo.decode import CellSignals, ExcitationSignals, TrialSignals, decode_trial
+from evtribo._docs import fill_doc
+from evtribo.decode import decode_trial
 from evtribo.errors import AnalysisError
 from evtribo.files import atomic_write, sha256_file
 from evtribo.frames import read_frames
+from evtribo.frames.registry import MAX_WARNINGS
 from evtribo.rig import Rig
+from evtribo.signals import CellSignals, ExcitationSignals, TrialProvenance, TrialSignals
 
 log = logging.getLogger(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
-CACHE_VERSION = 6  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
+CACHE_VERSION = 8  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
 #                    frames with an unknown multiplexer value ignored; 5: checksummed entries;
-#                    6: channel, logger's DROPCOUNT and decoder warnings kept
+#                    6: channel, logger's DROPCOUNT and decoder warnings kept; 7: waveform
+#                    codes named without a value table (evtribo.decode.FALLBACK_WAVEFORMS);
+#                    8: the reader's damaged lines kept, warned of again from the cache
 _META = b"evtribo.trial"
 #: Hex digits of the entry's SHA-256 in its file name.
 CHECKSUM_DIGITS = 16
 
 
 def default_cache_dir() -> Path:
-    """``$EVTRIBO_CACHE_DIR``, else ``$XDG_CACHE_HOME/evtribo``, else ``~/.cache/evtribo``."""
+    """Where decoded trials are cached by default.
+
+    Returns
+    -------
+    Path
+        ``$EVTRIBO_CACHE_DIR``, else ``$XDG_CACHE_HOME/evtribo``, else ``~/.cache/evtribo``.
+    """
     env = os.environ.get("EVTRIBO_CACHE_DIR")
     if env:
         return Path(env).expanduser()
@@ -54,16 +67,34 @@ def default_cache_dir() -> Path:
     return (Path(xdg) if xdg else Path.home() / ".cache") / "evtribo"
 
 
-#: SHA-256 of a file's bytes, hex.
-
-
+@fill_doc
 def cache_key(log_path: str | os.PathLike[str], rig: Rig, *,
               log_sha256: str | None = None, channel: str | None = None) -> str:
-    """Key of a trial: log content (*log_sha256*, when the log's hash is known), rig content,
-    the channel asked for, cache format version."""
+    """Key of a trial: log content, rig content, the channel asked for, cache format version.
+
+    Parameters
+    ----------
+    log_path : path-like
+        The raw log (hashed unless *log_sha256* is given).
+    %(rig)s
+    log_sha256 : str, optional
+        The log's SHA-256, when it is known.
+    channel : str, optional
+        The channel asked for.
+
+    Returns
+    -------
+    str
+        40 hex digits.
+    """
+    return _key(log_sha256 or sha256_file(log_path), rig.fingerprint(), channel)
+
+
+def _key(log_sha256: str, rig_fingerprint: str, channel: str | None) -> str:
+    """:func:`cache_key` from the log's and the rig's hashes."""
     h = hashlib.sha256(f"v{CACHE_VERSION}".encode())
-    h.update((log_sha256 or sha256_file(log_path)).encode())
-    h.update(rig.fingerprint().encode())
+    h.update(log_sha256.encode())
+    h.update(rig_fingerprint.encode())
     if channel is not None:
         h.update(b"\0channel\0" + channel.encode("utf-8", "surrogateescape"))
     return h.hexdigest()[:40]
@@ -103,6 +134,7 @@ def _to_table(trial: TrialSignals) -> pa.Table:
     meta = {
         "version": CACHE_VERSION, "frames": trial.frames, "ignored_frames": trial.ignored_frames,
         "skipped_lines": trial.skipped_lines, "channel": trial.channel,
+        "skipped_detail": [list(d) for d in trial.skipped_detail],
         "logger_dropped": trial.logger_dropped, "warnings": list(trial.warnings),
         "dropped": [trial.normal.dropped, trial.tangential.dropped],
         "dropped_method": [trial.normal.dropped_method, trial.tangential.dropped_method],
@@ -132,21 +164,26 @@ def _from_table(table: pa.Table) -> TrialSignals:
     ex = None
     if meta["excitation"] is not None:
         sel = np.flatnonzero(stream == 2)
-        ex = ExcitationSignals(t=t[sel].copy())
-        for name in meta["excitation"]:
-            col = table.column(name).take(pa.array(sel))
-            if name == "waveform":
-                vals = np.array(col.to_pylist(), dtype=object)
-            elif name == "enabled":
-                vals = np.asarray(col.to_numpy(zero_copy_only=False), dtype=bool)
-            else:
-                vals = col.to_numpy()
-            setattr(ex, name, vals)
+        ex = ExcitationSignals(t=t[sel].copy(), **{
+            name: _excitation_column(table.column(name).take(pa.array(sel)), name)
+            for name in meta["excitation"]})
     return TrialSignals(cells[0], cells[1], ex, frames=int(meta["frames"]),
                         ignored_frames=int(meta["ignored_frames"]),
-                        skipped_lines=int(meta["skipped_lines"]), channel=meta["channel"],
+                        skipped_lines=int(meta["skipped_lines"]),
+                        skipped_detail=tuple((None if d[0] is None else int(d[0]), str(d[1]))
+                                             for d in meta["skipped_detail"]),
+                        channel=meta["channel"],
                         logger_dropped=int(meta["logger_dropped"]),
-                        warnings=[str(w) for w in meta["warnings"]])
+                        warnings=tuple(str(w) for w in meta["warnings"]))
+
+
+def _excitation_column(col: pa.ChunkedArray, name: str) -> np.ndarray[Any, Any]:
+    """One excitation signal read back: names (object), bools or floats."""
+    if name == "waveform":
+        return np.array(col.to_pylist(), dtype=object)
+    if name == "enabled":
+        return np.asarray(col.to_numpy(zero_copy_only=False), dtype=bool)
+    return np.asarray(col.to_numpy())
 
 
 def _check_unchanged(log_path: str | os.PathLike[str], expect: tuple[str, int, int],
@@ -159,6 +196,7 @@ def _check_unchanged(log_path: str | os.PathLike[str], expect: tuple[str, int, i
                             path=log_path)
 
 
+@fill_doc
 def load_trial(log_path: str | os.PathLike[str], rig: Rig,
                cache_dir: str | os.PathLike[str] | None = None, strict: bool = False, *,
                cache: bool = True,
@@ -170,9 +208,8 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
     ----------
     log_path : path-like
         The raw log (any format :func:`~evtribo.frames.read_frames` reads).
-    rig : Rig
-    cache_dir : path-like, optional
-        Cache directory (default: :func:`default_cache_dir`).
+    %(rig)s
+    %(cache_dir)s
     strict : bool
         Damaged lines are errors (a cached trial that had skipped lines is read again, so
         that the error is raised).
@@ -190,7 +227,9 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
     Returns
     -------
     TrialSignals
-        With ``skipped_lines`` from reading the log.
+        With ``skipped_lines`` from reading the log, and its ``provenance``: the log, its
+        SHA-256 (when hashed: with *cache* or *expect*), the rig's fingerprint, and whether
+        it came from the cache.
 
     Raises
     ------
@@ -199,16 +238,39 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
     AnalysisError
         The log is not the one *expect* describes.
     """
-    directory, key = None, None
+    fingerprint = rig.fingerprint()
+    log_sha256 = expect[0] if expect else None
+    directory = key = None
     if cache:
         directory = Path(cache_dir).expanduser() if cache_dir is not None \
             else default_cache_dir()
-        key = cache_key(log_path, rig, log_sha256=expect[0] if expect else None,
-                        channel=channel)
+        log_sha256 = log_sha256 or sha256_file(log_path)
+        key = _key(log_sha256, fingerprint, channel)
+    source = TrialProvenance(os.fspath(log_path), log_sha256, fingerprint)
+    if directory is not None and key is not None:
         trial = _read_entry(directory, key)
         if trial is not None and not (strict and trial.skipped_lines):
             log.debug("%s: decoded trial from the cache in %s", log_path, directory)
-            return trial
+            for line, reason in trial.skipped_detail:  # as the reader warned of them
+                where = os.fspath(log_path) if line is None else f"{os.fspath(log_path)}:{line}"
+                log.warning("%s: skipped damaged line: %s", where, reason)
+            return dataclasses.replace(
+                trial, provenance=dataclasses.replace(source, from_cache=True))
+    trial = _decode(log_path, rig, strict, expect, channel)
+    trial = dataclasses.replace(trial, provenance=source)
+    if directory is not None and key is not None:
+        try:
+            _write_atomic(directory, key, _to_table(trial))
+        except OSError as err:  # read-only, full, or a file in the way: the trial stands
+            log.warning("%s: cannot write the cache entry (%s); the trial is decoded but "
+                        "not cached", directory, err)
+    return trial
+
+
+def _decode(log_path: str | os.PathLike[str], rig: Rig, strict: bool,
+            expect: tuple[str, int, int] | None, channel: str | None) -> TrialSignals:
+    """Read the log (checking it is still the file *expect* describes) and decode it; the
+    trial's ``skipped_lines`` are the reader's."""
     if expect is not None:
         _check_unchanged(log_path, expect, "since the analysis started")
     frames, report = read_frames(log_path, strict=strict)
@@ -217,14 +279,8 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
     if channel is not None and len(frames.channel_names) <= 1:
         channel = None
     trial = decode_trial(frames, rig, channel=channel)
-    trial.skipped_lines = report.skipped_lines
-    if directory is not None and key is not None:
-        try:
-            _write_atomic(directory, key, _to_table(trial))
-        except OSError as err:  # read-only, full, or a file in the way: the trial stands
-            log.warning("%s: cannot write the cache entry (%s); the trial is decoded but "
-                        "not cached", directory, err)
-    return trial
+    return dataclasses.replace(trial, skipped_lines=report.skipped_lines,
+                               skipped_detail=tuple(report.skipped[:MAX_WARNINGS]))
 
 
 def _entries(directory: Path, key: str) -> list[Path]:

@@ -3,22 +3,20 @@
 Two entry points:
 
 ``decode_messages(frames, db) -> dict[str, DecodedMessage]``
-    Every message of the database found in the frames; each
-    :class:`DecodedMessage` holds ``timestamp`` (s), the ``raw`` codes of each signal
-    (integers, or floats for IEEE float signals) and gives ``scaled(name)`` (physical value,
-    ``raw * scale + offset`` as cantools' ``raw_to_scaled``) and ``choice_names(name)``
-    (value-table names). Used by ``evtribo decode``.
+    Every message of the database found in the frames; each :class:`DecodedMessage` holds
+    ``timestamp`` (s), the ``raw`` codes of each signal (integers, or floats for IEEE float
+    signals) and gives ``scaled(name)`` (physical value, ``raw * scale + offset`` as
+    cantools' ``raw_to_scaled``) and ``choice_names(name)`` (value-table names). Used by
+    ``evtribo decode``.
 
 ``decode_trial(frames, rig, channel=None) -> TrialSignals``
-    The forces of one trial: ``.normal`` and ``.tangential`` (:class:`CellSignals`: ``t`` s,
-    ``value`` N, ``counter``, ``dropped`` frames), ``.excitation`` (None, or
-    :class:`ExcitationSignals`: ``t``, ``enabled``, ``amplitude`` V, ``frequency`` Hz,
-    ``waveform`` names), and the counts ``frames`` (rig frames decoded) and
-    ``ignored_frames`` (other IDs, other channels, error and remote frames, CAN XL frames,
-    frames too short, frames of a multiplexed message whose multiplexer value the DBC does
-    not know). The rig's frames come from one channel (bus): the one named, else the one
-    carrying most of them, with a warning when the rig's IDs arrive on several (the same ID
-    on two buses is two streams, never merged).
+    The forces of one trial (:mod:`evtribo.signals`, the analysis's input): the two load
+    cells, the excitation (waveforms named by the DBC's value table, else
+    :data:`FALLBACK_WAVEFORMS` with a warning), and the counts of frames decoded and ignored
+    (other IDs, other channels, error, remote and CAN XL frames, frames too short, unknown
+    multiplexer values). The rig's frames come from one channel (bus): the one named, else
+    the one carrying most of them, with a warning when the rig's IDs arrive on several (the
+    same ID on two buses is two streams, never merged).
 
 How a signal is extracted: :class:`~evtribo.signal_codec.SignalCodec` (any byte order,
 start bit, length up to 64 bits, sign, IEEE float), vectorised over frames. Multiplexed
@@ -31,8 +29,10 @@ message's length are not decoded (cantools refuses them too).
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -44,6 +44,7 @@ from evtribo.errors import UserInputError
 from evtribo.frames.table import FrameTable
 from evtribo.rig import Rig, SignalRef
 from evtribo.signal_codec import SignalCodec
+from evtribo.signals import CellSignals, ExcitationSignals, TrialProvenance, TrialSignals
 
 log = logging.getLogger(__name__)
 
@@ -100,7 +101,20 @@ class DecodedMessage:
 
 
 def message_mask(frames: FrameTable, message: Message) -> npt.NDArray[np.bool_]:
-    """Frames carrying *message*: same ID and ID kind, data frames (not error or remote)."""
+    """Frames carrying *message*: same ID and ID kind, data frames (not error or remote).
+
+    Parameters
+    ----------
+    frames : FrameTable
+        The log's frames.
+    message : cantools.database.can.Message
+        The message.
+
+    Returns
+    -------
+    ndarray of bool
+        One per frame.
+    """
     return ((frames.arbitration_id == np.uint32(message.frame_id))
             & (frames.is_extended == bool(message.is_extended_frame))
             & ~frames.is_error & ~frames.is_remote)
@@ -108,7 +122,24 @@ def message_mask(frames: FrameTable, message: Message) -> npt.NDArray[np.bool_]:
 
 def decode_message(frames: FrameTable, message: Message, signals: list[str] | None = None,
                    *, mask: npt.NDArray[np.bool_] | None = None) -> DecodedMessage:
-    """Decode the frames of one message (all its signals, or those named)."""
+    """Decode the frames of one message (all its signals, or those named).
+
+    Parameters
+    ----------
+    frames : FrameTable
+        The log's frames.
+    message : cantools.database.can.Message
+        The message.
+    signals : list of str, optional
+        The signals to decode (default: all).
+    mask : ndarray of bool, optional
+        The frames of the message, when already known (:func:`message_mask`).
+
+    Returns
+    -------
+    DecodedMessage
+        Frames shorter than the message are left out (with a warning).
+    """
     sel = message_mask(frames, message) if mask is None else mask
     full = sel & (frames.dlc >= message.length)
     short = int(np.count_nonzero(sel)) - int(np.count_nonzero(full))
@@ -152,8 +183,10 @@ def _decode_multiplexed(message: Message, data: npt.NDArray[np.uint8],
             first_error = first_error or str(err)
             failed.append(i)
             continue
+        if not isinstance(values, dict):  # a container message's parts: no rig signal
+            continue
         for name, v in values.items():
-            if name in cols:
+            if name in cols and isinstance(v, int | float):
                 cols[name][i] = float(v)
     out.raw.update(cols)
     return np.asarray(failed, dtype=np.int64), first_error
@@ -162,6 +195,15 @@ def _decode_multiplexed(message: Message, data: npt.NDArray[np.uint8],
 def decode_messages(frames: FrameTable, db: Database, *, messages: list[str] | None = None
                     ) -> dict[str, DecodedMessage]:
     """Decode every message of *db* present in *frames* (or the messages named).
+
+    Parameters
+    ----------
+    frames : FrameTable
+        The log's frames.
+    db : cantools.database.can.Database
+        The DBC.
+    messages : list of str, optional
+        Names of the messages to decode (default: all).
 
     Returns
     -------
@@ -187,7 +229,21 @@ def _id_text(frame_id: int, extended: bool) -> str:
 def kind_mismatches(frames: FrameTable, messages: list[Message], db: Database) -> list[str]:
     """Why frames whose ID number is one of *messages*' but of the other kind (standard
     or extended) are not decoded as it: one sentence per message, when *db* has no message
-    of that number and kind."""
+    of that number and kind.
+
+    Parameters
+    ----------
+    frames : FrameTable
+        The log's frames.
+    messages : list of cantools.database.can.Message
+        The messages looked for.
+    db : cantools.database.can.Database
+        Their DBC.
+
+    Returns
+    -------
+    list of str
+    """
     known = {(m.frame_id, bool(m.is_extended_frame)) for m in db.messages}
     data = ~frames.is_error & ~frames.is_remote
     ids: dict[bool, npt.NDArray[np.uint32]] = {}  # IDs of the data frames of each kind
@@ -210,97 +266,10 @@ def kind_mismatches(frames: FrameTable, messages: list[Message], db: Database) -
 
 # --- trials ---------------------------------------------------------------------------------
 
-@dataclass
-class CellSignals:
-    """One load cell's samples.
-
-    Attributes
-    ----------
-    t : ndarray of float64, s
-        Frame timestamps as logged, in increasing order.
-    value : ndarray of float64, N
-    counter : ndarray of int64 or None
-        The cell's rolling frame counter, when the rig names one.
-    dropped : int
-        Frames missing, by the counter (wrap-around aware) and by timing gaps.
-    dropped_method : str
-        How they were counted (:class:`evtribo.dropped.DropCount`'s ``method``).
-    dropped_note : str or None
-        Why the count may be unreliable.
-    """
-
-    t: Array
-    value: Array
-    counter: npt.NDArray[np.int64] | None
-    dropped: int
-    dropped_method: str = "counter"
-    dropped_note: str | None = None
-
-
-@dataclass
-class ExcitationSignals:
-    """The amplifier's status frames (roles the rig does not name are None).
-
-    Attributes
-    ----------
-    t : ndarray of float64, s
-    enabled : ndarray of bool or None
-    amplitude : ndarray of float64, V, or None
-    frequency : ndarray of float64, Hz, or None
-    waveform : ndarray of str (object) or None
-        Value-table names (``"sine"``, ``"square"``...).
-    """
-
-    t: Array
-    enabled: npt.NDArray[np.bool_] | None = None
-    amplitude: Array | None = None
-    frequency: Array | None = None
-    waveform: npt.NDArray[np.object_] | None = None
-
-
-@dataclass
-class TrialSignals:
-    """What a trial's log says about the forces and the excitation.
-
-    Attributes
-    ----------
-    normal, tangential : CellSignals
-    excitation : ExcitationSignals or None
-        None when the rig names no ``excitation_*`` signal.
-    frames : int
-        Frames of the rig's messages decoded.
-    ignored_frames : int
-        Other frames: other IDs, other channels, error and remote frames, CAN XL frames,
-        frames too short, frames cantools refuses (a multiplexer value the DBC does not know).
-    skipped_lines : int
-        Damaged lines skipped while reading (set by the reader's caller).
-    channel : str or None
-        The channel the rig's frames were decoded from (None: the log names none).
-    logger_dropped : int
-        Frames the recording tool said it dropped on that channel (candump's ``DROPCOUNT``
-        notices): frames of any ID, lost before they were logged.
-    warnings : list of str
-        What the decoder found worth saying about this trial (the rig's IDs on several
-        channels, frames whose kind of ID is not the DBC's).
-    """
-
-    normal: CellSignals
-    tangential: CellSignals
-    excitation: ExcitationSignals | None
-    frames: int
-    ignored_frames: int
-    skipped_lines: int = 0
-    channel: str | None = None
-    logger_dropped: int = 0
-    warnings: list[str] = field(default_factory=list)
-
-    @property
-    def dropped_frames(self) -> int:
-        """Frames lost: those missing from both load cells (counters, timing), or those the
-        recording tool said it dropped when it says more (a frame it dropped is also missing
-        from its cell's counter: the two counts overlap, so the larger is taken, not the
-        sum)."""
-        return max(self.normal.dropped + self.tangential.dropped, self.logger_dropped)
+#: Names of a waveform signal's codes when the rig's DBC gives it no value table: the default
+#: rig's (``VAL_ ... HvWave 0 "sine" 1 "square" 2 "triangle" 3 "dc"``). Other codes keep
+#: their number as their name; a DBC's own value table always takes precedence.
+FALLBACK_WAVEFORMS: dict[int, str] = {0: "sine", 1: "square", 2: "triangle", 3: "dc"}
 
 
 def _decoded_only(msg: DecodedMessage, undecoded: list[npt.NDArray[np.int64]]
@@ -327,6 +296,8 @@ def _in_time_order(msg: DecodedMessage) -> DecodedMessage:
 
 def _cell(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
           undecoded: list[npt.NDArray[np.int64]]) -> CellSignals:
+    """One load cell's samples in time order, and the frames missing from it (counted in
+    the order the frames came in)."""
     names = [force.signal.name] + ([counter.signal.name] if counter is not None
                                    and counter.message is force.message else [])
     msg = _decoded_only(decode_message(frames, force.message, names), undecoded)
@@ -353,15 +324,51 @@ def _cell(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
     return CellSignals(t, value, count, found.count, found.method, found.note)
 
 
-def _hold(t_src: Array, values: npt.NDArray[np.generic], t: Array) -> npt.NDArray[np.generic]:
+def _hold(t_src: Array, values: npt.NDArray[Any], t: Array) -> npt.NDArray[Any]:
     """Values of a stream sampled at *t* by holding the last value (first one before)."""
     idx = np.clip(np.searchsorted(t_src, t, side="right") - 1, 0, max(len(t_src) - 1, 0))
     return values[idx] if len(t_src) else np.zeros(len(t), dtype=values.dtype)
 
 
-def _excitation(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]]
-                ) -> ExcitationSignals | None:
-    roles = {r: ref for r, ref in rig.roles.items() if r.startswith("excitation_")}
+def waveform_names(msg: DecodedMessage, ref: SignalRef, warnings: list[str]
+                   ) -> npt.NDArray[np.object_]:
+    """Names of a waveform signal's codes: its value table's, else :data:`FALLBACK_WAVEFORMS`
+    (with a warning naming the signal); None where a multiplexed frame does not carry it.
+
+    Parameters
+    ----------
+    msg : DecodedMessage
+        The decoded frames of the signal's message.
+    ref : SignalRef
+        The waveform signal.
+    warnings : list of str
+        Where the warning on a missing value table is added.
+
+    Returns
+    -------
+    ndarray of object
+        A name (str) or None per frame.
+    """
+    codec = msg.codecs[ref.signal.name]
+    raw = msg.raw[ref.signal.name]
+    if not codec.choices:
+        text = (f"the DBC gives the waveform signal {ref.qualified_name} no value table: its "
+                "codes are read as " + ", ".join(f"{k} {v}" for k, v in
+                                                 FALLBACK_WAVEFORMS.items()))
+        log.warning("%s", text)
+        warnings.append(text)
+        codec = dataclasses.replace(codec, choices=FALLBACK_WAVEFORMS)
+    names = np.full(raw.shape, None, dtype=object)
+    present = np.isfinite(raw) if raw.dtype.kind == "f" else np.ones(raw.shape, dtype=bool)
+    names[present] = codec.choice_names(raw[present])
+    return names
+
+
+def _excitation(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]],
+                warnings: list[str]) -> ExcitationSignals | None:
+    """The amplifier's status signals, each held at the times of the first role's message."""
+    roles = {r.removeprefix("excitation_"): ref for r, ref in rig.roles.items()
+             if r.startswith("excitation_")}
     if not roles:
         return None
     by_msg: dict[str, DecodedMessage] = {}
@@ -370,23 +377,22 @@ def _excitation(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int
             names = [r.signal.name for r in roles.values() if r.message is ref.message]
             by_msg[ref.message.name] = _in_time_order(_decoded_only(
                 decode_message(frames, ref.message, names), undecoded))
-    base = next(iter(roles.values()))
-    t = by_msg[base.message.name].timestamp
-    out = ExcitationSignals(t=t)
-    for role, ref in roles.items():
+    base = by_msg[next(iter(roles.values())).message.name]
+
+    def role(name: str) -> npt.NDArray[Any] | None:
+        ref = roles.get(name)
+        if ref is None:
+            return None
         msg = by_msg[ref.message.name]
-        name = ref.signal.name
-        raw = msg.raw[name]
-        if role == "excitation_enabled":
-            values: npt.NDArray[np.generic] = raw != 0
-        elif role == "excitation_waveform":
-            values = msg.choice_names(name)
-        else:
-            values = msg.scaled(name)
-        if msg.name != base.message.name:
-            values = _hold(msg.timestamp, values, t)
-        setattr(out, role.removeprefix("excitation_"), values)
-    return out
+        values: npt.NDArray[Any] = (
+            msg.raw[ref.signal.name] != 0 if name == "enabled"
+            else waveform_names(msg, ref, warnings) if name == "waveform"
+            else msg.scaled(ref.signal.name))
+        return values if msg is base else _hold(msg.timestamp, values, base.timestamp)
+
+    return ExcitationSignals(t=base.timestamp, enabled=role("enabled"),
+                             amplitude=role("amplitude"), frequency=role("frequency"),
+                             waveform=role("waveform"))
 
 
 def _rig_messages(rig: Rig) -> list[Message]:
@@ -425,6 +431,18 @@ def _rig_channel(frames: FrameTable, rig: Rig, channel: str | None, warnings: li
         log.warning("%s", text)
         warnings.append(text)
     return frames.take(frames.on_channel(chosen)), chosen
+
+
+def _decoded_count(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]]
+                   ) -> int:
+    """Frames of the rig's messages decoded: long enough, and not refused by cantools."""
+    decoded = np.zeros(len(frames), dtype=bool)
+    for ref in rig.roles.values():
+        m = ref.message
+        decoded |= message_mask(frames, m) & (frames.dlc >= m.length)
+    for rows in undecoded:
+        decoded[rows] = False
+    return int(np.count_nonzero(decoded))
 
 
 def decode_trial(frames: FrameTable, rig: Rig, *, channel: str | None = None
@@ -469,18 +487,14 @@ def decode_trial(frames: FrameTable, rig: Rig, *, channel: str | None = None
     # the counter the logger checks too: the rig's role, or a *Counter signal of the cell
     normal = _cell(frames, rig.normal_force, rig.counter("normal"), undecoded)
     tangential = _cell(frames, rig.tangential_force, rig.counter("tangential"), undecoded)
-    excitation = _excitation(frames, rig, undecoded)
-    decoded = np.zeros(len(frames), dtype=bool)
-    for ref in rig.roles.values():
-        m = ref.message
-        decoded |= message_mask(frames, m) & (frames.dlc >= m.length)
-    for rows in undecoded:
-        decoded[rows] = False
-    n = int(np.count_nonzero(decoded))
+    excitation = _excitation(frames, rig, undecoded, warnings)
+    n = _decoded_count(frames, rig, undecoded)
     return TrialSignals(normal, tangential, excitation, frames=n, ignored_frames=total - n,
-                        channel=chosen, logger_dropped=logger_dropped, warnings=warnings)
+                        channel=chosen, logger_dropped=logger_dropped,
+                        warnings=tuple(warnings))
 
 
-__all__ = ["CellSignals", "DecodedMessage", "ExcitationSignals", "SignalCodec",
-           "TrialSignals", "decode_message", "decode_messages", "decode_trial",
-           "kind_mismatches", "message_mask"]
+__all__ = ["FALLBACK_WAVEFORMS", "CellSignals", "DecodedMessage", "ExcitationSignals",
+           "SignalCodec", "TrialProvenance", "TrialSignals", "decode_message",
+           "decode_messages", "decode_trial", "kind_mismatches", "message_mask",
+           "waveform_names"]

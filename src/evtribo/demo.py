@@ -31,6 +31,7 @@ from evtribo.acquisition.simulator import Simulator, SubjectParams, TrialConfig,
 from evtribo.acquisition.simulator.realism import human, realistic_rig
 from evtribo.acquisition.trial import TrialInfo, record_trial
 from evtribo.errors import AcquisitionError, OutputExistsError
+from evtribo.files import atomic_write
 
 log = logging.getLogger(__name__)
 
@@ -199,8 +200,8 @@ def run_demo(out: str | Path, *, subjects: int = 3, amplitudes: Sequence[float] 
     out = Path(out)
     _check_out(out, force)
     out.mkdir(parents=True, exist_ok=True)
-    (out / MARKER).write_text("written by evtribo demo: --force may replace this folder's "
-                              "study/, results/ and report\n", encoding="utf-8")
+    atomic_write(out / MARKER, "written by evtribo demo: --force may replace this folder's "
+                               "study/, results/ and report\n")
     res = DemoResult(out=out, study=out / STUDY, results=out / RESULTS, report=out / REPORT)
     people = [human(p, seed=seed * 100 + i)
               for i, p in enumerate(default_subjects(subjects, seed=seed))]
@@ -213,7 +214,7 @@ def run_demo(out: str | Path, *, subjects: int = 3, amplitudes: Sequence[float] 
         say(f"[{n}/{len(trials)}] recorded {trial.subject.name}/{trial.name}: {c.waveform} "
             f"{c.amplitude_V:g} V {c.frequency_Hz:g} Hz, {truth['frames']} frames, "
             f"{truth['dropped_frames']} dropped")
-    (out / TRUTH).write_text(json.dumps(truths, indent=2) + "\n", encoding="utf-8")
+    atomic_write(out / TRUTH, json.dumps(truths, indent=2) + "\n")
     res.truth = truths
 
     def analysis_progress(done: int, total: int) -> None:

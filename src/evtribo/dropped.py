@@ -88,19 +88,19 @@ def estimate_period(t: npt.ArrayLike, *, max_missing: float = 0.4) -> float:
         The period that makes the timestamps most coherent. NaN for fewer than two
         distinct timestamps.
     """
-    t = np.asarray(t, dtype=np.float64)
-    if t.size < 2 or t[-1] <= t[0]:
+    times = np.asarray(t, dtype=np.float64)
+    if times.size < 2 or times[-1] <= times[0]:
         return float("nan")
-    t = t - t[0]
-    span = float(t[-1])
-    upper = span / (t.size - 1)
+    rel = times - times[0]
+    span = float(rel[-1])
+    upper = span / (rel.size - 1)
     lower = upper * (1 - min(max(max_missing, 0.0), 0.5))
     horizon = min(span, 512 * upper)
     # ~4 candidates per peak width (period / horizon, relative)
     n_cand = int(np.clip(4 * (upper - lower) / upper * horizon / lower, 41, 4001))
-    cand = np.linspace(lower, upper * (1 + 1 / t.size), n_cand)
+    cand = np.linspace(lower, upper * (1 + 1 / rel.size), n_cand)
     while True:
-        sel = t[: int(np.searchsorted(t, horizon, side="right"))]
+        sel = rel[: int(np.searchsorted(rel, horizon, side="right"))]
         if sel.size > _MAX_POINTS:
             sel = sel[np.linspace(0, sel.size - 1, _MAX_POINTS).astype(np.int64)]
         power = _coherence(sel, cand)
@@ -124,9 +124,21 @@ def coherence(t: npt.ArrayLike, period: float) -> float:
     """How regular a stream is at *period*: ``|mean(exp(2 pi i t / period))|``, 0 to 1.
 
     1 for frames exactly on a grid; about ``1/sqrt(n)`` for frames at random times.
+
+    Parameters
+    ----------
+    t : array_like of float, s
+        Reception times.
+    period : float, s
+        The period tried.
+
+    Returns
+    -------
+    float
+        The coherence (0 for no frames).
     """
-    t = np.asarray(t, dtype=np.float64)
-    return float(_coherence(t - t[0], np.array([period]))[0]) if t.size else 0.0
+    times = np.asarray(t, dtype=np.float64)
+    return float(_coherence(times - times[0], np.array([period]))[0]) if times.size else 0.0
 
 
 def _steps(t: npt.NDArray[np.float64], period: float) -> npt.NDArray[np.int64]:
@@ -138,7 +150,20 @@ def _steps(t: npt.NDArray[np.float64], period: float) -> npt.NDArray[np.int64]:
 def count_by_steps(t: npt.ArrayLike, gap_factor: float = 1.5) -> int:
     """The per-step rule: ``round(dt / median) - 1`` summed over steps longer than
     *gap_factor* median periods. Exact on a clean clock and for short streams; overcounts
-    as soon as the jitter stretches steps (see the module's docstring)."""
+    as soon as the jitter stretches steps (see the module's docstring).
+
+    Parameters
+    ----------
+    t : array_like of float, s
+        Reception times, increasing.
+    gap_factor : float
+        A step longer than this many median steps is a gap.
+
+    Returns
+    -------
+    int
+        Frames missing.
+    """
     dt = np.diff(np.asarray(t, dtype=np.float64))
     period = float(np.median(dt)) if dt.size else 0.0
     if not period > 0:
@@ -231,14 +256,14 @@ def missing_frames(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
         says were lost at once (only when the timestamps are regular enough to tell).
         Without: the timing's count.
     """
-    t = np.asarray(t, dtype=np.float64)
+    times = np.asarray(t, dtype=np.float64)
     c = None if counter is None else np.asarray(counter, dtype=np.int64)
-    finite = np.isfinite(t)
+    finite = np.isfinite(times)
     if not finite.all():  # a damaged log's times: count on the frames that have one
-        t = t[finite]
+        times = times[finite]
         c = None if c is None else c[finite]
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-        found = _missing_frames(t, c, modulus)
+        found = _missing_frames(times, c, modulus)
     found.count = int(min(max(found.count, 0), MAX_COUNT))
     return found
 
@@ -306,30 +331,44 @@ def missing_frames_received(t: npt.ArrayLike, counter: npt.ArrayLike | None = No
     by more than :data:`CLOCK_JUMP_S` either way; each piece is counted on its own (sorted,
     for frames merely reordered), and across each cut only the counter, when there is one,
     says how many frames are missing (whole counter periods lost there cannot be seen).
+
+    Parameters
+    ----------
+    t : array_like of float, s
+        Reception times, in the order the frames were received.
+    counter : array_like of int, optional
+        The cell's rolling frame counter, in the same order.
+    modulus : int, optional
+        The counter's period (default: as :func:`missing_frames`).
+
+    Returns
+    -------
+    DropCount
+        As :func:`missing_frames`, with a note where the clock jumped.
     """
-    t = np.asarray(t, dtype=np.float64)
+    times = np.asarray(t, dtype=np.float64)
     c = None if counter is None else np.asarray(counter, dtype=np.int64)
     with np.errstate(invalid="ignore"):
-        cuts = np.flatnonzero(np.abs(np.diff(t)) > CLOCK_JUMP_S) + 1
+        cuts = np.flatnonzero(np.abs(np.diff(times)) > CLOCK_JUMP_S) + 1
     if not cuts.size:
-        if not np.any(t[1:] < t[:-1]):
-            return missing_frames(t, c, modulus)
-        order = np.argsort(t, kind="stable")
-        return missing_frames(t[order], None if c is None else c[order], modulus)
+        if not np.any(times[1:] < times[:-1]):
+            return missing_frames(times, c, modulus)
+        order = np.argsort(times, kind="stable")
+        return missing_frames(times[order], None if c is None else c[order], modulus)
     if c is not None and modulus is None and c.size:
         modulus = 1 << max(int(c.max(initial=0)).bit_length(), 1)
-    bounds = np.concatenate([[0], cuts, [t.size]])
+    bounds = np.concatenate([[0], cuts, [times.size]])
     found = []
     for a, b in itertools.pairwise(bounds):
-        order = np.argsort(t[a:b], kind="stable")
-        found.append(missing_frames(t[a:b][order], None if c is None else c[a:b][order],
+        order = np.argsort(times[a:b], kind="stable")
+        found.append(missing_frames(times[a:b][order], None if c is None else c[a:b][order],
                                     modulus))
     count = sum(f.count for f in found)
     if c is not None and modulus:
         count += int(((c[cuts] - c[cuts - 1] - 1) % modulus).sum())
     methods = list(dict.fromkeys(f.method for f in found))
     notes = [f.note for f in found if f.note]
-    steps = np.diff(t)[cuts - 1]
+    steps = np.diff(times)[cuts - 1]
     what = " and ".join(w for w, n in (("jumped back", int((steps < 0).sum())),
                                        ("jumped ahead or paused", int((steps > 0).sum())))
                         if n)

@@ -189,6 +189,7 @@ sys.exit(main(["acquire", "--study", sys.argv[1], "--subject", "P01", "--trial",
 """
 
 
+@pytest.mark.slow
 def test_more_signals_while_the_trial_is_saved_do_not_abandon_it(tmp_path):
     """Ctrl-C, then Ctrl-C and SIGTERM again while the log is being saved (a slow disk):
     the trial still ends as interrupted, with every frame received in its log."""
@@ -240,6 +241,7 @@ def test_adapter_vanishing_mid_trial_exits_1_with_the_log(tmp_path, adapter):
 DAMAGED = [b"t0CZ8" + b"00" * 8 + b"\r", b"t0C1\r", b"\xff\xfe\r", b"T1\r"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("interface", ["slcan", "slcan_bulk"])
 def test_damaged_lines_are_counted_and_the_recording_goes_on(tmp_path, adapter, interface):
     study = tmp_path / "study"
@@ -335,6 +337,7 @@ def test_sigkill_leaves_whole_lines_up_to_the_last_flush(tmp_path, adapter):
     ("slcan", ["--fz-rate", "1000", "--fx-rate", "2000"]),            # python-can's driver
     ("slcan_bulk", ["--fz-rate", "2800", "--fx-rate", "5550"]),       # saturated 1 Mbit/s
 ])
+@pytest.mark.slow
 def test_acquire_from_simulate_pty_loses_nothing(tmp_path, simulate_pty, interface, rates):
     sim, path = simulate_pty(*rates)
     study = tmp_path / "study"

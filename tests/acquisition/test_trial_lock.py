@@ -96,6 +96,7 @@ def test_a_trial_being_recorded_is_refused_to_everyone_force_included(tmp_path, 
     check_whole_log(paths.log, "busA", side["frames"])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("offset_s", [0.0, 0.4, 1.5])
 def test_two_recordings_started_together_one_records_the_other_is_refused(
         tmp_path, simulate_pty, offset_s):

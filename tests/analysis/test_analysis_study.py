@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from _checks import fel_ok
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study, simulate_trial
 from evtribo.analysis.aggregate import (
     BOOTSTRAP_COLUMNS,
@@ -27,10 +28,6 @@ AMPLITUDES = (60.0, 100.0, 140.0)
 SUBJECTS = [SubjectParams(name="P01", mu=0.45, h_L=4e-6, normal_force_N=0.6),
             SubjectParams(name="P02", mu=0.3, h_L=7e-6, normal_force_N=1.2,
                           sliding_speed_m_s=0.03, reversal_s=0.1)]
-
-
-def _fel_ok(measured, true):
-    return abs(measured - true) <= max(0.05 * abs(true), 0.003)
 
 
 def _truth_exponent(truths):
@@ -83,7 +80,7 @@ def test_recovers_mu_electrostatic_force_exponent_and_modulation(default_study):
             row = el[(el.subject == subject.name) & (el.waveform == wave)
                      & (el.amplitude_V == amp)].iloc[0]
             assert row.mu == pytest.approx(subject.mu, rel=0.02)
-            assert _fel_ok(row.electrostatic_force_N, t.electrostatic_force_N), (
+            assert fel_ok(row.electrostatic_force_N, t.electrostatic_force_N), (
                 subject.name, wave, amp, row.electrostatic_force_N, t.electrostatic_force_N)
             assert row.electrostatic_force_ci_low_N < row.electrostatic_force_N
             assert row.electrostatic_force_N < row.electrostatic_force_ci_high_N
@@ -268,7 +265,7 @@ def test_other_dbc_and_sidecar_conditions(tmp_path):
     for amp, name in ((80.0, "on-80"), (120.0, "on-120")):
         assert el.loc[amp, "mu"] == pytest.approx(subject.mu, rel=0.02)
         assert el.loc[amp, "n_off"] == (res.windows.condition == "off").sum()
-        assert _fel_ok(el.loc[amp, "electrostatic_force_N"],
+        assert fel_ok(el.loc[amp, "electrostatic_force_N"],
                        truths[name].electrostatic_force_N)
     ex = res.exponents.iloc[0]
     assert ex.exponent == pytest.approx(

@@ -100,22 +100,23 @@ def test_simulated_trial_counts_match_the_simulator():
 
 
 def test_the_decoders_count_is_carried_into_the_analysis_not_recounted(monkeypatch):
-    from types import SimpleNamespace
-
+    from evtribo import dropped
     from evtribo.analysis import trial
-    from evtribo.decode import CellSignals
+    from evtribo.signals import CellSignals, TrialSignals
 
     def recount(*_a, **_k):
         raise AssertionError("counted again")
 
-    monkeypatch.setattr(trial, "missing_frames", recount)
+    for name in ("missing_frames", "count_dropped"):
+        monkeypatch.setattr(dropped, name, recount)
     t = np.arange(10.0)
-    signals = SimpleNamespace(
+    signals = TrialSignals(
         normal=CellSignals(t, np.zeros(10), None, 600, "counter+timing"),
         tangential=CellSignals(t, np.zeros(10), None, 3, "timing",
-                               "timestamps too irregular to count missing frames reliably"))
+                               "timestamps too irregular to count missing frames reliably"),
+        excitation=None, frames=20, ignored_frames=0)
     warnings = []
-    assert trial._dropped(signals, None, warnings.append) == 603
+    assert trial._dropped(signals, warnings.append) == 603
     assert any("whole counter periods" in w for w in warnings)
     assert any("too irregular" in w for w in warnings)
 

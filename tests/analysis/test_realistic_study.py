@@ -100,6 +100,7 @@ def test_trials_csv_reports_the_offsets_removed(lab_study):
     assert err.normal.abs().max() < 0.002 and err.tangential.abs().max() < 0.002, err
 
 
+@pytest.mark.slow
 def test_intervals_cover_the_truth_over_repeated_seeds():
     rows = pd.concat([run_study(seed).electrostatic for seed in range(6)], ignore_index=True)
     covered = ((rows.electrostatic_force_ci_low_N <= rows.fel_true_N)

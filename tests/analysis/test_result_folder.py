@@ -23,7 +23,7 @@ import pytest
 from _forked import alive, children, file_size_limit, run, run_id, start, tree
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
-from evtribo.analysis import pipeline
+from evtribo.analysis import workers as trial_workers
 from evtribo.cli import main
 from evtribo.resultdir import holder, lock_path, locked, pending, recover
 
@@ -148,12 +148,12 @@ def test_out_inside_the_study_is_refused(study, inside, tmp_path, capsys):
 
 def _slow_analysis(release):
     def setup():
-        real = pipeline.analyze_signals
+        real = trial_workers.analyze_signals
 
         def slow(*args, **kwargs):
             release.wait(60)
             return real(*args, **kwargs)
-        pipeline.analyze_signals = slow
+        trial_workers.analyze_signals = slow
     return setup
 
 
@@ -291,6 +291,7 @@ def _report_outcome(out: Path, old: dict[str, bytes]) -> str:
     return "new"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("command", ["compare", "report"])
 def test_compare_and_report_killed_at_random_moments_leave_old_or_new_files(
         complete, tmp_path, command):
@@ -348,12 +349,12 @@ def test_compare_and_report_on_a_full_disk_leave_the_old_files(complete, tmp_pat
 # --- item 11: SIGTERM stops the workers ---------------------------------------------------
 
 def _workers_sleep():
-    real = pipeline.analyze_signals
+    real = trial_workers.analyze_signals
 
     def slow(*args, **kwargs):
         time.sleep(60)
         return real(*args, **kwargs)
-    pipeline.analyze_signals = slow
+    trial_workers.analyze_signals = slow
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL])

@@ -38,6 +38,7 @@ def _shared_reference_points(seed: int, *, n: int = 6, rel: float = 0.02, n_boot
     return rows, e.replicates_N
 
 
+@pytest.mark.slow
 def test_air_gap_interval_coverage_with_a_shared_off_reference(caplog):
     # the Jacobian's interval, which takes the points as independent, covered 85.5 % here
     caplog.set_level(logging.ERROR)

@@ -12,8 +12,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from evtribo.cli.decode import decoded_table
 from evtribo.decode import decode_messages, decode_trial
+from evtribo.decode_table import decoded_table
 from evtribo.dropped import count_dropped
 from evtribo.frames import FrameTable
 from evtribo.rig import default_rig, load_rig

@@ -17,6 +17,14 @@ The layers, each a module of plain numpy functions:
   :mod:`~evtribo.analysis.pipeline`);
 - :mod:`~evtribo.analysis.powerlaw`: ``F_el = k * U**n`` over amplitudes;
 - :mod:`~evtribo.analysis.spectra`: the friction's dominant oscillation frequency.
+
+Around them: :mod:`~evtribo.analysis.trial` analyses one decoded trial
+(:class:`evtribo.signals.TrialSignals`, cut into continuous pieces by
+:mod:`~evtribo.analysis.pieces`; a sine trial's extras in :mod:`~evtribo.analysis.sine`),
+:mod:`~evtribo.analysis.workers` runs the trials of a study in worker processes,
+:mod:`~evtribo.analysis.aggregate` turns all windows into the per-subject tables, and
+:mod:`~evtribo.analysis.pipeline` (``analyze_study``) ties them together and writes the
+result folder.
 """
 
 from evtribo.analysis.align import AlignedForces, align_forces

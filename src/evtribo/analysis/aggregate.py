@@ -23,12 +23,18 @@ from __future__ import annotations
 
 import logging
 import zlib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from evtribo.analysis.estimate import DEFAULT_N_BOOT, estimate_electrostatic
+from evtribo.analysis.estimate import (
+    DEFAULT_N_BOOT,
+    ElectrostaticEstimate,
+    estimate_electrostatic,
+)
 from evtribo.analysis.powerlaw import fit_power_law
 from evtribo.errors import AnalysisError
 
@@ -80,11 +86,18 @@ def _where(subject: object, waveform: str, frequency: float) -> str:
 
 
 def _seed(base: int, *names: str) -> np.random.SeedSequence:
+    """A subject's seed: the settings' *base* and its names' checksums."""
     return np.random.SeedSequence([base, *(zlib.crc32(n.encode()) for n in names)])
 
 
+#: A trial's place in the study: (subject, trial) as the tables name them.
+TrialKey = tuple[object, object]
+#: A point of electrostatic.csv within a subject: (waveform, frequency key, amplitude V).
+PointKey = tuple[str, float, float]
+
+
 def _references(subject: str, on: pd.DataFrame, off: pd.DataFrame, whole_off: pd.DataFrame,
-                *, condition_of: dict[tuple[str, str], str], warnings: list[str]
+                *, condition_of: Mapping[TrialKey, object], warnings: list[str]
                 ) -> tuple[list[pd.DataFrame], npt.NDArray[np.int64]]:
     """The OFF reference of each ON window: the sets of OFF windows and each one's index."""
     subject_ref = whole_off if len(whole_off) else off
@@ -113,6 +126,125 @@ def _references(subject: str, on: pd.DataFrame, off: pd.DataFrame, whole_off: pd
             refs.append(frame)
         on_ref[k] = ref_index[key]
     return refs, on_ref
+
+
+@dataclass(frozen=True)
+class _TrialFacts:
+    """What the trials table tells the aggregation: each trial's condition and drive
+    frequency key, and each frequency key's reported frequency (the median of its
+    trials')."""
+
+    condition_of: dict[TrialKey, object]
+    frequency_of: dict[TrialKey, float]
+    shown: dict[float, float]
+
+
+def _trial_facts(trials: pd.DataFrame) -> _TrialFacts:
+    """Each trial's condition and frequency key, and the frequencies to report."""
+    keys = list(zip(trials.subject, trials.trial, strict=True))
+    condition_of: dict[TrialKey, object] = dict(zip(keys, trials.condition, strict=True))
+    reported_Hz = (trials.frequency_Hz.tolist() if "frequency_Hz" in trials.columns
+                   else [None] * len(keys))
+    frequency_of = {k: _frequency(f) for k, f in zip(keys, reported_Hz, strict=True)}
+    reported: dict[float, list[float]] = {}
+    for k, f in zip(keys, reported_Hz, strict=True):
+        if frequency_of[k] != _NO_FREQUENCY:
+            reported.setdefault(frequency_of[k], []).append(float(f))
+    return _TrialFacts(condition_of, frequency_of,
+                       {k: float(np.median(v)) for k, v in reported.items()})
+
+
+@dataclass
+class _Tables:
+    """The rows of electrostatic.csv and exponents.csv, and the parts of the bootstrap
+    table, as the subjects add them."""
+
+    electrostatic: list[dict[str, object]] = field(default_factory=list)
+    exponents: list[dict[str, object]] = field(default_factory=list)
+    bootstrap: list[pd.DataFrame] = field(default_factory=list)
+
+
+def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_boot: int,
+                      seed: int, confidence: float, warnings: list[str]
+                      ) -> tuple[ElectrostaticEstimate, list[PointKey]] | None:
+    """A subject's electrostatic force per point (waveform, frequency, amplitude), each ON
+    window against its OFF reference, and each estimate's point; None when the subject has
+    no ON window with an amplitude, or no OFF windows to compare them with."""
+    off = sub[sub.condition == "off"]
+    whole_off = off[[facts.condition_of.get((subject, t)) == "off" for t in off.trial]]
+    on = sub[(sub.condition == "on") & np.isfinite(sub.amplitude_V.to_numpy(float))]
+    if on.empty:
+        return None
+    refs, on_ref = _references(subject, on, off, whole_off,
+                               condition_of=facts.condition_of, warnings=warnings)
+    if any(r.empty for r in refs):
+        warnings.append(f"{subject}: no OFF windows to estimate mu from; no "
+                        "electrostatic force")
+        return None
+    window_points: list[PointKey] = list(zip(on.waveform, on.frequency_Hz,
+                                             on.amplitude_V.to_numpy(float), strict=True))
+    points = sorted(set(window_points))  # numbered in sorted order: the estimator's groups
+    group_number = {p: i for i, p in enumerate(points)}
+    est = estimate_electrostatic(
+        [r.normal_force_N.to_numpy(float) for r in refs],
+        [r.friction_force_N.to_numpy(float) for r in refs],
+        on.normal_force_N.to_numpy(float), on.friction_force_N.to_numpy(float),
+        on_ref, [group_number[p] for p in window_points], n_boot=n_boot,
+        confidence=confidence, seed=_seed(seed, subject))
+    return est, [points[int(g)] for g in est.groups]
+
+
+def _add_points(tables: _Tables, subject: str, est: ElectrostaticEstimate, *,
+                points: list[PointKey], shown: Mapping[float, float], n_saved: int,
+                warnings: list[str]) -> None:
+    """A subject's rows of electrostatic.csv and of the bootstrap table, with a warning for
+    a point resting on few windows."""
+    keep = min(n_saved, est.replicates_N.shape[0])
+    for j, (waveform, freq, amp) in enumerate(points):
+        names = {"subject": subject, "waveform": waveform or None,
+                 "frequency_Hz": shown.get(freq), "amplitude_V": amp}
+        tables.electrostatic.append({
+            **names, "mu": est.mu[j], "normal_force_on_N": est.normal_on_N[j],
+            "normal_force_off_N": est.normal_off_N[j],
+            "friction_on_N": est.friction_on_N[j],
+            "friction_off_N": est.friction_off_N[j],
+            "electrostatic_force_N": est.force_N[j],
+            "electrostatic_force_ci_low_N": est.ci_low_N[j],
+            "electrostatic_force_ci_high_N": est.ci_high_N[j],
+            "n_on": int(est.n_on[j]), "n_off": int(est.n_off[j])})
+        tables.bootstrap.append(pd.DataFrame({
+            **names, "replicate": np.arange(keep),
+            "electrostatic_force_N": est.replicates_N[:keep, j]}))
+        if est.n_on[j] < MIN_WINDOWS or est.n_off[j] < MIN_WINDOWS:
+            warnings.append(f"{_where(subject, waveform, freq)} at {amp:g} V: only "
+                            f"{est.n_on[j]} ON and {est.n_off[j]} OFF windows (fewer "
+                            f"than {MIN_WINDOWS}); the interval is calibrated for small "
+                            "counts but rests on few windows")
+
+
+def _add_power_laws(tables: _Tables, subject: str, est: ElectrostaticEstimate, *,
+                    points: list[PointKey], shown: Mapping[float, float], confidence: float,
+                    warnings: list[str]) -> None:
+    """A subject's rows of exponents.csv: a power law per drive (waveform, frequency) with
+    two positive amplitudes or more."""
+    for waveform, freq in dict.fromkeys((w, f) for w, f, _ in points):
+        in_drive = np.array([w == waveform and f == freq and a > 0 for w, f, a in points])
+        if np.count_nonzero(in_drive) < 2:
+            continue
+        amplitudes_V = np.array([a for _, _, a in points])[in_drive]
+        try:
+            fit = fit_power_law(amplitudes_V, est.force_N[in_drive],
+                                replicates_N=est.replicates_N[:, in_drive],
+                                confidence=confidence)
+        except AnalysisError as err:
+            warnings.append(f"{_where(subject, waveform, freq)}: no power law: {err}")
+            continue
+        tables.exponents.append({"subject": subject, "waveform": waveform or None,
+                                 "frequency_Hz": shown.get(freq),
+                                 "exponent": fit.exponent,
+                                 "exponent_ci_low": fit.exponent_ci_low,
+                                 "exponent_ci_high": fit.exponent_ci_high,
+                                 "prefactor_N": fit.prefactor_N})
 
 
 def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFAULT_N_BOOT,
@@ -145,98 +277,34 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
         calibrated bootstrap replicates of every electrostatic.csv row, replicate ``i`` of
         a subject's rows coming from the same resampling.
     warnings : list of str
+        What the aggregation found worth saying (missing references, few windows, no
+        power law).
     """
     warnings: list[str] = []
-    condition_of = {(r.subject, r.trial): r.condition for r in trials.itertuples()}
-    frequency_of = {(r.subject, r.trial): _frequency(getattr(r, "frequency_Hz", None))
-                    for r in trials.itertuples()}
-    # each group's frequency as reported: the median of its trials'
-    reported: dict[float, list[float]] = {}
-    for r in trials.itertuples():
-        key = frequency_of[(r.subject, r.trial)]
-        if key != _NO_FREQUENCY:
-            reported.setdefault(key, []).append(float(r.frequency_Hz))
-    shown = {k: float(np.median(v)) for k, v in reported.items()}
-    el_rows: list[dict[str, object]] = []
-    ex_rows: list[dict[str, object]] = []
-    boot_parts: list[pd.DataFrame] = []
-    empty = (pd.DataFrame(columns=list(ELECTROSTATIC_COLUMNS)),
-             pd.DataFrame(columns=list(EXPONENT_COLUMNS)),
-             pd.DataFrame(columns=list(BOOTSTRAP_COLUMNS)))
-    if windows.empty:
-        return (*empty, warnings)
-    wf = windows.assign(waveform=windows.waveform.fillna(""),
-                        frequency_Hz=[frequency_of.get((s, t), _NO_FREQUENCY)
-                                      for s, t in zip(windows.subject, windows.trial,
-                                                      strict=True)])
-    for subject, sub in wf.groupby("subject", sort=True):
-        off = sub[sub.condition == "off"]
-        whole_off = off[[condition_of.get((subject, t)) == "off" for t in off.trial]]
-        on = sub[(sub.condition == "on") & np.isfinite(sub.amplitude_V.to_numpy(float))]
-        if on.empty:
-            continue
-        refs, on_ref = _references(str(subject), on, off, whole_off,
-                                   condition_of=condition_of, warnings=warnings)
-        if any(r.empty for r in refs):
-            warnings.append(f"{subject}: no OFF windows to estimate mu from; no "
-                            "electrostatic force")
-            continue
-        # one group per (waveform, frequency, amplitude), numbered in sorted order
-        keys = list(zip(on.waveform, on.frequency_Hz, on.amplitude_V.to_numpy(float),
-                        strict=True))
-        groups = sorted(set(keys))
-        number = {g: float(i) for i, g in enumerate(groups)}
-        est = estimate_electrostatic(
-            [r.normal_force_N.to_numpy(float) for r in refs],
-            [r.friction_force_N.to_numpy(float) for r in refs],
-            on.normal_force_N.to_numpy(float), on.friction_force_N.to_numpy(float),
-            on_ref, [number[k] for k in keys], n_boot=n_boot, confidence=confidence,
-            seed=_seed(seed, str(subject)))
-        order = [groups[int(g)] for g in est.groups]  # each estimate's group
-        keep = min(n_saved, est.replicates_N.shape[0])
-        for j, (waveform, freq, amp) in enumerate(order):
-            names = {"subject": subject, "waveform": waveform or None,
-                     "frequency_Hz": shown.get(freq), "amplitude_V": amp}
-            el_rows.append({
-                **names, "mu": est.mu[j], "normal_force_on_N": est.normal_on_N[j],
-                "normal_force_off_N": est.normal_off_N[j],
-                "friction_on_N": est.friction_on_N[j],
-                "friction_off_N": est.friction_off_N[j],
-                "electrostatic_force_N": est.force_N[j],
-                "electrostatic_force_ci_low_N": est.ci_low_N[j],
-                "electrostatic_force_ci_high_N": est.ci_high_N[j],
-                "n_on": int(est.n_on[j]), "n_off": int(est.n_off[j])})
-            boot_parts.append(pd.DataFrame({
-                **names, "replicate": np.arange(keep),
-                "electrostatic_force_N": est.replicates_N[:keep, j]}))
-            if est.n_on[j] < MIN_WINDOWS or est.n_off[j] < MIN_WINDOWS:
-                warnings.append(f"{_where(subject, waveform, freq)} at {amp:g} V: only "
-                                f"{est.n_on[j]} ON and {est.n_off[j]} OFF windows (fewer "
-                                f"than {MIN_WINDOWS}); the interval is calibrated for small "
-                                "counts but rests on few windows")
-        for waveform, freq in dict.fromkeys((w, f) for w, f, _ in order):
-            cols = np.array([w == waveform and f == freq and a > 0 for w, f, a in order])
-            if np.count_nonzero(cols) < 2:
+    facts = _trial_facts(trials)
+    tables = _Tables()
+    if not windows.empty:
+        tagged = windows.assign(
+            waveform=windows.waveform.fillna(""),
+            frequency_Hz=[facts.frequency_of.get((s, t), _NO_FREQUENCY)
+                          for s, t in zip(windows.subject, windows.trial, strict=True)])
+        for subject, sub in tagged.groupby("subject", sort=True):
+            found = _estimate_subject(str(subject), sub, facts, n_boot=n_boot, seed=seed,
+                                      confidence=confidence, warnings=warnings)
+            if found is None:
                 continue
-            amps = np.array([a for _, _, a in order])[cols]
-            try:
-                fit = fit_power_law(amps, est.force_N[cols],
-                                    replicates_N=est.replicates_N[:, cols],
-                                    confidence=confidence)
-            except AnalysisError as err:
-                warnings.append(f"{_where(subject, waveform, freq)}: no power law: {err}")
-                continue
-            ex_rows.append({"subject": subject, "waveform": waveform or None,
-                            "frequency_Hz": shown.get(freq),
-                            "exponent": fit.exponent, "exponent_ci_low": fit.exponent_ci_low,
-                            "exponent_ci_high": fit.exponent_ci_high,
-                            "prefactor_N": fit.prefactor_N})
+            est, points = found
+            _add_points(tables, str(subject), est, points=points, shown=facts.shown,
+                        n_saved=n_saved, warnings=warnings)
+            _add_power_laws(tables, str(subject), est, points=points, shown=facts.shown,
+                            confidence=confidence, warnings=warnings)
     for w in warnings:
         log.warning("%s", w)
-    boot = (pd.concat(boot_parts, ignore_index=True).reindex(columns=list(BOOTSTRAP_COLUMNS))
-            if boot_parts else empty[2])
-    return (pd.DataFrame(el_rows, columns=list(ELECTROSTATIC_COLUMNS)),
-            pd.DataFrame(ex_rows, columns=list(EXPONENT_COLUMNS)), boot, warnings)
+    boot = (pd.concat(tables.bootstrap, ignore_index=True)
+            .reindex(columns=list(BOOTSTRAP_COLUMNS)) if tables.bootstrap
+            else pd.DataFrame(columns=list(BOOTSTRAP_COLUMNS)))
+    return (pd.DataFrame(tables.electrostatic, columns=list(ELECTROSTATIC_COLUMNS)),
+            pd.DataFrame(tables.exponents, columns=list(EXPONENT_COLUMNS)), boot, warnings)
 
 
 __all__ = ["BOOTSTRAP_COLUMNS", "ELECTROSTATIC_COLUMNS", "EXPONENT_COLUMNS", "MIN_WINDOWS",

@@ -96,7 +96,17 @@ def condition_from_excitation(
 
 
 def condition_name(code: int) -> str:
-    """``"on"`` or ``"off"`` for a grid-point code."""
+    """``"on"`` or ``"off"`` for a grid-point code.
+
+    Parameters
+    ----------
+    code : int
+        ``ON`` or ``OFF``.
+
+    Returns
+    -------
+    str
+    """
     return "on" if code == ON else "off" if code == OFF else "excluded"
 
 

@@ -131,19 +131,19 @@ class ElectrostaticEstimate:
     force_N, ci_low_N, ci_high_N : ndarray, N
         Point estimate and bootstrap interval per group.
     mu : ndarray
-        Pooled ratio-of-means ``mu`` of the OFF windows each amplitude's ON windows refer to.
+        Pooled ratio-of-means ``mu`` of the OFF windows each group's ON windows refer to.
     normal_on_N, normal_off_N, friction_on_N, friction_off_N : ndarray, N
         Means over the ON windows and over their reference OFF windows.
     n_on, n_off : ndarray of int
         Windows used.
-    replicates_N : ndarray, shape (n_boot, n_amplitudes), N
-        Bootstrap replicates of the forces (shared resampling across amplitudes), stretched
+    replicates_N : ndarray, shape (n_boot, n_groups), N
+        Bootstrap replicates of the forces (shared resampling across groups), stretched
         about ``force_N`` by ``interval_scale`` (the module's small-sample calibration); the
         intervals are their percentiles.
     interval_scale : ndarray
-        The stretch ``c`` of each amplitude's replicates (1 with no calibration).
+        The stretch ``c`` of each group's replicates (1 with no calibration).
     dof : ndarray
-        Welch-Satterthwaite degrees of freedom of each amplitude's force.
+        Welch-Satterthwaite degrees of freedom of each group's force.
     """
 
     groups: FloatArray
@@ -248,71 +248,139 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     AnalysisError
         An ON window refers to a reference without OFF windows, or there are no ON windows.
     """
-    offn = [np.asarray(a, dtype=np.float64).ravel() for a in off_normal_N]
-    offt = [np.asarray(a, dtype=np.float64).ravel() for a in off_friction_N]
-    onn = np.asarray(on_normal_N, dtype=np.float64).ravel()
-    ont = np.asarray(on_friction_N, dtype=np.float64).ravel()
-    ref = np.asarray(on_reference, dtype=np.int64).ravel()
-    amp = np.asarray(on_group, dtype=np.float64).ravel()
-    if onn.size == 0:
-        raise AnalysisError("no ON windows to infer the electrostatic force from")
-    if not (onn.size == ont.size == ref.size == amp.size):
-        raise ValueError("the ON windows' arrays differ in length")
-    used = np.unique(ref)
-    if used.min() < 0 or used.max() >= len(offn):
-        raise ValueError("on_reference holds an index with no OFF windows given")
-    mu = np.full(len(offn), np.nan)
+    w = _windows(off_normal_N, off_friction_N, on_normal_N=on_normal_N,
+                 on_friction_N=on_friction_N, on_reference=on_reference, on_group=on_group)
+    used = np.unique(w.on_ref)
+    mu = np.full(len(w.off_normal), np.nan)
     for r in used:
-        mu[r] = friction_coefficient(offn[r], offt[r])
-
+        mu[r] = friction_coefficient(w.off_normal[r], w.off_friction[r])
     rng = np.random.default_rng(seed)
-    mu_b = np.full((n_boot, len(offn)), np.nan)
-    for r in used:
-        sn, st = _resampled_sums(rng, [offn[r], offt[r]], n_boot)
-        mu_b[:, r] = st / sn
-    amps = np.unique(amp)
-    k = amps.size
-    force = np.empty(k)
-    reps = np.empty((n_boot, k))
-    stats = {name: np.empty(k) for name in ("mu", "n_on_N", "n_off_N", "f_on_N", "f_off_N")}
-    n_on = np.empty(k, dtype=np.int64)
-    n_off = np.empty(k, dtype=np.int64)
-    scale = np.ones(k)
-    dof = np.full(k, np.inf)
-    for j, a in enumerate(amps):
-        sel = amp == a
-        refs = np.unique(ref[sel])
-        force[j] = electrostatic_force(onn[sel], ont[sel], mu[ref[sel]])
-        acc = np.zeros(n_boot)
-        parts: list[float] = []
-        counts: list[int] = []
-        for r in refs:
-            s = sel & (ref == r)
-            sn, st = _resampled_sums(rng, [onn[s], ont[s]], n_boot)
-            acc += st / mu_b[:, r] - sn
-            # the two error sources of this stratum: ON scatter at fixed mu, mu at fixed ON
-            parts += [float(np.var(st / mu[r] - sn)), float(np.var(ont[s].sum() / mu_b[:, r]))]
-            counts += [int(np.count_nonzero(s)), int(offn[r].size)]
-        m = np.count_nonzero(sel)
-        scale[j], dof[j] = small_sample_scale(np.asarray(parts) / m**2, counts, confidence)
-        reps[:, j] = force[j] + scale[j] * (acc / m - force[j])
-        pool_n = np.concatenate([offn[r] for r in refs])
-        pool_t = np.concatenate([offt[r] for r in refs])
-        stats["mu"][j] = friction_coefficient(pool_n, pool_t)
-        stats["n_on_N"][j] = onn[sel].mean()
-        stats["f_on_N"][j] = ont[sel].mean()
-        stats["n_off_N"][j] = pool_n.mean()
-        stats["f_off_N"][j] = pool_t.mean()
-        n_on[j] = np.count_nonzero(sel)
-        n_off[j] = pool_n.size
+    mu_b = _bootstrap_mu(rng, w, used, n_boot)
+    labels = np.unique(w.on_group)
+    forces = [_group_force(rng, w, w.on_group == g, mu=mu, mu_b=mu_b, n_boot=n_boot,
+                           confidence=confidence) for g in labels]
+    means = [_group_means(w, w.on_group == g) for g in labels]
+    reps = np.column_stack([f.replicates_N for f in forces]) if forces \
+        else np.empty((n_boot, 0))
     alpha = (1.0 - confidence) / 2.0
     low, high = np.quantile(reps, [alpha, 1.0 - alpha], axis=0)
+
+    def column(values: list[float]) -> FloatArray:
+        return np.asarray(values, dtype=np.float64)
+
     return ElectrostaticEstimate(
-        groups=amps, force_N=force, ci_low_N=low, ci_high_N=high, mu=stats["mu"],
-        normal_on_N=stats["n_on_N"], normal_off_N=stats["n_off_N"],
-        friction_on_N=stats["f_on_N"], friction_off_N=stats["f_off_N"],
-        n_on=n_on, n_off=n_off, replicates_N=reps,
-        interval_scale=scale, dof=dof)
+        groups=labels, force_N=column([f.force_N for f in forces]), ci_low_N=low,
+        ci_high_N=high, mu=column([m.mu for m in means]),
+        normal_on_N=column([m.normal_on_N for m in means]),
+        normal_off_N=column([m.normal_off_N for m in means]),
+        friction_on_N=column([m.friction_on_N for m in means]),
+        friction_off_N=column([m.friction_off_N for m in means]),
+        n_on=np.asarray([m.n_on for m in means], dtype=np.int64),
+        n_off=np.asarray([m.n_off for m in means], dtype=np.int64), replicates_N=reps,
+        interval_scale=column([f.scale for f in forces]), dof=column([f.dof for f in forces]))
+
+
+@dataclass(frozen=True)
+class _Windows:
+    """The windows of one estimate as flat float arrays (see
+    :func:`estimate_electrostatic`'s parameters)."""
+
+    off_normal: list[FloatArray]
+    off_friction: list[FloatArray]
+    on_normal: FloatArray
+    on_friction: FloatArray
+    on_ref: npt.NDArray[np.int64]
+    on_group: FloatArray
+
+
+def _windows(off_normal_N: Sequence[npt.ArrayLike], off_friction_N: Sequence[npt.ArrayLike],
+             *, on_normal_N: npt.ArrayLike, on_friction_N: npt.ArrayLike,
+             on_reference: npt.ArrayLike, on_group: npt.ArrayLike) -> _Windows:
+    """The windows as arrays, checked: ON windows there are, of one length, each referring
+    to a reference given."""
+    w = _Windows([np.asarray(a, dtype=np.float64).ravel() for a in off_normal_N],
+                 [np.asarray(a, dtype=np.float64).ravel() for a in off_friction_N],
+                 np.asarray(on_normal_N, dtype=np.float64).ravel(),
+                 np.asarray(on_friction_N, dtype=np.float64).ravel(),
+                 np.asarray(on_reference, dtype=np.int64).ravel(),
+                 np.asarray(on_group, dtype=np.float64).ravel())
+    if w.on_normal.size == 0:
+        raise AnalysisError("no ON windows to infer the electrostatic force from")
+    if not (w.on_normal.size == w.on_friction.size == w.on_ref.size == w.on_group.size):
+        raise ValueError("the ON windows' arrays differ in length")
+    if w.on_ref.min() < 0 or w.on_ref.max() >= len(w.off_normal):
+        raise ValueError("on_reference holds an index with no OFF windows given")
+    return w
+
+
+def _bootstrap_mu(rng: np.random.Generator, w: _Windows, used: npt.NDArray[np.int64],
+                  n_boot: int) -> FloatArray:
+    """Bootstrap replicates of each reference's ``mu`` (its OFF windows resampled), shape
+    (n_boot, references); NaN for references no ON window uses."""
+    mu_b = np.full((n_boot, len(w.off_normal)), np.nan)
+    for r in used:
+        sn, st = _resampled_sums(rng, [w.off_normal[r], w.off_friction[r]], n_boot)
+        mu_b[:, r] = st / sn
+    return mu_b
+
+
+@dataclass(frozen=True)
+class _GroupForce:
+    """One group's force, its calibrated replicates and their stretch."""
+
+    force_N: float
+    replicates_N: FloatArray
+    scale: float
+    dof: float
+
+
+def _group_force(rng: np.random.Generator, w: _Windows, sel: npt.NDArray[np.bool_], *,
+                 mu: FloatArray, mu_b: FloatArray, n_boot: int, confidence: float
+                 ) -> _GroupForce:
+    """The force of the ON windows *sel*, and its bootstrap replicates (each reference's ON
+    windows resampled, with its replicate of ``mu``) stretched by the small-sample
+    calibration."""
+    force = electrostatic_force(w.on_normal[sel], w.on_friction[sel], mu[w.on_ref[sel]])
+    acc = np.zeros(n_boot)
+    variances: list[float] = []
+    counts: list[int] = []
+    for r in np.unique(w.on_ref[sel]):
+        s = sel & (w.on_ref == r)
+        sn, st = _resampled_sums(rng, [w.on_normal[s], w.on_friction[s]], n_boot)
+        acc += st / mu_b[:, r] - sn
+        # the two error sources of this stratum: ON scatter at fixed mu, mu at fixed ON
+        variances += [float(np.var(st / mu[r] - sn)),
+                      float(np.var(w.on_friction[s].sum() / mu_b[:, r]))]
+        counts += [int(np.count_nonzero(s)), int(w.off_normal[r].size)]
+    m = np.count_nonzero(sel)
+    scale, dof = small_sample_scale(np.asarray(variances) / m**2, counts, confidence)
+    return _GroupForce(force, force + scale * (acc / m - force), scale, dof)
+
+
+@dataclass(frozen=True)
+class _GroupMeans:
+    """What electrostatic.csv shows of a group besides its force: the pooled ``mu`` of its
+    references, the mean forces ON and OFF, the windows' counts."""
+
+    mu: float
+    normal_on_N: float
+    friction_on_N: float
+    normal_off_N: float
+    friction_off_N: float
+    n_on: int
+    n_off: int
+
+
+def _group_means(w: _Windows, sel: npt.NDArray[np.bool_]) -> _GroupMeans:
+    """The means of the ON windows *sel* and of the OFF windows of their references."""
+    refs = np.unique(w.on_ref[sel])
+    pool_n = np.concatenate([w.off_normal[r] for r in refs])
+    pool_t = np.concatenate([w.off_friction[r] for r in refs])
+    return _GroupMeans(mu=friction_coefficient(pool_n, pool_t),
+                       normal_on_N=float(w.on_normal[sel].mean()),
+                       friction_on_N=float(w.on_friction[sel].mean()),
+                       normal_off_N=float(pool_n.mean()), friction_off_N=float(pool_t.mean()),
+                       n_on=int(np.count_nonzero(sel)), n_off=int(pool_n.size))
 
 
 __all__ = ["DEFAULT_CONFIDENCE", "DEFAULT_N_BOOT", "ElectrostaticEstimate",

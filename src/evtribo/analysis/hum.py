@@ -168,7 +168,22 @@ def modulation_lines(waveform: str | None, frequency_Hz: float | None,
                      rate_Hz: float) -> list[float]:
     """Frequencies the friction itself may oscillate at: ``2 k f`` (up to the Nyquist
     frequency), for a sine drive and for a square wave (whose force pulses after each edge
-    when the layers conduct), Hz."""
+    when the layers conduct), Hz.
+
+    Parameters
+    ----------
+    waveform : str or None
+        The drive's waveform (``"sine"``, ``"square"``...).
+    frequency_Hz : float or None
+        The drive's frequency, Hz.
+    rate_Hz : float
+        The forces' sampling rate, Hz.
+
+    Returns
+    -------
+    list of float
+        Hz; empty for other waveforms or an unknown frequency.
+    """
     if waveform not in ("sine", "square") or not frequency_Hz:
         return []
     f2 = 2.0 * float(frequency_Hz)

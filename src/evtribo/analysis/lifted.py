@@ -87,6 +87,7 @@ class Lifted:
 
 
 def _span(t: FloatArray) -> float:
+    """The grid's step, s (NaN with fewer than two points)."""
     return float(np.median(np.diff(t))) if t.size > 1 else float("nan")
 
 
@@ -170,62 +171,108 @@ def find_lifted(t: npt.ArrayLike, normal: npt.ArrayLike, tangential: npt.ArrayLi
     ok = np.isfinite(fn_s) & np.isfinite(ft_s)
     if ok.sum() < 10:
         return []
+    levels = _levels(fn_s, ft_s, ok, m)
+    if levels is None:
+        return []
+    low = ok & (fn_s <= levels.floor_N + LIFT_FRACTION * levels.press_N)
+    edge = round(EDGE_S / dt)
+    out = []
+    for a, b in true_runs(low):
+        if (b - a - 2 * edge) * dt < min_s or not _left_quickly(fn_s, a, b, dt, levels):
+            continue
+        found = _measure(t, fn, ft, stretch=(a + edge, b - edge), m=m, dt=dt, levels=levels)
+        if found is not None:
+            out.append(found)
+    return out
+
+
+@dataclass(frozen=True)
+class _Levels:
+    """A trial's force levels, from its 0.1-s means, that tell a lifted finger."""
+
+    floor_N: float
+    """The normal force's floor (its 0.25th percentile)."""
+    press_N: float
+    """The pressing force above the floor (the normal force's 75th percentile less it)."""
+    backward_N: float
+    """The friction sliding one way (10th percentile while in contact)."""
+    forward_N: float
+    """The friction sliding the other way (90th percentile while in contact)."""
+    lightest_N: float
+    """The lightest normal force while sliding (1st percentile; -inf without sliding)."""
+
+    @property
+    def gap_N(self) -> float:
+        """Between the two sliding levels."""
+        return self.forward_N - self.backward_N
+
+
+def _levels(fn_s: FloatArray, ft_s: FloatArray, ok: npt.NDArray[np.bool_], m: int
+            ) -> _Levels | None:
+    """The trial's levels (:class:`_Levels`); None when the forces cannot show a lifted
+    finger (no pressing, too little contact, a load that hardly varies)."""
     # levels from the 0.1-s means taken every 10 ms (as good, and cheaper than every sample)
     step_10ms = slice(None, None, max(1, m // 10))
     fn_d, ft_d, ok_d = fn_s[step_10ms], ft_s[step_10ms], ok[step_10ms]
     floor = float(np.percentile(fn_d[ok_d], 0.25))
-    span = float(np.percentile(fn_d[ok_d], 75)) - floor
-    if not span > 0:
-        return []
-    contact = ok_d & (fn_d > floor + LIFT_FRACTION * span)
+    press = float(np.percentile(fn_d[ok_d], 75)) - floor
+    if not press > 0:
+        return None
+    contact = ok_d & (fn_d > floor + LIFT_FRACTION * press)
     if contact.sum() < 10:
-        return []
+        return None
     back, fwd = (float(v) for v in np.percentile(ft_d[contact], [10, 90]))
     gap = fwd - back
-    if 0.5 * gap > MAX_MU * span:  # the floor is no lifted finger: the load hardly varies
-        return []
-    mid_band = (back + 0.2 * gap, fwd - 0.2 * gap)
+    if 0.5 * gap > MAX_MU * press:  # the floor is no lifted finger: the load hardly varies
+        return None
     sliding = contact & ((ft_d > fwd - 0.3 * gap) | (ft_d < back + 0.3 * gap))
     lightest = float(np.percentile(fn_d[sliding], 1)) if sliding.any() else -np.inf
-    low = ok & (fn_s <= floor + LIFT_FRACTION * span)
-    edge = round(EDGE_S / dt)
+    return _Levels(floor, press, back, fwd, lightest)
+
+
+def _left_quickly(fn_s: FloatArray, a: int, b: int, dt: float, levels: _Levels) -> bool:
+    """Whether the finger left before ``[a, b)`` and came back after it within
+    :data:`STEP_S` (the normal force at half the pressing force), on each side inside the
+    trial."""
     step = round(STEP_S / dt)
-    half = floor + 0.5 * span
-    out = []
-    for a, b in true_runs(low):
-        a2, b2 = a + edge, b - edge
-        if (b2 - a2) * dt < min_s:
-            continue
-        before, after = fn_s[max(a - step, 0):a], fn_s[b:b + step]
-        inside_before = a - step >= 0 and np.isfinite(fn_s[a - step])
-        inside_after = b + step <= fn_s.size and np.isfinite(fn_s[b + step - 1])
-        if (inside_before and not np.nanmax(before) >= half) \
-                or (inside_after and not np.nanmax(after) >= half):
-            continue
-        length = (b2 - a2) // m * m or (b2 - a2)
-        c0 = a2 + (b2 - a2 - length) // 2
-        seg = slice(c0, c0 + length)
-        seg_n, seg_t = fn[seg], ft[seg]
-        good = np.isfinite(seg_n) & np.isfinite(seg_t)
-        if good.sum() < 2 * m:
-            continue
-        level_n, level_t = float(np.mean(seg_n[good])), float(np.mean(seg_t[good]))
-        if not (level_n <= lightest - LIFT_FRACTION * span
-                and mid_band[0] <= level_t <= mid_band[1]):
-            continue
-        line_n, line_t = _block_line(t[seg], seg_n, m), _block_line(t[seg], seg_t, m)
-        if not all(line.scatter <= max(QUIET * line.noise, 0.005 * span)
-                   for line in (line_n, line_t)):
-            continue
-        k = int(good.sum())
-        out.append(Lifted(
-            i_start=int(c0), i_stop=int(c0 + length), t_start=float(t[a2]),
-            t_end=float(t[b2 - 1] + dt), normal_N=level_n, tangential_N=level_t,
-            normal_se_N=float(np.std(seg_n[good]) / np.sqrt(k)),
-            tangential_se_N=float(np.std(seg_t[good]) / np.sqrt(k)),
-            normal_slope=line_n.slope, tangential_slope=line_t.slope,
-            normal_slope_se=line_n.slope_se, tangential_slope_se=line_t.slope_se))
-    return out
+    half = levels.floor_N + 0.5 * levels.press_N
+    before, after = fn_s[max(a - step, 0):a], fn_s[b:b + step]
+    inside_before = a - step >= 0 and np.isfinite(fn_s[a - step])
+    inside_after = b + step <= fn_s.size and np.isfinite(fn_s[b + step - 1])
+    return not ((inside_before and not np.nanmax(before) >= half)
+                or (inside_after and not np.nanmax(after) >= half))
+
+
+def _measure(t: FloatArray, fn: FloatArray, ft: FloatArray, *, stretch: tuple[int, int],
+             m: int, dt: float, levels: _Levels) -> Lifted | None:
+    """The lifted stretch ``[a2, b2)`` (edges trimmed) measured on whole blocks of *m*
+    samples (0.1 s) about its middle; None when its levels or its stillness are not a
+    lifted finger's."""
+    a2, b2 = stretch
+    length = (b2 - a2) // m * m or (b2 - a2)
+    c0 = a2 + (b2 - a2 - length) // 2
+    seg = slice(c0, c0 + length)
+    seg_n, seg_t = fn[seg], ft[seg]
+    good = np.isfinite(seg_n) & np.isfinite(seg_t)
+    if good.sum() < 2 * m:
+        return None
+    level_n, level_t = float(np.mean(seg_n[good])), float(np.mean(seg_t[good]))
+    gap = levels.gap_N
+    if not (level_n <= levels.lightest_N - LIFT_FRACTION * levels.press_N
+            and levels.backward_N + 0.2 * gap <= level_t <= levels.forward_N - 0.2 * gap):
+        return None
+    line_n, line_t = _block_line(t[seg], seg_n, m), _block_line(t[seg], seg_t, m)
+    if not all(line.scatter <= max(QUIET * line.noise, 0.005 * levels.press_N)
+               for line in (line_n, line_t)):
+        return None
+    k = int(good.sum())
+    return Lifted(
+        i_start=int(c0), i_stop=int(c0 + length), t_start=float(t[a2]),
+        t_end=float(t[b2 - 1] + dt), normal_N=level_n, tangential_N=level_t,
+        normal_se_N=float(np.std(seg_n[good]) / np.sqrt(k)),
+        tangential_se_N=float(np.std(seg_t[good]) / np.sqrt(k)),
+        normal_slope=line_n.slope, tangential_slope=line_t.slope,
+        normal_slope_se=line_n.slope_se, tangential_slope_se=line_t.slope_se)
 
 
 def offset_curve(t: npt.ArrayLike, at: Sequence[float], values: Sequence[float], *,
@@ -241,6 +288,10 @@ def offset_curve(t: npt.ArrayLike, at: Sequence[float], values: Sequence[float],
         Times (s, increasing) and offsets (N) measured there.
     slope : float, N/s
         Drift rate through a single point.
+    Returns
+    -------
+    ndarray of float64
+        The offset at each of *t*, N.
     """
     t = np.asarray(t, dtype=np.float64)
     x = np.asarray(at, dtype=np.float64)

@@ -12,6 +12,8 @@ import json
 import re
 from pathlib import Path
 
+from evtribo.documents.fit import FIT_JSON
+from evtribo.documents.summary import SUMMARY_FILE
 from evtribo.errors import OutputExistsError, UserInputError
 from evtribo.resultdir import inside
 
@@ -19,7 +21,6 @@ __all__ = ["ANALYSIS_FILES", "BOOTSTRAP_FILE", "FIGURES", "FIT_CSV", "FIT_JSON",
            "OUTPUT_FILES", "SINE_TRACE_FILE", "SUMMARY_FILE", "check_out_dir",
            "check_overwrite", "compare_files", "report_files"]
 
-SUMMARY_FILE = "summary.json"
 #: The files ``analyze_study`` writes into its output folder.
 OUTPUT_FILES = ("trials.csv", "windows.csv", "electrostatic.csv", "exponents.csv",
                 SUMMARY_FILE, "electrostatic_bootstrap.csv")
@@ -31,7 +32,7 @@ SINE_TRACE_FILE = "sine_trace.csv"
 #: Every file of analyze's.
 ANALYSIS_FILES = (*OUTPUT_FILES, SINE_TRACE_FILE)
 #: compare's files, and the folder of its figures.
-FIT_CSV, FIT_JSON, FIGURES = "fit.csv", "fit.json", "figures"
+FIT_CSV, FIGURES = "fit.csv", "figures"
 #: The stems of compare's figures (``electrostatic_force_P01.png``...).
 _FIGURE = re.compile(r"^(friction_time|area_increase|electrostatic_force_.+|"
                      r"friction_normal_force_.+)\.(png|svg|pdf)$")
@@ -41,7 +42,18 @@ _REPORT_MARK = b'<meta name="generator" content="evtribo'
 
 def compare_files(out: Path) -> list[str]:
     """compare's files in *out* (relative): fit.csv, fit.json, and its figures (those
-    fit.json lists, and those named as compare names them)."""
+    fit.json lists, and those named as compare names them).
+
+    Parameters
+    ----------
+    out : Path
+        The output folder.
+
+    Returns
+    -------
+    list of str
+        Names relative to *out*.
+    """
     found = [name for name in (FIT_CSV, FIT_JSON) if (out / name).is_file()]
     listed: set[str] = set()
     try:
@@ -71,7 +83,18 @@ def _is_report(path: Path) -> bool:
 
 def report_files(out: Path) -> list[str]:
     """The files of reports ``evtribo report`` wrote into *out* (relative): each HTML page
-    that says evtribo generated it, and the PNG and SVG figures of its ``<name>_files/``."""
+    that says evtribo generated it, and the PNG and SVG figures of its ``<name>_files/``.
+
+    Parameters
+    ----------
+    out : Path
+        The output folder.
+
+    Returns
+    -------
+    list of str
+        Names relative to *out*.
+    """
     if not out.is_dir():
         return []
     found = []
@@ -88,6 +111,13 @@ def report_files(out: Path) -> list[str]:
 def check_overwrite(out: Path, force: bool) -> None:
     """Refuse (unless *force*) an output folder that holds results of analyze, compare or
     report.
+
+    Parameters
+    ----------
+    out : Path
+        The output folder.
+    force : bool
+        Replace the results it holds.
 
     Raises
     ------
@@ -107,6 +137,13 @@ def check_overwrite(out: Path, force: bool) -> None:
 def check_out_dir(out: Path, study_root: Path) -> None:
     """Refuse an output folder inside the study (the next analysis would read its tables as
     part of the study) or one that is a file.
+
+    Parameters
+    ----------
+    out : Path
+        The output folder.
+    study_root : Path
+        The study folder.
 
     Raises
     ------

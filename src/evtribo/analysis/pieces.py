@@ -13,14 +13,15 @@ shows load cells sending one frame a second or slower: :func:`check_seconds` ref
 
 from __future__ import annotations
 
-from types import SimpleNamespace
-from typing import Any
+import dataclasses
 
 import numpy as np
 import numpy.typing as npt
 
+from evtribo._docs import fill_doc
 from evtribo.analysis.align import nominal_period
 from evtribo.errors import AnalysisError
+from evtribo.signals import CellSignals, ExcitationSignals, TrialSignals
 
 __all__ = ["MAX_PAUSE_S", "MIN_RATE_HZ", "check_seconds", "continuous_pieces", "describe_gap",
            "restrict"]
@@ -33,18 +34,21 @@ MIN_RATE_HZ = 5.0
 FloatArray = npt.NDArray[np.float64]
 
 
-def _times(signals: Any, name: str) -> FloatArray:
-    cell = getattr(signals, name, None)
-    t = getattr(cell, "t", None)
-    if t is None:
-        return np.empty(0)
-    t = np.asarray(t, dtype=np.float64)
+def _times(signals: TrialSignals, name: str) -> FloatArray:
+    """A load cell's finite sample times, s."""
+    cell: CellSignals = getattr(signals, name)
+    t = np.asarray(cell.t, dtype=np.float64)
     return t[np.isfinite(t)]
 
 
-def check_seconds(signals: Any) -> None:
+def check_seconds(signals: TrialSignals) -> None:
     """Refuse timestamps that are not in seconds (load cells slower than
     :data:`MIN_RATE_HZ`, by their median interval).
+
+    Parameters
+    ----------
+    signals : TrialSignals
+        The decoded trial; its load cells' times are read.
 
     Raises
     ------
@@ -67,7 +71,7 @@ def check_seconds(signals: Any) -> None:
             "convert the log, or record it with evtribo acquire")
 
 
-def continuous_pieces(signals: Any, max_pause_s: float = MAX_PAUSE_S
+def continuous_pieces(signals: TrialSignals, max_pause_s: float = MAX_PAUSE_S
                       ) -> list[tuple[float, float]]:
     """The stretches of a trial with no pause longer than *max_pause_s* in both load cells.
 
@@ -75,7 +79,8 @@ def continuous_pieces(signals: Any, max_pause_s: float = MAX_PAUSE_S
     ----------
     signals : TrialSignals
         ``normal.t`` and ``tangential.t`` are read (s).
-    max_pause_s : float, s
+    max_pause_s : float
+        Longest pause inside a piece, s.
 
     Returns
     -------
@@ -93,7 +98,19 @@ def continuous_pieces(signals: Any, max_pause_s: float = MAX_PAUSE_S
 
 
 def describe_gap(before: tuple[float, float], after: tuple[float, float], t0: float) -> str:
-    """A sentence on the pause between two pieces (times from the trial's start *t0*)."""
+    """A sentence on the pause between two pieces.
+
+    Parameters
+    ----------
+    before, after : (float, float)
+        The two pieces' first and last times, s.
+    t0 : float
+        The trial's start (times are said from it), s.
+
+    Returns
+    -------
+    str
+    """
     size = after[0] - before[1]
     size_text = (f"{size / 3600:.1f} h" if size >= 3600 else f"{size / 60:.1f} min"
                  if size >= 60 else f"{size:.1f} s")
@@ -101,34 +118,52 @@ def describe_gap(before: tuple[float, float], after: tuple[float, float], t0: fl
             f"{before[1] - t0:.3f} s: a jump of the log's clock or a pause of the recording")
 
 
-def _cut(obj: Any, lo: float, hi: float, names: tuple[str, ...]) -> Any:
-    """A copy of a channel with its samples of time in ``[lo, hi]``."""
-    if obj is None:
-        return None
-    t = getattr(obj, "t", None)
-    if t is None:
-        return obj
+def _kept(t: FloatArray, lo: float, hi: float) -> npt.NDArray[np.bool_]:
+    """Which of the times *t* lie in ``[lo, hi]``."""
     t = np.asarray(t, dtype=np.float64)
-    keep = (t >= lo) & (t <= hi)
-    out = SimpleNamespace(**vars(obj))
-    for name in ("t", *names):
-        value = getattr(obj, name, None)
-        if value is not None and np.ndim(value) == 1 and len(value) == t.size:
-            setattr(out, name, np.asarray(value)[keep])
-    return out
+    return (t >= lo) & (t <= hi)
 
 
-def restrict(signals: Any, lo: float, hi: float) -> Any:
-    """The trial's signals between *lo* and *hi* (s): the load cells' samples and the
-    amplifier's status (with its last status shortly before *lo*, which holds there)."""
-    out = SimpleNamespace(**vars(signals))
-    for name in ("normal", "tangential"):
-        setattr(out, name, _cut(getattr(signals, name, None), lo, hi, ("value", "counter")))
-    exc = getattr(signals, "excitation", None)
-    if exc is not None and getattr(exc, "t", None) is not None and len(exc.t):
+def _cut_cell(cell: CellSignals, lo: float, hi: float) -> CellSignals:
+    """A load cell's samples of time in ``[lo, hi]`` (its count of missing frames kept:
+    the trial's)."""
+    keep = _kept(cell.t, lo, hi)
+    return dataclasses.replace(cell, t=cell.t[keep], value=cell.value[keep],
+                               counter=None if cell.counter is None else cell.counter[keep])
+
+
+def _cut_excitation(exc: ExcitationSignals, lo: float, hi: float) -> ExcitationSignals:
+    """The amplifier's status of time in ``[lo, hi]``."""
+    keep = _kept(exc.t, lo, hi)
+    return ExcitationSignals(
+        t=exc.t[keep], enabled=None if exc.enabled is None else exc.enabled[keep],
+        amplitude=None if exc.amplitude is None else exc.amplitude[keep],
+        frequency=None if exc.frequency is None else exc.frequency[keep],
+        waveform=None if exc.waveform is None else exc.waveform[keep])
+
+
+@fill_doc
+def restrict(signals: TrialSignals, lo: float, hi: float) -> TrialSignals:
+    """The trial's signals between two times.
+
+    Parameters
+    ----------
+    %(signals)s
+    lo, hi : float
+        The stretch's first and last time, s.
+
+    Returns
+    -------
+    TrialSignals
+        The load cells' samples in ``[lo, hi]``, and the amplifier's status (with its last
+        status shortly before *lo*, which holds there); the counts are the whole trial's.
+    """
+    exc = signals.excitation
+    if exc is not None and len(exc.t):
         te = np.asarray(exc.t, dtype=np.float64)
         before = te[(te < lo) & (te >= lo - MAX_PAUSE_S)]
         start = float(before.max()) if before.size else lo
-        out.excitation = _cut(exc, start, hi, ("enabled", "amplitude", "frequency",
-                                               "waveform"))
-    return out
+        exc = _cut_excitation(exc, start, hi)
+    return dataclasses.replace(signals, normal=_cut_cell(signals.normal, lo, hi),
+                               tangential=_cut_cell(signals.tangential, lo, hi),
+                               excitation=exc)

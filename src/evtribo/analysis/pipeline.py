@@ -27,15 +27,11 @@ reference. ``evtribo compare`` refits the model to each replicate for its interv
 from __future__ import annotations
 
 import hashlib
-import json
 import logging
 import os
-import signal
-import threading
 import time
 import uuid
-from collections.abc import Callable, Mapping
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -44,6 +40,7 @@ import numpy as np
 import pandas as pd
 
 from evtribo import __version__
+from evtribo._docs import fill_doc
 from evtribo.analysis.aggregate import (
     BOOTSTRAP_COLUMNS,
     ELECTROSTATIC_COLUMNS,
@@ -67,26 +64,25 @@ from evtribo.analysis.trial import (
     SINE_TRACE_CSV_COLUMNS,
     TRIAL_COLUMNS,
     WINDOW_CSV_COLUMNS,
-    TrialMeta,
-    analyze_signals,
     empty_windows,
     failed_row,
 )
-from evtribo.cache import load_trial
-from evtribo.decode import TrialSignals
-from evtribo.errors import AnalysisError, SidecarError, StudyError, UserInputError
-from evtribo.resultdir import Staging, locked, recover, release_inherited_locks
-from evtribo.rig import Rig
+from evtribo.analysis.workers import (
+    ProgressCallback,
+    TrialOutcome,
+    TrialTask,
+    WorkerContext,
+    run_tasks,
+    trial_meta,
+)
+from evtribo.documents.summary import write_summary
+from evtribo.errors import StudyError
+from evtribo.resultdir import Staging, locked, recover
 from evtribo.study import STUDY_FILE, Study, TrialRef, load_study
 
 log = logging.getLogger(__name__)
 
-#: Most warnings kept per trial in summary.json (the rest are counted).
-MAX_WARNINGS_PER_TRIAL = 20
-
 _INT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off")
-
-ProgressCallback = Callable[[int, int], None]
 
 
 @dataclass
@@ -110,173 +106,25 @@ class StudyResults:
     summary: dict[str, Any]
 
 
-class _Collector(logging.Handler):
-    """Keeps the warnings other evtribo modules log while one trial is processed."""
-
-    def __init__(self) -> None:
-        super().__init__(logging.WARNING)
-        self.messages: list[str] = []
-
-    def emit(self, record: logging.LogRecord) -> None:
-        if not record.name.startswith("evtribo.analysis"):
-            self.messages.append(record.getMessage())
-
-
-_WORKER: dict[str, Any] = {}
-
-
-@dataclass(frozen=True)
-class _Task:
-    """One trial for a worker: its place in the study, where it is, what its sidecar says,
-    and its log as hashed when the analysis started (sha256, size, modification time ns)."""
-
-    index: int
-    ref: TrialRef
-    log: tuple[str, int, int]
-
-
-def _setup(rig: Rig, cache_dir: str | None, strict: bool, settings: AnalysisSettings) -> None:
-    _WORKER.update(rig=rig, cache_dir=cache_dir, strict=strict, settings=settings)
-
-
-def _watch_parent(parent: int) -> None:
-    while os.getppid() == parent:
-        time.sleep(0.5)
-    os._exit(1)  # the analysis was killed (SIGKILL, a crash): nobody wants our results
-
-
-def _init_process(*args: Any) -> None:
-    """A worker process: the parent stops it (Ctrl-C reaches the whole process group, the
-    parent handles it), it ends when the parent is gone, and it does not keep the parent's
-    locks."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True,
-                     name="evtribo-parent-watch").start()
-    release_inherited_locks()
-    _setup(*args)
-
-
-_Result = tuple[int, dict[str, Any], pd.DataFrame, list[str], str | None, pd.DataFrame | None]
-
-
-def _meta(ref: TrialRef) -> TrialMeta:
-    sc = ref.sidecar
-    tare_s = sc.extra.get("tare_s")
-    return TrialMeta(subject=ref.subject, trial=ref.name, waveform=sc.waveform,
-                     frequency_Hz=sc.frequency_Hz, amplitude_V=sc.amplitude_V,
-                     condition=sc.condition,
-                     tare_s=float(tare_s) if isinstance(tare_s, int | float) else None)
-
-
-def _load(ref: TrialRef, rig: Rig, strict: bool, expect: tuple[str, int, int] | None
-          ) -> TrialSignals:
-    """The trial's signals, from the channel its sidecar's ``log_channel`` names when the log
-    holds several."""
-    channel = ref.sidecar.extra.get("log_channel")
-    channel = channel if isinstance(channel, str) and channel else None
-    try:
-        return load_trial(ref.log_path, rig, _WORKER["cache_dir"], strict, expect=expect,
-                          channel=channel)
-    except UserInputError as err:
-        if channel is None or err.key != "channel":
-            raise
-        raise SidecarError(err.message, path=ref.sidecar_path, key="log_channel") from err
-
-
-def _analyze_one(task: _Task) -> _Result:
-    strict, rig = _WORKER["strict"], _WORKER["rig"]
-    ref = task.ref
-    meta = _meta(ref)
-    trace: pd.DataFrame | None = None
-    collector = _Collector()
-    root_logger = logging.getLogger("evtribo")
-    root_logger.addHandler(collector)
-    try:
-        signals = _load(ref, rig, strict, task.log)
-        result = analyze_signals(signals, meta, settings=_WORKER["settings"],
-                                 calibration=rig.calibration)
-        row, windows, warnings, error = result.row, result.windows, result.warnings, None
-        trace = result.trace
-        if row.get("skipped_lines"):
-            warnings.append(f"{ref.key}: {row['skipped_lines']} damaged line(s) skipped in "
-                            f"{ref.log_path}")
-    except AnalysisError as err:
-        row, windows, warnings, error = failed_row(meta), empty_windows(), [], str(err)
-    except UserInputError as err:
-        if strict:
-            raise
-        row, windows, warnings, error = failed_row(meta), empty_windows(), [], str(err)
-    except Exception as err:  # one trial's fault must not cost the others their results
-        if strict:
-            raise
-        log.debug("%s: analysis failed", ref.key, exc_info=True)
-        row, windows, warnings = failed_row(meta), empty_windows(), []
-        error = f"{ref.log_path}: {type(err).__name__}: {err} (run with --strict --debug " \
-                "for the traceback)"
-    finally:
-        root_logger.removeHandler(collector)
-    details = [f"{ref.key}: {m}" for m in collector.messages]
-    if len(details) > MAX_WARNINGS_PER_TRIAL:
-        extra = len(details) - MAX_WARNINGS_PER_TRIAL
-        details = [*details[:MAX_WARNINGS_PER_TRIAL], f"{ref.key}: ... and {extra} more"]
-    return task.index, row, windows, details + warnings, error, trace
-
-
-def _stop_workers(pool: ProcessPoolExecutor) -> None:
-    """Stop a pool's worker processes now (they would finish their trial otherwise)."""
-    processes = list((getattr(pool, "_processes", None) or {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
-    for proc in processes:
-        proc.terminate()
-    for proc in processes:
-        proc.join(10)
-
-
-def _run_tasks(tasks: list[_Task], jobs: int, init_args: tuple[Any, ...],
-               progress: ProgressCallback | None) -> list[_Result]:
-    """Each task's result, in worker processes (*jobs* > 1) or here."""
-    results: list[_Result] = []
-    if jobs == 1:
-        _setup(*init_args)
-        for task in tasks:
-            results.append(_analyze_one(task))
-            if progress:
-                progress(len(results), len(tasks))
-        return results
-    pool = ProcessPoolExecutor(max_workers=jobs, initializer=_init_process,
-                               initargs=init_args)
-    try:
-        futures = [pool.submit(_analyze_one, task) for task in tasks]
-        for fut in as_completed(futures):
-            results.append(fut.result())
-            if progress:
-                progress(len(results), len(tasks))
-    except BaseException:  # an error, Ctrl-C, SIGTERM: no worker outlives the analysis
-        _stop_workers(pool)
-        raise
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
-    return results
-
-
 def _plan(study: Study, inputs: list[dict[str, Any]]
-          ) -> tuple[list[_Task], list[_Result], list[dict[str, Any]], list[str]]:
+          ) -> tuple[list[TrialTask], list[TrialOutcome], list[dict[str, Any]], list[str]]:
     """The trials to analyse, as hashed; those not analysed: logs being written while
     hashed (failed) and logs identical to another trial's (counted once, as that trial).
 
-    Returns (tasks, failed results, duplicates, warnings)."""
+    Returns (tasks, failed outcomes, duplicates, warnings)."""
     by_path = {r["_path"]: r for r in inputs}
-    tasks: list[_Task] = []
-    failed: list[_Result] = []
+    tasks: list[TrialTask] = []
+    failed: list[TrialOutcome] = []
     duplicates: list[dict[str, Any]] = []
     warnings: list[str] = []
     first: dict[str, TrialRef] = {}
     for index, ref in enumerate(study.trials):
         rec = by_path[os.path.abspath(ref.log_path)]
         if rec["_mtime_ns"] < 0:
-            failed.append((index, failed_row(_meta(ref)), empty_windows(), [],
-                           f"{ref.log_path}: was being written while the analysis read it "
-                           "(a recording in progress?); not analysed", None))
+            failed.append(TrialOutcome(
+                index, failed_row(trial_meta(ref)),
+                error=f"{ref.log_path}: was being written while the analysis read it "
+                      "(a recording in progress?); not analysed"))
             continue
         same = first.setdefault(rec["sha256"], ref)
         if same is not ref:
@@ -290,7 +138,7 @@ def _plan(study: Study, inputs: list[dict[str, Any]]
                 f"({same.log_path}, sha256 {rec['sha256'][:12]}...): the same recording under "
                 f"two names, counted once, as {same.key}{differ}")
             continue
-        tasks.append(_Task(index, ref, (rec["sha256"], rec["bytes"], rec["_mtime_ns"])))
+        tasks.append(TrialTask(index, ref, (rec["sha256"], rec["bytes"], rec["_mtime_ns"])))
     return tasks, failed, duplicates, warnings
 
 
@@ -302,6 +150,7 @@ def _write_csv(df: pd.DataFrame, path: Path) -> str:
 
 
 def _typed(df: pd.DataFrame, columns: tuple[str, ...]) -> pd.DataFrame:
+    """*df* with *columns* in order, the counts as nullable integers."""
     df = df.reindex(columns=list(columns))
     for c in _INT_COLUMNS:
         if c in df.columns:
@@ -313,6 +162,19 @@ def study_settings(study: Study, overrides: Mapping[str, Any] | None = None,
                    base: AnalysisSettings | None = None) -> AnalysisSettings:
     """The analysis settings of a study: *base* (default: the package's defaults), then the
     ``[analysis]`` table of its study.toml, then *overrides* (the command line's).
+
+    Parameters
+    ----------
+    study : Study
+        The study, as loaded (its ``[analysis]`` table).
+    overrides : mapping, optional
+        Settings that take precedence (``{"tare": "none"}``).
+    base : AnalysisSettings, optional
+        The settings to start from.
+
+    Returns
+    -------
+    AnalysisSettings
 
     Raises
     ------
@@ -333,6 +195,7 @@ def study_settings(study: Study, overrides: Mapping[str, Any] | None = None,
     return settings
 
 
+@fill_doc
 def analyze_study(
     study_dir: str | os.PathLike[str],
     out_dir: str | os.PathLike[str],
@@ -349,27 +212,22 @@ def analyze_study(
 
     Parameters
     ----------
-    study_dir : path-like
-        The study folder.
+    %(study_dir)s
     out_dir : path-like
         Where ``trials.csv``, ``windows.csv``, ``electrostatic.csv``, ``exponents.csv`` and
         ``summary.json`` go (created if needed).
-    jobs : int, optional
-        Worker processes (default: the number of CPUs; 1 analyses in this process).
-    strict : bool
-        A damaged line in a log is an error instead of a warning.
+    %(jobs)s
+    %(strict)s
     force : bool
         Replace the results in *out_dir*: analyze's, and the model fit, figures and reports
         of ``evtribo compare`` and ``evtribo report`` (their files only).
-    cache_dir : path-like, optional
-        Cache of decoded trials (default: :func:`evtribo.cache.default_cache_dir`).
+    %(cache_dir)s
     settings : AnalysisSettings, optional
         The settings to start from (default: the package's defaults); the study's
         ``[analysis]`` table and *overrides* apply on top.
     overrides : mapping, optional
         Settings that take precedence over the study's (``{"tare": "none"}``).
-    progress : callable, optional
-        Called as ``progress(done, total)`` after each trial.
+    %(progress)s
 
     Returns
     -------
@@ -420,43 +278,92 @@ def _analyze_locked(study: Study, out: Path, settings: AnalysisSettings, started
                     cache_dir: str | os.PathLike[str] | None,
                     progress: ProgressCallback | None) -> StudyResults:
     """:func:`analyze_study` once the output folder is locked."""
-    n = len(study.trials)
     inputs = input_files(study)  # each input hashed once, here
     tasks, not_run, duplicates, warnings = _plan(study, inputs)
     jobs = (os.cpu_count() or 1) if jobs is None else max(1, int(jobs))
     jobs = max(1, min(jobs, len(tasks)))
-    cache = None if cache_dir is None else os.fspath(cache_dir)
     assert study.rig is not None
-    results = _run_tasks(tasks, jobs, (study.rig, cache, strict, settings), progress)
-    results = sorted([*results, *not_run], key=lambda r: r[0])  # the study's order
+    context = WorkerContext(study.rig, None if cache_dir is None else os.fspath(cache_dir),
+                            strict, settings)
+    outcomes = sorted([*run_tasks(tasks, jobs, context, progress), *not_run],
+                      key=lambda r: r.index)  # the study's order
+    tables = _Tables.of(outcomes, settings)
+    warnings = [*study.warnings, *warnings, *tables.warnings, *changed_since(inputs)]
+    summary = _summary(study, tables, settings, started_at=started_at, inputs=inputs,
+                       duplicates=duplicates, warnings=warnings, strict=strict, jobs=jobs)
+    _write(out, tables, summary, started)
+    log.info("analysed %d of %d trials of %s into %s", summary["trials_analysed"],
+             len(study.trials), study.root, out)
+    return StudyResults(out_dir=out, trials=tables.trials, windows=tables.windows,
+                        electrostatic=tables.electrostatic, exponents=tables.exponents,
+                        summary=summary)
 
-    warnings = [*study.warnings, *warnings]
-    failed = []
-    for _, row, _, warns, error, _ in results:
-        warnings.extend(warns)
-        if error is not None:
-            key = f"{row['subject']}/{row['trial']}"
-            failed.append({"trial": key, "error": error})
-            warnings.append(f"{key}: not analysed: {error}")
-    trials = _typed(pd.DataFrame([r[1] for r in results]), TRIAL_COLUMNS)
-    frames = [r[2] for r in results if not r[2].empty]
-    windows = (pd.concat(frames, ignore_index=True) if frames else empty_windows())
-    windows = windows.reindex(columns=list(WINDOW_CSV_COLUMNS))
-    electrostatic, exponents, bootstrap, agg_warnings = summarize(
-        windows, trials, n_boot=settings.n_boot, seed=settings.seed,
-        confidence=settings.confidence)
-    warnings.extend(agg_warnings)
-    warnings.extend(changed_since(inputs))
-    traces = [r[5] for r in results if r[5] is not None and not r[5].empty]
-    trace = (pd.concat(traces, ignore_index=True).reindex(columns=list(SINE_TRACE_CSV_COLUMNS))
-             if traces else None)
-    electrostatic = _typed(electrostatic, ELECTROSTATIC_COLUMNS)
-    exponents = _typed(exponents, EXPONENT_COLUMNS)
+
+@dataclass
+class _Tables:
+    """The result tables of a study's trials, and what gathering them found to say."""
+
+    trials: pd.DataFrame
+    windows: pd.DataFrame
+    electrostatic: pd.DataFrame
+    exponents: pd.DataFrame
+    bootstrap: pd.DataFrame
+    trace: pd.DataFrame | None
+    failed: list[dict[str, str]]
+    warnings: list[str]
+
+    @classmethod
+    def of(cls, outcomes: list[TrialOutcome], settings: AnalysisSettings) -> _Tables:
+        """The trials' rows, windows and traces gathered (in the study's order), the
+        per-subject estimates computed from all windows together, the trials' warnings
+        and errors collected."""
+        warnings: list[str] = []
+        failed = []
+        for o in outcomes:
+            warnings.extend(o.warnings)
+            if o.error is not None:
+                key = f"{o.row['subject']}/{o.row['trial']}"
+                failed.append({"trial": key, "error": o.error})
+                warnings.append(f"{key}: not analysed: {o.error}")
+        trials = _typed(pd.DataFrame([o.row for o in outcomes]), TRIAL_COLUMNS)
+        frames = [o.windows for o in outcomes if not o.windows.empty]
+        windows = (pd.concat(frames, ignore_index=True) if frames else empty_windows())
+        windows = windows.reindex(columns=list(WINDOW_CSV_COLUMNS))
+        electrostatic, exponents, bootstrap, agg_warnings = summarize(
+            windows, trials, n_boot=settings.n_boot, seed=settings.seed,
+            confidence=settings.confidence)
+        warnings.extend(agg_warnings)
+        traces = [o.trace for o in outcomes if o.trace is not None and not o.trace.empty]
+        trace = (pd.concat(traces, ignore_index=True)
+                 .reindex(columns=list(SINE_TRACE_CSV_COLUMNS)) if traces else None)
+        return cls(trials, windows, _typed(electrostatic, ELECTROSTATIC_COLUMNS),
+                   _typed(exponents, EXPONENT_COLUMNS),
+                   bootstrap.reindex(columns=list(BOOTSTRAP_COLUMNS)), trace, failed,
+                   warnings)
+
+    def files(self) -> dict[str, pd.DataFrame]:
+        """The CSV files to write, by name."""
+        out = {"trials.csv": self.trials, "windows.csv": self.windows,
+               "electrostatic.csv": self.electrostatic, "exponents.csv": self.exponents,
+               BOOTSTRAP_FILE: self.bootstrap}
+        if self.trace is not None:
+            out[SINE_TRACE_FILE] = self.trace
+        return out
+
+
+def _summary(study: Study, tables: _Tables, settings: AnalysisSettings, *, started_at: float,
+             inputs: list[dict[str, Any]], duplicates: list[dict[str, Any]],
+             warnings: list[str], strict: bool, jobs: int) -> dict[str, Any]:
+    """The content of summary.json (``output_sha256`` and ``elapsed_s`` filled in when the
+    tables are written)."""
+    n = len(study.trials)
+    trials, windows, bootstrap = tables.trials, tables.windows, tables.bootstrap
+    assert study.rig is not None
 
     def total(col: str) -> int:
         return int(pd.to_numeric(trials[col], errors="coerce").fillna(0).sum())
 
-    summary: dict[str, Any] = {
+    return {
         "study": study.name,
         "run_id": uuid.uuid4().hex,
         "evtribo_version": __version__,
@@ -464,8 +371,8 @@ def _analyze_locked(study: Study, out: Path, settings: AnalysisSettings, started
         **provenance(study, started_at, inputs),
         "subjects": study.subjects,
         "trials": n,
-        "trials_analysed": n - len(failed) - len(duplicates),
-        "failed_trials": failed,
+        "trials_analysed": n - len(tables.failed) - len(duplicates),
+        "failed_trials": tables.failed,
         "duplicate_trials": duplicates,
         "windows_on": int(np.count_nonzero(windows.condition == "on")),
         "windows_off": int(np.count_nonzero(windows.condition == "off")),
@@ -481,30 +388,24 @@ def _analyze_locked(study: Study, out: Path, settings: AnalysisSettings, started
                      "bootstrap_replicates_saved": int(bootstrap.replicate.nunique())
                      if not bootstrap.empty else 0},
         "warnings": warnings,
-        "outputs": list(OUTPUT_FILES) + ([SINE_TRACE_FILE] if trace is not None else []),
+        "outputs": list(OUTPUT_FILES) + ([SINE_TRACE_FILE] if tables.trace is not None
+                                         else []),
         "output_sha256": {},
         "elapsed_s": None,
     }
-    tables = {"trials.csv": trials, "windows.csv": windows,
-              "electrostatic.csv": electrostatic, "exponents.csv": exponents,
-              BOOTSTRAP_FILE: bootstrap.reindex(columns=list(BOOTSTRAP_COLUMNS))}
-    if trace is not None:
-        tables[SINE_TRACE_FILE] = trace
-    # what this analysis replaces: analyze's files, and compare's and report's of them
+
+
+def _write(out: Path, tables: _Tables, summary: dict[str, Any], started: float) -> None:
+    """The tables and summary.json written into *out* as one unit, replacing analyze's
+    files there and compare's and report's of them."""
     stale = [n for n in ANALYSIS_FILES if (out / n).is_file()]
     stale += [*compare_files(out), *report_files(out)] if out.is_dir() else []
     with Staging(out) as stage:
-        for name, table in tables.items():
+        for name, table in tables.files().items():
             summary["output_sha256"][name] = _write_csv(table, stage.path(name))
         summary["elapsed_s"] = round(time.perf_counter() - started, 3)
-        stage.path(SUMMARY_FILE).write_text(
-            json.dumps(summary, indent=2, ensure_ascii=False, default=str) + "\n",
-            encoding="utf-8")
+        write_summary(stage.path(SUMMARY_FILE), summary)
         stage.commit(remove=stale, last=[SUMMARY_FILE])
-    log.info("analysed %d of %d trials of %s into %s", summary["trials_analysed"], n,
-             study.root, out)
-    return StudyResults(out_dir=out, trials=trials, windows=windows,
-                        electrostatic=electrostatic, exponents=exponents, summary=summary)
 
 
 __all__ = ["BOOTSTRAP_FILE", "OUTPUT_FILES", "SINE_TRACE_FILE", "StudyResults", "analyze_study",

@@ -22,6 +22,7 @@ from typing import Any
 
 from evtribo import __version__
 from evtribo.files import sha256_file
+from evtribo.study import Study
 
 __all__ = ["changed_since", "file_record", "input_files", "provenance", "software_versions"]
 
@@ -35,6 +36,18 @@ def file_record(path: Path, root: Path, role: str) -> dict[str, Any]:
     The size is the one of the bytes hashed. For the analysis (not written out): the
     file's absolute path under ``"_path"`` and its modification time (ns) when hashed under
     ``"_mtime_ns"`` (-1 when the file changed while it was hashed).
+    Parameters
+    ----------
+    path : Path
+        The file.
+    root : Path
+        The study folder its name is given relative to.
+    role : str
+        ``"study"``, ``"dbc"``, ``"log"`` or ``"sidecar"``.
+
+    Returns
+    -------
+    dict
     """
     try:
         name = path.resolve().relative_to(root.resolve()).as_posix()
@@ -49,12 +62,13 @@ def file_record(path: Path, root: Path, role: str) -> dict[str, Any]:
             "_mtime_ns": stamp, "_path": os.path.abspath(path)}
 
 
-def input_files(study: Any) -> list[dict[str, Any]]:
+def input_files(study: Study) -> list[dict[str, Any]]:
     """Records of a study's inputs: study.toml, the rig's DBC, each trial's log and sidecar.
 
     Parameters
     ----------
     study : evtribo.study.Study
+        The study, as loaded.
 
     Returns
     -------
@@ -65,7 +79,7 @@ def input_files(study: Any) -> list[dict[str, Any]]:
     toml = root / "study.toml"
     if toml.is_file():
         records.append(file_record(toml, root, "study"))
-    rig = getattr(study, "rig", None)
+    rig = study.rig
     if rig is not None and Path(rig.dbc).is_file():
         records.append(file_record(Path(rig.dbc), root, "dbc"))
     for ref in study.trials:
@@ -75,9 +89,9 @@ def input_files(study: Any) -> list[dict[str, Any]]:
     return records
 
 
-def rig_roles(study: Any) -> dict[str, Any]:
+def rig_roles(study: Study) -> dict[str, Any]:
     """The rig as a flat mapping: name, DBC (relative to the study) and each role's signal."""
-    rig = getattr(study, "rig", None)
+    rig = study.rig
     if rig is None:
         return {}
     root = Path(study.root).resolve()
@@ -93,7 +107,13 @@ def rig_roles(study: Any) -> dict[str, Any]:
 
 
 def software_versions() -> dict[str, str | None]:
-    """Versions of evtribo, Python and the libraries the analysis relies on."""
+    """Versions of evtribo, Python and the libraries the analysis relies on.
+
+    Returns
+    -------
+    dict
+        Version by name (None for a library not installed).
+    """
     out: dict[str, str | None] = {"evtribo": __version__,
                                   "python": platform.python_version()}
     for key, dist in _PACKAGES.items():
@@ -104,15 +124,16 @@ def software_versions() -> dict[str, str | None]:
     return out
 
 
-def provenance(study: Any, started: float,
+def provenance(study: Study, started: float,
                inputs: list[dict[str, Any]] | None = None) -> dict[str, Any]:
     """The provenance keys of summary.json.
 
     Parameters
     ----------
     study : evtribo.study.Study
-    started : float, s
-        Epoch time at which the analysis started.
+        The study, as loaded.
+    started : float
+        Epoch time at which the analysis started, s.
     inputs : list of dict, optional
         :func:`input_files` of the study, as taken when the analysis started (default: hash
         them now).

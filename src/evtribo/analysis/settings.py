@@ -198,6 +198,16 @@ _RANGES = {"guard_s": (0.0, False), "seed": (0.0, False), "n_boot": (10.0, False
 def parse_setting(text: str) -> tuple[str, Any]:
     """``"guard_s=0.3"`` to ``("guard_s", 0.3)`` (numbers, true/false, or a word).
 
+    Parameters
+    ----------
+    text : str
+        ``key=value``.
+
+    Returns
+    -------
+    (str, object)
+        The key and its value.
+
     Raises
     ------
     ConfigError

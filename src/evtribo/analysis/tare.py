@@ -45,7 +45,7 @@ calibration's matrix. What was removed is reported in the cells' own units.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -118,7 +118,7 @@ def _hats(x: FloatArray, knots: FloatArray) -> FloatArray:
 
 
 def friction_loop_offset(t: npt.ArrayLike, normal: npt.ArrayLike, tangential: npt.ArrayLike,
-                         windows: pd.DataFrame, groups: npt.ArrayLike, *,
+                         windows: pd.DataFrame, groups: Sequence[object], *,
                          max_knots: int | None = None) -> LoopFit | None:
     """Fit the tangential offset from forward and backward strokes.
 
@@ -137,7 +137,7 @@ def friction_loop_offset(t: npt.ArrayLike, normal: npt.ArrayLike, tangential: np
     windows : pandas.DataFrame
         Steady-sliding windows (:func:`evtribo.analysis.windows.find_windows`: ``i_start``,
         ``i_stop``, ``direction``).
-    groups : array_like
+    groups : sequence
         Each window's group: None (or NaN) for OFF, any hashable label for an ON group
         (e.g. its amplitude).
     max_knots : int, optional
@@ -220,7 +220,21 @@ class Tared:
 
 def calibrate(aligned: AlignedForces, calibration: Calibration | None,
               warn: Callable[[str], None]) -> Tared:
-    """Step 1: the calibration's offsets and matrix (and the normal force's sign)."""
+    """Step 1: the calibration's offsets and matrix (and the normal force's sign).
+
+    Parameters
+    ----------
+    aligned : AlignedForces
+        The forces on their grid, as decoded.
+    calibration : Calibration or None
+        The rig's ``[rig.calibration]``.
+    warn : callable
+        Told of what the calibration finds worth saying.
+
+    Returns
+    -------
+    Tared
+    """
     cal = calibration or Calibration()
     fn, ft = aligned.normal.copy(), aligned.tangential.copy()
     methods = []
@@ -243,7 +257,19 @@ def calibrate(aligned: AlignedForces, calibration: Calibration | None,
 
 
 def tare_lifted(tared: Tared, *, min_s: float) -> Tared:
-    """Step 2: offsets from the finger-lifted stretches, interpolated between them."""
+    """Step 2: offsets from the finger-lifted stretches, interpolated between them.
+
+    Parameters
+    ----------
+    tared : Tared
+        The calibrated forces.
+    min_s : float
+        Shortest finger-lifted stretch used, s.
+
+    Returns
+    -------
+    Tared
+    """
     f = tared.forces
     lifted = find_lifted(f.t, f.normal, f.tangential, min_s=min_s)
     if not lifted:
@@ -259,7 +285,19 @@ def tare_lifted(tared: Tared, *, min_s: float) -> Tared:
 
 
 def tare_loop(tared: Tared, loop: LoopFit) -> Tared:
-    """Step 3: subtract the friction loop's tangential offset."""
+    """Step 3: subtract the friction loop's tangential offset.
+
+    Parameters
+    ----------
+    tared : Tared
+        The forces tared so far.
+    loop : LoopFit
+        The friction loop's fit.
+
+    Returns
+    -------
+    Tared
+    """
     f = tared.forces
     off_t = loop(f.t)
     assert tared.residual is not None
@@ -273,7 +311,20 @@ def tare_loop(tared: Tared, loop: LoopFit) -> Tared:
 def removed_offsets(tared: Tared, calibration: Calibration | None
                     ) -> tuple[float | None, float | None]:
     """Mean offsets removed from each cell over the trial, in the cell's own units (N);
-    None for a cell nothing was removed from."""
+    None for a cell nothing was removed from.
+
+    Parameters
+    ----------
+    tared : Tared
+        The tared forces.
+    calibration : Calibration or None
+        The calibration they were tared with.
+
+    Returns
+    -------
+    (float or None, float or None)
+        Normal and tangential, N.
+    """
     cal = calibration or Calibration()
     res = np.zeros(2) if tared.residual is None else np.nanmean(tared.residual, axis=1)
     if tared.flipped:

@@ -91,7 +91,7 @@ def sine_trace(t: npt.NDArray[np.float64], normal: npt.NDArray[np.float64],
     sign = np.sign(np.nan_to_num(np.asarray(tangential, dtype=np.float64)))
     flips = np.flatnonzero(sign[:-1] * sign[1:] < 0) + 1  # the finger reverses
     best: tuple[float, int, int] | None = None
-    for i in switches:
+    for i in switches.tolist():
         a, b = max(0, i - n_off), min(t.size, i + n_on)
         a, b = _between_reversals(a, i, b, flips, steady)
         score = float(np.mean(steady[a:b])) * (b - a) / (n_off + n_on) if b > a else 0.0

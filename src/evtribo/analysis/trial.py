@@ -24,14 +24,13 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from evtribo._docs import fill_doc
 from evtribo.analysis.align import AlignedForces, align_forces
-from evtribo.analysis.conditions import ON
 from evtribo.analysis.excitation import Excitation, excitation_of, window_amplitudes
-from evtribo.analysis.excitation import get_field as _get
 from evtribo.analysis.hum import find_hum, modulation_lines, remove_hum
 from evtribo.analysis.pieces import check_seconds, continuous_pieces, describe_gap, restrict
 from evtribo.analysis.settings import AnalysisSettings
-from evtribo.analysis.spectra import dominant_frequency
+from evtribo.analysis.sine import friction_modulation, trace_around_switch
 from evtribo.analysis.tare import (
     EDGE_S,
     HUM_FREE_S,
@@ -42,11 +41,12 @@ from evtribo.analysis.tare import (
     tare_lifted,
     tare_loop,
 )
-from evtribo.analysis.trace import TRACE_COLUMNS, sine_trace
+from evtribo.analysis.trace import TRACE_COLUMNS
 from evtribo.analysis.windows import find_windows, with_means
-from evtribo.dropped import DropCount, missing_frames
+from evtribo.documents.sidecar import Sidecar
 from evtribo.errors import AnalysisError
 from evtribo.rig import Calibration
+from evtribo.signals import CellSignals, TrialSignals
 
 log = logging.getLogger(__name__)
 
@@ -65,7 +65,11 @@ SINE_TRACE_CSV_COLUMNS = TRACE_COLUMNS
 
 @dataclass(frozen=True)
 class TrialMeta:
-    """What the study folder says about a trial (sidecar values may be None)."""
+    """What the study folder says about a trial (sidecar values may be None).
+
+    The sidecar's values come from :class:`evtribo.documents.sidecar.Sidecar` through
+    :meth:`from_sidecar`, the one place that reads them.
+    """
 
     subject: str
     trial: str
@@ -74,6 +78,28 @@ class TrialMeta:
     amplitude_V: float | None = None
     condition: str | None = None
     tare_s: float | None = None
+
+    @classmethod
+    def from_sidecar(cls, subject: str, trial: str, sidecar: Sidecar) -> TrialMeta:
+        """A trial's names and what its sidecar says.
+
+        Parameters
+        ----------
+        subject, trial : str
+            The trial's names in the study.
+        sidecar : Sidecar
+            Its sidecar (``tare_s`` read from its other keys, when a number).
+
+        Returns
+        -------
+        TrialMeta
+        """
+        tare_s = sidecar.extra.get("tare_s")
+        return cls(subject=subject, trial=trial, waveform=sidecar.waveform,
+                   frequency_Hz=sidecar.frequency_Hz, amplitude_V=sidecar.amplitude_V,
+                   condition=sidecar.condition,
+                   tare_s=float(tare_s) if isinstance(tare_s, int | float)
+                   and not isinstance(tare_s, bool) else None)
 
 
 @dataclass
@@ -99,74 +125,73 @@ class TrialResult:
 
 
 def empty_windows() -> pd.DataFrame:
-    """A windows table without rows."""
+    """A windows table without rows.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`WINDOW_CSV_COLUMNS`.
+    """
     return pd.DataFrame({c: pd.Series(dtype=object if c in {"subject", "trial", "condition",
                                                             "waveform"} else float)
                          for c in WINDOW_CSV_COLUMNS})
 
 
-def _channel(signals: Any, name: str) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    ch = _get(signals, name)
-    if ch is None:
-        raise AnalysisError(f"the trial has no {name} force signal")
-    return np.asarray(ch.t, dtype=np.float64), np.asarray(ch.value, dtype=np.float64)
+def _channel(cell: CellSignals) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """A load cell's times (s) and forces (N) as float arrays."""
+    return np.asarray(cell.t, dtype=np.float64), np.asarray(cell.value, dtype=np.float64)
 
 
-def trial_start(signals: Any) -> float:
-    """The trial's start: the earliest sample time of its load cells and amplifier, s."""
-    starts = []
-    for name in ("normal", "tangential", "excitation"):
-        t = _get(_get(signals, name), "t")
-        if t is not None and len(t):
-            starts.append(float(np.min(t)))
+def _sample_times(signals: TrialSignals) -> list[npt.NDArray[np.float64]]:
+    """The sample times of the load cells and the amplifier that have any, s."""
+    streams = [signals.normal.t, signals.tangential.t]
+    if signals.excitation is not None:
+        streams.append(signals.excitation.t)
+    return [np.asarray(t, dtype=np.float64) for t in streams if len(t)]
+
+
+@fill_doc
+def trial_start(signals: TrialSignals) -> float:
+    """The trial's start: the earliest sample time of its load cells and amplifier.
+
+    Parameters
+    ----------
+    %(signals)s
+
+    Returns
+    -------
+    float
+        The time, s.
+
+    Raises
+    ------
+    AnalysisError
+        The trial has no samples.
+    """
+    starts = [float(np.min(t)) for t in _sample_times(signals)]
     if not starts:
         raise AnalysisError("the trial has no samples of the rig's signals")
     return min(starts)
 
 
-def _trial_end(signals: Any) -> float:
-    ends = [float(np.max(t)) for name in ("normal", "tangential", "excitation")
-            if (t := _get(_get(signals, name), "t")) is not None and len(t)]
-    return max(ends)
+def _trial_end(signals: TrialSignals) -> float:
+    """The trial's end: the latest sample time of its load cells and amplifier, s."""
+    return max(float(np.max(t)) for t in _sample_times(signals))
 
 
-def _sine_segments(aligned: AlignedForces, windows: pd.DataFrame) -> list[npt.NDArray[np.float64]]:
-    """Friction magnitude over runs of back-to-back ON windows (split windows rejoined)."""
-    on = windows[windows.condition == "on"].sort_values("i_start")
-    segs: list[tuple[int, int]] = []
-    for a, b in zip(on.i_start.to_numpy(int), on.i_stop.to_numpy(int), strict=True):
-        if segs and segs[-1][1] == a:
-            segs[-1] = (segs[-1][0], b)
-        else:
-            segs.append((a, b))
-    return [np.abs(aligned.tangential[a:b]) for a, b in segs]
-
-
-def _dropped(signals: Any, counter_moduli: Mapping[str, int] | None,
-             warn: Callable[[str], None]) -> int:
+def _dropped(signals: TrialSignals, warn: Callable[[str], None]) -> int:
     """Frames missing from both load cells, as the decoder counted them
-    (:func:`evtribo.dropped.missing_frames`: counters first, else the timing); counted here
-    only for signals that come without a count."""
+    (:func:`evtribo.dropped.missing_frames`: counters first, else the timing), and what the
+    count's method and notes are worth saying; never counted again here."""
     total = 0
-    for name in ("normal", "tangential"):
-        ch = _get(signals, name)
-        t = _get(ch, "t")
-        if t is None:
-            continue
-        if _get(ch, "dropped") is not None:
-            count = DropCount(int(_get(ch, "dropped")), _get(ch, "dropped_method", "counter"),
-                              note=_get(ch, "dropped_note"))
-        else:
-            counter = _get(ch, "counter")
-            modulus = (counter_moduli or {}).get(name) if counter is not None else None
-            count = missing_frames(np.asarray(t, dtype=np.float64), counter, modulus)
-        if count.note:
-            warn(f"{name} force: {count.note}")
-        if count.method == "counter+timing":
-            warn(f"{name} force: {count.count} frames missing, including whole counter "
+    for name, cell in (("normal", signals.normal), ("tangential", signals.tangential)):
+        if cell.dropped_note:
+            warn(f"{name} force: {cell.dropped_note}")
+        if cell.dropped_method == "counter+timing":
+            warn(f"{name} force: {cell.dropped} frames missing, including whole counter "
                  "periods lost at once (found from the timing)")
-        total += count.count
-    logged = int(_get(signals, "logger_dropped", 0) or 0)
+        total += int(cell.dropped)
+    logged = int(signals.logger_dropped)
     if logged > total:
         warn(f"the recording tool dropped {logged} frames on this channel (DROPCOUNT)")
     return max(total, logged)
@@ -281,13 +306,13 @@ class _PieceResult:
     trace: pd.DataFrame | None = None
 
 
-def _analyze_piece(signals: Any, meta: TrialMeta, t0: float, *, settings: AnalysisSettings,
+def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: AnalysisSettings,
                    calibration: Calibration | None, warn: Callable[[str], None]
                    ) -> _PieceResult:
     """Align, read the excitation, remove hum and offsets, find the windows of a stretch of
     a trial with no long pause; window times from *t0*, the trial's start."""
-    tn, fn = _channel(signals, "normal")
-    tt, ft = _channel(signals, "tangential")
+    tn, fn = _channel(signals.normal)
+    tt, ft = _channel(signals.tangential)
     aligned = align_forces(tn, fn, tt, ft, max_gap_periods=settings.max_gap_periods)
     given = {"waveform": meta.waveform, "frequency_Hz": meta.frequency_Hz,
              "amplitude_V": meta.amplitude_V, "condition": meta.condition}
@@ -323,50 +348,13 @@ def _analyze_piece(signals: Any, meta: TrialMeta, t0: float, *, settings: Analys
     result = _PieceResult(windows, info, offsets, tared.methods,
                           span_s=float(aligned.t[-1] - aligned.t[0]))
     if info["waveform"] == "sine":
-        result.modulation = _modulation(aligned, w, info, warn)
-        result.trace = _trace(aligned, w, exc, meta, settings)
+        result.modulation = friction_modulation(aligned, w, info, warn)
+        result.trace = trace_around_switch(aligned, w, exc, subject=meta.subject,
+                                           trial=meta.trial, settings=settings)
     return result
 
 
-def _modulation(aligned: AlignedForces, w: pd.DataFrame, info: Mapping[str, Any],
-                warn: Callable[[str], None]) -> float | None:
-    """The friction's dominant frequency over the ON windows of a sine trial, Hz."""
-    if not (w.condition == "on").any():
-        return None
-    drive = info.get("frequency_Hz")
-    if drive and 2 * float(drive) >= 0.8 * aligned.rate_Hz / 2:
-        warn(f"friction modulation at 2 x {drive:g} Hz is beyond what the load cells' "
-             f"{aligned.rate_Hz:.0f} Hz sampling can resolve")
-        return None
-    f = dominant_frequency(_sine_segments(aligned, w), aligned.rate_Hz)
-    if not np.isfinite(f):
-        warn("no oscillation of the friction stands out in the ON windows' spectrum (too "
-             "short, or too weak against the noise and the pressing force's wander): no "
-             "friction_modulation_Hz")
-        return None
-    return float(f)
-
-
-def _trace(aligned: AlignedForces, w: pd.DataFrame, exc: Excitation, meta: TrialMeta,
-           settings: AnalysisSettings) -> pd.DataFrame | None:
-    """A sine trial's forces around a switch to ON (sine_trace.csv)."""
-    if exc.t is not None and exc.enabled is not None:
-        idx = np.searchsorted(exc.t, aligned.t, side="right") - 1
-        on_now = np.where(idx >= 0, exc.enabled[np.clip(idx, 0, None)], False)
-    else:
-        on_now = exc.condition == ON
-    steady = np.zeros(aligned.t.size, dtype=bool)
-    for a, b in zip(w.i_start.to_numpy(int), w.i_stop.to_numpy(int), strict=True):
-        steady[a:b] = True
-    info = exc.info
-    return sine_trace(aligned.t, aligned.normal, aligned.tangential, on_now, steady,
-                      amplitude_V=float(info["amplitude_V"] or np.nan),
-                      frequency_Hz=float(info["frequency_Hz"] or np.nan),
-                      subject=meta.subject, trial=meta.trial, off_s=settings.trace_off_s,
-                      on_s=settings.trace_on_s, rate_Hz=settings.trace_rate_Hz)
-
-
-def _pieces(signals: Any, meta: TrialMeta, t0: float, *, settings: AnalysisSettings,
+def _pieces(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: AnalysisSettings,
             calibration: Calibration | None, warn: Callable[[str], None]
             ) -> list[_PieceResult]:
     """Each continuous piece of the trial analysed (one for a trial without long pauses)."""
@@ -391,9 +379,9 @@ def _pieces(signals: Any, meta: TrialMeta, t0: float, *, settings: AnalysisSetti
     return out
 
 
-def analyze_signals(signals: Any, meta: TrialMeta, *,
+@fill_doc
+def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
                     settings: AnalysisSettings | None = None,
-                    counter_moduli: Mapping[str, int] | None = None,
                     calibration: Calibration | None = None) -> TrialResult:
     """Analyse one decoded trial.
 
@@ -404,17 +392,11 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
 
     Parameters
     ----------
-    signals : TrialSignals
-        Decoded trial: ``normal`` and ``tangential`` channels (``t`` in s, ``value`` in N,
-        ``dropped``), and ``excitation`` (None, or ``t``, ``enabled``, ``amplitude`` in V,
-        ``frequency`` in Hz, ``waveform``).
+    %(signals)s
     meta : TrialMeta
         Names and the sidecar's values.
     settings : AnalysisSettings, optional
-    counter_moduli : mapping, optional
-        For signals without a dropped-frame count of their own (the decoder's carry one):
-        period of each load cell's rolling counter (``{"normal": 256, ...}``); inferred
-        from the values when absent.
+        The analysis settings (default: the package's defaults).
     calibration : Calibration, optional
         The rig's ``[rig.calibration]``: known offsets and cross-talk matrix.
 
@@ -436,7 +418,7 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
         log.warning("%s: %s", where, msg)
         warnings.append(f"{where}: {msg}")
 
-    for msg in _get(signals, "warnings", None) or ():
+    for msg in signals.warnings:
         warn(msg)
     t0 = trial_start(signals)
     parts = _pieces(signals, meta, t0, settings=settings, calibration=calibration, warn=warn)
@@ -457,9 +439,9 @@ def analyze_signals(signals: Any, meta: TrialMeta, *,
         "subject": meta.subject, "trial": meta.trial, "waveform": info["waveform"],
         "frequency_Hz": info["frequency_Hz"], "amplitude_V": info["amplitude_V"],
         "condition": info["condition"], "duration_s": round(duration, 6),
-        "frames": _get(signals, "frames"),
-        "dropped_frames": _dropped(signals, counter_moduli, warn),
-        "skipped_lines": _get(signals, "skipped_lines"),
+        "frames": signals.frames,
+        "dropped_frames": _dropped(signals, warn),
+        "skipped_lines": signals.skipped_lines,
         "friction_modulation_Hz": modulation,
         "normal_offset_N": None if offsets[0] is None else round(offsets[0], 6),
         "tangential_offset_N": None if offsets[1] is None else round(offsets[1], 6),
@@ -480,7 +462,18 @@ def _span_mean(values: list[tuple[float | None, float]]) -> float | None:
 
 
 def failed_row(meta: TrialMeta) -> dict[str, Any]:
-    """trials.csv row of a trial that could not be analysed: names and sidecar values only."""
+    """trials.csv row of a trial that could not be analysed: names and sidecar values only.
+
+    Parameters
+    ----------
+    meta : TrialMeta
+        The trial's names and sidecar values.
+
+    Returns
+    -------
+    dict
+        Values of :data:`TRIAL_COLUMNS` (None for the unknown).
+    """
     row = dict.fromkeys(TRIAL_COLUMNS)
     row.update(subject=meta.subject, trial=meta.trial, waveform=meta.waveform,
                frequency_Hz=meta.frequency_Hz, amplitude_V=meta.amplitude_V,

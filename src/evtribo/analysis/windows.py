@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -101,7 +102,16 @@ def _runs(code: npt.NDArray[np.int64]) -> list[tuple[int, int, int]]:
 
 
 def true_runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
-    """``(start, stop)`` of the runs of True in *mask* (stop exclusive)."""
+    """``(start, stop)`` of the runs of True in *mask* (stop exclusive).
+
+    Parameters
+    ----------
+    mask : ndarray of bool
+
+    Returns
+    -------
+    list of (int, int)
+    """
     return [(a, b) for a, b, v in _runs(mask.astype(np.int64)) if v]
 
 
@@ -161,62 +171,122 @@ def find_windows(
         and mean friction magnitude (N).
     """
     t = np.asarray(t, dtype=np.float64)
-    fn = np.asarray(normal, dtype=np.float64)
-    ft = np.asarray(tangential, dtype=np.float64)
     cond = np.asarray(condition).astype(np.int64)
     empty = pd.DataFrame({c: pd.Series(dtype=float) for c in WINDOW_COLUMNS})
     if t.size < 3:
         return empty
-    dt = float(np.median(np.diff(t)))
-    w = max(1, round(smooth_s / dt)) | 1
-    h = w // 2
-    ft_s = moving_average(ft, w, min_fraction=0.75)
-    fn_s = moving_average(fn, w, min_fraction=0.75)
-    hole = ~(np.isfinite(fn) & np.isfinite(ft))
-    usable = np.isfinite(ft_s) & np.isfinite(fn_s) & (fn_s > 0) & (cond != EXCLUDED)
-    usable &= t >= t[0] + skip_start_s
+    grid = _smoothed(t, normal, tangential, smooth_s)
+    usable = grid.usable & (cond != EXCLUDED) & (t >= t[0] + skip_start_s)
     if exclude is not None:
         usable &= ~np.asarray(exclude, dtype=bool)
-    if not usable.any():
+    code = _stroke_code(grid, cond, usable, sign_fraction)
+    if code is None:
         return empty
+    min_len = max(2, round(min_window_s / grid.dt))
+    lengths = (min_len, max(min_len, round(max_window_s / grid.dt)),
+               max(1, round(quantum_s / grid.dt)) if quantum_s else 1)
+    rows = [row for a, b, v in _runs(code) if v != 0 and b - a >= min_len
+            for row in _piece_windows(t, grid, (a, b, v), lengths, level_fraction=level_fraction,
+                                      contact_fraction=contact_fraction)]
+    if not rows:
+        return empty
+    return with_means(pd.DataFrame.from_records(rows, columns=list(WINDOW_COLUMNS)),
+                      grid.normal, grid.tangential)
+
+
+@dataclass(frozen=True)
+class _Grid:
+    """A trial's forces on its grid, raw and smoothed, and the smoothing's span."""
+
+    dt: float
+    normal: npt.NDArray[np.float64]
+    tangential: npt.NDArray[np.float64]
+    normal_smooth: npt.NDArray[np.float64]
+    tangential_smooth: npt.NDArray[np.float64]
+    span: int
+    """Samples of the moving average (odd)."""
+
+    @property
+    def half(self) -> int:
+        """Half the span, in samples (rounded down)."""
+        return self.span // 2
+
+    @property
+    def hole(self) -> npt.NDArray[np.bool_]:
+        """Where a force is missing."""
+        return ~(np.isfinite(self.normal) & np.isfinite(self.tangential))
+
+    @property
+    def usable(self) -> npt.NDArray[np.bool_]:
+        """Where both smoothed forces are known and the normal force pushes."""
+        return (np.isfinite(self.tangential_smooth) & np.isfinite(self.normal_smooth)
+                & (self.normal_smooth > 0))
+
+
+def _smoothed(t: npt.NDArray[np.float64], normal: npt.ArrayLike, tangential: npt.ArrayLike,
+              smooth_s: float) -> _Grid:
+    """Step 1: both forces smoothed over *smooth_s* (NaN where more than a quarter of the
+    span is missing)."""
+    dt = float(np.median(np.diff(t)))
+    span = max(1, round(smooth_s / dt)) | 1
+    fn = np.asarray(normal, dtype=np.float64)
+    ft = np.asarray(tangential, dtype=np.float64)
+    return _Grid(dt, fn, ft, moving_average(fn, span, min_fraction=0.75),
+                 moving_average(ft, span, min_fraction=0.75), span)
+
+
+def _stroke_code(grid: _Grid, cond: npt.NDArray[np.int64], usable: npt.NDArray[np.bool_],
+                 sign_fraction: float) -> npt.NDArray[np.int64] | None:
+    """Steps 2 and 3: each grid point's piece, direction x condition (+-1 OFF, +-2 ON; 0
+    outside strokes: reversals, rest, unusable points); None without sliding."""
+    if not usable.any():
+        return None
+    ft_s = grid.tangential_smooth
     level = float(np.percentile(np.abs(ft_s[usable]), 90))
     if not level > 0:
-        return empty
+        return None
     label = np.where(ft_s > sign_fraction * level, 1, np.where(ft_s < -sign_fraction * level,
                                                                 -1, 0))
     label[~usable] = 0
-    # piece code: direction x condition, 0 outside strokes
-    code = np.where(label == 0, 0, label * (np.where(cond == ON, 2, 1)))
-    ratio = np.abs(ft_s) / np.where(fn_s > 0, fn_s, np.nan)
-    min_len = max(2, round(min_window_s / dt))
-    max_len = max(min_len, round(max_window_s / dt))
-    q = max(1, round(quantum_s / dt)) if quantum_s else 1
-    rows = []
-    for a, b, v in _runs(code):
-        if v == 0 or b - a < min_len:
-            continue
-        r = ratio[a:b]
-        ok = r >= level_fraction * np.median(r)
-        ok &= fn_s[a:b] >= contact_fraction * np.median(fn_s[a:b])
-        if h:  # erode by h samples on each side (outside the piece counts as not steady)
-            okc = np.concatenate(([0], np.cumsum(ok)))
-            full = np.zeros(ok.size, dtype=bool)
-            lo = np.arange(ok.size) - h
-            hi = np.arange(ok.size) + h + 1
-            inside = (lo >= 0) & (hi <= ok.size)
-            full[inside] = (okc[hi[inside]] - okc[lo[inside]]) == w
-            ok = full
-        # a hole in the data longer than half the smoothing span ends a steady run
-        for hs, he in true_runs(hole[a:b]):
-            if he - hs > h:
-                ok[hs:he] = False
-        for s, e in true_runs(ok):
-            for i0, i1 in _split(a + s, a + e, min_len, max_len, q):
-                rows.append((i0, i1, t[i0], t[i1 - 1] + dt,
-                             "on" if abs(v) == 2 else "off", int(np.sign(v)), 0.0, 0.0))
-    if not rows:
-        return empty
-    return with_means(pd.DataFrame.from_records(rows, columns=list(WINDOW_COLUMNS)), fn, ft)
+    return np.where(label == 0, 0, label * (np.where(cond == ON, 2, 1))).astype(np.int64)
+
+
+def _steady(grid: _Grid, a: int, b: int, *, level_fraction: float, contact_fraction: float
+            ) -> npt.NDArray[np.bool_]:
+    """Steps 4 and 5: the steady-sliding points of the piece ``[a, b)``: friction-to-normal
+    ratio and normal force near the piece's medians, eroded by half the smoothing span,
+    broken by holes longer than that."""
+    fn_s = grid.normal_smooth[a:b]
+    r = np.abs(grid.tangential_smooth[a:b]) / np.where(fn_s > 0, fn_s, np.nan)
+    ok = r >= level_fraction * np.median(r)
+    ok &= fn_s >= contact_fraction * np.median(fn_s)
+    h = grid.half
+    if h:  # erode by h samples on each side (outside the piece counts as not steady)
+        okc = np.concatenate(([0], np.cumsum(ok)))
+        full = np.zeros(ok.size, dtype=bool)
+        lo = np.arange(ok.size) - h
+        hi = np.arange(ok.size) + h + 1
+        inside = (lo >= 0) & (hi <= ok.size)
+        full[inside] = (okc[hi[inside]] - okc[lo[inside]]) == grid.span
+        ok = full
+    # a hole in the data longer than half the smoothing span ends a steady run
+    for hs, he in true_runs(grid.hole[a:b]):
+        if he - hs > h:
+            ok[hs:he] = False
+    return ok
+
+
+def _piece_windows(t: npt.NDArray[np.float64], grid: _Grid, piece: tuple[int, int, int],
+                   lengths: tuple[int, int, int], *, level_fraction: float,
+                   contact_fraction: float) -> list[tuple[object, ...]]:
+    """The windows of one piece ``(a, b, code)`` (rows of :data:`WINDOW_COLUMNS`, means
+    still 0): its steady runs, each split by :func:`_split` with *lengths* (shortest,
+    longest, quantum; in samples)."""
+    a, b, v = piece
+    ok = _steady(grid, a, b, level_fraction=level_fraction, contact_fraction=contact_fraction)
+    return [(i0, i1, t[i0], t[i1 - 1] + grid.dt, "on" if abs(v) == 2 else "off",
+             int(np.sign(v)), 0.0, 0.0)
+            for s, e in true_runs(ok) for i0, i1 in _split(a + s, a + e, *lengths)]
 
 
 def _split(start: int, stop: int, min_len: int, max_len: int, q: int
@@ -246,6 +316,9 @@ def with_means(windows: pd.DataFrame, normal: npt.ArrayLike, tangential: npt.Arr
         Windows of :func:`find_windows` (their grid indices are used).
     normal, tangential : array_like of float, N
         Forces on the grid the windows index (NaN in gaps).
+    Returns
+    -------
+    pandas.DataFrame
     """
     if windows.empty:
         return windows

@@ -17,13 +17,8 @@ from __future__ import annotations
 
 import argparse
 import os
-from collections import Counter
 
-import numpy as np
-import pandas as pd
-
-from evtribo.cli.inspect import load_dbc
-from evtribo.decode import decode_messages
+from evtribo.decode_table import decoded_table, load_dbc_file
 from evtribo.errors import OutputExistsError, UserInputError
 from evtribo.files import atomic_open
 from evtribo.frames import FrameTable, read_frames, supported_suffixes
@@ -48,40 +43,6 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--channel", help="decode the frames of this channel (bus) only")
     p.set_defaults(func=run)
     return p
-
-
-def decoded_table(frames: FrameTable, db: object, choices: bool = False,
-                  with_channel: bool = False) -> pd.DataFrame:
-    """The decoded frames as one DataFrame (see the module docstring)."""
-    decoded = decode_messages(frames, db)  # type: ignore[arg-type]
-    fixed = ["timestamp", "message"] + (["channel"] if with_channel else [])
-    # a signal named like a fixed column, or by two messages, is written Message.Signal
-    uses = Counter(fixed + [s for m in decoded.values() for s in m.raw])
-    index = np.concatenate([m.index for m in decoded.values()]) if decoded else np.zeros(0, int)
-    order = np.argsort(index, kind="stable")
-    n = len(index)
-    columns: dict[str, object] = {
-        "timestamp": np.concatenate([m.timestamp for m in decoded.values()])
-        if decoded else np.zeros(0),
-        "message": pd.Categorical(np.concatenate(
-            [np.full(len(m), m.name, dtype=object) for m in decoded.values()])
-            if decoded else []),
-    }
-    if with_channel:
-        names = np.array([*frames.channel_names, ""], dtype=object)  # -1: no channel
-        columns["channel"] = pd.Categorical(names[frames.channels[index]])
-    offset = 0
-    for m in decoded.values():
-        rows = slice(offset, offset + len(m))
-        for name in m.raw:
-            col = f"{m.name}.{name}" if uses[name] > 1 else name
-            named = choices and m.codecs[name].choices
-            full = np.full(n, None if named else np.nan, dtype=object if named else float)
-            full[rows] = m.choice_names(name) if named else m.scaled(name)
-            columns[col] = full
-        offset += len(m)
-    table = pd.DataFrame(columns)
-    return table.iloc[order].reset_index(drop=True) if n else table
 
 
 def _refuse_raw_logs(out: str, log_path: str) -> None:
@@ -125,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     _refuse_raw_logs(out, args.log)
     if os.path.exists(out) and not args.force:
         raise OutputExistsError("exists; use --force to overwrite", path=out)
-    db = load_dbc(args.dbc)
+    db = load_dbc_file(args.dbc)
     frames, report = read_frames(args.log, strict=args.strict)
     frames, with_channel = _channel(frames, args.channel, args.log)
     table = decoded_table(frames, db, choices=args.choices, with_channel=with_channel)

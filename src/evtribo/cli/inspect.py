@@ -10,14 +10,12 @@ number is a DBC message's but whose kind (standard or extended) is not is said s
 from __future__ import annotations
 
 import argparse
-import os
 
 import cantools
 import numpy as np
 
-from evtribo.errors import RigConfigError
+from evtribo.decode_table import load_dbc_file
 from evtribo.frames import FrameTable, ReadReport, read_frames
-from evtribo.rig import load_dbc as rig_load_dbc
 
 _TIME_BASES = {"-tz": "candump -tz: times from the first frame",
                "-td": "candump -td: times summed from deltas",
@@ -33,14 +31,6 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--strict", action="store_true", help="a damaged line is an error")
     p.set_defaults(func=run)
     return p
-
-
-def load_dbc(path: str) -> cantools.database.can.Database:
-    """A DBC as the rig loads it (one with overlapping signals loads with a warning), or a
-    :class:`RigConfigError` naming the file."""
-    if not os.path.isfile(path):
-        raise RigConfigError("DBC file not found", path=path)
-    return rig_load_dbc(path, source=path)
 
 
 def _header(path: str, report: ReadReport, frames: FrameTable) -> None:
@@ -71,7 +61,7 @@ def _describe(db: cantools.database.can.Database, can_id: int, ext: bool) -> str
 
 def run(args: argparse.Namespace) -> int:
     """Print the summary of ``args.log``."""
-    db = load_dbc(args.dbc) if args.dbc else None
+    db = load_dbc_file(args.dbc) if args.dbc else None
     frames, report = read_frames(args.log, strict=args.strict)
     n = len(frames)
     _header(args.log, report, frames)

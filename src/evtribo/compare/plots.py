@@ -22,6 +22,7 @@ from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 from evtribo.compare.model_points import mean_electrostatic_force, mean_friction_force
+from evtribo.files import atomic_open
 from evtribo.model import (
     area_increase_pct,
     friction_force,
@@ -101,7 +102,8 @@ def save_figure(fig: Figure, folder: str | Path, stem: str, *, dpi: float = 150,
     paths = []
     for fmt in formats:
         path = folder / f"{stem}.{fmt}"
-        fig.savefig(path, dpi=dpi, format=fmt, metadata=_metadata(fmt))
+        with atomic_open(path, "wb") as fh:  # a killed process leaves no half figure
+            fig.savefig(fh, dpi=dpi, format=fmt, metadata=_metadata(fmt))
         paths.append(path)
     return paths
 

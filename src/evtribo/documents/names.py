@@ -7,6 +7,8 @@ import re
 
 from evtribo.errors import SidecarError, StudyError
 
+__all__ = ["MAX_NAME_BYTES", "NAME_PATTERN", "validate_name"]
+
 #: Plain names: subjects and trials (no path separators, no ``..``).
 NAME_PATTERN = re.compile(r"^[A-Za-z0-9_-]+$")
 #: Longest subject or trial name, bytes (the file system allows 255 for a whole file name,

@@ -27,6 +27,9 @@ from evtribo.documents.sidecar import CONDITIONS, WAVEFORMS
 from evtribo.errors import StudyError
 from evtribo.files import atomic_write, read_limited
 
+__all__ = ["EXCITATION_KEYS", "SESSION_FILE", "VERSION", "PlannedTrial", "Session", "parse_session",
+           "read_session", "write_session"]
+
 #: Version of the format this module writes (and the newest it reads).
 VERSION = 1
 #: The file's name in the subject's folder.

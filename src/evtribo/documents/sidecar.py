@@ -28,6 +28,9 @@ from evtribo.documents.names import validate_name
 from evtribo.errors import OutputExistsError, SidecarError
 from evtribo.files import atomic_write, read_limited
 
+__all__ = ["CONDITIONS", "SIDECAR_KEYS", "VERSION", "WAVEFORMS", "Sidecar", "parse_sidecar",
+           "read_sidecar", "rig_entry", "unknown_sidecar_keys", "write_sidecar"]
+
 #: Version of the sidecar's format. Sidecars carry no version key (spec §1 defines a plain
 #: JSON object); a change of a key's meaning raises this number and is read by both shapes.
 VERSION = 1

@@ -95,6 +95,14 @@ class Summary(Mapping[str, Any]):
                                 f"{getattr(kind, '__name__', 'value')} (summary.json edited?)",
                                 path=self.path)
 
+    def check(self) -> Summary:
+        """Raise :class:`ResultFolderError` naming the first key of the wrong kind; return
+        self."""
+        for name in ("study", "run_id", "study_dir", "evtribo_version", "inputs", "rig",
+                     "software", "settings", "warnings", "failed_trials", "output_sha256"):
+            getattr(self, name)
+        return self
+
     @property
     def study(self) -> str:
         """The study's name ("" when not recorded)."""
@@ -215,7 +223,8 @@ def read_summary(path: str | os.PathLike[str], *, again: str = "") -> Summary:
     Raises
     ------
     ResultFolderError
-        The file is missing or not valid JSON.
+        The file is missing or not valid JSON, or a key evtribo reads is of the wrong kind
+        (naming the key).
     """
     file = Path(path)
     try:
@@ -230,4 +239,4 @@ def read_summary(path: str | os.PathLike[str], *, again: str = "") -> Summary:
     except json.JSONDecodeError as err:
         raise ResultFolderError(f"not valid JSON ({err}): half-written?{again}",
                                 path=file) from err
-    return Summary(loaded if isinstance(loaded, dict) else {"summary": loaded}, file)
+    return Summary(loaded if isinstance(loaded, dict) else {"summary": loaded}, file).check()

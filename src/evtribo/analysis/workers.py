@@ -1,0 +1,290 @@
+"""The trials of a study analysed one by one, in worker processes or in this one.
+
+Each worker process is started with a :class:`WorkerContext` (the rig, the cache, the
+settings: what every trial needs), handed to the pool's initializer once; each
+:class:`TrialTask` then names one trial (its place in the study, where it is, its log as
+hashed when the analysis started) and comes back as a :class:`TrialOutcome` (its row of
+trials.csv, its windows, its warnings, its error, its sine trace). One trial's fault is
+that trial's outcome, never the study's (unless ``strict``). A worker stops with its parent:
+Ctrl-C and SIGTERM reach the parent, which stops the workers; a parent killed outright
+leaves workers that notice it within half a second and exit.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import signal
+import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass, field
+from typing import Any
+
+import pandas as pd
+
+from evtribo.analysis.settings import AnalysisSettings
+from evtribo.analysis.trial import TrialMeta, analyze_signals, empty_windows, failed_row
+from evtribo.cache import load_trial
+from evtribo.errors import AnalysisError, SidecarError, UserInputError
+from evtribo.resultdir import release_inherited_locks
+from evtribo.rig import Rig
+from evtribo.signals import TrialSignals
+from evtribo.study import TrialRef
+
+__all__ = ["MAX_WARNINGS_PER_TRIAL", "TrialOutcome", "TrialTask", "WorkerContext",
+           "analyze_task", "run_tasks", "trial_meta"]
+
+log = logging.getLogger(__name__)
+
+#: Most warnings kept per trial in summary.json (the rest are counted).
+MAX_WARNINGS_PER_TRIAL = 20
+
+ProgressCallback = Callable[[int, int], None]
+
+
+@dataclass(frozen=True)
+class WorkerContext:
+    """What every trial's analysis needs, given to each worker process once.
+
+    Attributes
+    ----------
+    rig : Rig
+        The study's rig.
+    cache_dir : str or None
+        The decoded-trial cache (None: the default).
+    strict : bool
+        A damaged line, or any fault, is the study's error, not the trial's.
+    settings : AnalysisSettings
+        The analysis settings.
+    """
+
+    rig: Rig
+    cache_dir: str | None
+    strict: bool
+    settings: AnalysisSettings
+
+
+@dataclass(frozen=True)
+class TrialTask:
+    """One trial for a worker: its place in the study, where it is (its sidecar with it),
+    and its log as hashed when the analysis started (sha256, size, modification time ns)."""
+
+    index: int
+    ref: TrialRef
+    log: tuple[str, int, int]
+
+
+@dataclass
+class TrialOutcome:
+    """What one trial gives the study.
+
+    Attributes
+    ----------
+    index : int
+        The trial's place in the study.
+    row : dict
+        Its row of trials.csv (names and sidecar values only when it failed).
+    windows : pandas.DataFrame
+        Its windows (none when it failed).
+    warnings : list of str
+        What its analysis and the readers warned of, each starting with the trial's key.
+    error : str or None
+        Why it was not analysed.
+    trace : pandas.DataFrame or None
+        Its rows of sine_trace.csv.
+    """
+
+    index: int
+    row: dict[str, Any]
+    windows: pd.DataFrame = field(default_factory=empty_windows)
+    warnings: list[str] = field(default_factory=list)
+    error: str | None = None
+    trace: pd.DataFrame | None = None
+
+
+def trial_meta(ref: TrialRef) -> TrialMeta:
+    """The trial's names and its sidecar's values.
+
+    Parameters
+    ----------
+    ref : TrialRef
+        The trial in the study.
+
+    Returns
+    -------
+    TrialMeta
+    """
+    return TrialMeta.from_sidecar(ref.subject, ref.name, ref.sidecar)
+
+
+class _Collector(logging.Handler):
+    """Keeps the warnings other evtribo modules log while one trial is processed."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        """Keep a warning logged outside the analysis (the readers', the decoder's)."""
+        if not record.name.startswith("evtribo.analysis"):
+            self.messages.append(record.getMessage())
+
+
+#: This process's context: set by :func:`_enter` (each worker's initializer, or
+#: :func:`run_tasks` in this process), read by :func:`analyze_task`.
+_context: WorkerContext | None = None
+
+
+def _enter(context: WorkerContext) -> None:
+    """Make *context* the one :func:`analyze_task` uses in this process."""
+    global _context  # noqa: PLW0603 - a process pool's initializer has no other way
+    _context = context
+
+
+def _watch_parent(parent: int) -> None:
+    """End this worker when its parent is gone."""
+    while os.getppid() == parent:
+        time.sleep(0.5)
+    os._exit(1)  # the analysis was killed (SIGKILL, a crash): nobody wants our results
+
+
+def _init_process(context: WorkerContext) -> None:
+    """A worker process: the parent stops it (Ctrl-C reaches the whole process group, the
+    parent handles it), it ends when the parent is gone, and it does not keep the parent's
+    locks."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True,
+                     name="evtribo-parent-watch").start()
+    release_inherited_locks()
+    _enter(context)
+
+
+def _load(ref: TrialRef, context: WorkerContext, expect: tuple[str, int, int] | None
+          ) -> TrialSignals:
+    """The trial's signals, from the channel its sidecar's ``log_channel`` names when the log
+    holds several."""
+    channel = ref.sidecar.extra.get("log_channel")
+    channel = channel if isinstance(channel, str) and channel else None
+    try:
+        return load_trial(ref.log_path, context.rig, context.cache_dir, context.strict,
+                          expect=expect, channel=channel)
+    except UserInputError as err:
+        if channel is None or err.key != "channel":
+            raise
+        raise SidecarError(err.message, path=ref.sidecar_path, key="log_channel") from err
+
+
+def _outcome(task: TrialTask, context: WorkerContext) -> TrialOutcome:
+    """The trial analysed, or why not: an :class:`AnalysisError` or a user's mistake is the
+    trial's error; any other fault too, unless ``strict``."""
+    ref = task.ref
+    meta = trial_meta(ref)
+    try:
+        result = analyze_signals(_load(ref, context, task.log), meta,
+                                 settings=context.settings,
+                                 calibration=context.rig.calibration)
+    except AnalysisError as err:
+        return TrialOutcome(task.index, failed_row(meta), error=str(err))
+    except UserInputError as err:
+        if context.strict:
+            raise
+        return TrialOutcome(task.index, failed_row(meta), error=str(err))
+    except Exception as err:  # one trial's fault must not cost the others their results
+        if context.strict:
+            raise
+        log.debug("%s: analysis failed", ref.key, exc_info=True)
+        return TrialOutcome(task.index, failed_row(meta),
+                            error=f"{ref.log_path}: {type(err).__name__}: {err} (run with "
+                                  "--strict --debug for the traceback)")
+    warnings = result.warnings
+    if result.row.get("skipped_lines"):
+        warnings.append(f"{ref.key}: {result.row['skipped_lines']} damaged line(s) skipped "
+                        f"in {ref.log_path}")
+    return TrialOutcome(task.index, result.row, result.windows, warnings, None, result.trace)
+
+
+def analyze_task(task: TrialTask) -> TrialOutcome:
+    """One trial analysed with this process's context, with what other modules warned of
+    meanwhile (at most :data:`MAX_WARNINGS_PER_TRIAL` of them).
+
+    Parameters
+    ----------
+    task : TrialTask
+        The trial.
+
+    Returns
+    -------
+    TrialOutcome
+    """
+    if _context is None:
+        raise RuntimeError("analyze_task runs in a process started by run_tasks")
+    collector = _Collector()
+    root_logger = logging.getLogger("evtribo")
+    root_logger.addHandler(collector)
+    try:
+        outcome = _outcome(task, _context)
+    finally:
+        root_logger.removeHandler(collector)
+    key = task.ref.key
+    details = [f"{key}: {m}" for m in collector.messages]
+    if len(details) > MAX_WARNINGS_PER_TRIAL:
+        extra = len(details) - MAX_WARNINGS_PER_TRIAL
+        details = [*details[:MAX_WARNINGS_PER_TRIAL], f"{key}: ... and {extra} more"]
+    outcome.warnings = details + outcome.warnings
+    return outcome
+
+
+def _stop_workers(pool: ProcessPoolExecutor) -> None:
+    """Stop a pool's worker processes now (they would finish their trial otherwise)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for proc in processes:
+        proc.terminate()
+    for proc in processes:
+        proc.join(10)
+
+
+def run_tasks(tasks: list[TrialTask], jobs: int, context: WorkerContext,
+              progress: ProgressCallback | None = None) -> list[TrialOutcome]:
+    """Each task's outcome, in worker processes (*jobs* > 1) or here.
+
+    Parameters
+    ----------
+    tasks : list of TrialTask
+        The trials.
+    jobs : int
+        Worker processes (1: this process).
+    context : WorkerContext
+        What every trial needs.
+    progress : callable, optional
+        Called as ``progress(done, total)`` after each trial.
+
+    Returns
+    -------
+    list of TrialOutcome
+        In the order they finished.
+    """
+    results: list[TrialOutcome] = []
+    if jobs == 1:
+        _enter(context)
+        for task in tasks:
+            results.append(analyze_task(task))
+            if progress:
+                progress(len(results), len(tasks))
+        return results
+    pool = ProcessPoolExecutor(max_workers=jobs, initializer=_init_process,
+                               initargs=(context,))
+    try:
+        futures = [pool.submit(analyze_task, task) for task in tasks]
+        for fut in as_completed(futures):
+            results.append(fut.result())
+            if progress:
+                progress(len(results), len(tasks))
+    except BaseException:  # an error, Ctrl-C, SIGTERM: no worker outlives the analysis
+        _stop_workers(pool)
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+    return results
