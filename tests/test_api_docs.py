@@ -53,7 +53,7 @@ GROUPS = {
     "analysis": ("evtribo.analysis.", "evtribo.decode", "evtribo.cache", "evtribo.dropped"),
     "acquisition": ("evtribo.acquisition.", "evtribo.frames.", "evtribo.rig",
                     "evtribo.signal_codec", "evtribo.lock", "evtribo.resultdir",
-                    "evtribo.study"),
+                    "evtribo.study", "evtribo.session."),
     "compare": ("evtribo.compare.", "evtribo.model.", "evtribo.cli.", "evtribo.demo"),
     "base": ("evtribo.errors", "evtribo.files", "evtribo._docs", "evtribo.documents"),
 }

@@ -28,7 +28,12 @@ def test_default_rig_resolves_every_role():
     assert set(rig.roles) == {"normal_force", "tangential_force", "normal_force_counter",
                               "tangential_force_counter", "excitation_enabled",
                               "excitation_amplitude", "excitation_frequency",
-                              "excitation_waveform"}
+                              "excitation_waveform", "excitation_command_enabled",
+                              "excitation_command_amplitude", "excitation_command_frequency",
+                              "excitation_command_waveform"}
+    assert rig.excitation_command_amplitude.qualified_name == "HvCmd.HvAmp"
+    assert set(rig.measured_roles) == set(rig.roles) - {
+        r for r in rig.roles if "_command_" in r}
 
 
 def test_from_mapping_resolves_dbc_relative_to_base_dir(tmp_path):

@@ -19,7 +19,7 @@ LAYERS = {
     "study": 4, "decode": 4,
     "cache": 5, "decode_table": 5,
     "analysis": 6, "acquisition": 6,
-    "compare": 7,
+    "compare": 7, "rigsetup": 7, "session": 7,
     "demo": 8,
     "cli": 9, "__main__": 10,
 }

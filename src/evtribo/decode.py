@@ -367,7 +367,7 @@ def waveform_names(msg: DecodedMessage, ref: SignalRef, warnings: list[str]
 def _excitation(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]],
                 warnings: list[str]) -> ExcitationSignals | None:
     """The amplifier's status signals, each held at the times of the first role's message."""
-    roles = {r.removeprefix("excitation_"): ref for r, ref in rig.roles.items()
+    roles = {r.removeprefix("excitation_"): ref for r, ref in rig.measured_roles.items()
              if r.startswith("excitation_")}
     if not roles:
         return None
@@ -397,7 +397,7 @@ def _excitation(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int
 
 def _rig_messages(rig: Rig) -> list[Message]:
     """The messages of the rig's roles, each once."""
-    return list({id(r.message): r.message for r in rig.roles.values()}.values())
+    return list({id(r.message): r.message for r in rig.measured_roles.values()}.values())
 
 
 def _rig_mask(frames: FrameTable, rig: Rig) -> npt.NDArray[np.bool_]:
@@ -437,7 +437,7 @@ def _decoded_count(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.
                    ) -> int:
     """Frames of the rig's messages decoded: long enough, and not refused by cantools."""
     decoded = np.zeros(len(frames), dtype=bool)
-    for ref in rig.roles.values():
+    for ref in rig.measured_roles.values():
         m = ref.message
         decoded |= message_mask(frames, m) & (frames.dlc >= m.length)
     for rows in undecoded:

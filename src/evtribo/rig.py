@@ -10,14 +10,13 @@ resolved against the DBC when the rig is built, so a wrong name fails before any
 with a :class:`~evtribo.errors.RigConfigError` naming the key, the name and the closest
 names the DBC has.
 
-Keys of the table: ``dbc`` (path, relative to the TOML file), ``normal_force`` and
-``tangential_force`` (required), ``normal_force_counter``, ``tangential_force_counter``,
-``excitation_enabled``, ``excitation_amplitude``, ``excitation_frequency``,
-``excitation_waveform`` (optional), each ``"Message.Signal"``; ``name`` (free text); and the
-optional sub-table ``calibration`` (``[rig.calibration]`` in study.toml, :class:`Calibration`):
-the load cells' known zero offsets and cross-talk matrix. An unknown key is an error (a
-misspelt optional role would otherwise be silently ignored); so is a value that is not a
-string.
+Keys of the table (docs/rig-file.md): ``dbc`` (path, relative to the TOML file),
+``normal_force`` and ``tangential_force`` (required), the optional :data:`OPTIONAL_ROLES`
+(counters, the amplifier's status and the command it obeys), each ``"Message.Signal"``;
+``name`` (free text); and the optional sub-table ``calibration`` (``[rig.calibration]`` in
+study.toml, :class:`Calibration`): the load cells' known zero offsets and cross-talk matrix.
+An unknown key is an error (a misspelt optional role would otherwise be silently ignored); so
+is a value that is not a string.
 """
 
 from __future__ import annotations
@@ -55,6 +54,10 @@ OPTIONAL_ROLES = (
     "excitation_amplitude",
     "excitation_frequency",
     "excitation_waveform",
+    "excitation_command_enabled",
+    "excitation_command_amplitude",
+    "excitation_command_frequency",
+    "excitation_command_waveform",
 )
 ROLES = REQUIRED_ROLES + OPTIONAL_ROLES
 #: Keys of a rig table besides the roles.
@@ -197,6 +200,10 @@ class Rig:
     excitation_enabled, excitation_amplitude, excitation_frequency, excitation_waveform :
         SignalRef or None
         The high-voltage amplifier's status (on/off, V, Hz, value table of waveforms).
+    excitation_command_enabled, excitation_command_amplitude, excitation_command_frequency,
+    excitation_command_waveform : SignalRef or None
+        The command the amplifier obeys (``evtribo session`` sends it; the simulated rig
+        obeys it).
     source : str or None
         The file the rig was read from (for messages).
     calibration : Calibration
@@ -214,6 +221,10 @@ class Rig:
     excitation_amplitude: SignalRef | None = None
     excitation_frequency: SignalRef | None = None
     excitation_waveform: SignalRef | None = None
+    excitation_command_enabled: SignalRef | None = None
+    excitation_command_amplitude: SignalRef | None = None
+    excitation_command_frequency: SignalRef | None = None
+    excitation_command_waveform: SignalRef | None = None
     source: str | None = None
     calibration: Calibration = field(default_factory=Calibration)
 
@@ -224,9 +235,20 @@ class Rig:
         return {r: ref for r, ref in refs.items() if ref is not None}
 
     @property
+    def measured_roles(self) -> dict[str, SignalRef]:
+        """The roles of what the rig reports (every role but the ``excitation_command_*``
+        ones, which the rig obeys): what the decoder decodes."""
+        return {r: ref for r, ref in self.roles.items() if "_command_" not in r}
+
+    @property
     def has_excitation(self) -> bool:
         """Whether the rig broadcasts any of the amplifier's status signals."""
-        return any(r.startswith("excitation_") for r in self.roles)
+        return any(r.startswith("excitation_") and "_command_" not in r for r in self.roles)
+
+    @property
+    def has_command(self) -> bool:
+        """Whether the amplifier obeys a command message the rig names."""
+        return any("_command_" in r for r in self.roles)
 
     def counter(self, cell: str) -> SignalRef | None:
         """The rolling frame counter of a load cell (``"normal"`` or ``"tangential"``).

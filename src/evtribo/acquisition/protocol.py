@@ -293,7 +293,16 @@ def read_protocol(path: str | os.PathLike[str]) -> Protocol:
 
 
 def session_seed(protocol: Protocol) -> int:
-    """The shuffle's seed: the protocol's, or a fresh one (to be recorded)."""
+    """The shuffle's seed: the protocol's, or a fresh one (to be recorded).
+
+    Parameters
+    ----------
+    protocol : Protocol
+
+    Returns
+    -------
+    int
+    """
     if protocol.session.seed is not None:
         return protocol.session.seed
     return secrets.randbelow(2**31)

@@ -52,8 +52,18 @@ MARGIN = 2.0
 
 
 def tokens(name: str) -> list[str]:
-    """The words of a CamelCase or snake_case name, lower case (``"HvOn"`` gives
-    ``["hv", "on"]``, ``"Force_mN"`` gives ``["force", "m", "n"]``)."""
+    """The words of a CamelCase or snake_case name, lower case.
+
+    Parameters
+    ----------
+    name : str
+        ``"HvOn"``, ``"Force_mN"``...
+
+    Returns
+    -------
+    list of str
+        ``["hv", "on"]``, ``["force", "m", "n"]``...
+    """
     return [w.lower() for w in re.findall(r"[A-Z]?[a-z]+|[A-Z]+(?![a-z])|\d+", name)]
 
 
@@ -339,7 +349,17 @@ def guess_roles(db: Database, stats: Mapping[str, SignalStats] | None = None
 
 
 def behaviour_text(s: SignalStats) -> str:
-    """A short description of how a signal behaves in a log (for ``inspect``)."""
+    """A short description of how a signal behaves in a log (for ``inspect``).
+
+    Parameters
+    ----------
+    s : SignalStats
+
+    Returns
+    -------
+    str
+        ``"positive, steady"``, ``"changes sign 0.8/s"``, ``"counter"``, ``"switching"``...
+    """
     if s.behaviour == "continuous":
         if not math.isnan(s.sign_changes_per_s) and s.sign_changes_per_s >= 0.2:
             return f"changes sign {s.sign_changes_per_s:.2g}/s"

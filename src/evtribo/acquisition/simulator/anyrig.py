@@ -95,7 +95,7 @@ class RigEncoder:
         self._counted: dict[str, tuple[int, int]] = {}
         self.targets: list[_Target] = []
         by_message: dict[str, _Target] = {}
-        roles = dict(rig.roles)
+        roles = dict(rig.measured_roles)  # what the rig sends (not the command it obeys)
         for cell in ("normal", "tangential"):
             counter = rig.counter(cell)
             if counter is not None:
