@@ -8,6 +8,7 @@ frames the bus lost.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 from evtribo.analysis.pipeline import study_settings
@@ -98,8 +99,8 @@ def check_trial(study: Study, subject: str, trial: str, condition: str | None) -
         on = w["condition"].astype(str) == "on"
         out.windows_on, out.windows_off = int(on.sum()), int((~on).sum())
     dropped = result.row.get("dropped_frames")
-    out.dropped = int(dropped) if isinstance(dropped, int | float) and dropped == dropped \
-        else 0
+    out.dropped = int(dropped) if isinstance(dropped, int | float) \
+        and math.isfinite(dropped) else 0
     for name, n in (("normal", out.normal_frames), ("tangential", out.tangential_frames)):
         if n == 0:
             out.problems.append(f"no {name}-force frames")
