@@ -1,11 +1,14 @@
 """The live display: the target band gauge, the status block, the refresh thread."""
 
 import io
+import re
 import time
 from pathlib import Path
 
 import can
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from evtribo.acquisition.logger import LogStats, frame_key
 from evtribo.acquisition.monitor import (
@@ -52,8 +55,8 @@ def test_status_block_shows_everything_asked():
     text = "\n".join(lines)
     assert lines[0].startswith("P01/run-01")
     assert "elapsed   12.3 s" in lines[0] and "remaining   17.7 s" in lines[0]
-    assert "0.712 N" in lines[1] and "TOO HIGH" in lines[1] and "0.500 ± 0.100 N" in lines[1]
-    assert "-0.250 N" in lines[2]
+    assert "0.712 N" in lines[1] and "TOO HIGH" in lines[1]
+    assert "-0.250 N" in lines[2] and "target 0.500 ± 0.100 N" in lines[2]
     assert "FzCell   1000" in text and "FxCell    800" in text
     assert "dropped 3" in text and "bus errors 1" in text
     assert "\x1b" not in text
@@ -132,13 +135,14 @@ def test_monitor_names_and_decodes_extended_id_messages():
 def test_the_display_asks_for_the_finger_lifted_then_sliding():
     lifting = Snapshot(0.4, normal_force_N=0.031, tare_left_s=1.1)
     lines = render_status(lifting, target=0.5, band=0.1)
-    assert "LIFT THE FINGER" in lines[0] and "1.1 s" in lines[0]
-    assert "TARING" in lines[1] and "TOO LOW" not in lines[1]  # no alarm while lifted
+    # the instruction on a line of its own, under the title
+    assert "LIFT THE FINGER" in lines[1] and "1.1 s" in lines[1]
+    assert "TARING" in lines[2] and "TOO LOW" not in lines[2]  # no alarm while lifted
     assert "LIFT THE FINGER" in render_line(lifting)
     sliding = Snapshot(2.0, normal_force_N=0.35, tare_left_s=0.0)
     lines = render_status(sliding, target=0.5, band=0.1)
-    assert "SLIDE" in lines[0] and "TOO LOW" in lines[1]
-    assert "LIFT" not in render_status(Snapshot(2.0), target=0.5)[0]  # a trial without tare
+    assert "SLIDE" in lines[1] and "TOO LOW" in lines[2]
+    assert "LIFT" not in "".join(render_status(Snapshot(2.0), target=0.5))  # no tare
     rig = load_rig_toml(default_rig_path())
     mon = Monitor(rig, io.StringIO(), duration=10.0, tty=False, tare_s=1.5)
     mon._stats, mon._t0 = _stats(rig, 0.0, 0.0), time.monotonic() - 0.5
@@ -146,3 +150,54 @@ def test_the_display_asks_for_the_finger_lifted_then_sliding():
     assert mon.snapshot().tare_left_s == pytest.approx(1.0, abs=0.05)
     mon._t0 = time.monotonic() - 3.0
     assert mon.snapshot().tare_left_s == 0.0
+
+
+_ANSI = re.compile(r"\x1b\[[0-9;]*m")
+
+finite = st.floats(-5, 5, allow_nan=False)
+
+
+@settings(max_examples=60, deadline=None)
+@given(columns=st.integers(70, 200), fn=st.none() | finite, ft=st.none() | finite,
+       hv=st.sampled_from([None, False, True]), tare=st.none() | st.floats(0, 2),
+       rates=st.dictionaries(st.sampled_from(["FzCell", "FxCell", "HvStatus", "other"]),
+                             st.floats(0, 20000), max_size=4),
+       alert=st.sampled_from(["", "NO DATA FROM THE RIG: no FzCell (0x0C1) or FxCell (0x0C2) "
+                              "frame in 3 s; wrong bus, or the study's DBC is not this rig's?"]))
+def test_the_block_fits_the_terminal_so_it_redraws_in_place(columns, fn, ft, hv, tare, rates,
+                                                            alert):
+    # a line as wide as the terminal wraps, and the cursor-up of the next redraw misses it
+    snap = Snapshot(12.3, remaining_s=7.7, normal_force_N=fn, tangential_force_N=ft,
+                    rates_Hz=rates, frames=123456, dropped=7, bus_errors=2, tare_left_s=tare,
+                    alert=alert, hv_on=hv, hv_amplitude_V=140.0, hv_frequency_Hz=10000.0,
+                    hv_waveform="square")
+    for colour in (False, True):
+        lines = render_status(snap, target=0.5, band=0.1, columns=columns, colour=colour,
+                              title="P01/run-03  (3/10: square 10000 Hz 140 V alternating)")
+        assert all(len(_ANSI.sub("", line)) < columns for line in lines)
+        normal = _ANSI.sub("", next(line for line in lines if line.startswith("normal")))
+        assert "[" in normal and any(w in normal for w in ("IN BAND", "TOO", "TARING",
+                                                              "NO DATA"))
+        # the alert is wrapped, never cut
+        shown = " ".join(_ANSI.sub("", line) for line in lines)
+        assert not alert or " ".join(alert.split()[-3:]) in shown
+
+
+def test_the_high_voltage_is_shown_and_decoded_from_the_status():
+    on = Snapshot(3.0, hv_on=True, hv_amplitude_V=100.0, hv_frequency_Hz=10000.0,
+                  hv_waveform="square")
+    assert "high voltage     ON 100 V square 10000 Hz" in render_status(on)
+    assert "high voltage     off" in render_status(Snapshot(3.0, hv_on=False))
+    assert not any("high voltage" in line for line in render_status(Snapshot(3.0)))
+    assert "HV=ON 100 V square 10000 Hz" in render_line(on)
+    rig = load_rig_toml(default_rig_path())
+    hv = rig.database.get_message_by_name("HvStatus")
+    stats = _stats(rig, 0.5, 0.1)
+    stats.latest[hv.frame_id] = can.Message(arbitration_id=hv.frame_id, data=hv.encode(
+        {"HvOn": 1, "HvWave": 1, "HvCounter": 0, "HvAmp": 120.0, "HvFreq": 250.0,
+         "HvCurrent": 0.0}))
+    mon = Monitor(rig, io.StringIO(), duration=10.0, tty=False)
+    mon._stats, mon._t0 = stats, time.monotonic() - 1.0
+    snap = mon.snapshot()
+    assert (snap.hv_on, snap.hv_amplitude_V, snap.hv_frequency_Hz, snap.hv_waveform) == \
+        (True, pytest.approx(120.0), pytest.approx(250.0), "square")

@@ -10,249 +10,44 @@ not this rig's (the trial then ends as ``no-rig-data``).
 
 The display runs in its own thread, reading the writer's :class:`~evtribo.acquisition.logger.
 LogStats` a few times a second (never in the receive path). On a terminal it redraws a small
-block with ANSI escapes; on a pipe or file it writes one line every few seconds.
-:func:`render_band` and :func:`render_status` are pure functions of a :class:`Snapshot`.
+block with ANSI escapes, fitted to the terminal's width; on a pipe or file it writes one line
+every few seconds. With a :class:`~evtribo.acquisition.liveview.LiveView` it also publishes
+the state to the browser :data:`VIEW_RATE_HZ` times a second. It shows the high voltage's
+state when the rig broadcasts the amplifier's status. What it draws comes from
+:mod:`evtribo.acquisition.display` (pure functions of a :class:`Snapshot`).
 """
 
 from __future__ import annotations
 
 import logging
-import math
+import shutil
 import threading
 import time
-from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, TextIO
 
+from evtribo.acquisition.display import (
+    Snapshot,
+    band_state,
+    instruction,
+    no_rig_data_alert,
+    render_band,
+    render_line,
+    render_status,
+    view_state,
+)
 from evtribo.acquisition.logger import LogStats
-from evtribo.frames.ids import frame_key, key_id
+from evtribo.frames.ids import frame_key
 
 if TYPE_CHECKING:  # pragma: no cover
+    from evtribo.acquisition.liveview import LiveView
     from evtribo.acquisition.rigfile import AcquisitionRig
 
 log = logging.getLogger(__name__)
 
-_GREEN, _RED, _YELLOW, _RESET = "\x1b[32m", "\x1b[31m", "\x1b[33m", "\x1b[0m"
-
-
-@dataclass
-class Snapshot:
-    """What the display shows at one instant.
-
-    Attributes
-    ----------
-    elapsed_s : float, s
-    remaining_s : float or None, s
-        None when the trial has no set duration.
-    normal_force_N, tangential_force_N : float or None, N
-        Latest decoded values (None before the first frame).
-    rates_Hz : dict
-        Frames per second per message name (``"other"`` for frames the rig does not describe).
-    frames, dropped, bus_errors : int
-    tare_left_s : float or None, s
-        Time left of the tare stretch (finger lifted): positive while it lasts, 0 once it is
-        over, None for a trial without one.
-    damaged_lines : int
-        Lines from the adapter that could not be parsed (counted in *bus_errors* too).
-    alert : str
-        Something wrong the operator must see (``NO DATA FROM THE RIG ...``), or empty.
-    """
-
-    elapsed_s: float
-    remaining_s: float | None = None
-    normal_force_N: float | None = None
-    tangential_force_N: float | None = None
-    rates_Hz: dict[str, float] = field(default_factory=dict)
-    frames: int = 0
-    dropped: int = 0
-    bus_errors: int = 0
-    tare_left_s: float | None = None
-    damaged_lines: int = 0
-    alert: str = ""
-
-
-def instruction(snap: Snapshot) -> str:
-    """What the operator should do now: ``LIFT THE FINGER`` during the tare stretch,
-    ``SLIDE`` after it, nothing for a trial without one.
-
-    Parameters
-    ----------
-    snap : Snapshot
-
-    Returns
-    -------
-    str
-        The instruction, or ``""``.
-    """
-    if snap.tare_left_s is None:
-        return ""
-    if snap.tare_left_s > 0:
-        return f"LIFT THE FINGER off the screen (taring, {snap.tare_left_s:.1f} s)"
-    return "SLIDE"
-
-
-def band_state(value: float | None, target: float, band: float) -> str:
-    """``"in"``, ``"low"``, ``"high"`` (or ``"none"`` without a value) for target ± band, N.
-
-    Parameters
-    ----------
-    value : float or None, N
-        The current normal force.
-    target, band : float, N
-        Target and half-width of the band.
-
-    Returns
-    -------
-    str
-    """
-    if value is None or math.isnan(value):
-        return "none"
-    if value < target - band:
-        return "low"
-    if value > target + band:
-        return "high"
-    return "in"
-
-
-def render_band(value: float | None, target: float, band: float, width: int = 41) -> str:
-    """A one-line gauge of *value* against ``target ± band`` (all in N).
-
-    The gauge spans ``target ± 4·band``: ``-`` outside the band, ``=`` inside, ``|`` at the
-    target, ``O`` at the value (``<`` / ``>`` at the ends when it is off the scale).
-
-    Parameters
-    ----------
-    value : float or None, N
-        Current normal force (None: no marker).
-    target, band : float, N
-        Target force and half-width of the band.
-    width : int
-        Characters between the brackets.
-
-    Returns
-    -------
-    str
-        For instance ``"[--------========|=====O==--------]"``.
-    """
-    half = 4 * band if band > 0 else max(abs(target), 1e-3)
-    lo, hi = target - half, target + half
-
-    def col(x: float) -> int:
-        return round((x - lo) / (hi - lo) * (width - 1))
-
-    cells = ["-"] * width
-    for i in range(max(col(target - band), 0), min(col(target + band), width - 1) + 1):
-        cells[i] = "="
-    cells[col(target)] = "|"
-    if value is not None and not math.isnan(value):
-        if value < lo:
-            cells[0] = "<"
-        elif value > hi:
-            cells[-1] = ">"
-        else:
-            cells[col(value)] = "O"
-    return "[" + "".join(cells) + "]"
-
-
-def _fmt(value: float | None, unit: str = "N") -> str:
-    return "   --   " if value is None or math.isnan(value) else f"{value:8.3f} {unit}"
-
-
-def render_status(snap: Snapshot, *, target: float | None = None, band: float = 0.1,
-                  width: int = 41, colour: bool = False, title: str = "") -> list[str]:
-    """The display's lines for *snap* (no newlines, no cursor movement).
-
-    Parameters
-    ----------
-    snap : Snapshot
-    target : float or None, N
-        Target normal force; None shows the value without a gauge.
-    band : float, N
-        Half-width of the target band.
-    width : int
-        Width of the gauge.
-    colour : bool
-        Colour the band verdict with ANSI codes.
-    title : str
-        First words of the first line (``P01/run-01``).
-
-    Returns
-    -------
-    list of str
-    """
-    remaining = "" if snap.remaining_s is None else f"   remaining {snap.remaining_s:6.1f} s"
-    todo = instruction(snap)
-    if todo:
-        lifting = todo != "SLIDE"
-        todo = f"   >> {todo} <<"
-        if colour:
-            todo = (_YELLOW if lifting else _GREEN) + todo + _RESET
-    lines = [f"{title}   elapsed {snap.elapsed_s:6.1f} s{remaining}{todo}".strip()]
-    normal = f"normal force     {_fmt(snap.normal_force_N)}"
-    if target is not None:
-        state = band_state(snap.normal_force_N, target, band)
-        word = {"in": "IN BAND", "low": "TOO LOW", "high": "TOO HIGH", "none": "NO DATA"}[state]
-        if snap.tare_left_s is not None and snap.tare_left_s > 0 and state != "none":
-            state, word = "tare", "TARING"
-        if colour:
-            word = (_GREEN if state in ("in", "tare") else _RED) + word + _RESET
-        normal += (f"  {render_band(snap.normal_force_N, target, band, width)}  {word}"
-                   f"  (target {target:.3f} ± {band:.3f} N)")
-    lines.append(normal)
-    lines.append(f"tangential force {_fmt(snap.tangential_force_N)}")
-    rates = "   ".join(f"{name} {rate:6.0f}" for name, rate in snap.rates_Hz.items())
-    lines.append(f"frames/s   {rates or '--'}")
-    damaged = f" ({snap.damaged_lines} damaged lines)" if snap.damaged_lines else ""
-    lines.append(f"frames {snap.frames}   dropped {snap.dropped}   bus errors {snap.bus_errors}"
-                 + damaged)
-    if snap.alert:
-        lines.append(f"{_RED}{snap.alert}{_RESET}" if colour else snap.alert)
-    return lines
-
-
-def render_line(snap: Snapshot, *, target: float | None = None, band: float = 0.1) -> str:
-    """A one-line summary for logs and pipes.
-
-    Parameters
-    ----------
-    snap : Snapshot
-    target : float or None, N
-        Target normal force (None: no band verdict).
-    band : float, N
-        Half-width of the target band.
-
-    Returns
-    -------
-    str
-        The line, without newline.
-    """
-    fn = "--" if snap.normal_force_N is None else f"{snap.normal_force_N:.3f} N"
-    if target is not None:
-        fn += f" ({band_state(snap.normal_force_N, target, band)})"
-    ft = "--" if snap.tangential_force_N is None else f"{snap.tangential_force_N:.3f} N"
-    total = sum(snap.rates_Hz.values())
-    todo = instruction(snap)
-    return (f"t={snap.elapsed_s:.1f} s  Fn={fn}  Ft={ft}  frames={snap.frames} "
-            f"({total:.0f}/s)  dropped={snap.dropped}  bus errors={snap.bus_errors}"
-            + (f"  {todo}" if todo else "") + (f"  {snap.alert}" if snap.alert else ""))
-
-
-def no_rig_data_alert(messages: dict[str, int], within: float) -> str:
-    """The display's alert when none of *messages* (``{name: frame_key}``) came in
-    *within* s.
-
-    Parameters
-    ----------
-    messages : dict
-        ``{message name: frame key}`` of the load cells.
-    within : float, s
-
-    Returns
-    -------
-    str
-    """
-    names = " or ".join(f"{name} (0x{key_id(key)[0]:03X})" for name, key in messages.items())
-    return (f"NO DATA FROM THE RIG: no {names} frame in {within:g} s; wrong bus, or the "
-            "study's DBC is not this rig's?")
+#: Updates per second of the live view in the browser.
+VIEW_RATE_HZ = 20.0
+#: Frame rates are counted over about this long, s.
+RATE_WINDOW_S = 1.0
 
 
 class Monitor:
@@ -280,12 +75,17 @@ class Monitor:
     rig_data_timeout : float or None, s
         Say so (:attr:`Snapshot.alert`) when none of the rig's load-cell messages arrived
         within this time; None: never.
+    view : LiveView, optional
+        The live view in the browser, fed :data:`VIEW_RATE_HZ` times a second.
+    quiet : bool
+        Draw nothing on *stream* (the view alone).
     """
 
     def __init__(self, rig: AcquisitionRig, stream: TextIO, *, duration: float | None = None,
                  target: float | None = None, band: float = 0.1, tty: bool | None = None,
                  interval: float = 0.25, line_interval: float = 5.0, title: str = "",
-                 tare_s: float = 0.0, rig_data_timeout: float | None = None) -> None:
+                 tare_s: float = 0.0, rig_data_timeout: float | None = None,
+                 view: LiveView | None = None, quiet: bool = False) -> None:
         self.rig = rig
         self.stream = stream
         self.duration = duration
@@ -302,6 +102,10 @@ class Monitor:
         self._last: tuple[float, dict[str, int]] = (0.0, {})
         self._drawn = 0
         self._forces = [self._signal(key) for key in ("normal_force", "tangential_force")]
+        self._hv = {k: self._signal(f"excitation_{k}")
+                    for k in ("enabled", "amplitude", "frequency", "waveform")}
+        self.view, self.quiet = view, quiet
+        self._rates: list[tuple[float, dict[str, int]]] = []
         self.rig_data_timeout = rig_data_timeout
         self._cells = rig.role_messages() if rig_data_timeout is not None else {}
 
@@ -348,34 +152,58 @@ class Monitor:
         return no_rig_data_alert(self._cells, self.rig_data_timeout)
 
     def _run(self) -> None:
-        while not self._stop.wait(self.interval):
+        tick = self.interval if self.view is None else min(self.interval, 1 / VIEW_RATE_HZ)
+        next_draw = time.monotonic() + self.interval
+        while not self._stop.wait(tick):
             try:
-                self._draw()
+                now = time.monotonic()
+                if self.view is not None:
+                    self._publish(self.snapshot())
+                if now >= next_draw and not self.quiet:
+                    next_draw = now + self.interval
+                    self._draw()
             except Exception as err:  # the display must never stop the recording
                 log.warning("display failed: %s", err)
 
+    def _publish(self, snap: Snapshot) -> None:
+        """Hand *snap* to the live view."""
+        assert self.view is not None
+        self.view.publish(view_state(snap, target=self.target, band=self.band,
+                                     title=self.title, duration=self.duration))
+
     def _decode(self, latest: dict[int, Any], which: tuple[int, str, str] | None
                 ) -> float | None:
+        value = self._decoded(latest, which, choices=False)
+        return float(value) if isinstance(value, int | float) else None
+
+    def _decoded(self, latest: dict[int, Any], which: tuple[int, str, str] | None, *,
+                 choices: bool) -> object:
+        """The signal's latest value (its value-table name with *choices*), or None."""
         if which is None or which[0] not in latest:
             return None
         try:
             decoded = self.rig.database.get_message_by_name(which[1]).decode(
-                bytes(latest[which[0]].data), decode_choices=False)
-            value = decoded[which[2]] if isinstance(decoded, dict) else None
-            return float(value) if isinstance(value, int | float) else None
+                bytes(latest[which[0]].data), decode_choices=choices)
+            return decoded.get(which[2]) if isinstance(decoded, dict) else None
         except Exception:
             return None
 
-    def snapshot(self, final: bool = False) -> Snapshot:
-        """The current state: frame rates over the time since the previous snapshot (or,
-        with *final*, over the whole trial)."""
-        stats = self._stats if self._stats is not None else LogStats()
-        now = time.monotonic()
-        elapsed = now - self._t0
-        counts = dict(stats.frames_by_id)
-        t_prev, prev = self._last
-        if final:  # the last picture: mean rates over the whole trial
-            t_prev, prev = self._t0, {}
+    def _hv_fields(self, latest: dict[int, Any]) -> dict[str, Any]:
+        """The amplifier's status from its latest frames (Nones where the rig is silent)."""
+        on = self._decode(latest, self._hv["enabled"])
+        wave = self._decoded(latest, self._hv["waveform"], choices=True)
+        return {"hv_on": None if on is None else bool(on),
+                "hv_amplitude_V": self._decode(latest, self._hv["amplitude"]),
+                "hv_frequency_Hz": self._decode(latest, self._hv["frequency"]),
+                "hv_waveform": None if wave is None else str(wave)}
+
+    def _rates_Hz(self, now: float, counts: dict[str, int], final: bool) -> dict[str, float]:
+        """Frames per second per message over the last second or so (over the whole trial
+        with *final*)."""
+        self._rates.append((now, counts))
+        while len(self._rates) > 2 and now - self._rates[1][0] >= RATE_WINDOW_S:
+            self._rates.pop(0)
+        t_prev, prev = (self._t0, {}) if final or len(self._rates) < 2 else self._rates[0]
         dt = max(now - t_prev, 1e-9)
         rates: dict[str, float] = {}
         for key, n in counts.items():
@@ -384,7 +212,25 @@ class Monitor:
                 name = self.rig.message_name(int(key, 16), is_extended=len(key) == 8)
             name = name or "other"
             rates[name] = rates.get(name, 0.0) + (n - prev.get(key, 0)) / dt
-        self._last = (now, counts)
+        return rates
+
+    def snapshot(self, final: bool = False) -> Snapshot:
+        """The current state: frame rates over the last second or so (or, with *final*,
+        over the whole trial).
+
+        Parameters
+        ----------
+        final : bool
+            The last picture of the trial.
+
+        Returns
+        -------
+        Snapshot
+        """
+        stats = self._stats if self._stats is not None else LogStats()
+        now = time.monotonic()
+        elapsed = now - self._t0
+        rates = self._rates_Hz(now, dict(stats.frames_by_id), final)
         latest = dict(stats.latest)
         remaining = None if self.duration is None else max(self.duration - elapsed, 0.0)
         tare_left = max(self.tare_s - elapsed, 0.0) if self.tare_s > 0 else None
@@ -394,16 +240,21 @@ class Monitor:
                         rates_Hz=rates, frames=stats.frames, dropped=stats.dropped,
                         bus_errors=stats.error_frames + stats.damaged_lines,
                         tare_left_s=tare_left, damaged_lines=stats.damaged_lines,
-                        alert=self._alert())
+                        alert=self._alert(), **self._hv_fields(latest))
 
     def _draw(self, final: bool = False) -> None:
         snap = self.snapshot(final)
+        if self.view is not None:
+            self._publish(snap)
+        if self.quiet:
+            return
         if not self.tty:
             self.stream.write(render_line(snap, target=self.target, band=self.band) + "\n")
             self.stream.flush()
             return
+        columns = shutil.get_terminal_size(fallback=(80, 24)).columns
         lines = render_status(snap, target=self.target, band=self.band, colour=True,
-                              title=self.title)
+                              title=self.title, columns=columns)
         out = f"\x1b[{self._drawn}F" if self._drawn else ""
         out += "".join(f"\x1b[2K{line}\n" for line in lines) + "\x1b[J"
         self.stream.write(out)
@@ -411,5 +262,5 @@ class Monitor:
         self._drawn = len(lines)
 
 
-__all__ = ["Monitor", "Snapshot", "band_state", "instruction", "no_rig_data_alert",
-           "render_band", "render_line", "render_status"]
+__all__ = ["VIEW_RATE_HZ", "Monitor", "Snapshot", "band_state", "instruction",
+           "no_rig_data_alert", "render_band", "render_line", "render_status"]

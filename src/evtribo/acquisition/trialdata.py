@@ -6,6 +6,7 @@ import errno
 import logging
 import math
 import os
+import signal
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -275,6 +276,40 @@ class StopFlag:
         return self._event.is_set()
 
 
-__all__ = ["RESERVE_BYTES", "RIG_DATA_TIMEOUT_S", "StopFlag", "TrialInfo", "TrialOptions",
-           "TrialPaths", "TrialResult",
-           "keep_reserve", "refuse_existing", "trial_lock"]
+__all__ = ["RESERVE_BYTES", "RIG_DATA_TIMEOUT_S", "StopFlag", "StopOnSignals", "TrialInfo",
+           "TrialOptions", "TrialPaths", "TrialResult", "keep_reserve", "refuse_existing",
+           "trial_lock"]
+
+
+class StopOnSignals:
+    """While it is entered (in the main thread), SIGINT and SIGTERM set the stop flag: the
+    trial ends as ``interrupted`` with its log and sidecar saved.
+
+    A second SIGINT while frames are being received raises KeyboardInterrupt (to cut a
+    receive that hangs in a driver); once the receive has ended, further signals are only
+    logged: the trial's log and sidecar are being saved.
+    """
+
+    def __init__(self, flag: StopFlag) -> None:
+        self.flag = flag
+        self.saved: dict[int, Any] = {}
+
+    def _handler(self, signum: int, _frame: Any) -> None:
+        name = signal.Signals(signum).name
+        if not self.flag():
+            self.flag.set(f"stopped by {name}")
+        elif signum == signal.SIGINT and self.flag.interruptible:
+            self.flag.interruptible = False
+            raise KeyboardInterrupt
+        else:
+            log.warning("%s ignored: saving the trial's log and sidecar", name)
+
+    def __enter__(self) -> StopOnSignals:
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self.saved[sig] = signal.signal(sig, self._handler)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for sig, old in self.saved.items():
+            signal.signal(sig, old)

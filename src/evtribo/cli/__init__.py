@@ -26,9 +26,11 @@ from evtribo.errors import EvtriboError
 #: Subcommands in the order ``evtribo --help`` lists them, with a line of help each.
 #: Only the module of the subcommand being run is imported (start-up stays fast).
 SUBCOMMANDS: dict[str, str] = {
+    "init": "create a study folder for your rig from its DBC (roles guessed, with reasons)",
     "model": "the seed paper's model at a point; its figures",
     "simulate": "run the simulated rig on a CAN bus, a pty (slcan) or into a study folder",
     "acquire": "record one trial from a CAN bus into a study folder",
+    "session": "record a subject's whole protocol, trial after trial",
     "inspect": "what a CAN log holds: ids, counts, rates, gaps, what decodes to what",
     "decode": "decode a CAN log through a DBC into Parquet or CSV",
     "analyze": "friction, windows and the inferred electrostatic force of a study",

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 
 from evtribo.acquisition.bus import BusSettings, parse_bus_options
+from evtribo.acquisition.liveview import LiveView
+from evtribo.errors import ConfigError
 
 #: Port of ``--view`` given without a number.
 VIEW_PORT = 8765
@@ -34,3 +36,22 @@ def bus_settings(args: argparse.Namespace) -> BusSettings:
     """The :class:`BusSettings` of the parsed options."""
     return BusSettings(interface=args.interface, channel=args.channel, bitrate=args.bitrate,
                        options=parse_bus_options(args.bus_option))
+
+
+def start_view(args: argparse.Namespace) -> LiveView | None:
+    """The live view ``--view`` asks for, serving (None without ``--view``).
+
+    Raises
+    ------
+    ConfigError
+        The port is taken or not allowed (key ``--view``).
+    """
+    if args.view is None:
+        return None
+    try:
+        view = LiveView(args.view).start()
+    except OSError as err:
+        raise ConfigError(f"cannot serve the live view on 127.0.0.1:{args.view} ({err}); "
+                          "give another port, --view PORT", key="--view") from err
+    print(f"live view: {view.url}  (open it in a browser on this machine)", flush=True)
+    return view

@@ -5,13 +5,11 @@ from __future__ import annotations
 import argparse
 import logging
 import math
-import signal
 import sys
-import threading
 from pathlib import Path
 from typing import Any
 
-from evtribo.acquisition.bus import BusSettings, open_bus, parse_bus_options
+from evtribo.acquisition.bus import open_bus
 from evtribo.acquisition.monitor import Monitor
 from evtribo.acquisition.rigfile import (
     AcquisitionRig,
@@ -29,6 +27,8 @@ from evtribo.acquisition.trial import (
     record_trial,
     trial_lock,
 )
+from evtribo.acquisition.trialdata import StopOnSignals
+from evtribo.cli._bus import add_bus_arguments, bus_settings, start_view
 from evtribo.errors import ConfigError, OutputExistsError
 
 log = logging.getLogger(__name__)
@@ -60,16 +60,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         "screen (the display says when to slide); the analysis takes the "
                         f"load cells' zero offsets from them (default {DEFAULT_TARE_S:g}, at "
                         "most half of --duration; 0: no tare)")
-    bus = p.add_argument_group("bus (python-can's configuration file/environment when omitted)")
-    bus.add_argument("--interface", help="python-can interface: socketcan, slcan, slcan_bulk, "
-                     "pcan, kvaser, virtual...")
-    bus.add_argument("--channel", help="channel: can0, vcan0, /dev/ttyACM0, PCAN_USBBUS1...")
-    bus.add_argument("--bitrate", type=int, help="bit/s, e.g. 1000000")
-    bus.add_argument("--bus-option", action="append", default=[], metavar="KEY=VALUE",
-                     help="extra argument of the python-can bus (repeatable), "
-                     "e.g. sleep_after_open=0")
-    bus.add_argument("--log-channel", metavar="NAME",
-                     help="channel name written in the log (default: --channel)")
+    add_bus_arguments(p)
     meta = p.add_argument_group("trial metadata (sidecar)")
     meta.add_argument("--waveform", choices=WAVEFORMS)
     meta.add_argument("--frequency", type=float, metavar="HZ", help="excitation frequency, Hz")
@@ -87,39 +78,6 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     disp.add_argument("--quiet", action="store_true", help="no display, no summary")
     p.set_defaults(func=run)
     return p
-
-
-class _Signals:
-    """SIGINT/SIGTERM set the stop flag.
-
-    A second SIGINT while frames are being received raises KeyboardInterrupt (to cut a
-    receive that hangs in a driver); once the receive has ended, further signals are only
-    logged: the trial's log and sidecar are being saved.
-    """
-
-    def __init__(self, flag: StopFlag) -> None:
-        self.flag = flag
-        self.saved: dict[int, Any] = {}
-
-    def _handler(self, signum: int, _frame: Any) -> None:
-        name = signal.Signals(signum).name
-        if not self.flag():
-            self.flag.set(f"stopped by {name}")
-        elif signum == signal.SIGINT and self.flag.interruptible:
-            self.flag.interruptible = False
-            raise KeyboardInterrupt
-        else:
-            log.warning("%s ignored: saving the trial's log and sidecar", name)
-
-    def __enter__(self) -> _Signals:
-        if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                self.saved[sig] = signal.signal(sig, self._handler)
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        for sig, old in self.saved.items():
-            signal.signal(sig, old)
 
 
 def _check_finite(args: argparse.Namespace) -> None:
@@ -164,22 +122,30 @@ def run(args: argparse.Namespace) -> int:
         print(f"evtribo acquire: {args.study} has no study.toml: it is made for the default "
               f"rig, {default_rig_path()}: {rig.describe()} (give --rig RIG.toml for "
               "another rig)", file=sys.stderr)
-    settings = BusSettings(interface=args.interface, channel=args.channel,
-                           bitrate=args.bitrate, options=parse_bus_options(args.bus_option))
-    bus = open_bus(settings)
+    settings = bus_settings(args)
+    view = start_view(args)
+    try:
+        bus = open_bus(settings)
+    except BaseException:
+        if view is not None:
+            view.stop()
+        raise
     flag = StopFlag()
     monitor = None
-    if not args.quiet:
+    if not args.quiet or view is not None:
         monitor = Monitor(rig, sys.stdout, duration=args.duration, target=args.target_force,
                           band=args.band, title=f"{args.subject}/{args.trial}",
-                          tare_s=args.tare_s, rig_data_timeout=RIG_DATA_TIMEOUT_S)
+                          tare_s=args.tare_s, rig_data_timeout=RIG_DATA_TIMEOUT_S,
+                          view=view, quiet=args.quiet)
     try:
-        with _Signals(flag):
+        with StopOnSignals(flag):
             result = record_trial(
                 bus, args.study, args.subject, args.trial, duration=args.duration, info=info,
                 rig=args.rig, force=args.force, settings=settings,
                 log_channel=args.log_channel, should_stop=flag, monitor=monitor)
     finally:
+        if view is not None:
+            view.stop()
         try:
             bus.shutdown()
         except Exception as err:  # a vanished adapter may fail to close

@@ -13,10 +13,10 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
-from evtribo.cli._bus import add_bus_arguments, bus_settings
+from evtribo.cli._bus import add_bus_arguments, bus_settings, start_view
 
 log = logging.getLogger(__name__)
 
@@ -45,7 +45,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 @contextmanager
-def _stop_on_signals() -> Iterator[object]:
+def _stop_on_signals() -> Iterator[Callable[[], bool] | None]:
     """While a trial records, Ctrl-C and SIGTERM end it as ``interrupted`` (its log saved)."""
     from evtribo.acquisition.trialdata import StopFlag, StopOnSignals
 
@@ -57,16 +57,18 @@ def _stop_on_signals() -> Iterator[object]:
 def run(args: argparse.Namespace) -> int:
     """Run the session; return the exit code."""
     from evtribo.acquisition.bus import open_bus
-    from evtribo.acquisition.liveview import LiveView
     from evtribo.acquisition.protocol import read_protocol
     from evtribo.session import SessionConfig, run_session
 
     read_protocol(args.protocol)  # a bad protocol fails before the bus opens
     settings = bus_settings(args)
-    view = LiveView(args.view).start() if args.view is not None else None
-    if view is not None:
-        print(f"live view: {view.url}")
-    bus = open_bus(settings)
+    view = start_view(args)
+    try:
+        bus = open_bus(settings)
+    except BaseException:
+        if view is not None:
+            view.stop()
+        raise
     try:
         outcome = run_session(bus, SessionConfig(
             protocol=args.protocol, study=args.study, subject=args.subject, yes=args.yes,

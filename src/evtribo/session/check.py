@@ -83,11 +83,14 @@ def check_trial(study: Study, subject: str, trial: str, condition: str | None) -
     if ref is None:
         out.problems.append("the trial's log is not in the study folder")
         return out
+    rig = study.rig
+    if rig is None:
+        out.problems.append("the study has no rig")
+        return out
     try:
-        signals = load_trial(ref.log_path, study.rig, cache=False)
+        signals = load_trial(ref.log_path, rig, cache=False)
         result = analyze_signals(signals, TrialMeta.from_sidecar(subject, trial, ref.sidecar),
-                                 settings=study_settings(study),
-                                 calibration=study.rig.calibration)
+                                 settings=study_settings(study), calibration=rig.calibration)
     except EvtriboError as err:
         out.problems.append(f"the analysis failed: {err}")
         return out

@@ -243,8 +243,8 @@ class _Session:
 
     # -- one trial --------------------------------------------------------------------
     def excitation(self, entry: PlannedTrial) -> Excitation:
-        state = Excitation(entry.condition != "off", entry.amplitude_V, entry.frequency_Hz,
-                           entry.waveform)
+        state = Excitation(entry.condition != "off", float(entry.amplitude_V or 0.0),
+                           float(entry.frequency_Hz or 0.0), entry.waveform or "square")
         if self.command is None:
             what = (f"{entry.waveform} {entry.frequency_Hz:g} Hz {entry.amplitude_V:g} V, "
                     f"{entry.condition}")
@@ -274,7 +274,8 @@ class _Session:
             if self.command is None:
                 return record_trial(self.bus, self.cfg.study, self.cfg.subject, entry.trial,
                                     options)
-            with self.command.hold(state, entry.condition, off_first_s=s.tare_s,
+            with self.command.hold(state, entry.condition or "alternating",
+                                   off_first_s=s.tare_s,
                                    on_s=s.on_s, off_s=s.off_s):
                 return record_trial(self.bus, self.cfg.study, self.cfg.subject,
                                     entry.trial, options)
