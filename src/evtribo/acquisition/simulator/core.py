@@ -11,10 +11,12 @@ seed.
 
 from __future__ import annotations
 
+import dataclasses
+import logging
 import math
 import os
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +24,7 @@ import cantools
 import numpy as np
 import numpy.typing as npt
 
+from evtribo.acquisition.simulator.anyrig import RigEncoder
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.encode import pack_signals
 from evtribo.acquisition.simulator.physics import (
@@ -37,8 +40,12 @@ from evtribo.acquisition.simulator.physics import (
     model_parameters,
     on_off_schedule,
 )
+from evtribo.acquisition.simulator.truth import FEL_BIN_S, TrialTruth
 from evtribo.errors import RigConfigError
 from evtribo.frames.table import FrameTable
+from evtribo.rig import Rig, default_rig
+
+log = logging.getLogger(__name__)
 
 __all__ = ["CHUNK_S", "DEFAULT_DBC", "TrialGenerator", "TrialTruth", "simulate_trial"]
 
@@ -55,8 +62,6 @@ WAVE_CODE = {"sine": 0, "square": 1}
 #: Nominal leakage current reported by the amplifier at 140 V, uA (not modelled further).
 LEAK_UA_AT_140V = 4.0
 
-#: Bins of the electrostatic-force record of the truth (see TrialTruth.electrostatic_between), s.
-FEL_BIN_S = 0.01
 #: Contact above this counts as full contact in the truth's means.
 FULL_CONTACT = 0.999
 
@@ -81,111 +86,6 @@ class _Node:
         return np.arange(k0, k1, dtype=np.int64)
 
 
-@dataclass
-class TrialTruth:
-    """What the analysis of a simulated trial should recover.
-
-    Attributes
-    ----------
-    subject : SubjectParams
-    config : TrialConfig
-    schedule : list of (start_s, end_s, on)
-        The voltage's ON/OFF phases, s from the trial's start.
-    slides : list of (start_s, end_s, direction)
-        Steady slides between reversals (direction: sign of the friction force).
-    normal_force_on_N, normal_force_off_N : float or None, N
-        Mean of the true (noise-free) normal force over the normal cell's samples while ON
-        and while OFF (None if there was no such phase).
-    electrostatic_force_N : float or None, N
-        The model's electrostatic force at the realised ``normal_force_on_N`` and the trial's
-        amplitude (period-averaged for a sine): what ``electrostatic.csv`` should infer.
-    electrostatic_force_mean_N : float or None, N
-        Mean of the instantaneous electrostatic force over the tangential cell's ON samples.
-    friction_modulation_Hz : float or None, Hz
-        Twice the drive frequency for a sine trial with ON phases, else None.
-    nodes : dict
-        Per message: effective rate (Hz), clock offset (s), frames sent, frames dropped.
-    foreign_frames : int
-        Frames of other nodes.
-    lifted : list of (start_s, end_s)
-        Stretches with the finger fully off the screen (the tare stretch, lift-offs).
-    contact_lost : list of (start_s, end_s)
-        The same, widened by the time the finger takes to leave and to come back.
-    steady : list of (start_s, end_s, direction, on)
-        Steady sliding in one condition: the slides, less the lift-offs, cut at the
-        voltage's switches.
-    cells : dict
-        Per cell (``"normal"``, ``"tangential"``): the zero offset at the start, its drift,
-        thermal term and hum (N, N/s, s, Hz) and ``mean_offset_N``, the zero's mean over
-        the trial (what ``trials.csv`` reports as removed).
-    crosstalk : list of list of float
-        ``[Fn, Ft]_measured = crosstalk @ [Fn, Ft]_true`` (+ the zeros).
-    calibration_matrix : list of list of float
-        Its inverse: the ``[rig.calibration] matrix`` that undoes it.
-    first_frame_s : float or None, s
-        Reception time of the trial's first frame, from the trial's start: the analysis
-        counts its windows' times from there.
-    """
-
-    subject: SubjectParams
-    config: TrialConfig
-    schedule: list[tuple[float, float, bool]]
-    slides: list[tuple[float, float, int]]
-    normal_force_on_N: float | None = None
-    normal_force_off_N: float | None = None
-    electrostatic_force_N: float | None = None
-    electrostatic_force_mean_N: float | None = None
-    friction_modulation_Hz: float | None = None
-    nodes: dict[str, dict[str, float]] = field(default_factory=dict)
-    foreign_frames: int = 0
-    lifted: list[tuple[float, float]] = field(default_factory=list)
-    contact_lost: list[tuple[float, float]] = field(default_factory=list)
-    steady: list[tuple[float, float, int, bool]] = field(default_factory=list)
-    cells: dict[str, dict[str, float]] = field(default_factory=dict)
-    crosstalk: list[list[float]] = field(default_factory=list)
-    calibration_matrix: list[list[float]] = field(default_factory=list)
-    first_frame_s: float | None = None
-    fel_sum: npt.NDArray[np.float64] | None = field(default=None, repr=False)
-    fel_count: npt.NDArray[np.int64] | None = field(default=None, repr=False)
-
-    @property
-    def mu(self) -> float:
-        """The subject's friction coefficient."""
-        return self.subject.mu
-
-    def electrostatic_between(self, t0: float, t1: float) -> float:
-        """Mean of the electrostatic force over the tangential cell's samples in
-        ``[t0, t1)`` (s from the trial's start, to :data:`FEL_BIN_S`), N; NaN without
-        samples or without the record (only offline trials keep it)."""
-        if self.fel_sum is None or self.fel_count is None:
-            return float("nan")
-        b0 = max(round(t0 / FEL_BIN_S), 0)
-        b1 = min(round(t1 / FEL_BIN_S), self.fel_sum.size)
-        n = int(self.fel_count[b0:b1].sum())
-        return float(self.fel_sum[b0:b1].sum() / n) if n else float("nan")
-
-    def to_dict(self) -> dict[str, Any]:
-        """The truth as a JSON-ready mapping."""
-        return {
-            "subject": self.subject.to_dict(), "config": self.config.to_dict(),
-            "mu": self.mu,
-            "schedule": [[a, b, on] for a, b, on in self.schedule],
-            "slides": [[a, b, d] for a, b, d in self.slides],
-            "normal_force_on_N": self.normal_force_on_N,
-            "normal_force_off_N": self.normal_force_off_N,
-            "electrostatic_force_N": self.electrostatic_force_N,
-            "electrostatic_force_mean_N": self.electrostatic_force_mean_N,
-            "friction_modulation_Hz": self.friction_modulation_Hz,
-            "nodes": self.nodes, "foreign_frames": self.foreign_frames,
-            "lifted": [[a, b] for a, b in self.lifted],
-            "contact_lost": [[a, b] for a, b in self.contact_lost],
-            "steady": [[a, b, d, on] for a, b, d, on in self.steady],
-            "cells": self.cells, "crosstalk": self.crosstalk,
-            "calibration_matrix": self.calibration_matrix,
-            "first_frame_s": self.first_frame_s,
-        }
-
-
 def _load_dbc(dbc: str | os.PathLike[str] | None) -> Any:
     path = Path(dbc) if dbc is not None else DEFAULT_DBC
     try:
@@ -203,6 +103,11 @@ def _load_dbc(dbc: str | os.PathLike[str] | None) -> Any:
     return db
 
 
+def _speaks_default(rig: Rig) -> bool:
+    """Whether *rig* is the default rig (the same DBC bytes and roles): no re-encoding."""
+    return rig.fingerprint() == default_rig().fingerprint()
+
+
 class TrialGenerator:
     """Frames of one simulated trial, chunk after chunk, in reception order.
 
@@ -214,14 +119,18 @@ class TrialGenerator:
         The rig's DBC (default: the default rig). It must have the default rig's messages
         ``FzCell`` (``Fz``, ``FzCounter``), ``FxCell`` (``Fx``, ``FxCounter``) and
         ``HvStatus`` (``HvOn``, ``HvWave``, ``HvAmp``, ``HvFreq``, ``HvCounter``).
+    rig : Rig, optional
+        Another rig to speak: the frames are re-encoded through its DBC and roles
+        (:class:`~evtribo.acquisition.simulator.anyrig.RigEncoder`).
     """
 
     def __init__(self, subject: SubjectParams, config: TrialConfig,
                  dbc: str | os.PathLike[str] | None = None, *,
-                 record_electrostatic: bool = False) -> None:
+                 record_electrostatic: bool = False, rig: Rig | None = None) -> None:
         self.subject, self.config = subject, config
         self.record_electrostatic = record_electrostatic
         self.db = _load_dbc(dbc)
+        self.encoder = None if rig is None or _speaks_default(rig) else RigEncoder(rig)
         self.params = model_parameters(subject)
         seed = config.seed
         clock_rng = np.random.default_rng([seed, _S_CLOCK])
@@ -378,6 +287,33 @@ class TrialGenerator:
             tables.append(self._foreign(t0, t1, np.random.default_rng([seed, _S_FOREIGN, c])))
         return FrameTable.concat(tables)
 
+    def command(self, *, enabled: bool | None = None, amplitude_V: float | None = None,
+                frequency_Hz: float | None = None, waveform: str | None = None) -> None:
+        """Obey the amplifier's command from the next chunk on (what is not given stays).
+
+        Parameters
+        ----------
+        enabled : bool, optional
+            The high voltage on (the trial's condition becomes ``on``) or off (``off``).
+        amplitude_V, frequency_Hz : float, optional
+        waveform : str, optional
+            ``"sine"`` or ``"square"`` (another name is ignored, with a warning).
+        """
+        changes: dict[str, Any] = {}
+        if enabled is not None:
+            changes["condition"] = "on" if enabled else "off"
+        if amplitude_V is not None:
+            changes["amplitude_V"] = float(amplitude_V)
+        if frequency_Hz is not None and frequency_Hz > 0:
+            changes["frequency_Hz"] = float(frequency_Hz)
+        if waveform is not None:
+            if waveform in WAVE_CODE:
+                changes["waveform"] = waveform
+            else:
+                log.warning("the simulated amplifier cannot apply a %r waveform", waveform)
+        if changes:
+            self.config = dataclasses.replace(self.config, **changes)
+
     def chunks(self) -> Iterator[FrameTable]:
         """Frames in reception order, about :data:`CHUNK_S` s at a time, to the trial's end.
 
@@ -398,7 +334,7 @@ class TrialGenerator:
             if self._first_rx is None and len(out):
                 self._first_rx = float(out.timestamp[0])
             out.timestamp = out.timestamp + cfg.start_time
-            yield out
+            yield out if self.encoder is None else self.encoder.convert(out)
         self._done = True
 
     def truth(self) -> TrialTruth:
@@ -454,7 +390,8 @@ class TrialGenerator:
 
 
 def simulate_trial(subject: SubjectParams | None = None, config: TrialConfig | None = None,
-                   dbc: str | os.PathLike[str] | None = None) -> tuple[FrameTable, TrialTruth]:
+                   dbc: str | os.PathLike[str] | None = None, *, rig: Rig | None = None
+                   ) -> tuple[FrameTable, TrialTruth]:
     """Simulate one trial offline: every frame the logger would receive, and the truth.
 
     Parameters
@@ -465,6 +402,8 @@ def simulate_trial(subject: SubjectParams | None = None, config: TrialConfig | N
         The trial (default: 30 s, 140 V square at 10 kHz, alternating 2 s / 2 s).
     dbc : path-like, optional
         The rig's DBC (default: the default rig).
+    rig : Rig, optional
+        Another rig to speak (its DBC and roles).
 
     Returns
     -------
@@ -474,7 +413,7 @@ def simulate_trial(subject: SubjectParams | None = None, config: TrialConfig | N
         What the analysis should recover.
     """
     gen = TrialGenerator(subject or SubjectParams(), config or TrialConfig(), dbc,
-                         record_electrostatic=True)
+                         record_electrostatic=True, rig=rig)
     frames = FrameTable.concat(list(gen.chunks()))
     frames.channel = gen.config.channel
     return frames, gen.truth()

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import dataclasses
-import functools
 import json
 import logging
 import os
@@ -16,34 +15,23 @@ import numpy as np
 from evtribo import __version__
 from evtribo.acquisition.rigfile import write_new_study
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
-from evtribo.acquisition.simulator.core import DEFAULT_DBC, TrialTruth, simulate_trial
+from evtribo.acquisition.simulator.core import TrialTruth, simulate_trial
 from evtribo.acquisition.simulator.realism import human, realistic_rig
 from evtribo.documents.sidecar import rig_entry, write_sidecar
-from evtribo.errors import OutputExistsError
+from evtribo.errors import OutputExistsError, RigConfigError
 from evtribo.files import atomic_open, partial_path
 from evtribo.frames import write_candump
 from evtribo.frames.table import FrameTable
 from evtribo.lock import WriteLock
-from evtribo.rig import default_rig
-from evtribo.study import STUDY_FILE, validate_name
+from evtribo.rig import Rig, default_rig
+from evtribo.study import STUDY_FILE, read_study_toml, validate_name
 
 __all__ = ["default_subjects", "simulate_study", "write_trial"]
 
 log = logging.getLogger(__name__)
 
-#: The study's copy of the rig's DBC, relative to ``study.toml``.
+#: The study's copy of the default rig's DBC, relative to ``study.toml``.
 RIG_DBC = "rig/default.dbc"
-#: ``[rig]`` keys of the default rig, as ``study.toml`` names them.
-RIG_KEYS = {
-    "normal_force": "FzCell.Fz",
-    "tangential_force": "FxCell.Fx",
-    "normal_force_counter": "FzCell.FzCounter",
-    "tangential_force_counter": "FxCell.FxCounter",
-    "excitation_enabled": "HvStatus.HvOn",
-    "excitation_amplitude": "HvStatus.HvAmp",
-    "excitation_frequency": "HvStatus.HvFreq",
-    "excitation_waveform": "HvStatus.HvWave",
-}
 
 
 def default_subjects(n: int = 3, seed: int = 0) -> list[SubjectParams]:
@@ -71,32 +59,48 @@ def default_subjects(n: int = 3, seed: int = 0) -> list[SubjectParams]:
     ]
 
 
-@functools.cache
-def _rig_entry() -> dict[str, Any]:
-    """The sidecar's ``rig``: the default rig's name, its DBC's copy and version."""
-    rig = default_rig()
-    return rig_entry(RIG_DBC, name=rig.name, dbc_version=rig.database.version)
+def _rig_table(rig: Rig, dbc_rel: str) -> dict[str, Any]:
+    """The ``[rig]`` table of a new study for *rig*."""
+    return {"dbc": dbc_rel, **{r: ref.qualified_name for r, ref in rig.roles.items()}}
 
 
-def _ensure_study(root: Path, name: str) -> None:
-    if (root / STUDY_FILE).exists():
-        return
+def _study_rig(root: Path, rig: Rig | None, name: str) -> tuple[Rig, str]:
+    """The rig a trial of the study at *root* speaks, and its DBC relative to the study.
+
+    A study with a ``study.toml`` speaks its own rig (*rig*, if given, must be the same); a
+    new one is created for *rig* (default: the default rig), with a copy of its DBC.
+    """
+    toml = root / STUDY_FILE
+    if toml.exists():
+        table = read_study_toml(toml).get("rig")
+        if not isinstance(table, dict):
+            raise RigConfigError("has no [rig] table", path=toml, key="rig")
+        own = Rig.from_mapping(table, root, source=toml)
+        if rig is not None and rig.fingerprint() != own.fingerprint():
+            raise RigConfigError(f"the study's rig is {own.name!r} ({own.dbc}), not the rig "
+                                 f"asked for ({rig.dbc}): simulate it without a rig, or into "
+                                 "another study", path=toml, key="rig")
+        return own, os.path.relpath(own.dbc, root.resolve())
+    use = rig or default_rig()
+    dbc_rel = RIG_DBC if rig is None else f"rig/{use.dbc.name}"
     try:
-        write_new_study(root, DEFAULT_DBC, dbc_rel=RIG_DBC, name=name,
-                        rig={"dbc": RIG_DBC, **RIG_KEYS})
+        write_new_study(root, use.dbc, dbc_rel=dbc_rel, name=name,
+                        rig=_rig_table(use, dbc_rel))
     except OutputExistsError:  # another process created it meanwhile
-        return
-    log.info("new study folder %s for the default rig (%s)", root, DEFAULT_DBC)
+        return _study_rig(root, rig, name)
+    log.info("new study folder %s for the rig %s (%s)", root, use.name, use.dbc)
+    return use, dbc_rel
 
 
 def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams,
                 config: TrialConfig, *, force: bool = False, notes: str = "",
-                study_name: str = "simulated study") -> TrialTruth:
+                study_name: str = "simulated study", rig: Rig | None = None) -> TrialTruth:
     """Simulate one trial into a study folder: ``<subject>/<trial>.log`` and ``.json``.
 
-    The study folder and its ``study.toml`` (with a copy of the default rig's DBC) are
-    created if missing. The sidecar holds the spec's keys, the frame counts, and the truth
-    under ``"simulation"``.
+    The trial speaks the study's rig (its DBC and roles, whatever their IDs, byte order and
+    scales). The study folder and its ``study.toml`` (with a copy of the rig's DBC: *rig*'s,
+    default the default rig's) are created if missing. The sidecar holds the spec's keys,
+    the frame counts, and the truth under ``"simulation"``.
 
     Parameters
     ----------
@@ -113,6 +117,8 @@ def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams
         Free text for the sidecar.
     study_name : str
         The study's ``name`` in a new ``study.toml``.
+    rig : Rig, optional
+        The rig of a new study (an existing study's must be the same).
 
     Returns
     -------
@@ -133,12 +139,14 @@ def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams
                      "recorded")
     lock.check()  # --force included: never into a trial another process writes
     _refuse_existing(log_path, force)
-    frames, truth = simulate_trial(subject, config)
-    _ensure_study(root, study_name)
+    used, dbc_rel = _study_rig(root, rig, study_name)
+    frames, truth = simulate_trial(subject, config, rig=used)
     log_path.parent.mkdir(parents=True, exist_ok=True)
+    entry = rig_entry(dbc_rel, name=used.name, dbc_version=used.database.version)
     with lock:
         _refuse_existing(log_path, force)  # again, now that nobody else can write it
-        _write_files(log_path, frames, truth, subject, config, force=force, notes=notes)
+        _write_files(log_path, frames, truth, subject, config, force=force, notes=notes,
+                     rig=entry)
     return truth
 
 
@@ -151,7 +159,7 @@ def _refuse_existing(log_path: Path, force: bool) -> None:
 
 
 def _write_files(log_path: Path, frames: FrameTable, truth: TrialTruth, subject: SubjectParams,
-                 config: TrialConfig, *, force: bool, notes: str) -> None:
+                 config: TrialConfig, *, force: bool, notes: str, rig: dict[str, Any]) -> None:
     sidecar_path = log_path.with_suffix(".json")
     # a name of its own (not TRIAL.log.part, which may be a killed recording of this trial)
     with atomic_open(log_path, "wb") as fh:
@@ -163,7 +171,7 @@ def _write_files(log_path: Path, frames: FrameTable, truth: TrialTruth, subject:
         "subject": subject.name, "waveform": config.waveform,
         "frequency_Hz": config.frequency_Hz, "amplitude_V": config.amplitude_V,
         "condition": config.condition, "notes": notes, "tare_s": config.tare_s,
-        "rig": _rig_entry(), "bus": {"interface": "simulated", "channel": config.channel},
+        "rig": rig, "bus": {"interface": "simulated", "channel": config.channel},
         "software": f"evtribo {__version__}", "start_time": config.start_time,
         "frames": len(frames), "dropped_frames": dropped, "bus_errors": 0,
         "simulation": truth.to_dict(),
