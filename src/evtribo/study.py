@@ -295,6 +295,35 @@ def load_study(path: str | os.PathLike[str], *, with_rig: bool = True) -> Study:
                  trials=trials, warnings=warnings)
 
 
+def study_rig(path: str | os.PathLike[str]) -> Rig:
+    """The rig of a study folder or study.toml, or of a rig TOML.
+
+    Parameters
+    ----------
+    path : path-like
+        A study folder, its ``study.toml`` (the ``[rig]`` table), or a rig TOML (the keys at
+        the top level).
+
+    Returns
+    -------
+    Rig
+
+    Raises
+    ------
+    StudyError, RigConfigError
+        With the file and the key at fault.
+    """
+    from evtribo.rig import Rig, load_rig
+
+    p = Path(path)
+    if p.is_dir() or p.name == STUDY_FILE:
+        toml_path = p / STUDY_FILE if p.is_dir() else p
+        config = read_study_toml(toml_path)
+        return Rig.from_mapping(config["rig"], base_dir=toml_path.parent, source=toml_path,
+                                key_prefix="rig")
+    return load_rig(p)
+
+
 def _toml_value(value: Any) -> str:
     if isinstance(value, bool):
         return "true" if value else "false"
@@ -335,5 +364,5 @@ def write_study_toml(root: str | os.PathLike[str], *, name: str, rig: Mapping[st
 __all__ = ["CONDITIONS", "MAX_NAME_BYTES", "NAME_PATTERN", "NOT_SUBJECTS", "OS_CLUTTER",
            "SIDECAR_KEYS", "STUDY_FILE", "STUDY_KEYS", "WAVEFORMS", "Sidecar", "Study",
            "TrialRef", "discover_trials", "load_study", "log_stem", "log_suffixes",
-           "parse_sidecar", "read_sidecar", "read_study_toml", "unknown_sidecar_keys",
-           "validate_name", "write_sidecar", "write_study_toml"]
+           "parse_sidecar", "read_sidecar", "read_study_toml", "study_rig",
+           "unknown_sidecar_keys", "validate_name", "write_sidecar", "write_study_toml"]

@@ -133,3 +133,23 @@ def test_init_names_a_missing_dbc(tmp_path):
     with pytest.raises(RigConfigError, match="not found"):
         init_study(tmp_path / "s", tmp_path / "nope.dbc")
     assert not (tmp_path / "s" / "study.toml").exists()
+
+
+def test_inspect_shows_each_signal_s_range_behaviour_and_role(tmp_path, capsys):
+    from evtribo.cli import main
+
+    rig = load_rig(RIG_FILES["lab"])
+    log = sample_log(rig, tmp_path / "sample.log")
+    assert main(["inspect", str(log), "--dbc", str(rig.dbc)]) == 0
+    out = capsys.readouterr().out
+    rows = {line.split()[0]: line for line in out.splitlines()
+            if line.startswith(("LoadCell", "AmpStatus"))}
+    normal = rows["LoadCellN.Force"].split()
+    assert normal[1] == "N" and float(normal[2]) == pytest.approx(1000, rel=0.01)
+    lo, mean, hi = (float(x) for x in normal[3:6])
+    assert 0 < lo < mean < hi < 2  # the pressing force
+    assert rows["LoadCellN.Force"].endswith("-> normal_force")
+    assert rows["LoadCellT.Force"].endswith("-> tangential_force")
+    assert "changes sign" in rows["LoadCellT.Force"]
+    assert rows["LoadCellN.Counter"].endswith("-> normal_force_counter")
+    assert rows["AmpStatus.HV_On"].endswith("-> excitation_enabled")

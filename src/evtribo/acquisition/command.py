@@ -24,7 +24,7 @@ from evtribo.errors import RigConfigError
 
 log = logging.getLogger(__name__)
 
-__all__ = ["COMMAND_RATE_HZ", "COMMAND_ROLES", "Excitation", "ExcitationCommand"]
+__all__ = ["COMMAND_RATE_HZ", "COMMAND_ROLES", "CommandDecoder", "Excitation", "ExcitationCommand"]
 
 #: Commands per second while a trial records.
 COMMAND_RATE_HZ = 10.0
@@ -73,7 +73,8 @@ class ExcitationCommand:
         The command roles are spread over several messages.
     """
 
-    def __init__(self, bus: can.BusABC, database: Database, roles: Mapping[str, str]) -> None:
+    def __init__(self, bus: can.BusABC | None, database: Database,
+                 roles: Mapping[str, str]) -> None:
         self.bus = bus
         named = {f: roles[r] for f, r in COMMAND_ROLES.items() if r in roles}
         messages = {name.split(".", 1)[0] for name in named.values()}
@@ -124,7 +125,7 @@ class ExcitationCommand:
 
     def send(self, state: Excitation) -> bool:
         """Send *state* once; False (and a warning, the first time) when the bus refuses."""
-        if self.message is None:
+        if self.message is None or self.bus is None:
             return False
         try:
             self.bus.send(self.frame(state))
@@ -207,3 +208,59 @@ class _Holder:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
+
+
+class CommandDecoder:
+    """What an excitation command frame asks for (the simulated amplifier obeys it).
+
+    Parameters
+    ----------
+    database : cantools Database
+        The rig's DBC.
+    roles : mapping of str to str
+        The rig's roles (``{"excitation_command_enabled": "HvCmd.HvOn", ...}``).
+    """
+
+    def __init__(self, database: Database, roles: Mapping[str, str]) -> None:
+        probe = ExcitationCommand(None, database, roles)
+        self.message, self.signals = probe.message, probe.signals
+
+    def decode(self, arbitration_id: int, is_extended: bool, data: bytes
+               ) -> dict[str, object] | None:
+        """The command's fields (``enabled``, ``amplitude_V``, ``frequency_Hz``,
+        ``waveform``: those the rig names), or None for another frame or a damaged one.
+
+        Parameters
+        ----------
+        arbitration_id : int
+        is_extended : bool
+        data : bytes
+
+        Returns
+        -------
+        dict or None
+        """
+        m = self.message
+        if m is None or arbitration_id != m.frame_id \
+                or bool(is_extended) != bool(m.is_extended_frame):
+            return None
+        try:
+            values = m.decode(bytes(data), decode_choices=True)
+        except Exception as err:  # a frame too short, a damaged one: not a command
+            log.warning("ignored a damaged excitation command frame: %s", err)
+            return None
+        if not isinstance(values, dict):
+            return None
+        out: dict[str, object] = {}
+        for field_name, signal in self.signals.items():
+            value = values.get(signal)
+            if value is None:
+                continue
+            if field_name == "waveform":
+                out[field_name] = str(value).lower()
+            elif isinstance(value, int | float):
+                out[field_name] = bool(value) if field_name == "enabled" else float(value)
+            else:  # a value-table name where a number was expected
+                out[field_name] = str(value).lower() in ("on", "1", "true", "enabled") \
+                    if field_name == "enabled" else None
+        return out

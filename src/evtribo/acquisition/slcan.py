@@ -35,6 +35,7 @@ import termios
 import time
 import tty
 from collections import deque
+from collections.abc import Callable
 from typing import Any
 
 import serial
@@ -207,8 +208,9 @@ class SlcanPtyAdapter:
     serial number, ``F`` status flags (bit 3: frames lost to a full buffer since the last
     ``F``), ``Z0``, ``M``/``m``/``W``/``X``/``Q``/``U`` acknowledged. Transmit commands
     ``t``/``T``/``r``/``R`` are acknowledged with ``z``/``Z`` while open and counted in
-    :attr:`transmitted`, not echoed. Every command is answered ``\\r`` on success and
-    ``\\a`` on error, as the adapters do.
+    :attr:`transmitted`, not echoed; a data frame is handed to :attr:`on_transmit` (the
+    simulated amplifier obeys its command this way). Every command is answered ``\\r`` on
+    success and ``\\a`` on error, as the adapters do.
 
     Frames are written with :meth:`send_frames` while the channel is open. If the client
     falls behind and more than *max_pending* bytes wait, new frames are dropped (counted in
@@ -235,6 +237,8 @@ class SlcanPtyAdapter:
         self.listen_only = False
         self.bitrate_command = b"S6"
         self.transmitted = 0
+        #: Called with (identifier, extended, data) of each frame the client transmits.
+        self.on_transmit: Callable[[int, bool, bytes], object] | None = None
         self.dropped = 0
         self._overrun = False
         self._commands = bytearray()
@@ -287,6 +291,11 @@ class SlcanPtyAdapter:
             if not self.is_open or self.listen_only or not _valid_transmit(cmd):
                 return bell
             self.transmitted += 1
+            if c in (b"t", b"T") and self.on_transmit is not None:
+                width = 8 if c == b"T" else 3
+                ident = int(cmd[1:1 + width], 16)
+                data = bytes.fromhex(cmd[2 + width:].decode("ascii"))
+                self.on_transmit(ident, c == b"T", data)
             return (b"Z" if c in (b"T", b"R") else b"z") + ok
         if cmd in (b"Z0",) or c in (b"M", b"m", b"W", b"X", b"Q", b"U"):
             return ok

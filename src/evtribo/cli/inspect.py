@@ -4,12 +4,16 @@ Prints the duration, frame counts by kind, the frames the recording tool said it
 (candump's ``DROPCOUNT``) and CAN XL frames, and per identifier (per channel and identifier
 when the log holds several channels): count, mean rate, median and longest gap between
 frames, and (with ``--dbc``) which message and signals it decodes to; an identifier whose
-number is a DBC message's but whose kind (standard or extended) is not is said so.
+number is a DBC message's but whose kind (standard or extended) is not is said so. With
+``--dbc``, then per signal: its rate, minimum, mean and maximum, how it behaves (positive and
+steady, changing sign, switching, counting) and the rig's role it suggests, so that one sees
+at once which identifier carries which force.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 
 import cantools
 import numpy as np
@@ -100,4 +104,33 @@ def run(args: argparse.Namespace) -> int:
         print(line)
     if frames.is_error.any():
         print(f"{'error':>10} {int(frames.is_error.sum()):>9}")
+    if db is not None:
+        _signals(frames, db)
     return 0
+
+
+def _number(value: float) -> str:
+    return "--" if math.isnan(value) else f"{value:.6g}"
+
+
+def _signals(frames: FrameTable, db: cantools.database.can.Database) -> None:
+    """Per signal: rate, min / mean / max, behaviour, and the role it suggests."""
+    from evtribo.rigsetup import behaviour_text, guess_roles, signal_stats
+
+    stats = signal_stats(frames, db)
+    if not stats:
+        return
+    roles = {g.name: (role + ("?" if not g.certain else ""))
+             for role, g in guess_roles(db, stats).items() if g.name in stats}
+    width = max(len(name) for name in stats)
+    print()
+    print(f"{'signal':<{width}} {'unit':>5} {'rate_Hz':>9} {'min':>11} {'mean':>11} "
+          f"{'max':>11}  behaviour / role")
+    for name, st in stats.items():
+        role = roles.get(name, "")
+        what = behaviour_text(st) + (f"  -> {role}" if role else "")
+        print(f"{name:<{width}} {st.unit:>5} {st.rate_Hz:>9.2f} {_number(st.minimum):>11} "
+              f"{_number(st.mean):>11} {_number(st.maximum):>11}  {what}")
+    if roles:
+        print("(roles as `evtribo init --log` would guess them; ? where another signal fits "
+              "almost as well)")

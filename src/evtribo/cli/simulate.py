@@ -66,6 +66,12 @@ def _add_output_options(p: argparse.ArgumentParser) -> None:
     out.add_argument("--subject", default="P01", help="subject name with --study (P01)")
     out.add_argument("--trial", default="run-01", help="trial name with --study (run-01)")
     out.add_argument("--force", action="store_true", help="overwrite a trial with --study")
+    out.add_argument("--rig", metavar="PATH",
+                     help="speak this rig: a rig TOML, or a study folder or study.toml (its "
+                          "[rig]); its DBC and roles encode the frames, whatever their IDs, "
+                          "byte order and scales, and the amplifier obeys its "
+                          "excitation_command_* message. With --study: the rig of a new "
+                          "study (an existing study speaks its own rig)")
 
 
 def _add_trial_options(p: argparse.ArgumentParser) -> None:
@@ -266,6 +272,8 @@ def _stop_on_signals() -> Iterator[threading.Event]:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``evtribo simulate``."""
+    from evtribo.study import study_rig
+
     if sum((args.pty, args.study is not None, args.interface is not None)) > 1:
         raise ConfigError("choose one of --interface, --pty and --study", key="--pty")
     if args.bus_option and (args.pty or args.study is not None):
@@ -276,8 +284,11 @@ def run(args: argparse.Namespace) -> int:
         from evtribo.acquisition.simulator import write_trial
 
         subject, config = _build(args, args.duration or 30.0, args.duration or 30.0)
-        _say_new_study(args.study)
-        truth = write_trial(args.study, args.trial, subject, config, force=args.force)
+        rig = study_rig(args.rig) if args.rig else None
+        if rig is None:
+            _say_new_study(args.study)
+        truth = write_trial(args.study, args.trial, subject, config, force=args.force,
+                            rig=rig)
         nodes = truth.nodes
         print(f"{args.study}/{subject.name}/{args.trial}.log: "
               f"{sum(int(n['frames']) for n in nodes.values()) + truth.foreign_frames} frames")
@@ -287,7 +298,7 @@ def run(args: argparse.Namespace) -> int:
 
     # an open-ended stream: the cells drift as they would over a 30-s trial
     subject, config = _build(args, args.duration or 30.0, args.duration or 30.0)
-    sim = Simulator(subject, config)
+    sim = Simulator(subject, config, rig=study_rig(args.rig) if args.rig else None)
     if args.pty:
         from evtribo.acquisition.slcan import SlcanPtyAdapter
 

@@ -14,10 +14,12 @@ from typing import TYPE_CHECKING
 import can
 import numpy as np
 
+from evtribo.acquisition.command import CommandDecoder
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.core import TrialGenerator
 from evtribo.errors import ConfigError
 from evtribo.frames.table import FrameTable
+from evtribo.rig import Rig, default_rig
 
 if TYPE_CHECKING:  # pragma: no cover
     from evtribo.acquisition.slcan import SlcanPtyAdapter
@@ -72,6 +74,11 @@ class Simulator:
         Time-lapse factor: 1 sends the frames in real time, 4 four times faster (their
         timestamps still follow the trial's own clock; a virtual bus opened with
         ``preserve_timestamps=True`` passes them on).
+    rig : Rig, optional
+        The rig to speak (its DBC and roles; default: the default rig). When it names
+        ``excitation_command_*`` signals, the simulated amplifier obeys the command frames it
+        receives (on the bus, or written to the pty), from the next second of the stream on,
+        and its status reports what it was commanded.
 
     Examples
     --------
@@ -80,19 +87,48 @@ class Simulator:
     """
 
     def __init__(self, subject: SubjectParams | None = None, config: TrialConfig | None = None,
-                 dbc: str | os.PathLike[str] | None = None, *, speed: float = 1.0) -> None:
+                 dbc: str | os.PathLike[str] | None = None, *, speed: float = 1.0,
+                 rig: Rig | None = None) -> None:
         if not speed > 0:
             raise ConfigError(f"{speed!r} is not allowed: the speed must be > 0", key="speed")
         self.subject = subject or SubjectParams()
         self.config = config or TrialConfig()
         self.dbc = dbc
         self.speed = float(speed)
+        self.rig = rig
         self.generator: TrialGenerator | None = None
+        spoken = rig or default_rig()
+        roles = {r: ref.qualified_name for r, ref in spoken.roles.items()}
+        self.commands = CommandDecoder(spoken.database, roles) if spoken.has_command \
+            else None
+        self.obeyed = 0
+
+    def obey(self, arbitration_id: int, is_extended: bool, data: bytes) -> bool:
+        """Apply a received frame if it is the rig's excitation command; True if it was.
+
+        Parameters
+        ----------
+        arbitration_id : int
+        is_extended : bool
+        data : bytes
+
+        Returns
+        -------
+        bool
+        """
+        if self.commands is None or self.generator is None:
+            return False
+        fields = self.commands.decode(arbitration_id, is_extended, data)
+        if fields is None:
+            return False
+        self.generator.command(**fields)  # type: ignore[arg-type]
+        self.obeyed += 1
+        return True
 
     def _generator(self, duration: float | None) -> TrialGenerator:
         cfg = dataclasses.replace(self.config, duration_s=float(duration or MAX_DURATION_S),
                                   start_time=time.time())
-        self.generator = TrialGenerator(self.subject, cfg, self.dbc)
+        self.generator = TrialGenerator(self.subject, cfg, self.dbc, rig=self.rig)
         return self.generator
 
     def _pace(self, gen: TrialGenerator, deliver: Deliver, stop_event: threading.Event | None,
@@ -165,6 +201,14 @@ class Simulator:
             return sent
 
         def wait(seconds: float) -> None:
+            if self.commands is not None:  # listen for the amplifier's command meanwhile
+                deadline = time.monotonic() + max(seconds, 0.0)
+                while (msg := bus.recv(timeout=max(deadline - time.monotonic(), 0.0))) \
+                        is not None:
+                    self.obey(msg.arbitration_id, msg.is_extended_id, bytes(msg.data))
+                    if time.monotonic() >= deadline:
+                        break
+                return
             if stop_event is not None:
                 stop_event.wait(max(seconds, 0.0))
             elif seconds > 0:
@@ -192,6 +236,7 @@ class Simulator:
             adapter.poll(0.05)
         log.info("slcan channel opened: streaming")
         gen = self._generator(duration)
+        adapter.on_transmit = self.obey
 
         def deliver(table: FrameTable, i: int, j: int) -> int:
             return adapter.send_frames(table, i, j)
