@@ -157,20 +157,24 @@ _ANSI = re.compile(r"\x1b\[[0-9;]*m")
 finite = st.floats(-5, 5, allow_nan=False)
 
 
-@settings(max_examples=60, deadline=None)
-@given(columns=st.integers(70, 200), fn=st.none() | finite, ft=st.none() | finite,
-       hv=st.sampled_from([None, False, True]), tare=st.none() | st.floats(0, 2),
-       rates=st.dictionaries(st.sampled_from(["FzCell", "FxCell", "HvStatus", "other"]),
+snapshots = st.builds(
+    Snapshot, elapsed_s=st.just(12.3), remaining_s=st.just(7.7),
+    normal_force_N=st.none() | finite, tangential_force_N=st.none() | finite,
+    rates_Hz=st.dictionaries(st.sampled_from(["FzCell", "FxCell", "HvStatus", "other"]),
                              st.floats(0, 20000), max_size=4),
-       alert=st.sampled_from(["", "NO DATA FROM THE RIG: no FzCell (0x0C1) or FxCell (0x0C2) "
-                              "frame in 3 s; wrong bus, or the study's DBC is not this rig's?"]))
-def test_the_block_fits_the_terminal_so_it_redraws_in_place(columns, fn, ft, hv, tare, rates,
-                                                            alert):
+    frames=st.just(123456), dropped=st.just(7), bus_errors=st.just(2),
+    tare_left_s=st.none() | st.floats(0, 2),
+    alert=st.sampled_from(["", "NO DATA FROM THE RIG: no FzCell (0x0C1) or FxCell (0x0C2) "
+                           "frame in 3 s; wrong bus, or the study's DBC is not this rig's?"]),
+    hv_on=st.sampled_from([None, False, True]), hv_amplitude_V=st.just(140.0),
+    hv_frequency_Hz=st.just(10000.0), hv_waveform=st.just("square"))
+
+
+@settings(max_examples=60, deadline=None)
+@given(columns=st.integers(70, 200), snap=snapshots)
+def test_the_block_fits_the_terminal_so_it_redraws_in_place(columns, snap):
     # a line as wide as the terminal wraps, and the cursor-up of the next redraw misses it
-    snap = Snapshot(12.3, remaining_s=7.7, normal_force_N=fn, tangential_force_N=ft,
-                    rates_Hz=rates, frames=123456, dropped=7, bus_errors=2, tare_left_s=tare,
-                    alert=alert, hv_on=hv, hv_amplitude_V=140.0, hv_frequency_Hz=10000.0,
-                    hv_waveform="square")
+    alert = snap.alert
     for colour in (False, True):
         lines = render_status(snap, target=0.5, band=0.1, columns=columns, colour=colour,
                               title="P01/run-03  (3/10: square 10000 Hz 140 V alternating)")

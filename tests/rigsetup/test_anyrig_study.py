@@ -37,7 +37,7 @@ def test_a_study_of_another_rig_is_analysed_back_to_the_truth(rig_file, tmp_path
     assert {r: ref.qualified_name for r, ref in loaded.rig.roles.items()} == \
         {r: ref.qualified_name for r, ref in rig.roles.items()}
     frames, _ = read_frames(study / "P01" / "run-01.log")
-    ids = set(zip(frames.arbitration_id.tolist(), frames.is_extended.tolist()))
+    ids = set(zip(frames.arbitration_id.tolist(), frames.is_extended.tolist(), strict=True))
     for ref in rig.measured_roles.values():
         assert (ref.message.frame_id, bool(ref.message.is_extended_frame)) in ids
     sidecar = json.loads((study / "P01" / "run-01.json").read_text())
