@@ -8,7 +8,10 @@ frames the bus lost.
 
 from __future__ import annotations
 
+import logging
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 from evtribo.analysis.pipeline import study_settings
@@ -58,8 +61,30 @@ class TrialCheck:
         """One line for the operator."""
         text = (f"forces {self.normal_frames} + {self.tangential_frames} samples, windows "
                 f"{self.windows_on} ON / {self.windows_off} OFF, {self.dropped} frames "
-                "dropped")
+                "dropped" + (f", {len(self.warnings)} analysis warnings (evtribo analyze "
+                             "lists them)" if self.warnings else ""))
         return text + ("" if self.ok else ": " + "; ".join(self.problems))
+
+
+@contextmanager
+def _quiet() -> Iterator[list[str]]:
+    """Keep what the analysis warns of (the session says how many) off the terminal, where
+    the operator needs the verdict; ``evtribo analyze`` lists them all."""
+    heard: list[str] = []
+
+    class Keep(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            heard.append(record.getMessage())
+
+    logger = logging.getLogger("evtribo")
+    handler, propagate = Keep(logging.WARNING), logger.propagate
+    logger.addHandler(handler)
+    logger.propagate = False
+    try:
+        yield heard
+    finally:
+        logger.removeHandler(handler)
+        logger.propagate = propagate
 
 
 def check_trial(study: Study, subject: str, trial: str, condition: str | None) -> TrialCheck:
@@ -88,15 +113,19 @@ def check_trial(study: Study, subject: str, trial: str, condition: str | None) -
         out.problems.append("the study has no rig")
         return out
     try:
-        signals = load_trial(ref.log_path, rig, cache=False)
-        result = analyze_signals(signals, TrialMeta.from_sidecar(subject, trial, ref.sidecar),
-                                 settings=study_settings(study), calibration=rig.calibration)
+        with _quiet() as heard:
+            signals = load_trial(ref.log_path, rig, cache=False)
+            result = analyze_signals(signals,
+                                     TrialMeta.from_sidecar(subject, trial, ref.sidecar),
+                                     settings=study_settings(study),
+                                     calibration=rig.calibration)
     except EvtriboError as err:
         out.problems.append(f"the analysis failed: {err}")
         return out
+    out.warnings = heard
     out.normal_frames = int(signals.normal.t.size)
     out.tangential_frames = int(signals.tangential.t.size)
-    out.warnings = list(result.warnings)
+    out.warnings += list(result.warnings)
     w = result.windows
     if len(w):
         on = w["condition"].astype(str) == "on"

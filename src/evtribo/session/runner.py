@@ -23,6 +23,7 @@ from __future__ import annotations
 import logging
 import os
 import sys
+import threading
 import time
 from collections.abc import Callable
 from contextlib import AbstractContextManager, nullcontext
@@ -57,6 +58,8 @@ __all__ = ["REJECTED", "SessionConfig", "SessionOutcome", "run_session"]
 
 #: Folder of a subject where recordings the operator chose to redo are kept.
 REJECTED = "rejected"
+#: Longest wait for the amplifier's status to confirm a command before a trial, s.
+SETTLE_S = 2.0
 #: Ways a trial ends that stop the session (the bus or the disk failed).
 FAULTS = ("bus-error", "disk-error", "no-rig-data")
 
@@ -204,6 +207,45 @@ def _reject(subject_dir: Path, trial: str) -> str | None:
     return name
 
 
+class _IdleReader:
+    """Reads the bus between trials and drops what it reads, so that frames do not pile up
+    in the adapter's and the driver's buffers and reach the next trial's log late (with the
+    times they are read at, not sent at)."""
+
+    def __init__(self, bus: can.BusABC) -> None:
+        self.bus = bus
+        self.dropped = 0
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> None:
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._run, name="evtribo-idle-bus",
+                                        daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            try:
+                if self.bus.recv(timeout=0.05) is not None:
+                    self.dropped += 1
+            except Exception as err:  # the next trial will meet the fault and record it
+                log.debug("reading the bus between trials: %s", err)
+                return
+
+    def stop(self) -> None:
+        """Stop reading, after reading away what is waiting now."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+        try:
+            while self.bus.recv(timeout=0) is not None:
+                self.dropped += 1
+        except Exception as err:
+            log.debug("reading the bus between trials: %s", err)
+
+
 class _Session:
     """One run of a session (see :func:`run_session`)."""
 
@@ -220,6 +262,7 @@ class _Session:
                                   done=len(self.doc.done))
         self.command = (ExcitationCommand(bus, self.rig.database, self.rig.signals)
                         if ExcitationCommand.available(self.rig.signals) else None)
+        self.idle = _IdleReader(bus)
         if resumed:
             self.say(f"{self.path}: {len(self.doc.done)} of {len(self.doc.order)} trials "
                      "done; going on")
@@ -268,6 +311,54 @@ class _Session:
                                settings=self.cfg.settings, monitor=monitor,
                                rig_data_timeout=self.cfg.rig_data_timeout)
         state = self.excitation(entry)
+        self.idle.stop()
+        try:
+            return self._record(entry, state, options)
+        finally:
+            self.idle.start()
+
+    def settle(self, state: Excitation) -> bool:
+        """Command the amplifier off with the trial's settings, and wait (at most
+        :data:`SETTLE_S`) until its status says so, so that the log does not start with the
+        previous trial's excitation; False (and a warning) when it does not."""
+        assert self.command is not None
+        off = replace(state, enabled=False)
+        status = {k: self.rig.signals.get(f"excitation_{k}") for k in ("enabled", "amplitude")}
+        if status["enabled"] is None:
+            self.command.send(off)
+            time.sleep(0.2)
+            return True
+        message = self.rig.database.get_message_by_name(status["enabled"].split(".")[0])
+        deadline = time.monotonic() + SETTLE_S
+        next_send = 0.0
+        while (now := time.monotonic()) < deadline:
+            if now >= next_send:
+                self.command.send(off)
+                next_send = now + 0.1
+            msg = self.bus.recv(timeout=0.05)
+            if msg is None or msg.arbitration_id != message.frame_id \
+                    or msg.is_extended_id != bool(message.is_extended_frame):
+                continue
+            try:
+                values = message.decode(bytes(msg.data), decode_choices=False)
+            except Exception:
+                continue
+            if not isinstance(values, dict):
+                continue
+            on = values.get(status["enabled"].split(".")[1])
+            amp = values.get(status["amplitude"].split(".")[1]) if status["amplitude"] else None
+            if on == 0 and (not isinstance(amp, int | float)
+                            or abs(amp - state.amplitude_V) <= max(1.0, 0.01 * state.amplitude_V)):
+                return True
+        log.warning("the amplifier's status does not confirm the command (off, %g V) after %g s",
+                    state.amplitude_V, SETTLE_S)
+        return False
+
+    def _record(self, entry: PlannedTrial, state: Excitation, options: TrialOptions) -> Any:
+        """Record with the stop guard, the amplifier commanded meanwhile when it can be."""
+        s = self.protocol.session
+        if self.command is not None:
+            self.settle(state)
         guard = self.cfg.stop_guard() if self.cfg.stop_guard else nullcontext(None)
         with guard as should_stop:
             options = replace(options, should_stop=should_stop)
@@ -275,8 +366,7 @@ class _Session:
                 return record_trial(self.bus, self.cfg.study, self.cfg.subject, entry.trial,
                                     options)
             with self.command.hold(state, entry.condition or "alternating",
-                                   off_first_s=s.tare_s,
-                                   on_s=s.on_s, off_s=s.off_s):
+                                   off_first_s=s.tare_s, on_s=s.on_s, off_s=s.off_s):
                 return record_trial(self.bus, self.cfg.study, self.cfg.subject,
                                     entry.trial, options)
 
@@ -308,7 +398,7 @@ class _Session:
                 self.reject(entry, f"ended in a fault ({result.ended})")
                 return result.ended
             check = self.check(entry)
-            default = "k" if check is None or check.ok else "r"
+            default = "k" if check is None or check.ok or self.cfg.yes else "r"
             answer = self.ask(f"keep {entry.trial}? [k]eep, [r]edo, [s]top "
                               f"(default {default}): ", default)
             if answer.startswith("r"):
@@ -330,6 +420,7 @@ class _Session:
             self.ask(f"pause ({s.pause_s:g} s suggested); press Enter for the next trial ", "")
 
     def run(self) -> SessionOutcome:
+        self.idle.start()
         try:
             while (entry := self.doc.next_trial()) is not None:
                 number = self.doc.order.index(entry) + 1
@@ -341,6 +432,8 @@ class _Session:
                     self.pause()
         except KeyboardInterrupt:
             self.out.stopped = "interrupted"
+        finally:
+            self.idle.stop()
         self.save()
         left = len(self.doc.order) - len(self.doc.done)
         self.say(f"{len(self.doc.done)} of {len(self.doc.order)} trials done"

@@ -53,6 +53,8 @@ __all__ = ["CHUNK_S", "DEFAULT_DBC", "TrialGenerator", "TrialTruth", "simulate_t
 DEFAULT_DBC = Path(__file__).resolve().parents[2] / "data" / "rigs" / "default.dbc"
 #: Frames are generated this many seconds of trial time at a time.
 CHUNK_S = 1.0
+#: ... and this many once the amplifier obeys commands (its answer's delay at most).
+OBEY_CHUNK_S = 0.05
 #: Ids of other nodes on the bus when foreign traffic is asked for (standard and extended).
 FOREIGN_IDS = ((0x123, False), (0x7E8, False), (0x18FEF100, True), (0x0CF00400, True))
 #: Rolling counter of each message (+1 per frame, modulo its bit width).
@@ -165,6 +167,8 @@ class TrialGenerator:
         self._first_rx: float | None = None
         self._carry = FrameTable.empty(channel=config.channel)
         self._chunk = 0
+        self._t_next = 0.0
+        self.chunk_s = CHUNK_S
         self._done = False
 
     # -- one node's frames -------------------------------------------------------------
@@ -289,7 +293,8 @@ class TrialGenerator:
 
     def command(self, *, enabled: bool | None = None, amplitude_V: float | None = None,
                 frequency_Hz: float | None = None, waveform: str | None = None) -> None:
-        """Obey the amplifier's command from the next chunk on (what is not given stays).
+        """Obey the amplifier's command from the next chunk on (what is not given stays);
+        chunks are :data:`OBEY_CHUNK_S` long from then on.
 
         Parameters
         ----------
@@ -313,21 +318,23 @@ class TrialGenerator:
                 log.warning("the simulated amplifier cannot apply a %r waveform", waveform)
         if changes:
             self.config = dataclasses.replace(self.config, **changes)
+        self.chunk_s = OBEY_CHUNK_S  # from now on the amplifier answers within this
 
     def chunks(self) -> Iterator[FrameTable]:
-        """Frames in reception order, about :data:`CHUNK_S` s at a time, to the trial's end.
+        """Frames in reception order, about :data:`CHUNK_S` s at a time (:data:`OBEY_CHUNK_S`
+        once the amplifier has been commanded), to the trial's end.
 
         Timestamps are ``config.start_time`` plus the reception time in the trial.
         """
         cfg = self.config
-        n_chunks = math.ceil(cfg.duration_s / CHUNK_S)
-        while self._chunk < n_chunks:
-            t0 = self._chunk * CHUNK_S
-            t1 = min(t0 + CHUNK_S, cfg.duration_s)
+        while self._t_next < cfg.duration_s:
+            t0 = self._t_next
+            t1 = min(t0 + self.chunk_s, cfg.duration_s)
             new = self._chunk_frames(t0, t1)
             self._chunk += 1
+            self._t_next = t1
             table = FrameTable.concat([self._carry, new]).sorted_by_time()
-            last = self._chunk == n_chunks
+            last = t1 >= cfg.duration_s
             cut = len(table) if last else int(np.searchsorted(table.timestamp, t1, "left"))
             self._carry = table.take(np.arange(cut, len(table)))
             out = table.take(np.arange(cut))
