@@ -83,3 +83,52 @@ def test_chromium_sees_the_gauge_move_and_the_band():
         finally:
             stop.set()
             thread.join()
+
+
+def _free_port() -> int:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+@pytest.mark.slow
+def test_chromium_watches_a_simulated_trial_stream_through_acquire_view(tmp_path,
+                                                                        simulate_pty):
+    import subprocess
+    import sys
+
+    from _process import kill_and_reap
+
+    _sim, pty = simulate_pty("--duration", "120")
+    port = _free_port()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "evtribo", "acquire", "--study", str(tmp_path / "study"),
+         "--subject", "P01", "--trial", "run-01", "--duration", "8", "--interface", "slcan",
+         "--channel", pty, "--bus-option", "sleep_after_open=0", "--target-force", "0.5",
+         "--band", "0.1", "--view", str(port), "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stdout.readline() if proc.stdout else ""
+        assert f"http://127.0.0.1:{port}/" in line, (line, proc.poll())
+        with Browser() as browser:
+            page = browser.open(f"http://127.0.0.1:{port}/")
+            assert page.wait_for("Number(document.body.dataset.updates) >= 10")
+            first = page.eval("document.getElementById('fn').dataset.value")
+            # the subject's normal force moves, and the gauge with it
+            assert page.wait_for("Number(document.body.dataset.fnMax) - "
+                                 "Number(document.body.dataset.fnMin) > 0.002")
+            assert page.wait_for(
+                f"document.getElementById('fn').dataset.value !== {first!r}")
+            width = float(page.eval("document.getElementById('band').getAttribute('width')"))
+            assert width == pytest.approx(250.0, abs=1)  # target ± band, a quarter of it
+            assert page.eval("document.getElementById('trial').textContent") == "P01/run-01"
+            # the amplifier's status: the simulated trial alternates ON and OFF at 140 V
+            assert page.wait_for("document.getElementById('hv').dataset.on === 'true'")
+            assert "140 V" in page.eval("document.getElementById('hv').textContent")
+        proc.wait(timeout=60)
+    finally:
+        kill_and_reap(proc, timeout=10)
+    assert proc.returncode == 0
+    assert (tmp_path / "study" / "P01" / "run-01.log").exists()

@@ -256,6 +256,7 @@ class _Session:
         self.rig: AcquisitionRig = open_study(cfg.study, cfg.rig)
         self.subject_dir = Path(cfg.study) / cfg.subject
         self.doc, resumed = _load_or_plan(cfg, self.protocol, self.subject_dir)
+        self._saved = self.doc
         self.notes = [p.notes for p in plan_trials(self.protocol, self.doc.seed)]
         self.path = self.subject_dir / SESSION_FILE
         self.out = SessionOutcome(self.path, planned=len(self.doc.order),
@@ -275,7 +276,9 @@ class _Session:
         self.cfg.stream.flush()
 
     def save(self) -> None:
-        write_session(self.path, self.doc)
+        if self.doc != self._saved:  # a run that records nothing writes nothing
+            write_session(self.path, self.doc)
+            self._saved = self.doc
         self.out.done = len(self.doc.done)
 
     def ask(self, question: str, default: str) -> str:

@@ -1,0 +1,124 @@
+"""``evtribo session``: a subject's protocol against the simulated rig in another process
+(over an emulated slcan adapter), the amplifier under command, resumed after a stop."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from _process import kill_and_reap
+from evtribo.cache import load_trial
+from evtribo.documents.session import read_session
+from evtribo.rig import default_rig
+
+PROTOCOL = """\
+[session]
+trial_s = {trial_s}
+repetitions = 1
+randomize = true
+seed = 5
+tare_s = 0.5
+on_s = 1.0
+off_s = 1.0
+
+[[trial]]
+waveform = "square"
+frequency_Hz = 10000
+amplitude_V = [60, 100, 140]
+condition = "alternating"
+"""
+
+
+def _session(tmp_path: Path, pty: str, subject: str, *, trial_s: float = 4.0,
+             wait: bool = True) -> subprocess.Popen[str]:
+    protocol = tmp_path / "protocol.toml"
+    protocol.write_text(PROTOCOL.format(trial_s=trial_s))
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "evtribo", "session", str(protocol), "--study",
+         str(tmp_path / "study"), "--subject", subject, "--interface", "slcan", "--channel",
+         pty, "--bus-option", "sleep_after_open=0", "--yes", "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    if wait:
+        proc.wait(timeout=120)
+    return proc
+
+
+def _tree(folder: Path) -> dict[str, tuple[int, int]]:
+    return {str(p.relative_to(folder)): (p.stat().st_size, p.stat().st_mtime_ns)
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.mark.slow
+def test_a_randomized_session_records_the_plan_with_the_commanded_excitation(
+        tmp_path, simulate_pty):
+    _sim, pty = simulate_pty("--duration", "300")
+    proc = _session(tmp_path, pty, "P01")
+    out, err = kill_and_reap(proc, timeout=10)
+    assert proc.returncode == 0, err
+    subject = tmp_path / "study" / "P01"
+    session = read_session(subject / "session.json")
+    assert [t.trial for t in session.order] == ["run-01", "run-02", "run-03"]
+    assert list(session.done) == ["run-01", "run-02", "run-03"]
+    # the seeded shuffle of the protocol's amplitudes, one trial each
+    assert sorted(t.amplitude_V for t in session.order) == [60.0, 100.0, 140.0]
+    for planned in session.order:
+        sidecar = json.loads((subject / f"{planned.trial}.json").read_text())
+        assert sidecar["ended"] == "completed"
+        assert (sidecar["amplitude_V"], sidecar["waveform"], sidecar["frequency_Hz"],
+                sidecar["condition"], sidecar["tare_s"]) == \
+            (planned.amplitude_V, "square", 10000.0, "alternating", 0.5)
+        # the amplifier obeyed: while ON, its status reports the commanded amplitude
+        ex = load_trial(subject / f"{planned.trial}.log", default_rig(), cache=False).excitation
+        on = ex.enabled
+        assert 0.2 < on.mean() < 0.6, planned.trial
+        assert set(np.round(ex.amplitude[on], 2)) == {planned.amplitude_V}, planned.trial
+        assert not on[(ex.t - ex.t[0]) < 0.4].any(), planned.trial  # off while taring
+    assert "3 of 3 trials done" in out
+    # the same command again records nothing
+    before = _tree(tmp_path / "study")
+    proc = _session(tmp_path, pty, "P01")
+    out, err = kill_and_reap(proc, timeout=10)
+    assert proc.returncode == 0, err
+    assert "3 of 3 trials done" in out
+    assert _tree(tmp_path / "study") == before
+
+
+@pytest.mark.slow
+def test_a_session_stopped_mid_trial_goes_on_and_records_each_trial_once(
+        tmp_path, simulate_pty):
+    _sim, pty = simulate_pty("--duration", "300")
+    subject = tmp_path / "study" / "P02"
+    proc = _session(tmp_path, pty, "P02", trial_s=3.0, wait=False)
+    try:
+        deadline = time.monotonic() + 60
+        while not (subject / "run-02.log.part").exists():
+            assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+            time.sleep(0.05)
+        time.sleep(0.5)  # mid-trial
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+    finally:
+        kill_and_reap(proc, timeout=10)
+    assert proc.returncode == 0, err
+    assert list(read_session(subject / "session.json").done) == ["run-01"]
+    assert (subject / "run-01.log").exists() and not (subject / "run-02.log").exists()
+    cut = sorted(p.name for p in (subject / "rejected").iterdir())
+    assert cut == ["run-02-1.json", "run-02-1.log"]  # kept, out of the study's trials
+    first = (subject / "run-01.log").read_bytes()
+    proc = _session(tmp_path, pty, "P02", trial_s=3.0)
+    out, err = kill_and_reap(proc, timeout=10)
+    assert proc.returncode == 0, err
+    assert "1 of 3 trials done; going on" in out and "3 of 3 trials done" in out
+    session = read_session(subject / "session.json")
+    assert list(session.done) == ["run-01", "run-02", "run-03"]
+    logs = sorted(p.name for p in subject.glob("*.log"))
+    assert logs == ["run-01.log", "run-02.log", "run-03.log"]
+    assert (subject / "run-01.log").read_bytes() == first  # never recorded again
+    assert sorted(p.name for p in (subject / "rejected").iterdir()) == cut
