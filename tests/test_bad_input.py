@@ -136,6 +136,17 @@ def _results(tmp: Path, *, summary: bool = True, fit_of: str | None = None,
         (out / cut).write_bytes(data[: len(data) // 2])
 
 
+def _session_begun(tmp: Path) -> None:
+    """P01's session begun with amplitudes 60 and 100 V; the protocol now asks 140 V."""
+    from evtribo.documents.session import PlannedTrial, Session, write_session
+
+    old = {"session": {"trial_s": 20.0}, "trial": [{"amplitude_V": [60.0, 100.0]}]}
+    write_session(tmp / "study" / "P01" / "session.json", Session(
+        subject="P01", seed=1, protocol=old,
+        order=(PlannedTrial("run-09", "square", 10000.0, 60.0, "alternating"),)))
+    (tmp / "protocol.toml").write_text("[[trial]]\namplitude_V = 140\n")
+
+
 def _text(path: Path, text: str) -> Callable[[Path], None]:
     def build(tmp: Path) -> None:
         (tmp / path).parent.mkdir(parents=True, exist_ok=True)
@@ -265,6 +276,11 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "decode-csv-in-study": lambda t: None,
     "decode-channel-missing": lambda t: None,
     "compare-summary-edited": lambda t: _results(t, edit={"study": {"name": "x"}}),
+    "session-protocol-misspelt-key": _text(Path("protocol.toml"), "[session]\ntrial_s = 20\n"
+                                           "repetiton = 2\n[[trial]]\namplitude_V = 100\n"),
+    "session-protocol-changed": _session_begun,
+    "init-study-exists": lambda t: None,
+    "init-dbc-missing": lambda t: None,
 }
 
 
