@@ -123,7 +123,7 @@ def _signals(frames: FrameTable, db: cantools.database.can.Database) -> None:
     roles = {g.name: (role + ("?" if not g.certain else ""))
              for role, g in guess_roles(db, stats).items() if g.name in stats}
     width = max(len(name) for name in stats)
-    print()
+    print("-- per signal:")
     print(f"{'signal':<{width}} {'unit':>5} {'rate_Hz':>9} {'min':>11} {'mean':>11} "
           f"{'max':>11}  behaviour / role")
     for name, st in stats.items():
