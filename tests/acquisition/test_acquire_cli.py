@@ -1,6 +1,7 @@
 """``evtribo acquire`` as a process, recording python-can's ``slcan`` driver on a pty that
 emulates a USB-CAN adapter: SIGTERM / SIGINT mid-trial, the adapter vanishing, exit codes."""
 
+import contextlib
 import json
 import os
 import queue
@@ -48,6 +49,7 @@ class SlcanPty(threading.Thread):
         super().__init__(daemon=True)
         self.master, self.slave = os.openpty()
         tty.setraw(self.slave)
+        os.set_blocking(self.master, False)
         self.path = os.ttyname(self.slave)
         self.rate = rate
         self.sent = 0
@@ -63,7 +65,8 @@ class SlcanPty(threading.Thread):
         buf = b""
         while b"O\r" not in buf and not self.stop.is_set():
             if select.select([self.master], [], [], 0.05)[0]:
-                buf += os.read(self.master, 1024)
+                with contextlib.suppress(BlockingIOError):
+                    buf += os.read(self.master, 1024)
         self.opened.set()
         t0 = time.perf_counter()
         lines = self.LINES
@@ -74,10 +77,14 @@ class SlcanPty(threading.Thread):
                 chunk = self.injected.get() + chunk
             while chunk and not self.stop.is_set():
                 if select.select([], [self.master], [], 0.05)[1]:
-                    chunk = chunk[os.write(self.master, chunk):]
+                    try:  # never a blocking write: a reader gone would hang it forever
+                        chunk = chunk[os.write(self.master, chunk):]
+                    except BlockingIOError:
+                        pass
             self.sent = due
             if select.select([self.master], [], [], 0.005)[0]:
-                os.read(self.master, 1024)         # drain the driver's commands
+                with contextlib.suppress(BlockingIOError):
+                    os.read(self.master, 1024)     # drain the driver's commands
 
     def vanish(self):
         """Stop and close the master side, as an adapter pulled out of its USB port."""

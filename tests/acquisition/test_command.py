@@ -27,8 +27,8 @@ def test_command_frame_decodes_to_the_state(on, amp, freq, wave):
     assert frame.arbitration_id == msg.frame_id and not frame.is_extended_id
     got = msg.decode(frame.data, decode_choices=True)
     assert got["HvOn"] == int(on) and str(got["HvWave"]) == wave.lower()
-    assert got["HvAmp"] == pytest.approx(amp, abs=0.005)
-    assert got["HvFreq"] == pytest.approx(freq, abs=0.005)
+    assert got["HvAmp"] == pytest.approx(amp, abs=0.005 + 1e-9)  # half its 0.01 V scale
+    assert got["HvFreq"] == pytest.approx(freq, abs=0.005 + 1e-9)
 
 
 def test_commands_reach_the_bus_and_end_off():
