@@ -122,3 +122,55 @@ def test_a_session_stopped_mid_trial_goes_on_and_records_each_trial_once(
     assert logs == ["run-01.log", "run-02.log", "run-03.log"]
     assert (subject / "run-01.log").read_bytes() == first  # never recorded again
     assert sorted(p.name for p in (subject / "rejected").iterdir()) == cut
+
+
+@pytest.mark.slow
+def test_without_a_command_message_the_operator_sets_the_amplifier_and_may_redo(tmp_path):
+    # a rig whose amplifier is not under command (the Motorola rig): the session asks the
+    # operator to set it; a redone trial's first recording is kept under rejected/
+    import io
+    import threading
+
+    import can
+
+    from evtribo.acquisition.simulator import Simulator, TrialConfig
+    from evtribo.rig import load_rig
+    from evtribo.session import SessionConfig, run_session
+
+    rig_toml = Path(__file__).parents[1] / "data" / "rigs" / "motorola.toml"
+    protocol = tmp_path / "protocol.toml"
+    protocol.write_text("[session]\ntrial_s = 1.5\ntare_s = 0.3\n[[trial]]\n"
+                        "waveform = \"sine\"\nfrequency_Hz = 200\namplitude_V = 90\n"
+                        "condition = \"on\"\n")
+    answers = iter(["", "r", "", "k"])  # set; redo; set again; keep
+    asked: list[str] = []
+
+    def ask(question: str) -> str:
+        asked.append(question)
+        return next(answers)
+
+    stop = threading.Event()
+    channel = f"session-{id(tmp_path)}"
+    with can.Bus(interface="virtual", channel=channel) as sim_bus, \
+            can.Bus(interface="virtual", channel=channel) as bus:
+        sim = Simulator(config=TrialConfig(duration_s=60.0), rig=load_rig(rig_toml))
+        thread = threading.Thread(target=sim.run, args=(sim_bus,),
+                                  kwargs={"stop_event": stop}, daemon=True)
+        thread.start()
+        out = io.StringIO()
+        try:
+            outcome = run_session(bus, SessionConfig(
+                protocol=protocol, study=tmp_path / "study", subject="P03", rig=rig_toml,
+                stream=out, ask=ask, display=False))
+        finally:
+            stop.set()
+            thread.join(timeout=10)
+    text = out.getvalue()
+    assert "set the amplifier: sine 200 Hz 90 V, on" in text
+    assert len(asked) == 4 and asked[1].startswith("keep run-01?")
+    assert outcome.recorded == ["run-01"] and outcome.rejected == ["run-01-1"]
+    subject = tmp_path / "study" / "P03"
+    assert sorted(p.name for p in (subject / "rejected").iterdir()) == \
+        ["run-01-1.json", "run-01-1.log"]
+    assert json.loads((subject / "run-01.json").read_text())["amplitude_V"] == 90.0
+    assert list(read_session(subject / "session.json").done) == ["run-01"]

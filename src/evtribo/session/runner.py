@@ -306,7 +306,8 @@ class _Session:
         monitor = Monitor(self.rig, self.cfg.stream, duration=s.trial_s,
                           target=s.target_force_N, band=s.band_N, title=title,
                           tare_s=s.tare_s, rig_data_timeout=self.cfg.rig_data_timeout,
-                          view=self.cfg.view) if (self.cfg.display or self.cfg.view) else None
+                          view=self.cfg.view, quiet=not self.cfg.display,
+                          ) if (self.cfg.display or self.cfg.view) else None
         info = TrialInfo(waveform=entry.waveform, frequency_Hz=entry.frequency_Hz,
                          amplitude_V=entry.amplitude_V, condition=entry.condition,
                          notes=self.notes[number - 1] or None, tare_s=s.tare_s)
