@@ -49,11 +49,11 @@ def _key(msg):
             msg.bitrate_switch, msg.dlc, bytes(msg.data))
 
 
-def _drain(bus):
+def _drain(bus, timeout=0.03):
     out = []
     while True:
         try:
-            msg = bus.recv(0.03)
+            msg = bus.recv(timeout)
         except ValueError as err:  # python-can's parser on a malformed line
             out.append(("ValueError", type(err).__name__))
             continue
@@ -75,6 +75,9 @@ def parse_both(pieces):
                     os.write(master, piece[k:k + 1024])
                     batch += _drain(bus)
                 got.append(batch)
+            # what a loaded machine delivers late still counts, in the last batch
+            while late := _drain(bus, timeout=0.15):
+                got[-1] += late
         results.append(got)
     return results
 
@@ -135,7 +138,8 @@ def test_bulk_parser_matches_python_can_on_any_stream_cut_anywhere(items, cuts):
     points = sorted({min(c, len(stream)) for c in cuts} | {0, len(stream)})
     pieces = [stream[a:b] for a, b in itertools.pairwise(points) if b > a]
     classic, bulk = parse_both(pieces)
-    assert classic == bulk
+    # the same frames in the same order (which read returns each depends on timing)
+    assert [m for batch in classic for m in batch] == [m for batch in bulk for m in batch]
     n_frames = sum(1 for i in items if i[0] in "tTrR")
     assert sum(len(batch) for batch in bulk) == n_frames
 
