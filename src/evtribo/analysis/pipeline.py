@@ -285,8 +285,7 @@ def compute_study(study: Study | str | os.PathLike[str], *, jobs: int | None = N
                   overrides: Mapping[str, Any] | None = None,
                   progress: ProgressCallback | None = None) -> StudyResults:
     """Analyse every trial of a study in memory, writing nothing (but the decoded-trial
-    cache); :func:`write_results` writes the results (:func:`analyze_study` does both). The
-    errors are :func:`analyze_study`'s about the study, its settings and its logs.
+    cache; the errors are :func:`analyze_study`'s); :func:`write_results` writes them.
 
     Parameters
     ----------
@@ -295,8 +294,10 @@ def compute_study(study: Study | str | os.PathLike[str], *, jobs: int | None = N
     %(jobs)s
     %(strict)s
     %(cache_dir)s
-    settings, overrides
-        As :func:`analyze_study`'s.
+    settings : AnalysisSettings, optional
+        The settings to start from; the study's ``[analysis]`` table applies on top.
+    overrides : mapping, optional
+        Settings over the study's (``{"tare": "none"}``).
     %(progress)s
 
     Returns
@@ -354,7 +355,6 @@ def write_results(results: StudyResults, out_dir: str | os.PathLike[str], *,
     Parameters
     ----------
     results : StudyResults
-        As :func:`compute_study` returned them.
     out_dir : path-like
         The result folder (created if needed), outside the study folder.
     force : bool
