@@ -21,7 +21,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
 from evtribo.analysis.outputs import FIGURES, FIT_CSV
-from evtribo.api.results import Results, typed_table
+from evtribo.api.results import CSV_EXACT, Results, typed_table
 from evtribo.compare.fit import SubjectFit, fit_study
 from evtribo.compare.fit_csv import fit_table
 from evtribo.compare.params import load_parameters, resolve_fit_names
@@ -113,8 +113,7 @@ class Fit:
         doc = read_fit(folder / "fit.json") if doc is None else doc
         try:
             table = pd.read_csv(folder / FIT_CSV, dtype=dict.fromkeys(FIT_TEXT_COLUMNS, str),
-                                keep_default_na=False, na_values=[""],
-                                float_precision="round_trip")
+                                keep_default_na=False, na_values=[""], **CSV_EXACT)
         except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError) as err:
             raise UserInputError(f"cannot read this CSV table: {err}",
                                  path=folder / FIT_CSV) from err

@@ -44,12 +44,17 @@ from evtribo.resultdir import locked, pending, recover
 if TYPE_CHECKING:
     from evtribo.api.fit import Fit
 
-__all__ = ["COUNT_COLUMNS", "TEXT_COLUMNS", "Results", "analyze", "load_results",
+__all__ = ["COUNT_COLUMNS", "CSV_EXACT", "TEXT_COLUMNS", "Results", "analyze", "load_results",
            "typed_table"]
 
 #: Columns of names (strings), and of counts (nullable integers); the others are floats.
 TEXT_COLUMNS = ("subject", "trial", "waveform", "condition", "tare")
 COUNT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off", "replicate")
+
+#: read_csv's options that read back every float to_csv wrote, bit for bit (pandas 3's
+#: default parser does; pandas 2's needs its round-trip parser).
+CSV_EXACT: dict[str, Any] = ({} if int(pd.__version__.split(".")[0]) >= 3
+                             else {"float_precision": "round_trip"})
 
 #: Each table: its file and its columns.
 _TABLES: dict[str, tuple[str, tuple[str, ...]]] = {
@@ -235,7 +240,7 @@ def _read_table(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
     """A result table as written (names read as text, only empty cells missing)."""
     try:
         raw = pd.read_csv(path, dtype=dict.fromkeys(TEXT_COLUMNS, str), keep_default_na=False,
-                          na_values=[""], float_precision="round_trip")
+                          na_values=[""], **CSV_EXACT)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
         raise UserInputError(f"cannot read this CSV table: {err}", path=path) from err
     missing = [c for c in columns if c not in raw.columns]

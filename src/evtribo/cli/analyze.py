@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 from typing import Any, TextIO
 
 from evtribo.analysis.pipeline import OUTPUT_FILES, analyze_study
@@ -100,6 +101,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"analysed {s['trials_analysed']} of {s['trials']} trials{same} "
           f"({s['windows_on']} ON and {s['windows_off']} OFF windows) into {res.out_dir}")
     if s["warnings"]:
-        print(f"{len(s['warnings'])} warning(s), listed in {res.out_dir / 'summary.json'}",
+        print(f"{len(s['warnings'])} warning(s), listed in {Path(args.out) / 'summary.json'}",
               file=sys.stderr)
     return 0 if s["trials_analysed"] else 1
