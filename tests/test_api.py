@@ -324,3 +324,17 @@ def test_compare_refuses_unknown_parameters_and_empty_results(simulated):
     results.electrostatic = results.electrostatic.iloc[:0]
     with pytest.raises(UserInputError, match="nothing to compare"):
         evtribo.compare(results)
+
+
+def test_the_api_page_is_up_to_date():
+    import importlib.util
+
+    script = Path(__file__).parents[1] / "scripts" / "api_doc.py"
+    spec = importlib.util.spec_from_file_location("api_doc", script)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    page = module.PAGE.read_text(encoding="utf-8")
+    assert page == module.page(), "docs/api.md is out of date: python scripts/api_doc.py"
+    for name in evtribo.api.__all__:
+        assert f"## `evtribo.{name}`" in page
