@@ -111,6 +111,8 @@ def test_open_study_names_the_trials(reference):
     assert len(study.trials) == 18
     trial = study.trial("P02", "run-06")
     assert (trial.subject, trial.name, trial.key) == ("P02", "run-06", "P02/run-06")
+    assert repr(trial) == "Trial('P02/run-06', sine 10 Hz 140 V alternating)"
+    assert "18 trials" in repr(study)
     assert trial.meta["waveform"] == "sine" and trial.meta["amplitude_V"] == 140
     assert trial.log_path == reference / "P02" / "run-06.log.gz"
     assert study.rig.normal_force.qualified_name == "FzCell.Fz"

@@ -124,6 +124,12 @@ class Fit:
                    params_file=Path(pfile["path"]) if isinstance(pfile, dict) else None,
                    out=folder, files=_files(folder, records), _results=results)
 
+    def __repr__(self) -> str:
+        where = "in memory" if self.out is None else f"in {str(self.out)!r}"
+        subjects = list(dict.fromkeys(self.table["subject"]))
+        return (f"Fit({'+'.join(self.fitted)} of {subjects!r}, {where}, "
+                f"{len(self.records)} figures)")
+
     def save(self, *, force: bool = False) -> Path:
         """Write the fit into the results' folder: ``evtribo compare OUT`` with the same
         parameters (``fit.csv``, ``fit.json``, ``figures/``).

@@ -139,6 +139,13 @@ class Results:
         """What the analysis found worth saying (``summary.json``'s ``warnings``)."""
         return list(self.summary.get("warnings") or [])
 
+    def __repr__(self) -> str:
+        where = "in memory" if self.out is None else f"in {str(self.out)!r}"
+        return (f"Results({self.summary.get('study', '')!r}, {where}, "
+                f"subjects={self.subjects!r}, {len(self.trials)} trials, "
+                f"{len(self.windows)} windows, {len(self.electrostatic)} electrostatic rows, "
+                f"{len(self.warnings)} warnings, fit={'yes' if self.fit else 'no'})")
+
     def save(self, out: str | os.PathLike[str], *, force: bool = False) -> Path:
         """Write the results as ``evtribo analyze --out OUT`` does (the same function).
 

@@ -70,6 +70,14 @@ class Trial:
         """``subject/trial``, as the result tables and warnings name the trial."""
         return self._ref.key
 
+    def __repr__(self) -> str:
+        m = self.meta
+        what = " ".join(f"{m[k]:g}{unit}" if isinstance(m.get(k), float | int) else str(m[k])
+                        for k, unit in (("waveform", ""), ("frequency_Hz", " Hz"),
+                                        ("amplitude_V", " V"), ("condition", ""))
+                        if m.get(k) is not None)
+        return f"Trial({self.key!r}{', ' + what if what else ''})"
+
     def forces(self, *, cache_dir: str | os.PathLike[str] | None = None,
                strict: bool = False) -> pd.DataFrame:
         """The trial's forces over time (see :func:`trial_forces`).
@@ -124,6 +132,10 @@ class Study:
     def subjects(self) -> list[str]:
         """The subjects, in order of first appearance."""
         return list(dict.fromkeys(t.subject for t in self.trials))
+
+    def __repr__(self) -> str:
+        return (f"Study({self.name!r}, root={str(self.root)!r}, subjects={self.subjects!r}, "
+                f"{len(self.trials)} trials)")
 
     def trial(self, subject: str, name: str) -> Trial:
         """One trial, by its subject and name.
