@@ -288,7 +288,8 @@ def load_results(out: str | os.PathLike[str]) -> Results:
             recover(folder)
     summary = read_summary(folder)
     if not summary.data:
-        raise UserInputError("no summary.json: not a result folder of evtribo analyze",
+        raise UserInputError("missing: the folder holds no results of evtribo analyze (run "
+                             f"`evtribo analyze STUDY --out {folder}`)",
                              path=folder / SUMMARY_FILE)
     check_analysis(folder, summary)
     tables: dict[str, pd.DataFrame | None] = {}
