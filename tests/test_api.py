@@ -184,8 +184,10 @@ def test_analyze_writes_nothing_and_matches_the_command_line(simulated, tmp_path
     cwd.mkdir()
     monkeypatch.chdir(cwd)
     before, before_cwd = _tree(simulated), _tree(cwd)
+    beside = sorted(simulated.parent.iterdir())
     results = evtribo.analyze(evtribo.open_study(simulated), jobs=1)
     assert _tree(simulated) == before and _tree(cwd) == before_cwd == {}
+    assert sorted(simulated.parent.iterdir()) == beside
     assert results.out is None and results.fit is None
     out = tmp_path / "cli"
     assert main(["analyze", str(simulated), "--out", str(out), "--jobs", "1"]) == 0
@@ -292,6 +294,7 @@ def test_compare_fits_as_the_command_line(simulated, tmp_path):
 
     out = tmp_path / "out"
     results.save(out)
+    assert results.fit is fit  # an unsaved fit stays the results' fit
     assert main(["compare", str(out)]) == 0
     _same_as_csv(fit.table, out / "fit.csv", text=evtribo.api.fit.FIT_TEXT_COLUMNS)
     loaded = evtribo.load_results(out)

@@ -164,7 +164,8 @@ class Results:
         Returns
         -------
         Path
-            The folder written (also :attr:`out`; :attr:`summary` becomes what was written).
+            The folder written (also :attr:`out`; :attr:`summary` becomes what was written;
+            a :attr:`fit` made in memory stays, for :meth:`Fit.save`).
 
         Raises
         ------
@@ -188,7 +189,8 @@ class Results:
         self._computed = written
         self.summary = read_summary(folder).data
         self.out = folder
-        self.fit = None  # the folder holds no fit of these results (analyze removed any)
+        if self.fit is not None and self.fit.out is not None:
+            self.fit = None  # its files were another folder's (or removed, as analyze does)
         return folder
 
 
