@@ -194,6 +194,21 @@ def test_analyze_writes_nothing_and_matches_the_command_line(simulated, tmp_path
     for name in ("electrostatic", "trials", "windows", "exponents"):
         _same_as_csv(getattr(results, name), out / f"{name}.csv")
     assert results.subjects == ["S1", "S2"]
+    # saved, the same files as the command line's, byte for byte (but the run's own
+    # identifiers and times in summary.json)
+    saved = results.save(tmp_path / "api")
+    tables = sorted(p.name for p in out.glob("*.csv"))
+    assert tables == sorted(p.name for p in saved.glob("*.csv"))
+    assert {"electrostatic.csv", "electrostatic_bootstrap.csv", "sine_trace.csv"} <= set(tables)
+    for name in tables:
+        assert (saved / name).read_bytes() == (out / name).read_bytes(), name
+    ours, theirs = (json.loads((d / "summary.json").read_text(encoding="utf-8"))
+                    for d in (saved, out))
+    assert ours.keys() == theirs.keys()
+    assert ours["output_sha256"] == theirs["output_sha256"]
+    for key in ("run_id", "created", "started", "elapsed_s", "inputs"):
+        ours.pop(key, None), theirs.pop(key, None)
+    assert ours == theirs
 
 
 def test_analyze_matches_the_command_line_on_the_recorded_study(reference, tmp_path):
