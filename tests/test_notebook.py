@@ -14,6 +14,7 @@ import pytest
 
 EXAMPLES = Path(__file__).parents[1] / "examples"
 NOTEBOOK = EXAMPLES / "quickstart.ipynb"
+DATA = Path(__file__).parents[1] / "data" / "reference-study"
 
 
 def test_the_notebook_is_committed_without_outputs():
@@ -34,6 +35,8 @@ def kernel(tmp_path, monkeypatch) -> str:
         "argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
         "display_name": "Python 3 (evtribo tests)", "language": "python"}), encoding="utf-8")
     monkeypatch.setenv("JUPYTER_PATH", str(tmp_path / "jupyter"))
+    monkeypatch.setenv("JUPYTER_RUNTIME_DIR", str(tmp_path / "runtime"))
+    monkeypatch.setenv("IPYTHONDIR", str(tmp_path / "ipython"))
     monkeypatch.setenv("JUPYTER_PLATFORM_DIRS", "1")
     monkeypatch.setenv("MPLBACKEND", "module://matplotlib_inline.backend_inline")
     return "evtribo-test"
@@ -43,9 +46,12 @@ def test_the_notebook_runs(kernel):
     nb = nbformat.read(NOTEBOOK, as_version=4)
     client = nbclient.NotebookClient(nb, timeout=300, kernel_name=kernel,
                                      resources={"metadata": {"path": str(EXAMPLES)}})
+    before = {p: p.stat().st_mtime_ns for d in (EXAMPLES, DATA) for p in d.rglob("*")}
     started = time.perf_counter()
     client.execute()  # raises CellExecutionError, with the cell and its traceback, on a fault
     elapsed = time.perf_counter() - started
+    after = {p: p.stat().st_mtime_ns for d in (EXAMPLES, DATA) for p in d.rglob("*")}
+    assert after == before  # the notebook writes nothing beside itself or into the study
     outputs = [o for c in nb.cells if c.cell_type == "code" for o in c.outputs]
     assert not [o for o in outputs if o.output_type == "error"]
     text = "\n".join(o.get("text", "") + json.dumps(o.get("data", {}).get("text/plain", ""))
