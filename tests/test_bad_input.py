@@ -239,6 +239,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "compare-no-results": lambda t: None,
     "compare-fit-unknown": _text(Path("out/electrostatic.csv"), "subject\n"),
     "compare-params-not-toml": _text(Path("params.toml"), "h_L = = 3\n"),
+    "compare-figure-format-unknown": _results,
+    "compare-figure-width-unknown": _results,
     "report-no-results": lambda t: None,
     "acquire-subject-path": lambda t: None,
     "acquire-amplitude-string": lambda t: None,

@@ -28,6 +28,7 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.axis import Axis
 from matplotlib.collections import Collection
+from matplotlib.figure import Figure
 from matplotlib.legend import Legend
 from matplotlib.lines import Line2D
 from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator, NullFormatter, NullLocator
@@ -364,7 +365,7 @@ def legend_overlap(ax: Axes, legend: Legend | None = None, pad: float = 2.0) -> 
     Parameters
     ----------
     ax : Axes
-        The Axes (its figure is drawn to lay it out).
+        The Axes, laid out (as last drawn).
     legend : Legend, optional
         The legend to check; the Axes' own by default.
     pad : float
@@ -381,8 +382,7 @@ def legend_overlap(ax: Axes, legend: Legend | None = None, pad: float = 2.0) -> 
         return 0
     fig = ax.get_figure()
     assert fig is not None
-    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
-    box = legend.get_window_extent(renderer)
+    box = legend.get_window_extent()
     grow = pad * fig.dpi / 72.0
     box = Bbox.from_extents(box.x0 - grow, box.y0 - grow, box.x1 + grow, box.y1 + grow)
     pts = _data_points(ax)
@@ -423,9 +423,8 @@ def place_legend(ax: Axes, handles: Sequence[Any] | None = None,
         handles, labels = ax.get_legend_handles_labels()
     if not handles:
         return None
-    fig = ax.get_figure()
-    assert fig is not None
-    fig.canvas.draw()  # fixes the layout and the limits
+    root: Figure = ax.figure.figure  # the figure itself, or a subfigure's
+    root.draw_without_rendering()  # fixes the layout and the limits
     ax.set_xlim(ax.get_xlim())
     ax.set_ylim(ax.get_ylim())
     make: Any = ax.legend  # loc as a plain str
@@ -441,13 +440,12 @@ def _legend_above(ax: Axes, make: Any, handles: Sequence[Any], labels: Sequence[
     """A legend above the Axes, in as many columns (up to *ncol*) as fit its width."""
     fig = ax.get_figure()
     assert fig is not None
-    renderer = fig.canvas.get_renderer()  # type: ignore[attr-defined]
-    room = ax.get_window_extent(renderer).width
+    room = ax.get_window_extent().width
     for n in range(min(ncol, len(handles)), 0, -1):
         legend: Legend = make(handles, labels, loc="lower center",
                               bbox_to_anchor=(0.5, 1.02), ncol=n, borderaxespad=0.0,
                               **kwargs)
-        if n == 1 or legend.get_window_extent(renderer).width <= room:
+        if n == 1 or legend.get_window_extent().width <= room:
             return legend
     raise AssertionError("unreachable")  # pragma: no cover
 
