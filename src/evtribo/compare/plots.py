@@ -15,7 +15,7 @@ import logging
 import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import matplotlib as mpl
 import numpy as np
@@ -145,6 +145,12 @@ def _nonpositive_note(ax: Axes, n: int) -> None:
                 color="0.3")
 
 
+def _by_waveform(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
+    """*rows* grouped by waveform: square first, then the others by name."""
+    groups = rows.groupby(rows["waveform"].astype(str), sort=True)
+    return sorted(((str(w), g) for w, g in groups), key=lambda wg: (wg[0] != "square", wg[0]))
+
+
 def _errors_mN(sel: pd.DataFrame) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The forces of *sel* and their 95 % error bars (2 x n), mN."""
     f = 1e3 * sel["electrostatic_force_N"].to_numpy(float)
@@ -187,27 +193,28 @@ def plot_electrostatic_force(rows: pd.DataFrame, params: ModelParameters = TABLE
     ax = new_axes() if ax is None else ax
     amps_all = rows["amplitude_V"].to_numpy(float)
     grid = np.geomspace(np.nanmin(amps_all) / 1.15, np.nanmax(amps_all) * 1.15, 80)
-    hidden = 0
-    for k, (wave, sel) in enumerate(rows.groupby(rows["waveform"].astype(str), sort=True)):
-        style = series_style(k)
+    hidden, handles, guide = 0, [], False
+    for k, (wave, sel) in enumerate(_by_waveform(rows)):
+        style = {**series_style(k), "marker": _WAVE_MARKERS.get(wave, series_style(k)["marker"])}
         amp = sel["amplitude_V"].to_numpy(float)
         f, err = _errors_mN(sel)
         hidden += int(np.sum(~(f > 0)))
-        ax.errorbar(amp, f, yerr=err, fmt=_WAVE_MARKERS.get(wave, style["marker"]),
-                    color=style["color"], label=f"{wave}: measured, 95 % CI")
+        ax.errorbar(amp, f, yerr=err, fmt=style["marker"], color=style["color"])
         fn = float(np.nanmean(sel["normal_force_on_N"].to_numpy(float)))
         ax.plot(grid, 1e3 * mean_electrostatic_force(fn, grid, wave, params),
-                linestyle=style["linestyle"], color=style["color"],
-                label=f"{wave}: model, $F_n$ = {1e3 * fn:.0f} mN")
+                linestyle=style["linestyle"], color=style["color"])
+        handles.append(proxy(f"{wave} ($F_n$ = {1e3 * fn:.0f} mN)", **style))
         pos = f > 0
         if pos.any():  # U^2 through the points' geometric centre
             centre_u = np.exp(np.mean(np.log(amp[pos])))
             centre_f = np.exp(np.mean(np.log(f[pos])))
-            ax.plot(grid, centre_f * (grid / centre_u) ** 2, ":", color="0.5", lw=0.8,
-                    label="$\\propto U^2$ guide" if k == 0 else None)
+            ax.plot(grid, centre_f * (grid / centre_u) ** 2, ":", color="0.5", lw=0.8)
+            guide = True
+    if guide:
+        handles.append(proxy("$\\propto U^2$ guide", color="0.5", linestyle=":", lw=0.8))
     _force_axes(ax, amps_all)
     _nonpositive_note(ax, hidden)
-    place_legend(ax)
+    place_legend(ax, handles, [str(h.get_label()) for h in handles])
     return ax
 
 
@@ -246,7 +253,7 @@ def plot_electrostatic_force_all(electrostatic: pd.DataFrame,
         style = series_style(k)
         rows = electrostatic[electrostatic["subject"].astype(str) == s]
         shift = np.exp(0.06 * (k / (n - 1) - 0.5)) if n > 1 else 1.0
-        for wave, sel in rows.groupby(rows["waveform"].astype(str), sort=True):
+        for wave, sel in _by_waveform(rows):
             waves.add(wave)
             f, err = _errors_mN(sel)
             hidden += int(np.sum(~(f > 0)))
@@ -274,8 +281,9 @@ def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = 
     """Friction versus normal force, OFF and ON: measured windows and the model (Figure 6).
 
     Points are the steady-sliding windows, lines the model (eq. 5); OFF in black, each ON
-    drive (waveform and amplitude) in a colour of the viridis map (ordered by amplitude,
-    readable in greyscale) with its own marker and line style.
+    drive (waveform and amplitude) in the colour of its amplitude on the viridis map
+    (readable in greyscale) with its own marker and line style; open markers for a sine
+    drive.
 
     Parameters
     ----------
@@ -306,13 +314,19 @@ def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = 
     handles = [proxy(f"OFF (μ = {params.mu:.3g})", color="k", marker="o", linestyle="-",
                      markerfacecolor="white")]
     on = windows[cond == "on"]
-    keys = list(on.groupby([on["waveform"].astype(str), on["amplitude_V"]], sort=True))
-    cmap = colormaps["viridis"]
-    for k, (key, sel) in enumerate(keys):
-        wave, amp = cast(tuple[str, float], key)  # (waveform, amplitude), as grouped
-        style = {**series_style(k + 1), "color": cmap(0.85 * k / max(len(keys) - 1, 1))}
-        ax.plot(1e3 * sel["normal_force_N"], 1e3 * sel["friction_force_N"],
-                style["marker"], color=style["color"], markersize=3, alpha=0.8)
+    pairs = on[["waveform", "amplitude_V"]].drop_duplicates().itertuples(index=False)
+    keys = sorted(((str(p[0]), float(p[1])) for p in pairs),
+                  key=lambda wa: (wa[0] != "square", wa[0], wa[1]))
+    amps = np.array([a for _, a in keys])
+    span = float(np.ptp(amps)) if amps.size else 0.0
+    for k, (wave, amp) in enumerate(keys):
+        sel = on[(on["waveform"].astype(str) == wave) & (on["amplitude_V"] == amp)]
+        shade = 0.85 * (amp - float(amps.min())) / span if span > 0 else 0.4
+        style = {**series_style(k + 1), "color": colormaps["viridis"](shade),
+                 "markerfacecolor": "white" if wave == "sine" else None}
+        ax.plot(1e3 * sel["normal_force_N"], 1e3 * sel["friction_force_N"], linestyle="none",
+                markersize=3, alpha=0.8,
+                **{key: v for key, v in style.items() if key != "linestyle"})
         ax.plot(1e3 * grid, 1e3 * mean_friction_force(grid, amp, wave, params),
                 linestyle=style["linestyle"], color=style["color"])
         handles.append(proxy(f"ON {amp:g} V" + (f" {wave}" if wave != "square" else ""),
