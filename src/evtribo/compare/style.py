@@ -20,6 +20,7 @@ from __future__ import annotations
 import contextlib
 import contextvars
 import functools
+import inspect
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any, ParamSpec, TypeVar, cast
 
@@ -248,9 +249,12 @@ def styled(func: Callable[P, R]) -> Callable[P, R]:
     callable
         The same function, drawing in the journal style when it makes its own figure.
     """
+    signature = inspect.signature(func)
+
     @functools.wraps(func)
     def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
-        if kwargs.get("ax") is not None or _ACTIVE.get() is not None:
+        given = signature.bind_partial(*args, **kwargs).arguments.get("ax")
+        if given is not None or _ACTIVE.get() is not None:
             return func(*args, **kwargs)
         with journal_style():
             return func(*args, **kwargs)
@@ -302,19 +306,22 @@ def voltage_ticks(axis: Axis, amplitudes: ArrayLike) -> None:
     axis.set_minor_formatter(NullFormatter())
 
 
-def plain_log_axis(axis: Axis) -> None:
-    """Ticks of a log axis at 1, 2, 5 x 10^k with plain labels (``0.5``, ``20``).
+def plain_log_axis(axis: Axis, subs: Sequence[float] = (1.0, 2.0, 5.0)) -> None:
+    """Ticks of a log axis at 1, 2, 5 x 10^k (or *subs*) with plain labels (``0.5``, ``20``).
 
     Parameters
     ----------
     axis : Axis
         A logarithmic axis.
+    subs : sequence of float
+        The multiples of each power of ten that get a labelled tick; ``(1.0,)`` for an axis
+        over many decades.
 
     Returns
     -------
     None
     """
-    axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    axis.set_major_locator(LogLocator(base=10, subs=tuple(subs)))
     axis.set_major_formatter(FuncFormatter(_plain))
     axis.set_minor_locator(LogLocator(base=10, subs=tuple(range(1, 10))))
     axis.set_minor_formatter(NullFormatter())
@@ -397,7 +404,7 @@ _CORNERS = ("upper left", "upper right", "lower right", "lower left", "center le
 
 def place_legend(ax: Axes, handles: Sequence[Any] | None = None,
                  labels: Sequence[str] | None = None, *, ncol_outside: int = 2,
-                 **kwargs: Any) -> Legend | None:
+                 inside: bool = True, **kwargs: Any) -> Legend | None:
     """A legend where it covers no data: the first free corner, else above the Axes.
 
     The figure is laid out first (so the Axes have their final size), then each corner is
@@ -411,6 +418,9 @@ def place_legend(ax: Axes, handles: Sequence[Any] | None = None,
         As for :meth:`Axes.legend`; the Axes' labelled artists by default.
     ncol_outside : int
         Columns of the legend when it goes above the Axes.
+    inside : bool
+        Try the corners inside the Axes first (False: straight above, e.g. when a twin
+        Axes draws data this check does not see).
     **kwargs
         Passed to :meth:`Axes.legend`.
 
@@ -428,7 +438,7 @@ def place_legend(ax: Axes, handles: Sequence[Any] | None = None,
     ax.set_xlim(ax.get_xlim())
     ax.set_ylim(ax.get_ylim())
     make: Any = ax.legend  # loc as a plain str
-    for loc in _CORNERS:
+    for loc in _CORNERS if inside else ():
         legend: Legend = make(handles, labels, loc=loc, **kwargs)
         if legend_overlap(ax, legend) == 0:
             return legend
