@@ -4,6 +4,7 @@ measured amplitude, no title, legends that cover no data, forces in mN."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import re
 import struct
@@ -302,3 +303,20 @@ def test_help_cites_the_paper(capsys):
     out = " ".join(capsys.readouterr().out.split())
     assert "Voltage-Induced Friction with Application to Electrovibration" in out
     assert "Lubricants 2019, 7(12), 102" in out and "doi:10.3390/lubricants7120102" in out
+
+
+def test_dense_amplitudes_keep_every_tick_and_labels_apart():
+    amps = np.arange(20.0, 201.0, 10.0)
+    rows = pd.DataFrame({"subject": "P01", "waveform": "square", "amplitude_V": amps,
+                         "normal_force_on_N": 0.5, "electrostatic_force_N": 1e-5 * amps ** 2,
+                         "electrostatic_force_ci_low_N": 0.9e-5 * amps ** 2,
+                         "electrostatic_force_ci_high_N": 1.1e-5 * amps ** 2})
+    ax = plot_electrostatic_force(rows, TABLE_1)
+    ax.figure.canvas.draw()
+    assert list(ax.xaxis.get_majorticklocs()) == list(amps)
+    shown = [t for t in ax.xaxis.get_majorticklabels() if t.get_text()]
+    assert shown[-1].get_text() == "200" and shown[0].get_text() == "20"
+    assert 5 <= len(shown) < len(amps)  # some left out: 19 labels do not fit 85 mm
+    boxes = [t.get_window_extent() for t in shown]
+    for a, b in itertools.pairwise(boxes):
+        assert a.x1 < b.x0, "two tick labels overlap"

@@ -27,21 +27,46 @@ from typing import Any, ParamSpec, TypeVar, cast
 import matplotlib as mpl
 import numpy as np
 from matplotlib.axes import Axes
-from matplotlib.axis import Axis
+from matplotlib.axis import Axis, XAxis
 from matplotlib.collections import Collection
 from matplotlib.figure import Figure
 from matplotlib.legend import Legend
 from matplotlib.lines import Line2D
-from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator, NullFormatter, NullLocator
+from matplotlib.ticker import (
+    FixedLocator,
+    Formatter,
+    FuncFormatter,
+    LogLocator,
+    NullFormatter,
+    NullLocator,
+)
 from matplotlib.transforms import Bbox
 from numpy.typing import ArrayLike, NDArray
 
 from evtribo.errors import UserInputError
 
-__all__ = ["DEFAULT_DPI", "DEFAULT_FORMATS", "FIGURE_FORMATS", "FIGURE_WIDTHS", "LINESTYLES",
-           "MARKERS", "PALETTE", "active_width", "figure_size", "journal_style",
-           "legend_overlap", "parse_figure_formats", "parse_figure_width", "place_legend",
-           "plain_log_axis", "proxy", "series_style", "styled", "voltage_ticks"]
+__all__ = [
+    "DEFAULT_DPI",
+    "DEFAULT_FORMATS",
+    "FIGURE_FORMATS",
+    "FIGURE_WIDTHS",
+    "LINESTYLES",
+    "MARKERS",
+    "PALETTE",
+    "SpacedPlainFormatter",
+    "active_width",
+    "figure_size",
+    "journal_style",
+    "legend_overlap",
+    "parse_figure_formats",
+    "parse_figure_width",
+    "place_legend",
+    "plain_log_axis",
+    "proxy",
+    "series_style",
+    "styled",
+    "voltage_ticks",
+]
 
 #: The figure formats compare writes, in the order it lists them.
 FIGURE_FORMATS = ("pdf", "svg", "png")
@@ -282,8 +307,69 @@ def _plain(value: float, _pos: int | None = None) -> str:
     return f"{value:g}"
 
 
+class SpacedPlainFormatter(Formatter):
+    """Plain labels (``140``), left out where they would run into a neighbour's.
+
+    Labels are kept from the largest value down, each only if it clears the last one kept
+    (digits taken as 0.64 em wide, half an em apart), so the highest amplitude always has
+    its label; the ticks themselves all stay.
+    """
+
+    def __call__(self, x: float, pos: int | None = None) -> str:
+        """The plain label of *x*.
+
+        Parameters
+        ----------
+        x : float
+            The tick's value.
+        pos : int, optional
+            Its position (unused).
+
+        Returns
+        -------
+        str
+            ``f"{x:g}"``.
+        """
+        return _plain(x)
+
+    def format_ticks(self, values: Sequence[float]) -> list[str]:
+        """The labels of all ticks, blank where a label would overlap the next one up.
+
+        Parameters
+        ----------
+        values : sequence of float
+            The ticks' values.
+
+        Returns
+        -------
+        list of str
+            One label per value.
+        """
+        labels = [_plain(v) for v in values]
+        axis = self.axis
+        if not isinstance(axis, Axis) or len(labels) < 2 or axis.axes is None:
+            return labels  # not on an Axes' axis (a colour bar's, say)
+        ax = axis.axes
+        xy = np.zeros((len(labels), 2))
+        col = 0 if isinstance(axis, XAxis) else 1
+        xy[:, col] = np.asarray(values, float)
+        where = ax.transData.transform(xy)[:, col]
+        ticks = axis.get_major_ticks()
+        size = ticks[0].label1.get_fontsize() if ticks else mpl.rcParams["font.size"]
+        em = float(size) * ax.figure.dpi / 72.0
+        half = {i: (0.64 * em * len(t) if col == 0 else em) / 2 for i, t in enumerate(labels)}
+        kept: int | None = None
+        for i in np.argsort(-np.asarray(values, float), kind="stable"):
+            if kept is None or abs(where[kept] - where[i]) >= half[kept] + half[i] + em / 2:
+                kept = int(i)
+            else:
+                labels[i] = ""
+        return labels
+
+
 def voltage_ticks(axis: Axis, amplitudes: ArrayLike) -> None:
-    """One major tick with a plain label at each measured amplitude, no minor labels.
+    """One major tick at each measured amplitude, with a plain label where it fits (always
+    at the highest), no minor ticks.
 
     Parameters
     ----------
@@ -301,7 +387,7 @@ def voltage_ticks(axis: Axis, amplitudes: ArrayLike) -> None:
     if ticks.size == 0:
         return
     axis.set_major_locator(FixedLocator(ticks.tolist()))
-    axis.set_major_formatter(FuncFormatter(_plain))
+    axis.set_major_formatter(SpacedPlainFormatter())
     axis.set_minor_locator(NullLocator())
     axis.set_minor_formatter(NullFormatter())
 
