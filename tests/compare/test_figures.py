@@ -19,6 +19,7 @@ from synthetic import AMPLITUDES, TRUE_H_L, make_out
 
 from evtribo.cli import main
 from evtribo.compare import compare, read_results
+from evtribo.compare.layout import legend_overlap
 from evtribo.compare.plots import (
     plot_area_increase,
     plot_electrostatic_force,
@@ -26,7 +27,7 @@ from evtribo.compare.plots import (
     plot_friction_normal_force,
     plot_friction_time,
 )
-from evtribo.compare.style import journal_style, legend_overlap, parse_figure_formats
+from evtribo.compare.style import journal_style, parse_figure_formats
 from evtribo.errors import UserInputError
 from evtribo.model import TABLE_1
 
@@ -320,3 +321,23 @@ def test_dense_amplitudes_keep_every_tick_and_labels_apart():
     boxes = [t.get_window_extent() for t in shown]
     for a, b in itertools.pairwise(boxes):
         assert a.x1 < b.x0, "two tick labels overlap"
+
+
+def test_many_drives_get_a_colour_bar_not_a_long_legend():
+    amps = (40.0, 60.0, 80.0, 100.0, 120.0, 140.0, 160.0)
+    rows = [{"condition": "on", "waveform": w, "amplitude_V": a, "normal_force_N": 0.5,
+             "friction_force_N": 0.25 + 1e-6 * a ** 2} for w in ("square", "sine")
+            for a in amps]
+    rows.append({"condition": "off", "waveform": "square", "amplitude_V": 0.0,
+                 "normal_force_N": 0.5, "friction_force_N": 0.25})
+    ax = plot_friction_normal_force(pd.DataFrame(rows), TABLE_1)
+    labels = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert labels == ["OFF (μ = 0.5)", "ON, square", "ON, sine"]
+    (bar,) = [a for a in ax.figure.axes if a is not ax]
+    assert list(bar.yaxis.get_majorticklocs()) == list(amps)
+    assert "(V)" in bar.get_ylabel()
+    # a few drives: one entry each
+    few = plot_friction_normal_force(pd.DataFrame(rows[:3] + rows[-1:]), TABLE_1)
+    assert [t.get_text() for t in few.get_legend().get_texts()] == [
+        "OFF (μ = 0.5)", "ON 40 V", "ON 60 V", "ON 80 V"]
+    assert len(few.figure.axes) == 1

@@ -21,13 +21,13 @@ import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from evtribo.compare.plots import new_axes, save_figure
+from evtribo.compare.layout import place_legend, plain_log_axis
+from evtribo.compare.plots import save_figure
 from evtribo.compare.style import (
     DEFAULT_DPI,
     PALETTE,
     journal_style,
-    place_legend,
-    plain_log_axis,
+    new_axes,
     proxy,
     series_style,
     styled,

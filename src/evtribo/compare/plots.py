@@ -1,5 +1,6 @@
-"""Figures comparing the model with the measurements (the seed paper's Figures 5-7) and the
-electrostatic force of every subject in one figure.
+"""Figures comparing the model with the measurements (the seed paper's Figures 5-7); the
+electrostatic force against the voltage, per subject and of every subject in one figure, is
+:mod:`evtribo.compare.electrostatic_plots`' (re-exported here).
 
 Every ``plot_*`` function draws on the Axes it is given, or, with ``ax=None``, on a new
 figure in the journal style (:mod:`evtribo.compare.style`: a single column wide, no title,
@@ -22,21 +23,26 @@ import numpy as np
 import pandas as pd
 from matplotlib import colormaps
 from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import ListedColormap, Normalize
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 from numpy.typing import NDArray
 
-from evtribo.compare.model_points import mean_electrostatic_force, mean_friction_force
+from evtribo.compare.electrostatic_plots import (
+    plot_electrostatic_force,
+    plot_electrostatic_force_all,
+)
+from evtribo.compare.layout import place_legend, voltage_ticks
+from evtribo.compare.model_points import mean_friction_force
 from evtribo.compare.style import (
     DEFAULT_DPI,
     DEFAULT_FORMATS,
     PALETTE,
-    place_legend,
-    plain_log_axis,
+    new_axes,
     proxy,
     series_style,
     styled,
-    voltage_ticks,
 )
 from evtribo.files import atomic_open
 from evtribo.model import (
@@ -53,7 +59,6 @@ __all__ = ["new_axes", "plot_area_increase", "plot_electrostatic_force",
            "plot_electrostatic_force_all", "plot_friction_normal_force", "plot_friction_time",
            "safe_name", "save_figure", "trace_voltage"]
 
-_WAVE_MARKERS = {"square": "o", "sine": "s"}
 #: Text as text in SVG and PDF, whatever style the figure was drawn in.
 _TEXT_AS_TEXT: Any = {"svg.fonttype": "none", "pdf.fonttype": 42, "ps.fonttype": 42}
 
@@ -72,25 +77,6 @@ def safe_name(name: str) -> str:
         Every other character replaced by ``_`` (``"_"`` for an empty name).
     """
     return re.sub(r"[^A-Za-z0-9_-]", "_", str(name)) or "_"
-
-
-def new_axes(figsize: tuple[float, float] | None = None) -> Axes:
-    """A fresh Axes on its own Agg-backed figure (no pyplot state).
-
-    Parameters
-    ----------
-    figsize : (float, float), optional
-        The figure's size, inches; by default ``figure.figsize`` of the style in force (a
-        single journal column inside :func:`~evtribo.compare.style.journal_style`).
-
-    Returns
-    -------
-    Axes
-        The figure's one Axes.
-    """
-    fig = Figure(figsize=figsize, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig.add_subplot()
 
 
 def save_figure(fig: Figure, folder: str | Path, stem: str, *, dpi: float = DEFAULT_DPI,
@@ -137,143 +123,46 @@ def _metadata(fmt: str) -> dict[str, str | None]:
     return {}
 
 
-def _nonpositive_note(ax: Axes, n: int) -> None:
-    """Say on the Axes how many points a log axis cannot show."""
-    if n:
-        ax.text(0.98, 0.02, f"{n} point{'s' if n > 1 else ''} ≤ 0 not shown (log axis)",
-                transform=ax.transAxes, ha="right", va="bottom", fontsize="x-small",
-                color="0.3")
+#: More ON drives than this in one friction-versus-load figure: a colour bar for the
+#: amplitude instead of one legend entry per drive.
+_MAX_ON_ENTRIES = 6
 
 
-def _by_waveform(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
-    """*rows* grouped by waveform: square first, then the others by name."""
-    groups = rows.groupby(rows["waveform"].astype(str), sort=True)
-    return sorted(((str(w), g) for w, g in groups), key=lambda wg: (wg[0] != "square", wg[0]))
-
-
-def _errors_mN(sel: pd.DataFrame) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The forces of *sel* and their 95 % error bars (2 x n), mN."""
-    f = 1e3 * sel["electrostatic_force_N"].to_numpy(float)
-    lo = np.clip(f - 1e3 * sel["electrostatic_force_ci_low_N"].to_numpy(float), 0, None)
-    hi = np.clip(1e3 * sel["electrostatic_force_ci_high_N"].to_numpy(float) - f, 0, None)
-    return f, np.vstack([lo, hi])
-
-
-def _force_axes(ax: Axes, amplitudes: NDArray[np.float64]) -> None:
-    """Log-log F_el (mN) against U (V), ticks at the amplitudes and plain numbers."""
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    voltage_ticks(ax.xaxis, amplitudes)
-    plain_log_axis(ax.yaxis)
-    ax.set_xlabel("voltage amplitude $U$ (V)")
-    ax.set_ylabel("electrostatic force $F_\\mathrm{el}$ (mN)")
-
-
-@styled
-def plot_electrostatic_force(rows: pd.DataFrame, params: ModelParameters = TABLE_1, *,
-                             subject: str | None = None, ax: Axes | None = None) -> Axes:
-    """Electrostatic force versus voltage amplitude, log-log: measured, model, U^2 guide.
-
-    Parameters
-    ----------
-    rows : DataFrame
-        One subject's rows of ``electrostatic.csv``.
-    params : ModelParameters
-        The subject's fitted parameters.
-    subject : str, optional
-        The subject (the caption names it; no title is drawn).
-    ax : Axes, optional
-        Where to draw; a new figure in the journal style when None.
-
-    Returns
-    -------
-    Axes
-        Forces in mN, a tick at each measured amplitude.
-    """
-    ax = new_axes() if ax is None else ax
-    amps_all = rows["amplitude_V"].to_numpy(float)
-    grid = np.geomspace(np.nanmin(amps_all) / 1.15, np.nanmax(amps_all) * 1.15, 80)
-    hidden, handles, guide = 0, [], False
-    for k, (wave, sel) in enumerate(_by_waveform(rows)):
-        style = {**series_style(k), "marker": _WAVE_MARKERS.get(wave, series_style(k)["marker"])}
-        amp = sel["amplitude_V"].to_numpy(float)
-        f, err = _errors_mN(sel)
-        hidden += int(np.sum(~(f > 0)))
-        ax.errorbar(amp, f, yerr=err, fmt=style["marker"], color=style["color"])
-        fn = float(np.nanmean(sel["normal_force_on_N"].to_numpy(float)))
-        ax.plot(grid, 1e3 * mean_electrostatic_force(fn, grid, wave, params),
+def _on_series(ax: Axes, on: pd.DataFrame, grid: NDArray[np.float64],
+               params: ModelParameters) -> list[Line2D]:
+    """Draw each ON drive's windows and model curve; return the legend entries."""
+    pairs = on[["waveform", "amplitude_V"]].drop_duplicates().itertuples(index=False)
+    keys = sorted(((str(p[0]), float(p[1])) for p in pairs),
+                  key=lambda wa: (wa[0] != "square", wa[0], wa[1]))
+    amps = np.array([a for _, a in keys])
+    many = len(keys) > _MAX_ON_ENTRIES
+    cmap = ListedColormap(colormaps["viridis"](np.linspace(0.0, 0.85, 256)))
+    norm = Normalize(float(amps.min()), float(amps.max())) if amps.size else Normalize()
+    handles: list[Line2D] = []
+    waves: dict[str, dict[str, Any]] = {}
+    for k, (wave, amp) in enumerate(keys):
+        sel = on[(on["waveform"].astype(str) == wave) & (on["amplitude_V"] == amp)]
+        style: dict[str, Any] = series_style(k + 1) if not many else {
+            "marker": "o", "linestyle": "-" if wave == "square" else "--"}
+        style = {**style, "color": cmap(norm(amp) if np.ptp(amps) > 0 else 0.5),
+                 "markerfacecolor": "white" if wave == "sine" else None}
+        points: dict[str, Any] = {key: v for key, v in style.items() if key != "linestyle"}
+        ax.plot(1e3 * sel["normal_force_N"], 1e3 * sel["friction_force_N"], linestyle="none",
+                markersize=3, alpha=0.8, **points)
+        ax.plot(1e3 * grid, 1e3 * mean_friction_force(grid, amp, wave, params),
                 linestyle=style["linestyle"], color=style["color"])
-        handles.append(proxy(f"{wave} ($F_n$ = {1e3 * fn:.0f} mN)", **style))
-        pos = f > 0
-        if pos.any():  # U^2 through the points' geometric centre
-            centre_u = np.exp(np.mean(np.log(amp[pos])))
-            centre_f = np.exp(np.mean(np.log(f[pos])))
-            ax.plot(grid, centre_f * (grid / centre_u) ** 2, ":", color="0.5", lw=0.8)
-            guide = True
-    if guide:
-        handles.append(proxy("$\\propto U^2$ guide", color="0.5", linestyle=":", lw=0.8))
-    _force_axes(ax, amps_all)
-    _nonpositive_note(ax, hidden)
-    place_legend(ax, handles, [str(h.get_label()) for h in handles])
-    return ax
-
-
-@styled
-def plot_electrostatic_force_all(electrostatic: pd.DataFrame,
-                                 params: Mapping[str, ModelParameters], *,
-                                 ax: Axes | None = None) -> Axes:
-    """Every subject's electrostatic force versus voltage amplitude, with its fitted model.
-
-    One colour, marker and line style per subject (in the order of *params*); filled
-    markers for a square drive, open ones for a sine drive. Points are spread by 1.5 % in U
-    between subjects (by at most ±3 % in all) around their amplitude so that the intervals
-    of different subjects do not hide one another.
-
-    Parameters
-    ----------
-    electrostatic : DataFrame
-        ``electrostatic.csv`` (all subjects).
-    params : mapping
-        ``{subject: fitted ModelParameters}``; subjects without an entry are not drawn.
-    ax : Axes, optional
-        Where to draw; a new figure in the journal style when None.
-
-    Returns
-    -------
-    Axes
-        Log-log, forces in mN, a tick at each measured amplitude.
-    """
-    ax = new_axes() if ax is None else ax
-    subjects = [s for s in params if (electrostatic["subject"].astype(str) == s).any()]
-    amps_all = electrostatic["amplitude_V"].to_numpy(float)
-    grid = np.geomspace(np.nanmin(amps_all) / 1.15, np.nanmax(amps_all) * 1.15, 80)
-    n = len(subjects)
-    handles, hidden, waves = [], 0, set()
-    for k, s in enumerate(subjects):
-        style = series_style(k)
-        rows = electrostatic[electrostatic["subject"].astype(str) == s]
-        # 1.5 % in U between neighbours, all within +-3 %
-        shift = np.exp(min(0.015, 0.06 / (n - 1)) * (k - (n - 1) / 2)) if n > 1 else 1.0
-        for wave, sel in _by_waveform(rows):
-            waves.add(wave)
-            f, err = _errors_mN(sel)
-            hidden += int(np.sum(~(f > 0)))
-            ax.errorbar(sel["amplitude_V"].to_numpy(float) * shift, f, yerr=err,
-                        fmt=style["marker"], color=style["color"], elinewidth=0.7,
-                        markerfacecolor="white" if wave == "sine" else style["color"])
-            fn = float(np.nanmean(sel["normal_force_on_N"].to_numpy(float)))
-            ax.plot(grid, 1e3 * mean_electrostatic_force(fn, grid, wave, params[s]),
-                    color=style["color"], linestyle=style["linestyle"],
-                    alpha=0.6 if wave == "sine" else 1.0)
-        handles.append(proxy(s, **style))
-    if len(waves) > 1:
-        handles += [proxy("square drive", color="0.3", marker="o", linestyle="none"),
-                    proxy("sine drive", color="0.3", marker="o", linestyle="none",
-                          markerfacecolor="white")]
-    _force_axes(ax, amps_all)
-    _nonpositive_note(ax, hidden)
-    place_legend(ax, handles, [str(h.get_label()) for h in handles], ncol_outside=4)
-    return ax
+        if not many:
+            handles.append(proxy(f"ON {amp:g} V" + (f" {wave}" if wave != "square" else ""),
+                                 **style))
+        waves.setdefault(wave, {**style, "color": "0.35"})
+    if many:
+        handles += [proxy(f"ON, {wave}", **style) for wave, style in waves.items()]
+        fig = ax.get_figure()
+        assert fig is not None
+        bar = fig.colorbar(ScalarMappable(norm, cmap), ax=ax, pad=0.02, aspect=30)
+        bar.set_label("voltage amplitude $U$ (V)")
+        voltage_ticks(bar.ax.yaxis, amps)
+    return handles
 
 
 @styled
@@ -284,7 +173,8 @@ def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = 
     Points are the steady-sliding windows, lines the model (eq. 5); OFF in black, each ON
     drive (waveform and amplitude) in the colour of its amplitude on the viridis map
     (readable in greyscale) with its own marker and line style; open markers for a sine
-    drive.
+    drive. With more than six ON drives a colour bar gives the amplitude and the legend
+    only the waveforms (solid: square, dashed: sine).
 
     Parameters
     ----------
@@ -314,24 +204,7 @@ def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = 
             color="k")
     handles = [proxy(f"OFF (μ = {params.mu:.3g})", color="k", marker="o", linestyle="-",
                      markerfacecolor="white")]
-    on = windows[cond == "on"]
-    pairs = on[["waveform", "amplitude_V"]].drop_duplicates().itertuples(index=False)
-    keys = sorted(((str(p[0]), float(p[1])) for p in pairs),
-                  key=lambda wa: (wa[0] != "square", wa[0], wa[1]))
-    amps = np.array([a for _, a in keys])
-    span = float(np.ptp(amps)) if amps.size else 0.0
-    for k, (wave, amp) in enumerate(keys):
-        sel = on[(on["waveform"].astype(str) == wave) & (on["amplitude_V"] == amp)]
-        shade = 0.85 * (amp - float(amps.min())) / span if span > 0 else 0.4
-        style = {**series_style(k + 1), "color": colormaps["viridis"](shade),
-                 "markerfacecolor": "white" if wave == "sine" else None}
-        ax.plot(1e3 * sel["normal_force_N"], 1e3 * sel["friction_force_N"], linestyle="none",
-                markersize=3, alpha=0.8,
-                **{key: v for key, v in style.items() if key != "linestyle"})
-        ax.plot(1e3 * grid, 1e3 * mean_friction_force(grid, amp, wave, params),
-                linestyle=style["linestyle"], color=style["color"])
-        handles.append(proxy(f"ON {amp:g} V" + (f" {wave}" if wave != "square" else ""),
-                             **style))
+    handles += _on_series(ax, windows[cond == "on"], grid, params)
     ax.set_xlabel("normal force $F_n$ (mN)")
     ax.set_ylabel("friction force $F_t$ (mN)")
     ax.set_xlim(0, 1e3 * top)
