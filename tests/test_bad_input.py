@@ -241,6 +241,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "compare-params-not-toml": _text(Path("params.toml"), "h_L = = 3\n"),
     "compare-figure-format-unknown": _results,
     "compare-figure-width-unknown": _results,
+    "compare-dpi-zero": _results,
     "report-no-results": lambda t: None,
     "acquire-subject-path": lambda t: None,
     "acquire-amplitude-string": lambda t: None,

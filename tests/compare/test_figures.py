@@ -27,7 +27,12 @@ from evtribo.compare.plots import (
     plot_friction_normal_force,
     plot_friction_time,
 )
-from evtribo.compare.style import journal_style, parse_figure_formats
+from evtribo.compare.style import (
+    journal_style,
+    parse_dpi,
+    parse_figure_formats,
+    parse_figure_width,
+)
 from evtribo.errors import UserInputError
 from evtribo.model import TABLE_1
 
@@ -296,6 +301,12 @@ def test_formats_are_checked():
         parse_figure_formats("png,jpg")
     with pytest.raises(UserInputError, match="no figure format"):
         parse_figure_formats(" , ")
+    assert parse_dpi(None) == 300.0 and parse_dpi(72) == 72.0
+    for bad in (0, -300, float("nan"), float("inf"), "many"):
+        with pytest.raises(UserInputError, match="key 'dpi'"):
+            parse_dpi(bad)
+    with pytest.raises(UserInputError, match="unknown figure width 'triple'"):
+        parse_figure_width("triple")
 
 
 def test_help_cites_the_paper(capsys):

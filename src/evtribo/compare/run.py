@@ -47,8 +47,8 @@ from evtribo.compare.plots import (
     save_figure,
 )
 from evtribo.compare.style import (
-    DEFAULT_DPI,
     journal_style,
+    parse_dpi,
     parse_figure_formats,
     parse_figure_width,
 )
@@ -196,8 +196,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     Raises
     ------
     UserInputError
-        Missing folder or tables, bad ``fit`` names, parameter file, figure format or
-        width (exit code 2).
+        Missing folder or tables, bad ``fit`` names, parameter file, figure format, width
+        or resolution (exit code 2).
     OutputExistsError
         When outputs exist and *force* is False.
     OutputBusyError
@@ -207,7 +207,7 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     AnalysisError
         When a fit cannot be made.
     """
-    look = _Look(dpi=DEFAULT_DPI if dpi is None else float(dpi),
+    look = _Look(dpi=parse_dpi(dpi),
                  formats=parse_figure_formats(formats), width=parse_figure_width(width))
     names = resolve_fit_names(fit)
     base = load_parameters(params)

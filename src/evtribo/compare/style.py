@@ -18,6 +18,7 @@ import contextlib
 import contextvars
 import functools
 import inspect
+import math
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any, ParamSpec, TypeVar, cast
 
@@ -41,6 +42,7 @@ __all__ = [
     "figure_size",
     "journal_style",
     "new_axes",
+    "parse_dpi",
     "parse_figure_formats",
     "parse_figure_width",
     "proxy",
@@ -193,6 +195,36 @@ def parse_figure_formats(formats: str | Iterable[str] | None) -> tuple[str, ...]
         raise UserInputError(f"no figure format given; known: {', '.join(FIGURE_FORMATS)}",
                              key="figure-format")
     return tuple(dict.fromkeys(names))
+
+
+def parse_dpi(dpi: float | None) -> float:
+    """Check the resolution asked for PNG figures.
+
+    Parameters
+    ----------
+    dpi : float or None
+        Dots per inch; None for :data:`DEFAULT_DPI`.
+
+    Returns
+    -------
+    float
+        The resolution.
+
+    Raises
+    ------
+    UserInputError
+        Unless a finite number from 10 to 2400 (key ``dpi``).
+    """
+    if dpi is None:
+        return DEFAULT_DPI
+    try:
+        value = float(dpi)
+    except (TypeError, ValueError):
+        value = math.nan
+    if not 10.0 <= value <= 2400.0:  # also NaN
+        raise UserInputError(f"expected a resolution from 10 to 2400 dots per inch, got "
+                             f"{dpi!r}", key="dpi")
+    return value
 
 
 @contextlib.contextmanager
