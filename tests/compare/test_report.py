@@ -94,7 +94,7 @@ def test_report_is_self_contained(report_page):
 def test_report_holds_every_figure_and_table(report_page, compared_out):
     path, page, _ = report_page
     fit_doc = json.loads((compared_out / "fit.json").read_text())
-    assert len(page.imgs) == len(fit_doc["figures"]) == 6
+    assert len(page.imgs) == len(fit_doc["figures"]) == 7
     text = " ".join(page.text)
     for fig in fit_doc["figures"]:
         assert fig["title"] in text
@@ -112,8 +112,8 @@ def test_report_holds_every_figure_and_table(report_page, compared_out):
     assert format(fit["value"].iloc[0], ".4g") in text
     # figures also beside the report, as PNG and SVG
     files = sorted(p.name for p in files_dir_for(path).iterdir())
-    assert sum(f.endswith(".png") for f in files) == 6
-    assert sum(f.endswith(".svg") for f in files) == 6
+    assert sum(f.endswith(".png") for f in files) == 7
+    assert sum(f.endswith(".svg") for f in files) == 7
 
 
 def test_embedded_figure_is_a_real_image(report_page):

@@ -33,9 +33,13 @@ SINE_TRACE_FILE = "sine_trace.csv"
 ANALYSIS_FILES = (*OUTPUT_FILES, SINE_TRACE_FILE)
 #: compare's files, and the folder of its figures.
 FIT_CSV, FIGURES = "fit.csv", "figures"
-#: The stems of compare's figures (``electrostatic_force_P01.png``...).
+#: The formats of compare's figures.
+_FIGURE_FORMATS = ("png", "svg", "pdf")
+#: The stems of compare's figures (``electrostatic_force_all.png``,
+#: ``electrostatic_force_P01.svg``, ``trial_P01_run-01.pdf``...).
 _FIGURE = re.compile(r"^(friction_time|area_increase|electrostatic_force_.+|"
-                     r"friction_normal_force_.+)\.(png|svg|pdf)$")
+                     r"friction_normal_force_.+|trial_.+|frequency_response_.+)"
+                     r"\.(png|svg|pdf)$")
 #: What the first bytes of a report written by ``evtribo report`` hold.
 _REPORT_MARK = b'<meta name="generator" content="evtribo'
 
@@ -64,7 +68,7 @@ def compare_files(out: Path) -> list[str]:
         listed.update(str(k) for k in (doc.get("output_sha256") or {}))
         for fig in doc.get("figures") or []:
             if isinstance(fig, dict) and isinstance(fig.get("stem"), str):
-                listed.update(f"{FIGURES}/{fig['stem']}.{ext}" for ext in ("png", "svg"))
+                listed.update(f"{FIGURES}/{fig['stem']}.{ext}" for ext in _FIGURE_FORMATS)
     if (out / FIGURES).is_dir():
         listed.update(f"{FIGURES}/{p.name}" for p in (out / FIGURES).iterdir()
                       if _FIGURE.match(p.name))

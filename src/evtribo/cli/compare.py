@@ -14,8 +14,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Fit the seed paper's model to the per-subject results of "
                     "`evtribo analyze` (the equivalent air gap h_L by default) by weighted "
                     "least squares, and write OUT/fit.csv, OUT/fit.json and OUT/figures/ "
-                    "(PNG and SVG), as one unit. OUT must hold one analysis's complete "
-                    "results (exit 2 otherwise, as when another process is writing OUT).")
+                    "(one file per figure and format, ready for a journal: no titles, "
+                    "text as text, PNG at 300 dpi), as one unit. OUT must hold one "
+                    "analysis's complete results (exit 2 otherwise, as when another process "
+                    "is writing OUT).",
+        epilog="The model: \"Voltage-Induced Friction with Application to "
+               "Electrovibration\", Lubricants 2019, 7(12), 102, "
+               "doi:10.3390/lubricants7120102.")
     p.add_argument("out", metavar="OUT", help="result folder written by `evtribo analyze`")
     p.add_argument("--fit", metavar="NAMES", default=None,
                    help="comma-separated model parameters to fit per subject "
@@ -23,7 +28,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--params", metavar="PARAMS.toml", default=None,
                    help="TOML of fixed model parameters, `name = value` in SI units "
                         "(default: the paper's Table 1)")
-    p.add_argument("--dpi", type=float, default=150, help="PNG resolution (default 150)")
+    p.add_argument("--figure-format", metavar="FORMATS", default=None,
+                   help="comma-separated figure formats among pdf, svg, png (default: svg,png; "
+                        "the report embeds the PNG, else the SVG)")
+    p.add_argument("--figure-width", metavar="WIDTH", default="single",
+                   help="figure width: single (one journal column, 85 mm; the default) or "
+                        "double (a page, 175 mm)")
+    p.add_argument("--dpi", type=float, default=None, help="PNG resolution (default 300)")
     p.add_argument("--force", action="store_true",
                    help="overwrite the outputs of a previous comparison")
     p.set_defaults(func=run)
@@ -38,7 +49,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         with sigterm_interrupts():
             result = compare(args.out, fit=args.fit, params=args.params, force=args.force,
-                             dpi=args.dpi)
+                             dpi=args.dpi, formats=args.figure_format,
+                             width=args.figure_width)
     except Terminated:
         print(f"evtribo compare: terminated; {args.out} holds the fit it held before (or all "
               "of the new one), nothing half-written", file=sys.stderr)
