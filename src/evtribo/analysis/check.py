@@ -41,10 +41,11 @@ from evtribo.rig import Calibration
 from evtribo.signals import TrialSignals
 from evtribo.study import Study, TrialRef, load_study
 
-__all__ = ["MIN_HOLE_S", "Stretch", "TrialCheck", "check_signals", "check_trial",
+__all__ = ["MIN_HOLE_S", "STRETCH_LABELS", "Stretch", "TrialCheck", "check_signals", "check_trial",
            "excluded_stretches", "find_trial", "settings_of"]
 
-#: Holes in the load cells' data shorter than this are not listed (a frame or two lost), s.
+#: Holes in the load cells' data, and stretches of unknown state, shorter than this are not
+#: listed (a frame or two lost; the moment before the amplifier's first status frame), s.
 MIN_HOLE_S = 0.02
 
 #: What each kind of :class:`Stretch` is, in a few words (a figure's legend).
@@ -273,7 +274,8 @@ def _condition_stretches(piece: PieceState, t: npt.NDArray[np.float64], dt: floa
         before = int(cond[a - 1]) if a > 0 else EXCLUDED
         after = int(cond[b]) if b < cond.size else EXCLUDED
         kind = "switch" if {before, after} == {ON, OFF} else "unknown"
-        out.append(Stretch(t_start, t_end, kind))
+        if kind == "switch" or t_end - t_start >= MIN_HOLE_S:
+            out.append(Stretch(t_start, t_end, kind))
     return out
 
 
@@ -303,8 +305,8 @@ def excluded_stretches(check: TrialCheck) -> list[Stretch]:
     -------
     list of Stretch
         Lifted stretches (where the zero was read) and the finger leaving or touching down
-        around them, guard times around ON/OFF switches, stretches of unknown state, holes
-        of at least :data:`MIN_HOLE_S` in the load cells' data, and pauses between the
+        around them, guard times around ON/OFF switches, stretches of unknown state and holes
+        in the load cells' data of at least :data:`MIN_HOLE_S`, and pauses between the
         pieces of a trial; times from the trial's start.
     """
     out: list[Stretch] = []
