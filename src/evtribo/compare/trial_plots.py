@@ -45,8 +45,8 @@ from evtribo.study import Study, load_study
 
 log = logging.getLogger(__name__)
 
-__all__ = ["TRIAL_FIGSIZE", "TrialFigure", "draw_trial_check", "plot_trial", "trial_caption",
-           "trial_check_figures", "trial_stem"]
+__all__ = ["MAX_POINTS", "TRIAL_FIGSIZE", "TrialFigure", "draw_trial_check", "envelope",
+           "plot_trial", "trial_caption", "trial_check_figures", "trial_stem"]
 
 #: Size of a trial's figure, inches: a journal's double column (175 mm) wide.
 TRIAL_FIGSIZE = (6.89, 2.9)
@@ -88,11 +88,24 @@ def _new_axes() -> Axes:
     return fig.add_subplot()
 
 
-def _envelope(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64]
-              ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """*y* over *t*, as drawn: the samples, or for a long trace the minimum and maximum of
-    each of :data:`MAX_POINTS` / 2 bins (what the pixels would show anyway; a bin without
-    samples breaks the line)."""
+def envelope(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64]
+             ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """A trace as drawn: its samples, or for a long one the minimum and maximum of each of
+    :data:`MAX_POINTS` / 2 bins (what the pixels would show anyway; a bin without samples
+    breaks the line).
+
+    Parameters
+    ----------
+    t : ndarray of float64
+        Times, increasing.
+    y : ndarray of float64
+        Values (NaN where missing).
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        The times and values to draw.
+    """
     if t.size <= MAX_POINTS:
         return t, y
     starts = np.linspace(0, t.size, MAX_POINTS // 2, endpoint=False).astype(np.int64)
@@ -189,8 +202,8 @@ def draw_trial_check(check: TrialCheck, ax: Axes | None = None) -> Axes:
     kinds = _spans(ax, check, stretches)
     for piece in check.pieces:
         t = piece.forces.t - check.t0
-        ax.plot(*_envelope(t, piece.forces.normal), color=_NORMAL, lw=0.6, zorder=2)
-        ax.plot(*_envelope(t, piece.forces.tangential), color=_TANGENTIAL, lw=0.6, zorder=2)
+        ax.plot(*envelope(t, piece.forces.normal), color=_NORMAL, lw=0.6, zorder=2)
+        ax.plot(*envelope(t, piece.forces.tangential), color=_TANGENTIAL, lw=0.6, zorder=2)
     conditions = _windows(ax, check)
     ax.axhline(0.0, color="0.3", lw=0.5, zorder=1)
     ax.set_xlabel("time from the trial's start (s)")
