@@ -34,6 +34,17 @@ FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
 #: Resolution of a PNG, dots per inch.
 PNG_DPI = 300
 
+_DESCRIPTION = (
+    "The first form draws what the analysis did with one trial of a study (decoded through "
+    "the cache, analysed with the study's settings, as evtribo analyze does): the normal and "
+    "tangential force, the ON phases, the steady-sliding windows, the finger-lifted "
+    "stretches and what was excluded. The second draws signals of a CAN log decoded with a "
+    "DBC (Signal, Message.Signal, or a pattern such as 'Fz*'), one panel per unit. A log "
+    "named 'trial' is written ./trial. With -o FILE the figure is written there, its format "
+    "from the suffix (.png at 300 dpi, .svg, .pdf); an existing file is kept unless --force. "
+    "Without -o the figure opens in a window. Exit 0 done, 1 the trial could not be "
+    "analysed, 2 bad input.")
+
 _USAGE = ("evtribo plot trial STUDY SUBJECT TRIAL [-o FILE] [--force]\n"
           "       evtribo plot LOG --dbc FILE SIGNAL... [-o FILE] [--force]")
 
@@ -59,8 +70,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p = subparsers.add_parser(
         "plot", help="a trial's check (forces, ON/OFF, windows, exclusions) or any signal "
                      "of a log, to a file or a window",
-        usage=_USAGE, description=__doc__.split("\n\n", 1)[1],
-        formatter_class=argparse.RawDescriptionHelpFormatter)
+        usage=_USAGE, description=_DESCRIPTION)
     _options(p)
     p.add_argument("args", nargs=argparse.REMAINDER, metavar="ARG",
                    help="'trial STUDY SUBJECT TRIAL', or 'LOG SIGNAL...' with --dbc")
@@ -72,8 +82,7 @@ def _words(args: argparse.Namespace) -> argparse.Namespace:
     """*args* with the words and options that follow the first word parsed (options may
     come between the words: ``LOG --dbc FILE SIGNAL``)."""
     inner = argparse.ArgumentParser(prog="evtribo plot", usage=_USAGE,
-                                    description=__doc__.split("\n\n", 1)[1],
-                                    formatter_class=argparse.RawDescriptionHelpFormatter)
+                                    description=_DESCRIPTION)
     _options(inner)
     inner.add_argument("-v", "--verbose", action="count", default=argparse.SUPPRESS,
                        help=argparse.SUPPRESS)
