@@ -140,7 +140,8 @@ def _spans(ax: Axes, check: TrialCheck, stretches: list[Stretch]) -> set[str]:
 
 def _windows(ax: Axes, check: TrialCheck) -> set[str]:
     """Each window a thick bar at its mean force (normal, and the friction with the
-    stroke's sign), over its span; the conditions drawn."""
+    stroke's sign) over its span, a tick at each end (windows often follow each other); the
+    conditions drawn."""
     drawn = set()
     for piece in check.pieces:
         w = piece.windows
@@ -155,7 +156,8 @@ def _windows(ax: Axes, check: TrialCheck) -> set[str]:
             on = condition == "on"
             style: dict[str, Any] = {"color": _ON_WINDOW if on else _OFF_WINDOW, "lw": 2.6,
                                      "ls": "-" if on else (0, (1.2, 0.6)),
-                                     "solid_capstyle": "butt", "zorder": 4}
+                                     "solid_capstyle": "butt", "zorder": 4,
+                                     "marker": "|", "markersize": 7, "markeredgewidth": 1.0}
             ax.plot((starts[i], ends[i]), (normal[i],) * 2, **style)
             ax.plot((starts[i], ends[i]), (friction[i],) * 2, **style)
             drawn.add(condition)
@@ -167,10 +169,11 @@ def _legend(ax: Axes, kinds: set[str], conditions: set[str]) -> None:
     handles: list[Any] = [Line2D([], [], color=_NORMAL, lw=0.8, label="normal force"),
                           Line2D([], [], color=_TANGENTIAL, lw=0.8, label="tangential force")]
     if "on" in conditions:
-        handles.append(Line2D([], [], color=_ON_WINDOW, lw=2.6, label="ON window (mean)"))
+        handles.append(Line2D([], [], color=_ON_WINDOW, lw=2.6, marker="|", markersize=7,
+                              label="ON window (mean)"))
     if "off" in conditions:
         handles.append(Line2D([], [], color=_OFF_WINDOW, lw=2.6, ls=(0, (1.2, 0.6)),
-                              label="OFF window (mean)"))
+                              marker="|", markersize=7, label="OFF window (mean)"))
     if "on" in kinds:
         handles.append(Patch(color=_ON_SHADE, alpha=0.35, lw=0, label="voltage ON"))
     if "lifted" in kinds:
