@@ -301,8 +301,11 @@ def replicate_matrix(rows: pd.DataFrame, bootstrap: pd.DataFrame | None,
         return None
 
     def keys(df: pd.DataFrame) -> pd.MultiIndex:
+        freq = (df["frequency_Hz"].to_numpy(float) if "frequency_Hz" in df.columns
+                else np.full(len(df), np.nan))  # a row per frequency, each its replicates
         return pd.MultiIndex.from_arrays(
             [df["waveform"].fillna("").astype(str).to_numpy(),
+             np.nan_to_num(np.round(freq, 6), nan=-1.0),
              np.round(df["amplitude_V"].to_numpy(float), 6)])
 
     boot = bootstrap.assign(_key=keys(bootstrap))
