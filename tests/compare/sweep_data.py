@@ -10,8 +10,8 @@ import math
 import numpy as np
 import pandas as pd
 
-from evtribo.compare.models import CANDIDATES
 from evtribo.compare.model_points import mean_electrostatic_force
+from evtribo.compare.models import CANDIDATES
 from evtribo.model import TABLE_1, layer_elastances
 
 FREQUENCIES = (20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 3000.0, 10000.0)

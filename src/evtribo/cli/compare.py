@@ -23,6 +23,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--params", metavar="PARAMS.toml", default=None,
                    help="TOML of fixed model parameters, `name = value` in SI units "
                         "(default: the paper's Table 1)")
+    p.add_argument("--models", metavar="NAMES", default=None,
+                   help="comma-separated candidate models to fit and rank per subject by "
+                        "AIC (paper, hertz, maugis, circuit): writes OUT/models.csv and a "
+                        "figure of F_el against the drive frequency per subject")
     p.add_argument("--dpi", type=float, default=150, help="PNG resolution (default 150)")
     p.add_argument("--force", action="store_true",
                    help="overwrite the outputs of a previous comparison")
@@ -38,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         with sigterm_interrupts():
             result = compare(args.out, fit=args.fit, params=args.params, force=args.force,
-                             dpi=args.dpi)
+                             dpi=args.dpi, models=args.models)
     except Terminated:
         print(f"evtribo compare: terminated; {args.out} holds the fit it held before (or all "
               "of the new one), nothing half-written", file=sys.stderr)

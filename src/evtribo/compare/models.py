@@ -32,6 +32,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from evtribo.analysis.outputs import MODELS_CSV
 from evtribo.compare.model_points import ForceFunction, mean_electrostatic_force
 from evtribo.compare.problem import fit_points
 from evtribo.compare.tables import ResultTables
@@ -47,8 +48,6 @@ log = logging.getLogger(__name__)
 __all__ = ["CANDIDATES", "MODELS_COLUMNS", "MODELS_CSV", "Candidate", "ModelFit",
            "electrostatic_force_hertz", "fit_models", "models_table", "resolve_models"]
 
-#: The table's name in a result folder.
-MODELS_CSV = "models.csv"
 #: Its columns.
 MODELS_COLUMNS = ("subject", "model", "fitted", "n_params", "n_points", "rss_N2", "aic",
                   "bic", "delta_aic", "akaike_weight")
@@ -197,11 +196,13 @@ class ModelFit:
         ndarray
             NaN when the fit failed.
         """
+        fn, amp, freq = np.broadcast_arrays(
+            np.asarray(normal_force, dtype=float), np.asarray(amplitude, dtype=float),
+            np.asarray(np.nan if frequency is None else frequency, dtype=float))
         if self.params is None:
-            return np.full(np.broadcast(np.asarray(normal_force), np.asarray(amplitude),
-                                        np.asarray(frequency)).shape, np.nan)
-        return mean_electrostatic_force(normal_force, amplitude, waveform, self.params,
-                                        frequency=frequency,
+            return np.full(fn.shape, np.nan)
+        return mean_electrostatic_force(fn, amp, waveform, self.params,
+                                        frequency=None if frequency is None else freq,
                                         force=CANDIDATES[self.model].force)
 
 

@@ -32,6 +32,8 @@ from evtribo import __version__
 from evtribo.analysis.outputs import FIGURES, FIT_CSV, FIT_JSON, compare_files
 from evtribo.compare.fit import SubjectFit, fit_study
 from evtribo.compare.fit_csv import fit_table
+from evtribo.compare.frequency_plots import write_models
+from evtribo.compare.models import resolve_models
 from evtribo.compare.params import load_parameters, resolve_fit_names
 from evtribo.compare.plots import (
     plot_area_increase,
@@ -120,7 +122,8 @@ def _first_trace(tables: ResultTables) -> tuple[pd.DataFrame | None, str | None]
 
 def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
             params: str | Path | None = None, force: bool = False, dpi: float = 150,
-            formats: tuple[str, ...] = ("png", "svg")) -> CompareResult:
+            formats: tuple[str, ...] = ("png", "svg"),
+            models: str | Iterable[str] | None = None) -> CompareResult:
     """Fit the model to the results in *out* and write ``fit.csv``, ``fit.json``, figures.
 
     Parameters
@@ -137,6 +140,9 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         Resolution of the PNG figures, dots per inch.
     formats : tuple of str
         Figure formats.
+    models : str or iterable of str, optional
+        Candidate models to fit and rank per subject (``"paper,hertz,maugis,circuit"``):
+        writes ``models.csv`` and a ``frequency_response`` figure per subject.
 
     Returns
     -------
@@ -156,6 +162,7 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         When a fit cannot be made.
     """
     names = resolve_fit_names(fit)
+    candidates = resolve_models(models) if models is not None else ()
     base = load_parameters(params)
     folder = check_out_folder(out)
     _check_outputs(folder, force)  # before the lock: a refusal writes nothing
@@ -165,7 +172,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         _check_outputs(folder, force)
         stale = compare_files(folder)
         with Staging(folder) as stage:
-            result = _compare(tables, stage, names, base, dpi=dpi, formats=formats)
+            result = _compare(tables, stage, names, base, dpi=dpi, formats=formats,
+                              models=candidates)
             _write_json(stage, result, names, base, params,
                         run_id=tables.summary.run_id)
             stage.commit(remove=stale, last=[FIT_JSON])
@@ -175,8 +183,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
 
 
 def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
-             base: ModelParameters, *, dpi: float, formats: tuple[str, ...]
-             ) -> CompareResult:
+             base: ModelParameters, *, dpi: float, formats: tuple[str, ...],
+             models: tuple[str, ...] = ()) -> CompareResult:
     """The fits and figures, written into *stage* (``result.files`` relative to it)."""
     folder = tables.out
     subjects = tables.subjects
@@ -245,6 +253,10 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
          caption="JKR over Hertz contact area at each subject's mean normal force ON with "
                  "the fitted parameters, cf. the paper's Figure 7.")
 
+    if models:
+        files, notes = write_models(tables, stage, models, base, emit)
+        result.files += files
+        result.notes += notes
     return result
 
 
