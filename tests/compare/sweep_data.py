@@ -6,9 +6,11 @@ relative size, its 95 % interval the width that noise implies."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from synthetic import N_REPLICATES, make_out
 
 from evtribo.compare.model_points import mean_electrostatic_force
 from evtribo.compare.models import CANDIDATES
@@ -62,3 +64,24 @@ def sweep_rows(model: str, seed: int, *, noise: float = 0.02, subjects: int = 3,
                          "electrostatic_force_ci_high_N": meas[k] + _Z95 * se[k],
                          "n_on": 3, "n_off": 3})
     return pd.DataFrame(rows), true
+
+
+def sweep_out(folder: Path, model: str, seed: int = 0, *, noise: float = 0.02) -> dict:
+    """A result folder (:func:`synthetic.make_out`'s, two subjects) whose electrostatic.csv
+    is a sweep made with *model*, with independent bootstrap replicates of its noise;
+    returns the truth."""
+    make_out(folder, seed=seed, bootstrap=False)
+    rows, true = sweep_rows(model, seed, noise=noise, subjects=2)
+    rows.to_csv(folder / "electrostatic.csv", index=False)
+    rng = np.random.default_rng([seed, 7])
+    z = rng.standard_normal((len(rows), N_REPLICATES))
+    boot = pd.DataFrame({
+        "subject": np.repeat(rows["subject"].to_numpy(), N_REPLICATES),
+        "waveform": np.repeat(rows["waveform"].to_numpy(), N_REPLICATES),
+        "frequency_Hz": np.repeat(rows["frequency_Hz"].to_numpy(), N_REPLICATES),
+        "amplitude_V": np.repeat(rows["amplitude_V"].to_numpy(), N_REPLICATES),
+        "replicate": np.tile(np.arange(N_REPLICATES), len(rows)),
+        "electrostatic_force_N": (rows["electrostatic_force_N"].to_numpy()[:, None]
+                                  * np.exp(noise * z)).ravel()})
+    boot.to_csv(folder / "electrostatic_bootstrap.csv", index=False)
+    return true

@@ -173,18 +173,18 @@ def _estimates(problem: Problem, x: NDArray[np.float64], cov_x: NDArray[np.float
     is an open end: 0 or infinity)."""
     values = problem.to_values(x)
     deriv = problem.derivative(x)
-    if boot is not None:
-        boot_v = problem.to_values(boot)
-        boot_v = np.where(boot >= problem.upper, np.inf, boot_v)
-        lo_v, hi_v = np.quantile(boot_v, [0.025, 0.975], axis=0)
-        spread = np.std(problem.to_values(boot), axis=0, ddof=1)
+    if boot is not None:  # percentiles of the scaled values (a monotone map of the values)
+        lo_b, hi_b = np.quantile(boot, [0.025, 0.975], axis=0)
+        with np.errstate(over="ignore", invalid="ignore"):
+            spread = np.std(problem.to_values(boot), axis=0, ddof=1)
     estimates = []
     for i, name in enumerate(problem.names):
         se_x = float(np.sqrt(cov_x[i, i])) if np.isfinite(cov_x[i, i]) else math.inf
         se = float(deriv[i]) * se_x if math.isfinite(se_x) else math.inf
         if boot is not None:
             se = float(spread[i]) if not problem.is_log[i] else se
-            lo, hi = float(lo_v[i]), float(hi_v[i])
+            lo = _scaled_value(problem, i, float(lo_b[i]), float(lo_b[i]))
+            hi = _scaled_value(problem, i, float(hi_b[i]), float(hi_b[i]))
         elif math.isfinite(se_x):
             lo_x, hi_x = x[i] - quantile * se_x, x[i] + quantile * se_x
             lo = _scaled_value(problem, i, max(lo_x, problem.lower[i]), lo_x)
