@@ -165,8 +165,8 @@ def _bootstrap(problem: Problem, res: optimize.OptimizeResult, cov_x: NDArray[np
 
 
 def _estimates(problem: Problem, x: NDArray[np.float64], cov_x: NDArray[np.float64],
-               boot: NDArray[np.float64] | None,
-               quantile: float) -> list[ParameterEstimate]:
+               boot: NDArray[np.float64] | None, quantile: float, *,
+               ends: dict[int, tuple[bool, bool]]) -> list[ParameterEstimate]:
     """Each parameter's value, standard error and 95 % interval (the replicates'
     percentiles, else *quantile* standard errors either side in the scaled parameters,
     which are the logarithms of the resistances; a bound of the resistances' range reached
@@ -191,6 +191,8 @@ def _estimates(problem: Problem, x: NDArray[np.float64], cov_x: NDArray[np.float
             hi = _scaled_value(problem, i, hi_x, hi_x)
         else:
             lo, hi = -math.inf, math.inf
+        open_lo, open_hi = ends.get(i, (False, False))
+        lo, hi = 0.0 if open_lo else lo, math.inf if open_hi else hi
         if not math.isfinite(se_x):
             log.warning("subject %s: %s is not determined by these data (its effect cannot "
                         "be told apart from the other fitted parameters'); interval is "
@@ -198,6 +200,22 @@ def _estimates(problem: Problem, x: NDArray[np.float64], cov_x: NDArray[np.float
         estimates.append(ParameterEstimate(name, float(values[i]), se, float(lo), float(hi),
                                            parameter_unit(name)))
     return estimates
+
+
+def _open_ends(problem: Problem, res: optimize.OptimizeResult, scale: float,
+               quantile: float) -> dict[int, tuple[bool, bool]]:
+    """For each log-space parameter, whether the data cannot exclude the ends of its range
+    (0 or infinity, in effect): the least sum of squares with it held there (the others
+    refitted) exceeds the minimum by less than the interval's quantile squared, in units of
+    the inflated variance (a likelihood-ratio interval, which the Jacobian's quadratic cannot
+    give where the model flattens out)."""
+    best = float(np.sum(res.fun**2))
+    ends = {}
+    for i in np.flatnonzero(problem.is_log):
+        lo, hi = (problem.profile_cost(int(i), float(b), res.x) - best
+                  for b in (problem.lower[i], problem.upper[i]))
+        ends[int(i)] = (lo < scale * quantile**2, hi < scale * quantile**2)
+    return ends
 
 
 def _scaled_value(problem: Problem, i: int, x: float, raw: float) -> float:
@@ -285,7 +303,7 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
                                 stretch=math.sqrt(scale) * quantile / _Z95)
     cov_corr = cov_x if boot is None else np.atleast_2d(np.cov(boot, rowvar=False))
     estimates = _estimates(problem, res.x, cov_x if boot is None else cov_corr, boot,
-                           quantile)
+                           quantile, ends=_open_ends(problem, res, scale, quantile))
     corr = _correlation(subject, names, cov_corr)
     fitted = problem.params_at(res.x)
     resid = pts.measured - problem.model_at(res.x)

@@ -63,8 +63,10 @@ def gap_amplitude(amplitude: ArrayLike, frequency: ArrayLike | None, waveform: A
     out = np.full(amp.shape, np.nan)
     ok = np.isfinite(f) & (f > 0)
     for wave, pick in (("sine", ok & sine), ("square", ok & ~sine)):
-        if pick.any():
-            out[pick] = effective_voltage(amp[pick], f[pick], wave, params)
+        if pick.any():  # U_eff is U times a gain of the frequency: one per frequency
+            freqs, where = np.unique(f[pick], return_inverse=True)
+            gain = np.atleast_1d(effective_voltage(1.0, freqs, wave, params))
+            out[pick] = np.abs(amp[pick]) * gain[where]
     return out
 
 

@@ -129,6 +129,10 @@ class Points:
         measured = rows["electrostatic_force_N"].to_numpy(float)
         good = np.isfinite(fn) & np.isfinite(amp) & np.isfinite(measured) & (fn > 0)
         if need_frequency:
+            if not np.any(np.isfinite(freq) & (freq > 0)):
+                raise AnalysisError(f"subject {subject}: the layers' resistances need the "
+                                    "points' drive frequency (electrostatic.csv's "
+                                    "frequency_Hz), which none has")
             good &= np.isfinite(freq) & (freq > 0)
         if not good.all():
             log.warning("subject %s: %d point(s) with missing values left out", subject,
@@ -298,6 +302,39 @@ class Problem:
                 / self.w_sigma
             r = np.concatenate([r, rw])
         return np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6)
+
+    def profile_cost(self, i: int, xi: float, x: NDArray[np.float64]) -> float:
+        """The least weighted sum of squares with parameter *i* held at scaled *xi* (the
+        others refitted from *x*).
+
+        Parameters
+        ----------
+        i : int
+            The parameter held.
+        xi : float
+            Its scaled value.
+        x : ndarray
+            The solution (where the others start).
+
+        Returns
+        -------
+        float
+        """
+        free = np.arange(len(self.names)) != i
+        full = x.copy()
+        full[i] = xi
+
+        def resid(y: NDArray[np.float64]) -> NDArray[np.float64]:
+            full[free] = y
+            return self.residuals(full)
+
+        if not free.any():
+            return float(np.sum(resid(full[free]) ** 2))
+        start = np.clip(x[free], self.lower[free], self.upper[free])
+        res = optimize.least_squares(resid, start, jac="3-point", method="trf",
+                                     bounds=(self.lower[free], self.upper[free]),
+                                     xtol=1e-10, ftol=1e-10, max_nfev=500)
+        return float(np.sum(res.fun**2))
 
     def _least_squares(self, x0: NDArray[np.float64]) -> optimize.OptimizeResult:
         res = optimize.least_squares(self.residuals, x0, jac="3-point",
