@@ -9,8 +9,7 @@ from decimal import Decimal, localcontext
 import numpy as np
 import pytest
 
-from evtribo.model import md_dimensionless
-from evtribo.model import maugis
+from evtribo.model import maugis, md_dimensionless
 
 DIGITS = 50
 
