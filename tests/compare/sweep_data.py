@@ -1,4 +1,5 @@
-"""``electrostatic.csv`` rows of a frequency and amplitude sweep, generated with one of the
+"""``electrostatic.csv`` rows of a frequency and amplitude sweep at two normal forces, one row
+per subject, frequency and amplitude as ``analyze`` writes them, generated with one of the
 candidate models of :mod:`evtribo.compare.models` (the table ``evtribo analyze`` writes, not
 the trials behind it): each point the model's mean force times log-normal noise of a stated
 relative size, its 95 % interval the width that noise implies."""
@@ -50,6 +51,9 @@ def sweep_rows(model: str, seed: int, *, noise: float = 0.02, subjects: int = 3,
     for subject, values in true.items():
         p = TABLE_1.with_values(values)
         f, u, fn = (a.ravel() for a in np.meshgrid(FREQUENCIES, AMPLITUDES, NORMAL_FORCES))
+        # a row per subject x waveform x frequency x amplitude (the study format's key):
+        # the second normal force's amplitudes 5 V higher
+        u = u + 5.0 * (fn > min(NORMAL_FORCES))
         fn = fn * np.exp(0.05 * rng.standard_normal(fn.size))
         force = mean_electrostatic_force(fn, u, waveform, p, frequency=f,
                                          force=CANDIDATES[model].force)

@@ -152,7 +152,7 @@ def _bootstrap(problem: Problem, res: optimize.OptimizeResult, cov_x: NDArray[np
         note = "a parameter is not determined by the data"
     else:
         refits = refit_replicates(problem.model_at, res.x, reps[:, pts.good], pts.sigma,
-                                   problem.lower)
+                                   problem.lower, upper=problem.upper)
         if refits.shape[0] >= MIN_REFITS:
             boot = res.x + stretch * (np.minimum(refits, problem.upper) - res.x)
         else:
@@ -166,11 +166,11 @@ def _bootstrap(problem: Problem, res: optimize.OptimizeResult, cov_x: NDArray[np
 
 def _estimates(problem: Problem, x: NDArray[np.float64], cov_x: NDArray[np.float64],
                boot: NDArray[np.float64] | None, quantile: float, *,
-               ends: dict[int, tuple[bool, bool]]) -> list[ParameterEstimate]:
-    """Each parameter's value, standard error and 95 % interval (the replicates'
-    percentiles, else *quantile* standard errors either side in the scaled parameters,
-    which are the logarithms of the resistances; a bound of the resistances' range reached
-    is an open end: 0 or infinity)."""
+               profile: dict[int, tuple[float, float]]) -> list[ParameterEstimate]:
+    """Each parameter's value, standard error and 95 % interval: the replicates'
+    percentiles, else *quantile* standard errors either side, or for a resistance (fitted
+    in log space) its *profile* interval; an end the profile cannot close is open (0 or
+    infinity) with either method."""
     values = problem.to_values(x)
     deriv = problem.derivative(x)
     if boot is not None:  # percentiles of the scaled values (a monotone map of the values)
@@ -181,19 +181,21 @@ def _estimates(problem: Problem, x: NDArray[np.float64], cov_x: NDArray[np.float
     for i, name in enumerate(problem.names):
         se_x = float(np.sqrt(cov_x[i, i])) if np.isfinite(cov_x[i, i]) else math.inf
         se = float(deriv[i]) * se_x if math.isfinite(se_x) else math.inf
+        p_lo, p_hi = profile.get(i, (math.nan, math.nan))
         if boot is not None:
             se = float(spread[i]) if not problem.is_log[i] else se
             lo = _scaled_value(problem, i, float(lo_b[i]), float(lo_b[i]))
             hi = _scaled_value(problem, i, float(hi_b[i]), float(hi_b[i]))
+            lo, hi = 0.0 if p_lo == 0.0 else lo, math.inf if p_hi == math.inf else hi
+        elif problem.is_log[i]:
+            lo, hi = p_lo, p_hi
         elif math.isfinite(se_x):
-            lo_x, hi_x = x[i] - quantile * se_x, x[i] + quantile * se_x
-            lo = _scaled_value(problem, i, max(lo_x, problem.lower[i]), lo_x)
-            hi = _scaled_value(problem, i, hi_x, hi_x)
+            lo = float(values[i] - quantile * se) if x[i] - quantile * se_x > problem.lower[i] \
+                else float(problem.start[i] * problem.lower[i])
+            hi = float(values[i] + quantile * se)
         else:
             lo, hi = -math.inf, math.inf
-        open_lo, open_hi = ends.get(i, (False, False))
-        lo, hi = 0.0 if open_lo else lo, math.inf if open_hi else hi
-        if not math.isfinite(se_x):
+        if not math.isfinite(se_x) and not (problem.is_log[i] and (p_lo > 0 or p_hi < math.inf)):
             log.warning("subject %s: %s is not determined by these data (its effect cannot "
                         "be told apart from the other fitted parameters'); interval is "
                         "infinite", problem.subject, name)
@@ -202,20 +204,30 @@ def _estimates(problem: Problem, x: NDArray[np.float64], cov_x: NDArray[np.float
     return estimates
 
 
-def _open_ends(problem: Problem, res: optimize.OptimizeResult, scale: float,
-               quantile: float) -> dict[int, tuple[bool, bool]]:
-    """For each log-space parameter, whether the data cannot exclude the ends of its range
-    (0 or infinity, in effect): the least sum of squares with it held there (the others
-    refitted) exceeds the minimum by less than the interval's quantile squared, in units of
-    the inflated variance (a likelihood-ratio interval, which the Jacobian's quadratic cannot
-    give where the model flattens out)."""
+def _profile_intervals(problem: Problem, res: optimize.OptimizeResult, scale: float,
+                       quantile: float) -> dict[int, tuple[float, float]]:
+    """The likelihood-ratio interval of each log-space parameter: where the least sum of
+    squares with it held (the others refitted) exceeds the minimum by the interval's
+    quantile squared, in units of the inflated variance. An end of the range the data cannot
+    exclude is open (0 or infinity): the Jacobian's quadratic cannot say so where the
+    model flattens out (no leak at all: r_g bounded below only)."""
     best = float(np.sum(res.fun**2))
-    ends = {}
-    for i in np.flatnonzero(problem.is_log):
-        lo, hi = (problem.profile_cost(int(i), float(b), res.x) - best
-                  for b in (problem.lower[i], problem.upper[i]))
-        ends[int(i)] = (lo < scale * quantile**2, hi < scale * quantile**2)
-    return ends
+    threshold = scale * quantile**2
+    out = {}
+    for i in (int(k) for k in np.flatnonzero(problem.is_log)):
+        def excess(xi: float, i: int = i) -> float:
+            return problem.profile_cost(i, xi, res.x) - best - threshold
+
+        ends = []
+        for bound in (problem.lower[i], problem.upper[i]):
+            if excess(float(bound)) < 0:
+                ends.append(0.0 if bound < res.x[i] else math.inf)
+            else:
+                root = optimize.brentq(excess, float(bound), float(res.x[i]), xtol=1e-4)
+                ends.append(float(problem.to_values(np.where(
+                    np.arange(len(res.x)) == i, root, res.x))[i]))
+        out[i] = (ends[0], ends[1])
+    return out
 
 
 def _scaled_value(problem: Problem, i: int, x: float, raw: float) -> float:
@@ -303,7 +315,8 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
                                 stretch=math.sqrt(scale) * quantile / _Z95)
     cov_corr = cov_x if boot is None else np.atleast_2d(np.cov(boot, rowvar=False))
     estimates = _estimates(problem, res.x, cov_x if boot is None else cov_corr, boot,
-                           quantile, ends=_open_ends(problem, res, scale, quantile))
+                           quantile, profile=_profile_intervals(problem, res, scale,
+                                                                 quantile))
     corr = _correlation(subject, names, cov_corr)
     fitted = problem.params_at(res.x)
     resid = pts.measured - problem.model_at(res.x)
