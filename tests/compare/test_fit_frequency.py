@@ -119,3 +119,27 @@ def test_simulate_analyze_compare_recovers_each_subjects_gap_and_leak(tmp_path):
             row = fit[(fit["subject"] == subject) & (fit["parameter"] == name)].iloc[0]
             assert row["value"] == pytest.approx(true[name], rel=tol), (subject, name)
             assert row["ci_low"] <= true[name] <= row["ci_high"], (subject, name, row)
+
+
+def test_windows_are_evaluated_at_their_trials_frequency():
+    """With mu fitted the windows join the residuals: ON at the trial's drive frequency
+    (from trials.csv), OFF without voltage whatever the frequency."""
+    from evtribo.compare.fit import _with_frequency
+    from evtribo.compare.model_points import mean_friction_force
+    from evtribo.model import effective_voltage, friction_force
+
+    p = TABLE_1.with_values(r_g=60.0)
+    windows = pd.DataFrame({"subject": ["P01"] * 3, "trial": ["f-01", "f-02", "f-02"],
+                            "condition": ["on", "on", "off"], "amplitude_V": [100.0] * 3,
+                            "waveform": ["square"] * 3, "normal_force_N": [0.5] * 3})
+    trials = pd.DataFrame({"subject": ["P01", "P01"], "trial": ["f-01", "f-02"],
+                           "frequency_Hz": [20.0, 5000.0]})
+    got = _with_frequency(windows, trials)
+    assert list(got["frequency_Hz"]) == [20.0, 5000.0, 5000.0]
+    amp = np.array([100.0, 100.0, 0.0])
+    model = mean_friction_force(0.5, amp, "square", p, frequency=got["frequency_Hz"])
+    u_eff = [float(effective_voltage(100.0, f, "square", p)) for f in (20.0, 5000.0)]
+    np.testing.assert_allclose(model, [float(friction_force(0.5, u_eff[0], p)),
+                                       float(friction_force(0.5, u_eff[1], p)),
+                                       float(friction_force(0.5, 0.0, p))], rtol=1e-12)
+    assert u_eff[0] < 0.5 * u_eff[1]

@@ -334,6 +334,17 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
                       interval_note=note)
 
 
+def _with_frequency(windows: pd.DataFrame, trials: pd.DataFrame) -> pd.DataFrame:
+    """The windows with their trial's drive frequency (``trials.csv``), for the circuit."""
+    if "frequency_Hz" in windows.columns or not {"subject", "trial", "frequency_Hz"} <= set(
+            trials.columns) or "trial" not in windows.columns:
+        return windows
+    freq = trials[["subject", "trial", "frequency_Hz"]].astype({"subject": str, "trial": str})
+    freq = freq.drop_duplicates(["subject", "trial"])
+    keyed = windows.astype({"subject": str, "trial": str})
+    return keyed.merge(freq, on=["subject", "trial"], how="left", validate="many_to_one")
+
+
 def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
               fit: Sequence[str] = DEFAULT_FIT) -> list[SubjectFit]:
     """Fit every subject of a result folder (see :func:`fit_subject`).
@@ -359,7 +370,8 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
     boot = tables.bootstrap
     for subject in tables.subjects:
         rows = tables.electrostatic[tables.electrostatic["subject"] == subject]
-        win = tables.windows[tables.windows["subject"] == subject]
+        win = _with_frequency(tables.windows[tables.windows["subject"] == subject],
+                              tables.trials)
         reps = None
         if boot is not None:
             reps = replicate_matrix(rows, boot[boot["subject"].astype(str) == str(subject)],

@@ -114,7 +114,8 @@ def mean_electrostatic_force(normal_force: ArrayLike, amplitude: ArrayLike,
 @fill_doc
 def mean_friction_force(normal_force: ArrayLike, amplitude: ArrayLike,
                         waveform: ArrayLike = "square",
-                        params: ModelParameters = TABLE_1) -> NDArray[np.float64]:
+                        params: ModelParameters = TABLE_1, *,
+                        frequency: ArrayLike | None = None) -> NDArray[np.float64]:
     """Time-averaged model friction force (eq. 5); amplitude 0 is the OFF condition.
 
     Parameters
@@ -125,13 +126,18 @@ def mean_friction_force(normal_force: ArrayLike, amplitude: ArrayLike,
     waveform : str or array of str
         ``"square"`` or ``"sine"`` (the model averaged over one period).
     %(params)s
+    frequency : float or ndarray, optional
+        Drive frequency, Hz (with finite resistances: :func:`gap_amplitude`).
 
     Returns
     -------
     ndarray
         The friction force, N.
     """
-    fn, amp = np.broadcast_arrays(np.asarray(normal_force, float), np.asarray(amplitude, float))
+    amp_eff = gap_amplitude(amplitude, frequency, waveform, params)
+    on = np.asarray(amplitude, float) != 0  # OFF stays 0 whatever its frequency
+    amp_eff = np.where(on, amp_eff, 0.0)
+    fn, amp = np.broadcast_arrays(np.asarray(normal_force, float), amp_eff)
     sine = np.broadcast_to(_is_sine(waveform), fn.shape)
     out = np.asarray(friction_force(fn, amp, params), dtype=float).copy()
     if np.any(sine):

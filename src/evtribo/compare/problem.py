@@ -80,9 +80,9 @@ class Points:
         Which of the subject's rows are the points.
     mu_measured : float
         Friction coefficient from the OFF windows.
-    w_fn, w_ft, w_amp, w_wave : ndarray
-        The windows' normal and friction forces, amplitude (0 OFF) and waveform (empty
-        unless ``mu`` is fitted).
+    w_fn, w_ft, w_amp, w_wave, w_freq : ndarray
+        The windows' normal and friction forces, amplitude (0 OFF), waveform and drive
+        frequency (NaN unknown; empty unless ``mu`` is fitted).
     """
 
     fn: NDArray[np.float64]
@@ -97,6 +97,7 @@ class Points:
     w_ft: NDArray[np.float64]
     w_amp: NDArray[np.float64]
     w_wave: NDArray[np.object_]
+    w_freq: NDArray[np.float64]
 
     @classmethod
     def of(cls, subject: str, rows: pd.DataFrame, windows: pd.DataFrame | None = None, *,
@@ -140,7 +141,7 @@ class Points:
         mus = rows["mu"].to_numpy(float)
         mu_measured = float(np.nanmean(mus)) if np.isfinite(mus).any() else math.nan
         empty = np.empty(0)
-        w_fn, w_ft, w_amp, w_wave = empty, empty, empty, np.empty(0, object)
+        w_fn, w_ft, w_amp, w_wave, w_freq = empty, empty, empty, np.empty(0, object), empty
         if use_windows:
             if windows is None or windows.empty:
                 raise AnalysisError(f"subject {subject}: fitting mu needs its windows "
@@ -150,10 +151,16 @@ class Points:
             w_on = windows["condition"].astype(str).str.lower().to_numpy() == "on"
             w_amp = np.where(w_on, windows["amplitude_V"].to_numpy(float), 0.0)
             w_wave = windows["waveform"].astype(str).to_numpy(object)
+            w_freq = (windows["frequency_Hz"].to_numpy(float)
+                      if "frequency_Hz" in windows.columns else np.full(len(w_fn), np.nan))
             keep = np.isfinite(w_fn) & np.isfinite(w_ft) & np.isfinite(w_amp) & (w_fn > 0)
-            w_fn, w_ft, w_amp, w_wave = w_fn[keep], w_ft[keep], w_amp[keep], w_wave[keep]
+            if need_frequency:
+                keep &= (w_amp == 0) | (np.isfinite(w_freq) & (w_freq > 0))
+            w_fn, w_ft, w_amp = w_fn[keep], w_ft[keep], w_amp[keep]
+            w_wave, w_freq = w_wave[keep], w_freq[keep]
         return cls(fn[good], amp[good], freq[good], wave[good], measured[good],
-                   _sigmas(rows[good], subject), good, mu_measured, w_fn, w_ft, w_amp, w_wave)
+                   _sigmas(rows[good], subject), good, mu_measured, w_fn, w_ft, w_amp, w_wave,
+                   w_freq)
 
 
 def _resistance_range(name: str, base: ModelParameters,
@@ -298,8 +305,8 @@ class Problem:
                                                    frequency=p.freq, force=self.force)
              ) / p.sigma
         if self.use_windows:
-            rw = (p.w_ft - mean_friction_force(p.w_fn, p.w_amp, p.w_wave, params)) \
-                / self.w_sigma
+            rw = (p.w_ft - mean_friction_force(p.w_fn, p.w_amp, p.w_wave, params,
+                                               frequency=p.w_freq)) / self.w_sigma
             r = np.concatenate([r, rw])
         return np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6)
 
