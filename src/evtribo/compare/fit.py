@@ -32,6 +32,17 @@ interval and a warning.
 
 Sine-wave points are compared with the model averaged over one period of U(t) = A sin(wt),
 square-wave points with the model at U = A (U^2 is constant for a square wave).
+
+The drive's frequency. With finite resistances of the layers (``r_sc``, ``r_g``, fixed or
+fitted) each point is evaluated at its own drive frequency: A becomes the effective
+amplitude the gap sees (:mod:`evtribo.model.circuit`), and a window (``mu`` fitted) takes
+its trial's frequency from ``trials.csv``. The resistances are fitted in log space
+(:mod:`evtribo.compare.problem`), and their intervals come from the likelihood profile
+(the sum of squares with the resistance held, the others refitted, reaching the minimum
+plus the quantile squared): an end the data cannot exclude is open (0 or infinity), as for
+a gap that does not leak. With bootstrap replicates (matched to the rows by waveform,
+frequency and amplitude) the interval is their percentiles, still open where the profile
+says so.
 """
 
 from __future__ import annotations
