@@ -106,13 +106,17 @@ def test_replicates_are_matched_by_frequency_as_well_as_amplitude():
 @pytest.mark.slow
 def test_simulate_analyze_compare_recovers_each_subjects_gap_and_leak(tmp_path):
     """Three subjects, square drives at 100 V from 20 Hz to 10 kHz, each with a leaky gap
-    (corners 30, 100 and 250 Hz), through the simulated rig, analyze and compare."""
+    (corners 30, 100 and 250 Hz), through the simulated rig, analyze and compare: h_L and
+    r_g recovered, and the circuit the model of lowest AIC for each subject."""
     from sweep_study import sweep_study
 
     from evtribo.cli import main
 
     out, truth = sweep_study(tmp_path)
-    assert main(["compare", str(out), "--fit", "h_L,r_g", "--dpi", "40"]) == 0
+    assert main(["compare", str(out), "--fit", "h_L,r_g", "--dpi", "40",
+                 "--models", "paper,hertz,maugis,circuit"]) == 0
+    models = pd.read_csv(out / "models.csv")
+    assert list(models.groupby("subject")["model"].first()) == ["circuit"] * 3
     fit = pd.read_csv(out / "fit.csv")
     for subject, true in truth.items():
         for name, tol in (("h_L", 0.10), ("r_g", 0.20)):
