@@ -147,3 +147,28 @@ def test_windows_are_evaluated_at_their_trials_frequency():
                                        float(friction_force(0.5, u_eff[1], p)),
                                        float(friction_force(0.5, 0.0, p))], rtol=1e-12)
     assert u_eff[0] < 0.5 * u_eff[1]
+
+
+def test_a_conducting_stratum_corneum_is_fitted_too():
+    """--fit h_L,r_sc: a skin whose corner is 30 Hz raises the force at low frequency by a
+    few per cent only (Table 1's layers), so r_sc comes with a wide interval that holds
+    the truth and excludes the paper's insulator."""
+    from evtribo.model import layer_elastances
+
+    s_sc, s_g, s_i = (float(s) for s in layer_elastances(TABLE_1))
+    r_sc = 1 / (2 * np.pi * 30.0 * (1 / s_sc + 1 / (s_g + s_i)))
+    p = TABLE_1.with_values(h_L=5e-6, r_sc=r_sc)
+    f, u = (a.ravel() for a in np.meshgrid(np.geomspace(1.0, 1e4, 12), (40., 70., 100., 140.)))
+    fn = np.full(f.size, 0.5)
+    rng = np.random.default_rng(0)
+    meas = mean_electrostatic_force(fn, u, "square", p, frequency=f) * np.exp(
+        0.02 * rng.standard_normal(f.size))
+    rows = pd.DataFrame({"subject": "P01", "waveform": "square", "frequency_Hz": f,
+                         "amplitude_V": u, "mu": 0.5, "normal_force_on_N": fn,
+                         "electrostatic_force_N": meas,
+                         "electrostatic_force_ci_low_N": meas * (1 - 1.96 * 0.02),
+                         "electrostatic_force_ci_high_N": meas * (1 + 1.96 * 0.02)})
+    fit = fit_subject("P01", rows, fit=("h_L", "r_sc"))
+    assert fit["h_L"].value == pytest.approx(5e-6, rel=0.01)
+    assert fit["r_sc"].contains(r_sc)
+    assert math.isfinite(fit["r_sc"].ci_high) and fit["r_sc"].ci_low > 0
