@@ -18,7 +18,7 @@ from evtribo.errors import OutputExistsError, UserInputError
 from evtribo.resultdir import inside
 
 __all__ = ["ANALYSIS_FILES", "BOOTSTRAP_FILE", "FIGURES", "FIT_CSV", "FIT_JSON",
-           "OUTPUT_FILES", "SINE_TRACE_FILE", "SUMMARY_FILE", "check_out_dir",
+           "MODELS_CSV", "OUTPUT_FILES", "SINE_TRACE_FILE", "SUMMARY_FILE", "check_out_dir",
            "check_overwrite", "compare_files", "report_files"]
 
 #: The files ``analyze_study`` writes into its output folder.
@@ -33,6 +33,8 @@ SINE_TRACE_FILE = "sine_trace.csv"
 ANALYSIS_FILES = (*OUTPUT_FILES, SINE_TRACE_FILE)
 #: compare's files, and the folder of its figures.
 FIT_CSV, FIGURES = "fit.csv", "figures"
+#: compare's comparison of the candidate models (``compare --models``).
+MODELS_CSV = "models.csv"
 #: The formats of compare's figures.
 _FIGURE_FORMATS = ("png", "svg", "pdf")
 #: The stems of compare's figures (``electrostatic_force_all.png``,
@@ -58,7 +60,7 @@ def compare_files(out: Path) -> list[str]:
     list of str
         Names relative to *out*.
     """
-    found = [name for name in (FIT_CSV, FIT_JSON) if (out / name).is_file()]
+    found = [name for name in (FIT_CSV, FIT_JSON, MODELS_CSV) if (out / name).is_file()]
     listed: set[str] = set()
     try:
         doc = json.loads((out / FIT_JSON).read_text(encoding="utf-8"))

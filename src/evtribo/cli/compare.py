@@ -34,6 +34,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--figure-width", metavar="WIDTH", default="single",
                    help="figure width: single (one journal column, 85 mm; the default) or "
                         "double (a page, 175 mm)")
+    p.add_argument("--models", metavar="NAMES", default=None,
+                   help="comma-separated candidate models to fit and rank per subject by "
+                        "AIC (paper, hertz, maugis, circuit): writes OUT/models.csv and a "
+                        "figure of F_el against the drive frequency per subject")
     p.add_argument("--dpi", type=float, default=None, help="PNG resolution (default 300)")
     p.add_argument("--force", action="store_true",
                    help="overwrite the outputs of a previous comparison")
@@ -50,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
         with sigterm_interrupts():
             result = compare(args.out, fit=args.fit, params=args.params, force=args.force,
                              dpi=args.dpi, formats=args.figure_format,
-                             width=args.figure_width)
+                             width=args.figure_width, models=args.models)
     except Terminated:
         print(f"evtribo compare: terminated; {args.out} holds the fit it held before (or all "
               "of the new one), nothing half-written", file=sys.stderr)

@@ -36,6 +36,8 @@ from evtribo import __version__
 from evtribo.analysis.outputs import FIGURES, FIT_CSV, FIT_JSON, compare_files
 from evtribo.compare.fit import SubjectFit, fit_study
 from evtribo.compare.fit_csv import fit_table
+from evtribo.compare.frequency_plots import write_models
+from evtribo.compare.models import resolve_models
 from evtribo.compare.params import load_parameters, resolve_fit_names
 from evtribo.compare.plots import (
     plot_area_increase,
@@ -169,7 +171,8 @@ def _first_trace(tables: ResultTables) -> tuple[pd.DataFrame | None, str | None]
 def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
             params: str | Path | None = None, force: bool = False,
             dpi: float | None = None, formats: str | Iterable[str] | None = None,
-            width: str = "single") -> CompareResult:
+            width: str = "single",
+            models: str | Iterable[str] | None = None) -> CompareResult:
     """Fit the model to the results in *out* and write ``fit.csv``, ``fit.json``, figures.
 
     Parameters
@@ -188,6 +191,9 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         Figure formats, ``"pdf,svg,png"`` or a sequence of them (default ``svg,png``).
     width : {"single", "double"}
         Width of the figures: a journal's single column (85 mm) or a page (175 mm).
+    models : str or iterable of str, optional
+        Candidate models to fit and rank per subject (``"paper,hertz,maugis,circuit"``):
+        writes ``models.csv`` and a ``frequency_response`` figure per subject.
 
     Returns
     -------
@@ -210,6 +216,7 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     look = _Look(dpi=parse_dpi(dpi),
                  formats=parse_figure_formats(formats), width=parse_figure_width(width))
     names = resolve_fit_names(fit)
+    candidates = resolve_models(models) if models is not None else ()
     base = load_parameters(params)
     folder = check_out_folder(out)
     _check_outputs(folder, force)  # before the lock: a refusal writes nothing
@@ -219,7 +226,7 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         _check_outputs(folder, force)
         stale = compare_files(folder)
         with Staging(folder) as stage:
-            result = _compare(tables, stage, names, base, look)
+            result = _compare(tables, stage, names, base, look, models=candidates)
             _write_json(stage, result, names, base, params,
                         run_id=tables.summary.run_id)
             stage.commit(remove=stale, last=[FIT_JSON])
@@ -270,7 +277,8 @@ class _Figures:
 
 
 def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
-             base: ModelParameters, look: _Look) -> CompareResult:
+             base: ModelParameters, look: _Look, *, models: tuple[str, ...] = ()
+             ) -> CompareResult:
     """The fits and figures, written into *stage* (``result.files`` relative to it)."""
     fits = fit_study(tables, base, names)
     result = CompareResult(out=tables.out, fits=fits)
@@ -283,6 +291,10 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
         _all_subjects_figure(tables, fits, figures)
         _subject_figures(tables, fits, names, figures)
         _study_figures(tables, fits, figures)
+        if models:
+            files, notes = write_models(tables, stage, models, base, figures.emit)
+            result.files += files
+            result.notes += notes
     return result
 
 
