@@ -103,5 +103,6 @@ ADHESION_REFERENCE = [
 def test_agrees_with_the_adhesion_packages_reference_solution():
     lam, big_a, load, m = (np.array(c) for c in zip(*ADHESION_REFERENCE, strict=True))
     got_a, got_m = md_dimensionless(load, lam)
-    np.testing.assert_allclose(got_a, big_a, rtol=1e-6)
-    np.testing.assert_allclose(got_m, m, rtol=1e-6)
+    # the agreement asked for is 1e-6; measured 8e-14 (the reference's brentq on m)
+    np.testing.assert_allclose(got_a, big_a, rtol=1e-9)
+    np.testing.assert_allclose(got_m, m, rtol=1e-9)
