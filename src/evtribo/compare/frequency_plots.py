@@ -101,7 +101,8 @@ def plot_frequency_response(rows: pd.DataFrame, fits: Sequence[ModelFit], *,
                 continue
             model = 1e3 * fit.force(fn, amp, wave, grid)
             ax.plot(grid, model, _STYLES.get(fit.model, "-"), color=color, lw=1.1,
-                    label=f"{fit.model} (ΔAIC {fit.delta_aic:.3g})" if i == 0 else None)
+                    label=f"{fit.model} (Δ{fit.criterion} {fit.delta_aic:.3g})" if i == 0
+                    else None)
     ax.set(xscale="log", xlabel="drive frequency f (Hz)",
            ylabel="electrostatic force F_el (mN)", ylim=(0, None),
            title=f"F_el against frequency{', ' + subject if subject else ''}")
