@@ -333,7 +333,7 @@ def test_analyze_on_a_full_disk_leaves_the_old_results(study, complete, tmp_path
 
 
 @pytest.mark.parametrize(("command", "limit"), [("compare", 300), ("compare", 8_000),
-                                                ("report", 8_000), ("report", 50_000)])
+                                                ("report", 8_000), ("report", 40_000)])
 def test_compare_and_report_on_a_full_disk_leave_the_old_files(complete, tmp_path, command,
                                                                limit):
     out = _copy(complete, tmp_path / "out")
