@@ -265,14 +265,22 @@ def place_legend(ax: Axes, handles: Sequence[Any] | None = None,
 
 def _legend_above(ax: Axes, make: Any, handles: Sequence[Any], labels: Sequence[str],
                   ncol: int, **kwargs: Any) -> Legend:
-    """A legend above the Axes, in as many columns (up to *ncol*) as fit its width."""
-    fig = ax.get_figure()
-    assert fig is not None
+    """A legend above the Axes in the fewest rows that fit its width (up to *ncol*
+    columns), and of those the one with the fewest empty places."""
     room = ax.get_window_extent().width
-    for n in range(min(ncol, len(handles)), 0, -1):
-        legend: Legend = make(handles, labels, loc="lower center",
-                              bbox_to_anchor=(0.5, 1.02), ncol=n, borderaxespad=0.0,
-                              **kwargs)
-        if n == 1 or legend.get_window_extent().width <= room:
-            return legend
-    raise AssertionError("unreachable")  # pragma: no cover
+    n = len(handles)
+
+    def shape(cols: int) -> tuple[int, int]:
+        rows = -(-n // cols)
+        return rows, rows * cols - n
+
+    fits = [1]
+    for cols in range(2, min(ncol, n) + 1):
+        trial: Legend = make(handles, labels, loc="lower center", bbox_to_anchor=(0.5, 1.02),
+                             ncol=cols, borderaxespad=0.0, **kwargs)
+        if trial.get_window_extent().width <= room:
+            fits.append(cols)
+    best = min(fits, key=shape)
+    legend: Legend = make(handles, labels, loc="lower center", bbox_to_anchor=(0.5, 1.02),
+                          ncol=best, borderaxespad=0.0, **kwargs)
+    return legend
