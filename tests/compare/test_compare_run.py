@@ -45,7 +45,9 @@ def test_compare_writes_fit_and_figures(compared_out):
     for subject in TRUE_H_L:
         assert doc["subjects"][subject]["interval"] == {"method": "bootstrap",
                                                         "replicates": 200, "note": ""}
-    assert len(doc["notes"]) == 1 and "electrostatic_bootstrap.csv" in doc["notes"][0]
+    # a synthetic result folder has no study: no trial checks, and a note saying so
+    assert len(doc["notes"]) == 2 and "electrostatic_bootstrap.csv" in doc["notes"][0]
+    assert "no check figures of the trials" in doc["notes"][1]
     captions = {f["stem"]: f["caption"] for f in doc["figures"]}
     assert captions["friction_time"].startswith("Measured sine trial of P01")
 

@@ -94,7 +94,10 @@ def test_report_is_self_contained(report_page):
 def test_report_holds_every_figure_and_table(report_page, compared_out):
     path, page, _ = report_page
     fit_doc = json.loads((compared_out / "fit.json").read_text())
-    assert len(page.imgs) == len(fit_doc["figures"]) == 7
+    kinds = [f["kind"] for f in fit_doc["figures"]]
+    n_trials = len(pd.read_csv(compared_out / "trials.csv"))
+    assert len(page.imgs) == len(kinds) == 7 + n_trials
+    assert kinds.count("trial") == n_trials  # the check of every trial
     text = " ".join(page.text)
     for fig in fit_doc["figures"]:
         assert fig["title"] in text
@@ -112,8 +115,8 @@ def test_report_holds_every_figure_and_table(report_page, compared_out):
     assert format(fit["value"].iloc[0], ".4g") in text
     # figures also beside the report, as PNG and SVG
     files = sorted(p.name for p in files_dir_for(path).iterdir())
-    assert sum(f.endswith(".png") for f in files) == 7
-    assert sum(f.endswith(".svg") for f in files) == 7
+    assert sum(f.endswith(".png") for f in files) == 7 + n_trials
+    assert sum(f.endswith(".svg") for f in files) == 7  # the trial checks are PNG only
 
 
 def test_embedded_figure_is_a_real_image(report_page):

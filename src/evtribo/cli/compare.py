@@ -39,6 +39,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         "AIC (paper, hertz, maugis, circuit): writes OUT/models.csv and a "
                         "figure of F_el against the drive frequency per subject")
     p.add_argument("--dpi", type=float, default=None, help="PNG resolution (default 300)")
+    p.add_argument("--no-trial-checks", dest="trial_checks", action="store_false",
+                   help="do not draw the check of every trial (what the analysis did with "
+                        "it: forces, ON phases, windows, lifted and excluded stretches)")
     p.add_argument("--force", action="store_true",
                    help="overwrite the outputs of a previous comparison")
     p.set_defaults(func=run)
@@ -54,7 +57,8 @@ def run(args: argparse.Namespace) -> int:
         with sigterm_interrupts():
             result = compare(args.out, fit=args.fit, params=args.params, force=args.force,
                              dpi=args.dpi, formats=args.figure_format,
-                             width=args.figure_width, models=args.models)
+                             width=args.figure_width, models=args.models,
+                             trial_checks=args.trial_checks)
     except Terminated:
         print(f"evtribo compare: terminated; {args.out} holds the fit it held before (or all "
               "of the new one), nothing half-written", file=sys.stderr)

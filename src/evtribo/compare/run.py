@@ -55,6 +55,7 @@ from evtribo.compare.style import (
     parse_figure_width,
 )
 from evtribo.compare.tables import ResultTables, check_out_folder, read_results
+from evtribo.compare.trial_checks import write_trial_checks
 from evtribo.documents.fit import write_fit
 from evtribo.errors import OutputExistsError
 from evtribo.files import atomic_write, sha256_file
@@ -172,7 +173,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
             params: str | Path | None = None, force: bool = False,
             dpi: float | None = None, formats: str | Iterable[str] | None = None,
             width: str = "single",
-            models: str | Iterable[str] | None = None) -> CompareResult:
+            models: str | Iterable[str] | None = None,
+            trial_checks: bool = True) -> CompareResult:
     """Fit the model to the results in *out* and write ``fit.csv``, ``fit.json``, figures.
 
     Parameters
@@ -194,6 +196,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     models : str or iterable of str, optional
         Candidate models to fit and rank per subject (``"paper,hertz,maugis,circuit"``):
         writes ``models.csv`` and a ``frequency_response`` figure per subject.
+    trial_checks : bool
+        Draw the check of every trial (kind ``trial``) when the study folder is there.
 
     Returns
     -------
@@ -226,7 +230,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         _check_outputs(folder, force)
         stale = compare_files(folder)
         with Staging(folder) as stage:
-            result = _compare(tables, stage, names, base, look, models=candidates)
+            result = _compare(tables, stage, names, base, look, models=candidates,
+                              trial_checks=trial_checks)
             _write_json(stage, result, names, base, params,
                         run_id=tables.summary.run_id)
             stage.commit(remove=stale, last=[FIT_JSON])
@@ -253,7 +258,8 @@ class _Figures:
     result: CompareResult
 
     def emit(self, ax: Any, kind: str, title: str, stem: str, *, subject: str | None = None,
-             caption: str = "", extra: Mapping[str, Any] | None = None) -> None:
+             caption: str = "", extra: Mapping[str, Any] | None = None,
+             formats: tuple[str, ...] | None = None, dpi: float | None = None) -> None:
         """Write the figure of *ax* once per format as ``figures/<stem>.<fmt>``, record it.
 
         Parameters
@@ -264,21 +270,25 @@ class _Figures:
             The record in fit.json (:class:`FigureRecord`).
         extra : mapping, optional
             Further keys of the record (``{"trial": "run-01"}``).
+        formats : tuple of str, optional
+            Formats of this figure (default: those asked for).
+        dpi : float, optional
+            Resolution of this figure's PNG (default: the one asked for).
 
         Returns
         -------
         None
         """
-        written = save_figure(ax.figure, self.folder, stem, dpi=self.look.dpi,
-                              formats=self.look.formats)
+        written = save_figure(ax.figure, self.folder, stem, dpi=dpi or self.look.dpi,
+                              formats=formats or self.look.formats)
         self.result.files += [Path(FIGURES) / p.name for p in written]
         self.result.figures.append(FigureRecord(kind, title, stem, subject, caption,
                                                 dict(extra or {})))
 
 
 def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
-             base: ModelParameters, look: _Look, *, models: tuple[str, ...] = ()
-             ) -> CompareResult:
+             base: ModelParameters, look: _Look, *, models: tuple[str, ...] = (),
+             trial_checks: bool = True) -> CompareResult:
     """The fits and figures, written into *stage* (``result.files`` relative to it)."""
     fits = fit_study(tables, base, names)
     result = CompareResult(out=tables.out, fits=fits)
@@ -295,6 +305,8 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
             files, notes = write_models(tables, stage, models, base, figures.emit)
             result.files += files
             result.notes += notes
+        if trial_checks:
+            result.notes += write_trial_checks(tables, figures.emit, look.formats)
     return result
 
 
