@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
@@ -25,14 +24,9 @@ from evtribo.api.results import CSV_EXACT, Results, typed_table
 from evtribo.compare.fit import SubjectFit, fit_study
 from evtribo.compare.fit_csv import fit_table
 from evtribo.compare.params import load_parameters, resolve_fit_names
-from evtribo.compare.plots import (
-    plot_area_increase,
-    plot_electrostatic_force,
-    plot_friction_normal_force,
-    plot_friction_time,
-    safe_name,
-)
+from evtribo.compare.run import CompareResult, draw_figures
 from evtribo.compare.run import compare as compare_folder
+from evtribo.compare.style import journal_style
 from evtribo.compare.tables import ResultTables
 from evtribo.documents.fit import FitDocument, read_fit
 from evtribo.documents.summary import Summary
@@ -186,51 +180,27 @@ def _tables(results: Results) -> ResultTables:
                         sine_trace=results.sine_trace, bootstrap=results.bootstrap)
 
 
-def _record(kind: str, stem: str, subject: str | None, caption: str) -> dict[str, Any]:
-    title = kind.replace("_", " ").capitalize() + (f", {subject}" if subject else "")
-    return {"kind": kind, "title": title, "stem": stem, "subject": subject,
-            "caption": caption}
+class _Kept:
+    """Keeps compare's figures in memory (the sink of :func:`~evtribo.compare.run.draw_figures`)."""
+
+    def __init__(self, tables: ResultTables, fits: list[SubjectFit]) -> None:
+        self.result = CompareResult(out=tables.out, fits=fits)
+        self.drawn: list[tuple[dict[str, Any], Axes]] = []
+
+    def emit(self, ax: Axes, kind: str, title: str, stem: str, *, subject: str | None = None,
+             caption: str = "", extra: dict[str, Any] | None = None, **_: Any) -> None:
+        self.drawn.append(({"kind": kind, "title": title, "stem": stem, "subject": subject,
+                            "caption": caption, **(extra or {})}, ax))
 
 
-def _figures(tables: ResultTables, fits: list[SubjectFit]
+def _figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...]
              ) -> list[tuple[dict[str, Any], Axes]]:
-    """The comparison figures: per subject F_el vs U and friction vs normal force, then the
-    friction over time of a sine trial and the contact area's increase."""
-    out = []
-    es, win = tables.electrostatic, tables.windows
-    for f in fits:
-        s, stem = f.subject, safe_name(f.subject)
-        out.append((_record("electrostatic_force", f"electrostatic_force_{stem}", s,
-                            "Inferred electrostatic force (95 % intervals) and the fitted "
-                            "model at the subject's mean normal force ON."),
-                    plot_electrostatic_force(es[es["subject"] == s], f.params, subject=s)))
-        out.append((_record("friction_normal_force", f"friction_normal_force_{stem}", s,
-                            "Steady-sliding windows OFF and ON and the model (eq. 5)."),
-                    plot_friction_normal_force(win[win["subject"] == s], f.params,
-                                               subject=s)))
-    trace = tables.sine_trace
-    pick = fits[0]
-    if trace is not None and not trace.empty:
-        first = trace["trial"].astype(str) == str(trace["trial"].iloc[0])
-        trace = trace[first & (trace["subject"].astype(str) == str(trace["subject"].iloc[0]))]
-        pick = next((f for f in fits if f.subject == str(trace["subject"].iloc[0])), pick)
-    sine = es[es["waveform"].astype(str) == "sine"]
-    amp = float(sine["amplitude_V"].max()) if not sine.empty else 140.0
-    fn = float(np.nanmean(es["normal_force_on_N"].to_numpy(float)))
-    out.append((_record("friction_time", "friction_time", None,
-                        "Friction with the voltage ON and OFF, measured sine trial and "
-                        "model (model only without a measured trace)."),
-                plot_friction_time(trace, pick.params, amplitude=amp, normal_force=fn,
-                                   subject=pick.subject)))
-    mean_fn = {f.subject: float(np.nanmean(es.loc[es["subject"] == f.subject,
-                                                  "normal_force_on_N"].to_numpy(float)))
-               for f in fits}
-    out.append((_record("area_increase", "area_increase", None,
-                        "JKR over Hertz contact area at each subject's mean normal force "
-                        "ON with the fitted parameters."),
-                plot_area_increase(mean_fn, {f.subject: f.params for f in fits},
-                                   u_max=max(150.0, float(es["amplitude_V"].max())))))
-    return out
+    """compare's figures of the fit, in the journal style, as ``evtribo compare`` draws them
+    (without the trial checks, which need the study, and the models')."""
+    kept = _Kept(tables, fits)
+    with journal_style("single"):
+        draw_figures(tables, fits, names, kept)
+    return kept.drawn
 
 
 def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
@@ -269,7 +239,7 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
     base = load_parameters(None if params is None else Path(params))
     tables = _tables(results)
     fits = fit_study(tables, base, names)
-    figures = _figures(tables, fits)
+    figures = _figures(tables, fits, names)
     out = Fit(table=typed_table(fit_table(fits, tables), text=FIT_TEXT_COLUMNS),
               figures={r["stem"]: ax.figure for r, ax in figures if isinstance(ax.figure,
                                                                                 Figure)},

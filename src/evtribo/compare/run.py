@@ -298,9 +298,7 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
     result.files.append(Path(FIT_CSV))
     figures = _Figures(stage.folder / FIGURES, look, result)
     with journal_style(look.width):
-        _all_subjects_figure(tables, fits, figures)
-        _subject_figures(tables, fits, names, figures)
-        _study_figures(tables, fits, figures)
+        draw_figures(tables, fits, names, figures)
         if models:
             files, notes = write_models(tables, stage, models, base, figures.emit)
             result.files += files
@@ -308,6 +306,31 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
         if trial_checks:
             result.notes += write_trial_checks(tables, figures.emit, look.formats)
     return result
+
+
+def draw_figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...],
+                 figures: Any) -> None:
+    """Draw compare's figures of the fit (all but the trial checks and the models').
+
+    Parameters
+    ----------
+    tables : ResultTables
+        The results.
+    fits : list of SubjectFit
+        The subjects' fits.
+    names : tuple of str
+        The fitted parameters.
+    figures : object
+        Has ``emit(ax, kind, title, stem, *, subject, caption)`` (writes or keeps one
+        figure) and ``result`` (a :class:`CompareResult`, for notes).
+
+    Returns
+    -------
+    None
+    """
+    _all_subjects_figure(tables, fits, figures)
+    _subject_figures(tables, fits, names, figures)
+    _study_figures(tables, fits, figures)
 
 
 def _all_subjects_figure(tables: ResultTables, fits: list[SubjectFit],
