@@ -207,6 +207,7 @@ def analyze_study(
     settings: AnalysisSettings | None = None,
     overrides: Mapping[str, Any] | None = None,
     progress: ProgressCallback | None = None,
+    scheduler: Any = None,
 ) -> StudyResults:
     """Analyse every trial of a study and write the study format's result tables.
 
@@ -228,6 +229,9 @@ def analyze_study(
     overrides : mapping, optional
         Settings that take precedence over the study's (``{"tare": "none"}``).
     %(progress)s
+    scheduler : distributed.Client or str, optional
+        A Dask cluster to run the trials on (:mod:`evtribo.analysis.distributed`); every
+        path absolute, seen by every worker.
 
     Returns
     -------
@@ -270,22 +274,27 @@ def analyze_study(
         recover(out)
         check_overwrite(out, force)
         return _analyze_locked(study, out, settings, started, started_at, jobs=jobs,
-                               strict=strict, cache_dir=cache_dir, progress=progress)
+                               strict=strict, cache_dir=cache_dir, progress=progress,
+                               scheduler=scheduler)
 
 
 def _analyze_locked(study: Study, out: Path, settings: AnalysisSettings, started: float,
                     started_at: float, *, jobs: int | None, strict: bool,
                     cache_dir: str | os.PathLike[str] | None,
-                    progress: ProgressCallback | None) -> StudyResults:
+                    progress: ProgressCallback | None, scheduler: Any = None) -> StudyResults:
     """:func:`analyze_study` once the output folder is locked."""
     inputs = input_files(study)  # each input hashed once, here
     tasks, not_run, duplicates, warnings = _plan(study, inputs)
     jobs = (os.cpu_count() or 1) if jobs is None else max(1, int(jobs))
     jobs = max(1, min(jobs, len(tasks)))
+    if scheduler is not None and not isinstance(scheduler, str):
+        from evtribo.analysis.distributed import total_threads
+        jobs = total_threads(scheduler)
     assert study.rig is not None
     context = WorkerContext(study.rig, None if cache_dir is None else os.fspath(cache_dir),
                             strict, settings)
-    outcomes = sorted([*run_tasks(tasks, jobs, context, progress), *not_run],
+    outcomes = sorted([*run_tasks(tasks, jobs, context, progress, scheduler=scheduler),
+                       *not_run],
                       key=lambda r: r.index)  # the study's order
     tables = _Tables.of(outcomes, settings)
     warnings = [*study.warnings, *warnings, *tables.warnings, *changed_since(inputs)]
