@@ -215,7 +215,7 @@ def map_unordered(client: Any, func: Callable[..., R], items: Sequence[T], *shar
     futures = [client.submit(func, item, *sent, pure=False) for item in items]
     index = {f.key: i for i, f in enumerate(futures)}
     try:
-        for fut in distributed.as_completed(futures):
+        for fut in distributed.as_completed(futures, loop=client.loop):
             i = index[fut.key]
             try:
                 result = fut.result()
