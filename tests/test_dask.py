@@ -221,3 +221,23 @@ def test_the_missing_extra_is_exit_2_with_the_install_command(study, tmp_path, c
     assert "pip install 'evtribo[dask]'" in proc.stderr
     assert "Traceback" not in proc.stderr
     assert not (tmp_path / "out").exists()
+
+
+def test_compare_dask_refits_give_the_local_fit(cluster, study, tmp_path):
+    import shutil
+
+    local, client = cluster
+    analyze_study(study, tmp_path / "results", jobs=1, cache_dir=tmp_path / "cache")
+    for name in ("here", "dask"):
+        shutil.copytree(tmp_path / "results", tmp_path / name)
+    assert main(["compare", str(tmp_path / "here")]) == 0
+    with distributed.get_task_stream(client) as stream:
+        assert main(["compare", str(tmp_path / "dask"), "--dask",
+                     local.scheduler_address]) == 0
+    # 2 subjects x 200 replicates in chunks of 25, on the workers
+    assert sum("_refit_chunk" in t["key"] for t in stream.data) == 16
+    here, there = (tmp_path / d / "fit.csv" for d in ("here", "dask"))
+    assert here.read_bytes() == there.read_bytes()
+    fits = json.loads((tmp_path / "dask" / "fit.json").read_text())
+    text = json.dumps(fits)
+    assert '"bootstrap"' in text  # the intervals are the refits' (not the Jacobian's)

@@ -120,7 +120,8 @@ def _first_trace(tables: ResultTables) -> tuple[pd.DataFrame | None, str | None]
 
 def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
             params: str | Path | None = None, force: bool = False, dpi: float = 150,
-            formats: tuple[str, ...] = ("png", "svg")) -> CompareResult:
+            formats: tuple[str, ...] = ("png", "svg"),
+            scheduler: Any = None) -> CompareResult:
     """Fit the model to the results in *out* and write ``fit.csv``, ``fit.json``, figures.
 
     Parameters
@@ -137,6 +138,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         Resolution of the PNG figures, dots per inch.
     formats : tuple of str
         Figure formats.
+    scheduler : distributed.Client, optional
+        A Dask cluster for the bootstrap refits (the same results as here).
 
     Returns
     -------
@@ -165,7 +168,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         _check_outputs(folder, force)
         stale = compare_files(folder)
         with Staging(folder) as stage:
-            result = _compare(tables, stage, names, base, dpi=dpi, formats=formats)
+            result = _compare(tables, stage, names, base, dpi=dpi, formats=formats,
+                              scheduler=scheduler)
             _write_json(stage, result, names, base, params,
                         run_id=tables.summary.run_id)
             stage.commit(remove=stale, last=[FIT_JSON])
@@ -175,12 +179,12 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
 
 
 def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
-             base: ModelParameters, *, dpi: float, formats: tuple[str, ...]
-             ) -> CompareResult:
+             base: ModelParameters, *, dpi: float, formats: tuple[str, ...],
+             scheduler: Any = None) -> CompareResult:
     """The fits and figures, written into *stage* (``result.files`` relative to it)."""
     folder = tables.out
     subjects = tables.subjects
-    fits = fit_study(tables, base, names)
+    fits = fit_study(tables, base, names, scheduler=scheduler)
     result = CompareResult(out=folder, fits=fits)
     result.notes += _interval_notes(fits, has_bootstrap=tables.bootstrap is not None)
     table = fit_table(fits, tables)
