@@ -163,12 +163,10 @@ def test_a_lost_worker_is_an_analysis_error_naming_the_item():
             distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                                      dashboard_address=":0") as local, \
             distributed.Client(local, set_as_default=False) as client:
-        got = {}
-        with pytest.raises(AnalysisError, match="trial-1: the Dask worker running it was lost"):
-            for i, value in evdist.map_unordered(client, _exit_on, [0, 1, 2],
-                                                 name=lambda x: f"trial-{x}"):
-                got[i] = value
-        assert set(got) <= {0, 2}
+        assert dict(evdist.map_unordered(client, _exit_on, [0, 2])) == {0: 0, 1: 20}
+        with pytest.raises(AnalysisError, match=r"trial-1: the Dask worker it was given to "
+                                                r"was lost \(KilledWorker"):
+            list(evdist.map_unordered(client, _exit_on, [1], name=lambda x: f"trial-{x}"))
 
 
 def test_map_unordered_gives_every_item_s_result_with_shared_arguments(cluster):
@@ -241,3 +239,56 @@ def test_compare_dask_refits_give_the_local_fit(cluster, study, tmp_path):
     fits = json.loads((tmp_path / "dask" / "fit.json").read_text())
     text = json.dumps(fits)
     assert '"bootstrap"' in text  # the intervals are the refits' (not the Jacobian's)
+
+
+def _hold(event_name: str) -> None:
+    """Keep a worker busy until the named event is set."""
+    distributed.Event(event_name).wait(60)
+
+
+def test_sigterm_cancels_the_trials_on_the_cluster_and_keeps_the_old_results(
+        cluster, study, tmp_path):
+    """Both workers held busy, the command's trials wait on the scheduler; SIGTERM then
+    ends the command as a local run's (exit 143, the old results kept) and takes its
+    trials off the cluster: none of them ever runs."""
+    import signal
+
+    from _process import kill_and_reap
+
+    local, client = cluster
+    out = tmp_path / "out"
+    analyze_study(study, out, jobs=1, cache_dir=tmp_path / "cache")
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    event = distributed.Event(f"hold-{tmp_path.name}", client=client)
+    holds = [client.submit(_hold, event.name, workers=[w], allow_other_workers=False,
+                           pure=False) for w in client.nthreads()]
+    proc = subprocess.Popen([sys.executable, "-m", "evtribo", "analyze", str(study), "--out",
+                             str(out), "--force", "--dask", local.scheduler_address,
+                             "--cache-dir", str(tmp_path / "cache2")],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        with distributed.get_task_stream(client) as stream:
+            deadline = time.monotonic() + 60
+            waiting = 0
+            while waiting < 6 and time.monotonic() < deadline and proc.poll() is None:
+                time.sleep(0.05)
+                waiting = client.run_on_scheduler(lambda dask_scheduler: sum(
+                    k.startswith("analyze_in") for k in map(str, dask_scheduler.tasks)))
+            assert waiting == 6, proc.poll()
+            proc.send_signal(signal.SIGTERM)
+            _, err = proc.communicate(timeout=60)
+            event.set()
+            client.gather(holds)
+            client.cancel(holds)
+        assert proc.returncode == 143, err
+        assert "terminated" in err and "nothing half-written" in err
+        assert "Traceback" not in err
+        assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+        assert not [t for t in stream.data if "analyze_in" in t["key"]]
+        deadline = time.monotonic() + 10
+        while _scheduler_tasks(client) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert _scheduler_tasks(client) == 0
+    finally:
+        event.set()
+        kill_and_reap(proc)

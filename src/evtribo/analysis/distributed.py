@@ -208,7 +208,9 @@ def map_unordered(client: Any, func: Callable[..., R], items: Sequence[T], *shar
     Raises
     ------
     AnalysisError
-        A worker died while running an item (naming it), or the scheduler went away.
+        A worker died while it held an item (naming the item; Dask gives up on an item
+        after ``distributed.scheduler.allowed-failures`` such deaths), or the scheduler
+        went away.
     """
     distributed = import_distributed()
     sent = [client.scatter(s, broadcast=True, hash=False) for s in shared]
@@ -222,8 +224,8 @@ def map_unordered(client: Any, func: Callable[..., R], items: Sequence[T], *shar
             except Exception as err:
                 if not _lost(err, distributed):
                     raise
-                raise AnalysisError(f"{name(items[i])}: the Dask worker running it was lost "
-                                    f"({type(err).__name__}: {err})") from err
+                raise AnalysisError(f"{name(items[i])}: the Dask worker it was given to was "
+                                    f"lost ({type(err).__name__}: {err})") from err
             yield i, result
     finally:
         client.cancel([f for f in futures if not f.done()])
