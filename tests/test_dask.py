@@ -208,15 +208,21 @@ BLOCK_DASK = textwrap.dedent("""
 """)
 
 
-@pytest.mark.parametrize("command", ["analyze", "compare"])
+@pytest.mark.parametrize("command", ["analyze", "compare", "analyze-env"])
 def test_the_missing_extra_is_exit_2_with_the_install_command(study, tmp_path, command):
-    argv = (["analyze", str(study), "--out", str(tmp_path / "out")] if command == "analyze"
-            else ["compare", str(tmp_path / "out")])
-    proc = subprocess.run([sys.executable, "-c", BLOCK_DASK, *argv, "--dask",
-                           "tcp://127.0.0.1:8786"], capture_output=True, text=True,
-                          timeout=120, check=False)
+    argv = (["compare", str(tmp_path / "out")] if command == "compare"
+            else ["analyze", str(study), "--out", str(tmp_path / "out")])
+    env = dict(os.environ)
+    if command == "analyze-env":
+        env[evdist.SCHEDULER_ENV] = "tcp://127.0.0.1:8786"
+    else:
+        argv += ["--dask", "tcp://127.0.0.1:8786"]
+    proc = subprocess.run([sys.executable, "-c", BLOCK_DASK, *argv], capture_output=True,
+                          text=True, timeout=120, check=False, env=env)
     assert proc.returncode == 2, proc.stderr
-    assert "pip install 'evtribo[dask]'" in proc.stderr
+    key = evdist.SCHEDULER_ENV if command == "analyze-env" else "--dask"
+    assert f"error: key '{key}': running on a Dask cluster needs the dask extra: " \
+           "pip install 'evtribo[dask]'" in proc.stderr
     assert "Traceback" not in proc.stderr
     assert not (tmp_path / "out").exists()
 

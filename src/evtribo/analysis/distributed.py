@@ -57,8 +57,13 @@ def scheduler_address(option: str | None) -> str | None:
     return value or None
 
 
-def import_distributed() -> ModuleType:
+def import_distributed(key: str = "--dask") -> ModuleType:
     """The ``distributed`` package, or a clear error when the extra is not installed.
+
+    Parameters
+    ----------
+    key : str
+        What named the scheduler (the option, or :data:`SCHEDULER_ENV`), for the message.
 
     Returns
     -------
@@ -74,12 +79,13 @@ def import_distributed() -> ModuleType:
         import distributed
     except ImportError as err:
         raise UserInputError(f"running on a Dask cluster needs the dask extra: "
-                             f"{INSTALL_HINT} ({err})", key="--dask") from err
+                             f"{INSTALL_HINT} ({err})", key=key) from err
     return distributed
 
 
 @contextmanager
-def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Iterator[Any]:
+def connect(address: str, timeout: float = CONNECT_TIMEOUT_S, *,
+            key: str = "--dask") -> Iterator[Any]:
     """A client of the scheduler at *address*, closed on leaving.
 
     Parameters
@@ -88,6 +94,8 @@ def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Iterator[Any]:
         The scheduler (``tcp://HOST:PORT``).
     timeout : float
         Seconds to wait for it.
+    key : str
+        What named the scheduler (the option, or :data:`SCHEDULER_ENV`), for the messages.
 
     Returns
     -------
@@ -99,13 +107,13 @@ def connect(address: str, timeout: float = CONNECT_TIMEOUT_S) -> Iterator[Any]:
     UserInputError
         The extra is missing, or no scheduler answered at *address* within *timeout*.
     """
-    distributed = import_distributed()
+    distributed = import_distributed(key)
     try:
         client = distributed.Client(address, timeout=timeout, set_as_default=False)
     except (OSError, TimeoutError, ValueError) as err:
         raise UserInputError(f"no Dask scheduler answered at {address} within {timeout:g} s "
                              f"({type(err).__name__}: {err}); start one with "
-                             "`dask scheduler`, or check the address", key="--dask") from err
+                             "`dask scheduler`, or check the address", key=key) from err
     try:
         yield client
     finally:

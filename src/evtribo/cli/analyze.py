@@ -83,13 +83,14 @@ class _ProgressBar:
         self.stream.flush()
 
 
-def _cluster(address: str | None) -> AbstractContextManager[Any]:
-    """A client of the Dask scheduler at *address*, or None for a local run."""
+def _cluster(address: str | None, option: str | None) -> AbstractContextManager[Any]:
+    """A client of the Dask scheduler at *address* (named by the option, else by the
+    environment), or None for a local run."""
     if address is None:
         return nullcontext(None)
-    from evtribo.analysis.distributed import connect
+    from evtribo.analysis.distributed import SCHEDULER_ENV, connect
 
-    return connect(address)
+    return connect(address, key="--dask" if option is not None else SCHEDULER_ENV)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -104,7 +105,7 @@ def run(args: argparse.Namespace) -> int:
     progress = _ProgressBar(sys.stderr) if sys.stderr.isatty() else None
     address = scheduler_address(args.dask)
     try:
-        with sigterm_interrupts(), _cluster(address) as client:
+        with sigterm_interrupts(), _cluster(address, args.dask) as client:
             study, cache_dir = args.study, args.cache_dir
             if client is not None:  # the workers see the paths as this machine does
                 study = os.path.abspath(study)
