@@ -298,3 +298,16 @@ def test_sigterm_cancels_the_trials_on_the_cluster_and_keeps_the_old_results(
     finally:
         event.set()
         kill_and_reap(proc)
+
+
+def test_threads_of_one_worker_keep_each_trial_s_warnings_apart(study, tmp_path):
+    """Three trials at once in the threads of one worker (in this process): each trial's
+    warnings are its own, the tables the local run's."""
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=3, processes=False,
+                                  dashboard_address=":0") as local, \
+            distributed.Client(local, set_as_default=False) as client:
+        analyze_study(study, tmp_path / "dask", cache_dir=tmp_path / "c1", scheduler=client)
+    analyze_study(study, tmp_path / "local", jobs=1, cache_dir=tmp_path / "c2")
+    _same_results(tmp_path / "local", tmp_path / "dask")
+    summary = json.loads((tmp_path / "dask" / "summary.json").read_text())
+    assert summary["jobs"] == 3
