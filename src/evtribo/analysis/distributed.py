@@ -140,7 +140,7 @@ def _worker_view(paths: Sequence[str]) -> tuple[str, list[str]]:
     return __version__, [p for p in paths if not os.path.exists(p)]
 
 
-def check_workers(client: Any, paths: Sequence[str]) -> int:
+def check_workers(client: Any, paths: Sequence[str], *, key: str = "--dask") -> int:
     """Check that every worker runs this evtribo and sees *paths*; return their count.
 
     Parameters
@@ -149,6 +149,8 @@ def check_workers(client: Any, paths: Sequence[str]) -> int:
         A connected client.
     paths : sequence of str
         Absolute paths every worker must see (the study folder, the cache's parent).
+    key : str
+        What named the scheduler (the option, or :data:`SCHEDULER_ENV`), for the messages.
 
     Returns
     -------
@@ -164,21 +166,21 @@ def check_workers(client: Any, paths: Sequence[str]) -> int:
     views = client.run(_worker_view, list(paths), on_error="return")
     if not views:
         raise UserInputError("the Dask cluster has no worker; start some with "
-                             "`dask worker SCHEDULER`", key="--dask")
+                             "`dask worker SCHEDULER`", key=key)
     for worker, view in sorted(views.items()):
         if isinstance(view, BaseException):
             raise UserInputError(f"Dask worker {worker} cannot run evtribo "
                                  f"({type(view).__name__}: {view}); install evtribo "
-                                 f"{__version__} on every worker", key="--dask")
+                                 f"{__version__} on every worker", key=key)
         version, missing = view
         if version != __version__:
             raise UserInputError(f"Dask worker {worker} runs evtribo {version}, this is "
                                  f"{__version__}; install the same on every worker",
-                                 key="--dask")
+                                 key=key)
         if missing:
             raise UserInputError(f"Dask worker {worker} does not see {missing[0]}: the study "
                                  "and the cache must be on storage every worker sees, at "
-                                 "the same absolute path", key="--dask")
+                                 "the same absolute path", key=key)
     return len(views)
 
 

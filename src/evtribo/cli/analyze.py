@@ -93,6 +93,14 @@ def _cluster(address: str | None, option: str | None) -> AbstractContextManager[
     return connect(address, key="--dask" if option is not None else SCHEDULER_ENV)
 
 
+def _check_workers(client: Any, study: str, option: str | None) -> None:
+    """Before anything is written: the cluster has workers, and they see the study."""
+    from evtribo.analysis.distributed import SCHEDULER_ENV, check_workers
+
+    check_workers(client, [study] if os.path.isdir(study) else [],
+                  key="--dask" if option is not None else SCHEDULER_ENV)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``evtribo analyze``; return the exit code."""
     if args.jobs is not None and args.jobs < 1:
@@ -110,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
             if client is not None:  # the workers see the paths as this machine does
                 study = os.path.abspath(study)
                 cache_dir = None if cache_dir is None else os.path.abspath(cache_dir)
+                _check_workers(client, study, args.dask)
             res = analyze_study(study, args.out, jobs=args.jobs, strict=args.strict,
                                 force=args.force, cache_dir=cache_dir,
                                 overrides=overrides, progress=progress, scheduler=client)
