@@ -38,15 +38,22 @@ def run(args: argparse.Namespace) -> int:
     """Run ``evtribo compare``; return the exit code."""
     from contextlib import nullcontext
 
-    from evtribo.analysis.distributed import SCHEDULER_ENV, connect, scheduler_address
+    from evtribo.analysis.distributed import (
+        SCHEDULER_ENV,
+        check_workers,
+        connect,
+        scheduler_address,
+    )
     from evtribo.cli._signals import EXIT_TERMINATED, Terminated, sigterm_interrupts
     from evtribo.compare.run import compare
 
     address = scheduler_address(args.dask)
+    key = "--dask" if args.dask else SCHEDULER_ENV
     try:
         with sigterm_interrupts(), \
-                (nullcontext(None) if address is None else
-                 connect(address, key="--dask" if args.dask else SCHEDULER_ENV)) as client:
+                (nullcontext(None) if address is None else connect(address, key=key)) as client:
+            if client is not None:  # workers there, running this evtribo
+                check_workers(client, [], key=key)
             result = compare(args.out, fit=args.fit, params=args.params, force=args.force,
                              dpi=args.dpi, scheduler=client)
     except Terminated:
