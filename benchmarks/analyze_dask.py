@@ -9,6 +9,9 @@ cells at 2 kHz, 1 % dropped frames, a real rig). Each configuration is timed bes
 - dask: ``analyze_study(scheduler=client)`` on a ``LocalCluster`` of N worker processes of
   one thread each (the cluster's start is timed apart: a real cluster is already running).
 
+Then ``compare``'s bootstrap refits (:func:`~evtribo.compare.fit.fit_study`, every subject's
+200 replicates) on the same clusters against the same refits here, best of ``--repeat``.
+
 Baseline (named in every ratio): decoding alone, python-can's ``LogReader`` and cantools'
 ``decode_message`` frame by frame, as ``benchmarks/analyze.py`` builds it (timed on one trial
 in the same run, scaled by the study's frame count). Run: ``python
@@ -29,6 +32,8 @@ from typing import Any
 
 from evtribo.acquisition.simulator import TrialConfig, default_subjects, simulate_study
 from evtribo.analysis.pipeline import analyze_study
+from evtribo.compare.fit import fit_study
+from evtribo.compare.tables import read_results
 
 
 def _analyze_benchmark() -> Any:
@@ -94,6 +99,9 @@ def main() -> None:
               f"{sum(p.stat().st_size for p in logs) / 1e6:.0f} MB of candump logs")
         print(f"baseline, python-can LogReader + cantools decode_message, decoding only: "
               f"{n_one / t_one / 1e3:.0f} k frames/s, {base_s:.1f} s for the study (scaled)")
+        tables = read_results(base / "out-check")
+        fit_here = timed(args.repeat, lambda i: fit_study(tables))
+        fits: list[tuple[int, float]] = []
         rows: list[tuple[str, int, float, float]] = []
         for n in counts:
             rows.append(("local", n, *cold_and_warm(base, f"local{n}", args.repeat, jobs=n)))
@@ -104,8 +112,13 @@ def main() -> None:
                 start = time.perf_counter() - t
                 rows.append(("dask", n, *cold_and_warm(base, f"dask{n}", args.repeat,
                                                        scheduler=client)))
+                fits.append((n, timed(args.repeat,
+                                      lambda i, c=client: fit_study(tables, scheduler=c))))
             print(f"LocalCluster of {n} worker(s) started in {start:.2f} s (not counted)")
         report(rows, frames, len(logs), base_s)
+        print(f"compare's refits ({len(tables.subjects)} subjects): {fit_here:.3f} s here; "
+              + "; ".join(f"{t:.3f} s on {n} Dask worker(s) ({t / fit_here:.2f}x the time)"
+                          for n, t in fits))
 
 
 def report(rows: list[tuple[str, int, float, float]], frames: int, trials: int,
