@@ -311,3 +311,45 @@ def test_threads_of_one_worker_keep_each_trial_s_warnings_apart(study, tmp_path)
     _same_results(tmp_path / "local", tmp_path / "dask")
     summary = json.loads((tmp_path / "dask" / "summary.json").read_text())
     assert summary["jobs"] == 3
+
+
+BLOCKED_SCHEDULER = textwrap.dedent("""
+    import sys
+
+    class Block:
+        def find_spec(self, name, path=None, target=None):
+            if name.split(".")[0] == "evtribo":
+                raise ImportError("No module named 'evtribo'")
+            return None
+
+    sys.meta_path.insert(0, Block())
+    from distributed.cli.dask_scheduler import main
+    sys.argv = ["dask-scheduler", "--scheduler-file", sys.argv[1], "--port", "0",
+                "--dashboard-address", ":0"]
+    main()
+""")
+
+
+def test_a_scheduler_without_evtribo_is_exit_2_before_anything_runs(study, tmp_path, capsys):
+    """A `dask scheduler` in an environment without evtribo cannot load its tasks: said at
+    once, naming the scheduler, instead of a failure in the middle of the run."""
+    from _process import kill_and_reap
+
+    file = tmp_path / "scheduler.json"
+    proc = subprocess.Popen([sys.executable, "-c", BLOCKED_SCHEDULER, str(file)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 60
+        while not file.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        time.sleep(0.2)  # written whole
+        address = json.loads(file.read_text())["address"]
+        code = main(["analyze", str(study), "--out", str(tmp_path / "out"), "--dask", address])
+        err = capsys.readouterr().err
+    finally:
+        proc.terminate()
+        kill_and_reap(proc, timeout=30)
+    assert code == 2, err
+    assert (f"key '--dask': the Dask scheduler {address} cannot load evtribo's tasks "
+            "(ImportError: No module named 'evtribo'); install evtribo") in err
+    assert not (tmp_path / "out").exists()

@@ -140,8 +140,24 @@ def _worker_view(paths: Sequence[str]) -> tuple[str, list[str]]:
     return __version__, [p for p in paths if not os.path.exists(p)]
 
 
+def _check_scheduler(client: Any, key: str) -> None:
+    """The scheduler loads evtribo's tasks (it unpickles them): the same evtribo there."""
+    try:
+        version, _ = client.run_on_scheduler(_worker_view, [])
+    except Exception as err:
+        raise UserInputError(f"the Dask scheduler {client.scheduler.address} cannot load "
+                             f"evtribo's tasks ({type(err).__name__}: {err}); install evtribo "
+                             f"{__version__} in the scheduler's environment too",
+                             key=key) from err
+    if version != __version__:
+        raise UserInputError(f"the Dask scheduler {client.scheduler.address} runs evtribo "
+                             f"{version}, this is {__version__}; install the same there",
+                             key=key)
+
+
 def check_workers(client: Any, paths: Sequence[str], *, key: str = "--dask") -> int:
-    """Check that every worker runs this evtribo and sees *paths*; return their count.
+    """Check that the scheduler and every worker run this evtribo and that the workers see
+    *paths*; return the workers' count.
 
     Parameters
     ----------
@@ -160,9 +176,12 @@ def check_workers(client: Any, paths: Sequence[str], *, key: str = "--dask") -> 
     Raises
     ------
     UserInputError
-        No worker, a worker that cannot run evtribo or runs another version of it, or a
-        worker that does not see one of *paths* (naming the worker and the path).
+        A scheduler that cannot load evtribo's tasks (evtribo is not installed there) or
+        runs another version of it; no worker, a worker that cannot run evtribo or runs
+        another version of it, or a worker that does not see one of *paths* (naming the
+        worker and the path).
     """
+    _check_scheduler(client, key)
     views = client.run(_worker_view, list(paths), on_error="return")
     if not views:
         raise UserInputError("the Dask cluster has no worker; start some with "
