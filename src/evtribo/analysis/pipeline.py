@@ -60,7 +60,7 @@ from evtribo.analysis.outputs import (
     report_files,
 )
 from evtribo.analysis.provenance import changed_since, input_files, provenance
-from evtribo.analysis.settings import AnalysisSettings
+from evtribo.analysis.settings import AnalysisSettings, study_settings
 from evtribo.analysis.trial import (
     SINE_TRACE_CSV_COLUMNS,
     TRIAL_COLUMNS,
@@ -79,7 +79,7 @@ from evtribo.analysis.workers import (
 from evtribo.documents.summary import write_summary
 from evtribo.errors import StudyError
 from evtribo.resultdir import Staging, locked, recover
-from evtribo.study import STUDY_FILE, Study, TrialRef, load_study
+from evtribo.study import Study, TrialRef, load_study
 
 log = logging.getLogger(__name__)
 
@@ -168,43 +168,6 @@ def _typed(df: pd.DataFrame, columns: tuple[str, ...]) -> pd.DataFrame:
     return df
 
 
-def study_settings(study: Study, overrides: Mapping[str, Any] | None = None,
-                   base: AnalysisSettings | None = None) -> AnalysisSettings:
-    """The analysis settings of a study: *base* (default: the package's defaults), then the
-    ``[analysis]`` table of its study.toml, then *overrides* (the command line's).
-
-    Parameters
-    ----------
-    study : Study
-        The study, as loaded (its ``[analysis]`` table).
-    overrides : mapping, optional
-        Settings that take precedence (``{"tare": "none"}``).
-    base : AnalysisSettings, optional
-        The settings to start from.
-
-    Returns
-    -------
-    AnalysisSettings
-
-    Raises
-    ------
-    ConfigError
-        An unknown key or a bad value, naming study.toml's line and key (or the option).
-    """
-    settings = base or AnalysisSettings()
-    table = study.config.get("analysis") or {}
-    if table:
-        path = study.root / STUDY_FILE
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError):
-            text = None
-        settings = settings.updated(table, source=path, text=text)
-    if overrides:
-        settings = settings.updated(overrides, table="")
-    return settings
-
-
 @fill_doc
 def analyze_study(
     study_dir: str | os.PathLike[str],
@@ -217,6 +180,7 @@ def analyze_study(
     settings: AnalysisSettings | None = None,
     overrides: Mapping[str, Any] | None = None,
     progress: ProgressCallback | None = None,
+    scheduler: Any = None,
 ) -> StudyResults:
     """Analyse every trial of a study and write the study format's result tables.
 
@@ -238,6 +202,9 @@ def analyze_study(
     overrides : mapping, optional
         Settings that take precedence over the study's (``{"tare": "none"}``).
     %(progress)s
+    scheduler : distributed.Client, optional
+        A Dask cluster to run the trials on (:mod:`evtribo.analysis.distributed`); every
+        path absolute, seen by every worker.
 
     Returns
     -------
@@ -274,7 +241,7 @@ def analyze_study(
         recover(out)
         check_overwrite(out, force)
         results = _analyze_locked(study, settings, jobs=jobs, strict=strict,
-                                  cache_dir=cache_dir, progress=progress)
+                                  cache_dir=cache_dir, progress=progress, scheduler=scheduler)
         return write_results(results, out, force=force)
 
 
@@ -283,7 +250,8 @@ def compute_study(study: Study | str | os.PathLike[str], *, jobs: int | None = N
                   strict: bool = False, cache_dir: str | os.PathLike[str] | None = None,
                   settings: AnalysisSettings | None = None,
                   overrides: Mapping[str, Any] | None = None,
-                  progress: ProgressCallback | None = None) -> StudyResults:
+                  progress: ProgressCallback | None = None,
+                  scheduler: Any = None) -> StudyResults:
     """Analyse every trial of a study in memory, writing nothing (but the decoded-trial
     cache; the errors are :func:`analyze_study`'s); :func:`write_results` writes them.
 
@@ -299,6 +267,8 @@ def compute_study(study: Study | str | os.PathLike[str], *, jobs: int | None = N
     overrides : mapping, optional
         Settings over the study's (``{"tare": "none"}``).
     %(progress)s
+    scheduler : distributed.Client, optional
+        A Dask cluster to run the trials on.
 
     Returns
     -------
@@ -307,7 +277,7 @@ def compute_study(study: Study | str | os.PathLike[str], *, jobs: int | None = N
     """
     study, settings = _prepare(study, overrides, settings)
     return _analyze_locked(study, settings, jobs=jobs, strict=strict, cache_dir=cache_dir,
-                           progress=progress)
+                           progress=progress, scheduler=scheduler)
 
 
 def _prepare(study: Study | str | os.PathLike[str], overrides: Mapping[str, Any] | None,
@@ -323,7 +293,7 @@ def _prepare(study: Study | str | os.PathLike[str], overrides: Mapping[str, Any]
 
 def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | None,
                     strict: bool, cache_dir: str | os.PathLike[str] | None,
-                    progress: ProgressCallback | None) -> StudyResults:
+                    progress: ProgressCallback | None, scheduler: Any = None) -> StudyResults:
     """The analysis in memory (:func:`analyze_study`'s under the output folder's lock)."""
     started = time.perf_counter()
     started_at = time.time()
@@ -331,10 +301,14 @@ def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | Non
     tasks, not_run, duplicates, warnings = _plan(study, inputs)
     jobs = (os.cpu_count() or 1) if jobs is None else max(1, int(jobs))
     jobs = max(1, min(jobs, len(tasks)))
+    if scheduler is not None and not isinstance(scheduler, str):
+        from evtribo.analysis.distributed import total_threads
+        jobs = total_threads(scheduler)
     assert study.rig is not None
     context = WorkerContext(study.rig, None if cache_dir is None else os.fspath(cache_dir),
                             strict, settings)
-    outcomes = sorted([*run_tasks(tasks, jobs, context, progress), *not_run],
+    outcomes = sorted([*run_tasks(tasks, jobs, context, progress, scheduler=scheduler),
+                       *not_run],
                       key=lambda r: r.index)  # the study's order
     tables = _Tables.of(outcomes, settings)
     warnings = [*study.warnings, *warnings, *tables.warnings, *changed_since(inputs)]

@@ -44,21 +44,38 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         "it: forces, ON phases, windows, lifted and excluded stretches)")
     p.add_argument("--force", action="store_true",
                    help="overwrite the outputs of a previous comparison")
+    p.add_argument("--dask", metavar="ADDRESS", default=None,
+                   help="run the bootstrap refits on this Dask cluster (tcp://HOST:PORT; "
+                        "default: $EVTRIBO_DASK_SCHEDULER, else here); the same results; "
+                        "needs pip install 'evtribo[dask]' (docs/cluster.md)")
     p.set_defaults(func=run)
     return p
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``evtribo compare``; return the exit code."""
+    from contextlib import nullcontext
+
+    from evtribo.analysis.distributed import (
+        SCHEDULER_ENV,
+        check_workers,
+        connect,
+        scheduler_address,
+    )
     from evtribo.cli._signals import EXIT_TERMINATED, Terminated, sigterm_interrupts
     from evtribo.compare.run import compare
 
+    address = scheduler_address(args.dask)
+    key = "--dask" if args.dask else SCHEDULER_ENV
     try:
-        with sigterm_interrupts():
+        with sigterm_interrupts(), \
+                (nullcontext(None) if address is None else connect(address, key=key)) as client:
+            if client is not None:  # workers there, running this evtribo
+                check_workers(client, [], key=key)
             result = compare(args.out, fit=args.fit, params=args.params, force=args.force,
                              dpi=args.dpi, formats=args.figure_format,
                              width=args.figure_width, models=args.models,
-                             trial_checks=args.trial_checks)
+                             trial_checks=args.trial_checks, scheduler=client)
     except Terminated:
         print(f"evtribo compare: terminated; {args.out} holds the fit it held before (or all "
               "of the new one), nothing half-written", file=sys.stderr)

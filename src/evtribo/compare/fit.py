@@ -51,6 +51,7 @@ import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -76,6 +77,8 @@ __all__ = ["N_REFITS", "ParameterEstimate", "SubjectFit", "fit_study", "fit_subj
 _Z95 = float(stats.norm.ppf(0.975))
 #: Bootstrap replicates refitted per subject (the first ones of electrostatic_bootstrap.csv).
 N_REFITS = 200
+#: Replicates per call of a Dask worker when the refits run on a cluster.
+REFIT_CHUNK = 25
 #: Fewest converged refits for a bootstrap interval (else the Jacobian's).
 MIN_REFITS = MIN_REPLICATES
 
@@ -147,9 +150,30 @@ class SubjectFit:
         raise KeyError(name)
 
 
+def _refit_chunk(targets: NDArray[np.float64], problem: Problem,
+                 x0: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The converged refits of some replicates (one call of a Dask worker)."""
+    return refit_replicates(problem.model_at, x0, targets, problem.pts.sigma, problem.lower,
+                            upper=problem.upper)
+
+
+def _refits(problem: Problem, x0: NDArray[np.float64], targets: NDArray[np.float64],
+            scheduler: Any) -> NDArray[np.float64]:
+    """The converged refits, here or in chunks of :data:`REFIT_CHUNK` on a Dask cluster
+    (each replicate's refit is its own, so the chunks give the same refits in order)."""
+    if scheduler is None or len(targets) == 0:
+        return _refit_chunk(targets, problem, x0)
+    from evtribo.analysis.distributed import map_unordered
+
+    chunks = [targets[i:i + REFIT_CHUNK] for i in range(0, len(targets), REFIT_CHUNK)]
+    done = dict(map_unordered(scheduler, _refit_chunk, chunks, problem, x0,
+                              name=lambda _: f"subject {problem.subject}'s refits"))
+    return np.concatenate([done[i] for i in range(len(chunks))])
+
+
 def _bootstrap(problem: Problem, res: optimize.OptimizeResult, cov_x: NDArray[np.float64],
-               replicates: ArrayLike, *, n_rows: int,
-               stretch: float) -> tuple[NDArray[np.float64] | None, str]:
+               replicates: ArrayLike, *, n_rows: int, stretch: float,
+               scheduler: Any = None) -> tuple[NDArray[np.float64] | None, str]:
     """The scaled parameters refitted to the replicates (stretched like the Jacobian's
     spread when the model misfits), or None and why the Jacobian is used."""
     subject, pts = problem.subject, problem.pts
@@ -162,8 +186,7 @@ def _bootstrap(problem: Problem, res: optimize.OptimizeResult, cov_x: NDArray[np
     elif not np.all(np.isfinite(cov_x)):
         note = "a parameter is not determined by the data"
     else:
-        refits = refit_replicates(problem.model_at, res.x, reps[:, pts.good], pts.sigma,
-                                   problem.lower, upper=problem.upper)
+        refits = _refits(problem, res.x, reps[:, pts.good], scheduler)
         if refits.shape[0] >= MIN_REFITS:
             boot = res.x + stretch * (np.minimum(refits, problem.upper) - res.x)
         else:
@@ -271,7 +294,7 @@ def _correlation(subject: str, names: Sequence[str],
 def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_1,
                 fit: Sequence[str] = DEFAULT_FIT,
                 windows: pd.DataFrame | None = None, *,
-                replicates: ArrayLike | None = None) -> SubjectFit:
+                replicates: ArrayLike | None = None, scheduler: Any = None) -> SubjectFit:
     """Fit the model's parameters *fit* to one subject's electrostatic results.
 
     Parameters
@@ -291,6 +314,8 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
         Bootstrap replicates of the rows' electrostatic forces, N
         (:func:`evtribo.compare.tables.replicate_matrix`); the intervals then come from
         refits to them.
+    scheduler : distributed.Client, optional
+        A Dask cluster for the bootstrap refits (the same refits as here).
 
     Returns
     -------
@@ -323,7 +348,8 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
     if replicates is not None:
         # replicate spread, inflated like the Jacobian's when the model misfits
         boot, note = _bootstrap(problem, res, cov_x, replicates, n_rows=len(rows),
-                                stretch=math.sqrt(scale) * quantile / _Z95)
+                                stretch=math.sqrt(scale) * quantile / _Z95,
+                                scheduler=scheduler)
     cov_corr = cov_x if boot is None else np.atleast_2d(np.cov(boot, rowvar=False))
     estimates = _estimates(problem, res.x, cov_x if boot is None else cov_corr, boot,
                            quantile, profile=_profile_intervals(problem, res, scale,
@@ -357,7 +383,7 @@ def _with_frequency(windows: pd.DataFrame, trials: pd.DataFrame) -> pd.DataFrame
 
 
 def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
-              fit: Sequence[str] = DEFAULT_FIT) -> list[SubjectFit]:
+              fit: Sequence[str] = DEFAULT_FIT, *, scheduler: Any = None) -> list[SubjectFit]:
     """Fit every subject of a result folder (see :func:`fit_subject`).
 
     The intervals come from refits to ``electrostatic_bootstrap.csv``'s replicates when the
@@ -371,6 +397,8 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
         Starting values and the fixed parameters.
     fit : sequence of str
         Names of the parameters to fit per subject.
+    scheduler : distributed.Client, optional
+        A Dask cluster for the bootstrap refits (the same refits as here).
 
     Returns
     -------
@@ -390,5 +418,6 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
             if reps is None:
                 log.warning("subject %s: electrostatic_bootstrap.csv lacks replicates of "
                             "some of its points; intervals from the Jacobian", subject)
-        fits.append(fit_subject(subject, rows, base, fit, win, replicates=reps))
+        fits.append(fit_subject(subject, rows, base, fit, win, replicates=reps,
+                                scheduler=scheduler))
     return fits

@@ -174,7 +174,7 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
             dpi: float | None = None, formats: str | Iterable[str] | None = None,
             width: str = "single",
             models: str | Iterable[str] | None = None,
-            trial_checks: bool = True) -> CompareResult:
+            trial_checks: bool = True, scheduler: Any = None) -> CompareResult:
     """Fit the model to the results in *out* and write ``fit.csv``, ``fit.json``, figures.
 
     Parameters
@@ -198,6 +198,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         writes ``models.csv`` and a ``frequency_response`` figure per subject.
     trial_checks : bool
         Draw the check of every trial (kind ``trial``) when the study folder is there.
+    scheduler : distributed.Client, optional
+        A Dask cluster for the bootstrap refits (the same results as here).
 
     Returns
     -------
@@ -231,7 +233,7 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         stale = compare_files(folder)
         with Staging(folder) as stage:
             result = _compare(tables, stage, names, base, look, models=candidates,
-                              trial_checks=trial_checks)
+                              trial_checks=trial_checks, scheduler=scheduler)
             _write_json(stage, result, names, base, params,
                         run_id=tables.summary.run_id)
             stage.commit(remove=stale, last=[FIT_JSON])
@@ -288,9 +290,9 @@ class _Figures:
 
 def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
              base: ModelParameters, look: _Look, *, models: tuple[str, ...] = (),
-             trial_checks: bool = True) -> CompareResult:
+             trial_checks: bool = True, scheduler: Any = None) -> CompareResult:
     """The fits and figures, written into *stage* (``result.files`` relative to it)."""
-    fits = fit_study(tables, base, names)
+    fits = fit_study(tables, base, names, scheduler=scheduler)
     result = CompareResult(out=tables.out, fits=fits)
     result.notes += _interval_notes(fits, has_bootstrap=tables.bootstrap is not None)
     table = fit_table(fits, tables)
