@@ -240,6 +240,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "compare-fit-unknown": _text(Path("out/electrostatic.csv"), "subject\n"),
     "compare-params-not-toml": _text(Path("params.toml"), "h_L = = 3\n"),
     "report-no-results": lambda t: None,
+    "report-tables-unknown-format": lambda t: None,
     "acquire-subject-path": lambda t: None,
     "acquire-amplitude-string": lambda t: None,
     "acquire-waveform": lambda t: None,

@@ -1,0 +1,324 @@
+"""The report leads with the answer: the order of its sections, the F_el table in mN with
+intervals first, air gaps in µm, no number in scientific notation, each trial's check
+folded, the model comparison, and the headline tables exported as Markdown and LaTeX.
+
+The result folder is what ``evtribo analyze`` and ``evtribo compare`` write of a simulated
+study (analysed.py); :func:`_with_checks_and_models` adds what a comparison with per-trial
+checks and ``--models`` adds to it: figure records of the kinds ``electrostatic_force_all``,
+``trial`` and ``frequency_response`` (drawn here from the folder's own tables) and a
+``models.csv``, all recorded in fit.json with their SHA-256 as compare records its files.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from html.parser import HTMLParser
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+import pytest
+from analysed import analysed_study
+
+from evtribo.analysis.outputs import report_files
+from evtribo.cli import main
+from evtribo.compare import compare
+from evtribo.compare.headline import CITATION
+from evtribo.compare.study_report import build_report
+from evtribo.files import sha256_file
+
+#: A number in scientific notation (``1e-06``, ``3.2E+04``), not inside a word or hash.
+SCIENTIFIC = re.compile(r"(?<![\w.])[-+]?\d+(?:\.\d+)?[eE][-+]?\d+(?![\w.])")
+#: A cell of the F_el table: ``26.5 [25.7, 27.4]``.
+CELL = re.compile(r"^(\d+(?:\.\d+)?) \[(\d+(?:\.\d+)?), (\d+(?:\.\d+)?)\]$")
+
+
+class _Outline(HTMLParser):
+    """The page's outline: sections (h2), tables (with the h3 above), details, text."""
+
+    def __init__(self) -> None:
+        super().__init__(convert_charrefs=True)
+        self.sections: list[str] = []
+        self.tables: list[dict] = []
+        self.details: list[dict] = []
+        self.text: list[str] = []
+        self._stack: list[str] = []
+        self._h3 = ""
+        self._cell: list[str] | None = None
+
+    def handle_starttag(self, tag, attrs):
+        self._stack.append(tag)
+        if tag == "table":
+            self.tables.append({"title": self._h3, "section": self.sections[-1],
+                                "headers": [], "rows": []})
+        elif tag == "tr" and self.tables:
+            self.tables[-1]["rows"].append([])
+        elif tag in ("td", "th"):
+            self._cell = []
+        elif tag == "details":
+            self.details.append({"summary": "", "imgs": 0, "section": self.sections[-1]})
+        elif tag == "img" and "details" in self._stack:
+            self.details[-1]["imgs"] += 1
+
+    def handle_endtag(self, tag):
+        while self._stack and self._stack.pop() != tag:
+            pass
+        if tag in ("td", "th") and self._cell is not None:
+            text = "".join(self._cell).strip()
+            table = self.tables[-1]
+            (table["headers"] if tag == "th" else table["rows"][-1]).append(text)
+            self._cell = None
+
+    def handle_data(self, data):
+        if "style" in self._stack:
+            return
+        self.text.append(data)
+        top = self._stack[-1] if self._stack else ""
+        if top == "h2":
+            self.sections.append(data.strip())
+        elif top == "h3":
+            self._h3 = data.strip()
+        elif top == "summary":
+            self.details[-1]["summary"] += data
+        if self._cell is not None:
+            self._cell.append(data)
+
+
+def _outline(path: Path) -> _Outline:
+    page = _Outline()
+    page.feed(path.read_text(encoding="utf-8"))
+    page.close()
+    for t in page.tables:
+        t["rows"] = [r for r in t["rows"] if r]
+    return page
+
+
+def _save(fig, path: Path) -> None:
+    fig.savefig(path, dpi=40)
+    plt.close(fig)
+
+
+def _figures(out: Path) -> list[dict]:
+    """Figures of the three kinds, drawn from the folder's tables; their records."""
+    es = pd.read_csv(out / "electrostatic.csv", dtype={"subject": str})
+    win = pd.read_csv(out / "windows.csv", dtype={"subject": str, "trial": str})
+    trials = pd.read_csv(out / "trials.csv", dtype={"subject": str, "trial": str})
+    fig, ax = plt.subplots()
+    for s, rows in es.groupby("subject"):
+        ax.errorbar(rows["amplitude_V"], 1e3 * rows["electrostatic_force_N"], fmt="o", label=s)
+    _save(fig, out / "figures" / "electrostatic_force_all.png")
+    records = [{"kind": "electrostatic_force_all", "title": "Electrostatic force, all subjects",
+                "stem": "electrostatic_force_all", "subject": None, "caption": "All subjects."}]
+    for _, t in trials.iterrows():
+        stem = f"trial_{t['subject']}_{t['trial']}"
+        mine = win[(win["subject"] == t["subject"]) & (win["trial"] == t["trial"])]
+        fig, ax = plt.subplots()
+        ax.hlines(mine["friction_force_N"], mine["t_start_s"], mine["t_end_s"])
+        _save(fig, out / "figures" / f"{stem}.png")
+        records.append({"kind": "trial", "title": f"Trial {t['subject']}/{t['trial']}",
+                        "stem": stem, "subject": t["subject"], "trial": t["trial"],
+                        "caption": "Windows used."})
+    for s, rows in es.groupby("subject"):
+        fig, ax = plt.subplots()
+        ax.plot(rows["frequency_Hz"], rows["electrostatic_force_N"], "o")
+        stem = f"frequency_response_{s}"
+        fig.savefig(out / "figures" / f"{stem}.{'svg' if s == 'P01' else 'pdf'}")
+        plt.close(fig)
+        records.append({"kind": "frequency_response", "title": f"F_el vs frequency, {s}",
+                        "stem": stem, "subject": s, "caption": "Each model's curve."})
+    return records
+
+
+def _models(out: Path) -> pd.DataFrame:
+    """models.csv of two candidates per subject, from fit.csv's misfit: the paper's model,
+    and one more parameter with the same misfit (ΔAIC = 2)."""
+    fit = pd.read_csv(out / "fit.csv", dtype={"subject": str})
+    rows = []
+    for _, f in fit.iterrows():
+        n = int(f["n_points"])
+        rss = float(f["rmse_N"]) ** 2 * n
+        for model, k, fitted in (("paper", 1, f"h_L={f['value']:.6g}"),
+                                 ("circuit", 2, f"h_L={f['value']:.6g}; r_g=0.012")):
+            aic = n * math.log(rss / n) + 2 * k
+            rows.append({"subject": f["subject"], "model": model, "fitted": fitted,
+                         "n_params": k, "n_points": n, "rss_N2": rss, "aic": aic,
+                         "bic": n * math.log(rss / n) + k * math.log(n)})
+    models = pd.DataFrame(rows)
+    best = models.groupby("subject")["aic"].transform("min")
+    models["delta_aic"] = models["aic"] - best
+    w = np.exp(-models["delta_aic"] / 2)
+    models["akaike_weight"] = w / w.groupby(models["subject"]).transform("sum")
+    return models.sort_values(["subject", "aic"])
+
+
+def _with_checks_and_models(out: Path) -> None:
+    doc = json.loads((out / "fit.json").read_text(encoding="utf-8"))
+    doc["figures"] += _figures(out)
+    _models(out).to_csv(out / "models.csv", index=False)
+    written = ["models.csv", *(f"figures/{p.name}" for p in (out / "figures").iterdir())]
+    doc["output_sha256"].update({rel: sha256_file(out / rel) for rel in written})
+    (out / "fit.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+
+
+@pytest.fixture(scope="module")
+def out(tmp_path_factory) -> Path:
+    _, folder = analysed_study(tmp_path_factory.mktemp("headline"))
+    compare(folder, dpi=40)
+    _with_checks_and_models(folder)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def page(out) -> tuple[Path, _Outline]:
+    assert main(["report", str(out), "--tables", "md,tex"]) == 0
+    path = out / "report.html"
+    return path, _outline(path)
+
+
+def test_sections_in_order(page):
+    _, outline = page
+    assert outline.sections == ["Electrostatic force", "Model fit", "All subjects",
+                                "Model comparison", "Subject P01", "Subject P02", "Warnings",
+                                "Provenance and settings"]
+    # the study's facts (run_id, strict, elapsed_s...) are in the last section only
+    facts = next(t for t in outline.tables if t["title"] == "Study")
+    assert facts["section"] == "Provenance and settings"
+    assert ["strict", "False"] in facts["rows"]
+
+
+def test_first_table_is_the_force_table_in_mN(page, out):
+    _, outline = page
+    first = outline.tables[0]
+    assert "(mN)" in first["title"] and first["section"] == "Electrostatic force"
+    assert first["headers"] == ["Subject", "Waveform", "Frequency", "80 V", "120 V", "160 V"]
+    es = pd.read_csv(out / "electrostatic.csv", dtype={"subject": str})
+    seen = 0
+    for row in first["rows"]:
+        subject, waveform, _, *cells = row
+        for amp, cell in zip((80.0, 120.0, 160.0), cells, strict=True):
+            hit = es[(es["subject"] == subject) & (es["waveform"] == waveform)
+                     & (es["amplitude_V"] == amp)]
+            if hit.empty:
+                assert cell == "—"
+                continue
+            m = CELL.match(cell)
+            assert m, cell
+            value, low, high = (float(g) for g in m.groups())
+            want = 1e3 * hit.iloc[0][["electrostatic_force_N", "electrostatic_force_ci_low_N",
+                                      "electrostatic_force_ci_high_N"]].to_numpy(float)
+            # three significant figures of the value; the bounds with its decimals
+            assert value == pytest.approx(want[0], rel=5e-3)
+            assert low <= value <= high
+            assert (low, high) == pytest.approx(tuple(want[1:]), rel=1e-2, abs=0.5)
+            seen += 1
+    assert seen == len(es)
+
+
+def test_air_gaps_in_micrometres(page, out):
+    _, outline = page
+    fit_table = next(t for t in outline.tables if t["title"] == "Model fit per subject")
+    col = fit_table["headers"].index("air gap h_L (µm)")
+    fit = pd.read_csv(out / "fit.csv", dtype={"subject": str}).set_index("subject")
+    for row in fit_table["rows"]:
+        value, low, high = (float(g) for g in CELL.match(row[col]).groups())
+        assert value == pytest.approx(fit.loc[row[0], "value"] * 1e6, rel=5e-3)
+        assert low < value < high
+    r2 = fit_table["headers"].index("R²")
+    assert all(row[r2] not in ("1", "1.0") for row in fit_table["rows"])
+    params = next(t for t in outline.tables if t["title"].startswith("Model parameters"))
+    roles = {r[0]: r[2] for r in params["rows"]}
+    assert roles["friction coefficient μ"].startswith("measured")
+    assert roles["air gap h_L"].startswith("fitted")
+    assert roles["effective modulus E*"] == "fixed: Table 1 of the paper"
+
+
+def test_no_number_in_scientific_notation(page):
+    path, outline = page
+    text = [t for t in outline.text if t.strip()]
+    assert len(text) > 300
+    found = [t for t in text if SCIENTIFIC.search(t)]
+    assert not found, found[:5]
+    assert SCIENTIFIC.search("air gap 3.0001e-06 m")  # the check does see one
+    assert CITATION in path.read_text(encoding="utf-8").replace("&#34;", '"')
+
+
+def test_each_trial_checked_in_details(page, out):
+    _, outline = page
+    trials = pd.read_csv(out / "trials.csv", dtype={"subject": str, "trial": str})
+    assert len(outline.details) == len(trials)
+    for d, (_, t) in zip(outline.details, trials.iterrows(), strict=True):
+        assert d["section"] == f"Subject {t['subject']}" and d["imgs"] == 1
+        assert d["summary"].startswith(f"{t['trial']}: {t['waveform']}")
+        assert f"{t['amplitude_V']:g} V" in d["summary"]
+    by_trial = {d["summary"].split(":")[0] + d["section"]: d["summary"]
+                for d in outline.details}
+    assert "excluded: 1 damaged line(s) skipped" in by_trial["run-03Subject P01"]
+    assert "excluded: 3 dropped frame(s)" in by_trial["run-02Subject P02"]
+    assert "nothing excluded" in by_trial["run-01Subject P01"]
+
+
+def test_model_comparison(page, out):
+    path, outline = page
+    tables = [t for t in outline.tables if t["section"] == "Model comparison"]
+    assert [t["title"] for t in tables] == ["Models compared, P01", "Models compared, P02"]
+    for t in tables:
+        assert t["headers"] == ["model", "fitted", "parameters", "AIC", "ΔAIC",
+                                "Akaike weight"]
+        assert [r[0] for r in t["rows"]] == ["paper", "circuit"]
+        assert [r[4] for r in t["rows"]] == ["0.0", "2.0"]
+        assert t["rows"][0][5] == f"{1 / (1 + math.exp(-1)):.3f}"
+        assert "µm" in t["rows"][0][1] and "r_g = 12.0 mΩ·m²" in t["rows"][1][1]
+    html = path.read_text(encoding="utf-8")
+    assert 'src="data:image/svg+xml;base64,' in html  # P01's response, an SVG only
+    assert 'href="figures/frequency_response_P02.pdf"' in html  # P02's, a PDF only
+
+
+def _md_rows(text: str) -> list[list[str]]:
+    lines = [ln for ln in text.splitlines() if ln.startswith("|")]
+    return [[c.strip() for c in ln.strip("|").split("|")] for ln in lines
+            if not set(ln) <= set("|-: ")]
+
+
+def test_tables_exported_as_markdown_and_latex(page, out):
+    _, outline = page
+    html_tables = {"electrostatic_force": outline.tables[0],
+                   "fit": next(t for t in outline.tables
+                               if t["title"] == "Model fit per subject")}
+    for stem, table in html_tables.items():
+        md = (out / "tables" / f"{stem}.md").read_text(encoding="utf-8")
+        assert _md_rows(md) == [table["headers"], *table["rows"]]
+        tex = (out / "tables" / f"{stem}.tex").read_text(encoding="utf-8").splitlines()
+        rules = [tex.index(r) for r in (r"\toprule", r"\midrule", r"\bottomrule")]
+        assert rules == sorted(rules) and rules[1] - rules[0] == 2
+        body = tex[rules[1] + 1:rules[2]]
+        assert len(body) == len(table["rows"])
+        for line, row in zip(body, table["rows"], strict=True):
+            assert line.endswith(r"\\") and line.count(" & ") == len(row) - 1
+            for cell in row:  # the same numbers as the page
+                for number in re.findall(r"\d+(?:\.\d+)?", cell):
+                    assert number in line
+    fit_tex = (out / "tables" / "fit.tex").read_text(encoding="utf-8")
+    assert r"air gap h\_L (\textmu{}m)" in fit_tex  # units in plain LaTeX
+    assert "doi:10.3390/lubricants7120102" in fit_tex
+
+
+def test_tables_are_files_of_the_report(page, out, tmp_path):
+    assert {"tables/fit.md", "tables/fit.tex", "tables/electrostatic_force.md",
+            "tables/electrostatic_force.tex"} <= set(report_files(out))
+    # refused without --force; a new report without --tables takes the old tables away
+    assert main(["report", str(out), "--tables", "md"]) == 2
+    assert (out / "tables" / "fit.tex").is_file()
+    assert main(["report", str(out), "--force"]) == 0
+    assert not (out / "tables").exists() or not any((out / "tables").iterdir())
+    assert main(["report", str(out), "--force", "--tables", "md,tex"]) == 0
+    # a report elsewhere: its tables beside it
+    path = build_report(out, tmp_path / "r.html", tables="tex")
+    assert sorted(p.name for p in (tmp_path / "tables").iterdir()) == [
+        "electrostatic_force.tex", "fit.tex"]
+    assert path.is_file()
