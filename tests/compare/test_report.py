@@ -110,7 +110,7 @@ def test_report_holds_every_figure_and_table(report_page, compared_out):
                         "Analysis settings"):
         assert table_title in text
     for col in ("air gap h_L (µm)", "μ measured (OFF)", "exponent n, measured", "R²",
-                "RMSE (mN)", "F_el (mN) [95 %]", "dropped_frames", "sha256"):
+                "RMSE (mN)", "F_el (mN) [95 %]", "dropped frames", "sha256"):
         assert col in page.headers
     # the fitted air gap is in the page, in µm to three significant figures
     fit = pd.read_csv(compared_out / "fit.csv")

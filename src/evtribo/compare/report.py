@@ -194,7 +194,7 @@ class Report:
 
     def add_table(self, table: pd.DataFrame, title: str, *, caption: str = "",
                   section: str | None = None, float_format: str = ".4g",
-                  columns: Sequence[str] | None = None, wrap: bool = False) -> None:
+                  columns: Sequence[str] | None = None, wrap: bool | str = False) -> None:
         """Add a table (every cell escaped).
 
         Parameters
@@ -209,8 +209,9 @@ class Report:
             Format of floating-point cells.
         columns : sequence of str, optional
             Columns to show (default: all).
-        wrap : bool
-            Let long cells wrap at their spaces (a table that must fit the page's width).
+        wrap : bool or str
+            Let long cells wrap at their spaces (a table that must fit the page's width);
+            ``"anywhere"`` also breaks long words (file names, hashes).
 
         Returns
         -------

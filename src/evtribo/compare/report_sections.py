@@ -280,12 +280,13 @@ def _trials_view(trials: pd.DataFrame) -> pd.DataFrame:
         view["drive"] = [f"{w} {frequency(f)}, {voltage(a)}" for w, f, a in zip(
             trials["waveform"].astype(str), trials.get("frequency_Hz", nan),
             trials.get("amplitude_V", nan), strict=True)]
-    for col in ("condition", "duration_s", "frames", "dropped_frames", "skipped_lines"):
+    names = {"condition": "condition", "duration_s": "duration (s)", "frames": "frames",
+             "dropped_frames": "dropped frames", "skipped_lines": "damaged lines"}
+    for col, name in names.items():
         if col in trials.columns:
-            view[col.replace("_s", " (s)") if col == "duration_s" else col] = [
-                significant(v, 3) if col == "duration_s" else
-                (str(int(to_float(v))) if math.isfinite(to_float(v)) else str(v))
-                for v in trials[col]]
+            view[name] = [significant(v, 3) if col == "duration_s" else
+                          (str(int(to_float(v))) if math.isfinite(to_float(v)) else str(v))
+                          for v in trials[col]]
     for col, name in (("normal_offset_N", "normal offset"),
                       ("tangential_offset_N", "tangential offset")):
         if col in trials.columns:
@@ -400,7 +401,7 @@ def add_provenance(report: Report, tables: ResultTables, fit_doc: FitDocument, *
     None
     """
     sec = SECTIONS["provenance"]
-    report.add_table(_facts(tables, fit_doc, study), "Study", section=sec)
+    report.add_table(_facts(tables, fit_doc, study), "Study", section=sec, wrap=True)
     view = _trials_view(trials)
     view.insert(0, "subject", trials["subject"].astype(str).to_numpy())
     report.add_table(view, "Trials", section=sec, wrap=True,
@@ -421,15 +422,17 @@ def add_provenance(report: Report, tables: ResultTables, fit_doc: FitDocument, *
                    if study_dir is not None else "The study folder named in summary.json is "
                    "not available here: the inputs could not be hashed again.")
         report.add_table(inputs, "Input files (as recorded in summary.json)", section=sec,
-                         caption=caption)
+                         caption=caption, wrap="anywhere")
     else:
         report.add_text("summary.json records no input files inside the study folder.",
                         section=sec)
-    report.add_table(_result_files(tables.out, output), "Result files", section=sec)
+    report.add_table(_result_files(tables.out, output), "Result files", section=sec,
+                     wrap="anywhere")
     if rig:
         report.add_table(pd.DataFrame([{"key": k, "value": _setting(v)}
-                                       for k, v in rig.items()]), "Rig", section=sec)
-    report.add_table(_software(tables.summary, fit_doc), "Software", section=sec)
+                                       for k, v in rig.items()]), "Rig", section=sec,
+                         wrap=True)
+    report.add_table(_software(tables.summary, fit_doc), "Software", section=sec, wrap=True)
     settings = tables.summary.settings
     if settings:
         report.add_table(pd.DataFrame([{"setting": k, "value": _setting(v)}
