@@ -250,3 +250,17 @@ def test_tables_are_files_of_the_report(page, out, tmp_path):
     assert sorted(p.name for p in (tmp_path / "tables").iterdir()) == [
         "electrostatic_force.tex", "fit.tex"]
     assert path.is_file()
+
+
+def test_analyze_force_replaces_the_tables(tmp_path):
+    study, folder = analysed_study(tmp_path)
+    compare(folder, dpi=30)
+    (folder / "tables").mkdir()
+    (folder / "tables" / "notes.md").write_text("mine\n", encoding="utf-8")  # not ours
+    assert main(["report", str(folder), "--tables", "md,tex"]) == 0
+    assert len(list((folder / "tables").iterdir())) == 5
+    assert main(["analyze", str(study), "--out", str(folder), "--jobs", "1"]) == 2
+    assert (folder / "tables" / "fit.md").is_file()
+    assert main(["analyze", str(study), "--out", str(folder), "--jobs", "1", "--force"]) == 0
+    assert [p.name for p in (folder / "tables").iterdir()] == ["notes.md"]
+    assert not (folder / "report.html").exists()
