@@ -5,9 +5,11 @@
 >>> report.add_figure(fig, "F_el vs U", caption="...", section="P01")  # doctest: +SKIP
 >>> report.save("report.html")                                      # doctest: +SKIP
 
-The page is one file: figures are embedded as base64 PNG (``data:`` URIs), the style sheet is
-inline, nothing is loaded from anywhere, so it opens offline and can be mailed. Each figure is
-also written as PNG and SVG into a folder beside it (``report_files/`` for ``report.html``).
+The page is one file: figures are embedded as base64 PNG or SVG (``data:`` URIs), the style
+sheet is inline, nothing is loaded from anywhere, so it opens offline and can be mailed. A
+figure given as a matplotlib figure is also written as PNG and SVG into a folder beside it
+(``report_files/`` for ``report.html``); one given as a file on disk is embedded (PNG, SVG)
+or linked (PDF), not copied.
 
 The page is rendered from the Jinja2 template ``templates/report.html.j2`` with autoescaping
 on: every title, caption, table cell and text item is escaped, so a subject's note holding
