@@ -9,6 +9,7 @@ it (checks_and_models.py).
 
 from __future__ import annotations
 
+import json
 import math
 import re
 from html.parser import HTMLParser
@@ -264,3 +265,18 @@ def test_analyze_force_replaces_the_tables(tmp_path):
     assert main(["analyze", str(study), "--out", str(folder), "--jobs", "1", "--force"]) == 0
     assert [p.name for p in (folder / "tables").iterdir()] == ["notes.md"]
     assert not (folder / "report.html").exists()
+
+
+def test_frequency_responses_without_models_csv(tmp_path):
+    _, folder = analysed_study(tmp_path)
+    compare(folder, dpi=30)
+    with_checks_and_models(folder)
+    doc = json.loads((folder / "fit.json").read_text(encoding="utf-8"))
+    del doc["output_sha256"]["models.csv"]
+    (folder / "fit.json").write_text(json.dumps(doc), encoding="utf-8")
+    (folder / "models.csv").unlink()
+    outline = _outline(build_report(folder, tmp_path / "r.html"))
+    assert "Model comparison" in outline.sections
+    assert not [t for t in outline.tables if t["section"] == "Model comparison"]
+    html = (tmp_path / "r.html").read_text(encoding="utf-8")
+    assert "F_el vs frequency, P01" in html and "F_el vs frequency, P02" in html

@@ -149,7 +149,8 @@ def add_models(report: Report, models: pd.DataFrame | None,
     report : Report
         The page.
     models : DataFrame or None
-        ``models.csv`` (None: no comparison was made, nothing is added).
+        ``models.csv`` (None: no models were compared; the section then holds the
+        ``frequency_response`` figures alone, and is left out without them).
     figures : sequence of mapping
         fit.json's figure records, each with its ``file``.
     subjects : sequence of str
@@ -159,15 +160,16 @@ def add_models(report: Report, models: pd.DataFrame | None,
     -------
     None
     """
-    if models is None:
+    responses = [f for f in figures if f.get("kind") == "frequency_response"]
+    if models is None and not responses:
         return
     sec = SECTIONS["models"]
     _cite(report, sec, "The paper's model and its variants; the paper:")
     for s in subjects:
-        if (models["subject"].astype(str) == s).any():
+        if models is not None and (models["subject"].astype(str) == s).any():
             _add(report, model_comparison(models, s), sec)
         for f in figures:
-            if f.get("kind") == "frequency_response" and f.get("subject") == s:
+            if f in responses and f.get("subject") == s:
                 _figure(report, f, sec)
 
 
@@ -264,12 +266,14 @@ def add_subjects(report: Report, tables: ResultTables, trials: pd.DataFrame,
                   if f.get("kind") == "trial" and f.get("subject") == subject}
         win = tables.windows
         for _, row in mine.iterrows():
-            fig = checks.get(str(row["trial"]))
+            fig = checks.pop(str(row["trial"]), None)
             if fig is not None:
                 w = win[(win["subject"].astype(str) == subject)
                         & (win["trial"].astype(str) == str(row["trial"]))]
                 _figure(report, fig, sec,
                         details=trial_summary({str(k): v for k, v in row.items()}, w, failed))
+        for trial, fig in checks.items():  # a check of a trial trials.csv does not list
+            _figure(report, fig, sec, details=f"{trial}: not in trials.csv")
 
 
 def _trials_view(trials: pd.DataFrame) -> pd.DataFrame:
