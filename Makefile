@@ -10,7 +10,7 @@ JOBS   ?= 2
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test,mf4]'
+	$(PY) -m pip install --quiet -e '.[test,mf4,dask]'
 	touch $(STAMP)
 
 demo: $(STAMP)

@@ -77,6 +77,41 @@ def _sidecar(study: Path, **values: object) -> None:
                                                encoding="utf-8")
 
 
+#: Packages made unimportable by :func:`_without_dask`, importable again after each test.
+_DASK_PACKAGES = ("dask", "distributed")
+
+
+def _without_dask() -> None:
+    """The dask extra not installed: ``import distributed`` fails (undone after the test)."""
+    for name in _DASK_PACKAGES:
+        sys.modules[name] = None  # type: ignore[assignment]
+
+
+#: Dask clusters started by :func:`_scheduler_without_workers`, closed after each test.
+_CLUSTERS: list[object] = []
+
+
+def _scheduler_without_workers() -> None:
+    """A Dask scheduler (in this process) with no worker, named by the environment."""
+    import distributed
+
+    cluster = distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=":0")
+    _CLUSTERS.append(cluster)
+    os.environ["EVTRIBO_DASK_SCHEDULER"] = cluster.scheduler_address
+
+
+@pytest.fixture(autouse=True)
+def _dask_importable_again():
+    saved = {n: sys.modules[n] for n in _DASK_PACKAGES if n in sys.modules}
+    yield
+    for name in _DASK_PACKAGES:
+        sys.modules.pop(name, None)
+    sys.modules.update(saved)
+    os.environ.pop("EVTRIBO_DASK_SCHEDULER", None)
+    while _CLUSTERS:
+        _CLUSTERS.pop().close()  # type: ignore[attr-defined]
+
+
 #: Lock files held open by :func:`_hold_out`, for the rest of the test session.
 _HELD: list[int] = []
 
@@ -226,6 +261,10 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "strict-damaged-line": lambda t: (t / "study" / "P01" / "run-01.log").write_text(
         LOG + "(1763700000.002000) vcan0 0C1#000000000000000\n"),
     "jobs-zero": lambda t: None,
+    "analyze-dask-missing": lambda t: _without_dask(),
+    "compare-dask-missing": lambda t: _results(t) or _without_dask(),
+    "analyze-dask-unreachable": lambda t: None,
+    "analyze-dask-no-workers": lambda t: _scheduler_without_workers(),
     "log-unknown-suffix": _text(Path("run-01.txt"), LOG),
     "log-suffix-typo": _text(Path("run-01.lgo"), LOG),
     "log-missing": lambda t: None,
@@ -238,7 +277,11 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "model-set-negative": lambda t: None,
     "compare-no-results": lambda t: None,
     "compare-fit-unknown": _text(Path("out/electrostatic.csv"), "subject\n"),
+    "compare-models-unknown": _text(Path("out/electrostatic.csv"), "subject\n"),
     "compare-params-not-toml": _text(Path("params.toml"), "h_L = = 3\n"),
+    "compare-figure-format-unknown": _results,
+    "compare-figure-width-unknown": _results,
+    "compare-dpi-zero": _results,
     "report-no-results": lambda t: None,
     "report-tables-unknown-format": lambda t: None,
     "acquire-subject-path": lambda t: None,
@@ -276,6 +319,15 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "decode-output-is-a-log": lambda t: _csv_log(t / "run-02.csv"),
     "decode-csv-in-study": lambda t: None,
     "decode-channel-missing": lambda t: None,
+    "plot-no-such-study": lambda t: None,
+    "plot-subject-missing": lambda t: None,
+    "plot-trial-missing": lambda t: None,
+    "plot-figure-suffix": lambda t: None,
+    "plot-figure-exists": _text(Path("check.png"), "a figure kept\n"),
+    "plot-signal-unknown": lambda t: None,
+    "plot-dbc-missing": lambda t: None,
+    "plot-no-dbc": lambda t: None,
+    "plot-log-missing": lambda t: None,
     "compare-summary-edited": lambda t: _results(t, edit={"study": {"name": "x"}}),
     "session-protocol-misspelt-key": _text(Path("protocol.toml"), "[session]\ntrial_s = 20\n"
                                            "repetiton = 2\n[[trial]]\namplitude_V = 100\n"),

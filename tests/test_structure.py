@@ -20,7 +20,7 @@ LAYERS = {
     "cache": 5, "decode_table": 5,
     "analysis": 6, "acquisition": 6,
     "compare": 7, "rigsetup": 7, "session": 7,
-    "demo": 8,
+    "demo": 8, "api": 8,
     "cli": 9, "__main__": 10,
 }
 MAX_MODULE_LINES = 500

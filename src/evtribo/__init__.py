@@ -2,14 +2,50 @@
 
 Layers, lowest first: ``model`` (the seed paper's physics), ``rig``/``frames``/``decode``
 (CAN logs to forces), ``acquisition`` (buses, logger, simulated rig), ``analysis``
-(windows, friction, electrostatic force), ``compare`` (model fit and report), ``cli``.
+(windows, friction, electrostatic force), ``compare`` (model fit and report), ``api`` (the
+Python interface below), ``cli``.
+
+The Python interface (study format §8; :mod:`evtribo.api`, imported on first use so that
+``import evtribo`` stays light)::
+
+    import evtribo
+    study = evtribo.open_study("my-study")      # .trials, .subjects, .rig
+    forces = study.trials[0].forces()           # t_s, normal_force_N, tangential_force_N, ...
+    results = evtribo.analyze(study)            # in memory: .trials .windows .electrostatic ...
+    results.save("results")                     # the files of `evtribo analyze`
+    results = evtribo.load_results("results")   # the same tables (+ .fit after compare)
+    fit = evtribo.compare(results)              # .table (fit.csv), .figures
 """
 
+from __future__ import annotations
+
+import importlib
 from importlib.metadata import PackageNotFoundError, version
+from typing import Any
 
 try:
     __version__ = version("evtribo")
 except PackageNotFoundError:  # pragma: no cover - running from a source tree
     __version__ = "0.0.0+unknown"
 
-__all__ = ["__version__"]
+#: The names of :mod:`evtribo.api`, re-exported here.
+_API = ("Fit", "Results", "Study", "Trial", "analyze", "compare", "load_results",
+        "open_study")
+
+__all__ = ["Fit", "Results", "Study", "Trial", "__version__", "analyze", "compare",
+           "load_results", "open_study"]
+
+
+def __getattr__(name: str) -> Any:
+    """The names of :mod:`evtribo.api`, imported on first use (PEP 562)."""
+    if name in _API:
+        api = importlib.import_module("evtribo.api")
+        # evtribo.compare: the package, made callable as evtribo.api.compare by the import
+        value = globals()["compare"] if name == "compare" else getattr(api, name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'evtribo' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_API})

@@ -29,18 +29,25 @@ def test_compare_writes_fit_and_figures(compared_out):
         truth = TRUE_H_L[row["subject"]]
         assert row["ci_low"] <= truth <= row["ci_high"]
     figs = sorted(p.name for p in (compared_out / "figures").iterdir())
-    for stem in ("area_increase", "friction_time", "electrostatic_force_P01",
-                 "electrostatic_force_P02", "friction_normal_force_P01",
-                 "friction_normal_force_P02"):
-        assert f"{stem}.png" in figs and f"{stem}.svg" in figs
+    stems = ("electrostatic_force_all", "electrostatic_force_P01", "friction_normal_force_P01",
+             "electrostatic_force_P02", "friction_normal_force_P02", "friction_time",
+             "area_increase")
+    # one file per figure and default format (svg, png), nothing else
+    assert figs == sorted(f"{stem}.{fmt}" for stem in stems for fmt in ("png", "svg"))
     doc = json.loads((compared_out / "fit.json").read_text())
+    assert [f["stem"] for f in doc["figures"]] == list(stems)
+    first = doc["figures"][0]
+    assert first["kind"] == "electrostatic_force_all" and first["subject"] is None
+    assert set(first) == {"kind", "title", "stem", "subject", "caption"}
     assert doc["fit"] == ["h_L"]
     assert doc["subjects"]["P02"]["parameters"]["h_L"] == pytest.approx(
         fit.loc[fit["subject"] == "P02", "value"].item())
     for subject in TRUE_H_L:
         assert doc["subjects"][subject]["interval"] == {"method": "bootstrap",
                                                         "replicates": 200, "note": ""}
-    assert len(doc["notes"]) == 1 and "electrostatic_bootstrap.csv" in doc["notes"][0]
+    # a synthetic result folder has no study: no trial checks, and a note saying so
+    assert len(doc["notes"]) == 2 and "electrostatic_bootstrap.csv" in doc["notes"][0]
+    assert "no check figures of the trials" in doc["notes"][1]
     captions = {f["stem"]: f["caption"] for f in doc["figures"]}
     assert captions["friction_time"].startswith("Measured sine trial of P01")
 
@@ -101,7 +108,7 @@ def test_figure_is_not_blank(out_dir, tmp_path):
     tables = read_results(out_dir)
     rows = tables.electrostatic[tables.electrostatic["subject"] == "P01"]
     ax = plot_electrostatic_force(rows, TABLE_1.with_values(h_L=3e-6), subject="P01")
-    assert ax.get_xscale() == "log" and "(V)" in ax.get_xlabel() and "(N)" in ax.get_ylabel()
+    assert ax.get_xscale() == "log" and "(V)" in ax.get_xlabel() and "(mN)" in ax.get_ylabel()
     (png,) = save_figure(ax.figure, tmp_path, "fel", dpi=40, formats=("png",))
     assert _pixel_variance(png) > 1e-3
     # a figure with nothing drawn is uniform: the measure can tell

@@ -97,7 +97,10 @@ def test_report_is_self_contained(report_page):
 def test_report_holds_every_figure_and_table(report_page, compared_out):
     path, page, _ = report_page
     fit_doc = json.loads((compared_out / "fit.json").read_text())
-    assert len(page.imgs) == len(fit_doc["figures"]) == 6
+    kinds = [f["kind"] for f in fit_doc["figures"]]
+    n_trials = len(pd.read_csv(compared_out / "trials.csv"))
+    assert len(page.imgs) == len(kinds) == 7 + n_trials
+    assert kinds.count("trial") == n_trials  # the check of every trial
     text = " ".join(page.text)
     for fig in fit_doc["figures"]:
         assert fig["title"] in text

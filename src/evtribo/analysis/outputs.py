@@ -18,8 +18,8 @@ from evtribo.errors import OutputExistsError, UserInputError
 from evtribo.resultdir import inside
 
 __all__ = ["ANALYSIS_FILES", "BOOTSTRAP_FILE", "FIGURES", "FIT_CSV", "FIT_JSON",
-           "OUTPUT_FILES", "REPORT_TABLES", "SINE_TRACE_FILE", "SUMMARY_FILE", "TABLES",
-           "check_out_dir", "check_overwrite", "compare_files", "report_files"]
+           "MODELS_CSV", "OUTPUT_FILES", "REPORT_TABLES", "SINE_TRACE_FILE", "SUMMARY_FILE",
+           "TABLES", "check_out_dir", "check_overwrite", "compare_files", "report_files"]
 
 #: The files ``analyze_study`` writes into its output folder.
 OUTPUT_FILES = ("trials.csv", "windows.csv", "electrostatic.csv", "exponents.csv",
@@ -33,9 +33,15 @@ SINE_TRACE_FILE = "sine_trace.csv"
 ANALYSIS_FILES = (*OUTPUT_FILES, SINE_TRACE_FILE)
 #: compare's files, and the folder of its figures.
 FIT_CSV, FIGURES = "fit.csv", "figures"
-#: The stems of compare's figures (``electrostatic_force_P01.png``...).
+#: compare's comparison of the candidate models (``compare --models``).
+MODELS_CSV = "models.csv"
+#: The formats of compare's figures.
+_FIGURE_FORMATS = ("png", "svg", "pdf")
+#: The stems of compare's figures (``electrostatic_force_all.png``,
+#: ``electrostatic_force_P01.svg``, ``trial_P01_run-01.pdf``...).
 _FIGURE = re.compile(r"^(friction_time|area_increase|electrostatic_force_.+|"
-                     r"friction_normal_force_.+)\.(png|svg|pdf)$")
+                     r"friction_normal_force_.+|trial_.+|frequency_response_.+)"
+                     r"\.(png|svg|pdf)$")
 #: The folder beside a report of its exported tables (``report --tables md,tex``), and their
 #: stems (``tables/electrostatic_force.md``, ``tables/fit.tex``).
 TABLES, REPORT_TABLES = "tables", ("electrostatic_force", "fit")
@@ -58,7 +64,7 @@ def compare_files(out: Path) -> list[str]:
     list of str
         Names relative to *out*.
     """
-    found = [name for name in (FIT_CSV, FIT_JSON) if (out / name).is_file()]
+    found = [name for name in (FIT_CSV, FIT_JSON, MODELS_CSV) if (out / name).is_file()]
     listed: set[str] = set()
     try:
         doc = json.loads((out / FIT_JSON).read_text(encoding="utf-8"))
@@ -68,7 +74,7 @@ def compare_files(out: Path) -> list[str]:
         listed.update(str(k) for k in (doc.get("output_sha256") or {}))
         for fig in doc.get("figures") or []:
             if isinstance(fig, dict) and isinstance(fig.get("stem"), str):
-                listed.update(f"{FIGURES}/{fig['stem']}.{ext}" for ext in ("png", "svg"))
+                listed.update(f"{FIGURES}/{fig['stem']}.{ext}" for ext in _FIGURE_FORMATS)
     if (out / FIGURES).is_dir():
         listed.update(f"{FIGURES}/{p.name}" for p in (out / FIGURES).iterdir()
                       if _FIGURE.match(p.name))

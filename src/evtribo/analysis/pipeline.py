@@ -1,12 +1,12 @@
-"""``analyze_study``: a study folder in, the result tables of the study format out.
+"""``analyze_study``: a study folder in, the result tables of the study format out, in two
+steps: :func:`compute_study` (in memory) and :func:`write_results` (the result folder).
 
 Every input (study.toml, the DBC, each log and sidecar) is hashed once, when the analysis
 starts; each worker process gets the trials it is to analyse (their paths, sidecars and log
 hashes), reads them through the decoded-trial cache, aligns them and cuts them into windows;
 the per-subject estimates are then computed from all windows together. A log identical to
 another trial's is the same recording: it is counted once (``duplicate_trials`` and a
-warning in ``summary.json``). Warnings (the analysis's own, and the readers': damaged lines,
-unknown frames...) are collected per trial into ``summary.json``.
+warning in ``summary.json``). Warnings are collected per trial into ``summary.json``.
 
 The output folder is written as one unit (:mod:`evtribo.resultdir`): locked, written into a
 new folder beside it and swapped in at the end, with a ``run_id`` in ``summary.json`` and the
@@ -17,15 +17,16 @@ SHA-256 of every table under ``output_sha256``. Nothing already in it is overwri
 Besides the study format's tables, ``electrostatic_bootstrap.csv`` holds the first
 :data:`~evtribo.analysis.aggregate.N_BOOTSTRAP_SAVED` bootstrap replicates of every row of
 ``electrostatic.csv`` (columns subject, waveform, amplitude_V, replicate,
-electrostatic_force_N; one row per electrostatic.csv row and replicate). The replicates are
-the ones the intervals are the percentiles of (calibrated for few windows, see
-:mod:`evtribo.analysis.estimate`), and replicate ``i`` of all a subject's rows comes from one
-resampling of its windows, so they carry the correlation between points that share an OFF
+electrostatic_force_N), those the intervals are the percentiles of (see
+:mod:`evtribo.analysis.estimate`); replicate ``i`` of a subject's rows comes from one
+resampling of its windows, so they carry the correlation of points that share an OFF
 reference. ``evtribo compare`` refits the model to each replicate for its intervals.
 """
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import hashlib
 import logging
 import os
@@ -59,7 +60,7 @@ from evtribo.analysis.outputs import (
     report_files,
 )
 from evtribo.analysis.provenance import changed_since, input_files, provenance
-from evtribo.analysis.settings import AnalysisSettings
+from evtribo.analysis.settings import AnalysisSettings, study_settings
 from evtribo.analysis.trial import (
     SINE_TRACE_CSV_COLUMNS,
     TRIAL_COLUMNS,
@@ -78,7 +79,7 @@ from evtribo.analysis.workers import (
 from evtribo.documents.summary import write_summary
 from evtribo.errors import StudyError
 from evtribo.resultdir import Staging, locked, recover
-from evtribo.study import STUDY_FILE, Study, TrialRef, load_study
+from evtribo.study import Study, TrialRef, load_study
 
 log = logging.getLogger(__name__)
 
@@ -87,23 +88,32 @@ _INT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off")
 
 @dataclass
 class StudyResults:
-    """What :func:`analyze_study` wrote.
+    """A study's results: computed by :func:`compute_study`, written by
+    :func:`write_results` (:func:`analyze_study` does both).
 
     Attributes
     ----------
-    out_dir : Path
+    out_dir : Path or None
+        The folder they were written to (None: in memory only).
     trials, windows, electrostatic, exponents : pandas.DataFrame
         The tables of the CSV files.
     summary : dict
-        The content of summary.json.
+        The content of summary.json (``output_sha256`` filled in when written).
+    bootstrap, sine_trace : pandas.DataFrame or None
+        ``electrostatic_bootstrap.csv`` and ``sine_trace.csv`` (None: not written).
+    compute_s : float
+        Seconds the computation took (``elapsed_s`` adds the writing's).
     """
 
-    out_dir: Path
+    out_dir: Path | None
     trials: pd.DataFrame
     windows: pd.DataFrame
     electrostatic: pd.DataFrame
     exponents: pd.DataFrame
     summary: dict[str, Any]
+    bootstrap: pd.DataFrame | None = None
+    sine_trace: pd.DataFrame | None = None
+    compute_s: float = 0.0
 
 
 def _plan(study: Study, inputs: list[dict[str, Any]]
@@ -158,43 +168,6 @@ def _typed(df: pd.DataFrame, columns: tuple[str, ...]) -> pd.DataFrame:
     return df
 
 
-def study_settings(study: Study, overrides: Mapping[str, Any] | None = None,
-                   base: AnalysisSettings | None = None) -> AnalysisSettings:
-    """The analysis settings of a study: *base* (default: the package's defaults), then the
-    ``[analysis]`` table of its study.toml, then *overrides* (the command line's).
-
-    Parameters
-    ----------
-    study : Study
-        The study, as loaded (its ``[analysis]`` table).
-    overrides : mapping, optional
-        Settings that take precedence (``{"tare": "none"}``).
-    base : AnalysisSettings, optional
-        The settings to start from.
-
-    Returns
-    -------
-    AnalysisSettings
-
-    Raises
-    ------
-    ConfigError
-        An unknown key or a bad value, naming study.toml's line and key (or the option).
-    """
-    settings = base or AnalysisSettings()
-    table = study.config.get("analysis") or {}
-    if table:
-        path = study.root / STUDY_FILE
-        try:
-            text = path.read_text(encoding="utf-8")
-        except (OSError, UnicodeDecodeError):
-            text = None
-        settings = settings.updated(table, source=path, text=text)
-    if overrides:
-        settings = settings.updated(overrides, table="")
-    return settings
-
-
 @fill_doc
 def analyze_study(
     study_dir: str | os.PathLike[str],
@@ -207,6 +180,7 @@ def analyze_study(
     settings: AnalysisSettings | None = None,
     overrides: Mapping[str, Any] | None = None,
     progress: ProgressCallback | None = None,
+    scheduler: Any = None,
 ) -> StudyResults:
     """Analyse every trial of a study and write the study format's result tables.
 
@@ -228,6 +202,9 @@ def analyze_study(
     overrides : mapping, optional
         Settings that take precedence over the study's (``{"tare": "none"}``).
     %(progress)s
+    scheduler : distributed.Client, optional
+        A Dask cluster to run the trials on (:mod:`evtribo.analysis.distributed`); every
+        path absolute, seen by every worker.
 
     Returns
     -------
@@ -256,47 +233,139 @@ def analyze_study(
     ``summary.json`` records those hashes and a ``run_id`` that ``compare`` and ``report``
     check the rest of the folder against.
     """
-    started = time.perf_counter()
-    started_at = time.time()
     out = Path(out_dir)
     check_overwrite(out, force)
-    study = load_study(study_dir)
+    study, settings = _prepare(study_dir, overrides, settings)
     check_out_dir(out, study.root)
+    with locked(out, "evtribo analyze"):
+        recover(out)
+        check_overwrite(out, force)
+        results = _analyze_locked(study, settings, jobs=jobs, strict=strict,
+                                  cache_dir=cache_dir, progress=progress, scheduler=scheduler)
+        return write_results(results, out, force=force)
+
+
+@fill_doc
+def compute_study(study: Study | str | os.PathLike[str], *, jobs: int | None = None,
+                  strict: bool = False, cache_dir: str | os.PathLike[str] | None = None,
+                  settings: AnalysisSettings | None = None,
+                  overrides: Mapping[str, Any] | None = None,
+                  progress: ProgressCallback | None = None,
+                  scheduler: Any = None) -> StudyResults:
+    """Analyse every trial of a study in memory, writing nothing (but the decoded-trial
+    cache; the errors are :func:`analyze_study`'s); :func:`write_results` writes them.
+
+    Parameters
+    ----------
+    study : Study or path-like
+        The study (:func:`evtribo.study.load_study`) or its folder.
+    %(jobs)s
+    %(strict)s
+    %(cache_dir)s
+    settings : AnalysisSettings, optional
+        The settings to start from; the study's ``[analysis]`` table applies on top.
+    overrides : mapping, optional
+        Settings over the study's (``{"tare": "none"}``).
+    %(progress)s
+    scheduler : distributed.Client, optional
+        A Dask cluster to run the trials on.
+
+    Returns
+    -------
+    StudyResults
+        With ``out_dir`` None.
+    """
+    study, settings = _prepare(study, overrides, settings)
+    return _analyze_locked(study, settings, jobs=jobs, strict=strict, cache_dir=cache_dir,
+                           progress=progress, scheduler=scheduler)
+
+
+def _prepare(study: Study | str | os.PathLike[str], overrides: Mapping[str, Any] | None,
+             settings: AnalysisSettings | None) -> tuple[Study, AnalysisSettings]:
+    """The study loaded, its settings, and a refusal of a study without trials."""
+    study = study if isinstance(study, Study) else load_study(study)
     settings = study_settings(study, overrides, settings)
     if not study.trials:
         raise StudyError("the study holds no trials (no <subject>/<trial>.log files)",
                          path=study.root)
-    with locked(out, "evtribo analyze"):
-        recover(out)
-        check_overwrite(out, force)
-        return _analyze_locked(study, out, settings, started, started_at, jobs=jobs,
-                               strict=strict, cache_dir=cache_dir, progress=progress)
+    return study, settings
 
 
-def _analyze_locked(study: Study, out: Path, settings: AnalysisSettings, started: float,
-                    started_at: float, *, jobs: int | None, strict: bool,
-                    cache_dir: str | os.PathLike[str] | None,
-                    progress: ProgressCallback | None) -> StudyResults:
-    """:func:`analyze_study` once the output folder is locked."""
+def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | None,
+                    strict: bool, cache_dir: str | os.PathLike[str] | None,
+                    progress: ProgressCallback | None, scheduler: Any = None) -> StudyResults:
+    """The analysis in memory (:func:`analyze_study`'s under the output folder's lock)."""
+    started = time.perf_counter()
+    started_at = time.time()
     inputs = input_files(study)  # each input hashed once, here
     tasks, not_run, duplicates, warnings = _plan(study, inputs)
     jobs = (os.cpu_count() or 1) if jobs is None else max(1, int(jobs))
     jobs = max(1, min(jobs, len(tasks)))
+    if scheduler is not None and not isinstance(scheduler, str):
+        from evtribo.analysis.distributed import total_threads
+        jobs = total_threads(scheduler)
     assert study.rig is not None
     context = WorkerContext(study.rig, None if cache_dir is None else os.fspath(cache_dir),
                             strict, settings)
-    outcomes = sorted([*run_tasks(tasks, jobs, context, progress), *not_run],
+    outcomes = sorted([*run_tasks(tasks, jobs, context, progress, scheduler=scheduler),
+                       *not_run],
                       key=lambda r: r.index)  # the study's order
     tables = _Tables.of(outcomes, settings)
     warnings = [*study.warnings, *warnings, *tables.warnings, *changed_since(inputs)]
     summary = _summary(study, tables, settings, started_at=started_at, inputs=inputs,
                        duplicates=duplicates, warnings=warnings, strict=strict, jobs=jobs)
-    _write(out, tables, summary, started)
-    log.info("analysed %d of %d trials of %s into %s", summary["trials_analysed"],
-             len(study.trials), study.root, out)
-    return StudyResults(out_dir=out, trials=tables.trials, windows=tables.windows,
+    log.info("analysed %d of %d trials of %s", summary["trials_analysed"],
+             len(study.trials), study.root)
+    return StudyResults(out_dir=None, trials=tables.trials, windows=tables.windows,
                         electrostatic=tables.electrostatic, exponents=tables.exponents,
-                        summary=summary)
+                        summary=summary, bootstrap=tables.bootstrap, sine_trace=tables.trace,
+                        compute_s=time.perf_counter() - started)
+
+
+def write_results(results: StudyResults, out_dir: str | os.PathLike[str], *,
+                  force: bool = False) -> StudyResults:
+    """Write a study's results into *out_dir* as one unit, as ``evtribo analyze`` does.
+
+    Parameters
+    ----------
+    results : StudyResults
+    out_dir : path-like
+        The result folder (created if needed), outside the study folder.
+    force : bool
+        As :func:`analyze_study`'s.
+
+    Returns
+    -------
+    StudyResults
+        *results* with ``out_dir`` set and the summary as written (``output_sha256``,
+        ``elapsed_s``); *results* itself is left as it was.
+
+    Raises
+    ------
+    OutputExistsError, OutputBusyError, UserInputError, OutputWriteError
+        As :func:`analyze_study`; *out_dir* is left as it was.
+    """
+    started = time.perf_counter()
+    out = Path(out_dir)
+    check_overwrite(out, force)
+    check_out_dir(out, Path(results.summary["study_dir"]))
+    summary = copy.deepcopy(results.summary)
+    summary["output_sha256"] = {}
+    with locked(out, "evtribo analyze"):
+        recover(out)
+        check_overwrite(out, force)
+        _write(out, _files(results), summary,
+               results.compute_s + time.perf_counter() - started)
+    return dataclasses.replace(results, out_dir=out, summary=summary)
+
+
+def _files(results: StudyResults) -> dict[str, pd.DataFrame]:
+    """The CSV files to write, by name."""
+    out = {"trials.csv": results.trials, "windows.csv": results.windows,
+           "electrostatic.csv": results.electrostatic, "exponents.csv": results.exponents,
+           BOOTSTRAP_FILE: pd.DataFrame(columns=list(BOOTSTRAP_COLUMNS))
+           if results.bootstrap is None else results.bootstrap}
+    return out if results.sine_trace is None else {**out, SINE_TRACE_FILE: results.sine_trace}
 
 
 @dataclass
@@ -340,15 +409,6 @@ class _Tables:
                    _typed(exponents, EXPONENT_COLUMNS),
                    bootstrap.reindex(columns=list(BOOTSTRAP_COLUMNS)), trace, failed,
                    warnings)
-
-    def files(self) -> dict[str, pd.DataFrame]:
-        """The CSV files to write, by name."""
-        out = {"trials.csv": self.trials, "windows.csv": self.windows,
-               "electrostatic.csv": self.electrostatic, "exponents.csv": self.exponents,
-               BOOTSTRAP_FILE: self.bootstrap}
-        if self.trace is not None:
-            out[SINE_TRACE_FILE] = self.trace
-        return out
 
 
 def _summary(study: Study, tables: _Tables, settings: AnalysisSettings, *, started_at: float,
@@ -395,18 +455,20 @@ def _summary(study: Study, tables: _Tables, settings: AnalysisSettings, *, start
     }
 
 
-def _write(out: Path, tables: _Tables, summary: dict[str, Any], started: float) -> None:
+def _write(out: Path, files: dict[str, pd.DataFrame], summary: dict[str, Any],
+           elapsed: float) -> None:
     """The tables and summary.json written into *out* as one unit, replacing analyze's
     files there and compare's and report's of them."""
+    started = time.perf_counter()
     stale = [n for n in ANALYSIS_FILES if (out / n).is_file()]
     stale += [*compare_files(out), *report_files(out)] if out.is_dir() else []
     with Staging(out) as stage:
-        for name, table in tables.files().items():
+        for name, table in files.items():
             summary["output_sha256"][name] = _write_csv(table, stage.path(name))
-        summary["elapsed_s"] = round(time.perf_counter() - started, 3)
+        summary["elapsed_s"] = round(elapsed + time.perf_counter() - started, 3)
         write_summary(stage.path(SUMMARY_FILE), summary)
         stage.commit(remove=stale, last=[SUMMARY_FILE])
 
 
 __all__ = ["BOOTSTRAP_FILE", "OUTPUT_FILES", "SINE_TRACE_FILE", "StudyResults", "analyze_study",
-           "study_settings"]
+           "compute_study", "study_settings", "write_results"]

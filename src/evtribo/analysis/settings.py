@@ -23,8 +23,10 @@ from evtribo.analysis.conditions import DEFAULT_GUARD_S
 from evtribo.analysis.estimate import DEFAULT_CONFIDENCE, DEFAULT_N_BOOT
 from evtribo.analysis.windows import DEFAULT_MAX_WINDOW_S, DEFAULT_MIN_WINDOW_S, DEFAULT_SMOOTH_S
 from evtribo.errors import ConfigError, toml_key_line
+from evtribo.study import STUDY_FILE, Study
 
-__all__ = ["HUM_MODES", "SETTING_HELP", "TARE_MODES", "AnalysisSettings", "parse_setting"]
+__all__ = ["HUM_MODES", "SETTING_HELP", "TARE_MODES", "AnalysisSettings", "parse_setting",
+           "study_settings"]
 
 #: Values of ``tare``: how the load cells' zero offsets are found (see :mod:`.tare`).
 TARE_MODES = ("auto", "lifted", "friction-loop", "calibration", "none")
@@ -230,3 +232,40 @@ def parse_setting(text: str) -> tuple[str, Any]:
             except ValueError:
                 value = raw
     return key, value
+
+
+def study_settings(study: Study, overrides: Mapping[str, Any] | None = None,
+                   base: AnalysisSettings | None = None) -> AnalysisSettings:
+    """The analysis settings of a study: *base* (default: the package's defaults), then the
+    ``[analysis]`` table of its study.toml, then *overrides* (the command line's).
+
+    Parameters
+    ----------
+    study : Study
+        The study, as loaded (its ``[analysis]`` table).
+    overrides : mapping, optional
+        Settings that take precedence (``{"tare": "none"}``).
+    base : AnalysisSettings, optional
+        The settings to start from.
+
+    Returns
+    -------
+    AnalysisSettings
+
+    Raises
+    ------
+    ConfigError
+        An unknown key or a bad value, naming study.toml's line and key (or the option).
+    """
+    settings = base or AnalysisSettings()
+    table = study.config.get("analysis") or {}
+    if table:
+        path = study.root / STUDY_FILE
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            text = None
+        settings = settings.updated(table, source=path, text=text)
+    if overrides:
+        settings = settings.updated(overrides, table="")
+    return settings

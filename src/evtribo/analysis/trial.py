@@ -28,11 +28,11 @@ from evtribo._docs import fill_doc
 from evtribo.analysis.align import AlignedForces, align_forces
 from evtribo.analysis.excitation import Excitation, excitation_of, window_amplitudes
 from evtribo.analysis.hum import find_hum, modulation_lines, remove_hum
+from evtribo.analysis.observed import PieceObserver, PieceState, lift_exclusion
 from evtribo.analysis.pieces import check_seconds, continuous_pieces, describe_gap, restrict
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.sine import friction_modulation, trace_around_switch
 from evtribo.analysis.tare import (
-    EDGE_S,
     HUM_FREE_S,
     Tared,
     calibrate,
@@ -217,12 +217,9 @@ def _dehum(aligned: AlignedForces, info: Mapping[str, Any]) -> AlignedForces:
 def _windows(tared: Tared, cond: npt.NDArray[np.int8], smooth: float, quantum: float,
              settings: AnalysisSettings) -> pd.DataFrame:
     f = tared.forces
-    exclude = np.zeros(f.t.size, dtype=bool)
-    for s in tared.lifted:  # the lifted stretch and the finger leaving or touching down
-        exclude |= (f.t >= s.t_start - 2 * EDGE_S) & (f.t <= s.t_end + 2 * EDGE_S)
     return find_windows(f.t, f.normal, f.tangential, cond, smooth_s=smooth,
                         min_window_s=settings.min_window_s, max_window_s=settings.max_window_s,
-                        exclude=exclude, quantum_s=quantum)
+                        exclude=lift_exclusion(f.t, tared.lifted), quantum_s=quantum)
 
 
 def _tare(aligned: AlignedForces, exc: Excitation, *, smooth: float, quantum: float,
@@ -307,8 +304,8 @@ class _PieceResult:
 
 
 def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: AnalysisSettings,
-                   calibration: Calibration | None, warn: Callable[[str], None]
-                   ) -> _PieceResult:
+                   calibration: Calibration | None, warn: Callable[[str], None],
+                   observe: PieceObserver | None = None) -> _PieceResult:
     """Align, read the excitation, remove hum and offsets, find the windows of a stretch of
     a trial with no long pause; window times from *t0*, the trial's start."""
     tn, fn = _channel(signals.normal)
@@ -332,6 +329,8 @@ def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, setting
     tared, w = _tare(aligned, exc, smooth=smooth, quantum=quantum, meta=meta,
                      settings=settings, calibration=calibration, warn=warn)
     aligned = tared.forces
+    if observe is not None:
+        observe(PieceState(aligned, exc.condition, tared.lifted, w, info))
     offsets = removed_offsets(tared, calibration if settings.tare != "none" else None)
     _offset_warnings(tared, w, offsets, warn)
     amplitude = window_amplitudes(w, exc)
@@ -355,14 +354,14 @@ def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, setting
 
 
 def _pieces(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: AnalysisSettings,
-            calibration: Calibration | None, warn: Callable[[str], None]
-            ) -> list[_PieceResult]:
+            calibration: Calibration | None, warn: Callable[[str], None],
+            observe: PieceObserver | None = None) -> list[_PieceResult]:
     """Each continuous piece of the trial analysed (one for a trial without long pauses)."""
     check_seconds(signals)
     pieces = continuous_pieces(signals)
     if len(pieces) <= 1:
         return [_analyze_piece(signals, meta, t0, settings=settings, calibration=calibration,
-                               warn=warn)]
+                               warn=warn, observe=observe)]
     for before, after in itertools.pairwise(pieces):
         warn(describe_gap(before, after, t0))
     warn(f"analysed in {len(pieces)} continuous pieces")
@@ -370,7 +369,8 @@ def _pieces(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: Anal
     for lo, hi in pieces:
         try:
             out.append(_analyze_piece(restrict(signals, lo, hi), meta, t0,
-                                      settings=settings, calibration=calibration, warn=warn))
+                                      settings=settings, calibration=calibration, warn=warn,
+                                      observe=observe))
         except AnalysisError as err:
             failures.append(err)
             warn(f"the piece from {lo - t0:.3f} s to {hi - t0:.3f} s is not analysed: {err}")
@@ -382,7 +382,8 @@ def _pieces(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: Anal
 @fill_doc
 def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
                     settings: AnalysisSettings | None = None,
-                    calibration: Calibration | None = None) -> TrialResult:
+                    calibration: Calibration | None = None,
+                    observe: PieceObserver | None = None) -> TrialResult:
     """Analyse one decoded trial.
 
     A trial whose load cells both fall silent for more than a second (a jump of the log's
@@ -399,6 +400,9 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
         The analysis settings (default: the package's defaults).
     calibration : Calibration, optional
         The rig's ``[rig.calibration]``: known offsets and cross-talk matrix.
+    observe : callable, optional
+        Called with each analysed piece's :class:`PieceState` (what a check of the trial
+        draws); the results do not depend on it.
 
     Returns
     -------
@@ -421,7 +425,8 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
     for msg in signals.warnings:
         warn(msg)
     t0 = trial_start(signals)
-    parts = _pieces(signals, meta, t0, settings=settings, calibration=calibration, warn=warn)
+    parts = _pieces(signals, meta, t0, settings=settings, calibration=calibration, warn=warn,
+                    observe=observe)
     longest = max(parts, key=lambda p: p.span_s)
     info = longest.info
     frames = [p.windows for p in parts if not p.windows.empty]

@@ -8,6 +8,11 @@ trials.csv, its windows, its warnings, its error, its sine trace). One trial's f
 that trial's outcome, never the study's (unless ``strict``). A worker stops with its parent:
 Ctrl-C and SIGTERM reach the parent, which stops the workers; a parent killed outright
 leaves workers that notice it within half a second and exit.
+
+Given a ``dask.distributed`` client (:mod:`evtribo.analysis.distributed`), the same tasks run
+on that cluster's workers instead, with the same context sent to each worker once: the same
+outcomes, gathered the same way. Every path must then be absolute and name the same file on
+every worker (shared storage); the decoded-trial cache is the one this process would use.
 """
 
 from __future__ import annotations
@@ -19,14 +24,14 @@ import threading
 import time
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import pandas as pd
 
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals, empty_windows, failed_row
-from evtribo.cache import load_trial
+from evtribo.cache import default_cache_dir, load_trial
 from evtribo.errors import AnalysisError, SidecarError, UserInputError
 from evtribo.resultdir import release_inherited_locks
 from evtribo.rig import Rig
@@ -34,7 +39,7 @@ from evtribo.signals import TrialSignals
 from evtribo.study import TrialRef
 
 __all__ = ["MAX_WARNINGS_PER_TRIAL", "TrialOutcome", "TrialTask", "WorkerContext",
-           "analyze_task", "run_tasks", "trial_meta"]
+           "analyze_in", "analyze_task", "run_tasks", "trial_meta"]
 
 log = logging.getLogger(__name__)
 
@@ -120,15 +125,17 @@ def trial_meta(ref: TrialRef) -> TrialMeta:
 
 
 class _Collector(logging.Handler):
-    """Keeps the warnings other evtribo modules log while one trial is processed."""
+    """Keeps the warnings other evtribo modules log while one trial is processed (by this
+    thread: a Dask worker may run several trials at once, each in a thread of its own)."""
 
     def __init__(self) -> None:
         super().__init__(logging.WARNING)
         self.messages: list[str] = []
+        self.thread = threading.get_ident()
 
     def emit(self, record: logging.LogRecord) -> None:
         """Keep a warning logged outside the analysis (the readers', the decoder's)."""
-        if not record.name.startswith("evtribo.analysis"):
+        if record.thread == self.thread and not record.name.startswith("evtribo.analysis"):
             self.messages.append(record.getMessage())
 
 
@@ -220,11 +227,29 @@ def analyze_task(task: TrialTask) -> TrialOutcome:
     """
     if _context is None:
         raise RuntimeError("analyze_task runs in a process started by run_tasks")
+    return analyze_in(task, _context)
+
+
+def analyze_in(task: TrialTask, context: WorkerContext) -> TrialOutcome:
+    """One trial analysed with *context* (what :func:`analyze_task` does with this
+    process's context; a Dask worker is handed it with each task).
+
+    Parameters
+    ----------
+    task : TrialTask
+        The trial.
+    context : WorkerContext
+        What every trial needs.
+
+    Returns
+    -------
+    TrialOutcome
+    """
     collector = _Collector()
     root_logger = logging.getLogger("evtribo")
     root_logger.addHandler(collector)
     try:
-        outcome = _outcome(task, _context)
+        outcome = _outcome(task, context)
     finally:
         root_logger.removeHandler(collector)
     key = task.ref.key
@@ -246,26 +271,67 @@ def _stop_workers(pool: ProcessPoolExecutor) -> None:
         proc.join(10)
 
 
+def _on_cluster(tasks: list[TrialTask], context: WorkerContext,
+                progress: ProgressCallback | None, scheduler: Any) -> list[TrialOutcome]:
+    """Each task's outcome from the workers of a Dask cluster (a client or its address)."""
+    from evtribo.analysis import distributed
+
+    if isinstance(scheduler, str):
+        with distributed.connect(scheduler) as client:
+            return _on_cluster(tasks, context, progress, client)
+    relative = [t.ref.log_path for t in tasks if not os.path.isabs(t.ref.log_path)]
+    if relative:
+        raise UserInputError(f"{relative[0]}: a relative path; on a Dask cluster every path "
+                             "must be absolute (and name the same file on every worker)",
+                             key="--dask")
+    cache = os.path.abspath(context.cache_dir if context.cache_dir is not None
+                            else default_cache_dir())
+    context = replace(context, cache_dir=cache)
+    paths = [os.fspath(t.ref.log_path) for t in tasks]
+    distributed.check_workers(scheduler, paths + ([cache] if os.path.isdir(cache) else []))
+    results: list[TrialOutcome] = []
+    for _, outcome in distributed.map_unordered(scheduler, analyze_in, tasks, context,
+                                                name=lambda t: str(t.ref.key)):
+        results.append(outcome)
+        if progress:
+            progress(len(results), len(tasks))
+    return results
+
+
 def run_tasks(tasks: list[TrialTask], jobs: int, context: WorkerContext,
-              progress: ProgressCallback | None = None) -> list[TrialOutcome]:
-    """Each task's outcome, in worker processes (*jobs* > 1) or here.
+              progress: ProgressCallback | None = None, *,
+              scheduler: Any = None) -> list[TrialOutcome]:
+    """Each task's outcome, in worker processes (*jobs* > 1), here, or on a Dask cluster.
 
     Parameters
     ----------
     tasks : list of TrialTask
         The trials.
     jobs : int
-        Worker processes (1: this process).
+        Worker processes (1: this process); not used with *scheduler*.
     context : WorkerContext
         What every trial needs.
     progress : callable, optional
         Called as ``progress(done, total)`` after each trial.
+    scheduler : distributed.Client or str, optional
+        A Dask cluster to run the trials on (a connected client, or the scheduler's
+        address); its workers must see every path, which must be absolute.
 
     Returns
     -------
     list of TrialOutcome
         In the order they finished.
+
+    Raises
+    ------
+    UserInputError
+        With *scheduler*: the dask extra is missing, the scheduler does not answer, a path
+        is relative, or a worker does not see the study or cannot run evtribo.
+    AnalysisError
+        With *scheduler*: a worker died while analysing a trial (naming the trial).
     """
+    if scheduler is not None:
+        return _on_cluster(tasks, context, progress, scheduler)
     results: list[TrialOutcome] = []
     if jobs == 1:
         _enter(context)

@@ -33,6 +33,7 @@ SUBCOMMANDS: dict[str, str] = {
     "session": "record a subject's whole protocol, trial after trial",
     "inspect": "what a CAN log holds: ids, counts, rates, gaps, what decodes to what",
     "decode": "decode a CAN log through a DBC into Parquet or CSV",
+    "plot": "a trial's check (forces, ON/OFF, windows, exclusions), or any signal of a log",
     "analyze": "friction, windows and the inferred electrostatic force of a study",
     "compare": "fit the model to the results of analyze; figures",
     "report": "one self-contained HTML report of a study's results",

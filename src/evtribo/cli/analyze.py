@@ -3,9 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+from contextlib import AbstractContextManager, nullcontext
+from pathlib import Path
 from typing import Any, TextIO
 
+from evtribo.analysis.distributed import scheduler_address
 from evtribo.analysis.pipeline import OUTPUT_FILES, analyze_study
 from evtribo.analysis.settings import TARE_MODES, parse_setting
 from evtribo.cli._signals import EXIT_TERMINATED, Terminated, sigterm_interrupts
@@ -36,6 +40,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--cache-dir", metavar="DIR",
                    help="cache of decoded trials (default: $EVTRIBO_CACHE_DIR or "
                         "~/.cache/evtribo)")
+    p.add_argument("--dask", metavar="ADDRESS", default=None,
+                   help="analyse the trials on this Dask cluster's workers (tcp://HOST:PORT; "
+                        "default: $EVTRIBO_DASK_SCHEDULER, else local processes); the "
+                        "workers must see the study and the cache at the same absolute "
+                        "paths; needs pip install 'evtribo[dask]' (docs/cluster.md)")
     settings = p.add_argument_group(
         "analysis settings (override the [analysis] table of study.toml; every key and its "
         "default: analysis/default.toml)")
@@ -75,6 +84,24 @@ class _ProgressBar:
         self.stream.flush()
 
 
+def _cluster(address: str | None, option: str | None) -> AbstractContextManager[Any]:
+    """A client of the Dask scheduler at *address* (named by the option, else by the
+    environment), or None for a local run."""
+    if address is None:
+        return nullcontext(None)
+    from evtribo.analysis.distributed import SCHEDULER_ENV, connect
+
+    return connect(address, key="--dask" if option is not None else SCHEDULER_ENV)
+
+
+def _check_workers(client: Any, study: str, option: str | None) -> None:
+    """Before anything is written: the cluster has workers, and they see the study."""
+    from evtribo.analysis.distributed import SCHEDULER_ENV, check_workers
+
+    check_workers(client, [study] if os.path.isdir(study) else [],
+                  key="--dask" if option is not None else SCHEDULER_ENV)
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``evtribo analyze``; return the exit code."""
     if args.jobs is not None and args.jobs < 1:
@@ -85,11 +112,17 @@ def run(args: argparse.Namespace) -> int:
         if getattr(args, key) is not None:
             overrides[key] = getattr(args, key)
     progress = _ProgressBar(sys.stderr) if sys.stderr.isatty() else None
+    address = scheduler_address(args.dask)
     try:
-        with sigterm_interrupts():
-            res = analyze_study(args.study, args.out, jobs=args.jobs, strict=args.strict,
-                                force=args.force, cache_dir=args.cache_dir,
-                                overrides=overrides, progress=progress)
+        with sigterm_interrupts(), _cluster(address, args.dask) as client:
+            study, cache_dir = args.study, args.cache_dir
+            if client is not None:  # the workers see the paths as this machine does
+                study = os.path.abspath(study)
+                cache_dir = None if cache_dir is None else os.path.abspath(cache_dir)
+                _check_workers(client, study, args.dask)
+            res = analyze_study(study, args.out, jobs=args.jobs, strict=args.strict,
+                                force=args.force, cache_dir=cache_dir,
+                                overrides=overrides, progress=progress, scheduler=client)
     except Terminated:
         print(f"evtribo analyze: terminated; {args.out} holds the results it held before "
               "(or all of the new ones), nothing half-written", file=sys.stderr)
@@ -100,6 +133,6 @@ def run(args: argparse.Namespace) -> int:
     print(f"analysed {s['trials_analysed']} of {s['trials']} trials{same} "
           f"({s['windows_on']} ON and {s['windows_off']} OFF windows) into {res.out_dir}")
     if s["warnings"]:
-        print(f"{len(s['warnings'])} warning(s), listed in {res.out_dir / 'summary.json'}",
+        print(f"{len(s['warnings'])} warning(s), listed in {Path(args.out) / 'summary.json'}",
               file=sys.stderr)
     return 0 if s["trials_analysed"] else 1

@@ -14,8 +14,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description="Fit the seed paper's model to the per-subject results of "
                     "`evtribo analyze` (the equivalent air gap h_L by default) by weighted "
                     "least squares, and write OUT/fit.csv, OUT/fit.json and OUT/figures/ "
-                    "(PNG and SVG), as one unit. OUT must hold one analysis's complete "
-                    "results (exit 2 otherwise, as when another process is writing OUT).")
+                    "(one file per figure and format, ready for a journal: no titles, "
+                    "text as text, PNG at 300 dpi), as one unit. OUT must hold one "
+                    "analysis's complete results (exit 2 otherwise, as when another process "
+                    "is writing OUT).",
+        epilog="The model: \"Voltage-Induced Friction with Application to "
+               "Electrovibration\", Lubricants 2019, 7(12), 102, "
+               "doi:10.3390/lubricants7120102.")
     p.add_argument("out", metavar="OUT", help="result folder written by `evtribo analyze`")
     p.add_argument("--fit", metavar="NAMES", default=None,
                    help="comma-separated model parameters to fit per subject "
@@ -23,22 +28,54 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--params", metavar="PARAMS.toml", default=None,
                    help="TOML of fixed model parameters, `name = value` in SI units "
                         "(default: the paper's Table 1)")
-    p.add_argument("--dpi", type=float, default=150, help="PNG resolution (default 150)")
+    p.add_argument("--figure-format", metavar="FORMATS", default=None,
+                   help="comma-separated figure formats among pdf, svg, png (default: svg,png; "
+                        "the report embeds the PNG, else the SVG)")
+    p.add_argument("--figure-width", metavar="WIDTH", default="single",
+                   help="figure width: single (one journal column, 85 mm; the default) or "
+                        "double (a page, 175 mm)")
+    p.add_argument("--models", metavar="NAMES", default=None,
+                   help="comma-separated candidate models to fit and rank per subject by "
+                        "AIC (paper, hertz, maugis, circuit): writes OUT/models.csv and a "
+                        "figure of F_el against the drive frequency per subject")
+    p.add_argument("--dpi", type=float, default=None, help="PNG resolution (default 300)")
+    p.add_argument("--no-trial-checks", dest="trial_checks", action="store_false",
+                   help="do not draw the check of every trial (what the analysis did with "
+                        "it: forces, ON phases, windows, lifted and excluded stretches)")
     p.add_argument("--force", action="store_true",
                    help="overwrite the outputs of a previous comparison")
+    p.add_argument("--dask", metavar="ADDRESS", default=None,
+                   help="run the bootstrap refits on this Dask cluster (tcp://HOST:PORT; "
+                        "default: $EVTRIBO_DASK_SCHEDULER, else here); the same results; "
+                        "needs pip install 'evtribo[dask]' (docs/cluster.md)")
     p.set_defaults(func=run)
     return p
 
 
 def run(args: argparse.Namespace) -> int:
     """Run ``evtribo compare``; return the exit code."""
+    from contextlib import nullcontext
+
+    from evtribo.analysis.distributed import (
+        SCHEDULER_ENV,
+        check_workers,
+        connect,
+        scheduler_address,
+    )
     from evtribo.cli._signals import EXIT_TERMINATED, Terminated, sigterm_interrupts
     from evtribo.compare.run import compare
 
+    address = scheduler_address(args.dask)
+    key = "--dask" if args.dask else SCHEDULER_ENV
     try:
-        with sigterm_interrupts():
+        with sigterm_interrupts(), \
+                (nullcontext(None) if address is None else connect(address, key=key)) as client:
+            if client is not None:  # workers there, running this evtribo
+                check_workers(client, [], key=key)
             result = compare(args.out, fit=args.fit, params=args.params, force=args.force,
-                             dpi=args.dpi)
+                             dpi=args.dpi, formats=args.figure_format,
+                             width=args.figure_width, models=args.models,
+                             trial_checks=args.trial_checks, scheduler=client)
     except Terminated:
         print(f"evtribo compare: terminated; {args.out} holds the fit it held before (or all "
               "of the new one), nothing half-written", file=sys.stderr)

@@ -32,6 +32,17 @@ interval and a warning.
 
 Sine-wave points are compared with the model averaged over one period of U(t) = A sin(wt),
 square-wave points with the model at U = A (U^2 is constant for a square wave).
+
+The drive's frequency. With finite resistances of the layers (``r_sc``, ``r_g``, fixed or
+fitted) each point is evaluated at its own drive frequency: A becomes the effective
+amplitude the gap sees (:mod:`evtribo.model.circuit`), and a window (``mu`` fitted) takes
+its trial's frequency from ``trials.csv``. The resistances are fitted in log space
+(:mod:`evtribo.compare.problem`), and their intervals come from the likelihood profile
+(the sum of squares with the resistance held, the others refitted, reaching the minimum
+plus the quantile squared): an end the data cannot exclude is open (0 or infinity), as for
+a gap that does not leak. With bootstrap replicates (matched to the rows by waveform,
+frequency and amplitude) the interval is their percentiles, still open where the profile
+says so.
 """
 
 from __future__ import annotations
@@ -40,6 +51,7 @@ import logging
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -53,8 +65,8 @@ from evtribo.compare.model_points import (
     model_exponent,
 )
 from evtribo.compare.params import DEFAULT_FIT, parameter_unit
+from evtribo.compare.problem import LOG_PARAMETERS, Points, Problem
 from evtribo.compare.tables import MIN_REPLICATES, ResultTables, replicate_matrix
-from evtribo.errors import AnalysisError
 from evtribo.model.params import TABLE_1, ModelParameters
 
 log = logging.getLogger(__name__)
@@ -65,6 +77,8 @@ __all__ = ["N_REFITS", "ParameterEstimate", "SubjectFit", "fit_study", "fit_subj
 _Z95 = float(stats.norm.ppf(0.975))
 #: Bootstrap replicates refitted per subject (the first ones of electrostatic_bootstrap.csv).
 N_REFITS = 200
+#: Replicates per call of a Dask worker when the refits run on a cluster.
+REFIT_CHUNK = 25
 #: Fewest converged refits for a bootstrap interval (else the Jacobian's).
 MIN_REFITS = MIN_REPLICATES
 
@@ -136,134 +150,32 @@ class SubjectFit:
         raise KeyError(name)
 
 
-def _sigmas(rows: pd.DataFrame, subject: str) -> NDArray[np.float64]:
-    width = (rows["electrostatic_force_ci_high_N"].to_numpy(float)
-             - rows["electrostatic_force_ci_low_N"].to_numpy(float))
-    sigma = width / (2.0 * _Z95)
-    ok = np.isfinite(sigma) & (sigma > 0)
-    if not ok.all():
-        if ok.any():
-            fill = float(np.median(sigma[ok]))
-            log.warning("subject %s: %d point(s) without a usable interval; weighted like "
-                        "the median point (%.3g N)", subject, int((~ok).sum()), fill)
-        else:
-            fill = 1.0
-            log.warning("subject %s: no usable intervals in electrostatic.csv; fitting "
-                        "unweighted, uncertainty from the scatter", subject)
-        sigma = np.where(ok, sigma, fill)
-    return sigma
+def _refit_chunk(targets: NDArray[np.float64], problem: Problem,
+                 x0: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The converged refits of some replicates (one call of a Dask worker)."""
+    return refit_replicates(problem.model_at, x0, targets, problem.pts.sigma, problem.lower,
+                            upper=problem.upper)
 
 
-@dataclass(frozen=True)
-class _Points:
-    """A subject's usable electrostatic points and the windows fitted with them."""
+def _refits(problem: Problem, x0: NDArray[np.float64], targets: NDArray[np.float64],
+            scheduler: Any) -> NDArray[np.float64]:
+    """The converged refits, here or in chunks of :data:`REFIT_CHUNK` on a Dask cluster
+    (each replicate's refit is its own, so the chunks give the same refits in order)."""
+    if scheduler is None or len(targets) == 0:
+        return _refit_chunk(targets, problem, x0)
+    from evtribo.analysis.distributed import map_unordered
 
-    fn: NDArray[np.float64]
-    amp: NDArray[np.float64]
-    wave: NDArray[np.object_]
-    measured: NDArray[np.float64]
-    sigma: NDArray[np.float64]
-    good: NDArray[np.bool_]
-    mu_measured: float
-    w_fn: NDArray[np.float64]
-    w_ft: NDArray[np.float64]
-    w_amp: NDArray[np.float64]
-    w_wave: NDArray[np.object_]
+    chunks = [targets[i:i + REFIT_CHUNK] for i in range(0, len(targets), REFIT_CHUNK)]
+    done = dict(map_unordered(scheduler, _refit_chunk, chunks, problem, x0,
+                              name=lambda _: f"subject {problem.subject}'s refits"))
+    return np.concatenate([done[i] for i in range(len(chunks))])
 
 
-def _points(subject: str, rows: pd.DataFrame,
-            windows: pd.DataFrame | None, use_windows: bool) -> _Points:
-    """The rows' finite points with their weights, and the windows when *use_windows*."""
-    fn = rows["normal_force_on_N"].to_numpy(float)
-    amp = rows["amplitude_V"].to_numpy(float)
-    wave = rows["waveform"].astype(str).to_numpy(object)
-    measured = rows["electrostatic_force_N"].to_numpy(float)
-    good = np.isfinite(fn) & np.isfinite(amp) & np.isfinite(measured) & (fn > 0)
-    if not good.all():
-        log.warning("subject %s: %d point(s) with missing values left out", subject,
-                    int((~good).sum()))
-    mus = rows["mu"].to_numpy(float)
-    mu_measured = float(np.nanmean(mus)) if np.isfinite(mus).any() else math.nan
-    empty = np.empty(0)
-    w_fn, w_ft, w_amp, w_wave = empty, empty, empty, np.empty(0, object)
-    if use_windows:
-        if windows is None or windows.empty:
-            raise AnalysisError(f"subject {subject}: fitting mu needs its windows "
-                                "(windows.csv has none)")
-        w_fn = windows["normal_force_N"].to_numpy(float)
-        w_ft = windows["friction_force_N"].to_numpy(float)
-        w_on = windows["condition"].astype(str).str.lower().to_numpy() == "on"
-        w_amp = np.where(w_on, windows["amplitude_V"].to_numpy(float), 0.0)
-        w_wave = windows["waveform"].astype(str).to_numpy(object)
-        keep = np.isfinite(w_fn) & np.isfinite(w_ft) & np.isfinite(w_amp) & (w_fn > 0)
-        w_fn, w_ft, w_amp, w_wave = w_fn[keep], w_ft[keep], w_amp[keep], w_wave[keep]
-    return _Points(fn[good], amp[good], wave[good], measured[good],
-                   _sigmas(rows[good], subject), good, mu_measured,
-                   w_fn, w_ft, w_amp, w_wave)
-
-
-class _Problem:
-    """The least-squares problem of one subject, in parameters scaled by their start."""
-
-    def __init__(self, subject: str, names: tuple[str, ...], base: ModelParameters,
-                 pts: _Points, use_windows: bool) -> None:
-        self.subject, self.names, self.base, self.pts = subject, names, base, pts
-        self.use_windows = use_windows
-        self.n_res = len(pts.measured) + (len(pts.w_fn) if use_windows else 0)
-        if self.n_res < len(names) or len(pts.measured) == 0:
-            raise AnalysisError(f"subject {subject}: {len(pts.measured)} usable point(s) "
-                                f"for {len(names)} parameter(s) ({', '.join(names)})")
-        start = np.array([getattr(base, n) for n in names], dtype=float)
-        self.start = np.where(start > 0, start,
-                              [getattr(TABLE_1, n) or 1e-6 for n in names])
-        self.lower = np.array([0.0 if n.startswith("h_") else 1e-6 for n in names])
-        self.w_sigma = 1.0
-
-    def params_at(self, x: NDArray[np.float64]) -> ModelParameters:
-        """The model's parameters at the scaled values *x*."""
-        return self.base.with_values(dict(zip(self.names, (self.start * x).tolist(),
-                                              strict=True)))
-
-    def model_at(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The model's electrostatic force at the points, N."""
-        p = self.pts
-        return mean_electrostatic_force(p.fn, p.amp, p.wave, self.params_at(x))
-
-    def residuals(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Weighted residuals of the points (and of the windows when they are fitted)."""
-        p, params = self.pts, self.params_at(x)
-        r = (p.measured - mean_electrostatic_force(p.fn, p.amp, p.wave, params)) / p.sigma
-        if self.use_windows:
-            rw = (p.w_ft - mean_friction_force(p.w_fn, p.w_amp, p.w_wave, params)) \
-                / self.w_sigma
-            r = np.concatenate([r, rw])
-        return np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6)
-
-    def _least_squares(self, x0: NDArray[np.float64]) -> optimize.OptimizeResult:
-        res = optimize.least_squares(self.residuals, x0, jac="3-point",
-                                     bounds=(self.lower, np.inf), method="trf",
-                                     x_scale=1.0, xtol=1e-12, ftol=1e-12, gtol=1e-12,
-                                     max_nfev=2000)
-        if not res.success:
-            raise AnalysisError(f"subject {self.subject}: the fit did not converge: "
-                                f"{res.message}")
-        return res
-
-    def solve(self) -> optimize.OptimizeResult:
-        """The solution; with windows, weighted by their own misfit and solved once more."""
-        res = self._least_squares(np.ones(len(self.names)))
-        if self.use_windows:
-            rw = res.fun[len(self.pts.measured):] * self.w_sigma
-            self.w_sigma = max(float(np.sqrt(np.mean(rw**2))), 1e-9)
-            res = self._least_squares(res.x)
-        return res
-
-
-def _bootstrap(problem: _Problem, res: optimize.OptimizeResult, cov_x: NDArray[np.float64],
-               replicates: ArrayLike, *, n_rows: int,
-               stretch: float) -> tuple[NDArray[np.float64] | None, str]:
-    """The parameters refitted to the replicates (scaled back, stretched like the
-    Jacobian's spread when the model misfits), or None and why the Jacobian is used."""
+def _bootstrap(problem: Problem, res: optimize.OptimizeResult, cov_x: NDArray[np.float64],
+               replicates: ArrayLike, *, n_rows: int, stretch: float,
+               scheduler: Any = None) -> tuple[NDArray[np.float64] | None, str]:
+    """The scaled parameters refitted to the replicates (stretched like the Jacobian's
+    spread when the model misfits), or None and why the Jacobian is used."""
     subject, pts = problem.subject, problem.pts
     reps = np.asarray(replicates, dtype=float)
     if reps.ndim != 2 or reps.shape[1] != n_rows:
@@ -274,11 +186,9 @@ def _bootstrap(problem: _Problem, res: optimize.OptimizeResult, cov_x: NDArray[n
     elif not np.all(np.isfinite(cov_x)):
         note = "a parameter is not determined by the data"
     else:
-        refits = refit_replicates(problem.model_at, res.x, reps[:, pts.good], pts.sigma,
-                                   problem.lower)
+        refits = _refits(problem, res.x, reps[:, pts.good], scheduler)
         if refits.shape[0] >= MIN_REFITS:
-            values = problem.start * res.x
-            boot = values + stretch * (problem.start * refits - values)
+            boot = res.x + stretch * (np.minimum(refits, problem.upper) - res.x)
         else:
             note = f"only {refits.shape[0]} of {reps.shape[0]} refits converged"
     if note:
@@ -288,30 +198,81 @@ def _bootstrap(problem: _Problem, res: optimize.OptimizeResult, cov_x: NDArray[n
     return boot, note
 
 
-def _estimates(problem: _Problem, values: NDArray[np.float64], cov: NDArray[np.float64],
-               boot: NDArray[np.float64] | None,
-               quantile: float) -> list[ParameterEstimate]:
-    """Each parameter's value, standard error and 95 % interval (the replicates'
-    percentiles, else the value plus or minus *quantile* standard errors)."""
-    floor = problem.start * problem.lower
-    if boot is not None:
-        q_lo, q_hi = np.quantile(boot, [0.025, 0.975], axis=0)
+def _estimates(problem: Problem, x: NDArray[np.float64], cov_x: NDArray[np.float64],
+               boot: NDArray[np.float64] | None, quantile: float, *,
+               profile: dict[int, tuple[float, float]]) -> list[ParameterEstimate]:
+    """Each parameter's value, standard error and 95 % interval: the replicates'
+    percentiles, else *quantile* standard errors either side, or for a resistance (fitted
+    in log space) its *profile* interval; an end the profile cannot close is open (0 or
+    infinity) with either method."""
+    values = problem.to_values(x)
+    deriv = problem.derivative(x)
+    if boot is not None:  # percentiles of the scaled values (a monotone map of the values)
+        lo_b, hi_b = np.quantile(boot, [0.025, 0.975], axis=0)
+        with np.errstate(over="ignore", invalid="ignore"):
+            spread = np.std(problem.to_values(boot), axis=0, ddof=1)
     estimates = []
     for i, name in enumerate(problem.names):
-        se = float(np.sqrt(cov[i, i])) if np.isfinite(cov[i, i]) else math.inf
+        se_x = float(np.sqrt(cov_x[i, i])) if np.isfinite(cov_x[i, i]) else math.inf
+        se = float(deriv[i]) * se_x if math.isfinite(se_x) else math.inf
+        p_lo, p_hi = profile.get(i, (math.nan, math.nan))
         if boot is not None:
-            lo, hi = max(float(q_lo[i]), floor[i]), float(q_hi[i])
+            se = float(spread[i]) if not problem.is_log[i] else se
+            lo = _scaled_value(problem, i, float(lo_b[i]), float(lo_b[i]))
+            hi = _scaled_value(problem, i, float(hi_b[i]), float(hi_b[i]))
+            lo, hi = 0.0 if p_lo == 0.0 else lo, math.inf if p_hi == math.inf else hi
+        elif problem.is_log[i]:
+            lo, hi = p_lo, p_hi
+        elif math.isfinite(se_x):
+            lo = float(values[i] - quantile * se) if x[i] - quantile * se_x > problem.lower[i] \
+                else float(problem.start[i] * problem.lower[i])
+            hi = float(values[i] + quantile * se)
         else:
-            lo = max(values[i] - quantile * se, floor[i]) if math.isfinite(se) \
-                else -math.inf
-            hi = values[i] + quantile * se
-        if not math.isfinite(se):
+            lo, hi = -math.inf, math.inf
+        if not math.isfinite(se_x) and not (problem.is_log[i] and (p_lo > 0 or p_hi < math.inf)):
             log.warning("subject %s: %s is not determined by these data (its effect cannot "
                         "be told apart from the other fitted parameters'); interval is "
                         "infinite", problem.subject, name)
         estimates.append(ParameterEstimate(name, float(values[i]), se, float(lo), float(hi),
                                            parameter_unit(name)))
     return estimates
+
+
+def _profile_intervals(problem: Problem, res: optimize.OptimizeResult, scale: float,
+                       quantile: float) -> dict[int, tuple[float, float]]:
+    """The likelihood-ratio interval of each log-space parameter: where the least sum of
+    squares with it held (the others refitted) exceeds the minimum by the interval's
+    quantile squared, in units of the inflated variance. An end of the range the data cannot
+    exclude is open (0 or infinity): the Jacobian's quadratic cannot say so where the
+    model flattens out (no leak at all: r_g bounded below only)."""
+    best = float(np.sum(res.fun**2))
+    threshold = scale * quantile**2
+    out = {}
+    for i in (int(k) for k in np.flatnonzero(problem.is_log)):
+        def excess(xi: float, i: int = i) -> float:
+            return problem.profile_cost(i, xi, res.x) - best - threshold
+
+        ends = []
+        for bound in (problem.lower[i], problem.upper[i]):
+            if excess(float(bound)) < 0:
+                ends.append(0.0 if bound < res.x[i] else math.inf)
+            else:
+                root = optimize.brentq(excess, float(bound), float(res.x[i]), xtol=1e-4)
+                ends.append(float(problem.to_values(np.where(
+                    np.arange(len(res.x)) == i, root, res.x))[i]))
+        out[i] = (ends[0], ends[1])
+    return out
+
+
+def _scaled_value(problem: Problem, i: int, x: float, raw: float) -> float:
+    """The value of parameter *i* at scaled *x*: 0 or infinity beyond a log parameter's
+    range (the data cannot tell it from them there)."""
+    if problem.is_log[i]:
+        if raw <= problem.lower[i]:
+            return 0.0
+        if raw >= problem.upper[i]:
+            return math.inf
+    return float(problem.start[i] * (math.exp(x) if problem.is_log[i] else x))
 
 
 def _correlation(subject: str, names: Sequence[str],
@@ -333,7 +294,7 @@ def _correlation(subject: str, names: Sequence[str],
 def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_1,
                 fit: Sequence[str] = DEFAULT_FIT,
                 windows: pd.DataFrame | None = None, *,
-                replicates: ArrayLike | None = None) -> SubjectFit:
+                replicates: ArrayLike | None = None, scheduler: Any = None) -> SubjectFit:
     """Fit the model's parameters *fit* to one subject's electrostatic results.
 
     Parameters
@@ -353,6 +314,8 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
         Bootstrap replicates of the rows' electrostatic forces, N
         (:func:`evtribo.compare.tables.replicate_matrix`); the intervals then come from
         refits to them.
+    scheduler : distributed.Client, optional
+        A Dask cluster for the bootstrap refits (the same refits as here).
 
     Returns
     -------
@@ -367,30 +330,33 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
     names = tuple(fit)
     rows = rows.reset_index(drop=True)
     use_windows = "mu" in names
-    pts = _points(subject, rows, windows, use_windows)
+    need_f = (any(n in LOG_PARAMETERS for n in names)
+              or not (math.isinf(base.r_sc) and math.isinf(base.r_g)))
+    pts = Points.of(subject, rows, windows, use_windows=use_windows, need_frequency=need_f)
     if not use_windows and pts.mu_measured > 0:
         base = base.with_values(mu=pts.mu_measured)
-    problem = _Problem(subject, names, base, pts, use_windows)
+    problem = Problem(subject, names, base, pts, use_windows)
     res = problem.solve()
 
     dof = problem.n_res - len(names)
     chi2_red = float(np.sum(res.fun**2)) / dof if dof > 0 else math.nan
-    cov_x = covariance(res.jac, res.x)
+    cov_x = covariance(res.jac, problem.magnitudes(res.x))
     scale = max(1.0, chi2_red) if math.isfinite(chi2_red) else 1.0
     quantile = float(stats.t.ppf(0.975, dof)) if scale > 1.0 else _Z95
-    cov = cov_x * scale * np.outer(problem.start, problem.start)
-    values = problem.start * res.x
+    cov_x = cov_x * scale
     boot, note = None, ""
     if replicates is not None:
         # replicate spread, inflated like the Jacobian's when the model misfits
         boot, note = _bootstrap(problem, res, cov_x, replicates, n_rows=len(rows),
-                                stretch=math.sqrt(scale) * quantile / _Z95)
-    if boot is not None:
-        cov = np.atleast_2d(np.cov(boot, rowvar=False))
-    estimates = _estimates(problem, values, cov, boot, quantile)
-    corr = _correlation(subject, names, cov)
+                                stretch=math.sqrt(scale) * quantile / _Z95,
+                                scheduler=scheduler)
+    cov_corr = cov_x if boot is None else np.atleast_2d(np.cov(boot, rowvar=False))
+    estimates = _estimates(problem, res.x, cov_x if boot is None else cov_corr, boot,
+                           quantile, profile=_profile_intervals(problem, res, scale,
+                                                                 quantile))
+    corr = _correlation(subject, names, cov_corr)
     fitted = problem.params_at(res.x)
-    resid = pts.measured - mean_electrostatic_force(pts.fn, pts.amp, pts.wave, fitted)
+    resid = pts.measured - problem.model_at(res.x)
     ss_tot = float(np.sum((pts.measured - pts.measured.mean()) ** 2))
     r2 = 1.0 - float(np.sum(resid**2)) / ss_tot if ss_tot > 0 else math.nan
     log.info("subject %s: %s (chi2_red %.3g, %d points)", subject,
@@ -405,8 +371,19 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
                       interval_note=note)
 
 
+def _with_frequency(windows: pd.DataFrame, trials: pd.DataFrame) -> pd.DataFrame:
+    """The windows with their trial's drive frequency (``trials.csv``), for the circuit."""
+    if "frequency_Hz" in windows.columns or not {"subject", "trial", "frequency_Hz"} <= set(
+            trials.columns) or "trial" not in windows.columns:
+        return windows
+    freq = trials[["subject", "trial", "frequency_Hz"]].astype({"subject": str, "trial": str})
+    freq = freq.drop_duplicates(["subject", "trial"])
+    keyed = windows.astype({"subject": str, "trial": str})
+    return keyed.merge(freq, on=["subject", "trial"], how="left", validate="many_to_one")
+
+
 def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
-              fit: Sequence[str] = DEFAULT_FIT) -> list[SubjectFit]:
+              fit: Sequence[str] = DEFAULT_FIT, *, scheduler: Any = None) -> list[SubjectFit]:
     """Fit every subject of a result folder (see :func:`fit_subject`).
 
     The intervals come from refits to ``electrostatic_bootstrap.csv``'s replicates when the
@@ -420,6 +397,8 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
         Starting values and the fixed parameters.
     fit : sequence of str
         Names of the parameters to fit per subject.
+    scheduler : distributed.Client, optional
+        A Dask cluster for the bootstrap refits (the same refits as here).
 
     Returns
     -------
@@ -430,7 +409,8 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
     boot = tables.bootstrap
     for subject in tables.subjects:
         rows = tables.electrostatic[tables.electrostatic["subject"] == subject]
-        win = tables.windows[tables.windows["subject"] == subject]
+        win = _with_frequency(tables.windows[tables.windows["subject"] == subject],
+                              tables.trials)
         reps = None
         if boot is not None:
             reps = replicate_matrix(rows, boot[boot["subject"].astype(str) == str(subject)],
@@ -438,5 +418,6 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
             if reps is None:
                 log.warning("subject %s: electrostatic_bootstrap.csv lacks replicates of "
                             "some of its points; intervals from the Jacobian", subject)
-        fits.append(fit_subject(subject, rows, base, fit, win, replicates=reps))
+        fits.append(fit_subject(subject, rows, base, fit, win, replicates=reps,
+                                scheduler=scheduler))
     return fits

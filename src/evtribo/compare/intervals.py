@@ -54,7 +54,8 @@ def covariance(jac: NDArray[np.float64],
 def refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]],
                       x0: NDArray[np.float64], targets: NDArray[np.float64],
                       sigma: NDArray[np.float64], lower: NDArray[np.float64],
-                      *, max_iter: int = 30, tol: float = 1e-6) -> NDArray[np.float64]:
+                      *, upper: NDArray[np.float64] | None = None, max_iter: int = 30,
+                      tol: float = 1e-6) -> NDArray[np.float64]:
     """Weighted least-squares solution for each row of *targets*, by Gauss-Newton from *x0*.
 
     Parameters
@@ -69,6 +70,8 @@ def refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]]
         Weights (the same as the fit's).
     lower : ndarray
         Lower bounds of the scaled parameters.
+    upper : ndarray, optional
+        Upper bounds (none by default).
     max_iter : int
         Iterations before a refit counts as failed.
     tol : float
@@ -90,6 +93,7 @@ def refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]]
             jac[:, i] = (model(xi) - m) / h / sigma
         return m, jac
 
+    high = np.full(x0.size, np.inf) if upper is None else upper
     m0, g0 = weighted(x0)
     out = []
     for t in targets:
@@ -100,10 +104,10 @@ def refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]]
         for _ in range(max_iter):
             step = np.linalg.lstsq(g, (t - m) / sigma, rcond=None)[0]
             if np.all(np.abs(step) <= tol * np.maximum(np.abs(x), 1.0)):
-                out.append(np.maximum(x + step, lower))  # Gauss-Newton's last step is tiny
+                out.append(np.clip(x + step, lower, high))  # Gauss-Newton's last step is tiny
                 break
             for _ in range(10):  # backtrack while the step raises the misfit
-                x_new = np.maximum(x + step, lower)
+                x_new = np.clip(x + step, lower, high)
                 m_new, g_new = weighted(x_new)
                 cost_new = float(np.sum(((t - m_new) / sigma) ** 2))
                 if cost_new <= cost:

@@ -1,9 +1,10 @@
 """The model alone: Figures 5, 6 and 7 of the seed paper, the Maugis-Dugdale comparison it
 leaves out, and F_el against the drive's frequency (``evtribo model --figures``).
 
-Each ``plot_*`` function draws on the Axes it is given (or on a new one,
-:func:`evtribo.compare.plots.new_axes`, without pyplot's global state) and returns the Axes.
-:func:`save_model_figures` writes them all as PNG and SVG
+Each ``plot_*`` function draws on the Axes it is given (or on a new one in the journal style
+of :mod:`evtribo.compare.style`, without pyplot's global state: a column wide, no title)
+and returns the Axes. Forces are in N, as in the paper's figures (F_el in mN).
+:func:`save_model_figures` writes them all as PNG (300 dpi) and SVG
 (:func:`evtribo.compare.plots.save_figure`). The figures of a comparison with measured
 results are :mod:`evtribo.compare.plots`'.
 """
@@ -14,12 +15,23 @@ import logging
 import os
 from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from evtribo.compare.plots import new_axes, save_figure
+from evtribo.compare.layout import place_legend, plain_log_axis
+from evtribo.compare.plots import save_figure
+from evtribo.compare.style import (
+    DEFAULT_DPI,
+    PALETTE,
+    journal_style,
+    new_axes,
+    proxy,
+    series_style,
+    styled,
+)
 from evtribo.errors import OutputExistsError
 from evtribo.model.circuit import electrostatic_force_drive, layer_elastances
 from evtribo.model.contact import area_increase_pct, contact_area_jkr
@@ -44,9 +56,7 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-_FIGSIZE = (6.4, 4.2)
-
-
+@styled
 def plot_paper_friction_time(ax: Axes | None = None, *, normal_force: float = 0.5,
                              amplitude: float = 140.0, frequency: float = 10.0,
                              duration: float = 0.3,
@@ -72,19 +82,20 @@ def plot_paper_friction_time(ax: Axes | None = None, *, normal_force: float = 0.
     -------
     Axes
     """
-    ax = ax if ax is not None else new_axes(_FIGSIZE)
+    ax = ax if ax is not None else new_axes()
     t = np.linspace(0.0, duration, 3001)
     on = friction_time_series(t, normal_force, sine_voltage(t, amplitude, frequency), params)
     off = friction_time_series(t, normal_force, 0.0, params)
-    ax.plot(t, np.full_like(t, normal_force), color="tab:green", label="external force")
-    ax.plot(t, on, color="tab:red", label=f"friction, ON ({amplitude:g} V, {frequency:g} Hz)")
-    ax.plot(t, off, color="tab:blue", label="friction, OFF")
-    ax.set(xlabel="time t (s)", ylabel="force (N)", xlim=(0, duration), ylim=(0, None),
-           title=f"Friction under a sine voltage (mu = {params.mu:g})")
-    ax.legend(loc="lower right")
+    ax.plot(t, np.full_like(t, normal_force), "-.", color=PALETTE[2], label="external force")
+    ax.plot(t, on, "-", color=PALETTE[1],
+            label=f"friction, ON ({amplitude:g} V, {frequency:g} Hz)")
+    ax.plot(t, off, "--", color=PALETTE[0], label=f"friction, OFF (μ = {params.mu:g})")
+    ax.set(xlabel="time $t$ (s)", ylabel="force (N)", xlim=(0, duration), ylim=(0, None))
+    place_legend(ax)
     return ax
 
 
+@styled
 def plot_paper_friction_vs_load(ax: Axes | None = None, *, amplitude: float = 140.0,
                                 frequency: float = 10e3, max_force: float = 2.0,
                                 params: ModelParameters = TABLE_1) -> Axes:
@@ -110,20 +121,22 @@ def plot_paper_friction_vs_load(ax: Axes | None = None, *, amplitude: float = 14
     -------
     Axes
     """
-    ax = ax if ax is not None else new_axes(_FIGSIZE)
+    ax = ax if ax is not None else new_axes()
     forces = np.linspace(0.0, max_force, 201)
     t = np.linspace(0.0, 1.0 / frequency, 200, endpoint=False)
     u = square_voltage(t, amplitude, frequency)
     on = friction_force(forces[:, None], u[None, :], params).mean(axis=1)
-    ax.plot(forces, friction_force(forces, 0.0, params), color="tab:green", label="OFF")
-    ax.plot(forces, on, color="tab:orange",
+    ax.plot(forces, friction_force(forces, 0.0, params), "-", color="k",
+            label=f"OFF (μ = {params.mu:g})")
+    ax.plot(forces, on, "--", color=PALETTE[1],
             label=f"ON ({amplitude:g} V square, {frequency / 1e3:g} kHz)")
-    ax.set(xlabel="external normal force F_ext (N)", ylabel="friction force F_R (N)",
-           xlim=(0, max_force), ylim=(0, None), title="Friction versus external force")
-    ax.legend(loc="upper left")
+    ax.set(xlabel="external normal force $F_\\mathrm{ext}$ (N)",
+           ylabel="friction force $F_R$ (N)", xlim=(0, max_force), ylim=(0, None))
+    place_legend(ax)
     return ax
 
 
+@styled
 def plot_paper_area_increase(ax: Axes | None = None, *,
                              normal_forces: Sequence[float] = (0.1, 0.5, 2.0),
                              max_voltage: float = 150.0,
@@ -145,16 +158,19 @@ def plot_paper_area_increase(ax: Axes | None = None, *,
     -------
     Axes
     """
-    ax = ax if ax is not None else new_axes(_FIGSIZE)
+    ax = ax if ax is not None else new_axes()
     u = np.linspace(0.0, max_voltage, 301)
-    for f in normal_forces:
-        ax.plot(u, area_increase_pct(f, u, params), label=f"F_ext = {f:g} N")
-    ax.set(xlabel="voltage amplitude U (V)", ylabel="contact area increase (%)",
-           xlim=(0, max_voltage), ylim=(0, None), title="Contact area increase, JKR vs Hertz")
-    ax.legend(loc="upper left")
+    for k, f in enumerate(normal_forces):
+        style = series_style(k)
+        ax.plot(u, area_increase_pct(f, u, params), color=style["color"],
+                linestyle=style["linestyle"], label=f"F_ext = {f:g} N")
+    ax.set(xlabel="voltage amplitude $U$ (V)", ylabel="contact area increase (%)",
+           xlim=(0, max_voltage), ylim=(0, None))
+    place_legend(ax)
     return ax
 
 
+@styled
 def plot_maugis(ax: Axes | None = None, *, normal_forces: Sequence[float] = (0.1, 0.5, 2.0),
                 max_voltage: float = 150.0, params: ModelParameters = TABLE_1) -> Axes:
     """Where Maugis-Dugdale departs from the JKR asymptote: percent differences versus voltage.
@@ -179,29 +195,32 @@ def plot_maugis(ax: Axes | None = None, *, normal_forces: Sequence[float] = (0.1
     Axes
         The left (percent) Axes; the lambda axis is its twin.
     """
-    ax = ax if ax is not None else new_axes(_FIGSIZE)
+    ax = ax if ax is not None else new_axes()
+    keys: list[Any] = []
     u = np.linspace(max_voltage / 60, max_voltage, 60)
     for i, f in enumerate(normal_forces):
-        color = f"C{i}"
+        color = PALETTE[i % len(PALETTE)]
         ax.plot(u, 100 * md_jkr_departure(f, u, params), color=color,
                 label=f"force, F_ext = {f:g} N")
         area = 100 * (contact_area_md(f, u, params) / contact_area_jkr(f, u, params) - 1)
         ax.plot(u, area, color=color, linestyle="--", label=f"area, F_ext = {f:g} N")
+        keys.append(proxy(f"$F_\\mathrm{{ext}}$ = {f:g} N", color=color))
     ax.axhline(0.0, color="0.5", linewidth=0.8)
-    ax.set(xlabel="voltage amplitude U (V)", ylabel="Maugis-Dugdale vs JKR (%)",
-           xlim=(0, max_voltage), title="Maugis-Dugdale departure from JKR")
+    ax.set(xlabel="voltage amplitude $U$ (V)", ylabel="Maugis-Dugdale vs JKR (%)",
+           xlim=(0, max_voltage))
     twin = ax.twinx()
-    twin.plot(u, maugis_parameter(u, params), color="k", linestyle=":", label="lambda")
-    twin.set_ylabel("Maugis parameter lambda (1)")
+    twin.spines["right"].set_visible(True)
+    twin.plot(u, maugis_parameter(u, params), color="k", linestyle=":", label="λ")
+    twin.set_ylabel("Maugis parameter λ (1)")
     twin.set_ylim(0, None)
-    handles, labels = ax.get_legend_handles_labels()
-    h2, l2 = twin.get_legend_handles_labels()
-    # below the plot: inside, it would hide a curve whatever the corner
-    ax.legend(handles + h2, labels + l2, loc="upper center", bbox_to_anchor=(0.5, -0.18),
-              fontsize="small", ncol=3)
+    keys += [proxy("force", color="0.4"), proxy("area", color="0.4", linestyle="--"),
+             proxy("λ (right axis)", color="k", linestyle=":")]
+    # above the plot: the twin's curve is not seen by the corner check
+    place_legend(ax, keys, [str(h.get_label()) for h in keys], ncol_outside=3, inside=False)
     return ax
 
 
+@styled
 def plot_frequency(ax: Axes | None = None, *, normal_force: float = 0.5,
                    amplitude: float = 100.0, corners_Hz: Sequence[float] = (20.0, 100.0, 300.0),
                    params: ModelParameters = TABLE_1) -> Axes:
@@ -227,25 +246,29 @@ def plot_frequency(ax: Axes | None = None, *, normal_force: float = 0.5,
     -------
     Axes
     """
-    ax = ax if ax is not None else new_axes(_FIGSIZE)
+    ax = ax if ax is not None else new_axes()
     f = np.geomspace(1.0, 1e5, 121)
-    for waveform, style in (("square", "-"), ("sine", "--")):
+    styles = (("square", "-"), ("sine", "--"))
+    for waveform, style in styles:
         ax.plot(f, 1e3 * electrostatic_force_drive(normal_force, amplitude, f, waveform,
-                                                   params),
-                color="k", linestyle=style, label=f"paper, r_g = inf ({waveform})")
+                                                   params), color="k", linestyle=style)
+    handles = [proxy("paper ($r_g = \\infty$)", color="k")]
     s_sc, s_g, s_i = layer_elastances(params)
     c_total = 1.0 / s_g + 1.0 / (s_sc + s_i)
     for i, corner in enumerate(corners_Hz):
         leaky = params.with_values(r_g=1.0 / (2.0 * np.pi * corner * c_total))
-        for waveform, style in (("square", "-"), ("sine", "--")):
+        color = PALETTE[i % len(PALETTE)]
+        for waveform, style in styles:
             ax.plot(f, 1e3 * electrostatic_force_drive(normal_force, amplitude, f, waveform,
-                                                       leaky),
-                    color=f"C{i}", linestyle=style,
-                    label=f"leaky gap, corner {corner:g} Hz ({waveform})")
-    ax.set(xscale="log", xlabel="drive frequency f (Hz)",
-           ylabel="electrostatic force F_el (mN)", ylim=(0, None),
-           title=f"F_el against frequency ({amplitude:g} V, F_ext = {normal_force:g} N)")
-    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.18), fontsize="small", ncol=2)
+                                                       leaky), color=color, linestyle=style)
+        handles.append(proxy(f"corner {corner:g} Hz", color=color))
+    handles += [proxy(waveform, color="0.4", linestyle=style) for waveform, style in styles]
+    ax.set_xscale("log")
+    plain_log_axis(ax.xaxis, subs=(1.0,))
+    ax.set(xlabel="drive frequency $f$ (Hz)",
+           ylabel="electrostatic force $F_\\mathrm{el}$ (mN)", ylim=(0, None))
+    place_legend(ax, handles, [str(h.get_label()) for h in handles], ncol_outside=3,
+                 title=f"{amplitude:g} V, $F_\\mathrm{{ext}}$ = {normal_force:g} N")
     return ax
 
 
@@ -295,11 +318,12 @@ def save_model_figures(directory: str | os.PathLike[str], *, force: bool = False
             path=existing[0])
     out.mkdir(parents=True, exist_ok=True)
     written = []
-    for name, plot in MODEL_FIGURES.items():
-        ax = plot(params=params)
-        fig = ax.get_figure()
-        assert isinstance(fig, Figure)
-        for path in save_figure(fig, out, name, dpi=150, formats=formats):
-            written.append(path)
-            log.info("wrote %s", path)
+    with journal_style():
+        for name, plot in MODEL_FIGURES.items():
+            ax = plot(params=params)
+            fig = ax.get_figure()
+            assert isinstance(fig, Figure)
+            for path in save_figure(fig, out, name, dpi=DEFAULT_DPI, formats=formats):
+                written.append(path)
+                log.info("wrote %s", path)
     return written

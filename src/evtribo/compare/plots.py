@@ -1,9 +1,13 @@
-"""Figures comparing the model with the measurements (the seed paper's Figures 5-7).
+"""Figures comparing the model with the measurements (the seed paper's Figures 5-7); the
+electrostatic force against the voltage, per subject and of every subject in one figure, is
+:mod:`evtribo.compare.electrostatic_plots`' (re-exported here).
 
-Every ``plot_*`` function draws on the Axes it is given (``ax=None`` makes a new figure) and
-returns the Axes, like lmfit's ``plot_fit``. Figures are built with
+Every ``plot_*`` function draws on the Axes it is given, or, with ``ax=None``, on a new
+figure in the journal style (:mod:`evtribo.compare.style`: a single column wide, no title,
+forces in mN, plain voltage ticks at the measured amplitudes, a legend that covers no
+data), and returns the Axes, like lmfit's ``plot_fit``. Figures are built with
 :class:`matplotlib.figure.Figure` directly (no pyplot state), so they render with the Agg
-canvas on a machine without a display.
+canvas on a machine without a display; :func:`save_figure` writes them with text as text.
 """
 
 from __future__ import annotations
@@ -12,16 +16,34 @@ import logging
 import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import cast
+from typing import Any
 
+import matplotlib as mpl
 import numpy as np
 import pandas as pd
+from matplotlib import colormaps
 from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import ListedColormap, Normalize
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
 from numpy.typing import NDArray
 
-from evtribo.compare.model_points import mean_electrostatic_force, mean_friction_force
+from evtribo.compare.electrostatic_plots import (
+    plot_electrostatic_force,
+    plot_electrostatic_force_all,
+)
+from evtribo.compare.layout import place_legend, voltage_ticks
+from evtribo.compare.model_points import mean_friction_force
+from evtribo.compare.style import (
+    DEFAULT_DPI,
+    DEFAULT_FORMATS,
+    PALETTE,
+    new_axes,
+    proxy,
+    series_style,
+    styled,
+)
 from evtribo.files import atomic_open
 from evtribo.model import (
     area_increase_pct,
@@ -34,10 +56,11 @@ from evtribo.model.params import TABLE_1, ModelParameters
 log = logging.getLogger(__name__)
 
 __all__ = ["new_axes", "plot_area_increase", "plot_electrostatic_force",
-           "plot_friction_normal_force", "plot_friction_time", "safe_name", "save_figure",
-           "trace_voltage"]
+           "plot_electrostatic_force_all", "plot_friction_normal_force", "plot_friction_time",
+           "safe_name", "save_figure", "trace_voltage"]
 
-_WAVE_MARKERS = {"square": "o", "sine": "s"}
+#: Text as text in SVG and PDF, whatever style the figure was drawn in.
+_TEXT_AS_TEXT: Any = {"svg.fonttype": "none", "pdf.fonttype": 42, "ps.fonttype": 42}
 
 
 def safe_name(name: str) -> str:
@@ -56,28 +79,10 @@ def safe_name(name: str) -> str:
     return re.sub(r"[^A-Za-z0-9_-]", "_", str(name)) or "_"
 
 
-def new_axes(figsize: tuple[float, float] = (5.0, 3.6)) -> Axes:
-    """A fresh Axes on its own Agg-backed figure (no pyplot state).
-
-    Parameters
-    ----------
-    figsize : (float, float)
-        The figure's size, inches.
-
-    Returns
-    -------
-    Axes
-        The figure's one Axes.
-    """
-    fig = Figure(figsize=figsize, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig.add_subplot()
-
-
-def save_figure(fig: Figure, folder: str | Path, stem: str, *, dpi: float = 150,
-                formats: Sequence[str] = ("png", "svg")) -> list[Path]:
-    """Write *fig* as ``folder/stem.<format>`` for each format, without a creation date
-    (the same data give byte-identical files).
+def save_figure(fig: Figure, folder: str | Path, stem: str, *, dpi: float = DEFAULT_DPI,
+                formats: Sequence[str] = DEFAULT_FORMATS) -> list[Path]:
+    """Write *fig* as ``folder/stem.<format>`` for each format, text as text, without a
+    creation date (the same data give byte-identical files).
 
     Parameters
     ----------
@@ -88,7 +93,7 @@ def save_figure(fig: Figure, folder: str | Path, stem: str, *, dpi: float = 150,
     stem : str
         The files' name without suffix.
     dpi : float
-        Resolution of raster formats, dots per inch.
+        Resolution of raster formats, dots per inch (300 by default).
     formats : sequence of str
         Suffixes matplotlib knows (``png``, ``svg``, ``pdf``...).
 
@@ -100,11 +105,12 @@ def save_figure(fig: Figure, folder: str | Path, stem: str, *, dpi: float = 150,
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
-    for fmt in formats:
-        path = folder / f"{stem}.{fmt}"
-        with atomic_open(path, "wb") as fh:  # a killed process leaves no half figure
-            fig.savefig(fh, dpi=dpi, format=fmt, metadata=_metadata(fmt))
-        paths.append(path)
+    with mpl.rc_context(_TEXT_AS_TEXT):
+        for fmt in formats:
+            path = folder / f"{stem}.{fmt}"
+            with atomic_open(path, "wb") as fh:  # a killed process leaves no half figure
+                fig.savefig(fh, dpi=dpi, format=fmt, metadata=_metadata(fmt))
+            paths.append(path)
     return paths
 
 
@@ -117,58 +123,58 @@ def _metadata(fmt: str) -> dict[str, str | None]:
     return {}
 
 
-def plot_electrostatic_force(rows: pd.DataFrame, params: ModelParameters = TABLE_1, *,
-                             subject: str | None = None, ax: Axes | None = None) -> Axes:
-    """Electrostatic force versus voltage amplitude, log-log: measured, model, U^2 guide.
-
-    Parameters
-    ----------
-    rows : DataFrame
-        One subject's rows of ``electrostatic.csv``.
-    params : ModelParameters
-        The subject's fitted parameters.
-    subject : str, optional
-        For the title.
-    ax : Axes, optional
-        Where to draw; a new figure when None.
-
-    Returns
-    -------
-    Axes
-    """
-    ax = new_axes() if ax is None else ax
-    amps_all = rows["amplitude_V"].to_numpy(float)
-    u_lo, u_hi = np.nanmin(amps_all) / 1.25, np.nanmax(amps_all) * 1.25
-    grid = np.geomspace(u_lo, u_hi, 80)
-    for k, (wave, sel) in enumerate(rows.groupby(rows["waveform"].astype(str), sort=True)):
-        amp = sel["amplitude_V"].to_numpy(float)
-        f = sel["electrostatic_force_N"].to_numpy(float)
-        lo = np.clip(f - sel["electrostatic_force_ci_low_N"].to_numpy(float), 0, None)
-        hi = np.clip(sel["electrostatic_force_ci_high_N"].to_numpy(float) - f, 0, None)
-        color = f"C{k}"
-        ax.errorbar(amp, f, yerr=np.vstack([lo, hi]), fmt=_WAVE_MARKERS.get(wave, "D"),
-                    color=color, capsize=3, label=f"measured ({wave}, 95 % CI)")
-        fn = float(np.nanmean(sel["normal_force_on_N"].to_numpy(float)))
-        ax.plot(grid, mean_electrostatic_force(fn, grid, wave, params), "-", color=color,
-                label=f"model ({wave}, F_n = {fn:.2g} N)")
-        pos = f > 0
-        if pos.any():  # U^2 through the points' geometric centre
-            centre_u = np.exp(np.mean(np.log(amp[pos])))
-            centre_f = np.exp(np.mean(np.log(f[pos])))
-            ax.plot(grid, centre_f * (grid / centre_u) ** 2, ":", color="0.4",
-                    label="∝ U² guide" if k == 0 else None)
-    ax.set_xscale("log")
-    ax.set_yscale("log")
-    ax.set_xlabel("voltage amplitude U (V)")
-    ax.set_ylabel("electrostatic force F_el (N)")
-    ax.set_title(f"Electrostatic force, {subject}" if subject else "Electrostatic force")
-    ax.legend(fontsize="small")
-    return ax
+#: More ON drives than this in one friction-versus-load figure: a colour bar for the
+#: amplitude instead of one legend entry per drive.
+_MAX_ON_ENTRIES = 6
 
 
+def _on_series(ax: Axes, on: pd.DataFrame, grid: NDArray[np.float64],
+               params: ModelParameters) -> list[Line2D]:
+    """Draw each ON drive's windows and model curve; return the legend entries."""
+    pairs = on[["waveform", "amplitude_V"]].drop_duplicates().itertuples(index=False)
+    keys = sorted(((str(p[0]), float(p[1])) for p in pairs),
+                  key=lambda wa: (wa[0] != "square", wa[0], wa[1]))
+    amps = np.array([a for _, a in keys])
+    many = len(keys) > _MAX_ON_ENTRIES
+    cmap = ListedColormap(colormaps["viridis"](np.linspace(0.0, 0.85, 256)))
+    norm = Normalize(float(amps.min()), float(amps.max())) if amps.size else Normalize()
+    handles: list[Line2D] = []
+    waves: dict[str, dict[str, Any]] = {}
+    for k, (wave, amp) in enumerate(keys):
+        sel = on[(on["waveform"].astype(str) == wave) & (on["amplitude_V"] == amp)]
+        style: dict[str, Any] = series_style(k + 1) if not many else {
+            "marker": "o", "linestyle": "-" if wave == "square" else "--"}
+        style = {**style, "color": cmap(norm(amp) if np.ptp(amps) > 0 else 0.5),
+                 "markerfacecolor": "white" if wave == "sine" else None}
+        points: dict[str, Any] = {key: v for key, v in style.items() if key != "linestyle"}
+        ax.plot(1e3 * sel["normal_force_N"], 1e3 * sel["friction_force_N"], linestyle="none",
+                markersize=3, alpha=0.8, **points)
+        ax.plot(1e3 * grid, 1e3 * mean_friction_force(grid, amp, wave, params),
+                linestyle=style["linestyle"], color=style["color"])
+        if not many:
+            handles.append(proxy(f"ON {amp:g} V" + (f" {wave}" if wave != "square" else ""),
+                                 **style))
+        waves.setdefault(wave, {**style, "color": "0.35"})
+    if many:
+        handles += [proxy(f"ON, {wave}", **style) for wave, style in waves.items()]
+        fig = ax.get_figure()
+        assert fig is not None
+        bar = fig.colorbar(ScalarMappable(norm, cmap), ax=ax, pad=0.02, aspect=30)
+        bar.set_label("voltage amplitude $U$ (V)")
+        voltage_ticks(bar.ax.yaxis, amps)
+    return handles
+
+
+@styled
 def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = TABLE_1, *,
                                subject: str | None = None, ax: Axes | None = None) -> Axes:
     """Friction versus normal force, OFF and ON: measured windows and the model (Figure 6).
+
+    Points are the steady-sliding windows, lines the model (eq. 5); OFF in black, each ON
+    drive (waveform and amplitude) in the colour of its amplitude on the viridis map
+    (readable in greyscale) with its own marker and line style; open markers for a sine
+    drive. With more than six ON drives a colour bar gives the amplitude and the legend
+    only the waveforms (solid: square, dashed: sine).
 
     Parameters
     ----------
@@ -177,41 +183,33 @@ def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = 
     params : ModelParameters
         Model parameters (``mu`` from the measured OFF windows unless fitted).
     subject : str, optional
-        For the title.
+        The subject (the caption names it; no title is drawn).
     ax : Axes, optional
-        Where to draw; a new figure when None.
+        Where to draw; a new figure in the journal style when None.
 
     Returns
     -------
     Axes
+        Forces in mN.
     """
-    ax = new_axes((7.6, 3.8)) if ax is None else ax  # room for the legend on the right
+    ax = new_axes() if ax is None else ax
     fn = windows["normal_force_N"].to_numpy(float)
     top = float(np.nanmax(fn)) * 1.15 if fn.size and np.isfinite(fn).any() else 1.0
     grid = np.linspace(0.02 * top, top, 60)
     cond = windows["condition"].astype(str).str.lower()
     off = windows[cond == "off"]
-    ax.plot(off["normal_force_N"], off["friction_force_N"], "o", color="C2", alpha=0.7,
-            label="measured OFF")
-    ax.plot(grid, mean_friction_force(grid, 0.0, "square", params), "-", color="C2",
-            label=f"model OFF (μ = {params.mu:.3g})")
-    on = windows[cond == "on"]
-    keys = on.groupby([on["waveform"].astype(str), on["amplitude_V"]], sort=True)
-    for k, (key, sel) in enumerate(keys):
-        wave, amp = cast(tuple[str, float], key)  # (waveform, amplitude), as grouped
-        color = f"C{(k % 8) + 3}" if k else "C1"
-        ax.plot(sel["normal_force_N"], sel["friction_force_N"], _WAVE_MARKERS.get(wave, "D"),
-                color=color, alpha=0.7, label=f"measured ON {amp:g} V {wave}")
-        ax.plot(grid, mean_friction_force(grid, amp, wave, params),
-                ":" if wave == "sine" else "--", color=color, label=f"model ON {amp:g} V {wave}")
-    ax.set_xlabel("normal force F_n (N)")
-    ax.set_ylabel("friction force F_t (N)")
-    ax.set_title(f"Friction vs normal force, {subject}" if subject
-                 else "Friction vs normal force")
-    ax.set_xlim(0, top)
+    ax.plot(1e3 * off["normal_force_N"], 1e3 * off["friction_force_N"], "o", color="k",
+            markerfacecolor="white", markersize=3, alpha=0.8)
+    ax.plot(1e3 * grid, 1e3 * mean_friction_force(grid, 0.0, "square", params), "-",
+            color="k")
+    handles = [proxy(f"OFF (μ = {params.mu:.3g})", color="k", marker="o", linestyle="-",
+                     markerfacecolor="white")]
+    handles += _on_series(ax, windows[cond == "on"], grid, params)
+    ax.set_xlabel("normal force $F_n$ (mN)")
+    ax.set_ylabel("friction force $F_t$ (mN)")
+    ax.set_xlim(0, 1e3 * top)
     ax.set_ylim(bottom=0)
-    ax.legend(fontsize="x-small", loc="upper left", bbox_to_anchor=(1.02, 1.0),
-              borderaxespad=0.0)
+    place_legend(ax, handles, [str(h.get_label()) for h in handles], ncol_outside=3)
     return ax
 
 
@@ -251,6 +249,7 @@ def trace_voltage(trace: pd.DataFrame, params: ModelParameters = TABLE_1,
     return u[int(np.argmin(err))]
 
 
+@styled
 def plot_friction_time(trace: pd.DataFrame | None, params: ModelParameters = TABLE_1, *,
                        amplitude: float = 140.0, frequency: float = 10.0,
                        normal_force: float = 0.5, subject: str | None = None,
@@ -273,64 +272,70 @@ def plot_friction_time(trace: pd.DataFrame | None, params: ModelParameters = TAB
     normal_force : float
         Normal force for the model-only figure, N.
     subject : str, optional
-        For the title.
+        The subject (the caption names it; no title is drawn).
     ax : Axes, optional
-        Where to draw; a new figure when None.
+        Where to draw; a new figure in the journal style when None.
 
     Returns
     -------
     Axes
+        Forces in mN.
     """
-    ax = new_axes((6.0, 3.6)) if ax is None else ax
+    ax = new_axes() if ax is None else ax
     if trace is not None and len(trace):
         t = trace["time_s"].to_numpy(float)
         fn = trace["normal_force_N"].to_numpy(float)
         u = trace_voltage(trace, params)
         fitted_phase = "voltage_V" not in trace.columns
-        ax.plot(t, fn, "-", color="C2", lw=1, label="normal force (measured)")
+        ax.plot(t, 1e3 * fn, "-.", color=PALETTE[2], label="normal force, measured")
         # the model underneath, wide and pale, so that the measured trace stays visible
-        ax.plot(t, friction_time_series(t, fn, u, params), "-", color="C3", lw=3.5, alpha=0.45,
-                label="friction (model, drive phase fitted)" if fitted_phase
-                else "friction (model)")
-        ax.plot(t, friction_time_series(t, fn, np.zeros_like(t), params), "--", color="C0",
-                lw=1, label="friction (model, OFF)")
-        ax.plot(t, trace["friction_force_N"].to_numpy(float), "-", color="k", lw=0.8,
-                label="friction (measured)")
-        title = "Friction vs time, sine drive"
+        ax.plot(t, 1e3 * friction_time_series(t, fn, u, params), "-", color=PALETTE[1],
+                lw=3.0, alpha=0.45, solid_capstyle="butt",
+                label="friction, model (drive phase fitted)" if fitted_phase
+                else "friction, model")
+        ax.plot(t, 1e3 * friction_time_series(t, fn, np.zeros_like(t), params), "--",
+                color=PALETTE[0], label="friction, model OFF")
+        ax.plot(t, 1e3 * trace["friction_force_N"].to_numpy(float), "-", color="k", lw=0.7,
+                label="friction, measured")
     else:
         t = np.linspace(0.0, 3.0 / frequency, 600)
         fn = np.full_like(t, normal_force)
-        ax.plot(t, fn, "-", color="C2", lw=1, label="normal force")
-        ax.plot(t, friction_time_series(t, fn, sine_voltage(t, amplitude, frequency), params),
-                "-", color="C3", lw=1.2, label=f"model ON ({amplitude:g} V, {frequency:g} Hz)")
-        ax.plot(t, friction_time_series(t, fn, np.zeros_like(t), params), "-", color="C0",
-                lw=1.2, label="model OFF")
+        ax.plot(t, 1e3 * fn, "-.", color=PALETTE[2], label="normal force")
+        ax.plot(t, 1e3 * friction_time_series(t, fn, sine_voltage(t, amplitude, frequency),
+                                              params),
+                "-", color=PALETTE[1], label=f"model ON ({amplitude:g} V, {frequency:g} Hz)")
+        ax.plot(t, 1e3 * friction_time_series(t, fn, np.zeros_like(t), params), "--",
+                color=PALETTE[0], label="model OFF")
         ax.text(0.02, 0.5, "model only: no measured sine trace\n(sine_trace.csv absent)",
-                transform=ax.transAxes, fontsize="small", color="C3", va="center")
-        title = "Friction vs time, sine drive (model only)"
-    ax.set_xlabel("time t (s)")
-    ax.set_ylabel("force (N)")
-    ax.set_title(f"{title}, {subject}" if subject else title)
+                transform=ax.transAxes, fontsize="small", color=PALETTE[1], va="center")
+    ax.set_xlabel("time $t$ (s)")
+    ax.set_ylabel("force (mN)")
+    ax.set_xlim(float(np.nanmin(t)), float(np.nanmax(t)))
     ax.set_ylim(bottom=0)
-    ax.legend(fontsize="x-small", loc="lower right")
+    place_legend(ax)
     return ax
 
 
+@styled
 def plot_area_increase(normal_forces: Mapping[str, float],
                        params: Mapping[str, ModelParameters], *, u_max: float = 150.0,
+                       amplitudes: Sequence[float] | None = None,
                        ax: Axes | None = None) -> Axes:
     """Predicted increase of the contact area versus voltage amplitude (Figure 7).
 
     Parameters
     ----------
     normal_forces : mapping
-        ``{label: normal force in N}``, e.g. each subject's mean normal force ON.
+        ``{label: normal force in N}``, e.g. each subject's mean normal force ON; one
+        colour and line style per label, in this order.
     params : mapping
         ``{label: ModelParameters}`` with the same keys.
     u_max : float
         Largest voltage amplitude drawn, V.
+    amplitudes : sequence of float, optional
+        The measured amplitudes, V: the voltage axis gets a tick at each (and at 0).
     ax : Axes, optional
-        Where to draw; a new figure when None.
+        Where to draw; a new figure in the journal style when None.
 
     Returns
     -------
@@ -339,12 +344,14 @@ def plot_area_increase(normal_forces: Mapping[str, float],
     ax = new_axes() if ax is None else ax
     u = np.linspace(0.0, u_max, 120)
     for k, (label, fn) in enumerate(normal_forces.items()):
-        ax.plot(u, area_increase_pct(fn, u, params[label]), color=f"C{k % 10}",
-                label=f"{label} (F_n = {fn:.2g} N)")
-    ax.set_xlabel("voltage amplitude U (V)")
+        style = series_style(k)
+        ax.plot(u, area_increase_pct(fn, u, params[label]), color=style["color"],
+                linestyle=style["linestyle"], label=f"{label} ($F_n$ = {1e3 * fn:.0f} mN)")
+    ax.set_xlabel("voltage amplitude $U$ (V)")
     ax.set_ylabel("contact area increase (%)")
-    ax.set_title("Predicted contact-area increase (JKR vs Hertz)")
     ax.set_xlim(0, u_max)
     ax.set_ylim(bottom=0)
-    ax.legend(fontsize="small")
+    if amplitudes is not None and len(amplitudes):
+        voltage_ticks(ax.xaxis, [0.0, *amplitudes])
+    place_legend(ax)
     return ax

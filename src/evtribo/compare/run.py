@@ -8,7 +8,11 @@ Writes into the result folder:
   how its intervals were obtained (``interval``: ``bootstrap``, refits to the force
   replicates of ``electrostatic_bootstrap.csv``, or ``jacobian``, the fallback that takes
   the points' errors as independent), the figures and notes (read by ``evtribo report``);
-- ``figures/``: each figure as PNG and SVG.
+- ``figures/``: each figure once per format asked (``<stem>.svg`` and ``<stem>.png`` by
+  default, ``<stem>.pdf`` too on request), in the journal style of
+  :mod:`evtribo.compare.style` (a single column or a page wide, no titles: fit.json's
+  captions carry them). The first is ``electrostatic_force_all``, every subject's
+  electrostatic force and fitted model in one figure.
 
 ``fit.json`` also records the ``run_id`` of the analysis it fitted (from ``summary.json``)
 and the SHA-256 of every file compare wrote (``output_sha256``), which ``evtribo report``
@@ -20,7 +24,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -32,16 +36,26 @@ from evtribo import __version__
 from evtribo.analysis.outputs import FIGURES, FIT_CSV, FIT_JSON, compare_files
 from evtribo.compare.fit import SubjectFit, fit_study
 from evtribo.compare.fit_csv import fit_table
+from evtribo.compare.frequency_plots import write_models
+from evtribo.compare.models import resolve_models
 from evtribo.compare.params import load_parameters, resolve_fit_names
 from evtribo.compare.plots import (
     plot_area_increase,
     plot_electrostatic_force,
+    plot_electrostatic_force_all,
     plot_friction_normal_force,
     plot_friction_time,
     safe_name,
     save_figure,
 )
+from evtribo.compare.style import (
+    journal_style,
+    parse_dpi,
+    parse_figure_formats,
+    parse_figure_width,
+)
 from evtribo.compare.tables import ResultTables, check_out_folder, read_results
+from evtribo.compare.trial_checks import write_trial_checks
 from evtribo.documents.fit import write_fit
 from evtribo.errors import OutputExistsError
 from evtribo.files import atomic_write, sha256_file
@@ -54,15 +68,52 @@ __all__ = ["FIGURES", "FIT_CSV", "FIT_JSON", "CompareResult", "FigureRecord", "c
            "figure_stems"]
 
 
+#: The citation of the model's paper, for captions and help texts.
+PAPER = ("Voltage-Induced Friction with Application to Electrovibration, Lubricants 2019, "
+         "7(12), 102, doi:10.3390/lubricants7120102")
+
+
 @dataclass(frozen=True)
 class FigureRecord:
-    """One figure written by :func:`compare`: its kind, subject (or None) and files."""
+    """One figure written by :func:`compare`: its kind, subject (or None) and files.
+
+    Parameters
+    ----------
+    kind : str
+        What the figure shows (``electrostatic_force_all``, ``electrostatic_force``...).
+    title : str
+        A short title (the figure itself has none).
+    stem : str
+        The files' name in ``figures/`` without suffix.
+    subject : str or None
+        The subject shown, None for a figure of the whole study.
+    caption : str
+        What a reader needs to read the figure.
+    extra : mapping
+        Further keys of the record in fit.json (``trial`` for a trial's figure).
+
+    Returns
+    -------
+    FigureRecord
+    """
 
     kind: str
     title: str
     stem: str
     subject: str | None
     caption: str
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The record as fit.json lists it.
+
+        Returns
+        -------
+        dict
+            ``kind``, ``title``, ``stem``, ``subject``, ``caption``, then the extra keys.
+        """
+        return {"kind": self.kind, "title": self.title, "stem": self.stem,
+                "subject": self.subject, "caption": self.caption, **self.extra}
 
 
 @dataclass
@@ -87,9 +138,9 @@ def figure_stems(subjects: Iterable[str]) -> list[str]:
     Returns
     -------
     list of str
-        The two figures of the whole study, then two per subject.
+        The figure of all subjects, two of the whole study, then two per subject.
     """
-    stems = ["friction_time", "area_increase"]
+    stems = ["electrostatic_force_all", "friction_time", "area_increase"]
     for s in subjects:
         stems += [f"electrostatic_force_{safe_name(s)}", f"friction_normal_force_{safe_name(s)}"]
     return stems
@@ -119,8 +170,11 @@ def _first_trace(tables: ResultTables) -> tuple[pd.DataFrame | None, str | None]
 
 
 def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
-            params: str | Path | None = None, force: bool = False, dpi: float = 150,
-            formats: tuple[str, ...] = ("png", "svg")) -> CompareResult:
+            params: str | Path | None = None, force: bool = False,
+            dpi: float | None = None, formats: str | Iterable[str] | None = None,
+            width: str = "single",
+            models: str | Iterable[str] | None = None,
+            trial_checks: bool = True, scheduler: Any = None) -> CompareResult:
     """Fit the model to the results in *out* and write ``fit.csv``, ``fit.json``, figures.
 
     Parameters
@@ -133,10 +187,19 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         TOML file of fixed parameters (SI units); Table 1 for those it does not set.
     force : bool
         Overwrite the outputs of a previous comparison.
-    dpi : float
-        Resolution of the PNG figures, dots per inch.
-    formats : tuple of str
-        Figure formats.
+    dpi : float, optional
+        Resolution of the PNG figures, dots per inch (300 by default).
+    formats : str or iterable of str, optional
+        Figure formats, ``"pdf,svg,png"`` or a sequence of them (default ``svg,png``).
+    width : {"single", "double"}
+        Width of the figures: a journal's single column (85 mm) or a page (175 mm).
+    models : str or iterable of str, optional
+        Candidate models to fit and rank per subject (``"paper,hertz,maugis,circuit"``):
+        writes ``models.csv`` and a ``frequency_response`` figure per subject.
+    trial_checks : bool
+        Draw the check of every trial (kind ``trial``) when the study folder is there.
+    scheduler : distributed.Client, optional
+        A Dask cluster for the bootstrap refits (the same results as here).
 
     Returns
     -------
@@ -145,7 +208,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     Raises
     ------
     UserInputError
-        Missing folder or tables, bad ``fit`` names or parameter file (exit code 2).
+        Missing folder or tables, bad ``fit`` names, parameter file, figure format, width
+        or resolution (exit code 2).
     OutputExistsError
         When outputs exist and *force* is False.
     OutputBusyError
@@ -155,7 +219,10 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     AnalysisError
         When a fit cannot be made.
     """
+    look = _Look(dpi=parse_dpi(dpi),
+                 formats=parse_figure_formats(formats), width=parse_figure_width(width))
     names = resolve_fit_names(fit)
+    candidates = resolve_models(models) if models is not None else ()
     base = load_parameters(params)
     folder = check_out_folder(out)
     _check_outputs(folder, force)  # before the lock: a refusal writes nothing
@@ -165,7 +232,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         _check_outputs(folder, force)
         stale = compare_files(folder)
         with Staging(folder) as stage:
-            result = _compare(tables, stage, names, base, dpi=dpi, formats=formats)
+            result = _compare(tables, stage, names, base, look, models=candidates,
+                              trial_checks=trial_checks, scheduler=scheduler)
             _write_json(stage, result, names, base, params,
                         run_id=tables.summary.run_id)
             stage.commit(remove=stale, last=[FIT_JSON])
@@ -174,54 +242,150 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     return result
 
 
+@dataclass(frozen=True)
+class _Look:
+    """How the figures are written: resolution, formats, width."""
+
+    dpi: float
+    formats: tuple[str, ...]
+    width: str
+
+
+@dataclass
+class _Figures:
+    """Writes figures into a staging folder and records them in a :class:`CompareResult`."""
+
+    folder: Path
+    look: _Look
+    result: CompareResult
+
+    def emit(self, ax: Any, kind: str, title: str, stem: str, *, subject: str | None = None,
+             caption: str = "", extra: Mapping[str, Any] | None = None,
+             formats: tuple[str, ...] | None = None, dpi: float | None = None) -> None:
+        """Write the figure of *ax* once per format as ``figures/<stem>.<fmt>``, record it.
+
+        Parameters
+        ----------
+        ax : Axes
+            The figure's (first) Axes.
+        kind, title, stem, subject, caption : str
+            The record in fit.json (:class:`FigureRecord`).
+        extra : mapping, optional
+            Further keys of the record (``{"trial": "run-01"}``).
+        formats : tuple of str, optional
+            Formats of this figure (default: those asked for).
+        dpi : float, optional
+            Resolution of this figure's PNG (default: the one asked for).
+
+        Returns
+        -------
+        None
+        """
+        written = save_figure(ax.figure, self.folder, stem, dpi=dpi or self.look.dpi,
+                              formats=formats or self.look.formats)
+        self.result.files += [Path(FIGURES) / p.name for p in written]
+        self.result.figures.append(FigureRecord(kind, title, stem, subject, caption,
+                                                dict(extra or {})))
+
+
 def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
-             base: ModelParameters, *, dpi: float, formats: tuple[str, ...]
-             ) -> CompareResult:
+             base: ModelParameters, look: _Look, *, models: tuple[str, ...] = (),
+             trial_checks: bool = True, scheduler: Any = None) -> CompareResult:
     """The fits and figures, written into *stage* (``result.files`` relative to it)."""
-    folder = tables.out
-    subjects = tables.subjects
-    fits = fit_study(tables, base, names)
-    result = CompareResult(out=folder, fits=fits)
+    fits = fit_study(tables, base, names, scheduler=scheduler)
+    result = CompareResult(out=tables.out, fits=fits)
     result.notes += _interval_notes(fits, has_bootstrap=tables.bootstrap is not None)
     table = fit_table(fits, tables)
     atomic_write(stage.path(FIT_CSV), table.to_csv(index=False))
     result.files.append(Path(FIT_CSV))
+    figures = _Figures(stage.folder / FIGURES, look, result)
+    with journal_style(look.width):
+        draw_figures(tables, fits, names, figures)
+        if models:
+            files, notes = write_models(tables, stage, models, base, figures.emit)
+            result.files += files
+            result.notes += notes
+        if trial_checks:
+            result.notes += write_trial_checks(tables, figures.emit, look.formats)
+    return result
 
-    by_subject = {f.subject: f for f in fits}
-    fig_dir = stage.folder / FIGURES
 
-    def emit(ax: Any, kind: str, title: str, stem: str, *, subject: str | None,
-             caption: str) -> None:
-        written = save_figure(ax.figure, fig_dir, stem, dpi=dpi, formats=formats)
-        result.files += [Path(FIGURES) / p.name for p in written]
-        result.figures.append(FigureRecord(kind, title, stem, subject, caption))
+def draw_figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...],
+                 figures: Any) -> None:
+    """Draw compare's figures of the fit (all but the trial checks and the models').
 
+    Parameters
+    ----------
+    tables : ResultTables
+        The results.
+    fits : list of SubjectFit
+        The subjects' fits.
+    names : tuple of str
+        The fitted parameters.
+    figures : object
+        Has ``emit(ax, kind, title, stem, *, subject, caption)`` (writes or keeps one
+        figure) and ``result`` (a :class:`CompareResult`, for notes).
+
+    Returns
+    -------
+    None
+    """
+    _all_subjects_figure(tables, fits, figures)
+    _subject_figures(tables, fits, names, figures)
+    _study_figures(tables, fits, figures)
+
+
+def _all_subjects_figure(tables: ResultTables, fits: list[SubjectFit],
+                         figures: _Figures) -> None:
+    """``electrostatic_force_all``: every subject's F_el and fitted model."""
+    ax = plot_electrostatic_force_all(tables.electrostatic, {f.subject: f.params for f in fits})
+    waves = set(tables.electrostatic["waveform"].astype(str))
+    fill = " (filled markers: square drive; open: sine)" if len(waves) > 1 else ""
+    figures.emit(ax, "electrostatic_force_all", "Electrostatic force vs voltage, all subjects",
+                 "electrostatic_force_all", subject=None,
+                 caption="Inferred electrostatic force of every subject against the voltage "
+                         f"amplitude: points with 95 % intervals{fill}, spread by up to ±3 % "
+                         "in voltage so that they do not hide one another; lines: each "
+                         "subject's fitted model at its mean normal force ON "
+                         f"({PAPER}).")
+
+
+def _subject_figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...],
+                     figures: _Figures) -> None:
+    """Per subject: F_el against U, and friction against normal force."""
     mu_how = "fitted." if "mu" in names else "from the measured OFF windows."
-    for s in subjects:
-        f = by_subject[s]
+    for f in fits:
+        s = f.subject
         rows = tables.electrostatic[tables.electrostatic["subject"] == s]
-        emit(plot_electrostatic_force(rows, f.params, subject=s), "electrostatic_force",
-             f"Electrostatic force vs voltage, {s}", f"electrostatic_force_{safe_name(s)}",
-             subject=s,
-             caption="Inferred electrostatic force (95 % intervals) and the fitted model at "
-                     "the subject's mean normal force ON; dotted: a U² power law for "
-                     "reference.")
+        ax = plot_electrostatic_force(rows, f.params, subject=s)
+        figures.emit(ax, "electrostatic_force", f"Electrostatic force vs voltage, {s}",
+                     f"electrostatic_force_{safe_name(s)}", subject=s,
+                     caption=f"{s}: inferred electrostatic force (95 % intervals) and the "
+                             "fitted model at the subject's mean normal force ON; dotted: a "
+                             "U² power law for reference.")
         win = tables.windows[tables.windows["subject"] == s]
-        emit(plot_friction_normal_force(win, f.params, subject=s), "friction_normal_force",
-             f"Friction vs normal force, {s}", f"friction_normal_force_{safe_name(s)}",
-             subject=s,
-             caption="Steady-sliding windows OFF and ON and the model (eq. 5, cf. the "
-                     f"paper's Figure 6); μ {mu_how}")
+        ax = plot_friction_normal_force(win, f.params, subject=s)
+        figures.emit(ax, "friction_normal_force", f"Friction vs normal force, {s}",
+                     f"friction_normal_force_{safe_name(s)}", subject=s,
+                     caption=f"{s}: steady-sliding windows OFF and ON (points) and the model "
+                             f"(lines, eq. 5, cf. the paper's Figure 6); μ {mu_how}")
 
+
+def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: _Figures) -> None:
+    """Friction against time (a measured sine trial, or the model alone) and the predicted
+    contact-area increase."""
+    by_subject = {f.subject: f for f in fits}
     trace, trace_subject = _first_trace(tables)
     pick = by_subject.get(trace_subject or "", fits[0])
-    sine_rows = tables.electrostatic[tables.electrostatic["waveform"].astype(str) == "sine"]
+    elec = tables.electrostatic
+    sine_rows = elec[elec["waveform"].astype(str) == "sine"]
     amp = float(sine_rows["amplitude_V"].max()) if not sine_rows.empty else 140.0
-    fn_mean = float(np.nanmean(tables.electrostatic["normal_force_on_N"].to_numpy(float)))
+    fn_mean = float(np.nanmean(elec["normal_force_on_N"].to_numpy(float)))
     if trace is None:
-        result.notes.append("No sine_trace.csv in the result folder: the friction-versus-time "
-                            "figure shows the model alone (10 Hz sine, "
-                            f"{amp:g} V, {fn_mean:.2g} N), without a measured trace.")
+        figures.result.notes.append(
+            "No sine_trace.csv in the result folder: the friction-versus-time figure shows "
+            f"the model alone (10 Hz sine, {amp:g} V, {fn_mean:.2g} N), without a measured "
+            "trace.")
         caption = ("Model only (no measured sine trace was available): friction with the "
                    "voltage ON and OFF, cf. the paper's Figure 5.")
     else:
@@ -230,22 +394,21 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
                    "chosen to match the measured friction)")
         caption = (f"Measured sine trial of {pick.subject} and the model evaluated at its "
                    f"measured normal force and the {voltage}, cf. the paper's Figure 5.")
-    emit(plot_friction_time(trace, pick.params, amplitude=amp,
-                            normal_force=fn_mean, subject=pick.subject),
-         "friction_time", "Friction vs time, sine drive", "friction_time", subject=None,
-         caption=caption)
-
-    mean_fn = {s: float(np.nanmean(tables.electrostatic.loc[
-        tables.electrostatic["subject"] == s, "normal_force_on_N"].to_numpy(float)))
-        for s in subjects}
-    u_max = max(150.0, float(tables.electrostatic["amplitude_V"].max()))
-    emit(plot_area_increase(mean_fn, {s: by_subject[s].params for s in subjects},
-                            u_max=u_max),
-         "area_increase", "Predicted contact-area increase", "area_increase", subject=None,
-         caption="JKR over Hertz contact area at each subject's mean normal force ON with "
-                 "the fitted parameters, cf. the paper's Figure 7.")
-
-    return result
+    ax = plot_friction_time(trace, pick.params, amplitude=amp, normal_force=fn_mean,
+                            subject=pick.subject)
+    figures.emit(ax, "friction_time", "Friction vs time, sine drive", "friction_time",
+                 subject=None, caption=caption)
+    mean_fn = {f.subject: float(np.nanmean(elec.loc[elec["subject"] == f.subject,
+                                                    "normal_force_on_N"].to_numpy(float)))
+               for f in fits}
+    amps = elec["amplitude_V"].to_numpy(float)
+    ax = plot_area_increase(mean_fn, {f.subject: f.params for f in fits},
+                            u_max=max(150.0, float(np.nanmax(amps))),
+                            amplitudes=sorted(set(amps[np.isfinite(amps)].tolist())))
+    figures.emit(ax, "area_increase", "Predicted contact-area increase", "area_increase",
+                 subject=None,
+                 caption="JKR over Hertz contact area at each subject's mean normal force ON "
+                         "with the fitted parameters, cf. the paper's Figure 7.")
 
 
 def _interval_notes(fits: list[SubjectFit], *, has_bootstrap: bool) -> list[str]:
@@ -301,8 +464,7 @@ def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],
                 "interval": {"method": f.interval_method, "replicates": f.n_replicates,
                              "note": f.interval_note},
             } for f in result.fits},
-        "figures": [{"kind": r.kind, "title": r.title, "stem": r.stem, "subject": r.subject,
-                     "caption": r.caption} for r in result.figures],
+        "figures": [r.as_dict() for r in result.figures],
         "notes": result.notes,
         "output_sha256": {rel.as_posix(): sha256_file(stage.path(rel.as_posix()))
                           for rel in result.files},

@@ -291,7 +291,9 @@ def replicate_matrix(rows: pd.DataFrame, bootstrap: pd.DataFrame | None,
     max_replicates : int
         Replicates kept (the first ones).
 
-    Returns None as well with fewer than :data:`MIN_REPLICATES` complete replicates.
+    Returns None as well with fewer than :data:`MIN_REPLICATES` complete replicates, and
+    when two rows share a waveform, frequency and amplitude (their replicates cannot be told
+    apart).
 
     Returns
     -------
@@ -301,15 +303,18 @@ def replicate_matrix(rows: pd.DataFrame, bootstrap: pd.DataFrame | None,
         return None
 
     def keys(df: pd.DataFrame) -> pd.MultiIndex:
+        freq = (df["frequency_Hz"].to_numpy(float) if "frequency_Hz" in df.columns
+                else np.full(len(df), np.nan))  # a row per frequency, each its replicates
         return pd.MultiIndex.from_arrays(
             [df["waveform"].fillna("").astype(str).to_numpy(),
+             np.nan_to_num(np.round(freq, 6), nan=-1.0),
              np.round(df["amplitude_V"].to_numpy(float), 6)])
 
     boot = bootstrap.assign(_key=keys(bootstrap))
     wide = boot.pivot_table(index="replicate", columns="_key",
                             values="electrostatic_force_N", aggfunc="first")
     want = list(keys(rows))
-    if any(k not in wide.columns for k in want):
+    if len(set(want)) < len(want) or any(k not in wide.columns for k in want):
         return None
     mat = wide[want].to_numpy(float)
     mat = mat[np.all(np.isfinite(mat), axis=1)][:max_replicates]

@@ -14,6 +14,7 @@ this module writes and reads.
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
@@ -129,9 +130,21 @@ def fit_text(doc: Mapping[str, Any]) -> str:
     Returns
     -------
     str
-        Two-space-indented JSON with a final newline.
+        Two-space-indented JSON with a final newline; infinite and NaN numbers (an
+        infinite resistance, an undetermined interval) as null.
     """
-    return json.dumps(doc, indent=2) + "\n"
+    return json.dumps(_finite(doc), indent=2, allow_nan=False) + "\n"
+
+
+def _finite(value: Any) -> Any:
+    """*value* with every non-finite float replaced by None (JSON has no infinity)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, Mapping):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    return value
 
 
 def write_fit(path: str | os.PathLike[str], doc: Mapping[str, Any]) -> Path:

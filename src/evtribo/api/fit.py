@@ -1,0 +1,249 @@
+"""The seed paper's model fitted to a study's results, from Python: :func:`compare`.
+
+The fit is ``evtribo compare``'s (:func:`evtribo.compare.fit.fit_study`, its table
+:func:`evtribo.compare.fit_csv.fit_table`), made in memory from the :class:`Results`; the
+figures are drawn by the plot functions of :mod:`evtribo.compare.plots` and kept as
+matplotlib figures. :meth:`Fit.save` runs ``evtribo compare`` on the results' folder, which
+writes ``fit.csv``, ``fit.json`` and the figure files.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+
+from evtribo.analysis.outputs import FIGURES, FIT_CSV
+from evtribo.api.results import CSV_EXACT, Results, typed_table
+from evtribo.compare.fit import SubjectFit, fit_study
+from evtribo.compare.fit_csv import fit_table
+from evtribo.compare.params import load_parameters, resolve_fit_names
+from evtribo.compare.run import CompareResult, draw_figures
+from evtribo.compare.run import compare as compare_folder
+from evtribo.compare.style import journal_style
+from evtribo.compare.tables import ResultTables
+from evtribo.documents.fit import FitDocument, read_fit
+from evtribo.documents.summary import Summary
+from evtribo.errors import UserInputError
+
+__all__ = ["FIT_TEXT_COLUMNS", "Fit", "compare"]
+
+#: The text columns of ``fit.csv`` (the others are numbers).
+FIT_TEXT_COLUMNS = ("subject", "parameter", "unit", "waveform")
+
+
+@dataclass(eq=False)
+class Fit:
+    """The model fitted to a study's results.
+
+    Attributes
+    ----------
+    table : pandas.DataFrame
+        ``fit.csv``: one row per subject and fitted parameter (value, 95 % interval, unit,
+        goodness of fit, measured and model exponents).
+    figures : dict of str to matplotlib.figure.Figure
+        The comparison figures, by file stem (``electrostatic_force_P01``,
+        ``area_increase``...); empty for a fit read from a folder (its files are in
+        :attr:`files`).
+    records : list of dict
+        One per figure: ``kind``, ``title``, ``stem``, ``subject``, ``caption``.
+    fits : list of SubjectFit
+        Each subject's fit in full (parameters, correlation, residuals); empty for a fit
+        read from a folder (``fit.json`` holds them).
+    fitted : tuple of str
+        The parameters fitted per subject (``("h_L",)``).
+    params_file : Path or None
+        The TOML file of fixed parameters (None: the paper's Table 1).
+    out : Path or None
+        The result folder where ``fit.csv`` and the figures are (None: in memory only).
+    files : dict of str to list of Path
+        The figure files written, by stem (empty in memory).
+    """
+
+    table: pd.DataFrame
+    figures: dict[str, Figure]
+    records: list[dict[str, Any]]
+    fits: list[SubjectFit]
+    fitted: tuple[str, ...]
+    params_file: Path | None = None
+    out: Path | None = None
+    files: dict[str, list[Path]] = field(default_factory=dict)
+    _results: Results | None = field(default=None, repr=False)
+
+    @classmethod
+    def from_folder(cls, folder: str | os.PathLike[str], doc: FitDocument | None = None,
+                    results: Results | None = None) -> Fit:
+        """The fit ``evtribo compare`` wrote into a result folder.
+
+        Parameters
+        ----------
+        folder : path-like
+            The result folder.
+        doc : FitDocument, optional
+            Its ``fit.json``, as read (read here when None).
+        results : Results, optional
+            The results it fitted.
+
+        Returns
+        -------
+        Fit
+            With :attr:`figures` and :attr:`fits` empty and :attr:`files` listing the
+            figure files.
+
+        Raises
+        ------
+        ResultFolderError
+            ``fit.json`` is damaged.
+        UserInputError
+            ``fit.csv`` cannot be read.
+        """
+        folder = Path(folder)
+        doc = read_fit(folder / "fit.json") if doc is None else doc
+        try:
+            table = pd.read_csv(folder / FIT_CSV, dtype=dict.fromkeys(FIT_TEXT_COLUMNS, str),
+                                keep_default_na=False, na_values=[""], **CSV_EXACT)
+        except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError) as err:
+            raise UserInputError(f"cannot read this CSV table: {err}",
+                                 path=folder / FIT_CSV) from err
+        records = [dict(r) for r in doc.get("figures") or [] if isinstance(r, dict)]
+        pfile = doc.get("parameters_file")
+        return cls(table=typed_table(table, text=FIT_TEXT_COLUMNS), figures={},
+                   records=records, fits=[], fitted=tuple(doc.get("fit") or ()),
+                   params_file=Path(pfile["path"]) if isinstance(pfile, dict) else None,
+                   out=folder, files=_files(folder, records), _results=results)
+
+    def __repr__(self) -> str:
+        where = "in memory" if self.out is None else f"in {str(self.out)!r}"
+        subjects = list(dict.fromkeys(self.table["subject"]))
+        return (f"Fit({'+'.join(self.fitted)} of {subjects!r}, {where}, "
+                f"{len(self.records)} figures)")
+
+    def save(self, *, force: bool = False) -> Path:
+        """Write the fit into the results' folder: ``evtribo compare OUT`` with the same
+        parameters (``fit.csv``, ``fit.json``, ``figures/``).
+
+        Parameters
+        ----------
+        force : bool
+            Replace the outputs of a previous comparison in the folder.
+
+        Returns
+        -------
+        Path
+            The result folder.
+
+        Raises
+        ------
+        UserInputError
+            The results are in memory only (save them first: ``results.save(OUT)``).
+        OutputExistsError
+            The folder holds a comparison and *force* is False.
+        OutputBusyError
+            Another process is writing the folder.
+        """
+        results = self._results
+        if results is None or results.out is None:
+            raise UserInputError("the results of this fit are in memory only; save them "
+                                 "first (results.save(OUT)), then fit.save()")
+        compare_folder(results.out, fit=self.fitted, params=self.params_file, force=force)
+        written = Fit.from_folder(results.out, results=results)
+        self.out, self.files, self.records = written.out, written.files, written.records
+        results.fit = self
+        return results.out
+
+
+def _files(folder: Path, records: list[dict[str, Any]]) -> dict[str, list[Path]]:
+    """The figure files in *folder* of each record, by stem."""
+    out: dict[str, list[Path]] = {}
+    for r in records:
+        stem = str(r.get("stem"))
+        found = sorted((folder / FIGURES).glob(f"{stem}.*"))
+        out[stem] = [p for p in found if p.stem == stem]
+    return out
+
+
+def _tables(results: Results) -> ResultTables:
+    """The results as compare reads a result folder."""
+    if results.electrostatic.empty:
+        raise UserInputError("no electrostatic results (no ON data?): nothing to compare",
+                             path=None if results.out is None
+                             else results.out / "electrostatic.csv")
+    return ResultTables(out=results.out or Path(), electrostatic=results.electrostatic,
+                        windows=results.windows, exponents=results.exponents,
+                        trials=results.trials, summary=Summary(dict(results.summary)),
+                        sine_trace=results.sine_trace, bootstrap=results.bootstrap)
+
+
+class _Kept:
+    """Keeps compare's figures in memory (the sink of :func:`~evtribo.compare.run.draw_figures`)."""
+
+    def __init__(self, tables: ResultTables, fits: list[SubjectFit]) -> None:
+        self.result = CompareResult(out=tables.out, fits=fits)
+        self.drawn: list[tuple[dict[str, Any], Axes]] = []
+
+    def emit(self, ax: Axes, kind: str, title: str, stem: str, *, subject: str | None = None,
+             caption: str = "", extra: dict[str, Any] | None = None, **_: Any) -> None:
+        self.drawn.append(({"kind": kind, "title": title, "stem": stem, "subject": subject,
+                            "caption": caption, **(extra or {})}, ax))
+
+
+def _figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...]
+             ) -> list[tuple[dict[str, Any], Axes]]:
+    """compare's figures of the fit, in the journal style, as ``evtribo compare`` draws them
+    (without the trial checks, which need the study, and the models')."""
+    kept = _Kept(tables, fits)
+    with journal_style("single"):
+        draw_figures(tables, fits, names, kept)
+    return kept.drawn
+
+
+def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
+            params: str | os.PathLike[str] | None = None) -> Fit:
+    """Fit the seed paper's model to each subject's electrostatic forces, in memory.
+
+    The same fit as ``evtribo compare`` (weighted least squares, intervals from refits to
+    the bootstrap replicates); nothing is written: :meth:`Fit.save` writes it once the
+    results are in a folder.
+
+    Parameters
+    ----------
+    results : Results
+        From :func:`evtribo.analyze` or :func:`evtribo.load_results`.
+    fit : str or iterable of str, optional
+        The parameters fitted per subject (``"h_L,E_star"`` or ``("h_L", "E_star")``);
+        None: ``("h_L",)``.
+    params : path-like, optional
+        TOML file of fixed parameters in SI units (the paper's Table 1 for the others).
+
+    Returns
+    -------
+    Fit
+        Also set as ``results.fit``.
+
+    Raises
+    ------
+    ConfigError
+        An unknown parameter name, or a bad parameter file.
+    UserInputError
+        The results hold no electrostatic force (no ON data).
+    AnalysisError
+        A fit cannot be made.
+    """
+    names = resolve_fit_names(fit)
+    base = load_parameters(None if params is None else Path(params))
+    tables = _tables(results)
+    fits = fit_study(tables, base, names)
+    figures = _figures(tables, fits, names)
+    out = Fit(table=typed_table(fit_table(fits, tables), text=FIT_TEXT_COLUMNS),
+              figures={r["stem"]: ax.figure for r, ax in figures if isinstance(ax.figure,
+                                                                                Figure)},
+              records=[r for r, _ in figures], fits=fits, fitted=names,
+              params_file=None if params is None else Path(params), _results=results)
+    results.fit = out
+    return out
