@@ -165,6 +165,9 @@ def test_air_gaps_in_micrometres(page, out):
     assert roles["friction coefficient μ"].startswith("measured")
     assert roles["air gap h_L"].startswith("fitted")
     assert roles["effective modulus E*"] == "fixed: Table 1 of the paper"
+    values = {r[0]: r[1] for r in params["rows"]}
+    assert values["air-gap leakage r_g"] == "∞ Ω·m²"  # fit.json's null: no leakage
+    assert roles["air-gap leakage r_g"].startswith("fixed: no leakage")
 
 
 def test_no_number_in_scientific_notation(page):

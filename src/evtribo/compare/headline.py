@@ -223,6 +223,16 @@ def _shown(name: str, value: float) -> str:
     return quantity(value, unit, prefix=prefix)
 
 
+def _parameter_value(name: str, raw: Any) -> float:
+    """A parameter's value from fit.json, where null stands for a non-finite number: the
+    infinite resistance of a layer without leakage."""
+    if raw is None:
+        fields = {f.name: f for f in dataclasses.fields(ModelParameters)}
+        rule = fields[name].metadata.get("rule") if name in fields else None
+        return math.inf if rule == "resistance" else math.nan
+    return to_float(raw)
+
+
 def parameter_roles(fit_doc: FitDocument, fit: pd.DataFrame) -> Headline:
     """Every parameter of the model: its value and whether measured, fixed or fitted.
 
@@ -243,9 +253,9 @@ def parameter_roles(fit_doc: FitDocument, fit: pd.DataFrame) -> Headline:
     rows = []
     for f in dataclasses.fields(ModelParameters):
         name = f.name
-        value = to_float(fixed.get(name, getattr(TABLE_1, name)))
+        value = _parameter_value(name, fixed.get(name, getattr(TABLE_1, name)))
         if name in fit_doc.fit or name == "mu":
-            per = [(s, to_float((v.get("parameters") or {}).get(name)))
+            per = [(s, _parameter_value(name, (v.get("parameters") or {}).get(name)))
                    for s, v in subjects.items() if isinstance(v, dict)]
             shown = "; ".join(f"{s} {_shown(name, x)}" for s, x in per) or "per subject"
         else:
@@ -299,9 +309,13 @@ def model_comparison(models: pd.DataFrame, subject: str) -> Headline:
             "ΔAIC": significant(r["delta_aic"], decimals=1),
             "Akaike weight": "< 0.001" if 0 <= weight < 0.0005 else
             significant(weight, decimals=3)})
+    undefined = ("; — where the criterion is not defined: no more points than the model's "
+                 "parameters + 2, the model cannot be ranked") if any(
+        r["AIC"] == "—" for r in rows) else ""
     return Headline(f"models_{subject}", f"Models compared, {subject}",
                     "Each model fitted to the subject's electrostatic forces; AIC from the "
-                    "residual sum of squares, ΔAIC to the best model, Akaike weight the "
-                    "relative support of each model (they sum to 1).",
+                    "weighted residual sum of squares (the small-sample AICc when there are "
+                    "few points per parameter), ΔAIC to the best model, Akaike weight the "
+                    f"relative support of each model (they sum to 1){undefined}.",
                     pd.DataFrame(rows, columns=["model", "fitted", "parameters", "AIC",
                                                 "ΔAIC", "Akaike weight"]))
