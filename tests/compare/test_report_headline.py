@@ -283,3 +283,19 @@ def test_frequency_responses_without_models_csv(tmp_path):
     assert not [t for t in outline.tables if t["section"] == "Model comparison"]
     html = (tmp_path / "r.html").read_text(encoding="utf-8")
     assert "F_el vs frequency, P01" in html and "F_el vs frequency, P02" in html
+
+
+@pytest.mark.parametrize("fmt", ["png", "svg"])
+def test_figure_shown_at_twice_its_printed_width(tmp_path, fmt):
+    import matplotlib.pyplot as plt
+
+    from evtribo.compare.report import SCREEN_SCALE, Report
+
+    fig, ax = plt.subplots(figsize=(85 / 25.4, 2.0))  # a journal's single column
+    ax.plot([0, 1], [0, 1])
+    fig.savefig(tmp_path / f"f.{fmt}", dpi=300)
+    plt.close(fig)
+    report = Report("t")
+    report.add_figure(tmp_path / f"f.{fmt}", "f")
+    shown = int(re.search(r'<img [^>]*width="(\d+)"', report.render()).group(1))
+    assert abs(shown - 96 * SCREEN_SCALE * 85 / 25.4) <= 1  # 643 px, to a pixel's rounding

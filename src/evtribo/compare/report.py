@@ -98,15 +98,46 @@ _SIG = {".3g": 3, ".4g": 4, ".5g": 5, ".6g": 6}
 _EMBED = {".png": "image/png", ".svg": "image/svg+xml"}
 
 
+#: A figure with a known physical size is shown at this many times its printed width
+#: (a journal's single column, 85 mm, is 643 CSS pixels wide), never wider than the page.
+SCREEN_SCALE = 2.0
+
+
+def _png_width_in(data: bytes) -> float | None:
+    """A PNG's width in inches, from its header and its ``pHYs`` resolution (None when it
+    records none)."""
+    if data[:8] != b"\x89PNG\r\n\x1a\n":
+        return None
+    width = int.from_bytes(data[16:20], "big")
+    at = data.find(b"pHYs", 8, 4096)
+    if at < 0 or data[at + 12] != 1:  # unit 1: per metre
+        return None
+    per_metre = int.from_bytes(data[at + 4:at + 8], "big")
+    return width / (per_metre * 0.0254) if per_metre else None
+
+
+def _svg_width_in(data: bytes) -> float | None:
+    """An SVG's width in inches, when its root gives one in pt, mm, cm or in."""
+    m = re.search(rb'<svg[^>]*?\swidth="([0-9.]+)(pt|mm|cm|in)"', data[:4096])
+    if not m:
+        return None
+    per_inch = {b"pt": 72.0, b"mm": 25.4, b"cm": 2.54, b"in": 1.0}[m.group(2)]
+    return float(m.group(1)) / per_inch
+
+
 def _figure_file(path: Path) -> dict[str, Any]:
-    """How a figure file on disk is shown: a PNG or SVG embedded, a PDF linked."""
+    """How a figure file on disk is shown: a PNG or SVG embedded (at :data:`SCREEN_SCALE`
+    times its printed width when it has one), a PDF linked."""
     suffix = path.suffix.lower()
     if not path.is_file() or suffix not in (*_EMBED, ".pdf"):
         raise UserInputError("expected an existing PNG, SVG or PDF file", path=path)
     if suffix == ".pdf":
         return {"pdf": path}
-    payload = base64.b64encode(path.read_bytes()).decode()
-    return {"src": f"data:{_EMBED[suffix]};base64,{payload}"}
+    data = path.read_bytes()
+    inches = _png_width_in(data) if suffix == ".png" else _svg_width_in(data)
+    payload = base64.b64encode(data).decode()
+    return {"src": f"data:{_EMBED[suffix]};base64,{payload}",
+            "width": None if inches is None else round(96 * SCREEN_SCALE * inches)}
 
 
 @dataclass
