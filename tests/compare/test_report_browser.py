@@ -10,7 +10,6 @@ from typing import Any
 
 import pytest
 from analysed import analysed_study
-from checks_and_models import with_checks_and_models
 from tests._browser import Browser
 
 from evtribo.compare import compare
@@ -38,8 +37,7 @@ def _send(page: Any, method: str, params: dict[str, Any]) -> Any:
 @pytest.fixture(scope="module")
 def report(tmp_path_factory) -> Path:
     _, out = analysed_study(tmp_path_factory.mktemp("browser"), note="finger slipped")
-    compare(out, dpi=60)
-    with_checks_and_models(out)
+    compare(out, dpi=60, models="paper,hertz,circuit")
     return build_report(out, out / "report.html")
 
 

@@ -2,9 +2,8 @@
 intervals first, air gaps in µm, no number in scientific notation, each trial's check
 folded, the model comparison, and the headline tables exported as Markdown and LaTeX.
 
-The result folder is what ``evtribo analyze`` and ``evtribo compare`` write of a simulated
-study (analysed.py), with what a comparison with per-trial checks and ``--models`` adds to
-it (checks_and_models.py).
+The result folder is what ``evtribo analyze`` and ``evtribo compare --models paper,hertz,
+circuit`` (with its per-trial checks) write of a simulated study (analysed.py).
 """
 
 from __future__ import annotations
@@ -21,7 +20,6 @@ matplotlib.use("Agg")
 import pandas as pd
 import pytest
 from analysed import analysed_study
-from checks_and_models import with_checks_and_models
 
 from evtribo.analysis.outputs import report_files
 from evtribo.cli import main
@@ -29,6 +27,8 @@ from evtribo.compare import compare
 from evtribo.compare.headline import CITATION
 from evtribo.compare.study_report import build_report
 
+#: The models compared.
+MODELS = "paper,hertz,circuit"
 #: A number in scientific notation (``1e-06``, ``3.2E+04``), not inside a word or hash.
 SCIENTIFIC = re.compile(r"(?<![\w.])[-+]?\d+(?:\.\d+)?[eE][-+]?\d+(?![\w.])")
 #: A cell of the F_el table: ``26.5 [25.7, 27.4]``.
@@ -98,8 +98,7 @@ def _outline(path: Path) -> _Outline:
 @pytest.fixture(scope="module")
 def out(tmp_path_factory) -> Path:
     _, folder = analysed_study(tmp_path_factory.mktemp("headline"))
-    compare(folder, dpi=40)
-    with_checks_and_models(folder)
+    compare(folder, dpi=40, models=MODELS)
     return folder
 
 
@@ -183,32 +182,65 @@ def test_no_number_in_scientific_notation(page):
 def test_each_trial_checked_in_details(page, out):
     _, outline = page
     trials = pd.read_csv(out / "trials.csv", dtype={"subject": str, "trial": str})
-    assert len(outline.details) == len(trials)
+    checks = {(f["subject"], f["trial"]): f for f in
+              json.loads((out / "fit.json").read_text(encoding="utf-8"))["figures"]
+              if f["kind"] == "trial"}
+    assert len(outline.details) == len(trials) == len(checks)
     for d, (_, t) in zip(outline.details, trials.iterrows(), strict=True):
         assert d["section"] == f"Subject {t['subject']}" and d["imgs"] == 1
         assert d["summary"].startswith(f"{t['trial']}: {t['waveform']}")
         assert f"{t['amplitude_V']:g} V" in d["summary"]
+        # what the check's caption names as excluded is in the summary line
+        caption = checks[(t["subject"], t["trial"])]["caption"]
+        excluded = caption.split("excluded (hatched): ", 1)[1].rstrip(".")
+        assert f"excluded: {excluded}" in d["summary"]
     by_trial = {d["summary"].split(":")[0] + d["section"]: d["summary"]
                 for d in outline.details}
-    assert "excluded: 1 damaged line(s) skipped" in by_trial["run-03Subject P01"]
-    assert "excluded: 3 dropped frame(s)" in by_trial["run-02Subject P02"]
-    assert "nothing excluded" in by_trial["run-01Subject P01"]
+    assert by_trial["run-03Subject P01"].endswith(", 1 damaged line(s) skipped")
+    assert by_trial["run-02Subject P02"].endswith(", 3 dropped frame(s)")
+    assert "dropped" not in by_trial["run-01Subject P01"]
 
 
 def test_model_comparison(page, out):
-    path, outline = page
+    _, outline = page
+    models = pd.read_csv(out / "models.csv", dtype={"subject": str})
     tables = [t for t in outline.tables if t["section"] == "Model comparison"]
     assert [t["title"] for t in tables] == ["Models compared, P01", "Models compared, P02"]
     for t in tables:
+        mine = models[models["subject"] == t["title"].rsplit(" ", 1)[1]]
         assert t["headers"] == ["model", "fitted", "parameters", "AIC", "ΔAIC",
                                 "Akaike weight"]
-        assert [r[0] for r in t["rows"]] == ["paper", "circuit"]
-        assert [r[4] for r in t["rows"]] == ["0.0", "2.0"]
-        assert t["rows"][0][5] == f"{1 / (1 + math.exp(-1)):.3f}"
-        assert "µm" in t["rows"][0][1] and "r_g = 12.0 mΩ·m²" in t["rows"][1][1]
-    html = path.read_text(encoding="utf-8")
-    assert 'src="data:image/svg+xml;base64,' in html  # P01's response, an SVG only
-    assert 'href="figures/frequency_response_P02.pdf"' in html  # P02's, a PDF only
+        assert sorted(r[0] for r in t["rows"]) == sorted(mine["model"])
+        for row in t["rows"]:
+            m = mine[mine["model"] == row[0]].iloc[0]
+            if math.isfinite(m["aic"]):
+                assert float(row[3]) == pytest.approx(m["aic"], abs=0.05)
+                assert float(row[4]) == pytest.approx(m["delta_aic"], abs=0.05)
+            else:  # not defined: shown as absent, and the caption says why
+                assert row[3] == row[4] == row[5] == "—"
+            assert "µm" in row[1] and not SCIENTIFIC.search(row[1])
+        ranked = [float(r[3]) for r in t["rows"] if r[3] != "—"]
+        assert ranked == sorted(ranked)  # best first
+    assert any(f.startswith("Electrostatic force vs drive frequency") for f in outline.text)
+
+
+def test_figure_files_embedded_or_linked(tmp_path):
+    import matplotlib.pyplot as plt
+
+    from evtribo.compare.report import Report
+
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    (tmp_path / "figures").mkdir()
+    for fmt in ("svg", "pdf"):
+        fig.savefig(tmp_path / "figures" / f"f.{fmt}")
+    plt.close(fig)
+    report = Report("t")
+    report.add_figure(tmp_path / "figures" / "f.svg", "as SVG")
+    report.add_figure(tmp_path / "figures" / "f.pdf", "as PDF")
+    html = report.render(base=tmp_path)
+    assert 'src="data:image/svg+xml;base64,' in html
+    assert '<a href="figures/f.pdf">as PDF (PDF)</a>' in html
 
 
 def _md_rows(text: str) -> list[list[str]]:
@@ -270,19 +302,14 @@ def test_analyze_force_replaces_the_tables(tmp_path):
     assert not (folder / "report.html").exists()
 
 
-def test_frequency_responses_without_models_csv(tmp_path):
+def test_no_model_comparison_without_models(tmp_path):
     _, folder = analysed_study(tmp_path)
-    compare(folder, dpi=30)
-    with_checks_and_models(folder)
-    doc = json.loads((folder / "fit.json").read_text(encoding="utf-8"))
-    del doc["output_sha256"]["models.csv"]
-    (folder / "fit.json").write_text(json.dumps(doc), encoding="utf-8")
-    (folder / "models.csv").unlink()
+    compare(folder, dpi=30, trial_checks=False)
     outline = _outline(build_report(folder, tmp_path / "r.html"))
-    assert "Model comparison" in outline.sections
-    assert not [t for t in outline.tables if t["section"] == "Model comparison"]
-    html = (tmp_path / "r.html").read_text(encoding="utf-8")
-    assert "F_el vs frequency, P01" in html and "F_el vs frequency, P02" in html
+    assert outline.sections == ["Electrostatic force", "Model fit", "All subjects",
+                                "Subject P01", "Subject P02", "Warnings",
+                                "Provenance and settings"]
+    assert not outline.details  # no checks drawn, none folded
 
 
 @pytest.mark.parametrize("fmt", ["png", "svg"])

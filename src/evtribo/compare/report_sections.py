@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import math
 import platform
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -173,8 +174,14 @@ def add_models(report: Report, models: pd.DataFrame | None,
                 _figure(report, f, sec)
 
 
+def _excluded_in(caption: str) -> str:
+    """What a trial check's caption says was excluded (``excluded (hatched): ...``)."""
+    m = re.search(r"\bexcluded(?: \([^)]*\))?: (.+?)\.?$", caption.strip())
+    return m.group(1).strip() if m else ""
+
+
 def trial_summary(row: Mapping[str, Any], windows: pd.DataFrame,
-                  failed: Mapping[str, str]) -> str:
+                  failed: Mapping[str, str], caption: str = "") -> str:
     """The summary line of a trial's check: name, drive, windows, what was left out.
 
     Parameters
@@ -185,6 +192,9 @@ def trial_summary(row: Mapping[str, Any], windows: pd.DataFrame,
         The trial's rows of ``windows.csv``.
     failed : mapping of str to str
         ``subject/trial`` -> why it was not analysed.
+    caption : str
+        The caption of the trial's check figure: the stretches it names as excluded
+        (``excluded (hatched): ON/OFF switch (guard) 0.64 s.``) are named too.
 
     Returns
     -------
@@ -200,7 +210,7 @@ def trial_summary(row: Mapping[str, Any], windows: pd.DataFrame,
     if cond is not None:
         parts.append(f"{int((cond == 'on').sum())} ON / {int((cond == 'off').sum())} OFF "
                      "windows")
-    excluded = []
+    excluded = [x for x in (_excluded_in(caption),) if x]
     for col, what in (("dropped_frames", "dropped frame(s)"),
                       ("skipped_lines", "damaged line(s) skipped")):
         n = to_float(row.get(col))
@@ -271,7 +281,8 @@ def add_subjects(report: Report, tables: ResultTables, trials: pd.DataFrame,
                 w = win[(win["subject"].astype(str) == subject)
                         & (win["trial"].astype(str) == str(row["trial"]))]
                 _figure(report, fig, sec,
-                        details=trial_summary({str(k): v for k, v in row.items()}, w, failed))
+                        details=trial_summary({str(k): v for k, v in row.items()}, w, failed,
+                                              str(fig.get("caption") or "")))
         for trial, fig in checks.items():  # a check of a trial trials.csv does not list
             _figure(report, fig, sec, details=f"{trial}: not in trials.csv")
 
