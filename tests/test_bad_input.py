@@ -283,6 +283,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "compare-figure-width-unknown": _results,
     "compare-dpi-zero": _results,
     "report-no-results": lambda t: None,
+    "report-tables-unknown-format": lambda t: None,
     "acquire-subject-path": lambda t: None,
     "acquire-amplitude-string": lambda t: None,
     "acquire-waveform": lambda t: None,

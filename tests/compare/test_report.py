@@ -17,6 +17,7 @@ from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_s
 from evtribo.analysis.pipeline import analyze_study
 from evtribo.cli import main
 from evtribo.compare import compare
+from evtribo.compare.headline import DOI_URL
 from evtribo.compare.plots import new_axes
 from evtribo.compare.report import Report, files_dir_for
 from evtribo.compare.study_report import build_report
@@ -87,7 +88,9 @@ def test_report_is_self_contained(report_page):
     assert page.tags[0] == "html" and "body" in page.tags
     assert "script" not in page.tags and "link" not in page.tags and "iframe" not in page.tags
     for tag, name, value in page.refs:
-        assert value.startswith(("data:image/png;base64,", "#")), (tag, name, value[:60])
+        # embedded figures, anchors, and the paper's DOI as a link (nothing is loaded)
+        assert value.startswith(("data:image/png;base64,", "data:image/svg+xml;base64,", "#")) \
+            or (tag, name, value) == ("a", "href", DOI_URL), (tag, name, value[:60])
     assert "@import" not in html and "url(" not in html
 
 
@@ -101,22 +104,22 @@ def test_report_holds_every_figure_and_table(report_page, compared_out):
     text = " ".join(page.text)
     for fig in fit_doc["figures"]:
         assert fig["title"] in text
-    for section in ("Study summary", "Model fit", "Subject P01", "Subject P02", "Warnings",
-                    "Provenance"):
+    for section in ("Electrostatic force", "Model fit", "All subjects", "Subject P01",
+                    "Subject P02", "Warnings", "Provenance and settings"):
         assert section in text
-    for table_title in ("Fitted parameters (fit.csv)", "Electrostatic force (electrostatic.csv)",
-                        "Trials", "Power laws", "Model parameters", "Result files", "Software"):
+    for table_title in ("Electrostatic force F_el (mN) by subject and voltage",
+                        "Model fit per subject", "Model parameters: measured, fixed or fitted",
+                        "Trials", "Power laws", "Result files", "Software",
+                        "Analysis settings"):
         assert table_title in text
-    for col in ("parameter", "ci_low", "ci_high", "rmse_N", "exponent_model",
-                "electrostatic_force_N", "dropped_frames", "sha256"):
+    for col in ("air gap h_L (µm)", "μ measured (OFF)", "exponent n, measured", "R²",
+                "RMSE (mN)", "F_el (mN) [95 %]", "dropped frames", "sha256"):
         assert col in page.headers
-    # the fitted values are in the page
+    # the fitted air gap is in the page, in µm to three significant figures
     fit = pd.read_csv(compared_out / "fit.csv")
-    assert format(fit["value"].iloc[0], ".4g") in text
-    # figures also beside the report, as PNG and SVG
-    files = sorted(p.name for p in files_dir_for(path).iterdir())
-    assert sum(f.endswith(".png") for f in files) == 7 + n_trials
-    assert sum(f.endswith(".svg") for f in files) == 7  # the trial checks are PNG only
+    assert f"{fit['value'].iloc[0] * 1e6:.2f} [" in text
+    # the figures are the result folder's: not copied beside the report
+    assert not files_dir_for(path).exists()
 
 
 def test_embedded_figure_is_a_real_image(report_page):

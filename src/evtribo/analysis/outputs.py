@@ -18,8 +18,8 @@ from evtribo.errors import OutputExistsError, UserInputError
 from evtribo.resultdir import inside
 
 __all__ = ["ANALYSIS_FILES", "BOOTSTRAP_FILE", "FIGURES", "FIT_CSV", "FIT_JSON",
-           "MODELS_CSV", "OUTPUT_FILES", "SINE_TRACE_FILE", "SUMMARY_FILE", "check_out_dir",
-           "check_overwrite", "compare_files", "report_files"]
+           "MODELS_CSV", "OUTPUT_FILES", "REPORT_TABLES", "SINE_TRACE_FILE", "SUMMARY_FILE",
+           "TABLES", "check_out_dir", "check_overwrite", "compare_files", "report_files"]
 
 #: The files ``analyze_study`` writes into its output folder.
 OUTPUT_FILES = ("trials.csv", "windows.csv", "electrostatic.csv", "exponents.csv",
@@ -42,6 +42,10 @@ _FIGURE_FORMATS = ("png", "svg", "pdf")
 _FIGURE = re.compile(r"^(friction_time|area_increase|electrostatic_force_.+|"
                      r"friction_normal_force_.+|trial_.+|frequency_response_.+)"
                      r"\.(png|svg|pdf)$")
+#: The folder beside a report of its exported tables (``report --tables md,tex``), and their
+#: stems (``tables/electrostatic_force.md``, ``tables/fit.tex``).
+TABLES, REPORT_TABLES = "tables", ("electrostatic_force", "fit")
+_TABLE = re.compile(r"^(" + "|".join(REPORT_TABLES) + r")\.(md|tex)$")
 #: What the first bytes of a report written by ``evtribo report`` hold.
 _REPORT_MARK = b'<meta name="generator" content="evtribo'
 
@@ -89,7 +93,8 @@ def _is_report(path: Path) -> bool:
 
 def report_files(out: Path) -> list[str]:
     """The files of reports ``evtribo report`` wrote into *out* (relative): each HTML page
-    that says evtribo generated it, and the PNG and SVG figures of its ``<name>_files/``.
+    that says evtribo generated it, the PNG and SVG figures of its ``<name>_files/``, and
+    the exported tables in ``tables/`` beside it.
 
     Parameters
     ----------
@@ -111,6 +116,9 @@ def report_files(out: Path) -> list[str]:
             if figures.is_dir():
                 found += sorted(f"{figures.name}/{p.name}" for p in figures.iterdir()
                                 if p.is_file() and p.suffix.lower() in (".png", ".svg"))
+    if found and (out / TABLES).is_dir():
+        found += sorted(f"{TABLES}/{p.name}" for p in (out / TABLES).iterdir()
+                        if p.is_file() and _TABLE.match(p.name))
     return found
 
 

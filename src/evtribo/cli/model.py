@@ -52,9 +52,12 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser = subparsers.add_parser(
         "model",
         help="the seed paper's friction model at one point; its figures",
-        description="Evaluate the voltage-induced friction model (Table 1 parameters unless "
-                    "--set) at one external normal force and voltage amplitude, or write "
-                    "Figures 5-7 of the paper and the Maugis-Dugdale comparison.",
+        description="Evaluate the voltage-induced friction model of "
+                    '"Voltage-Induced Friction with Application to Electrovibration", '
+                    "Lubricants 2019, 7(12), 102, doi:10.3390/lubricants7120102 (Table 1 "
+                    "parameters unless --set) at one external normal force and voltage "
+                    "amplitude, or write Figures 5-7 of the paper and the Maugis-Dugdale "
+                    "comparison.",
     )
     parser.add_argument("--normal-force", type=float, default=0.5, metavar="N",
                         help="external normal force F_ext in N (default 0.5)")

@@ -7,14 +7,24 @@ import sys
 from pathlib import Path
 from typing import Any
 
+#: The seed paper (as :data:`evtribo.compare.headline.CITATION`; kept here so that the
+#: command line starts without importing the library).
+CITATION = ('"Voltage-Induced Friction with Application to Electrovibration", Lubricants 2019, '
+            "7(12), 102, doi:10.3390/lubricants7120102")
+
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``report`` on *subparsers*."""
     p = subparsers.add_parser(
         "report", help="write a self-contained HTML report of a result folder",
-        description="Write one HTML file (figures embedded, works offline) with the study "
-                    "summary, per-subject results, the model fit, warnings and provenance. "
-                    "Figures are also written as PNG and SVG into <report>_files/. Runs "
+        description="Write one HTML file (figures embedded, works offline) that leads with "
+                    "the answer: the electrostatic force F_el by subject and voltage (mN, "
+                    "95 % intervals), the model fit per subject (air gap in µm, exponents, "
+                    "μ), the figure of all subjects, the model comparison, then each "
+                    "subject's results and a check of each trial, the warnings, and the "
+                    "provenance and settings last. The model is that of "
+                    f"{CITATION}. With --tables md,tex the headline tables are also written "
+                    "as Markdown and LaTeX (booktabs) into tables/ beside the report. Runs "
                     "`evtribo compare` first when OUT has no fit.csv. Refuses (exit 2) a "
                     "folder that is not one analysis's complete results, or whose fit is of "
                     "another analysis (run `evtribo compare OUT --force`); warns when an input "
@@ -24,7 +34,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                    help="the HTML file to write (default: OUT/report.html)")
     p.add_argument("--no-compare", action="store_true",
                    help="fail instead of running `evtribo compare` when fit.csv is missing")
-    p.add_argument("--force", action="store_true", help="overwrite an existing report")
+    p.add_argument("--tables", metavar="FORMATS", default=None,
+                   help="also write the headline tables (tables/electrostatic_force.* and "
+                        "tables/fit.*) in these formats, comma-separated: md, tex")
+    p.add_argument("--force", action="store_true",
+                   help="overwrite an existing report (and its tables)")
     p.set_defaults(func=run)
     return p
 
@@ -38,7 +52,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         with sigterm_interrupts():
             path = build_report(args.out, output, force=args.force,
-                                run_compare=not args.no_compare)
+                                run_compare=not args.no_compare, tables=args.tables)
     except Terminated:
         print(f"evtribo report: terminated; {output} is the report it was before (if any), "
               "nothing half-written", file=sys.stderr)
