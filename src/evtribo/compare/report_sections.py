@@ -112,9 +112,9 @@ def add_headline(report: Report, tables: ResultTables, fit: pd.DataFrame,
                for v in fit_doc.subjects.values() if isinstance(v, dict)}
     how = {"bootstrap": "refits to the bootstrap replicates of the electrostatic forces",
            "jacobian": "the fit's Jacobian (each point's error taken as independent)"}
-    report.add_text("95 % intervals of the fitted parameters from "
-                    + (" or ".join(how.get(m, m) for m in sorted(methods)) or how["jacobian"])
-                    + ".", section=SECTIONS["fit"])
+    intervals = " or ".join(how.get(m, m) for m in sorted(methods)) or how["jacobian"]
+    report.add_html(f'<p class="caption">95 % intervals of the fitted parameters from '
+                    f"{escape(intervals)}.</p>", section=SECTIONS["fit"])
     _cite(report, SECTIONS["fit"], "Model:")
     _add(report, parameter_roles(fit_doc, fit), SECTIONS["fit"])
     return [forces, summary]

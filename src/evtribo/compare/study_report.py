@@ -113,7 +113,7 @@ def _fit_doc(folder: Path, summary: Summary | Mapping[str, Any]) -> FitDocument:
 
 
 def build_report(out: str | Path, output: str | Path, *, force: bool = False,
-                 run_compare: bool = True, dpi: float = 150,
+                 run_compare: bool = True, dpi: float | None = None,
                  tables: str | Iterable[str] | None = None) -> Path:
     """Write the HTML report of a result folder.
 
@@ -128,8 +128,9 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
         Overwrite an existing report (and its tables).
     run_compare : bool
         Run the comparison when it is missing (else raise).
-    dpi : float
-        Resolution of the figures when the comparison is run here.
+    dpi : float, optional
+        Resolution of the PNG figures when the comparison is run here (default:
+        compare's).
     tables : str or iterable of str, optional
         Also write the headline tables in these formats (``"md,tex"``,
         :data:`~evtribo.compare.table_export.TABLE_FORMATS`) into ``tables/`` beside the
