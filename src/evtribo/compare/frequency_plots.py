@@ -4,6 +4,7 @@ kind ``frequency_response``, one per subject, stem ``frequency_response_<subject
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
@@ -13,8 +14,10 @@ import pandas as pd
 from matplotlib.axes import Axes
 
 from evtribo.analysis.outputs import MODELS_CSV
+from evtribo.compare.layout import place_legend, plain_log_axis
 from evtribo.compare.models import ModelFit, fit_models, models_table
 from evtribo.compare.plots import new_axes, safe_name
+from evtribo.compare.style import series_style
 from evtribo.compare.tables import ResultTables
 from evtribo.files import atomic_write
 from evtribo.model.params import ModelParameters
@@ -68,7 +71,7 @@ def plot_frequency_response(rows: pd.DataFrame, fits: Sequence[ModelFit], *,
     fits : sequence of ModelFit
         The subject's fitted models (:func:`evtribo.compare.models.fit_models`).
     subject : str
-        For the title.
+        The subject (figures carry no title: the caption names it).
     ax : Axes, optional
         Where to draw; a new figure when None.
 
@@ -92,8 +95,9 @@ def plot_frequency_response(rows: pd.DataFrame, fits: Sequence[ModelFit], *,
         lo = 1e3 * g["electrostatic_force_ci_low_N"].to_numpy(float)
         hi = 1e3 * g["electrostatic_force_ci_high_N"].to_numpy(float)
         err = np.nan_to_num(np.vstack([y - lo, hi - y]), nan=0.0).clip(min=0.0)
-        color = f"C{i}"
-        ax.errorbar(f, y, yerr=err, fmt="o", ms=4, color=color, capsize=2,
+        look = series_style(i)
+        color = look["color"]
+        ax.errorbar(f, y, yerr=err, fmt=look["marker"], ms=4, color=color, capsize=2,
                     label=f"measured, {wave} {amp:g} V")
         fn = float(np.nanmean(g["normal_force_on_N"].to_numpy(float)))
         for fit in fits:
@@ -101,13 +105,19 @@ def plot_frequency_response(rows: pd.DataFrame, fits: Sequence[ModelFit], *,
                 continue
             model = 1e3 * fit.force(fn, amp, wave, grid)
             ax.plot(grid, model, _STYLES.get(fit.model, "-"), color=color, lw=1.1,
-                    label=f"{fit.model} (Δ{fit.criterion} {fit.delta_aic:.3g})" if i == 0
-                    else None)
-    ax.set(xscale="log", xlabel="drive frequency f (Hz)",
-           ylabel="electrostatic force F_el (mN)", ylim=(0, None),
-           title=f"F_el against frequency{', ' + subject if subject else ''}")
-    ax.legend(fontsize="small")
+                    label=_model_label(fit) if i == 0 else None)
+    ax.set(xscale="log", xlabel="drive frequency $f$ (Hz)",
+           ylabel=r"electrostatic force $F_\mathrm{el}$ (mN)", ylim=(0, None))
+    plain_log_axis(ax.xaxis, subs=(1.0,))
+    place_legend(ax)
     return ax
+
+
+def _model_label(fit: ModelFit) -> str:
+    """A model's legend entry: its name, and its Δ of the criterion where defined."""
+    if math.isfinite(fit.delta_aic):
+        return f"{fit.model} (Δ{fit.criterion} {fit.delta_aic:.3g})"
+    return fit.model
 
 
 def write_models(tables: ResultTables, stage: Staging, models: Sequence[str],
