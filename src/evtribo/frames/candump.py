@@ -400,9 +400,9 @@ def iter_blocks(stream: IO[bytes], block_size: int = _BLOCK) -> Iterator[bytes]:
         yield rest
 
 
-def read_candump(path: str | os.PathLike[str], on_bad: BadLineHandler,
-                 block_size: int = _BLOCK) -> tuple[FrameTable, int]:
-    """Read a candump ``-L`` log (plain or gzip).
+def iter_candump(path: str | os.PathLike[str], on_bad: BadLineHandler,
+                 block_size: int = _BLOCK) -> Iterator[tuple[FrameTable, int]]:
+    """Read a candump ``-L`` log (plain or gzip) block by block.
 
     Parameters
     ----------
@@ -411,7 +411,36 @@ def read_candump(path: str | os.PathLike[str], on_bad: BadLineHandler,
     on_bad : callable
         Called as ``on_bad(line_number, reason)`` for each damaged line (it may raise).
     block_size : int
-        Bytes read at a time (memory use grows with it, not with the file).
+        Bytes read at a time: memory use grows with it, not with the file.
+
+    Yields
+    ------
+    frames : FrameTable
+        The frames of one block of whole lines, in file order (its channels numbered in
+        the block's own order of first appearance: match them by name).
+    lines : int
+        Lines of the block.
+    """
+    lines = 0
+    with _open_binary(path) as stream:
+        for block in iter_blocks(stream, block_size):
+            table, n = _parse_block(block, lines + 1, on_bad)
+            lines += n
+            yield table, n
+
+
+def read_candump(path: str | os.PathLike[str], on_bad: BadLineHandler,
+                 block_size: int = _BLOCK) -> tuple[FrameTable, int]:
+    """Read a candump ``-L`` log (plain or gzip) whole.
+
+    Parameters
+    ----------
+    path : path-like
+        The log; a name ending in ``.gz`` is decompressed.
+    on_bad : callable
+        Called as ``on_bad(line_number, reason)`` for each damaged line (it may raise).
+    block_size : int
+        Bytes read at a time (see :func:`iter_candump`).
 
     Returns
     -------
@@ -422,15 +451,13 @@ def read_candump(path: str | os.PathLike[str], on_bad: BadLineHandler,
     """
     tables = []
     lines = 0
-    with _open_binary(path) as stream:
-        for block in iter_blocks(stream, block_size):
-            table, n = _parse_block(block, lines + 1, on_bad)
-            tables.append(table)
-            lines += n
+    for table, n in iter_candump(path, on_bad, block_size):
+        tables.append(table)
+        lines += n
     if not tables:
         return FrameTable.empty(), 0
     return (tables[0] if len(tables) == 1 else FrameTable.concat(tables)), lines
 
 
 __all__ = ["CAN_EFF_MASK", "CAN_ERR_BUSERROR", "CAN_ERR_FLAG", "FD_SIZES", "frame_field",
-           "iter_blocks", "parse_line", "read_candump", "write_candump"]
+           "iter_blocks", "iter_candump", "parse_line", "read_candump", "write_candump"]
