@@ -215,12 +215,17 @@ class _Layout:
 
     def schema(self) -> pa.Schema:
         """The Parquet schema of the table."""
-        cat = pa.dictionary(pa.int32(), pa.string())
-        fields = [pa.field("timestamp", pa.float64()), pa.field("message", cat)]
+        # as pandas writes them: no category (a table without rows) is a dictionary of
+        # nulls; value-table names of a message without rows are nulls
+        def cat(names: list[str]) -> pa.DataType:
+            return pa.dictionary(pa.int32(), pa.string() if names else pa.null())
+
+        fields = [pa.field("timestamp", pa.float64()), pa.field("message", cat(self.categories))]
         if self.channels is not None:
-            fields.append(pa.field("channel", cat))
-        fields += [pa.field(name, pa.string() if named else pa.float64())
-                   for name, _m, _c, named in self.columns]
+            fields.append(pa.field("channel", cat(self.channels)))
+        fields += [pa.field(name, pa.float64() if not named else pa.string()
+                            if m.name in self.categories else pa.null())
+                   for name, m, _c, named in self.columns]
         return pa.schema(fields)
 
     def rows(self, block: _Block, offset: int) -> dict[str, npt.NDArray[Any]]:
@@ -242,7 +247,8 @@ class _Layout:
         out: dict[str, npt.NDArray[Any]] = {"timestamp": frames.timestamp[taken]}
         message = np.zeros(n, dtype=np.int32)
         for d in decoded.values():
-            message[at[d.index]] = self.categories.index(d.name)
+            if len(d):
+                message[at[d.index]] = self.categories.index(d.name)
         out["message"] = message
         if self.channels is not None:
             names = [*frames.channel_names, ""]
@@ -265,16 +271,20 @@ class _ParquetSink:
     def __init__(self, fh: IO[bytes], layout: _Layout) -> None:
         self.layout = layout
         self.schema = layout.schema()
-        self.writer = pq.ParquetWriter(fh, self.schema, use_dictionary=[
+        # the writer closes its file: its own descriptor, the atomic file stays open
+        self.file = os.fdopen(os.dup(fh.fileno()), "wb")
+        self.writer = pq.ParquetWriter(self.file, self.schema, use_dictionary=[
             f.name for f in self.schema if not pa.types.is_floating(f.type)])
-        self.dictionaries = {"message": pa.array(layout.categories, pa.string()),
-                             "channel": pa.array(layout.channels or [], pa.string())}
+        self.dictionaries = {name: pa.array(values, self.schema.field(name).type.value_type)
+                             for name, values in (("message", layout.categories),
+                                                  ("channel", layout.channels or []))
+                             if name in self.schema.names}
 
     def write(self, rows: dict[str, npt.NDArray[Any]]) -> None:
         arrays = []
         for f in self.schema:
             col = rows[f.name]
-            if f.name in self.dictionaries:
+            if pa.types.is_dictionary(f.type):
                 arrays.append(pa.DictionaryArray.from_arrays(
                     pa.array(col, pa.int32(), mask=col < 0), self.dictionaries[f.name]))
             else:  # NaN is written as null, as pandas writes it
@@ -282,7 +292,10 @@ class _ParquetSink:
         self.writer.write_table(pa.Table.from_arrays(arrays, schema=self.schema))
 
     def close(self) -> None:
-        self.writer.close()
+        try:
+            self.writer.close()
+        finally:
+            self.file.close()
 
 
 class _CsvSink:
@@ -337,17 +350,19 @@ def _write(path: str, stream: FrameStream, blocks: Iterator[_Block], layout: _La
     rows = frames = 0
     with atomic_open(path, "wb") as fh:
         sink = (_ParquetSink if path.lower().endswith(".parquet") else _CsvSink)(fh, layout)
-        for block in blocks:
-            if facts is not None:
-                facts.add(block.facts)
-            if not layout.facts.covers(block.facts):
-                raise _Replan
-            table = layout.rows(block, frames)
-            sink.write(table)
-            rows += len(table["timestamp"])
-            frames += block.read
-        check()
-        sink.close()
+        try:
+            for block in blocks:
+                if facts is not None:
+                    facts.add(block.facts)
+                if not layout.facts.covers(block.facts):
+                    raise _Replan
+                table = layout.rows(block, frames)
+                sink.write(table)
+                rows += len(table["timestamp"])
+                frames += block.read
+            check()
+        finally:
+            sink.close()
     return Written(rows, frames, len(layout.columns), stream.report)
 
 
