@@ -13,6 +13,7 @@ import logging
 import os
 from collections import Counter
 from collections.abc import Callable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from itertools import chain
 from typing import IO, Any
@@ -348,8 +349,11 @@ def _write(path: str, stream: FrameStream, blocks: Iterator[_Block], layout: _La
     """Write every block with *layout* (gathering *facts* when given); raise _Replan at the
     first block it does not cover; *check* runs before the output is in place."""
     rows = frames = 0
-    with atomic_open(path, "wb") as fh:
+    # a block is written in a thread while the next one is read (pyarrow's writer and most
+    # of numpy's parsing let go of the GIL): at most two blocks are held at a time
+    with atomic_open(path, "wb") as fh, ThreadPoolExecutor(1) as pool:
         sink = (_ParquetSink if path.lower().endswith(".parquet") else _CsvSink)(fh, layout)
+        pending: Future[None] | None = None
         try:
             for block in blocks:
                 if facts is not None:
@@ -357,11 +361,17 @@ def _write(path: str, stream: FrameStream, blocks: Iterator[_Block], layout: _La
                 if not layout.facts.covers(block.facts):
                     raise _Replan
                 table = layout.rows(block, frames)
-                sink.write(table)
+                if pending is not None:
+                    pending.result()
+                pending = pool.submit(sink.write, table)
                 rows += len(table["timestamp"])
                 frames += block.read
+            if pending is not None:
+                pending.result()
             check()
         finally:
+            if pending is not None:
+                pending.exception()  # the write under way ends before the file closes
             sink.close()
     return Written(rows, frames, len(layout.columns), stream.report)
 
