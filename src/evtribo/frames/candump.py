@@ -32,7 +32,13 @@ import numpy as np
 import numpy.typing as npt
 
 from evtribo.files import PARTIAL_SUFFIX
-from evtribo.frames.candump_columns import BadLineHandler, _Chunk, _layout, _parse_group
+from evtribo.frames.candump_columns import (
+    BadLineHandler,
+    _Chunk,
+    _layout,
+    _parse_group,
+    line_rows,
+)
 from evtribo.frames.candump_line import FD_SIZES, Notice, parse_line
 
 # the writer (and the CAN_ERR constants the logger shares) live in candump_writer; its
@@ -77,14 +83,13 @@ def _parse_block(block: bytes, first_line: int, on_bad: BadLineHandler
     lengths = ends - starts
     out = _Chunk(len(starts), CLASSIC_WIDTH)
     slow = np.zeros(len(starts), dtype=bool)
-    windows = np.lib.stride_tricks.sliding_window_view
     counts = np.bincount(lengths)
     for length in np.flatnonzero(counts):
         if length == 0:
             continue
         rows = np.flatnonzero(lengths == length) if counts[length] < len(lengths) \
             else np.arange(len(lengths))
-        mat = windows(buf, int(length))[starts[rows]]
+        mat = line_rows(buf, starts[rows], int(length))
         lay = _layout(mat[0].tobytes())
         if lay is None:
             slow[rows] = True
