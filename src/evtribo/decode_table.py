@@ -16,11 +16,10 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from itertools import chain
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
-import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 from cantools.database.can import Database, Message
@@ -31,6 +30,9 @@ from evtribo.files import atomic_open
 from evtribo.frames import FrameStream, FrameTable, ReadReport
 from evtribo.rig import load_dbc
 from evtribo.signal_codec import SignalCodec
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 __all__ = ["Written", "decoded_table", "load_dbc_file", "write_decoded"]
 
@@ -82,6 +84,8 @@ def decoded_table(frames: FrameTable, db: Database, choices: bool = False,
         per signal (physical values; ``Message.Signal`` for a name used twice or named like
         a fixed column).
     """
+    import pandas as pd  # not imported by a Parquet output streamed by write_decoded
+
     decoded = decode_messages(frames, db)
     fixed = ["timestamp", "message"] + (["channel"] if with_channel else [])
     # a signal named like a fixed column, or by two messages, is written Message.Signal
@@ -308,6 +312,8 @@ class _CsvSink:
         self.header = True
 
     def write(self, rows: dict[str, npt.NDArray[Any]]) -> None:
+        import pandas as pd
+
         cats = {"message": self.layout.categories, "channel": self.layout.channels or []}
         table = pd.DataFrame({k: pd.Categorical.from_codes(v, dtype=pd.CategoricalDtype(
             cats[k])) if k in cats else v for k, v in rows.items()})
