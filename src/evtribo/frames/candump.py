@@ -9,13 +9,16 @@ frame keeps its channel (a log of several buses holds the same ID once per bus; 
 the channel names of such a log to one width). ``DROPCOUNT`` notices, CAN XL frames, raw DLC
 codes and over-long classic frames: see :mod:`evtribo.frames.candump_line`.
 
-How the reader stays fast: the file is read in blocks of whole lines; lines are grouped by
-length, each group is copied as one ``(lines, length)`` byte matrix (a strided view of the
-block, no Python loop), its layout is taken from its first line, and every row matching that
-layout is parsed column-wise (hex through a lookup table, timestamps as exact integers
-divided by a power of ten, so the result equals ``float()`` of the text). Rows that do not
-match (rare: a remote frame among data frames, a stray space, a damaged line) go through a
-per-line parser; a line that parser refuses is damaged.
+How the reader stays fast and small: the file is read in blocks of whole lines
+(:func:`iter_candump` yields each block's frames, so memory follows the block, not the
+file); a block whose lines all have one length is already a ``(lines, length)`` byte matrix,
+else its lines are grouped by length and each group copied as one matrix (a memory copy per
+line, no Python loop); a group's layout is taken from its first line, and every row matching
+that layout is parsed column-wise (:mod:`evtribo.frames.candump_columns`: hex by arithmetic
+on the characters, timestamps as exact integers divided by a power of ten, so the result
+equals ``float()`` of the text). Rows that do not match (rare: a remote frame among data
+frames, a stray space, a damaged line) go through a per-line parser; a line that parser
+refuses is damaged.
 
 Error frames keep their error-class bits as ``arbitration_id`` and their payload (the Linux
 SocketCAN convention); python-can's reader reports them with ID 0 and no payload.
