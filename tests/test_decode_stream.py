@@ -203,3 +203,25 @@ def test_parquet_is_written_by_row_groups(tmp_path):
     meta = pq.ParquetFile(tmp_path / "new.parquet").metadata
     assert done.passes == 1 and meta.num_rows == 5000
     assert meta.num_row_groups == -(-path.stat().st_size // (1 << 15))
+
+
+def test_a_log_that_changes_between_the_two_readings_is_an_error_and_nothing_is_written(
+        tmp_path):
+    """The columns planned from the first reading must hold the second: a log grown by a
+    message in between (a recording still writing it) stops decode, output untouched."""
+    lines = [f"({T0 + i * 1e-3:.6f}) vcan0 101#{i:016X}" for i in range(3000)]
+    first = tmp_path / "first.log"
+    _write_log(first, [*lines, f"({T0 + 4:.6f}) vcan0 1A0#010203"], False, True)
+    grown = tmp_path / "grown.log"
+    _write_log(grown, [*lines, f"({T0 + 4:.6f}) vcan0 1A0#010203",
+                       f"({T0 + 5:.6f}) vcan0 18FF0102#010203040506"], False, True)
+    db = cantools.database.load_string(DBC)
+    out = tmp_path / "new.parquet"
+    out.write_bytes(b"kept")
+    readings = iter([first, grown])
+    with pytest.raises(LogFormatError, match="changed while it was decoded"):
+        write_decoded(lambda warn: FrameStream(next(readings), block_size=4096, warn=warn),
+                      db, str(out))
+    assert out.read_bytes() == b"kept"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["first.log", "grown.log",
+                                                          "new.parquet"]
