@@ -10,21 +10,24 @@ to choose), then times in fresh processes, each to a Parquet file:
   frame of the DBC with cantools' ``decode_message`` and writes the rows with pandas.
 
 It prints the seconds, frames/s and peak resident set size of each, their ratios, and how
-evtribo's peak memory grows with the log's size. The baseline is timed on every size up to
-``--baseline-max`` frames (default 2 M); above, its time is scaled from the largest size
-timed (it is linear in frames) and its memory is not reported.
+evtribo's peak memory grows with the log's size. The logs are built in a process of their
+own; each peak resident set size is the measured child's (``wait4``'s ``ru_maxrss``). The
+baseline is timed on every size up to ``--baseline-max`` frames (default 2 M); above, its
+time is scaled from the largest size timed (it is linear in frames) and its memory is not
+reported. On the largest log it also prints the limits the figures are measured against:
+``cat`` and ``wc -l`` of the log, evtribo's reader in-process on it and on a log of
+fixed-width lines, and the start-up of ``python -m evtribo decode``'s imports.
 
-Run: ``python benchmarks/decode.py [--frames 1e6,2e6,4e6]``.
+Run: ``python benchmarks/decode.py [--frames 1e6,2e6,4e6] [--large]`` (``--large`` adds a
+16 M-frame log: a few minutes more, most of it building the log).
 """
 
 from __future__ import annotations
 
 import argparse
-import os
 import subprocess
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -97,25 +100,81 @@ def build_log(path: Path, n_frames: int, seed: int = 1) -> None:
     write_candump(path, frames)
 
 
+#: Runs a command and prints its wall seconds and peak resident set size (KiB). The measured
+#: command is a child of this small process, not of the benchmark: on Linux a child's
+#: ``ru_maxrss`` starts from its parent's size at the fork.
+LAUNCHER = """
+import os, subprocess, sys, time
+t = time.perf_counter()
+p = subprocess.Popen(sys.argv[1:], stdout=subprocess.DEVNULL)
+_, status, usage = os.wait4(p.pid, 0)
+print(time.perf_counter() - t, usage.ru_maxrss, os.waitstatus_to_exitcode(status))
+"""
+
+
 def run(cmd: list[str]) -> tuple[float, float]:
     """Wall seconds and peak resident set size (MB) of a command in a fresh process."""
-    start = time.perf_counter()
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    _, status, usage = os.wait4(proc.pid, 0)
-    elapsed = time.perf_counter() - start
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    if proc.returncode != 0:
-        raise SystemExit(f"{cmd[:3]} failed: {proc.stderr.read().decode()[-2000:]}")
-    return elapsed, usage.ru_maxrss / 1024
+    proc = subprocess.run([sys.executable, "-c", LAUNCHER, *cmd], capture_output=True,
+                          text=True, check=True)
+    elapsed, maxrss, code = proc.stdout.split()
+    if int(code) != 0:
+        raise SystemExit(f"{cmd[:4]} failed: {proc.stderr[-2000:]}")
+    return float(elapsed), int(maxrss) / 1024
+
+
+def fixed_width_log(path: Path, n_frames: int) -> None:
+    """A log of *n_frames* lines of one length (one ID, 8 bytes): the reader's best case."""
+    rng = np.random.default_rng(2)
+    write_candump(path, FrameTable(
+        timestamp=1763700000.0 + np.arange(n_frames) * 2.5e-4,
+        arbitration_id=np.full(n_frames, 0x101, np.uint32),
+        is_extended=np.zeros(n_frames, bool), is_remote=np.zeros(n_frames, bool),
+        is_error=np.zeros(n_frames, bool), is_fd=np.zeros(n_frames, bool),
+        dlc=np.full(n_frames, 8, np.uint8),
+        data=rng.integers(0, 256, (n_frames, 8)).astype(np.uint8), channel="can0"))
+
+
+READ_ONLY = """
+import sys, time
+from evtribo.frames import FrameStream
+t = time.perf_counter()
+n = sum(len(b) for b in FrameStream(sys.argv[1]))
+print(n / (time.perf_counter() - t))
+"""
+
+
+def limits(log: Path, tmp: Path, n: int) -> None:
+    """How fast this machine reads the log (cat, wc -l), parses it in evtribo's reader
+    (in-process, start-up excluded), and parses a log of fixed-width lines of as many
+    frames; and what start-up (the interpreter and the imports of decode) costs."""
+    size = log.stat().st_size / 1e6
+    t_cat, _ = run(["cat", str(log)])  # to /dev/null
+    t_wc, _ = run(["wc", "-l", str(log)])
+    fixed = tmp / "fixed.log"
+    subprocess.run([sys.executable, __file__, "--build-fixed", str(fixed), str(n)], check=True)
+    rates = []
+    for path in (log, fixed):
+        out = subprocess.run([sys.executable, "-c", READ_ONLY, str(path)], check=True,
+                             capture_output=True, text=True).stdout
+        rates.append(float(out))
+    fixed.unlink()
+    t_imp, rss_imp = run([sys.executable, "-c", "import evtribo.cli.decode, pyarrow.parquet"])
+    print(f"limits on the {n / 1e6:g} M-frame log ({size:.0f} MB): cat {size / t_cat:.0f} MB/s "
+          f"({t_cat:.2f} s), wc -l {size / t_wc:.0f} MB/s ({t_wc:.2f} s); evtribo's reader "
+          f"in-process {rates[0] / 1e6:.2f} M frames/s ({n / rates[0]:.2f} s), on fixed-width "
+          f"lines {rates[1] / 1e6:.2f} M frames/s; start-up and imports of decode "
+          f"{t_imp:.2f} s, {rss_imp:.0f} MB", flush=True)
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", default="1e6,2e6,4e6",
                         help="log sizes in frames, comma-separated")
+    parser.add_argument("--large", action="store_true", help="add a 16 M-frame log")
     parser.add_argument("--baseline-max", type=float, default=2e6)
     args = parser.parse_args()
-    sizes = [int(float(s)) for s in args.frames.split(",")]
+    sizes = [int(float(s)) for s in args.frames.split(",")] + ([16_000_000] if args.large
+                                                               else [])
     evtribo = [sys.executable, "-m", "evtribo", "decode"]
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -124,11 +183,11 @@ def main() -> int:
         base_rate = None
         for n in sizes:
             log = Path(tmp) / f"log-{n}.log"
-            build_log(log, n)
+            subprocess.run([sys.executable, __file__, "--build", str(log), str(n)], check=True)
             size_mb = log.stat().st_size / 1e6
             t_ev, rss_ev = run([*evtribo, str(log), "--dbc", str(dbc), "-o",
                                 str(Path(tmp) / "ev.parquet"), "--force"])
-            if n <= args.baseline_max:
+            if n <= args.baseline_max or base_rate is None:
                 t_b, rss_b = run([sys.executable, "-c", BASELINE, str(log), str(dbc),
                                   str(Path(tmp) / "base.parquet")])
                 base_rate = n / t_b
@@ -136,13 +195,15 @@ def main() -> int:
             else:
                 t_b, rss_b, measured = n / base_rate, float("nan"), False
             rows.append((n, size_mb, t_ev, rss_ev, t_b, rss_b, measured))
-            log.unlink()
             print(f"{n / 1e6:4.1f} M frames ({size_mb:6.1f} MB): evtribo decode {t_ev:6.2f} s "
                   f"({n / t_ev / 1e6:.2f} M frames/s, peak RSS {rss_ev:6.0f} MB); baseline "
                   f"{t_b:6.2f} s{'' if measured else ' (scaled)'} "
                   f"({n / t_b / 1e3:.0f} k frames/s"
                   + (f", peak RSS {rss_b:.0f} MB" if measured else "") + "); "
                   f"ratio {t_b / t_ev:.1f}x (target >= 10x)", flush=True)
+            if n == sizes[-1]:
+                limits(log, Path(tmp), n)
+            log.unlink()
     if len(rows) >= 2:
         (n0, s0, _, r0, *_), (n1, s1, _, r1, *_) = rows[0], rows[-1]
         print(f"peak RSS growth from {n0 / 1e6:g} M to {n1 / 1e6:g} M frames: "
@@ -152,4 +213,8 @@ def main() -> int:
 
 
 if __name__ == "__main__":
+    if sys.argv[1:2] in (["--build"], ["--build-fixed"]):  # logs built in a process of their own
+        (build_log if sys.argv[1] == "--build" else fixed_width_log)(Path(sys.argv[2]),
+                                                                     int(sys.argv[3]))
+        sys.exit(0)
     sys.exit(main())

@@ -1,5 +1,6 @@
 """Trial cache: a second load does not decode again; keys follow log and rig content."""
 
+import dataclasses
 import shutil
 
 import numpy as np
@@ -27,7 +28,7 @@ def test_second_load_comes_from_cache(trial_files, tmp_path, monkeypatch):
     def no_read(*_a, **_k):
         raise AssertionError("decoded again")
 
-    monkeypatch.setattr(cache, "read_frames", no_read)
+    monkeypatch.setattr(cache, "FrameStream", no_read)
     second = cache.load_trial(path, rig, cache_dir=cdir)
     for cell in ("normal", "tangential"):
         a, b = getattr(first, cell), getattr(second, cell)
@@ -183,3 +184,49 @@ def test_a_cached_trial_warns_of_its_damaged_lines_as_the_reader_did(trial_files
     assert warm.provenance.from_cache and not cold.provenance.from_cache
     assert len(first) == 2 and damaged(caplog.records) == first
     assert warm.skipped_detail == cold.skipped_detail and len(cold.skipped_detail) == 2
+
+
+@pytest.mark.parametrize("block_size", [64, 1000, 1 << 22])
+def test_a_log_decoded_block_by_block_is_the_whole_log_decoded(tmp_path, block_size):
+    """The trial's signals and counts (frames ignored, channel, warnings) are those of
+    decode_trial on the whole log, foreign frames, a second bus and damaged lines included;
+    only the rig's frames are held."""
+    from evtribo.decode import decode_trial
+    from evtribo.frames import FrameStream, FrameTable, read_frames, write_candump
+
+    rig, path = _second_rig_trial(tmp_path)[:2]
+    frames, _ = read_frames(path)
+    rng = np.random.default_rng(3)
+    n = 3 * len(frames)
+    foreign = FrameTable(
+        timestamp=np.sort(rng.uniform(frames.timestamp[0], frames.timestamp[-1], n)),
+        arbitration_id=rng.choice([0x0F0, 0x7E8, 0x1ABCDE01], n).astype(np.uint32),
+        is_extended=np.zeros(n, bool), is_remote=np.zeros(n, bool),
+        is_error=np.zeros(n, bool), is_fd=np.zeros(n, bool),
+        dlc=rng.integers(0, 9, n).astype(np.uint8),
+        data=rng.integers(0, 256, (n, 8)).astype(np.uint8), channel="can1")
+    foreign.is_extended[:] = foreign.arbitration_id > 0x7FF
+    mixed = FrameTable.concat([frames, foreign]).sorted_by_time()
+    log = tmp_path / "mixed.log"
+    write_candump(log, mixed)
+    with open(log, "a") as fh:
+        fh.write("(1.5) can1 damaged\n")
+    whole, report = read_frames(log)
+    expected = decode_trial(whole, rig)
+    stream = FrameStream(log, block_size=block_size)
+    kept, others = cache.rig_frames(stream, rig)
+    assert others >= n and len(kept) + others == len(whole)
+    assert stream.report == report and report.skipped_lines == 1
+    got = decode_trial(kept, rig)
+    assert got.frames == expected.frames
+    assert got.ignored_frames + others == expected.ignored_frames
+    assert (got.channel, got.warnings) == (expected.channel, expected.warnings)
+    got = dataclasses.replace(got, ignored_frames=got.ignored_frames + others)
+    a, b = cache._to_table(got), cache._to_table(expected)
+    for name in a.column_names:
+        np.testing.assert_array_equal(a.column(name).to_numpy(zero_copy_only=False),
+                                      b.column(name).to_numpy(zero_copy_only=False), name)
+    assert a.schema.metadata == b.schema.metadata
+    loaded = cache.load_trial(log, rig, cache=False)
+    assert (loaded.frames, loaded.ignored_frames, loaded.skipped_lines) == (
+        expected.frames, expected.ignored_frames, 1)

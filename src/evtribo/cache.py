@@ -23,6 +23,7 @@ import hashlib
 import json
 import logging
 import os
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -34,7 +35,7 @@ from evtribo._docs import fill_doc
 from evtribo.decode import decode_trial
 from evtribo.errors import AnalysisError
 from evtribo.files import atomic_write, sha256_file
-from evtribo.frames import read_frames
+from evtribo.frames import FrameStream, FrameTable
 from evtribo.frames.registry import MAX_WARNINGS
 from evtribo.rig import Rig
 from evtribo.signals import CellSignals, ExcitationSignals, TrialProvenance, TrialSignals
@@ -273,14 +274,55 @@ def _decode(log_path: str | os.PathLike[str], rig: Rig, strict: bool,
     trial's ``skipped_lines`` are the reader's."""
     if expect is not None:
         _check_unchanged(log_path, expect, "since the analysis started")
-    frames, report = read_frames(log_path, strict=strict)
+    stream = FrameStream(log_path, strict=strict)
+    frames, others = rig_frames(stream, rig)
     if expect is not None:
         _check_unchanged(log_path, expect, "while it was read")
     if channel is not None and len(frames.channel_names) <= 1:
         channel = None
     trial = decode_trial(frames, rig, channel=channel)
+    report = stream.report
     return dataclasses.replace(trial, skipped_lines=report.skipped_lines,
+                               ignored_frames=trial.ignored_frames + others,
                                skipped_detail=tuple(report.skipped[:MAX_WARNINGS]))
+
+
+@fill_doc
+def rig_frames(blocks: Iterable[FrameTable], rig: Rig) -> tuple[FrameTable, int]:
+    """The frames the rig's decoding looks at, gathered from a log read block by block.
+
+    Memory follows the rig's frames, not the log: a block's other frames are counted and
+    let go. Kept are the frames whose ID number is one of the rig's messages' (of either
+    kind: :func:`~evtribo.decode.decode_trial` names the frames of the wrong kind), with
+    the log's channel names and its counts of dropped and CAN XL frames.
+
+    Parameters
+    ----------
+    blocks : iterable of FrameTable
+        The log, block by block (:class:`~evtribo.frames.FrameStream`).
+    %(rig)s
+
+    Returns
+    -------
+    frames : FrameTable
+        The kept frames in log order; ``decode_trial`` of it equals ``decode_trial`` of the
+        whole log, but for the frames it counts as ignored.
+    others : int
+        The frames let go (add them to the trial's ``ignored_frames``).
+    """
+    ids = np.unique(np.array([ref.message.frame_id for ref in rig.measured_roles.values()],
+                             dtype=np.uint32))
+    kept, others = [], 0
+    for block in blocks:
+        keep = np.isin(block.arbitration_id, ids)
+        if keep.all():
+            kept.append(block)
+            continue
+        others += len(block) - int(np.count_nonzero(keep))
+        kept.append(block.take(keep))
+    if not kept:
+        return FrameTable.empty(), 0
+    return (kept[0] if len(kept) == 1 else FrameTable.concat(kept)), others
 
 
 def _entries(directory: Path, key: str) -> list[Path]:
@@ -322,4 +364,4 @@ def _write_atomic(directory: Path, key: str, table: pa.Table) -> Path:
     return path
 
 
-__all__ = ["CACHE_VERSION", "cache_key", "default_cache_dir", "load_trial"]
+__all__ = ["CACHE_VERSION", "cache_key", "default_cache_dir", "load_trial", "rig_frames"]

@@ -70,6 +70,8 @@ class DecodedMessage:
     undecoded : ndarray of int64
         Rows (in the frame table) of frames cantools refused, such as a multiplexer value
         the DBC does not know; their signals are NaN.
+    undecoded_reason : str
+        cantools' reason for the first of them.
     """
 
     name: str
@@ -82,6 +84,7 @@ class DecodedMessage:
     units: dict[str, str] = field(default_factory=dict)
     undecoded: npt.NDArray[np.int64] = field(
         default_factory=lambda: np.zeros(0, dtype=np.int64))
+    undecoded_reason: str = ""
 
     def __len__(self) -> int:
         return int(self.timestamp.shape[0])
@@ -121,7 +124,8 @@ def message_mask(frames: FrameTable, message: Message) -> npt.NDArray[np.bool_]:
 
 
 def decode_message(frames: FrameTable, message: Message, signals: list[str] | None = None,
-                   *, mask: npt.NDArray[np.bool_] | None = None) -> DecodedMessage:
+                   *, mask: npt.NDArray[np.bool_] | None = None, quiet: bool = False
+                   ) -> DecodedMessage:
     """Decode the frames of one message (all its signals, or those named).
 
     Parameters
@@ -134,6 +138,8 @@ def decode_message(frames: FrameTable, message: Message, signals: list[str] | No
         The signals to decode (default: all).
     mask : ndarray of bool, optional
         The frames of the message, when already known (:func:`message_mask`).
+    quiet : bool
+        No warning on short or refused frames (a caller that counts them over blocks).
 
     Returns
     -------
@@ -143,7 +149,7 @@ def decode_message(frames: FrameTable, message: Message, signals: list[str] | No
     sel = message_mask(frames, message) if mask is None else mask
     full = sel & (frames.dlc >= message.length)
     short = int(np.count_nonzero(sel)) - int(np.count_nonzero(full))
-    if short:
+    if short and not quiet:
         log.warning("%d frames of %s (0x%X) are shorter than its %d bytes: not decoded",
                     short, message.name, message.frame_id, message.length)
     index = np.flatnonzero(full)
@@ -155,12 +161,12 @@ def decode_message(frames: FrameTable, message: Message, signals: list[str] | No
         out.codecs[sig.name] = SignalCodec.from_signal(sig)
         out.units[sig.name] = sig.unit or ""
     if message.is_multiplexed():
-        failed, first_error = _decode_multiplexed(message, data, frames.dlc[index], out)
-        if failed.size:
-            out.undecoded = index[failed]
+        failed, out.undecoded_reason = _decode_multiplexed(message, data, frames.dlc[index], out)
+        out.undecoded = index[failed]
+        if failed.size and not quiet:
             log.warning("%d frames of %s (0x%X) could not be decoded (first, frame %d: %s): "
                         "their signals are NaN", failed.size, message.name, message.frame_id,
-                        out.undecoded[0], first_error)
+                        out.undecoded[0], out.undecoded_reason)
     else:
         for name, codec in out.codecs.items():
             out.raw[name] = codec.raw(data)
@@ -264,12 +270,17 @@ def kind_mismatches(frames: FrameTable, messages: list[Message], db: Database) -
     return out
 
 
-# --- trials ---------------------------------------------------------------------------------
-
 #: Names of a waveform signal's codes when the rig's DBC gives it no value table: the default
 #: rig's (``VAL_ ... HvWave 0 "sine" 1 "square" 2 "triangle" 3 "dc"``). Other codes keep
 #: their number as their name; a DBC's own value table always takes precedence.
 FALLBACK_WAVEFORMS: dict[int, str] = {0: "sine", 1: "square", 2: "triangle", 3: "dc"}
+
+
+def _rows(msg: DecodedMessage, sel: npt.NDArray[Any]) -> DecodedMessage:
+    """*msg*'s frames selected by *sel* (a mask or an order)."""
+    return DecodedMessage(msg.name, msg.frame_id, msg.is_extended, msg.timestamp[sel],
+                          msg.index[sel], {k: v[sel] for k, v in msg.raw.items()}, msg.codecs,
+                          msg.units)
 
 
 def _decoded_only(msg: DecodedMessage, undecoded: list[npt.NDArray[np.int64]]
@@ -278,20 +289,13 @@ def _decoded_only(msg: DecodedMessage, undecoded: list[npt.NDArray[np.int64]]
     if not msg.undecoded.size:
         return msg
     undecoded.append(msg.undecoded)
-    keep = ~np.isin(msg.index, msg.undecoded)
-    return DecodedMessage(msg.name, msg.frame_id, msg.is_extended, msg.timestamp[keep],
-                          msg.index[keep], {k: v[keep] for k, v in msg.raw.items()},
-                          msg.codecs, msg.units)
+    return _rows(msg, ~np.isin(msg.index, msg.undecoded))
 
 
 def _in_time_order(msg: DecodedMessage) -> DecodedMessage:
     """*msg* with its frames sorted by time (stable: frames stamped alike keep their order)."""
     ts = msg.timestamp
-    if not np.any(ts[1:] < ts[:-1]):
-        return msg
-    order = np.argsort(ts, kind="stable")
-    return DecodedMessage(msg.name, msg.frame_id, msg.is_extended, ts[order], msg.index[order],
-                          {k: v[order] for k, v in msg.raw.items()}, msg.codecs, msg.units)
+    return _rows(msg, np.argsort(ts, kind="stable")) if np.any(ts[1:] < ts[:-1]) else msg
 
 
 def _cell(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
@@ -306,8 +310,7 @@ def _cell(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
     t = msg.timestamp if order is None else msg.timestamp[order]
     value = msg.scaled(force.signal.name)
     value = value if order is None else value[order]
-    count = received = None
-    modulus = None
+    count = received = modulus = None
     if counter is not None:
         cmsg = msg if counter.message is force.message else decode_message(
             frames, counter.message, [counter.signal.name])
@@ -440,13 +443,11 @@ def _decoded_count(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.
     for ref in rig.measured_roles.values():
         m = ref.message
         decoded |= message_mask(frames, m) & (frames.dlc >= m.length)
-    for rows in undecoded:
-        decoded[rows] = False
+    decoded[np.concatenate([np.zeros(0, dtype=np.int64), *undecoded])] = False
     return int(np.count_nonzero(decoded))
 
 
-def decode_trial(frames: FrameTable, rig: Rig, *, channel: str | None = None
-                 ) -> TrialSignals:
+def decode_trial(frames: FrameTable, rig: Rig, *, channel: str | None = None) -> TrialSignals:
     """Decode a trial's frames with *rig*'s roles.
 
     Parameters
@@ -495,6 +496,5 @@ def decode_trial(frames: FrameTable, rig: Rig, *, channel: str | None = None
 
 
 __all__ = ["FALLBACK_WAVEFORMS", "CellSignals", "DecodedMessage", "ExcitationSignals",
-           "SignalCodec", "TrialProvenance", "TrialSignals", "decode_message",
-           "decode_messages", "decode_trial", "kind_mismatches", "message_mask",
-           "waveform_names"]
+           "SignalCodec", "TrialProvenance", "TrialSignals", "decode_message", "decode_messages",
+           "decode_trial", "kind_mismatches", "message_mask", "waveform_names"]

@@ -6,6 +6,8 @@ signal (physical values after DBC scaling; ``--choices`` writes value-table name
 codes). A signal name used by two messages, or named like a fixed column, becomes
 ``Message.Signal``. A frame cantools cannot decode (a multiplexer value the DBC does not
 know) keeps its row, with empty signals. Output format by suffix: ``.parquet`` or ``.csv``.
+The log is read and written a block at a time (Parquet by row groups), so memory does not
+grow with the log.
 
 An existing output is kept unless ``--force``; a raw log never is, ``--force`` included: not
 the log being decoded (whatever the spelling of its path, symbolic links followed), not any
@@ -18,10 +20,9 @@ from __future__ import annotations
 import argparse
 import os
 
-from evtribo.decode_table import decoded_table, load_dbc_file
+from evtribo.decode_table import load_dbc_file, write_decoded
 from evtribo.errors import OutputExistsError, UserInputError
-from evtribo.files import atomic_open
-from evtribo.frames import FrameTable, read_frames, supported_suffixes
+from evtribo.frames import FrameStream, supported_suffixes
 from evtribo.frames.sniff import sniff
 
 #: What :func:`~evtribo.frames.sniff.sniff` calls the raw CAN logs decode never overwrites.
@@ -64,20 +65,8 @@ def _refuse_raw_logs(out: str, log_path: str) -> None:
                              "folder, or as .parquet", path=out)
 
 
-def _channel(frames: FrameTable, channel: str | None, log_path: str
-             ) -> tuple[FrameTable, bool]:
-    """The frames of *channel* (all without it), and whether to write a channel column."""
-    if channel is None:
-        return frames, len(frames.channel_names) > 1
-    if channel not in frames.channel_names:
-        have = ", ".join(frames.channel_names) or "none (its format names no channel)"
-        raise UserInputError(f"the log has no channel {channel!r}; its channels: {have}",
-                             path=log_path, key="--channel")
-    return frames.take(frames.on_channel(channel)), True
-
-
 def run(args: argparse.Namespace) -> int:
-    """Decode ``args.log`` with ``args.dbc`` into ``args.output``."""
+    """Decode ``args.log`` with ``args.dbc`` into ``args.output``, block by block."""
     out = args.output
     suffix = os.path.splitext(out)[1].lower()
     if suffix not in (".parquet", ".csv"):
@@ -86,16 +75,13 @@ def run(args: argparse.Namespace) -> int:
     _refuse_raw_logs(out, args.log)
     if os.path.exists(out) and not args.force:
         raise OutputExistsError("exists; use --force to overwrite", path=out)
+    FrameStream(args.log)  # the log is checked before the DBC is loaded
     db = load_dbc_file(args.dbc)
-    frames, report = read_frames(args.log, strict=args.strict)
-    frames, with_channel = _channel(frames, args.channel, args.log)
-    table = decoded_table(frames, db, choices=args.choices, with_channel=with_channel)
-    with atomic_open(out, "wb") as fh:
-        if suffix == ".parquet":
-            table.to_parquet(fh, index=False)
-        else:
-            table.to_csv(fh, index=False)
-    print(f"{out}: {len(table)} frames decoded of {len(frames)} "
-          f"({report.skipped_lines} damaged lines skipped), "
-          f"{table.shape[1] - 2 - with_channel} signals")
+
+    def open_stream(warn: bool) -> FrameStream:
+        return FrameStream(args.log, strict=args.strict, warn=warn)
+
+    done = write_decoded(open_stream, db, out, choices=args.choices, channel=args.channel)
+    print(f"{out}: {done.rows} frames decoded of {done.frames} "
+          f"({done.report.skipped_lines} damaged lines skipped), {done.signals} signals")
     return 0

@@ -14,11 +14,19 @@ python-can's readers. Each frame keeps its channel (``FrameTable.channel_index``
 
 from evtribo.frames.candump import write_candump
 from evtribo.frames.pycan import frames_from_messages
-from evtribo.frames.registry import READERS, ReadReport, log_suffix, read_frames, supported_suffixes
+from evtribo.frames.registry import (
+    READERS,
+    FrameStream,
+    ReadReport,
+    log_suffix,
+    read_frames,
+    supported_suffixes,
+)
 from evtribo.frames.table import FrameTable
 
 __all__ = [
     "READERS",
+    "FrameStream",
     "FrameTable",
     "ReadReport",
     "frames_from_messages",

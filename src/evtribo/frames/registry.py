@@ -24,14 +24,14 @@ import difflib
 import logging
 import os
 import zlib
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
 from can.io.player import MESSAGE_READERS
 
 from evtribo.errors import LogFormatError
 from evtribo.files import PARTIAL_SUFFIX
-from evtribo.frames.candump import read_candump
+from evtribo.frames.candump import iter_candump, read_candump
 from evtribo.frames.candump_text import read_candump_text
 from evtribo.frames.pycan import read_with_python_can
 from evtribo.frames.sniff import Sniffed, sniff
@@ -56,6 +56,9 @@ FORMAT_NAMES = {".log": "candump -L", ".asc": "Vector ASC", ".blf": "Vector BLF"
 
 #: Damaged lines logged one by one before a summary.
 MAX_WARNINGS = 20
+
+#: Bytes of a candump ``-L`` log read (and parsed) at a time by :class:`FrameStream`.
+STREAM_BLOCK = 1 << 22
 
 
 @dataclass
@@ -100,8 +103,6 @@ class ReadReport:
     time_base: str = ""
 
 
-
-
 def log_suffix(path: str | os.PathLike[str]) -> str:
     """The format suffix of *path*: ``.log``, ``.asc``..., or ``.log.gz`` for gzip.
 
@@ -142,6 +143,110 @@ def _reader(path: str | os.PathLike[str], fmt: str, base: str) -> Reader:
     return READERS[base]
 
 
+def _checked_reader(path: str | os.PathLike[str]) -> tuple[str, Reader]:
+    """The log's format suffix and its reader; a LogFormatError when there is none."""
+    fmt = log_suffix(path)
+    base = fmt[:-3] if fmt.endswith(".gz") else fmt
+    if base not in READERS:
+        close = difflib.get_close_matches(base, READERS, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close and base else ""
+        looks = _looks_like(path, sniff(path)) if os.path.isfile(path) else ""
+        raise LogFormatError(
+            f"unknown log format {fmt or '(no suffix)'!r}{hint}; supported: "
+            + ", ".join(supported_suffixes()) + f" (each also gzipped, .gz).{looks}", path=path)
+    if not os.path.isfile(path):
+        raise LogFormatError("no such file", path=path)
+    return fmt, _reader(path, fmt, base)
+
+
+class FrameStream:
+    """A log's frames, block by block: memory follows the block, not the log.
+
+    candump ``-L`` logs (``.log``, ``.log.gz``) are read in blocks of
+    :data:`STREAM_BLOCK` bytes of whole lines; the other formats are read whole (one
+    block). The log is checked when the stream is made (suffix, existence, content), so a
+    wrong file fails before anything is written; each iteration reads the log again.
+
+    Parameters
+    ----------
+    path : path-like
+        The log, as :func:`read_frames` takes it.
+    strict : bool
+        Raise at the first damaged line instead of skipping it.
+    block_size : int
+        Bytes of a candump ``-L`` log read at a time.
+    warn : bool
+        Log a warning per damaged line (the first :data:`MAX_WARNINGS`); False for a second
+        reading of a log already warned of.
+
+    Attributes
+    ----------
+    report : ReadReport
+        Counts of the frames read so far; whole once the stream is exhausted.
+
+    Raises
+    ------
+    LogFormatError
+        As :func:`read_frames`: when made (unknown suffix, missing file, another format), or
+        while iterating (a damaged line with *strict*, an unreadable file, a text log
+        without one frame, at its end).
+    """
+
+    def __init__(self, path: str | os.PathLike[str], *, strict: bool = False,
+                 block_size: int = STREAM_BLOCK, warn: bool = True) -> None:
+        self.path = path
+        self.format, self._read = _checked_reader(path)
+        self.strict = strict
+        self.block_size = block_size
+        self.warn = warn
+        self.report = ReadReport(path=os.fspath(path), format=self.format)
+
+    def _on_bad(self, line: int | None, reason: str) -> None:
+        path, report = self.path, self.report
+        if self.strict:
+            raise LogFormatError(f"damaged line: {reason}", path=path, line=line)
+        report.skipped_lines += 1
+        if len(report.skipped) < 1000:
+            report.skipped.append((line, reason))
+        if self.warn and report.skipped_lines <= MAX_WARNINGS:
+            where = os.fspath(path) if line is None else f"{os.fspath(path)}:{line}"
+            log.warning("%s: skipped damaged line: %s", where, reason)
+
+    def _blocks(self) -> Iterator[tuple[FrameTable, int]]:
+        if self._read is read_candump:
+            yield from iter_candump(self.path, self._on_bad, self.block_size)
+        else:
+            yield self._read(self.path, self._on_bad)
+
+    def __iter__(self) -> Iterator[FrameTable]:
+        """The frames, one table per block, in file order."""
+        self.report = report = ReadReport(path=os.fspath(self.path), format=self.format)
+        fmt = self.format
+        blocks = self._blocks()
+        while True:
+            try:
+                frames, lines = next(blocks)
+            except StopIteration:
+                break
+            except LogFormatError:
+                raise
+            except (OSError, EOFError, ValueError, zlib.error) as err:
+                raise LogFormatError(f"cannot read {fmt} log: {err}", path=self.path) from err
+            _add(report, frames, lines)
+            yield frames
+        if not report.frames and report.skipped_lines and not report.xl_frames:
+            line, reason = report.skipped[0]
+            if not report.lines:  # a binary log
+                raise LogFormatError(f"cannot read {fmt} log: {reason}", path=self.path)
+            base = fmt.removesuffix(".gz")
+            raise LogFormatError(
+                f"not a {_name(base)} log: no line of it is a frame (line {line}: {reason})."
+                f"{_looks_like(self.path, sniff(self.path))}", path=self.path)
+        if self.warn and report.skipped_lines > MAX_WARNINGS:
+            log.warning("%s: %d damaged lines skipped in all (first %d listed)",
+                        os.fspath(self.path), report.skipped_lines, MAX_WARNINGS)
+
+
 def read_frames(path: str | os.PathLike[str], *, strict: bool = False
                 ) -> tuple[FrameTable, ReadReport]:
     """Read a CAN log into columns.
@@ -168,47 +273,11 @@ def read_frames(path: str | os.PathLike[str], *, strict: bool = False
         text log without one frame, or (``strict``) a damaged line; the message names the
         file and the line.
     """
-    fmt = log_suffix(path)
-    base = fmt[:-3] if fmt.endswith(".gz") else fmt
-    if base not in READERS:
-        close = difflib.get_close_matches(base, READERS, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close and base else ""
-        looks = _looks_like(path, sniff(path)) if os.path.isfile(path) else ""
-        raise LogFormatError(
-            f"unknown log format {fmt or '(no suffix)'!r}{hint}; supported: "
-            + ", ".join(supported_suffixes()) + f" (each also gzipped, .gz).{looks}", path=path)
-    if not os.path.isfile(path):
-        raise LogFormatError("no such file", path=path)
-    reader = _reader(path, fmt, base)
-    report = ReadReport(path=os.fspath(path), format=fmt)
-
-    def on_bad(line: int | None, reason: str) -> None:
-        if strict:
-            raise LogFormatError(f"damaged line: {reason}", path=path, line=line)
-        report.skipped_lines += 1
-        if len(report.skipped) < 1000:
-            report.skipped.append((line, reason))
-        if report.skipped_lines <= MAX_WARNINGS:
-            where = os.fspath(path) if line is None else f"{os.fspath(path)}:{line}"
-            log.warning("%s: skipped damaged line: %s", where, reason)
-
-    try:
-        frames, lines = reader(path, on_bad)
-    except LogFormatError:
-        raise
-    except (OSError, EOFError, ValueError, zlib.error) as err:
-        raise LogFormatError(f"cannot read {fmt} log: {err}", path=path) from err
-    if not len(frames) and report.skipped_lines and not frames.xl_frames:
-        line, reason = report.skipped[0]
-        if not lines:  # a binary log
-            raise LogFormatError(f"cannot read {fmt} log: {reason}", path=path)
-        raise LogFormatError(f"not a {_name(base)} log: no line of it is a frame (line {line}: "
-                             f"{reason}).{_looks_like(path, sniff(path))}", path=path)
-    _fill(report, frames, lines)
-    if report.skipped_lines > MAX_WARNINGS:
-        log.warning("%s: %d damaged lines skipped in all (first %d listed)",
-                    os.fspath(path), report.skipped_lines, MAX_WARNINGS)
-    return frames, report
+    stream = FrameStream(path, strict=strict)
+    tables = list(stream)
+    if not tables:
+        return FrameTable.empty(), stream.report
+    return (tables[0] if len(tables) == 1 else FrameTable.concat(tables)), stream.report
 
 
 def _name(base: str) -> str:
@@ -216,11 +285,14 @@ def _name(base: str) -> str:
     return f"{FORMAT_NAMES[base]} ({base})" if base in FORMAT_NAMES else base
 
 
-def _fill(report: ReadReport, frames: FrameTable, lines: int) -> None:
-    """The report's counts of *frames*."""
-    report.frames = len(frames)
-    report.lines = lines
-    report.channels = {"" if k is None else k: v for k, v in frames.channel_counts().items()}
-    report.dropped_frames = sum(frames.reported_drops.values())
-    report.xl_frames = frames.xl_frames
-    report.time_base = str(frames.extras.get("time_base", "")).replace("-ta", "")
+def _add(report: ReadReport, frames: FrameTable, lines: int) -> None:
+    """Add the counts of a block of *frames* (and its *lines*) to *report*."""
+    report.frames += len(frames)
+    report.lines += lines
+    for k, v in frames.channel_counts().items():
+        name = "" if k is None else k
+        report.channels[name] = report.channels.get(name, 0) + v
+    report.dropped_frames += sum(frames.reported_drops.values())
+    report.xl_frames += frames.xl_frames
+    report.time_base = report.time_base or str(frames.extras.get("time_base", "")).replace(
+        "-ta", "")
