@@ -212,3 +212,17 @@ def test_a_hum_line_where_the_friction_oscillates_is_left_in():
     hum = find_hum(ft, RATE, avoid_Hz=avoid)
     assert hum is not None and hum.kept_Hz == (50.0,) and 50.0 not in hum.lines_Hz
     np.testing.assert_array_equal(remove_hum(ft, RATE, hum), ft)
+
+
+def test_levels_of_means_that_fall_between_the_10ms_samples_are_none():
+    # usable 0.1-s means everywhere but on the 10-ms grid the levels are read from: no
+    # levels (there is nothing to read them from), not an IndexError (found by the fuzzer)
+    from evtribo.analysis.lifted import _levels
+
+    n, m = 2000, 100
+    idx = np.arange(n)
+    fn = np.where(idx % 200 < 100, 0.5, 0.0)
+    ft = np.where(idx % 400 < 200, 0.2, -0.2)
+    ok = idx % 10 != 0
+    assert _levels(fn, ft, ok, m) is None
+    assert _levels(fn, ft, np.ones(n, bool), m) is not None

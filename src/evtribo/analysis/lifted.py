@@ -214,6 +214,8 @@ def _levels(fn_s: FloatArray, ft_s: FloatArray, ok: npt.NDArray[np.bool_], m: in
     # levels from the 0.1-s means taken every 10 ms (as good, and cheaper than every sample)
     step_10ms = slice(None, None, max(1, m // 10))
     fn_d, ft_d, ok_d = fn_s[step_10ms], ft_s[step_10ms], ok[step_10ms]
+    if ok_d.sum() < 10:  # the usable means fall between the 10-ms samples
+        return None
     floor = float(np.percentile(fn_d[ok_d], 0.25))
     press = float(np.percentile(fn_d[ok_d], 75)) - floor
     if not press > 0:
