@@ -104,9 +104,12 @@ def _references(subject: str, on: pd.DataFrame, off: pd.DataFrame, whole_off: pd
     refs: list[pd.DataFrame] = []
     ref_index: dict[str, int] = {}
     on_ref = np.empty(len(on), dtype=np.int64)
+    owns: dict[object, pd.DataFrame] = {}  # each trial's OFF windows, selected once
     for k, (trial, waveform) in enumerate(zip(on.trial, on.waveform, strict=True)):
         where = f"{subject} ({waveform or 'unknown waveform'})"
-        own = off[off.trial == trial]
+        if trial not in owns:
+            owns[trial] = off[off.trial == trial]
+        own = owns[trial]
         if condition_of.get((subject, trial)) == "alternating" and len(own):
             key, frame = f"trial:{trial}", own
         else:

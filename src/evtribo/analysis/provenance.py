@@ -16,6 +16,7 @@ from __future__ import annotations
 import datetime as dt
 import os
 import platform
+from concurrent.futures import ThreadPoolExecutor
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
@@ -25,6 +26,9 @@ from evtribo.files import sha256_file
 from evtribo.study import Study
 
 __all__ = ["changed_since", "file_record", "input_files", "provenance", "software_versions"]
+
+#: Threads hashing the inputs (at most the machine's cores).
+HASH_THREADS = min(4, os.cpu_count() or 1)
 
 _PACKAGES = {"python-can": "python-can", "cantools": "cantools", "numpy": "numpy",
              "scipy": "scipy", "pandas": "pandas", "pyarrow": "pyarrow"}
@@ -75,18 +79,20 @@ def input_files(study: Study) -> list[dict[str, Any]]:
     list of dict
     """
     root = Path(study.root)
-    records = []
+    files: list[tuple[Path, str]] = []
     toml = root / "study.toml"
     if toml.is_file():
-        records.append(file_record(toml, root, "study"))
+        files.append((toml, "study"))
     rig = study.rig
     if rig is not None and Path(rig.dbc).is_file():
-        records.append(file_record(Path(rig.dbc), root, "dbc"))
+        files.append((Path(rig.dbc), "dbc"))
     for ref in study.trials:
-        records.append(file_record(Path(ref.log_path), root, "log"))
+        files.append((Path(ref.log_path), "log"))
         if ref.sidecar_path is not None and Path(ref.sidecar_path).is_file():
-            records.append(file_record(Path(ref.sidecar_path), root, "sidecar"))
-    return records
+            files.append((Path(ref.sidecar_path), "sidecar"))
+    # hashlib and the reads release the GIL: the files are hashed on every core, in order
+    with ThreadPoolExecutor(max_workers=min(HASH_THREADS, len(files) or 1)) as pool:
+        return list(pool.map(lambda item: file_record(item[0], root, item[1]), files))
 
 
 def rig_roles(study: Study) -> dict[str, Any]:
