@@ -352,3 +352,36 @@ def test_many_drives_get_a_colour_bar_not_a_long_legend():
     assert [t.get_text() for t in few.get_legend().get_texts()] == [
         "OFF (μ = 0.5)", "ON 40 V", "ON 60 V", "ON 80 V"]
     assert len(few.figure.axes) == 1
+
+
+def test_a_leaky_fit_draws_the_model_at_each_drive_frequency():
+    # with a finite r_g the force depends on the frequency (spec §9): the F_el figure's model
+    # curves are the model at each frequency of the points, not the paper's (H = 1) alone
+    import numpy as np
+    import pandas as pd
+
+    from evtribo.compare.electrostatic_plots import plot_electrostatic_force
+    from evtribo.compare.model_points import mean_electrostatic_force
+    from evtribo.model.params import TABLE_1
+
+    rows = pd.DataFrame({
+        "subject": "P01", "waveform": "square", "frequency_Hz": [20.0, 20.0, 1e4, 1e4],
+        "amplitude_V": [80.0, 140.0, 80.0, 140.0], "normal_force_on_N": 0.5,
+        "electrostatic_force_N": [0.02, 0.06, 0.06, 0.19],
+        "electrostatic_force_ci_low_N": [0.018, 0.055, 0.055, 0.18],
+        "electrostatic_force_ci_high_N": [0.022, 0.065, 0.065, 0.2]})
+
+    def model_lines(params):
+        ax = plot_electrostatic_force(rows, params, subject="P01")
+        return [ln for ln in ax.get_lines()
+                if len(ln.get_xdata()) == 80 and ln.get_linestyle() != ":"]
+
+    leaky = TABLE_1.with_values({"r_g": 80.0})
+    lines = model_lines(leaky)
+    assert len(lines) == 2
+    for ln, f in zip(lines, (20.0, 1e4), strict=True):
+        grid = np.asarray(ln.get_xdata(), float)
+        expected = 1e3 * mean_electrostatic_force(0.5, grid, "square", leaky, frequency=f)
+        np.testing.assert_allclose(np.asarray(ln.get_ydata(), float), expected, rtol=1e-12)
+    assert np.all(np.asarray(lines[0].get_ydata()) < np.asarray(lines[1].get_ydata()))
+    assert len(model_lines(TABLE_1)) == 1  # no leak: one curve, the paper's

@@ -8,6 +8,7 @@ style (:mod:`evtribo.compare.style`) and return the Axes.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 import numpy as np
@@ -37,6 +38,22 @@ def _by_waveform(rows: pd.DataFrame) -> list[tuple[str, pd.DataFrame]]:
     """*rows* grouped by waveform: square first, then the others by name."""
     groups = rows.groupby(rows["waveform"].astype(str), sort=True)
     return sorted(((str(w), g) for w, g in groups), key=lambda wg: (wg[0] != "square", wg[0]))
+
+
+def _model_curves_mN(sel: pd.DataFrame, grid: NDArray[np.float64], wave: str,
+                     params: ModelParameters) -> list[NDArray[np.float64]]:
+    """The model's F_el over the voltage *grid* at the points' mean normal force ON, mN: one
+    curve, or one per drive frequency of the points when a layer leaks (finite ``r_sc`` or
+    ``r_g``, so that the force depends on the frequency; spec §9)."""
+    fn = float(np.nanmean(sel["normal_force_on_N"].to_numpy(float)))
+    leaks = math.isfinite(params.r_sc) or math.isfinite(params.r_g)
+    freqs = (np.unique(sel["frequency_Hz"].to_numpy(float)) if "frequency_Hz" in sel
+             else np.empty(0))
+    freqs = freqs[np.isfinite(freqs) & (freqs > 0)]
+    if not leaks or freqs.size == 0:
+        return [1e3 * mean_electrostatic_force(fn, grid, wave, params)]
+    return [1e3 * mean_electrostatic_force(fn, grid, wave, params, frequency=f)
+            for f in freqs]
 
 
 def _errors_mN(sel: pd.DataFrame) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -89,8 +106,8 @@ def plot_electrostatic_force(rows: pd.DataFrame, params: ModelParameters = TABLE
         hidden += int(np.sum(~(f > 0)))
         ax.errorbar(amp, f, yerr=err, fmt=style["marker"], color=style["color"])
         fn = float(np.nanmean(sel["normal_force_on_N"].to_numpy(float)))
-        ax.plot(grid, 1e3 * mean_electrostatic_force(fn, grid, wave, params),
-                linestyle=style["linestyle"], color=style["color"])
+        for curve in _model_curves_mN(sel, grid, wave, params):
+            ax.plot(grid, curve, linestyle=style["linestyle"], color=style["color"])
         handles.append(proxy(f"{wave} ($F_n$ = {1e3 * fn:.0f} mN)", **style))
         pos = f > 0
         if pos.any():  # U^2 through the points' geometric centre
@@ -149,10 +166,9 @@ def plot_electrostatic_force_all(electrostatic: pd.DataFrame,
             ax.errorbar(sel["amplitude_V"].to_numpy(float) * shift, f, yerr=err,
                         fmt=style["marker"], color=style["color"], elinewidth=0.7,
                         markerfacecolor="white" if wave == "sine" else style["color"])
-            fn = float(np.nanmean(sel["normal_force_on_N"].to_numpy(float)))
-            ax.plot(grid, 1e3 * mean_electrostatic_force(fn, grid, wave, params[s]),
-                    color=style["color"], linestyle=style["linestyle"],
-                    alpha=0.6 if wave == "sine" else 1.0)
+            for curve in _model_curves_mN(sel, grid, wave, params[s]):
+                ax.plot(grid, curve, color=style["color"], linestyle=style["linestyle"],
+                        alpha=0.6 if wave == "sine" else 1.0)
         handles.append(proxy(s, **style))
     if len(waves) > 1:
         handles += [proxy("square drive", color="0.3", marker="o", linestyle="none"),
