@@ -32,7 +32,7 @@ test-quick: $(STAMP) chromium
 	$(PY) -m pytest -n $(JOBS) -q -m "not slow"
 
 bench: $(STAMP)
-	for b in benchmarks/*.py; do $(PY) $$b || exit 1; done
+	for b in benchmarks/[!_]*.py; do $(PY) $$b || exit 1; done
 
 lint: $(STAMP)
 	$(PY) -m pip install --quiet -e '.[dev]'
