@@ -159,8 +159,10 @@ def test_a_figure_per_trial_and_one_saying_why_for_a_trial_not_analysed(lab, tmp
     assert len([ln for ln in good.axes.get_lines() if ln.get_linewidth() > 2]) > 0
     assert "not analysed" in bad.caption
     assert any("not analysed" in t.get_text() for t in bad.axes.texts)
-    subject, trial, axes, caption = good  # unpacks as (subject, trial, axes, caption)
+    assert bad.error and bad.error in bad.caption  # compare makes a note of it
+    subject, trial, axes, caption, error = good  # (subject, trial, axes, caption, error)
     assert (subject, trial) == ("P01", "run-01") and caption == good.caption
+    assert error is None
     png = tmp_path / f"{good.stem}.png"
     axes.figure.savefig(png, dpi=60)
     pixels = plt_image(png)

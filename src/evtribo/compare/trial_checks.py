@@ -54,7 +54,7 @@ def write_trial_checks(tables: ResultTables, emit: Callable[..., None],
     try:
         checks = trial_check_figures(study_dir, tables.subjects, tables.summary.settings)
         for f in checks:
-            if ": not analysed" in f.caption:
+            if f.error is not None:
                 notes.append(f.caption)
             emit(f.axes, "trial", f"{f.subject} / {f.trial}", f.stem, subject=f.subject,
                  caption=f.caption, extra={"trial": f.trial}, formats=fmt, dpi=CHECK_DPI)

@@ -304,6 +304,8 @@ class TrialFigure(NamedTuple):
     trial: str
     axes: Axes
     caption: str
+    error: str | None = None
+    """Why the trial could not be analysed (its figure then says so); None when checked."""
 
     @property
     def stem(self) -> str:
@@ -318,7 +320,8 @@ def _failed(subject: str, trial: str, err: Exception) -> TrialFigure:
     ax.text(0.5, 0.5, f"{subject}/{trial}: not analysed\n{err}", ha="center", va="center",
             wrap=True, transform=ax.transAxes)
     return TrialFigure(subject, trial, ax,
-                       f"Trial {subject}/{trial}: not analysed, so nothing to check: {err}")
+                       f"Trial {subject}/{trial}: not analysed, so nothing to check: {err}",
+                       error=str(err))
 
 
 def trial_check_figures(study_root: Study | str | os.PathLike[str],
