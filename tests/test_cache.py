@@ -22,8 +22,8 @@ def test_second_load_comes_from_cache(trial_files, tmp_path, monkeypatch):
     rig, path = trial_files
     cdir = tmp_path / "cache"
     first = cache.load_trial(path, rig, cache_dir=cdir)
-    assert len(list(cdir.glob("*.parquet"))) == 1
-    assert not list(path.parent.glob("*.parquet"))  # nothing beside the raw log
+    assert len(list(cdir.glob("*.arrow"))) == 1
+    assert not list(path.parent.glob("*.arrow"))  # nothing beside the raw log
 
     def no_read(*_a, **_k):
         raise AssertionError("decoded again")
@@ -54,7 +54,7 @@ def test_changed_log_or_rig_misses_the_cache(trial_files, tmp_path):
                               "tangential_force": "TangentialCell.Ft"}, tmp_path)
     trial = cache.load_trial(path, other, cache_dir=cdir)
     assert trial.excitation is None and trial.normal.counter is None
-    assert len(list(cdir.glob("*.parquet"))) == 3
+    assert len(list(cdir.glob("*.arrow"))) == 3
 
 
 def test_strict_rereads_a_trial_with_skipped_lines(tmp_path):
@@ -80,11 +80,11 @@ def test_corrupt_entry_is_decoded_again(trial_files, tmp_path):
     rig, path = trial_files
     cdir = tmp_path / "cache"
     cache.load_trial(path, rig, cache_dir=cdir)
-    entry = next(cdir.glob("*.parquet"))
-    entry.write_bytes(b"not parquet")
+    entry = next(cdir.glob("*.arrow"))
+    entry.write_bytes(b"not an Arrow file")
     trial = cache.load_trial(path, rig, cache_dir=cdir)
     assert trial.frames > 0
-    assert entry.read_bytes()[:4] == b"PAR1"
+    assert entry.read_bytes()[:6] == b"ARROW1"  # the Arrow IPC file format's magic
     shutil.rmtree(cdir)
 
 
@@ -101,7 +101,7 @@ def test_unwritable_cache_still_returns_the_trial(trial_files, tmp_path, monkeyp
         def full_disk(*_a, **_k):
             raise OSError(28, "No space left on device")
 
-        monkeypatch.setattr(cache.pq, "write_table", full_disk)
+        monkeypatch.setattr(cache.feather, "write_feather", full_disk)
     trial = cache.load_trial(path, rig, cache_dir=cdir)
     assert trial.frames > 0
     assert trial.frames == cache.load_trial(path, rig, cache=False).frames
@@ -117,14 +117,14 @@ def test_a_flipped_bit_in_an_entry_is_caught_and_decoded_again(trial_files, tmp_
     cdir = tmp_path / "cache"
     fresh = cache.load_trial(path, rig, cache=False)
     cache.load_trial(path, rig, cache_dir=cdir)
-    entry = next(cdir.glob("*.parquet"))
+    entry = next(cdir.glob("*.arrow"))
     original = entry.read_bytes()
     rng = np.random.default_rng(0)
     wrong, unsaid = [], []
     for pos in rng.choice(len(original), size=40, replace=False):
         damaged = bytearray(original)
         damaged[pos] ^= 1 << int(rng.integers(0, 8))
-        for old in cdir.glob("*.parquet"):
+        for old in cdir.glob("*.arrow"):
             old.unlink()
         entry.write_bytes(bytes(damaged))
         caplog.clear()
@@ -137,7 +137,7 @@ def test_a_flipped_bit_in_an_entry_is_caught_and_decoded_again(trial_files, tmp_
             wrong.append(int(pos))
         if "damaged cache entry" not in caplog.text:
             unsaid.append(int(pos))
-        assert [p.read_bytes() for p in cdir.glob("*.parquet")] == [original]
+        assert [p.read_bytes() for p in cdir.glob("*.arrow")] == [original]
     assert wrong == [] and unsaid == []
 
 

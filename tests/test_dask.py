@@ -74,7 +74,7 @@ def test_analyze_dask_gives_the_local_run_s_tables(cluster, study, tmp_path, cap
     assert summary["jobs"] == 2  # the cluster's worker threads
     assert any("damaged line" in w for w in summary["warnings"])
     # the workers wrote the cache where this process named it
-    assert list((tmp_path / "cache-dask").glob("*.parquet"))
+    assert list((tmp_path / "cache-dask").glob("*.arrow"))
 
 
 def test_the_environment_names_the_scheduler_and_relative_paths_are_made_absolute(
@@ -84,7 +84,7 @@ def test_the_environment_names_the_scheduler_and_relative_paths_are_made_absolut
     monkeypatch.chdir(study.parent)
     assert main(["analyze", study.name, "--out", str(tmp_path / "dask"), "--cache-dir",
                  os.path.relpath(tmp_path / "c1")]) == 0
-    assert list((tmp_path / "c1").glob("*.parquet"))
+    assert list((tmp_path / "c1").glob("*.arrow"))
     monkeypatch.delenv(evdist.SCHEDULER_ENV)
     # the same paths as the cluster run saw them (warnings name the logs as given)
     assert main(["analyze", str(study), "--out", str(tmp_path / "local"), "--jobs", "1",

@@ -1,10 +1,11 @@
-"""Decoded trials cached as Parquet, so a second analysis does not decode again.
+"""Decoded trials cached as Arrow IPC files, so a second analysis does not decode again.
 
 >>> trial = load_trial("P01/run-01.log", rig, cache_dir="~/.cache/evtribo")  # doctest: +SKIP
 
 The key is the SHA-256 of the log's bytes, the rig's fingerprint (DBC bytes and role
 mapping, :meth:`~evtribo.rig.Rig.fingerprint`) and :data:`CACHE_VERSION`; a changed log, DBC
-or mapping misses the cache. One file per trial, ``<key>.<checksum>.parquet``, holding the
+or mapping misses the cache. One file per trial, ``<key>.<checksum>.arrow`` (the Arrow IPC
+file format, LZ4-compressed: written and read back in a few milliseconds), holding the
 three streams one after the other (column ``stream``: 0 normal, 1 tangential, 2 excitation)
 and the counts in the schema metadata; ``<checksum>`` is the start of the SHA-256 of the
 file's own bytes, verified on every read: an entry whose bytes changed on disk (a flipped
@@ -29,7 +30,7 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.parquet as pq
+import pyarrow.feather as feather
 
 from evtribo._docs import fill_doc
 from evtribo.decode import decode_trial
@@ -43,14 +44,17 @@ from evtribo.signals import CellSignals, ExcitationSignals, TrialProvenance, Tri
 log = logging.getLogger(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
-CACHE_VERSION = 8  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
+CACHE_VERSION = 9  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
 #                    frames with an unknown multiplexer value ignored; 5: checksummed entries;
 #                    6: channel, logger's DROPCOUNT and decoder warnings kept; 7: waveform
 #                    codes named without a value table (evtribo.decode.FALLBACK_WAVEFORMS);
-#                    8: the reader's damaged lines kept, warned of again from the cache
+#                    8: the reader's damaged lines kept, warned of again from the cache;
+#                    9: Arrow IPC files (were Parquet)
 _META = b"evtribo.trial"
 #: Hex digits of the entry's SHA-256 in its file name.
 CHECKSUM_DIGITS = 16
+#: An entry's file name ends so.
+SUFFIX = ".arrow"
 
 
 def default_cache_dir() -> Path:
@@ -327,7 +331,7 @@ def rig_frames(blocks: Iterable[FrameTable], rig: Rig) -> tuple[FrameTable, int]
 
 def _entries(directory: Path, key: str) -> list[Path]:
     try:
-        return sorted(directory.glob(f"{key}.*.parquet"))
+        return sorted(directory.glob(f"{key}.*{SUFFIX}"))
     except OSError:
         return []
 
@@ -336,10 +340,11 @@ def _read_entry(directory: Path, key: str) -> TrialSignals | None:
     """The trial cached under *key*, or None; a damaged entry is removed (with a warning)."""
     for path in _entries(directory, key):
         try:
-            checksum = path.name[len(key) + 1:-len(".parquet")]
-            if sha256_file(path)[:CHECKSUM_DIGITS] != checksum:
+            checksum = path.name[len(key) + 1:-len(SUFFIX)]
+            data = path.read_bytes()
+            if hashlib.sha256(data).hexdigest()[:CHECKSUM_DIGITS] != checksum:
                 raise ValueError("its bytes do not match its checksum")
-            return _from_table(pq.read_table(path))
+            return _from_table(feather.read_table(pa.BufferReader(data)))
         except Exception as err:  # damaged, foreign or unreadable: decode again
             log.warning("%s: damaged cache entry (%s); removed, the trial is decoded again",
                         path, err)
@@ -350,13 +355,17 @@ def _read_entry(directory: Path, key: str) -> TrialSignals | None:
     return None
 
 
+#: LZ4 (in every pyarrow wheel; a build without it writes the entries uncompressed).
+_COMPRESSION = "lz4" if pa.Codec.is_available("lz4") else "uncompressed"
+
+
 def _write_atomic(directory: Path, key: str, table: pa.Table) -> Path:
     """Write *table* as the entry of *key*, named after its checksum; returns its path."""
     directory.mkdir(parents=True, exist_ok=True)
     sink = pa.BufferOutputStream()
-    pq.write_table(table, sink)
+    feather.write_feather(table, sink, compression=_COMPRESSION)
     data = sink.getvalue().to_pybytes()
-    path = directory / f"{key}.{hashlib.sha256(data).hexdigest()[:CHECKSUM_DIGITS]}.parquet"
+    path = directory / f"{key}.{hashlib.sha256(data).hexdigest()[:CHECKSUM_DIGITS]}{SUFFIX}"
     atomic_write(path, data)
     for other in _entries(directory, key):
         if other != path:

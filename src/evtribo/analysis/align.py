@@ -59,12 +59,17 @@ def _clean(t: npt.ArrayLike, value: npt.ArrayLike, name: str) -> tuple[FloatArra
     if t.shape != value.shape:
         raise ValueError(f"{name}: {t.size} timestamps but {value.size} values")
     keep = np.isfinite(t) & np.isfinite(value)
-    t, value = t[keep], value[keep]
-    if t.size and np.any(np.diff(t) <= 0):
+    if not keep.all():
+        t, value = t[keep], value[keep]
+    step = np.diff(t)
+    if step.size and (step < 0).any():
         order = np.argsort(t, kind="stable")
         t, value = t[order], value[order]
-        t, inverse, counts = np.unique(t, return_inverse=True, return_counts=True)
-        value = np.bincount(inverse, weights=value) / counts
+        step = np.diff(t)
+    if step.size and not (step > 0).all():  # repeated times: one sample, their mean
+        first = np.flatnonzero(np.concatenate(([True], step != 0)))
+        counts = np.diff(np.append(first, t.size))
+        t, value = t[first], np.add.reduceat(value, first) / counts
     if t.size < 2:
         raise AnalysisError(f"the {name} channel has {t.size} usable sample(s); need at least 2")
     return t, value
@@ -107,12 +112,17 @@ def resample_channel(t_grid: FloatArray, t: FloatArray, value: FloatArray,
         Values on the grid.
     """
     out = np.interp(t_grid, t, value)
-    idx = np.searchsorted(t, t_grid, side="right")  # t[idx-1] <= t_grid < t[idx]
-    outside = (t_grid < t[0]) | (t_grid > t[-1])
-    inner = (idx > 0) & (idx < t.size)
-    step = np.zeros(t_grid.shape)
-    step[inner] = t[idx[inner]] - t[idx[inner] - 1]
-    out[outside | (step > max_gap_s)] = np.nan
+    out[(t_grid < t[0]) | (t_grid > t[-1])] = np.nan
+    # a grid point g with t[k] <= g < t[k + 1] lies in a gap when t[k + 1] - t[k] > max_gap_s;
+    # the gaps are few: the grid points of each found from its ends, not the other way round
+    gaps = np.flatnonzero(np.diff(t) > max_gap_s)
+    if gaps.size:
+        lo = np.searchsorted(t_grid, t[gaps], side="left")
+        hi = np.searchsorted(t_grid, t[gaps + 1], side="left")
+        inside = np.zeros(t_grid.size + 1, dtype=np.int64)
+        np.add.at(inside, lo, 1)
+        np.add.at(inside, hi, -1)
+        out[np.cumsum(inside[:-1]) > 0] = np.nan
     return out
 
 

@@ -205,16 +205,13 @@ class _Grid:
     tangential_smooth: npt.NDArray[np.float64]
     span: int
     """Samples of the moving average (odd)."""
+    hole: npt.NDArray[np.bool_]
+    """Where a force is missing."""
 
     @property
     def half(self) -> int:
         """Half the span, in samples (rounded down)."""
         return self.span // 2
-
-    @property
-    def hole(self) -> npt.NDArray[np.bool_]:
-        """Where a force is missing."""
-        return ~(np.isfinite(self.normal) & np.isfinite(self.tangential))
 
     @property
     def usable(self) -> npt.NDArray[np.bool_]:
@@ -232,7 +229,8 @@ def _smoothed(t: npt.NDArray[np.float64], normal: npt.ArrayLike, tangential: npt
     fn = np.asarray(normal, dtype=np.float64)
     ft = np.asarray(tangential, dtype=np.float64)
     return _Grid(dt, fn, ft, moving_average(fn, span, min_fraction=0.75),
-                 moving_average(ft, span, min_fraction=0.75), span)
+                 moving_average(ft, span, min_fraction=0.75), span,
+                 ~(np.isfinite(fn) & np.isfinite(ft)))
 
 
 def _stroke_code(grid: _Grid, cond: npt.NDArray[np.int64], usable: npt.NDArray[np.bool_],
