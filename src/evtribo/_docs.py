@@ -40,6 +40,10 @@ docdict: dict[str, str] = {
     Worker processes (default: the number of CPUs; 1 works in this process).""",
     "cache_dir": """cache_dir : path-like, optional
     Where decoded trials are cached (default: :func:`evtribo.cache.default_cache_dir`).""",
+    "reuse": """reuse : bool
+    Take from the cache the outcome of each trial whose log, sidecar, rig, settings and
+    software are those of a former analysis (:mod:`evtribo.analysis.reuse`); False
+    analyses every trial again.""",
     "rig": """rig : Rig
     The rig: its DBC and which signal is which (:class:`evtribo.rig.Rig`).""",
     "settings": """settings : AnalysisSettings, optional

@@ -131,11 +131,8 @@ def _to_table(trial: TrialSignals) -> pa.Table:
             cols[name] = pa.nulls(total, pa.string() if name == "waveform" else
                                   pa.bool_() if name == "enabled" else pa.float64())
             continue
-        pad = [None] * (total - n_ex)
-        arr = vals.tolist() if name == "waveform" else vals
-        cols[name] = pa.concat_arrays([pa.array(pad, type=pa.array(arr).type)
-                                       if pad else pa.array([], type=pa.array(arr).type),
-                                       pa.array(arr)])
+        arr = pa.array(vals.tolist() if name == "waveform" else vals)
+        cols[name] = pa.concat_arrays([pa.nulls(total - n_ex, arr.type), arr])
     meta = {
         "version": CACHE_VERSION, "frames": trial.frames, "ignored_frames": trial.ignored_frames,
         "skipped_lines": trial.skipped_lines, "channel": trial.channel,

@@ -20,7 +20,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy import signal
 
 log = logging.getLogger(__name__)
 
@@ -99,6 +98,8 @@ def find_hum(x: npt.ArrayLike, rate_Hz: float, *, avoid_Hz: Sequence[float] = ()
         return None
     y = _filled(x)
     nper = int(min(y.size, round(2.0 * rate_Hz)))  # 0.5 Hz resolution
+    from scipy import signal  # 0.6 s to import (with scipy.stats): only when needed
+
     f, pxx = signal.welch(y, fs=rate_Hz, nperseg=nper, detrend="constant")
     df = f[1] - f[0]
 
@@ -154,6 +155,8 @@ def remove_hum(x: npt.ArrayLike, rate_Hz: float, hum: Hum) -> FloatArray:
     x = np.asarray(x, dtype=np.float64)
     if not hum.lines_Hz:
         return x.copy()
+    from scipy import signal
+
     bad = ~np.isfinite(x)
     y = _filled(x)
     for freq in hum.lines_Hz:

@@ -60,6 +60,7 @@ from evtribo.analysis.outputs import (
     report_files,
 )
 from evtribo.analysis.provenance import changed_since, input_files, provenance
+from evtribo.analysis.reuse import HashMemo, OutcomeStore, context_text
 from evtribo.analysis.settings import AnalysisSettings, study_settings
 from evtribo.analysis.trial import (
     SINE_TRACE_CSV_COLUMNS,
@@ -76,12 +77,15 @@ from evtribo.analysis.workers import (
     run_tasks,
     trial_meta,
 )
+from evtribo.cache import default_cache_dir
 from evtribo.documents.summary import write_summary
 from evtribo.errors import StudyError
 from evtribo.resultdir import Staging, locked, recover
 from evtribo.study import Study, TrialRef, load_study
 
 log = logging.getLogger(__name__)
+#: The kept outcomes' warnings are said again by the logger that said them first.
+_trial_log = logging.getLogger("evtribo.analysis.trial")
 
 _INT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off")
 
@@ -152,6 +156,45 @@ def _plan(study: Study, inputs: list[dict[str, Any]]
     return tasks, failed, duplicates, warnings
 
 
+def _trial_text(task: TrialTask) -> str:
+    """What a trial's outcome depends on besides its log's bytes and the analysis' context:
+    the trial as the study names it (names, paths, sidecar)."""
+    return context_text(trial=task.ref)
+
+
+def _kept_outcomes(store: OutcomeStore, tasks: list[TrialTask]
+                   ) -> tuple[list[TrialOutcome], list[TrialTask]]:
+    """The outcomes a former analysis of the same inputs kept, and the tasks still to run;
+    the kept outcomes' warnings are said again, as the trials' analysis said them."""
+    kept, todo = [], []
+    for task in tasks:
+        found = store.get(store.key(_trial_text(task), task.log[0]))
+        if found is None:
+            todo.append(task)
+            continue
+        for message in found["warnings"]:
+            _trial_log.warning("%s", message)
+        kept.append(TrialOutcome(task.index, found["row"],
+                                 found["windows"] if found["windows"] is not None
+                                 else empty_windows(), found["warnings"], None,
+                                 found["trace"]))
+    if kept:
+        log.info("%d of %d trials as a former analysis of the same inputs left them",
+                 len(kept), len(tasks))
+    return kept, todo
+
+
+def _keep_outcomes(store: OutcomeStore, tasks: list[TrialTask],
+                   outcomes: list[TrialOutcome]) -> None:
+    """Keep the outcomes of the trials analysed (those that failed are analysed again)."""
+    by_index = {t.index: t for t in tasks}
+    for outcome in outcomes:
+        task = by_index.get(outcome.index)
+        if outcome.error is None and task is not None:
+            store.put(store.key(_trial_text(task), task.log[0]), outcome.row,
+                      outcome.windows, outcome.warnings, outcome.trace)
+
+
 def _write_csv(df: pd.DataFrame, path: Path) -> str:
     """Write a table; return the SHA-256 of the bytes written."""
     data = df.to_csv(index=False).encode("utf-8")
@@ -181,6 +224,7 @@ def analyze_study(
     overrides: Mapping[str, Any] | None = None,
     progress: ProgressCallback | None = None,
     scheduler: Any = None,
+    reuse: bool = True,
 ) -> StudyResults:
     """Analyse every trial of a study and write the study format's result tables.
 
@@ -205,6 +249,7 @@ def analyze_study(
     scheduler : distributed.Client, optional
         A Dask cluster to run the trials on (:mod:`evtribo.analysis.distributed`); every
         path absolute, seen by every worker.
+    %(reuse)s
 
     Returns
     -------
@@ -241,7 +286,8 @@ def analyze_study(
         recover(out)
         check_overwrite(out, force)
         results = _analyze_locked(study, settings, jobs=jobs, strict=strict,
-                                  cache_dir=cache_dir, progress=progress, scheduler=scheduler)
+                                  cache_dir=cache_dir, progress=progress, scheduler=scheduler,
+                                  reuse=reuse)
         return write_results(results, out, force=force)
 
 
@@ -251,7 +297,7 @@ def compute_study(study: Study | str | os.PathLike[str], *, jobs: int | None = N
                   settings: AnalysisSettings | None = None,
                   overrides: Mapping[str, Any] | None = None,
                   progress: ProgressCallback | None = None,
-                  scheduler: Any = None) -> StudyResults:
+                  scheduler: Any = None, reuse: bool = True) -> StudyResults:
     """Analyse every trial of a study in memory, writing nothing (but the decoded-trial
     cache; the errors are :func:`analyze_study`'s); :func:`write_results` writes them.
 
@@ -269,6 +315,7 @@ def compute_study(study: Study | str | os.PathLike[str], *, jobs: int | None = N
     %(progress)s
     scheduler : distributed.Client, optional
         A Dask cluster to run the trials on.
+    %(reuse)s
 
     Returns
     -------
@@ -277,7 +324,7 @@ def compute_study(study: Study | str | os.PathLike[str], *, jobs: int | None = N
     """
     study, settings = _prepare(study, overrides, settings)
     return _analyze_locked(study, settings, jobs=jobs, strict=strict, cache_dir=cache_dir,
-                           progress=progress, scheduler=scheduler)
+                           progress=progress, scheduler=scheduler, reuse=reuse)
 
 
 def _prepare(study: Study | str | os.PathLike[str], overrides: Mapping[str, Any] | None,
@@ -293,23 +340,31 @@ def _prepare(study: Study | str | os.PathLike[str], overrides: Mapping[str, Any]
 
 def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | None,
                     strict: bool, cache_dir: str | os.PathLike[str] | None,
-                    progress: ProgressCallback | None, scheduler: Any = None) -> StudyResults:
+                    progress: ProgressCallback | None, scheduler: Any = None,
+                    reuse: bool = True) -> StudyResults:
     """The analysis in memory (:func:`analyze_study`'s under the output folder's lock)."""
     started = time.perf_counter()
     started_at = time.time()
-    inputs = input_files(study)  # each input hashed once, here
+    folder = default_cache_dir() if cache_dir is None else cache_dir
+    memo = HashMemo(folder, study.root)
+    inputs = input_files(study, memo)  # each input hashed once, here (or when it last changed)
+    memo.save()
     tasks, not_run, duplicates, warnings = _plan(study, inputs)
+    assert study.rig is not None
+    store = OutcomeStore(folder if reuse else None, context_text(
+        rig=study.rig.fingerprint(), calibration=study.rig.calibration, settings=settings,
+        strict=strict))
+    kept, tasks = _kept_outcomes(store, tasks)
     jobs = (os.cpu_count() or 1) if jobs is None else max(1, int(jobs))
     jobs = max(1, min(jobs, len(tasks)))
     if scheduler is not None and not isinstance(scheduler, str):
         from evtribo.analysis.distributed import total_threads
         jobs = total_threads(scheduler)
-    assert study.rig is not None
     context = WorkerContext(study.rig, None if cache_dir is None else os.fspath(cache_dir),
                             strict, settings)
-    outcomes = sorted([*run_tasks(tasks, jobs, context, progress, scheduler=scheduler),
-                       *not_run],
-                      key=lambda r: r.index)  # the study's order
+    done = run_tasks(tasks, jobs, context, progress, scheduler=scheduler)
+    _keep_outcomes(store, tasks, done)
+    outcomes = sorted([*kept, *done, *not_run], key=lambda r: r.index)  # the study's order
     tables = _Tables.of(outcomes, settings)
     warnings = [*study.warnings, *warnings, *tables.warnings, *changed_since(inputs)]
     summary = _summary(study, tables, settings, started_at=started_at, inputs=inputs,

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy import stats
+from scipy import special  # scipy.stats.t.ppf is special.stdtrit, without 0.5 s of import
 
 from evtribo.errors import AnalysisError
 
@@ -141,7 +141,7 @@ def fit_power_law(
     if not np.isfinite(low) and dof >= 1:
         resid = y - (intercept + slope * x)
         se = float(np.sqrt(np.sum(resid**2) / dof / sxx))
-        q = float(stats.t.ppf(1.0 - alpha, dof))
+        q = float(special.stdtrit(dof, 1.0 - alpha))  # Student's t quantile
         low, high = slope - q * se, slope + q * se
     return PowerLawFit(
         exponent=slope,

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from evtribo import __version__
+from evtribo.analysis.reuse import HashMemo
 from evtribo.files import sha256_file
 from evtribo.study import Study
 
@@ -34,7 +35,8 @@ _PACKAGES = {"python-can": "python-can", "cantools": "cantools", "numpy": "numpy
              "scipy": "scipy", "pandas": "pandas", "pyarrow": "pyarrow"}
 
 
-def file_record(path: Path, root: Path, role: str) -> dict[str, Any]:
+def file_record(path: Path, root: Path, role: str, memo: HashMemo | None = None
+                ) -> dict[str, Any]:
     """``{"file", "role", "bytes", "sha256"}`` of one input file (name relative to *root*).
 
     The size is the one of the bytes hashed. For the analysis (not written out): the
@@ -48,6 +50,9 @@ def file_record(path: Path, root: Path, role: str) -> dict[str, Any]:
         The study folder its name is given relative to.
     role : str
         ``"study"``, ``"dbc"``, ``"log"`` or ``"sidecar"``.
+    memo : HashMemo, optional
+        Hashes of files as they were when last hashed (:mod:`evtribo.analysis.reuse`): a
+        file unchanged since is not read again.
 
     Returns
     -------
@@ -57,22 +62,30 @@ def file_record(path: Path, root: Path, role: str) -> dict[str, Any]:
         name = path.resolve().relative_to(root.resolve()).as_posix()
     except ValueError:
         name = str(path.resolve())
-    before = path.stat()
-    digest = sha256_file(path)
+    if memo is None:
+        before = path.stat()
+        digest = sha256_file(path)
+    else:
+        digest, before = memo.sha256(path)
     after = path.stat()
     stamp = after.st_mtime_ns if (before.st_size, before.st_mtime_ns) == (
         after.st_size, after.st_mtime_ns) else -1  # written to while hashed
+    if stamp < 0 and memo is not None:
+        memo.forget(path)
     return {"file": name, "role": role, "bytes": after.st_size, "sha256": digest,
             "_mtime_ns": stamp, "_path": os.path.abspath(path)}
 
 
-def input_files(study: Study) -> list[dict[str, Any]]:
+def input_files(study: Study, memo: HashMemo | None = None) -> list[dict[str, Any]]:
     """Records of a study's inputs: study.toml, the rig's DBC, each trial's log and sidecar.
 
     Parameters
     ----------
     study : evtribo.study.Study
         The study, as loaded.
+    memo : HashMemo, optional
+        Hashes of the files as they were when last hashed: a file unchanged since is not
+        read again (:meth:`HashMemo.save` keeps the new ones).
 
     Returns
     -------
@@ -92,7 +105,7 @@ def input_files(study: Study) -> list[dict[str, Any]]:
             files.append((Path(ref.sidecar_path), "sidecar"))
     # hashlib and the reads release the GIL: the files are hashed on every core, in order
     with ThreadPoolExecutor(max_workers=min(HASH_THREADS, len(files) or 1)) as pool:
-        return list(pool.map(lambda item: file_record(item[0], root, item[1]), files))
+        return list(pool.map(lambda item: file_record(item[0], root, item[1], memo), files))
 
 
 def rig_roles(study: Study) -> dict[str, Any]:

@@ -20,7 +20,8 @@ from collections.abc import Sequence
 
 import numpy as np
 import numpy.typing as npt
-from scipy import signal, stats
+from scipy import special  # stats.chi2.isf is special.chdtri; scipy.signal (0.6 s of
+#                             import, with scipy.stats) is imported when needed
 
 log = logging.getLogger(__name__)
 
@@ -72,6 +73,8 @@ def dominant_frequency(
     for a in arrays:
         if a.size < nperseg:
             continue
+        from scipy import signal
+
         freqs, pxx = signal.welch(a, fs=rate_Hz, window="hann", nperseg=nperseg, nfft=nfft,
                                   detrend="linear")
         nseg = 1 + (a.size - nperseg) // (nperseg // 2)
@@ -118,7 +121,7 @@ def _most_prominent(freqs: npt.NDArray[np.float64], spec: npt.NDArray[np.float64
         if prominence > best_prominence:
             best, best_prominence = int(j), prominence
     # an average of `averaged` periodograms: noise alone rarely stands out that far
-    needed = max(MIN_PROMINENCE, 2.0 * stats.chi2.isf(1e-3, 2 * averaged) / (2 * averaged))
+    needed = max(MIN_PROMINENCE, 2.0 * special.chdtri(2 * averaged, 1e-3) / (2 * averaged))
     return best if best_prominence >= needed else None
 
 

@@ -38,8 +38,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                    help="replace the results in --out: analyze's, and the fit, figures and "
                         "reports of compare and report (their files only)")
     p.add_argument("--cache-dir", metavar="DIR",
-                   help="cache of decoded trials (default: $EVTRIBO_CACHE_DIR or "
-                        "~/.cache/evtribo)")
+                   help="cache of decoded trials, of the inputs' hashes and of each trial's "
+                        "outcome (default: $EVTRIBO_CACHE_DIR or ~/.cache/evtribo)")
+    p.add_argument("--recompute", action="store_true",
+                   help="analyse every trial again, even those whose log, sidecar, rig, "
+                        "settings and evtribo are those of an analysis the cache kept")
     p.add_argument("--dask", metavar="ADDRESS", default=None,
                    help="analyse the trials on this Dask cluster's workers (tcp://HOST:PORT; "
                         "default: $EVTRIBO_DASK_SCHEDULER, else local processes); the "
@@ -122,7 +125,8 @@ def run(args: argparse.Namespace) -> int:
                 _check_workers(client, study, args.dask)
             res = analyze_study(study, args.out, jobs=args.jobs, strict=args.strict,
                                 force=args.force, cache_dir=cache_dir,
-                                overrides=overrides, progress=progress, scheduler=client)
+                                overrides=overrides, progress=progress, scheduler=client,
+                                reuse=not args.recompute)
     except Terminated:
         print(f"evtribo analyze: terminated; {args.out} holds the results it held before "
               "(or all of the new ones), nothing half-written", file=sys.stderr)

@@ -1,0 +1,275 @@
+"""What an analysis can take from the last one instead of doing again.
+
+Two things are kept in the cache folder (:func:`evtribo.cache.default_cache_dir`, or the
+``cache_dir`` given), beside the decoded trials:
+
+- **the inputs' hashes** (``inputs/<study>.json``): a file whose size, modification and
+  change times (ns), inode and device are those it had when it was hashed, and whose change
+  time was at least :data:`SETTLED_S` older than that hashing, is not read again. The change
+  time (``st_ctime``) moves whenever a file's bytes or its times are written, and no program
+  can set it back; the margin leaves out a file written in the same instant it was hashed
+  (as ``git`` does with its index);
+- **each trial's outcome** (``results/<key>.<checksum>.json``): its row of trials.csv, its
+  windows, its sine trace and its warnings, under a key of everything its analysis depends
+  on: the log's SHA-256, the trial as the study names it (subject, names, paths, sidecar),
+  the rig (DBC bytes, roles, calibration), the settings, ``strict``, and the software (the
+  SHA-256 of evtribo's own source files and the versions of Python and the libraries).
+  Change any of them and the trial is analysed again. A trial that failed is never kept.
+  As for decoded trials, ``<checksum>`` is the start of the SHA-256 of the file's bytes,
+  checked on every read.
+
+A reused outcome is the one an analysis of the same inputs gives (the analysis of a trial
+is deterministic); ``analyze --recompute`` (``reuse=False``) analyses every trial again.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import logging
+import os
+import sys
+import time
+from collections.abc import Iterable, Mapping
+from functools import cache
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from evtribo.files import atomic_write, sha256_file
+
+log = logging.getLogger(__name__)
+
+__all__ = ["SETTLED_S", "HashMemo", "OutcomeStore", "source_fingerprint"]
+
+#: A file changed less than this long before it was hashed is hashed again next time, s.
+SETTLED_S = 3.0
+#: Bumped whenever what an outcome file holds changes.
+OUTCOME_VERSION = 1
+#: Hex digits of an outcome file's SHA-256 in its name.
+CHECKSUM_DIGITS = 16
+_LIBRARIES = ("numpy", "scipy", "pandas", "pyarrow", "cantools", "python-can")
+
+
+def _stat_key(st: os.stat_result) -> list[int]:
+    return [st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino, st.st_dev]
+
+
+class HashMemo:
+    """SHA-256 of files as they were when last hashed, for one study.
+
+    Parameters
+    ----------
+    directory : path-like or None
+        The cache folder (None: nothing is remembered).
+    study_root : path-like
+        The study the files belong to (one memo file per study).
+    """
+
+    def __init__(self, directory: str | os.PathLike[str] | None,
+                 study_root: str | os.PathLike[str]) -> None:
+        self.path: Path | None = None
+        self._known: dict[str, dict[str, Any]] = {}
+        self._changed = False
+        if directory is None:
+            return
+        root = os.path.abspath(study_root).encode("utf-8", "surrogateescape")
+        self.path = (Path(directory).expanduser() / "inputs"
+                     / f"{hashlib.sha256(root).hexdigest()[:24]}.json")
+        try:
+            known = json.loads(self.path.read_bytes())
+            if isinstance(known, dict) and known.get("version") == 1:
+                self._known = dict(known.get("files", {}))
+        except (OSError, ValueError):
+            pass
+
+    def sha256(self, path: str | os.PathLike[str]) -> tuple[str, os.stat_result]:
+        """The file's SHA-256 (remembered, or read now), and its stat from before hashing.
+
+        Parameters
+        ----------
+        path : path-like
+
+        Returns
+        -------
+        (str, os.stat_result)
+        """
+        name = os.path.abspath(path)
+        st = os.stat(path)
+        rec = self._known.get(name)
+        if (rec is not None and rec.get("stat") == _stat_key(st)
+                and st.st_ctime_ns <= rec.get("hashed_ns", 0) - SETTLED_S * 1e9):
+            return str(rec["sha256"]), st
+        hashed_ns = time.time_ns()
+        digest = sha256_file(path)
+        self._known[name] = {"stat": _stat_key(st), "sha256": digest, "hashed_ns": hashed_ns}
+        self._changed = True
+        return digest, st
+
+    def forget(self, path: str | os.PathLike[str]) -> None:
+        """Do not remember *path* (it changed while it was hashed)."""
+        self._changed |= self._known.pop(os.path.abspath(path), None) is not None
+
+    def save(self) -> None:
+        """Write what is remembered (of files that still exist); a cache folder that cannot
+        be written is not an error."""
+        if self.path is None or not self._changed:
+            return
+        files = {k: v for k, v in self._known.items() if os.path.exists(k)}
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            atomic_write(self.path, json.dumps({"version": 1, "files": files}))
+        except OSError as err:
+            log.debug("cannot write %s: %s", self.path, err)
+
+
+@cache
+def source_fingerprint() -> str:
+    """SHA-256 of evtribo's source files and the versions of Python and the libraries the
+    analysis runs on: what a reused outcome must have been computed with.
+
+    Returns
+    -------
+    str
+    """
+    package = Path(__file__).resolve().parent.parent
+    h = hashlib.sha256(f"v{OUTCOME_VERSION}\0{sys.version}".encode())
+    for path in sorted(package.rglob("*.py")):
+        h.update(path.relative_to(package).as_posix().encode() + b"\0")
+        h.update(path.read_bytes())
+    for name in _LIBRARIES:
+        try:
+            h.update(f"\0{name}={version(name)}".encode())
+        except PackageNotFoundError:
+            h.update(f"\0{name}".encode())
+    return h.hexdigest()
+
+
+def _plain(value: Any) -> Any:
+    """A value JSON writes exactly (numpy scalars as Python's)."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, Path):
+        return os.fspath(value)
+    raise TypeError(f"cannot keep {type(value).__name__}")
+
+
+def _frame_to_json(df: pd.DataFrame | None) -> dict[str, Any] | None:
+    if df is None:
+        return None
+    return {"columns": [str(c) for c in df.columns],
+            "dtypes": [str(t) for t in df.dtypes],
+            "data": [df[c].tolist() for c in df.columns]}
+
+
+def _frame_from_json(obj: Mapping[str, Any] | None) -> pd.DataFrame | None:
+    if obj is None:
+        return None
+    df = pd.DataFrame({c: pd.Series(v, dtype=t) for c, v, t in
+                       zip(obj["columns"], obj["data"], obj["dtypes"], strict=True)},
+                      columns=list(obj["columns"]))
+    return df
+
+
+class OutcomeStore:
+    """Trials' outcomes kept under a key of everything their analysis depends on.
+
+    Parameters
+    ----------
+    directory : path-like or None
+        The cache folder (None: nothing is kept).
+    context : str
+        What every trial of this analysis shares (rig, settings, strict), as text.
+    """
+
+    def __init__(self, directory: str | os.PathLike[str] | None, context: str) -> None:
+        self.directory = None if directory is None else \
+            Path(directory).expanduser() / "results"
+        self._base = hashlib.sha256(f"{source_fingerprint()}\0{context}".encode())
+
+    def key(self, trial: str, log_sha256: str) -> str:
+        """The key of a trial (its description as text) whose log has this hash."""
+        h = self._base.copy()
+        h.update(f"\0{log_sha256}\0{trial}".encode("utf-8", "surrogateescape"))
+        return h.hexdigest()[:40]
+
+    def get(self, key: str) -> dict[str, Any] | None:
+        """The outcome kept under *key* (``row``, ``windows``, ``warnings``, ``trace``), or
+        None; a damaged file is removed."""
+        if self.directory is None:
+            return None
+        for path in self._files(key):
+            try:
+                data = path.read_bytes()
+                if hashlib.sha256(data).hexdigest()[:CHECKSUM_DIGITS] != \
+                        path.name[len(key) + 1:-len(".json")]:
+                    raise ValueError("its bytes do not match its checksum")
+                obj = json.loads(data)
+                return {"row": dict(obj["row"]), "warnings": list(obj["warnings"]),
+                        "windows": _frame_from_json(obj["windows"]),
+                        "trace": _frame_from_json(obj["trace"])}
+            except (OSError, ValueError, KeyError, TypeError) as err:
+                log.warning("%s: damaged kept outcome (%s); removed, the trial is analysed "
+                            "again", path, err)
+                try:
+                    path.unlink()
+                except OSError:
+                    pass
+        return None
+
+    def put(self, key: str, row: Mapping[str, Any], windows: pd.DataFrame,
+            warnings: Iterable[str], trace: pd.DataFrame | None) -> None:
+        """Keep a trial's outcome under *key* (a cache folder that cannot be written, or an
+        value JSON cannot hold, is not an error: the trial is analysed next time)."""
+        if self.directory is None:
+            return
+        obj = {"row": dict(row), "warnings": list(warnings),
+               "windows": _frame_to_json(windows), "trace": _frame_to_json(trace)}
+        try:
+            data = json.dumps(obj, default=_plain).encode()
+            self.directory.mkdir(parents=True, exist_ok=True)
+            path = self.directory / \
+                f"{key}.{hashlib.sha256(data).hexdigest()[:CHECKSUM_DIGITS]}.json"
+            atomic_write(path, data)
+            for other in self._files(key):
+                if other != path:
+                    other.unlink(missing_ok=True)
+        except (OSError, TypeError, ValueError) as err:
+            log.debug("outcome not kept under %s: %s", key, err)
+
+    def _files(self, key: str) -> list[Path]:
+        assert self.directory is not None
+        try:
+            return sorted(self.directory.glob(f"{key}.*.json"))
+        except OSError:
+            return []
+
+
+def context_text(**parts: Any) -> str:
+    """The text of what every trial of an analysis shares (dataclasses by their fields).
+
+    Parameters
+    ----------
+    **parts
+        Named values (dataclasses, strings, numbers).
+
+    Returns
+    -------
+    str
+    """
+    def plain(v: Any) -> Any:
+        if dataclasses.is_dataclass(v) and not isinstance(v, type):
+            return {f.name: plain(getattr(v, f.name)) for f in dataclasses.fields(v)
+                    if f.compare}
+        if isinstance(v, Mapping):
+            return {str(k): plain(x) for k, x in v.items()}
+        if isinstance(v, list | tuple):
+            return [plain(x) for x in v]
+        if isinstance(v, str | int | float | bool) or v is None:
+            return v
+        return repr(v)
+    return json.dumps({k: plain(v) for k, v in parts.items()}, sort_keys=True)
