@@ -163,7 +163,7 @@ def test_a_second_writer_of_the_same_out_is_refused_naming_the_first(study, comp
 
     out = _copy(complete, tmp_path / "out")
     release = FORK.Event()
-    first = start(_analyze(study, out, "--force"), tmp_path / "first.log",
+    first = start(_analyze(study, out, "--force", "--recompute"), tmp_path / "first.log",
                   _slow_analysis(release))
     try:
         deadline = time.monotonic() + 60
@@ -364,7 +364,7 @@ def test_a_stopped_analyze_leaves_no_worker_and_out_as_it_was(study, complete, t
                                                               sig):
     out = _copy(complete, tmp_path / "out")
     before = tree(out)
-    argv = ["analyze", str(study), "--out", str(out), "--jobs", "2", "--force"]
+    argv = ["analyze", str(study), "--out", str(out), "--jobs", "2", "--force", "--recompute"]
     proc = start(argv, tmp_path / "stop.log", _workers_sleep)
     workers: list[int] = []
     try:

@@ -19,7 +19,7 @@ import pytest
 
 from evtribo import cache
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
-from evtribo.analysis import pipeline, provenance
+from evtribo.analysis import pipeline, provenance, reuse
 from evtribo.cli import main
 
 
@@ -76,13 +76,15 @@ def test_each_input_is_hashed_once(study, tmp_path, monkeypatch):
         return digest
 
     monkeypatch.setattr(provenance, "sha256_file", counting(provenance.sha256_file))
+    monkeypatch.setattr(reuse, "sha256_file", counting(reuse.sha256_file))
     monkeypatch.setattr(cache, "sha256_file", counting(cache.sha256_file))
-    for k in range(2):  # decoded, then from the cache
-        hashed.clear()
+    for k in range(2):  # decoded, then from the cache (where an input unchanged since it
+        hashed.clear()  # was hashed, a few seconds before, is not hashed again)
         res = pipeline.analyze_study(study, tmp_path / f"out{k}", jobs=1,
                                      cache_dir=tmp_path / "cache")
         logs = [p for p in hashed if p.endswith(".log")]
-        assert len(logs) == 2 and set(hashed.values()) == {1}, hashed
+        assert set(hashed.values()) <= {1}, hashed
+        assert len(logs) == 2 or k == 1, hashed
         for rec in res.summary["inputs"]:
             data = (study / rec["file"]).read_bytes()
             assert rec["sha256"] == hashlib.sha256(data).hexdigest()
@@ -95,8 +97,8 @@ def test_a_log_changed_after_it_was_hashed_is_not_analysed_as_another_file(
     original = hashlib.sha256(log.read_bytes()).hexdigest()
     real = pipeline.input_files
 
-    def then_change(study_):
-        records = real(study_)
+    def then_change(study_, *more):
+        records = real(study_, *more)
         with log.open("a") as fh:
             fh.write("(1763700099.000000) vcan0 7FF#00\n")
         return records

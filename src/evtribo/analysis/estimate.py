@@ -54,8 +54,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy import special  # stats.t.ppf and stats.norm.ppf are these; scipy.stats
-#                             takes 0.5 s to import
+from scipy import special  # stats.t.ppf is special.stdtrit, stats.norm.ppf special.ndtri
 
 from evtribo.errors import AnalysisError
 

@@ -60,7 +60,13 @@ from evtribo.analysis.outputs import (
     report_files,
 )
 from evtribo.analysis.provenance import changed_since, input_files, provenance
-from evtribo.analysis.reuse import HashMemo, OutcomeStore, context_text
+from evtribo.analysis.reuse import (
+    HashMemo,
+    OutcomeStore,
+    context_text,
+    keep_outcomes,
+    kept_outcomes,
+)
 from evtribo.analysis.settings import AnalysisSettings, study_settings
 from evtribo.analysis.trial import (
     SINE_TRACE_CSV_COLUMNS,
@@ -84,8 +90,6 @@ from evtribo.resultdir import Staging, locked, recover
 from evtribo.study import Study, TrialRef, load_study
 
 log = logging.getLogger(__name__)
-#: The kept outcomes' warnings are said again by the logger that said them first.
-_trial_log = logging.getLogger("evtribo.analysis.trial")
 
 _INT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off")
 
@@ -154,45 +158,6 @@ def _plan(study: Study, inputs: list[dict[str, Any]]
             continue
         tasks.append(TrialTask(index, ref, (rec["sha256"], rec["bytes"], rec["_mtime_ns"])))
     return tasks, failed, duplicates, warnings
-
-
-def _trial_text(task: TrialTask) -> str:
-    """What a trial's outcome depends on besides its log's bytes and the analysis' context:
-    the trial as the study names it (names, paths, sidecar)."""
-    return context_text(trial=task.ref)
-
-
-def _kept_outcomes(store: OutcomeStore, tasks: list[TrialTask]
-                   ) -> tuple[list[TrialOutcome], list[TrialTask]]:
-    """The outcomes a former analysis of the same inputs kept, and the tasks still to run;
-    the kept outcomes' warnings are said again, as the trials' analysis said them."""
-    kept, todo = [], []
-    for task in tasks:
-        found = store.get(store.key(_trial_text(task), task.log[0]))
-        if found is None:
-            todo.append(task)
-            continue
-        for message in found["warnings"]:
-            _trial_log.warning("%s", message)
-        kept.append(TrialOutcome(task.index, found["row"],
-                                 found["windows"] if found["windows"] is not None
-                                 else empty_windows(), found["warnings"], None,
-                                 found["trace"]))
-    if kept:
-        log.info("%d of %d trials as a former analysis of the same inputs left them",
-                 len(kept), len(tasks))
-    return kept, todo
-
-
-def _keep_outcomes(store: OutcomeStore, tasks: list[TrialTask],
-                   outcomes: list[TrialOutcome]) -> None:
-    """Keep the outcomes of the trials analysed (those that failed are analysed again)."""
-    by_index = {t.index: t for t in tasks}
-    for outcome in outcomes:
-        task = by_index.get(outcome.index)
-        if outcome.error is None and task is not None:
-            store.put(store.key(_trial_text(task), task.log[0]), outcome.row,
-                      outcome.windows, outcome.warnings, outcome.trace)
 
 
 def _write_csv(df: pd.DataFrame, path: Path) -> str:
@@ -354,7 +319,7 @@ def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | Non
     store = OutcomeStore(folder if reuse else None, context_text(
         rig=study.rig.fingerprint(), calibration=study.rig.calibration, settings=settings,
         strict=strict))
-    kept, tasks = _kept_outcomes(store, tasks)
+    kept, tasks = kept_outcomes(store, tasks)
     jobs = (os.cpu_count() or 1) if jobs is None else max(1, int(jobs))
     jobs = max(1, min(jobs, len(tasks)))
     if scheduler is not None and not isinstance(scheduler, str):
@@ -363,7 +328,7 @@ def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | Non
     context = WorkerContext(study.rig, None if cache_dir is None else os.fspath(cache_dir),
                             strict, settings)
     done = run_tasks(tasks, jobs, context, progress, scheduler=scheduler)
-    _keep_outcomes(store, tasks, done)
+    keep_outcomes(store, tasks, done)
     outcomes = sorted([*kept, *done, *not_run], key=lambda r: r.index)  # the study's order
     tables = _Tables.of(outcomes, settings)
     warnings = [*study.warnings, *warnings, *tables.warnings, *changed_since(inputs)]

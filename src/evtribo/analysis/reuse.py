@@ -35,16 +35,20 @@ from collections.abc import Iterable, Mapping
 from functools import cache
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
 from evtribo.files import atomic_write, sha256_file
 
+if TYPE_CHECKING:
+    from evtribo.analysis.workers import TrialOutcome, TrialTask
+
 log = logging.getLogger(__name__)
 
-__all__ = ["SETTLED_S", "HashMemo", "OutcomeStore", "source_fingerprint"]
+__all__ = ["SETTLED_S", "HashMemo", "OutcomeStore", "context_text", "keep_outcomes",
+           "kept_outcomes", "source_fingerprint", "tree_digest"]
 
 #: A file changed less than this long before it was hashed is hashed again next time, s.
 SETTLED_S = 3.0
@@ -127,6 +131,25 @@ class HashMemo:
             log.debug("cannot write %s: %s", self.path, err)
 
 
+def tree_digest(folder: Path) -> str:
+    """SHA-256 of the names and bytes of the ``.py`` files under *folder*.
+
+    Parameters
+    ----------
+    folder : Path
+
+    Returns
+    -------
+    str
+    """
+    h = hashlib.sha256()
+    for path in sorted(folder.rglob("*.py")):
+        data = path.read_bytes()
+        h.update(f"{path.relative_to(folder).as_posix()}\0{len(data)}\0".encode())
+        h.update(data)
+    return h.hexdigest()
+
+
 @cache
 def source_fingerprint() -> str:
     """SHA-256 of evtribo's source files and the versions of Python and the libraries the
@@ -136,11 +159,8 @@ def source_fingerprint() -> str:
     -------
     str
     """
-    package = Path(__file__).resolve().parent.parent
-    h = hashlib.sha256(f"v{OUTCOME_VERSION}\0{sys.version}".encode())
-    for path in sorted(package.rglob("*.py")):
-        h.update(path.relative_to(package).as_posix().encode() + b"\0")
-        h.update(path.read_bytes())
+    h = hashlib.sha256(f"v{OUTCOME_VERSION}\0{sys.version}\0".encode())
+    h.update(tree_digest(Path(__file__).resolve().parent.parent).encode())
     for name in _LIBRARIES:
         try:
             h.update(f"\0{name}={version(name)}".encode())
@@ -273,3 +293,69 @@ def context_text(**parts: Any) -> str:
             return v
         return repr(v)
     return json.dumps({k: plain(v) for k, v in parts.items()}, sort_keys=True)
+
+
+def _trial_text(task: TrialTask) -> str:
+    """What a trial's outcome depends on besides its log's bytes and the analysis' context:
+    the trial as the study names it (names, paths, sidecar)."""
+    return context_text(trial=task.ref)
+
+
+def kept_outcomes(store: OutcomeStore, tasks: list[TrialTask]
+                  ) -> tuple[list[TrialOutcome], list[TrialTask]]:
+    """The outcomes a former analysis of the same inputs kept, and the tasks still to run;
+    the kept outcomes' warnings are said again, as the trials' analysis said them.
+
+    Parameters
+    ----------
+    store : OutcomeStore
+        Where outcomes are kept.
+    tasks : list of TrialTask
+        The trials to analyse.
+
+    Returns
+    -------
+    kept : list of TrialOutcome
+    todo : list of TrialTask
+    """
+    from evtribo.analysis.trial import empty_windows
+    from evtribo.analysis.workers import TrialOutcome
+
+    said = logging.getLogger("evtribo.analysis.trial")
+    kept, todo = [], []
+    for task in tasks:
+        found = store.get(store.key(_trial_text(task), task.log[0]))
+        if found is None:
+            todo.append(task)
+            continue
+        for message in found["warnings"]:
+            said.warning("%s", message)
+        kept.append(TrialOutcome(task.index, found["row"],
+                                 found["windows"] if found["windows"] is not None
+                                 else empty_windows(), found["warnings"], None,
+                                 found["trace"]))
+    if kept:
+        log.info("%d of %d trials as a former analysis of the same inputs left them",
+                 len(kept), len(tasks))
+    return kept, todo
+
+
+def keep_outcomes(store: OutcomeStore, tasks: list[TrialTask],
+                  outcomes: list[TrialOutcome]) -> None:
+    """Keep the outcomes of the trials analysed (those that failed are analysed again).
+
+    Parameters
+    ----------
+    store : OutcomeStore
+        Where outcomes are kept.
+    tasks : list of TrialTask
+        The trials analysed.
+    outcomes : list of TrialOutcome
+        Their outcomes.
+    """
+    by_index = {t.index: t for t in tasks}
+    for outcome in outcomes:
+        task = by_index.get(outcome.index)
+        if outcome.error is None and task is not None:
+            store.put(store.key(_trial_text(task), task.log[0]), outcome.row,
+                      outcome.windows, outcome.warnings, outcome.trace)
