@@ -1,0 +1,55 @@
+"""The analysis' quantiles come from scipy.special (importing scipy.stats costs 0.5 s): they
+are the numbers scipy.stats gives, bit for bit, over the range the analysis asks for."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
+from scipy import special, stats
+
+from evtribo.analysis.estimate import small_sample_scale
+
+probabilities = st.floats(min_value=0.5, max_value=1 - 1e-9)
+dofs = st.floats(min_value=0.5, max_value=1e6)
+
+
+@given(q=probabilities, dof=dofs)
+def test_student_t_quantile(q, dof):
+    assert special.stdtrit(dof, q) == stats.t.ppf(q, dof)
+
+
+@given(q=probabilities)
+def test_normal_quantile(q):
+    assert special.ndtri(q) == stats.norm.ppf(q)
+
+
+@given(p=st.floats(min_value=1e-12, max_value=0.5), k=st.integers(min_value=1, max_value=10_000))
+def test_chi2_upper_quantile(p, k):
+    assert special.chdtri(k, p) == stats.chi2.isf(p, k)
+
+
+@given(v=st.lists(st.floats(min_value=1e-6, max_value=1.0), min_size=1, max_size=6),
+       n=st.lists(st.integers(min_value=2, max_value=40), min_size=6, max_size=6),
+       confidence=st.sampled_from([0.9, 0.95, 0.99]))
+def test_the_small_sample_scale_is_the_one_scipy_stats_gives(v, n, confidence):
+    counts = np.array(n[:len(v)], dtype=float)
+    var = np.array(v)
+    w = var * counts / (counts - 1.0)
+    dof = float(np.sum(w) ** 2 / np.sum(w**2 / (counts - 1.0)))
+    q = 1.0 - (1.0 - confidence) / 2.0
+    expected = float(np.sqrt(np.sum(w) / np.sum(var))) * float(
+        stats.t.ppf(q, dof) / stats.norm.ppf(q))
+    assert small_sample_scale(var, counts, confidence) == (expected, dof)
+
+
+def test_the_analysis_does_not_import_scipy_stats():
+    import subprocess
+    import sys
+
+    code = ("import sys, evtribo.cli.analyze, evtribo.analysis.pipeline; "
+            "print(sorted(m for m in ('scipy.stats', 'scipy.signal') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"
+    np.testing.assert_equal(special.ndtri(0.975), stats.norm.ppf(0.975))
