@@ -245,3 +245,19 @@ def test_the_source_fingerprint_follows_every_source_file(tmp_path):
     assert reuse.tree_digest(tree) == first
     (tree / "c.py").write_text("")
     assert reuse.tree_digest(tree) != first
+
+
+def test_the_python_api_reuses_and_recomputes_as_the_command_does(study, tmp_path,
+                                                                  monkeypatch):
+    import evtribo
+
+    cache = tmp_path / "cache"
+    analysed = _counting(monkeypatch)
+    first = evtribo.analyze(study, jobs=1, cache_dir=cache)
+    assert len(analysed) == 6
+    analysed.clear()
+    again = evtribo.analyze(study, jobs=1, cache_dir=cache)
+    assert analysed == []
+    evtribo.analyze(study, jobs=1, cache_dir=cache, recompute=True)
+    assert len(analysed) == 6
+    assert again.electrostatic.equals(first.electrostatic)

@@ -205,9 +205,10 @@ def _from_computed(res: StudyResults) -> Results:
 
 def analyze(study: Study | str | os.PathLike[str], *, jobs: int | None = None,
             strict: bool = False, cache_dir: str | os.PathLike[str] | None = None,
-            progress: ProgressCallback | None = None, **settings: Any) -> Results:
+            progress: ProgressCallback | None = None, recompute: bool = False,
+            **settings: Any) -> Results:
     """Analyse every trial of a study, in memory: nothing is written (but the cache of
-    decoded trials); :meth:`Results.save` writes the result folder.
+    decoded trials and outcomes); :meth:`Results.save` writes the result folder.
 
     Parameters
     ----------
@@ -218,9 +219,14 @@ def analyze(study: Study | str | os.PathLike[str], *, jobs: int | None = None,
     strict : bool
         A damaged line in a log is an error instead of a warning.
     cache_dir : path-like, optional
-        Where decoded trials are cached (default: :func:`evtribo.cache.default_cache_dir`).
+        Where decoded trials, the inputs' hashes and each trial's outcome are kept
+        (default: :func:`evtribo.cache.default_cache_dir`).
     progress : callable, optional
         Called as ``progress(done, total)`` as trials complete.
+    recompute : bool
+        Analyse every trial again (by default a trial whose log, sidecar, rig, settings and
+        evtribo are those of an outcome the cache kept is not analysed again:
+        :mod:`evtribo.analysis.reuse`).
     **settings
         Analysis settings that take precedence over the study's ``[analysis]`` table, by
         name (``tare="none"``, ``guard_s=0.3``, ``n_boot=500``; every key in
@@ -242,7 +248,8 @@ def analyze(study: Study | str | os.PathLike[str], *, jobs: int | None = None,
     """
     source: Any = study._folder if isinstance(study, Study) else study
     return _from_computed(compute_study(source, jobs=jobs, strict=strict, cache_dir=cache_dir,
-                                        overrides=settings, progress=progress))
+                                        overrides=settings, progress=progress,
+                                        reuse=not recompute))
 
 
 def _read_table(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
