@@ -228,8 +228,10 @@ def test_the_memo_is_a_cache_not_a_requirement(tmp_path):
     bad = reuse.HashMemo(tmp_path / "cache", tmp_path)
     assert bad.path is not None
     bad.path.parent.mkdir(parents=True)
-    bad.path.write_text("{not json")
-    assert reuse.HashMemo(tmp_path / "cache", tmp_path).sha256(f)[0] == memo.sha256(f)[0]
+    for junk in ("{not json", '{"version": 1, "files": [1, 2]}',
+                 json.dumps({"version": 1, "files": {str(f): 3}})):
+        bad.path.write_text(junk)
+        assert reuse.HashMemo(tmp_path / "cache", tmp_path).sha256(f)[0] == memo.sha256(f)[0]
 
 
 def test_the_source_fingerprint_follows_every_source_file(tmp_path):

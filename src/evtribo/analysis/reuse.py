@@ -87,9 +87,10 @@ class HashMemo:
         try:
             known = json.loads(self.path.read_bytes())
             if isinstance(known, dict) and known.get("version") == 1:
-                self._known = dict(known.get("files", {}))
-        except (OSError, ValueError):
-            pass
+                self._known = {str(k): v for k, v in dict(known.get("files", {})).items()
+                               if isinstance(v, dict)}
+        except (OSError, ValueError, TypeError):
+            pass  # unreadable or foreign: every file is hashed
 
     def sha256(self, path: str | os.PathLike[str]) -> tuple[str, os.stat_result]:
         """The file's SHA-256 (remembered, or read now), and its stat from before hashing.
