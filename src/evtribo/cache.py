@@ -35,7 +35,7 @@ from pyarrow import feather
 from evtribo._docs import fill_doc
 from evtribo.decode import decode_trial
 from evtribo.errors import AnalysisError
-from evtribo.files import atomic_write, sha256_file
+from evtribo.files import checksummed_entries, read_checksummed, sha256_file, write_checksummed
 from evtribo.frames import FrameStream, FrameTable
 from evtribo.frames.registry import MAX_WARNINGS
 from evtribo.rig import Rig
@@ -51,8 +51,6 @@ CACHE_VERSION = 9  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counte
 #                    8: the reader's damaged lines kept, warned of again from the cache;
 #                    9: Arrow IPC files (were Parquet)
 _META = b"evtribo.trial"
-#: Hex digits of the entry's SHA-256 in its file name.
-CHECKSUM_DIGITS = 16
 #: An entry's file name ends so.
 SUFFIX = ".arrow"
 
@@ -326,21 +324,11 @@ def rig_frames(blocks: Iterable[FrameTable], rig: Rig) -> tuple[FrameTable, int]
     return (kept[0] if len(kept) == 1 else FrameTable.concat(kept)), others
 
 
-def _entries(directory: Path, key: str) -> list[Path]:
-    try:
-        return sorted(directory.glob(f"{key}.*{SUFFIX}"))
-    except OSError:
-        return []
-
-
 def _read_entry(directory: Path, key: str) -> TrialSignals | None:
     """The trial cached under *key*, or None; a damaged entry is removed (with a warning)."""
-    for path in _entries(directory, key):
+    for path in checksummed_entries(directory, key, SUFFIX):
         try:
-            checksum = path.name[len(key) + 1:-len(SUFFIX)]
-            data = path.read_bytes()
-            if hashlib.sha256(data).hexdigest()[:CHECKSUM_DIGITS] != checksum:
-                raise ValueError("its bytes do not match its checksum")
+            data = read_checksummed(path, key, SUFFIX)
             return _from_table(feather.read_table(pa.BufferReader(data)))
         except Exception as err:  # damaged, foreign or unreadable: decode again
             log.warning("%s: damaged cache entry (%s); removed, the trial is decoded again",
@@ -358,16 +346,9 @@ _COMPRESSION = "lz4" if pa.Codec.is_available("lz4") else "uncompressed"
 
 def _write_atomic(directory: Path, key: str, table: pa.Table) -> Path:
     """Write *table* as the entry of *key*, named after its checksum; returns its path."""
-    directory.mkdir(parents=True, exist_ok=True)
     sink = pa.BufferOutputStream()
     feather.write_feather(table, sink, compression=_COMPRESSION)
-    data = sink.getvalue().to_pybytes()
-    path = directory / f"{key}.{hashlib.sha256(data).hexdigest()[:CHECKSUM_DIGITS]}{SUFFIX}"
-    atomic_write(path, data)
-    for other in _entries(directory, key):
-        if other != path:
-            other.unlink(missing_ok=True)
-    return path
+    return write_checksummed(directory, key, sink.getvalue().to_pybytes(), SUFFIX)
 
 
 __all__ = ["CACHE_VERSION", "cache_key", "default_cache_dir", "load_trial", "rig_frames"]

@@ -30,8 +30,10 @@ from typing import IO, Any
 
 from evtribo.errors import UserInputError
 
-__all__ = ["MAX_CONFIG_BYTES", "PARTIAL_SUFFIX", "atomic_open", "atomic_write",
-           "check_regular_file", "fsync_path", "partial_path", "read_limited", "sha256_file"]
+__all__ = ["CHECKSUM_DIGITS", "MAX_CONFIG_BYTES", "PARTIAL_SUFFIX", "atomic_open",
+           "atomic_write", "check_regular_file", "checksummed_entries", "fsync_path",
+           "partial_path", "read_checksummed", "read_limited", "sha256_file",
+           "write_checksummed"]
 
 #: Suffix of a file still being written by a recording (``run-01.log.part``).
 PARTIAL_SUFFIX = ".part"
@@ -245,3 +247,86 @@ def atomic_write(path: str | os.PathLike[str], data: bytes | str, *,
 #: any other file the user writes gets).
 _UMASK = os.umask(0)
 os.umask(_UMASK)
+
+
+#: Hex digits of a checksummed entry's SHA-256 in its name.
+CHECKSUM_DIGITS = 16
+
+
+def checksummed_entries(directory: Path, key: str, suffix: str) -> list[Path]:
+    """The entries of *key* in *directory*: files ``<key>.<checksum><suffix>``.
+
+    Parameters
+    ----------
+    directory : Path
+    key : str
+    suffix : str
+        The entries' ending (``".arrow"``).
+
+    Returns
+    -------
+    list of Path
+        Sorted; none when the folder cannot be read.
+    """
+    try:
+        return sorted(directory.glob(f"{key}.*{suffix}"))
+    except OSError:
+        return []
+
+
+def read_checksummed(path: Path, key: str, suffix: str) -> bytes:
+    """The bytes of an entry of :func:`checksummed_entries`, checked against its name.
+
+    Parameters
+    ----------
+    path : Path
+    key, suffix : str
+        As the entry was written (:func:`write_checksummed`).
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    ValueError
+        The bytes are not those the checksum in the name was taken of.
+    OSError
+        The file cannot be read.
+    """
+    data = path.read_bytes()
+    if hashlib.sha256(data).hexdigest()[:CHECKSUM_DIGITS] != \
+            path.name[len(key) + 1:-len(suffix)]:
+        raise ValueError("its bytes do not match its checksum")
+    return data
+
+
+def write_checksummed(directory: Path, key: str, data: bytes, suffix: str) -> Path:
+    """Write *data* as the entry of *key*, named after its checksum
+    (``<key>.<checksum><suffix>``, whole or not at all), and remove the key's other entries.
+
+    Parameters
+    ----------
+    directory : Path
+        Created if needed.
+    key : str
+    data : bytes
+    suffix : str
+
+    Returns
+    -------
+    Path
+        The entry.
+
+    Raises
+    ------
+    OSError
+        It cannot be written.
+    """
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / f"{key}.{hashlib.sha256(data).hexdigest()[:CHECKSUM_DIGITS]}{suffix}"
+    atomic_write(path, data)
+    for other in checksummed_entries(directory, key, suffix):
+        if other != path:
+            other.unlink(missing_ok=True)
+    return path

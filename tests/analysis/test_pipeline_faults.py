@@ -4,24 +4,17 @@ import json
 
 import pandas as pd
 import pytest
+from _faults import fail_trial
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
 from evtribo.analysis import pipeline
-from evtribo.analysis import workers as trial_workers
 
 
 def test_unexpected_fault_in_one_trial_is_reported_not_fatal(tmp_path, monkeypatch):
     study = tmp_path / "study"
     simulate_study(study, [SubjectParams(name="P01")], amplitudes=(80.0, 140.0),
                    config=TrialConfig(duration_s=8.0), sine_trial=False)
-    real = trial_workers.analyze_signals
-
-    def flaky(signals, meta, **kw):
-        if meta.trial == "run-02":
-            raise ZeroDivisionError("a fault nobody planned for")
-        return real(signals, meta, **kw)
-
-    monkeypatch.setattr(trial_workers, "analyze_signals", flaky)
+    fail_trial(monkeypatch, "run-02")
     res = pipeline.analyze_study(study, tmp_path / "out", jobs=1)
     trials = pd.read_csv(tmp_path / "out" / "trials.csv")
     assert list(trials.trial) == ["run-01", "run-02"]

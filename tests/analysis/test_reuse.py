@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 import pytest
+from _faults import fail_trial
 
 from evtribo.acquisition.simulator import (
     SubjectParams,
@@ -143,16 +144,10 @@ def test_a_failed_trial_is_not_kept(tmp_path, monkeypatch):
     root = tmp_path / "study"
     simulate_study(root, [SubjectParams(name="P01")], amplitudes=(80.0, 140.0),
                    config=TrialConfig(duration_s=4.0), sine_trial=False)
-    real = trial_workers.analyze_signals
-
-    def flaky(signals, meta, **kw):
-        if meta.trial == "run-02":
-            raise ZeroDivisionError("a fault nobody planned for")
-        return real(signals, meta, **kw)
-    monkeypatch.setattr(trial_workers, "analyze_signals", flaky)
+    fail_trial(monkeypatch, "run-02")
     res = _run(root, tmp_path / "a", tmp_path / "cache")
     assert res.summary["trials_analysed"] == 1
-    monkeypatch.setattr(trial_workers, "analyze_signals", real)
+    monkeypatch.undo()
     res = _run(root, tmp_path / "b", tmp_path / "cache")
     assert res.summary["trials_analysed"] == 2
 

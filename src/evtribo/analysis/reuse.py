@@ -33,14 +33,19 @@ import sys
 import time
 from collections.abc import Iterable, Mapping
 from functools import cache
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
-from evtribo.files import atomic_write, sha256_file
+from evtribo.files import (
+    atomic_write,
+    checksummed_entries,
+    read_checksummed,
+    sha256_file,
+    write_checksummed,
+)
 
 if TYPE_CHECKING:
     from evtribo.analysis.workers import TrialOutcome, TrialTask
@@ -54,9 +59,6 @@ __all__ = ["SETTLED_S", "HashMemo", "OutcomeStore", "context_text", "keep_outcom
 SETTLED_S = 3.0
 #: Bumped whenever what an outcome file holds changes.
 OUTCOME_VERSION = 1
-#: Hex digits of an outcome file's SHA-256 in its name.
-CHECKSUM_DIGITS = 16
-_LIBRARIES = ("numpy", "scipy", "pandas", "pyarrow", "cantools", "python-can")
 
 
 def _stat_key(st: os.stat_result) -> list[int]:
@@ -162,11 +164,9 @@ def source_fingerprint() -> str:
     """
     h = hashlib.sha256(f"v{OUTCOME_VERSION}\0{sys.version}\0".encode())
     h.update(tree_digest(Path(__file__).resolve().parent.parent).encode())
-    for name in _LIBRARIES:
-        try:
-            h.update(f"\0{name}={version(name)}".encode())
-        except PackageNotFoundError:
-            h.update(f"\0{name}".encode())
+    from evtribo.analysis.provenance import software_versions  # it imports this module
+
+    h.update(json.dumps(software_versions(), sort_keys=True).encode())
     return h.hexdigest()
 
 
@@ -190,10 +190,9 @@ def _frame_to_json(df: pd.DataFrame | None) -> dict[str, Any] | None:
 def _frame_from_json(obj: Mapping[str, Any] | None) -> pd.DataFrame | None:
     if obj is None:
         return None
-    df = pd.DataFrame({c: pd.Series(v, dtype=t) for c, v, t in
-                       zip(obj["columns"], obj["data"], obj["dtypes"], strict=True)},
-                      columns=list(obj["columns"]))
-    return df
+    return pd.DataFrame({c: pd.Series(v, dtype=t) for c, v, t in
+                         zip(obj["columns"], obj["data"], obj["dtypes"], strict=True)},
+                        columns=list(obj["columns"]))
 
 
 class OutcomeStore:
@@ -223,13 +222,9 @@ class OutcomeStore:
         None; a damaged file is removed."""
         if self.directory is None:
             return None
-        for path in self._files(key):
+        for path in checksummed_entries(self.directory, key, ".json"):
             try:
-                data = path.read_bytes()
-                if hashlib.sha256(data).hexdigest()[:CHECKSUM_DIGITS] != \
-                        path.name[len(key) + 1:-len(".json")]:
-                    raise ValueError("its bytes do not match its checksum")
-                obj = json.loads(data)
+                obj = json.loads(read_checksummed(path, key, ".json"))
                 return {"row": dict(obj["row"]), "warnings": list(obj["warnings"]),
                         "windows": _frame_from_json(obj["windows"]),
                         "trace": _frame_from_json(obj["trace"])}
@@ -251,23 +246,10 @@ class OutcomeStore:
         obj = {"row": dict(row), "warnings": list(warnings),
                "windows": _frame_to_json(windows), "trace": _frame_to_json(trace)}
         try:
-            data = json.dumps(obj, default=_plain).encode()
-            self.directory.mkdir(parents=True, exist_ok=True)
-            path = self.directory / \
-                f"{key}.{hashlib.sha256(data).hexdigest()[:CHECKSUM_DIGITS]}.json"
-            atomic_write(path, data)
-            for other in self._files(key):
-                if other != path:
-                    other.unlink(missing_ok=True)
+            write_checksummed(self.directory, key, json.dumps(obj, default=_plain).encode(),
+                              ".json")
         except (OSError, TypeError, ValueError) as err:
             log.debug("outcome not kept under %s: %s", key, err)
-
-    def _files(self, key: str) -> list[Path]:
-        assert self.directory is not None
-        try:
-            return sorted(self.directory.glob(f"{key}.*.json"))
-        except OSError:
-            return []
 
 
 def context_text(**parts: Any) -> str:

@@ -34,6 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from evtribo.analysis.outputs import MODELS_CSV
 from evtribo.compare.model_points import ForceFunction, mean_electrostatic_force
+from evtribo.compare.params import name_list
 from evtribo.compare.problem import fit_points
 from evtribo.compare.tables import ResultTables
 from evtribo.errors import AnalysisError, ConfigError
@@ -131,8 +132,7 @@ def resolve_models(names: str | Iterable[str]) -> tuple[str, ...]:
     ConfigError
         Naming the unknown models and the known ones (``key="models"``).
     """
-    items = names.split(",") if isinstance(names, str) else list(names)
-    wanted = list(dict.fromkeys(n.strip() for n in items if n.strip()))
+    wanted = name_list(names)
     if not wanted:
         raise ConfigError(f"no model to compare; known: {', '.join(CANDIDATES)}",
                           key="models")

@@ -21,7 +21,7 @@ from pathlib import Path
 from evtribo.errors import ConfigError, toml_error_line
 from evtribo.model.params import TABLE_1, ModelParameters
 
-__all__ = ["DEFAULT_FIT", "load_parameters", "parameter_names", "parameter_unit",
+__all__ = ["DEFAULT_FIT", "load_parameters", "name_list", "parameter_names", "parameter_unit",
            "resolve_fit_names"]
 
 #: Fitted by default: the equivalent air gap, per subject.
@@ -59,6 +59,22 @@ def parameter_unit(name: str) -> str:
                       key=name)
 
 
+def name_list(names: str | Iterable[str]) -> list[str]:
+    """Names given as ``"a,b"`` or as a list: stripped, blanks and repeats left out.
+
+    Parameters
+    ----------
+    names : str or iterable of str
+
+    Returns
+    -------
+    list of str
+        In the order given.
+    """
+    items = names.split(",") if isinstance(names, str) else list(names)
+    return list(dict.fromkeys(n.strip() for n in items if n.strip()))
+
+
 def resolve_fit_names(names: str | Iterable[str] | None) -> tuple[str, ...]:
     """Validate the names of the parameters to fit.
 
@@ -79,8 +95,7 @@ def resolve_fit_names(names: str | Iterable[str] | None) -> tuple[str, ...]:
     """
     if names is None:
         return DEFAULT_FIT
-    items = names.split(",") if isinstance(names, str) else list(names)
-    wanted = list(dict.fromkeys(n.strip() for n in items if n.strip()))
+    wanted = name_list(names)
     if not wanted:
         raise ConfigError("no parameter to fit", key="fit")
     known = parameter_names()
