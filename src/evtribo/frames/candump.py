@@ -12,11 +12,12 @@ codes and over-long classic frames: see :mod:`evtribo.frames.candump_line`.
 How the reader stays fast and small: the file is read in blocks of whole lines
 (:func:`iter_candump` yields each block's frames, so memory follows the block, not the
 file); a block whose lines all have one length is already a ``(lines, length)`` byte matrix,
-else its lines are grouped by length and each group copied as one matrix (a memory copy per
-line, no Python loop); a group's layout is taken from its first line, and every row matching
-that layout is parsed column-wise (:mod:`evtribo.frames.candump_columns`: hex by arithmetic
-on the characters, timestamps as exact integers divided by a power of ten, so the result
-equals ``float()`` of the text). Rows that do not match (rare: a remote frame among data
+else its lines are grouped by length (one stable radix sort of the lengths) and each group
+copied as one matrix (a memory copy per line, no Python loop); a group's layout is taken
+from its first line, and every row matching that layout is parsed column-wise
+(:mod:`evtribo.frames.candump_columns`: hex by a table lookup per character, timestamps
+as exact integers divided by a power of ten, so the result equals ``float()`` of the
+text). Rows that do not match (rare: a remote frame among data
 frames, a stray space, a damaged line) go through a per-line parser; a line that parser
 refuses is damaged.
 
@@ -87,11 +88,14 @@ def _parse_block(block: bytes, first_line: int, on_bad: BadLineHandler
     out = _Chunk(len(starts), CLASSIC_WIDTH)
     slow = np.zeros(len(starts), dtype=bool)
     counts = np.bincount(lengths)
+    # the lines of each length, in file order: one stable sort instead of a scan per length
+    by_length = np.argsort(lengths.astype(np.uint16) if len(counts) <= 1 << 16 else lengths,
+                           kind="stable")  # a radix sort on 16 bits
+    ends_at = np.cumsum(counts)
     for length in np.flatnonzero(counts):
         if length == 0:
             continue
-        rows = np.flatnonzero(lengths == length) if counts[length] < len(lengths) \
-            else np.arange(len(lengths))
+        rows = by_length[ends_at[length] - counts[length]:ends_at[length]]
         mat = line_rows(buf, starts[rows], int(length))
         lay = _layout(mat[0].tobytes())
         if lay is None:

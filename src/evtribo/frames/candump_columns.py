@@ -2,9 +2,11 @@
 column at a time (see :mod:`evtribo.frames.candump` for how it is used).
 
 Lines of one layout (the same timestamp, channel and identifier columns) are parsed
-together: their characters checked and converted column-wise with numpy, hex through a
-lookup-free formula, timestamps as exact integers divided by a power of ten (so the result
-equals ``float()`` of the text). A row that does not pass is left to the caller.
+together: their characters checked and converted column-wise with numpy, hex through one
+table lookup per character (which also marks what is not hex), timestamps as exact integers
+divided by a power of ten (so the result equals ``float()`` of the text), their digits
+checked eight at a time in the same 64-bit words. A row that does not pass is left to the
+caller.
 """
 
 from __future__ import annotations
@@ -66,7 +68,9 @@ class _Chunk:
         v: Any = slice(None) if self.valid.all() else self.valid
         index = self.channel_index[v]
         names = tuple(self.names)
-        if len(names) > 1:  # number the channels in order of their first frame
+        if len(names) > 1 or not len(index):
+            # number the channels in order of their first frame; a name whose every line
+            # was damaged names none
             _codes, first = np.unique(index, return_index=True)
             order = index[np.sort(first)]
             remap = np.zeros(len(names), dtype=np.int16)
@@ -83,33 +87,39 @@ class _Chunk:
         )
 
 
-def _digits_value(mat: npt.NDArray[np.uint8]) -> npt.NDArray[np.float64]:
-    """Decimal digit columns (at most 16) to exact integers, as float64 (exact below 2**53).
+def _digits_value(mat: npt.NDArray[np.uint8]
+                  ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
+    """Decimal digit columns (at most 16) to exact integers, as float64 (exact below 2**53),
+    and which rows hold only digits.
 
     Eight ASCII digits at a time are read as one little-endian uint64 and folded in three
-    multiply-shift-mask steps (the "SWAR" trick), instead of a loop over columns.
+    multiply-shift-mask steps (the "SWAR" trick), instead of a loop over columns; the same
+    words are checked at once: a byte is a digit when its high bit is clear, adding 0x46
+    leaves it clear (at most ``'9'``) and adding 0x50 sets it (at least ``'0'``); a byte
+    with its high bit set makes its row fail whatever the carries.
     """
     n, k = mat.shape
     padded = np.full((n, 16), 48, dtype=np.uint8)
     padded[:, 16 - k:] = mat
-    words = padded.view("<u8") - np.uint64(0x3030303030303030)
+    raw = padded.view("<u8")
+    high = np.uint64(0x8080808080808080)
+    fails = (raw | (raw + np.uint64(0x4646464646464646))
+             | ~(raw + np.uint64(0x5050505050505050))) & high
+    digits = (fails[:, 0] | fails[:, 1]) == 0
+    words = raw - np.uint64(0x3030303030303030)
     words = (words * np.uint64(10) + (words >> np.uint64(8))) & np.uint64(0x00FF00FF00FF00FF)
     words = (words * np.uint64(100) + (words >> np.uint64(16))) & np.uint64(0x0000FFFF0000FFFF)
     words = (words * np.uint64(10000) + (words >> np.uint64(32))) & np.uint64(0xFFFFFFFF)
-    return words[:, 0].astype(np.float64) * 1e8 + words[:, 1].astype(np.float64)
+    return words[:, 0].astype(np.float64) * 1e8 + words[:, 1].astype(np.float64), digits
 
 
 def _hex_nibbles(chars: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
-    """Values of hex digits (garbage for other characters: check :func:`_is_hex`)."""
-    return (chars & np.uint8(15)) + np.uint8(9) * (chars >> np.uint8(6))
+    """Values of hex digits, 255 for other characters (one table lookup per character)."""
+    return np.take(_HEX, chars)
 
 
 def _is_hex(chars: npt.NDArray[np.uint8]) -> npt.NDArray[np.bool_]:
     return ((chars - np.uint8(48)) < 10) | (((chars | np.uint8(0x20)) - np.uint8(97)) < 6)
-
-
-def _is_digit(chars: npt.NDArray[np.uint8]) -> npt.NDArray[np.bool_]:
-    return (chars - np.uint8(48)) < 10
 
 
 def _hex_value(nib: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint32]:
@@ -117,6 +127,10 @@ def _hex_value(nib: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint32]:
     for k in range(nib.shape[1]):
         out = (out << np.uint32(4)) | nib[:, k]
     return out
+
+
+def _rows_all(ok: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
+    return ok if ok.ndim == 1 else ok.all(axis=1)
 
 
 def _layout(line: bytes) -> dict[str, int] | None:
@@ -144,19 +158,16 @@ def _layout(line: bytes) -> dict[str, int] | None:
 
 def _row_checks(mat: npt.NDArray[np.uint8], lay: dict[str, int]
                 ) -> list[tuple[npt.NDArray[np.uint8], Callable[..., Any] | int]]:
-    """(columns, test) pairs a row of the layout must pass: a character or a predicate."""
+    """(columns, test) pairs a row of the layout must pass besides its digits and hex
+    (:func:`_parse_group` checks those as it reads them): a character or a predicate."""
     close = lay["int1"] if lay["dot"] < 0 else lay["frac1"]
     checks: list[tuple[npt.NDArray[np.uint8], Callable[..., Any] | int]] = [
         (mat[:, 0], ord("(")), (mat[:, close], ord(")")),
         (mat[:, close + 1], ord(" ")), (mat[:, lay["ch1"]], ord(" ")),
         (mat[:, lay["id1"]], ord("#")),
-        (mat[:, lay["int0"]:lay["int1"]], _is_digit),
-        (mat[:, lay["id0"]:lay["id1"]], _is_hex),
-        (mat[:, lay["data0"]:lay["data0"] + 2 * lay["nbytes"]], _is_hex),
     ]
     if lay["dot"] >= 0:
-        checks += [(mat[:, lay["dot"]], ord(".")),
-                   (mat[:, lay["dot"] + 1:lay["frac1"]], _is_digit)]
+        checks.append((mat[:, lay["dot"]], ord(".")))
     if lay["fd"]:
         checks += [(mat[:, lay["flags"] - 1], ord("#")), (mat[:, lay["flags"]], _is_hex)]
     if lay["raw_dlc"] >= 0:
@@ -204,31 +215,39 @@ def _parse_group(mat: npt.NDArray[np.uint8], lay: dict[str, int],
 
     *rows_in* gives each row's index in *out* (None: row ``i`` of *mat* is row ``i``).
     """
-    checks = _row_checks(mat, lay)
     rows: Any = slice(None) if rows_in is None else rows_in
     out.widen(lay["nbytes"])
-
-    def passes(cols: npt.NDArray[np.uint8], test: Callable[..., Any] | int
-               ) -> npt.NDArray[np.bool_]:
-        return cols == test if isinstance(test, int) else test(cols)
-
-    # whole-matrix tests first (one reduction each); per-row masks only when one fails
-    ok = np.ones(len(mat), dtype=bool)
-    if not all(bool(passes(c, t).all()) for c, t in checks):
-        for c, t in checks:
-            r = passes(c, t)
-            ok &= r if r.ndim == 1 else r.all(axis=1)
-        rows = np.flatnonzero(ok) if rows_in is None else rows_in[ok]
-        mat = mat[ok]
+    # each test over the whole matrix, one reduction each; per-row masks only when one fails
+    failed: list[npt.NDArray[np.bool_]] = []
+    for cols, test in _row_checks(mat, lay):
+        passed = cols == test if isinstance(test, int) else test(cols)
+        if not passed.all():
+            failed.append(_rows_all(passed))
     if lay["dot"] >= 0:
-        num = np.concatenate([mat[:, lay["int0"]:lay["int1"]],
-                              mat[:, lay["dot"] + 1:lay["frac1"]]], axis=1)
-        whole = _digits_value(num)
+        whole, digits = _digits_value(np.concatenate(
+            [mat[:, lay["int0"]:lay["int1"]], mat[:, lay["dot"] + 1:lay["frac1"]]], axis=1))
         scale = 10.0 ** (lay["frac1"] - lay["dot"] - 1)
     else:
-        whole = _digits_value(mat[:, lay["int0"]:lay["int1"]])
+        whole, digits = _digits_value(mat[:, lay["int0"]:lay["int1"]])
         scale = 1.0
-    can_id = _hex_value(_hex_nibbles(mat[:, lay["id0"]:lay["id1"]]))
+    if not digits.all():
+        failed.append(digits)
+    id_nib = _hex_nibbles(mat[:, lay["id0"]:lay["id1"]])
+    if id_nib.max(initial=0) > 15:
+        failed.append(_rows_all(id_nib < 16))
+    nb = lay["nbytes"]
+    d_nib = _hex_nibbles(mat[:, lay["data0"]:lay["data0"] + 2 * nb]) if nb else None
+    if d_nib is not None and d_nib.max(initial=0) > 15:
+        failed.append(_rows_all(d_nib < 16))
+    ok = np.ones(len(mat), dtype=bool)
+    if failed:
+        for f in failed:
+            ok &= f
+        rows = np.flatnonzero(ok) if rows_in is None else rows_in[ok]
+        mat, whole, id_nib = mat[ok], whole[ok], id_nib[ok]
+        if d_nib is not None:
+            d_nib = d_nib[ok]
+    can_id = _hex_value(id_nib)
     long_id = lay["id1"] - lay["id0"] == 8
     # integers below 2**53 are exact (and so is one division); 3-digit IDs must be <= 0x7FF
     keep = whole < 2.0**53
@@ -244,6 +263,8 @@ def _parse_group(mat: npt.NDArray[np.uint8], lay: dict[str, int],
         mat, rows, whole, can_id = mat[keep], rows[keep], whole[keep], can_id[keep]
         if not isinstance(channels, int):
             channels = channels[keep]
+        if d_nib is not None:
+            d_nib = d_nib[keep]
     ts = whole / scale
     if long_id:
         error = (can_id & np.uint32(CAN_ERR_FLAG)) != 0
@@ -253,10 +274,8 @@ def _parse_group(mat: npt.NDArray[np.uint8], lay: dict[str, int],
     out.channel_index[rows] = channels
     out.arbitration_id[rows] = can_id & np.uint32(CAN_EFF_MASK)
     out.is_fd[rows] = bool(lay["fd"])
-    nb = lay["nbytes"]
     out.dlc[rows] = nb
-    if nb:
-        d_nib = _hex_nibbles(mat[:, lay["data0"]:lay["data0"] + 2 * nb])
+    if d_nib is not None:
         out.data[rows, :nb] = (d_nib[:, 0::2] << np.uint8(4)) | d_nib[:, 1::2]
     out.valid[rows] = True
     return ok
