@@ -130,7 +130,7 @@ def _hex_value(nib: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint32]:
 
 
 def _rows_all(ok: npt.NDArray[np.bool_]) -> npt.NDArray[np.bool_]:
-    return ok if ok.ndim == 1 else ok.all(axis=1)
+    return ok if ok.ndim == 1 else np.all(ok, axis=1)
 
 
 def _layout(line: bytes) -> dict[str, int] | None:
