@@ -30,6 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from evtribo.median import median
+
 log = logging.getLogger(__name__)
 
 __all__ = ["DropCount", "coherence", "count_by_steps", "count_dropped", "estimate_period",
@@ -165,7 +167,7 @@ def count_by_steps(t: npt.ArrayLike, gap_factor: float = 1.5) -> int:
         Frames missing.
     """
     dt = np.diff(np.asarray(t, dtype=np.float64))
-    period = float(np.median(dt)) if dt.size else 0.0
+    period = median(dt) if dt.size else 0.0
     if not period > 0:
         return 0
     gap = dt > gap_factor * period
@@ -215,7 +217,7 @@ def _with_counter(t: npt.NDArray[np.float64], c: npt.NDArray[np.int64],
     if n < MIN_FRAMES:
         return DropCount(by_counter, "counter")
     dt = np.diff(t)
-    if dt.max() < 0.5 * modulus * float(np.median(dt)):
+    if dt.max() < 0.5 * modulus * median(dt):
         # no pause long enough to hide a whole counter period: the counter says it all
         return DropCount(by_counter, "counter")
     period = estimate_period(t)

@@ -16,6 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from evtribo.errors import AnalysisError
+from evtribo.median import median
 
 log = logging.getLogger(__name__)
 
@@ -90,7 +91,7 @@ def nominal_period(t: npt.ArrayLike) -> float:
     """
     steps = np.diff(np.asarray(t, dtype=np.float64))
     steps = steps[steps > 0]
-    return float(np.median(steps)) if steps.size else float("nan")
+    return median(steps) if steps.size else float("nan")
 
 
 def resample_channel(t_grid: FloatArray, t: FloatArray, value: FloatArray,

@@ -15,6 +15,7 @@ import numpy as np
 import numpy.typing as npt
 
 from evtribo.analysis.windows import moving_average, true_runs
+from evtribo.median import median
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -88,7 +89,7 @@ class Lifted:
 
 def _span(t: FloatArray) -> float:
     """The grid's step, s (NaN with fewer than two points)."""
-    return float(np.median(np.diff(t))) if t.size > 1 else float("nan")
+    return median(np.diff(t)) if t.size > 1 else float("nan")
 
 
 @dataclass(frozen=True)

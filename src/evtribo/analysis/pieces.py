@@ -57,7 +57,7 @@ def check_seconds(signals: TrialSignals) -> None:
     """
     rates = {}
     for name in ("normal", "tangential"):
-        t = np.sort(_times(signals, name))
+        t = np.sort(_times(signals, name), kind="stable")  # sorted already: one pass
         if t.size >= 10:
             rates[name] = 1.0 / nominal_period(t)
     if rates and max(rates.values()) < MIN_RATE_HZ:
@@ -88,7 +88,8 @@ def continuous_pieces(signals: TrialSignals, max_pause_s: float = MAX_PAUSE_S
         Times of the first and last frame of each piece, in time order (one piece for a
         continuous trial; none without frames).
     """
-    t = np.sort(np.concatenate([_times(signals, n) for n in ("normal", "tangential")]))
+    t = np.sort(np.concatenate([_times(signals, n) for n in ("normal", "tangential")]),
+                kind="stable")  # two sorted runs: one merge
     if t.size == 0:
         return []
     cut = np.flatnonzero(np.diff(t) > max_pause_s)

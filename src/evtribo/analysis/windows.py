@@ -37,6 +37,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from evtribo.analysis.conditions import EXCLUDED, ON
+from evtribo.median import median
 
 log = logging.getLogger(__name__)
 
@@ -172,16 +173,15 @@ def find_windows(
     """
     t = np.asarray(t, dtype=np.float64)
     cond = np.asarray(condition).astype(np.int64)
-    empty = pd.DataFrame({c: pd.Series(dtype=float) for c in WINDOW_COLUMNS})
     if t.size < 3:
-        return empty
+        return _empty()
     grid = _smoothed(t, normal, tangential, smooth_s)
     usable = grid.usable & (cond != EXCLUDED) & (t >= t[0] + skip_start_s)
     if exclude is not None:
         usable &= ~np.asarray(exclude, dtype=bool)
     code = _stroke_code(grid, cond, usable, sign_fraction)
     if code is None:
-        return empty
+        return _empty()
     min_len = max(2, round(min_window_s / grid.dt))
     lengths = (min_len, max(min_len, round(max_window_s / grid.dt)),
                max(1, round(quantum_s / grid.dt)) if quantum_s else 1)
@@ -189,9 +189,13 @@ def find_windows(
             for row in _piece_windows(t, grid, (a, b, v), lengths, level_fraction=level_fraction,
                                       contact_fraction=contact_fraction)]
     if not rows:
-        return empty
+        return _empty()
     return with_means(pd.DataFrame.from_records(rows, columns=list(WINDOW_COLUMNS)),
                       grid.normal, grid.tangential)
+
+
+def _empty() -> pd.DataFrame:
+    return pd.DataFrame({c: pd.Series(dtype=float) for c in WINDOW_COLUMNS})
 
 
 @dataclass(frozen=True)
@@ -207,6 +211,8 @@ class _Grid:
     """Samples of the moving average (odd)."""
     hole: npt.NDArray[np.bool_]
     """Where a force is missing."""
+    holes: npt.NDArray[np.intp]
+    """The runs of :attr:`hole` longer than :attr:`half`, ``(start, stop)`` per row."""
 
     @property
     def half(self) -> int:
@@ -224,13 +230,15 @@ def _smoothed(t: npt.NDArray[np.float64], normal: npt.ArrayLike, tangential: npt
               smooth_s: float) -> _Grid:
     """Step 1: both forces smoothed over *smooth_s* (NaN where more than a quarter of the
     span is missing)."""
-    dt = float(np.median(np.diff(t)))
+    dt = median(np.diff(t))
     span = max(1, round(smooth_s / dt)) | 1
     fn = np.asarray(normal, dtype=np.float64)
     ft = np.asarray(tangential, dtype=np.float64)
+    hole = ~(np.isfinite(fn) & np.isfinite(ft))
+    runs = np.array(true_runs(hole) if hole.any() else [], dtype=np.intp).reshape(-1, 2)
     return _Grid(dt, fn, ft, moving_average(fn, span, min_fraction=0.75),
-                 moving_average(ft, span, min_fraction=0.75), span,
-                 ~(np.isfinite(fn) & np.isfinite(ft)))
+                 moving_average(ft, span, min_fraction=0.75), span, hole,
+                 runs[runs[:, 1] - runs[:, 0] > span // 2])
 
 
 def _stroke_code(grid: _Grid, cond: npt.NDArray[np.int64], usable: npt.NDArray[np.bool_],
@@ -267,8 +275,13 @@ def _steady(grid: _Grid, a: int, b: int, *, level_fraction: float, contact_fract
         inside = (lo >= 0) & (hi <= ok.size)
         full[inside] = (okc[hi[inside]] - okc[lo[inside]]) == grid.span
         ok = full
-    # a hole in the data longer than half the smoothing span ends a steady run
-    for hs, he in true_runs(grid.hole[a:b]):
+    # a hole in the data longer than half the smoothing span ends a steady run (the runs
+    # of the whole grid, cut to the piece)
+    first = int(np.searchsorted(grid.holes[:, 1], a, side="right"))
+    for hs, he in grid.holes[first:]:
+        if hs >= b:
+            break
+        hs, he = max(int(hs), a) - a, min(int(he), b) - a
         if he - hs > h:
             ok[hs:he] = False
     return ok
@@ -326,8 +339,13 @@ def with_means(windows: pd.DataFrame, normal: npt.ArrayLike, tangential: npt.Arr
     for force in (normal, tangential):
         x = np.asarray(force, dtype=np.float64)
         good = np.isfinite(x)
-        total = np.concatenate(([0.0], np.cumsum(np.where(good, x, 0.0))))
-        count = np.concatenate(([0], np.cumsum(good)))
+        total = np.zeros(x.size + 1)
+        if good.all():  # the common case: the same sums, the counts the indices
+            np.cumsum(x, out=total[1:])
+            count = np.arange(x.size + 1)
+        else:
+            np.cumsum(np.where(good, x, 0.0), out=total[1:])
+            count = np.concatenate(([0], np.cumsum(good)))
         with np.errstate(invalid="ignore", divide="ignore"):
             means.append((total[i1] - total[i0]) / (count[i1] - count[i0]))
     return windows.assign(normal_force_N=means[0], friction_force_N=np.abs(means[1]))
