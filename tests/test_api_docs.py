@@ -50,7 +50,8 @@ def _missing(func) -> list[str]:
 
 #: The packages, by the prefixes of their modules' names.
 GROUPS = {
-    "analysis": ("evtribo.analysis.", "evtribo.decode", "evtribo.cache", "evtribo.dropped"),
+    "analysis": ("evtribo.analysis.", "evtribo.decode", "evtribo.cache", "evtribo.dropped",
+                 "evtribo.median", "evtribo.memo"),
     "acquisition": ("evtribo.acquisition.", "evtribo.frames.", "evtribo.rig",
                     "evtribo.signal_codec", "evtribo.lock", "evtribo.resultdir",
                     "evtribo.study", "evtribo.session."),

@@ -38,6 +38,7 @@ from evtribo.errors import AnalysisError
 from evtribo.files import checksummed_entries, read_checksummed, sha256_file, write_checksummed
 from evtribo.frames import FrameStream, FrameTable
 from evtribo.frames.registry import MAX_WARNINGS
+from evtribo.memo import default_cache_dir
 from evtribo.rig import Rig
 from evtribo.signals import CellSignals, ExcitationSignals, TrialProvenance, TrialSignals
 
@@ -53,21 +54,6 @@ CACHE_VERSION = 9  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counte
 _META = b"evtribo.trial"
 #: An entry's file name ends so.
 SUFFIX = ".arrow"
-
-
-def default_cache_dir() -> Path:
-    """Where decoded trials are cached by default.
-
-    Returns
-    -------
-    Path
-        ``$EVTRIBO_CACHE_DIR``, else ``$XDG_CACHE_HOME/evtribo``, else ``~/.cache/evtribo``.
-    """
-    env = os.environ.get("EVTRIBO_CACHE_DIR")
-    if env:
-        return Path(env).expanduser()
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    return (Path(xdg) if xdg else Path.home() / ".cache") / "evtribo"
 
 
 @fill_doc

@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 from _faults import fail_trial
 
+from evtribo import memo as hash_memo
 from evtribo.acquisition.simulator import (
     SubjectParams,
     TrialConfig,
@@ -156,12 +157,12 @@ def test_a_failed_trial_is_not_kept(tmp_path, monkeypatch):
 
 def _memo_counting(monkeypatch) -> list[str]:
     hashed: list[str] = []
-    real = reuse.sha256_file
+    real = hash_memo.sha256_file
 
     def counted(path):
         hashed.append(os.fspath(path))
         return real(path)
-    monkeypatch.setattr(reuse, "sha256_file", counted)
+    monkeypatch.setattr(hash_memo, "sha256_file", counted)
     return hashed
 
 

@@ -17,9 +17,9 @@ import shutil
 import pandas as pd
 import pytest
 
-from evtribo import cache
+from evtribo import cache, memo
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
-from evtribo.analysis import pipeline, provenance, reuse
+from evtribo.analysis import pipeline, provenance
 from evtribo.cli import main
 
 
@@ -76,7 +76,7 @@ def test_each_input_is_hashed_once(study, tmp_path, monkeypatch):
         return digest
 
     monkeypatch.setattr(provenance, "sha256_file", counting(provenance.sha256_file))
-    monkeypatch.setattr(reuse, "sha256_file", counting(reuse.sha256_file))
+    monkeypatch.setattr(memo, "sha256_file", counting(memo.sha256_file))
     monkeypatch.setattr(cache, "sha256_file", counting(cache.sha256_file))
     for k in range(2):  # decoded, then from the cache (where an input unchanged since it
         hashed.clear()  # was hashed, a few seconds before, is not hashed again)

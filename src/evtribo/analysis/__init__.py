@@ -27,17 +27,49 @@ Around them: :mod:`~evtribo.analysis.trial` analyses one decoded trial
 result folder.
 """
 
-from evtribo.analysis.align import AlignedForces, align_forces
-from evtribo.analysis.conditions import condition_from_excitation, constant_condition
-from evtribo.analysis.estimate import (
-    ElectrostaticEstimate,
-    electrostatic_force,
-    estimate_electrostatic,
-    friction_coefficient,
-)
-from evtribo.analysis.powerlaw import PowerLawFit, fit_power_law
-from evtribo.analysis.spectra import dominant_frequency
-from evtribo.analysis.windows import find_windows
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from evtribo.analysis.align import AlignedForces, align_forces
+    from evtribo.analysis.conditions import condition_from_excitation, constant_condition
+    from evtribo.analysis.estimate import (
+        ElectrostaticEstimate,
+        electrostatic_force,
+        estimate_electrostatic,
+        friction_coefficient,
+    )
+    from evtribo.analysis.powerlaw import PowerLawFit, fit_power_law
+    from evtribo.analysis.spectra import dominant_frequency
+    from evtribo.analysis.windows import find_windows
+
+#: Where each name of this package lives: imported on first use, so that importing one
+#: module of the package (``evtribo analyze`` of an unchanged study reads only
+#: :mod:`evtribo.memo` and :mod:`.unchanged`) does not import numpy, pandas and scipy.
+_HOMES = {
+    "AlignedForces": "align", "align_forces": "align",
+    "condition_from_excitation": "conditions", "constant_condition": "conditions",
+    "ElectrostaticEstimate": "estimate", "electrostatic_force": "estimate",
+    "estimate_electrostatic": "estimate", "friction_coefficient": "estimate",
+    "PowerLawFit": "powerlaw", "fit_power_law": "powerlaw",
+    "dominant_frequency": "spectra", "find_windows": "windows",
+}
+
+
+def __getattr__(name: str) -> Any:
+    home = _HOMES.get(name)
+    if home is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{home}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_HOMES])
+
 
 __all__ = [
     "AlignedForces",

@@ -10,16 +10,20 @@ from __future__ import annotations
 
 import json
 import re
+import time
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Any
 
 from evtribo.documents.fit import FIT_JSON
-from evtribo.documents.summary import SUMMARY_FILE
+from evtribo.documents.summary import SUMMARY_FILE, write_summary
 from evtribo.errors import OutputExistsError, UserInputError
-from evtribo.resultdir import inside
+from evtribo.resultdir import Staging, inside
 
 __all__ = ["ANALYSIS_FILES", "BOOTSTRAP_FILE", "FIGURES", "FIT_CSV", "FIT_JSON",
            "MODELS_CSV", "OUTPUT_FILES", "REPORT_TABLES", "SINE_TRACE_FILE", "SUMMARY_FILE",
-           "TABLES", "check_out_dir", "check_overwrite", "compare_files", "report_files"]
+           "TABLES", "check_out_dir", "check_overwrite", "compare_files", "report_files",
+           "write_analysis"]
 
 #: The files ``analyze_study`` writes into its output folder.
 OUTPUT_FILES = ("trials.csv", "windows.csv", "electrostatic.csv", "exponents.csv",
@@ -173,3 +177,31 @@ def check_out_dir(out: Path, study_root: Path) -> None:
             f"{Path(study_root).parent / (study.name + '-results')}", path=out, key="--out")
     if Path(out).exists() and not Path(out).is_dir():
         raise UserInputError("is a file, not a folder for the results", path=out, key="--out")
+
+
+def write_analysis(out: Path, writers: Mapping[str, Callable[[Path], str]],
+                   summary: dict[str, Any], elapsed: float) -> None:
+    """analyze's tables and summary.json written into *out* as one unit, replacing analyze's
+    files there and compare's and report's of them (call it holding *out*'s lock).
+
+    Parameters
+    ----------
+    out : Path
+        The result folder.
+    writers : mapping
+        For each table's name, a function that writes it at the path it is given and
+        returns the SHA-256 of what it wrote (recorded in ``output_sha256``).
+    summary : dict
+        summary.json's content; ``output_sha256`` and ``elapsed_s`` are filled in.
+    elapsed : float
+        Seconds spent before the writing, s.
+    """
+    started = time.perf_counter()
+    stale = [n for n in ANALYSIS_FILES if (out / n).is_file()]
+    stale += [*compare_files(out), *report_files(out)] if out.is_dir() else []
+    with Staging(out) as stage:
+        for name, write in writers.items():
+            summary["output_sha256"][name] = write(stage.path(name))
+        summary["elapsed_s"] = round(elapsed + time.perf_counter() - started, 3)
+        write_summary(stage.path(SUMMARY_FILE), summary)
+        stage.commit(remove=stale, last=[SUMMARY_FILE])

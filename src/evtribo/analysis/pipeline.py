@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import functools
 import hashlib
 import logging
 import os
@@ -49,15 +50,12 @@ from evtribo.analysis.aggregate import (
     summarize,
 )
 from evtribo.analysis.outputs import (
-    ANALYSIS_FILES,
     BOOTSTRAP_FILE,
     OUTPUT_FILES,
     SINE_TRACE_FILE,
-    SUMMARY_FILE,
     check_out_dir,
     check_overwrite,
-    compare_files,
-    report_files,
+    write_analysis,
 )
 from evtribo.analysis.provenance import changed_since, input_files, provenance
 from evtribo.analysis.reuse import (
@@ -84,9 +82,8 @@ from evtribo.analysis.workers import (
     trial_meta,
 )
 from evtribo.cache import default_cache_dir
-from evtribo.documents.summary import write_summary
 from evtribo.errors import StudyError
-from evtribo.resultdir import Staging, locked, recover
+from evtribo.resultdir import locked, recover
 from evtribo.study import Study, TrialRef, load_study
 
 log = logging.getLogger(__name__)
@@ -477,17 +474,10 @@ def _summary(study: Study, tables: _Tables, settings: AnalysisSettings, *, start
 
 def _write(out: Path, files: dict[str, pd.DataFrame], summary: dict[str, Any],
            elapsed: float) -> None:
-    """The tables and summary.json written into *out* as one unit, replacing analyze's
-    files there and compare's and report's of them."""
-    started = time.perf_counter()
-    stale = [n for n in ANALYSIS_FILES if (out / n).is_file()]
-    stale += [*compare_files(out), *report_files(out)] if out.is_dir() else []
-    with Staging(out) as stage:
-        for name, table in files.items():
-            summary["output_sha256"][name] = _write_csv(table, stage.path(name))
-        summary["elapsed_s"] = round(elapsed + time.perf_counter() - started, 3)
-        write_summary(stage.path(SUMMARY_FILE), summary)
-        stage.commit(remove=stale, last=[SUMMARY_FILE])
+    """The tables and summary.json written into *out* as one unit
+    (:func:`~evtribo.analysis.outputs.write_analysis`)."""
+    write_analysis(out, {name: functools.partial(_write_csv, table)
+                         for name, table in files.items()}, summary, elapsed)
 
 
 __all__ = ["BOOTSTRAP_FILE", "OUTPUT_FILES", "SINE_TRACE_FILE", "StudyResults", "analyze_study",

@@ -17,23 +17,17 @@ import datetime as dt
 import os
 import platform
 from concurrent.futures import ThreadPoolExecutor
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
-from evtribo import __version__
-from evtribo.analysis.reuse import HashMemo
 from evtribo.files import sha256_file
+from evtribo.memo import HashMemo, software_versions
 from evtribo.study import Study
 
 __all__ = ["changed_since", "file_record", "input_files", "provenance", "software_versions"]
 
 #: Threads hashing the inputs (at most the machine's cores).
 HASH_THREADS = min(4, os.cpu_count() or 1)
-
-_PACKAGES = {"python-can": "python-can", "cantools": "cantools", "numpy": "numpy",
-             "scipy": "scipy", "pandas": "pandas", "pyarrow": "pyarrow"}
-
 
 def file_record(path: Path, root: Path, role: str, memo: HashMemo | None = None
                 ) -> dict[str, Any]:
@@ -122,24 +116,6 @@ def rig_roles(study: Study) -> dict[str, Any]:
     out: dict[str, Any] = {"name": rig.name, "dbc": dbc_name,
                            "dbc_version": getattr(rig.database, "version", None)}
     out.update({role: ref.qualified_name for role, ref in rig.roles.items()})
-    return out
-
-
-def software_versions() -> dict[str, str | None]:
-    """Versions of evtribo, Python and the libraries the analysis relies on.
-
-    Returns
-    -------
-    dict
-        Version by name (None for a library not installed).
-    """
-    out: dict[str, str | None] = {"evtribo": __version__,
-                                  "python": platform.python_version()}
-    for key, dist in _PACKAGES.items():
-        try:
-            out[key] = version(dist)
-        except PackageNotFoundError:
-            out[key] = None
     return out
 
 

@@ -29,8 +29,6 @@ import hashlib
 import json
 import logging
 import os
-import sys
-import time
 from collections.abc import Iterable, Mapping
 from functools import cache
 from pathlib import Path
@@ -39,13 +37,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from evtribo.files import (
-    atomic_write,
-    checksummed_entries,
-    read_checksummed,
-    sha256_file,
-    write_checksummed,
-)
+from evtribo.files import checksummed_entries, read_checksummed, write_checksummed
+from evtribo.memo import SETTLED_S, HashMemo, software_fingerprint, tree_digest
 
 if TYPE_CHECKING:
     from evtribo.analysis.workers import TrialOutcome, TrialTask
@@ -55,119 +48,21 @@ log = logging.getLogger(__name__)
 __all__ = ["SETTLED_S", "HashMemo", "OutcomeStore", "context_text", "keep_outcomes",
            "kept_outcomes", "source_fingerprint", "tree_digest"]
 
-#: A file changed less than this long before it was hashed is hashed again next time, s.
-SETTLED_S = 3.0
 #: Bumped whenever what an outcome file holds changes.
 OUTCOME_VERSION = 1
 
 
-def _stat_key(st: os.stat_result) -> list[int]:
-    return [st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino, st.st_dev]
-
-
-class HashMemo:
-    """SHA-256 of files as they were when last hashed, for one study.
-
-    Parameters
-    ----------
-    directory : path-like or None
-        The cache folder (None: nothing is remembered).
-    study_root : path-like
-        The study the files belong to (one memo file per study).
-    """
-
-    def __init__(self, directory: str | os.PathLike[str] | None,
-                 study_root: str | os.PathLike[str]) -> None:
-        self.path: Path | None = None
-        self._known: dict[str, dict[str, Any]] = {}
-        self._changed = False
-        if directory is None:
-            return
-        root = os.path.abspath(study_root).encode("utf-8", "surrogateescape")
-        self.path = (Path(directory).expanduser() / "inputs"
-                     / f"{hashlib.sha256(root).hexdigest()[:24]}.json")
-        try:
-            known = json.loads(self.path.read_bytes())
-            if isinstance(known, dict) and known.get("version") == 1:
-                self._known = {str(k): v for k, v in dict(known.get("files", {})).items()
-                               if isinstance(v, dict)}
-        except (OSError, ValueError, TypeError):
-            pass  # unreadable or foreign: every file is hashed
-
-    def sha256(self, path: str | os.PathLike[str]) -> tuple[str, os.stat_result]:
-        """The file's SHA-256 (remembered, or read now), and its stat from before hashing.
-
-        Parameters
-        ----------
-        path : path-like
-
-        Returns
-        -------
-        (str, os.stat_result)
-        """
-        name = os.path.abspath(path)
-        st = os.stat(path)
-        rec = self._known.get(name)
-        if (rec is not None and rec.get("stat") == _stat_key(st)
-                and st.st_ctime_ns <= rec.get("hashed_ns", 0) - SETTLED_S * 1e9):
-            return str(rec["sha256"]), st
-        hashed_ns = time.time_ns()
-        digest = sha256_file(path)
-        self._known[name] = {"stat": _stat_key(st), "sha256": digest, "hashed_ns": hashed_ns}
-        self._changed = True
-        return digest, st
-
-    def forget(self, path: str | os.PathLike[str]) -> None:
-        """Do not remember *path* (it changed while it was hashed)."""
-        self._changed |= self._known.pop(os.path.abspath(path), None) is not None
-
-    def save(self) -> None:
-        """Write what is remembered (of files that still exist); a cache folder that cannot
-        be written is not an error."""
-        if self.path is None or not self._changed:
-            return
-        files = {k: v for k, v in self._known.items() if os.path.exists(k)}
-        try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            atomic_write(self.path, json.dumps({"version": 1, "files": files}))
-        except OSError as err:
-            log.debug("cannot write %s: %s", self.path, err)
-
-
-def tree_digest(folder: Path) -> str:
-    """SHA-256 of the names and bytes of the ``.py`` files under *folder*.
-
-    Parameters
-    ----------
-    folder : Path
-
-    Returns
-    -------
-    str
-    """
-    h = hashlib.sha256()
-    for path in sorted(folder.rglob("*.py")):
-        data = path.read_bytes()
-        h.update(f"{path.relative_to(folder).as_posix()}\0{len(data)}\0".encode())
-        h.update(data)
-    return h.hexdigest()
-
-
 @cache
 def source_fingerprint() -> str:
-    """SHA-256 of evtribo's source files and the versions of Python and the libraries the
-    analysis runs on: what a reused outcome must have been computed with.
+    """What a reused outcome must have been computed with: the SHA-256 of evtribo's source
+    files and the versions of Python and the libraries the analysis runs on
+    (:func:`evtribo.memo.software_fingerprint`), and :data:`OUTCOME_VERSION`.
 
     Returns
     -------
     str
     """
-    h = hashlib.sha256(f"v{OUTCOME_VERSION}\0{sys.version}\0".encode())
-    h.update(tree_digest(Path(__file__).resolve().parent.parent).encode())
-    from evtribo.analysis.provenance import software_versions  # it imports this module
-
-    h.update(json.dumps(software_versions(), sort_keys=True).encode())
-    return h.hexdigest()
+    return hashlib.sha256(f"v{OUTCOME_VERSION}\0{software_fingerprint()}".encode()).hexdigest()
 
 
 def _plain(value: Any) -> Any:

@@ -21,6 +21,7 @@ from typing import Any
 from evtribo.analysis.align import DEFAULT_MAX_GAP_PERIODS
 from evtribo.analysis.conditions import DEFAULT_GUARD_S
 from evtribo.analysis.estimate import DEFAULT_CONFIDENCE, DEFAULT_N_BOOT
+from evtribo.analysis.modes import HUM_MODES, TARE_MODES
 from evtribo.analysis.windows import DEFAULT_MAX_WINDOW_S, DEFAULT_MIN_WINDOW_S, DEFAULT_SMOOTH_S
 from evtribo.errors import ConfigError, toml_key_line
 from evtribo.study import STUDY_FILE, Study
@@ -28,10 +29,6 @@ from evtribo.study import STUDY_FILE, Study
 __all__ = ["HUM_MODES", "SETTING_HELP", "TARE_MODES", "AnalysisSettings", "parse_setting",
            "study_settings"]
 
-#: Values of ``tare``: how the load cells' zero offsets are found (see :mod:`.tare`).
-TARE_MODES = ("auto", "lifted", "friction-loop", "calibration", "none")
-#: Values of ``hum``: where mains hum is notched out (see :mod:`.hum`).
-HUM_MODES = ("auto", "remove", "keep")
 #: The allowed values of each setting that is a word.
 CHOICES = {"tare": TARE_MODES, "hum": HUM_MODES}
 

@@ -278,10 +278,10 @@ def _steady(grid: _Grid, a: int, b: int, *, level_fraction: float, contact_fract
     # a hole in the data longer than half the smoothing span ends a steady run (the runs
     # of the whole grid, cut to the piece)
     first = int(np.searchsorted(grid.holes[:, 1], a, side="right"))
-    for hs, he in grid.holes[first:]:
-        if hs >= b:
+    for start, stop in grid.holes[first:]:
+        if start >= b:
             break
-        hs, he = max(int(hs), a) - a, min(int(he), b) - a
+        hs, he = max(int(start), a) - a, min(int(stop), b) - a
         if he - hs > h:
             ok[hs:he] = False
     return ok

@@ -9,9 +9,10 @@ from contextlib import AbstractContextManager, nullcontext
 from pathlib import Path
 from typing import Any, TextIO
 
+# the analysis is imported when it is needed: not for an unchanged study (.unchanged)
 from evtribo.analysis.distributed import scheduler_address
-from evtribo.analysis.pipeline import OUTPUT_FILES, analyze_study
-from evtribo.analysis.settings import TARE_MODES, parse_setting
+from evtribo.analysis.modes import TARE_MODES
+from evtribo.analysis.outputs import OUTPUT_FILES
 from evtribo.cli._signals import EXIT_TERMINATED, Terminated, sigterm_interrupts
 
 
@@ -105,17 +106,38 @@ def _check_workers(client: Any, study: str, option: str | None) -> None:
                   key="--dask" if option is not None else SCHEDULER_ENV)
 
 
+def _options(args: argparse.Namespace) -> dict[str, Any]:
+    """The options that change the results, as given (the key of an unchanged study)."""
+    return {"set": list(args.set), "strict": bool(args.strict),
+            **{key: getattr(args, key) for key in _FLAGS}}
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``evtribo analyze``; return the exit code."""
     if args.jobs is not None and args.jobs < 1:
         print("evtribo analyze: error: --jobs must be 1 or more", file=sys.stderr)
         return 2
+    address = scheduler_address(args.dask)
+    if address is None and not args.recompute:  # an unchanged study: nothing to analyse
+        from evtribo.analysis.unchanged import rerun
+
+        with sigterm_interrupts():
+            try:
+                summary = rerun(args.study, args.out, options=_options(args),
+                                force=args.force, cache_dir=args.cache_dir)
+            except Terminated:
+                return _terminated(args.out)
+        if summary is not None:
+            return _report(summary, Path(args.out), args.out)
+    from evtribo.analysis.pipeline import analyze_study
+    from evtribo.analysis.settings import parse_setting
+    from evtribo.analysis.unchanged import remember
+
     overrides = dict(parse_setting(text) for text in args.set)
     for key in _FLAGS:
         if getattr(args, key) is not None:
             overrides[key] = getattr(args, key)
     progress = _ProgressBar(sys.stderr) if sys.stderr.isatty() else None
-    address = scheduler_address(args.dask)
     try:
         with sigterm_interrupts(), _cluster(address, args.dask) as client:
             study, cache_dir = args.study, args.cache_dir
@@ -127,16 +149,27 @@ def run(args: argparse.Namespace) -> int:
                                 force=args.force, cache_dir=cache_dir,
                                 overrides=overrides, progress=progress, scheduler=client,
                                 reuse=not args.recompute)
+            if client is None:
+                remember(args.study, _options(args), res.summary, args.out, args.cache_dir)
     except Terminated:
-        print(f"evtribo analyze: terminated; {args.out} holds the results it held before "
-              "(or all of the new ones), nothing half-written", file=sys.stderr)
-        return EXIT_TERMINATED
-    s = res.summary
+        return _terminated(args.out)
+    return _report(res.summary, res.out_dir, args.out)
+
+
+def _terminated(out: str) -> int:
+    print(f"evtribo analyze: terminated; {out} holds the results it held before "
+          "(or all of the new ones), nothing half-written", file=sys.stderr)
+    return EXIT_TERMINATED
+
+
+def _report(s: dict[str, Any], out_dir: Path | None, out: str) -> int:
+    """What the analysis did, on standard output (its warnings' count on standard error);
+    the exit code."""
     dup = len(s.get("duplicate_trials") or [])
     same = f"; {dup} the same log as another trial, counted once" if dup else ""
     print(f"analysed {s['trials_analysed']} of {s['trials']} trials{same} "
-          f"({s['windows_on']} ON and {s['windows_off']} OFF windows) into {res.out_dir}")
+          f"({s['windows_on']} ON and {s['windows_off']} OFF windows) into {out_dir}")
     if s["warnings"]:
-        print(f"{len(s['warnings'])} warning(s), listed in {Path(args.out) / 'summary.json'}",
+        print(f"{len(s['warnings'])} warning(s), listed in {Path(out) / 'summary.json'}",
               file=sys.stderr)
     return 0 if s["trials_analysed"] else 1

@@ -1,0 +1,181 @@
+"""What the analysis of a study depends on besides the bytes it reads, found cheaply: the
+inputs' hashes remembered from the last time they were read, and the software's
+fingerprint. Light on imports (the standard library only), so that ``evtribo analyze`` can
+tell an unchanged study before it loads numpy, pandas or scipy
+(:mod:`evtribo.analysis.unchanged`).
+
+The hashes (``inputs/<study>.json`` in the cache folder): a file whose size, modification
+and change times (ns), inode and device are those it had when it was hashed, and whose
+change time was at least :data:`SETTLED_S` older than that hashing, is not read again. The
+change time (``st_ctime``) moves whenever a file's bytes or its times are written, and no
+program can set it back; the margin leaves out a file written in the same instant it was
+hashed (as ``git`` does with its index).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import platform
+import sys
+import time
+from functools import cache
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import Any
+
+from evtribo import __version__
+from evtribo.files import atomic_write, sha256_file
+
+log = logging.getLogger(__name__)
+
+__all__ = ["SETTLED_S", "HashMemo", "default_cache_dir", "software_fingerprint",
+           "software_versions", "tree_digest"]
+
+#: A file changed less than this long before it was hashed is hashed again next time, s.
+SETTLED_S = 3.0
+
+_PACKAGES = {"python-can": "python-can", "cantools": "cantools", "numpy": "numpy",
+             "scipy": "scipy", "pandas": "pandas", "pyarrow": "pyarrow"}
+
+
+def default_cache_dir() -> Path:
+    """Where decoded trials are cached by default.
+
+    Returns
+    -------
+    Path
+        ``$EVTRIBO_CACHE_DIR``, else ``$XDG_CACHE_HOME/evtribo``, else ``~/.cache/evtribo``.
+    """
+    env = os.environ.get("EVTRIBO_CACHE_DIR")
+    if env:
+        return Path(env).expanduser()
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "evtribo"
+
+
+def _stat_key(st: os.stat_result) -> list[int]:
+    return [st.st_size, st.st_mtime_ns, st.st_ctime_ns, st.st_ino, st.st_dev]
+
+
+class HashMemo:
+    """SHA-256 of files as they were when last hashed, for one study.
+
+    Parameters
+    ----------
+    directory : path-like or None
+        The cache folder (None: nothing is remembered).
+    study_root : path-like
+        The study the files belong to (one memo file per study).
+    """
+
+    def __init__(self, directory: str | os.PathLike[str] | None,
+                 study_root: str | os.PathLike[str]) -> None:
+        self.path: Path | None = None
+        self._known: dict[str, dict[str, Any]] = {}
+        self._changed = False
+        if directory is None:
+            return
+        root = os.path.abspath(study_root).encode("utf-8", "surrogateescape")
+        self.path = (Path(directory).expanduser() / "inputs"
+                     / f"{hashlib.sha256(root).hexdigest()[:24]}.json")
+        try:
+            known = json.loads(self.path.read_bytes())
+            if isinstance(known, dict) and known.get("version") == 1:
+                self._known = {str(k): v for k, v in dict(known.get("files", {})).items()
+                               if isinstance(v, dict)}
+        except (OSError, ValueError, TypeError):
+            pass  # unreadable or foreign: every file is hashed
+
+    def sha256(self, path: str | os.PathLike[str]) -> tuple[str, os.stat_result]:
+        """The file's SHA-256 (remembered, or read now), and its stat from before hashing.
+
+        Parameters
+        ----------
+        path : path-like
+
+        Returns
+        -------
+        (str, os.stat_result)
+        """
+        name = os.path.abspath(path)
+        st = os.stat(path)
+        rec = self._known.get(name)
+        if (rec is not None and rec.get("stat") == _stat_key(st)
+                and st.st_ctime_ns <= rec.get("hashed_ns", 0) - SETTLED_S * 1e9):
+            return str(rec["sha256"]), st
+        hashed_ns = time.time_ns()
+        digest = sha256_file(path)
+        self._known[name] = {"stat": _stat_key(st), "sha256": digest, "hashed_ns": hashed_ns}
+        self._changed = True
+        return digest, st
+
+    def forget(self, path: str | os.PathLike[str]) -> None:
+        """Do not remember *path* (it changed while it was hashed)."""
+        self._changed |= self._known.pop(os.path.abspath(path), None) is not None
+
+    def save(self) -> None:
+        """Write what is remembered (of files that still exist); a cache folder that cannot
+        be written is not an error."""
+        if self.path is None or not self._changed:
+            return
+        files = {k: v for k, v in self._known.items() if os.path.exists(k)}
+        try:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            atomic_write(self.path, json.dumps({"version": 1, "files": files}))
+        except OSError as err:
+            log.debug("cannot write %s: %s", self.path, err)
+
+
+def tree_digest(folder: Path) -> str:
+    """SHA-256 of the names and bytes of the ``.py`` files under *folder*.
+
+    Parameters
+    ----------
+    folder : Path
+
+    Returns
+    -------
+    str
+    """
+    h = hashlib.sha256()
+    for path in sorted(folder.rglob("*.py")):
+        data = path.read_bytes()
+        h.update(f"{path.relative_to(folder).as_posix()}\0{len(data)}\0".encode())
+        h.update(data)
+    return h.hexdigest()
+
+
+def software_versions() -> dict[str, str | None]:
+    """Versions of evtribo, Python and the libraries the analysis relies on.
+
+    Returns
+    -------
+    dict
+        Version by name (None for a library not installed).
+    """
+    out: dict[str, str | None] = {"evtribo": __version__,
+                                  "python": platform.python_version()}
+    for key, dist in _PACKAGES.items():
+        try:
+            out[key] = version(dist)
+        except PackageNotFoundError:
+            out[key] = None
+    return out
+
+
+@cache
+def software_fingerprint() -> str:
+    """SHA-256 of evtribo's source files, the Python build and the versions of the
+    libraries the analysis runs on.
+
+    Returns
+    -------
+    str
+    """
+    h = hashlib.sha256(f"{sys.version}\0".encode())
+    h.update(tree_digest(Path(__file__).resolve().parent).encode())
+    h.update(json.dumps(software_versions(), sort_keys=True).encode())
+    return h.hexdigest()
