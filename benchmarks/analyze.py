@@ -9,10 +9,12 @@ study is simulated in this process; ``evtribo analyze`` runs in a fresh process 
 included), first with an empty cache (cold), then again (warm); its peak resident set size
 is the child's own (``wait4``'s ``ru_maxrss``), so the simulation is not counted.
 
-Three runs of each study, one after the other with one cache folder: *cold* (an empty
-cache: every log read, decoded and analysed), *warm* (nothing changed: each trial's outcome
-taken from the cache, :mod:`evtribo.analysis.reuse`) and *recompute* (``--recompute``, what
-a changed setting costs: every trial analysed again from its decoded signals in the cache).
+Four runs of each study, one after the other with one cache folder: *cold* (an empty
+cache: every log read, decoded and analysed), *warm* (nothing changed: the last results
+written again, :mod:`evtribo.analysis.unchanged`), *trials kept* (the study's analysis
+forgotten, as a file added to the study folder does: each trial's outcome taken from the
+cache, :mod:`evtribo.analysis.reuse`) and *recompute* (``--recompute``, what a changed
+setting costs: every trial analysed again from its decoded signals in the cache).
 
 Baseline: decoding alone, the way a script would do it without evtribo, with python-can's
 ``LogReader`` and cantools' ``decode_message`` frame by frame, timed on the study's first
@@ -26,6 +28,7 @@ import argparse
 import dataclasses
 import logging
 import os
+import shutil
 import sys
 import tempfile
 import time
@@ -36,6 +39,7 @@ import cantools
 from _measure import run
 
 from evtribo.acquisition.simulator import TrialConfig, default_subjects, simulate_study
+from evtribo.analysis.unchanged import ENTRIES
 
 #: Frames per second of trial: two load cells at 2 kHz.
 FRAMES_PER_S = 4000
@@ -91,6 +95,10 @@ def main() -> int:
                    "--cache-dir", str(root / "cache"), "--force"]
             cold, rss_cold = run([*cmd, "--out", str(root / "out-cold")])
             warm, rss_warm = run([*cmd, "--out", str(root / "out-warm")])
+            # what a change outside the trials costs (a file added to the study folder, the
+            # analysis of the study forgotten): every trial's outcome reused
+            shutil.rmtree(root / "cache" / ENTRIES)
+            kept, rss_kept = run([*cmd, "--out", str(root / "out-kept")])
             again, rss_again = run([*cmd, "--out", str(root / "out-again"), "--recompute"])
             first = sorted(study.glob("*/*.log"))[0]
             n_one, t_one = baseline_decode(first, study / "rig" / "default.dbc")
@@ -99,8 +107,9 @@ def main() -> int:
                   f"{base:6.1f} s ({n_one / t_one / 1e3:.0f} k frames/s, timed on one trial)")
             for name, secs, rss, target in (("cold", cold, rss_cold, " (target >= 25x)"),
                                             ("warm", warm, rss_warm, " (target >= 40x)"),
+                                            ("trials kept", kept, rss_kept, ""),
                                             ("recompute", again, rss_again, "")):
-                print(f"  {name:9s} {secs:6.2f} s ({frames / secs / 1e6:5.2f} M frames/s, "
+                print(f"  {name:11s} {secs:6.2f} s ({frames / secs / 1e6:5.2f} M frames/s, "
                       f"peak RSS {rss:4.0f} MB): {base / secs:5.1f}x the baseline{target}",
                       flush=True)
     return 0

@@ -151,3 +151,15 @@ def test_recompute_analyses_an_unchanged_study(study, tmp_path, monkeypatch):
                  str(cache), "--recompute"]) == 0
     assert not called
     assert _summary(tmp_path / "r")["jobs"] >= 1
+
+
+def test_a_study_with_a_failed_trial_is_always_analysed(study, tmp_path):
+    """A trial's failure is not kept (it may not happen again: a log being copied)."""
+    log = sorted(study.glob("*/*.log"))[0]
+    log.write_text("garbage\n")
+    cache = tmp_path / "cache"
+    assert main(["analyze", str(study), "--out", str(tmp_path / "first"),
+                 "--cache-dir", str(cache)]) == 0
+    assert _summary(tmp_path / "first")["failed_trials"]
+    assert not (cache / unchanged.ENTRIES).exists()
+    assert unchanged.rerun(study, tmp_path / "again", options=OPTIONS, cache_dir=cache) is None

@@ -115,8 +115,9 @@ def _inputs_unchanged(summary: Mapping[str, Any], memo: HashMemo) -> bool:
 def remember(study_dir: str | os.PathLike[str], options: Mapping[str, Any],
              summary: Mapping[str, Any], out_dir: str | os.PathLike[str],
              cache_dir: str | os.PathLike[str] | None = None) -> Path | None:
-    """Keep what an analysis wrote, for :func:`rerun`; nothing when its inputs or its result
-    folder changed meanwhile, or the cache cannot be written.
+    """Keep what an analysis wrote, for :func:`rerun`; nothing when a trial failed (the
+    failure might not happen again), when its inputs or its result folder changed meanwhile,
+    or when the cache cannot be written.
 
     Parameters
     ----------
@@ -136,6 +137,8 @@ def remember(study_dir: str | os.PathLike[str], options: Mapping[str, Any],
     Path or None
         The entry written.
     """
+    if summary.get("failed_trials") or not summary.get("trials_analysed"):
+        return None  # a failure may not happen again: such a study is always analysed
     folder = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     try:
         key = study_key(study_dir, options)
