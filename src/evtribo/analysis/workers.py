@@ -18,11 +18,12 @@ every worker (shared storage); the decoded-trial cache is the one this process w
 from __future__ import annotations
 
 import logging
+import math
 import os
 import signal
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -39,7 +40,7 @@ from evtribo.signals import TrialSignals
 from evtribo.study import TrialRef
 
 __all__ = ["MAX_WARNINGS_PER_TRIAL", "TrialOutcome", "TrialTask", "WorkerContext",
-           "analyze_in", "analyze_task", "run_tasks", "trial_meta"]
+           "analyze_batch", "analyze_in", "analyze_task", "batches", "run_tasks", "trial_meta"]
 
 log = logging.getLogger(__name__)
 
@@ -230,6 +231,70 @@ def analyze_task(task: TrialTask) -> TrialOutcome:
     return analyze_in(task, _context)
 
 
+#: Load cells sampled faster than this are rare (:func:`_filters`' guess), Hz.
+FASTEST_CELLS_HZ = 10_000.0
+
+
+def analyze_batch(tasks: Sequence[TrialTask]) -> list[TrialOutcome]:
+    """Trials analysed one after the other in this process (:func:`analyze_task`).
+
+    Parameters
+    ----------
+    tasks : sequence of TrialTask
+
+    Returns
+    -------
+    list of TrialOutcome
+        In the order of *tasks*.
+    """
+    return [analyze_task(task) for task in tasks]
+
+
+def _filters(task: TrialTask, settings: AnalysisSettings) -> bool:
+    """Whether the trial's analysis will likely filter its forces (mains hum) or take their
+    spectra: what imports scipy.signal (0.6 s) into the process that analyses it. Guessed
+    from the sidecar as :mod:`evtribo.analysis.trial` decides from the signals: a sine
+    drive, or a square wave slow enough for the friction's oscillation to be seen at the
+    load cells' rate (taken as at most :data:`FASTEST_CELLS_HZ`); a wrong guess costs time,
+    never a result."""
+    if settings.hum == "remove":
+        return True
+    meta = trial_meta(task.ref)
+    slow_square = (meta.waveform == "square" and bool(meta.frequency_Hz)
+                   and 2 * float(meta.frequency_Hz or 0) < 0.4 * FASTEST_CELLS_HZ)
+    return meta.waveform == "sine" or (slow_square and settings.hum == "auto")
+
+
+def batches(tasks: Sequence[TrialTask], jobs: int, settings: AnalysisSettings
+            ) -> list[list[TrialTask]]:
+    """The trials in the groups worker processes take one at a time.
+
+    The trials that import scipy.signal (:func:`_filters`) go together, first, in as few
+    groups as keep each no longer than a worker's share of the study: one process imports
+    it while the others analyse the rest, instead of every process importing it. Every
+    other trial is a group of its own.
+
+    Parameters
+    ----------
+    tasks : sequence of TrialTask
+    jobs : int
+        Worker processes.
+    settings : AnalysisSettings
+
+    Returns
+    -------
+    list of list of TrialTask
+        Every task once.
+    """
+    heavy = [t for t in tasks if _filters(t, settings)]
+    light = [[t] for t in tasks if not _filters(t, settings)]
+    if len(heavy) < 2 or not light or jobs < 2:
+        return [[t] for t in tasks]
+    share = max(1, math.ceil(len(tasks) / jobs))
+    groups = math.ceil(len(heavy) / share)
+    return [heavy[k::groups] for k in range(groups)] + light
+
+
 def analyze_in(task: TrialTask, context: WorkerContext) -> TrialOutcome:
     """One trial analysed with *context* (what :func:`analyze_task` does with this
     process's context; a Dask worker is handed it with each task).
@@ -343,11 +408,13 @@ def run_tasks(tasks: list[TrialTask], jobs: int, context: WorkerContext,
     pool = ProcessPoolExecutor(max_workers=jobs, initializer=_init_process,
                                initargs=(context,))
     try:
-        futures = [pool.submit(analyze_task, task) for task in tasks]
+        futures = [pool.submit(analyze_batch, batch)
+                   for batch in batches(tasks, jobs, context.settings)]
         for fut in as_completed(futures):
-            results.append(fut.result())
-            if progress:
-                progress(len(results), len(tasks))
+            for outcome in fut.result():
+                results.append(outcome)
+                if progress:
+                    progress(len(results), len(tasks))
     except BaseException:  # an error, Ctrl-C, SIGTERM: no worker outlives the analysis
         _stop_workers(pool)
         raise
