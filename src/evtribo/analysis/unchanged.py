@@ -3,8 +3,9 @@ written again from the cache, without loading the study or importing the analysi
 pandas, scipy, cantools), so that it takes a fraction of a second whatever the study's size.
 
 After each analysis the command keeps, in the cache folder
-(``studies/<key>.<checksum>.json``), the tables it wrote (their bytes), its summary.json
-and so the inputs it read (each file's name, size and SHA-256). The key covers:
+(``studies/<key>.<checksum>.json``), the tables it wrote (their bytes) and its
+summary.json, which lists the inputs it read (each file's name, size and SHA-256). The key
+covers:
 
 - what the study folder holds: the names of its files and folders, two levels deep (as the
   study's subjects and trials are found), and its absolute path;
@@ -155,7 +156,7 @@ def remember(study_dir: str | os.PathLike[str], options: Mapping[str, Any],
             files[name] = data.decode("utf-8")
         entry = {"version": ENTRY_VERSION, "key": key, "summary": summary, "files": files}
         return write_checksummed(folder / ENTRIES, key, json.dumps(entry).encode(), SUFFIX)
-    except (OSError, UnicodeDecodeError, KeyError, TypeError) as err:
+    except (OSError, ValueError, KeyError, TypeError) as err:  # the analysis stands
         log.debug("the analysis of %s is not kept: %s", study_dir, err)
         return None
 

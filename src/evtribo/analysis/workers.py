@@ -286,8 +286,9 @@ def batches(tasks: Sequence[TrialTask], jobs: int, settings: AnalysisSettings
     list of list of TrialTask
         Every task once.
     """
-    heavy = [t for t in tasks if _filters(t, settings)]
-    light = [[t] for t in tasks if not _filters(t, settings)]
+    filters = [_filters(t, settings) for t in tasks]
+    heavy = [t for t, f in zip(tasks, filters, strict=True) if f]
+    light = [[t] for t, f in zip(tasks, filters, strict=True) if not f]
     if len(heavy) < 2 or not light or jobs < 2:
         return [[t] for t in tasks]
     share = max(1, math.ceil(len(tasks) / jobs))
