@@ -3,12 +3,9 @@
 Two things are kept in the cache folder (:func:`evtribo.cache.default_cache_dir`, or the
 ``cache_dir`` given), beside the decoded trials:
 
-- **the inputs' hashes** (``inputs/<study>.json``): a file whose size, modification and
-  change times (ns), inode and device are those it had when it was hashed, and whose change
-  time was at least :data:`SETTLED_S` older than that hashing, is not read again. The change
-  time (``st_ctime``) moves whenever a file's bytes or its times are written, and no program
-  can set it back; the margin leaves out a file written in the same instant it was hashed
-  (as ``git`` does with its index);
+- **the inputs' hashes** (``inputs/<study>.json``, :class:`evtribo.memo.HashMemo`): a
+  file whose size, modification and change times, inode and device are those it had when
+  it was hashed, its change time settled before that, is not read again;
 - **each trial's outcome** (``results/<key>.<checksum>.json``): its row of trials.csv, its
   windows, its sine trace and its warnings, under a key of everything its analysis depends
   on: the log's SHA-256, the trial as the study names it (subject, names, paths, sidecar),
