@@ -20,7 +20,9 @@ import logging
 import os
 import platform
 import sys
+import threading
 import time
+import tomllib
 from functools import cache
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -31,11 +33,15 @@ from evtribo.files import atomic_write, sha256_file
 
 log = logging.getLogger(__name__)
 
-__all__ = ["SETTLED_S", "HashMemo", "default_cache_dir", "software_fingerprint",
+__all__ = ["SETTLED_S", "HashMemo", "default_cache_dir", "prehash", "software_fingerprint",
            "software_versions", "tree_digest"]
 
 #: A file changed less than this long before it was hashed is hashed again next time, s.
 SETTLED_S = 3.0
+
+#: What :func:`prehash` takes for a trial's log or sidecar (the log formats of
+#: :mod:`evtribo.frames.registry`, gzipped or not, and ``.json``): a guess, never a result.
+_INPUT_SUFFIXES = (".log", ".asc", ".blf", ".trc", ".csv", ".db", ".mf4", ".json", ".gz")
 
 _PACKAGES = {"python-can": "python-can", "cantools": "cantools", "numpy": "numpy",
              "scipy": "scipy", "pandas": "pandas", "pyarrow": "pyarrow"}
@@ -179,3 +185,74 @@ def software_fingerprint() -> str:
     h.update(tree_digest(Path(__file__).resolve().parent).encode())
     h.update(json.dumps(software_versions(), sort_keys=True).encode())
     return h.hexdigest()
+
+
+def _likely_inputs(root: Path) -> list[Path]:
+    """study.toml, the DBC it names and the subjects' logs and sidecars, as found without
+    loading the study (files of other names are left to the analysis)."""
+    files = [root / "study.toml"]
+    try:
+        rig = tomllib.loads(files[0].read_text(encoding="utf-8")).get("rig", {})
+        if isinstance(rig, dict) and isinstance(rig.get("dbc"), str):
+            files.append(root / rig["dbc"])
+    except (OSError, ValueError):
+        pass
+    for folder in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")):
+        files += sorted(f for f in folder.iterdir() if not f.name.startswith(".")
+                        and f.name.lower().endswith(_INPUT_SUFFIXES) and f.is_file())
+    return files
+
+
+class _Prehash(threading.Thread):
+    """:func:`prehash`'s thread; :meth:`finish` stops it after the file it is hashing."""
+
+    def __init__(self, study_dir: str | os.PathLike[str],
+                 cache_dir: str | os.PathLike[str] | None) -> None:
+        super().__init__(name="evtribo-prehash", daemon=True)
+        self.study_dir, self.cache_dir = study_dir, cache_dir
+        self._halt = threading.Event()
+
+    def run(self) -> None:
+        try:
+            memo = HashMemo(self.cache_dir if self.cache_dir is not None
+                            else default_cache_dir(), self.study_dir)
+            for path in _likely_inputs(Path(self.study_dir)):
+                if self._halt.is_set():
+                    break
+                try:
+                    memo.sha256(path)
+                except OSError:
+                    continue
+            memo.save()
+        except Exception as err:  # only a head start: the analysis hashes what is left
+            log.debug("inputs of %s not hashed ahead: %s", self.study_dir, err)
+
+    def finish(self) -> None:
+        """Stop after the file being hashed, keep what was hashed, and return."""
+        self._halt.set()
+        self.join()
+
+
+def prehash(study_dir: str | os.PathLike[str], cache_dir: str | os.PathLike[str] | None
+            ) -> _Prehash:
+    """Start hashing a study's inputs into its memo, in a thread: the command line does it
+    while it imports the analysis, which leaves a core idle (hashlib and the reads release
+    the interpreter's lock for each block); the analysis then finds those hashed and
+    hashes the rest on every core.
+
+    Parameters
+    ----------
+    study_dir : path-like
+        The study folder.
+    cache_dir : path-like, optional
+        The cache folder (default: :func:`default_cache_dir`).
+
+    Returns
+    -------
+    thread
+        Started; call its ``finish()`` before the analysis reads the memo. Any error is
+        left to the analysis, which hashes what was not.
+    """
+    thread = _Prehash(study_dir, cache_dir)
+    thread.start()
+    return thread

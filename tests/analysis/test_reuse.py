@@ -259,3 +259,29 @@ def test_the_python_api_reuses_and_recomputes_as_the_command_does(study, tmp_pat
     evtribo.analyze(study, jobs=1, cache_dir=cache, recompute=True)
     assert len(analysed) == 6
     assert again.electrostatic.equals(first.electrostatic)
+
+
+def test_inputs_hashed_ahead_are_those_the_analysis_reads(study, tmp_path, monkeypatch):
+    """prehash (run by the command line while it imports the analysis) hashes exactly the
+    study's inputs into the memo: an analysis after it hashes none of them again; and
+    stopped at once it leaves them to the analysis, with the same results."""
+    cache = tmp_path / "cache"
+    ahead = hash_memo.prehash(study, cache)
+    ahead.join()
+    _age(hash_memo.HashMemo(cache, study).path, hash_memo.SETTLED_S + 1)
+    hashed = _memo_counting(monkeypatch)
+    first = _run(study, tmp_path / "a", cache)
+    assert hashed == []
+    recorded = {rec["file"] for rec in first.summary["inputs"]}
+    assert len(recorded) == len(hash_memo._likely_inputs(study))
+    stopped = hash_memo.prehash(study, tmp_path / "cache2")
+    stopped.finish()
+    second = _run(study, tmp_path / "b", tmp_path / "cache2")
+    assert second.summary["inputs"] == first.summary["inputs"]
+
+
+def test_hashing_ahead_never_fails_the_analysis(tmp_path):
+    (tmp_path / "file").write_text("")
+    broken = hash_memo.prehash(tmp_path / "no-study", tmp_path / "file" / "cache")
+    broken.finish()  # no study, a cache that cannot be written: nothing raised
+    assert not broken.is_alive()

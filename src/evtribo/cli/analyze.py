@@ -129,10 +129,14 @@ def run(args: argparse.Namespace) -> int:
                 return _terminated(args.out)
         if summary is not None:
             return _report(summary, Path(args.out), args.out)
+    from evtribo.memo import prehash
+
+    hashing = prehash(args.study, args.cache_dir)  # while the analysis is imported
     from evtribo.analysis.pipeline import analyze_study
     from evtribo.analysis.settings import parse_setting
     from evtribo.analysis.unchanged import remember
 
+    hashing.finish()
     overrides = dict(parse_setting(text) for text in args.set)
     for key in _FLAGS:
         if getattr(args, key) is not None:
