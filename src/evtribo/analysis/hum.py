@@ -4,7 +4,8 @@ Strain-gauge amplifiers pick up the mains (50 or 60 Hz, and its harmonics). A wi
 over a fraction of a period keeps part of it, and a hum as large as a few mN is as large as
 the effects the analysis looks for; it also stands out in the friction's spectrum, where a
 sine drive's modulation is sought. :func:`find_hum` looks for a narrow peak at 50 or 60 Hz
-(and at their harmonics) standing well above the spectrum around it; :func:`remove_hum`
+(and at their harmonics) standing well above the spectrum around it (Welch's density,
+:mod:`.psd`); :func:`remove_hum`
 notches those lines out with zero-phase IIR notch filters (``scipy.signal.iirnotch``, run
 forwards and backwards), which leave the rest of the spectrum, steps included, as it was.
 
@@ -20,6 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+
+from evtribo.analysis.psd import welch
 
 log = logging.getLogger(__name__)
 
@@ -98,9 +101,7 @@ def find_hum(x: npt.ArrayLike, rate_Hz: float, *, avoid_Hz: Sequence[float] = ()
         return None
     y = _filled(x)
     nper = int(min(y.size, round(2.0 * rate_Hz)))  # 0.5 Hz resolution
-    from scipy import signal  # 0.6 s to import (with scipy.stats): only when needed
-
-    f, pxx = signal.welch(y, fs=rate_Hz, nperseg=nper, detrend="constant")
+    f, pxx = welch(y, rate_Hz, nper)  # scipy.signal's, in numpy (see .psd)
     df = f[1] - f[0]
 
     def line(freq: float) -> tuple[float, float]:
@@ -155,7 +156,7 @@ def remove_hum(x: npt.ArrayLike, rate_Hz: float, hum: Hum) -> FloatArray:
     x = np.asarray(x, dtype=np.float64)
     if not hum.lines_Hz:
         return x.copy()
-    from scipy import signal
+    from scipy import signal  # 0.6 s to import (with scipy.stats): only to filter
 
     bad = ~np.isfinite(x)
     y = _filled(x)
