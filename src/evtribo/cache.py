@@ -35,7 +35,7 @@ from pyarrow import feather
 from evtribo._docs import fill_doc
 from evtribo.decode import decode_trial
 from evtribo.errors import AnalysisError
-from evtribo.files import checksummed_entries, read_checksummed, sha256_file, write_checksummed
+from evtribo.files import read_entry, sha256_file, write_checksummed
 from evtribo.frames import FrameStream, FrameTable
 from evtribo.frames.registry import MAX_WARNINGS
 from evtribo.memo import default_cache_dir
@@ -312,18 +312,9 @@ def rig_frames(blocks: Iterable[FrameTable], rig: Rig) -> tuple[FrameTable, int]
 
 def _read_entry(directory: Path, key: str) -> TrialSignals | None:
     """The trial cached under *key*, or None; a damaged entry is removed (with a warning)."""
-    for path in checksummed_entries(directory, key, SUFFIX):
-        try:
-            data = read_checksummed(path, key, SUFFIX)
-            return _from_table(feather.read_table(pa.BufferReader(data)))
-        except Exception as err:  # damaged, foreign or unreadable: decode again
-            log.warning("%s: damaged cache entry (%s); removed, the trial is decoded again",
-                        path, err)
-            try:
-                path.unlink()
-            except OSError:
-                pass
-    return None
+    return read_entry(directory, key, SUFFIX,
+                      lambda data: _from_table(feather.read_table(pa.BufferReader(data))),
+                      what="cache entry", then="the trial is decoded again")
 
 
 #: LZ4 (in every pyarrow wheel; a build without it writes the entries uncompressed).

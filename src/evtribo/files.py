@@ -19,20 +19,24 @@ from __future__ import annotations
 
 import errno
 import hashlib
+import logging
 import os
 import stat
 import sys
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, TypeVar
 
 from evtribo.errors import UserInputError
 
+log = logging.getLogger(__name__)
+T = TypeVar("T")
+
 __all__ = ["CHECKSUM_DIGITS", "MAX_CONFIG_BYTES", "PARTIAL_SUFFIX", "atomic_open",
            "atomic_write", "check_regular_file", "checksummed_entries", "fsync_path",
-           "partial_path", "read_checksummed", "read_limited", "sha256_file",
+           "partial_path", "read_checksummed", "read_entry", "read_limited", "sha256_file",
            "write_checksummed"]
 
 #: Suffix of a file still being written by a recording (``run-01.log.part``).
@@ -300,6 +304,38 @@ def read_checksummed(path: Path, key: str, suffix: str) -> bytes:
             path.name[len(key) + 1:-len(suffix)]:
         raise ValueError("its bytes do not match its checksum")
     return data
+
+
+def read_entry(directory: Path, key: str, suffix: str, parse: Callable[[bytes], T], *,
+               what: str, then: str) -> T | None:
+    """The entry of *key* (:func:`read_checksummed`) as *parse* makes it, or None. An entry
+    whose bytes do not match its checksum, or that *parse* refuses, is removed, with a
+    warning: ``<path>: damaged <what> (<why>); removed, <then>``.
+
+    Parameters
+    ----------
+    directory : Path
+    key, suffix : str
+        As the entry was written (:func:`write_checksummed`).
+    parse : callable
+        The entry's value from its bytes (any exception: a damaged entry).
+    what, then : str
+        The warning's words: what the entry is, and what happens instead.
+
+    Returns
+    -------
+    object or None
+    """
+    for path in checksummed_entries(directory, key, suffix):
+        try:
+            return parse(read_checksummed(path, key, suffix))
+        except Exception as err:  # damaged, foreign or unreadable: done again
+            log.warning("%s: damaged %s (%s); removed, %s", path, what, err, then)
+            try:
+                path.unlink()
+            except OSError:
+                pass
+    return None
 
 
 def write_checksummed(directory: Path, key: str, data: bytes, suffix: str) -> Path:

@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from evtribo.files import checksummed_entries, read_checksummed, write_checksummed
+from evtribo.files import read_entry, write_checksummed
 from evtribo.memo import SETTLED_S, HashMemo, software_fingerprint, tree_digest
 
 if TYPE_CHECKING:
@@ -114,20 +114,14 @@ class OutcomeStore:
         None; a damaged file is removed."""
         if self.directory is None:
             return None
-        for path in checksummed_entries(self.directory, key, ".json"):
-            try:
-                obj = json.loads(read_checksummed(path, key, ".json"))
-                return {"row": dict(obj["row"]), "warnings": list(obj["warnings"]),
-                        "windows": _frame_from_json(obj["windows"]),
-                        "trace": _frame_from_json(obj["trace"])}
-            except (OSError, ValueError, KeyError, TypeError) as err:
-                log.warning("%s: damaged kept outcome (%s); removed, the trial is analysed "
-                            "again", path, err)
-                try:
-                    path.unlink()
-                except OSError:
-                    pass
-        return None
+
+        def parse(data: bytes) -> dict[str, Any]:
+            obj = json.loads(data)
+            return {"row": dict(obj["row"]), "warnings": list(obj["warnings"]),
+                    "windows": _frame_from_json(obj["windows"]),
+                    "trace": _frame_from_json(obj["trace"])}
+        return read_entry(self.directory, key, ".json", parse, what="kept outcome",
+                          then="the trial is analysed again")
 
     def put(self, key: str, row: Mapping[str, Any], windows: pd.DataFrame,
             warnings: Iterable[str], trace: pd.DataFrame | None) -> None:

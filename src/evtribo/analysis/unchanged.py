@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from evtribo.analysis.outputs import check_out_dir, check_overwrite, write_analysis
-from evtribo.files import checksummed_entries, read_checksummed, write_checksummed
+from evtribo.files import read_entry, write_checksummed
 from evtribo.memo import HashMemo, default_cache_dir, software_fingerprint
 from evtribo.resultdir import locked, recover
 
@@ -163,17 +163,14 @@ def remember(study_dir: str | os.PathLike[str], options: Mapping[str, Any],
 
 def _entry(folder: Path, key: str) -> dict[str, Any] | None:
     """The entry of *key*, or None (none, or damaged: then it is removed)."""
-    for path in checksummed_entries(folder / ENTRIES, key, SUFFIX):
-        try:
-            entry = json.loads(read_checksummed(path, key, SUFFIX))
-            if (entry.get("version") == ENTRY_VERSION and entry.get("key") == key
-                    and isinstance(entry.get("summary"), dict)
-                    and set(entry["summary"]["output_sha256"]) == set(entry["files"])):
-                return dict(entry)
-        except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
-            log.warning("%s: a damaged entry of the cache, removed (%s)", path, err)
-        path.unlink(missing_ok=True)
-    return None
+    def parse(data: bytes) -> dict[str, Any]:
+        entry = dict(json.loads(data))
+        if (entry["version"] != ENTRY_VERSION or entry["key"] != key
+                or set(entry["summary"]["output_sha256"]) != set(entry["files"])):
+            raise ValueError("not an entry of this version and key")
+        return entry
+    return read_entry(folder / ENTRIES, key, SUFFIX, parse,
+                      what="entry of the study's last analysis", then="the study is analysed")
 
 
 def _write_text(text: str, path: Path) -> str:
