@@ -189,7 +189,9 @@ def software_fingerprint() -> str:
 
 def _likely_inputs(root: Path) -> list[Path]:
     """study.toml, the DBC it names and the subjects' logs and sidecars, as found without
-    loading the study (files of other names are left to the analysis)."""
+    loading the study (files of other names are left to the analysis). Not
+    :func:`evtribo.study.discover_trials`: it imports python-can for the log formats'
+    suffixes, which would hold this thread until the imports it is to overlap are done."""
     files = [root / "study.toml"]
     try:
         rig = tomllib.loads(files[0].read_text(encoding="utf-8")).get("rig", {})
