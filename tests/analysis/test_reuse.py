@@ -26,7 +26,7 @@ from evtribo.acquisition.simulator import (
     default_subjects,
     simulate_study,
 )
-from evtribo.analysis import pipeline, provenance, reuse
+from evtribo.analysis import pipeline, provenance
 from evtribo.analysis import workers as trial_workers
 from evtribo.study import load_study
 
@@ -179,16 +179,16 @@ def test_an_input_unchanged_since_it_was_hashed_is_not_read_again(tmp_path, monk
     hashed = _memo_counting(monkeypatch)
     f = tmp_path / "a.log"
     f.write_bytes(b"(1.0) can0 123#00\n" * 100)
-    memo = reuse.HashMemo(tmp_path / "cache", tmp_path)
+    memo = hash_memo.HashMemo(tmp_path / "cache", tmp_path)
     digest, _ = memo.sha256(f)
     memo.save()
     assert hashed == [str(f)]
     # hashed just after it was written: hashed again (it could still change in that tick)
-    again = reuse.HashMemo(tmp_path / "cache", tmp_path)
+    again = hash_memo.HashMemo(tmp_path / "cache", tmp_path)
     assert again.sha256(f)[0] == digest and len(hashed) == 2
     again.save()
-    _age(again.path, reuse.SETTLED_S + 1)
-    settled = reuse.HashMemo(tmp_path / "cache", tmp_path)
+    _age(again.path, hash_memo.SETTLED_S + 1)
+    settled = hash_memo.HashMemo(tmp_path / "cache", tmp_path)
     assert settled.sha256(f)[0] == digest and len(hashed) == 2
 
 
@@ -198,15 +198,15 @@ def test_changed_bytes_are_hashed_again_even_under_the_same_size_and_mtime(tmp_p
     f = tmp_path / "a.log"
     f.write_bytes(b"A" * 1000)
     st = f.stat()
-    memo = reuse.HashMemo(tmp_path / "cache", tmp_path)
+    memo = hash_memo.HashMemo(tmp_path / "cache", tmp_path)
     memo.sha256(f)
     memo.save()
-    _age(memo.path, reuse.SETTLED_S + 1)
+    _age(memo.path, hash_memo.SETTLED_S + 1)
     time.sleep(0.01)
     f.write_bytes(b"B" * 1000)
     os.utime(f, ns=(st.st_atime_ns, st.st_mtime_ns))  # size and mtime as they were
     assert (f.stat().st_size, f.stat().st_mtime_ns) == (st.st_size, st.st_mtime_ns)
-    fresh = reuse.HashMemo(tmp_path / "cache", tmp_path)
+    fresh = hash_memo.HashMemo(tmp_path / "cache", tmp_path)
     digest, _ = fresh.sha256(f)
     assert len(hashed) == 2
     import hashlib
@@ -217,18 +217,18 @@ def test_the_memo_is_a_cache_not_a_requirement(tmp_path):
     f = tmp_path / "a.log"
     f.write_bytes(b"x")
     (tmp_path / "file").write_text("")
-    memo = reuse.HashMemo(tmp_path / "file" / "cache", tmp_path)  # cannot be written
+    memo = hash_memo.HashMemo(tmp_path / "file" / "cache", tmp_path)  # cannot be written
     memo.sha256(f)
     memo.save()
-    nothing = reuse.HashMemo(None, tmp_path)
+    nothing = hash_memo.HashMemo(None, tmp_path)
     assert nothing.sha256(f)[0] == memo.sha256(f)[0]
-    bad = reuse.HashMemo(tmp_path / "cache", tmp_path)
+    bad = hash_memo.HashMemo(tmp_path / "cache", tmp_path)
     assert bad.path is not None
     bad.path.parent.mkdir(parents=True)
     for junk in ("{not json", '{"version": 1, "files": [1, 2]}',
                  json.dumps({"version": 1, "files": {str(f): 3}})):
         bad.path.write_text(junk)
-        assert reuse.HashMemo(tmp_path / "cache", tmp_path).sha256(f)[0] == memo.sha256(f)[0]
+        assert hash_memo.HashMemo(tmp_path / "cache", tmp_path).sha256(f)[0] == memo.sha256(f)[0]
 
 
 def test_the_source_fingerprint_follows_every_source_file(tmp_path):
@@ -236,14 +236,14 @@ def test_the_source_fingerprint_follows_every_source_file(tmp_path):
     (tree / "sub").mkdir(parents=True)
     (tree / "a.py").write_text("x = 1\n")
     (tree / "sub" / "b.py").write_text("y = 2\n")
-    first = reuse.tree_digest(tree)
-    assert reuse.tree_digest(tree) == first
+    first = hash_memo.tree_digest(tree)
+    assert hash_memo.tree_digest(tree) == first
     (tree / "sub" / "b.py").write_text("y = 3\n")
-    assert reuse.tree_digest(tree) != first
+    assert hash_memo.tree_digest(tree) != first
     (tree / "sub" / "b.py").write_text("y = 2\n")
-    assert reuse.tree_digest(tree) == first
+    assert hash_memo.tree_digest(tree) == first
     (tree / "c.py").write_text("")
-    assert reuse.tree_digest(tree) != first
+    assert hash_memo.tree_digest(tree) != first
 
 
 def test_the_python_api_reuses_and_recomputes_as_the_command_does(study, tmp_path,

@@ -58,13 +58,7 @@ from evtribo.analysis.outputs import (
     write_analysis,
 )
 from evtribo.analysis.provenance import changed_since, input_files, provenance
-from evtribo.analysis.reuse import (
-    HashMemo,
-    OutcomeStore,
-    context_text,
-    keep_outcomes,
-    kept_outcomes,
-)
+from evtribo.analysis.reuse import OutcomeStore, context_text, keep_outcomes, kept_outcomes
 from evtribo.analysis.settings import AnalysisSettings, study_settings
 from evtribo.analysis.trial import (
     SINE_TRACE_CSV_COLUMNS,
@@ -81,8 +75,8 @@ from evtribo.analysis.workers import (
     run_tasks,
     trial_meta,
 )
-from evtribo.cache import default_cache_dir
 from evtribo.errors import StudyError
+from evtribo.memo import HashMemo, default_cache_dir
 from evtribo.resultdir import locked, recover
 from evtribo.study import Study, TrialRef, load_study
 

@@ -35,15 +35,15 @@ import numpy as np
 import pandas as pd
 
 from evtribo.files import read_entry, write_checksummed
-from evtribo.memo import SETTLED_S, HashMemo, software_fingerprint, tree_digest
+from evtribo.memo import software_fingerprint
 
 if TYPE_CHECKING:
     from evtribo.analysis.workers import TrialOutcome, TrialTask
 
 log = logging.getLogger(__name__)
 
-__all__ = ["SETTLED_S", "HashMemo", "OutcomeStore", "context_text", "keep_outcomes",
-           "kept_outcomes", "source_fingerprint", "tree_digest"]
+__all__ = ["OutcomeStore", "context_text", "keep_outcomes", "kept_outcomes",
+           "source_fingerprint"]
 
 #: Bumped whenever what an outcome file holds changes.
 OUTCOME_VERSION = 1

@@ -209,10 +209,8 @@ class _Grid:
     tangential_smooth: npt.NDArray[np.float64]
     span: int
     """Samples of the moving average (odd)."""
-    hole: npt.NDArray[np.bool_]
-    """Where a force is missing."""
     holes: npt.NDArray[np.intp]
-    """The runs of :attr:`hole` longer than :attr:`half`, ``(start, stop)`` per row."""
+    """Where a force is missing for longer than :attr:`half`: ``(start, stop)`` per row."""
 
     @property
     def half(self) -> int:
@@ -237,7 +235,7 @@ def _smoothed(t: npt.NDArray[np.float64], normal: npt.ArrayLike, tangential: npt
     hole = ~(np.isfinite(fn) & np.isfinite(ft))
     runs = np.array(true_runs(hole) if hole.any() else [], dtype=np.intp).reshape(-1, 2)
     return _Grid(dt, fn, ft, moving_average(fn, span, min_fraction=0.75),
-                 moving_average(ft, span, min_fraction=0.75), span, hole,
+                 moving_average(ft, span, min_fraction=0.75), span,
                  runs[runs[:, 1] - runs[:, 0] > span // 2])
 
 
