@@ -168,6 +168,29 @@ def remove_hum(x: npt.ArrayLike, rate_Hz: float, hum: Hum) -> FloatArray:
     return y
 
 
+def friction_oscillates(waveform: str | None, frequency_Hz: float | None,
+                        rate_Hz: float) -> bool:
+    """Whether the friction oscillates slowly enough to be seen at *rate_Hz*: at twice the
+    drive's frequency, a sine's always, a square wave's when the layers conduct (a pulse
+    after each edge). Such a trial's windows span whole periods of it and its hum is
+    notched out (``hum = "auto"``).
+
+    Parameters
+    ----------
+    waveform : str or None
+    frequency_Hz : float or None
+        The drive's frequency, Hz.
+    rate_Hz : float
+        The forces' sample rate, Hz.
+
+    Returns
+    -------
+    bool
+    """
+    return (waveform in ("sine", "square") and bool(frequency_Hz)
+            and 2 * float(frequency_Hz or 0) < 0.4 * rate_Hz)
+
+
 def modulation_lines(waveform: str | None, frequency_Hz: float | None,
                      rate_Hz: float) -> list[float]:
     """Frequencies the friction itself may oscillate at: ``2 k f`` (up to the Nyquist
@@ -195,4 +218,4 @@ def modulation_lines(waveform: str | None, frequency_Hz: float | None,
     return [k * f2 for k in range(1, min(n, 50) + 1)]
 
 
-__all__ = ["Hum", "find_hum", "modulation_lines", "remove_hum"]
+__all__ = ["Hum", "find_hum", "friction_oscillates", "modulation_lines", "remove_hum"]

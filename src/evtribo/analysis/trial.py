@@ -27,7 +27,7 @@ import pandas as pd
 from evtribo._docs import fill_doc
 from evtribo.analysis.align import AlignedForces, align_forces
 from evtribo.analysis.excitation import Excitation, excitation_of, window_amplitudes
-from evtribo.analysis.hum import find_hum, modulation_lines, remove_hum
+from evtribo.analysis.hum import find_hum, friction_oscillates, modulation_lines, remove_hum
 from evtribo.analysis.observed import PieceObserver, PieceState, lift_exclusion
 from evtribo.analysis.pieces import check_seconds, continuous_pieces, describe_gap, restrict
 from evtribo.analysis.settings import AnalysisSettings
@@ -316,12 +316,9 @@ def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, setting
     exc = excitation_of(signals, given, aligned.t, settings.guard_s, warn)
     info = exc.info
     smooth, quantum = settings.smooth_s, HUM_FREE_S
-    # the friction oscillates at twice the drive's frequency: a sine's always, a square
-    # wave's when the layers conduct (a pulse after each edge); slow enough to be seen,
-    # windows span whole periods of it
-    oscillates = (info["waveform"] in ("sine", "square") and bool(info.get("frequency_Hz"))
-                  and 2 * float(info["frequency_Hz"]) < 0.4 * aligned.rate_Hz)
-    if oscillates:
+    oscillates = friction_oscillates(info["waveform"], info.get("frequency_Hz"),
+                                     aligned.rate_Hz)
+    if oscillates:  # windows span whole periods of it
         smooth = max(smooth, 1.0 / float(info["frequency_Hz"]))
         quantum = 0.5 / float(info["frequency_Hz"])
     if settings.hum == "remove" or (settings.hum == "auto" and oscillates):

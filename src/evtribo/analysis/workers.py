@@ -30,6 +30,7 @@ from typing import Any
 
 import pandas as pd
 
+from evtribo.analysis.hum import friction_oscillates
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals, empty_windows, failed_row
 from evtribo.cache import default_cache_dir, load_trial
@@ -253,16 +254,14 @@ def analyze_batch(tasks: Sequence[TrialTask]) -> list[TrialOutcome]:
 def _filters(task: TrialTask, settings: AnalysisSettings) -> bool:
     """Whether the trial's analysis will likely filter its forces (mains hum) or take their
     spectra: what imports scipy.signal (0.6 s) into the process that analyses it. Guessed
-    from the sidecar as :mod:`evtribo.analysis.trial` decides from the signals: a sine
-    drive, or a square wave slow enough for the friction's oscillation to be seen at the
-    load cells' rate (taken as at most :data:`FASTEST_CELLS_HZ`); a wrong guess costs time,
-    never a result."""
+    from the sidecar: a sine drive (its spectrum), or a drive whose friction oscillates
+    (:func:`~evtribo.analysis.hum.friction_oscillates`, at the load cells' rate taken as
+    at most :data:`FASTEST_CELLS_HZ`); a wrong guess costs time, never a result."""
     if settings.hum == "remove":
         return True
     meta = trial_meta(task.ref)
-    slow_square = (meta.waveform == "square" and bool(meta.frequency_Hz)
-                   and 2 * float(meta.frequency_Hz or 0) < 0.4 * FASTEST_CELLS_HZ)
-    return meta.waveform == "sine" or (slow_square and settings.hum == "auto")
+    return meta.waveform == "sine" or (settings.hum == "auto" and friction_oscillates(
+        meta.waveform, meta.frequency_Hz, FASTEST_CELLS_HZ))
 
 
 def batches(tasks: Sequence[TrialTask], jobs: int, settings: AnalysisSettings
