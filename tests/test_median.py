@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evtribo.median import SAMPLE, SMALL, median
+from evtribo.median import SAMPLE, SMALL, _bracketed, median
 
 
 @st.composite
@@ -49,3 +49,23 @@ def test_the_median_is_numpys_bit_for_bit(x):
     got = median(x)
     assert got == expect or (np.isnan(got) and np.isnan(expect))
     assert np.float64(got).tobytes() == np.float64(expect).tobytes()
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(1, 60), st.integers(0, 2**32 - 1), st.integers(0, 3), st.data())
+def test_any_bracket_gives_numpys_median_or_nothing(n, seed, distinct, data):
+    """Whatever values bracket the middle (the sample's guess, right or wrong; at, inside or
+    past the middle positions, or none of the array's values), the median from the values
+    between them is numpy's, bit for bit, or is not given."""
+    rng = np.random.default_rng(seed)
+    x = (rng.integers(0, distinct + 1, n) if distinct else rng.normal(size=n)).astype(float)
+    pool = sorted({*x.tolist(), -np.inf, np.inf, *(x + 0.5).tolist()})
+    lo = data.draw(st.sampled_from(pool))
+    hi = data.draw(st.sampled_from([v for v in pool if v >= lo]))
+    got = _bracketed(x, lo, hi)
+    if got is not None:
+        assert np.float64(got).tobytes() == np.float64(np.median(x)).tobytes()
+    s = np.sort(x)
+    middle = (s[(n - 1) // 2], s[n // 2])
+    if lo != hi and lo <= middle[0] and middle[1] <= hi:
+        assert got is not None  # both middle values bracketed: given

@@ -1,6 +1,7 @@
 """candump -L details held against python-can's reader: each frame's channel, raw DLC
 suffixes, DROPCOUNT notices, CAN XL frames, over-long classic frames."""
 
+import io
 from pathlib import Path
 
 import can
@@ -11,7 +12,7 @@ from hypothesis import strategies as st
 from test_readers import T0, assert_same_frames
 
 from evtribo.frames import frames_from_messages, read_frames
-from evtribo.frames.candump import read_candump
+from evtribo.frames.candump import iter_blocks, read_candump
 
 TEXT = Path(__file__).parent.parent / "data" / "candump-text"
 
@@ -133,3 +134,28 @@ def test_over_long_classic_frame_is_kept_as_python_can_keeps_it(tmp_path):
     row = int(np.flatnonzero(frames.arbitration_id == 0x064)[0])
     assert frames.dlc[row] == 10 and not frames.is_fd[row]
     assert frames.data[row, :10].tobytes() == bytes.fromhex("F001FFFFFFFFFFFFFFFF")
+
+
+class _ReadOnly:
+    """A stream that has read() and nothing else (no readinto)."""
+
+    def __init__(self, data: bytes) -> None:
+        self._io = io.BytesIO(data)
+
+    def read(self, n: int = -1) -> bytes:
+        return self._io.read(n)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.binary(max_size=30).map(lambda b: b.replace(b"\n", b"")), max_size=40),
+       st.booleans(), st.integers(1, 64), st.booleans())
+def test_blocks_are_the_stream_cut_after_newlines(lines, last_newline, block_size, read_only):
+    """iter_blocks (which reads into one buffer again and again) gives the stream's bytes
+    whole, in order, each block but the last ending with a newline, each kept block intact
+    after the next ones are read, whatever the block size against the lines' lengths."""
+    data = b"\n".join(lines) + (b"\n" if last_newline and lines else b"")
+    stream = _ReadOnly(data) if read_only else io.BytesIO(data)
+    blocks = list(iter_blocks(stream, block_size))
+    assert b"".join(blocks) == data
+    assert all(b.endswith(b"\n") for b in blocks[:-1])
+    assert all(blocks)
