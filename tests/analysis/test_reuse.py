@@ -10,6 +10,8 @@
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import json
 import os
 import shutil
@@ -18,6 +20,8 @@ from pathlib import Path
 
 import pytest
 from _faults import fail_trial
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from evtribo import memo as hash_memo
 from evtribo.acquisition.simulator import (
@@ -26,7 +30,7 @@ from evtribo.acquisition.simulator import (
     default_subjects,
     simulate_study,
 )
-from evtribo.analysis import pipeline, provenance
+from evtribo.analysis import pipeline, provenance, reuse
 from evtribo.analysis import workers as trial_workers
 from evtribo.study import load_study
 
@@ -287,3 +291,28 @@ def test_hashing_ahead_never_fails_the_analysis(tmp_path):
     broken = hash_memo.prehash(tmp_path / "no-study", tmp_path / "file" / "cache")
     broken.finish()  # no study, a cache that cannot be written: nothing raised
     assert not broken.is_alive()
+
+
+@dataclasses.dataclass(frozen=True)
+class _Part:
+    name: str
+    extra: dict
+    note: str = dataclasses.field(default="", compare=False)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.recursive(st.none() | st.booleans() | st.integers() | st.floats(allow_nan=False)
+                    | st.text(max_size=5),
+                    lambda inner: st.lists(inner, max_size=3) | st.dictionaries(
+                        st.text(max_size=3) | st.integers() | st.tuples(st.integers()),
+                        inner, max_size=3), max_leaves=12),
+       st.text(max_size=3))
+def test_the_context_text_tells_values_apart(extra, note):
+    """The text a kept outcome's key is made from: the same for equal values (a compared
+    field only), different when any nested value differs, whatever the keys (tuples too,
+    which JSON cannot hold)."""
+    text = reuse.context_text(part=_Part("a", {"x": extra}, note))
+    assert text == reuse.context_text(part=_Part("a", {"x": copy.deepcopy(extra)}, "other"))
+    assert text != reuse.context_text(part=_Part("a", {"x": [extra]}))
+    assert text != reuse.context_text(part=_Part("b", {"x": extra}))
+    assert json.loads(text)["part"]["name"] == "a"

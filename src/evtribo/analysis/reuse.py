@@ -102,12 +102,20 @@ class OutcomeStore:
         self.directory = None if directory is None else \
             Path(directory).expanduser() / "results"
         self._base = hashlib.sha256(f"{source_fingerprint()}\0{context}".encode())
+        self._keys: dict[int, str] = {}
 
     def key(self, trial: str, log_sha256: str) -> str:
         """The key of a trial (its description as text) whose log has this hash."""
         h = self._base.copy()
         h.update(f"\0{log_sha256}\0{trial}".encode("utf-8", "surrogateescape"))
         return h.hexdigest()[:40]
+
+    def trial_key(self, task: TrialTask) -> str:
+        """The key of a trial of this analysis (worked out once: the outcome is looked for
+        before the analysis and kept after it)."""
+        if task.index not in self._keys:
+            self._keys[task.index] = self.key(_trial_text(task), task.log[0])
+        return self._keys[task.index]
 
     def get(self, key: str) -> dict[str, Any] | None:
         """The outcome kept under *key* (``row``, ``windows``, ``warnings``, ``trace``), or
@@ -150,18 +158,31 @@ def context_text(**parts: Any) -> str:
     -------
     str
     """
-    def plain(v: Any) -> Any:
-        if dataclasses.is_dataclass(v) and not isinstance(v, type):
-            return {f.name: plain(getattr(v, f.name)) for f in dataclasses.fields(v)
-                    if f.compare}
-        if isinstance(v, Mapping):
-            return {str(k): plain(x) for k, x in v.items()}
-        if isinstance(v, list | tuple):
-            return [plain(x) for x in v]
-        if isinstance(v, str | int | float | bool) or v is None:
+    try:  # JSON's encoder walks the lists and dicts of a sidecar in C
+        return json.dumps(parts, sort_keys=True, default=_plain_part)
+    except TypeError:  # a key JSON cannot hold (a tuple's, say): every key as text
+        def plain(v: Any) -> Any:
+            v = _plain_part(v) if not isinstance(v, _JSON_VALUES) else v
+            if isinstance(v, dict):
+                return {str(k): plain(x) for k, x in v.items()}
+            if isinstance(v, list | tuple):
+                return [plain(x) for x in v]
             return v
-        return repr(v)
-    return json.dumps({k: plain(v) for k, v in parts.items()}, sort_keys=True)
+        return json.dumps({k: plain(v) for k, v in parts.items()}, sort_keys=True)
+
+
+#: What JSON writes as it is.
+_JSON_VALUES = (dict, list, tuple, str, int, float, bool, type(None))
+
+
+def _plain_part(v: Any) -> Any:
+    """A value of :func:`context_text` JSON does not write itself: a dataclass as its
+    compared fields, a mapping as a dict, anything else as its ``repr``."""
+    if dataclasses.is_dataclass(v) and not isinstance(v, type):
+        return {f.name: getattr(v, f.name) for f in dataclasses.fields(v) if f.compare}
+    if isinstance(v, Mapping):
+        return dict(v)
+    return repr(v)
 
 
 def _trial_text(task: TrialTask) -> str:
@@ -193,7 +214,7 @@ def kept_outcomes(store: OutcomeStore, tasks: list[TrialTask]
     said = logging.getLogger("evtribo.analysis.trial")
     kept, todo = [], []
     for task in tasks:
-        found = store.get(store.key(_trial_text(task), task.log[0]))
+        found = store.get(store.trial_key(task))
         if found is None:
             todo.append(task)
             continue
@@ -226,5 +247,5 @@ def keep_outcomes(store: OutcomeStore, tasks: list[TrialTask],
     for outcome in outcomes:
         task = by_index.get(outcome.index)
         if outcome.error is None and task is not None:
-            store.put(store.key(_trial_text(task), task.log[0]), outcome.row,
+            store.put(store.trial_key(task), outcome.row,
                       outcome.windows, outcome.warnings, outcome.trace)
