@@ -20,7 +20,9 @@ For an even count :func:`numpy.median` partitions about both middle positions at
 costs four to five times as much on jittered time steps (numpy 2.x); the two values are
 combined as numpy combines them (their mean).
 
-Short arrays and arrays holding a NaN go to :func:`numpy.median`.
+An array holding a NaN goes to :func:`numpy.median`; a short one (fewer than
+:data:`SMALL` values: the steady-sliding search takes two medians per stroke) is partitioned
+as numpy partitions it, without the checks that make up most of numpy's time there.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ import numpy.typing as npt
 
 __all__ = ["median"]
 
-#: Below this many values numpy's own median is as fast.
+#: Below this many values a partition of the whole array is as fast as any shortcut.
 SMALL = 8192
 #: About this many values are sampled to bracket the middle.
 SAMPLE = 4096
@@ -52,8 +54,13 @@ def median(x: npt.ArrayLike) -> float:
     """
     a = np.asarray(x, dtype=np.float64).ravel()
     n = a.size
-    if n < SMALL or np.isnan(a).any():
+    if not n or np.isnan(a).any():
         return float(np.median(a)) if n else float("nan")
+    if n < SMALL:  # what numpy.median does, without its generality (27 -> 11 us at 2400)
+        k = n // 2
+        if n % 2:
+            return float(np.partition(a, k)[k])
+        return float(np.mean(np.partition(a, (k - 1, k))[k - 1:k + 1]))
     upper = n // 2
     sample = np.sort(a[::max(n // SAMPLE, 1)])
     lo = sample[int((0.5 - WIDTH) * sample.size)]

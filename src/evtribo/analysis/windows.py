@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import itertools
 import logging
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -262,16 +263,14 @@ def _steady(grid: _Grid, a: int, b: int, *, level_fraction: float, contact_fract
     broken by holes longer than that."""
     fn_s = grid.normal_smooth[a:b]
     r = np.abs(grid.tangential_smooth[a:b]) / np.where(fn_s > 0, fn_s, np.nan)
-    ok = r >= level_fraction * np.median(r)
-    ok &= fn_s >= contact_fraction * np.median(fn_s)
+    ok = r >= level_fraction * median(r)
+    ok &= fn_s >= contact_fraction * median(fn_s)
     h = grid.half
     if h:  # erode by h samples on each side (outside the piece counts as not steady)
         okc = np.concatenate(([0], np.cumsum(ok)))
         full = np.zeros(ok.size, dtype=bool)
-        lo = np.arange(ok.size) - h
-        hi = np.arange(ok.size) + h + 1
-        inside = (lo >= 0) & (hi <= ok.size)
-        full[inside] = (okc[hi[inside]] - okc[lo[inside]]) == grid.span
+        if ok.size > 2 * h:  # points h from either end: okc[i + h + 1] - okc[i - h]
+            full[h:ok.size - h] = (okc[2 * h + 1:] - okc[:ok.size - 2 * h]) == grid.span
         ok = full
     # a hole in the data longer than half the smoothing span ends a steady run (the runs
     # of the whole grid, cut to the piece)
@@ -307,11 +306,10 @@ def _split(start: int, stop: int, min_len: int, max_len: int, q: int
     if n_q * q < min_len:
         return []
     first = start + ((stop - start) - n_q * q) // 2
-    parts = max(1, min(n_q, int(np.ceil(n_q * q / max_len))))
-    sizes = np.full(parts, n_q // parts)
-    sizes[: n_q % parts] += 1
-    edges = first + q * np.concatenate(([0], np.cumsum(sizes)))
-    return [(int(a), int(b)) for a, b in itertools.pairwise(edges) if b - a >= min_len]
+    parts = max(1, min(n_q, math.ceil(n_q * q / max_len)))
+    sizes = [n_q // parts + (k < n_q % parts) for k in range(parts)]
+    edges = [first + q * e for e in itertools.accumulate(sizes, initial=0)]
+    return [(a, b) for a, b in itertools.pairwise(edges) if b - a >= min_len]
 
 
 def with_means(windows: pd.DataFrame, normal: npt.ArrayLike, tangential: npt.ArrayLike
