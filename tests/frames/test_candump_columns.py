@@ -81,3 +81,28 @@ def test_digit_words_tell_digits_from_any_other_byte(rows):
     for r, v, d in zip(rows, value, digits, strict=True):
         if d:
             assert v == float(int(r))
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(1, 50), st.sampled_from(["can0", "vcan1"]), st.data())
+def test_a_block_of_one_line_length_is_read_as_lines_whatever_one_byte_becomes(n, channel,
+                                                                               data):
+    """Lines of one length are read as a matrix, unless a row fails: a byte changed into a
+    newline (two lines where the matrix has one row, every line end still in its place) or
+    into anything else gives what the per-line parser gives."""
+    rows = [f"({T0 + k * 5e-4:.6f}) {channel} 0C1#{k % 256:02X}F1FF0060090000".encode()
+            for k in range(n)]
+    block = bytearray(b"".join(row + b"\n" for row in rows))
+    if data.draw(st.booleans()):
+        at = data.draw(st.integers(0, len(block) - 1))
+        block[at] = data.draw(st.sampled_from(b"\n" + _NOISE))
+    block = bytes(block)
+    bad: list = []
+    table, count = _parse_block(block, 1, lambda *a: bad.append(a))
+    ref, ref_bad = _per_line(block + (b"" if block.endswith(b"\n") else b"\n"))
+    assert count == block.count(b"\n") + (not block.endswith(b"\n"))
+    assert sorted(bad) == ref_bad
+    for name in ("timestamp", "arbitration_id", "dlc", "channel_index"):
+        np.testing.assert_array_equal(getattr(table, name), getattr(ref, name), err_msg=name)
+    np.testing.assert_array_equal(table.data[:, :8], ref.data[:, :8])
+    assert table.channel_names == ref.channel_names

@@ -57,27 +57,33 @@ from evtribo.frames.candump_writer import (
 from evtribo.frames.table import CLASSIC_WIDTH, FrameTable
 
 _BLOCK = 1 << 22  # bytes read at a time
+_HEAD = 1 << 12  # bytes searched for the end of a block's first line (longer: no matrix)
 
 def _parse_block(block: bytes | memoryview, first_line: int, on_bad: BadLineHandler
                  ) -> tuple[FrameTable, int]:
     """Frames of a block of whole lines, and the number of lines."""
     buf = np.frombuffer(block, dtype=np.uint8)
-    nl = np.flatnonzero(buf == 10)
-    step = int(nl[0]) + 1 if len(nl) else 0
-    if (step > 2 and len(block) == step * len(nl) and block[step - 2] != 13
-            and bool((nl[1:] - nl[:-1] == step).all())):
-        # every line has the same length: the block is already a (lines, length) matrix
-        n = len(nl)
-        out = _Chunk(n, CLASSIC_WIDTH)
+    head = np.flatnonzero(buf[:_HEAD] == 10)
+    step = int(head[0]) + 1 if len(head) else 0
+    if (step > 2 and len(buf) % step == 0 and buf[step - 2] != 13
+            and bool((buf[step - 1::step] == 10).all())):
+        # a newline ends every line of the first's length: if there is no other, the block
+        # is a (lines, length) matrix. There is none when every row parses (no check of a
+        # row lets a newline through), which spares a search of the whole block for them.
+        n = len(buf) // step
         mat = buf.reshape(n, step)[:, :step - 1]
         lay = _layout(mat[0].tobytes())
         if lay is not None:
+            out = _Chunk(n, CLASSIC_WIDTH)
             ok = _parse_group(mat, lay, None, out)
-            if not ok.all():
+            if ok.all():
+                return out.table(), n
+            if np.count_nonzero(buf == 10) == n:  # the rows are lines: a few are damaged
                 starts = np.arange(n) * step
                 _slow_lines(block, starts, starts + step - 1, np.flatnonzero(~ok),
                             first_line=first_line, on_bad=on_bad, out=out)
-            return out.table(), n
+                return out.table(), n
+    nl = np.flatnonzero(buf == 10)
     starts = np.concatenate(([0], nl + 1))
     ends = np.concatenate((nl, [len(buf)]))
     if starts[-1] >= len(buf):  # block ends with a newline

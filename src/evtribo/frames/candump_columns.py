@@ -93,10 +93,11 @@ class _Chunk:
         )
 
 
-def _digits_value(mat: npt.NDArray[np.uint8]
+def _digits_value(*parts: npt.NDArray[np.uint8]
                   ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]:
-    """Decimal digit columns (at most 16) to exact integers, as float64 (exact below 2**53),
-    and which rows hold only digits.
+    """Decimal digit columns (at most 16, given as blocks of columns read one after the
+    other: a timestamp's whole seconds and its fraction) to exact integers, as float64
+    (exact below 2**53), and which rows hold only digits.
 
     Eight ASCII digits at a time are read as one little-endian uint64 and folded in three
     multiply-shift-mask steps (the "SWAR" trick), instead of a loop over columns; the same
@@ -104,9 +105,12 @@ def _digits_value(mat: npt.NDArray[np.uint8]
     leaves it clear (at most ``'9'``) and adding 0x50 sets it (at least ``'0'``); a byte
     with its high bit set makes its row fail whatever the carries.
     """
-    n, k = mat.shape
+    n = parts[0].shape[0]
     padded = np.full((n, 16), 48, dtype=np.uint8)
-    padded[:, 16 - k:] = mat
+    at = 16 - sum(part.shape[1] for part in parts)
+    for part in parts:  # copied into place: no matrix of the blocks joined first
+        padded[:, at:at + part.shape[1]] = part
+        at += part.shape[1]
     raw = padded.view("<u8")
     high = np.uint64(0x8080808080808080)
     fails = (raw | (raw + np.uint64(0x4646464646464646))
@@ -211,7 +215,8 @@ def _channels(mat: npt.NDArray[np.uint8], lay: dict[str, int], out: _Chunk
 
     def code(row: int) -> int:
         name = mat[row, ch0:ch0 + width].tobytes().lstrip(b" ")
-        return -1 if not name or b" " in name else out.code(name)
+        # (a newline too: a row of a block taken as a matrix must not hide one)
+        return -1 if not name or b" " in name or b"\n" in name else out.code(name)
 
     if bool((keys == keys[0]).all()):
         first = code(0)
@@ -237,8 +242,8 @@ def _parse_group(mat: npt.NDArray[np.uint8], lay: dict[str, int],
         if not passed.all():
             failed.append(_rows_all(passed))
     if lay["dot"] >= 0:
-        whole, digits = _digits_value(np.concatenate(
-            [mat[:, lay["int0"]:lay["int1"]], mat[:, lay["dot"] + 1:lay["frac1"]]], axis=1))
+        whole, digits = _digits_value(mat[:, lay["int0"]:lay["int1"]],
+                                      mat[:, lay["dot"] + 1:lay["frac1"]])
         scale = 10.0 ** (lay["frac1"] - lay["dot"] - 1)
     else:
         whole, digits = _digits_value(mat[:, lay["int0"]:lay["int1"]])
