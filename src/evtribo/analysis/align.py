@@ -69,11 +69,24 @@ def _clean(t: npt.ArrayLike, value: npt.ArrayLike, name: str) -> tuple[FloatArra
         step = np.diff(t)
     if step.size and not (step > 0).all():  # repeated times: one sample, their mean
         first = np.flatnonzero(np.concatenate(([True], step != 0)))
-        counts = np.diff(np.append(first, t.size))
-        t, value = t[first], np.add.reduceat(value, first) / counts
+        t, value = t[first], _group_means(value, first)
     if t.size < 2:
         raise AnalysisError(f"the {name} channel has {t.size} usable sample(s); need at least 2")
     return t, value
+
+
+def _group_means(value: FloatArray, first: npt.NDArray[np.intp]) -> FloatArray:
+    """``np.add.reduceat(value, first) / counts``, the mean of each group of *value* that
+    starts at an index of *first*, summing only the groups of more than one value (a time
+    repeated is rare: most groups are one value, its own mean)."""
+    counts = np.diff(np.append(first, value.size))
+    out = value[first]
+    many = np.flatnonzero(counts > 1)
+    if many.size:  # each group's start and end, the last end left out when it is the end
+        bounds = np.stack([first[many], first[many] + counts[many]], axis=1).ravel()
+        sums = np.add.reduceat(value, bounds[:-1] if bounds[-1] == value.size else bounds)
+        out[many] = sums[0::2] / counts[many]
+    return out
 
 
 def nominal_period(t: npt.ArrayLike) -> float:

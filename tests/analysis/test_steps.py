@@ -1,5 +1,6 @@
-"""The steady-sliding search's steps held against their definitions, written plainly: the
-erosion of a stroke's steady points and the split of a steady run into windows."""
+"""Steps of the alignment and of the steady-sliding search held against their plain
+definitions: the means of samples at one time, the erosion of a stroke's steady points and
+the split of a steady run into windows."""
 
 import itertools
 
@@ -7,6 +8,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from evtribo.analysis.align import _group_means
 from evtribo.analysis.windows import _Grid, _split, _steady
 
 
@@ -56,3 +58,21 @@ def test_a_steady_run_splits_into_whole_quanta_about_its_middle(start, length, m
     assert all(type(x) is int and type(y) is int for x, y in got)
     assert all(start <= x < y <= stop and (y - x) % q == 0 for x, y in got)
     assert all(y - x < max_len + q for x, y in got)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.floats(allow_nan=False, allow_infinity=False, width=64), min_size=1,
+                max_size=60), st.data())
+def test_repeated_times_average_as_one_reduceat_does(values, data):
+    """The means of groups of samples at one time (most groups one sample) equal one
+    ``np.add.reduceat`` over every group divided by the counts, bit for bit, signed
+    zeros, huge values and a last group that runs to the end included."""
+    value = np.array(values)
+    starts = sorted(set(data.draw(st.lists(st.integers(1, len(values) - 1), max_size=20))
+                        if len(values) > 1 else []))
+    first = np.array([0, *starts], dtype=np.intp)
+    counts = np.diff(np.append(first, value.size))
+    with np.errstate(over="ignore", invalid="ignore"):
+        expect = np.add.reduceat(value, first) / counts
+        got = _group_means(value, first)
+    assert got.tobytes() == expect.tobytes()
