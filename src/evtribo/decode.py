@@ -41,7 +41,7 @@ from cantools.database.can import Database, Message
 
 from evtribo.dropped import missing_frames_received
 from evtribo.errors import UserInputError
-from evtribo.frames.table import FrameTable
+from evtribo.frames.table import FrameTable, take_rows
 from evtribo.rig import Rig, SignalRef
 from evtribo.signal_codec import SignalCodec
 from evtribo.signals import CellSignals, ExcitationSignals, TrialProvenance, TrialSignals
@@ -153,7 +153,7 @@ def decode_message(frames: FrameTable, message: Message, signals: list[str] | No
         log.warning("%d frames of %s (0x%X) are shorter than its %d bytes: not decoded",
                     short, message.name, message.frame_id, message.length)
     index = np.flatnonzero(full)
-    data = frames.data[index]
+    data = take_rows(frames.data, index)
     wanted = [s for s in message.signals if signals is None or s.name in signals]
     out = DecodedMessage(message.name, message.frame_id, bool(message.is_extended_frame),
                          frames.timestamp[index], index)

@@ -8,6 +8,8 @@ from pathlib import Path
 import can
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from evtribo.errors import LogFormatError
 from evtribo.frames import FrameTable, frames_from_messages, read_frames, write_candump
@@ -238,3 +240,30 @@ def test_write_candump_keeps_a_remote_frames_length(tmp_path):
     assert back.dlc.tolist() == list(range(9)) and back.is_remote.all()
     ref = list(can.CanutilsLogReader(path))
     assert [m.dlc for m in ref] == list(range(9))
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.integers(0, 40), st.integers(1, 64), st.data())
+def test_taking_frames_by_mask_or_index_is_indexing_each_column(n, width, data):
+    """FrameTable.take (which copies payload rows whole) gives each column indexed as numpy
+    indexes it, for a mask or for integers (repeated, negative, any order); a mask of
+    another length is refused as numpy refuses it."""
+    rng = np.random.default_rng(data.draw(st.integers(0, 2**32 - 1)))
+    table = FrameTable(timestamp=rng.random(n), arbitration_id=rng.integers(0, 2**29, n,
+                                                                              dtype=np.uint32),
+                       is_extended=rng.random(n) < 0.5, is_remote=rng.random(n) < 0.1,
+                       is_error=rng.random(n) < 0.1, is_fd=rng.random(n) < 0.5,
+                       dlc=rng.integers(0, 9, n, dtype=np.uint8),
+                       data=rng.integers(0, 256, (n, width), dtype=np.uint8))
+    if data.draw(st.booleans()):
+        index = rng.random(n) < 0.5
+    else:
+        index = np.array(data.draw(st.lists(st.integers(-n, n - 1), max_size=50)) if n else [],
+                         dtype=np.intp)
+    got = table.take(index)
+    for name in ("timestamp", "arbitration_id", "is_extended", "is_remote", "is_error",
+                 "is_fd", "dlc", "data", "channels"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(table, name)[index],
+                                      err_msg=name)
+    with pytest.raises(IndexError):
+        table.take(np.ones(n + 1, dtype=bool))
