@@ -51,7 +51,7 @@ def _missing(func) -> list[str]:
 #: The packages, by the prefixes of their modules' names.
 GROUPS = {
     "analysis": ("evtribo.analysis.", "evtribo.decode", "evtribo.cache", "evtribo.dropped",
-                 "evtribo.median", "evtribo.memo"),
+                 "evtribo.median", "evtribo.memo", "evtribo.running"),
     "acquisition": ("evtribo.acquisition.", "evtribo.frames.", "evtribo.rig",
                     "evtribo.signal_codec", "evtribo.lock", "evtribo.resultdir",
                     "evtribo.study", "evtribo.session."),

@@ -1,11 +1,13 @@
 """evtribo.median.median is numpy's median, bit for bit, on the arrays the analysis meets
-(time steps with jitter, rounding and pauses) and on any other, NaN included."""
+(time steps with jitter, rounding and pauses) and on any other, NaN included; and
+evtribo.running's counts are numpy's cumsum."""
 
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from evtribo.median import SAMPLE, SMALL, _bracketed, median
+from evtribo.running import running_count
 
 
 @st.composite
@@ -69,3 +71,13 @@ def test_any_bracket_gives_numpys_median_or_nothing(n, seed, distinct, data):
     middle = (s[(n - 1) // 2], s[n // 2])
     if lo != hi and lo <= middle[0] and middle[1] <= hi:
         assert got is not None  # both middle values bracketed: given
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.booleans(), max_size=300), st.booleans())
+def test_running_counts_are_numpys_cumsum(mask, initial):
+    """Counted in 32 bits, the running count of a mask is numpy's cumsum (a 0 first when
+    asked)."""
+    got = running_count(np.array(mask, dtype=bool), initial=initial)
+    expect = np.cumsum(np.array(mask, dtype=bool))
+    assert got.tolist() == ([0] if initial else []) + expect.tolist()

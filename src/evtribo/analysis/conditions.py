@@ -88,9 +88,10 @@ def condition_from_excitation(
     known &= t_grid <= te[-1] + hold
     out[known] = np.where(on[idx[known]], ON, OFF)
     switches = np.flatnonzero(on[1:] != on[:-1])
-    for k in switches:  # switch between te[k] (old state) and te[k+1] (new state)
-        lo = np.searchsorted(t_grid, te[k] - guard_s, side="left")
-        hi = np.searchsorted(t_grid, te[k + 1] + guard_s, side="right")
+    # each switch between te[k] (old state) and te[k+1] (new state)
+    los = np.searchsorted(t_grid, te[switches] - guard_s, side="left")
+    his = np.searchsorted(t_grid, te[switches + 1] + guard_s, side="right")
+    for lo, hi in zip(los.tolist(), his.tolist(), strict=True):
         out[lo:hi] = EXCLUDED
     return out
 

@@ -16,6 +16,7 @@ from evtribo._docs import fill_doc
 from evtribo.analysis.conditions import condition_from_excitation, constant_condition
 from evtribo.decode import FALLBACK_WAVEFORMS
 from evtribo.errors import AnalysisError
+from evtribo.median import median
 from evtribo.signals import ExcitationSignals, TrialSignals
 
 
@@ -191,7 +192,7 @@ def window_amplitudes(w: pd.DataFrame, exc: Excitation) -> npt.NDArray[np.float6
         hi = np.searchsorted(enabled_t, w.t_end.to_numpy()[on], side="right")
         for k, a, b in zip(on, lo, hi, strict=True):
             if b > a:
-                amplitude[k] = float(np.median(enabled_a[a:b]))
+                amplitude[k] = median(enabled_a[a:b])
     return amplitude
 
 

@@ -39,6 +39,7 @@ import pandas as pd
 
 from evtribo.analysis.conditions import EXCLUDED, ON
 from evtribo.median import median
+from evtribo.running import running_count
 
 log = logging.getLogger(__name__)
 
@@ -84,7 +85,7 @@ def moving_average(x: npt.ArrayLike, n: int, *, min_fraction: float = 1.0
         out[h:x.size - h] = (csum[n:] - csum[:-n]) / n
         return out
     np.cumsum(np.where(bad, 0.0, x), out=csum[1:])
-    cbad = np.concatenate(([0], np.cumsum(bad)))
+    cbad = running_count(bad, initial=True)
     total = csum[n:] - csum[:-n]
     nbad = cbad[n:] - cbad[:-n]
     good = n - nbad
@@ -267,7 +268,7 @@ def _steady(grid: _Grid, a: int, b: int, *, level_fraction: float, contact_fract
     ok &= fn_s >= contact_fraction * median(fn_s)
     h = grid.half
     if h:  # erode by h samples on each side (outside the piece counts as not steady)
-        okc = np.concatenate(([0], np.cumsum(ok)))
+        okc = running_count(ok, initial=True)
         full = np.zeros(ok.size, dtype=bool)
         if ok.size > 2 * h:  # points h from either end: okc[i + h + 1] - okc[i - h]
             full[h:ok.size - h] = (okc[2 * h + 1:] - okc[:ok.size - 2 * h]) == grid.span
@@ -341,7 +342,7 @@ def with_means(windows: pd.DataFrame, normal: npt.ArrayLike, tangential: npt.Arr
             count = np.arange(x.size + 1)
         else:
             np.cumsum(np.where(good, x, 0.0), out=total[1:])
-            count = np.concatenate(([0], np.cumsum(good)))
+            count = running_count(good, initial=True)
         with np.errstate(invalid="ignore", divide="ignore"):
             means.append((total[i1] - total[i0]) / (count[i1] - count[i0]))
     return windows.assign(normal_force_N=means[0], friction_force_N=np.abs(means[1]))
