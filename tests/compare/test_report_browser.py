@@ -46,7 +46,10 @@ def test_nothing_scrolls_sideways_at_1280px(report):
         page = browser.open(report.resolve().as_uri())
         _send(page, "Emulation.setDeviceMetricsOverride",
               {"width": WIDTH, "height": 900, "deviceScaleFactor": 1, "mobile": False})
-        assert page.wait_for("document.readyState === 'complete' && "
+        # (the new tab shows about:blank, complete and without images, until the report
+        # replaces it)
+        assert page.wait_for("location.protocol === 'file:' && "
+                             "document.readyState === 'complete' && "
                              "Array.from(document.images).every(i => i.complete)")
         assert page.eval("window.innerWidth") == WIDTH
         for unfolded in ("false", "true"):
