@@ -30,7 +30,7 @@ def running_count(mask: npt.ArrayLike, *, initial: bool = False
     ndarray of int32 (int64 beyond 2**31 - 1 elements)
     """
     a = np.asarray(mask, dtype=bool).ravel()
-    dtype = np.int32 if a.size <= np.iinfo(np.int32).max else np.int64
-    out = np.zeros(a.size + int(initial), dtype=dtype)
-    np.cumsum(a, dtype=dtype, out=out[int(initial):])
+    out: npt.NDArray[np.signedinteger] = np.zeros(
+        a.size + int(initial), dtype=np.int32 if a.size <= np.iinfo(np.int32).max else np.int64)
+    np.cumsum(a, dtype=out.dtype, out=out[int(initial):])
     return out
