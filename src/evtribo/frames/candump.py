@@ -114,9 +114,9 @@ def _parse_block(block: bytes | memoryview, first_line: int, on_bad: BadLineHand
     return out.table(), len(starts)
 
 
-def _slow_lines(block: bytes | memoryview, starts: npt.NDArray[np.intp], ends: npt.NDArray[np.intp],
-                which: npt.NDArray[np.intp], *, first_line: int, on_bad: BadLineHandler,
-                out: _Chunk) -> None:
+def _slow_lines(block: bytes | memoryview, starts: npt.NDArray[np.intp],
+                ends: npt.NDArray[np.intp], which: npt.NDArray[np.intp], *, first_line: int,
+                on_bad: BadLineHandler, out: _Chunk) -> None:
     for i in which:
         text = str(block[starts[i]:ends[i]], "utf-8", "replace")
         if not text.strip():

@@ -33,6 +33,7 @@ def take_rows(matrix: npt.NDArray[Any], index: npt.NDArray[np.intp]) -> npt.NDAr
     """
     return np.take(matrix, index, axis=0)
 
+
 @dataclass
 class FrameTable:
     """CAN frames, one array per field, all of length ``n``.
