@@ -19,7 +19,10 @@ setting costs: every trial analysed again from its decoded signals in the cache)
 Baseline: decoding alone, the way a script would do it without evtribo, with python-can's
 ``LogReader`` and cantools' ``decode_message`` frame by frame, timed on the study's first
 trial in the same run and scaled by the study's frame count; the whole analysis is compared
-against it. Run: ``python benchmarks/analyze.py [--jobs N] [--large]``.
+against it. The machine's speed drifts (a shared machine): cold, warm and the baseline are
+measured ``--repeat`` times (3 by default), in turn, so that each sees the same stretches of
+it, and their medians are compared (with the range of the runs). Run:
+``python benchmarks/analyze.py [--jobs N] [--large] [--repeat N]``.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ import dataclasses
 import logging
 import os
 import shutil
+import statistics
 import sys
 import tempfile
 import time
@@ -75,11 +79,20 @@ def study_of(root: Path, frames: int) -> tuple[Path, int, float]:
     return study, lines, sum(p.stat().st_size for p in logs) / 1e6
 
 
+def _spread(values: list[float]) -> str:
+    """The runs' range, or that there was one run."""
+    if len(values) == 1:
+        return "one run"
+    return f"{len(values)} runs {min(values):.2f}-{max(values):.2f} s"
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", default="1e6,4e6", help="study sizes in frames")
     parser.add_argument("--large", action="store_true", help="add a 16 M-frame study")
     parser.add_argument("--jobs", type=int, default=None, help="worker processes")
+    parser.add_argument("--repeat", type=int, default=3,
+                        help="cold, warm and baseline runs, in turn (medians compared)")
     args = parser.parse_args()
     logging.basicConfig(level=logging.ERROR)  # the studies' warnings are not the point here
     sizes = [int(float(s)) for s in args.frames.split(",")] + ([16_000_000] if args.large
@@ -93,25 +106,33 @@ def main() -> int:
             study, frames, size = study_of(root, n)
             cmd = [sys.executable, "-m", "evtribo", "analyze", str(study), "--jobs", str(jobs),
                    "--cache-dir", str(root / "cache"), "--force"]
-            cold, rss_cold = run([*cmd, "--out", str(root / "out-cold")])
-            warm, rss_warm = run([*cmd, "--out", str(root / "out-warm")])
+            first = sorted(study.glob("*/*.log"))[0]
+            dbc = study / "rig" / "default.dbc"
+            colds, warms, bases = [], [], []
+            for _ in range(max(1, args.repeat)):  # in turn: the three share the machine's drifts
+                shutil.rmtree(root / "cache", ignore_errors=True)
+                colds.append(run([*cmd, "--out", str(root / "out-cold")]))
+                warms.append(run([*cmd, "--out", str(root / "out-warm")]))
+                n_one, t_one = baseline_decode(first, dbc)
+                bases.append(t_one * frames / n_one)
             # what a change outside the trials costs (a file added to the study folder, the
             # analysis of the study forgotten): every trial's outcome reused
             shutil.rmtree(root / "cache" / ENTRIES)
-            kept, rss_kept = run([*cmd, "--out", str(root / "out-kept")])
-            again, rss_again = run([*cmd, "--out", str(root / "out-again"), "--recompute"])
-            first = sorted(study.glob("*/*.log"))[0]
-            n_one, t_one = baseline_decode(first, study / "rig" / "default.dbc")
-            base = t_one * frames / n_one
+            kept = run([*cmd, "--out", str(root / "out-kept")])
+            again = run([*cmd, "--out", str(root / "out-again"), "--recompute"])
+            base = statistics.median(bases)
             print(f"{frames / 1e6:5.2f} M frames ({size:6.0f} MB of logs); baseline decoding "
-                  f"{base:6.1f} s ({n_one / t_one / 1e3:.0f} k frames/s, timed on one trial)")
-            for name, secs, rss, target in (("cold", cold, rss_cold, " (target >= 25x)"),
-                                            ("warm", warm, rss_warm, " (target >= 40x)"),
-                                            ("trials kept", kept, rss_kept, ""),
-                                            ("recompute", again, rss_again, "")):
+                  f"{base:6.1f} s ({frames / base / 1e3:.0f} k frames/s, timed on one trial; "
+                  f"{_spread(bases)})")
+            for name, runs, target in (("cold", colds, " (target >= 25x)"),
+                                       ("warm", warms, " (target >= 40x)"),
+                                       ("trials kept", [kept], ""), ("recompute", [again], "")):
+                secs = statistics.median(r[0] for r in runs)
+                rss = max(r[1] for r in runs)
+                spread = f"; {_spread([r[0] for r in runs])}" if len(runs) > 1 else ""
                 print(f"  {name:11s} {secs:6.2f} s ({frames / secs / 1e6:5.2f} M frames/s, "
-                      f"peak RSS {rss:4.0f} MB): {base / secs:5.1f}x the baseline{target}",
-                      flush=True)
+                      f"peak RSS {rss:4.0f} MB{spread}): {base / secs:5.1f}x the baseline"
+                      f"{target}", flush=True)
     return 0
 
 
