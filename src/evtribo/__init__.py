@@ -20,13 +20,7 @@ The Python interface (study format §8; :mod:`evtribo.api`, imported on first us
 from __future__ import annotations
 
 import importlib
-from importlib.metadata import PackageNotFoundError, version
 from typing import Any
-
-try:
-    __version__ = version("evtribo")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0.0.0+unknown"
 
 #: The names of :mod:`evtribo.api`, re-exported here.
 _API = ("Fit", "Results", "Study", "Trial", "analyze", "compare", "load_results",
@@ -37,7 +31,18 @@ __all__ = ["Fit", "Results", "Study", "Trial", "__version__", "analyze", "compar
 
 
 def __getattr__(name: str) -> Any:
-    """The names of :mod:`evtribo.api`, imported on first use (PEP 562)."""
+    """The names of :mod:`evtribo.api`, imported on first use (PEP 562); ``__version__``
+    looked up on first use too (importlib.metadata takes 40-60 ms to import: a command that
+    does not print it, such as ``evtribo analyze`` of an unchanged study, does not pay it)."""
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            value = version("evtribo")
+        except PackageNotFoundError:  # pragma: no cover - running from a source tree
+            value = "0.0.0+unknown"
+        globals()[name] = value
+        return value
     if name in _API:
         api = importlib.import_module("evtribo.api")
         # evtribo.compare: the package, made callable as evtribo.api.compare by the import

@@ -19,22 +19,22 @@ import json
 import logging
 import os
 import platform
+import re
 import sys
 import threading
 import time
 import tomllib
+from collections.abc import Iterable
 from functools import cache
-from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 from typing import Any
 
-from evtribo import __version__
 from evtribo.files import atomic_write, sha256_file
 
 log = logging.getLogger(__name__)
 
-__all__ = ["SETTLED_S", "HashMemo", "default_cache_dir", "prehash", "software_fingerprint",
-           "software_versions", "tree_digest"]
+__all__ = ["SETTLED_S", "HashMemo", "default_cache_dir", "installed_distributions", "prehash",
+           "software_fingerprint", "software_versions", "tree_digest"]
 
 #: A file changed less than this long before it was hashed is hashed again next time, s.
 SETTLED_S = 3.0
@@ -162,7 +162,11 @@ def software_versions() -> dict[str, str | None]:
     dict
         Version by name (None for a library not installed).
     """
-    out: dict[str, str | None] = {"evtribo": __version__,
+    from importlib.metadata import PackageNotFoundError, version
+
+    import evtribo
+
+    out: dict[str, str | None] = {"evtribo": evtribo.__version__,
                                   "python": platform.python_version()}
     for key, dist in _PACKAGES.items():
         try:
@@ -172,10 +176,50 @@ def software_versions() -> dict[str, str | None]:
     return out
 
 
+def _normal(name: str) -> str:
+    """A distribution's name as its metadata folder spells it (PEP 503, ``_`` for runs of
+    ``-``, ``_`` and ``.``)."""
+    return re.sub(r"[-_.]+", "_", name).lower()
+
+
+def installed_distributions(names: Iterable[str]) -> list[str]:
+    """Where the distributions named are installed, and at which version: the path of each
+    one's metadata folder (``<name>-<version>.dist-info``, or ``.egg-info``), the first on
+    :data:`sys.path` as Python finds the package, read from the folders' listings.
+
+    What :func:`software_fingerprint` follows of the libraries: one listing per folder of
+    :data:`sys.path` instead of importing importlib.metadata (40-60 ms), so that an
+    unchanged study's results are written again that much sooner.
+
+    Parameters
+    ----------
+    names : iterable of str
+        Distribution names.
+
+    Returns
+    -------
+    list of str
+        One entry per name found, in the order of *names*; ``name: -`` for one not found.
+    """
+    wanted = {_normal(n): n for n in names}
+    found: dict[str, str] = {}
+    for entry in sys.path:
+        try:
+            listing = sorted(os.listdir(entry or "."))
+        except OSError:  # a zip, a missing folder
+            continue
+        for item in listing:
+            if item.endswith((".dist-info", ".egg-info")):
+                key = _normal(item.split("-", 1)[0])
+                if key in wanted and key not in found:
+                    found[key] = os.path.join(os.path.abspath(entry or "."), item)
+    return [found.get(key, f"{name}: -") for key, name in wanted.items()]
+
+
 @cache
 def software_fingerprint() -> str:
-    """SHA-256 of evtribo's source files, the Python build and the versions of the
-    libraries the analysis runs on.
+    """SHA-256 of evtribo's source files, the Python build and the libraries the analysis
+    runs on (their metadata folders: name, version and where they are installed).
 
     Returns
     -------
@@ -183,7 +227,7 @@ def software_fingerprint() -> str:
     """
     h = hashlib.sha256(f"{sys.version}\0".encode())
     h.update(tree_digest(Path(__file__).resolve().parent).encode())
-    h.update(json.dumps(software_versions(), sort_keys=True).encode())
+    h.update(json.dumps(installed_distributions(["evtribo", *_PACKAGES.values()])).encode())
     return h.hexdigest()
 
 

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+from evtribo import memo
 from evtribo.acquisition.simulator import TrialConfig, default_subjects, simulate_study
 from evtribo.analysis import unchanged
 from evtribo.cli import main
@@ -47,7 +48,8 @@ _PROBE = """
 import sys
 from evtribo.cli import main
 code = main(sys.argv[1:])
-print({m: m in sys.modules for m in ("numpy", "pandas", "scipy", "cantools", "can")})
+print({m: m in sys.modules for m in ("numpy", "pandas", "scipy", "cantools", "can",
+                                     "importlib.metadata")})
 sys.exit(code)
 """
 
@@ -60,9 +62,10 @@ def _analyze(*args: str) -> tuple[int, dict[str, bool], str]:
 
 
 def test_an_unchanged_study_is_written_again_without_the_analysis(study, tmp_path):
-    """The second run imports none of numpy, pandas, scipy, cantools; its tables are the
-    first run's byte for byte, and its summary.json is a full analysis' but for the run's
-    own id, times and jobs; the warnings are printed again."""
+    """The second run imports none of numpy, pandas, scipy, cantools, python-can or
+    importlib.metadata (the libraries are followed by their metadata folders); its tables
+    are the first run's byte for byte, and its summary.json is a full analysis' but for the
+    run's own id, times and jobs; the warnings are printed again."""
     cache = tmp_path / "cache"
     code, first_imports, _ = _analyze(str(study), "--out", str(tmp_path / "a"),
                                       "--cache-dir", str(cache))
@@ -163,3 +166,21 @@ def test_a_study_with_a_failed_trial_is_always_analysed(study, tmp_path):
     assert _summary(tmp_path / "first")["failed_trials"]
     assert not (cache / unchanged.ENTRIES).exists()
     assert unchanged.rerun(study, tmp_path / "again", options=OPTIONS, cache_dir=cache) is None
+
+
+def test_the_software_fingerprint_follows_the_libraries_metadata_folders(tmp_path,
+                                                                         monkeypatch):
+    """Another version of a library the analysis runs on, found first on sys.path, is
+    another software (so another key for every kept result); a folder that holds no
+    library's metadata is not."""
+    before = memo.software_fingerprint()
+    memo.software_fingerprint.cache_clear()
+    (tmp_path / "other").mkdir()
+    (tmp_path / "other" / "unrelated-1.0.dist-info").mkdir()
+    monkeypatch.syspath_prepend(str(tmp_path / "other"))
+    assert memo.software_fingerprint() == before
+    memo.software_fingerprint.cache_clear()
+    (tmp_path / "numpy-0.0.1.dist-info").mkdir()
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert memo.software_fingerprint() != before
+    memo.software_fingerprint.cache_clear()

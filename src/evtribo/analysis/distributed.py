@@ -22,7 +22,7 @@ from contextlib import contextmanager
 from types import ModuleType
 from typing import Any, TypeVar
 
-from evtribo import __version__
+import evtribo
 from evtribo.errors import AnalysisError, UserInputError
 
 __all__ = ["CONNECT_TIMEOUT_S", "INSTALL_HINT", "SCHEDULER_ENV", "check_workers", "connect",
@@ -137,7 +137,7 @@ def total_threads(client: Any) -> int:
 
 def _worker_view(paths: Sequence[str]) -> tuple[str, list[str]]:
     """On a worker: its evtribo version and which of *paths* it does not see."""
-    return __version__, [p for p in paths if not os.path.exists(p)]
+    return evtribo.__version__, [p for p in paths if not os.path.exists(p)]
 
 
 def _check_scheduler(client: Any, key: str) -> None:
@@ -147,11 +147,11 @@ def _check_scheduler(client: Any, key: str) -> None:
     except Exception as err:
         raise UserInputError(f"the Dask scheduler {client.scheduler.address} cannot load "
                              f"evtribo's tasks ({type(err).__name__}: {err}); install evtribo "
-                             f"{__version__} in the scheduler's environment too",
+                             f"{evtribo.__version__} in the scheduler's environment too",
                              key=key) from err
-    if version != __version__:
+    if version != evtribo.__version__:
         raise UserInputError(f"the Dask scheduler {client.scheduler.address} runs evtribo "
-                             f"{version}, this is {__version__}; install the same there",
+                             f"{version}, this is {evtribo.__version__}; install the same there",
                              key=key)
 
 
@@ -190,11 +190,11 @@ def check_workers(client: Any, paths: Sequence[str], *, key: str = "--dask") -> 
         if isinstance(view, BaseException):
             raise UserInputError(f"Dask worker {worker} cannot run evtribo "
                                  f"({type(view).__name__}: {view}); install evtribo "
-                                 f"{__version__} on every worker", key=key)
+                                 f"{evtribo.__version__} on every worker", key=key)
         version, missing = view
-        if version != __version__:
+        if version != evtribo.__version__:
             raise UserInputError(f"Dask worker {worker} runs evtribo {version}, this is "
-                                 f"{__version__}; install the same on every worker",
+                                 f"{evtribo.__version__}; install the same on every worker",
                                  key=key)
         if missing:
             raise UserInputError(f"Dask worker {worker} does not see {missing[0]}: the study "

@@ -19,8 +19,8 @@ import os
 import select
 import sys
 from collections.abc import Callable, Sequence
+from typing import Any
 
-from evtribo import __version__
 from evtribo.errors import EvtriboError
 
 #: Subcommands in the order ``evtribo --help`` lists them, with a line of help each.
@@ -44,6 +44,22 @@ log = logging.getLogger(__name__)
 
 #: Exit code of a command whose standard output was closed early (128 + SIGPIPE).
 EXIT_BROKEN_PIPE = 141
+
+
+class _Version(argparse.Action):
+    """``--version``: evtribo's version, looked up only when asked for."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS,
+                 default: str = argparse.SUPPRESS, help: str = "show the version and exit"
+                 ) -> None:
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: Any, option_string: str | None = None) -> None:
+        import evtribo
+
+        print(f"evtribo {evtribo.__version__}")  # on standard output, as argparse's own
+        parser.exit()
 
 
 def _add_common(parser: argparse.ArgumentParser) -> None:
@@ -80,7 +96,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         prog="evtribo",
         description="Tribometer experiments on electrovibration: acquire, analyse, compare.",
     )
-    parser.add_argument("--version", action="version", version=f"evtribo {__version__}")
+    parser.add_argument("--version", action=_Version)
     _add_common(parser)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, help_line in SUBCOMMANDS.items():
