@@ -225,8 +225,9 @@ def _windows(tared: Tared, cond: npt.NDArray[np.int8], smooth: float, quantum: f
 def _tare(aligned: AlignedForces, exc: Excitation, *, smooth: float, quantum: float,
           meta: TrialMeta,
           settings: AnalysisSettings, calibration: Calibration | None,
-          warn: Callable[[str], None]) -> tuple[Tared, pd.DataFrame]:
-    """Calibration and taring (:mod:`.tare`), and the steady-sliding windows they give."""
+          warn: Callable[[str], None]) -> tuple[Tared, pd.DataFrame, npt.NDArray[np.float64]]:
+    """Calibration and taring (:mod:`.tare`), the steady-sliding windows they give and the
+    windows' amplitudes (the friction loop groups the ON windows by them)."""
     mode = settings.tare
     cal = calibration or Calibration()
     tared = calibrate(aligned, cal if mode != "none" else
@@ -238,8 +239,8 @@ def _tare(aligned: AlignedForces, exc: Excitation, *, smooth: float, quantum: fl
                  "but no finger-lifted stretch was found in the forces (was it kept on the "
                  "screen?)")
     w = _windows(tared, exc.condition, smooth, quantum, settings)
+    amps = window_amplitudes(w, exc)
     if mode in ("auto", "friction-loop") and not w.empty:
-        amps = window_amplitudes(w, exc)
         groups = [None if c != "on" else ("on" if not np.isfinite(a) else a)
                   for c, a in zip(w.condition, amps, strict=True)]
         loop = friction_loop_offset(tared.forces.t, tared.forces.normal,
@@ -262,7 +263,7 @@ def _tare(aligned: AlignedForces, exc: Excitation, *, smooth: float, quantum: fl
              f"[rig.calibration] normal_offset_N): an offset of 10 mN would change F_el by "
              f"{1.0 / fn:.1f} % (offset / F_n, at this trial's {fn:.2f} N); record a tare "
              "stretch (evtribo acquire --tare-s) or give [rig.calibration] normal_offset_N")
-    return tared, w
+    return tared, w, amps
 
 
 def _offset_warnings(tared: Tared, w: pd.DataFrame, offsets: tuple[float | None, float | None],
@@ -323,14 +324,13 @@ def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, setting
         quantum = 0.5 / float(info["frequency_Hz"])
     if settings.hum == "remove" or (settings.hum == "auto" and oscillates):
         aligned = _dehum(aligned, info)
-    tared, w = _tare(aligned, exc, smooth=smooth, quantum=quantum, meta=meta,
+    tared, w, amplitude = _tare(aligned, exc, smooth=smooth, quantum=quantum, meta=meta,
                      settings=settings, calibration=calibration, warn=warn)
     aligned = tared.forces
     if observe is not None:
         observe(PieceState(aligned, exc.condition, tared.lifted, w, info))
     offsets = removed_offsets(tared, calibration if settings.tare != "none" else None)
     _offset_warnings(tared, w, offsets, warn)
-    amplitude = window_amplitudes(w, exc)
     if np.isnan(amplitude).any():
         warn("the amplitude of the ON windows is unknown (no excitation amplitude "
              "signal, no 'amplitude_V' in the sidecar)")
