@@ -20,6 +20,7 @@ import logging
 import os
 import platform
 import re
+import signal
 import sys
 import threading
 import time
@@ -249,29 +250,65 @@ def _likely_inputs(root: Path) -> list[Path]:
     return files
 
 
-class _Prehash(threading.Thread):
-    """:func:`prehash`'s thread; :meth:`finish` stops it after the file it is hashing."""
+def _hash_ahead(study_dir: str | os.PathLike[str], cache_dir: str | os.PathLike[str] | None,
+                halt: Any) -> None:
+    """Hash the study's likely inputs into its memo, stopping after the file being hashed
+    once *halt* is set; an error only leaves the rest to the analysis."""
+    try:
+        memo = HashMemo(cache_dir if cache_dir is not None else default_cache_dir(),
+                        study_dir)
+        for path in _likely_inputs(Path(study_dir)):
+            if halt.is_set():
+                break
+            try:
+                memo.sha256(path)
+            except OSError:
+                continue
+        memo.save()
+    except Exception as err:  # only a head start: the analysis hashes what is left
+        log.debug("inputs of %s not hashed ahead: %s", study_dir, err)
+
+
+def _hash_ahead_in_child(study_dir: str | os.PathLike[str],
+                         cache_dir: str | os.PathLike[str] | None, halt: Any) -> None:
+    """:func:`_hash_ahead` in a forked process: Ctrl-C is its parent's to handle."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _hash_ahead(study_dir, cache_dir, halt)
+
+
+class _Prehash:
+    """:func:`prehash`'s process (a thread where processes cannot be forked);
+    :meth:`finish` stops it after the file it is hashing."""
 
     def __init__(self, study_dir: str | os.PathLike[str],
                  cache_dir: str | os.PathLike[str] | None) -> None:
-        super().__init__(name="evtribo-prehash", daemon=True)
-        self.study_dir, self.cache_dir = study_dir, cache_dir
-        self._halt = threading.Event()
-
-    def run(self) -> None:
+        args: tuple[Any, ...]
         try:
-            memo = HashMemo(self.cache_dir if self.cache_dir is not None
-                            else default_cache_dir(), self.study_dir)
-            for path in _likely_inputs(Path(self.study_dir)):
-                if self._halt.is_set():
-                    break
-                try:
-                    memo.sha256(path)
-                except OSError:
-                    continue
-            memo.save()
-        except Exception as err:  # only a head start: the analysis hashes what is left
-            log.debug("inputs of %s not hashed ahead: %s", self.study_dir, err)
+            import multiprocessing
+
+            ctx = multiprocessing.get_context("fork")
+        except (ImportError, ValueError):  # no fork (Windows)
+            self._halt: Any = threading.Event()
+            args = (study_dir, cache_dir, self._halt)
+            self._runner: Any = threading.Thread(target=_hash_ahead, args=args, daemon=True,
+                                                 name="evtribo-prehash")
+        else:
+            self._halt = ctx.Event()
+            args = (study_dir, cache_dir, self._halt)
+            self._runner = ctx.Process(target=_hash_ahead_in_child, args=args, daemon=True,
+                                       name="evtribo-prehash")
+
+    def start(self) -> None:
+        """Start hashing."""
+        self._runner.start()
+
+    def join(self, timeout: float | None = None) -> None:
+        """Wait until every likely input is hashed (or *timeout*, s)."""
+        self._runner.join(timeout)
+
+    def is_alive(self) -> bool:
+        """Whether it is still hashing."""
+        return bool(self._runner.is_alive())
 
     def finish(self) -> None:
         """Stop after the file being hashed, keep what was hashed, and return."""
@@ -281,10 +318,12 @@ class _Prehash(threading.Thread):
 
 def prehash(study_dir: str | os.PathLike[str], cache_dir: str | os.PathLike[str] | None
             ) -> _Prehash:
-    """Start hashing a study's inputs into its memo, in a thread: the command line does it
-    while it imports the analysis, which leaves a core idle (hashlib and the reads release
-    the interpreter's lock for each block); the analysis then finds those hashed and
-    hashes the rest on every core.
+    """Start hashing a study's inputs into its memo, in a forked process: the command line
+    does it while it imports the analysis, which leaves a core idle; the analysis then
+    finds those hashed and hashes the rest on every core. A process, not a thread: a
+    thread would wait for the interpreter's lock after each block while the imports hold
+    it (and slow them down taking it), hashing at half speed. Where processes cannot be
+    forked, a thread does it.
 
     Parameters
     ----------
@@ -295,10 +334,10 @@ def prehash(study_dir: str | os.PathLike[str], cache_dir: str | os.PathLike[str]
 
     Returns
     -------
-    thread
+    _Prehash
         Started; call its ``finish()`` before the analysis reads the memo. Any error is
         left to the analysis, which hashes what was not.
     """
-    thread = _Prehash(study_dir, cache_dir)
-    thread.start()
-    return thread
+    ahead = _Prehash(study_dir, cache_dir)
+    ahead.start()
+    return ahead

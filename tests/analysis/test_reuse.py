@@ -266,10 +266,19 @@ def test_the_python_api_reuses_and_recomputes_as_the_command_does(study, tmp_pat
     assert again.electrostatic.equals(first.electrostatic)
 
 
-def test_inputs_hashed_ahead_are_those_the_analysis_reads(study, tmp_path, monkeypatch):
+@pytest.mark.parametrize("fork", [True, False], ids=["process", "thread"])
+def test_inputs_hashed_ahead_are_those_the_analysis_reads(study, tmp_path, monkeypatch, fork):
     """prehash (run by the command line while it imports the analysis) hashes exactly the
     study's inputs into the memo: an analysis after it hashes none of them again; and
-    stopped at once it leaves them to the analysis, with the same results."""
+    stopped at once it leaves them to the analysis, with the same results. In a forked
+    process, or a thread where there is no fork."""
+    if not fork:
+        import multiprocessing
+
+        def no_fork(method=None):
+            raise ValueError(f"cannot find context for {method!r}")
+
+        monkeypatch.setattr(multiprocessing, "get_context", no_fork)
     cache = tmp_path / "cache"
     ahead = hash_memo.prehash(study, cache)
     ahead.join()
@@ -280,8 +289,10 @@ def test_inputs_hashed_ahead_are_those_the_analysis_reads(study, tmp_path, monke
     assert hashed == []
     inputs = provenance.input_files(load_study(study))
     assert set(json.loads(memo_file.read_text())["files"]) == {r["_path"] for r in inputs}
+    assert not ahead.is_alive()
     stopped = hash_memo.prehash(study, tmp_path / "cache2")
     stopped.finish()
+    assert not stopped.is_alive()
     second = _run(study, tmp_path / "b", tmp_path / "cache2")
     assert second.summary["inputs"] == first.summary["inputs"]
 

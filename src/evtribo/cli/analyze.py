@@ -14,6 +14,7 @@ from evtribo.analysis.distributed import scheduler_address
 from evtribo.analysis.modes import TARE_MODES
 from evtribo.analysis.outputs import OUTPUT_FILES
 from evtribo.cli._signals import EXIT_TERMINATED, Terminated, sigterm_interrupts
+from evtribo.cli._startup import heavy_imports
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -132,9 +133,10 @@ def run(args: argparse.Namespace) -> int:
     from evtribo.memo import prehash
 
     hashing = prehash(args.study, args.cache_dir)  # while the analysis is imported
-    from evtribo.analysis.pipeline import analyze_study
-    from evtribo.analysis.settings import parse_setting
-    from evtribo.analysis.unchanged import remember
+    with heavy_imports():
+        from evtribo.analysis.pipeline import analyze_study
+        from evtribo.analysis.settings import parse_setting
+        from evtribo.analysis.unchanged import remember
 
     hashing.finish()
     overrides = dict(parse_setting(text) for text in args.set)
