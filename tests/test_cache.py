@@ -2,9 +2,13 @@
 
 import dataclasses
 import shutil
+import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from evtribo import cache
 from evtribo.errors import LogFormatError
@@ -230,3 +234,88 @@ def test_a_log_decoded_block_by_block_is_the_whole_log_decoded(tmp_path, block_s
     loaded = cache.load_trial(log, rig, cache=False)
     assert (loaded.frames, loaded.ignored_frames, loaded.skipped_lines) == (
         expected.frames, expected.ignored_frames, 1)
+
+
+_FLOATS = st.floats(allow_nan=True, allow_infinity=True, width=64)
+_COUNTERS = st.one_of(st.integers(-1, 255), st.integers(-(2 ** 63), 2 ** 63 - 1),
+                      st.integers(-40_000, 40_000))
+
+
+@st.composite
+def _cells(draw):
+    from evtribo.signals import CellSignals
+
+    n = draw(st.integers(0, 40))
+    t = np.sort(np.array(draw(st.lists(st.floats(-1e9, 1e9), min_size=n, max_size=n))))
+    value = np.array(draw(st.lists(_FLOATS, min_size=n, max_size=n)), dtype=np.float64)
+    counter = draw(st.one_of(st.none(), st.lists(_COUNTERS, min_size=n, max_size=n)))
+    return CellSignals(t, value, None if counter is None else np.array(counter, np.int64),
+                       draw(st.integers(0, 10 ** 6)), draw(st.sampled_from(["counter", "gaps"])),
+                       draw(st.one_of(st.none(), st.text(max_size=8))))
+
+
+@st.composite
+def _excitations(draw):
+    from evtribo.signals import ExcitationSignals
+
+    n = draw(st.integers(0, 30))
+
+    def signal(values):
+        return draw(st.one_of(st.none(), st.lists(values, min_size=n, max_size=n)))
+
+    steps = st.sampled_from([0.0, 60.0, 140.0, float("nan")])  # runs, as a drive's status
+    enabled, amplitude = signal(st.booleans()), signal(st.one_of(steps, _FLOATS))
+    frequency, waveform = signal(steps), signal(st.sampled_from(["sine", "square", None, ""]))
+    return ExcitationSignals(
+        t=np.array(draw(st.lists(st.floats(-1e9, 1e9), min_size=n, max_size=n))),
+        enabled=None if enabled is None else np.array(enabled, dtype=bool),
+        amplitude=None if amplitude is None else np.array(amplitude, dtype=np.float64),
+        frequency=None if frequency is None else np.array(frequency, dtype=np.float64),
+        waveform=None if waveform is None else np.array(waveform, dtype=object))
+
+
+@settings(max_examples=80, deadline=None)
+@given(normal=_cells(), tangential=_cells(), excitation=st.one_of(st.none(), _excitations()),
+       counts=st.tuples(*[st.integers(0, 10 ** 9)] * 4))
+def test_an_entry_reads_back_as_the_trial_it_holds(normal, tangential, excitation, counts):
+    """Written and read back, a trial's signals are the same values and types: any floats
+    (NaN, infinities), counters of any size (kept in fewer bytes), an excitation with any of
+    its signals missing, empty streams."""
+    from evtribo.signals import TrialSignals
+
+    trial = TrialSignals(normal, tangential, excitation, frames=counts[0],
+                         ignored_frames=counts[1], skipped_lines=counts[2],
+                         skipped_detail=((3, "bad"), (None, "worse")), channel="can0",
+                         logger_dropped=counts[3], warnings=("w",))
+    with tempfile.TemporaryDirectory() as folder:
+        cache._write_atomic(Path(folder), "k" * 40, cache._to_table(trial))
+        back = cache._read_entry(Path(folder), "k" * 40)
+    assert back is not None
+    for name in ("normal", "tangential"):
+        a, b = getattr(trial, name), getattr(back, name)
+        for part in ("t", "value"):
+            assert getattr(b, part).dtype == np.float64
+            np.testing.assert_array_equal(getattr(b, part), getattr(a, part))
+        if a.counter is None:
+            assert b.counter is None
+        else:
+            assert b.counter.dtype == np.int64
+            np.testing.assert_array_equal(b.counter, a.counter)
+        assert (b.dropped, b.dropped_method, b.dropped_note) == (
+            a.dropped, a.dropped_method, a.dropped_note)
+    if excitation is None:
+        assert back.excitation is None
+    else:
+        np.testing.assert_array_equal(back.excitation.t, excitation.t)
+        for part in ("enabled", "amplitude", "frequency", "waveform"):
+            want, got = getattr(excitation, part), getattr(back.excitation, part)
+            if want is None:
+                assert got is None, part
+            elif part == "waveform":
+                assert got.dtype == object and got.tolist() == want.tolist()
+            else:
+                assert got.dtype == want.dtype, part
+                np.testing.assert_array_equal(got, want, part)
+    assert (back.frames, back.ignored_frames, back.skipped_lines, back.logger_dropped) == counts
+    assert (back.skipped_detail, back.channel, back.warnings) == (
+        trial.skipped_detail, trial.channel, trial.warnings)

@@ -5,9 +5,10 @@
 The key is the SHA-256 of the log's bytes, the rig's fingerprint (DBC bytes and role
 mapping, :meth:`~evtribo.rig.Rig.fingerprint`) and :data:`CACHE_VERSION`; a changed log, DBC
 or mapping misses the cache. One file per trial, ``<key>.<checksum>.arrow`` (the Arrow IPC
-file format, LZ4-compressed: written and read back in a few milliseconds), holding the
-three streams one after the other (column ``stream``: 0 normal, 1 tangential, 2 excitation)
-and the counts in the schema metadata; ``<checksum>`` is the start of the SHA-256 of the
+file format, uncompressed: written and read back in a few milliseconds), holding the
+three streams one after the other (column ``stream``: 0 normal, 1 tangential, 2 excitation;
+the excitation's own columns run-end encoded, nulls over the cells' rows) and the counts in
+the schema metadata; ``<checksum>`` is the start of the SHA-256 of the
 file's own bytes, verified on every read: an entry whose bytes changed on disk (a flipped
 bit) is dropped and the trial decoded again, with a warning. Written to a temporary name and
 renamed, so a crash never leaves a half-written entry.
@@ -30,6 +31,7 @@ from typing import Any
 
 import numpy as np
 import pyarrow as pa
+import pyarrow.compute as pc
 from pyarrow import feather
 
 from evtribo._docs import fill_doc
@@ -45,12 +47,13 @@ from evtribo.signals import CellSignals, ExcitationSignals, TrialProvenance, Tri
 log = logging.getLogger(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
-CACHE_VERSION = 9  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
+CACHE_VERSION = 10  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
 #                    frames with an unknown multiplexer value ignored; 5: checksummed entries;
 #                    6: channel, logger's DROPCOUNT and decoder warnings kept; 7: waveform
 #                    codes named without a value table (evtribo.decode.FALLBACK_WAVEFORMS);
 #                    8: the reader's damaged lines kept, warned of again from the cache;
-#                    9: Arrow IPC files (were Parquet)
+#                    9: Arrow IPC files (were Parquet); 10: uncompressed, the
+#                    excitation's columns run-end encoded, counters in the narrowest ints
 _META = b"evtribo.trial"
 #: An entry's file name ends so.
 SUFFIX = ".arrow"
@@ -89,34 +92,62 @@ def _key(log_sha256: str, rig_fingerprint: str, channel: str | None) -> str:
     return h.hexdigest()[:40]
 
 
+#: Excitation signals and their Arrow types (a trial without one stores nulls).
+_EXCITATION_TYPES = {"enabled": pa.bool_(), "amplitude": pa.float64(),
+                     "frequency": pa.float64(), "waveform": pa.string()}
+
+
+def _narrowest(counter: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
+    """*counter* in the narrowest signed integers that hold its values (read back into
+    int64 exactly)."""
+    if counter.size:
+        lo, hi = int(counter.min()), int(counter.max())
+        for dtype in (np.int8, np.int16, np.int32):
+            info = np.iinfo(dtype)
+            if info.min <= lo and hi <= info.max:
+                return counter.astype(dtype)
+    return counter
+
+
+def _after_nulls(values: np.ndarray[Any, Any] | None, rows: int, name: str) -> pa.Array:
+    """A column of *rows* rows ending with *values* (all nulls without them), nulls before,
+    run-end encoded: the excitation's rows come last, and its signals hold their value for
+    many frames."""
+    typ = _EXCITATION_TYPES[name]
+    nulls = rows - (0 if values is None else len(values))
+    if values is None or not len(values):
+        ends, vals = ([nulls] if nulls else []), pa.nulls(1 if nulls else 0, typ)
+    else:
+        arr = pa.array(values.tolist() if name == "waveform" else values, type=typ)
+        runs = pc.run_end_encode(arr, run_end_type=pa.int64())
+        ends = np.asarray(runs.run_ends) + nulls
+        if nulls:
+            ends = np.concatenate([[nulls], ends])
+            vals = pa.concat_arrays([pa.nulls(1, typ), runs.values])
+        else:
+            vals = runs.values
+    return pa.RunEndEncodedArray.from_arrays(pa.array(ends, type=pa.int64()), vals)
+
+
 def _to_table(trial: TrialSignals) -> pa.Table:
     cells = (trial.normal, trial.tangential)
     ex = trial.excitation
     n_ex = 0 if ex is None else len(ex.t)
     parts = [len(c.t) for c in cells] + [n_ex]
-    total = sum(parts)
     stream = np.repeat(np.arange(3, dtype=np.int8), parts)
-    t = np.concatenate([c.t for c in cells] + ([ex.t] if ex is not None else []))
-    value = np.full(total, np.nan)
-    counter = np.full(total, -1, dtype=np.int64)
-    off = 0
-    for c in cells:
-        value[off:off + len(c.t)] = c.value
-        if c.counter is not None:
-            counter[off:off + len(c.t)] = c.counter
-        off += len(c.t)
+    t = np.concatenate([np.asarray(c.t, dtype=np.float64) for c in cells]
+                       + ([np.asarray(ex.t, dtype=np.float64)] if ex is not None else []))
+    value = np.concatenate([np.asarray(c.value, dtype=np.float64) for c in cells]
+                           + [np.full(n_ex, np.nan)])
+    counter = np.concatenate([np.full(len(c.t), -1, dtype=np.int64) if c.counter is None
+                              else np.asarray(c.counter, dtype=np.int64) for c in cells]
+                             + [np.full(n_ex, -1, dtype=np.int64)])
     cols: dict[str, pa.Array] = {
         "stream": pa.array(stream), "t": pa.array(t), "value": pa.array(value),
-        "counter": pa.array(counter),
+        "counter": pa.array(_narrowest(counter)),
     }
-    for name in ("enabled", "amplitude", "frequency", "waveform"):
-        vals = None if ex is None else getattr(ex, name)
-        if vals is None:
-            cols[name] = pa.nulls(total, pa.string() if name == "waveform" else
-                                  pa.bool_() if name == "enabled" else pa.float64())
-            continue
-        arr = pa.array(vals.tolist() if name == "waveform" else vals)
-        cols[name] = pa.concat_arrays([pa.nulls(total - n_ex, arr.type), arr])
+    for name in _EXCITATION_TYPES:
+        cols[name] = _after_nulls(None if ex is None else getattr(ex, name), len(t), name)
     meta = {
         "version": CACHE_VERSION, "frames": trial.frames, "ignored_frames": trial.ignored_frames,
         "skipped_lines": trial.skipped_lines, "channel": trial.channel,
@@ -127,8 +158,7 @@ def _to_table(trial: TrialSignals) -> pa.Table:
         "dropped_note": [trial.normal.dropped_note, trial.tangential.dropped_note],
         "counter": [trial.normal.counter is not None, trial.tangential.counter is not None],
         "excitation": None if ex is None else
-        [k for k in ("enabled", "amplitude", "frequency", "waveform")
-         if getattr(ex, k) is not None],
+        [k for k in _EXCITATION_TYPES if getattr(ex, k) is not None],
     }
     return pa.table(cols).replace_schema_metadata({_META: json.dumps(meta).encode()})
 
@@ -151,7 +181,7 @@ def _from_table(table: pa.Table) -> TrialSignals:
     if meta["excitation"] is not None:
         sel = np.flatnonzero(stream == 2)
         ex = ExcitationSignals(t=t[sel].copy(), **{
-            name: _excitation_column(table.column(name).take(pa.array(sel)), name)
+            name: _excitation_column(_rows(table.column(name), sel), name)
             for name in meta["excitation"]})
     return TrialSignals(cells[0], cells[1], ex, frames=int(meta["frames"]),
                         ignored_frames=int(meta["ignored_frames"]),
@@ -163,13 +193,22 @@ def _from_table(table: pa.Table) -> TrialSignals:
                         warnings=tuple(str(w) for w in meta["warnings"]))
 
 
-def _excitation_column(col: pa.ChunkedArray, name: str) -> np.ndarray[Any, Any]:
+def _rows(col: pa.ChunkedArray, sel: np.ndarray[Any, Any]) -> pa.Array:
+    """The rows *sel* of a run-end encoded column, decoded (a slice when they follow one
+    another, as written)."""
+    arr = col.combine_chunks()
+    if sel.size and sel[-1] - sel[0] + 1 == sel.size:
+        return pc.run_end_decode(arr.slice(int(sel[0]), int(sel.size)))
+    return pc.run_end_decode(arr).take(pa.array(sel))
+
+
+def _excitation_column(col: pa.Array, name: str) -> np.ndarray[Any, Any]:
     """One excitation signal read back: names (object), bools or floats."""
     if name == "waveform":
         return np.array(col.to_pylist(), dtype=object)
     if name == "enabled":
         return np.asarray(col.to_numpy(zero_copy_only=False), dtype=bool)
-    return np.asarray(col.to_numpy())
+    return np.asarray(col.to_numpy(zero_copy_only=False))
 
 
 def _check_unchanged(log_path: str | os.PathLike[str], expect: tuple[str, int, int],
@@ -317,15 +356,15 @@ def _read_entry(directory: Path, key: str) -> TrialSignals | None:
                       what="cache entry", then="the trial is decoded again")
 
 
-#: LZ4 (in every pyarrow wheel; a build without it writes the entries uncompressed).
-_COMPRESSION = "lz4" if pa.Codec.is_available("lz4") else "uncompressed"
-
-
 def _write_atomic(directory: Path, key: str, table: pa.Table) -> Path:
-    """Write *table* as the entry of *key*, named after its checksum; returns its path."""
+    """Write *table* as the entry of *key*, named after its checksum; returns its path.
+
+    Uncompressed: the times and forces are floats that LZ4 shrinks by a third at most, for
+    twice the time the rest of the write takes (12 of 20 ms for a trial of 670 k frames),
+    and an uncompressed entry is read back without a copy."""
     sink = pa.BufferOutputStream()
-    feather.write_feather(table, sink, compression=_COMPRESSION)
-    return write_checksummed(directory, key, sink.getvalue().to_pybytes(), SUFFIX)
+    feather.write_feather(table, sink, compression="uncompressed")
+    return write_checksummed(directory, key, memoryview(sink.getvalue()), SUFFIX)
 
 
 __all__ = ["CACHE_VERSION", "cache_key", "default_cache_dir", "load_trial", "rig_frames"]

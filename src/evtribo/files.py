@@ -225,14 +225,14 @@ def atomic_open(path: str | os.PathLike[str], mode: str = "wb", *,
         fsync_path(target.parent, directory=True)
 
 
-def atomic_write(path: str | os.PathLike[str], data: bytes | str, *,
+def atomic_write(path: str | os.PathLike[str], data: bytes | memoryview | str, *,
                  encoding: str = "utf-8", durable: bool = False) -> Path:
     """Write *data* to *path* whole or not at all (see :func:`atomic_open`).
 
     Parameters
     ----------
     path : path-like
-    data : bytes or str
+    data : bytes, memoryview or str
         The file's content (a str is encoded with *encoding*).
     encoding : str
     durable : bool
@@ -338,7 +338,8 @@ def read_entry(directory: Path, key: str, suffix: str, parse: Callable[[bytes], 
     return None
 
 
-def write_checksummed(directory: Path, key: str, data: bytes, suffix: str) -> Path:
+def write_checksummed(directory: Path, key: str, data: bytes | memoryview, suffix: str
+                      ) -> Path:
     """Write *data* as the entry of *key*, named after its checksum
     (``<key>.<checksum><suffix>``, whole or not at all), and remove the key's other entries.
 
@@ -347,7 +348,7 @@ def write_checksummed(directory: Path, key: str, data: bytes, suffix: str) -> Pa
     directory : Path
         Created if needed.
     key : str
-    data : bytes
+    data : bytes or memoryview
     suffix : str
 
     Returns
