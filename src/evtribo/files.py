@@ -132,9 +132,14 @@ def partial_path(path: str | os.PathLike[str]) -> Path:
     return p.with_name(p.name + PARTIAL_SUFFIX)
 
 
+#: Bytes :func:`sha256_file` reads at a time, into one buffer.
+HASH_BLOCK = 1 << 20
+
+
 def sha256_file(path: str | os.PathLike[str]) -> str:
-    """SHA-256 of a file's bytes, read in blocks of 4 MiB (large: a thread hashing beside
-    one that runs Python gives the interpreter's lock back once per block).
+    """SHA-256 of a file's bytes, read in blocks of :data:`HASH_BLOCK` into one buffer (a new
+    buffer per block costs the kernel's fresh zeroed pages: 0.6-0.8 s of CPU for 754 MB of
+    logs against 0.5 s); the reads and the hashing release the interpreter's lock.
 
     Parameters
     ----------
@@ -146,9 +151,11 @@ def sha256_file(path: str | os.PathLike[str]) -> str:
         64 hexadecimal digits.
     """
     digest = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 22), b""):
-            digest.update(block)
+    buf = bytearray(HASH_BLOCK)
+    view = memoryview(buf)
+    with open(path, "rb", buffering=0) as fh:
+        while n := fh.readinto(buf):
+            digest.update(view[:n])
     return digest.hexdigest()
 
 
