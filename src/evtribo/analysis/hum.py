@@ -6,8 +6,9 @@ the effects the analysis looks for; it also stands out in the friction's spectru
 sine drive's modulation is sought. :func:`find_hum` looks for a narrow peak at 50 or 60 Hz
 (and at their harmonics) standing well above the spectrum around it (Welch's density,
 :mod:`.psd`); :func:`remove_hum`
-notches those lines out with zero-phase IIR notch filters (``scipy.signal.iirnotch``, run
-forwards and backwards), which leave the rest of the spectrum, steps included, as it was.
+notches those lines out with zero-phase IIR notch filters (``scipy.signal.iirnotch``'s, run
+forwards and backwards as ``scipy.signal.filtfilt`` runs them: :mod:`.iir`), which leave the
+rest of the spectrum, steps included, as it was.
 
 A harmonic that coincides with a frequency the friction itself oscillates at (twice the
 drive's frequency and its multiples) is not notched: it cannot be told apart from the physics.
@@ -22,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from evtribo.analysis.iir import filtfilt, iirnotch
 from evtribo.analysis.psd import welch
 
 log = logging.getLogger(__name__)
@@ -156,14 +158,12 @@ def remove_hum(x: npt.ArrayLike, rate_Hz: float, hum: Hum) -> FloatArray:
     x = np.asarray(x, dtype=np.float64)
     if not hum.lines_Hz:
         return x.copy()
-    from scipy import signal  # 0.6 s to import (with scipy.stats): only to filter
-
     bad = ~np.isfinite(x)
     y = _filled(x)
     for freq in hum.lines_Hz:
-        b, a = signal.iirnotch(freq, NOTCH_Q, fs=rate_Hz)
+        b, a = iirnotch(freq, NOTCH_Q, rate_Hz)
         # pad by a few time constants of the notch (Q periods), reflected
-        y = signal.filtfilt(b, a, y, padlen=min(y.size - 1, int(3 * NOTCH_Q * rate_Hz / freq)))
+        y = filtfilt(b, a, y, min(y.size - 1, int(3 * NOTCH_Q * rate_Hz / freq)))
     y[bad] = np.nan
     return y
 

@@ -3,7 +3,8 @@
 Under a sine voltage the electrostatic force follows ``U(t)**2``, so the friction oscillates
 at twice the drive frequency. Each ON window's friction magnitude, on the uniform grid, is
 split into Hann-windowed, linearly detrended segments; the segments' power spectra are
-averaged over all windows (weighted by segment count), zero-padded for a fine frequency grid.
+averaged over all windows (weighted by segment count), zero-padded for a fine frequency grid
+(:func:`.psd.welch`, ``scipy.signal.welch``'s in numpy).
 Among the highest local maxima above ``min_frequency_Hz`` the one that stands out most over
 the spectrum around it (its power over a line through the log-log spectrum from a factor 1.5
 below to 1.5 above it, its own peak left out) is the oscillation, if it stands out further
@@ -21,6 +22,8 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 from scipy import special  # stats.chi2.isf is special.chdtri (scipy.stats: 0.5 s to import)
+
+from evtribo.analysis.psd import welch  # scipy.signal's, in numpy
 
 log = logging.getLogger(__name__)
 
@@ -72,10 +75,7 @@ def dominant_frequency(
     for a in arrays:
         if a.size < nperseg:
             continue
-        from scipy import signal
-
-        freqs, pxx = signal.welch(a, fs=rate_Hz, window="hann", nperseg=nperseg, nfft=nfft,
-                                  detrend="linear")
+        freqs, pxx = welch(a, rate_Hz, nperseg, nfft=nfft, detrend="linear")
         nseg = 1 + (a.size - nperseg) // (nperseg // 2)
         total = pxx * nseg if total is None else total + pxx * nseg
         weight += nseg

@@ -18,19 +18,17 @@ every worker (shared storage); the decoded-trial cache is the one this process w
 from __future__ import annotations
 
 import logging
-import math
 import os
 import signal
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import pandas as pd
 
-from evtribo.analysis.hum import friction_oscillates
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals, empty_windows, failed_row
 from evtribo.cache import default_cache_dir, load_trial
@@ -41,7 +39,7 @@ from evtribo.signals import TrialSignals
 from evtribo.study import TrialRef
 
 __all__ = ["MAX_WARNINGS_PER_TRIAL", "TrialOutcome", "TrialTask", "WorkerContext",
-           "analyze_batch", "analyze_in", "analyze_task", "batches", "run_tasks", "trial_meta"]
+           "analyze_in", "analyze_task", "run_tasks", "trial_meta"]
 
 log = logging.getLogger(__name__)
 
@@ -232,69 +230,6 @@ def analyze_task(task: TrialTask) -> TrialOutcome:
     return analyze_in(task, _context)
 
 
-#: Load cells sampled faster than this are rare (:func:`_filters`' guess), Hz.
-FASTEST_CELLS_HZ = 10_000.0
-
-
-def analyze_batch(tasks: Sequence[TrialTask]) -> list[TrialOutcome]:
-    """Trials analysed one after the other in this process (:func:`analyze_task`).
-
-    Parameters
-    ----------
-    tasks : sequence of TrialTask
-
-    Returns
-    -------
-    list of TrialOutcome
-        In the order of *tasks*.
-    """
-    return [analyze_task(task) for task in tasks]
-
-
-def _filters(task: TrialTask, settings: AnalysisSettings) -> bool:
-    """Whether the trial's analysis will likely filter its forces (mains hum) or take their
-    spectra: what imports scipy.signal (0.6 s) into the process that analyses it. Guessed
-    from the sidecar: a sine drive (its spectrum), or a drive whose friction oscillates
-    (:func:`~evtribo.analysis.hum.friction_oscillates`, at the load cells' rate taken as
-    at most :data:`FASTEST_CELLS_HZ`); a wrong guess costs time, never a result."""
-    if settings.hum == "remove":
-        return True
-    meta = trial_meta(task.ref)
-    return meta.waveform == "sine" or (settings.hum == "auto" and friction_oscillates(
-        meta.waveform, meta.frequency_Hz, FASTEST_CELLS_HZ))
-
-
-def batches(tasks: Sequence[TrialTask], jobs: int, settings: AnalysisSettings
-            ) -> list[list[TrialTask]]:
-    """The trials in the groups worker processes take one at a time.
-
-    The trials that import scipy.signal (:func:`_filters`) go together, first, in as few
-    groups as keep each no longer than a worker's share of the study: one process imports
-    it while the others analyse the rest, instead of every process importing it. Every
-    other trial is a group of its own.
-
-    Parameters
-    ----------
-    tasks : sequence of TrialTask
-    jobs : int
-        Worker processes.
-    settings : AnalysisSettings
-
-    Returns
-    -------
-    list of list of TrialTask
-        Every task once.
-    """
-    filters = [_filters(t, settings) for t in tasks]
-    heavy = [t for t, f in zip(tasks, filters, strict=True) if f]
-    light = [[t] for t, f in zip(tasks, filters, strict=True) if not f]
-    if len(heavy) < 2 or not light or jobs < 2:
-        return [[t] for t in tasks]
-    share = max(1, math.ceil(len(tasks) / jobs))
-    groups = math.ceil(len(heavy) / share)
-    return [heavy[k::groups] for k in range(groups)] + light
-
-
 def analyze_in(task: TrialTask, context: WorkerContext) -> TrialOutcome:
     """One trial analysed with *context* (what :func:`analyze_task` does with this
     process's context; a Dask worker is handed it with each task).
@@ -408,13 +343,11 @@ def run_tasks(tasks: list[TrialTask], jobs: int, context: WorkerContext,
     pool = ProcessPoolExecutor(max_workers=jobs, initializer=_init_process,
                                initargs=(context,))
     try:
-        futures = [pool.submit(analyze_batch, batch)
-                   for batch in batches(tasks, jobs, context.settings)]
+        futures = [pool.submit(analyze_task, task) for task in tasks]
         for fut in as_completed(futures):
-            for outcome in fut.result():
-                results.append(outcome)
-                if progress:
-                    progress(len(results), len(tasks))
+            results.append(fut.result())
+            if progress:
+                progress(len(results), len(tasks))
     except BaseException:  # an error, Ctrl-C, SIGTERM: no worker outlives the analysis
         _stop_workers(pool)
         raise
