@@ -115,8 +115,10 @@ def _after_nulls(values: np.ndarray[Any, Any] | None, rows: int, name: str) -> p
     many frames."""
     typ = _EXCITATION_TYPES[name]
     nulls = rows - (0 if values is None else len(values))
+    ends: np.ndarray[Any, Any]
     if values is None or not len(values):
-        ends, vals = ([nulls] if nulls else []), pa.nulls(1 if nulls else 0, typ)
+        ends = np.array([nulls] if nulls else [], dtype=np.int64)
+        vals = pa.nulls(1 if nulls else 0, typ)
     else:
         arr = pa.array(values.tolist() if name == "waveform" else values, type=typ)
         runs = pc.run_end_encode(arr, run_end_type=pa.int64())
