@@ -58,7 +58,7 @@ from evtribo.analysis.outputs import (
     write_analysis,
 )
 from evtribo.analysis.provenance import changed_since, input_files, provenance
-from evtribo.analysis.reuse import OutcomeStore, context_text, keep_outcomes, kept_outcomes
+from evtribo.analysis.reuse import OutcomeStore, context_text, keep_outcome, kept_outcomes
 from evtribo.analysis.settings import AnalysisSettings, study_settings
 from evtribo.analysis.trial import (
     SINE_TRACE_CSV_COLUMNS,
@@ -318,8 +318,10 @@ def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | Non
         jobs = total_threads(scheduler)
     context = WorkerContext(study.rig, None if cache_dir is None else os.fspath(cache_dir),
                             strict, settings)
-    done = run_tasks(tasks, jobs, context, progress, scheduler=scheduler)
-    keep_outcomes(store, tasks, done)
+    by_index = {t.index: t for t in tasks}
+    done = run_tasks(tasks, jobs, context, progress, scheduler=scheduler,  # each kept at once
+                     on_outcome=lambda outcome: keep_outcome(store, by_index[outcome.index],
+                                                             outcome))
     outcomes = sorted([*kept, *done, *not_run], key=lambda r: r.index)  # the study's order
     tables = _Tables.of(outcomes, settings)
     warnings = [*study.warnings, *warnings, *tables.warnings, *changed_since(inputs)]

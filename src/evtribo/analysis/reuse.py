@@ -42,7 +42,7 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-__all__ = ["OutcomeStore", "context_text", "keep_outcomes", "kept_outcomes",
+__all__ = ["OutcomeStore", "context_text", "keep_outcome", "kept_outcomes",
            "source_fingerprint"]
 
 #: Bumped whenever what an outcome file holds changes.
@@ -230,22 +230,18 @@ def kept_outcomes(store: OutcomeStore, tasks: list[TrialTask]
     return kept, todo
 
 
-def keep_outcomes(store: OutcomeStore, tasks: list[TrialTask],
-                  outcomes: list[TrialOutcome]) -> None:
-    """Keep the outcomes of the trials analysed (those that failed are analysed again).
+def keep_outcome(store: OutcomeStore, task: TrialTask, outcome: TrialOutcome) -> None:
+    """Keep the outcome of a trial analysed (one that failed is analysed again).
 
     Parameters
     ----------
     store : OutcomeStore
         Where outcomes are kept.
-    tasks : list of TrialTask
-        The trials analysed.
-    outcomes : list of TrialOutcome
-        Their outcomes.
+    task : TrialTask
+        The trial analysed.
+    outcome : TrialOutcome
+        Its outcome.
     """
-    by_index = {t.index: t for t in tasks}
-    for outcome in outcomes:
-        task = by_index.get(outcome.index)
-        if outcome.error is None and task is not None:
-            store.put(store.trial_key(task), outcome.row,
-                      outcome.windows, outcome.warnings, outcome.trace)
+    if outcome.error is None:
+        store.put(store.trial_key(task), outcome.row, outcome.windows, outcome.warnings,
+                  outcome.trace)
