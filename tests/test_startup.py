@@ -73,3 +73,38 @@ def test_heavy_imports_pause_the_collector_and_freeze_what_they_made(enabled):
     finally:
         gc.unfreeze()
         (gc.enable if was else gc.disable)()
+
+
+def _evtribo(*args: str, before: str = "", **env: str) -> subprocess.CompletedProcess[str]:
+    code = (f"import atexit, runpy, sys\n{before}\n"
+            "atexit.register(lambda: print('atexit ran', flush=True))\n"
+            f"sys.argv = ['evtribo', *{list(args)!r}]\n"
+            "runpy.run_module('evtribo', run_name='__main__')\n")
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=False,
+                          timeout=120, env={**os.environ, **env})
+
+
+def test_the_quick_exit_runs_the_exit_handlers_and_keeps_the_status_and_output(tmp_path):
+    """The exit handlers run, everything printed arrives (a long listing, piped), and the
+    status is the command's: 0 done, 2 bad input (its message on standard error)."""
+    done = _evtribo("model", "--list")
+    assert done.returncode == 0, done.stderr
+    plain = subprocess.run([sys.executable, "-c", "import sys; from evtribo.cli import main; "
+                            "sys.exit(main(['model', '--list']))"],
+                           capture_output=True, text=True, timeout=120, check=True)
+    assert len(plain.stdout) > 500
+    assert done.stdout == plain.stdout + "atexit ran\n"
+    bad = _evtribo("analyze", str(tmp_path / "no-study"), "--out", str(tmp_path / "out"))
+    assert bad.returncode == 2
+    assert "no-study" in bad.stderr and bad.stdout.strip() == "atexit ran"
+
+
+def test_the_quick_exit_waits_for_a_thread_an_exit_waits_for(tmp_path):
+    """A thread that is not a daemon still running: a plain exit, which waits for it."""
+    started = ("import threading, time\n"
+               "threading.Thread(target=lambda: (time.sleep(1.5), print('thread done', "
+               "flush=True))).start()")
+    out = _evtribo("analyze", str(tmp_path / "no-study"), "--out", str(tmp_path / "out"),
+                   before=started)
+    assert out.returncode == 2
+    assert out.stdout.split() == ["thread", "done", "atexit", "ran"]

@@ -39,7 +39,8 @@ from evtribo.signals import TrialSignals
 from evtribo.study import TrialRef
 
 __all__ = ["MAX_WARNINGS_PER_TRIAL", "TrialOutcome", "TrialTask", "WorkerContext",
-           "analyze_in", "analyze_task", "longest_first", "run_tasks", "trial_meta"]
+           "SINE_WORK", "analyze_in", "analyze_task", "longest_first", "run_tasks",
+           "trial_meta"]
 
 log = logging.getLogger(__name__)
 
