@@ -38,9 +38,8 @@ from evtribo.rig import Rig
 from evtribo.signals import TrialSignals
 from evtribo.study import TrialRef
 
-__all__ = ["MAX_WARNINGS_PER_TRIAL", "TrialOutcome", "TrialTask", "WorkerContext",
-           "SINE_WORK", "analyze_in", "analyze_task", "longest_first", "run_tasks",
-           "trial_meta"]
+__all__ = ["MAX_WARNINGS_PER_TRIAL", "SINE_WORK", "TrialOutcome", "TrialTask", "WorkerContext",
+           "analyze_in", "analyze_task", "longest_first", "run_tasks", "trial_meta"]
 
 log = logging.getLogger(__name__)
 
