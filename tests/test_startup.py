@@ -30,8 +30,8 @@ def test_the_command_line_starts_no_blas_threads_unless_asked():
     one = _python("from evtribo.cli._startup import one_blas_thread; one_blas_thread(); "
                   + THREADS)
     assert int(one) == 1
-    if (os.cpu_count() or 1) >= 2:  # OpenBLAS starts threads of its own on 2 cores or more
-        assert int(_python(THREADS)) > 1
+    if int(_python(THREADS)) > 1:  # this OpenBLAS starts its threads as it loads (on 2 cores
+        # or more; some builds only at their first large product, and then none here)
         asked = _python("from evtribo.cli._startup import one_blas_thread; "
                         "one_blas_thread(); " + THREADS, OPENBLAS_NUM_THREADS="2")
         assert int(asked) > 1
