@@ -1,6 +1,7 @@
 """Trial cache: a second load does not decode again; keys follow log and rig content."""
 
 import dataclasses
+import json
 import shutil
 import tempfile
 from pathlib import Path
@@ -241,13 +242,39 @@ _COUNTERS = st.one_of(st.integers(-1, 255), st.integers(-(2 ** 63), 2 ** 63 - 1)
                       st.integers(-40_000, 40_000))
 
 
+_SCALINGS = st.sampled_from([(1e-05, 0.0), (0.001, 0.0), (1 / 3, -100.5), (2.5e-5, 1e-3),
+                             (1.0, 0.0), (-0.01, 7.0)])
+
+
 @st.composite
-def _cells(draw):
+def _times(draw, n):
+    """Times of a log: whole microseconds (or nanoseconds) since 1970 as a reader gives
+    them, or any floats."""
+    kind = draw(st.sampled_from(["us", "ns", "any"]))
+    if kind == "any":
+        return np.sort(np.array(draw(st.lists(st.floats(-1e9, 1e9), min_size=n, max_size=n))))
+    per_s = 1e6 if kind == "us" else 1e9
+    start = draw(st.integers(0, 2 * 10 ** 15))  # since 1970 in us; ns since a boot
+    steps = draw(st.lists(st.integers(0, 10 ** 7), min_size=n, max_size=n))
+    return (start + np.cumsum(np.array(steps, dtype=np.int64))) / per_s
+
+
+@st.composite
+def _cells(draw, scaling=None):
+    """A cell's samples; with *scaling*, forces decoded from whole codes (one of them,
+    maybe, off that grid)."""
     from evtribo.signals import CellSignals
 
     n = draw(st.integers(0, 40))
-    t = np.sort(np.array(draw(st.lists(st.floats(-1e9, 1e9), min_size=n, max_size=n))))
-    value = np.array(draw(st.lists(_FLOATS, min_size=n, max_size=n)), dtype=np.float64)
+    t = draw(_times(n))
+    if scaling is None:
+        value = np.array(draw(st.lists(_FLOATS, min_size=n, max_size=n)), dtype=np.float64)
+    else:
+        codes = np.array(draw(st.lists(st.integers(-(2 ** 31), 2 ** 31), min_size=n,
+                                       max_size=n)), dtype=np.int64)
+        value = cache._affine(codes, *scaling)
+        if n and draw(st.booleans()):
+            value[draw(st.integers(0, n - 1))] = draw(_FLOATS)
     counter = draw(st.one_of(st.none(), st.lists(_COUNTERS, min_size=n, max_size=n)))
     return CellSignals(t, value, None if counter is None else np.array(counter, np.int64),
                        draw(st.integers(0, 10 ** 6)), draw(st.sampled_from(["counter", "gaps"])),
@@ -274,23 +301,51 @@ def _excitations(draw):
         waveform=None if waveform is None else np.array(waveform, dtype=object))
 
 
-@settings(max_examples=80, deadline=None)
-@given(normal=_cells(), tangential=_cells(), excitation=st.one_of(st.none(), _excitations()),
+def _whole_codes(value, scale, offset) -> bool:
+    """Whether *value* is ``codes * scale + offset`` for whole codes (exact in float64)."""
+    with np.errstate(all="ignore"):
+        k = np.rint((value - offset) / scale)
+        if not np.all(np.abs(k) < 2.0 ** 53):
+            return False
+    return np.array_equal(cache._affine(k.astype(np.int64), scale, offset), value)
+
+
+@st.composite
+def _scaled_cells(draw):
+    scaling = (draw(st.one_of(st.none(), _SCALINGS)), draw(st.one_of(st.none(), _SCALINGS)))
+    return (draw(_cells(scaling[0])), draw(_cells(scaling[1])), scaling)
+
+
+@settings(max_examples=150, deadline=None)
+@given(cells=_scaled_cells(), excitation=st.one_of(st.none(), _excitations()),
        counts=st.tuples(*[st.integers(0, 10 ** 9)] * 4))
-def test_an_entry_reads_back_as_the_trial_it_holds(normal, tangential, excitation, counts):
-    """Written and read back, a trial's signals are the same values and types: any floats
-    (NaN, infinities), counters of any size (kept in fewer bytes), an excitation with any of
-    its signals missing, empty streams."""
+def test_an_entry_reads_back_as_the_trial_it_holds(cells, excitation, counts):
+    """Written and read back, a trial's signals are the same values and types, bit for
+    bit: any floats (NaN, infinities), times in whole clock ticks (kept as steps) or not,
+    forces decoded from whole codes (kept as codes) or not, counters of any size (kept in
+    fewer bytes), an excitation with any of its signals missing, empty streams."""
     from evtribo.signals import TrialSignals
+
+    normal, tangential, scaling = cells
 
     trial = TrialSignals(normal, tangential, excitation, frames=counts[0],
                          ignored_frames=counts[1], skipped_lines=counts[2],
                          skipped_detail=((3, "bad"), (None, "worse")), channel="can0",
                          logger_dropped=counts[3], warnings=("w",))
+    table = cache._to_table(trial, scaling)
     with tempfile.TemporaryDirectory() as folder:
-        cache._write_atomic(Path(folder), "k" * 40, cache._to_table(trial))
+        cache._write_atomic(Path(folder), "k" * 40, table)
         back = cache._read_entry(Path(folder), "k" * 40)
     assert back is not None
+    meta = json.loads(table.schema.metadata[cache._META])
+    streams = [normal.t, tangential.t] + ([] if excitation is None else [excitation.t])
+    ticks = any(all(np.all(np.abs(x * per_s) < 2.0 ** 53)
+                    and np.array_equal(np.rint(x * per_s) / per_s, x) for x in streams)
+                for per_s in (1e6, 1e9, 1e3))
+    assert (meta["t_encoding"] is not None) == ticks  # the steps kept wherever exact
+    if all(sc is not None and _whole_codes(c.value, *sc)
+           for c, sc in zip((normal, tangential), scaling, strict=True)):
+        assert meta["value_encoding"] is not None  # the codes kept wherever exact
     for name in ("normal", "tangential"):
         a, b = getattr(trial, name), getattr(back, name)
         for part in ("t", "value"):
