@@ -103,16 +103,21 @@ _EXCITATION_TYPES = {"enabled": pa.bool_(), "amplitude": pa.float64(),
                      "frequency": pa.float64(), "waveform": pa.string()}
 
 
-def _narrowest(counter: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
-    """*counter* in the narrowest signed integers that hold its values (read back into
+def _narrowest(values: np.ndarray[Any, Any]) -> np.ndarray[Any, Any]:
+    """Integer *values* in the narrowest signed integers that hold them (read back into
     int64 exactly)."""
-    if counter.size:
-        lo, hi = int(counter.min()), int(counter.max())
+    if values.size:
+        lo, hi = int(values.min()), int(values.max())
         for dtype in (np.int8, np.int16, np.int32):
             info = np.iinfo(dtype)
             if info.min <= lo and hi <= info.max:
-                return counter.astype(dtype)
-    return counter
+                return values.astype(dtype)
+    return values
+
+
+def _same_bits(a: np.ndarray[Any, Any], b: np.ndarray[Any, Any]) -> bool:
+    """Whether two float64 arrays hold the same bits (-0.0 is not 0.0)."""
+    return a.shape == b.shape and np.array_equal(a.view(np.int64), b.view(np.int64))
 
 
 def _after_nulls(values: np.ndarray[Any, Any] | None, rows: int, name: str) -> pa.Array:
@@ -151,7 +156,7 @@ def _ticks(t: np.ndarray[Any, Any], per_s: float) -> np.ndarray[Any, Any] | None
         if not np.all(np.abs(scaled) < _EXACT):  # NaN and infinities too
             return None
     ticks = np.rint(scaled).astype(np.int64)
-    return ticks if np.array_equal(ticks / per_s, t) else None
+    return ticks if _same_bits(ticks / per_s, t) else None
 
 
 def _affine(codes: np.ndarray[Any, Any], scale: float, offset: float) -> np.ndarray[Any, Any]:
@@ -176,15 +181,14 @@ def _codes(value: np.ndarray[Any, Any], scale: float, offset: float
         if not np.all(np.abs(k) < _EXACT):  # NaN and infinities too
             return None
     codes = k.astype(np.int64)
-    return codes if np.array_equal(_affine(codes, scale, offset), value) else None
+    return codes if _same_bits(_affine(codes, scale, offset), value) else None
 
 
 def _encoded_times(parts: list[np.ndarray[Any, Any]]) -> tuple[np.ndarray[Any, Any],
                                                                dict[str, Any] | None]:
     """The streams' times, one after the other: as the steps between whole clock ticks
     (each stream's first tick in the metadata) when every time is a whole number of ticks
-    (a log's clock counts microseconds: 8 bytes a time become 2 or 4, and steps repeat,
-    which LZ4 then shrinks), else as they are."""
+    (a log's clock counts microseconds: 8 bytes a time become 2 or 4), else as they are."""
     for per_s in _CLOCK_UNITS:
         ticks = [_ticks(p, per_s) for p in parts]
         if all(k is not None for k in ticks):
