@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from evtribo import cache
 from evtribo.errors import LogFormatError
 from evtribo.rig import Rig, default_rig
+from evtribo.signal_codec import scaled
 from test_decode import _second_rig_trial
 
 
@@ -272,7 +273,7 @@ def _cells(draw, scaling=None):
     else:
         codes = np.array(draw(st.lists(st.integers(-(2 ** 31), 2 ** 31), min_size=n,
                                        max_size=n)), dtype=np.int64)
-        value = cache._affine(codes, *scaling)
+        value = scaled(codes, *scaling)
         if n and draw(st.booleans()):
             value[draw(st.integers(0, n - 1))] = draw(_FLOATS)
     counter = draw(st.one_of(st.none(), st.lists(_COUNTERS, min_size=n, max_size=n)))
@@ -307,7 +308,7 @@ def _whole_codes(value, scale, offset) -> bool:
         k = np.rint((value - offset) / scale)
         if not np.all(np.abs(k) < 2.0 ** 53):
             return False
-    back = cache._affine(k.astype(np.int64), scale, offset)
+    back = scaled(k.astype(np.int64), scale, offset)
     return np.array_equal(back.view(np.int64), value.view(np.int64))
 
 

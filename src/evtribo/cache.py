@@ -47,6 +47,7 @@ from evtribo.frames import FrameStream, FrameTable
 from evtribo.frames.registry import MAX_WARNINGS
 from evtribo.memo import default_cache_dir
 from evtribo.rig import Rig
+from evtribo.signal_codec import SignalCodec, scaled
 from evtribo.signals import CellSignals, ExcitationSignals, TrialProvenance, TrialSignals
 
 log = logging.getLogger(__name__)
@@ -159,21 +160,11 @@ def _ticks(t: np.ndarray[Any, Any], per_s: float) -> np.ndarray[Any, Any] | None
     return ticks if _same_bits(ticks / per_s, t) else None
 
 
-def _affine(codes: np.ndarray[Any, Any], scale: float, offset: float) -> np.ndarray[Any, Any]:
-    """``codes * scale + offset`` in float64, as :meth:`SignalCodec.raw_to_scaled
-    <evtribo.signal_codec.SignalCodec.raw_to_scaled>` computes a signal's values."""
-    value = codes.astype(np.float64)
-    if scale != 1:
-        value *= scale
-    if offset != 0:
-        value += offset
-    return value
-
-
 def _codes(value: np.ndarray[Any, Any], scale: float, offset: float
            ) -> np.ndarray[Any, Any] | None:
-    """The whole codes *value* was decoded from with *scale* and *offset*, if
-    :func:`_affine` gives every value back bit for bit; else None."""
+    """The whole codes *value* was decoded from with *scale* and *offset*, if decoding them
+    again (:func:`~evtribo.signal_codec.scaled`) gives every value back bit for bit; else
+    None."""
     if not (np.isfinite(scale) and np.isfinite(offset) and scale != 0):
         return None
     with np.errstate(all="ignore"):
@@ -181,7 +172,7 @@ def _codes(value: np.ndarray[Any, Any], scale: float, offset: float
         if not np.all(np.abs(k) < _EXACT):  # NaN and infinities too
             return None
     codes = k.astype(np.int64)
-    return codes if _same_bits(_affine(codes, scale, offset), value) else None
+    return codes if _same_bits(scaled(codes, scale, offset), value) else None
 
 
 def _encoded_times(parts: list[np.ndarray[Any, Any]]) -> tuple[np.ndarray[Any, Any],
@@ -236,7 +227,7 @@ def _decoded_values(col: np.ndarray[Any, Any], stream: np.ndarray[Any, Any],
     value = np.full(col.size, np.nan)
     for k, (scale, offset) in enumerate(encoding):
         sel = stream == k
-        value[sel] = _affine(col[sel], scale, offset)
+        value[sel] = scaled(col[sel], scale, offset)
     return value
 
 
@@ -246,9 +237,9 @@ def _scaling(rig: Rig) -> list[tuple[float, float] | None]:
     out: list[tuple[float, float] | None] = []
     for role in ("normal_force", "tangential_force"):
         ref = rig.roles.get(role)
-        signal = None if ref is None else ref.signal
-        out.append(None if signal is None or signal.is_float
-                   else (float(signal.scale), float(signal.offset)))
+        codec = None if ref is None else SignalCodec.from_signal(ref.signal)
+        out.append(None if codec is None or codec.is_float
+                   else (float(codec.scale), float(codec.offset)))
     return out
 
 

@@ -105,14 +105,8 @@ class SignalCodec:
         return u
 
     def raw_to_scaled(self, raw: npt.NDArray[np.generic]) -> Array:
-        """Physical values, ``raw * scale + offset`` in float64."""
-        with np.errstate(invalid="ignore", over="ignore"):  # NaN and inf as cantools gives
-            value = raw.astype(np.float64)
-            if self.scale != 1:
-                value *= self.scale
-            if self.offset != 0:
-                value += self.offset
-        return value
+        """Physical values, ``raw * scale + offset`` in float64 (:func:`scaled`)."""
+        return scaled(raw, self.scale, self.offset)
 
     def decode(self, data: npt.NDArray[np.uint8]) -> Array:
         """Physical values from payload rows."""
@@ -133,4 +127,27 @@ def _col(data: npt.NDArray[np.uint8], k: int) -> npt.NDArray[np.uint64]:
     return data[:, k].astype(np.uint64)
 
 
-__all__ = ["SignalCodec"]
+def scaled(raw: npt.NDArray[np.generic], scale: float, offset: float) -> Array:
+    """Physical values of raw codes, ``raw * scale + offset`` in float64, as every signal is
+    decoded (and as the cache gives back the forces it keeps as codes).
+
+    Parameters
+    ----------
+    raw : ndarray
+        Raw codes (integers, or a float signal's values).
+    scale, offset : float
+
+    Returns
+    -------
+    ndarray of float64
+    """
+    with np.errstate(invalid="ignore", over="ignore"):  # NaN and inf as cantools gives
+        value = raw.astype(np.float64)
+        if scale != 1:
+            value *= scale
+        if offset != 0:
+            value += offset
+    return value
+
+
+__all__ = ["SignalCodec", "scaled"]
