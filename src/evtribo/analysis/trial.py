@@ -54,11 +54,12 @@ log = logging.getLogger(__name__)
 #: Columns of trials.csv (study format, section 2).
 TRIAL_COLUMNS = ("subject", "trial", "waveform", "frequency_Hz", "amplitude_V", "condition",
                  "duration_s", "frames", "dropped_frames", "skipped_lines",
-                 "friction_modulation_Hz", "normal_offset_N", "tangential_offset_N", "tare")
+                 "friction_modulation_Hz", "normal_offset_N", "tangential_offset_N", "tare",
+                 "mu_change_per_10s")
 #: Columns of windows.csv (study format, section 2).
 WINDOW_CSV_COLUMNS = ("subject", "trial", "condition", "amplitude_V", "waveform", "t_start_s",
                       "t_end_s", "normal_force_N", "friction_force_N", "direction", "stroke",
-                      "stroke_s")
+                      "stroke_s", "mu_reference")
 
 #: Columns of sine_trace.csv (read by :mod:`evtribo.compare.tables`).
 SINE_TRACE_CSV_COLUMNS = TRACE_COLUMNS
