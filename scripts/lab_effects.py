@@ -23,9 +23,7 @@ from __future__ import annotations
 
 import argparse
 import collections
-import dataclasses
 import sys
-from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -33,47 +31,7 @@ import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "analysis"))
 
-from _realistic import run_study
-
-from evtribo.acquisition.simulator import SubjectParams, TrialConfig
-from evtribo.acquisition.simulator.realism import real_finger, real_logger
-
-Changes = tuple[Callable[[TrialConfig], TrialConfig] | None,
-                Callable[[SubjectParams], SubjectParams] | None]
-
-
-def _finger(**only: bool) -> Callable[[SubjectParams], SubjectParams]:
-    flags = {"moisture": False, "speed": False, "direction": False, "trials": False, **only}
-    return lambda s: real_finger(s, seed=hash(s.name) % 1000, **flags)
-
-
-def _rig(**changes: object) -> Callable[[TrialConfig], TrialConfig]:
-    return lambda c: dataclasses.replace(c, **changes)
-
-
-def _crosstalk(c: TrialConfig) -> TrialConfig:
-    """The rig's cross-talk: 3-4 % each way, the same in every trial of a study."""
-    rng = np.random.default_rng([c.seed // 1000, 77])
-    a, b = rng.uniform(0.03, 0.04, 2) * rng.choice([-1, 1], 2)
-    return dataclasses.replace(c, crosstalk=((1.0, float(a)), (float(b), 1.0)))
-
-
-def _everything(c: TrialConfig) -> TrialConfig:
-    c = _crosstalk(real_logger(c))
-    return dataclasses.replace(c, creep=0.01, creep_time_s=3.0, mains_Hz=60.0,
-                               spike_rate_Hz=0.5, spike_N=0.3, fz_rate_Hz=333.0)
-
-
-EFFECTS: dict[str, Changes] = {
-    "none": (None, None),
-    "moisture": (None, _finger(moisture=True, trials=True)),
-    "speed": (None, _finger(speed=True, direction=True)),
-    "crosstalk": (_crosstalk, None),
-    "timing": (real_logger, None),
-    "creep+spikes": (_rig(creep=0.01, creep_time_s=3.0, spike_rate_Hz=0.5, spike_N=0.3),
-                     None),
-    "all": (_everything, _finger(moisture=True, speed=True, direction=True, trials=True)),
-}
+from _realistic import EFFECTS, run_study
 
 
 def evaluate(effect: str, seeds: list[int], n_boot: int) -> dict[str, object]:

@@ -65,14 +65,24 @@ import numpy as np
 import numpy.typing as npt
 from scipy import special  # stats.t.ppf is special.stdtrit, stats.norm.ppf special.ndtri
 
-from evtribo.analysis.reference import MuModel, WindowFacts, fit_mu_model, fit_trial_model
+from evtribo.analysis.reference import (
+    MuModel,
+    WindowFacts,
+    fit_mu_model,
+    fit_trial_model,
+    pooled_rate_slope,
+)
 from evtribo.errors import AnalysisError
 
 log = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
 
 DEFAULT_N_BOOT = 2000
+#: A subject's friction follows its strokes' rate when the pooled slope stands this many
+#: standard errors from zero (:func:`~evtribo.analysis.reference.pooled_rate_slope`).
+RATE_SE = 3.0
 DEFAULT_CONFIDENCE = 0.95
 
 
@@ -357,7 +367,14 @@ class _References:
         mu_on = np.empty(w.on_normal.size)
         mu_on_b = np.empty((n_boot, w.on_normal.size))
         clusters = {}
-        for r in (int(x) for x in np.unique(w.on_ref)):
+        used = [int(x) for x in np.unique(w.on_ref)]
+        slope, se = pooled_rate_slope(
+            [(w.off_normal[r], w.off_friction[r], offs[r], np.full(w.off_normal[r].size,
+                                                                   np.nan)) for r in used]
+            + [(w.on_normal, w.on_friction, ons, w.on_group)])
+        rate = slope if np.isfinite(slope) and abs(slope) > RATE_SE * se else 0.0
+        slope_b = rng.normal(rate, se, n_boot) if rate else np.zeros(n_boot)
+        for r in used:
             if w.off_normal[r].size == 0:
                 raise AnalysisError("no OFF windows to estimate the friction coefficient from")
             sel = w.on_ref == r
@@ -365,12 +382,15 @@ class _References:
             if trends[r]:
                 model = fit_trial_model((w.off_normal[r], w.off_friction[r], offs[r]),
                                         (w.on_normal[sel], w.on_friction[sel], here,
-                                         w.on_group[sel]))
+                                         w.on_group[sel]), rate_slope=rate)
             else:
                 model = fit_mu_model(w.off_normal[r], w.off_friction[r], offs[r],
-                                     time_trend=False)
+                                     time_trend=False, rate_slope=rate)
             mu_on[sel] = model.at(here)
             mu_on_b[:, sel] = model.replicates_at(here, rng, n_boot)
+            if model.rate:  # the rate's slope is uncertain too
+                centred = np.where(np.isfinite(here.rate), here.rate - model.rate_mean, 0.0)
+                mu_on_b[:, sel] *= np.exp(np.outer(slope_b - rate, centred))
             clusters[r] = int(np.unique(model.cluster).size)
             models[r] = model
         if not np.all(mu_on > 0):
@@ -391,58 +411,69 @@ class _GroupForce:
     dof: float
 
 
-def _balance(facts: WindowFacts, sel: npt.NDArray[np.bool_]
-             ) -> tuple[FloatArray, list[npt.NDArray[np.intp]]]:
-    """Weights of the windows *sel* (summing to 1) that give each trial its share of the
-    windows and, within a trial, both sliding directions the same share; and the strata
-    (trial x direction) as index arrays into the selection."""
-    idx = np.flatnonzero(sel)
-    trial, direction = facts.stratum[idx], np.sign(facts.direction[idx])
-    weight = np.empty(idx.size)
-    strata = []
+def _balanced_weights(counts: FloatArray, trial: IntArray, direction: FloatArray
+                      ) -> FloatArray:
+    """Weights of windows (summing to 1 in each row of *counts*, the windows' resampled
+    counts) that give each trial its share of the windows and, within a trial, each sliding
+    direction it has the same share.
+
+    Parameters
+    ----------
+    counts : ndarray, shape (rows, windows)
+        How often each window is drawn (ones for the estimate itself).
+    trial, direction : ndarray, shape (windows,)
+    """
+    out = np.zeros(counts.shape)
+    n = trial.size
     for s in np.unique(trial):
         in_trial = trial == s
-        dirs = np.unique(direction[in_trial])
-        for d in dirs:
-            part = np.flatnonzero(in_trial & (direction == d))
-            weight[part] = float(in_trial.sum()) / (dirs.size * part.size)
-            strata.append(part)
-    return weight / idx.size, strata
+        c = counts[:, in_trial]
+        d = direction[in_trial]
+        dirs = np.unique(d)
+        totals = np.stack([c[:, d == x].sum(axis=1) for x in dirs], axis=1)  # (rows, dirs)
+        present = (totals > 0).sum(axis=1, keepdims=True)
+        which = np.searchsorted(dirs, d)
+        per = np.where(totals[:, which] > 0, c / np.maximum(totals[:, which], 1e-300), 0.0)
+        out[:, in_trial] = per / np.maximum(present, 1) * (in_trial.sum() / n)
+    return out
 
 
 def _group_force(rng: np.random.Generator, w: _Windows, sel: npt.NDArray[np.bool_], *,
                  refs: _References, facts: WindowFacts, n_boot: int, confidence: float
                  ) -> _GroupForce:
     """The force of the ON windows *sel* (the balanced mean of ``F_t/mu - F_n``) and its
-    bootstrap replicates: the strokes resampled within each trial and direction, each
-    reference's ``mu`` from its wild bootstrap, stretched by the small-sample calibration
-    (one error source for the ON windows, one per reference's ``mu``)."""
-    weight, strata = _balance(facts, sel)
+    bootstrap replicates: the strokes resampled within each trial (the two directions
+    averaged alike in every replicate), each reference's ``mu`` from its wild bootstrap,
+    stretched by the small-sample calibration (one error source for the ON windows, one per
+    reference's ``mu``)."""
+    idx = np.flatnonzero(sel)
+    trial, direction = facts.stratum[idx], np.sign(facts.direction[idx])
+    weight = _balanced_weights(np.ones((1, idx.size)), trial, direction)[0]
     fn, ft = w.on_normal[sel], w.on_friction[sel]
     mu, mu_b = refs.mu_on[sel], refs.mu_on_b[:, sel]
     force = float(weight @ (ft / mu - fn))
     counts = np.ones((n_boot, fn.size))
     n_clusters = 0
-    for part in strata:
-        _, which = np.unique(facts.cluster[np.flatnonzero(sel)[part]], return_inverse=True)
+    trials = np.unique(trial)
+    for s in trials:
+        part = np.flatnonzero(trial == s)
+        _, which = np.unique(facts.cluster[idx[part]], return_inverse=True)
         k = int(which.max()) + 1
         n_clusters += k
-        drawn = rng.multinomial(k, np.full(k, 1.0 / k), size=n_boot)
-        counts[:, part] = drawn[:, which] * (part.size / np.maximum(
-            drawn[:, which].sum(axis=1, keepdims=True), 1))
+        counts[:, part] = rng.multinomial(k, np.full(k, 1.0 / k), size=n_boot)[:, which]
+    weights_b = _balanced_weights(counts, trial, direction)
 
-    def replicate(mu_rep: FloatArray, cnt: FloatArray | None) -> FloatArray:
-        e = ft / mu_rep - fn
-        return (e * (weight if cnt is None else weight * cnt)).sum(axis=-1)
+    def replicate(mu_rep: FloatArray, wts: FloatArray) -> FloatArray:
+        return ((ft / mu_rep - fn) * wts).sum(axis=-1)
 
-    acc = replicate(mu_b, counts)
-    variances = [float(np.var(replicate(mu, counts)))]
+    acc = replicate(mu_b, weights_b)
+    variances = [float(np.var(replicate(mu, weights_b)))]
     counts_n = [n_clusters]
-    dofs = [max(n_clusters - len(strata), 1)]
+    dofs = [max(n_clusters - trials.size, 1)]
     refs_here = w.on_ref[sel]
     for r in np.unique(refs_here):
         one = np.where(refs_here == r, mu_b, mu)  # only reference r's mu resampled
-        variances.append(float(np.var(replicate(one, None))))
+        variances.append(float(np.var(replicate(one, weight))))
         model = refs.models[int(r)]
         free = max(refs.off_clusters[int(r)] - model.coef.size, 1)
         counts_n.append(free)  # HC2 residuals: the bootstrap variance is not plug-in

@@ -48,7 +48,7 @@ from numpy.polynomial import legendre
 from evtribo.errors import AnalysisError
 
 __all__ = ["MAX_DEGREE", "MuModel", "WindowFacts", "fit_mu_model", "fit_trial_model",
-           "stack_facts"]
+           "pooled_rate_slope", "stack_facts"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -124,7 +124,8 @@ class MuModel:
     direction : bool
         Whether the direction term is in.
     rate : bool
-        Whether the stroke's rate term is in.
+        Whether the stroke's rate term is in (its slope :attr:`rate_slope`, fixed: a
+        subject's, from all its trials, :func:`pooled_rate_slope`).
     t_lo, t_hi : float, s
         The OFF windows' span (the polynomial's domain).
     rate_mean : float
@@ -164,6 +165,7 @@ class MuModel:
     cluster: IntArray
     log: bool = False
     smear: float = 1.0
+    rate_slope: float = 0.0
     fit: _Fit | None = None
     rivals: tuple[MuModel, ...] = ()
 
@@ -179,9 +181,13 @@ class MuModel:
             cols += list(_time_basis(facts.t_s, self.t_lo, self.t_hi, self.degree).T)
         if self.direction:
             cols.append(facts.direction.astype(np.float64))
-        if self.rate:
-            cols.append(np.where(np.isfinite(facts.rate), facts.rate - self.rate_mean, 0.0))
         return np.column_stack(cols)
+
+    def rate_factor(self, facts: WindowFacts) -> FloatArray:
+        """The stroke rate's factor on the coefficient at each window (1 without it)."""
+        if not self.rate:
+            return np.ones(len(facts))
+        return np.exp(self.rate_slope * _centred(facts.rate, self.rate_mean))
 
     def at(self, facts: WindowFacts) -> FloatArray:
         """The coefficient at each window of *facts*."""
@@ -192,7 +198,8 @@ class MuModel:
         :attr:`coef`), shape (rows, windows)."""
         X = self.design(facts)
         value = coef[:, :X.shape[1]] @ X.T
-        return self.smear * np.exp(value) if self.log else value
+        base = self.smear * np.exp(value) if self.log else value
+        return base * self.rate_factor(facts)
 
     def replicates(self, rng: np.random.Generator, n_boot: int) -> FloatArray:
         """Wild cluster bootstrap replicates of the coefficients, shape (n_boot, p)."""
@@ -289,8 +296,8 @@ def _aicc(rss: float | FloatArray, n: int, p: int) -> FloatArray:
                       + 2 * k * (k + 1) / (n - k - 1))
 
 
-def _offers(facts: WindowFacts, time_trend: bool) -> tuple[list[int], list[bool], list[bool]]:
-    """The degrees, direction and rate terms the windows can support."""
+def _offers(facts: WindowFacts, time_trend: bool) -> tuple[list[int], list[bool]]:
+    """The degrees and direction terms the windows can support."""
     n = len(facts)
     t = facts.t_s
     degrees = [0]
@@ -300,13 +307,11 @@ def _offers(facts: WindowFacts, time_trend: bool) -> tuple[list[int], list[bool]
         degrees = list(range(top + 1))
     d = facts.direction
     both = int(np.sum(d > 0)) >= 2 and int(np.sum(d < 0)) >= 2
-    rates = facts.rate
-    varied = bool(np.isfinite(rates).all() and n >= 6 and np.ptp(rates) > 0)
-    return degrees, [False, True] if both else [False], [False, True] if varied else [False]
+    return degrees, [False, True] if both else [False]
 
 
 def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: WindowFacts, *,
-                 time_trend: bool) -> MuModel:
+                 time_trend: bool, rate_slope: float = 0.0) -> MuModel:
     """The friction coefficient of a reference's OFF windows as a model of their facts.
 
     Parameters
@@ -317,11 +322,15 @@ def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: Wind
         Their times, directions, strokes' rates and strokes.
     time_trend : bool
         Whether a trend in time may be fitted (the windows share one trial's clock).
+    rate_slope : float
+        The coefficient's change per unit of log stroke rate, relative (the subject's,
+        :func:`pooled_rate_slope`; 0: none).
 
     Returns
     -------
     MuModel
-        The model of least AICc (the constant alone is the ratio of means).
+        The model of least AICc (the constant alone is the ratio of means of the frictions
+        taken to the windows' mean stroke rate).
 
     Raises
     ------
@@ -334,22 +343,50 @@ def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: Wind
         raise AnalysisError("no OFF windows to estimate the friction coefficient from")
     if not np.all(fn > 0):
         raise AnalysisError("an OFF window's normal force is not positive")
-    ratio = ft / fn
-    t = facts.t_s
-    finite = t[np.isfinite(t)]
-    lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 0.0)
-    rates = facts.rate[np.isfinite(facts.rate)]
-    rate_mean = float(np.average(rates)) if rates.size else 0.0
+    shape = _Shape.of(facts, rate_slope)
+    ratio = ft / fn / shape.rate_factor(facts)
     candidates = []
-    for degree, direction, rate in product(*_offers(facts, time_trend)):
-        template = MuModel(degree, direction, rate, lo, hi, rate_mean, np.empty(0),
-                           np.empty((0, 0)), np.empty(0), facts.cluster)
+    for degree, direction in product(*_offers(facts, time_trend)):
+        template = shape.model(degree, direction, facts.cluster, log=False)
         fitted = _fitted(template, template.design(facts), ratio, fn)
         if fitted is not None:
             candidates.append(fitted)
     if not candidates:
         raise AnalysisError("the OFF windows do not determine a friction coefficient")
     return _choose(candidates)
+
+
+@dataclass(frozen=True)
+class _Shape:
+    """What every candidate model of a set of windows shares: the time span, the stroke
+    rates' centre and the rate's slope."""
+
+    t_lo: float
+    t_hi: float
+    rate_mean: float
+    rate_slope: float
+
+    @classmethod
+    def of(cls, facts: WindowFacts, rate_slope: float) -> _Shape:
+        t = facts.t_s[np.isfinite(facts.t_s)]
+        rates = facts.rate[np.isfinite(facts.rate)]
+        return cls(float(t.min()) if t.size else 0.0, float(t.max()) if t.size else 0.0,
+                   float(rates.mean()) if rates.size else 0.0,
+                   rate_slope if rates.size else 0.0)
+
+    def rate_factor(self, facts: WindowFacts) -> FloatArray:
+        return np.exp(self.rate_slope * _centred(facts.rate, self.rate_mean))
+
+    def model(self, degree: int, direction: bool, cluster: IntArray, *, log: bool
+              ) -> MuModel:
+        return MuModel(degree, direction, self.rate_slope != 0, self.t_lo, self.t_hi,
+                       self.rate_mean, np.empty(0), np.empty((0, 0)), np.empty(0), cluster,
+                       log=log, rate_slope=self.rate_slope)
+
+
+def _centred(rate: FloatArray, mean: float) -> FloatArray:
+    """Stroke rates less their centre (0 where unknown)."""
+    return np.where(np.isfinite(rate), rate - mean, 0.0)
 
 
 def _fitted(template: MuModel, X: FloatArray, y: FloatArray, weight: FloatArray
@@ -376,16 +413,17 @@ def _choose(candidates: list[MuModel]) -> MuModel:
 
 
 def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
-                    on: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts, npt.ArrayLike]
-                    ) -> MuModel:
+                    on: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts, npt.ArrayLike], *,
+                    rate_slope: float = 0.0) -> MuModel:
     """A trial's friction coefficient in time, from its OFF and its ON windows together.
 
-    ``log(F_t / F_n) = b0 + sum_k b_k P_k(x) + c d + e v + sum_g a_g [window in ON group g]``
-    by weighted least squares (weights ``F_n``), the terms chosen by AICc: the ON windows
-    tell the trend's shape as well as the OFF ones (the voltage multiplies the friction by
-    about ``1 + F_el / F_n``, the same all through the trial), so the trend is known at
-    every ON window, not extrapolated from the OFF windows around it. When no trend is
-    supported, the OFF windows' ratio model (:func:`fit_mu_model`) is used.
+    ``log(F_t / F_n) = b0 + sum_k b_k P_k(x) + c d + sum_g a_g [window in ON group g]``
+    (plus the stroke rate's fixed term) by weighted least squares (weights ``F_n``), the
+    terms chosen by AICc: the ON windows tell the trend's shape and the direction's term as
+    well as the OFF ones (the voltage multiplies the friction by about ``1 + F_el / F_n``,
+    the same all through the trial), so the trend is known at every ON window, not
+    extrapolated from the OFF windows around it. When the constant alone is chosen, the OFF
+    windows' ratio of means (:func:`fit_mu_model`) is used.
 
     Parameters
     ----------
@@ -393,6 +431,8 @@ def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
         The trial's OFF windows.
     on : (normal_N, friction_N, facts, group)
         Its ON windows and each one's group (an amplitude, say).
+    rate_slope : float
+        As :func:`fit_mu_model`'s.
 
     Returns
     -------
@@ -404,28 +444,89 @@ def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
     group = np.asarray(on[3])
     facts = stack_facts([off[2], on[2]])
     fn, ft = np.concatenate([fn_off, fn_on]), np.concatenate([ft_off, ft_on])
-    flat = fit_mu_model(fn_off, ft_off, off[2], time_trend=False)
+    flat = fit_mu_model(fn_off, ft_off, off[2], time_trend=False, rate_slope=0.0)
     if not (np.all(fn > 0) and np.all(ft > 0)):
         return flat
+    shape = _Shape.of(facts, rate_slope)
     labels = np.unique(group)
     ons = np.concatenate([np.zeros((fn_off.size, labels.size)),
                           (group[:, None] == labels[None, :]).astype(np.float64)])
-    y = np.log(ft / fn)
-    t = facts.t_s
-    lo, hi = float(np.nanmin(t)), float(np.nanmax(t))
-    rates = facts.rate[np.isfinite(facts.rate)]
-    rate_mean = float(np.mean(rates)) if rates.size else 0.0
+    y = np.log(ft / fn) - shape.rate_slope * _centred(facts.rate, shape.rate_mean)
     candidates = []
-    for degree, direction, rate in product(*_offers(facts, True)):
-        template = MuModel(degree, direction, rate, lo, hi, rate_mean, np.empty(0),
-                           np.empty((0, 0)), np.empty(0), facts.cluster, log=True)
+    for degree, direction in product(*_offers(facts, True)):
+        template = shape.model(degree, direction, facts.cluster, log=True)
         fitted = _fitted(template, np.column_stack([template.design(facts), ons]), y, fn)
         if fitted is not None and fn.size > fitted.coef.size + 2:
             candidates.append(fitted)
     if not candidates:
         return flat
     best = _choose(candidates)
-    return flat if best.degree == 0 else best
+    if best.degree == 0 and not best.direction:
+        return fit_mu_model(fn_off, ft_off, off[2], time_trend=False, rate_slope=rate_slope)
+    return best
+
+
+def pooled_rate_slope(parts: Sequence[tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts,
+                                            npt.ArrayLike]]) -> tuple[float, float]:
+    """A subject's friction's dependence on its strokes' rate, from all its trials.
+
+    Within each trial, ``log(F_t / F_n)`` and the windows' log stroke rate are freed of the
+    trial's own level, each ON group's, the direction's and a trend in time
+    (weighted least squares, weights ``F_n``); the slope of the one on the other, pooled
+    over the trials, is the relative change of the friction coefficient per unit of log
+    stroke rate (the finger's speed exponent, as far as the stroke rate follows the speed).
+
+    Parameters
+    ----------
+    parts : sequence of (normal_N, friction_N, facts, group)
+        Windows (OFF and ON), their facts (``stratum`` tells the trials) and their groups
+        (NaN for OFF windows).
+
+    Returns
+    -------
+    slope, se : float
+        The slope and its standard error (NaN when the trials cannot tell it).
+    """
+    sxx = sxy = syy = 0.0
+    dof = 0
+    for fn_a, ft_a, facts, group_a in parts:
+        fn, ft = np.asarray(fn_a, dtype=np.float64), np.asarray(ft_a, dtype=np.float64)
+        group = np.asarray(group_a, dtype=np.float64)
+        for s in np.unique(facts.stratum):
+            sel = (facts.stratum == s) & (fn > 0) & (ft > 0) & np.isfinite(facts.rate)
+            if sel.sum() < 8:
+                continue
+            part = facts.take(sel)
+            Z = _nuisance(part, group[sel])
+            if sel.sum() <= Z.shape[1] + 2:
+                continue
+            sw = np.sqrt(fn[sel])
+            q, _ = np.linalg.qr(Z * sw[:, None])
+            x = part.rate * sw
+            y = np.log(ft[sel] / fn[sel]) * sw
+            rx, ry = x - q @ (q.T @ x), y - q @ (q.T @ y)
+            sxx, sxy, syy = sxx + rx @ rx, sxy + rx @ ry, syy + ry @ ry
+            dof += int(sel.sum()) - Z.shape[1] - 1
+    if not (sxx > 0 and dof > 0):
+        return float("nan"), float("nan")
+    slope = sxy / sxx
+    return float(slope), float(np.sqrt(max(syy - slope * sxy, 0.0) / dof / sxx))
+
+
+def _nuisance(facts: WindowFacts, group: FloatArray) -> FloatArray:
+    """The within-trial terms the stroke rate is freed of: level, ON groups, direction and
+    a trend in time (of the degree the trial's models may take)."""
+    cols = [np.ones(len(facts))]
+    for g in np.unique(group[np.isfinite(group)]):
+        cols.append((group == g).astype(np.float64))
+    if np.ptp(facts.direction) > 0:
+        cols.append(facts.direction.astype(np.float64))
+    t = facts.t_s
+    if np.isfinite(t).all() and np.ptp(t) > 0:
+        degree = min(MAX_DEGREE, int(np.ptp(t) // SPAN_PER_DEGREE_S))
+        if degree:
+            cols += list(_time_basis(t, float(t.min()), float(t.max()), degree).T)
+    return np.column_stack(cols)
 
 
 def stack_facts(parts: Sequence[WindowFacts]) -> WindowFacts:

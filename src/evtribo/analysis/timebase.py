@@ -57,6 +57,9 @@ MAX_SPREAD_PERIODS = 20.0
 #: Fewest frames on each side of a gap over which the shift it leaves is measured (no
 #: counter).
 SHIFT_FRAMES = 200
+#: A stream without a counter whose gaps would hide more frames than this share of those
+#: received is not taken for a periodic one.
+MAX_LOST_SHARE = 0.25
 #: Most outages longer than a counter's period looked for in one stream.
 MAX_OUTAGES = 20
 
@@ -110,12 +113,16 @@ def _ordinal_lost(t: FloatArray, index: IntArray, period: float) -> IntArray:
     delivers its backlog at once and catches up; a loss shifts all that follow.
     """
     n = t.size
+    w = max(1, min(SHIFT_FRAMES, n // 4))
+    period = median((t[w:] - t[:-w]) / w)  # unmoved by the few spans across a loss
     resid = t - period * index
-    jitter = _fit_line(index, t, period)[1]
+    steps = np.diff(t)
+    # the timestamps' jitter from their steps alone (a loss is one step among thousands)
+    jitter = max(1.4826 * median(np.abs(steps - median(steps))) / np.sqrt(2.0), 0.1 * period)
     width = max(SHIFT_FRAMES, round(1.0 / period))
     noise = 4.0 * 1.25 * jitter * np.sqrt(2.0 / width)
     extra = np.zeros(n, dtype=np.int64)
-    for j in np.flatnonzero(np.diff(t) > 3 * period + 4 * jitter):
+    for j in np.flatnonzero(steps > 3 * period + 4 * jitter):
         before = median(resid[max(0, j - width + 1):j + 1])
         after = median(resid[j + 1:j + 1 + width])
         shift = after - before
@@ -187,6 +194,8 @@ def sample_times(t: npt.ArrayLike, counter: npt.ArrayLike | None = None) -> Floa
     period = float(ts[-1] - ts[0]) / float(index[-1] - index[0])  # losses still left out
     index = (_counter_periods_lost(ts, index, period, modulus) if counted
              else _ordinal_lost(ts, index, period))
+    if not counted and index[-1] - index[0] > MAX_LOST_SHARE * t.size + t.size - 1:
+        return t  # gaps everywhere: not a periodic stream (or one too lossy to time)
     period = float(ts[-1] - ts[0]) / float(index[-1] - index[0])
     fitted, spread = _fit_line(index, ts, period)
     # the counter says which sample each frame holds, however late the logger stamped it;

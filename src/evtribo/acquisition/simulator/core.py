@@ -43,6 +43,7 @@ from evtribo.acquisition.simulator.physics import (
     measured,
     model_parameters,
     on_off_schedule,
+    press_cycle,
 )
 from evtribo.acquisition.simulator.truth import FEL_BIN_S, TrialTruth
 from evtribo.errors import RigConfigError
@@ -68,6 +69,9 @@ WAVE_CODE = {"sine": 0, "square": 1}
 #: Nominal leakage current reported by the amplifier at 140 V, uA (not modelled further).
 LEAK_UA_AT_140V = 4.0
 
+#: A finger pressing without sliding still shears the skin a little: this share of its
+#: target force, slowly wandering.
+PRESS_SHEAR = 0.02
 #: Contact above this counts as full contact in the truth's means.
 FULL_CONTACT = 0.999
 
@@ -243,6 +247,9 @@ class TrialGenerator:
         and the finger's contact."""
         press = np.where(contact > 0, fn / np.maximum(contact, 1e-12), 0.0)
         fel = contact * drive_force(t, press, self.config, self.params, interval_s)
+        if self.config.press_only:  # no sliding: the skin's small shear only
+            shear = PRESS_SHEAR * self.subject.normal_force_N * np.sin(2 * np.pi * t / 7.0)
+            return np.where(contact > 0, shear, 0.0), fel
         return self.mu_at(t) * (fn + fel) * self.strokes.factor(t), fel
 
     def mu_at(self, t: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
@@ -284,7 +291,8 @@ class TrialGenerator:
         grid_t = np.arange(j0, j1 + 1) * FORCE_STEP_S
 
         def fn_at(t: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-            return np.maximum(np.interp(t, grid_t, grid_f), 0.0)
+            fn = np.maximum(np.interp(t, grid_t, grid_f), 0.0)
+            return fn * press_cycle(t) if cfg.press_only else fn
 
         fz, fx, hv = self.nodes
         tables = []
