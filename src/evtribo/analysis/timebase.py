@@ -31,6 +31,7 @@ periodically) keeps its timestamps as they are.
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
@@ -133,10 +134,54 @@ def _ordinal_lost(t: FloatArray, index: IntArray, period: float) -> IntArray:
     return index + np.cumsum(extra)
 
 
-def _hats(x: FloatArray, knots: FloatArray) -> FloatArray:
-    """Piecewise-linear basis at *x* within the knots (one column per knot)."""
-    eye = np.eye(knots.size)
-    return np.column_stack([np.interp(x, knots, eye[k]) for k in range(knots.size)])
+@dataclass(frozen=True)
+class _Hats:
+    """The piecewise-linear basis at sorted *x*, one column per knot: between two knots, a
+    point's place ``u`` (0 at the left knot, 1 at the right). The points of a segment are
+    contiguous, so every sum is a dot product over a slice."""
+
+    bounds: IntArray  # the points of segment s are [bounds[s], bounds[s + 1])
+    u: FloatArray
+    k: int
+
+    @classmethod
+    def at(cls, x: FloatArray, knots: FloatArray) -> _Hats:
+        bounds = np.searchsorted(x, knots, side="left")
+        bounds[0], bounds[-1] = 0, x.size
+        u = np.empty(x.size)
+        for s in range(knots.size - 1):
+            a, b = bounds[s], bounds[s + 1]
+            u[a:b] = (x[a:b] - knots[s]) / (knots[s + 1] - knots[s])
+        return cls(bounds.astype(np.int64), u, int(knots.size))
+
+    def __call__(self, coef: FloatArray) -> FloatArray:
+        out = np.empty(self.u.size)
+        for s in range(self.k - 1):
+            a, b = self.bounds[s], self.bounds[s + 1]
+            out[a:b] = coef[s] + (coef[s + 1] - coef[s]) * self.u[a:b]
+        return out
+
+    def solve(self, y: FloatArray, weight: FloatArray) -> FloatArray:
+        """Least-squares coefficients of *y*, each point weighted by *weight* (0 or 1: left
+        out or in), from the normal equations (tridiagonal, summed segment by segment)."""
+        k = self.k
+        ata = np.zeros((k, k))
+        aty = np.zeros(k)
+        for s in range(k - 1):
+            a, b = self.bounds[s], self.bounds[s + 1]
+            u, w, ys = self.u[a:b], weight[a:b], y[a:b]
+            wu, wv = w * u, w - w * u
+            v = 1.0 - u
+            ata[s, s] += wv @ v
+            ata[s + 1, s + 1] += wu @ u
+            ata[s, s + 1] += wu @ v
+            ata[s + 1, s] = ata[s, s + 1]
+            aty[s] += wv @ ys
+            aty[s + 1] += wu @ ys
+        if k > 2:  # a whisper of smoothness: a knot with no point near it follows its
+            d2 = np.diff(np.eye(k), 2, axis=0)  # neighbours instead of making it singular
+            ata += 1e-9 * max(float(np.mean(np.diag(ata))), 1.0) * (d2.T @ d2)
+        return np.asarray(np.linalg.solve(ata, aty), dtype=np.float64)
 
 
 def _fit_line(index: IntArray, t: FloatArray, period: float) -> tuple[FloatArray, float]:
@@ -145,17 +190,17 @@ def _fit_line(index: IntArray, t: FloatArray, period: float) -> tuple[FloatArray
     x = index.astype(np.float64)
     span = float(x[-1] - x[0])
     knots = np.linspace(x[0], x[-1], max(1, round(span * period / KNOT_S)) + 1)
-    basis = _hats(x, knots)
-    t0 = t[0]
-    keep = np.ones(x.size, dtype=bool)
-    for _ in range(2):
-        coef, *_ = np.linalg.lstsq(basis[keep], t[keep] - t0, rcond=None)
-        resid = t - t0 - basis @ coef
+    basis = _Hats.at(x, knots)
+    y = t - t[0]
+    coef = basis.solve(y, np.ones(x.size))
+    resid = y - basis(coef)
+    spread = 1.4826 * median(np.abs(resid - median(resid)))
+    keep = np.abs(resid) <= max(OUTLIER_SD * spread, period)
+    if keep.sum() >= 2 * basis.k + 2:
+        coef = basis.solve(y, keep.astype(np.float64))
+        resid = y - basis(coef)
         spread = 1.4826 * median(np.abs(resid - median(resid)))
-        keep = np.abs(resid) <= max(OUTLIER_SD * spread, period)
-        if keep.sum() < basis.shape[1] + 2:
-            break
-    return t0 + basis @ coef, spread
+    return t[0] + basis(coef), spread
 
 
 def sample_times(t: npt.ArrayLike, counter: npt.ArrayLike | None = None) -> FloatArray:
