@@ -201,7 +201,19 @@ def stroke_notes(subject: str, models: dict[int, MuModel], off_ratio_sd: float,
 
 def relative_scatter(models: dict[int, MuModel], ratios: dict[int, npt.NDArray[np.float64]]
                      ) -> float:
-    """Relative standard deviation of the OFF windows' ``F_t/F_n`` about their models."""
+    """Relative standard deviation of the OFF windows' ``F_t/F_n`` about their models.
+
+    Parameters
+    ----------
+    models : dict
+        Reference models by index.
+    ratios : dict
+        Each reference's OFF windows' ``F_t/F_n``.
+
+    Returns
+    -------
+    float
+    """
     parts = []
     for r, model in models.items():
         if r in ratios and ratios[r].size > model.coef.size + 1:
