@@ -118,8 +118,7 @@ class MuModel:
     direction : bool
         Whether the direction term is in.
     rate : bool
-        Whether the stroke's rate term is in (its slope :attr:`rate_slope`, fixed: a
-        subject's, from all its trials, :func:`pooled_rate_slope`).
+        Whether the stroke's rate term (its fixed :attr:`rate_slope`) is in.
     t_lo, t_hi : float, s
         The OFF windows' span (the polynomial's domain).
     rate_mean : float
@@ -133,18 +132,15 @@ class MuModel:
     cluster : ndarray of int
         The fitted windows' strokes.
     log : bool
-        A model of ``log(F_t / F_n)`` fitted to the OFF and the ON windows of one trial
-        together, with one more coefficient per ON group (the voltage's own factor on the
-        friction), so that the trend is known wherever the trial has windows; else a model
-        of ``F_t / F_n`` over the OFF windows alone.
+        A model of ``log(F_t / F_n)`` of a trial's OFF and ON windows together
+        (:func:`fit_trial_model`); else of ``F_t / F_n`` over the OFF windows.
     smear : float
         Duan's smearing factor of the log model (the weighted mean of ``exp(residual)``),
         so that ``exp`` of the fit is the mean ratio, not the median.
     fit : _Fit or None
         The design, response and weights it was fitted to, and its AICc.
     rivals : tuple of MuModel
-        The other candidates fitted to the same windows: each bootstrap replicate chooses
-        among them again (the choice's own uncertainty in the intervals).
+        The other candidates fitted to the same windows (each replicate chooses again).
     """
 
     degree: int
