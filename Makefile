@@ -36,7 +36,7 @@ bench: $(STAMP)
 
 lint: $(STAMP)
 	$(PY) -m pip install --quiet -e '.[dev]'
-	$(VENV)/bin/ruff check src tests benchmarks
+	$(VENV)/bin/ruff check src tests benchmarks docs/conf.py
 	$(VENV)/bin/mypy
 
 # the documentation site, build/docs/html/index.html: Sphinx from docs/ (the README, every page,

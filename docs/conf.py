@@ -24,7 +24,7 @@ ROOT = DOCS.parent
 
 project = "evtribo"
 author = "The evtribo developers"
-copyright = "2026, the evtribo developers"  # noqa: A001 - Sphinx's name for it
+copyright = "2026, the evtribo developers"
 release = evtribo.__version__
 version = release
 
@@ -36,7 +36,8 @@ exclude_patterns = ["_build", "**.ipynb_checkpoints"]
 templates_path = ["_templates"]
 
 # the API reference: numpydoc's sections; types are in the docstrings, not repeated from
-# the signature; members in the order of the source
+# the signature; members in the order of the source; a page per module, every submodule
+# listed (autosummary), each page with the names of the module's __all__ (automodule)
 autodoc_typehints = "none"
 autodoc_member_order = "bysource"
 autodoc_preserve_defaults = True

@@ -198,3 +198,8 @@ def test_the_changelog_tells_each_version_newest_first():
     assert dates == sorted(dates, reverse=True)
     for version, _, body in releases:
         assert len(re.findall(r"^- ", body, re.MULTILINE)) >= 3, version
+
+
+def test_the_readme_cites_as_evtribo_cite_does():
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert f"> {text(SOFTWARE)}\n>\n> {text(PAPER)}\n" in readme
