@@ -96,14 +96,18 @@ def setup(app: Any) -> dict[str, Any]:
 
 def _kernel() -> None:
     """A Jupyter kernel named as the notebook asks (python3) that runs this interpreter,
-    found before any other (the user's may run another Python, without evtribo)."""
+    found before any other (the user's may run another Python, without evtribo), with
+    inline figures and evtribo's cache under build/docs."""
     folder = ROOT / "build" / "docs" / "jupyter"
     spec = folder / "kernels" / "python3"
     spec.mkdir(parents=True, exist_ok=True)
     (spec / "kernel.json").write_text(json.dumps({
         "argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
         "display_name": "Python 3 (evtribo docs)", "language": "python",
-        "env": {"MPLBACKEND": "module://matplotlib_inline.backend_inline"}}), encoding="utf-8")
+        "env": {"MPLBACKEND": "module://matplotlib_inline.backend_inline",
+                # decoded trials kept with the build, not in the user's cache
+                "EVTRIBO_CACHE_DIR": str(ROOT / "build" / "docs" / "cache")}}),
+        encoding="utf-8")
     os.environ["JUPYTER_PATH"] = os.pathsep.join(
         [str(folder), *filter(None, [os.environ.get("JUPYTER_PATH")])])
 
