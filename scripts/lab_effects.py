@@ -5,7 +5,8 @@ drift, hum, irregular strokes, lift-offs, a tare stretch), each with one effect 
 ``docs/simulator.md`` added (and all of them at once), over several seeds, analyses them as
 ``evtribo analyze`` does, and prints per effect what the truth says of the results:
 
-- F_el bias: the mean over cells of (estimate / truth - 1), and the worst cell's;
+- F_el bias: the mean over cells of (estimate / truth - 1), its standard error, the share
+  of cells too high, and the worst cell's;
 - covered: the share of the 95 % intervals that hold the true force;
 - mu error: the worst relative error of the ``mu`` column against the mean true
   coefficient over the cell's ON windows;
@@ -91,6 +92,8 @@ def evaluate(effect: str, seeds: list[int], n_boot: int) -> dict[str, object]:
                & (el.fel_true_N <= el.electrostatic_force_ci_high_N))
     ex_cov = (ex.exponent_ci_low <= ex.exponent_true) & (ex.exponent_true <= ex.exponent_ci_high)
     return {"effect": effect, "cells": len(el), "bias_%": 100 * rel.mean(),
+            "bias_se_%": 100 * rel.std() / np.sqrt(len(rel)),
+            "high_%": 100 * (rel > 0).mean(),
             "worst_%": 100 * rel.abs().max(), "covered_%": 100 * covered.mean(),
             "mu_err_%": 100 * (el.mu / el.mu_true - 1).abs().max(),
             "exp_err": (ex.exponent - ex.exponent_true).abs().max(),

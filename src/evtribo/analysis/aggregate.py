@@ -43,6 +43,7 @@ from evtribo.analysis.estimate import (
     ElectrostaticEstimate,
     estimate_electrostatic,
 )
+from evtribo.analysis.plausible import implausible_rows
 from evtribo.analysis.powerlaw import fit_power_law
 from evtribo.errors import AnalysisError
 
@@ -367,14 +368,16 @@ def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
                         shown=facts.shown, n_saved=n_saved, warnings=warnings)
             _add_power_laws(tables, str(subject), found.est, points=found.points,
                             shown=facts.shown, confidence=confidence, warnings=warnings)
+    electrostatic = pd.DataFrame(tables.electrostatic, columns=list(ELECTROSTATIC_COLUMNS))
+    warnings += implausible_rows(electrostatic)
     for w in warnings:
         log.warning("%s", w)
     boot = (pd.concat(tables.bootstrap, ignore_index=True)
             .reindex(columns=list(BOOTSTRAP_COLUMNS)) if tables.bootstrap
             else pd.DataFrame(columns=list(BOOTSTRAP_COLUMNS)))
     return StudySummary(
-        pd.DataFrame(tables.electrostatic, columns=list(ELECTROSTATIC_COLUMNS)),
-        pd.DataFrame(tables.exponents, columns=list(EXPONENT_COLUMNS)), boot, warnings,
+        electrostatic, pd.DataFrame(tables.exponents, columns=list(EXPONENT_COLUMNS)), boot,
+        warnings,
         pd.concat(window_mu) if window_mu else pd.Series(dtype=float), mu_change)
 
 

@@ -65,7 +65,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy import special  # stats.t.ppf is special.stdtrit, stats.norm.ppf special.ndtri
 
-from evtribo.analysis.reference import MuModel, WindowFacts, fit_mu_model
+from evtribo.analysis.reference import MuModel, WindowFacts, fit_mu_model, fit_trial_model
 from evtribo.errors import AnalysisError
 
 log = logging.getLogger(__name__)
@@ -351,8 +351,8 @@ class _References:
     @classmethod
     def fit(cls, w: _Windows, offs: list[WindowFacts], ons: WindowFacts, trends: list[bool],
             *, rng: np.random.Generator, n_boot: int) -> _References:
-        """Each used reference's model (without its trend if the trend would give an ON
-        window a coefficient that is not positive), and its replicates."""
+        """Each used reference's model (a trial's from its OFF and ON windows together,
+        :func:`~evtribo.analysis.reference.fit_trial_model`), and its replicates."""
         models: dict[int, MuModel] = {}
         mu_on = np.empty(w.on_normal.size)
         mu_on_b = np.empty((n_boot, w.on_normal.size))
@@ -361,16 +361,18 @@ class _References:
             if w.off_normal[r].size == 0:
                 raise AnalysisError("no OFF windows to estimate the friction coefficient from")
             sel = w.on_ref == r
-            model = fit_mu_model(w.off_normal[r], w.off_friction[r], offs[r],
-                                 time_trend=trends[r])
-            if model.trend and not np.all(model.at(ons.take(sel)) > 0):
+            here = ons.take(sel)
+            if trends[r]:
+                model = fit_trial_model((w.off_normal[r], w.off_friction[r], offs[r]),
+                                        (w.on_normal[sel], w.on_friction[sel], here,
+                                         w.on_group[sel]))
+            else:
                 model = fit_mu_model(w.off_normal[r], w.off_friction[r], offs[r],
                                      time_trend=False)
-            X = model.design(ons.take(sel))
-            mu_on[sel] = X @ model.coef
-            mu_on_b[:, sel] = model.replicates(rng, n_boot) @ X.T
+            mu_on[sel] = model.at(here)
+            mu_on_b[:, sel] = model.replicates_at(here, rng, n_boot)
+            clusters[r] = int(np.unique(model.cluster).size)
             models[r] = model
-            clusters[r] = int(np.unique(offs[r].cluster).size)
         if not np.all(mu_on > 0):
             raise AnalysisError("the OFF windows' friction coefficient is not positive")
         # a replicate's coefficient at or below zero is no coefficient: held at a tenth

@@ -36,6 +36,7 @@ a phase of the trial.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import product
@@ -46,7 +47,8 @@ from numpy.polynomial import legendre
 
 from evtribo.errors import AnalysisError
 
-__all__ = ["MAX_DEGREE", "MuModel", "WindowFacts", "fit_mu_model"]
+__all__ = ["MAX_DEGREE", "MuModel", "WindowFacts", "fit_mu_model", "fit_trial_model",
+           "stack_facts"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -100,6 +102,18 @@ class WindowFacts:
 
 
 @dataclass(frozen=True)
+class _Fit:
+    """What a model was fitted to: its design (with any group columns), response, weights,
+    fitted values and AICc."""
+
+    X: FloatArray
+    y: FloatArray
+    weight: FloatArray
+    fitted: FloatArray
+    aicc: float
+
+
+@dataclass(frozen=True)
 class MuModel:
     """A reference's friction coefficient as a function of a window's facts.
 
@@ -120,9 +134,22 @@ class MuModel:
     unit : ndarray, shape (n_off, p)
         ``(X' W X)^-1 X' W`` transposed: how each OFF window's ratio moves the coefficients.
     resid : ndarray
-        The OFF windows' residuals, HC2-scaled.
+        The fitted windows' residuals, HC2-scaled.
     cluster : ndarray of int
-        The OFF windows' strokes.
+        The fitted windows' strokes.
+    log : bool
+        A model of ``log(F_t / F_n)`` fitted to the OFF and the ON windows of one trial
+        together, with one more coefficient per ON group (the voltage's own factor on the
+        friction), so that the trend is known wherever the trial has windows; else a model
+        of ``F_t / F_n`` over the OFF windows alone.
+    smear : float
+        Duan's smearing factor of the log model (the weighted mean of ``exp(residual)``),
+        so that ``exp`` of the fit is the mean ratio, not the median.
+    fit : _Fit or None
+        The design, response and weights it was fitted to, and its AICc.
+    rivals : tuple of MuModel
+        The other candidates fitted to the same windows: each bootstrap replicate chooses
+        among them again (the choice's own uncertainty in the intervals).
     """
 
     degree: int
@@ -135,6 +162,10 @@ class MuModel:
     unit: FloatArray
     resid: FloatArray
     cluster: IntArray
+    log: bool = False
+    smear: float = 1.0
+    fit: _Fit | None = None
+    rivals: tuple[MuModel, ...] = ()
 
     @property
     def trend(self) -> bool:
@@ -154,13 +185,47 @@ class MuModel:
 
     def at(self, facts: WindowFacts) -> FloatArray:
         """The coefficient at each window of *facts*."""
-        return self.design(facts) @ self.coef
+        return self.at_replicates(facts, self.coef[None, :])[0]
+
+    def at_replicates(self, facts: WindowFacts, coef: FloatArray) -> FloatArray:
+        """The coefficient at each window of *facts* for each row of *coef* (replicates of
+        :attr:`coef`), shape (rows, windows)."""
+        X = self.design(facts)
+        value = coef[:, :X.shape[1]] @ X.T
+        return self.smear * np.exp(value) if self.log else value
 
     def replicates(self, rng: np.random.Generator, n_boot: int) -> FloatArray:
         """Wild cluster bootstrap replicates of the coefficients, shape (n_boot, p)."""
+        return self.coef + self._noise(rng, n_boot) @ self.unit
+
+    def _noise(self, rng: np.random.Generator, n_boot: int) -> FloatArray:
+        """The residuals with Webb's weights drawn per stroke, shape (n_boot, n)."""
         _, inverse = np.unique(self.cluster, return_inverse=True)
         signs = WEBB[rng.integers(0, WEBB.size, size=(n_boot, int(inverse.max()) + 1))]
-        return self.coef + (signs[:, inverse] * self.resid) @ self.unit
+        return signs[:, inverse] * self.resid
+
+    def replicates_at(self, facts: WindowFacts, rng: np.random.Generator, n_boot: int
+                      ) -> FloatArray:
+        """Bootstrap replicates of the coefficient at each window of *facts*, shape
+        (n_boot, windows): the wild cluster bootstrap's data fitted by every candidate
+        model, each replicate taking the candidate its data give the least AICc."""
+        noise = self._noise(rng, n_boot)
+        if not self.rivals or self.fit is None:
+            return self.at_replicates(facts, self.coef + noise @ self.unit)
+        data = self.fit.fitted + noise  # (n_boot, n)
+        best_score = np.full(n_boot, np.inf)
+        out = np.empty((n_boot, len(facts)))
+        for model in (self, *self.rivals):
+            assert model.fit is not None
+            coef = data @ model.unit
+            resid = data - coef @ model.fit.X.T
+            score = _aicc(np.sum(model.fit.weight * resid**2, axis=1), resid.shape[1],
+                          model.fit.X.shape[1])
+            better = score < best_score
+            if better.any():
+                out[better] = model.at_replicates(facts, coef[better])
+                best_score[better] = score[better]
+        return out
 
     def change_per_s(self) -> float:
         """Mean rate of change of the coefficient over the OFF span (0 without trend)."""
@@ -170,6 +235,13 @@ class MuModel:
                            np.zeros(2, np.int64), np.zeros(2, np.int64))
         lo, hi = self.at(ends)
         return float((hi - lo) / (self.t_hi - self.t_lo))
+
+    def describe(self) -> str:
+        """The model's terms, for summary.json (``"constant"``, ``"time^2 + direction"``)."""
+        terms = ([f"time^{self.degree}" if self.degree > 1 else "time"] if self.degree
+                 else []) + (["direction"] if self.direction else []) + (
+                     ["stroke rate"] if self.rate else [])
+        return " + ".join(terms) or "constant"
 
 
 def _time_basis(t: FloatArray, lo: float, hi: float, degree: int) -> FloatArray:
@@ -208,11 +280,13 @@ def _fit(X: FloatArray, ratio: FloatArray, weight: FloatArray
     return coef, unit, resid / np.sqrt(1.0 - lever), rss
 
 
-def _aicc(rss: float, n: int, p: int) -> float:
-    k = p + 1  # the coefficients and the variance
+def _aicc(rss: float | FloatArray, n: int, p: int) -> FloatArray:
+    """AICc of a least-squares fit of *p* coefficients to *n* values (and the variance)."""
+    k = p + 1
     if n - k - 1 <= 0:
-        return np.inf
-    return n * np.log(max(rss, 1e-300) / n) + 2 * k + 2 * k * (k + 1) / (n - k - 1)
+        return np.full(np.shape(rss), np.inf)
+    return np.asarray(n * np.log(np.maximum(rss, 1e-300) / n) + 2 * k
+                      + 2 * k * (k + 1) / (n - k - 1))
 
 
 def _offers(facts: WindowFacts, time_trend: bool) -> tuple[list[int], list[bool], list[bool]]:
@@ -266,23 +340,92 @@ def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: Wind
     lo, hi = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 0.0)
     rates = facts.rate[np.isfinite(facts.rate)]
     rate_mean = float(np.average(rates)) if rates.size else 0.0
-    best: tuple[float, MuModel] | None = None
+    candidates = []
     for degree, direction, rate in product(*_offers(facts, time_trend)):
-        model = MuModel(degree, direction, rate, lo, hi, rate_mean, np.empty(0),
-                        np.empty((0, 0)), np.empty(0), facts.cluster)
-        X = model.design(facts)
-        found = _fit(X, ratio, fn)
-        if found is None:
-            continue
-        coef, unit, resid, rss = found
-        score = _aicc(rss, fn.size, X.shape[1]) if fn.size > X.shape[1] + 2 else (
-            np.inf if X.shape[1] > 1 else 0.0)
-        if best is None or score < best[0]:
-            best = (score, MuModel(degree, direction, rate, lo, hi, rate_mean, coef, unit,
-                                   resid, facts.cluster))
-    if best is None:
+        template = MuModel(degree, direction, rate, lo, hi, rate_mean, np.empty(0),
+                           np.empty((0, 0)), np.empty(0), facts.cluster)
+        fitted = _fitted(template, template.design(facts), ratio, fn)
+        if fitted is not None:
+            candidates.append(fitted)
+    if not candidates:
         raise AnalysisError("the OFF windows do not determine a friction coefficient")
-    return best[1]
+    return _choose(candidates)
+
+
+def _fitted(template: MuModel, X: FloatArray, y: FloatArray, weight: FloatArray
+            ) -> MuModel | None:
+    """*template* fitted to ``(X, y)`` by weighted least squares; None when singular or
+    when the windows are too few to score it (the constant alone is always scored)."""
+    found = _fit(X, y, weight)
+    if found is None or (y.size <= X.shape[1] + 2 and X.shape[1] > 1):
+        return None
+    coef, unit, resid, rss = found
+    score = float(_aicc(rss, y.size, X.shape[1])) if y.size > X.shape[1] + 2 else 0.0
+    fitted = X @ coef
+    smear = float(np.average(np.exp(y - fitted), weights=weight)) if template.log else 1.0
+    return dataclasses.replace(template, coef=coef, unit=unit, resid=resid, smear=smear,
+                               fit=_Fit(X, y, weight, fitted, score))
+
+
+def _choose(candidates: list[MuModel]) -> MuModel:
+    """The candidate of least AICc, with the others as its rivals."""
+    scores = [m.fit.aicc if m.fit is not None else np.inf for m in candidates]
+    k = int(np.argmin(scores))
+    return dataclasses.replace(candidates[k],
+                               rivals=tuple(candidates[:k] + candidates[k + 1:]))
+
+
+def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
+                    on: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts, npt.ArrayLike]
+                    ) -> MuModel:
+    """A trial's friction coefficient in time, from its OFF and its ON windows together.
+
+    ``log(F_t / F_n) = b0 + sum_k b_k P_k(x) + c d + e v + sum_g a_g [window in ON group g]``
+    by weighted least squares (weights ``F_n``), the terms chosen by AICc: the ON windows
+    tell the trend's shape as well as the OFF ones (the voltage multiplies the friction by
+    about ``1 + F_el / F_n``, the same all through the trial), so the trend is known at
+    every ON window, not extrapolated from the OFF windows around it. When no trend is
+    supported, the OFF windows' ratio model (:func:`fit_mu_model`) is used.
+
+    Parameters
+    ----------
+    off : (normal_N, friction_N, facts)
+        The trial's OFF windows.
+    on : (normal_N, friction_N, facts, group)
+        Its ON windows and each one's group (an amplitude, say).
+
+    Returns
+    -------
+    MuModel
+        Its coefficient is that of the OFF windows (the ON groups' terms left out).
+    """
+    fn_off, ft_off = (np.asarray(a, dtype=np.float64) for a in off[:2])
+    fn_on, ft_on = (np.asarray(a, dtype=np.float64) for a in on[:2])
+    group = np.asarray(on[3])
+    facts = stack_facts([off[2], on[2]])
+    fn, ft = np.concatenate([fn_off, fn_on]), np.concatenate([ft_off, ft_on])
+    flat = fit_mu_model(fn_off, ft_off, off[2], time_trend=False)
+    if not (np.all(fn > 0) and np.all(ft > 0)):
+        return flat
+    labels = np.unique(group)
+    ons = np.concatenate([np.zeros((fn_off.size, labels.size)),
+                          (group[:, None] == labels[None, :]).astype(np.float64)])
+    y = np.log(ft / fn)
+    t = facts.t_s
+    lo, hi = float(np.nanmin(t)), float(np.nanmax(t))
+    rates = facts.rate[np.isfinite(facts.rate)]
+    rate_mean = float(np.mean(rates)) if rates.size else 0.0
+    candidates = []
+    for degree, direction, rate in product(*_offers(facts, True)):
+        template = MuModel(degree, direction, rate, lo, hi, rate_mean, np.empty(0),
+                           np.empty((0, 0)), np.empty(0), facts.cluster, log=True)
+        fitted = _fitted(template, np.column_stack([template.design(facts), ons]), y, fn)
+        if fitted is not None and fn.size > fitted.coef.size + 2:
+            candidates.append(fitted)
+    if not candidates:
+        return flat
+    best = _choose(candidates)
+    return flat if best.degree == 0 else best
 
 
 def stack_facts(parts: Sequence[WindowFacts]) -> WindowFacts:

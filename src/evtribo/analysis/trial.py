@@ -30,6 +30,7 @@ from evtribo.analysis.excitation import Excitation, excitation_of, window_amplit
 from evtribo.analysis.hum import find_hum, friction_oscillates, modulation_lines, remove_hum
 from evtribo.analysis.observed import PieceObserver, PieceState, lift_exclusion
 from evtribo.analysis.pieces import check_seconds, continuous_pieces, describe_gap, restrict
+from evtribo.analysis.plausible import swapped_roles
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.sine import friction_modulation, trace_around_switch
 from evtribo.analysis.tare import (
@@ -250,11 +251,19 @@ def _tare(aligned: AlignedForces, exc: Excitation, *, smooth: float, quantum: fl
         loop = friction_loop_offset(tared.forces.t, tared.forces.normal,
                                     tared.forces.tangential, w, groups,
                                     max_knots=2 if tared.lifted else None)
-        if loop is not None and (loop.significant or not tared.lifted):
+        if loop is not None and not tared.lifted:
             # the same windows (found with relative thresholds, which an offset does not
             # move), their means from the corrected forces
             tared = tare_loop(tared, loop)
             w = with_means(w, tared.forces.normal, tared.forces.tangential)
+        elif loop is not None and loop.significant:
+            # the lifted finger measured the zero: what is left between the directions is
+            # the finger's own (posture, the ridges' direction), compared direction by
+            # direction in the estimate, not taken out as an offset
+            level = float(np.mean(w.friction_force_N))
+            log.info("forward and backward friction differ by %.1f mN (%.0f %% of %.3f N), "
+                     "with the zero measured with the finger lifted", 2e3 * np.mean(
+                         loop.offset_N), 200 * abs(np.mean(loop.offset_N)) / level, level)
         elif not tared.lifted and cal.tangential_offset_N is None:
             warn("the tangential cell's zero is unknown: no finger-lifted stretch, no "
                  "[rig.calibration] tangential_offset_N, and too few strokes in both "
@@ -316,6 +325,9 @@ def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, setting
     tn, fn = _channel(signals.normal)
     tt, ft = _channel(signals.tangential)
     aligned = align_forces(tn, fn, tt, ft, max_gap_periods=settings.max_gap_periods)
+    swapped = swapped_roles(aligned.normal, aligned.tangential, aligned.rate_Hz)
+    if swapped:
+        warn(swapped)
     given = {"waveform": meta.waveform, "frequency_Hz": meta.frequency_Hz,
              "amplitude_V": meta.amplitude_V, "condition": meta.condition}
     exc = excitation_of(signals, given, aligned.t, settings.guard_s, warn)
