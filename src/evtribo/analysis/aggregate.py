@@ -30,6 +30,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from evtribo.analysis.crosstalk import crosstalk_notes
 from evtribo.analysis.drift import (
     TrialDrift,
     drift_notes,
@@ -358,8 +359,13 @@ def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
             frequency_Hz=[facts.frequency_of.get((s, t), _NO_FREQUENCY)
                           for s, t in zip(windows.subject, windows.trial, strict=True)])
         for subject, sub in tagged.groupby("subject", sort=True):
-            found = _estimate_subject(str(subject), sub, facts, n_boot=n_boot, seed=seed,
-                                      confidence=confidence, warnings=warnings)
+            try:
+                found = _estimate_subject(str(subject), sub, facts, n_boot=n_boot,
+                                          seed=seed, confidence=confidence,
+                                          warnings=warnings)
+            except AnalysisError as err:
+                warnings.append(f"{subject}: no electrostatic force: {err}")
+                continue
             if found is None:
                 continue
             window_mu.append(found.window_mu)
@@ -369,7 +375,7 @@ def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
             _add_power_laws(tables, str(subject), found.est, points=found.points,
                             shown=facts.shown, confidence=confidence, warnings=warnings)
     electrostatic = pd.DataFrame(tables.electrostatic, columns=list(ELECTROSTATIC_COLUMNS))
-    warnings += implausible_rows(electrostatic)
+    warnings += implausible_rows(electrostatic) + crosstalk_notes(trials)
     for w in warnings:
         log.warning("%s", w)
     boot = (pd.concat(tables.bootstrap, ignore_index=True)

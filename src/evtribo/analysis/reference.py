@@ -302,7 +302,7 @@ def _offers(facts: WindowFacts, time_trend: bool) -> tuple[list[int], list[bool]
     both = int(np.sum(d > 0)) >= 2 and int(np.sum(d < 0)) >= 2
     rates = facts.rate
     varied = bool(np.isfinite(rates).all() and n >= 6 and np.ptp(rates) > 0)
-    return degrees, [both] if both else [False], [False, True] if varied else [False]
+    return degrees, [False, True] if both else [False], [False, True] if varied else [False]
 
 
 def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: WindowFacts, *,

@@ -18,8 +18,11 @@ stall of the logger). The index comes from
 - **the cell's rolling counter** when the rig names one: ``+1`` per frame modulo the
   counter's period, so lost frames keep their places; an outage longer than the counter's
   period is added in whole periods from the timing;
-- **the frames' order** otherwise, with the frames lost in a gap counted from the persistent
-  shift it leaves in the timestamps (a late batch shifts them only for a moment).
+- **the frames' order** otherwise;
+
+and the frames lost in a gap of the timestamps (beyond what a counter counts) from the
+persistent shift the gap leaves in them: a late batch, or a logger that stalls and then
+delivers its backlog at once, shifts the timestamps only for a moment.
 
 A stream whose timestamps do not follow such a line (a node that sends on change, not
 periodically) keeps its timestamps as they are.
@@ -48,39 +51,73 @@ MIN_SAMPLES = 50
 #: Timestamps farther from the line than this many robust standard deviations (and than
 #: one period) are left out of the second fit.
 OUTLIER_SD = 4.0
-#: A stream whose timestamps stray from the line by more than this many periods (robust
-#: standard deviation) is not periodic: its timestamps are kept.
+#: A stream without a counter whose timestamps stray from the line by more than this many
+#: periods (robust standard deviation) is not periodic: its timestamps are kept.
 MAX_SPREAD_PERIODS = 20.0
-#: Frames on each side of a gap over which the shift it leaves is measured (no counter).
+#: Fewest frames on each side of a gap over which the shift it leaves is measured (no
+#: counter).
 SHIFT_FRAMES = 200
+#: Most outages longer than a counter's period looked for in one stream.
+MAX_OUTAGES = 20
 
 
-def _unwrap_counter(t: FloatArray, counter: IntArray, period: float) -> IntArray:
+def _counter_index(counter: IntArray) -> tuple[IntArray, int]:
     """The samples' indices from a rolling counter: its steps modulo its period (a power of
-    two above its largest value), whole periods added where the timing says they were lost;
-    a repeated value (a frame sent twice) keeps its index."""
+    two above its largest value; a repeated value, a frame sent twice, keeps its index),
+    and that period."""
     modulus = 1 << max(1, int(counter.max()).bit_length())
     step = np.mod(np.diff(counter), modulus)
-    gap = np.diff(t) / period
-    lost_periods = np.maximum(np.round((gap - step) / modulus), 0).astype(np.int64)
-    return np.concatenate(([0], np.cumsum(step + modulus * lost_periods))).astype(np.int64)
+    return np.concatenate(([0], np.cumsum(step))).astype(np.int64), modulus
 
 
-def _ordinal_index(t: FloatArray, period: float) -> IntArray:
-    """The samples' indices from their order, with the frames lost in a gap counted from the
-    persistent shift it leaves: the timestamps' medians over :data:`SHIFT_FRAMES` frames
-    on each side, apart by more than their jitter allows (a late batch shifts a few
-    timestamps, a loss all that follow)."""
+def _line_spread(index: IntArray, t: FloatArray) -> float:
+    """Median absolute deviation of the timestamps from one straight line in the index."""
+    x = index.astype(np.float64)
+    slope, icpt = np.polyfit(x - x[0], t - t[0], 1)
+    resid = t - t[0] - (icpt + slope * (x - x[0]))
+    return median(np.abs(resid - median(resid)))
+
+
+def _counter_periods_lost(t: FloatArray, index: IntArray, period: float, modulus: int
+                          ) -> IntArray:
+    """*index* with whole counter periods added where an outage was longer than the
+    counter's period: at each step of the timestamps longer than half a counter period, the
+    number of periods whose adding makes the timestamps straightest in the index (a stalled
+    logger that delivers its backlog late is no outage: adding periods there bends them)."""
+    steps = np.diff(t) - period * np.diff(index)
+    out = index.copy()
+    for j in np.argsort(steps)[::-1][:MAX_OUTAGES]:
+        if steps[j] <= 0.5 * modulus * period:
+            break
+        best, spread = 0, _line_spread(out, t)
+        for k in range(1, round(steps[j] / (modulus * period)) + 1):
+            trial = out.copy()
+            trial[j + 1:] += k * modulus
+            value = _line_spread(trial, t)
+            if value < 0.8 * spread:
+                best, spread = k, value
+        out[j + 1:] += best * modulus
+    return out
+
+
+def _ordinal_lost(t: FloatArray, index: IntArray, period: float) -> IntArray:
+    """*index* (the frames' order) with the frames lost in each gap of the timestamps added.
+
+    A gap (a step over three periods beyond the jitter) is a loss only when it leaves a
+    persistent shift: the timestamps' medians over a second (at least
+    :data:`SHIFT_FRAMES` frames) on each side, less the index's own advance, apart by more
+    than their jitter allows. A late batch shifts a few timestamps, and a stalled logger
+    delivers its backlog at once and catches up; a loss shifts all that follow.
+    """
     n = t.size
-    index = np.arange(n, dtype=np.int64)
     resid = t - period * index
     jitter = _fit_line(index, t, period)[1]
-    # what the medians of two sets of SHIFT_FRAMES timestamps differ by, at most
-    noise = 4.0 * 1.25 * jitter * np.sqrt(2.0 / SHIFT_FRAMES)
+    width = max(SHIFT_FRAMES, round(1.0 / period))
+    noise = 4.0 * 1.25 * jitter * np.sqrt(2.0 / width)
     extra = np.zeros(n, dtype=np.int64)
     for j in np.flatnonzero(np.diff(t) > 3 * period + 4 * jitter):
-        before = median(resid[max(0, j - SHIFT_FRAMES + 1):j + 1])
-        after = median(resid[j + 1:j + 1 + SHIFT_FRAMES])
+        before = median(resid[max(0, j - width + 1):j + 1])
+        after = median(resid[j + 1:j + 1 + width])
         shift = after - before
         lost = round(shift / period) if shift > max(0.5 * period, noise) else 0
         if lost > 0:
@@ -138,18 +175,24 @@ def sample_times(t: npt.ArrayLike, counter: npt.ArrayLike | None = None) -> Floa
     steps = np.diff(ts)
     if not np.any(steps > 0):
         return t
-    period = float(ts[-1] - ts[0]) / (t.size - 1)  # corrected by the index below
-    if counter is not None:
-        c = np.asarray(counter, dtype=np.int64)
-        index = _unwrap_counter(ts, c, period) if c.size == t.size and c.max() > 0 \
-            else _ordinal_index(ts, period)
+    c = None if counter is None else np.asarray(counter, dtype=np.int64)
+    counted = c is not None and c.size == t.size and c.max() > 0
+    if counted:
+        assert c is not None
+        index, modulus = _counter_index(c)
     else:
-        index = _ordinal_index(ts, period)
+        index = np.arange(t.size, dtype=np.int64)
     if index[-1] <= index[0]:
         return t
+    period = float(ts[-1] - ts[0]) / float(index[-1] - index[0])  # losses still left out
+    index = (_counter_periods_lost(ts, index, period, modulus) if counted
+             else _ordinal_lost(ts, index, period))
     period = float(ts[-1] - ts[0]) / float(index[-1] - index[0])
     fitted, spread = _fit_line(index, ts, period)
-    if not spread <= MAX_SPREAD_PERIODS * period or not np.all(np.diff(fitted) >= 0):
+    # the counter says which sample each frame holds, however late the logger stamped it;
+    # without one, timestamps far off any line are no periodic stream's
+    if not (counted or spread <= MAX_SPREAD_PERIODS * period) \
+            or not np.all(np.diff(fitted) >= 0):
         log.debug("timestamps kept: they stray %.3g s from a periodic clock", spread)
         return t
     return fitted

@@ -368,6 +368,17 @@ class TrialGenerator:
             self.config = dataclasses.replace(self.config, **changes)
         self.chunk_s = OBEY_CHUNK_S  # from now on the amplifier answers within this
 
+    def lift(self, duration_s: float) -> None:
+        """The finger lifted for *duration_s* from the next chunk on (a new recording's tare
+        stretch, when the simulated rig runs on for several trials).
+
+        Parameters
+        ----------
+        duration_s : float, s
+        """
+        if duration_s > 0:
+            self.contact = self.contact.lifted_at(self._t_next, duration_s)
+
     def chunks(self) -> Iterator[FrameTable]:
         """Frames in reception order, about :data:`CHUNK_S` s at a time (:data:`OBEY_CHUNK_S`
         once the amplifier has been commanded), to the trial's end.

@@ -438,6 +438,17 @@ class Contact:
             t += off + MIN_CONTACT_S
         return cls(np.asarray(starts, dtype=np.float64), np.asarray(ends, dtype=np.float64))
 
+    def lifted_at(self, t0: float, duration_s: float) -> Contact:
+        """The same contact with the finger lifted from *t0* for *duration_s* (leaving from
+        *t0*, back in full contact :data:`CONTACT_RAMP_S` after the stretch): an operator's
+        tare stretch at the start of a recording. Lift-offs that overlap it are dropped."""
+        a, b = t0, t0 + duration_s + 2 * CONTACT_RAMP_S
+        keep = (self.end <= a) | (self.start >= b + MIN_CONTACT_S)
+        start = np.append(self.start[keep], a)
+        end = np.append(self.end[keep], b)
+        order = np.argsort(start)
+        return Contact(start[order], end[order])
+
     def factor(self, t: FloatArray) -> FloatArray:
         """Contact at times *t*: 1 touching, 0 off the screen, linear ramps in between."""
         t = np.asarray(t, dtype=np.float64)
