@@ -152,8 +152,9 @@ def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
     try:
         config = tomllib.loads(read_limited(p, StudyError, what=STUDY_FILE).decode("utf-8"))
     except FileNotFoundError as err:
-        raise StudyError(f"no {STUDY_FILE}: this folder is not a study "
-                         "(evtribo acquire creates one)", path=p) from err
+        raise StudyError(f"no {STUDY_FILE}: this folder is not a study (`evtribo init "
+                         f"{p.parent} --dbc YOUR.dbc` makes one for your rig)",
+                         path=p) from err
     except tomllib.TOMLDecodeError as err:
         raise StudyError(f"invalid TOML: {err}", path=p, line=toml_error_line(err)) from err
     except UnicodeDecodeError as err:
