@@ -49,6 +49,7 @@ from evtribo.analysis.aggregate import (
     EXPONENT_COLUMNS,
     summarize_study,
 )
+from evtribo.analysis.heard import say
 from evtribo.analysis.outputs import (
     BOOTSTRAP_FILE,
     OUTPUT_FILES,
@@ -73,6 +74,7 @@ from evtribo.analysis.workers import (
     TrialTask,
     WorkerContext,
     run_tasks,
+    say_outcome,
     trial_meta,
 )
 from evtribo.errors import StudyError
@@ -306,6 +308,7 @@ def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | Non
     inputs = input_files(study, memo)  # each input hashed once, here (or when it last changed)
     memo.save()
     tasks, not_run, duplicates, warnings = _plan(study, inputs)
+    say(warnings)
     assert study.rig is not None
     store = OutcomeStore(folder if reuse else None, context_text(
         rig=study.rig.fingerprint(), calibration=study.rig.calibration, settings=settings,
@@ -324,7 +327,7 @@ def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | Non
                                                              outcome))
     outcomes = sorted([*kept, *done, *not_run], key=lambda r: r.index)  # the study's order
     tables = _Tables.of(outcomes, settings)
-    warnings = [*study.warnings, *warnings, *tables.warnings, *changed_since(inputs)]
+    warnings = [*study.warnings, *warnings, *tables.warnings, *say(changed_since(inputs))]
     summary = _summary(study, tables, settings, started_at=started_at, inputs=inputs,
                        duplicates=duplicates, warnings=warnings, strict=strict, jobs=jobs)
     log.info("analysed %d of %d trials of %s", summary["trials_analysed"],
@@ -401,12 +404,11 @@ class _Tables:
         and errors collected."""
         warnings: list[str] = []
         failed = []
-        for o in outcomes:
-            warnings.extend(o.warnings)
+        for o in outcomes:  # each trial's warnings said here, once, in the study's order
+            warnings.extend(say_outcome(o))
             if o.error is not None:
-                key = f"{o.row['subject']}/{o.row['trial']}"
-                failed.append({"trial": key, "error": o.error})
-                warnings.append(f"{key}: not analysed: {o.error}")
+                failed.append({"trial": f"{o.row['subject']}/{o.row['trial']}",
+                               "error": o.error})
         trials = _typed(pd.DataFrame([o.row for o in outcomes]), TRIAL_COLUMNS)
         frames = [o.windows for o in outcomes if not o.windows.empty]
         windows = (pd.concat(frames, ignore_index=True) if frames else empty_windows())
@@ -416,6 +418,8 @@ class _Tables:
         electrostatic, exponents, bootstrap = found.electrostatic, found.exponents, \
             found.bootstrap
         warnings.extend(found.warnings)
+        if electrostatic.empty and not windows.empty:
+            warnings += say([_no_force(windows)])
         windows = windows.assign(mu_reference=found.window_mu.reindex(windows.index))
         trials = trials.assign(mu_change_per_10s=pd.Series([
             found.mu_change.get(k) for k in zip(trials.subject, trials.trial, strict=True)],
@@ -427,6 +431,15 @@ class _Tables:
                    _typed(exponents, EXPONENT_COLUMNS),
                    bootstrap.reindex(columns=list(BOOTSTRAP_COLUMNS)), trace, failed,
                    warnings)
+
+
+def _no_force(windows: pd.DataFrame) -> str:
+    """Why a study whose trials were analysed gives no electrostatic force at all."""
+    on = int(np.count_nonzero(windows.condition == "on"))
+    why = (f"no trial has an ON window ({len(windows)} OFF windows: the trials' condition "
+           "is off, or the amplifier's status never said ON)" if on == 0 else
+           "no subject has both ON and OFF windows with a known amplitude")
+    return f"no electrostatic force: {why}; evtribo report shows each subject's μ"
 
 
 def _summary(study: Study, tables: _Tables, settings: AnalysisSettings, *, started_at: float,
