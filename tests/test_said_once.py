@@ -56,7 +56,9 @@ def test_analyze_says_every_warning_once_a_failed_trial_s_reason_included(analys
 
 def test_compare_and_plot_trial_say_none_of_them_again(analysed, study):
     out, _ = analysed
-    warnings = json.loads((out / "summary.json").read_text())["warnings"]
+    summary = json.loads((out / "summary.json").read_text())
+    warnings = summary["warnings"]
+    why = summary["failed_trials"][0]["error"]  # the failed trial's reason, said by analyze
     run = _evtribo("compare", str(out), cwd=study.parent)
     assert run.returncode == 0, run.stderr
     plot = _evtribo("plot", "trial", str(study), "P01", "run-01", "-o",
@@ -66,4 +68,5 @@ def test_compare_and_plot_trial_say_none_of_them_again(analysed, study):
     for text in (run.stderr, plot.stderr):
         said = [w for w in warnings if w.split(": ", 1)[1] in text]
         assert said == [], text
+        assert why not in text
     assert "WARNING" not in plot.stderr

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from functools import cache
 from pathlib import Path
 
-__all__ = ["Heard", "heard_warnings", "say"]
+__all__ = ["Heard", "heard_warnings", "no_force", "say"]
 
 _log = logging.getLogger("evtribo.analysis")
 
@@ -125,3 +125,24 @@ def say(texts: Iterable[str], logger: logging.Logger | None = None) -> list[str]
     for text in out:
         (logger or _log).warning("%s", text)
     return out
+
+
+def no_force(n_on: int, n_windows: int) -> str:
+    """What the analysis says of a study whose trials give no electrostatic force at all.
+
+    Parameters
+    ----------
+    n_on : int
+        ON windows found in all the trials.
+    n_windows : int
+        Windows found, ON and OFF.
+
+    Returns
+    -------
+    str
+        The warning: why, and where the friction coefficient is.
+    """
+    why = (f"no trial has an ON window ({n_windows} OFF windows: the trials' condition is "
+           "off, or the amplifier's status never said ON)" if n_on == 0 else
+           "no subject has both ON and OFF windows with a known amplitude")
+    return f"no electrostatic force: {why}; evtribo report shows each subject's μ"

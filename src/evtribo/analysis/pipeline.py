@@ -49,7 +49,7 @@ from evtribo.analysis.aggregate import (
     EXPONENT_COLUMNS,
     summarize_study,
 )
-from evtribo.analysis.heard import say
+from evtribo.analysis.heard import no_force, say
 from evtribo.analysis.outputs import (
     BOOTSTRAP_FILE,
     OUTPUT_FILES,
@@ -83,6 +83,10 @@ from evtribo.resultdir import locked, recover
 from evtribo.study import Study, TrialRef, load_study
 
 log = logging.getLogger(__name__)
+
+#: How each ON window's μ is found, as summary.json's settings say it.
+MU_ESTIMATOR = ("each ON window's reference: the OFF windows' F_t/F_n at its time, sliding "
+                "direction and stroke pace (their ratio of means when nothing more is supported)")
 
 _INT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off")
 
@@ -419,7 +423,8 @@ class _Tables:
             found.bootstrap
         warnings.extend(found.warnings)
         if electrostatic.empty and not windows.empty:
-            warnings += say([_no_force(windows)])
+            warnings += say([no_force(int(np.count_nonzero(windows.condition == "on")),
+                                      len(windows))])
         windows = windows.assign(mu_reference=found.window_mu.reindex(windows.index))
         trials = trials.assign(mu_change_per_10s=pd.Series([
             found.mu_change.get(k) for k in zip(trials.subject, trials.trial, strict=True)],
@@ -431,15 +436,6 @@ class _Tables:
                    _typed(exponents, EXPONENT_COLUMNS),
                    bootstrap.reindex(columns=list(BOOTSTRAP_COLUMNS)), trace, failed,
                    warnings)
-
-
-def _no_force(windows: pd.DataFrame) -> str:
-    """Why a study whose trials were analysed gives no electrostatic force at all."""
-    on = int(np.count_nonzero(windows.condition == "on"))
-    why = (f"no trial has an ON window ({len(windows)} OFF windows: the trials' condition "
-           "is off, or the amplifier's status never said ON)" if on == 0 else
-           "no subject has both ON and OFF windows with a known amplitude")
-    return f"no electrostatic force: {why}; evtribo report shows each subject's μ"
 
 
 def _summary(study: Study, tables: _Tables, settings: AnalysisSettings, *, started_at: float,
@@ -473,7 +469,7 @@ def _summary(study: Study, tables: _Tables, settings: AnalysisSettings, *, start
         "strict": strict,
         "jobs": jobs,
         "calibration": study.rig.calibration.to_dict(),
-        "settings": {**settings.to_dict(), "mu_estimator": "ratio of means",
+        "settings": {**settings.to_dict(), "mu_estimator": MU_ESTIMATOR,
                      "interval": "percentile bootstrap over windows, stretched by a "
                                  "Welch-Satterthwaite Student-t factor for few windows",
                      "bootstrap_replicates_saved": int(bootstrap.replicate.nunique())

@@ -37,14 +37,22 @@ from evtribo.compare.numbers import (
 from evtribo.documents.fit import FitDocument
 from evtribo.model.params import TABLE_1, ModelParameters
 
-__all__ = ["CITATION", "DOI_URL", "PARAMETER_DISPLAY", "Headline", "fit_summary",
-           "force_table", "model_comparison", "parameter_roles"]
+__all__ = ["CITATION", "DOI_URL", "F_EL_DEFINITION", "MU_COLUMN", "PARAMETER_DISPLAY",
+           "Headline", "fit_summary", "force_table", "model_comparison", "parameter_roles"]
 
 #: The seed paper, cited wherever its model is named.
 CITATION = ('"Voltage-Induced Friction with Application to Electrovibration", Lubricants 2019, '
             "7(12), 102, doi:10.3390/lubricants7120102")
 #: Where the paper is.
 DOI_URL = "https://doi.org/10.3390/lubricants7120102"
+
+#: The inferred electrostatic force, as the README, the docs, the notebook and the report
+#: state it (word for word: ``tests/test_docs.py`` checks them).
+F_EL_DEFINITION = ("F_el = F_t,on/μ − F_n,on, averaged over the ON windows, with μ each ON "
+                   "window's reference: the friction coefficient of the OFF windows at the "
+                   "window's own time, sliding direction and stroke pace")
+#: The column of the fit's table that gives each subject's μ.
+MU_COLUMN = "μ (mean of its rows)"
 
 #: How each model parameter is shown: its name for people, base unit and prefix (None: the
 #: prefix that suits the value).
@@ -134,9 +142,10 @@ def force_table(electrostatic: pd.DataFrame) -> Headline:
     columns = ["Subject", "Waveform", "Frequency", *(voltage(a) for a in amps)]
     return Headline(
         "electrostatic_force", "Electrostatic force F_el (mN) by subject and voltage",
-        "Inferred electrostatic force F_el = F_t,on/μ - F_n,on, in mN: mean [95 % "
-        "interval], per drive amplitude (columns); μ from the subject's OFF windows "
-        "(electrostatic.csv).", pd.DataFrame(rows, columns=columns))
+        f"Inferred electrostatic force {F_EL_DEFINITION}. In mN: mean [95 % interval], per "
+        "drive amplitude (columns); the mean μ each cell's ON windows were compared with is "
+        "in its subject's table (electrostatic.csv's mu).",
+        pd.DataFrame(rows, columns=columns))
 
 
 def _estimate_cell(rows: pd.DataFrame, name: str) -> str:
@@ -182,7 +191,7 @@ def fit_summary(fit: pd.DataFrame, fit_doc: FitDocument) -> Headline:
         for n in names:
             row[headers[n]] = _estimate_cell(mine, n)
         wf = str(first.get("waveform", "") or "")
-        row["μ measured (OFF)"] = significant(first.get("mu_measured"))
+        row[MU_COLUMN] = significant(first.get("mu_measured"))
         row["exponent n, measured"] = with_interval(
             first.get("exponent"), first.get("exponent_ci_low"),
             first.get("exponent_ci_high")) + (f" ({wf})" if wf and wf != "nan" else "")
@@ -195,8 +204,9 @@ def fit_summary(fit: pd.DataFrame, fit_doc: FitDocument) -> Headline:
     fitted = ", ".join(_label(n)[0] for n in names) or "nothing"
     return Headline(
         "fit", "Model fit per subject",
-        f"Fitted per subject: {fitted}, value [95 % interval]. μ is measured from the OFF "
-        "windows; exponent n of the power law F_el = k·U^n measured over the amplitudes "
+        f"Fitted per subject: {fitted}, value [95 % interval]. μ: the mean of the μ the "
+        "subject's rows of electrostatic.csv used (the model's friction takes it); exponent "
+        "n of the power law F_el = k·U^n measured over the amplitudes "
         "(95 % interval) and the fitted model's slope over the same amplitudes; R² and RMSE "
         "of the electrostatic force.", pd.DataFrame(rows))
 
@@ -205,7 +215,8 @@ def _role(name: str, value: float, fit_doc: FitDocument) -> str:
     if name in fit_doc.fit:
         return "fitted per subject (value and 95 % interval in the fit table)"
     if name == "mu":
-        return "measured per subject: friction over normal force of the OFF windows"
+        return ("measured per subject: the mean of the μ its ON windows were compared with "
+                "(electrostatic.csv's mu)")
     if name == "eps_0":
         return "physical constant"
     table_1 = getattr(TABLE_1, name, math.nan)

@@ -43,6 +43,7 @@ from evtribo.compare.headline import (
 )
 from evtribo.compare.numbers import (
     frequency,
+    plain,
     quantity,
     significant,
     to_float,
@@ -57,7 +58,7 @@ from evtribo.documents.summary import Summary
 from evtribo.resultdir import inside
 
 __all__ = ["SECTIONS", "add_all_subjects", "add_headline", "add_models", "add_provenance",
-           "add_subjects", "add_warnings", "trial_summary"]
+           "add_notes", "add_subjects", "add_warnings", "trial_summary"]
 
 #: The sections' titles, in the page's order (a subject's is ``Subject <name>``).
 SECTIONS: dict[str, str] = {
@@ -331,9 +332,30 @@ def add_warnings(report: Report, warnings: Sequence[str]) -> None:
     None
     """
     report.add_list(warnings, "Warnings", section=SECTIONS["warnings"],
-                    caption="The study folder now against the inputs summary.json records; "
-                            "then from summary.json, trials.csv (dropped frames, skipped "
-                            "lines) and the model comparison.")
+                    caption="First, any input of the study changed, removed or added since "
+                            "the analysis; then what the analysis warned of (summary.json), "
+                            "and the frames dropped and damaged lines skipped in each trial "
+                            "(trials.csv).")
+
+
+def add_notes(report: Report, notes: Sequence[str]) -> None:
+    """What the comparison says of how it fitted (how the intervals were obtained, what
+    was left out): notes, not warnings, under the model fit.
+
+    Parameters
+    ----------
+    report : Report
+        The page.
+    notes : sequence of str
+        fit.json's notes.
+
+    Returns
+    -------
+    None
+    """
+    if notes:
+        report.add_list(notes, "Notes on the fit", section=SECTIONS["fit"],
+                        caption="From evtribo compare (fit.json).")
 
 
 def _facts(tables: ResultTables, fit_doc: FitDocument, study: str) -> pd.DataFrame:
@@ -395,7 +417,7 @@ def _result_files(folder: Path, output: Path) -> pd.DataFrame:
 
 def _setting(value: Any) -> str:
     if isinstance(value, float):
-        return significant(value, 4) if not float(value).is_integer() else str(int(value))
+        return plain(value)  # as given: 0.15, not 0.1500
     return json.dumps(value) if isinstance(value, dict | list) else str(value)
 
 

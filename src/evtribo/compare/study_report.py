@@ -60,10 +60,10 @@ _MODELS_COLUMNS = ("subject", "model", "fitted", "n_params", "aic", "delta_aic",
 _FIGURE_SUFFIXES = (".png", ".svg", ".pdf")
 
 
-def _warnings(tables: ResultTables, fit_doc: FitDocument) -> list[str]:
+def _warnings(tables: ResultTables) -> list[str]:
     """The analysis's warnings, its failed trials, the trials' dropped frames and damaged
-    lines, and the comparison's notes, each once."""
-    items = tables.summary.warnings
+    lines, each once (the comparison's notes are the fit's: :func:`sections.add_notes`)."""
+    items = list(tables.summary.warnings)
     for failed in tables.summary.failed_trials:
         items.append(f"{failed.get('trial')}: not analysed: {failed.get('error')}")
     tr = tables.trials
@@ -74,7 +74,6 @@ def _warnings(tables: ResultTables, fit_doc: FitDocument) -> list[str]:
             for (_, row), n in zip(tr.iterrows(), counts, strict=True):
                 if n > 0:
                     items.append(f"{row['subject']}/{row['trial']}: {int(n)} {what}")
-    items += [f"model comparison: {n}" for n in fit_doc.notes]
     return list(dict.fromkeys(items))
 
 
@@ -250,12 +249,13 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
     name = study_name(tables.summary, tables.out)
     report = Report(f"evtribo report: {name}")
     headlines = sections.add_headline(report, tables, fit, fit_doc)
+    sections.add_notes(report, fit_doc.notes)
     sections.add_all_subjects(report, figures)
     sections.add_models(report, _models(tables.out), figures, tables.subjects)
     sections.add_subjects(report, tables, trials, figures)
     for w in input_warnings:
         log.warning("report: %s", w)
-    sections.add_warnings(report, [*input_warnings, *_warnings(tables, fit_doc)])
+    sections.add_warnings(report, [*input_warnings, *_warnings(tables)])
     sections.add_provenance(report, tables, fit_doc, study=name, study_dir=study_dir,
                             inputs=inputs, trials=trials,
                             rig=tables.summary.rig or study_rig(study_dir), output=output)
