@@ -67,4 +67,4 @@ def test_the_electrostatic_force_is_defined_one_way_everywhere():
     for name, text in texts.items():
         assert _words(F_EL_DEFINITION) in _words(text), name
     for path in [root / "README.md", *DOCS.glob("*.md")]:
-        assert "(F_on − F_off)/μ" not in path.read_text(encoding="utf-8"), path
+        assert "(F_on \u2212 F_off)/μ" not in path.read_text(encoding="utf-8"), path

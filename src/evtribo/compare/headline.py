@@ -48,7 +48,7 @@ DOI_URL = "https://doi.org/10.3390/lubricants7120102"
 
 #: The inferred electrostatic force, as the README, the docs, the notebook and the report
 #: state it (word for word: ``tests/test_docs.py`` checks them).
-F_EL_DEFINITION = ("F_el = F_t,on/μ − F_n,on, averaged over the ON windows, with μ each ON "
+F_EL_DEFINITION = ("F_el = F_t,on/μ \u2212 F_n,on, averaged over the ON windows, with μ each ON "
                    "window's reference: the friction coefficient of the OFF windows at the "
                    "window's own time, sliding direction and stroke pace")
 #: The column of the fit's table that gives each subject's μ.

@@ -57,8 +57,8 @@ from evtribo.documents.fit import FitDocument
 from evtribo.documents.summary import Summary
 from evtribo.resultdir import inside
 
-__all__ = ["SECTIONS", "add_all_subjects", "add_headline", "add_models", "add_provenance",
-           "add_notes", "add_subjects", "add_warnings", "trial_summary"]
+__all__ = ["SECTIONS", "add_all_subjects", "add_headline", "add_models", "add_notes",
+           "add_provenance", "add_subjects", "add_warnings", "trial_summary"]
 
 #: The sections' titles, in the page's order (a subject's is ``Subject <name>``).
 SECTIONS: dict[str, str] = {
