@@ -7,7 +7,9 @@
   quality of the fit, to three significant figures;
 - :func:`parameter_roles`: every parameter of the model, and whether it was measured, fixed
   (and from where) or fitted;
-- :func:`model_comparison`: one subject's rows of ``models.csv``.
+- :func:`model_comparison`: one subject's rows of ``models.csv``;
+- :func:`friction_table`: each subject's friction coefficient, for results without any
+  electrostatic force (a study of OFF trials).
 
 Each returns a :class:`Headline` whose cells are text (:mod:`evtribo.compare.numbers`), so the
 HTML page and the Markdown and LaTeX exports print the same numbers.
@@ -23,6 +25,7 @@ from typing import Any
 
 import pandas as pd
 
+from evtribo.compare.friction_only import subject_mu
 from evtribo.compare.numbers import (
     PREFIXES,
     auto_prefix,
@@ -38,7 +41,8 @@ from evtribo.documents.fit import FitDocument
 from evtribo.model.params import TABLE_1, ModelParameters
 
 __all__ = ["CITATION", "DOI_URL", "F_EL_DEFINITION", "MU_COLUMN", "PARAMETER_DISPLAY",
-           "Headline", "fit_summary", "force_table", "model_comparison", "parameter_roles"]
+           "Headline", "fit_summary", "force_table", "friction_table", "model_comparison",
+           "parameter_roles"]
 
 #: The seed paper, cited wherever its model is named.
 CITATION = ('"Voltage-Induced Friction with Application to Electrovibration", Lubricants 2019, '
@@ -146,6 +150,38 @@ def force_table(electrostatic: pd.DataFrame) -> Headline:
         "drive amplitude (columns); the mean μ each cell's ON windows were compared with is "
         "in its subject's table (electrostatic.csv's mu).",
         pd.DataFrame(rows, columns=columns))
+
+
+def friction_table(windows: pd.DataFrame) -> Headline:
+    """Each subject's friction coefficient, for results without electrostatic forces.
+
+    Parameters
+    ----------
+    windows : DataFrame
+        ``windows.csv``.
+
+    Returns
+    -------
+    Headline
+        One row per subject with OFF windows: μ (ratio of means of its OFF windows), its
+        range between trials, the trials and windows it rests on, the normal forces.
+    """
+    mu = subject_mu(windows)
+    rows = [{"Subject": r.subject, "μ": significant(r.mu),
+             "μ between trials (min–max)": f"{significant(r.mu_trial_min)}–"
+                                           f"{significant(r.mu_trial_max)}",
+             "trials": str(r.trials), "OFF windows": str(r.windows),
+             "F_n (mN)": f"{significant(1e3 * r.normal_force_min_N)}–"
+                         f"{significant(1e3 * r.normal_force_max_N)}"}
+            for r in mu.itertuples(index=False)]
+    return Headline(
+        "friction", "Friction coefficient μ by subject",
+        "No electrostatic force: no subject has ON windows to compare with its OFF ones. μ "
+        "of each subject: the ratio of means ΣF_t/ΣF_n of its steady-sliding OFF windows; "
+        "between trials: the same within each trial, lowest and highest; F_n: the windows' "
+        "normal forces.",
+        pd.DataFrame(rows, columns=["Subject", "μ", "μ between trials (min–max)", "trials",
+                                    "OFF windows", "F_n (mN)"]))
 
 
 def _estimate_cell(rows: pd.DataFrame, name: str) -> str:

@@ -50,6 +50,7 @@ from evtribo.compare.numbers import (
     voltage,
     with_interval,
 )
+from evtribo.compare.friction_report import add_trial_mu
 from evtribo.compare.report import Report
 from evtribo.compare.study_files import file_hashes
 from evtribo.compare.tables import ResultTables
@@ -265,15 +266,18 @@ def add_subjects(report: Report, tables: ResultTables, trials: pd.DataFrame,
     None
     """
     failed = {str(f.get("trial")): str(f.get("error")) for f in tables.summary.failed_trials}
-    for subject in tables.subjects:
+    for subject in tables.all_subjects:
         sec = f"Subject {subject}"
         es = tables.electrostatic[tables.electrostatic["subject"].astype(str) == subject]
-        report.add_table(_forces_of(es), "Electrostatic force", section=sec, wrap=True)
+        mine = trials[trials["subject"].astype(str) == subject]
+        if es.empty:  # no ON windows to compare: the friction coefficient of each trial
+            add_trial_mu(report, mine, tables.windows, sec)
+        else:
+            report.add_table(_forces_of(es), "Electrostatic force", section=sec, wrap=True)
         for f in figures:
             if f.get("subject") == subject and f.get("kind") not in (
                     "trial", "frequency_response"):
                 _figure(report, f, sec)
-        mine = trials[trials["subject"].astype(str) == subject]
         report.add_table(_trials_view(mine), "Trials", section=sec, wrap=True)
         checks = {str(f.get("trial")): f for f in figures
                   if f.get("kind") == "trial" and f.get("subject") == subject}
@@ -367,7 +371,7 @@ def _facts(tables: ResultTables, fit_doc: FitDocument, study: str) -> pd.DataFra
             v = summary[k]
             facts.append({"item": k, "value": json.dumps(v) if isinstance(v, dict | list)
                           else significant(v) if isinstance(v, float) else str(v)})
-    facts.append({"item": "subjects", "value": ", ".join(tables.subjects)})
+    facts.append({"item": "subjects", "value": ", ".join(tables.all_subjects)})
     facts.append({"item": "fitted parameters", "value": ", ".join(fit_doc.fit) or "—"})
     return pd.DataFrame(facts, columns=["item", "value"])
 

@@ -28,6 +28,7 @@ import pandas as pd
 
 from evtribo.analysis.outputs import FIGURES, FIT_CSV, FIT_JSON, REPORT_TABLES, TABLES
 from evtribo.compare import report_sections as sections
+from evtribo.compare.friction_report import add_friction
 from evtribo.compare.headline import Headline
 from evtribo.compare.report import Report
 from evtribo.compare.run import compare
@@ -248,8 +249,11 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
     trials = trials_with_notes(tables, study_dir)
     name = study_name(tables.summary, tables.out)
     report = Report(f"evtribo report: {name}")
-    headlines = sections.add_headline(report, tables, fit, fit_doc)
-    sections.add_notes(report, fit_doc.notes)
+    if tables.electrostatic.empty:  # a study of OFF trials: its friction, no fit
+        headlines = add_friction(report, tables.windows, fit_doc.notes)
+    else:
+        headlines = sections.add_headline(report, tables, fit, fit_doc)
+        sections.add_notes(report, fit_doc.notes)
     sections.add_all_subjects(report, figures)
     sections.add_models(report, _models(tables.out), figures, tables.subjects)
     sections.add_subjects(report, tables, trials, figures)

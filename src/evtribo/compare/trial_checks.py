@@ -54,7 +54,8 @@ def write_trial_checks(tables: ResultTables, emit: Callable[..., None],
     notes: list[str] = []
     failed = {str(f.get("trial")) for f in tables.summary.failed_trials}
     try:
-        checks = trial_check_figures(study_dir, tables.subjects, tables.summary.settings)
+        checks = trial_check_figures(study_dir, tables.all_subjects,
+                                     tables.summary.settings)
         for f in checks:
             if f.error is not None and f"{f.subject}/{f.trial}" not in failed:
                 notes.append(f.caption)  # not said by the analysis: the study changed since
