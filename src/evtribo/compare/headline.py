@@ -168,10 +168,10 @@ def friction_table(windows: pd.DataFrame) -> Headline:
     """
     mu = subject_mu(windows)
     rows = [{"Subject": r.subject, "μ": significant(r.mu),
-             "μ between trials (min–max)": f"{significant(r.mu_trial_min)}–"
-                                           f"{significant(r.mu_trial_max)}",
+             "μ between trials": f"{significant(r.mu_trial_min)} to "
+                                 f"{significant(r.mu_trial_max)}",
              "trials": str(r.trials), "OFF windows": str(r.windows),
-             "F_n (mN)": f"{significant(1e3 * r.normal_force_min_N)}–"
+             "F_n (mN)": f"{significant(1e3 * r.normal_force_min_N)} to "
                          f"{significant(1e3 * r.normal_force_max_N)}"}
             for r in mu.itertuples(index=False)]
     return Headline(
@@ -180,7 +180,7 @@ def friction_table(windows: pd.DataFrame) -> Headline:
         "of each subject: the ratio of means ΣF_t/ΣF_n of its steady-sliding OFF windows; "
         "between trials: the same within each trial, lowest and highest; F_n: the windows' "
         "normal forces.",
-        pd.DataFrame(rows, columns=["Subject", "μ", "μ between trials (min–max)", "trials",
+        pd.DataFrame(rows, columns=["Subject", "μ", "μ between trials", "trials",
                                     "OFF windows", "F_n (mN)"]))
 
 

@@ -32,6 +32,7 @@ from markupsafe import escape
 from evtribo import __version__
 from evtribo.analysis.outputs import FIGURES
 from evtribo.citation import PAPER, SOFTWARE, text
+from evtribo.compare.friction_report import add_trial_mu
 from evtribo.compare.headline import (
     CITATION,
     DOI_URL,
@@ -50,7 +51,6 @@ from evtribo.compare.numbers import (
     voltage,
     with_interval,
 )
-from evtribo.compare.friction_report import add_trial_mu
 from evtribo.compare.report import Report
 from evtribo.compare.study_files import file_hashes
 from evtribo.compare.tables import ResultTables
