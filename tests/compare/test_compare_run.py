@@ -73,14 +73,17 @@ def test_refuses_to_overwrite(compared_out):
     assert (compared_out / "fit.csv").read_bytes() == before
 
 
-def test_without_sine_trace_says_model_only(out_dir):
+def test_without_sine_trace_no_friction_time_figure(out_dir):
     (out_dir / "sine_trace.csv").unlink()
     result = compare(out_dir, dpi=30, formats=("png",))
     assert any("sine_trace.csv" in n for n in result.notes)
-    notes = json.loads((out_dir / "fit.json").read_text())["notes"]
-    assert any("sine_trace.csv" in n for n in notes)
-    ax = plot_friction_time(None, TABLE_1)
-    assert any("model only" in t.get_text() for t in ax.texts)
+    doc = json.loads((out_dir / "fit.json").read_text())
+    assert any("sine_trace.csv" in n for n in doc["notes"])
+    assert "friction_time" not in {f["kind"] for f in doc["figures"]}
+    assert not (out_dir / "figures" / "friction_time.png").exists()
+    ax = plot_friction_time(None, TABLE_1)  # the model alone, when asked for: no text over it
+    assert not ax.texts and all("model" in t.get_text() or "normal" in t.get_text()
+                                for t in ax.get_legend().get_texts())
     again = compare(out_dir, dpi=30, formats=("png",), force=True, fit="h_L,mu")
     assert {e.name for e in again.fits[0].estimates} == {"h_L", "mu"}
     # mu is fitted with the windows, which have no replicates: the Jacobian, said so

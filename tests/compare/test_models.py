@@ -151,9 +151,10 @@ def test_the_frequency_response_figure_draws_on_the_axes_given():
     ax = new_axes()
     assert plot_frequency_response(rows, fits, subject="P01", ax=ax) is ax
     lines = ax.get_lines()
-    # per amplitude drawn (3): one curve per model; the circuit's falls at low frequency
+    # per drive (every amplitude at each normal force: 10): one curve per model; the
+    # circuit's falls at low frequency
     curves = [ln for ln in lines if len(ln.get_xdata()) == 121]
-    assert len(curves) == 3 * 2
+    assert len(curves) == 10 * 2
     circuit = curves[[f.model for f in fits].index("circuit")].get_ydata()
     assert circuit[0] < 0.5 * circuit[-1]
     new = plot_frequency_response(rows, fits, subject="P01")

@@ -10,10 +10,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from typing import Any
 
 import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
+from matplotlib.legend_handler import HandlerTuple
 from numpy.typing import NDArray
 
 from evtribo.compare.layout import place_legend, plain_log_axis, voltage_ticks
@@ -153,28 +155,39 @@ def plot_electrostatic_force_all(electrostatic: pd.DataFrame,
     amps_all = electrostatic["amplitude_V"].to_numpy(float)
     grid = np.geomspace(np.nanmin(amps_all) / 1.15, np.nanmax(amps_all) * 1.15, 80)
     n = len(subjects)
-    handles, hidden, waves = [], 0, set()
+    several = electrostatic["waveform"].astype(str).nunique() > 1
+    handles: list[Any] = []
+    labels: list[str] = []
+    hidden = 0
     for k, s in enumerate(subjects):
         style = series_style(k)
         rows = electrostatic[electrostatic["subject"].astype(str) == s]
         # 1.5 % in U between neighbours, all within +-3 %
         shift = np.exp(min(0.015, 0.06 / (n - 1)) * (k - (n - 1) / 2)) if n > 1 else 1.0
         for wave, sel in _by_waveform(rows):
-            waves.add(wave)
+            look = {**style, "alpha": 1.0 if wave == "square" else 0.6,
+                    "markerfacecolor": style["color"] if wave == "square" else "white"}
             f, err = _errors_mN(sel)
             hidden += int(np.sum(~(f > 0)))
             ax.errorbar(sel["amplitude_V"].to_numpy(float) * shift, f, yerr=err,
                         fmt=style["marker"], color=style["color"], elinewidth=0.7,
-                        markerfacecolor="white" if wave == "sine" else style["color"])
+                        markerfacecolor=look["markerfacecolor"])
             for curve in _model_curves_mN(sel, grid, wave, params[s]):
                 ax.plot(grid, curve, color=style["color"], linestyle=style["linestyle"],
-                        alpha=0.6 if wave == "sine" else 1.0)
-        handles.append(proxy(s, **style))
-    if len(waves) > 1:
-        handles += [proxy("square drive", color="0.3", marker="o", linestyle="none"),
-                    proxy("sine drive", color="0.3", marker="o", linestyle="none",
-                          markerfacecolor="white")]
+                        alpha=look["alpha"])
+            # each line drawn has its entry, drawn as it is (a sine's lighter, open)
+            handles.append(_entry(look))
+            labels.append(f"{s}, {wave}" if several else s)
     _force_axes(ax, amps_all)
     _nonpositive_note(ax, hidden)
-    place_legend(ax, handles, [str(h.get_label()) for h in handles], ncol_outside=4)
+    place_legend(ax, handles, labels, ncol_outside=max(2, n),
+                 handler_map={tuple: HandlerTuple(ndivide=1)})
     return ax
+
+
+def _entry(look: dict[str, Any]) -> tuple[Any, Any]:
+    """A legend entry for the points and the model line of one look: the line at its
+    opacity, the points' marker over it at full opacity (as they are drawn)."""
+    return (proxy("", color=look["color"], linestyle=look["linestyle"], alpha=look["alpha"]),
+            proxy("", color=look["color"], marker=look["marker"], linestyle="none",
+                  markerfacecolor=look["markerfacecolor"]))

@@ -17,20 +17,18 @@ from evtribo.analysis.outputs import MODELS_CSV
 from evtribo.compare.layout import place_legend, plain_log_axis
 from evtribo.compare.models import ModelFit, fit_models, models_table
 from evtribo.compare.plots import new_axes, safe_name
-from evtribo.compare.style import series_style
+from evtribo.compare.style import EVERY_COLOUR, proxy, series_style
 from evtribo.compare.tables import ResultTables
 from evtribo.files import atomic_write
 from evtribo.model.params import ModelParameters
 from evtribo.resultdir import Staging
 
-__all__ = ["MAX_AMPLITUDES", "frequency_response_stem", "models_text",
-           "plot_frequency_response", "write_models"]
+__all__ = ["frequency_response_stem", "models_text", "plot_frequency_response",
+           "write_models"]
 
 #: ``emit(ax, kind, title, stem, subject=..., caption=...)`` of :mod:`evtribo.compare.run`.
 Emit = Callable[..., Any]
 
-#: Amplitudes drawn at most (those with the most frequencies, then the highest).
-MAX_AMPLITUDES = 3
 _STYLES = {"paper": "-", "hertz": ":", "maugis": "-.", "circuit": "--"}
 
 
@@ -50,19 +48,23 @@ def frequency_response_stem(subject: str) -> str:
 
 
 def _groups(rows: pd.DataFrame) -> list[tuple[tuple[str, float], pd.DataFrame]]:
-    """The (waveform, amplitude) groups drawn: most frequencies first, then the highest."""
+    """Every (waveform, amplitude) drive of the rows: square first, then by amplitude."""
     keyed = rows.assign(_wave=rows["waveform"].astype(str),
                         _amp=rows["amplitude_V"].to_numpy(float))
     groups = [((str(w), float(a)), g)  # type: ignore[arg-type]
               for (w, a), g in keyed.groupby(["_wave", "_amp"])]
-    groups.sort(key=lambda kg: (-kg[1]["frequency_Hz"].nunique(), -kg[0][1]))
-    return groups[:MAX_AMPLITUDES]
+    groups.sort(key=lambda kg: (kg[0][0] != "square", kg[0][0], kg[0][1]))
+    return groups
 
 
 def plot_frequency_response(rows: pd.DataFrame, fits: Sequence[ModelFit], *,
                             subject: str = "", ax: Axes | None = None) -> Axes:
     """The subject's inferred electrostatic force against the drive frequency (log axis),
     with its 95 % intervals, and each fitted model's curve at the points' mean normal force.
+
+    Every drive (waveform and amplitude) has its colour and marker, every model its line
+    style; the legend gives each drive (its points) and each model (its line style, in
+    :data:`~evtribo.compare.style.EVERY_COLOUR`: drawn in each drive's colour).
 
     Parameters
     ----------
@@ -88,6 +90,8 @@ def plot_frequency_response(rows: pd.DataFrame, fits: Sequence[ModelFit], *,
         return ax
     f_all = rows["frequency_Hz"].to_numpy(float)
     grid = np.geomspace(f_all.min() / 2.0, f_all.max() * 2.0, 121)
+    drawn = [fit for fit in fits if fit.params is not None]
+    handles: list[Any] = []
     for i, ((wave, amp), group) in enumerate(_groups(rows)):
         g = group.sort_values("frequency_Hz")
         f = g["frequency_Hz"].to_numpy(float)
@@ -96,20 +100,20 @@ def plot_frequency_response(rows: pd.DataFrame, fits: Sequence[ModelFit], *,
         hi = 1e3 * g["electrostatic_force_ci_high_N"].to_numpy(float)
         err = np.nan_to_num(np.vstack([y - lo, hi - y]), nan=0.0).clip(min=0.0)
         look = series_style(i)
-        color = look["color"]
-        ax.errorbar(f, y, yerr=err, fmt=look["marker"], ms=4, color=color, capsize=2,
-                    label=f"measured, {wave} {amp:g} V")
+        ax.errorbar(f, y, yerr=err, fmt=look["marker"], ms=4, color=look["color"],
+                    capsize=2)
+        handles.append(proxy(f"{wave} {amp:g} V", color=look["color"],
+                             marker=look["marker"], linestyle="none", markersize=4))
         fn = float(np.nanmean(g["normal_force_on_N"].to_numpy(float)))
-        for fit in fits:
-            if fit.params is None:
-                continue
-            model = 1e3 * fit.force(fn, amp, wave, grid)
-            ax.plot(grid, model, _STYLES.get(fit.model, "-"), color=color, lw=1.1,
-                    label=_model_label(fit) if i == 0 else None)
+        for fit in drawn:
+            ax.plot(grid, 1e3 * fit.force(fn, amp, wave, grid),
+                    linestyle=_STYLES.get(fit.model, "-"), color=look["color"], lw=1.1)
+    handles += [proxy(_model_label(fit), color=EVERY_COLOUR, lw=1.1,
+                      linestyle=_STYLES.get(fit.model, "-")) for fit in drawn]
     ax.set(xscale="log", xlabel="drive frequency $f$ (Hz)",
            ylabel=r"electrostatic force $F_\mathrm{el}$ (mN)", ylim=(0, None))
     plain_log_axis(ax.xaxis, subs=(1.0,))
-    place_legend(ax)
+    place_legend(ax, handles, [str(h.get_label()) for h in handles], ncol_outside=3)
     return ax
 
 
@@ -160,9 +164,10 @@ def write_models(tables: ResultTables, stage: Staging, models: Sequence[str],
         emit(plot_frequency_response(rows, mine, subject=str(subject)), "frequency_response",
              f"Electrostatic force vs drive frequency, {subject}",
              frequency_response_stem(str(subject)), subject=str(subject),
-             caption="Inferred electrostatic force (95 % intervals) against the drive's "
-                     "frequency, and each candidate model fitted to the subject's points "
-                     "(models.csv), at the points' mean normal force ON.")
+             caption="Inferred electrostatic force (points, 95 % intervals) against the "
+                     "drive's frequency, one colour and marker per drive, and each candidate "
+                     "model fitted to the subject's points (models.csv; one line style per "
+                     "model, in each drive's colour), at the points' mean normal force ON.")
     return [Path(MODELS_CSV)], notes
 
 

@@ -5,7 +5,8 @@ not a power of ten), leaving out labels that would run into a neighbour's
 (:class:`SpacedPlainFormatter`); :func:`plain_log_axis` labels a log axis with plain
 numbers. :func:`place_legend` puts a legend in a corner of the Axes where it covers no
 data, checked against the drawn data (:func:`legend_overlap`), or above the Axes when no
-corner is free.
+corner is free (a figure of :func:`~evtribo.compare.style.new_axes` then grows by the
+legend's height, so that the data keep theirs).
 """
 
 from __future__ import annotations
@@ -31,8 +32,10 @@ from matplotlib.ticker import (
 from matplotlib.transforms import Bbox
 from numpy.typing import ArrayLike, NDArray
 
+from evtribo.compare.style import owns
+
 __all__ = ["SpacedPlainFormatter", "legend_overlap", "place_legend", "plain_log_axis",
-           "voltage_ticks"]
+           "reading_order", "voltage_ticks"]
 
 
 def _plain(value: float, _pos: int | None = None) -> str:
@@ -223,7 +226,8 @@ _CORNERS = ("upper left", "upper right", "lower right", "lower left", "center le
 def place_legend(ax: Axes, handles: Sequence[Any] | None = None,
                  labels: Sequence[str] | None = None, *, ncol_outside: int = 2,
                  inside: bool = True, **kwargs: Any) -> Legend | None:
-    """A legend where it covers no data: the first free corner, else above the Axes.
+    """A legend where it covers no data: the first free corner (in one column, then in two),
+    else above the Axes; its entries read in their order, row by row.
 
     The figure is laid out first (so the Axes have their final size), then each corner is
     tried and checked with :func:`legend_overlap`.
@@ -256,11 +260,38 @@ def place_legend(ax: Axes, handles: Sequence[Any] | None = None,
     ax.set_xlim(ax.get_xlim())
     ax.set_ylim(ax.get_ylim())
     make: Any = ax.legend  # loc as a plain str
-    for loc in _CORNERS if inside else ():
-        legend: Legend = make(handles, labels, loc=loc, **kwargs)
-        if legend_overlap(ax, legend) == 0:
-            return legend
+    for ncol in (1, 2) if inside else ():
+        if ncol > 1 and len(handles) < 4:
+            break
+        for loc in _CORNERS:
+            legend: Legend = make(*reading_order(handles, labels, ncol), loc=loc, ncol=ncol,
+                                  **kwargs)
+            if legend_overlap(ax, legend) == 0:
+                return legend
     return _legend_above(ax, make, handles, labels, ncol_outside, **kwargs)
+
+
+def reading_order(handles: Sequence[Any], labels: Sequence[str], ncol: int
+                  ) -> tuple[list[Any], list[str]]:
+    """The entries arranged so that a legend of *ncol* columns (which matplotlib fills
+    column by column) reads in their order row by row, as text is read.
+
+    Parameters
+    ----------
+    handles, labels : sequence
+        The entries, in the order they are to be read.
+    ncol : int
+        Columns of the legend.
+
+    Returns
+    -------
+    (list, list)
+        The handles and labels in the order to hand to :meth:`Axes.legend`.
+    """
+    n = len(handles)
+    rows = -(-n // max(ncol, 1))
+    order = [r * ncol + c for c in range(ncol) for r in range(rows) if r * ncol + c < n]
+    return [handles[i] for i in order], [labels[i] for i in order]
 
 
 def _legend_above(ax: Axes, make: Any, handles: Sequence[Any], labels: Sequence[str],
@@ -276,11 +307,15 @@ def _legend_above(ax: Axes, make: Any, handles: Sequence[Any], labels: Sequence[
 
     fits = [1]
     for cols in range(2, min(ncol, n) + 1):
-        trial: Legend = make(handles, labels, loc="lower center", bbox_to_anchor=(0.5, 1.02),
-                             ncol=cols, borderaxespad=0.0, **kwargs)
+        trial: Legend = make(*reading_order(handles, labels, cols), loc="lower center",
+                             bbox_to_anchor=(0.5, 1.02), ncol=cols, borderaxespad=0.0,
+                             **kwargs)
         if trial.get_window_extent().width <= room:
             fits.append(cols)
     best = min(fits, key=shape)
-    legend: Legend = make(handles, labels, loc="lower center", bbox_to_anchor=(0.5, 1.02),
-                          ncol=best, borderaxespad=0.0, **kwargs)
+    legend: Legend = make(*reading_order(handles, labels, best), loc="lower center",
+                          bbox_to_anchor=(0.5, 1.02), ncol=best, borderaxespad=0.0, **kwargs)
+    fig = ax.figure.figure
+    if owns(fig):  # the figure grows by the legend: the data keep the height they had
+        fig.set_figheight(fig.get_figheight() + legend.get_window_extent().height / fig.dpi)
     return legend

@@ -149,7 +149,7 @@ def _on_series(ax: Axes, on: pd.DataFrame, grid: NDArray[np.float64],
                  "markerfacecolor": "white" if wave == "sine" else None}
         points: dict[str, Any] = {key: v for key, v in style.items() if key != "linestyle"}
         ax.plot(1e3 * sel["normal_force_N"], 1e3 * sel["friction_force_N"], linestyle="none",
-                markersize=3, alpha=0.8, **points)
+                markersize=3, **points)
         ax.plot(1e3 * grid, 1e3 * mean_friction_force(grid, amp, wave, params),
                 linestyle=style["linestyle"], color=style["color"])
         if not many:
@@ -200,7 +200,7 @@ def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = 
     cond = windows["condition"].astype(str).str.lower()
     off = windows[cond == "off"]
     ax.plot(1e3 * off["normal_force_N"], 1e3 * off["friction_force_N"], "o", color="k",
-            markerfacecolor="white", markersize=3, alpha=0.8)
+            markerfacecolor="white", markersize=3)
     ax.plot(1e3 * grid, 1e3 * mean_friction_force(grid, 0.0, "square", params), "-",
             color="k")
     handles = [proxy(f"OFF (μ = {significant(params.mu)})", color="k", marker="o",
@@ -307,8 +307,6 @@ def plot_friction_time(trace: pd.DataFrame | None, params: ModelParameters = TAB
                 "-", color=PALETTE[1], label=f"model ON ({amplitude:g} V, {frequency:g} Hz)")
         ax.plot(t, 1e3 * friction_time_series(t, fn, np.zeros_like(t), params), "--",
                 color=PALETTE[0], label="model OFF")
-        ax.text(0.02, 0.5, "model only: no measured sine trace\n(sine_trace.csv absent)",
-                transform=ax.transAxes, fontsize="small", color=PALETTE[1], va="center")
     ax.set_xlabel("time $t$ (s)")
     ax.set_ylabel("force (mN)")
     ax.set_xlim(float(np.nanmin(t)), float(np.nanmax(t)))
@@ -353,6 +351,19 @@ def plot_area_increase(normal_forces: Mapping[str, float],
     ax.set_xlim(0, u_max)
     ax.set_ylim(bottom=0)
     if amplitudes is not None and len(amplitudes):
-        voltage_ticks(ax.xaxis, [0.0, *amplitudes])
+        voltage_ticks(ax.xaxis, _from_zero(amplitudes))
     place_legend(ax)
     return ax
+
+
+def _from_zero(amplitudes: Sequence[float]) -> list[float]:
+    """The measured amplitudes and, below the lowest, ticks down to 0 at their own step
+    (60, 80... 140 V get 0, 20, 40 too: no gap without a label on a linear axis)."""
+    amps = np.unique(np.asarray(amplitudes, float))
+    amps = amps[np.isfinite(amps) & (amps > 0)]
+    if amps.size == 0:
+        return [0.0]
+    steps = np.diff(amps)
+    step = float(np.min(steps)) if steps.size else float(amps[0])
+    below = np.arange(0.0, float(amps[0]) - 0.5 * step, step)
+    return [*below.tolist(), *amps.tolist()]

@@ -128,20 +128,23 @@ class CompareResult:
     notes: list[str] = field(default_factory=list)
 
 
-def figure_stems(subjects: Iterable[str]) -> list[str]:
+def figure_stems(subjects: Iterable[str], *, sine: bool = True) -> list[str]:
     """File stems of the figures :func:`compare` writes for these subjects.
 
     Parameters
     ----------
     subjects : iterable of str
         The subjects, in order.
+    sine : bool
+        Whether the results hold a measured sine trace (``sine_trace.csv``): the
+        friction-versus-time figure is drawn only then.
 
     Returns
     -------
     list of str
-        The figure of all subjects, two of the whole study, then two per subject.
+        The figure of all subjects, those of the whole study, then two per subject.
     """
-    stems = ["electrostatic_force_all", "friction_time", "area_increase"]
+    stems = ["electrostatic_force_all", *(["friction_time"] if sine else []), "area_increase"]
     for s in subjects:
         stems += [f"electrostatic_force_{safe_name(s)}", f"friction_normal_force_{safe_name(s)}"]
     return stems
@@ -387,23 +390,22 @@ def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: _Figur
     sine_rows = elec[elec["waveform"].astype(str) == "sine"]
     amp = float(sine_rows["amplitude_V"].max()) if not sine_rows.empty else 140.0
     fn_mean = float(np.nanmean(elec["normal_force_on_N"].to_numpy(float)))
-    if trace is None:
+    if trace is None:  # no sine trial: the paper's Figure 5 has nothing measured to show
         figures.result.notes.append(
-            "No sine_trace.csv in the result folder: the friction-versus-time figure shows "
-            f"the model alone (10 Hz sine, {amp:g} V, {fn_mean:.2g} N), without a measured "
-            "trace.")
-        caption = ("Model only (no measured sine trace was available): friction with the "
-                   "voltage ON and OFF, cf. the paper's Figure 5.")
+            "No measured sine trace (sine_trace.csv: the study has no sine trial with ON and "
+            "OFF phases): no friction-versus-time figure; `evtribo model --figures DIR` draws "
+            "the model's.")
     else:
         voltage = ("measured voltage" if "voltage_V" in trace.columns else
                    "drive's amplitude and frequency (its phase, which the rig does not record, "
                    "chosen to match the measured friction)")
-        caption = (f"Measured sine trial of {pick.subject} and the model evaluated at its "
-                   f"measured normal force and the {voltage}, cf. the paper's Figure 5.")
-    ax = plot_friction_time(trace, pick.params, amplitude=amp, normal_force=fn_mean,
-                            subject=pick.subject)
-    figures.emit(ax, "friction_time", "Friction vs time, sine drive", "friction_time",
-                 subject=None, caption=caption)
+        ax = plot_friction_time(trace, pick.params, amplitude=amp, normal_force=fn_mean,
+                                subject=pick.subject)
+        figures.emit(ax, "friction_time", "Friction vs time, sine drive", "friction_time",
+                     subject=None,
+                     caption=f"Measured sine trial of {pick.subject} and the model evaluated "
+                             f"at its measured normal force and the {voltage}, cf. the "
+                             "paper's Figure 5.")
     mean_fn = {f.subject: float(np.nanmean(elec.loc[elec["subject"] == f.subject,
                                                     "normal_force_on_N"].to_numpy(float)))
                for f in fits}

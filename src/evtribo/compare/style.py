@@ -19,6 +19,7 @@ import contextvars
 import functools
 import inspect
 import math
+import weakref
 from collections.abc import Callable, Iterable, Iterator
 from typing import Any, ParamSpec, TypeVar, cast
 
@@ -33,6 +34,7 @@ from evtribo.errors import UserInputError
 __all__ = [
     "DEFAULT_DPI",
     "DEFAULT_FORMATS",
+    "EVERY_COLOUR",
     "FIGURE_FORMATS",
     "FIGURE_WIDTHS",
     "LINESTYLES",
@@ -42,6 +44,7 @@ __all__ = [
     "figure_size",
     "journal_style",
     "new_axes",
+    "owns",
     "parse_dpi",
     "parse_figure_formats",
     "parse_figure_width",
@@ -63,10 +66,13 @@ _MM = 1.0 / 25.4
 #: Okabe & Ito (2008), without yellow (too pale on white) until the eighth series.
 PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000",
            "#F0E442")
+#: A legend entry drawn in this grey stands for its line style in every colour drawn (a
+#: model's line style, drawn in each drive's colour).
+EVERY_COLOUR = "#595959"
 #: One marker per series (filled shapes that differ in outline).
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<")
 #: One line style per series.
-LINESTYLES: tuple[Any, ...] = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)), (0, (8, 2)),
+LINESTYLES: tuple[Any, ...] = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)), (0, (6, 3)),
                                (0, (1, 1)), (0, (3, 1, 3, 1, 1, 1)))
 
 _ACTIVE: contextvars.ContextVar[str | None] = contextvars.ContextVar("journal_width",
@@ -333,7 +339,26 @@ def new_axes(figsize: tuple[float, float] | None = None) -> Axes:
     """
     fig = Figure(figsize=figsize, layout="constrained")
     FigureCanvasAgg(fig)
+    _OWN.add(fig)
     return fig.add_subplot()
+
+
+#: Figures :func:`new_axes` made: a legend above their Axes may make them taller.
+_OWN: weakref.WeakSet[Figure] = weakref.WeakSet()
+
+
+def owns(figure: Any) -> bool:
+    """Whether *figure* is one :func:`new_axes` made (not a caller's).
+
+    Parameters
+    ----------
+    figure : Figure
+
+    Returns
+    -------
+    bool
+    """
+    return figure in _OWN
 
 
 def proxy(label: str, **style: Any) -> Line2D:

@@ -57,8 +57,10 @@ MAX_POINTS = 4000
 _NORMAL, _TANGENTIAL = "#0072B2", "#009E73"
 _ON_WINDOW, _OFF_WINDOW = "#D55E00", "#000000"
 _ON_SHADE, _LIFT_SHADE = "#F0E442", "#56B4E9"
-_HATCH = {"lift-edge": "\\\\\\", "switch": "///", "unknown": "xxx", "hole": "...",
-          "pause": "..."}
+_TRACE_LW = 0.6
+#: One pattern per kind of excluded stretch, each unlike the others (not only its direction).
+_HATCH = {"switch": "///", "lift-edge": "ooo", "unknown": "xxx", "hole": "...",
+          "pause": "|||"}
 
 
 def trial_stem(subject: str, trial: str) -> str:
@@ -120,10 +122,13 @@ def envelope(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64]
 def _spans(ax: Axes, check: TrialCheck, stretches: list[Stretch]) -> set[str]:
     """Shade the ON phases, the lifted stretches and what is excluded; the kinds drawn."""
     kinds = set()
+    lifted = [(s.t_start, s.t_end) for s in stretches if s.kind == "lifted"]
     for piece in check.pieces:
         t = piece.forces.t - check.t0
         dt = 1.0 / piece.forces.rate_Hz
         on = piece.condition == ON
+        for a0, b0 in lifted:  # a lifted stretch shows as lifted, not in a mix of colours
+            on &= ~((t + dt > a0) & (t < b0))
         edges = np.flatnonzero(np.diff(np.concatenate(([0], on.view(np.int8), [0]))))
         for a, b in zip(edges[::2], edges[1::2], strict=True):
             ax.axvspan(t[a], t[b - 1] + dt, color=_ON_SHADE, alpha=0.35, lw=0, zorder=0)
@@ -166,8 +171,9 @@ def _windows(ax: Axes, check: TrialCheck) -> set[str]:
 
 def _legend(ax: Axes, kinds: set[str], conditions: set[str]) -> None:
     """A legend below the Axes (never over the data), of what is drawn."""
-    handles: list[Any] = [Line2D([], [], color=_NORMAL, lw=0.8, label="normal force"),
-                          Line2D([], [], color=_TANGENTIAL, lw=0.8, label="tangential force")]
+    handles: list[Any] = [Line2D([], [], color=_NORMAL, lw=_TRACE_LW, label="normal force"),
+                          Line2D([], [], color=_TANGENTIAL, lw=_TRACE_LW,
+                                 label="tangential force")]
     if "on" in conditions:
         handles.append(Line2D([], [], color=_ON_WINDOW, lw=2.6, marker="|", markersize=7,
                               label="ON window (mean)"))
@@ -205,16 +211,17 @@ def draw_trial_check(check: TrialCheck, ax: Axes | None = None) -> Axes:
     kinds = _spans(ax, check, stretches)
     for piece in check.pieces:
         t = piece.forces.t - check.t0
-        ax.plot(*envelope(t, piece.forces.normal), color=_NORMAL, lw=0.6, zorder=2)
-        ax.plot(*envelope(t, piece.forces.tangential), color=_TANGENTIAL, lw=0.6, zorder=2)
+        ax.plot(*envelope(t, piece.forces.normal), color=_NORMAL, lw=_TRACE_LW, zorder=2)
+        ax.plot(*envelope(t, piece.forces.tangential), color=_TANGENTIAL, lw=_TRACE_LW,
+                zorder=2)
     conditions = _windows(ax, check)
-    ax.axhline(0.0, color="0.3", lw=0.5, zorder=1)
+    ax.axhline(0.0, color="0.3", lw=0.5, zorder=1, gid="zero")  # an axis line, not data
     ax.set_xlabel("time from the trial's start (s)")
     ax.set_ylabel("force (N)")
     if check.pieces:
         ends = [(p.forces.t[0] - check.t0, p.forces.t[-1] - check.t0) for p in check.pieces
                 if p.forces.t.size]
-        ax.set_xlim(min(a for a, _ in ends), max(b for _, b in ends))
+        ax.set_xlim(min(0.0, *(a for a, _ in ends)), max(b for _, b in ends))
     _legend(ax, kinds, conditions)
     return ax
 
