@@ -15,7 +15,7 @@ LAYERS = {
     "files": 1, "median": 1, "running": 1, "outages": 1, "memo": 2, "documents": 2,
     "model": 2, "frames": 2, "signal_codec": 2, "lock": 2, "resultdir": 2, "dropped": 2,
     "signals": 2,
-    "rig": 3,
+    "rig": 3, "frame_match": 3,
     "study": 4, "decode": 4,
     "cache": 5, "decode_table": 5,
     "analysis": 6, "acquisition": 6,

@@ -22,9 +22,10 @@ How a signal is extracted: :class:`~evtribo.signal_codec.SignalCodec` (any byte 
 start bit, length up to 64 bits, sign, IEEE float), vectorised over frames. Multiplexed
 messages fall back to cantools' ``decode`` frame by frame; a frame cantools refuses (an
 unknown multiplexer value) gets NaN signals and is counted, not fatal. Frames match a
-message by ID and standard/extended kind (a standard 0x0C1 frame is not the extended message
-0x000000C1: such frames are not decoded, and a warning says so); frames shorter than the
-message's length are not decoded (cantools refuses them too).
+message by ID, standard/extended kind and CAN FD or classic kind (a standard 0x0C1 frame is
+not the extended message 0x000000C1, a CAN FD frame on 0x0C1 not the classic message 0x0C1:
+such frames are not decoded, and a warning says so); frames shorter than the message's
+length are not decoded (cantools refuses them too).
 """
 
 from __future__ import annotations
@@ -41,6 +42,7 @@ from cantools.database.can import Database, Message
 
 from evtribo.dropped import missing_frames_received
 from evtribo.errors import UserInputError
+from evtribo.frame_match import kind_mismatches, message_mask
 from evtribo.frames.table import FrameTable, take_rows
 from evtribo.rig import Rig, SignalRef
 from evtribo.signal_codec import SignalCodec
@@ -101,26 +103,6 @@ class DecodedMessage:
     def signals(self) -> dict[str, Array]:
         """Every signal's physical values."""
         return {name: self.scaled(name) for name in self.raw}
-
-
-def message_mask(frames: FrameTable, message: Message) -> npt.NDArray[np.bool_]:
-    """Frames carrying *message*: same ID and ID kind, data frames (not error or remote).
-
-    Parameters
-    ----------
-    frames : FrameTable
-        The log's frames.
-    message : cantools.database.can.Message
-        The message.
-
-    Returns
-    -------
-    ndarray of bool
-        One per frame.
-    """
-    return ((frames.arbitration_id == np.uint32(message.frame_id))
-            & (frames.is_extended == bool(message.is_extended_frame))
-            & ~frames.is_error & ~frames.is_remote)
 
 
 def decode_message(frames: FrameTable, message: Message, signals: list[str] | None = None,
@@ -224,49 +206,6 @@ def decode_messages(frames: FrameTable, db: Database, *, messages: list[str] | N
         mask = message_mask(frames, message)
         if mask.any():
             out[message.name] = decode_message(frames, message, mask=mask)
-    return out
-
-
-def _id_text(frame_id: int, extended: bool) -> str:
-    kind = "extended (29-bit)" if extended else "standard (11-bit)"
-    return f"{kind} ID 0x{frame_id:08X}" if extended else f"{kind} ID 0x{frame_id:03X}"
-
-
-def kind_mismatches(frames: FrameTable, messages: list[Message], db: Database) -> list[str]:
-    """Why frames whose ID number is one of *messages*' but of the other kind (standard
-    or extended) are not decoded as it: one sentence per message, when *db* has no message
-    of that number and kind.
-
-    Parameters
-    ----------
-    frames : FrameTable
-        The log's frames.
-    messages : list of cantools.database.can.Message
-        The messages looked for.
-    db : cantools.database.can.Database
-        Their DBC.
-
-    Returns
-    -------
-    list of str
-    """
-    known = {(m.frame_id, bool(m.is_extended_frame)) for m in db.messages}
-    data = ~frames.is_error & ~frames.is_remote
-    ids: dict[bool, npt.NDArray[np.uint32]] = {}  # IDs of the data frames of each kind
-    out = []
-    for m in messages:
-        ext = bool(m.is_extended_frame)
-        other = not ext
-        if (m.frame_id, other) in known:
-            continue
-        if other not in ids:
-            kind = frames.is_extended if other else ~frames.is_extended
-            ids[other] = frames.arbitration_id[kind & data]
-        n = int(np.count_nonzero(ids[other] == np.uint32(m.frame_id)))
-        if n:
-            out.append(f"{n} frames have the {_id_text(m.frame_id, other)}, but the DBC's "
-                       f"message {m.name} has the {_id_text(m.frame_id, ext)}: not decoded as "
-                       f"{m.name} (the kind of ID is part of it)")
     return out
 
 
