@@ -182,6 +182,17 @@ def _session_begun(tmp: Path) -> None:
     (tmp / "protocol.toml").write_text("[[trial]]\namplitude_V = 140\n")
 
 
+ASC = ("date Mon Nov 23 06:19:31.000 am 2026\nbase hex  timestamps absolute\n"
+       "internal events logged\nBegin Triggerblock Mon Nov 23 06:19:31.000 am 2026\n"
+       "   0.000000 1  0C1             Rx   d 8 00 00 00 00 00 00 00 00\n"
+       "End TriggerBlock\n")
+
+
+def _link(link: Path, target: Path) -> None:
+    link.parent.mkdir(parents=True, exist_ok=True)
+    link.symlink_to(target)
+
+
 def _text(path: Path, text: str) -> Callable[[Path], None]:
     def build(tmp: Path) -> None:
         (tmp / path).parent.mkdir(parents=True, exist_ok=True)
@@ -318,6 +329,19 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "decode-output-is-input": lambda t: _csv_log(t / "run-01.csv"),
     "decode-output-is-a-log": lambda t: _csv_log(t / "run-02.csv"),
     "decode-csv-in-study": lambda t: None,
+    "report-over-log": lambda t: (t / "out").mkdir(),
+    "report-over-sidecar": lambda t: (t / "out").mkdir(),
+    "report-over-study-toml": lambda t: (t / "out").mkdir(),
+    "report-over-dbc": lambda t: (t / "out").mkdir(),
+    "report-over-other-log": lambda t: (_text(Path("bench.asc"), ASC)(t), (t / "out").mkdir()),
+    "report-new-sidecar": lambda t: (t / "out").mkdir(),
+    "report-tables-over-log": lambda t: (_link(t / "tables" / "fit.md",
+                                               t / "study" / "P01" / "run-01.log"),
+                                         (t / "out").mkdir()),
+    "compare-out-in-study": lambda t: (t / "study" / "P02").mkdir(),
+    "plot-over-log": lambda t: _link(t / "check.png", t / "study" / "P01" / "run-01.log"),
+    "model-figures-over-dbc": lambda t: _link(t / "figures" / "fig5_friction_time.png",
+                                              t / "study" / "rig" / "default.dbc"),
     "decode-channel-missing": lambda t: None,
     "plot-no-such-study": lambda t: None,
     "plot-subject-missing": lambda t: None,

@@ -9,10 +9,10 @@ know) keeps its row, with empty signals. Output format by suffix: ``.parquet`` o
 The log is read and written a block at a time (Parquet by row groups), so memory does not
 grow with the log.
 
-An existing output is kept unless ``--force``; a raw log never is, ``--force`` included: not
-the log being decoded (whatever the spelling of its path, symbolic links followed), not any
-other CAN log, and no ``.csv`` inside a study's subject folder (``evtribo analyze`` would
-take it for a trial's log).
+An existing output is kept unless ``--force``; a raw log or a study's input never is,
+``--force`` included (:mod:`evtribo.guard`): not the log being decoded (whatever the spelling
+of its path, symbolic links followed), not any other CAN log, and no ``.csv`` inside a
+study's subject folder (``evtribo analyze`` would take it for a trial's log).
 """
 
 from __future__ import annotations
@@ -22,12 +22,8 @@ import os
 
 from evtribo.decode_table import load_dbc_file, write_decoded
 from evtribo.errors import OutputExistsError, UserInputError
-from evtribo.frames import FrameStream, supported_suffixes
-from evtribo.frames.sniff import sniff
-
-#: What :func:`~evtribo.frames.sniff.sniff` calls the raw CAN logs decode never overwrites.
-_LOG_KINDS = {"candump-L", "candump-text", "candump-plain", "asc", "trc", "python-can-csv",
-              "savvycan", "blf", "mf4", "mdf", "sqlite"}
+from evtribo.frames import FrameStream
+from evtribo.guard import refuse_input
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -46,25 +42,6 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     return p
 
 
-def _refuse_raw_logs(out: str, log_path: str) -> None:
-    """Refuse an output that is a raw log (the input, or any CAN log), or a .csv that a
-    study would take for a trial's log; ``--force`` does not change this."""
-    never = "evtribo decode never overwrites a raw log, --force included; choose another output"
-    if os.path.exists(out):
-        if os.path.exists(log_path) and os.path.samefile(out, log_path):
-            raise OutputExistsError(f"is the log being decoded: {never}", path=out)
-        found = sniff(out)
-        if found is not None and found.kind.removeprefix("gzip:") in _LOG_KINDS:
-            raise OutputExistsError(f"is a CAN log ({found.description}): {never}", path=out)
-    folder = os.path.dirname(os.path.abspath(out))
-    suffix = os.path.splitext(out)[1].lower()
-    if suffix in supported_suffixes() and os.path.isfile(
-            os.path.join(os.path.dirname(folder), "study.toml")):
-        raise UserInputError(f"a {suffix} file in a study's subject folder is read as a trial's "
-                             "log by evtribo analyze: write the decoded table outside the study "
-                             "folder, or as .parquet", path=out)
-
-
 def run(args: argparse.Namespace) -> int:
     """Decode ``args.log`` with ``args.dbc`` into ``args.output``, block by block."""
     out = args.output
@@ -72,7 +49,8 @@ def run(args: argparse.Namespace) -> int:
     if suffix not in (".parquet", ".csv"):
         raise UserInputError(f"output must end in .parquet or .csv, not {suffix or '(none)'!r}",
                              path=out)
-    _refuse_raw_logs(out, args.log)
+    refuse_input(out, command="evtribo decode", source=args.log,  # --force or not
+                 source_is="the log being decoded", key="-o")
     if os.path.exists(out) and not args.force:
         raise OutputExistsError("exists; use --force to overwrite", path=out)
     FrameStream(args.log)  # the log is checked before the DBC is loaded

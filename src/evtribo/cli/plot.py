@@ -28,6 +28,7 @@ from matplotlib.figure import Figure
 
 from evtribo.errors import OutputExistsError, UserInputError
 from evtribo.files import atomic_open
+from evtribo.guard import refuse_input
 
 #: Figure formats, by the output's suffix.
 FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
@@ -107,6 +108,7 @@ def _check_output(out: str | None, force: bool) -> str | None:
     if suffix not in FORMATS:
         raise UserInputError("the figure's format comes from its suffix: .png, .svg or .pdf, "
                              f"not {suffix or '(none)'!r}", path=out)
+    refuse_input(out, command="evtribo plot", key="-o")  # --force or not
     if os.path.exists(out) and not force:
         raise OutputExistsError("exists; use --force to overwrite", path=out)
     return FORMATS[suffix]
