@@ -182,6 +182,7 @@ def _session_begun(tmp: Path) -> None:
     (tmp / "protocol.toml").write_text("[[trial]]\namplitude_V = 140\n")
 
 
+PASSWD = "root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1:daemon:/usr/sbin:/usr/sbin/nologin\n"
 ASC = ("date Mon Nov 23 06:19:31.000 am 2026\nbase hex  timestamps absolute\n"
        "internal events logged\nBegin Triggerblock Mon Nov 23 06:19:31.000 am 2026\n"
        "   0.000000 1  0C1             Rx   d 8 00 00 00 00 00 00 00 00\n"
@@ -329,6 +330,10 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "decode-output-is-input": lambda t: _csv_log(t / "run-01.csv"),
     "decode-output-is-a-log": lambda t: _csv_log(t / "run-02.csv"),
     "decode-csv-in-study": lambda t: None,
+    "dbc-not-a-dbc": lambda t: (_text(Path("passwd"), PASSWD)(t),
+                                _toml(t / "study", '"rig/default.dbc"', '"../passwd"')),
+    "dbc-device": lambda t: _toml(t / "study", '"rig/default.dbc"', '"/dev/zero"'),
+    "decode-dbc-not-a-dbc": _text(Path("passwd"), PASSWD),
     "report-over-log": lambda t: (t / "out").mkdir(),
     "report-over-sidecar": lambda t: (t / "out").mkdir(),
     "report-over-study-toml": lambda t: (t / "out").mkdir(),
@@ -440,6 +445,7 @@ def test_bad_input(case, tmp_path, capsys):
     expected = substitute(_code(case["message"]), tmp_path)
     assert expected in err, f"\nexpected: {expected}\n     got: {err}"
     assert "Traceback" not in err
+    assert "root:x:0" not in err  # no line of a file that is not a DBC is shown
     assert _tree(tmp_path) == before, "the command wrote or changed files"
 
 

@@ -35,12 +35,11 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import cantools
-import cantools.database
 from cantools.database.can import Database, Message, Signal
 
+from evtribo.dbc_file import parse_dbc
 from evtribo.errors import RigConfigError, toml_error_line, toml_key_line
-from evtribo.files import check_regular_file, read_limited, sha256_file
+from evtribo.files import read_limited, sha256_file
 
 log = logging.getLogger(__name__)
 
@@ -62,8 +61,6 @@ OPTIONAL_ROLES = (
 ROLES = REQUIRED_ROLES + OPTIONAL_ROLES
 #: Keys of a rig table besides the roles.
 OTHER_KEYS = ("name", "dbc", "calibration")
-#: Largest DBC file read, bytes.
-MAX_DBC_BYTES = 64 << 20
 #: Keys of the rig's ``calibration`` table.
 CALIBRATION_KEYS = ("normal_offset_N", "tangential_offset_N", "matrix")
 
@@ -320,16 +317,7 @@ class Rig:
                 raise RigConfigError(f"must be a string, got {type(v).__name__} {v!r}",
                                      path=src, key=key(k))
         dbc = Path(base_dir) / mapping["dbc"]
-        if not dbc.exists():
-            raise RigConfigError(f"DBC file not found: {dbc}", path=src, key=key("dbc"))
-        try:
-            size = check_regular_file(dbc, RigConfigError, what="DBC file").st_size
-        except RigConfigError as err:
-            raise RigConfigError(f"{dbc} {err.message}", path=src, key=key("dbc")) from err
-        if size > MAX_DBC_BYTES:
-            raise RigConfigError(f"{dbc} is {size:,} bytes, too large for a DBC file (at "
-                                 f"most {MAX_DBC_BYTES:,})", path=src, key=key("dbc"))
-        db = load_dbc(dbc, source=src, key=key("dbc"))
+        db = load_dbc(dbc, source=src, key=key("dbc"))  # checked: a DBC, not echoed
         refs = {r: resolve_signal(db, mapping[r], key=key(r), source=src)
                 for r in ROLES if r in mapping}
         calibration = Calibration()
@@ -342,11 +330,11 @@ class Rig:
 
 def load_dbc(path: str | os.PathLike[str], *, source: str | None = None,
              key: str | None = None) -> Database:
-    """Parse a DBC with cantools.
+    """Parse a DBC with cantools (:func:`evtribo.dbc_file.parse_dbc`).
 
     A DBC whose signals overlap or overrun their message (cantools' strict checks) is still
     loaded, with a warning: vendors' DBCs often have such quirks, and each signal is decoded
-    on its own.
+    on its own. A file that is not a DBC is refused by name, its content never shown.
 
     Parameters
     ----------
@@ -362,27 +350,9 @@ def load_dbc(path: str | os.PathLike[str], *, source: str | None = None,
     Raises
     ------
     RigConfigError
-        The file does not parse (cantools' message, naming *source* and *key*).
+        The file is missing, not a DBC, or does not parse (naming *source* and *key*).
     """
-    try:
-        return _can_database(cantools.database.load_file(os.fspath(path), database_format="dbc",
-                                                         strict=True))
-    except Exception as strict_err:  # ParseError, UnsupportedDatabaseFormatError, Error...
-        try:
-            db = cantools.database.load_file(os.fspath(path), database_format="dbc",
-                                             strict=False)
-        except Exception as err:
-            raise RigConfigError(f"cannot parse DBC {path}: {err}", path=source,
-                                 key=key) from err
-        log.warning("%s: %s; decoding it anyway", path, strict_err)
-        return _can_database(db)
-
-
-def _can_database(db: object) -> Database:
-    """*db*, which ``load_file(..., database_format="dbc")`` made a CAN database."""
-    if not isinstance(db, Database):
-        raise TypeError(f"expected a CAN database, got {type(db).__name__}")
-    return db
+    return parse_dbc(path, source=source, key=key)
 
 
 def resolve_signal(db: Database, qualified: str, *, key: str, source: str | None = None
