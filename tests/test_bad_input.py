@@ -182,6 +182,8 @@ def _session_begun(tmp: Path) -> None:
     (tmp / "protocol.toml").write_text("[[trial]]\namplitude_V = 140\n")
 
 
+SIDECAR_TWICE = ('{\n  "subject": "P01", "waveform": "square", "frequency_Hz": 10000,\n'
+                 '  "amplitude_V": 140, "condition": "alternating",\n  "amplitude_V": 14\n}\n')
 PASSWD = "root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1:daemon:/usr/sbin:/usr/sbin/nologin\n"
 ASC = ("date Mon Nov 23 06:19:31.000 am 2026\nbase hex  timestamps absolute\n"
        "internal events logged\nBegin Triggerblock Mon Nov 23 06:19:31.000 am 2026\n"
@@ -334,6 +336,11 @@ BUILD: dict[str, Callable[[Path], None]] = {
                                 _toml(t / "study", '"rig/default.dbc"', '"../passwd"')),
     "dbc-device": lambda t: _toml(t / "study", '"rig/default.dbc"', '"/dev/zero"'),
     "decode-dbc-not-a-dbc": _text(Path("passwd"), PASSWD),
+    "sidecar-duplicate-key": _text(Path("study/P01/run-01.json"), SIDECAR_TWICE),
+    "toml-duplicate-key": lambda t: _toml(t / "study", 'name = "bad input"',
+                                          'name = "bad input"\nname = "other"'),
+    "analyze-cache-inside-study": lambda t: None,
+    "acquire-view-port": lambda t: None,
     "report-over-log": lambda t: (t / "out").mkdir(),
     "report-over-sidecar": lambda t: (t / "out").mkdir(),
     "report-over-study-toml": lambda t: (t / "out").mkdir(),

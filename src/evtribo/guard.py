@@ -25,7 +25,8 @@ from evtribo.errors import FORCE, OutputExistsError, UserInputError
 from evtribo.frames.sniff import sniff
 from evtribo.study import NOT_SUBJECTS, STUDY_FILE, log_stem
 
-__all__ = ["LOG_KINDS", "refuse_in_study", "refuse_input", "study_root", "what_input"]
+__all__ = ["LOG_KINDS", "refuse_cache_in_study", "refuse_in_study", "refuse_input", "study_root",
+           "what_input"]
 
 #: What :func:`~evtribo.frames.sniff.sniff` calls the raw CAN logs.
 LOG_KINDS = frozenset({"candump-L", "candump-text", "candump-plain", "asc", "trc",
@@ -176,3 +177,32 @@ def refuse_in_study(folder: str | os.PathLike[str], *, command: str) -> None:
             f"is inside the study folder {root}: {command} writes nothing into a study (the "
             "next analysis would read it as part of the study); move the result folder out "
             "of the study", path=folder)
+
+
+def refuse_cache_in_study(cache_dir: str | os.PathLike[str] | None,
+                          study: str | os.PathLike[str]) -> None:
+    """Refuse a cache folder inside the study folder, as an output folder there is refused:
+    the next analysis would read its files as part of the study.
+
+    Parameters
+    ----------
+    cache_dir : path-like or None
+        The cache folder given (None: the default one, outside any study).
+    study : path-like
+        The study folder (or its ``study.toml``).
+
+    Raises
+    ------
+    UserInputError
+        Naming the cache folder (key ``--cache-dir``) and the study.
+    """
+    if cache_dir is None:
+        return
+    root = Path(os.path.realpath(study))
+    root = root.parent if root.name == STUDY_FILE else root
+    where = Path(os.path.realpath(cache_dir))
+    if where == root or root in where.parents:
+        raise UserInputError(
+            f"the cache folder is inside the study folder {study}: the next analysis would "
+            "read its files as part of the study; choose a folder outside it, e.g. "
+            f"{root.parent / (root.name + '-cache')}", path=cache_dir, key="--cache-dir")

@@ -38,7 +38,7 @@ from typing import Any
 from cantools.database.can import Database, Message, Signal
 
 from evtribo.dbc_file import parse_dbc
-from evtribo.errors import RigConfigError, toml_error_line, toml_key_line
+from evtribo.errors import RigConfigError, toml_key_line, toml_problem
 from evtribo.files import read_limited, sha256_file
 
 log = logging.getLogger(__name__)
@@ -424,9 +424,10 @@ def load_rig(toml_path: str | os.PathLike[str]) -> Rig:
         :meth:`Rig.from_mapping` refuses it.
     """
     path = Path(toml_path)
+    text = ""
     try:
-        table = tomllib.loads(read_limited(path, RigConfigError,
-                                           what="rig TOML file").decode("utf-8"))
+        text = read_limited(path, RigConfigError, what="rig TOML file").decode("utf-8")
+        table = tomllib.loads(text)
     except FileNotFoundError as err:
         raise RigConfigError("rig file not found", path=path) from err
     except RecursionError as err:
@@ -438,8 +439,9 @@ def load_rig(toml_path: str | os.PathLike[str]) -> Rig:
         raise RigConfigError(f"not UTF-8 text: {err.reason} at byte {err.start}",
                              path=path) from err
     except tomllib.TOMLDecodeError as err:
-        raise RigConfigError(f"not valid TOML: {err}", path=path,
-                             line=toml_error_line(err)) from err
+        reason, line, key = toml_problem(err, text)
+        raise RigConfigError(f"not valid TOML: {reason}", path=path, line=line, key=key) \
+            from err
     if "rig" in table and isinstance(table["rig"], dict):
         return Rig.from_mapping(table["rig"], path.parent, source=path, key_prefix="rig")
     return Rig.from_mapping(table, path.parent, source=path, key_prefix="")

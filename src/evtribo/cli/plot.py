@@ -28,7 +28,7 @@ from matplotlib.figure import Figure
 
 from evtribo.errors import OutputExistsError, UserInputError
 from evtribo.files import atomic_open
-from evtribo.guard import refuse_input
+from evtribo.guard import refuse_cache_in_study, refuse_input
 
 #: Figure formats, by the output's suffix.
 FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
@@ -143,6 +143,7 @@ def _trial(args: argparse.Namespace, window: Figure | None) -> Figure:
         raise UserInputError("a trial is decoded with its study's DBC; --dbc is for a log's "
                              "signals", key="--dbc")
     _, study, subject, trial = args.args
+    refuse_cache_in_study(args.cache_dir, study)
     check = check_trial(study, subject, trial, cache_dir=args.cache_dir)
     ax = draw_trial_check(check, None if window is None else window.add_subplot())
     print(trial_caption(check))
