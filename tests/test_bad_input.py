@@ -191,6 +191,12 @@ ASC = ("date Mon Nov 23 06:19:31.000 am 2026\nbase hex  timestamps absolute\n"
        "End TriggerBlock\n")
 
 
+def _edit(path: Path, old: str, new: str) -> None:
+    text = path.read_text(encoding="utf-8")
+    assert old in text
+    path.write_text(text.replace(old, new), encoding="utf-8")
+
+
 def _link(link: Path, target: Path) -> None:
     link.parent.mkdir(parents=True, exist_ok=True)
     link.symlink_to(target)
@@ -334,6 +340,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "decode-csv-in-study": lambda t: None,
     "dbc-not-a-dbc": lambda t: (_text(Path("passwd"), PASSWD)(t),
                                 _toml(t / "study", '"rig/default.dbc"', '"../passwd"')),
+    "rig-signal-beyond-message": lambda t: _edit(t / "study" / "rig" / "default.dbc",
+                                                 "BO_ 193 FzCell: 8", "BO_ 193 FzCell: 6"),
     "dbc-device": lambda t: _toml(t / "study", '"rig/default.dbc"', '"/dev/zero"'),
     "decode-dbc-not-a-dbc": _text(Path("passwd"), PASSWD),
     "sidecar-duplicate-key": _text(Path("study/P01/run-01.json"), SIDECAR_TWICE),

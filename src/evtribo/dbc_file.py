@@ -56,7 +56,10 @@ def _text(path: str | os.PathLike[str], source: str | None, key: str | None) -> 
                              f"{MAX_DBC_BYTES:,})", path=source, key=key)
     with open(path, "rb") as fh:
         data = fh.read(MAX_DBC_BYTES + 1)
-    words = data[:4096].lstrip(b"\xef\xbb\xbf \t\r\n").split(None, 1)
+    head = data[:4096].removeprefix(b"\xef\xbb\xbf")
+    while (head := head.lstrip()).startswith(b"//"):  # comment lines before the first word
+        head = head.partition(b"\n")[2]
+    words = head.split(None, 1)
     if not words or words[0].decode("latin-1") not in DBC_KEYWORDS or b"\0" in data:
         raise RigConfigError(f"{name}is not a DBC file: it does not begin as one (with "
                              "VERSION, NS_, BU_ or BO_...); its content is not shown",
@@ -71,11 +74,15 @@ def _text(path: str | os.PathLike[str], source: str | None, key: str | None) -> 
 
 
 def _why(err: BaseException) -> str:
-    """cantools' reason, without the text of the line it quotes."""
-    where = _WHERE.search(str(err))
+    """cantools' reason, without the text of the line it quotes: a syntax error is said by
+    its line and column; another reason (a message's ID out of range...), which cantools
+    gives only once the file has parsed as a DBC, as cantools says it."""
+    text = str(err)
+    where = _WHERE.search(text)
     if where is not None:
         return f"invalid syntax at {where.group(0)} (the line is not shown: open the file)"
-    return f"{type(err).__name__}" + ("" if '"' in str(err) else f": {err}")
+    inner = re.fullmatch(r'DBC: "(.*)"', text, re.DOTALL)
+    return inner.group(1) if inner else f"{type(err).__name__}: {text}"
 
 
 def parse_dbc(path: str | os.PathLike[str], *, source: str | None = None,

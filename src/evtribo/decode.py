@@ -142,7 +142,14 @@ def decode_message(frames: FrameTable, message: Message, signals: list[str] | No
     for sig in wanted:
         out.codecs[sig.name] = SignalCodec.from_signal(sig)
         out.units[sig.name] = sig.unit or ""
-    if message.is_multiplexed():
+    beyond = beyond_length(message)
+    if beyond:  # cantools decodes none of its frames: neither does evtribo
+        out.raw = {name: np.full(index.size, np.nan) for name in out.codecs}
+        out.undecoded, out.undecoded_reason = index, beyond
+        if index.size and not quiet:
+            log.warning("%d frames of %s (0x%X) not decoded: %s", index.size, message.name,
+                        message.frame_id, beyond)
+    elif message.is_multiplexed():
         failed, out.undecoded_reason = _decode_multiplexed(message, data, frames.dlc[index], out)
         out.undecoded = index[failed]
         if failed.size and not quiet:
@@ -153,6 +160,27 @@ def decode_message(frames: FrameTable, message: Message, signals: list[str] | No
         for name, codec in out.codecs.items():
             out.raw[name] = codec.raw(data)
     return out
+
+
+def beyond_length(message: Message) -> str:
+    """Why no frame of *message* can be decoded, when one of its signals lies beyond its
+    length (cantools refuses every such frame), else ``""``.
+
+    Parameters
+    ----------
+    message : cantools.database.can.Message
+
+    Returns
+    -------
+    str
+    """
+    for sig in message.signals:
+        last = SignalCodec.from_signal(sig).last_byte()
+        if last >= message.length:
+            return (f"its signal {sig.name} ends in byte {last + 1}, beyond the message's "
+                    f"{message.length} bytes (cantools decodes none of its frames): fix the "
+                    "DBC")
+    return ""
 
 
 def _decode_multiplexed(message: Message, data: npt.NDArray[np.uint8],
@@ -435,5 +463,6 @@ def decode_trial(frames: FrameTable, rig: Rig, *, channel: str | None = None) ->
 
 
 __all__ = ["FALLBACK_WAVEFORMS", "CellSignals", "DecodedMessage", "ExcitationSignals",
-           "SignalCodec", "TrialProvenance", "TrialSignals", "decode_message", "decode_messages",
+           "SignalCodec", "TrialProvenance", "TrialSignals", "beyond_length", "decode_message",
+           "decode_messages",
            "decode_trial", "kind_mismatches", "message_mask", "waveform_names"]

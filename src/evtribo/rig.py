@@ -40,6 +40,7 @@ from cantools.database.can import Database, Message, Signal
 from evtribo.dbc_file import parse_dbc
 from evtribo.errors import RigConfigError, toml_key_line, toml_problem
 from evtribo.files import read_limited, sha256_file
+from evtribo.signal_codec import SignalCodec
 
 log = logging.getLogger(__name__)
 
@@ -320,6 +321,13 @@ class Rig:
         db = load_dbc(dbc, source=src, key=key("dbc"))  # checked: a DBC, not echoed
         refs = {r: resolve_signal(db, mapping[r], key=key(r), source=src)
                 for r in ROLES if r in mapping}
+        for r, ref in refs.items():  # cantools decodes no frame of such a message
+            beyond = [s.name for s in ref.message.signals
+                      if SignalCodec.from_signal(s).last_byte() >= ref.message.length]
+            if beyond:
+                raise RigConfigError(f"message {ref.message.name}'s signal {beyond[0]} lies "
+                                     f"beyond its {ref.message.length} bytes: no frame of it "
+                                     f"can be decoded; fix the DBC {dbc}", path=src, key=key(r))
         calibration = Calibration()
         if "calibration" in mapping:
             calibration = Calibration.from_mapping(mapping["calibration"], source=src,

@@ -7,8 +7,8 @@ from __future__ import annotations
 import shutil
 
 import pytest
-
 from analysed import analysed_study
+
 from evtribo.cli import main
 
 
