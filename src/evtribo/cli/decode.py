@@ -2,10 +2,12 @@
 
 One row per decoded frame, in log order: ``timestamp`` (s), ``message``, ``channel`` (only
 when the log holds several channels, or decode one with ``--channel``), then one column per
-signal (physical values after DBC scaling; ``--choices`` writes value-table names instead of
-codes). A signal name used by two messages, or named like a fixed column, becomes
-``Message.Signal``. A frame cantools cannot decode (a multiplexer value the DBC does not
-know) keeps its row, with empty signals. Output format by suffix: ``.parquet`` or ``.csv``.
+signal (physical values after DBC scaling; ``--choices`` writes value-table names instead,
+as cantools' ``decode_choices`` does: a code the table lacks as its physical value). A signal
+name used by two messages, or named like a fixed column, becomes ``Message.Signal``. A frame
+cantools cannot decode (a multiplexer value the DBC does not know, a signal beyond the
+message's length) keeps its row, with empty signals; so does a multiplexed signal in the
+frames that do not carry it. Output format by suffix: ``.parquet`` or ``.csv``.
 The log is read and written a block at a time (Parquet by row groups), so memory does not
 grow with the log.
 
@@ -34,7 +36,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--dbc", required=True, help="CAN database (DBC)")
     p.add_argument("-o", "--output", required=True, help="output table (.parquet or .csv)")
     p.add_argument("--choices", action="store_true",
-                   help="write value-table names instead of raw codes")
+                   help="write value-table names instead of values (a code the table "
+                        "lacks: its physical value, as cantools gives it)")
     p.add_argument("--force", action="store_true", help="overwrite an existing output")
     p.add_argument("--strict", action="store_true", help="a damaged line is an error")
     p.add_argument("--channel", help="decode the frames of this channel (bus) only")
