@@ -46,17 +46,18 @@ def window_truth(windows: pd.DataFrame, truth: TrialTruth) -> pd.DataFrame:
     """*windows* (of one trial) with the simulated electrostatic force over each window
     (``fel_true_N``) and the fraction of it in steady sliding of its condition (``steady``)."""
     shift = (truth.first_frame_s or 0.0) - truth.config.latency_s
-    fel, steady = [], []
+    fel, mu, steady = [], [], []
     for w in windows.itertuples():
         a, b = w.t_start_s + shift, w.t_end_s + shift
         fel.append(truth.electrostatic_between(a, b))
+        mu.append(truth.mu_between(a, b))
         grid = np.linspace(a, b, 200, endpoint=False)
         ok = np.zeros(grid.size, dtype=bool)
         for s0, s1, _, on in truth.steady:
             if on == (w.condition == "on"):
                 ok |= (grid >= s0) & (grid < s1)
         steady.append(float(ok.mean()))
-    return windows.assign(fel_true_N=fel, steady=steady)
+    return windows.assign(fel_true_N=fel, mu_true=mu, steady=steady)
 
 
 def true_exponent(amplitudes: np.ndarray, forces: np.ndarray) -> float:
@@ -66,11 +67,15 @@ def true_exponent(amplitudes: np.ndarray, forces: np.ndarray) -> float:
 
 def attach_truth(el: pd.DataFrame, ex: pd.DataFrame, windows: pd.DataFrame,
                  mu_of: dict[str, float]) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """electrostatic.csv and exponents.csv with the truth of each row beside it."""
+    """electrostatic.csv and exponents.csv with the truth of each row beside it: the
+    simulated electrostatic force and friction coefficient over the row's ON windows (the
+    subject's coefficient where the simulator did not record it)."""
     on = windows[windows.condition == "on"]
-    fel = [on[(on.subject == r.subject) & (on.amplitude_V == r.amplitude_V)
-              & (on.waveform == r.waveform)].fel_true_N.mean() for r in el.itertuples()]
-    el = el.assign(fel_true_N=fel, mu_true=[mu_of[s] for s in el.subject])
+    rows = [on[(on.subject == r.subject) & (on.amplitude_V == r.amplitude_V)
+               & (on.waveform == r.waveform)] for r in el.itertuples()]
+    mu = [r.mu_true.mean() if "mu_true" in r and r.mu_true.notna().any() else mu_of[s]
+          for r, s in zip(rows, el.subject, strict=True)]
+    el = el.assign(fel_true_N=[r.fel_true_N.mean() for r in rows], mu_true=mu)
     expo = []
     for r in ex.itertuples():
         rows = el[(el.subject == r.subject) & (el.waveform == r.waveform)]
@@ -119,7 +124,8 @@ def run_study(seed: int, *, n_subjects: int = 4, amplitudes=AMPLITUDES,
             truths[(subject.name, name)] = truth
     trials = pd.DataFrame(rows)
     windows = pd.concat(wins, ignore_index=True)
-    el, ex, _, agg_warnings = summarize(windows.drop(columns=["fel_true_N", "steady"]), trials,
+    el, ex, _, agg_warnings = summarize(windows.drop(columns=["fel_true_N", "mu_true",
+                                                              "steady"]), trials,
                                         n_boot=settings.n_boot, seed=settings.seed,
                                         confidence=settings.confidence)
     el, ex = attach_truth(el, ex, windows, mu_of)

@@ -41,6 +41,7 @@ from evtribo.analysis.tare import (
     tare_lifted,
     tare_loop,
 )
+from evtribo.analysis.timebase import sample_times
 from evtribo.analysis.trace import TRACE_COLUMNS
 from evtribo.analysis.windows import find_windows, with_means
 from evtribo.documents.sidecar import Sidecar
@@ -53,10 +54,12 @@ log = logging.getLogger(__name__)
 #: Columns of trials.csv (study format, section 2).
 TRIAL_COLUMNS = ("subject", "trial", "waveform", "frequency_Hz", "amplitude_V", "condition",
                  "duration_s", "frames", "dropped_frames", "skipped_lines",
-                 "friction_modulation_Hz", "normal_offset_N", "tangential_offset_N", "tare")
+                 "friction_modulation_Hz", "normal_offset_N", "tangential_offset_N", "tare",
+                 "mu_change_per_10s")
 #: Columns of windows.csv (study format, section 2).
 WINDOW_CSV_COLUMNS = ("subject", "trial", "condition", "amplitude_V", "waveform", "t_start_s",
-                      "t_end_s", "normal_force_N", "friction_force_N")
+                      "t_end_s", "normal_force_N", "friction_force_N", "direction", "stroke",
+                      "stroke_s", "mu_reference")
 
 #: Columns of sine_trace.csv (read by :mod:`evtribo.compare.tables`).
 SINE_TRACE_CSV_COLUMNS = TRACE_COLUMNS
@@ -132,14 +135,15 @@ def empty_windows() -> pd.DataFrame:
     pandas.DataFrame
         Columns :data:`WINDOW_CSV_COLUMNS`.
     """
-    return pd.DataFrame({c: pd.Series(dtype=object if c in {"subject", "trial", "condition",
-                                                            "waveform"} else float)
-                         for c in WINDOW_CSV_COLUMNS})
+    kinds = {"subject": object, "trial": object, "condition": object, "waveform": object,
+             "direction": np.int64, "stroke": np.int64}
+    return pd.DataFrame({c: pd.Series(dtype=kinds.get(c, float)) for c in WINDOW_CSV_COLUMNS})
 
 
 def _channel(cell: CellSignals) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """A load cell's times (s) and forces (N) as float arrays."""
-    return np.asarray(cell.t, dtype=np.float64), np.asarray(cell.value, dtype=np.float64)
+    """A load cell's sample times (s: its frames' timestamps without the logger's jitter,
+    :func:`~evtribo.analysis.timebase.sample_times`) and forces (N) as float arrays."""
+    return sample_times(cell.t, cell.counter), np.asarray(cell.value, dtype=np.float64)
 
 
 def _sample_times(signals: TrialSignals) -> list[npt.NDArray[np.float64]]:
@@ -340,6 +344,8 @@ def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, setting
         "t_start_s": np.round(w.t_start.to_numpy() - t0, 6),
         "t_end_s": np.round(w.t_end.to_numpy() - t0, 6),
         "normal_force_N": w.normal_force_N, "friction_force_N": w.friction_force_N,
+        "direction": w.direction.astype(np.int64), "stroke": w.stroke.astype(np.int64),
+        "stroke_s": np.round(w.stroke_s.to_numpy(float), 6),
     }, columns=list(WINDOW_CSV_COLUMNS)) if len(w) else empty_windows()
     result = _PieceResult(windows, info, offsets, tared.methods,
                           span_s=float(aligned.t[-1] - aligned.t[0]))
@@ -426,7 +432,11 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
                     observe=observe)
     longest = max(parts, key=lambda p: p.span_s)
     info = longest.info
-    frames = [p.windows for p in parts if not p.windows.empty]
+    frames, strokes = [], 0  # stroke numbers run on from one piece to the next
+    for p in parts:
+        if not p.windows.empty:
+            frames.append(p.windows.assign(stroke=p.windows.stroke + strokes))
+            strokes += int(p.windows.stroke.max()) + 1
     windows = pd.concat(frames, ignore_index=True) if frames else empty_windows()
     if windows.empty:
         warn("no steady-sliding window found")
