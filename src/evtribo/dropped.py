@@ -28,6 +28,12 @@ jitter showed 3,400 "missing" frames where 600 were lost). Here:
   elapsed time in periods, its maximum over windows of many periods, which the earliest
   frames of each burst set), with a note saying so. Short pauses, bursts, stalls and a
   clock off by 100 ppm make no drop, so they invent no loss.
+
+What no timestamp can tell: an adapter that stamps its polls, one frame a poll, at about the
+cell's own rate (a 1 kHz cell read by a USB adapter polled every 1 ms) skips a poll whenever
+its clock and the cell's drift a period apart, and such a skip is a lost frame to the
+timing (one per ``1 / (rate * clock error)``: every 10 s at 1 kHz and 100 ppm). A rolling
+counter tells them apart; without one, the count may hold these.
 """
 
 from __future__ import annotations

@@ -25,7 +25,7 @@ MIN_OUTAGE = 1.5
 _ENVELOPE_PERIODS = 32
 #: Windows of the upper envelope compared either side of a change.
 _ENVELOPE_K = 4
-#: Frames either side of a gap whose median lead says how many frames it lost.
+#: Frames either side of a gap whose mean lead says how many frames it lost.
 _GAP_FRAMES = 32
 #: Fewest frames for an envelope.
 _MIN_FRAMES = 16
@@ -144,7 +144,7 @@ def whole_periods(t: npt.NDArray[np.float64], index: npt.NDArray[np.float64],
 
 def lasting_gaps(t: npt.ArrayLike, period: float, gap_factor: float = 1.5) -> int:
     """Frames lost in the steps longer than *gap_factor* periods of a regular stream, each
-    step's count the lasting drop of the frames' lead across it (the median over up to
+    step's count the lasting drop of the frames' lead across it (its mean over up to
     :data:`_GAP_FRAMES` frames either side, up to the neighbouring steps).
 
     On a clean clock this is ``round(dt / period) - 1`` per step; where the timestamps are
@@ -171,10 +171,10 @@ def lasting_gaps(t: npt.ArrayLike, period: float, gap_factor: float = 1.5) -> in
     if not gaps.size or not period > 0:
         return 0
     lead = np.arange(times.size) - (times - times[0]) / period
-    bounds = np.r_[0, gaps + 1, times.size]
-    total = 0
-    for i, j in enumerate(gaps):
-        before = np.median(lead[max(bounds[i], j + 1 - _GAP_FRAMES):j + 1])
-        after = np.median(lead[j + 1:min(bounds[i + 2], j + 1 + _GAP_FRAMES)])
-        total += max(int(np.rint(before - after)), 0)
-    return total
+    total = np.concatenate([[0.0], np.cumsum(lead)])
+    bounds = np.r_[0, gaps + 1, times.size]  # the stretches between the steps
+    a = np.maximum(bounds[:-2], gaps + 1 - _GAP_FRAMES)  # before step k: lead[a:gaps+1]
+    b = np.minimum(bounds[2:], gaps + 1 + _GAP_FRAMES)   # after it: lead[gaps+1:b]
+    before = (total[gaps + 1] - total[a]) / (gaps + 1 - a)
+    after = (total[b] - total[gaps + 1]) / (b - gaps - 1)
+    return int(np.clip(np.rint(before - after), 0, None).sum())
