@@ -36,8 +36,19 @@ _DBC_HEAD = 4096
 
 
 def study_root(path: str | os.PathLike[str]) -> Path | None:
-    """The study folder *path* is in (the nearest folder at or above it holding a
-    ``study.toml``), symbolic links followed; None outside any study."""
+    """The study folder *path* is in, symbolic links followed.
+
+    Parameters
+    ----------
+    path : path-like
+        A file or folder, there or not.
+
+    Returns
+    -------
+    Path or None
+        The nearest folder at or above *path* holding a ``study.toml``; None outside any
+        study.
+    """
     here = Path(os.path.realpath(path))
     for folder in (here, *here.parents):
         if (folder / STUDY_FILE).is_file():

@@ -117,7 +117,26 @@ def whole_periods(t: npt.NDArray[np.float64], index: npt.NDArray[np.float64],
 
     Across such a pause the frames after it lead the periods elapsed by as much as before
     it, less any frames the counter did not see: the highest lead over ``2 * modulus``
-    frames either side (up to the neighbouring pauses) is compared."""
+    frames either side (up to the neighbouring pauses) is compared.
+
+    Parameters
+    ----------
+    t : ndarray of float, s
+        Reception times, increasing.
+    index : ndarray of float
+        Each frame's place in the stream by the counter (the frames it shows lost counted).
+    pauses : ndarray of int
+        The steps (``t[j]`` to ``t[j + 1]``) to look at.
+    modulus : int
+        The counter's period, frames.
+
+    Returns
+    -------
+    wraps : int
+        Whole counter periods lost, in all.
+    note : str or None
+        The pauses where the timing cannot tell (too noisy for the counter's period).
+    """
     bounds = np.r_[0, pauses + 1, t.size]
     # the period from the stretches between the pauses (what they hide left out)
     first, last = bounds[:-1], bounds[1:] - 1

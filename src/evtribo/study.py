@@ -223,13 +223,7 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
                                 "--force re-recording that was killed); nothing was deleted")
                 continue
             logs[trial] = (f, partial)
-        for stem, names in others.items():
-            if f"{stem}.json" in names and stem not in logs:
-                besides = [n for n in names if not n.startswith(f"{stem}.json")]
-                warnings.append(
-                    f"{folder / (stem + '.json')}: sidecar without a log"
-                    + (f" ({', '.join(besides)}: not a log format)" if besides else "")
-                    + "; not analysed")
+        warnings += _sidecars_without_logs(folder, others, logs)
         if not logs:
             continue
         validate_name(folder.name, what="subject folder", path=folder)
@@ -259,6 +253,20 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
                              path=t.sidecar_path or t.log_path, key="subject")
         seen[t.key] = t.log_path
     return trials, warnings
+
+
+def _sidecars_without_logs(folder: Path, others: Mapping[str, list[str]],
+                           logs: Mapping[str, Any]) -> list[str]:
+    """A warning for each sidecar in *folder* whose trial has no log (*others*: the files
+    that are no log, by stem)."""
+    out = []
+    for stem, names in others.items():
+        if f"{stem}.json" in names and stem not in logs:
+            besides = [n for n in names if not n.startswith(f"{stem}.json")]
+            out.append(f"{folder / (stem + '.json')}: sidecar without a log"
+                       + (f" ({', '.join(besides)}: not a log format)" if besides else "")
+                       + "; not analysed")
+    return out
 
 
 def _outside(folder: Path, root: Path, warnings: list[str]) -> None:

@@ -34,15 +34,36 @@ MAX_LINE = 1 << 16
 
 
 def too_long(length: int) -> str:
-    """Why a line of *length* bytes is damaged."""
+    """Why a line of *length* bytes is damaged.
+
+    Parameters
+    ----------
+    length : int
+        The line's length, bytes.
+
+    Returns
+    -------
+    str
+    """
     return (f"a line of {length:,} bytes, longer than any frame's ({MAX_LINE:,} at most): "
             "not read")
 
 
 def bounded_readline(stream: Any) -> bytes | str | int:
     """The next line of a file (text or binary), or, for a line longer than
-    :data:`MAX_LINE`, its length (its bytes read past, never held); ``b""``/``""`` at the
-    end."""
+    :data:`MAX_LINE`, its length (its bytes read past, never held).
+
+    Parameters
+    ----------
+    stream : file
+        Open for reading, text or binary.
+
+    Returns
+    -------
+    bytes, str or int
+        The line with its newline (``b""``/``""`` at the end), or an over-long line's
+        length in bytes (characters for a text file).
+    """
     line = stream.readline(MAX_LINE + 1)
     newline = b"\n" if isinstance(line, bytes) else "\n"
     if len(line) <= MAX_LINE or line.endswith(newline):
