@@ -22,7 +22,6 @@ from pathlib import Path
 
 from evtribo.documents.session import SESSION_FILE
 from evtribo.errors import FORCE, OutputExistsError, UserInputError
-from evtribo.frames.sniff import sniff
 from evtribo.study import NOT_SUBJECTS, STUDY_FILE, log_stem
 
 __all__ = ["LOG_KINDS", "refuse_cache_in_study", "refuse_in_study", "refuse_input", "study_root",
@@ -109,6 +108,8 @@ def what_input(path: str | os.PathLike[str]) -> str | None:
     str or None
         ``"a CAN log (a candump -L log)"``, ``"the study's DBC"``... or None.
     """
+    from evtribo.frames.sniff import sniff  # numpy and python-can: imported on use
+
     real = Path(os.path.realpath(path))
     inside = _in_study(real)
     if inside is not None or not real.is_file():
