@@ -30,6 +30,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from evtribo.analysis.crosstalk import crosstalk_notes
 from evtribo.analysis.drift import (
     TrialDrift,
     drift_notes,
@@ -43,6 +44,7 @@ from evtribo.analysis.estimate import (
     ElectrostaticEstimate,
     estimate_electrostatic,
 )
+from evtribo.analysis.plausible import implausible_rows
 from evtribo.analysis.powerlaw import fit_power_law
 from evtribo.errors import AnalysisError
 
@@ -357,8 +359,13 @@ def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
             frequency_Hz=[facts.frequency_of.get((s, t), _NO_FREQUENCY)
                           for s, t in zip(windows.subject, windows.trial, strict=True)])
         for subject, sub in tagged.groupby("subject", sort=True):
-            found = _estimate_subject(str(subject), sub, facts, n_boot=n_boot, seed=seed,
-                                      confidence=confidence, warnings=warnings)
+            try:
+                found = _estimate_subject(str(subject), sub, facts, n_boot=n_boot,
+                                          seed=seed, confidence=confidence,
+                                          warnings=warnings)
+            except AnalysisError as err:
+                warnings.append(f"{subject}: no electrostatic force: {err}")
+                continue
             if found is None:
                 continue
             window_mu.append(found.window_mu)
@@ -367,14 +374,16 @@ def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
                         shown=facts.shown, n_saved=n_saved, warnings=warnings)
             _add_power_laws(tables, str(subject), found.est, points=found.points,
                             shown=facts.shown, confidence=confidence, warnings=warnings)
+    electrostatic = pd.DataFrame(tables.electrostatic, columns=list(ELECTROSTATIC_COLUMNS))
+    warnings += implausible_rows(electrostatic) + crosstalk_notes(trials)
     for w in warnings:
         log.warning("%s", w)
     boot = (pd.concat(tables.bootstrap, ignore_index=True)
             .reindex(columns=list(BOOTSTRAP_COLUMNS)) if tables.bootstrap
             else pd.DataFrame(columns=list(BOOTSTRAP_COLUMNS)))
     return StudySummary(
-        pd.DataFrame(tables.electrostatic, columns=list(ELECTROSTATIC_COLUMNS)),
-        pd.DataFrame(tables.exponents, columns=list(EXPONENT_COLUMNS)), boot, warnings,
+        electrostatic, pd.DataFrame(tables.exponents, columns=list(EXPONENT_COLUMNS)), boot,
+        warnings,
         pd.concat(window_mu) if window_mu else pd.Series(dtype=float), mu_change)
 
 
@@ -386,8 +395,15 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
     Parameters
     ----------
     windows, trials : pandas.DataFrame
-    n_boot, seed, confidence, n_saved
         As :func:`summarize_study`'s.
+    n_boot : int
+        Bootstrap replicates.
+    seed : int
+        Base seed.
+    confidence : float
+        Coverage of the intervals.
+    n_saved : int
+        Replicates kept in the bootstrap table.
 
     Returns
     -------

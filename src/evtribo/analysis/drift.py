@@ -10,6 +10,7 @@ between strokes do to the electrostatic force, and what the analysis did about t
 
 from __future__ import annotations
 
+import zlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -49,16 +50,15 @@ def window_facts(frame: pd.DataFrame) -> WindowFacts:
     with np.errstate(divide="ignore", invalid="ignore"):
         rate = (-np.log(frame.stroke_s.to_numpy(float)) if "stroke_s" in frame
                 else np.full(n, np.nan))
-    trial = (pd.factorize(frame.trial.astype(str))[0].astype(np.int64) if "trial" in frame
-             else np.zeros(n, dtype=np.int64))
-    if "stroke" in frame:
-        stroke = frame.stroke.to_numpy(float)
-        key = pd.Series(trial).astype(str) + ":" + pd.Series(
-            np.where(np.isfinite(stroke) & (stroke >= 0), stroke, -1 - np.arange(n))
-        ).astype(np.int64).astype(str)
-        cluster = pd.factorize(key)[0].astype(np.int64)
-    else:
-        cluster = np.arange(n, dtype=np.int64)
+    names = frame.trial.astype(str) if "trial" in frame else pd.Series([""] * n)
+    trial = np.array([zlib.crc32(name.encode()) for name in names], dtype=np.int64)
+    # a window's stroke, numbered alike in every frame of the same windows: its trial's
+    # checksum and its number there (a window without one is a stroke of its own)
+    stroke = (frame.stroke.to_numpy(float) if "stroke" in frame else np.full(n, -1.0))
+    own = -1 - np.asarray(frame.index, dtype=np.int64)
+    known = np.isfinite(stroke) & (stroke >= 0)
+    cluster = np.where(known, trial * (1 << 20) + np.where(known, stroke, 0).astype(np.int64),
+                       own)
     return WindowFacts(t, np.nan_to_num(direction), np.where(np.isfinite(rate), rate, np.nan),
                        cluster, trial)
 
@@ -201,7 +201,19 @@ def stroke_notes(subject: str, models: dict[int, MuModel], off_ratio_sd: float,
 
 def relative_scatter(models: dict[int, MuModel], ratios: dict[int, npt.NDArray[np.float64]]
                      ) -> float:
-    """Relative standard deviation of the OFF windows' ``F_t/F_n`` about their models."""
+    """Relative standard deviation of the OFF windows' ``F_t/F_n`` about their models.
+
+    Parameters
+    ----------
+    models : dict
+        Reference models by index.
+    ratios : dict
+        Each reference's OFF windows' ``F_t/F_n``.
+
+    Returns
+    -------
+    float
+    """
     parts = []
     for r, model in models.items():
         if r in ratios and ratios[r].size > model.coef.size + 1:

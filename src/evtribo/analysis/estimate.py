@@ -63,17 +63,22 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
-from scipy import special  # stats.t.ppf is special.stdtrit, stats.norm.ppf special.ndtri
 
-from evtribo.analysis.reference import MuModel, WindowFacts, fit_mu_model
+from evtribo.analysis.balance import balanced_weights
+from evtribo.analysis.pace import pooled_rate_slope
+from evtribo.analysis.reference import MuModel, WindowFacts, fit_mu_model, fit_trial_model
+from evtribo.analysis.smallsample import DEFAULT_CONFIDENCE, small_sample_scale
 from evtribo.errors import AnalysisError
 
 log = logging.getLogger(__name__)
 
 FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
 
 DEFAULT_N_BOOT = 2000
-DEFAULT_CONFIDENCE = 0.95
+#: A subject's friction follows its strokes' rate when the pooled slope stands this many
+#: standard errors from zero (:func:`~evtribo.analysis.reference.pooled_rate_slope`).
+RATE_SE = 3.0
 
 
 def friction_coefficient(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike) -> float:
@@ -179,44 +184,6 @@ class ElectrostaticEstimate:
     models: dict[int, MuModel] = field(default_factory=dict)
 
 
-def small_sample_scale(variances: npt.ArrayLike, counts: npt.ArrayLike,
-                       confidence: float = DEFAULT_CONFIDENCE, *,
-                       dofs: npt.ArrayLike | None = None) -> tuple[float, float]:
-    """Stretch of a percentile-bootstrap interval for few windows (Welch-Satterthwaite).
-
-    Parameters
-    ----------
-    variances : array_like of float, N^2
-        Bootstrap (plug-in) variance of each independent error source of the estimate.
-    counts : array_like of int
-        Windows (or strokes) behind each source.
-    confidence : float
-        Coverage of the interval.
-    dofs : array_like of float, optional
-        Degrees of freedom of each source (default: ``counts - 1``, a mean's).
-
-    Returns
-    -------
-    scale : float
-        ``sqrt(sum w_i / sum v_i) * t(q, nu) / z(q)`` with ``w_i = v_i n_i / f_i`` and
-        ``f_i`` the source's degrees of freedom (1 when the variances are all zero).
-    dof : float
-        ``nu = (sum w_i)^2 / sum(w_i^2 / f_i)`` (inf when the variances are zero).
-    """
-    v = np.asarray(variances, dtype=np.float64).ravel()
-    n = np.asarray(counts, dtype=np.float64).ravel()
-    f = n - 1.0 if dofs is None else np.asarray(dofs, dtype=np.float64).ravel()
-    use = np.isfinite(v) & (v > 0) & (f > 0)
-    if not use.any():
-        return 1.0, float("inf")
-    v, n, f = v[use], n[use], f[use]
-    w = v * n / f
-    dof = float(np.sum(w) ** 2 / np.sum(w**2 / f))
-    q = 1.0 - (1.0 - confidence) / 2.0
-    ratio = float(special.stdtrit(dof, q) / special.ndtri(q))  # t and normal quantiles
-    return float(np.sqrt(np.sum(w) / np.sum(v))) * ratio, dof
-
-
 def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     off_normal_N: Sequence[npt.ArrayLike],
     off_friction_N: Sequence[npt.ArrayLike],
@@ -281,9 +248,17 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     rng = np.random.default_rng(seed)
     refs = _References.fit(w, offs, ons, trends, rng=rng, n_boot=n_boot)
     labels = np.unique(w.on_group)
+    pooled = _Pooled.of(w, refs, ons)
     forces = [_group_force(rng, w, w.on_group == g, refs=refs, facts=ons, n_boot=n_boot,
-                           confidence=confidence) for g in labels]
-    means = [_group_means(w, w.on_group == g, refs.mu_on) for g in labels]
+                           confidence=confidence, pooled=pooled) for g in labels]
+    return _estimate(labels, forces, [_group_means(w, w.on_group == g, refs.mu_on)
+                                      for g in labels], refs, n_boot=n_boot,
+                     confidence=confidence)
+
+
+def _estimate(labels: FloatArray, forces: list[_GroupForce], means: list[_GroupMeans],
+              refs: _References, *, n_boot: int, confidence: float) -> ElectrostaticEstimate:
+    """The groups' forces, means and replicates gathered, with the intervals."""
     reps = np.column_stack([f.replicates_N for f in forces]) if forces \
         else np.empty((n_boot, 0))
     alpha = (1.0 - confidence) / 2.0
@@ -351,26 +326,38 @@ class _References:
     @classmethod
     def fit(cls, w: _Windows, offs: list[WindowFacts], ons: WindowFacts, trends: list[bool],
             *, rng: np.random.Generator, n_boot: int) -> _References:
-        """Each used reference's model (without its trend if the trend would give an ON
-        window a coefficient that is not positive), and its replicates."""
+        """Each used reference's model (a trial's from its OFF and ON windows together,
+        :func:`~evtribo.analysis.reference.fit_trial_model`), and its replicates."""
         models: dict[int, MuModel] = {}
         mu_on = np.empty(w.on_normal.size)
         mu_on_b = np.empty((n_boot, w.on_normal.size))
         clusters = {}
-        for r in (int(x) for x in np.unique(w.on_ref)):
+        used = [int(x) for x in np.unique(w.on_ref)]
+        slope, se = pooled_rate_slope(
+            [(w.off_normal[r], w.off_friction[r], offs[r], np.full(w.off_normal[r].size,
+                                                                   np.nan)) for r in used]
+            + [(w.on_normal, w.on_friction, ons, w.on_group)])
+        rate = slope if np.isfinite(slope) and abs(slope) > RATE_SE * se else 0.0
+        slope_b = rng.normal(rate, se, n_boot) if rate else np.zeros(n_boot)
+        for r in used:
             if w.off_normal[r].size == 0:
                 raise AnalysisError("no OFF windows to estimate the friction coefficient from")
             sel = w.on_ref == r
-            model = fit_mu_model(w.off_normal[r], w.off_friction[r], offs[r],
-                                 time_trend=trends[r])
-            if model.trend and not np.all(model.at(ons.take(sel)) > 0):
+            here = ons.take(sel)
+            if trends[r]:
+                model = fit_trial_model((w.off_normal[r], w.off_friction[r], offs[r]),
+                                        (w.on_normal[sel], w.on_friction[sel], here,
+                                         w.on_group[sel]), rate_slope=rate)
+            else:
                 model = fit_mu_model(w.off_normal[r], w.off_friction[r], offs[r],
-                                     time_trend=False)
-            X = model.design(ons.take(sel))
-            mu_on[sel] = X @ model.coef
-            mu_on_b[:, sel] = model.replicates(rng, n_boot) @ X.T
+                                     time_trend=False, rate_slope=rate)
+            mu_on[sel] = model.at(here)
+            mu_on_b[:, sel] = model.replicates_at(here, rng, n_boot)
+            if model.rate:  # the rate's slope is uncertain too
+                centred = np.where(np.isfinite(here.rate), here.rate - model.rate_mean, 0.0)
+                mu_on_b[:, sel] *= np.exp(np.outer(slope_b - rate, centred))
+            clusters[r] = int(np.unique(model.cluster).size)
             models[r] = model
-            clusters[r] = int(np.unique(offs[r].cluster).size)
         if not np.all(mu_on > 0):
             raise AnalysisError("the OFF windows' friction coefficient is not positive")
         # a replicate's coefficient at or below zero is no coefficient: held at a tenth
@@ -389,62 +376,89 @@ class _GroupForce:
     dof: float
 
 
-def _balance(facts: WindowFacts, sel: npt.NDArray[np.bool_]
-             ) -> tuple[FloatArray, list[npt.NDArray[np.intp]]]:
-    """Weights of the windows *sel* (summing to 1) that give each trial its share of the
-    windows and, within a trial, both sliding directions the same share; and the strata
-    (trial x direction) as index arrays into the selection."""
-    idx = np.flatnonzero(sel)
-    trial, direction = facts.stratum[idx], np.sign(facts.direction[idx])
-    weight = np.empty(idx.size)
-    strata = []
-    for s in np.unique(trial):
-        in_trial = trial == s
-        dirs = np.unique(direction[in_trial])
-        for d in dirs:
-            part = np.flatnonzero(in_trial & (direction == d))
-            weight[part] = float(in_trial.sum()) / (dirs.size * part.size)
-            strata.append(part)
-    return weight / idx.size, strata
+@dataclass(frozen=True)
+class _Pooled:
+    """A subject's scatter pooled over all its windows, for a group whose own windows are
+    too few to show any (one stroke ON, one OFF window): the ON windows' ``F_t/mu - F_n``
+    about their trial's mean (N^2), and the OFF windows' relative scatter about
+    their references' models; each with its degrees of freedom."""
+
+    on_var: float
+    on_dof: int
+    mu_rel_var: float
+    mu_dof: int
+
+    @classmethod
+    def of(cls, w: _Windows, refs: _References, ons: WindowFacts) -> _Pooled:
+        e = w.on_friction / refs.mu_on - w.on_normal
+        ss, dof = 0.0, 0
+        for s in np.unique(ons.stratum):  # about each trial's mean (both directions)
+            part = e[ons.stratum == s]
+            ss, dof = ss + float(np.sum((part - part.mean()) ** 2)), dof + part.size - 1
+        mu_ss, mu_dof = 0.0, 0
+        for r, model in refs.models.items():
+            free = refs.off_clusters[r] - model.coef.size
+            if free > 0:
+                scale = 1.0 if model.log else float(np.mean(w.off_friction[r] / w.off_normal[r]))
+                mu_ss += float(np.sum((model.resid / scale) ** 2))
+                mu_dof += free
+        return cls(ss / dof if dof else np.nan, dof, mu_ss / mu_dof if mu_dof else np.nan,
+                   mu_dof)
 
 
 def _group_force(rng: np.random.Generator, w: _Windows, sel: npt.NDArray[np.bool_], *,
-                 refs: _References, facts: WindowFacts, n_boot: int, confidence: float
-                 ) -> _GroupForce:
+                 refs: _References, facts: WindowFacts, n_boot: int, confidence: float,
+                 pooled: _Pooled) -> _GroupForce:
     """The force of the ON windows *sel* (the balanced mean of ``F_t/mu - F_n``) and its
-    bootstrap replicates: the strokes resampled within each trial and direction, each
-    reference's ``mu`` from its wild bootstrap, stretched by the small-sample calibration
-    (one error source for the ON windows, one per reference's ``mu``)."""
-    weight, strata = _balance(facts, sel)
+    bootstrap replicates: the strokes resampled within each trial (the two directions
+    averaged alike in every replicate), each reference's ``mu`` from its wild bootstrap,
+    stretched by the small-sample calibration (one error source for the ON windows, one per
+    reference's ``mu``). A source with too few strokes to show its scatter (one ON stroke,
+    an OFF reference its model fits exactly) takes the subject's pooled scatter instead."""
+    idx = np.flatnonzero(sel)
+    trial, direction = facts.stratum[idx], np.sign(facts.direction[idx])
+    weight = balanced_weights(np.ones((1, idx.size)), trial, direction)[0]
     fn, ft = w.on_normal[sel], w.on_friction[sel]
     mu, mu_b = refs.mu_on[sel], refs.mu_on_b[:, sel]
     force = float(weight @ (ft / mu - fn))
     counts = np.ones((n_boot, fn.size))
     n_clusters = 0
-    for part in strata:
-        _, which = np.unique(facts.cluster[np.flatnonzero(sel)[part]], return_inverse=True)
+    trials = np.unique(trial)
+    for s in trials:
+        part = np.flatnonzero(trial == s)
+        _, which = np.unique(facts.cluster[idx[part]], return_inverse=True)
         k = int(which.max()) + 1
         n_clusters += k
-        drawn = rng.multinomial(k, np.full(k, 1.0 / k), size=n_boot)
-        counts[:, part] = drawn[:, which] * (part.size / np.maximum(
-            drawn[:, which].sum(axis=1, keepdims=True), 1))
+        counts[:, part] = rng.multinomial(k, np.full(k, 1.0 / k), size=n_boot)[:, which]
+    weights_b = balanced_weights(counts, trial, direction)
 
-    def replicate(mu_rep: FloatArray, cnt: FloatArray | None) -> FloatArray:
-        e = ft / mu_rep - fn
-        return (e * (weight if cnt is None else weight * cnt)).sum(axis=-1)
+    def replicate(mu_rep: FloatArray, wts: FloatArray) -> FloatArray:
+        return ((ft / mu_rep - fn) * wts).sum(axis=-1)
 
-    acc = replicate(mu_b, counts)
-    variances = [float(np.var(replicate(mu, counts)))]
+    acc = replicate(mu_b, weights_b)
+    variances = [float(np.var(replicate(mu, weights_b)))]
     counts_n = [n_clusters]
-    dofs = [max(n_clusters - len(strata), 1)]
+    dofs = [max(n_clusters - trials.size, 1)]
+    if n_clusters - trials.size < 1 and pooled.on_dof > 0:  # one stroke: the subject's
+        extra = np.sqrt(pooled.on_var * float(weight @ weight))
+        acc = acc + extra * rng.standard_normal(n_boot)
+        variances[0], counts_n[0], dofs[0] = extra**2, pooled.on_dof, pooled.on_dof
     refs_here = w.on_ref[sel]
     for r in np.unique(refs_here):
         one = np.where(refs_here == r, mu_b, mu)  # only reference r's mu resampled
-        variances.append(float(np.var(replicate(one, None))))
         model = refs.models[int(r)]
-        free = max(refs.off_clusters[int(r)] - model.coef.size, 1)
-        counts_n.append(free)  # HC2 residuals: the bootstrap variance is not plug-in
-        dofs.append(free)
+        free = refs.off_clusters[int(r)] - model.coef.size
+        if free < 1 and pooled.mu_dof > 0:  # the model fits exactly: the subject's scatter
+            part = refs_here == r
+            load = float((weight[part] * ft[part] / mu[part]).sum())
+            extra = load * np.sqrt(pooled.mu_rel_var / max(w.off_normal[int(r)].size, 1))
+            acc = acc + extra * rng.standard_normal(n_boot)
+            variances.append(extra**2)
+            free = pooled.mu_dof
+        else:
+            variances.append(float(np.var(replicate(one, weight))))
+        counts_n.append(max(free, 1))  # HC2 residuals: the bootstrap variance is not plug-in
+        dofs.append(max(free, 1))
     scale, nu = small_sample_scale(variances, counts_n, confidence, dofs=dofs)
     return _GroupForce(force, float(weight @ mu), force + scale * (acc - force), scale, nu)
 

@@ -419,8 +419,9 @@ class _Tables:
             found.bootstrap
         warnings.extend(found.warnings)
         windows = windows.assign(mu_reference=found.window_mu.reindex(windows.index))
-        trials = trials.assign(mu_change_per_10s=[
-            found.mu_change.get(k) for k in zip(trials.subject, trials.trial, strict=True)])
+        trials = trials.assign(mu_change_per_10s=pd.Series([
+            found.mu_change.get(k) for k in zip(trials.subject, trials.trial, strict=True)],
+            index=trials.index, dtype=float))
         traces = [o.trace for o in outcomes if o.trace is not None and not o.trace.empty]
         trace = (pd.concat(traces, ignore_index=True)
                  .reindex(columns=list(SINE_TRACE_CSV_COLUMNS)) if traces else None)

@@ -243,6 +243,10 @@ class TrialConfig:
         Their size: each spike adds a value drawn uniformly in ``+/- spike_N``.
     outages_per_min : float, 1/min
         Rate of outages (Poisson) in which every frame is lost (a USB adapter resetting).
+    press_only : bool
+        A calibration recording: after the tare stretch the finger presses without
+        sliding, its force swelling from 40 % to 160 % of the target and back every
+        :data:`~evtribo.acquisition.simulator.finger.PRESS_PERIOD_S` seconds.
     outage_s : float, s
         Mean length of an outage (each drawn from half to one and a half times this).
     crosstalk : ((float, float), (float, float))
@@ -294,6 +298,7 @@ class TrialConfig:
     spike_N: float = 0.0
     outages_per_min: float = 0.0
     outage_s: float = 0.05
+    press_only: bool = False
     crosstalk: tuple[tuple[float, float], tuple[float, float]] = ((1.0, 0.0), (0.0, 1.0))
     start_time: float = 1_763_700_000.0
     channel: str = "vcan0"

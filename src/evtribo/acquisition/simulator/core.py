@@ -29,7 +29,7 @@ from evtribo.acquisition.simulator.cells import Creep
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.delivery import Delivery
 from evtribo.acquisition.simulator.encode import pack_signals
-from evtribo.acquisition.simulator.finger import FrictionLaw, contact_time
+from evtribo.acquisition.simulator.finger import FrictionLaw, contact_time, press_cycle
 from evtribo.acquisition.simulator.physics import (
     CONTACT_RAMP_S,
     FORCE_STEP_S,
@@ -68,6 +68,9 @@ WAVE_CODE = {"sine": 0, "square": 1}
 #: Nominal leakage current reported by the amplifier at 140 V, uA (not modelled further).
 LEAK_UA_AT_140V = 4.0
 
+#: A finger pressing without sliding still shears the skin a little: this share of its
+#: target force, slowly wandering.
+PRESS_SHEAR = 0.02
 #: Contact above this counts as full contact in the truth's means.
 FULL_CONTACT = 0.999
 
@@ -243,6 +246,9 @@ class TrialGenerator:
         and the finger's contact."""
         press = np.where(contact > 0, fn / np.maximum(contact, 1e-12), 0.0)
         fel = contact * drive_force(t, press, self.config, self.params, interval_s)
+        if self.config.press_only:  # no sliding: the skin's small shear only
+            shear = PRESS_SHEAR * self.subject.normal_force_N * np.sin(2 * np.pi * t / 7.0)
+            return np.where(contact > 0, shear, 0.0), fel
         return self.mu_at(t) * (fn + fel) * self.strokes.factor(t), fel
 
     def mu_at(self, t: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
@@ -284,7 +290,8 @@ class TrialGenerator:
         grid_t = np.arange(j0, j1 + 1) * FORCE_STEP_S
 
         def fn_at(t: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-            return np.maximum(np.interp(t, grid_t, grid_f), 0.0)
+            fn = np.maximum(np.interp(t, grid_t, grid_f), 0.0)
+            return fn * press_cycle(t) if cfg.press_only else fn
 
         fz, fx, hv = self.nodes
         tables = []
@@ -367,6 +374,17 @@ class TrialGenerator:
         if changes:
             self.config = dataclasses.replace(self.config, **changes)
         self.chunk_s = OBEY_CHUNK_S  # from now on the amplifier answers within this
+
+    def lift(self, duration_s: float) -> None:
+        """The finger lifted for *duration_s* from the next chunk on (a new recording's tare
+        stretch, when the simulated rig runs on for several trials).
+
+        Parameters
+        ----------
+        duration_s : float, s
+        """
+        if duration_s > 0:
+            self.contact = self.contact.lifted_at(self._t_next, duration_s)
 
     def chunks(self) -> Iterator[FrameTable]:
         """Frames in reception order, about :data:`CHUNK_S` s at a time (:data:`OBEY_CHUNK_S`

@@ -34,9 +34,20 @@ from evtribo.model import (
     gap_factor,
 )
 
-__all__ = ["CONTACT_RAMP_S", "CellZero", "Contact", "NormalForceProcess", "Strokes",
-           "drive_force", "electrostatic", "excitation_gate", "measured", "model_parameters",
-           "on_off_schedule", "voltage"]
+__all__ = [
+    "CONTACT_RAMP_S",
+    "CellZero",
+    "Contact",
+    "NormalForceProcess",
+    "Strokes",
+    "drive_force",
+    "electrostatic",
+    "excitation_gate",
+    "measured",
+    "model_parameters",
+    "on_off_schedule",
+    "voltage",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -51,8 +62,6 @@ CONTACT_RAMP_S = 0.08
 MIN_CONTACT_S = 1.0
 #: Largest magnitude of the friction force's rest level during a dwell (fraction of sliding).
 DWELL_LEVEL = 0.15
-
-
 def model_parameters(subject: SubjectParams) -> ModelParameters:
     """The seed paper's Table 1 with the subject's friction coefficient, air gap and other
     model parameters (``SubjectParams.model``: e.g. the resistances ``r_sc``, ``r_g``).
@@ -437,6 +446,17 @@ class Contact:
             ends.append(t + off)
             t += off + MIN_CONTACT_S
         return cls(np.asarray(starts, dtype=np.float64), np.asarray(ends, dtype=np.float64))
+
+    def lifted_at(self, t0: float, duration_s: float) -> Contact:
+        """The same contact with the finger lifted from *t0* for *duration_s* (leaving from
+        *t0*, back in full contact :data:`CONTACT_RAMP_S` after the stretch): an operator's
+        tare stretch at the start of a recording. Lift-offs that overlap it are dropped."""
+        a, b = t0, t0 + duration_s + 2 * CONTACT_RAMP_S
+        keep = (self.end <= a) | (self.start >= b + MIN_CONTACT_S)
+        start = np.append(self.start[keep], a)
+        end = np.append(self.end[keep], b)
+        order = np.argsort(start)
+        return Contact(start[order], end[order])
 
     def factor(self, t: FloatArray) -> FloatArray:
         """Contact at times *t*: 1 touching, 0 off the screen, linear ramps in between."""
