@@ -214,7 +214,7 @@ class Monitor:
             rates[name] = rates.get(name, 0.0) + (n - prev.get(key, 0)) / dt
         return rates
 
-    def snapshot(self, final: bool = False) -> Snapshot:
+    def snapshot(self, final: bool = False, *, now: float | None = None) -> Snapshot:
         """The current state: frame rates over the last second or so (or, with *final*,
         over the whole trial).
 
@@ -222,13 +222,16 @@ class Monitor:
         ----------
         final : bool
             The last picture of the trial.
+        now : float, optional
+            The time of the picture on the trial's clock (``time.monotonic()``; default:
+            now).
 
         Returns
         -------
         Snapshot
         """
         stats = self._stats if self._stats is not None else LogStats()
-        now = time.monotonic()
+        now = time.monotonic() if now is None else now
         elapsed = now - self._t0
         rates = self._rates_Hz(now, dict(stats.frames_by_id), final)
         latest = dict(stats.latest)

@@ -59,6 +59,7 @@ from evtribo.compare.trial_checks import write_trial_checks
 from evtribo.documents.fit import write_fit
 from evtribo.errors import OutputExistsError
 from evtribo.files import atomic_write, sha256_file
+from evtribo.guard import refuse_in_study, refuse_input
 from evtribo.model.params import ModelParameters
 from evtribo.resultdir import Staging, locked, recover
 
@@ -147,7 +148,10 @@ def figure_stems(subjects: Iterable[str]) -> list[str]:
 
 
 def _check_outputs(out: Path, force: bool) -> None:
+    refuse_in_study(out, command="evtribo compare")
     existing = compare_files(out)
+    for rel in existing:  # a study's input or a raw log is never written over
+        refuse_input(out / rel, command="evtribo compare")
     if existing and not force:
         raise OutputExistsError(f"{len(existing)} output file(s) of a previous comparison "
                                 "exist; use {force} to overwrite them", path=out / existing[0])

@@ -45,6 +45,7 @@ from evtribo.documents.fit import FitDocument, read_fit
 from evtribo.documents.summary import Summary
 from evtribo.errors import FORCE, OutputExistsError, ResultFolderError, UserInputError
 from evtribo.files import sha256_file
+from evtribo.guard import refuse_in_study, refuse_input
 from evtribo.resultdir import inside, locked, recover
 
 log = logging.getLogger(__name__)
@@ -150,12 +151,19 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
         The folder is not one analysis's complete results, or its model fit is of another
         analysis or not whole (exit code 2, naming ``evtribo compare OUT --force``).
     OutputExistsError
-        When the report exists and *force* is False.
+        When the report exists and *force* is False; when it or a table is a study's input
+        or a raw CAN log (*force* or not).
     OutputBusyError
         Another process is writing the folder or the report.
     """
     formats = parse_table_formats(tables)
     folder = check_out_folder(out)
+    refuse_in_study(folder, command="evtribo report")
+    refuse_input(output, command="evtribo report", key="-o")  # --force or not
+    for stem in REPORT_TABLES:
+        for fmt in formats:
+            refuse_input(Path(output).parent / TABLES / f"{stem}.{fmt}",
+                         command="evtribo report", key="--tables")
     if Path(output).exists() and not force:  # before the lock: a refusal writes nothing
         raise OutputExistsError("the report already exists; use {force} to overwrite it",
                                 path=output)

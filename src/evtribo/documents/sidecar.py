@@ -26,7 +26,7 @@ from typing import Any
 
 from evtribo.documents.names import validate_name
 from evtribo.errors import OutputExistsError, SidecarError
-from evtribo.files import atomic_write, read_limited
+from evtribo.files import DuplicateKeyError, atomic_write, loads_json_unique, read_limited
 
 __all__ = ["CONDITIONS", "SIDECAR_KEYS", "VERSION", "WAVEFORMS", "Sidecar", "parse_sidecar",
            "read_sidecar", "rig_entry", "unknown_sidecar_keys", "write_sidecar"]
@@ -222,7 +222,10 @@ def read_sidecar(path: str | os.PathLike[str], *, default_subject: str) -> Sidec
     except OSError as err:
         raise SidecarError(f"cannot read: {err.strerror}", path=p) from err
     try:
-        data = json.loads(text)
+        data = loads_json_unique(text)
+    except DuplicateKeyError as err:
+        raise SidecarError(f"invalid JSON: {err} (JSON allows a key once in an object; a reader "
+                    "would keep either)", path=p, line=err.line, key=err.key) from err
     except json.JSONDecodeError as err:
         raise SidecarError(f"invalid JSON: {err.msg} (column {err.colno})", path=p,
                            line=err.lineno) from err
