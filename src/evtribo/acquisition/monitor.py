@@ -237,10 +237,12 @@ class Monitor:
         return Snapshot(elapsed_s=elapsed, remaining_s=remaining,
                         normal_force_N=self._decode(latest, self._forces[0]),
                         tangential_force_N=self._decode(latest, self._forces[1]),
-                        rates_Hz=rates, frames=stats.frames, dropped=stats.dropped,
+                        rates_Hz=rates, frames=stats.frames,
+                        dropped=max(stats.dropped, stats.queue_dropped or 0),
                         bus_errors=stats.error_frames + stats.damaged_lines,
                         tare_left_s=tare_left, damaged_lines=stats.damaged_lines,
-                        alert=self._alert(), **self._hv_fields(latest))
+                        alert=self._alert(), queue_dropped=stats.queue_dropped,
+                        controller=stats.errors.state, **self._hv_fields(latest))
 
     def _draw(self, final: bool = False) -> None:
         snap = self.snapshot(final)
