@@ -60,8 +60,10 @@ mount -t sysfs sys /sys
 mount -t devtmpfs dev /dev
 fail() { echo "VCANVM-ERROR: $*"; poweroff -f; }
 for m in $(cat /modules.order); do insmod /mod/$m.ko || echo "VCANVM: insmod $m failed"; done
-OUT=
-for x in $(cat /proc/cmdline); do case $x in vcanvm.out=*) OUT=${x#vcanvm.out=};; esac; done
+OUT=; RWS=
+for x in $(cat /proc/cmdline); do
+    case $x in vcanvm.out=*) OUT=${x#vcanvm.out=};; vcanvm.rw=*) RWS="$RWS ${x#vcanvm.rw=}";; esac
+done
 [ -n "$OUT" ] || fail "no vcanvm.out= on the kernel command line"
 mkdir -p /host /ovl /newroot
 mount -t 9p -o trans=virtio,version=9p2000.L,ro,msize=512000,cache=loose hostroot /host \
@@ -75,11 +77,17 @@ mount -t sysfs sys /newroot/sys
 mount -t devtmpfs dev /newroot/dev
 mkdir -p /newroot/dev/pts /newroot/dev/shm
 mount -t devpts -o ptmxmode=0666,mode=0620 devpts /newroot/dev/pts
+ln -sf /proc/self/fd /newroot/dev/fd
 mount -t tmpfs tmpfs /newroot/dev/shm
 mount -t tmpfs tmpfs /newroot/run
 mount -t tmpfs tmpfs /newroot/tmp
 mkdir -p "/newroot$OUT"
 mount -t 9p -o trans=virtio,version=9p2000.L,msize=512000 out "/newroot$OUT" || fail "mount out"
+for r in $RWS; do
+    mkdir -p "/newroot${r#*:}"
+    mount -t 9p -o trans=virtio,version=9p2000.L,msize=512000 "${r%%:*}" "/newroot${r#*:}" \
+        || fail "mount $r"
+done
 ip link set lo up
 chroot /newroot ip link add dev vcan0 type vcan || fail "ip link add vcan0"
 ip link set up vcan0 || fail "ip link set up vcan0"
@@ -362,7 +370,7 @@ def _uptimes(console: str) -> tuple[float, float]:
 
 def run(argv: Sequence[str], *, cwd: str | os.PathLike[str] | None = None,
         env: Mapping[str, str] | None = None, timeout: float = 900.0, memory_mb: int = 1536,
-        cpus: int = 2) -> GuestResult:
+        cpus: int = 2, writable: Sequence[str | os.PathLike[str]] = ()) -> GuestResult:
     """Boot the VM, run *argv* in it (as root, in *cwd*, with *env* only), power it off.
 
     The command may leave files in the folder ``$VCANVM_OUT``: their text comes back in
@@ -380,6 +388,8 @@ def run(argv: Sequence[str], *, cwd: str | os.PathLike[str] | None = None,
         The VM is killed after this long (:class:`subprocess.TimeoutExpired` is raised).
     memory_mb, cpus : int
         The guest's memory and processors.
+    writable : sequence of paths
+        Host folders the guest may write to (at the same path; no spaces or commas).
 
     Returns
     -------
@@ -403,6 +413,11 @@ def run(argv: Sequence[str], *, cwd: str | os.PathLike[str] | None = None,
                  ["-accel", "tcg,thread=multi,tb-size=256", "-cpu", "max"])  # numpy: AVX2
         append = ("console=ttyS0 quiet loglevel=3 panic=-1 mitigations=off "
                   f"random.trust_cpu=on vcanvm.out={out}")
+        shares = []
+        for k, folder in enumerate(Path(w).resolve(strict=True) for w in writable):
+            append += f" vcanvm.rw=rw{k}:{folder}"
+            shares += ["-virtfs", f"local,path={folder},mount_tag=rw{k},security_model=none,"
+                       "multidevs=remap"]
         qemu = ["qemu-system-x86_64", *accel, "-M", "pc", "-m", str(memory_mb),
                 "-smp", str(cpus), "-nodefaults", "-no-user-config", "-display", "none",
                 "-monitor", "none", "-serial", f"file:{out / 'console.log'}", "-no-reboot",
@@ -411,7 +426,7 @@ def run(argv: Sequence[str], *, cwd: str | os.PathLike[str] | None = None,
                 "-virtfs", "local,path=/,mount_tag=hostroot,security_model=none,readonly=on,"
                 "multidevs=remap",
                 "-virtfs", f"local,path={out},mount_tag=out,security_model=none,"
-                "multidevs=remap",
+                "multidevs=remap", *shares,
                 "-device", "virtio-rng-pci"]
         t0 = time.monotonic()
         with subprocess.Popen(qemu, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
@@ -436,6 +451,95 @@ def run(argv: Sequence[str], *, cwd: str | os.PathLike[str] | None = None,
             boot_s=boot, command_s=ran, wall_s=wall, console=console,
             files={f.name: f.read_text(errors="replace")
                    for f in (out / "files").iterdir() if f.is_file()})
+
+
+class Forked:
+    """``evtribo ARGS`` run in a forked child of this process, as its own process (its exit
+    code, its signals, its output in files), without a new interpreter's imports: in the
+    VM, under software emulation, a fresh ``python -m evtribo acquire`` takes 20-90 s to
+    import what this process has imported already.
+
+    Parameters
+    ----------
+    args : sequence of str
+        The command line after ``evtribo``.
+    out : path
+        Standard output goes to this file, standard error to ``<out>.err``.
+
+    Fork it from a process without other threads (a test's, under ``pytest -n 0``).
+    """
+
+    def __init__(self, args: Sequence[str], out: str | os.PathLike[str]) -> None:
+        self.out = Path(out)
+        self.err = self.out.with_name(self.out.name + ".err")
+        self.returncode: int | None = None
+        sys.stdout.flush()
+        sys.stderr.flush()
+        pid = os.fork()
+        if pid == 0:  # pragma: no cover - the child
+            self._child(list(args))
+        self.pid = pid
+
+    def _child(self, args: list[str]) -> None:
+        import logging
+        import signal
+        import traceback
+        import warnings
+
+        code = 70
+        try:
+            for fd, path in ((1, self.out), (2, self.err)):
+                target = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+                os.dup2(target, fd)
+                os.close(target)
+            sys.stdout = open(1, "w", buffering=1, closefd=False)  # noqa: SIM115
+            sys.stderr = open(2, "w", buffering=1, closefd=False)  # noqa: SIM115
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
+            logging.root.handlers.clear()  # the test's capture: the command sets its own
+            warnings.resetwarnings()
+            from evtribo.cli import main
+
+            code = main(args)
+        except SystemExit as err:
+            code = err.code if isinstance(err.code, int) else 1
+        except BaseException:
+            traceback.print_exc()
+        finally:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(code)
+
+    def send_signal(self, signum: int) -> None:
+        """Send *signum* to the command (nothing once it has ended)."""
+        if self.returncode is None:
+            os.kill(self.pid, signum)
+
+    def poll(self) -> int | None:
+        """The exit code, or None while it runs."""
+        if self.returncode is None:
+            pid, status = os.waitpid(self.pid, os.WNOHANG)
+            if pid:
+                self.returncode = os.waitstatus_to_exitcode(status)
+        return self.returncode
+
+    def wait(self, timeout: float) -> int:
+        """Wait at most *timeout* s for the end (then kill it: TimeoutError)."""
+        deadline = time.monotonic() + timeout
+        while self.poll() is None:
+            if time.monotonic() > deadline:
+                os.kill(self.pid, 9)
+                os.waitpid(self.pid, 0)
+                self.returncode = -9
+                raise TimeoutError(f"evtribo did not end in {timeout:g} s: {self.output()}")
+            time.sleep(0.05)
+        assert self.returncode is not None
+        return self.returncode
+
+    def output(self) -> str:
+        """What it wrote so far, standard output then standard error."""
+        return "".join(f.read_text(errors="replace") for f in (self.out, self.err)
+                       if f.exists())
 
 
 def prepare(download: bool) -> Kernel:

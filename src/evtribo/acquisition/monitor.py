@@ -123,9 +123,11 @@ class Monitor:
         self._stats = stats
         self._t0 = time.monotonic() if t0 is None else t0
         self._last = (self._t0, {})
-        if self.tare_s > 0 and not self.tty:  # a pipe or a file: say it at once
-            self.stream.write(f"lift the finger off the screen for {self.tare_s:g} s "
-                              "(taring), then slide\n")
+        if not self.tty and not self.quiet:  # a pipe or a file: say it at once
+            self.stream.write(f"recording {self.title}".rstrip() + "\n")
+            if self.tare_s > 0:
+                self.stream.write(f"lift the finger off the screen for {self.tare_s:g} s "
+                                  "(taring), then slide\n")
             self.stream.flush()
         self._thread = threading.Thread(target=self._run, name="evtribo-monitor", daemon=True)
         self._thread.start()

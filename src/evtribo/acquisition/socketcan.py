@@ -17,7 +17,9 @@ to the system matter on a busy bus:
   :meth:`SocketcanBus.queue_dropped` is the latest count (``SO_MEMINFO`` gives it also
   after the last frame).
 
-It also takes CAN FD frames by default (``CAN_RAW_FD_FRAMES``; classic ones still come as
+The kernel's timestamps are kept in whole microseconds, as ``candump -L`` writes them (a
+log of the same frames recorded by both has the same times). It also takes CAN FD frames
+by default (``CAN_RAW_FD_FRAMES``; classic ones still come as
 classic frames), so that ``evtribo acquire`` records an FD rig without an option. The frames
 are python-can's :class:`can.Message`, read as python-can reads them.
 
@@ -212,9 +214,9 @@ class SocketcanBus(_PythonCanSocketcanBus):
                 continue
             if kind == SO_RXQ_OVFL:
                 self._dropped = _COUNT.unpack_from(data)[0]
-            elif kind == SO_TIMESTAMPNS:
+            elif kind == SO_TIMESTAMPNS:  # in whole µs, as candump -L writes it
                 seconds, nanoseconds = _TIMESPEC.unpack_from(data)
-                timestamp = seconds + nanoseconds * 1e-9
+                timestamp = seconds + nanoseconds // 1000 * 1e-6
         can_id, dlc, fd_flags, data = dissect_can_frame(frame)
         extended = bool(can_id & CAN_EFF_FLAG)
         channel = address[0] if not self.channel and isinstance(address, tuple) \

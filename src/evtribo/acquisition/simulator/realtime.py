@@ -188,7 +188,7 @@ class Simulator:
                     timestamp=float(table.timestamp[k]),
                     arbitration_id=int(table.arbitration_id[k]),
                     is_extended_id=bool(table.is_extended[k]),
-                    is_remote_frame=bool(table.is_remote[k]),
+                    is_remote_frame=bool(table.is_remote[k]), is_fd=bool(table.is_fd[k]),
                     dlc=dlc, data=None if table.is_remote[k] else table.data[k, :dlc].tobytes(),
                     channel=table.channel)
                 try:

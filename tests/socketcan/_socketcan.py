@@ -1,0 +1,82 @@
+"""What the SocketCAN tests share: evtribo's command line in a forked child, can-utils, and
+candump -L logs written and read."""
+
+from __future__ import annotations
+
+import gzip
+import shutil
+import subprocess
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from _vcanvm import Forked  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[2]
+DATA = ROOT / "data"
+#: candump's receive queue in the tests (evtribo's own default).
+QUEUE_BYTES = 32 * 1024 * 1024
+
+
+def evtribo(args: Sequence[str], out: Path) -> Forked:
+    """``evtribo ARGS`` as a process (forked: nothing to import again)."""
+    return Forked(list(args), out)
+
+
+def wait_for(proc: Forked, text: str, timeout: float = 120.0) -> None:
+    """Wait until *proc* has written *text* (it must not end first)."""
+    deadline = time.monotonic() + timeout
+    while text not in proc.output():
+        assert proc.poll() is None, f"it ended ({proc.returncode}): {proc.output()}"
+        assert time.monotonic() < deadline, f"no {text!r} in {timeout:g} s: {proc.output()}"
+        time.sleep(0.05)
+
+
+class Candump:
+    """``candump -L`` of an interface (data and error frames) into a file, with a receive
+    queue as large as evtribo's."""
+
+    def __init__(self, interface: str, log: Path) -> None:
+        self.log = log
+        self._fh = log.open("wb")
+        self.proc = subprocess.Popen(["candump", "-L", "-r", str(QUEUE_BYTES),
+                                      f"{interface},0:0,#FFFFFFFF"], stdout=self._fh)
+
+    def stop(self) -> list[str]:
+        """Stop it; its lines."""
+        time.sleep(0.2)
+        self.proc.send_signal(2)
+        self.proc.wait(10)
+        self._fh.close()
+        return self.log.read_text().splitlines()
+
+
+def play(log: Path, interface: str, *, from_channel: str = "vcan0",
+         ignore_times: bool = False) -> None:
+    """``canplayer`` the candump -L *log* into *interface* (at its frames' times, or as fast
+    as it can with *ignore_times*)."""
+    args = ["canplayer", "-I", str(log)]
+    if ignore_times:
+        args.append("-t")
+    subprocess.run([*args, f"{interface}={from_channel}"], check=True, timeout=600)
+
+
+def unzip(log_gz: Path, to: Path) -> Path:
+    """The log *log_gz* uncompressed into the folder *to*."""
+    out = to / log_gz.name.removesuffix(".gz")
+    with gzip.open(log_gz, "rb") as fin, out.open("wb") as fout:
+        shutil.copyfileobj(fin, fout)
+    return out
+
+
+def frames_of(lines: Sequence[str]) -> list[str]:
+    """The ``ID#DATA`` field of each candump -L line (no time, no channel)."""
+    return [line.split()[2] for line in lines]
+
+
+def times_of(lines: Sequence[str]) -> list[str]:
+    """The ``(seconds.micros)`` field of each candump -L line."""
+    return [line.split()[0] for line in lines]
