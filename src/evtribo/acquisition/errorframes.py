@@ -49,11 +49,9 @@ def error_kinds(arbitration_id: int, data: bytes | bytearray) -> list[str]:
     for bit, name in CLASSES.items():
         if not bits & bit:
             continue
-        if bit == 0x004 and len(data) > 1 and data[1]:
-            kinds += [f"controller {what}" for flag, what in CONTROLLER.items()
-                      if data[1] & flag]
-        else:
-            kinds.append(name)
+        problems = [f"controller {what}" for flag, what in CONTROLLER.items()
+                    if bit == 0x004 and len(data) > 1 and data[1] & flag]
+        kinds += problems or [name]
     return kinds or ["error"]
 
 
