@@ -13,7 +13,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from _vcanvm import Forked  # noqa: E402
+from _vcanvm import Forked
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "data"

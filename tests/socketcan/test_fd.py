@@ -9,8 +9,8 @@ import json
 
 import pandas as pd
 import pytest
-
 from _socketcan import ROOT, Candump, evtribo, frames_of, play, times_of, wait_for
+
 from evtribo.analysis.pipeline import compute_study
 from evtribo.cli import main
 

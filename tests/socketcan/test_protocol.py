@@ -12,8 +12,8 @@ import urllib.request
 
 import numpy as np
 import pytest
-
 from _socketcan import evtribo, wait_for
+
 from evtribo.analysis.pipeline import compute_study
 from evtribo.cache import load_trial
 from evtribo.documents.session import read_session

@@ -17,8 +17,8 @@ import shutil
 from pathlib import Path
 
 import pytest
-
 from _socketcan import DATA, Candump, evtribo, frames_of, play, times_of, unzip, wait_for
+
 from evtribo.analysis.pipeline import compute_study
 from evtribo.study import load_study
 

@@ -127,6 +127,7 @@ def open_bus(settings: BusSettings) -> can.BusABC:
         channel = resolved.get("channel")
         settings.channel = None if channel is None else str(channel)
         settings.bitrate = resolved.get("bitrate")
+        bus: can.BusABC
         if settings.interface == "socketcan":  # python-can's, with its queue sized
             from evtribo.acquisition.socketcan import SocketcanBus
 

@@ -177,8 +177,9 @@ def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
     -------
     ReceiveResult
     """
-    loop = _Loop(bus, writer, duration, expect if expect_within is not None else None,
-                 expect_within, dropped)
+    loop = _Loop(bus, writer, duration,
+                 expect=expect if expect_within is not None else None,
+                 expect_within=expect_within, dropped=dropped)
     stop: tuple[str, BaseException | None] | None = None
     try:
         if not_before is not None:
@@ -203,7 +204,7 @@ def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
 class _Loop:
     """The state of :func:`receive`: the batch on its way to the writer, and the counts."""
 
-    def __init__(self, bus: can.BusABC, writer: LogWriter, duration: float | None,
+    def __init__(self, bus: can.BusABC, writer: LogWriter, duration: float | None, *,
                  expect: frozenset[int] | None, expect_within: float | None,
                  dropped: Callable[[], int] | None) -> None:
         self.bus, self.writer, self.dropped = bus, writer, dropped

@@ -378,7 +378,7 @@ def _receive(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
         if monitor is not None:
             monitor.stop()
     if rec.discarded is not None or rec.care.local_clock:
-        result.stale += rec.discarded or 0
+        result.stale = (result.stale or 0) + (rec.discarded or 0)
         log.info("discarded %d frames queued before the trial started", result.stale)
     else:
         result.stale = None

@@ -103,7 +103,8 @@ def summary_counts(side: dict[str, Any]) -> str:
     -------
     str
     """
-    text = f"{side['frames']} frames in {side['duration_s']:.1f} s, {side['dropped_frames']} dropped"
+    text = (f"{side['frames']} frames in {side['duration_s']:.1f} s, "
+            f"{side['dropped_frames']} dropped")
     if side.get("queue_dropped_frames"):
         text += f" ({side['queue_dropped_frames']} by the receive queue: a bigger one, " \
                 "--bus-option receive_buffer=BYTES, or a less busy machine)"
