@@ -80,3 +80,14 @@ def frames_of(lines: Sequence[str]) -> list[str]:
 def times_of(lines: Sequence[str]) -> list[str]:
     """The ``(seconds.micros)`` field of each candump -L line."""
     return [line.split()[0] for line in lines]
+
+
+def without_fdf(fields: Sequence[str]) -> list[str]:
+    """``ID#DATA`` fields with the ``CANFD_FDF`` bit (4) of an FD frame's flags digit cleared:
+    Linux 6 sets it on every FD frame it receives (candump and evtribo write it), a log
+    written by another program may not."""
+    out = []
+    for field in fields:
+        head, fd, rest = field.partition("##")
+        out.append(f"{head}##{int(rest[0], 16) & ~4:X}{rest[1:]}" if fd else field)
+    return out

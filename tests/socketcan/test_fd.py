@@ -9,7 +9,16 @@ import json
 
 import pandas as pd
 import pytest
-from _socketcan import ROOT, Candump, evtribo, frames_of, play, times_of, wait_for
+from _socketcan import (
+    ROOT,
+    Candump,
+    evtribo,
+    frames_of,
+    play,
+    times_of,
+    wait_for,
+    without_fdf,
+)
 
 from evtribo.analysis.pipeline import compute_study
 from evtribo.cli import main
@@ -45,8 +54,10 @@ def test_a_rig_on_can_fd_is_recorded_decoded_and_analysed(tmp_path, vcan):
     assert proc.wait(600) == 0, proc.output()
     dumped = candump.stop()
     got = (recorded / "P01" / "run-01.log").read_text().splitlines()
-    assert frames_of(got) == frames_of(lines) == frames_of(dumped)
-    assert times_of(got) == times_of(dumped)
+    assert frames_of(got) == frames_of(dumped)           # as candump writes them,
+    assert times_of(got) == times_of(dumped)             # at the kernel's times
+    assert without_fdf(frames_of(got)) == frames_of(lines)   # the trace's frames, in order
+    assert all("##4" in line for line in got if "##" in line)  # flagged FD by the kernel
     side = json.loads((recorded / "P01" / "run-01.json").read_text())
     assert side["queue_dropped_frames"] == 0 and side["dropped_frames"] == 0
 

@@ -46,8 +46,11 @@ FLUSH_INTERVAL_S = 0.5
 
 
 def _frame_field(msg: can.Message) -> str:
-    """``ID#DATA`` of one frame, candump style (without timestamp and channel)."""
-    flags = (1 if msg.bitrate_switch else 0) | (2 if msg.error_state_indicator else 0)
+    """``ID#DATA`` of one frame, candump style (without timestamp and channel); an FD
+    frame's flags as the kernel gave them when it did (SocketCAN), else python-can's."""
+    flags = getattr(msg, "fd_flags", None)
+    if flags is None:
+        flags = (1 if msg.bitrate_switch else 0) | (2 if msg.error_state_indicator else 0)
     return frame_field(msg.arbitration_id, bytes(msg.data), is_extended=msg.is_extended_id,
                        is_remote=msg.is_remote_frame, is_error=msg.is_error_frame,
                        is_fd=msg.is_fd, dlc=msg.dlc, fd_flags=flags)

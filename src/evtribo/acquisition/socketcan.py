@@ -49,7 +49,8 @@ from can.interfaces.socketcan.constants import (
 )
 from can.interfaces.socketcan.socketcan import dissect_can_frame
 
-__all__ = ["DEFAULT_RECEIVE_BUFFER", "ReceiveQueue", "SocketcanBus", "size_receive_queue"]
+__all__ = ["DEFAULT_RECEIVE_BUFFER", "KernelFrame", "ReceiveQueue", "SocketcanBus",
+           "size_receive_queue"]
 
 log = logging.getLogger(__name__)
 
@@ -139,6 +140,18 @@ def size_receive_queue(sock: socket.socket, requested: int | None) -> ReceiveQue
     return ReceiveQueue(requested, granted, forced, limit)
 
 
+class KernelFrame(can.Message):
+    """A frame as the kernel delivered it: python-can's message, and the CAN FD flags byte
+    whole (``CANFD_FDF`` too, which Linux 6 sets on every FD frame it receives: ``candump
+    -L`` writes it, ``ID##4...``)."""
+
+    __slots__ = ("fd_flags",)
+
+    def __init__(self, *, fd_flags: int = 0, **kwargs: Any) -> None:
+        super().__init__(**kwargs)
+        self.fd_flags = fd_flags
+
+
 class SocketcanBus(_PythonCanSocketcanBus):
     """python-can's SocketCAN bus with a sized receive queue and the kernel's drop count.
 
@@ -201,7 +214,7 @@ class SocketcanBus(_PythonCanSocketcanBus):
             return None, self._is_filtered
         return self._capture(), self._is_filtered
 
-    def _capture(self) -> can.Message:
+    def _capture(self) -> KernelFrame:
         """One frame from the socket, as python-can's ``capture_message`` makes it, and the
         kernel's drop count it carries."""
         try:
@@ -221,10 +234,11 @@ class SocketcanBus(_PythonCanSocketcanBus):
         extended = bool(can_id & CAN_EFF_FLAG)
         channel = address[0] if not self.channel and isinstance(address, tuple) \
             else self.channel
-        return can.Message(
-            timestamp=timestamp or 0.0, channel=channel,
+        is_fd = len(frame) == _CANFD_MTU
+        return KernelFrame(
+            fd_flags=fd_flags if is_fd else 0, timestamp=timestamp or 0.0, channel=channel,
             arbitration_id=can_id & (0x1FFFFFFF if extended else 0x7FF),
             is_extended_id=extended, is_remote_frame=bool(can_id & CAN_RTR_FLAG),
-            is_error_frame=bool(can_id & CAN_ERR_FLAG), is_fd=len(frame) == _CANFD_MTU,
+            is_error_frame=bool(can_id & CAN_ERR_FLAG), is_fd=is_fd,
             is_rx=not flags & socket.MSG_DONTROUTE, bitrate_switch=bool(fd_flags & 1),
             error_state_indicator=bool(fd_flags & 2), dlc=dlc, data=data)
