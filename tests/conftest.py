@@ -26,7 +26,7 @@ def _private_cache_dir(tmp_path_factory):
 
 
 #: The SocketCAN VM's figures, as its stand-ins report them (tests/socketcan/conftest.py).
-_VM_FIGURES: list[dict[str, float]] = []
+_VM_FIGURES: list[dict[str, float | str]] = []
 
 
 def pytest_runtest_logreport(report):
@@ -39,4 +39,4 @@ def pytest_terminal_summary(terminalreporter):
     for fig in _VM_FIGURES:
         terminalreporter.write_line(
             f"SocketCAN VM: booted in {fig['boot_s']} s, its tests ran {fig['tests_s']} s, "
-            f"{fig['wall_s']} s from start to power-off")
+            f"{fig['wall_s']} s from start to power-off (slowest: {fig.get('slowest')})")

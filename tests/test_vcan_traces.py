@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from _bursts import expect_bursts
 from _checks import fel_ok
 from evtribo.analysis.pipeline import compute_study
 from evtribo.study import load_study
@@ -45,16 +46,19 @@ def test_acquire_and_candump_recorded_every_frame_at_the_same_kernel_times():
 
 @pytest.mark.slow
 def test_the_analysis_finds_in_them_what_it_finds_in_the_reference_study(tmp_path):
-    vcan = compute_study(TRACES / "study", jobs=2, cache_dir=tmp_path / "a").electrostatic
-    ref = compute_study(REFERENCE, jobs=2, cache_dir=tmp_path / "b").electrostatic
-    key = ["subject", "waveform", "amplitude_V"]
-    both = vcan.merge(ref, on=key, suffixes=("", "_ref"))
-    assert len(both) == len(vcan) == len(ref) == 18
-    for row in both.itertuples():
-        # the kernel's times carry the replaying machine's scheduling jitter
-        assert row.electrostatic_force_N == pytest.approx(row.electrostatic_force_N_ref,
-                                                          rel=0.02), row
-        truth = next(t for t in TRUTH["trials"].values() if t["subject"] == row.subject
-                     and t["waveform"] == row.waveform
-                     and t["amplitude_V"] == row.amplitude_V)
-        assert fel_ok(row.electrostatic_force_N, truth["electrostatic_force_N"]), row
+    def analysed_alike() -> None:
+        vcan = compute_study(TRACES / "study", jobs=2, cache_dir=tmp_path / "a").electrostatic
+        ref = compute_study(REFERENCE, jobs=2, cache_dir=tmp_path / "b").electrostatic
+        both = vcan.merge(ref, on=["subject", "waveform", "amplitude_V"], suffixes=("", "_ref"))
+        assert len(both) == len(vcan) == len(ref) == 18
+        for row in both.itertuples():
+            # the kernel's times carry the replaying machine's scheduling jitter
+            assert row.electrostatic_force_N == pytest.approx(row.electrostatic_force_N_ref,
+                                                              rel=0.02), row
+            truth = next(t for t in TRUTH["trials"].values() if t["subject"] == row.subject
+                         and t["waveform"] == row.waveform
+                         and t["amplitude_V"] == row.amplitude_V)
+            assert fel_ok(row.electrostatic_force_N, truth["electrostatic_force_N"]), row
+
+    expect_bursts(analysed_alike, sorted((TRACES / "study").glob("P*/run-*.log.gz")),
+                  [0x0C1, 0x0C2])

@@ -89,7 +89,7 @@ class _GuestRun:
         self.skip_reason: str | None = None
         self.error: str | None = None
         self.reports: dict[str, list[dict[str, Any]]] = {}
-        self.figures: dict[str, float] = {}
+        self.figures: dict[str, float | str] = {}
         self.output = ""
 
     def run(self) -> None:
@@ -118,8 +118,12 @@ class _GuestRun:
         for line in guest.files.get(REPORT_FILE, "").splitlines():
             entry = json.loads(line)
             self.reports.setdefault(entry["nodeid"], []).append(entry)
+        slowest = sorted(((e["duration"], e["nodeid"].rsplit("::", 1)[-1])
+                          for entries in self.reports.values() for e in entries
+                          if e["when"] == "call"), reverse=True)[:3]
         self.figures = {"boot_s": round(guest.boot_s, 1), "tests_s": round(guest.command_s, 1),
-                        "wall_s": round(time.monotonic() - t0, 1)}
+                        "wall_s": round(time.monotonic() - t0, 1),
+                        "slowest": ", ".join(f"{name} {d:.0f} s" for d, name in slowest)}
         self.output = guest.stdout[-6000:] + guest.stderr[-3000:]
 
 

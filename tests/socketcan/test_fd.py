@@ -9,6 +9,8 @@ import json
 
 import pandas as pd
 import pytest
+
+from _bursts import expect_bursts
 from _socketcan import (
     ROOT,
     Candump,
@@ -19,7 +21,6 @@ from _socketcan import (
     wait_for,
     without_fdf,
 )
-
 from evtribo.analysis.pipeline import compute_study
 from evtribo.cli import main
 
@@ -30,14 +31,14 @@ RIG = ROOT / "tests" / "data" / "rigs" / "fd.toml"
 
 def _fel(study, cache):
     el = compute_study(study, jobs=1, cache_dir=cache).electrostatic
-    assert len(el) == 1
+    assert len(el) == 1, "no F_el: no steady-sliding window found"
     return float(el.electrostatic_force_N.iloc[0])
 
 
 def test_a_rig_on_can_fd_is_recorded_decoded_and_analysed(tmp_path, vcan):
     trace_study = tmp_path / "trace"
     assert main(["simulate", "--study", str(trace_study), "--rig", str(RIG), "--duration",
-                 "12", "--seed", "4", "--amplitude", "140"]) == 0
+                 "12", "--seed", "4", "--amplitude", "140", "--fx-rate", "1000"]) == 0
     trace = trace_study / "P01" / "run-01.log"
     lines = trace.read_text().splitlines()
     assert sum("##" in line for line in lines) > 10_000  # the cells' 64-byte FD frames
@@ -71,5 +72,9 @@ def test_a_rig_on_can_fd_is_recorded_decoded_and_analysed(tmp_path, vcan):
     for column in ("NormalCellFd.Force", "TangentialCellFd.Force", "NormalCellFd.Counter"):
         a, b = tables["trace"][column].dropna(), tables["recorded"][column].dropna()
         assert len(a) > 5_000 and a.tolist() == b.tolist()
-    assert _fel(recorded, tmp_path / "c1") == pytest.approx(_fel(trace_study, tmp_path / "c2"),
-                                                            rel=0.02)
+
+    def analysed_alike() -> None:
+        assert _fel(recorded, tmp_path / "c1") == pytest.approx(
+            _fel(trace_study, tmp_path / "c2"), rel=0.02)
+
+    expect_bursts(analysed_alike, [trace, recorded / "P01" / "run-01.log"], [0x111, 0x112])

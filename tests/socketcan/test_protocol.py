@@ -12,8 +12,9 @@ import urllib.request
 
 import numpy as np
 import pytest
-from _socketcan import evtribo, wait_for
 
+from _bursts import expect_bursts
+from _socketcan import evtribo, wait_for
 from evtribo.analysis.pipeline import compute_study
 from evtribo.cache import load_trial
 from evtribo.documents.session import read_session
@@ -88,8 +89,12 @@ def test_a_session_over_vcan_against_the_simulated_rig_stopped_and_resumed(tmp_p
                         cache=False).excitation
         assert ex.enabled.any(), planned.trial
         assert set(np.round(ex.amplitude[ex.enabled], 2)) == {planned.amplitude_V}
-    el = compute_study(study, jobs=1, cache_dir=tmp_path / "cache").electrostatic
-    assert sorted(el.amplitude_V) == [80.0, 110.0, 140.0]
-    assert (el.n_on > 0).all() and (el.n_off > 0).all()
-    fel = el.sort_values("amplitude_V").electrostatic_force_N.to_numpy()
-    assert (fel > 0).all() and (np.diff(fel) > 0).all()  # F_el grows with the voltage
+
+    def analysed() -> None:
+        el = compute_study(study, jobs=1, cache_dir=tmp_path / "cache").electrostatic
+        assert sorted(el.amplitude_V) == [80.0, 110.0, 140.0]
+        assert (el.n_on > 0).all() and (el.n_off > 0).all()
+        fel = el.sort_values("amplitude_V").electrostatic_force_N.to_numpy()
+        assert (fel > 0).all() and (np.diff(fel) > 0).all()  # F_el grows with the voltage
+
+    expect_bursts(analysed, sorted((study / "P01").glob("run-*.log")), [0x0C1, 0x0C2])

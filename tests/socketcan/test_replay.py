@@ -5,9 +5,12 @@ order, with the kernel's times (candump's, to the microsecond), none dropped; an
 recorded trial must be analysed like the trace (F_el within 2 %: the kernel's times carry
 this busy machine's scheduling jitter, not the trace's).
 
-The trace of the rig at its full rate is one of ``data/vcan-traces`` (the reference study
-recorded through vcan0). Held-out traces are replayed the same way: every trial of each study
-folder in ``EVTRIBO_REPLAY_STUDIES`` (folders separated by ``:``)."""
+The traces of the rig at its full rate are a trial of ``data/vcan-traces`` (the reference
+study recorded through vcan0) and one of the reference study itself. Held-out traces are
+replayed the same way: every trial of each study folder in ``EVTRIBO_REPLAY_STUDIES``
+(folders separated by ``:``). Where the trace or its replay arrived in bursts (a busy
+machine), the analysis cannot read it yet (``tests/_bursts.py``): F_el's comparison is then
+an expected failure, said so."""
 
 from __future__ import annotations
 
@@ -17,8 +20,9 @@ import shutil
 from pathlib import Path
 
 import pytest
-from _socketcan import DATA, Candump, evtribo, frames_of, play, times_of, unzip, wait_for
 
+from _bursts import expect_bursts
+from _socketcan import DATA, Candump, evtribo, frames_of, play, times_of, unzip, wait_for
 from evtribo.analysis.pipeline import compute_study
 from evtribo.study import load_study
 
@@ -29,7 +33,8 @@ SPARE_S = 10.0
 
 
 def _traces() -> list[tuple[Path, str, str]]:
-    found = [(DATA / "vcan-traces" / "study", "P01", "run-05")]
+    found = [(DATA / "vcan-traces" / "study", "P01", "run-05"),
+             (DATA / "reference-study", "P02", "run-03")]
     for folder in filter(None, os.environ.get("EVTRIBO_REPLAY_STUDIES", "").split(":")):
         study = load_study(folder, with_rig=False)
         found += [(Path(folder), t.subject, t.name) for t in study.trials]
@@ -103,7 +108,14 @@ def test_a_trace_replayed_into_vcan_is_logged_whole_in_order_with_kernel_times(
     shutil.copy2(ref.log_path, original / subject / ref.log_path.name)
     if ref.sidecar_path:
         shutil.copy2(ref.sidecar_path, original / subject / ref.sidecar_path.name)
-    want, have = _fel(original, tmp_path / "c1"), _fel(recorded, tmp_path / "c2")
-    assert want.keys() == have.keys() and want
-    for key, fel in want.items():
-        assert have[key] == pytest.approx(fel, rel=0.02), key
+
+    def analysed_alike() -> None:
+        want, have = _fel(original, tmp_path / "c1"), _fel(recorded, tmp_path / "c2")
+        assert want.keys() == have.keys() and want
+        for key, fel in want.items():
+            assert have[key] == pytest.approx(fel, rel=0.02), key
+
+    rig = load_study(source).rig
+    assert rig is not None
+    expect_bursts(analysed_alike, [log, recorded / subject / f"{trial}.log"],
+                  [rig.normal_force.message.frame_id, rig.tangential_force.message.frame_id])

@@ -1,5 +1,5 @@
-"""What the SocketCAN tests share: evtribo's command line in a forked child, can-utils, and
-candump -L logs written and read."""
+"""What the SocketCAN tests (``tests/socketcan``) share: evtribo's command line in a forked
+child, can-utils, and candump -L logs written and read."""
 
 from __future__ import annotations
 
