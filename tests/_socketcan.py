@@ -6,16 +6,13 @@ from __future__ import annotations
 import gzip
 import shutil
 import subprocess
-import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-
 from _vcanvm import Forked
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT / "data"
 #: candump's receive queue in the tests (evtribo's own default).
 QUEUE_BYTES = 32 * 1024 * 1024
