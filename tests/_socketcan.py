@@ -7,8 +7,10 @@ import gzip
 import shutil
 import subprocess
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, TypeVar
 
 from _vcanvm import Forked
 
@@ -20,6 +22,7 @@ QUEUE_BYTES = 32 * 1024 * 1024
 
 def evtribo(args: Sequence[str], out: Path) -> Forked:
     """``evtribo ARGS`` as a process (forked: nothing to import again)."""
+    preload()
     return Forked(list(args), out)
 
 
@@ -88,3 +91,39 @@ def without_fdf(fields: Sequence[str]) -> list[str]:
         head, fd, rest = field.partition("##")
         out.append(f"{head}##{int(rest[0], 16) & ~4:X}{rest[1:]}" if fd else field)
     return out
+
+
+@dataclass(frozen=True)
+class HostSteps:
+    """What a SocketCAN test leaves to the machine the suite runs on (its processors are not
+    emulated): *before* it, *after* it, each given the test's ``exports`` folder."""
+
+    before: Callable[[Path], None] | None = None
+    after: Callable[[Path], None] | None = None
+
+
+_Test = TypeVar("_Test", bound=Callable[..., Any])
+
+
+def on_host(*, before: Callable[[Path], None] | None = None,
+            after: Callable[[Path], None] | None = None) -> Callable[[_Test], _Test]:
+    """Mark a SocketCAN test's steps that run on the host (``tests/socketcan/conftest.py``):
+    *before* the VM boots (a trace to play), *after* it (the analysis of what was recorded).
+    The test requests the ``exports`` fixture: the folder they share."""
+    def mark(test: _Test) -> _Test:
+        test.host_steps = HostSteps(before, after)  # type: ignore[attr-defined]
+        return test
+    return mark
+
+
+def preload() -> None:
+    """Import what ``evtribo acquire``, ``simulate`` and ``session`` import when they run, in
+    this process: the commands forked from it then import nothing (in the VM, an import of
+    numpy and pandas takes 20-60 s)."""
+    import evtribo.acquisition.simulator
+    import evtribo.acquisition.socketcan
+    import evtribo.acquisition.trial
+    import evtribo.cli.acquire
+    import evtribo.cli.session
+    import evtribo.cli.simulate
+    import evtribo.session  # noqa: F401

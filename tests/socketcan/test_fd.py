@@ -1,49 +1,82 @@
 """CAN FD end to end: a rig whose load cells send 64-byte FD frames (``tests/data/rigs/
-fd.toml``), played into a vcan interface whose MTU takes FD frames, recorded by ``evtribo
-acquire --interface socketcan`` (``ID##...`` lines, as ``candump -L`` writes them), decoded
-with the DBC's FD messages and analysed like the trace it came from."""
+fd.toml``), its trial simulated (on the host), played into a vcan interface whose MTU takes
+FD frames, recorded by ``evtribo acquire --interface socketcan`` (``ID##...`` lines, as
+``candump -L`` writes them), then decoded with the DBC's FD messages and analysed like the
+trace it came from (on the host)."""
 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
-import pandas as pd
 import pytest
 
-from _bursts import expect_bursts
 from _socketcan import (
     ROOT,
     Candump,
     evtribo,
     frames_of,
+    on_host,
     play,
     times_of,
     wait_for,
     without_fdf,
 )
-from evtribo.analysis.pipeline import compute_study
-from evtribo.cli import main
 
 pytestmark = pytest.mark.slow
 
 RIG = ROOT / "tests" / "data" / "rigs" / "fd.toml"
+CELLS = (0x111, 0x112)
 
 
-def _fel(study, cache):
-    el = compute_study(study, jobs=1, cache_dir=cache).electrostatic
-    assert len(el) == 1, "no F_el: no steady-sliding window found"
-    return float(el.electrostatic_force_N.iloc[0])
+def _simulate(exports: Path) -> None:
+    """On the host: the trace, the FD rig's trial written by the simulator."""
+    from evtribo.cli import main
+
+    assert main(["simulate", "--study", str(exports / "trace"), "--rig", str(RIG),
+                 "--duration", "12", "--seed", "4", "--amplitude", "140",
+                 "--fx-rate", "1000"]) == 0
 
 
-def test_a_rig_on_can_fd_is_recorded_decoded_and_analysed(tmp_path, vcan):
-    trace_study = tmp_path / "trace"
-    assert main(["simulate", "--study", str(trace_study), "--rig", str(RIG), "--duration",
-                 "12", "--seed", "4", "--amplitude", "140", "--fx-rate", "1000"]) == 0
-    trace = trace_study / "P01" / "run-01.log"
+def _decoded_and_analysed(exports: Path) -> None:
+    """On the host: the recorded log decoded with the DBC's FD messages as the trace is,
+    and analysed like it."""
+    import pandas as pd
+
+    from _bursts import expect_bursts
+    from evtribo.analysis.pipeline import compute_study
+    from evtribo.cli import main
+
+    trace = exports / "trace" / "P01" / "run-01.log"
+    recorded = exports / "recorded" / "P01" / "run-01.log"
+    tables = {}
+    for log in (trace, recorded):
+        out = exports / f"{log.parent.parent.name}.csv"
+        assert main(["decode", str(log), "--dbc", str(RIG.with_suffix(".dbc")), "-o",
+                     str(out)]) == 0
+        tables[log] = pd.read_csv(out)
+    for column in ("NormalCellFd.Force", "TangentialCellFd.Force", "NormalCellFd.Counter"):
+        a, b = tables[trace][column].dropna(), tables[recorded][column].dropna()
+        assert len(a) > 5_000 and a.tolist() == b.tolist()
+
+    def fel(study: Path) -> float:
+        el = compute_study(study, jobs=1, cache_dir=exports / f"cache-{study.name}")
+        assert len(el.electrostatic) == 1, "no F_el: no steady-sliding window found"
+        return float(el.electrostatic.electrostatic_force_N.iloc[0])
+
+    def analysed_alike() -> None:
+        assert fel(exports / "recorded") == pytest.approx(fel(exports / "trace"), rel=0.02)
+
+    expect_bursts(analysed_alike, [trace, recorded], CELLS)
+
+
+@on_host(before=_simulate, after=_decoded_and_analysed)
+def test_a_rig_on_can_fd_is_recorded_decoded_and_analysed(tmp_path, vcan, exports):
+    trace = exports / "trace" / "P01" / "run-01.log"
     lines = trace.read_text().splitlines()
     assert sum("##" in line for line in lines) > 10_000  # the cells' 64-byte FD frames
 
-    recorded = tmp_path / "recorded"
+    recorded = exports / "recorded"
     candump = Candump(vcan, tmp_path / "candump.log")
     proc = evtribo(["acquire", "--study", str(recorded), "--rig", str(RIG), "--subject", "P01",
                     "--trial", "run-01", "--interface", "socketcan", "--channel", vcan,
@@ -61,20 +94,3 @@ def test_a_rig_on_can_fd_is_recorded_decoded_and_analysed(tmp_path, vcan):
     assert all("##4" in line for line in got if "##" in line)  # flagged FD by the kernel
     side = json.loads((recorded / "P01" / "run-01.json").read_text())
     assert side["queue_dropped_frames"] == 0 and side["dropped_frames"] == 0
-
-    # decoded with the DBC's FD messages: every cell frame's force, as in the trace
-    tables = {}
-    for name, log in (("trace", trace), ("recorded", recorded / "P01" / "run-01.log")):
-        out = tmp_path / f"{name}.csv"
-        assert main(["decode", str(log), "--dbc", str(RIG.with_suffix(".dbc")), "-o",
-                     str(out)]) == 0
-        tables[name] = pd.read_csv(out)
-    for column in ("NormalCellFd.Force", "TangentialCellFd.Force", "NormalCellFd.Counter"):
-        a, b = tables["trace"][column].dropna(), tables["recorded"][column].dropna()
-        assert len(a) > 5_000 and a.tolist() == b.tolist()
-
-    def analysed_alike() -> None:
-        assert _fel(recorded, tmp_path / "c1") == pytest.approx(
-            _fel(trace_study, tmp_path / "c2"), rel=0.02)
-
-    expect_bursts(analysed_alike, [trace, recorded / "P01" / "run-01.log"], [0x111, 0x112])

@@ -10,7 +10,7 @@ study recorded through vcan0) and one of the reference study itself. Held-out tr
 replayed the same way: every trial of each study folder in ``EVTRIBO_REPLAY_STUDIES``
 (folders separated by ``:``). Where the trace or its replay arrived in bursts (a busy
 machine), the analysis cannot read it yet (``tests/_bursts.py``): F_el's comparison is then
-an expected failure, said so."""
+an expected failure, said so. The analysis runs on the host (``_socketcan.on_host``)."""
 
 from __future__ import annotations
 
@@ -21,9 +21,17 @@ from pathlib import Path
 
 import pytest
 
-from _bursts import expect_bursts
-from _socketcan import DATA, Candump, evtribo, frames_of, play, times_of, unzip, wait_for
-from evtribo.analysis.pipeline import compute_study
+from _socketcan import (
+    DATA,
+    Candump,
+    evtribo,
+    frames_of,
+    on_host,
+    play,
+    times_of,
+    unzip,
+    wait_for,
+)
 from evtribo.study import load_study
 
 pytestmark = pytest.mark.slow
@@ -54,6 +62,11 @@ def _study_like(source: Path, to: Path) -> Path:
     return to
 
 
+def _trial(source: Path, subject: str, trial: str):
+    return next(t for t in load_study(source, with_rig=False).trials
+                if (t.subject, t.name) == (subject, trial))
+
+
 def _metadata(sidecar: dict) -> list[str]:
     args = []
     for key, flag in (("waveform", "--waveform"), ("frequency_Hz", "--frequency"),
@@ -63,25 +76,50 @@ def _metadata(sidecar: dict) -> list[str]:
     return args
 
 
-def _fel(study: Path, cache: Path) -> dict[tuple, float]:
-    el = compute_study(study, jobs=1, cache_dir=cache).electrostatic
-    return {(r.subject, r.waveform, r.amplitude_V): r.electrostatic_force_N
-            for r in el.itertuples()}
+def _analysed_like_the_trace(exports: Path) -> None:
+    """On the host: the recorded trial's F_el within 2 % of the trace's."""
+    from _bursts import expect_bursts
+    from evtribo.analysis.pipeline import compute_study
+
+    what = json.loads((exports / "replay.json").read_text())
+    source, subject, trial = Path(what["source"]), what["subject"], what["trial"]
+    ref = _trial(source, subject, trial)
+    original = _study_like(source, exports / "original")
+    (original / subject).mkdir()
+    for path in filter(None, (ref.log_path, ref.sidecar_path)):
+        shutil.copy2(path, original / subject / path.name)
+    recorded = exports / "recorded"
+
+    def fel(study: Path) -> dict[tuple, float]:
+        el = compute_study(study, jobs=1, cache_dir=exports / f"cache-{study.name}")
+        return {(r.subject, r.waveform, r.amplitude_V): r.electrostatic_force_N
+                for r in el.electrostatic.itertuples()}
+
+    def analysed_alike() -> None:
+        want, have = fel(original), fel(recorded)
+        assert want.keys() == have.keys() and want, "no F_el: no steady-sliding window"
+        for key, value in want.items():
+            assert have[key] == pytest.approx(value, rel=0.02), key
+
+    rig = load_study(source).rig
+    assert rig is not None
+    expect_bursts(analysed_alike, [ref.log_path, recorded / subject / f"{trial}.log"],
+                  [rig.normal_force.message.frame_id, rig.tangential_force.message.frame_id])
 
 
+@on_host(after=_analysed_like_the_trace)
 @pytest.mark.parametrize("trace", _traces(), ids=lambda t: f"{t[0].name}/{t[1]}/{t[2]}")
 def test_a_trace_replayed_into_vcan_is_logged_whole_in_order_with_kernel_times(
-        tmp_path, vcan, trace):
+        tmp_path, vcan, exports, trace):
     source, subject, trial = trace
-    ref = next(t for t in load_study(source, with_rig=False).trials
-               if (t.subject, t.name) == (subject, trial))
+    ref = _trial(source, subject, trial)
     log = unzip(ref.log_path, tmp_path) if ref.log_path.suffix == ".gz" else ref.log_path
     lines = log.read_text().splitlines()
     channel = lines[0].split()[1]
     times = [float(t.strip("()")) for t in times_of(lines)]
     side = json.loads(ref.sidecar_path.read_text()) if ref.sidecar_path else {}
 
-    recorded = _study_like(source, tmp_path / "recorded")
+    recorded = _study_like(source, exports / "recorded")
     candump = Candump(vcan, tmp_path / "candump.log")
     proc = evtribo(["acquire", "--study", str(recorded), "--subject", subject, "--trial",
                     trial, "--interface", "socketcan", "--channel", vcan, "--log-channel",
@@ -92,6 +130,8 @@ def test_a_trace_replayed_into_vcan_is_logged_whole_in_order_with_kernel_times(
     play(log, vcan, from_channel=channel)
     assert proc.wait(SPARE_S + 600) == 0, proc.output()
     dumped = candump.stop()
+    (exports / "replay.json").write_text(json.dumps(
+        {"source": str(source), "subject": subject, "trial": trial}))
 
     got = (recorded / subject / f"{trial}.log").read_text().splitlines()
     assert frames_of(got) == frames_of(lines)          # every frame, in order
@@ -102,20 +142,3 @@ def test_a_trace_replayed_into_vcan_is_logged_whole_in_order_with_kernel_times(
     assert new["queue_dropped_frames"] == 0 and new["discarded_before_start"] == 0
     if "dropped_frames" in side:  # the trace's own lost frames, found again by the counters
         assert new["dropped_frames"] == side["dropped_frames"]
-
-    original = _study_like(source, tmp_path / "original")
-    (original / subject).mkdir()
-    shutil.copy2(ref.log_path, original / subject / ref.log_path.name)
-    if ref.sidecar_path:
-        shutil.copy2(ref.sidecar_path, original / subject / ref.sidecar_path.name)
-
-    def analysed_alike() -> None:
-        want, have = _fel(original, tmp_path / "c1"), _fel(recorded, tmp_path / "c2")
-        assert want.keys() == have.keys() and want
-        for key, fel in want.items():
-            assert have[key] == pytest.approx(fel, rel=0.02), key
-
-    rig = load_study(source).rig
-    assert rig is not None
-    expect_bursts(analysed_alike, [log, recorded / subject / f"{trial}.log"],
-                  [rig.normal_force.message.frame_id, rig.tangential_force.message.frame_id])
