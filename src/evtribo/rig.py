@@ -29,7 +29,7 @@ import math
 import os
 import re
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -332,12 +332,30 @@ class Rig:
         db = load_dbc(dbc, source=src, key=key("dbc"))
         refs = {r: resolve_signal(db, mapping[r], key=key(r), source=src)
                 for r in ROLES if r in mapping}
+        _check_distinct(refs, source=src, key=key)
         calibration = Calibration()
         if "calibration" in mapping:
             calibration = Calibration.from_mapping(mapping["calibration"], source=src,
                                                    key=key("calibration"))
         return cls(name=str(mapping.get("name", dbc.stem)), dbc=dbc.resolve(), database=db,
                    source=src, calibration=calibration, **refs)
+
+
+def _check_distinct(refs: Mapping[str, SignalRef], *, source: str | None,
+                    key: Callable[[str], str]) -> None:
+    """Refuse one signal named for two roles (the counters aside: cells sharing a message
+    share its counter)."""
+    seen: dict[tuple[int, bool, str], str] = {}
+    for role, ref in refs.items():
+        if role.endswith("_counter"):
+            continue
+        ident = (ref.message.frame_id, bool(ref.message.is_extended_frame), ref.signal.name)
+        if ident in seen:
+            raise RigConfigError(
+                f"{ref.qualified_name} is named for two roles, {seen[ident]} and {role}: each "
+                "role needs a signal of its own (evtribo init guesses them from the DBC and a "
+                "sample log)", path=source, key=key(role))
+        seen[ident] = role
 
 
 def load_dbc(path: str | os.PathLike[str], *, source: str | None = None,

@@ -36,6 +36,7 @@ SUBCOMMANDS: dict[str, str] = {
     "decode": "decode a CAN log through a DBC into Parquet or CSV",
     "plot": "a trial's check (forces, ON/OFF, windows, exclusions), or any signal of a log",
     "analyze": "friction, windows and the inferred electrostatic force of a study",
+    "calibrate": "the load cells' cross-talk matrix from calibration recordings",
     "compare": "fit the model to the results of analyze; figures",
     "report": "one self-contained HTML report of a study's results",
     "demo": "simulate, record, analyse, compare and report a small study",
