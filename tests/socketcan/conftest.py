@@ -14,8 +14,9 @@ this machine through ``_socketcan.on_host``: a ``before`` step (making a trace) 
 before the VM boots, an ``after`` step (decoding, analysing what was recorded) after it,
 both on the test's ``exports`` folder, which the VM shares.
 
-The stand-ins are one ``xdist_group``: ``make test`` (``--dist loadgroup``) sends them to one
-worker, and puts them first, so the VM works while the other worker runs the rest.
+The stand-ins are one group of pytest-xdist's ``--dist loadgroup`` (their node ids end in
+``@socketcan-vm``): ``make test`` sends them to one worker, and first, so the VM works while
+the other worker runs the rest.
 """
 
 from __future__ import annotations
@@ -256,9 +257,13 @@ def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config
     stand_ins = []
     for item in mine:
         steps = getattr(getattr(item, "obj", None), "host_steps", None)
-        new = SocketcanStandIn.from_parent(item.parent, name=item.name,
-                                           original_nodeid=item.nodeid, steps=steps)
-        new.own_markers = [*item.own_markers, pytest.mark.xdist_group(GROUP).mark]
+        # on an xdist worker, the stand-ins are one group of --dist loadgroup (what its
+        # xdist_group mark does, which this pytest's node ids no longer take)
+        grouped = getattr(config.option, "loadgroup", False)
+        new = SocketcanStandIn.from_parent(
+            item.parent, name=item.name, original_nodeid=item.nodeid, steps=steps,
+            nodeid=f"{item.nodeid}@{GROUP}" if grouped else None)
+        new.own_markers = list(item.own_markers)
         new.keywords.update(item.keywords)
         stand_ins.append(new)
     items[:] = stand_ins + others

@@ -42,6 +42,7 @@ import serial
 from can.exceptions import error_check
 from can.interfaces.slcan import slcanBus
 
+from evtribo.acquisition.receive import drop_stuck_line, is_damaged_line
 from evtribo.frames.table import FrameTable
 
 __all__ = ["DISCARD_LIMIT_S", "QUIET_S", "BulkSlcanBus", "SlcanPtyAdapter", "check_slcan_line",
@@ -192,10 +193,13 @@ def discard_queued(bus: slcanBus, limit: float = DISCARD_LIMIT_S) -> int:
     while (now := time.monotonic()) < min(deadline, quiet_until):
         try:
             msg = bus.recv(QUIET_S / 4)
-        except (ValueError, IndexError) as err:  # a damaged old line: away with the rest
-            log.debug("discarding a damaged line queued before the trial: %s", err)
-            msg = None
-            quiet_until = now + QUIET_S
+        except Exception as err:
+            if not is_damaged_line(err):  # the adapter is gone: the trial will say so
+                log.debug("reading the frames queued before the trial: %s", err)
+                return count
+            log.debug("a damaged line queued before the trial, discarded: %s", err)
+            drop_stuck_line(bus)
+            msg, quiet_until = None, now + QUIET_S
         if msg is not None:
             count += 1
             quiet_until = time.monotonic() + QUIET_S
