@@ -57,8 +57,11 @@ class Candump:
 def play(log: Path, interface: str, *, from_channel: str = "vcan0",
          ignore_times: bool = False) -> None:
     """``canplayer`` the candump -L *log* into *interface* (at its frames' times, or as fast
-    as it can with *ignore_times*)."""
-    args = ["canplayer", "-I", str(log)]
+    as it can with *ignore_times*), on one processor (a vcan interface delivers a sender's
+    frames through the backlog queue of the processor it sends from: one moved between two
+    can see two of its frames delivered swapped) and at a real-time priority (the recorder
+    beside it does not delay its frames)."""
+    args = ["taskset", "-c", "0", "chrt", "-f", "10", "canplayer", "-I", str(log)]
     if ignore_times:
         args.append("-t")
     subprocess.run([*args, f"{interface}={from_channel}"], check=True, timeout=600)

@@ -22,6 +22,7 @@ from evtribo.acquisition.simulator import SubjectParams, TrialConfig, default_su
 from evtribo.acquisition.simulator.core import TrialTruth, simulate_trial
 from evtribo.acquisition.simulator.realism import human, real_finger, real_logger, realistic_rig
 from evtribo.analysis.aggregate import summarize
+from evtribo.analysis.balance import balanced_weights
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals
 from evtribo.decode import decode_trial
@@ -68,14 +69,20 @@ def true_exponent(amplitudes: np.ndarray, forces: np.ndarray) -> float:
 def attach_truth(el: pd.DataFrame, ex: pd.DataFrame, windows: pd.DataFrame,
                  mu_of: dict[str, float]) -> tuple[pd.DataFrame, pd.DataFrame]:
     """electrostatic.csv and exponents.csv with the truth of each row beside it: the
-    simulated electrostatic force and friction coefficient over the row's ON windows (the
-    subject's coefficient where the simulator did not record it)."""
+    simulated electrostatic force and friction coefficient over the row's ON windows,
+    averaged as the estimate averages them (each trial by its share, both directions alike:
+    :func:`evtribo.analysis.balance.balanced_weights`; the subject's coefficient where the
+    simulator did not record it)."""
     on = windows[windows.condition == "on"]
     rows = [on[(on.subject == r.subject) & (on.amplitude_V == r.amplitude_V)
                & (on.waveform == r.waveform)] for r in el.itertuples()]
-    mu = [r.mu_true.mean() if "mu_true" in r and r.mu_true.notna().any() else mu_of[s]
-          for r, s in zip(rows, el.subject, strict=True)]
-    el = el.assign(fel_true_N=[r.fel_true_N.mean() for r in rows], mu_true=mu)
+    weights = [balanced_weights(np.ones((1, len(r))), pd.factorize(r.trial)[0],
+                                r.direction.to_numpy(float))[0] for r in rows]
+    mu = [float(w @ r.mu_true) if "mu_true" in r and r.mu_true.notna().all() else mu_of[s]
+          for r, w, s in zip(rows, weights, el.subject, strict=True)]
+    el = el.assign(fel_true_N=[float(w @ r.fel_true_N) for r, w in zip(rows, weights,
+                                                                        strict=True)],
+                   mu_true=mu)
     expo = []
     for r in ex.itertuples():
         rows = el[(el.subject == r.subject) & (el.waveform == r.waveform)]

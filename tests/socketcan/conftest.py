@@ -44,6 +44,11 @@ EXPORTS_ENV = "EVTRIBO_SOCKETCAN_EXPORTS"
 REPORT_FILE = "socketcan-report.jsonl"
 #: Longest time the VM may take for the whole folder, s.
 VM_TIMEOUT_S = float(os.environ.get("EVTRIBO_VCAN_VM_TIMEOUT", "1800"))
+#: The VM's processors: one, so that it takes at most one of the machine's cores from the
+#: rest of the suite (``make test -n 2``), and a vcan interface delivers a sender's frames in
+#: the order sent (with two, a sender moved from one to the other can see two of its frames
+#: delivered swapped: each processor has its own backlog queue).
+VM_CPUS = 1
 #: Environment variables the guest's tests see as the host's.
 PASSED_ON = ("HYPOTHESIS_PROFILE", "EVTRIBO_REPLAY_STUDIES")
 GROUP = "socketcan-vm"
@@ -169,7 +174,7 @@ class _GuestRun:
         t0 = time.monotonic()
         try:
             guest = _vcanvm.run(argv, cwd=self.config.rootpath, env=env, timeout=VM_TIMEOUT_S,
-                                writable=[self.exports])
+                                writable=[self.exports], cpus=VM_CPUS)
         except Exception as err:  # the VM failed: every test says so
             self.error = f"the VM failed: {type(err).__name__}: {err}"
             return

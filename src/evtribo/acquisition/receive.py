@@ -98,6 +98,11 @@ def drop_stuck_line(bus: can.BusABC) -> None:
     python-can's ``slcan`` driver decodes its line buffer before clearing it: a line that is
     no text would fail again with every later byte. Its buffer then ends with the line's
     terminator; a buffer that holds part of a line (``slcan_bulk``'s) never does.
+
+    Parameters
+    ----------
+    bus : can.BusABC
+        The bus whose ``recv`` raised a damaged line (:func:`is_damaged_line`).
     """
     buffer = getattr(bus, "_buffer", None)
     if isinstance(buffer, bytearray) and buffer.endswith((b"\r", b"\a")):

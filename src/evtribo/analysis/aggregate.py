@@ -395,8 +395,15 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
     Parameters
     ----------
     windows, trials : pandas.DataFrame
-    n_boot, seed, confidence, n_saved
         As :func:`summarize_study`'s.
+    n_boot : int
+        Bootstrap replicates.
+    seed : int
+        Base seed.
+    confidence : float
+        Coverage of the intervals.
+    n_saved : int
+        Replicates kept in the bootstrap table.
 
     Returns
     -------

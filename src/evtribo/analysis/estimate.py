@@ -63,15 +63,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
-from scipy import special  # stats.t.ppf is special.stdtrit, stats.norm.ppf special.ndtri
 
-from evtribo.analysis.reference import (
-    MuModel,
-    WindowFacts,
-    fit_mu_model,
-    fit_trial_model,
-    pooled_rate_slope,
-)
+from evtribo.analysis.balance import balanced_weights
+from evtribo.analysis.pace import pooled_rate_slope
+from evtribo.analysis.reference import MuModel, WindowFacts, fit_mu_model, fit_trial_model
+from evtribo.analysis.smallsample import DEFAULT_CONFIDENCE, small_sample_scale
 from evtribo.errors import AnalysisError
 
 log = logging.getLogger(__name__)
@@ -83,7 +79,6 @@ DEFAULT_N_BOOT = 2000
 #: A subject's friction follows its strokes' rate when the pooled slope stands this many
 #: standard errors from zero (:func:`~evtribo.analysis.reference.pooled_rate_slope`).
 RATE_SE = 3.0
-DEFAULT_CONFIDENCE = 0.95
 
 
 def friction_coefficient(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike) -> float:
@@ -189,44 +184,6 @@ class ElectrostaticEstimate:
     models: dict[int, MuModel] = field(default_factory=dict)
 
 
-def small_sample_scale(variances: npt.ArrayLike, counts: npt.ArrayLike,
-                       confidence: float = DEFAULT_CONFIDENCE, *,
-                       dofs: npt.ArrayLike | None = None) -> tuple[float, float]:
-    """Stretch of a percentile-bootstrap interval for few windows (Welch-Satterthwaite).
-
-    Parameters
-    ----------
-    variances : array_like of float, N^2
-        Bootstrap (plug-in) variance of each independent error source of the estimate.
-    counts : array_like of int
-        Windows (or strokes) behind each source.
-    confidence : float
-        Coverage of the interval.
-    dofs : array_like of float, optional
-        Degrees of freedom of each source (default: ``counts - 1``, a mean's).
-
-    Returns
-    -------
-    scale : float
-        ``sqrt(sum w_i / sum v_i) * t(q, nu) / z(q)`` with ``w_i = v_i n_i / f_i`` and
-        ``f_i`` the source's degrees of freedom (1 when the variances are all zero).
-    dof : float
-        ``nu = (sum w_i)^2 / sum(w_i^2 / f_i)`` (inf when the variances are zero).
-    """
-    v = np.asarray(variances, dtype=np.float64).ravel()
-    n = np.asarray(counts, dtype=np.float64).ravel()
-    f = n - 1.0 if dofs is None else np.asarray(dofs, dtype=np.float64).ravel()
-    use = np.isfinite(v) & (v > 0) & (f > 0)
-    if not use.any():
-        return 1.0, float("inf")
-    v, n, f = v[use], n[use], f[use]
-    w = v * n / f
-    dof = float(np.sum(w) ** 2 / np.sum(w**2 / f))
-    q = 1.0 - (1.0 - confidence) / 2.0
-    ratio = float(special.stdtrit(dof, q) / special.ndtri(q))  # t and normal quantiles
-    return float(np.sqrt(np.sum(w) / np.sum(v))) * ratio, dof
-
-
 def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     off_normal_N: Sequence[npt.ArrayLike],
     off_friction_N: Sequence[npt.ArrayLike],
@@ -291,9 +248,17 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     rng = np.random.default_rng(seed)
     refs = _References.fit(w, offs, ons, trends, rng=rng, n_boot=n_boot)
     labels = np.unique(w.on_group)
+    pooled = _Pooled.of(w, refs, ons)
     forces = [_group_force(rng, w, w.on_group == g, refs=refs, facts=ons, n_boot=n_boot,
-                           confidence=confidence) for g in labels]
-    means = [_group_means(w, w.on_group == g, refs.mu_on) for g in labels]
+                           confidence=confidence, pooled=pooled) for g in labels]
+    return _estimate(labels, forces, [_group_means(w, w.on_group == g, refs.mu_on)
+                                      for g in labels], refs, n_boot=n_boot,
+                     confidence=confidence)
+
+
+def _estimate(labels: FloatArray, forces: list[_GroupForce], means: list[_GroupMeans],
+              refs: _References, *, n_boot: int, confidence: float) -> ElectrostaticEstimate:
+    """The groups' forces, means and replicates gathered, with the intervals."""
     reps = np.column_stack([f.replicates_N for f in forces]) if forces \
         else np.empty((n_boot, 0))
     alpha = (1.0 - confidence) / 2.0
@@ -411,44 +376,48 @@ class _GroupForce:
     dof: float
 
 
-def _balanced_weights(counts: FloatArray, trial: IntArray, direction: FloatArray
-                      ) -> FloatArray:
-    """Weights of windows (summing to 1 in each row of *counts*, the windows' resampled
-    counts) that give each trial its share of the windows and, within a trial, each sliding
-    direction it has the same share.
+@dataclass(frozen=True)
+class _Pooled:
+    """A subject's scatter pooled over all its windows, for a group whose own windows are
+    too few to show any (one stroke ON, one OFF window): the ON windows' ``F_t/mu - F_n``
+    about their trial's mean (N^2), and the OFF windows' relative scatter about
+    their references' models; each with its degrees of freedom."""
 
-    Parameters
-    ----------
-    counts : ndarray, shape (rows, windows)
-        How often each window is drawn (ones for the estimate itself).
-    trial, direction : ndarray, shape (windows,)
-    """
-    out = np.zeros(counts.shape)
-    n = trial.size
-    for s in np.unique(trial):
-        in_trial = trial == s
-        c = counts[:, in_trial]
-        d = direction[in_trial]
-        dirs = np.unique(d)
-        totals = np.stack([c[:, d == x].sum(axis=1) for x in dirs], axis=1)  # (rows, dirs)
-        present = (totals > 0).sum(axis=1, keepdims=True)
-        which = np.searchsorted(dirs, d)
-        per = np.where(totals[:, which] > 0, c / np.maximum(totals[:, which], 1e-300), 0.0)
-        out[:, in_trial] = per / np.maximum(present, 1) * (in_trial.sum() / n)
-    return out
+    on_var: float
+    on_dof: int
+    mu_rel_var: float
+    mu_dof: int
+
+    @classmethod
+    def of(cls, w: _Windows, refs: _References, ons: WindowFacts) -> _Pooled:
+        e = w.on_friction / refs.mu_on - w.on_normal
+        ss, dof = 0.0, 0
+        for s in np.unique(ons.stratum):  # about each trial's mean (both directions)
+            part = e[ons.stratum == s]
+            ss, dof = ss + float(np.sum((part - part.mean()) ** 2)), dof + part.size - 1
+        mu_ss, mu_dof = 0.0, 0
+        for r, model in refs.models.items():
+            free = refs.off_clusters[r] - model.coef.size
+            if free > 0:
+                scale = 1.0 if model.log else float(np.mean(w.off_friction[r] / w.off_normal[r]))
+                mu_ss += float(np.sum((model.resid / scale) ** 2))
+                mu_dof += free
+        return cls(ss / dof if dof else np.nan, dof, mu_ss / mu_dof if mu_dof else np.nan,
+                   mu_dof)
 
 
 def _group_force(rng: np.random.Generator, w: _Windows, sel: npt.NDArray[np.bool_], *,
-                 refs: _References, facts: WindowFacts, n_boot: int, confidence: float
-                 ) -> _GroupForce:
+                 refs: _References, facts: WindowFacts, n_boot: int, confidence: float,
+                 pooled: _Pooled) -> _GroupForce:
     """The force of the ON windows *sel* (the balanced mean of ``F_t/mu - F_n``) and its
     bootstrap replicates: the strokes resampled within each trial (the two directions
     averaged alike in every replicate), each reference's ``mu`` from its wild bootstrap,
     stretched by the small-sample calibration (one error source for the ON windows, one per
-    reference's ``mu``)."""
+    reference's ``mu``). A source with too few strokes to show its scatter (one ON stroke,
+    an OFF reference its model fits exactly) takes the subject's pooled scatter instead."""
     idx = np.flatnonzero(sel)
     trial, direction = facts.stratum[idx], np.sign(facts.direction[idx])
-    weight = _balanced_weights(np.ones((1, idx.size)), trial, direction)[0]
+    weight = balanced_weights(np.ones((1, idx.size)), trial, direction)[0]
     fn, ft = w.on_normal[sel], w.on_friction[sel]
     mu, mu_b = refs.mu_on[sel], refs.mu_on_b[:, sel]
     force = float(weight @ (ft / mu - fn))
@@ -461,7 +430,7 @@ def _group_force(rng: np.random.Generator, w: _Windows, sel: npt.NDArray[np.bool
         k = int(which.max()) + 1
         n_clusters += k
         counts[:, part] = rng.multinomial(k, np.full(k, 1.0 / k), size=n_boot)[:, which]
-    weights_b = _balanced_weights(counts, trial, direction)
+    weights_b = balanced_weights(counts, trial, direction)
 
     def replicate(mu_rep: FloatArray, wts: FloatArray) -> FloatArray:
         return ((ft / mu_rep - fn) * wts).sum(axis=-1)
@@ -470,14 +439,26 @@ def _group_force(rng: np.random.Generator, w: _Windows, sel: npt.NDArray[np.bool
     variances = [float(np.var(replicate(mu, weights_b)))]
     counts_n = [n_clusters]
     dofs = [max(n_clusters - trials.size, 1)]
+    if n_clusters - trials.size < 1 and pooled.on_dof > 0:  # one stroke: the subject's
+        extra = np.sqrt(pooled.on_var * float(weight @ weight))
+        acc = acc + extra * rng.standard_normal(n_boot)
+        variances[0], counts_n[0], dofs[0] = extra**2, pooled.on_dof, pooled.on_dof
     refs_here = w.on_ref[sel]
     for r in np.unique(refs_here):
         one = np.where(refs_here == r, mu_b, mu)  # only reference r's mu resampled
-        variances.append(float(np.var(replicate(one, weight))))
         model = refs.models[int(r)]
-        free = max(refs.off_clusters[int(r)] - model.coef.size, 1)
-        counts_n.append(free)  # HC2 residuals: the bootstrap variance is not plug-in
-        dofs.append(free)
+        free = refs.off_clusters[int(r)] - model.coef.size
+        if free < 1 and pooled.mu_dof > 0:  # the model fits exactly: the subject's scatter
+            part = refs_here == r
+            load = float((weight[part] * ft[part] / mu[part]).sum())
+            extra = load * np.sqrt(pooled.mu_rel_var / max(w.off_normal[int(r)].size, 1))
+            acc = acc + extra * rng.standard_normal(n_boot)
+            variances.append(extra**2)
+            free = pooled.mu_dof
+        else:
+            variances.append(float(np.var(replicate(one, weight))))
+        counts_n.append(max(free, 1))  # HC2 residuals: the bootstrap variance is not plug-in
+        dofs.append(max(free, 1))
     scale, nu = small_sample_scale(variances, counts_n, confidence, dofs=dofs)
     return _GroupForce(force, float(weight @ mu), force + scale * (acc - force), scale, nu)
 

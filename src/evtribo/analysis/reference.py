@@ -1,37 +1,30 @@
-"""The friction an ON window is compared with: the OFF windows' coefficient at its own time,
-direction and stroke speed.
+"""The friction an ON window is compared with: its reference's coefficient at the window's own
+time, direction and stroke pace (``docs/analysis.md``).
 
-A fingertip's friction coefficient is not one number (``docs/analysis.md``): it rises as the
-skin under the finger moistens (tens of percent within a trial), it differs between
-forward and backward strokes, and it depends on the sliding speed. Since the inferred force
-``F_t,on / mu - F_n,on`` moves by about ``(F_n + F_el)`` times any relative error of ``mu``,
-a 1 % error in ``mu`` is 5 mN at 0.5 N: at low voltages, more than the force itself. One
-``mu`` per trial compared with ON windows at other times is such an error.
+A fingertip's friction coefficient is not one number: it rises as the skin moistens, it
+differs between forward and backward strokes, it depends on the sliding speed. Since the
+inferred force ``F_t,on / mu - F_n,on`` moves by about ``(F_n + F_el)`` times any relative
+error of ``mu``, a 1 % error in ``mu`` is 5 mN at 0.5 N: at low voltages, more than the
+force itself.
 
-The OFF windows of a reference (an alternating trial, or a subject's whole-OFF trials) are
-therefore described by a linear model of their friction coefficient, fitted by weighted
-least squares::
+A reference's OFF windows are described by a linear model of their friction coefficient,
+fitted by weighted least squares (weights ``F_n``)::
 
-    F_t,i / F_n,i = b0 + sum_k b_k P_k(x_i) + c d_i + e v_i + error,   weights F_n,i
+    F_t,i / F_n,i = b0 + sum_k b_k P_k(x_i) + c d_i + error          (fit_mu_model)
 
-with ``P_k`` Legendre polynomials of the window's time scaled to the OFF windows' span
-(continued as straight lines beyond it), ``d`` the sliding direction (+1 / -1) and ``v``
-the logarithm of the stroke's rate (one over its duration: the strokes of a hand cover
-about the same length, so a stroke's rate stands in for its speed). With the constant
-alone, the fit is the ratio of means ``sum F_t / sum F_n``. The time terms are only offered
-for a reference within one trial (its own clock); how many of them, and whether the
-stroke's rate enters, is chosen by the corrected Akaike criterion (AICc) among the models
-the windows can support. Each ON window is then compared with the model at its own time,
-direction and stroke rate: the comparison of each treatment phase with the baseline that
-brackets it, as in the ABAB (reversal) designs of single-case experiments and the
-interrupted time series with a trend (Huitema & McKean 2000).
+with ``P_k`` Legendre polynomials of the window's time scaled to the span (straight lines
+beyond it) and ``d`` the sliding direction; the constant alone is the ratio of means
+``sum F_t / sum F_n``. An alternating trial's trend is fitted to its OFF and ON windows
+together, in ``log(F_t/F_n)`` with one term per ON group (:func:`fit_trial_model`). The
+terms are chosen by the corrected Akaike criterion (AICc); a stroke rate's fixed slope (the
+subject's, :mod:`evtribo.analysis.pace`) multiplies the coefficient. Each ON window is
+compared with the model at its own time, direction and stroke rate: each treatment phase
+against the baseline that brackets it, as in ABAB designs and interrupted time series with
+a trend (Huitema & McKean 2000).
 
-Uncertainty: the model's coefficients are resampled by a wild cluster bootstrap (Cameron,
-Gelbach & Miller 2008): each replicate adds the fit's residuals back to the fitted values,
-their signs flipped together per stroke (windows of one stroke share its speed) with
-Webb's six-point weights, the residuals scaled by ``1/sqrt(1 - h_ii)`` (HC2: unbiased
-variances with few windows). The design stays fixed, so no replicate loses a direction or
-a phase of the trial.
+Uncertainty: a wild cluster bootstrap (Cameron, Gelbach & Miller 2008): the residuals, HC2-
+scaled, added back with Webb's six-point weights drawn per stroke; the design stays fixed,
+and every replicate chooses its model again by AICc.
 """
 
 from __future__ import annotations
@@ -40,6 +33,7 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import product
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -47,8 +41,8 @@ from numpy.polynomial import legendre
 
 from evtribo.errors import AnalysisError
 
-__all__ = ["MAX_DEGREE", "MuModel", "WindowFacts", "fit_mu_model", "fit_trial_model",
-           "pooled_rate_slope", "stack_facts"]
+__all__ = ["MAX_DEGREE", "SPAN_PER_DEGREE_S", "MuModel", "WindowFacts", "fit_mu_model",
+           "fit_trial_model", "stack_facts", "time_basis"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -124,8 +118,7 @@ class MuModel:
     direction : bool
         Whether the direction term is in.
     rate : bool
-        Whether the stroke's rate term is in (its slope :attr:`rate_slope`, fixed: a
-        subject's, from all its trials, :func:`pooled_rate_slope`).
+        Whether the stroke's rate term (its fixed :attr:`rate_slope`) is in.
     t_lo, t_hi : float, s
         The OFF windows' span (the polynomial's domain).
     rate_mean : float
@@ -139,18 +132,15 @@ class MuModel:
     cluster : ndarray of int
         The fitted windows' strokes.
     log : bool
-        A model of ``log(F_t / F_n)`` fitted to the OFF and the ON windows of one trial
-        together, with one more coefficient per ON group (the voltage's own factor on the
-        friction), so that the trend is known wherever the trial has windows; else a model
-        of ``F_t / F_n`` over the OFF windows alone.
+        A model of ``log(F_t / F_n)`` of a trial's OFF and ON windows together
+        (:func:`fit_trial_model`); else of ``F_t / F_n`` over the OFF windows.
     smear : float
         Duan's smearing factor of the log model (the weighted mean of ``exp(residual)``),
         so that ``exp`` of the fit is the mean ratio, not the median.
     fit : _Fit or None
         The design, response and weights it was fitted to, and its AICc.
     rivals : tuple of MuModel
-        The other candidates fitted to the same windows: each bootstrap replicate chooses
-        among them again (the choice's own uncertainty in the intervals).
+        The other candidates fitted to the same windows (each replicate chooses again).
     """
 
     degree: int
@@ -178,7 +168,7 @@ class MuModel:
         """The model's columns for *facts* (constant, time polynomial, direction, rate)."""
         cols = [np.ones(len(facts))]
         if self.degree > 0:
-            cols += list(_time_basis(facts.t_s, self.t_lo, self.t_hi, self.degree).T)
+            cols += list(time_basis(facts.t_s, self.t_lo, self.t_hi, self.degree).T)
         if self.direction:
             cols.append(facts.direction.astype(np.float64))
         return np.column_stack(cols)
@@ -251,9 +241,22 @@ class MuModel:
         return " + ".join(terms) or "constant"
 
 
-def _time_basis(t: FloatArray, lo: float, hi: float, degree: int) -> FloatArray:
+def time_basis(t: FloatArray, lo: float, hi: float, degree: int) -> FloatArray:
     """Legendre polynomials 1..degree of *t* scaled from [lo, hi] to [-1, 1], continued as
-    straight lines (value and slope at the end) beyond it; columns per degree."""
+    straight lines (value and slope at the end) beyond it.
+
+    Parameters
+    ----------
+    t : ndarray of float, s
+    lo, hi : float, s
+        The span scaled to [-1, 1].
+    degree : int
+
+    Returns
+    -------
+    ndarray, shape (t.size, degree)
+        One column per degree (NaN times give 0).
+    """
     half = 0.5 * (hi - lo) if hi > lo else 1.0
     x = (np.asarray(t, dtype=np.float64) - 0.5 * (hi + lo)) / half
     x = np.where(np.isfinite(x), x, 0.0)
@@ -448,9 +451,7 @@ def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
     if not (np.all(fn > 0) and np.all(ft > 0)):
         return flat
     shape = _Shape.of(facts, rate_slope)
-    labels = np.unique(group)
-    ons = np.concatenate([np.zeros((fn_off.size, labels.size)),
-                          (group[:, None] == labels[None, :]).astype(np.float64)])
+    ons = _on_terms(fn_off.size, fn_on, group)
     y = np.log(ft / fn) - shape.rate_slope * _centred(facts.rate, shape.rate_mean)
     candidates = []
     for degree, direction in product(*_offers(facts, True)):
@@ -466,70 +467,32 @@ def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
     return best
 
 
-def pooled_rate_slope(parts: Sequence[tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts,
-                                            npt.ArrayLike]]) -> tuple[float, float]:
-    """A subject's friction's dependence on its strokes' rate, from all its trials.
-
-    Within each trial, ``log(F_t / F_n)`` and the windows' log stroke rate are freed of the
-    trial's own level, each ON group's, the direction's and a trend in time
-    (weighted least squares, weights ``F_n``); the slope of the one on the other, pooled
-    over the trials, is the relative change of the friction coefficient per unit of log
-    stroke rate (the finger's speed exponent, as far as the stroke rate follows the speed).
-
-    Parameters
-    ----------
-    parts : sequence of (normal_N, friction_N, facts, group)
-        Windows (OFF and ON), their facts (``stratum`` tells the trials) and their groups
-        (NaN for OFF windows).
-
-    Returns
-    -------
-    slope, se : float
-        The slope and its standard error (NaN when the trials cannot tell it).
-    """
-    sxx = sxy = syy = 0.0
-    dof = 0
-    for fn_a, ft_a, facts, group_a in parts:
-        fn, ft = np.asarray(fn_a, dtype=np.float64), np.asarray(ft_a, dtype=np.float64)
-        group = np.asarray(group_a, dtype=np.float64)
-        for s in np.unique(facts.stratum):
-            sel = (facts.stratum == s) & (fn > 0) & (ft > 0) & np.isfinite(facts.rate)
-            if sel.sum() < 8:
-                continue
-            part = facts.take(sel)
-            Z = _nuisance(part, group[sel])
-            if sel.sum() <= Z.shape[1] + 2:
-                continue
-            sw = np.sqrt(fn[sel])
-            q, _ = np.linalg.qr(Z * sw[:, None])
-            x = part.rate * sw
-            y = np.log(ft[sel] / fn[sel]) * sw
-            rx, ry = x - q @ (q.T @ x), y - q @ (q.T @ y)
-            sxx, sxy, syy = sxx + rx @ rx, sxy + rx @ ry, syy + ry @ ry
-            dof += int(sel.sum()) - Z.shape[1] - 1
-    if not (sxx > 0 and dof > 0):
-        return float("nan"), float("nan")
-    slope = sxy / sxx
-    return float(slope), float(np.sqrt(max(syy - slope * sxy, 0.0) / dof / sxx))
-
-
-def _nuisance(facts: WindowFacts, group: FloatArray) -> FloatArray:
-    """The within-trial terms the stroke rate is freed of: level, ON groups, direction and
-    a trend in time (of the degree the trial's models may take)."""
-    cols = [np.ones(len(facts))]
-    for g in np.unique(group[np.isfinite(group)]):
-        cols.append((group == g).astype(np.float64))
-    if np.ptp(facts.direction) > 0:
-        cols.append(facts.direction.astype(np.float64))
-    t = facts.t_s
-    if np.isfinite(t).all() and np.ptp(t) > 0:
-        degree = min(MAX_DEGREE, int(np.ptp(t) // SPAN_PER_DEGREE_S))
-        if degree:
-            cols += list(_time_basis(t, float(t.min()), float(t.max()), degree).T)
-    return np.column_stack(cols)
+def _on_terms(n_off: int, fn_on: FloatArray, group: npt.NDArray[Any]) -> FloatArray:
+    """The ON groups' columns of a trial's joint model: each group's level and, with 4
+    windows or more, its change with the window's log normal force (the voltage's factor
+    ``1 + F_el/F_n`` is smaller where the finger presses harder, ``F_el`` growing as the
+    contact area does, slower than the load), so that a person's wandering force is not
+    taken for a trend of the friction."""
+    cols = []
+    for g in np.unique(group):
+        member = (group == g).astype(np.float64)
+        cols.append(member)
+        if member.sum() >= 4:
+            log_fn = np.log(fn_on)
+            cols.append(member * (log_fn - log_fn[member > 0].mean()))
+    return np.concatenate([np.zeros((n_off, len(cols))), np.column_stack(cols)])
 
 
 def stack_facts(parts: Sequence[WindowFacts]) -> WindowFacts:
-    """Several sets of window facts as one, in order."""
+    """Several sets of window facts as one, in order.
+
+    Parameters
+    ----------
+    parts : sequence of WindowFacts
+
+    Returns
+    -------
+    WindowFacts
+    """
     return WindowFacts(*(np.concatenate([getattr(p, f) for p in parts])
                          for f in ("t_s", "direction", "rate", "cluster", "stratum")))

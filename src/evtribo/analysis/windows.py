@@ -170,11 +170,9 @@ def find_windows(
     pandas.DataFrame
         One row per window, columns :data:`WINDOW_COLUMNS`: grid indices ``i_start`` and
         ``i_stop`` (exclusive), ``t_start`` and ``t_end`` (s, grid clock), ``condition``
-        (``"on"``/``"off"``), ``direction`` (sign of the friction), ``stroke`` (the number of
-        the stroke it lies in, counted from the grid's start: windows of one stroke share
-        its speed) and ``stroke_s`` (that stroke's duration, s, from one reversal to the
-        next, whatever the condition), and the mean normal force and mean friction magnitude
-        (N).
+        (``"on"``/``"off"``), ``direction`` (sign of the friction), ``stroke`` (its stroke's
+        number from the grid's start) and ``stroke_s`` (that stroke's duration between
+        reversals, s), and the mean normal force and mean friction magnitude (N).
     """
     t = np.asarray(t, dtype=np.float64)
     cond = np.asarray(condition).astype(np.int64)
@@ -196,24 +194,23 @@ def find_windows(
                                       contact_fraction=contact_fraction)]
     if not rows:
         return _empty()
-    table = pd.DataFrame.from_records(rows, columns=list(WINDOW_COLUMNS))
-    number, seconds = _strokes(direction, grid.dt)
-    first = table.i_start.to_numpy(np.int64)
-    table["stroke"], table["stroke_s"] = number[first], seconds[first]
+    table = _with_strokes(pd.DataFrame.from_records(rows, columns=list(WINDOW_COLUMNS)),
+                          direction, grid.dt)
     return with_means(table, grid.normal, grid.tangential)
 
 
-def _strokes(sign: npt.NDArray[np.int64], dt: float
-             ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.float64]]:
-    """Each grid point's stroke (the runs of one sliding direction, numbered from 0; -1
-    outside them) and that stroke's duration, s."""
+def _with_strokes(table: pd.DataFrame, sign: npt.NDArray[np.int64], dt: float
+                  ) -> pd.DataFrame:
+    """*table* with each window's stroke (the runs of one sliding direction of *sign*,
+    numbered from 0) and that stroke's duration, s."""
     number = np.full(sign.size, -1, dtype=np.int64)
     seconds = np.full(sign.size, np.nan)
     runs = [(a, b) for a, b, v in _runs(sign) if v != 0]
     for k, (a, b) in enumerate(runs):
         number[a:b] = k
         seconds[a:b] = (b - a) * dt
-    return number, seconds
+    first = table.i_start.to_numpy(np.int64)
+    return table.assign(stroke=number[first], stroke_s=seconds[first])
 
 
 def _empty() -> pd.DataFrame:

@@ -21,7 +21,7 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from evtribo.cli._startup import one_blas_thread, quick_exit
+from evtribo.cli._startup import one_blas_thread
 from evtribo.errors import EvtriboError
 
 #: Subcommands in the order ``evtribo --help`` lists them, with a line of help each.
@@ -40,6 +40,7 @@ SUBCOMMANDS: dict[str, str] = {
     "compare": "fit the model to the results of analyze; figures",
     "report": "one self-contained HTML report of a study's results",
     "demo": "simulate, record, analyse, compare and report a small study",
+    "cite": "how to cite evtribo and the model it implements (text, BibTeX)",
 }
 
 log = logging.getLogger(__name__)
@@ -97,6 +98,8 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="evtribo",
         description="Tribometer experiments on electrovibration: acquire, analyse, compare.",
+        epilog="Publishing results evtribo computed? `evtribo cite` says how to cite evtribo "
+               "and the model it implements (`evtribo cite --bibtex` for BibTeX).",
     )
     parser.add_argument("--version", action=_Version)
     _add_common(parser)
@@ -191,4 +194,4 @@ def _main(argv: Sequence[str] | None) -> int:
 
 def entry() -> None:  # pragma: no cover - console script
     one_blas_thread()  # before numpy is imported
-    quick_exit(main())
+    sys.exit(main())

@@ -246,7 +246,7 @@ class TrialConfig:
     press_only : bool
         A calibration recording: after the tare stretch the finger presses without
         sliding, its force swelling from 40 % to 160 % of the target and back every
-        :data:`~evtribo.acquisition.simulator.physics.PRESS_PERIOD_S` seconds.
+        :data:`~evtribo.acquisition.simulator.finger.PRESS_PERIOD_S` seconds.
     outage_s : float, s
         Mean length of an outage (each drawn from half to one and a half times this).
     crosstalk : ((float, float), (float, float))

@@ -29,7 +29,7 @@ from evtribo.acquisition.simulator.cells import Creep
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.delivery import Delivery
 from evtribo.acquisition.simulator.encode import pack_signals
-from evtribo.acquisition.simulator.finger import FrictionLaw, contact_time
+from evtribo.acquisition.simulator.finger import FrictionLaw, contact_time, press_cycle
 from evtribo.acquisition.simulator.physics import (
     CONTACT_RAMP_S,
     FORCE_STEP_S,
@@ -43,7 +43,6 @@ from evtribo.acquisition.simulator.physics import (
     measured,
     model_parameters,
     on_off_schedule,
-    press_cycle,
 )
 from evtribo.acquisition.simulator.truth import FEL_BIN_S, TrialTruth
 from evtribo.errors import RigConfigError

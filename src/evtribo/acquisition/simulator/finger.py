@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["FrictionLaw", "contact_time"]
+__all__ = ["PRESS_PERIOD_S", "FrictionLaw", "contact_time", "press_cycle"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -130,3 +130,23 @@ class FrictionLaw:
         if self.asymmetry:
             out = out * (1.0 + self.asymmetry * np.asarray(direction, dtype=np.float64))
         return np.asarray(out, dtype=np.float64)
+
+
+#: Period of the press-and-release cycle of a calibration recording (``press_only``), s.
+PRESS_PERIOD_S = 4.0
+
+
+def press_cycle(t: FloatArray) -> FloatArray:
+    """The factor on the target force of a finger pressing without sliding: 0.4 to 1.6 and
+    back every :data:`PRESS_PERIOD_S`.
+
+    Parameters
+    ----------
+    t : ndarray of float, s
+        Times from the trial's start.
+
+    Returns
+    -------
+    ndarray of float
+    """
+    return 1.0 - 0.6 * np.cos(2 * np.pi * np.asarray(t, dtype=np.float64) / PRESS_PERIOD_S)

@@ -36,7 +36,6 @@ from evtribo.model import (
 
 __all__ = [
     "CONTACT_RAMP_S",
-    "PRESS_PERIOD_S",
     "CellZero",
     "Contact",
     "NormalForceProcess",
@@ -47,7 +46,6 @@ __all__ = [
     "measured",
     "model_parameters",
     "on_off_schedule",
-    "press_cycle",
     "voltage",
 ]
 
@@ -64,16 +62,6 @@ CONTACT_RAMP_S = 0.08
 MIN_CONTACT_S = 1.0
 #: Largest magnitude of the friction force's rest level during a dwell (fraction of sliding).
 DWELL_LEVEL = 0.15
-#: Period of the press-and-release cycle of a calibration recording (``press_only``), s.
-PRESS_PERIOD_S = 4.0
-
-
-def press_cycle(t: FloatArray) -> FloatArray:
-    """The factor on the target force of a finger pressing without sliding: 0.4 to 1.6 and
-    back every :data:`PRESS_PERIOD_S`."""
-    return 1.0 - 0.6 * np.cos(2 * np.pi * np.asarray(t, dtype=np.float64) / PRESS_PERIOD_S)
-
-
 def model_parameters(subject: SubjectParams) -> ModelParameters:
     """The seed paper's Table 1 with the subject's friction coefficient, air gap and other
     model parameters (``SubjectParams.model``: e.g. the resistances ``r_sc``, ``r_g``).
