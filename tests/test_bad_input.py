@@ -312,6 +312,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "acquire-rig-not-toml": _text(Path("rig.toml"), "dbc = default.dbc\n"),
     "acquire-trial-exists": lambda t: None,
     "acquire-bus-option": lambda t: None,
+    "acquire-receive-buffer": lambda t: None,
     "acquire-duration-inf": lambda t: None,
     "acquire-amplitude-inf": lambda t: None,
     "acquire-band-nan": lambda t: None,
