@@ -29,7 +29,7 @@ Maker = Callable[[np.random.Generator, int], tuple[ResultTables, Truth]]
 
 #: The kinds of population checked: name -> maker.
 KINDS: dict[str, Maker] = {
-    "power law, exponents spread 0.1": lambda rng, k: hierarchical_tables(rng, k),
+    "power law, exponents spread 0.1": hierarchical_tables,
     "power law, exponents spread 0.3": lambda rng, k: hierarchical_tables(
         rng, k, sd_exponent=0.3),
     "power law, one exponent": lambda rng, k: hierarchical_tables(
@@ -38,7 +38,7 @@ KINDS: dict[str, Maker] = {
         rng, k, lab=Lab(on_rel=(0.05, 0.15), mu_rel=(0.01, 0.03))),
     "power law, amplitudes missing": lambda rng, k: hierarchical_tables(
         rng, k, drop=lambda i, a: (i % 3 == 1 and a > 110) or (i % 4 == 2 and a == 60)),
-    "the paper's model (eq. 11)": lambda rng, k: physics_tables(rng, k),
+    "the paper's model (eq. 11)": physics_tables,
 }
 
 

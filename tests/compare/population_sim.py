@@ -53,9 +53,11 @@ class Lab:
     n_replicates: int = 60
 
 
-def _measure(rng: np.random.Generator, name: str, force: np.ndarray, fn: float, mu: float,
-             amps: Sequence[float], lab: Lab
-             ) -> tuple[list[dict[str, object]], list[dict[str, object]], list[dict[str, object]]]:
+Rows = list[dict[str, object]]
+
+
+def _measure(rng: np.random.Generator, name: str, force: np.ndarray, *, fn: float,
+             mu: float, amps: Sequence[float], lab: Lab) -> tuple[Rows, Rows, Rows]:
     """One subject's rows of electrostatic.csv, of the bootstrap table and OFF windows."""
     s_on = rng.uniform(*lab.on_rel) * np.sqrt(force[-1] / force)
     s_mu = rng.uniform(*lab.mu_rel)
@@ -82,8 +84,7 @@ def _measure(rng: np.random.Generator, name: str, force: np.ndarray, fn: float, 
     return es, boot, win
 
 
-def _tables(es: list[dict[str, object]], boot: list[dict[str, object]],
-            win: list[dict[str, object]]) -> ResultTables:
+def _tables(es: Rows, boot: Rows, win: Rows) -> ResultTables:
     return ResultTables(out=Path("."), electrostatic=pd.DataFrame(es),
                         windows=pd.DataFrame(win), exponents=pd.DataFrame(),
                         trials=pd.DataFrame(columns=["subject", "trial"]),
@@ -111,7 +112,7 @@ def hierarchical_tables(rng: np.random.Generator, k: int, *, log_f100: float = m
         force = np.exp(a_i + n_i * np.log(np.asarray(mine) / U_REF))
         fn, mu = float(rng.lognormal(math.log(0.5), 0.3)), float(rng.normal(0.5, 0.08))
         truth.subjects[name] = {"log_f100": float(a_i), "exponent": float(n_i)}
-        parts = _measure(rng, name, force, fn, mu, mine, lab)
+        parts = _measure(rng, name, force, fn=fn, mu=mu, amps=mine, lab=lab)
         es += parts[0]
         boot += parts[1]
         win += parts[2]
@@ -154,7 +155,8 @@ def physics_tables(rng: np.random.Generator, k: int, *, h_l: float = 5e-6,
         fn_i = fn * math.exp(sd_log_fn * rng.standard_normal())
         mu = float(rng.normal(0.5, 0.08))
         truth.subjects[name] = {"h_L": h_i, "normal_force_N": fn_i}
-        parts = _measure(rng, name, _physics_force(h_i, fn_i, amps), fn_i, mu, amps, lab)
+        parts = _measure(rng, name, _physics_force(h_i, fn_i, amps), fn=fn_i, mu=mu,
+                         amps=amps, lab=lab)
         es += parts[0]
         boot += parts[1]
         win += parts[2]
