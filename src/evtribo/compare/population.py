@@ -170,7 +170,9 @@ def _power_law(rows: Collector, subjects: Sequence[SubjectData], condition: Cond
     cells = [c for c in (s.condition(condition) for s in subjects)
              if np.unique(c.log_u).size >= 2]
     if len(cells) < MIN_SUBJECTS:
-        rows.notes.append(f"{label}: {len(cells)} subject(s) with two amplitudes or more; "
+        amps = {float(u) for s in subjects for u in s.condition(condition).log_u}
+        rows.notes.append(f"{label}: one amplitude only, no power law" if len(amps) < 2 else
+                          f"{label}: {len(cells)} subject(s) with two amplitudes or more; "
                           f"a population power law needs at least {MIN_SUBJECTS}")
         return
     centre = float(np.mean(np.concatenate([c.log_u for c in cells])))
