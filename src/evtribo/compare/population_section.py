@@ -26,7 +26,6 @@ from evtribo.compare.numbers import frequency, quantity, significant, voltage, w
 from evtribo.compare.population_data import (
     CONTRAST_COLUMNS,
     POPULATION_COLUMNS,
-    condition_label,
 )
 from evtribo.compare.population_stats import MIN_SUBJECTS
 from evtribo.compare.report import Report
@@ -38,6 +37,8 @@ __all__ = ["SECTION", "add_population", "exponent_verdict", "population_headline
 
 #: The section's title.
 SECTION = "Population"
+#: "times or divided by", before a factor of spread.
+_TIMES = "\u00d7/\u00f7"
 #: The seed paper's limits of the exponent (eqs. 13 and 12).
 LIMITS = ((Fraction(2), "the square law of a contact set by the normal force (eq. 13)"),
           (Fraction(10, 3), "the limit of a contact set by the voltage (eq. 12)"))
@@ -60,7 +61,7 @@ def read_population(folder: Path) -> tuple[pd.DataFrame | None, pd.DataFrame | N
     ResultFolderError
         A file that cannot be read or lacks a column.
     """
-    out = []
+    out: list[pd.DataFrame | None] = []
     for name, columns in ((POPULATION_CSV, POPULATION_COLUMNS),
                           (POPULATION_CONTRASTS_CSV, CONTRAST_COLUMNS)):
         path = folder / name
@@ -125,7 +126,7 @@ def population_headline(table: pd.DataFrame) -> Headline:
                 1e3 * float(hit["estimate"].iloc[0]), 1e3 * float(hit["ci_low"].iloc[0]),
                 1e3 * float(hit["ci_high"].iloc[0]))
         sd = mine["between_subject_sd"].astype(float)
-        row["spread between subjects"] = (f"×/÷ {significant(math.exp(sd.median()))}"
+        row["spread between subjects"] = (f"{_TIMES} {significant(math.exp(sd.median()))}"
                                           if len(sd) else "—")
         n = mine["n_subjects"].astype(int)
         row["subjects"] = (str(n.min()) if n.min() == n.max() else f"{n.min()}-{n.max()}") \
@@ -187,7 +188,7 @@ def _quantities(table: pd.DataFrame) -> pd.DataFrame:
         rows.append({"quantity": label,
                      "condition": f"{wave} {frequency(r['frequency_Hz'])}" if wave else "all",
                      "population [95 %]": value,
-                     "spread between subjects": (f"×/÷ {significant(math.exp(sd))}"
+                     "spread between subjects": (f"{_TIMES} {significant(math.exp(sd))}"
                                                  if log_normal else f"SD {significant(sd)}"),
                      "subjects": str(int(r["n_subjects"])), "method": str(r["method"])})
     return pd.DataFrame(rows, columns=["quantity", "condition", "population [95 %]",
