@@ -4,8 +4,9 @@ the provenance, in one page.
 Reads a result folder (``evtribo analyze``'s tables and ``summary.json``, ``evtribo
 compare``'s ``fit.csv``, ``fit.json``, ``figures/``, ``population.csv`` and
 ``population_contrasts.csv`` and, when it compared models, ``models.csv``) and, when
-``summary.json`` names a study folder that still exists, the trials' sidecars there (for their notes) and the inputs ``summary.json`` records (hashed
-again, :mod:`evtribo.compare.study_files`). The page's sections and their order are
+``summary.json`` names a study folder that still exists, the trials' sidecars there (for
+their notes) and the inputs ``summary.json`` records (hashed again,
+:mod:`evtribo.compare.study_files`). The page's sections and their order are
 :mod:`evtribo.compare.report_sections`'; with ``tables=("md", "tex")`` the headline tables
 are also written as Markdown and LaTeX into ``tables/`` beside the page
 (:mod:`evtribo.compare.table_export`).
