@@ -120,8 +120,8 @@ class Population:
         return {"n_subjects": self.n_subjects, "min_subjects": MIN_SUBJECTS,
                 "notes": list(self.notes),
                 "outliers": [{"subject": o.subject, "quantity": o.quantity,
-                              "value": o.value, "low": o.low, "high": o.high}
-                             for o in self.outliers]}
+                              "value": o.value, "low": o.low, "high": o.high,
+                              "unit": o.unit} for o in self.outliers]}
 
 
 def _forces(rows: Collector, subjects: Sequence[SubjectData], condition: Condition) -> None:

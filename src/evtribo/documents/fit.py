@@ -6,7 +6,7 @@ fitted, from its ``summary.json``), ``software``, ``fit`` (the parameters fitted
 (per subject: ``parameters``, ``estimates``, ``correlation``, ``rmse_N``, ``r2``,
 ``chi2_reduced``, ``n_points``, ``mu_measured``, ``interval``), ``figures``, ``notes``,
 ``population`` (``n_subjects``, ``min_subjects``, ``notes``: what could not be estimated and
-why, ``outliers``: each ``{"subject", "quantity", "value", "low", "high"}``) and
+why, ``outliers``: each ``{"subject", "quantity", "value", "low", "high", "unit"}``) and
 ``output_sha256`` (every file compare wrote, which ``evtribo report`` checks). The document
 is JSON with two-space indentation and a final newline; non-finite numbers are written as
 null. It carries no version key of its own: :data:`FIT_VERSION` is the version of the shape
