@@ -21,9 +21,13 @@ replicates (``electrostatic_bootstrap.csv``) when the folder has them, each cell
 from its interval. A cell whose force is not positive has no logarithm and is left out
 (named in the notes). A subject with one amplitude in a condition contributes to that
 amplitude's estimate only. Every estimate needs at least three subjects; with fewer, there
-is no row and the notes say why. A subject outside the prediction interval of the others
-is named an outlier and left out of that estimate (:func:`~evtribo.compare.
-population_stats.find_outliers`).
+is no row and the notes say why.
+
+Outliers (:func:`~evtribo.compare.population_stats.find_outliers`): in each condition, a
+subject whose own power law (its force at the centre of the log amplitudes, or its
+exponent; subjects with two amplitudes or more, five subjects or more) lies outside the
+prediction interval of the other subjects' is named and left out of that condition's
+estimates and of the contrasts with it; mu and h_L are checked each on its own.
 """
 
 from __future__ import annotations
@@ -86,6 +90,8 @@ class Population:
     subject_lines : dict
         Per condition with a power law: each subject's own ``(log F at the fit's centre,
         exponent)`` (weighted by its cells' covariance), outliers included.
+    left_out : dict
+        Per condition, the subjects left out of its estimates as outliers.
     """
 
     table: pd.DataFrame
@@ -96,6 +102,7 @@ class Population:
     lines: dict[Condition, PowerLawFit] = field(default_factory=dict)
     subject_lines: dict[Condition, dict[str, tuple[float, float]]] = field(
         default_factory=dict)
+    left_out: dict[Condition, set[str]] = field(default_factory=dict)
 
     def files(self) -> dict[str, str]:
         """The text of population.csv and population_contrasts.csv, by name; none with
@@ -124,8 +131,9 @@ class Population:
                               "unit": o.unit} for o in self.outliers]}
 
 
-def _forces(rows: Collector, subjects: Sequence[SubjectData], condition: Condition) -> None:
-    """The geometric-mean force at each amplitude of *condition*."""
+def _forces(rows: Collector, subjects: Sequence[SubjectData], condition: Condition,
+            outliers: set[str]) -> None:
+    """The geometric-mean force at each amplitude of *condition*, without *outliers*."""
     label = condition_label(*condition)
     amps = sorted({float(a) for s in subjects for a in
                    s.cells["amplitude_V"].to_numpy(float)[s.select(condition)]})
@@ -139,7 +147,7 @@ def _forces(rows: Collector, subjects: Sequence[SubjectData], condition: Conditi
                 y.append(float(s.cells["log_f"].iloc[hit[0]]))
                 v.append(float(s.cov[hit[0], hit[0]]))
         got = rows.pooled(f"F_el at {amp:g} V, {label}", names, np.array(y), np.array(v),
-                          "N")
+                          "N", exclude=outliers)
         if got is not None:
             p, gone = got
             rows.add("electrostatic_force_N", condition, amp,
@@ -148,10 +156,25 @@ def _forces(rows: Collector, subjects: Sequence[SubjectData], condition: Conditi
                      method=f"{POOL_METHOD}, of log F_el", left_out=gone)
 
 
-def _own_outliers(rows: Collector, cells: Sequence[SubjectCells], label: str,
-                  log_u0: float) -> set[str]:
-    """Subjects whose own power law (log F at the centre, or exponent) lies outside the
-    others' prediction interval."""
+def _cells(subjects: Sequence[SubjectData], condition: Condition) -> list[SubjectCells]:
+    """The subjects' cells of *condition*, of those with two amplitudes or more."""
+    return [c for c in (s.condition(condition) for s in subjects)
+            if np.unique(c.log_u).size >= 2]
+
+
+def _centre(cells: Sequence[SubjectCells]) -> float:
+    return float(np.mean(np.concatenate([c.log_u for c in cells])))
+
+
+def _outliers(rows: Collector, subjects: Sequence[SubjectData], condition: Condition
+              ) -> set[str]:
+    """Subjects whose own power law in *condition* (its force at the centre of the log
+    amplitudes, or its exponent) lies outside the others' prediction interval: left out of
+    the condition's estimates."""
+    cells = _cells(subjects, condition)
+    if not cells:
+        return set()
+    log_u0, label = _centre(cells), condition_label(*condition)
     fits = [c.own_fit(log_u0) for c in cells]
     names = [c.subject for c in cells]
     gone: set[str] = set()
@@ -164,19 +187,17 @@ def _own_outliers(rows: Collector, cells: Sequence[SubjectCells], label: str,
     return gone
 
 
-def _power_law(rows: Collector, subjects: Sequence[SubjectData], condition: Condition) -> None:
-    """The exponent and prefactor of *condition* from the mixed model."""
+def _power_law(rows: Collector, subjects: Sequence[SubjectData], condition: Condition,
+               gone: set[str]) -> None:
+    """The exponent and prefactor of *condition* from the mixed model, without *gone*."""
     label = condition_label(*condition)
-    cells = [c for c in (s.condition(condition) for s in subjects)
-             if np.unique(c.log_u).size >= 2]
+    cells = _cells(subjects, condition)
     if len(cells) < MIN_SUBJECTS:
         amps = {float(u) for s in subjects for u in s.condition(condition).log_u}
         rows.notes.append(f"{label}: one amplitude only, no power law" if len(amps) < 2 else
                           f"{label}: {len(cells)} subject(s) with two amplitudes or more; "
                           f"a population power law needs at least {MIN_SUBJECTS}")
         return
-    centre = float(np.mean(np.concatenate([c.log_u for c in cells])))
-    gone = _own_outliers(rows, cells, label, centre)
     kept = [c for c in cells if c.subject not in gone]
     if len(kept) < MIN_SUBJECTS:
         rows.notes.append(f"{label}: {len(kept)} subject(s) left after the outliers; a "
@@ -191,7 +212,7 @@ def _power_law(rows: Collector, subjects: Sequence[SubjectData], condition: Cond
     rows.lines[condition] = fit
     rows.subject_lines[condition] = {c.subject: (float(b[0]), float(b[1])) for c in cells
                                      for b in (c.own_fit(fit.log_u0)[0],)}
-    left = sorted(gone)
+    left = sorted(gone & {c.subject for c in cells})
     n_hat = fit.estimate([0.0, 1.0])
     rows.add("exponent", condition, math.nan, (n_hat.value, *n_hat.interval()),
              between_sd=float(fit.between_sd[1]), n=len(kept), method=fit.method,
@@ -285,8 +306,9 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = ()) -> Populat
                           len(subjects), rows.notes)
     conditions = conditions_of(subjects)
     for condition in conditions:
-        _forces(rows, subjects, condition)
-        _power_law(rows, subjects, condition)
+        outliers = rows.left_out[condition] = _outliers(rows, subjects, condition)
+        _forces(rows, subjects, condition, outliers)
+        _power_law(rows, subjects, condition, outliers)
     _mu(rows, tables, [s.name for s in subjects])
     _air_gap(rows, fits)
     for a, b in combinations(conditions, 2):
@@ -294,7 +316,7 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = ()) -> Populat
     return Population(_frame(rows.rows, POPULATION_COLUMNS),
                       _frame(rows.contrasts, CONTRAST_COLUMNS), len(subjects),
                       list(dict.fromkeys(rows.notes)), rows.outliers, rows.lines,
-                      rows.subject_lines)
+                      rows.subject_lines, {c: s for c, s in rows.left_out.items() if s})
 
 
 def _frame(rows: list[dict[str, Any]], columns: Sequence[str]) -> pd.DataFrame:

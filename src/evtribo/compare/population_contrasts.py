@@ -70,7 +70,8 @@ def contrast(rows: Collector, subjects: Sequence[SubjectData], a: Condition, b: 
         if not names:
             continue
         what = ("F_el ratio" if exp else "exponent difference") + f", {lb} to {la}"
-        got = rows.pooled(what, names, np.array(y), np.array(v))
+        got = rows.pooled(what, names, np.array(y), np.array(v),
+                          exclude=rows.left_out.get(a, set()) | rows.left_out.get(b, set()))
         if got is None:
             continue
         p = got[0]

@@ -12,7 +12,7 @@ logarithm is left out, and named in the notes.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -190,6 +190,7 @@ class Collector:
         self.outliers: list[PopulationOutlier] = []
         self.lines: dict[Condition, PowerLawFit] = {}
         self.subject_lines: dict[Condition, dict[str, tuple[float, float]]] = {}
+        self.left_out: dict[Condition, set[str]] = {}
 
     def flag(self, what: str, found: Sequence[Outlier], unit: str | None) -> None:
         """Record outliers; *unit*: their values are logs of a quantity in that unit."""
@@ -198,19 +199,22 @@ class Collector:
                                             f(o.high), unit or "") for o in found]
 
     def pooled(self, what: str, subjects: Sequence[str], values: NDArray[np.float64],
-               variances: NDArray[np.float64], unit: str | None = None
-               ) -> tuple[Any, list[str]] | None:
+               variances: NDArray[np.float64], unit: str | None = None, *,
+               exclude: Collection[str] | None = None) -> tuple[Any, list[str]] | None:
         """Pool the subjects' values, leaving out outliers; None (and a note) when fewer
-        than three remain. *unit*: the values are logs of a quantity in that unit."""
-        out = find_outliers(values, variances, subjects)
-        self.flag(what, out, unit)
-        gone = {o.subject for o in out}
-        keep = np.array([s not in gone for s in subjects], dtype=bool)
+        than three remain. *unit*: the values are logs of a quantity in that unit.
+        *exclude*: the outliers, found elsewhere (else they are looked for here)."""
+        if exclude is None:
+            found = find_outliers(values, variances, subjects)
+            self.flag(what, found, unit)
+            exclude = {o.subject for o in found}
+        gone = sorted(set(subjects) & set(exclude))
+        keep = np.array([s not in exclude for s in subjects], dtype=bool)
         if keep.sum() < MIN_SUBJECTS:
             self.notes.append(f"{what}: {int(keep.sum())} subject(s) to pool; a population "
                               f"estimate needs at least {MIN_SUBJECTS}")
             return None
-        return pool(values[keep], variances[keep]), sorted(gone)
+        return pool(values[keep], variances[keep]), gone
 
     def add(self, quantity: str, condition: Condition | None, amplitude: float,
             values: tuple[float, float, float], *, between_sd: float, n: int, method: str,

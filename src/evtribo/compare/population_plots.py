@@ -77,7 +77,7 @@ def plot_population(electrostatic: pd.DataFrame, pop: Population, condition: Con
     fit, own = pop.lines[condition], pop.subject_lines.get(condition, {})
     amps = es["amplitude_V"].to_numpy(float)
     grid = np.geomspace(np.nanmin(amps) / 1.1, np.nanmax(amps) * 1.1, 60)
-    out = {o.subject for o in pop.outliers if condition_label(*condition) in o.quantity}
+    out = pop.left_out.get(condition, set())
     handles, hidden = [], 0
     for k, s in enumerate(dict.fromkeys(es["subject"].astype(str))):
         style = series_style(k)
@@ -131,8 +131,7 @@ def _population_points(ax: Axes, table: pd.DataFrame, condition: Condition) -> N
 
 def _caption(pop: Population, condition: Condition) -> str:
     fit = pop.lines[condition]
-    out = sorted({o.subject for o in pop.outliers
-                  if condition_label(*condition) in o.quantity})
+    out = sorted(pop.left_out.get(condition, set()))
     left = (f" Open markers: {', '.join(out)}, left out of the population's estimates as "
             "outlier(s)." if out else "")
     random = "intercepts and exponents" if fit.random_slopes else "intercepts"

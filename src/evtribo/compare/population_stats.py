@@ -81,7 +81,8 @@ def _pm(values: NDArray[np.float64], variances: NDArray[np.float64]) -> tuple[fl
     """The random-effects mean, its Hartung-Knapp variance (ad hoc) and tau^2."""
     from statsmodels.stats.meta_analysis import combine_effects
 
-    res = combine_effects(values, variances, method_re="iterated", use_t=True)
+    with np.errstate(divide="ignore", invalid="ignore"):  # I^2 of subjects that agree
+        res = combine_effects(values, variances, method_re="iterated", use_t=True)
     tau2 = max(float(res.tau2), 0.0)
     var_hk = max(float(res.var_hksj_re), float(res.var_eff_w_re))
     return float(res.mean_effect_re), var_hk, tau2
