@@ -161,3 +161,30 @@ def physics_tables(rng: np.random.Generator, k: int, *, h_l: float = 5e-6,
         boot += parts[1]
         win += parts[2]
     return _tables(es, boot, win), truth
+
+
+def write_result_folder(folder: Path, tables: ResultTables) -> Path:
+    """*tables* as a result folder compare reads: electrostatic.csv, its replicates,
+    windows.csv (the OFF windows, and ON windows at each measured force), trials.csv and
+    a summary.json of an older evtribo (no hashes to check)."""
+    from evtribo.documents.summary import write_summary
+
+    folder.mkdir(parents=True, exist_ok=True)
+    es = tables.electrostatic.copy()
+    on = pd.DataFrame({"subject": es["subject"], "trial": "on", "condition": "on",
+                       "amplitude_V": es["amplitude_V"], "waveform": es["waveform"],
+                       "normal_force_N": es["normal_force_on_N"],
+                       "friction_force_N": es["mu"] * (es["normal_force_on_N"]
+                                                       + es["electrostatic_force_N"])})
+    windows = pd.concat([tables.windows, on], ignore_index=True)
+    windows["t_start_s"], windows["t_end_s"] = 0.0, 1.0
+    es["normal_force_off_N"] = es["normal_force_on_N"]
+    es["n_on"], es["n_off"] = 10, 10
+    es.to_csv(folder / "electrostatic.csv", index=False)
+    tables.bootstrap.to_csv(folder / "electrostatic_bootstrap.csv", index=False)
+    windows.to_csv(folder / "windows.csv", index=False)
+    trials = windows[["subject", "trial"]].drop_duplicates()
+    trials.to_csv(folder / "trials.csv", index=False)
+    write_summary(folder / "summary.json", {"study": "a simulated population",
+                                            "evtribo_version": "0.1.0"})
+    return folder

@@ -22,10 +22,18 @@ import pandas as pd
 from evtribo import __version__
 from evtribo.analysis.outputs import POPULATION_CONTRASTS_CSV, POPULATION_CSV
 from evtribo.compare.headline import Headline
-from evtribo.compare.numbers import frequency, quantity, significant, voltage, with_interval
+from evtribo.compare.numbers import (
+    frequency,
+    quantity,
+    significant,
+    to_float,
+    voltage,
+    with_interval,
+)
 from evtribo.compare.population_data import (
     CONTRAST_COLUMNS,
     POPULATION_COLUMNS,
+    PopulationOutlier,
 )
 from evtribo.compare.population_stats import MIN_SUBJECTS
 from evtribo.compare.report import Report
@@ -208,19 +216,20 @@ def _contrasts_view(contrasts: pd.DataFrame) -> pd.DataFrame:
 
 
 def _outliers(doc: Mapping[str, Any]) -> list[str]:
-    """One line per outlier subject: where it was left out, and one value as an example."""
-    by_subject: dict[str, list[Mapping[str, Any]]] = {}
+    """One line per outlier subject: its values outside the others' prediction intervals."""
+    by_subject: dict[str, list[str]] = {}
     for o in doc.get("outliers") or []:
         if isinstance(o, Mapping):
-            by_subject.setdefault(str(o.get("subject")), []).append(o)
-    lines = []
-    for subject, items in by_subject.items():
-        where = "; ".join(str(o.get("quantity")) for o in items)
-        lines.append(f"{subject} lies far from the other subjects and was left out of: "
-                     f"{where}. Its own results are in the tables above; check its trials "
-                     "(a load cell, the subject's posture, a note) before reading it as a "
-                     "real difference.")
-    return lines
+            found = PopulationOutlier(str(o.get("subject")), str(o.get("quantity")),
+                                      to_float(o.get("value")), to_float(o.get("low")),
+                                      to_float(o.get("high")), str(o.get("unit") or ""))
+            by_subject.setdefault(found.subject, []).append(
+                found.describe().removeprefix(f"{found.subject}: "))
+    return [f"{subject} lies far from the other subjects: {'; '.join(items)}. It was left "
+            "out of those estimates (for a power law's, of all that condition's "
+            "estimates and contrasts); its own results are in the tables above. Check its "
+            "trials (a load cell, the finger's posture, a note) before reading it as a real "
+            "difference." for subject, items in by_subject.items()]
 
 
 def _methods_text(table: pd.DataFrame, doc: Mapping[str, Any]) -> str:
