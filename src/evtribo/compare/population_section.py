@@ -87,6 +87,8 @@ def read_population(folder: Path) -> tuple[pd.DataFrame | None, pd.DataFrame | N
         if missing:
             raise ResultFolderError(f"missing column(s) {', '.join(missing)}; run `evtribo "
                                     f"compare {folder} {FORCE}`", path=path, key=missing[0])
+        if "waveform" in frame.columns:  # "" for mu and h_L, as in memory
+            frame["waveform"] = frame["waveform"].fillna("").astype(str)
         out.append(frame)
     return out[0], out[1]
 
