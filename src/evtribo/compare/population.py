@@ -27,7 +27,9 @@ Outliers (:func:`~evtribo.compare.population_stats.find_outliers`): in each cond
 subject whose own power law (its force at the centre of the log amplitudes, or its
 exponent; subjects with two amplitudes or more, five subjects or more) lies outside the
 prediction interval of the other subjects' is named and left out of that condition's
-estimates and of the contrasts with it; mu and h_L are checked each on its own.
+estimates and of the contrasts with it; mu and h_L are checked each on its own. The
+study's 5 % is shared (Bonferroni) among the quantities checked, so that a study of a
+population without outliers names one about once in twenty.
 """
 
 from __future__ import annotations
@@ -58,7 +60,12 @@ from evtribo.compare.population_data import (
     subject_data,
 )
 from evtribo.compare.population_model import PowerLawFit, SubjectCells, fit_power_law
-from evtribo.compare.population_stats import MIN_SUBJECTS, POOL_METHOD, find_outliers
+from evtribo.compare.population_stats import (
+    MIN_SUBJECTS,
+    OUTLIER_ALPHA,
+    POOL_METHOD,
+    find_outliers,
+)
 from evtribo.compare.tables import ResultTables
 
 log = logging.getLogger(__name__)
@@ -181,7 +188,8 @@ def _outliers(rows: Collector, subjects: Sequence[SubjectData], condition: Condi
     for j, what, unit in ((0, f"F_el of its power law at {math.exp(log_u0):.3g} V, {label}",
                            "N"), (1, f"exponent, {label}", None)):
         found = find_outliers(np.array([b[j] for b, _ in fits]),
-                              np.array([cov[j, j] for _, cov in fits]), names)
+                              np.array([cov[j, j] for _, cov in fits]), names,
+                              alpha=rows.alpha)
         rows.flag(what, found, unit)
         gone |= {o.subject for o in found}
     return gone
@@ -305,6 +313,11 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = ()) -> Populat
         return Population(_frame([], POPULATION_COLUMNS), _frame([], CONTRAST_COLUMNS),
                           len(subjects), rows.notes)
     conditions = conditions_of(subjects)
+    # the study's 5 %, shared by the quantities checked: each condition's level and
+    # exponent, mu, and h_L when it was fitted
+    checked = 2 * len(conditions) + 1 + any("h_L" in (e.name for e in f.estimates)
+                                            for f in fits)
+    rows.alpha = OUTLIER_ALPHA / checked
     for condition in conditions:
         outliers = rows.left_out[condition] = _outliers(rows, subjects, condition)
         _forces(rows, subjects, condition, outliers)

@@ -23,7 +23,13 @@ from scipy import stats
 
 from evtribo.compare.numbers import quantity
 from evtribo.compare.population_model import PowerLawFit, SubjectCells
-from evtribo.compare.population_stats import MIN_SUBJECTS, Outlier, find_outliers, pool
+from evtribo.compare.population_stats import (
+    MIN_SUBJECTS,
+    OUTLIER_ALPHA,
+    Outlier,
+    find_outliers,
+    pool,
+)
 from evtribo.compare.tables import ResultTables, replicate_matrix
 
 __all__ = ["CONTRAST_COLUMNS", "POPULATION_COLUMNS", "Collector", "Condition",
@@ -130,7 +136,22 @@ def _log_se(f: NDArray[np.float64], lo: NDArray[np.float64],
 
 
 def subject_data(tables: ResultTables, subject: str, notes: list[str]) -> SubjectData | None:
-    """A subject's usable cells and their covariance (correlation from its replicates)."""
+    """A subject's usable cells and their covariance (correlation from its replicates).
+
+    Parameters
+    ----------
+    tables : ResultTables
+        The result folder's tables (electrostatic.csv, and its replicates when present).
+    subject : str
+        Whose cells.
+    notes : list of str
+        Where a cell left out (no logarithm, no interval) is named.
+
+    Returns
+    -------
+    SubjectData or None
+        None when no cell of the subject is usable.
+    """
     es = tables.electrostatic
     rows = es[es["subject"].astype(str) == subject].reset_index(drop=True)
     if "frequency_Hz" not in rows.columns:
@@ -168,7 +189,17 @@ def subject_data(tables: ResultTables, subject: str, notes: list[str]) -> Subjec
 
 
 def conditions_of(subjects: Sequence[SubjectData]) -> list[Condition]:
-    """Every (waveform, frequency) of the subjects' cells, square first."""
+    """Every (waveform, frequency) of the subjects' cells, square first.
+
+    Parameters
+    ----------
+    subjects : sequence of SubjectData
+
+    Returns
+    -------
+    list of (str, float)
+        Each condition once (frequencies compared as numbers; NaN: no frequency).
+    """
     found = {(str(w), float(f)) for s in subjects
              for w, f in zip(s.cells["waveform"], s.cells["frequency_Hz"], strict=True)}
     unique: list[Condition] = []
@@ -191,6 +222,8 @@ class Collector:
         self.lines: dict[Condition, PowerLawFit] = {}
         self.subject_lines: dict[Condition, dict[str, tuple[float, float]]] = {}
         self.left_out: dict[Condition, set[str]] = {}
+        #: The level of each quantity's outlier test (the study's, shared among them).
+        self.alpha = OUTLIER_ALPHA
 
     def flag(self, what: str, found: Sequence[Outlier], unit: str | None) -> None:
         """Record outliers; *unit*: their values are logs of a quantity in that unit."""
@@ -205,7 +238,7 @@ class Collector:
         than three remain. *unit*: the values are logs of a quantity in that unit.
         *exclude*: the outliers, found elsewhere (else they are looked for here)."""
         if exclude is None:
-            found = find_outliers(values, variances, subjects)
+            found = find_outliers(values, variances, subjects, alpha=self.alpha)
             self.flag(what, found, unit)
             exclude = {o.subject for o in found}
         gone = sorted(set(subjects) & set(exclude))

@@ -16,8 +16,10 @@ the between-subject variance estimated:
 :func:`find_outliers`
     A subject whose value lies outside the prediction interval of the others (Higgins,
     Thompson and Spiegelhalter 2009: Student's t with k - 3 degrees of freedom for k - 1
-    other subjects), at a level Bonferroni-corrected for the k subjects tested (5 % for the
-    study), is named an outlier.
+    other subjects), at a level Bonferroni-corrected for the k subjects tested, is named an
+    outlier. :mod:`evtribo.compare.population` divides the study's 5 % among the quantities
+    it checks, so that about one study in twenty of a population without outliers names
+    one.
 
 Several amplitudes per subject, fitted with a power law across subjects, are
 :mod:`evtribo.compare.population_model`'s.
@@ -36,8 +38,8 @@ from scipy import stats
 
 log = logging.getLogger(__name__)
 
-__all__ = ["MIN_SUBJECTS", "MIN_SUBJECTS_OUTLIERS", "POOL_METHOD", "Outlier", "Pooled",
-           "find_outliers", "pool"]
+__all__ = ["MIN_SUBJECTS", "MIN_SUBJECTS_OUTLIERS", "OUTLIER_ALPHA", "POOL_METHOD", "Outlier",
+           "Pooled", "find_outliers", "pool"]
 
 #: Fewest subjects for a population estimate.
 MIN_SUBJECTS = 3
@@ -139,8 +141,8 @@ class Outlier:
     high: float
 
 
-def find_outliers(values: ArrayLike, variances: ArrayLike,
-                  subjects: Sequence[str]) -> list[Outlier]:
+def find_outliers(values: ArrayLike, variances: ArrayLike, subjects: Sequence[str], *,
+                  alpha: float = OUTLIER_ALPHA) -> list[Outlier]:
     """The subjects each outside the others' prediction interval (Bonferroni over all).
 
     Parameters
@@ -149,6 +151,8 @@ def find_outliers(values: ArrayLike, variances: ArrayLike,
         Each subject's estimate and its variance.
     subjects : sequence of str
         Their names.
+    alpha : float
+        The level of the test for all *subjects* together (each is tested at alpha / k).
 
     Returns
     -------
@@ -160,7 +164,7 @@ def find_outliers(values: ArrayLike, variances: ArrayLike,
     k = y.size
     if k < MIN_SUBJECTS_OUTLIERS:
         return []
-    q = float(stats.t.ppf(1.0 - OUTLIER_ALPHA / (2 * k), k - 3))
+    q = float(stats.t.ppf(1.0 - alpha / (2 * k), k - 3))
     found = []
     for i in range(k):
         others = np.arange(k) != i
