@@ -50,6 +50,8 @@ class Tally:
     exponent_runs: int = 0
     force: int = 0
     force_runs: int = 0
+    runs: int = 0
+    named: int = 0  # runs that named an outlier (there is none in these populations)
 
     def rates(self) -> tuple[float, float]:
         return (self.exponent / max(self.exponent_runs, 1),
@@ -58,8 +60,10 @@ class Tally:
 
 def check(tables: ResultTables, truth: Truth, tally: Tally) -> None:
     """Count whether the population's exponent and forces hold the truth."""
-    table = population(tables).table
-    for _, row in table.iterrows():
+    pop = population(tables)
+    tally.runs += 1
+    tally.named += bool(pop.outliers)
+    for _, row in pop.table.iterrows():
         if row["quantity"] == "exponent":
             tally.exponent_runs += 1
             tally.exponent += int(row["ci_low"] <= truth.exponent <= row["ci_high"])
@@ -90,11 +94,13 @@ def main() -> None:
             continue
         for k in (5, 8, 12):
             started = time.process_time()
-            exp_rate, f_rate = coverage(make, [k], range(args.seeds)).rates()
+            tally = coverage(make, [k], range(args.seeds))
+            exp_rate, f_rate = tally.rates()
             spent = (time.process_time() - started) / args.seeds
             print(f"{name:36s} {k:2d} subjects: exponent {100 * exp_rate:5.1f} %, "
-                  f"F_el {100 * f_rate:5.1f} %  ({args.seeds} runs, {spent:.2f} s CPU each)",
-                  flush=True)
+                  f"F_el {100 * f_rate:5.1f} %, an outlier named in "
+                  f"{100 * tally.named / tally.runs:4.1f} %  ({args.seeds} runs, "
+                  f"{spent:.2f} s CPU each)", flush=True)
 
 
 if __name__ == "__main__":

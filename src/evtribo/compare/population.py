@@ -142,16 +142,15 @@ def _forces(rows: Collector, subjects: Sequence[SubjectData], condition: Conditi
             outliers: set[str]) -> None:
     """The geometric-mean force at each amplitude of *condition*, without *outliers*."""
     label = condition_label(*condition)
-    amps = sorted({float(a) for s in subjects for a in
-                   s.cells["amplitude_V"].to_numpy(float)[s.select(condition)]})
+    picked = [(s, s.select(condition)) for s in subjects]
+    amps = sorted({float(a) for s, idx in picked for a in s.amplitudes[idx]})
     for amp in amps:
         names, y, v = [], [], []
-        for s in subjects:
-            idx = s.select(condition)
-            hit = idx[np.isclose(s.cells["amplitude_V"].to_numpy(float)[idx], amp)]
+        for s, idx in picked:
+            hit = idx[np.isclose(s.amplitudes[idx], amp)]
             if hit.size:
                 names.append(s.name)
-                y.append(float(s.cells["log_f"].iloc[hit[0]]))
+                y.append(float(s.log_f[hit[0]]))
                 v.append(float(s.cov[hit[0], hit[0]]))
         got = rows.pooled(f"F_el at {amp:g} V, {label}", names, np.array(y), np.array(v),
                           "N", exclude=outliers)
@@ -304,8 +303,13 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = ()) -> Populat
         Empty tables, and a note saying why, with fewer than three subjects.
     """
     rows = Collector()
-    subjects = [s for s in (subject_data(tables, name, rows.notes)
-                            for name in tables.subjects) if s is not None]
+    boot = tables.bootstrap
+    by_subject = {} if boot is None else {
+        str(k): g for k, g in boot.groupby(boot["subject"].astype(str))}
+    subjects = [s for s in (subject_data(
+        tables, name, rows.notes,
+        bootstrap=None if boot is None else by_subject.get(str(name), boot.iloc[:0]))
+        for name in tables.subjects) if s is not None]
     if len(subjects) < MIN_SUBJECTS:
         rows.notes.insert(0, f"{len(subjects)} subject(s) with electrostatic forces: a "
                              f"population estimate needs at least {MIN_SUBJECTS}, so none "

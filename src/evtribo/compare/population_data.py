@@ -30,7 +30,7 @@ from evtribo.compare.population_stats import (
     find_outliers,
     pool,
 )
-from evtribo.compare.tables import ResultTables, replicate_matrix
+from evtribo.compare.tables import MIN_REPLICATES, ResultTables
 
 __all__ = ["CONTRAST_COLUMNS", "POPULATION_COLUMNS", "Collector", "Condition",
            "PopulationOutlier", "SubjectData", "condition_label", "conditions_of",
@@ -106,10 +106,20 @@ class SubjectData:
 
     def select(self, condition: Condition) -> NDArray[np.int64]:
         """Positions of the cells of *condition*, by amplitude."""
-        c = self.cells
-        hit = (c["waveform"] == condition[0]) & _same(c["frequency_Hz"], condition[1])
-        idx = np.flatnonzero(hit.to_numpy())
-        return idx[np.argsort(c["amplitude_V"].to_numpy(float)[idx], kind="stable")]
+        f = self.cells["frequency_Hz"].to_numpy(float)
+        same = np.isnan(f) if math.isnan(condition[1]) else np.isclose(f, condition[1])
+        idx = np.flatnonzero((self.cells["waveform"].to_numpy() == condition[0]) & same)
+        return idx[np.argsort(self.amplitudes[idx], kind="stable")]
+
+    @property
+    def amplitudes(self) -> NDArray[np.float64]:
+        """Each cell's amplitude, V."""
+        return np.asarray(self.cells["amplitude_V"].to_numpy(float))
+
+    @property
+    def log_f(self) -> NDArray[np.float64]:
+        """Each cell's log F_el (N)."""
+        return np.asarray(self.cells["log_f"].to_numpy(float))
 
     def condition(self, condition: Condition) -> SubjectCells:
         """Its cells in *condition*."""
@@ -117,12 +127,6 @@ class SubjectData:
         c = self.cells.iloc[idx]
         return SubjectCells(self.name, np.log(c["amplitude_V"].to_numpy(float)),
                             c["log_f"].to_numpy(float), self.cov[np.ix_(idx, idx)])
-
-
-def _same(values: pd.Series, target: float) -> pd.Series:
-    v = values.to_numpy(float)
-    return pd.Series(np.isnan(v) if math.isnan(target) else np.isclose(v, target),
-                     index=values.index)
 
 
 def _log_se(f: NDArray[np.float64], lo: NDArray[np.float64],
@@ -135,7 +139,37 @@ def _log_se(f: NDArray[np.float64], lo: NDArray[np.float64],
     return np.where(lo > 0, on_log, linear)
 
 
-def subject_data(tables: ResultTables, subject: str, notes: list[str]) -> SubjectData | None:
+def _keys(frame: pd.DataFrame) -> pd.Index:
+    """Each row's waveform, frequency and amplitude as one key (as replicate_matrix
+    matches them)."""
+    freq = (frame["frequency_Hz"].to_numpy(float) if "frequency_Hz" in frame.columns
+            else np.full(len(frame), np.nan))
+    return pd.Index([f"{w}|{f:.6f}|{a:.6f}" for w, f, a in zip(
+        frame["waveform"].fillna("").astype(str), np.nan_to_num(freq, nan=-1.0),
+        frame["amplitude_V"].to_numpy(float), strict=True)])
+
+
+def _replicates(rows: pd.DataFrame, boot: pd.DataFrame) -> NDArray[np.float64] | None:
+    """The replicates of *rows*' forces, shape (n, len(rows)): the first complete ones, up
+    to :data:`REPLICATES`; None when a row has none, two rows share a key, or fewer than
+    MIN_REPLICATES are complete (:func:`~evtribo.compare.tables.replicate_matrix`'s rules,
+    without its pivot table: a subject at a time in compare's population)."""
+    want = _keys(rows)
+    if boot.empty or want.has_duplicates:
+        return None
+    col = want.get_indexer(_keys(boot))
+    reps = boot["replicate"].to_numpy(int)
+    ok = col >= 0
+    if not ok.any() or len(set(col[ok])) < len(want):
+        return None
+    mat = np.full((int(reps.max()) + 1, len(want)), np.nan)
+    mat[reps[ok], col[ok]] = boot["electrostatic_force_N"].to_numpy(float)[ok]
+    mat = mat[np.all(np.isfinite(mat), axis=1)][:REPLICATES]
+    return mat if mat.shape[0] >= MIN_REPLICATES else None
+
+
+def subject_data(tables: ResultTables, subject: str, notes: list[str], *,
+                 bootstrap: pd.DataFrame | None = None) -> SubjectData | None:
     """A subject's usable cells and their covariance (correlation from its replicates).
 
     Parameters
@@ -146,6 +180,8 @@ def subject_data(tables: ResultTables, subject: str, notes: list[str]) -> Subjec
         Whose cells.
     notes : list of str
         Where a cell left out (no logarithm, no interval) is named.
+    bootstrap : DataFrame, optional
+        The subject's rows of the bootstrap table (default: picked from *tables*).
 
     Returns
     -------
@@ -168,9 +204,10 @@ def subject_data(tables: ResultTables, subject: str, notes: list[str]) -> Subjec
         return None
     corr: NDArray[np.float64] = np.eye(len(rows))
     boot = tables.bootstrap
-    if boot is not None:
-        reps = replicate_matrix(rows, boot[boot["subject"].astype(str) == subject],
-                                max_replicates=REPLICATES)
+    if bootstrap is None and boot is not None:
+        bootstrap = boot[boot["subject"].astype(str) == subject]
+    if bootstrap is not None:
+        reps = _replicates(rows, bootstrap)
         if reps is not None:
             with np.errstate(invalid="ignore", divide="ignore"):
                 corr = np.atleast_2d(np.nan_to_num(np.corrcoef(reps, rowvar=False)))

@@ -148,13 +148,18 @@ class PowerLawFit:
 
     @property
     def between_sd(self) -> NDArray[np.float64]:
-        """Between-subject standard deviations of ``(a, n)`` (n's is 0 without slopes)."""
+        """Between-subject standard deviations of ``(a, n)`` (n's is NaN without random
+        slopes: the subjects' exponents then differ only through phi, not estimated)."""
         d = np.sqrt(np.clip(np.diag(self.cov_re), 0.0, None))
-        return d if d.size == 2 else np.array([d[0], 0.0])
+        return d if d.size == 2 else np.array([d[0], math.nan])
 
     def between_sd_of(self, c: ArrayLike) -> float:
-        """Between-subject standard deviation of ``c @ (a_i, n_i)``."""
-        cv = np.asarray(c, dtype=float)[: self.cov_re.shape[0]]
+        """Between-subject standard deviation of ``c @ (a_i, n_i)`` (NaN when it involves
+        the exponent and the model has no random slopes)."""
+        cv = np.asarray(c, dtype=float)
+        if not self.random_slopes and cv[1] != 0.0:
+            return math.nan
+        cv = cv[: self.cov_re.shape[0]]
         return float(math.sqrt(max(float(cv @ self.cov_re @ cv), 0.0)))
 
     def estimate(self, c: ArrayLike) -> Estimate:
