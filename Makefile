@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 JOBS   ?= 2
 
-.PHONY: demo test test-quick bench lint clean chromium
+.PHONY: demo test test-quick bench lint docs dist clean chromium
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -36,8 +36,28 @@ bench: $(STAMP)
 
 lint: $(STAMP)
 	$(PY) -m pip install --quiet -e '.[dev]'
-	$(VENV)/bin/ruff check src tests benchmarks
+	$(VENV)/bin/ruff check src tests benchmarks docs/conf.py
 	$(VENV)/bin/mypy
 
+# the documentation site, build/docs/html/index.html: Sphinx from docs/ (the README, every page,
+# the API reference from the docstrings, the notebook executed), every warning an error (a
+# broken link or anchor, a page out of the navigation, a docstring Sphinx cannot read, a
+# failing cell); built afresh (-E), since an incremental build repeats no old warning
+DOCS_STAMP := $(VENV)/.docs-installed
+$(DOCS_STAMP): $(STAMP)
+	$(PY) -m pip install --quiet -e '.[docs]'
+	touch $(DOCS_STAMP)
+
+docs: $(DOCS_STAMP)
+	rm -rf docs/generated build/docs
+	$(VENV)/bin/sphinx-build -E -W --keep-going -q -b html -d build/docs/doctrees docs build/docs/html
+	@echo "the documentation: build/docs/html/index.html"
+
+# the release's files: dist/evtribo-<version>.tar.gz and the wheel, checked by twine
+dist: $(STAMP)
+	rm -rf dist
+	$(PY) -m build --outdir dist
+	$(VENV)/bin/twine check --strict dist/*
+
 clean:
-	rm -rf $(VENV) demo-output build src/*.egg-info
+	rm -rf $(VENV) demo-output build dist docs/generated src/*.egg-info

@@ -56,7 +56,8 @@ GROUPS = {
                     "evtribo.signal_codec", "evtribo.lock", "evtribo.resultdir",
                     "evtribo.study", "evtribo.session."),
     "compare": ("evtribo.compare.", "evtribo.model.", "evtribo.cli.", "evtribo.demo"),
-    "base": ("evtribo.errors", "evtribo.files", "evtribo._docs", "evtribo.documents"),
+    "base": ("evtribo.errors", "evtribo.files", "evtribo._docs", "evtribo.documents",
+             "evtribo.citation"),
     "api": ("evtribo.api.",),
 }
 #: Groups whose public functions are still being documented.

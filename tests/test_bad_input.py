@@ -222,6 +222,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "signal-missing": lambda t: _toml(t / "study", '"FzCell.Fz"', '"FzCell.Force"'),
     "message-missing": lambda t: _toml(t / "study", '"FzCell.Fz"', '"NormalCell.Fz"'),
     "signal-malformed": lambda t: _toml(t / "study", '"FzCell.Fz"', '"Fz"'),
+    "rig-same-signal": lambda t: _toml(t / "study", 'tangential_force = "FxCell.Fx"',
+                                       'tangential_force = "FzCell.Fz"'),
     "sidecar-json": lambda t: (t / "study" / "P01" / "run-01.json").write_text(
         '{"subject": "P01",\n "amplitude_V": 140,\n}\n'),
     "sidecar-subject-path": lambda t: _sidecar(t / "study", subject="../P02"),

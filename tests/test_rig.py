@@ -95,7 +95,7 @@ def test_rig_toml_keys_are_top_level(tmp_path):
 
 def test_fingerprint_follows_dbc_and_mapping(tmp_path):
     a = Rig.from_mapping(_study(tmp_path), tmp_path)
-    b = Rig.from_mapping(_study(tmp_path, normal_force="FxCell.Fx"), tmp_path)
+    b = Rig.from_mapping(_study(tmp_path, normal_force="FzCell.FzTemp"), tmp_path)
     assert a.fingerprint() != b.fingerprint()
     assert a.fingerprint() == Rig.from_mapping(_study(tmp_path), tmp_path).fingerprint()
 

@@ -12,7 +12,7 @@ SRC = Path(__file__).parents[1] / "src" / "evtribo"
 #: lower layers (or its own package).
 LAYERS = {
     "evtribo": 0, "errors": 0, "_docs": 0,
-    "files": 1, "median": 1, "running": 1, "memo": 2, "documents": 2,
+    "files": 1, "median": 1, "running": 1, "citation": 1, "memo": 2, "documents": 2,
     "model": 2, "frames": 2, "signal_codec": 2, "lock": 2, "resultdir": 2, "dropped": 2,
     "signals": 2,
     "rig": 3,

@@ -29,20 +29,13 @@ _API = ("Fit", "Results", "Study", "Trial", "analyze", "compare", "load_results"
 __all__ = ["Fit", "Results", "Study", "Trial", "__version__", "analyze", "compare",
            "load_results", "open_study"]
 
+#: evtribo's version: the one place it is written (pyproject.toml's build, the
+#: documentation and ``evtribo --version`` read it from here).
+__version__ = "0.2.0"
+
 
 def __getattr__(name: str) -> Any:
-    """The names of :mod:`evtribo.api`, imported on first use (PEP 562); ``__version__``
-    looked up on first use too (importlib.metadata takes 40-60 ms to import: a command that
-    does not print it, such as ``evtribo analyze`` of an unchanged study, does not pay it)."""
-    if name == "__version__":
-        from importlib.metadata import PackageNotFoundError, version
-
-        try:
-            value = version("evtribo")
-        except PackageNotFoundError:  # pragma: no cover - running from a source tree
-            value = "0.0.0+unknown"
-        globals()[name] = value
-        return value
+    """The names of :mod:`evtribo.api`, imported on first use (PEP 562)."""
     if name in _API:
         api = importlib.import_module("evtribo.api")
         # evtribo.compare: the package, made callable as evtribo.api.compare by the import
@@ -53,4 +46,4 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_API, "__version__"})
+    return sorted({*globals(), *_API})

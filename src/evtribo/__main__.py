@@ -1,3 +1,6 @@
+"""``python -m evtribo``: the command line (importing this module runs nothing)."""
+
 from evtribo.cli import entry
 
-entry()
+if __name__ == "__main__":
+    entry()

@@ -20,8 +20,9 @@ import pandas as pd
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, default_subjects
 from evtribo.acquisition.simulator.core import TrialTruth, simulate_trial
-from evtribo.acquisition.simulator.realism import human, realistic_rig
+from evtribo.acquisition.simulator.realism import human, real_finger, real_logger, realistic_rig
 from evtribo.analysis.aggregate import summarize
+from evtribo.analysis.balance import balanced_weights
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals
 from evtribo.decode import decode_trial
@@ -46,17 +47,18 @@ def window_truth(windows: pd.DataFrame, truth: TrialTruth) -> pd.DataFrame:
     """*windows* (of one trial) with the simulated electrostatic force over each window
     (``fel_true_N``) and the fraction of it in steady sliding of its condition (``steady``)."""
     shift = (truth.first_frame_s or 0.0) - truth.config.latency_s
-    fel, steady = [], []
+    fel, mu, steady = [], [], []
     for w in windows.itertuples():
         a, b = w.t_start_s + shift, w.t_end_s + shift
         fel.append(truth.electrostatic_between(a, b))
+        mu.append(truth.mu_between(a, b))
         grid = np.linspace(a, b, 200, endpoint=False)
         ok = np.zeros(grid.size, dtype=bool)
         for s0, s1, _, on in truth.steady:
             if on == (w.condition == "on"):
                 ok |= (grid >= s0) & (grid < s1)
         steady.append(float(ok.mean()))
-    return windows.assign(fel_true_N=fel, steady=steady)
+    return windows.assign(fel_true_N=fel, mu_true=mu, steady=steady)
 
 
 def true_exponent(amplitudes: np.ndarray, forces: np.ndarray) -> float:
@@ -66,11 +68,21 @@ def true_exponent(amplitudes: np.ndarray, forces: np.ndarray) -> float:
 
 def attach_truth(el: pd.DataFrame, ex: pd.DataFrame, windows: pd.DataFrame,
                  mu_of: dict[str, float]) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """electrostatic.csv and exponents.csv with the truth of each row beside it."""
+    """electrostatic.csv and exponents.csv with the truth of each row beside it: the
+    simulated electrostatic force and friction coefficient over the row's ON windows,
+    averaged as the estimate averages them (each trial by its share, both directions alike:
+    :func:`evtribo.analysis.balance.balanced_weights`; the subject's coefficient where the
+    simulator did not record it)."""
     on = windows[windows.condition == "on"]
-    fel = [on[(on.subject == r.subject) & (on.amplitude_V == r.amplitude_V)
-              & (on.waveform == r.waveform)].fel_true_N.mean() for r in el.itertuples()]
-    el = el.assign(fel_true_N=fel, mu_true=[mu_of[s] for s in el.subject])
+    rows = [on[(on.subject == r.subject) & (on.amplitude_V == r.amplitude_V)
+               & (on.waveform == r.waveform)] for r in el.itertuples()]
+    weights = [balanced_weights(np.ones((1, len(r))), pd.factorize(r.trial)[0],
+                                r.direction.to_numpy(float))[0] for r in rows]
+    mu = [float(w @ r.mu_true) if "mu_true" in r and r.mu_true.notna().all() else mu_of[s]
+          for r, w, s in zip(rows, weights, el.subject, strict=True)]
+    el = el.assign(fel_true_N=[float(w @ r.fel_true_N) for r, w in zip(rows, weights,
+                                                                        strict=True)],
+                   mu_true=mu)
     expo = []
     for r in ex.itertuples():
         rows = el[(el.subject == r.subject) & (el.waveform == r.waveform)]
@@ -119,7 +131,8 @@ def run_study(seed: int, *, n_subjects: int = 4, amplitudes=AMPLITUDES,
             truths[(subject.name, name)] = truth
     trials = pd.DataFrame(rows)
     windows = pd.concat(wins, ignore_index=True)
-    el, ex, _, agg_warnings = summarize(windows.drop(columns=["fel_true_N", "steady"]), trials,
+    el, ex, _, agg_warnings = summarize(windows.drop(columns=["fel_true_N", "mu_true",
+                                                              "steady"]), trials,
                                         n_boot=settings.n_boot, seed=settings.seed,
                                         confidence=settings.confidence)
     el, ex = attach_truth(el, ex, windows, mu_of)
@@ -153,3 +166,45 @@ def _minus(a: float | None, b: float) -> float:
 def replace(obj, **changes):
     """``dataclasses.replace``, for the *_changes callables."""
     return dataclasses.replace(obj, **changes)
+
+
+# --- what real fingers, rigs and loggers add, one effect at a time (docs/simulator.md) ---
+
+Changes = tuple[Callable[[TrialConfig], TrialConfig] | None,
+                Callable[[SubjectParams], SubjectParams] | None]
+
+
+def _finger(**only: bool) -> Callable[[SubjectParams], SubjectParams]:
+    flags = {"moisture": False, "speed": False, "direction": False, "trials": False, **only}
+    return lambda s: real_finger(s, seed=int(s.name[1:]), **flags)
+
+
+def _rig(**changes: object) -> Callable[[TrialConfig], TrialConfig]:
+    return lambda c: dataclasses.replace(c, **changes)
+
+
+def crosstalk(c: TrialConfig) -> TrialConfig:
+    """The rig's cross-talk: 3-4 % each way, the same in every trial of a study."""
+    rng = np.random.default_rng([c.seed // 1000, 77])
+    a, b = rng.uniform(0.03, 0.04, 2) * rng.choice([-1, 1], 2)
+    return dataclasses.replace(c, crosstalk=((1.0, float(a)), (float(b), 1.0)))
+
+
+def everything(c: TrialConfig) -> TrialConfig:
+    """Every rig and logger effect at once, 60 Hz hum and a 333 Hz normal cell besides."""
+    c = crosstalk(real_logger(c))
+    return dataclasses.replace(c, creep=0.01, creep_time_s=3.0, mains_Hz=60.0,
+                               spike_rate_Hz=0.5, spike_N=0.3, fz_rate_Hz=333.0)
+
+
+#: Each effect as (rig changes, subject changes) for :func:`run_study`.
+EFFECTS: dict[str, Changes] = {
+    "none": (None, None),
+    "moisture": (None, _finger(moisture=True, trials=True)),
+    "speed": (None, _finger(speed=True, direction=True)),
+    "crosstalk": (crosstalk, None),
+    "timing": (real_logger, None),
+    "creep+spikes": (_rig(creep=0.01, creep_time_s=3.0, spike_rate_Hz=0.5, spike_N=0.3),
+                     None),
+    "all": (everything, _finger(moisture=True, speed=True, direction=True, trials=True)),
+}

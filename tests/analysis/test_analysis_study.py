@@ -55,10 +55,16 @@ def test_outputs_have_the_spec_columns(default_study):
     for name, cols in expected.items():
         header = (res.out_dir / name).read_text(encoding="utf-8").splitlines()[0]
         assert header.split(",") == list(cols)
-    assert {"subject", "trial", "waveform", "frequency_Hz", "amplitude_V", "condition",
-            "duration_s", "frames", "dropped_frames", "skipped_lines",
-            "friction_modulation_Hz", "normal_offset_N", "tangential_offset_N",
-            "tare"} == set(TRIAL_COLUMNS)
+    # the study format's columns first, in its order; then evtribo's additions
+    assert TRIAL_COLUMNS == ("subject", "trial", "waveform", "frequency_Hz", "amplitude_V",
+                             "condition", "duration_s", "frames", "dropped_frames",
+                             "skipped_lines", "friction_modulation_Hz", "normal_offset_N",
+                             "tangential_offset_N", "tare", "mu_change_per_10s",
+                             "crosstalk_normal", "crosstalk_normal_se",
+                             "tangential_direction_share")
+    assert WINDOW_CSV_COLUMNS[:9] == ("subject", "trial", "condition", "amplitude_V",
+                                      "waveform", "t_start_s", "t_end_s", "normal_force_N",
+                                      "friction_force_N")
     summary = json.loads((res.out_dir / "summary.json").read_text(encoding="utf-8"))
     assert summary["trials"] == summary["trials_analysed"] == 8
     assert isinstance(summary["warnings"], list)

@@ -13,8 +13,11 @@ from analysed import analysed_study, set_notes
 from matplotlib.image import imread
 from synthetic import make_out
 
+import evtribo
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
 from evtribo.analysis.pipeline import analyze_study
+from evtribo.citation import PAPER, SOFTWARE
+from evtribo.citation import text as cite_text
 from evtribo.cli import main
 from evtribo.compare import compare
 from evtribo.compare.headline import DOI_URL
@@ -200,3 +203,28 @@ def test_builder_escapes_all_but_add_html(tmp_path):
     assert report.sections == ["S"]
     saved = report.save(tmp_path / "x.html")
     assert {p.suffix for p in files_dir_for(saved).iterdir()} == {".png", ".svg"}
+
+
+def test_provenance_cites_the_software_and_the_model(report_page):
+    """The provenance section says how to cite evtribo (at this version) and the seed paper,
+    with the paper's DOI as the one link out of the page."""
+    _, page, html = report_page
+    text = " ".join(page.text)
+    provenance = text[text.index("Provenance and settings"):]
+    assert f"To cite: the software, {cite_text(SOFTWARE)}" in provenance
+    assert f"(version {evtribo.__version__})" in provenance
+    assert f"The model, {cite_text(PAPER)}" in " ".join(provenance.split())
+    assert "analysed by evtribo" not in provenance  # the same version analysed them
+    assert f'<a href="{DOI_URL}">{DOI_URL}</a>' in html
+
+
+def test_provenance_names_the_version_that_analysed_the_results(tmp_path):
+    """Results analysed by another version: the report asks to cite that version."""
+    out = make_out(tmp_path)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["evtribo_version"] != evtribo.__version__
+    build_report(out, tmp_path / "report.html")
+    page, _ = _parse(tmp_path / "report.html")
+    text = " ".join(page.text)
+    assert (f"These results were analysed by evtribo {summary['evtribo_version']}: cite that "
+            "version.") in text

@@ -239,6 +239,9 @@ class SlcanPtyAdapter:
         self.transmitted = 0
         #: Called with (identifier, extended, data) of each frame the client transmits.
         self.on_transmit: Callable[[int, bool, bytes], object] | None = None
+        #: Called each time a client opens the channel (a new recording starts).
+        self.on_open: Callable[[], object] | None = None
+        self.opened = 0
         self.dropped = 0
         self._overrun = False
         self._commands = bytearray()
@@ -259,7 +262,10 @@ class SlcanPtyAdapter:
             if self.is_open:
                 return bell
             self.is_open, self.listen_only = True, c == b"L"
+            self.opened += 1
             log.info("slcan: channel opened (%s)", cmd.decode("ascii", "replace"))
+            if self.on_open is not None:
+                self.on_open()
             return ok
         if c == b"C":
             if self.is_open:

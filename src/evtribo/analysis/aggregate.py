@@ -30,11 +30,21 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from evtribo.analysis.crosstalk import crosstalk_notes
+from evtribo.analysis.drift import (
+    TrialDrift,
+    drift_notes,
+    relative_scatter,
+    stroke_notes,
+    trial_drifts,
+    window_facts,
+)
 from evtribo.analysis.estimate import (
     DEFAULT_N_BOOT,
     ElectrostaticEstimate,
     estimate_electrostatic,
 )
+from evtribo.analysis.plausible import implausible_rows
 from evtribo.analysis.powerlaw import fit_power_law
 from evtribo.errors import AnalysisError
 
@@ -98,8 +108,9 @@ PointKey = tuple[str, float, float]
 
 def _references(subject: str, on: pd.DataFrame, off: pd.DataFrame, whole_off: pd.DataFrame,
                 *, condition_of: Mapping[TrialKey, object], warnings: list[str]
-                ) -> tuple[list[pd.DataFrame], npt.NDArray[np.int64]]:
-    """The OFF reference of each ON window: the sets of OFF windows and each one's index."""
+                ) -> tuple[list[pd.DataFrame], npt.NDArray[np.int64], list[bool]]:
+    """The OFF reference of each ON window: the sets of OFF windows, each one's index, and
+    whether each set is one trial's (its mu may follow the trial's time)."""
     subject_ref = whole_off if len(whole_off) else off
     refs: list[pd.DataFrame] = []
     ref_index: dict[str, int] = {}
@@ -128,7 +139,7 @@ def _references(subject: str, on: pd.DataFrame, off: pd.DataFrame, whole_off: pd
             ref_index[key] = len(refs)
             refs.append(frame)
         on_ref[k] = ref_index[key]
-    return refs, on_ref
+    return refs, on_ref, [key.startswith("trial:") for key in ref_index]
 
 
 @dataclass(frozen=True)
@@ -167,19 +178,30 @@ class _Tables:
     bootstrap: list[pd.DataFrame] = field(default_factory=list)
 
 
+@dataclass(frozen=True)
+class _SubjectEstimate:
+    """A subject's estimate, its points, the coefficient each window was compared with (or,
+    for an OFF window, its reference's model there) and the trials' drifts."""
+
+    est: ElectrostaticEstimate
+    points: list[PointKey]
+    window_mu: pd.Series
+    drifts: dict[object, TrialDrift]
+
+
 def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_boot: int,
                       seed: int, confidence: float, warnings: list[str]
-                      ) -> tuple[ElectrostaticEstimate, list[PointKey]] | None:
+                      ) -> _SubjectEstimate | None:
     """A subject's electrostatic force per point (waveform, frequency, amplitude), each ON
-    window against its OFF reference, and each estimate's point; None when the subject has
-    no ON window with an amplitude, or no OFF windows to compare them with."""
+    window against its OFF reference; None when the subject has no ON window with an
+    amplitude, or no OFF windows to compare them with."""
     off = sub[sub.condition == "off"]
     whole_off = off[[facts.condition_of.get((subject, t)) == "off" for t in off.trial]]
     on = sub[(sub.condition == "on") & np.isfinite(sub.amplitude_V.to_numpy(float))]
     if on.empty:
         return None
-    refs, on_ref = _references(subject, on, off, whole_off,
-                               condition_of=facts.condition_of, warnings=warnings)
+    refs, on_ref, trends = _references(subject, on, off, whole_off,
+                                       condition_of=facts.condition_of, warnings=warnings)
     if any(r.empty for r in refs):
         warnings.append(f"{subject}: no OFF windows to estimate mu from; no "
                         "electrostatic force")
@@ -188,13 +210,34 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
                                              on.amplitude_V.to_numpy(float), strict=True))
     points = sorted(set(window_points))  # numbered in sorted order: the estimator's groups
     group_number = {p: i for i, p in enumerate(points)}
+    off_facts = [window_facts(r) for r in refs]
     est = estimate_electrostatic(
         [r.normal_force_N.to_numpy(float) for r in refs],
         [r.friction_force_N.to_numpy(float) for r in refs],
         on.normal_force_N.to_numpy(float), on.friction_force_N.to_numpy(float),
         on_ref, [group_number[p] for p in window_points], n_boot=n_boot,
-        confidence=confidence, seed=_seed(seed, subject))
-    return est, [points[int(g)] for g in est.groups]
+        confidence=confidence, seed=_seed(seed, subject), off_facts=off_facts,
+        on_facts=window_facts(on), time_trend=trends)
+    window_mu = pd.Series(est.on_mu, index=on.index)
+    own = {}
+    for r, model in est.models.items():
+        window_mu = pd.concat([window_mu, pd.Series(model.at(off_facts[r]),
+                                                    index=refs[r].index)])
+        if trends[r]:
+            own[refs[r].trial.iloc[0]] = model
+    window_mu = window_mu[~window_mu.index.duplicated()]
+    drifts = trial_drifts(off, own)
+    alone = sorted({t for t in on.trial if facts.condition_of.get((subject, t)) == "on"},
+                   key=str)
+    warnings += drift_notes(subject, drifts, compared_in_trial=any(trends),
+                            on_trials_alone=alone)
+    ratios = {r: (refs[r].friction_force_N / refs[r].normal_force_N).to_numpy(float)
+              for r in est.models}
+    rate_on, rate_off = window_facts(on).rate, window_facts(off).rate
+    gap = (float(np.exp(np.nanmean(rate_on) - np.nanmean(rate_off))) - 1.0
+           if np.isfinite(rate_on).any() and np.isfinite(rate_off).any() else None)
+    warnings += stroke_notes(subject, est.models, relative_scatter(est.models, ratios), gap)
+    return _SubjectEstimate(est, [points[int(g)] for g in est.groups], window_mu, drifts)
 
 
 def _add_points(tables: _Tables, subject: str, est: ElectrostaticEstimate, *,
@@ -250,9 +293,39 @@ def _add_power_laws(tables: _Tables, subject: str, est: ElectrostaticEstimate, *
                                  "prefactor_N": fit.prefactor_N})
 
 
-def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFAULT_N_BOOT,
-              seed: int = 0, confidence: float = 0.95, n_saved: int = N_BOOTSTRAP_SAVED
-              ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame, list[str]]:
+@dataclass(frozen=True)
+class StudySummary:
+    """The per-subject results of a study's windows.
+
+    Attributes
+    ----------
+    electrostatic, exponents, bootstrap : pandas.DataFrame
+        electrostatic.csv, exponents.csv and electrostatic_bootstrap.csv
+        (:data:`BOOTSTRAP_COLUMNS`: the calibrated bootstrap replicates of every
+        electrostatic.csv row, replicate ``i`` of a subject's rows coming from the same
+        resampling).
+    warnings : list of str
+        What the aggregation found worth saying (missing references, few windows, no
+        power law, friction that changed within trials or between strokes).
+    window_mu : pandas.Series
+        By the windows' index: the friction coefficient each ON window was compared with,
+        and each OFF window's reference model at its place (windows.csv's
+        ``mu_reference``).
+    mu_change : dict
+        ``{(subject, trial): change of mu per 10 s}`` (trials.csv's ``mu_change_per_10s``).
+    """
+
+    electrostatic: pd.DataFrame
+    exponents: pd.DataFrame
+    bootstrap: pd.DataFrame
+    warnings: list[str]
+    window_mu: pd.Series
+    mu_change: dict[TrialKey, float]
+
+
+def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
+                    n_boot: int = DEFAULT_N_BOOT, seed: int = 0, confidence: float = 0.95,
+                    n_saved: int = N_BOOTSTRAP_SAVED) -> StudySummary:
     """Electrostatic force per subject, waveform, frequency and amplitude, and the power laws
     (per subject, waveform and frequency).
 
@@ -273,42 +346,74 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
 
     Returns
     -------
-    electrostatic, exponents : pandas.DataFrame
-        The tables of electrostatic.csv and exponents.csv.
-    bootstrap : pandas.DataFrame
-        The table of electrostatic_bootstrap.csv (:data:`BOOTSTRAP_COLUMNS`): the
-        calibrated bootstrap replicates of every electrostatic.csv row, replicate ``i`` of
-        a subject's rows coming from the same resampling.
-    warnings : list of str
-        What the aggregation found worth saying (missing references, few windows, no
-        power law).
+    StudySummary
     """
     warnings: list[str] = []
     facts = _trial_facts(trials)
     tables = _Tables()
+    window_mu: list[pd.Series] = []
+    mu_change: dict[TrialKey, float] = {}
     if not windows.empty:
         tagged = windows.assign(
             waveform=windows.waveform.fillna(""),
             frequency_Hz=[facts.frequency_of.get((s, t), _NO_FREQUENCY)
                           for s, t in zip(windows.subject, windows.trial, strict=True)])
         for subject, sub in tagged.groupby("subject", sort=True):
-            found = _estimate_subject(str(subject), sub, facts, n_boot=n_boot, seed=seed,
-                                      confidence=confidence, warnings=warnings)
+            try:
+                found = _estimate_subject(str(subject), sub, facts, n_boot=n_boot,
+                                          seed=seed, confidence=confidence,
+                                          warnings=warnings)
+            except AnalysisError as err:
+                warnings.append(f"{subject}: no electrostatic force: {err}")
+                continue
             if found is None:
                 continue
-            est, points = found
-            _add_points(tables, str(subject), est, points=points, shown=facts.shown,
-                        n_saved=n_saved, warnings=warnings)
-            _add_power_laws(tables, str(subject), est, points=points, shown=facts.shown,
-                            confidence=confidence, warnings=warnings)
+            window_mu.append(found.window_mu)
+            mu_change.update({(subject, t): d.change_per_10s for t, d in found.drifts.items()})
+            _add_points(tables, str(subject), found.est, points=found.points,
+                        shown=facts.shown, n_saved=n_saved, warnings=warnings)
+            _add_power_laws(tables, str(subject), found.est, points=found.points,
+                            shown=facts.shown, confidence=confidence, warnings=warnings)
+    electrostatic = pd.DataFrame(tables.electrostatic, columns=list(ELECTROSTATIC_COLUMNS))
+    warnings += implausible_rows(electrostatic) + crosstalk_notes(trials)
     for w in warnings:
         log.warning("%s", w)
     boot = (pd.concat(tables.bootstrap, ignore_index=True)
             .reindex(columns=list(BOOTSTRAP_COLUMNS)) if tables.bootstrap
             else pd.DataFrame(columns=list(BOOTSTRAP_COLUMNS)))
-    return (pd.DataFrame(tables.electrostatic, columns=list(ELECTROSTATIC_COLUMNS)),
-            pd.DataFrame(tables.exponents, columns=list(EXPONENT_COLUMNS)), boot, warnings)
+    return StudySummary(
+        electrostatic, pd.DataFrame(tables.exponents, columns=list(EXPONENT_COLUMNS)), boot,
+        warnings,
+        pd.concat(window_mu) if window_mu else pd.Series(dtype=float), mu_change)
+
+
+def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFAULT_N_BOOT,
+              seed: int = 0, confidence: float = 0.95, n_saved: int = N_BOOTSTRAP_SAVED
+              ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame, list[str]]:
+    """:func:`summarize_study`'s tables and warnings.
+
+    Parameters
+    ----------
+    windows, trials : pandas.DataFrame
+        As :func:`summarize_study`'s.
+    n_boot : int
+        Bootstrap replicates.
+    seed : int
+        Base seed.
+    confidence : float
+        Coverage of the intervals.
+    n_saved : int
+        Replicates kept in the bootstrap table.
+
+    Returns
+    -------
+    electrostatic, exponents, bootstrap : pandas.DataFrame
+    warnings : list of str
+    """
+    out = summarize_study(windows, trials, n_boot=n_boot, seed=seed, confidence=confidence,
+                          n_saved=n_saved)
+    return out.electrostatic, out.exponents, out.bootstrap, out.warnings
 
 
 __all__ = ["BOOTSTRAP_COLUMNS", "ELECTROSTATIC_COLUMNS", "EXPONENT_COLUMNS", "MIN_WINDOWS",
-           "N_BOOTSTRAP_SAVED", "summarize"]
+           "N_BOOTSTRAP_SAVED", "StudySummary", "summarize", "summarize_study"]

@@ -42,7 +42,7 @@ from evtribo.signals import TrialSignals
 from evtribo.study import Study, TrialRef, load_study
 
 __all__ = ["MIN_HOLE_S", "STRETCH_LABELS", "Stretch", "TrialCheck", "check_signals", "check_trial",
-           "excluded_stretches", "find_trial", "settings_of"]
+           "excluded_stretches", "find_trial", "settings_of", "trial_signals"]
 
 #: Holes in the load cells' data, and stretches of unknown state, shorter than this are not
 #: listed (a frame or two lost; the moment before the amplifier's first status frame), s.
@@ -207,10 +207,24 @@ def settings_of(study: Study, settings: AnalysisSettings | Mapping[str, Any] | N
     return AnalysisSettings().updated(values, table="settings")
 
 
-def _signals(ref: TrialRef, study: Study, cache_dir: str | os.PathLike[str] | None
-             ) -> TrialSignals:
+def trial_signals(ref: TrialRef, study: Study, cache_dir: str | os.PathLike[str] | None = None
+                  ) -> TrialSignals:
     """The trial's decoded signals, from the channel its sidecar names (as analyze reads
-    them)."""
+    them).
+
+    Parameters
+    ----------
+    ref : TrialRef
+        The trial.
+    study : Study
+        Its study.
+    cache_dir : path-like, optional
+        The decoded-trial cache.
+
+    Returns
+    -------
+    TrialSignals
+    """
     assert study.rig is not None
     channel = ref.sidecar.extra.get("log_channel")
     channel = channel if isinstance(channel, str) and channel else None
@@ -254,7 +268,7 @@ def check_trial(study: Study | str | os.PathLike[str], subject: str, trial: str,
         study = load_study(Path(study))
     ref = find_trial(study, subject, trial)
     assert study.rig is not None
-    return check_signals(_signals(ref, study, cache_dir), trial_meta(ref),
+    return check_signals(trial_signals(ref, study, cache_dir), trial_meta(ref),
                          settings=settings_of(study, settings),
                          calibration=study.rig.calibration)
 

@@ -1,7 +1,7 @@
 """What the analysis of a trial worked on, handed out as it goes: the data of a check of the
 trial (:mod:`evtribo.analysis.check`), which draws the forces, the ON/OFF phases, the
-finger-lifted stretches and the windows exactly as :func:`~evtribo.analysis.trial.
-analyze_signals` found them.
+finger-lifted stretches and the windows exactly as
+:func:`~evtribo.analysis.trial.analyze_signals` found them.
 """
 
 from __future__ import annotations

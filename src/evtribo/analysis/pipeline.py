@@ -47,7 +47,7 @@ from evtribo.analysis.aggregate import (
     BOOTSTRAP_COLUMNS,
     ELECTROSTATIC_COLUMNS,
     EXPONENT_COLUMNS,
-    summarize,
+    summarize_study,
 )
 from evtribo.analysis.outputs import (
     BOOTSTRAP_FILE,
@@ -411,10 +411,15 @@ class _Tables:
         frames = [o.windows for o in outcomes if not o.windows.empty]
         windows = (pd.concat(frames, ignore_index=True) if frames else empty_windows())
         windows = windows.reindex(columns=list(WINDOW_CSV_COLUMNS))
-        electrostatic, exponents, bootstrap, agg_warnings = summarize(
-            windows, trials, n_boot=settings.n_boot, seed=settings.seed,
-            confidence=settings.confidence)
-        warnings.extend(agg_warnings)
+        found = summarize_study(windows, trials, n_boot=settings.n_boot, seed=settings.seed,
+                                confidence=settings.confidence)
+        electrostatic, exponents, bootstrap = found.electrostatic, found.exponents, \
+            found.bootstrap
+        warnings.extend(found.warnings)
+        windows = windows.assign(mu_reference=found.window_mu.reindex(windows.index))
+        trials = trials.assign(mu_change_per_10s=pd.Series([
+            found.mu_change.get(k) for k in zip(trials.subject, trials.trial, strict=True)],
+            index=trials.index, dtype=float))
         traces = [o.trace for o in outcomes if o.trace is not None and not o.trace.empty]
         trace = (pd.concat(traces, ignore_index=True)
                  .reindex(columns=list(SINE_TRACE_CSV_COLUMNS)) if traces else None)

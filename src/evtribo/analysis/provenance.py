@@ -36,6 +36,7 @@ def file_record(path: Path, root: Path, role: str, memo: HashMemo | None = None
     The size is the one of the bytes hashed. For the analysis (not written out): the
     file's absolute path under ``"_path"`` and its modification time (ns) when hashed under
     ``"_mtime_ns"`` (-1 when the file changed while it was hashed).
+
     Parameters
     ----------
     path : Path

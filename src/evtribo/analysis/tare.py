@@ -31,10 +31,12 @@ other. The forces are corrected in three steps (``[analysis] tare``, default ``"
    strokes support), and the offset is subtracted from the tangential force: each
    window's friction is then in effect the half-difference of the loop, whatever offset
    remained. This needs strokes in both directions under one condition. After a lifted
-   taring, which measures the zero directly and far more precisely, the loop's offset is
-   applied only where it is significant (beyond three standard errors). The normal
-   cell's offset cannot come from strokes: without a lifted stretch or a calibration it
-   is unknown, and the analysis says so.
+   taring, which measures the zero directly and far more precisely, the loop is not
+   applied: a finger's friction differs between forward and backward strokes (posture,
+   the ridges' direction; Pasumarty et al. 2011), and the loop cannot tell that from an
+   offset; the estimate compares each direction with its own (:mod:`evtribo.analysis.
+   reference`). The normal cell's offset cannot come from strokes: without a lifted
+   stretch or a calibration it is unknown, and the analysis says so.
 
 ``"auto"`` runs the three steps in turn (each on what the previous left); ``"lifted"``,
 ``"friction-loop"`` and ``"calibration"`` run only that one (after the calibration's

@@ -26,23 +26,21 @@ import pandas as pd
 
 from evtribo._docs import fill_doc
 from evtribo.analysis.align import AlignedForces, align_forces
-from evtribo.analysis.excitation import Excitation, excitation_of, window_amplitudes
+from evtribo.analysis.crosstalk import ReversalSums, direction_share, reversal_sums
+from evtribo.analysis.excitation import excitation_of
 from evtribo.analysis.hum import find_hum, friction_oscillates, modulation_lines, remove_hum
-from evtribo.analysis.observed import PieceObserver, PieceState, lift_exclusion
+from evtribo.analysis.observed import PieceObserver, PieceState
 from evtribo.analysis.pieces import check_seconds, continuous_pieces, describe_gap, restrict
+from evtribo.analysis.plausible import swapped_roles
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.sine import friction_modulation, trace_around_switch
 from evtribo.analysis.tare import (
     HUM_FREE_S,
-    Tared,
-    calibrate,
-    friction_loop_offset,
     removed_offsets,
-    tare_lifted,
-    tare_loop,
 )
+from evtribo.analysis.taring import offset_warnings, tare_and_find_windows
+from evtribo.analysis.timebase import sample_times
 from evtribo.analysis.trace import TRACE_COLUMNS
-from evtribo.analysis.windows import find_windows, with_means
 from evtribo.documents.sidecar import Sidecar
 from evtribo.errors import AnalysisError
 from evtribo.rig import Calibration
@@ -53,10 +51,13 @@ log = logging.getLogger(__name__)
 #: Columns of trials.csv (study format, section 2).
 TRIAL_COLUMNS = ("subject", "trial", "waveform", "frequency_Hz", "amplitude_V", "condition",
                  "duration_s", "frames", "dropped_frames", "skipped_lines",
-                 "friction_modulation_Hz", "normal_offset_N", "tangential_offset_N", "tare")
+                 "friction_modulation_Hz", "normal_offset_N", "tangential_offset_N", "tare",
+                 "mu_change_per_10s", "crosstalk_normal", "crosstalk_normal_se",
+                 "tangential_direction_share")
 #: Columns of windows.csv (study format, section 2).
 WINDOW_CSV_COLUMNS = ("subject", "trial", "condition", "amplitude_V", "waveform", "t_start_s",
-                      "t_end_s", "normal_force_N", "friction_force_N")
+                      "t_end_s", "normal_force_N", "friction_force_N", "direction", "stroke",
+                      "stroke_s", "mu_reference")
 
 #: Columns of sine_trace.csv (read by :mod:`evtribo.compare.tables`).
 SINE_TRACE_CSV_COLUMNS = TRACE_COLUMNS
@@ -132,14 +133,15 @@ def empty_windows() -> pd.DataFrame:
     pandas.DataFrame
         Columns :data:`WINDOW_CSV_COLUMNS`.
     """
-    return pd.DataFrame({c: pd.Series(dtype=object if c in {"subject", "trial", "condition",
-                                                            "waveform"} else float)
-                         for c in WINDOW_CSV_COLUMNS})
+    kinds = {"subject": object, "trial": object, "condition": object, "waveform": object,
+             "direction": np.int64, "stroke": np.int64}
+    return pd.DataFrame({c: pd.Series(dtype=kinds.get(c, float)) for c in WINDOW_CSV_COLUMNS})
 
 
 def _channel(cell: CellSignals) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """A load cell's times (s) and forces (N) as float arrays."""
-    return np.asarray(cell.t, dtype=np.float64), np.asarray(cell.value, dtype=np.float64)
+    """A load cell's sample times (s: its frames' timestamps without the logger's jitter,
+    :func:`~evtribo.analysis.timebase.sample_times`) and forces (N) as float arrays."""
+    return sample_times(cell.t, cell.counter), np.asarray(cell.value, dtype=np.float64)
 
 
 def _sample_times(signals: TrialSignals) -> list[npt.NDArray[np.float64]]:
@@ -214,83 +216,6 @@ def _dehum(aligned: AlignedForces, info: Mapping[str, Any]) -> AlignedForces:
     return AlignedForces(aligned.t, out["normal"], out["tangential"], aligned.rate_Hz)
 
 
-def _windows(tared: Tared, cond: npt.NDArray[np.int8], smooth: float, quantum: float,
-             settings: AnalysisSettings) -> pd.DataFrame:
-    f = tared.forces
-    return find_windows(f.t, f.normal, f.tangential, cond, smooth_s=smooth,
-                        min_window_s=settings.min_window_s, max_window_s=settings.max_window_s,
-                        exclude=lift_exclusion(f.t, tared.lifted), quantum_s=quantum)
-
-
-def _tare(aligned: AlignedForces, exc: Excitation, *, smooth: float, quantum: float,
-          meta: TrialMeta,
-          settings: AnalysisSettings, calibration: Calibration | None,
-          warn: Callable[[str], None]) -> tuple[Tared, pd.DataFrame, npt.NDArray[np.float64]]:
-    """Calibration and taring (:mod:`.tare`), the steady-sliding windows they give and the
-    windows' amplitudes (the friction loop groups the ON windows by them)."""
-    mode = settings.tare
-    cal = calibration or Calibration()
-    tared = calibrate(aligned, cal if mode != "none" else
-                      Calibration(matrix=cal.matrix), warn)
-    if mode in ("auto", "lifted"):
-        tared = tare_lifted(tared, min_s=settings.min_lift_s)
-        if not tared.lifted and meta.tare_s:
-            warn(f"the sidecar says the finger was lifted for the first {meta.tare_s:g} s, "
-                 "but no finger-lifted stretch was found in the forces (was it kept on the "
-                 "screen?)")
-    w = _windows(tared, exc.condition, smooth, quantum, settings)
-    amps = window_amplitudes(w, exc)
-    if mode in ("auto", "friction-loop") and not w.empty:
-        groups = [None if c != "on" else ("on" if not np.isfinite(a) else a)
-                  for c, a in zip(w.condition, amps, strict=True)]
-        loop = friction_loop_offset(tared.forces.t, tared.forces.normal,
-                                    tared.forces.tangential, w, groups,
-                                    max_knots=2 if tared.lifted else None)
-        if loop is not None and (loop.significant or not tared.lifted):
-            # the same windows (found with relative thresholds, which an offset does not
-            # move), their means from the corrected forces
-            tared = tare_loop(tared, loop)
-            w = with_means(w, tared.forces.normal, tared.forces.tangential)
-        elif not tared.lifted and cal.tangential_offset_N is None:
-            warn("the tangential cell's zero is unknown: no finger-lifted stretch, no "
-                 "[rig.calibration] tangential_offset_N, and too few strokes in both "
-                 "directions for the friction loop; an offset adds to the friction one way "
-                 "and subtracts the other")
-    if mode != "none" and not tared.normal_known:
-        fn = float(np.nanmean(w.normal_force_N)) if len(w) else float(
-            np.nanmedian(tared.forces.normal))
-        warn(f"the normal cell's zero is unknown (no finger-lifted stretch and no "
-             f"[rig.calibration] normal_offset_N): an offset of 10 mN would change F_el by "
-             f"{1.0 / fn:.1f} % (offset / F_n, at this trial's {fn:.2f} N); record a tare "
-             "stretch (evtribo acquire --tare-s) or give [rig.calibration] normal_offset_N")
-    return tared, w, amps
-
-
-def _offset_warnings(tared: Tared, w: pd.DataFrame, offsets: tuple[float | None, float | None],
-                     warn: Callable[[str], None]) -> None:
-    """Offsets large against the forces measured, and zeros that drifted beyond the noise."""
-    if w.empty:
-        return
-    scale = {"normal": float(np.mean(w.normal_force_N)),
-             "tangential": float(np.mean(w.friction_force_N))}
-    for name, value in zip(("normal", "tangential"), offsets, strict=True):
-        if value is not None and scale[name] > 0 and abs(value) > 0.1 * scale[name]:
-            warn(f"the {name} cell's zero offset was {1e3 * value:+.1f} mN, "
-                 f"{100 * abs(value) / scale[name]:.0f} % of the {name} force measured "
-                 f"({scale[name]:.3f} N); removed, but tare the load cells before recording")
-    if len(tared.lifted) < 2:
-        return
-    first, last = tared.lifted[0], tared.lifted[-1]
-    for name, se_name in (("normal", "normal_se_N"), ("tangential", "tangential_se_N")):
-        moved = getattr(last, f"{name}_N") - getattr(first, f"{name}_N")
-        noise = 3 * float(np.hypot(getattr(first, se_name), getattr(last, se_name)))
-        if abs(moved) > max(noise, 0.01 * scale["normal"]):
-            warn(f"the {name} cell's zero drifted by {1e3 * moved:+.1f} mN between the "
-                 f"finger-lifted stretches at {first.t_mid - tared.forces.t[0]:.1f} s and "
-                 f"{last.t_mid - tared.forces.t[0]:.1f} s (noise {1e3 * noise / 3:.2f} mN); "
-                 "interpolated between them")
-
-
 @dataclass
 class _PieceResult:
     """What one continuous piece of a trial gives."""
@@ -302,6 +227,7 @@ class _PieceResult:
     span_s: float
     modulation: float | None = None
     trace: pd.DataFrame | None = None
+    reversals: ReversalSums = field(default_factory=ReversalSums)
 
 
 def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: AnalysisSettings,
@@ -312,6 +238,9 @@ def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, setting
     tn, fn = _channel(signals.normal)
     tt, ft = _channel(signals.tangential)
     aligned = align_forces(tn, fn, tt, ft, max_gap_periods=settings.max_gap_periods)
+    swapped = swapped_roles(aligned.normal, aligned.tangential, aligned.rate_Hz)
+    if swapped:
+        warn(swapped)
     given = {"waveform": meta.waveform, "frequency_Hz": meta.frequency_Hz,
              "amplitude_V": meta.amplitude_V, "condition": meta.condition}
     exc = excitation_of(signals, given, aligned.t, settings.guard_s, warn)
@@ -324,13 +253,14 @@ def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, setting
         quantum = 0.5 / float(info["frequency_Hz"])
     if settings.hum == "remove" or (settings.hum == "auto" and oscillates):
         aligned = _dehum(aligned, info)
-    tared, w, amplitude = _tare(aligned, exc, smooth=smooth, quantum=quantum, meta=meta,
-                     settings=settings, calibration=calibration, warn=warn)
+    tared, w, amplitude = tare_and_find_windows(
+        aligned, exc, smooth=smooth, quantum=quantum, tare_s=meta.tare_s, settings=settings,
+        calibration=calibration, warn=warn)
     aligned = tared.forces
     if observe is not None:
         observe(PieceState(aligned, exc.condition, tared.lifted, w, info))
     offsets = removed_offsets(tared, calibration if settings.tare != "none" else None)
-    _offset_warnings(tared, w, offsets, warn)
+    offset_warnings(tared, w, offsets, warn)
     if np.isnan(amplitude).any():
         warn("the amplitude of the ON windows is unknown (no excitation amplitude "
              "signal, no 'amplitude_V' in the sidecar)")
@@ -340,9 +270,13 @@ def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, setting
         "t_start_s": np.round(w.t_start.to_numpy() - t0, 6),
         "t_end_s": np.round(w.t_end.to_numpy() - t0, 6),
         "normal_force_N": w.normal_force_N, "friction_force_N": w.friction_force_N,
+        "direction": w.direction.astype(np.int64), "stroke": w.stroke.astype(np.int64),
+        "stroke_s": np.round(w.stroke_s.to_numpy(float), 6),
     }, columns=list(WINDOW_CSV_COLUMNS)) if len(w) else empty_windows()
     result = _PieceResult(windows, info, offsets, tared.methods,
-                          span_s=float(aligned.t[-1] - aligned.t[0]))
+                          span_s=float(aligned.t[-1] - aligned.t[0]),
+                          reversals=reversal_sums(aligned.t, aligned.normal,
+                                                  aligned.tangential, w))
     if info["waveform"] == "sine":
         result.modulation = friction_modulation(aligned, w, info, warn)
         result.trace = trace_around_switch(aligned, w, exc, subject=meta.subject,
@@ -426,7 +360,11 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
                     observe=observe)
     longest = max(parts, key=lambda p: p.span_s)
     info = longest.info
-    frames = [p.windows for p in parts if not p.windows.empty]
+    frames, strokes = [], 0  # stroke numbers run on from one piece to the next
+    for p in parts:
+        if not p.windows.empty:
+            frames.append(p.windows.assign(stroke=p.windows.stroke + strokes))
+            strokes += int(p.windows.stroke.max()) + 1
     windows = pd.concat(frames, ignore_index=True) if frames else empty_windows()
     if windows.empty:
         warn("no steady-sliding window found")
@@ -448,8 +386,30 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
         "normal_offset_N": None if offsets[0] is None else round(offsets[0], 6),
         "tangential_offset_N": None if offsets[1] is None else round(offsets[1], 6),
         "tare": "+".join(methods) or "none",
+        **_crosstalk(parts, windows, methods),
     }
     return TrialResult(row=row, windows=windows, warnings=warnings, trace=trace)
+
+
+def _crosstalk(parts: list[_PieceResult], windows: pd.DataFrame, methods: list[str]
+               ) -> dict[str, float | None]:
+    """trials.csv's cross-talk columns (:mod:`.crosstalk`): the normal cell's share of the
+    tangential force from the reversals, and, where the tangential zero was measured (not
+    taken from the friction loop, which removes it), the tangential reading's part that
+    follows the normal force in both directions."""
+    sums = sum((p.reversals for p in parts), ReversalSums())
+    share = None
+    if {"lifted", "calibration"} & set(methods) and "friction-loop" not in methods \
+            and not windows.empty:
+        value = direction_share(windows.assign(
+            tangential_N=windows.direction * windows.friction_force_N))
+        share = None if np.isnan(value) else round(value, 6)
+
+    def rounded(x: float) -> float | None:
+        return None if np.isnan(x) else round(x, 6)
+
+    return {"crosstalk_normal": rounded(sums.slope),
+            "crosstalk_normal_se": rounded(sums.slope_se), "tangential_direction_share": share}
 
 
 def _span_mean(values: list[tuple[float | None, float]]) -> float | None:

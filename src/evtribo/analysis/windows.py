@@ -45,7 +45,7 @@ log = logging.getLogger(__name__)
 
 #: Columns of the table :func:`find_windows` returns.
 WINDOW_COLUMNS = ("i_start", "i_stop", "t_start", "t_end", "condition", "direction",
-                  "normal_force_N", "friction_force_N")
+                  "stroke", "stroke_s", "normal_force_N", "friction_force_N")
 
 DEFAULT_SMOOTH_S = 0.1
 DEFAULT_MIN_WINDOW_S = 0.2
@@ -170,20 +170,22 @@ def find_windows(
     pandas.DataFrame
         One row per window, columns :data:`WINDOW_COLUMNS`: grid indices ``i_start`` and
         ``i_stop`` (exclusive), ``t_start`` and ``t_end`` (s, grid clock), ``condition``
-        (``"on"``/``"off"``), ``direction`` (sign of the friction), and the mean normal force
-        and mean friction magnitude (N).
+        (``"on"``/``"off"``), ``direction`` (sign of the friction), ``stroke`` (its stroke's
+        number from the grid's start) and ``stroke_s`` (that stroke's duration between
+        reversals, s), and the mean normal force and mean friction magnitude (N).
     """
     t = np.asarray(t, dtype=np.float64)
     cond = np.asarray(condition).astype(np.int64)
     if t.size < 3:
         return _empty()
     grid = _smoothed(t, normal, tangential, smooth_s)
-    usable = grid.usable & (cond != EXCLUDED) & (t >= t[0] + skip_start_s)
+    sliding = grid.usable & (t >= t[0] + skip_start_s)
     if exclude is not None:
-        usable &= ~np.asarray(exclude, dtype=bool)
-    code = _stroke_code(grid, cond, usable, sign_fraction)
-    if code is None:
+        sliding &= ~np.asarray(exclude, dtype=bool)
+    found = _stroke_code(grid, cond, sliding, sign_fraction)
+    if found is None:
         return _empty()
+    code, direction = found
     min_len = max(2, round(min_window_s / grid.dt))
     lengths = (min_len, max(min_len, round(max_window_s / grid.dt)),
                max(1, round(quantum_s / grid.dt)) if quantum_s else 1)
@@ -192,8 +194,23 @@ def find_windows(
                                       contact_fraction=contact_fraction)]
     if not rows:
         return _empty()
-    return with_means(pd.DataFrame.from_records(rows, columns=list(WINDOW_COLUMNS)),
-                      grid.normal, grid.tangential)
+    table = _with_strokes(pd.DataFrame.from_records(rows, columns=list(WINDOW_COLUMNS)),
+                          direction, grid.dt)
+    return with_means(table, grid.normal, grid.tangential)
+
+
+def _with_strokes(table: pd.DataFrame, sign: npt.NDArray[np.int64], dt: float
+                  ) -> pd.DataFrame:
+    """*table* with each window's stroke (the runs of one sliding direction of *sign*,
+    numbered from 0) and that stroke's duration, s."""
+    number = np.full(sign.size, -1, dtype=np.int64)
+    seconds = np.full(sign.size, np.nan)
+    runs = [(a, b) for a, b, v in _runs(sign) if v != 0]
+    for k, (a, b) in enumerate(runs):
+        number[a:b] = k
+        seconds[a:b] = (b - a) * dt
+    first = table.i_start.to_numpy(np.int64)
+    return table.assign(stroke=number[first], stroke_s=seconds[first])
 
 
 def _empty() -> pd.DataFrame:
@@ -241,10 +258,13 @@ def _smoothed(t: npt.NDArray[np.float64], normal: npt.ArrayLike, tangential: npt
                  runs[runs[:, 1] - runs[:, 0] > span // 2])
 
 
-def _stroke_code(grid: _Grid, cond: npt.NDArray[np.int64], usable: npt.NDArray[np.bool_],
-                 sign_fraction: float) -> npt.NDArray[np.int64] | None:
+def _stroke_code(grid: _Grid, cond: npt.NDArray[np.int64], sliding: npt.NDArray[np.bool_],
+                 sign_fraction: float
+                 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]] | None:
     """Steps 2 and 3: each grid point's piece, direction x condition (+-1 OFF, +-2 ON; 0
-    outside strokes: reversals, rest, unusable points); None without sliding."""
+    outside strokes: reversals, rest, unusable points, the guard about a switch), and its
+    sliding direction whatever the condition (0 outside strokes); None without sliding."""
+    usable = sliding & (cond != EXCLUDED)
     if not usable.any():
         return None
     ft_s = grid.tangential_smooth
@@ -253,8 +273,9 @@ def _stroke_code(grid: _Grid, cond: npt.NDArray[np.int64], usable: npt.NDArray[n
         return None
     label = np.where(ft_s > sign_fraction * level, 1, np.where(ft_s < -sign_fraction * level,
                                                                 -1, 0))
-    label[~usable] = 0
-    return np.where(label == 0, 0, label * (np.where(cond == ON, 2, 1))).astype(np.int64)
+    label[~sliding] = 0
+    code = np.where(usable, label * (np.where(cond == ON, 2, 1)), 0).astype(np.int64)
+    return code, label.astype(np.int64)
 
 
 def _steady(grid: _Grid, a: int, b: int, *, level_fraction: float, contact_fraction: float
@@ -294,7 +315,7 @@ def _piece_windows(t: npt.NDArray[np.float64], grid: _Grid, piece: tuple[int, in
     a, b, v = piece
     ok = _steady(grid, a, b, level_fraction=level_fraction, contact_fraction=contact_fraction)
     return [(i0, i1, t[i0], t[i1 - 1] + grid.dt, "on" if abs(v) == 2 else "off",
-             int(np.sign(v)), 0.0, 0.0)
+             int(np.sign(v)), -1, float("nan"), 0.0, 0.0)
             for s, e in true_runs(ok) for i0, i1 in _split(a + s, a + e, *lengths)]
 
 

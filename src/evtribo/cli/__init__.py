@@ -36,9 +36,11 @@ SUBCOMMANDS: dict[str, str] = {
     "decode": "decode a CAN log through a DBC into Parquet or CSV",
     "plot": "a trial's check (forces, ON/OFF, windows, exclusions), or any signal of a log",
     "analyze": "friction, windows and the inferred electrostatic force of a study",
+    "calibrate": "the load cells' cross-talk matrix from calibration recordings",
     "compare": "fit the model to the results of analyze; figures",
     "report": "one self-contained HTML report of a study's results",
     "demo": "simulate, record, analyse, compare and report a small study",
+    "cite": "how to cite evtribo and the model it implements (text, BibTeX)",
 }
 
 log = logging.getLogger(__name__)
@@ -96,6 +98,8 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="evtribo",
         description="Tribometer experiments on electrovibration: acquire, analyse, compare.",
+        epilog="Publishing results evtribo computed? `evtribo cite` says how to cite evtribo "
+               "and the model it implements (`evtribo cite --bibtex` for BibTeX).",
     )
     parser.add_argument("--version", action=_Version)
     _add_common(parser)

@@ -11,7 +11,8 @@
    figure folded in a ``<details>`` element;
 6. the warnings;
 7. provenance and settings: the study's facts, the trials, the power laws, the inputs and
-   result files with their SHA-256, the rig, the software and the analysis settings.
+   result files with their SHA-256, the rig, the software and the analysis settings, and
+   how to cite the software and the model.
 
 Every number is printed for people (:mod:`evtribo.compare.numbers`).
 """
@@ -31,6 +32,7 @@ from markupsafe import escape
 
 from evtribo import __version__
 from evtribo.analysis.outputs import FIGURES
+from evtribo.citation import PAPER, SOFTWARE, text
 from evtribo.compare.headline import (
     CITATION,
     DOI_URL,
@@ -370,6 +372,18 @@ def _software(summary: Summary, fit_doc: FitDocument) -> pd.DataFrame:
     return pd.DataFrame(software)
 
 
+def _how_to_cite(report: Report, summary: Summary, section: str) -> None:
+    """The two works a paper using these results cites: evtribo and the seed paper."""
+    analysed_by = summary.evtribo_version or summary.software.get("evtribo", "")
+    other = (f" These results were analysed by evtribo {analysed_by}: cite that version."
+             if analysed_by and analysed_by != __version__ else "")
+    paper = text(PAPER).removesuffix(DOI_URL)
+    report.add_html(f'<p class="cite">To cite: the software, {escape(text(SOFTWARE))}'
+                    f"{escape(other)} The model, {escape(paper)}"
+                    f'<a href="{DOI_URL}">{DOI_URL}</a>. BibTeX of both: '
+                    "<code>evtribo cite --bibtex</code>.</p>", section=section)
+
+
 def _result_files(folder: Path, output: Path) -> pd.DataFrame:
     """The result folder's files and figures (not the report itself), hashed."""
     html_path = output.resolve()
@@ -449,6 +463,7 @@ def add_provenance(report: Report, tables: ResultTables, fit_doc: FitDocument, *
                                        for k, v in rig.items()]), "Rig", section=sec,
                          wrap=True)
     report.add_table(_software(tables.summary, fit_doc), "Software", section=sec, wrap=True)
+    _how_to_cite(report, tables.summary, sec)
     settings = tables.summary.settings
     if settings:
         report.add_table(pd.DataFrame([{"setting": k, "value": _setting(v)}

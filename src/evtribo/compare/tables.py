@@ -7,19 +7,19 @@ raises :class:`evtribo.errors.UserInputError` naming the file and the column.
 Besides the §2 tables the comparison reads an optional ``sine_trace.csv``: the raw signals of
 one sine trial, for the friction-versus-time figure (the seed paper's Figure 5). Its columns:
 
-=================  ==========================================================
-``time_s``         seconds from the start of the trace
-``normal_force_N`` normal force, N
-``friction_force_N`` friction (tangential) force magnitude, N
-``voltage_V``      instantaneous applied voltage U(t), V (0 while OFF); or, when the
-                   rig only reports the drive's settings, ``amplitude_V`` (0 while OFF)
-                   and ``frequency_Hz``: the sine's phase is then taken as the one that
-                   best matches the measured friction (friction oscillates at twice the
-                   drive frequency, so the phase is known modulo pi, which is all the
-                   model needs)
-``subject``        optional: whose trace it is (else the first subject)
-``trial``          optional: the trial's name
-=================  ==========================================================
+====================  ==========================================================
+``time_s``            seconds from the start of the trace
+``normal_force_N``    normal force, N
+``friction_force_N``  friction (tangential) force magnitude, N
+``voltage_V``         instantaneous applied voltage U(t), V (0 while OFF); or, when the
+                      rig only reports the drive's settings, ``amplitude_V`` (0 while OFF)
+                      and ``frequency_Hz``: the sine's phase is then taken as the one that
+                      best matches the measured friction (friction oscillates at twice the
+                      drive frequency, so the phase is known modulo pi, which is all the
+                      model needs)
+``subject``           optional: whose trace it is (else the first subject)
+``trial``             optional: the trial's name
+====================  ==========================================================
 
 It also reads an optional ``electrostatic_bootstrap.csv`` (written by ``evtribo analyze``
 next to electrostatic.csv; columns :data:`BOOTSTRAP_COLUMNS`): bootstrap replicates of every

@@ -106,6 +106,7 @@ class SessionConfig:
     settings: BusSettings | None = None
     view: LiveView | None = None
     stream: TextIO = field(default_factory=lambda: sys.stdout)
+    #: Asks the operator a question, returns the answer (the built-in ``input``).
     ask: Callable[[str], str] = input
     display: bool = True
     check: bool = True

@@ -2,7 +2,8 @@
 
 A cell does not read the true force: it has a zero offset that drifts (linearly and with a
 slow thermal settling) and picks up mains hum (:class:`CellZero`), and the two axes leak into
-each other through a cross-talk matrix (:func:`measured`).
+each other through a cross-talk matrix (:func:`measured`); strain gauges creep after a change
+of load (:class:`Creep`).
 """
 
 from __future__ import annotations
@@ -12,8 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
+from scipy.signal import lfilter
 
-__all__ = ["CellZero", "measured"]
+__all__ = ["CellZero", "Creep", "measured"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -95,3 +97,40 @@ def measured(row: tuple[float, float], normal_N: npt.ArrayLike, tangential_N: np
     """
     return (row[0] * np.asarray(normal_N, dtype=np.float64)
             + row[1] * np.asarray(tangential_N, dtype=np.float64) + zero(t))
+
+
+class Creep:
+    """A strain-gauge cell's creep: after a change of load its reading first falls short of
+    the change by a fraction ``creep`` and approaches it with time constant ``tau``.
+
+    ``reading = F - creep * (F - F_slow)``, with ``F_slow`` the load through a first-order
+    low-pass of time constant ``tau`` (its state carried from one call to the next, so that
+    a stream of chunks gives the same readings as one call).
+
+    Parameters
+    ----------
+    creep : float
+        Fraction of a change of load not yet read at first (0: no creep).
+    tau_s : float, s
+        Time constant of the approach.
+    """
+
+    def __init__(self, creep: float, tau_s: float) -> None:
+        self.creep, self.tau_s = float(creep), float(tau_s)
+        self._slow: float | None = None
+        self._t: float | None = None
+
+    def __call__(self, t: npt.ArrayLike, load: npt.ArrayLike) -> FloatArray:
+        """The reading of *load* (N) sampled at times *t* (s, increasing and evenly spaced,
+        as a cell samples), N."""
+        x = np.asarray(load, dtype=np.float64)
+        if self.creep == 0 or x.size == 0:
+            return x
+        t = np.asarray(t, dtype=np.float64)
+        if self._slow is None or self._t is None:
+            self._slow, self._t = float(x[0]), float(t[0])
+        step = float(np.median(np.diff(t))) if t.size > 1 else float(t[0] - self._t)
+        a = math.exp(-max(step, 0.0) / self.tau_s)
+        slow, _ = lfilter([1.0 - a], [1.0, -a], x, zi=[a * self._slow])
+        self._slow, self._t = float(slow[-1]), float(t[-1])
+        return np.asarray(x - self.creep * (x - slow), dtype=np.float64)

@@ -95,6 +95,23 @@ class SubjectParams:
         Mean duration of a lift-off with the finger fully off (each drawn uniformly from
         half to one and a half times this), plus :data:`~evtribo.acquisition.simulator.
         physics.CONTACT_RAMP_S` to leave and to come back.
+    moisture_rise : float
+        Relative rise of the friction coefficient as the fingertip's contact moistens,
+        once saturated (0.3: 30 % higher; 0: a dry, constant finger). Each trial starts dry.
+    moisture_time_s : float, s
+        Time constant of that rise, in time of contact.
+    speed_exponent : float
+        ``beta`` of a friction coefficient that depends on the sliding speed,
+        ``mu * (v / sliding_speed_m_s)**beta`` (0: none).
+    speed_spread : float
+        Ratio of the fastest to the slowest stroke's speed (each stroke's speed drawn
+        log-uniformly about ``sliding_speed_m_s``; 1: every stroke at that speed, its
+        length varying with ``stroke_jitter``).
+    direction_asymmetry : float
+        Forward strokes have ``mu * (1 + a)``, backward ones ``mu * (1 - a)``.
+    mu_trial_spread : float
+        Relative standard deviation of each trial's friction coefficient about ``mu`` (the
+        skin's state differs between trials; 0: the same in every trial).
     model : dict
         Other parameters of the model for this subject (``ModelParameters`` names, SI
         units), e.g. ``{"r_g": 80.0}``: a gap that leaks, so that the force depends on the
@@ -114,13 +131,31 @@ class SubjectParams:
     dwell_s: float = 0.0
     lifts_per_min: float = 0.0
     lift_s: float = 0.4
+    moisture_rise: float = 0.0
+    moisture_time_s: float = 8.0
+    speed_exponent: float = 0.0
+    speed_spread: float = 1.0
+    direction_asymmetry: float = 0.0
+    mu_trial_spread: float = 0.0
     model: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         _check_positive(self, ("mu", "h_L", "normal_force_N", "drift_time_s",
-                               "sliding_speed_m_s", "stroke_length_m", "reversal_s", "lift_s"))
-        _check_positive(self, ("force_drift", "stroke_jitter", "dwell_s", "lifts_per_min"),
-                        allow_zero=True)
+                               "sliding_speed_m_s", "stroke_length_m", "reversal_s", "lift_s",
+                               "moisture_time_s"))
+        _check_positive(self, ("force_drift", "stroke_jitter", "dwell_s", "lifts_per_min",
+                               "moisture_rise", "mu_trial_spread"), allow_zero=True)
+        _check_finite(self, "speed_exponent")
+        if not (isinstance(self.speed_spread, int | float) and self.speed_spread >= 1):
+            raise ConfigError(f"{self.speed_spread!r} is not allowed: must be >= 1",
+                              key="SubjectParams.speed_spread")
+        if not (isinstance(self.direction_asymmetry, int | float)
+                and abs(self.direction_asymmetry) < 0.5):
+            raise ConfigError(f"{self.direction_asymmetry!r} is not allowed: |a| < 0.5",
+                              key="SubjectParams.direction_asymmetry")
+        if self.mu_trial_spread >= 0.5:
+            raise ConfigError(f"{self.mu_trial_spread!r} is not allowed: must be < 0.5",
+                              key="SubjectParams.mu_trial_spread")
         if self.stroke_jitter >= 1:
             raise ConfigError(f"{self.stroke_jitter!r} is not allowed: must be < 1",
                               key="SubjectParams.stroke_jitter")
@@ -190,6 +225,30 @@ class TrialConfig:
         phase of its own, plus a third harmonic of a fifth of it).
     mains_Hz : float, Hz
         Mains frequency (50 or 60).
+    creep : float
+        Creep of both strain-gauge cells: after a change of load a cell's reading approaches
+        the new load by this fraction of the change over ``creep_time_s`` (0.01: it first
+        reads 1 % short of the change, then creeps towards it).
+    creep_time_s : float, s
+        Time constant of the creep.
+    logger_ppm : float, ppm
+        Clock error of the logger that timestamps the frames (its seconds are this much
+        longer than true ones).
+    burst_s : float, s
+        The adapter delivers the frames in batches, this often (a USB adapter polled every
+        millisecond): each frame is stamped when its batch arrives (0: frame by frame).
+    spike_rate_Hz : float, Hz
+        Rate of single-sample spikes on each cell (electrical interference).
+    spike_N : float, N
+        Their size: each spike adds a value drawn uniformly in ``+/- spike_N``.
+    outages_per_min : float, 1/min
+        Rate of outages (Poisson) in which every frame is lost (a USB adapter resetting).
+    press_only : bool
+        A calibration recording: after the tare stretch the finger presses without
+        sliding, its force swelling from 40 % to 160 % of the target and back every
+        :data:`~evtribo.acquisition.simulator.finger.PRESS_PERIOD_S` seconds.
+    outage_s : float, s
+        Mean length of an outage (each drawn from half to one and a half times this).
     crosstalk : ((float, float), (float, float))
         The cells' axis cross-talk: ``[Fn, Ft]_measured = crosstalk @ [Fn, Ft]_true`` (plus
         the offsets); its inverse is the ``[rig.calibration] matrix`` that undoes it.
@@ -231,6 +290,15 @@ class TrialConfig:
     fz_hum_N: float = 0.0
     fx_hum_N: float = 0.0
     mains_Hz: float = 50.0
+    creep: float = 0.0
+    creep_time_s: float = 3.0
+    logger_ppm: float = 0.0
+    burst_s: float = 0.0
+    spike_rate_Hz: float = 0.0
+    spike_N: float = 0.0
+    outages_per_min: float = 0.0
+    outage_s: float = 0.05
+    press_only: bool = False
     crosstalk: tuple[tuple[float, float], tuple[float, float]] = ((1.0, 0.0), (0.0, 1.0))
     start_time: float = 1_763_700_000.0
     channel: str = "vcan0"
@@ -247,8 +315,15 @@ class TrialConfig:
                                "fx_rate_Hz", "hv_rate_Hz"))
         _check_positive(self, ("amplitude_V", "noise_N", "latency_s", "jitter_s",
                                "foreign_rate_Hz", "drop_probability", "tare_s", "fz_hum_N",
-                               "fx_hum_N"), allow_zero=True)
-        _check_positive(self, ("thermal_time_s", "mains_Hz"))
+                               "fx_hum_N", "creep", "burst_s", "spike_rate_Hz", "spike_N",
+                               "outages_per_min"), allow_zero=True)
+        _check_positive(self, ("thermal_time_s", "mains_Hz", "creep_time_s", "outage_s"))
+        _check_finite(self, "logger_ppm")
+        if self.creep >= 0.5 or abs(self.logger_ppm) >= 1e5:
+            name = "creep" if self.creep >= 0.5 else "logger_ppm"
+            raise ConfigError(f"{getattr(self, name)!r} is not allowed: "
+                              + ("must be < 0.5" if name == "creep" else "|ppm| < 1e5"),
+                              key=f"TrialConfig.{name}")
         for name in ("fz_offset_N", "fx_offset_N", "fz_drift_N_per_s", "fx_drift_N_per_s",
                      "fz_thermal_N", "fx_thermal_N"):
             _check_finite(self, name)

@@ -25,9 +25,13 @@ import numpy as np
 import numpy.typing as npt
 
 from evtribo.acquisition.simulator.anyrig import RigEncoder
+from evtribo.acquisition.simulator.cells import Creep
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
+from evtribo.acquisition.simulator.delivery import Delivery
 from evtribo.acquisition.simulator.encode import pack_signals
+from evtribo.acquisition.simulator.finger import FrictionLaw, contact_time, press_cycle
 from evtribo.acquisition.simulator.physics import (
+    CONTACT_RAMP_S,
     FORCE_STEP_S,
     CellZero,
     Contact,
@@ -64,12 +68,15 @@ WAVE_CODE = {"sine": 0, "square": 1}
 #: Nominal leakage current reported by the amplifier at 140 V, uA (not modelled further).
 LEAK_UA_AT_140V = 4.0
 
+#: A finger pressing without sliding still shears the skin a little: this share of its
+#: target force, slowly wandering.
+PRESS_SHEAR = 0.02
 #: Contact above this counts as full contact in the truth's means.
 FULL_CONTACT = 0.999
 
 # Independent random streams, by purpose (seeded as [seed, stream, chunk]).
 (_S_CLOCK, _S_STROKE, _S_FORCE, _S_NOISE, _S_DROP, _S_FOREIGN, _S_FORCE0, _S_DWELL, _S_LIFT,
- _S_HUM) = range(10)
+ _S_HUM, _S_SPEED, _S_FINGER, _S_DELIVERY, _S_SPIKE) = range(14)
 
 
 @dataclass
@@ -86,6 +93,17 @@ class _Node:
         k0 = max(0, math.ceil((t0 - self.offset) * self.rate_eff))
         k1 = max(k0, math.ceil((t1 - self.offset) * self.rate_eff))
         return np.arange(k0, k1, dtype=np.int64)
+
+
+def _friction_law(subject: SubjectParams, rng: np.random.Generator) -> FrictionLaw:
+    """The subject's friction in one trial (its coefficient drawn about the subject's when
+    trials differ)."""
+    mu0 = subject.mu
+    if subject.mu_trial_spread > 0:
+        mu0 *= float(np.clip(1.0 + subject.mu_trial_spread * rng.standard_normal(), 0.5, 1.5))
+    return FrictionLaw(mu0, subject.moisture_rise, subject.moisture_time_s,
+                       subject.speed_exponent, subject.sliding_speed_m_s,
+                       subject.direction_asymmetry)
 
 
 def _load_dbc(dbc: str | os.PathLike[str] | None) -> Any:
@@ -145,7 +163,12 @@ class TrialGenerator:
                                     float(clock_rng.uniform(0, 1 / rate_eff))))
         self.strokes = Strokes.draw(subject, config.duration_s,
                                     np.random.default_rng([seed, _S_STROKE]),
-                                    np.random.default_rng([seed, _S_DWELL]))
+                                    np.random.default_rng([seed, _S_DWELL]),
+                                    np.random.default_rng([seed, _S_SPEED]))
+        self.friction = _friction_law(subject, np.random.default_rng([seed, _S_FINGER]))
+        self.delivery = Delivery.draw(config, np.random.default_rng([seed, _S_DELIVERY]))
+        self.creep = {"normal": Creep(config.creep, config.creep_time_s),
+                      "tangential": Creep(config.creep, config.creep_time_s)}
         self.contact = Contact.draw(subject, config.tare_s, config.duration_s,
                                     np.random.default_rng([seed, _S_LIFT]))
         phases = np.random.default_rng([seed, _S_HUM]).uniform(0, 2 * np.pi, 4)
@@ -164,6 +187,7 @@ class TrialGenerator:
                       "n_fel": 0}
         self._fel_sum: list[npt.NDArray[np.float64]] = []
         self._fel_count: list[npt.NDArray[np.int64]] = []
+        self._mu_sum: list[npt.NDArray[np.float64]] = []
         self._first_rx: float | None = None
         self._carry = FrameTable.empty(channel=config.channel)
         self._chunk = 0
@@ -222,7 +246,37 @@ class TrialGenerator:
         and the finger's contact."""
         press = np.where(contact > 0, fn / np.maximum(contact, 1e-12), 0.0)
         fel = contact * drive_force(t, press, self.config, self.params, interval_s)
-        return self.subject.mu * (fn + fel) * self.strokes.factor(t), fel
+        if self.config.press_only:  # no sliding: the skin's small shear only
+            shear = PRESS_SHEAR * self.subject.normal_force_N * np.sin(2 * np.pi * t / 7.0)
+            return np.where(contact > 0, shear, 0.0), fel
+        return self.mu_at(t) * (fn + fel) * self.strokes.factor(t), fel
+
+    def mu_at(self, t: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """The finger's friction coefficient at times *t* (s from the trial's start)."""
+        law = self.friction
+        if law.constant:
+            return np.full(t.shape, law.mu0)
+        i = self.strokes.index(t)
+        tc = contact_time(t, self.contact.start, self.contact.end, CONTACT_RAMP_S)
+        return law.mu(tc, self.strokes.speed[i], self.strokes.direction[i])
+
+    def _reading(self, cell: str, row: tuple[float, float], fn: npt.NDArray[np.float64],
+                 ft: npt.NDArray[np.float64] | float, t: npt.NDArray[np.float64], *,
+                 rng: np.random.Generator) -> npt.NDArray[np.float64]:
+        """What a cell reads of the true forces at times *t*: cross-talk, creep, its zero,
+        noise and spikes, N."""
+        cfg = self.config
+        load = self.creep[cell](t, row[0] * fn + row[1] * np.asarray(ft))
+        out = measured((1.0, 0.0), load, 0.0, self.zeros[cell], t) \
+            + cfg.noise_N * rng.standard_normal(t.size)
+        if cfg.spike_rate_Hz > 0 and t.size:
+            spikes = np.random.default_rng([cfg.seed, _S_SPIKE, self._chunk,
+                                            0 if cell == "normal" else 1])
+            n = int(spikes.poisson(cfg.spike_rate_Hz * t.size / self.nodes[
+                0 if cell == "normal" else 1].rate_eff))
+            where = spikes.integers(0, t.size, n)
+            out[where] += spikes.uniform(-cfg.spike_N, cfg.spike_N, n)
+        return out
 
     # -- one chunk -----------------------------------------------------------------------
     def _chunk_frames(self, t0: float, t1: float) -> FrameTable:
@@ -236,7 +290,8 @@ class TrialGenerator:
         grid_t = np.arange(j0, j1 + 1) * FORCE_STEP_S
 
         def fn_at(t: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-            return np.maximum(np.interp(t, grid_t, grid_f), 0.0)
+            fn = np.maximum(np.interp(t, grid_t, grid_f), 0.0)
+            return fn * press_cycle(t) if cfg.press_only else fn
 
         fz, fx, hv = self.nodes
         tables = []
@@ -254,8 +309,7 @@ class TrialGenerator:
         s["fn_off"] += float(fn[~gate & full].sum())
         s["n_off"] += int((~gate & full).sum())
         ft = self._friction(t, fn, contact, 1 / fz.rate_eff)[0] if xtalk[0][1] else 0.0
-        values: dict[str, Any] = {"Fz": measured(xtalk[0], fn, ft, self.zeros["normal"], t)
-                  + cfg.noise_N * noise.standard_normal(k.size),
+        values: dict[str, Any] = {"Fz": self._reading("normal", xtalk[0], fn, ft, t, rng=noise),
                   "FzTemp": 24.0 + 0.5 * np.sin(2 * np.pi * t / 600.0)}
         tables.append(self._frames(fz, k, self._rx_times(fz, t, noise), values, drop))
         # tangential-force cell
@@ -275,8 +329,9 @@ class TrialGenerator:
             self._fel_sum.append(np.bincount(bins, weights=fel, minlength=size)[:size]
                                  .astype(np.float64, copy=False))
             self._fel_count.append(np.bincount(bins, minlength=size)[:size])
-        values = {"Fx": measured(xtalk[1], fn, ft, self.zeros["tangential"], t)
-                  + cfg.noise_N * noise.standard_normal(k.size),
+            self._mu_sum.append(np.bincount(bins, weights=self.mu_at(t), minlength=size)[:size]
+                                .astype(np.float64, copy=False))
+        values = {"Fx": self._reading("tangential", xtalk[1], fn, ft, t, rng=noise),
                   "FxTemp": 24.5 + 0.5 * np.sin(2 * np.pi * t / 700.0)}
         tables.append(self._frames(fx, k, self._rx_times(fx, t, noise), values, drop))
         # amplifier status
@@ -320,6 +375,17 @@ class TrialGenerator:
             self.config = dataclasses.replace(self.config, **changes)
         self.chunk_s = OBEY_CHUNK_S  # from now on the amplifier answers within this
 
+    def lift(self, duration_s: float) -> None:
+        """The finger lifted for *duration_s* from the next chunk on (a new recording's tare
+        stretch, when the simulated rig runs on for several trials).
+
+        Parameters
+        ----------
+        duration_s : float, s
+        """
+        if duration_s > 0:
+            self.contact = self.contact.lifted_at(self._t_next, duration_s)
+
     def chunks(self) -> Iterator[FrameTable]:
         """Frames in reception order, about :data:`CHUNK_S` s at a time (:data:`OBEY_CHUNK_S`
         once the amplifier has been commanded), to the trial's end.
@@ -338,6 +404,9 @@ class TrialGenerator:
             cut = len(table) if last else int(np.searchsorted(table.timestamp, t1, "left"))
             self._carry = table.take(np.arange(cut, len(table)))
             out = table.take(np.arange(cut))
+            if not self.delivery.ideal:
+                out = out.take(np.flatnonzero(~self.delivery.lost(out.timestamp)))
+                out.timestamp = self.delivery.stamps(out.timestamp)
             if self._first_rx is None and len(out):
                 self._first_rx = float(out.timestamp[0])
             out.timestamp = out.timestamp + cfg.start_time
@@ -355,6 +424,9 @@ class TrialGenerator:
         return TrialTruth(
             subject=self.subject, config=cfg, schedule=on_off_schedule(cfg),
             slides=self.strokes.slides(cfg.duration_s),
+            slide_speeds_m_s=[v for *_, v in self.strokes.slides_with_speed(cfg.duration_s)],
+            friction=dataclasses.asdict(self.friction),
+            outages=self.delivery.periods(),
             normal_force_on_N=fn_on,
             normal_force_off_N=s["fn_off"] / s["n_off"] if s["n_off"] else None,
             electrostatic_force_N=fel_model,
@@ -377,6 +449,7 @@ class TrialGenerator:
             first_frame_s=self._first_rx,
             fel_sum=np.concatenate(self._fel_sum) if self._fel_sum else None,
             fel_count=np.concatenate(self._fel_count) if self._fel_count else None,
+            mu_sum=np.concatenate(self._mu_sum) if self._mu_sum else None,
         )
 
     def _steady(self) -> list[tuple[float, float, int, bool]]:

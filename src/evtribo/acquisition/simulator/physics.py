@@ -34,9 +34,20 @@ from evtribo.model import (
     gap_factor,
 )
 
-__all__ = ["CONTACT_RAMP_S", "CellZero", "Contact", "NormalForceProcess", "Strokes",
-           "drive_force", "electrostatic", "excitation_gate", "measured", "model_parameters",
-           "on_off_schedule", "voltage"]
+__all__ = [
+    "CONTACT_RAMP_S",
+    "CellZero",
+    "Contact",
+    "NormalForceProcess",
+    "Strokes",
+    "drive_force",
+    "electrostatic",
+    "excitation_gate",
+    "measured",
+    "model_parameters",
+    "on_off_schedule",
+    "voltage",
+]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -51,8 +62,6 @@ CONTACT_RAMP_S = 0.08
 MIN_CONTACT_S = 1.0
 #: Largest magnitude of the friction force's rest level during a dwell (fraction of sliding).
 DWELL_LEVEL = 0.15
-
-
 def model_parameters(subject: SubjectParams) -> ModelParameters:
     """The seed paper's Table 1 with the subject's friction coefficient, air gap and other
     model parameters (``SubjectParams.model``: e.g. the resistances ``r_sc``, ``r_g``).
@@ -286,6 +295,8 @@ class Strokes:
         Rest at the reversal after each slide.
     rest_level : ndarray
         ``r`` of each reversal.
+    speed : ndarray, m/s
+        The finger's speed during each slide.
     """
 
     slide_start: FloatArray
@@ -294,19 +305,29 @@ class Strokes:
     reversal_s: float
     dwell: FloatArray
     rest_level: FloatArray
+    speed: FloatArray
 
     @classmethod
     def draw(cls, subject: SubjectParams, duration_s: float, rng: np.random.Generator,
-             dwell_rng: np.random.Generator | None = None) -> Strokes:
+             dwell_rng: np.random.Generator | None = None,
+             speed_rng: np.random.Generator | None = None) -> Strokes:
         """Strokes covering ``[0, duration_s]``, starting at a random point of a slide.
 
         The dwells and rest levels come from *dwell_rng* (only drawn when the subject
-        dwells, so that a subject without dwells gets the same strokes for a seed as ever).
+        dwells), the strokes' speeds from *speed_rng* (only when they differ,
+        ``speed_spread > 1``), so that a subject without them gets the same strokes for a
+        seed as ever. A stroke's length varies by ``stroke_jitter``; at one speed, so does
+        its duration.
         """
         base = subject.stroke_length_m / subject.sliding_speed_m_s
-        shortest = base * (1 - subject.stroke_jitter) + subject.reversal_s
+        spread = subject.speed_spread
+        shortest = base * (1 - subject.stroke_jitter) / math.sqrt(spread) + subject.reversal_s
         n = math.ceil(duration_s / shortest) + 2
-        slides = base * (1 + subject.stroke_jitter * rng.uniform(-1, 1, n))
+        stretch = 1 + subject.stroke_jitter * rng.uniform(-1, 1, n)
+        speed = np.full(n, subject.sliding_speed_m_s)
+        if spread > 1:
+            speed = speed * spread ** (speed_rng or rng).uniform(-0.5, 0.5, n)
+        slides = stretch * subject.stroke_length_m / speed
         first = -rng.uniform(0, 1) * slides[0]
         if subject.dwell_s > 0:
             drng = dwell_rng or rng
@@ -317,12 +338,16 @@ class Strokes:
         start = first + np.concatenate(
             [[0.0], np.cumsum(slides + subject.reversal_s + dwell)[:-1]])
         direction = np.where(np.arange(n) % 2 == 0, 1.0, -1.0) * rng.choice([-1.0, 1.0])
-        return cls(start, start + slides, direction, subject.reversal_s, dwell, rest)
+        return cls(start, start + slides, direction, subject.reversal_s, dwell, rest, speed)
+
+    def index(self, t: FloatArray) -> npt.NDArray[np.intp]:
+        """The slide under way at times *t* (its reversal after it included)."""
+        return np.clip(np.searchsorted(self.slide_start, t, side="right") - 1, 0,
+                       len(self.slide_start) - 1)
 
     def factor(self, t: FloatArray) -> FloatArray:
         """Signed fraction of full sliding friction at times *t* (-1 to 1)."""
-        i = np.clip(np.searchsorted(self.slide_start, t, side="right") - 1, 0,
-                    len(self.slide_start) - 1)
+        i = self.index(t)
         tau = t - self.slide_end[i]
         half = 0.5 * self.reversal_s
         dwell = self.dwell[i]
@@ -334,11 +359,16 @@ class Strokes:
 
     def slides(self, duration_s: float) -> list[tuple[float, float, int]]:
         """Steady slides inside the trial as ``(start_s, end_s, direction)``."""
+        return [(a, b, d) for a, b, d, _ in self.slides_with_speed(duration_s)]
+
+    def slides_with_speed(self, duration_s: float) -> list[tuple[float, float, int, float]]:
+        """Steady slides inside the trial as ``(start_s, end_s, direction, speed_m_s)``."""
         out = []
-        for a0, b0, d in zip(self.slide_start, self.slide_end, self.direction, strict=True):
+        for a0, b0, d, v in zip(self.slide_start, self.slide_end, self.direction, self.speed,
+                                strict=True):
             a, b = max(float(a0), 0.0), min(float(b0), duration_s)
             if b > a:
-                out.append((a, b, int(d)))
+                out.append((a, b, int(d), float(v)))
         return out
 
 
@@ -416,6 +446,17 @@ class Contact:
             ends.append(t + off)
             t += off + MIN_CONTACT_S
         return cls(np.asarray(starts, dtype=np.float64), np.asarray(ends, dtype=np.float64))
+
+    def lifted_at(self, t0: float, duration_s: float) -> Contact:
+        """The same contact with the finger lifted from *t0* for *duration_s* (leaving from
+        *t0*, back in full contact :data:`CONTACT_RAMP_S` after the stretch): an operator's
+        tare stretch at the start of a recording. Lift-offs that overlap it are dropped."""
+        a, b = t0, t0 + duration_s + 2 * CONTACT_RAMP_S
+        keep = (self.end <= a) | (self.start >= b + MIN_CONTACT_S)
+        start = np.append(self.start[keep], a)
+        end = np.append(self.end[keep], b)
+        order = np.argsort(start)
+        return Contact(start[order], end[order])
 
     def factor(self, t: FloatArray) -> FloatArray:
         """Contact at times *t*: 1 touching, 0 off the screen, linear ramps in between."""

@@ -18,19 +18,30 @@ person                            strokes of 4 cm at 30-60 mm/s (0.7-1.3 s), the
                                   at reversals, 2-4 lift-offs a minute of 0.3-0.5 s, a
                                   normal force wandering by 8-15 % (about +/- 0.1-0.2 N at
                                   a target of 0.5-1 N)
+fingertip (:func:`real_finger`)   friction rising by 20-40 % as the contact moistens (time
+                                  constant 5-10 s of contact), depending on speed
+                                  (exponent 0.1-0.2, strokes' speeds spread 3x) and on
+                                  direction (+/- 3-8 %), each trial's coefficient 5-10 %
+                                  apart
+logger (:func:`real_logger`)      1 ms of reception jitter, batches every 1 ms, a clock
+                                  100 ppm off, an outage of 50 ms or so a minute
 ================================  ==========================================================
+
+:func:`realistic_rig` adds, on request, cross-talk between the axes (a few %) and creep
+(0.5-2 % over 1-5 s).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from typing import Any
 
 import numpy as np
 
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 
-__all__ = ["IDEAL_RIG", "IDEAL_SUBJECT", "human", "realistic_rig"]
+__all__ = ["IDEAL_RIG", "IDEAL_SUBJECT", "human", "real_finger", "real_logger", "realistic_rig"]
 
 #: The TrialConfig fields of an ideal rig (load cells exact, no tare stretch).
 IDEAL_RIG = {"tare_s": 0.0, "fz_offset_N": 0.0, "fx_offset_N": 0.0, "fz_drift_N_per_s": 0.0,
@@ -41,13 +52,13 @@ IDEAL_SUBJECT = {"stroke_jitter": 0.1, "dwell_s": 0.0, "lifts_per_min": 0.0,
                  "force_drift": 0.05}
 
 # random streams of the presets, apart from the simulator's own
-_S_RIG, _S_PERSON = 2001, 2002
+_S_RIG, _S_PERSON, _S_FINGER, _S_LOGGER, _S_CREEP = 2001, 2002, 2003, 2004, 2005
 
 
 def realistic_rig(config: TrialConfig, *, offset_N: float = 0.05, drift_N: float = 0.01,
                   hum_N: float = 0.01, mains_Hz: float = 50.0, tare_s: float = 1.5,
                   crosstalk: float | None = None, trial_s: float | None = None,
-                  seed: int | None = None) -> TrialConfig:
+                  seed: int | None = None, creep: bool = False) -> TrialConfig:
     """*config* with a real rig's load cells: offsets, drift, hum, (cross-talk), a tare stretch.
 
     Parameters
@@ -74,12 +85,18 @@ def realistic_rig(config: TrialConfig, *, offset_N: float = 0.05, drift_N: float
         a stream of open-ended length).
     seed : int, optional
         Seed of the draws (default: the trial's seed).
+    creep : bool
+        The cells creep: 0.5-2 % of a change of load, over 1-5 s.
 
     Returns
     -------
     TrialConfig
     """
     rng = np.random.default_rng([config.seed if seed is None else seed, _S_RIG])
+    if creep:
+        crng = np.random.default_rng([config.seed if seed is None else seed, _S_CREEP])
+        config = dataclasses.replace(config, creep=round(float(crng.uniform(0.005, 0.02)), 4),
+                                     creep_time_s=round(float(crng.uniform(1.0, 5.0)), 2))
     span = float(trial_s or config.duration_s)
     offsets = rng.uniform(-offset_N, offset_N, 2)
     drifts = rng.uniform(-drift_N, drift_N, 2)
@@ -124,3 +141,70 @@ def human(subject: SubjectParams, seed: int = 0) -> SubjectParams:
         lifts_per_min=round(float(rng.uniform(2.0, 4.0)), 2),
         lift_s=round(float(rng.uniform(0.3, 0.5)), 3),
         force_drift=round(float(rng.uniform(0.08, 0.15)), 3))
+
+
+def real_finger(subject: SubjectParams, seed: int = 0, *, moisture: bool = True,
+                speed: bool = True, direction: bool = True, trials: bool = True
+                ) -> SubjectParams:
+    """*subject* with a real fingertip's friction (:mod:`~evtribo.acquisition.simulator.
+    finger`), drawn with *seed*; each effect can be left out.
+
+    Parameters
+    ----------
+    subject : SubjectParams
+    seed : int
+    moisture : bool
+        Friction rising by 20-40 % as the contact moistens, time constant 5-10 s.
+    speed : bool
+        Friction ~ speed**(0.1-0.2), the strokes' speeds spread over a factor of 3.
+    direction : bool
+        Forward and backward strokes 3-8 % apart (either way).
+    trials : bool
+        Each trial's coefficient 5-10 % (standard deviation) apart.
+
+    Returns
+    -------
+    SubjectParams
+    """
+    rng = np.random.default_rng([seed, _S_FINGER])
+    draws = rng.uniform(0.0, 1.0, 6)
+    changes: dict[str, Any] = {}
+    if moisture:
+        changes.update(moisture_rise=round(0.2 + 0.2 * float(draws[0]), 3),
+                       moisture_time_s=round(5.0 + 5.0 * float(draws[1]), 2))
+    if speed:
+        changes.update(speed_exponent=round(0.1 + 0.1 * float(draws[2]), 3), speed_spread=3.0)
+    if direction:
+        sign = 1.0 if draws[3] < 0.5 else -1.0
+        changes.update(direction_asymmetry=round(sign * (0.03 + 0.05 * float(draws[4])), 4))
+    if trials:
+        changes.update(mu_trial_spread=round(0.05 + 0.05 * float(draws[5]), 3))
+    return dataclasses.replace(subject, **changes)
+
+
+def real_logger(config: TrialConfig, seed: int | None = None, *, jitter_s: float = 1e-3,
+                burst_s: float = 1e-3, ppm: float = 100.0, outages_per_min: float = 1.0
+                ) -> TrialConfig:
+    """*config* with a logger as labs have them: late frames, batches, its own clock, an
+    outage now and then (the clock's sign drawn with *seed*, default the trial's).
+
+    Parameters
+    ----------
+    config : TrialConfig
+    seed : int, optional
+    jitter_s : float, s
+        Mean reception jitter.
+    burst_s : float, s
+        Batch period of the adapter.
+    ppm : float, ppm
+        Size of the logger's clock error.
+    outages_per_min : float, 1/min
+
+    Returns
+    -------
+    TrialConfig
+    """
+    rng = np.random.default_rng([config.seed if seed is None else seed, _S_LOGGER])
+    sign = 1.0 if rng.uniform() < 0.5 else -1.0
+    return dataclasses.replace(config, jitter_s=jitter_s, burst_s=burst_s,
+                               logger_ppm=sign * ppm, outages_per_min=outages_per_min)

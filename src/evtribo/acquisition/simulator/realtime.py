@@ -16,7 +16,7 @@ import numpy as np
 
 from evtribo.acquisition.command import CommandDecoder
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
-from evtribo.acquisition.simulator.core import TrialGenerator
+from evtribo.acquisition.simulator.core import OBEY_CHUNK_S, TrialGenerator
 from evtribo.errors import ConfigError
 from evtribo.frames.table import FrameTable
 from evtribo.rig import Rig, default_rig
@@ -237,6 +237,10 @@ class Simulator:
         log.info("slcan channel opened: streaming")
         gen = self._generator(duration)
         adapter.on_transmit = self.obey
+        # each later recording on the channel starts, as the first did, with the finger
+        # lifted for the trial's tare stretch
+        gen.chunk_s = OBEY_CHUNK_S
+        adapter.on_open = lambda: gen.lift(self.config.tare_s)
 
         def deliver(table: FrameTable, i: int, j: int) -> int:
             return adapter.send_frames(table, i, j)

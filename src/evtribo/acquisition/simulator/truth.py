@@ -60,6 +60,13 @@ class TrialTruth:
     first_frame_s : float or None, s
         Reception time of the trial's first frame, from the trial's start: the analysis
         counts its windows' times from there.
+    slide_speeds_m_s : list of float, m/s
+        The finger's speed in each of :attr:`slides`.
+    friction : dict
+        The trial's friction law (:class:`~evtribo.acquisition.simulator.finger.
+        FrictionLaw`'s fields: ``mu0``, moisture, speed and direction terms).
+    outages : list of (start_s, end_s)
+        Periods in which the logger received nothing.
     """
 
     subject: SubjectParams
@@ -82,6 +89,10 @@ class TrialTruth:
     first_frame_s: float | None = None
     fel_sum: npt.NDArray[np.float64] | None = field(default=None, repr=False)
     fel_count: npt.NDArray[np.int64] | None = field(default=None, repr=False)
+    slide_speeds_m_s: list[float] = field(default_factory=list)
+    friction: dict[str, float] = field(default_factory=dict)
+    outages: list[tuple[float, float]] = field(default_factory=list)
+    mu_sum: npt.NDArray[np.float64] | None = field(default=None, repr=False)
 
     @property
     def mu(self) -> float:
@@ -92,12 +103,20 @@ class TrialTruth:
         """Mean of the electrostatic force over the tangential cell's samples in
         ``[t0, t1)`` (s from the trial's start, to :data:`FEL_BIN_S`), N; NaN without
         samples or without the record (only offline trials keep it)."""
-        if self.fel_sum is None or self.fel_count is None:
+        return self._between(self.fel_sum, t0, t1)
+
+    def mu_between(self, t0: float, t1: float) -> float:
+        """Mean of the finger's friction coefficient over the tangential cell's samples in
+        ``[t0, t1)`` (as :meth:`electrostatic_between`)."""
+        return self._between(self.mu_sum, t0, t1)
+
+    def _between(self, sums: npt.NDArray[np.float64] | None, t0: float, t1: float) -> float:
+        if sums is None or self.fel_count is None:
             return float("nan")
         b0 = max(round(t0 / FEL_BIN_S), 0)
-        b1 = min(round(t1 / FEL_BIN_S), self.fel_sum.size)
+        b1 = min(round(t1 / FEL_BIN_S), sums.size)
         n = int(self.fel_count[b0:b1].sum())
-        return float(self.fel_sum[b0:b1].sum() / n) if n else float("nan")
+        return float(sums[b0:b1].sum() / n) if n else float("nan")
 
     def to_dict(self) -> dict[str, Any]:
         """The truth as a JSON-ready mapping."""
@@ -118,4 +137,6 @@ class TrialTruth:
             "cells": self.cells, "crosstalk": self.crosstalk,
             "calibration_matrix": self.calibration_matrix,
             "first_frame_s": self.first_frame_s,
+            "slide_speeds_m_s": self.slide_speeds_m_s, "friction": self.friction,
+            "outages": [[a, b] for a, b in self.outages],
         }

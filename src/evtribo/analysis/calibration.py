@@ -1,0 +1,189 @@
+"""The cross-talk matrix of a rig's load cells, measured from calibration recordings.
+
+``F_n,read = F_n + a F_t`` and ``F_t,read = F_t + b F_n`` (:mod:`.crosstalk`). Two recordings
+tell them, with nothing but a finger:
+
+- **pressing without sliding** (``evtribo acquire`` with the finger lifted for the tare
+  stretch, then pressing harder and lighter, from a light touch to about twice the usual
+  force, without moving): the true tangential force stays near zero, so the tangential
+  reading's slope against the normal reading is ``b``;
+- **sliding back and forth** (any trial of the study): at each reversal the friction swings
+  while the pressing hardly changes, so the normal reading's change against the tangential
+  one's is ``a``.
+
+The matrix that undoes them, ``[Fn, Ft]_true = M @ [Fn, Ft]_read``, is the inverse of
+``[[1, a], [b, 1]]``: what ``[rig.calibration] matrix`` takes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from evtribo.analysis.align import align_forces
+from evtribo.analysis.crosstalk import ReversalSums, reversal_sums
+from evtribo.analysis.observed import PieceState
+from evtribo.analysis.settings import AnalysisSettings
+from evtribo.analysis.timebase import sample_times
+from evtribo.analysis.trial import TrialMeta, analyze_signals
+from evtribo.analysis.windows import moving_average
+from evtribo.errors import AnalysisError
+from evtribo.rig import Calibration
+from evtribo.signals import TrialSignals
+
+__all__ = [
+    "MIN_PRESS_RANGE",
+    "CrossTalk",
+    "crosstalk_matrix",
+    "pressing_slope",
+    "reversal_slope",
+]
+
+#: The press recording's normal force must span at least this share of its mean.
+MIN_PRESS_RANGE = 0.5
+#: A 0.1-s mean counts as pressing when the normal force is above this share of its 95th
+#: percentile and the tangential reading within this share of the normal one.
+PRESS_LOAD, PRESS_SHEAR = 0.2, 0.25
+
+
+@dataclass(frozen=True)
+class CrossTalk:
+    """The cross-talk found, and the matrix that undoes it.
+
+    Attributes
+    ----------
+    a, a_se : float
+        Share of the tangential force the normal cell reads (NaN: no sliding recording).
+    b, b_se : float
+        Share of the normal force the tangential cell reads (NaN: no press recording).
+    reversals : int
+        Reversals behind ``a``.
+    press_s : float, s
+        Pressing behind ``b``.
+    """
+
+    a: float
+    a_se: float
+    b: float
+    b_se: float
+    reversals: int
+    press_s: float
+
+    @property
+    def matrix(self) -> list[list[float]]:
+        """``[rig.calibration] matrix``: the inverse of ``[[1, a], [b, 1]]`` (a term not
+        measured taken as 0)."""
+        a = 0.0 if np.isnan(self.a) else self.a
+        b = 0.0 if np.isnan(self.b) else self.b
+        inv = np.linalg.inv(np.array([[1.0, a], [b, 1.0]]))
+        return [[round(float(x), 6) for x in row] for row in inv]
+
+
+def pressing_slope(signals: TrialSignals) -> tuple[float, float, float]:
+    """``b`` from a recording of the finger pressing without sliding.
+
+    Parameters
+    ----------
+    signals : TrialSignals
+        The decoded recording.
+
+    Returns
+    -------
+    b, b_se : float
+    press_s : float, s
+        The time found pressing.
+
+    Raises
+    ------
+    AnalysisError
+        No pressing found, or a force that hardly varied.
+    """
+    tn = sample_times(signals.normal.t, signals.normal.counter)
+    tt = sample_times(signals.tangential.t, signals.tangential.counter)
+    f = align_forces(tn, np.asarray(signals.normal.value, float), tt,
+                     np.asarray(signals.tangential.value, float))
+    m = max(1, round(0.1 * f.rate_Hz))
+    fn = moving_average(f.normal, m, min_fraction=0.9)[::m]
+    ft = moving_average(f.tangential, m, min_fraction=0.9)[::m]
+    ok = np.isfinite(fn) & np.isfinite(ft)
+    fn, ft = fn[ok], ft[ok]
+    if fn.size < 10:
+        raise AnalysisError("the recording is too short to calibrate from")
+    floor = float(np.percentile(fn, 2))
+    top = float(np.percentile(fn, 95)) - floor
+    pressing = (fn - floor > PRESS_LOAD * top) & (np.abs(ft - np.median(ft)) < PRESS_SHEAR * (
+        fn - floor))
+    if pressing.sum() < 20:
+        raise AnalysisError("no pressing without sliding found: press with the finger "
+                            "still, harder and lighter, after the tare stretch")
+    x, y = fn[pressing], ft[pressing]
+    if np.ptp(x) < MIN_PRESS_RANGE * np.mean(x - floor):
+        raise AnalysisError(f"the pressing force spans only {np.ptp(x):.3f} N: press from a "
+                            "light touch to about twice the usual force")
+    slope, icpt = np.polyfit(x, y, 1)
+    resid = y - (icpt + slope * x)
+    # 0.1-s means of a slowly varying press are correlated: count a second as one value
+    n_eff = max(3.0, pressing.sum() / 10.0)
+    se = float(np.sqrt(np.sum(resid**2) / (x.size - 2) / np.sum((x - x.mean()) ** 2)
+                       * x.size / n_eff))
+    return float(slope), se, float(pressing.sum() * m / f.rate_Hz)
+
+
+def reversal_slope(trials: Sequence[tuple[TrialSignals, TrialMeta]],
+                   settings: AnalysisSettings | None = None) -> ReversalSums:
+    """The reversals of sliding recordings, pooled (``a`` is their slope).
+
+    Parameters
+    ----------
+    trials : sequence of (TrialSignals, TrialMeta)
+        Decoded recordings with the finger sliding back and forth, analysed without any
+        cross-talk matrix.
+    settings : AnalysisSettings, optional
+
+    Returns
+    -------
+    ReversalSums
+    """
+    total = ReversalSums()
+    for signals, meta in trials:
+        states: list[PieceState] = []
+        analyze_signals(signals, meta, settings=settings, calibration=Calibration(),
+                        observe=states.append)
+        for s in states:
+            total = total + reversal_sums(s.forces.t, s.forces.normal, s.forces.tangential,
+                                          s.windows)
+    return total
+
+
+def crosstalk_matrix(press: TrialSignals | None,
+                     sliding: Sequence[tuple[TrialSignals, TrialMeta]],
+                     settings: AnalysisSettings | None = None) -> CrossTalk:
+    """The cross-talk of a rig from its calibration recordings.
+
+    Parameters
+    ----------
+    press : TrialSignals or None
+        A recording of the finger pressing without sliding.
+    sliding : sequence of (TrialSignals, TrialMeta)
+        Recordings of the finger sliding.
+    settings : AnalysisSettings, optional
+
+    Returns
+    -------
+    CrossTalk
+
+    Raises
+    ------
+    AnalysisError
+        Neither recording tells anything.
+    """
+    nan = float("nan")
+    b, b_se, press_s = pressing_slope(press) if press is not None else (nan, nan, 0.0)
+    sums = reversal_slope(sliding, settings) if sliding else ReversalSums()
+    if np.isnan(b) and not sums.n >= 3:
+        raise AnalysisError("no pressing and fewer than 3 reversals of the strokes: nothing "
+                            "to calibrate from")
+    return CrossTalk(sums.slope, sums.slope_se, b, b_se, sums.n, press_s)
+
