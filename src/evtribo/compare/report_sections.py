@@ -2,7 +2,8 @@
 
 1. the electrostatic force by subject and voltage (mN, 95 % intervals);
 2. the model fit per subject (air gap in µm, exponents, μ) and the model's parameters, each
-   said to be measured, fixed or fitted, with the paper cited;
+   said to be measured, fixed or fitted, with the paper cited; then the population's
+   estimates (:mod:`evtribo.compare.population_section`);
 3. the figures of all subjects together (``electrostatic_force_all`` first);
 4. the model comparison (``models.csv`` and the ``frequency_response`` figures), when there
    is one;
@@ -137,7 +138,7 @@ def add_all_subjects(report: Report, figures: Sequence[Mapping[str, Any]]) -> No
     None
     """
     study_wide = [f for f in figures if f.get("subject") is None
-                  and f.get("kind") not in ("trial", "frequency_response")]
+                  and f.get("kind") not in ("trial", "frequency_response", "population")]
     study_wide.sort(key=lambda f: f.get("kind") != "electrostatic_force_all")
     for f in study_wide:
         _figure(report, f, SECTIONS["all"])

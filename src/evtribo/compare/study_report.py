@@ -2,10 +2,11 @@
 the provenance, in one page.
 
 Reads a result folder (``evtribo analyze``'s tables and ``summary.json``, ``evtribo
-compare``'s ``fit.csv``, ``fit.json``, ``figures/`` and, when it compared models,
-``models.csv``) and, when ``summary.json`` names a study folder that still exists, the
-trials' sidecars there (for their notes) and the inputs ``summary.json`` records (hashed
-again, :mod:`evtribo.compare.study_files`). The page's sections and their order are
+compare``'s ``fit.csv``, ``fit.json``, ``figures/``, ``population.csv`` and
+``population_contrasts.csv`` and, when it compared models, ``models.csv``) and, when
+``summary.json`` names a study folder that still exists, the trials' sidecars there (for
+their notes) and the inputs ``summary.json`` records (hashed again,
+:mod:`evtribo.compare.study_files`). The page's sections and their order are
 :mod:`evtribo.compare.report_sections`'; with ``tables=("md", "tex")`` the headline tables
 are also written as Markdown and LaTeX into ``tables/`` beside the page
 (:mod:`evtribo.compare.table_export`).
@@ -29,6 +30,7 @@ import pandas as pd
 from evtribo.analysis.outputs import FIGURES, FIT_CSV, FIT_JSON, REPORT_TABLES, TABLES
 from evtribo.compare import report_sections as sections
 from evtribo.compare.headline import Headline
+from evtribo.compare.population_section import add_population, read_population
 from evtribo.compare.report import Report
 from evtribo.compare.run import compare
 from evtribo.compare.study_files import (
@@ -258,6 +260,7 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
     name = study_name(tables.summary, tables.out)
     report = Report(f"evtribo report: {name}")
     headlines = sections.add_headline(report, tables, fit, fit_doc)
+    headlines += add_population(report, *read_population(tables.out), fit_doc, figures)
     sections.add_all_subjects(report, figures)
     sections.add_models(report, _models(tables.out), figures, tables.subjects)
     sections.add_subjects(report, tables, trials, figures)
