@@ -261,6 +261,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "sidecar-nested-deep": lambda t: (t / "study" / "P01" / "run-01.json").write_text(
         "[" * 100_000 + "]" * 100_000),
     "not-a-study": lambda t: (t / "study" / "study.toml").unlink(),
+    "unknown-command": lambda t: None,
     "no-such-study": lambda t: None,
     "no-trials": lambda t: shutil.rmtree(t / "study" / "P01"),
     "results-exist": _text(Path("out/trials.csv"), "subject,trial\n"),

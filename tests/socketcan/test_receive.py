@@ -11,8 +11,8 @@ import time
 
 import can
 import pytest
-from _socketcan import Candump, evtribo, frames_of, play, wait_for
 
+from _socketcan import Candump, evtribo, frames_of, play, wait_for
 from evtribo.acquisition.bus import BusSettings, open_bus
 from evtribo.acquisition.trial import record_trial
 from evtribo.frames import read_frames

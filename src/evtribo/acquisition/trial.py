@@ -27,33 +27,34 @@ recording     (only in a sidecar left by a killed process)
 
 Keys the recording adds to the sidecar (besides spec §1's and the bus settings):
 
-========================  ===============================================================
-key                       meaning
-========================  ===============================================================
-frames, frames_by_id      frames written to the log, in all and per identifier
-discarded_before_start    frames the bus held when the trial started (queued before it:
-                          an adapter that went on sending after a killed recording),
-                          discarded; no frame stamped before ``start_time`` is in the log
-error_frames(_by_kind)    CAN error frames received, in all and by kind (``bus-off``,
-                          ``controller rx-error-passive``...: :mod:`.errorframes`)
-(worst_)controller_state  the CAN controller's last (worst) state the error frames
-                          reported: error-active, error-warning, error-passive, bus-off
-damaged_lines             lines the adapter's driver could not parse (``t0CZ8...``); each
-                          is skipped and the recording goes on
-dropped_frames            frames lost before the log, at least: the larger of the load
-                          cells' counters' count and ``queue_dropped_frames``
-dropped_frames_by_message frames missing by the load cells' rolling counters
-queue_dropped_frames      frames the receiving side dropped from its full receive queue
-                          (SocketCAN: the kernel's count, ``SO_RXQ_OVFL``); null when the
-                          bus does not count them
-receive                   how the bus receives: ``timestamps`` (``kernel``: the kernel's
-                          time of reception), ``queue`` (the receive queue asked for and
-                          granted), ``drop_counter``
-bus_errors                error_frames + damaged_lines (+ 1 when the bus failed)
-bus_exceptions            the first damaged lines' errors, and the one that ended a trial
-                          as bus-error
-ended, end_detail         how the trial ended (above), and why
-========================  ===============================================================
+==========================  ===============================================================
+key                         meaning
+==========================  ===============================================================
+frames, frames_by_id        frames written to the log, in all and per identifier
+discarded_before_start      frames the bus held when the trial started (queued before it:
+                            an adapter that went on sending after a killed recording),
+                            discarded; no frame stamped before ``start_time`` is in the log
+error_frames, ..._by_kind   CAN error frames received, in all and by kind (``bus-off``,
+                            ``controller rx-error-passive``...: :mod:`.errorframes`)
+controller_state            the CAN controller's last state the error frames reported:
+                            error-active, error-warning, error-passive, bus-off
+worst_controller_state      the worst of them during the trial
+damaged_lines               lines the adapter's driver could not parse (``t0CZ8...``); each
+                            is skipped and the recording goes on
+dropped_frames              frames lost before the log, at least: the larger of the load
+                            cells' counters' count and ``queue_dropped_frames``
+dropped_frames_by_message   frames missing by the load cells' rolling counters
+queue_dropped_frames        frames the receiving side dropped from its full receive queue
+                            (SocketCAN: the kernel's count, ``SO_RXQ_OVFL``); null when the
+                            bus does not count them
+receive                     how the bus receives: ``timestamps`` (``kernel``: the kernel's
+                            time of reception), ``queue`` (the receive queue asked for and
+                            granted), ``drop_counter``
+bus_errors                  error_frames + damaged_lines (+ 1 when the bus failed)
+bus_exceptions              the first damaged lines' errors, and the one that ended a trial
+                            as bus-error
+ended, end_detail           how the trial ended (above), and why
+==========================  ===============================================================
 """
 
 from __future__ import annotations

@@ -50,7 +50,7 @@ _FIGURE = re.compile(r"^(friction_time|area_increase|electrostatic_force_.+|"
                      r"\.(png|svg|pdf)$")
 #: The folder beside a report of its exported tables (``report --tables md,tex``), and their
 #: stems (``tables/electrostatic_force.md``, ``tables/fit.tex``).
-TABLES, REPORT_TABLES = "tables", ("electrostatic_force", "fit", "population")
+TABLES, REPORT_TABLES = "tables", ("electrostatic_force", "fit", "population", "friction")
 _TABLE = re.compile(r"^(" + "|".join(REPORT_TABLES) + r")\.(md|tex)$")
 #: What the first bytes of a report written by ``evtribo report`` hold.
 _REPORT_MARK = b'<meta name="generator" content="evtribo'

@@ -24,6 +24,7 @@ from evtribo.analysis.outputs import FIGURES, FIT_CSV
 from evtribo.api.results import CSV_EXACT, Results, typed_table
 from evtribo.compare.fit import SubjectFit, fit_study
 from evtribo.compare.fit_csv import fit_table
+from evtribo.compare.friction_only import friction_figures
 from evtribo.compare.params import load_parameters, resolve_fit_names
 from evtribo.compare.population import (
     CONTRAST_COLUMNS,
@@ -214,10 +215,10 @@ def _files(folder: Path, records: list[dict[str, Any]]) -> dict[str, list[Path]]
 
 def _tables(results: Results) -> ResultTables:
     """The results as compare reads a result folder."""
-    if results.electrostatic.empty:
-        raise UserInputError("no electrostatic results (no ON data?): nothing to compare",
-                             path=None if results.out is None
-                             else results.out / "electrostatic.csv")
+    if results.electrostatic.empty and results.windows.empty:
+        raise UserInputError("no steady-sliding window in any trial (its summary says why): "
+                             "nothing to compare", path=None if results.out is None
+                             else results.out / "windows.csv")
     return ResultTables(out=results.out or Path(), electrostatic=results.electrostatic,
                         windows=results.windows, exponents=results.exponents,
                         trials=results.trials, summary=Summary(dict(results.summary)),
@@ -243,8 +244,11 @@ def _figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...
     (without the trial checks, which need the study, and the models')."""
     kept = _Kept(tables, fits)
     with journal_style("single"):
-        draw_figures(tables, fits, names, kept)
-        draw_population(tables.electrostatic, pop, kept.emit)
+        if tables.electrostatic.empty:  # OFF trials only: each subject's friction
+            friction_figures(tables, kept.emit)
+        else:
+            draw_figures(tables, fits, names, kept)
+            draw_population(tables.electrostatic, pop, kept.emit)
     return kept.drawn
 
 
@@ -277,7 +281,8 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
     ConfigError
         An unknown parameter name, or a bad parameter file.
     UserInputError
-        The results hold no electrostatic force (no ON data).
+        The results hold no window at all (results without electrostatic forces, a study
+        of OFF trials, give an empty table and each subject's friction figure).
     AnalysisError
         A fit cannot be made.
     """

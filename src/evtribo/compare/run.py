@@ -40,6 +40,7 @@ from evtribo.analysis.outputs import FIGURES, FIT_CSV, FIT_JSON, compare_files
 from evtribo.compare.fit import SubjectFit, fit_study
 from evtribo.compare.fit_csv import fit_table
 from evtribo.compare.frequency_plots import write_models
+from evtribo.compare.friction_only import NOTE, friction_figures
 from evtribo.compare.models import resolve_models
 from evtribo.compare.params import load_parameters, resolve_fit_names
 from evtribo.compare.plots import (
@@ -302,9 +303,11 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
              base: ModelParameters, look: _Look, *, models: tuple[str, ...] = (),
              trial_checks: bool = True, scheduler: Any = None) -> CompareResult:
     """The fits and figures, written into *stage* (``result.files`` relative to it)."""
-    fits = fit_study(tables, base, names, scheduler=scheduler)
+    only_mu = tables.electrostatic.empty  # a study of OFF trials: its friction, no fit
+    fits = [] if only_mu else fit_study(tables, base, names, scheduler=scheduler)
     result = CompareResult(out=tables.out, fits=fits)
-    result.notes += _interval_notes(fits, has_bootstrap=tables.bootstrap is not None)
+    result.notes += [NOTE] if only_mu else _interval_notes(
+        fits, has_bootstrap=tables.bootstrap is not None)
     table = fit_table(fits, tables)
     atomic_write(stage.path(FIT_CSV), table.to_csv(index=False))
     result.files.append(Path(FIT_CSV))
@@ -314,9 +317,12 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
         result.files.append(Path(name))
     figures = _Figures(stage.folder / FIGURES, look, result)
     with journal_style(look.width):
-        draw_figures(tables, fits, names, figures)
-        draw_population(tables.electrostatic, pop, figures.emit)
-        if models:
+        if only_mu:
+            friction_figures(tables, figures.emit)
+        else:
+            draw_figures(tables, fits, names, figures)
+            draw_population(tables.electrostatic, pop, figures.emit)
+        if models and not only_mu:
             files, notes = write_models(tables, stage, models, base, figures.emit)
             result.files += files
             result.notes += notes

@@ -114,6 +114,24 @@ class RigEncoder:
                                 for m in mine], dtype=np.int64)
         self._wave = _wave_map(self.source.excitation_waveform, rig.excitation_waveform)
 
+    def nodes(self, default: dict[str, dict[str, float]]) -> dict[str, dict[str, float]]:
+        """The simulator's record of each default node, told as the target rig's messages.
+
+        Parameters
+        ----------
+        default : dict
+            Per default node (``FzCell``, ``FxCell``, ``HvStatus``): its ``frame_id``,
+            rate, clock offset, frames sent and dropped.
+
+        Returns
+        -------
+        dict
+            Per message of the target rig: its own ``frame_id``, and the rate, clock offset,
+            frames and drops of the node that clocks it.
+        """
+        return {t.message.name: {**default[t.clock], "frame_id": t.message.frame_id}
+                for t in self.targets if t.clock in default}
+
     def _values(self, frames: FrameTable) -> dict[str, tuple[npt.NDArray[np.float64],
                                                              dict[str, npt.NDArray[np.float64]]]]:
         """Each default node's frame times and physical values in *frames*."""
