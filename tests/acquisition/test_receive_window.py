@@ -32,7 +32,8 @@ def test_frames_stamped_before_the_start_are_skipped_and_those_queued_at_the_end
     channel = "receive-window"
     with can.Bus(interface="virtual", channel=channel) as rx, \
             can.Bus(interface="virtual", channel=channel, preserve_timestamps=True) as tx:
-        start = time.time()
+        start = time.time() - 0.5  # the trial began half a second ago: every frame sent
+        # below but the last is stamped before now, whatever the time its sending takes
         for k in range(40):                      # received before the trial
             tx.send(_frame(start - 1.0 + k * 0.001, k))
         for k in range(40, 2040):                # during it
