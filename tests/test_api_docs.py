@@ -51,10 +51,11 @@ def _missing(func) -> list[str]:
 #: The packages, by the prefixes of their modules' names.
 GROUPS = {
     "analysis": ("evtribo.analysis.", "evtribo.decode", "evtribo.cache", "evtribo.dropped",
-                 "evtribo.median", "evtribo.memo", "evtribo.running"),
+                 "evtribo.outages", "evtribo.frame_match", "evtribo.median", "evtribo.memo",
+                 "evtribo.running"),
     "acquisition": ("evtribo.acquisition.", "evtribo.frames.", "evtribo.rig",
-                    "evtribo.signal_codec", "evtribo.lock", "evtribo.resultdir",
-                    "evtribo.study", "evtribo.session."),
+                    "evtribo.dbc_file", "evtribo.signal_codec", "evtribo.lock",
+                    "evtribo.resultdir", "evtribo.study", "evtribo.session.", "evtribo.guard"),
     "compare": ("evtribo.compare.", "evtribo.model.", "evtribo.cli.", "evtribo.demo"),
     "base": ("evtribo.errors", "evtribo.files", "evtribo._docs", "evtribo.documents",
              "evtribo.citation"),

@@ -182,6 +182,26 @@ def _session_begun(tmp: Path) -> None:
     (tmp / "protocol.toml").write_text("[[trial]]\namplitude_V = 140\n")
 
 
+SIDECAR_TWICE = ('{\n  "subject": "P01", "waveform": "square", "frequency_Hz": 10000,\n'
+                 '  "amplitude_V": 140, "condition": "alternating",\n  "amplitude_V": 14\n}\n')
+PASSWD = "root:x:0:0:root:/root:/bin/bash\ndaemon:x:1:1:daemon:/usr/sbin:/usr/sbin/nologin\n"
+ASC = ("date Mon Nov 23 06:19:31.000 am 2026\nbase hex  timestamps absolute\n"
+       "internal events logged\nBegin Triggerblock Mon Nov 23 06:19:31.000 am 2026\n"
+       "   0.000000 1  0C1             Rx   d 8 00 00 00 00 00 00 00 00\n"
+       "End TriggerBlock\n")
+
+
+def _edit(path: Path, old: str, new: str) -> None:
+    text = path.read_text(encoding="utf-8")
+    assert old in text
+    path.write_text(text.replace(old, new), encoding="utf-8")
+
+
+def _link(link: Path, target: Path) -> None:
+    link.parent.mkdir(parents=True, exist_ok=True)
+    link.symlink_to(target)
+
+
 def _text(path: Path, text: str) -> Callable[[Path], None]:
     def build(tmp: Path) -> None:
         (tmp / path).parent.mkdir(parents=True, exist_ok=True)
@@ -293,6 +313,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "acquire-rig-not-toml": _text(Path("rig.toml"), "dbc = default.dbc\n"),
     "acquire-trial-exists": lambda t: None,
     "acquire-bus-option": lambda t: None,
+    "acquire-receive-buffer": lambda t: None,
     "acquire-duration-inf": lambda t: None,
     "acquire-amplitude-inf": lambda t: None,
     "acquire-band-nan": lambda t: None,
@@ -304,6 +325,11 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "acquire-new-study-bad-interface": lambda t: None,
     "acquire-trial-locked": _being_recorded,
     "simulate-trial-locked": _being_recorded,
+    "simulate-subjects-no-study": lambda t: None,
+    "simulate-subjects-zero": lambda t: None,
+    "simulate-subjects-one-trial-option": lambda t: None,
+    "simulate-spread-negative": lambda t: None,
+    "simulate-amplitudes-text": lambda t: None,
     "analyze-out-inside-study": lambda t: None,
     "analyze-out-busy": _hold_out,
     "compare-results-mixed": lambda t: _results(t, changed=True),
@@ -321,6 +347,30 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "decode-output-is-input": lambda t: _csv_log(t / "run-01.csv"),
     "decode-output-is-a-log": lambda t: _csv_log(t / "run-02.csv"),
     "decode-csv-in-study": lambda t: None,
+    "dbc-not-a-dbc": lambda t: (_text(Path("passwd"), PASSWD)(t),
+                                _toml(t / "study", '"rig/default.dbc"', '"../passwd"')),
+    "rig-signal-beyond-message": lambda t: _edit(t / "study" / "rig" / "default.dbc",
+                                                 "BO_ 193 FzCell: 8", "BO_ 193 FzCell: 6"),
+    "dbc-device": lambda t: _toml(t / "study", '"rig/default.dbc"', '"/dev/zero"'),
+    "decode-dbc-not-a-dbc": _text(Path("passwd"), PASSWD),
+    "sidecar-duplicate-key": _text(Path("study/P01/run-01.json"), SIDECAR_TWICE),
+    "toml-duplicate-key": lambda t: _toml(t / "study", 'name = "bad input"',
+                                          'name = "bad input"\nname = "other"'),
+    "analyze-cache-inside-study": lambda t: None,
+    "acquire-view-port": lambda t: None,
+    "report-over-log": lambda t: (t / "out").mkdir(),
+    "report-over-sidecar": lambda t: (t / "out").mkdir(),
+    "report-over-study-toml": lambda t: (t / "out").mkdir(),
+    "report-over-dbc": lambda t: (t / "out").mkdir(),
+    "report-over-other-log": lambda t: (_text(Path("bench.asc"), ASC)(t), (t / "out").mkdir()),
+    "report-new-sidecar": lambda t: (t / "out").mkdir(),
+    "report-tables-over-log": lambda t: (_link(t / "tables" / "fit.md",
+                                               t / "study" / "P01" / "run-01.log"),
+                                         (t / "out").mkdir()),
+    "compare-out-in-study": lambda t: (t / "study" / "P02").mkdir(),
+    "plot-over-log": lambda t: _link(t / "check.png", t / "study" / "P01" / "run-01.log"),
+    "model-figures-over-dbc": lambda t: _link(t / "figures" / "fig5_friction_time.png",
+                                              t / "study" / "rig" / "default.dbc"),
     "decode-channel-missing": lambda t: None,
     "plot-no-such-study": lambda t: None,
     "plot-subject-missing": lambda t: None,
@@ -419,6 +469,7 @@ def test_bad_input(case, tmp_path, capsys):
     expected = substitute(_code(case["message"]), tmp_path)
     assert expected in err, f"\nexpected: {expected}\n     got: {err}"
     assert "Traceback" not in err
+    assert "root:x:0" not in err  # no line of a file that is not a DBC is shown
     assert _tree(tmp_path) == before, "the command wrote or changed files"
 
 

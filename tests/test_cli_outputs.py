@@ -1,4 +1,4 @@
-"""The command line never overwrites a raw log with a decoded table, and stops quietly when
+"""The command line never writes a decoded table over a raw log, and stops quietly when
 its standard output is closed early (``evtribo inspect run.log | head -1``)."""
 
 import os
@@ -44,7 +44,8 @@ def test_decode_never_overwrites_its_own_input_even_with_force(tmp_path, capsys,
     code = main(["decode", str(log), "--dbc", DBC, "-o", str(out), "--force"])
     err = capsys.readouterr().err
     assert code == 2
-    assert f"{out}: is the log being decoded: evtribo decode never overwrites a raw log" in err
+    assert (f"{out}: key '-o': is the log being decoded: evtribo decode never writes over a "
+            "study's input or a raw CAN log, --force included") in err
     assert unchanged()
 
 
@@ -67,7 +68,8 @@ def test_decode_writes_no_csv_into_a_study_subject_folder(tmp_path, capsys):
     log = _csv_log(study / "P01" / "run-01.csv")
     out = study / "P01" / "run-01-signals.csv"
     assert main(["decode", str(log), "--dbc", DBC, "-o", str(out)]) == 2
-    assert "read as a trial's log by evtribo analyze" in capsys.readouterr().err
+    assert ("would be read as a trial's log (run-01-signals.csv in a study's subject folder) "
+            "by evtribo analyze") in capsys.readouterr().err
     assert not out.exists()
     assert main(["decode", str(log), "--dbc", DBC, "-o", str(out.with_suffix(".parquet"))]) == 0
 

@@ -49,7 +49,9 @@ def layouts(draw):
                         scale=scale, offset=offset, is_float=is_float))
     ext = draw(st.booleans())
     frame_id = draw(st.integers(0, 0x1FFFFFFF if ext else 0x7FF))
-    message = Message(frame_id, "M", n_bytes, [signal], is_extended_frame=ext)
+    # a payload over 8 bytes is a CAN FD message's (and an FD frame is only an FD message)
+    message = Message(frame_id, "M", n_bytes, [signal], is_extended_frame=ext,
+                      is_fd=n_bytes > 8)
     payloads = draw(st.lists(st.binary(min_size=n_bytes, max_size=n_bytes), min_size=1,
                              max_size=20))
     return message, payloads
@@ -58,7 +60,7 @@ def layouts(draw):
 def _table(message: Message, payloads: list[bytes]) -> FrameTable:
     return frames_from_messages(
         can.Message(timestamp=i * 1e-3, arbitration_id=message.frame_id,
-                    is_extended_id=message.is_extended_frame, data=p, is_fd=len(p) > 8)
+                    is_extended_id=message.is_extended_frame, data=p, is_fd=message.is_fd)
         for i, p in enumerate(payloads))
 
 

@@ -184,3 +184,60 @@ def test_the_sidecar_s_log_channel_picks_the_bus_an_analysis_decodes(tmp_path):
     _, summary = run("none", "can9")
     said = json.dumps(summary)
     assert "log_channel" in said and "can9" in said and str(sidecar) in said
+
+
+def _fd_lines(channel: str, n: int, *, t0: float, ident: str = "0C1") -> list[tuple[float, str]]:
+    """CAN FD frames (``##1``, bit-rate switch) of another node that has the number of the
+    rig's classic load-cell message: 12 bytes of its own data, its own counter."""
+    out = []
+    for i in range(n):
+        t = t0 + i * 7.3e-3
+        data = bytes([0x7F, 0xFF, 0x40, 0x00, 0x10, 0x20, 0x30, (i * 37) % 256, 1, 2, 3, 4])
+        out.append((t, f"({t:.6f}) {channel} {ident}##1{data.hex().upper()}"))
+    return out
+
+
+def test_can_fd_frames_are_not_decoded_as_a_classic_message_of_their_id(tmp_path, caplog):
+    """489 FD frames on a load cell's ID, decoded as that cell, changed a subject's F_el at
+    80 V by -7.8 % and made dropped_frames 124,376: an FD frame is only an FD message."""
+    path = _write(tmp_path / "fd.log", _cell_lines("vcan0", 0.5, 0.2, 2000),
+                  _fd_lines("vcan0", 250, t0=T0 + 1e-4))
+    with caplog.at_level(logging.WARNING, logger="evtribo.decode"):
+        trial = decode_trial(read_frames(path)[0], default_rig())
+    np.testing.assert_allclose(trial.normal.value, 0.5, atol=1e-5)
+    assert len(trial.normal.t) == 2000 and trial.dropped_frames == 0
+    assert trial.frames == 4000 and trial.ignored_frames == 250
+    said = [w for w in trial.warnings if "CAN FD" in w]
+    assert said == [
+        "250 CAN FD frames have the standard (11-bit) ID 0x0C1 of the DBC's classic CAN "
+        "message FzCell: not decoded as FzCell, counted with the frames the DBC does not "
+        "describe (a CAN FD frame is only an FD message, a classic frame only a classic one)"]
+    assert said[0] in caplog.text
+    # evtribo decode's table: no FzCell row from an FD frame
+    decoded = decode_messages(read_frames(path)[0], default_rig().database)
+    assert len(decoded["FzCell"]) == 2000
+    np.testing.assert_allclose(decoded["FzCell"].scaled("Fz"), 0.5, atol=1e-5)
+
+
+def test_classic_frames_are_not_decoded_as_an_fd_message_of_their_id(tmp_path):
+    """The other way round: a DBC whose message 0x0C1 is CAN FD (``VFrameFormat``) decodes
+    the FD frames, and names the classic ones it leaves."""
+    dbc = default_rig().dbc.read_text(encoding="utf-8")
+    dbc += ('\nBA_DEF_ BO_ "VFrameFormat" ENUM "StandardCAN","ExtendedCAN","reserved",'
+            '"reserved","reserved","reserved","reserved","reserved","reserved","reserved",'
+            '"reserved","reserved","reserved","reserved","StandardCAN_FD","ExtendedCAN_FD";\n'
+            'BA_DEF_DEF_ "VFrameFormat" "StandardCAN";\nBA_ "VFrameFormat" BO_ 193 14;\n')
+    (tmp_path / "fd.dbc").write_text(dbc, encoding="utf-8")
+    db = load_dbc(tmp_path / "fd.dbc")
+    assert db.get_message_by_name("FzCell").is_fd
+    path = _write(tmp_path / "fd.log", _cell_lines("vcan0", 0.5, 0.2, 40),
+                  _fd_lines("vcan0", 30, t0=T0 + 1e-4))
+    from evtribo.frame_match import kind_mismatches
+
+    frames = read_frames(path)[0]
+    decoded = decode_messages(frames, db)
+    assert len(decoded["FzCell"]) == 30 and len(decoded["FxCell"]) == 40
+    assert kind_mismatches(frames, db.messages, db) == [
+        "40 classic CAN frames have the standard (11-bit) ID 0x0C1 of the DBC's CAN FD "
+        "message FzCell: not decoded as FzCell, counted with the frames the DBC does not "
+        "describe (a CAN FD frame is only an FD message, a classic frame only a classic one)"]

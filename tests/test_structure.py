@@ -12,12 +12,13 @@ SRC = Path(__file__).parents[1] / "src" / "evtribo"
 #: lower layers (or its own package).
 LAYERS = {
     "evtribo": 0, "errors": 0, "_docs": 0,
-    "files": 1, "median": 1, "running": 1, "citation": 1, "memo": 2, "documents": 2,
+    "files": 1, "median": 1, "running": 1, "outages": 1, "citation": 1, "memo": 2,
+    "documents": 2, "dbc_file": 2,
     "model": 2, "frames": 2, "signal_codec": 2, "lock": 2, "resultdir": 2, "dropped": 2,
     "signals": 2,
-    "rig": 3,
+    "rig": 3, "frame_match": 3,
     "study": 4, "decode": 4,
-    "cache": 5, "decode_table": 5,
+    "cache": 5, "decode_table": 5, "guard": 5,
     "analysis": 6, "acquisition": 6,
     "compare": 7, "rigsetup": 7, "session": 7,
     "demo": 8, "api": 8,

@@ -260,3 +260,22 @@ def test_operating_system_clutter_is_no_trial(tmp_path):
         (root / "P01" / name).write_bytes(b"\x00\x01")
     s = study.load_study(root, with_rig=False)
     assert [t.key for t in s.trials] == ["P01/run-01"]
+
+
+def test_a_subject_folder_linked_from_elsewhere_is_said_so(tmp_path):
+    """A subject folder that is a link to a folder outside the study is analysed (it may be
+    meant), with a warning naming both; a link inside the study is nothing to say."""
+    root = make_study(tmp_path / "s", {"P01/run-01": {"condition": "on"}})
+    elsewhere = make_study(tmp_path / "other", {"P07/run-01": {"subject": "P03"}})
+    (root / "P03").symlink_to(elsewhere / "P07", target_is_directory=True)
+    s = study.load_study(root, with_rig=False)
+    assert [t.key for t in s.trials] == ["P01/run-01", "P03/run-01"]
+    said = [w for w in s.warnings if "outside the study folder" in w]
+    assert said == [f"{root / 'P03'}: a link to {(elsewhere / 'P07').resolve()}, outside the "
+                    "study folder: its trials are analysed as subject P03's; copy them into "
+                    "the study if they belong to it (or remove the link)"]
+    (root / "P03").unlink()
+    (root / "P03").symlink_to(root / "P01", target_is_directory=True)  # inside: no warning
+    s = study.load_study(root, with_rig=False)
+    assert [t.key for t in s.trials] == ["P01/run-01", "P03/run-01"]
+    assert not [w for w in s.warnings if "outside the study folder" in w]

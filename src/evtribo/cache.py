@@ -53,14 +53,16 @@ from evtribo.signals import CellSignals, ExcitationSignals, TrialProvenance, Tri
 log = logging.getLogger(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
-CACHE_VERSION = 10  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
+CACHE_VERSION = 11  # 2: dropped frames counted by evtribo.dropped; 3: Rig.counter guess,
 #                    frames with an unknown multiplexer value ignored; 5: checksummed entries;
 #                    6: channel, logger's DROPCOUNT and decoder warnings kept; 7: waveform
 #                    codes named without a value table (evtribo.decode.FALLBACK_WAVEFORMS);
 #                    8: the reader's damaged lines kept, warned of again from the cache;
 #                    9: Arrow IPC files (were Parquet); 10: the excitation's columns
 #                    run-end encoded, counters in the narrowest ints, times as clock
-#                    ticks' steps and forces as their codes where exact
+#                    ticks' steps and forces as their codes where exact; 11: frames lost
+#                    by the counter alone where it steps by one, outages only on bursty
+#                    timestamps (evtribo.outages); CAN FD frames only as FD messages
 _META = b"evtribo.trial"
 #: An entry's file name ends so.
 SUFFIX = ".arrow"

@@ -22,9 +22,10 @@ How a signal is extracted: :class:`~evtribo.signal_codec.SignalCodec` (any byte 
 start bit, length up to 64 bits, sign, IEEE float), vectorised over frames. Multiplexed
 messages fall back to cantools' ``decode`` frame by frame; a frame cantools refuses (an
 unknown multiplexer value) gets NaN signals and is counted, not fatal. Frames match a
-message by ID and standard/extended kind (a standard 0x0C1 frame is not the extended message
-0x000000C1: such frames are not decoded, and a warning says so); frames shorter than the
-message's length are not decoded (cantools refuses them too).
+message by ID, standard/extended kind and CAN FD or classic kind (a standard 0x0C1 frame is
+not the extended message 0x000000C1, a CAN FD frame on 0x0C1 not the classic message 0x0C1:
+such frames are not decoded, and a warning says so); frames shorter than the message's
+length are not decoded (cantools refuses them too).
 """
 
 from __future__ import annotations
@@ -41,6 +42,7 @@ from cantools.database.can import Database, Message
 
 from evtribo.dropped import missing_frames_received
 from evtribo.errors import UserInputError
+from evtribo.frame_match import kind_mismatches, message_mask
 from evtribo.frames.table import FrameTable, take_rows
 from evtribo.rig import Rig, SignalRef
 from evtribo.signal_codec import SignalCodec
@@ -103,26 +105,6 @@ class DecodedMessage:
         return {name: self.scaled(name) for name in self.raw}
 
 
-def message_mask(frames: FrameTable, message: Message) -> npt.NDArray[np.bool_]:
-    """Frames carrying *message*: same ID and ID kind, data frames (not error or remote).
-
-    Parameters
-    ----------
-    frames : FrameTable
-        The log's frames.
-    message : cantools.database.can.Message
-        The message.
-
-    Returns
-    -------
-    ndarray of bool
-        One per frame.
-    """
-    return ((frames.arbitration_id == np.uint32(message.frame_id))
-            & (frames.is_extended == bool(message.is_extended_frame))
-            & ~frames.is_error & ~frames.is_remote)
-
-
 def decode_message(frames: FrameTable, message: Message, signals: list[str] | None = None,
                    *, mask: npt.NDArray[np.bool_] | None = None, quiet: bool = False
                    ) -> DecodedMessage:
@@ -160,7 +142,14 @@ def decode_message(frames: FrameTable, message: Message, signals: list[str] | No
     for sig in wanted:
         out.codecs[sig.name] = SignalCodec.from_signal(sig)
         out.units[sig.name] = sig.unit or ""
-    if message.is_multiplexed():
+    beyond = beyond_length(message)
+    if beyond:  # cantools decodes none of its frames: neither does evtribo
+        out.raw = {name: np.full(index.size, np.nan) for name in out.codecs}
+        out.undecoded, out.undecoded_reason = index, beyond
+        if index.size and not quiet:
+            log.warning("%d frames of %s (0x%X) not decoded: %s", index.size, message.name,
+                        message.frame_id, beyond)
+    elif message.is_multiplexed():
         failed, out.undecoded_reason = _decode_multiplexed(message, data, frames.dlc[index], out)
         out.undecoded = index[failed]
         if failed.size and not quiet:
@@ -171,6 +160,27 @@ def decode_message(frames: FrameTable, message: Message, signals: list[str] | No
         for name, codec in out.codecs.items():
             out.raw[name] = codec.raw(data)
     return out
+
+
+def beyond_length(message: Message) -> str:
+    """Why no frame of *message* can be decoded, when one of its signals lies beyond its
+    length (cantools refuses every such frame), else ``""``.
+
+    Parameters
+    ----------
+    message : cantools.database.can.Message
+
+    Returns
+    -------
+    str
+    """
+    for sig in message.signals:
+        last = SignalCodec.from_signal(sig).last_byte()
+        if last >= message.length:
+            return (f"its signal {sig.name} ends in byte {last + 1}, beyond the message's "
+                    f"{message.length} bytes (cantools decodes none of its frames): fix the "
+                    "DBC")
+    return ""
 
 
 def _decode_multiplexed(message: Message, data: npt.NDArray[np.uint8],
@@ -224,49 +234,6 @@ def decode_messages(frames: FrameTable, db: Database, *, messages: list[str] | N
         mask = message_mask(frames, message)
         if mask.any():
             out[message.name] = decode_message(frames, message, mask=mask)
-    return out
-
-
-def _id_text(frame_id: int, extended: bool) -> str:
-    kind = "extended (29-bit)" if extended else "standard (11-bit)"
-    return f"{kind} ID 0x{frame_id:08X}" if extended else f"{kind} ID 0x{frame_id:03X}"
-
-
-def kind_mismatches(frames: FrameTable, messages: list[Message], db: Database) -> list[str]:
-    """Why frames whose ID number is one of *messages*' but of the other kind (standard
-    or extended) are not decoded as it: one sentence per message, when *db* has no message
-    of that number and kind.
-
-    Parameters
-    ----------
-    frames : FrameTable
-        The log's frames.
-    messages : list of cantools.database.can.Message
-        The messages looked for.
-    db : cantools.database.can.Database
-        Their DBC.
-
-    Returns
-    -------
-    list of str
-    """
-    known = {(m.frame_id, bool(m.is_extended_frame)) for m in db.messages}
-    data = ~frames.is_error & ~frames.is_remote
-    ids: dict[bool, npt.NDArray[np.uint32]] = {}  # IDs of the data frames of each kind
-    out = []
-    for m in messages:
-        ext = bool(m.is_extended_frame)
-        other = not ext
-        if (m.frame_id, other) in known:
-            continue
-        if other not in ids:
-            kind = frames.is_extended if other else ~frames.is_extended
-            ids[other] = frames.arbitration_id[kind & data]
-        n = int(np.count_nonzero(ids[other] == np.uint32(m.frame_id)))
-        if n:
-            out.append(f"{n} frames have the {_id_text(m.frame_id, other)}, but the DBC's "
-                       f"message {m.name} has the {_id_text(m.frame_id, ext)}: not decoded as "
-                       f"{m.name} (the kind of ID is part of it)")
     return out
 
 
@@ -496,5 +463,6 @@ def decode_trial(frames: FrameTable, rig: Rig, *, channel: str | None = None) ->
 
 
 __all__ = ["FALLBACK_WAVEFORMS", "CellSignals", "DecodedMessage", "ExcitationSignals",
-           "SignalCodec", "TrialProvenance", "TrialSignals", "decode_message", "decode_messages",
+           "SignalCodec", "TrialProvenance", "TrialSignals", "beyond_length", "decode_message",
+           "decode_messages",
            "decode_trial", "kind_mismatches", "message_mask", "waveform_names"]

@@ -1,4 +1,4 @@
-"""Frames missing from a load cell's periodic stream, robust to reception jitter.
+"""Frames missing from a load cell's periodic stream, robust to how the frames were received.
 
 A load cell sends a frame every period P of its own clock; the logger stamps each frame
 when it arrives, late by a latency that varies (bus arbitration, USB polling, the
@@ -7,18 +7,33 @@ overcounts as soon as the jitter is a sizeable part of the period: a late frame 
 long step and one short one, and the long one alone is counted (a 2 kHz cell with 0.2 ms of
 jitter showed 3,400 "missing" frames where 600 were lost). Here:
 
-- the cell's period is estimated from the phase coherence of all timestamps (the peak of
-  ``|sum exp(2 pi i t / P)|`` near the median step, refined on longer and longer spans).
-  Missing frames and jitter do not bias it, and clock errors (ppm) are part of it;
 - **with a rolling counter**, the missing frames are the counter's (``(dcounter - 1) mod
-  modulus`` per step). Timing only adds whole counter periods lost at once (an outage
-  longer than ``modulus`` frames): the offset between the timestamps' grid position and the
-  counter's running index is compared at the start and the end of the trial (medians over
-  many frames, so that a burst of late frames after a logger stall is not mistaken for an
-  outage). This is only looked at when some step is longer than half a counter period;
-- **without a counter**, the missing frames are the grid positions between the first and
-  last frame, minus the frames received (the ends taken as medians over their first and
-  last frames, so that frames stamped together when the logger starts do not count).
+  modulus`` per step): a counter that steps by one from frame to frame means nothing was
+  lost, whatever the timestamps say (an adapter that delivers frames in bursts, a logger
+  that stalls). Only where the counter itself shows frames lost, in a pause longer than
+  half a counter period, can whole counter periods have been lost with them: they are added
+  when the timing shows them unambiguously (the frames after the pause sit a whole number of
+  counter periods later than the counter says, within the timing's noise), else a note says
+  the count may miss them;
+- **without a counter, on a regular clock** (timestamps coherent at the cell's period, no
+  bursts), the period is estimated from the phase coherence of all timestamps (the peak of
+  ``|sum exp(2 pi i t / P)|`` near the median step, refined on longer and longer spans;
+  missing frames and jitter do not bias it, clock errors in ppm are part of it), and the
+  missing frames are the grid positions between the first and last frame minus the frames
+  received (the ends taken as medians over their first and last frames, so that frames
+  stamped together when the logger starts do not count);
+- **without a counter, on irregular reception** (frames delivered in bursts, jitter of the
+  order of the period), single lost frames leave no trace in the timestamps: only outages
+  are counted, as lasting drops of the stream's upper envelope (the frame count minus the
+  elapsed time in periods, its maximum over windows of many periods, which the earliest
+  frames of each burst set), with a note saying so. Short pauses, bursts, stalls and a
+  clock off by 100 ppm make no drop, so they invent no loss.
+
+What no timestamp can tell: an adapter that stamps its polls, one frame a poll, at about the
+cell's own rate (a 1 kHz cell read by a USB adapter polled every 1 ms) skips a poll whenever
+its clock and the cell's drift a period apart, and such a skip is a lost frame to the
+timing (one per ``1 / (rate * clock error)``: every 10 s at 1 kHz and 100 ppm). A rolling
+counter tells them apart; without one, the count may hold these.
 """
 
 from __future__ import annotations
@@ -31,11 +46,12 @@ import numpy as np
 import numpy.typing as npt
 
 from evtribo.median import median
+from evtribo.outages import lasting_gaps, outage_count, whole_periods
 
 log = logging.getLogger(__name__)
 
 __all__ = ["DropCount", "coherence", "count_by_steps", "count_dropped", "estimate_period",
-           "missing_frames", "missing_frames_received"]
+           "missing_frames", "missing_frames_received", "outage_count"]
 
 #: Fewest frames for the coherent estimate; shorter streams use the step heuristic.
 MIN_FRAMES = 16
@@ -55,6 +71,10 @@ _EDGE_FRAMES = 32
 _CHUNK = 1 << 20
 #: Largest number of timestamps used per stage (evenly thinned beyond that).
 _MAX_POINTS = 8_000
+#: Share of a stream's steps shorter than a tenth of its period beyond which its frames are
+#: taken to arrive in bursts (a USB or serial adapter's): their timestamps then say nothing
+#: of single frames.
+BURST_SHARE = 0.25
 
 
 def _coherence(t: npt.NDArray[np.float64], periods: npt.NDArray[np.float64]
@@ -184,7 +204,8 @@ class DropCount:
         Frames missing.
     method : str
         ``"counter"``, ``"counter+timing"`` (whole counter periods added from the timing),
-        ``"timing"``, or ``"steps"`` (short streams).
+        ``"timing"``, ``"outages"`` (irregular timestamps without a counter: outages only)
+        or ``"steps"`` (short streams).
     period_s : float, s
         The stream's estimated period (NaN when not estimated).
     coherence : float
@@ -204,9 +225,16 @@ def _regular(coh: float, n: int) -> bool:
     return coh >= max(MIN_COHERENCE, 8 / np.sqrt(n))
 
 
+def _bursty(t: npt.NDArray[np.float64], period: float) -> bool:
+    """Whether the frames arrive in bursts: many steps far shorter than the period."""
+    dt = np.diff(t)
+    return int(np.count_nonzero(dt < 0.1 * period)) > BURST_SHARE * dt.size
+
+
 def _with_counter(t: npt.NDArray[np.float64], c: npt.NDArray[np.int64],
                   modulus: int | None) -> DropCount:
-    """The counter's count, plus whole counter periods the (regular) timing shows lost."""
+    """The counter's count (a counter that steps by one: nothing lost), plus whole counter
+    periods lost in pauses where the counter shows a loss, when the timing shows them."""
     n = t.size
     if n < 2:
         return DropCount(0, "counter")
@@ -214,27 +242,19 @@ def _with_counter(t: npt.NDArray[np.float64], c: npt.NDArray[np.int64],
         modulus = 1 << max(int(c.max(initial=0)).bit_length(), 1)
     missing = (np.diff(c) - 1) % modulus
     by_counter = int(missing.sum())
-    if n < MIN_FRAMES:
+    if n < MIN_FRAMES or not by_counter or not t[-1] > t[0]:
         return DropCount(by_counter, "counter")
-    dt = np.diff(t)
-    if dt.max() < 0.5 * modulus * median(dt):
-        # no pause long enough to hide a whole counter period: the counter says it all
-        return DropCount(by_counter, "counter")
-    period = estimate_period(t)
-    coh = coherence(t, period) if np.isfinite(period) else 0.0
-    if not _regular(coh, n):
-        return DropCount(by_counter, "counter", period, coh,
-                         "timestamps too irregular to detect whole counter periods lost")
-    # offset between where the timing puts each frame and where the counter does
-    index = np.concatenate([[0], np.cumsum(missing + 1)])
-    offset = _steps(t, period) - index
-    edge = min(max(2 * modulus, 64), n // 2)
-    wraps = int(np.rint((np.median(offset[-edge:]) - np.median(offset[:edge])) / modulus))
+    index = np.concatenate([[0], np.cumsum(missing + 1)]).astype(np.float64)
+    period = float(t[-1] - t[0]) / float(index[-1])
+    pauses = np.flatnonzero((missing > 0) & (np.diff(t) >= 0.5 * modulus * period))
+    if not pauses.size:
+        return DropCount(by_counter, "counter", period)
+    wraps, note = whole_periods(t, index, pauses, modulus)
     if wraps > 0:
         log.info("the timing shows %d whole counter period(s) of %d frames lost at once",
                  wraps, modulus)
-        return DropCount(by_counter + wraps * modulus, "counter+timing", period, coh)
-    return DropCount(by_counter, "counter", period, coh)
+        return DropCount(by_counter + wraps * modulus, "counter+timing", period, note=note)
+    return DropCount(by_counter, "counter", period, note=note)
 
 
 def missing_frames(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
@@ -255,8 +275,8 @@ def missing_frames(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
     -------
     DropCount
         With a counter: the counter's count, plus whole counter periods that the timing
-        says were lost at once (only when the timestamps are regular enough to tell).
-        Without: the timing's count.
+        shows lost at once where the counter shows a loss. Without: the timing's count
+        (outages only, with a note, where the timestamps cannot show single frames).
     """
     times = np.asarray(t, dtype=np.float64)
     c = None if counter is None else np.asarray(counter, dtype=np.int64)
@@ -265,17 +285,14 @@ def missing_frames(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
         times = times[finite]
         c = None if c is None else c[finite]
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-        found = _missing_frames(times, c, modulus)
+        found = _by_timing(times) if c is None else _with_counter(times, c, modulus)
     found.count = int(min(max(found.count, 0), MAX_COUNT))
     return found
 
 
-def _missing_frames(t: npt.NDArray[np.float64], counter: npt.NDArray[np.int64] | None,
-                    modulus: int | None) -> DropCount:
-    t = np.asarray(t, dtype=np.float64)
+def _by_timing(t: npt.NDArray[np.float64]) -> DropCount:
+    """Frames missing from a stream without a counter, by its timestamps alone."""
     n = t.size
-    if counter is not None:
-        return _with_counter(t, np.asarray(counter, dtype=np.int64), modulus)
     if n < 2:
         return DropCount(0, "timing")
     if n < MIN_FRAMES:
@@ -284,8 +301,10 @@ def _missing_frames(t: npt.NDArray[np.float64], counter: npt.NDArray[np.int64] |
     if not np.isfinite(period):
         return DropCount(0, "timing")
     coh = coherence(t, period)
+    if _bursty(t, period) or not _regular(coh, n):
+        return _outages_only(t, period, coh)
     if coh >= CLEAN_COHERENCE:
-        return DropCount(count_by_steps(t), "timing", period, coh)
+        return DropCount(lasting_gaps(t, period), "timing", period, coh)
     # grid position minus rank grows by one at each missing frame; its medians over the
     # first and last frames are not fooled by a burst of late frames at either end
     lag = _steps(t, period) - np.arange(n)
@@ -293,10 +312,18 @@ def _missing_frames(t: npt.NDArray[np.float64], counter: npt.NDArray[np.int64] |
     inner = float(np.median(lag[-edge:]) - np.median(lag[:edge]))
     # the medians sit (edge - 1) / 2 frames inside each end: scale to the whole stream
     count = max(int(np.rint(inner * (n - 1) / max(n - edge, 1))), 0)
-    note = None if _regular(coh, n) else (
-        f"timestamps too irregular (coherence {coh:.2f}) to count missing frames reliably "
-        "without a counter")
-    return DropCount(count, "timing", period, coh, note)
+    return DropCount(count, "timing", period, coh)
+
+
+def _outages_only(t: npt.NDArray[np.float64], period: float, coh: float) -> DropCount:
+    """The outages of a stream whose timestamps cannot show single lost frames, with a note
+    saying so."""
+    count, seen = outage_count(t)
+    why = ("frames received in bursts, " if _bursty(t, period) else "") + f"coherence {coh:.2f}"
+    return DropCount(count, "outages", period, coh, (
+        f"timestamps too irregular ({why}) to see single lost frames without a counter: only "
+        f"outages of {max(int(np.ceil(seen)), 2)} or more frames in a row, away from the "
+        "trial's ends, are counted"))
 
 
 def count_dropped(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,

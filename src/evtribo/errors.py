@@ -102,6 +102,65 @@ def toml_error_line(err: BaseException) -> int | None:
     return int(m.group(1)) if m else None
 
 
+def toml_error_key(err: BaseException, text: str) -> str | None:
+    """The key (dotted, with its table) that a ``tomllib`` error of a key or a table given
+    twice is about: TOML allows neither, and the error names only the line.
+
+    Parameters
+    ----------
+    err : BaseException
+        The error ``tomllib`` raised.
+    text : str
+        The document it was reading.
+
+    Returns
+    -------
+    str or None
+        ``"rig.dbc"``; None for another error.
+    """
+    msg = str(err)
+    twice = re.search(r"Cannot declare \(((?:'[^']*',?\s*)+)\) twice", msg)
+    if twice:
+        return ".".join(re.findall(r"'([^']*)'", twice.group(1)))
+    line = toml_error_line(err)
+    if "Cannot overwrite a value" not in msg or line is None:
+        return None
+    table = ""
+    for number, row in enumerate(text.splitlines()[:line], 1):
+        header = re.match(r"\s*\[+\s*([^\[\]]+?)\s*\]+", row)
+        if header and number < line:
+            table = header.group(1)
+        elif number == line:
+            assign = re.match(r"\s*([^=\[]+?)\s*=", row)
+            if assign is None:
+                return None
+            name, table = (re.sub(r"[\"' ]", "", x) for x in (assign.group(1), table))
+            return f"{table}.{name}" if table else name
+    return None
+
+
+def toml_problem(err: BaseException, text: str) -> tuple[str, int | None, str | None]:
+    """What a ``tomllib`` error says, for a message: its reason (for a key or table given
+    twice, said so), its line and the key it is about.
+
+    Parameters
+    ----------
+    err : BaseException
+        The error ``tomllib`` raised.
+    text : str
+        The document it was reading.
+
+    Returns
+    -------
+    reason : str
+    line : int or None
+    key : str or None
+    """
+    key = toml_error_key(err, text)
+    reason = str(err) if key is None else f"given twice, which TOML does not allow ({err})"
+    return reason, toml_error_line(err), key
+
+
 def toml_key_line(text: str, table: str, key: str) -> int | None:
     """The line (1-based) where *key* is set in ``[table]`` of a TOML document's *text*.
 

@@ -34,13 +34,13 @@ from importlib import resources
 from pathlib import Path
 from typing import Any
 
-import cantools
-import cantools.database
 from cantools.database.can import Database, Message, Signal
 
+from evtribo.dbc_file import parse_dbc
 from evtribo.documents.calibration import CALIBRATION_KEYS, Calibration
-from evtribo.errors import RigConfigError, toml_error_line
-from evtribo.files import check_regular_file, read_limited, sha256_file
+from evtribo.errors import RigConfigError, toml_problem
+from evtribo.files import read_limited, sha256_file
+from evtribo.signal_codec import SignalCodec
 
 log = logging.getLogger(__name__)
 
@@ -62,8 +62,6 @@ OPTIONAL_ROLES = (
 ROLES = REQUIRED_ROLES + OPTIONAL_ROLES
 #: Keys of a rig table besides the roles.
 OTHER_KEYS = ("name", "dbc", "calibration")
-#: Largest DBC file read, bytes.
-MAX_DBC_BYTES = 64 << 20
 
 #: A signal named like a rolling frame counter (see :meth:`Rig.counter`).
 COUNTER_NAME = re.compile(r"(counter|cnt)$", re.IGNORECASE)
@@ -224,18 +222,16 @@ class Rig:
                 raise RigConfigError(f"must be a string, got {type(v).__name__} {v!r}",
                                      path=src, key=key(k))
         dbc = Path(base_dir) / mapping["dbc"]
-        if not dbc.exists():
-            raise RigConfigError(f"DBC file not found: {dbc}", path=src, key=key("dbc"))
-        try:
-            size = check_regular_file(dbc, RigConfigError, what="DBC file").st_size
-        except RigConfigError as err:
-            raise RigConfigError(f"{dbc} {err.message}", path=src, key=key("dbc")) from err
-        if size > MAX_DBC_BYTES:
-            raise RigConfigError(f"{dbc} is {size:,} bytes, too large for a DBC file (at "
-                                 f"most {MAX_DBC_BYTES:,})", path=src, key=key("dbc"))
-        db = load_dbc(dbc, source=src, key=key("dbc"))
+        db = load_dbc(dbc, source=src, key=key("dbc"))  # checked: a DBC, not echoed
         refs = {r: resolve_signal(db, mapping[r], key=key(r), source=src)
                 for r in ROLES if r in mapping}
+        for r, ref in refs.items():  # cantools decodes no frame of such a message
+            beyond = [s.name for s in ref.message.signals
+                      if SignalCodec.from_signal(s).last_byte() >= ref.message.length]
+            if beyond:
+                raise RigConfigError(f"message {ref.message.name}'s signal {beyond[0]} lies "
+                                     f"beyond its {ref.message.length} bytes: no frame of it "
+                                     f"can be decoded; fix the DBC {dbc}", path=src, key=key(r))
         _check_distinct(refs, source=src, key=key)
         calibration = Calibration()
         if "calibration" in mapping:
@@ -264,11 +260,11 @@ def _check_distinct(refs: Mapping[str, SignalRef], *, source: str | None,
 
 def load_dbc(path: str | os.PathLike[str], *, source: str | None = None,
              key: str | None = None) -> Database:
-    """Parse a DBC with cantools.
+    """Parse a DBC with cantools (:func:`evtribo.dbc_file.parse_dbc`).
 
     A DBC whose signals overlap or overrun their message (cantools' strict checks) is still
     loaded, with a warning: vendors' DBCs often have such quirks, and each signal is decoded
-    on its own.
+    on its own. A file that is not a DBC is refused by name, its content never shown.
 
     Parameters
     ----------
@@ -284,27 +280,9 @@ def load_dbc(path: str | os.PathLike[str], *, source: str | None = None,
     Raises
     ------
     RigConfigError
-        The file does not parse (cantools' message, naming *source* and *key*).
+        The file is missing, not a DBC, or does not parse (naming *source* and *key*).
     """
-    try:
-        return _can_database(cantools.database.load_file(os.fspath(path), database_format="dbc",
-                                                         strict=True))
-    except Exception as strict_err:  # ParseError, UnsupportedDatabaseFormatError, Error...
-        try:
-            db = cantools.database.load_file(os.fspath(path), database_format="dbc",
-                                             strict=False)
-        except Exception as err:
-            raise RigConfigError(f"cannot parse DBC {path}: {err}", path=source,
-                                 key=key) from err
-        log.warning("%s: %s; decoding it anyway", path, strict_err)
-        return _can_database(db)
-
-
-def _can_database(db: object) -> Database:
-    """*db*, which ``load_file(..., database_format="dbc")`` made a CAN database."""
-    if not isinstance(db, Database):
-        raise TypeError(f"expected a CAN database, got {type(db).__name__}")
-    return db
+    return parse_dbc(path, source=source, key=key)
 
 
 def resolve_signal(db: Database, qualified: str, *, key: str, source: str | None = None
@@ -376,9 +354,10 @@ def load_rig(toml_path: str | os.PathLike[str]) -> Rig:
         :meth:`Rig.from_mapping` refuses it.
     """
     path = Path(toml_path)
+    text = ""
     try:
-        table = tomllib.loads(read_limited(path, RigConfigError,
-                                           what="rig TOML file").decode("utf-8"))
+        text = read_limited(path, RigConfigError, what="rig TOML file").decode("utf-8")
+        table = tomllib.loads(text)
     except FileNotFoundError as err:
         raise RigConfigError("rig file not found", path=path) from err
     except RecursionError as err:
@@ -390,8 +369,9 @@ def load_rig(toml_path: str | os.PathLike[str]) -> Rig:
         raise RigConfigError(f"not UTF-8 text: {err.reason} at byte {err.start}",
                              path=path) from err
     except tomllib.TOMLDecodeError as err:
-        raise RigConfigError(f"not valid TOML: {err}", path=path,
-                             line=toml_error_line(err)) from err
+        reason, line, key = toml_problem(err, text)
+        raise RigConfigError(f"not valid TOML: {reason}", path=path, line=line, key=key) \
+            from err
     if "rig" in table and isinstance(table["rig"], dict):
         return Rig.from_mapping(table["rig"], path.parent, source=path, key_prefix="rig")
     return Rig.from_mapping(table, path.parent, source=path, key_prefix="")

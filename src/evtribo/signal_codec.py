@@ -113,12 +113,29 @@ class SignalCodec:
         return self.raw_to_scaled(self.raw(data))
 
     def choice_names(self, raw: npt.NDArray[np.generic]) -> npt.NDArray[np.object_]:
-        """Value-table names of raw codes (the code as text where the table lacks it)."""
+        """Value-table names of raw codes, as cantools' ``decode_choices`` gives them: where
+        the table lacks a code, its physical value as text (``raw * scale + offset`` in
+        Python's arithmetic, as cantools computes it); None where there is no code (a
+        multiplexed signal absent from a frame)."""
         table = self.choices or {}
         codes, inverse = np.unique(raw, return_inverse=True)
-        names = np.array([table.get(int(c), str(c)) if not self.is_float else str(c)
-                          for c in codes], dtype=object)
+        names = np.array([self._choice_name(c, table) for c in codes.tolist()], dtype=object)
         return names[inverse.ravel()]
+
+    def _choice_name(self, code: float, table: dict[int, str]) -> str | None:
+        if code != code:  # noqa: PLR0124 - NaN: no code in this frame
+            return None
+        value = code if self.is_float else int(code)
+        if float(value).is_integer() and int(value) in table:
+            return table[int(value)]
+        return str(value * self.scale + self.offset)
+
+    def last_byte(self) -> int:
+        """The payload byte (from 0) that holds the signal's last bit: a frame must be
+        longer than it to carry the signal."""
+        if self.byte_order == "little_endian":
+            return (self.start + self.length - 1) // 8
+        return (self._lsb_shift_be()[1] + self.length - 1) // 8
 
 
 def _col(data: npt.NDArray[np.uint8], k: int) -> npt.NDArray[np.uint64]:

@@ -36,7 +36,7 @@ from evtribo.documents.sidecar import (
     unknown_sidecar_keys,
     write_sidecar,
 )
-from evtribo.errors import OutputExistsError, StudyError, toml_error_line
+from evtribo.errors import OutputExistsError, StudyError, toml_problem
 from evtribo.files import PARTIAL_SUFFIX, atomic_write, read_limited
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -149,14 +149,17 @@ def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
         Its tables and keys.
     """
     p = Path(path)
+    text = ""
     try:
-        config = tomllib.loads(read_limited(p, StudyError, what=STUDY_FILE).decode("utf-8"))
+        text = read_limited(p, StudyError, what=STUDY_FILE).decode("utf-8")
+        config = tomllib.loads(text)
     except FileNotFoundError as err:
         raise StudyError(f"no {STUDY_FILE}: this folder is not a study (`evtribo init "
                          f"{p.parent} --dbc YOUR.dbc` makes one for your rig)",
                          path=p) from err
     except tomllib.TOMLDecodeError as err:
-        raise StudyError(f"invalid TOML: {err}", path=p, line=toml_error_line(err)) from err
+        reason, line, key = toml_problem(err, text)
+        raise StudyError(f"invalid TOML: {reason}", path=p, line=line, key=key) from err
     except UnicodeDecodeError as err:
         raise StudyError(f"not UTF-8 text: {err.reason}", path=p) from err
     except RecursionError as err:
@@ -221,16 +224,11 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
                                 "--force re-recording that was killed); nothing was deleted")
                 continue
             logs[trial] = (f, partial)
-        for stem, names in others.items():
-            if f"{stem}.json" in names and stem not in logs:
-                besides = [n for n in names if not n.startswith(f"{stem}.json")]
-                warnings.append(
-                    f"{folder / (stem + '.json')}: sidecar without a log"
-                    + (f" ({', '.join(besides)}: not a log format)" if besides else "")
-                    + "; not analysed")
+        warnings += _sidecars_without_logs(folder, others, logs)
         if not logs:
             continue
         validate_name(folder.name, what="subject folder", path=folder)
+        _outside(folder, root, warnings)
         for trial, (log_path, partial) in logs.items():
             validate_name(trial, what="trial", path=log_path)
             sidecar_path: Path | None = folder / f"{trial}.json"
@@ -256,6 +254,31 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
                              path=t.sidecar_path or t.log_path, key="subject")
         seen[t.key] = t.log_path
     return trials, warnings
+
+
+def _sidecars_without_logs(folder: Path, others: Mapping[str, list[str]],
+                           logs: Mapping[str, Any]) -> list[str]:
+    """A warning for each sidecar in *folder* whose trial has no log (*others*: the files
+    that are no log, by stem)."""
+    out = []
+    for stem, names in others.items():
+        if f"{stem}.json" in names and stem not in logs:
+            besides = [n for n in names if not n.startswith(f"{stem}.json")]
+            out.append(f"{folder / (stem + '.json')}: sidecar without a log"
+                       + (f" ({', '.join(besides)}: not a log format)" if besides else "")
+                       + "; not analysed")
+    return out
+
+
+def _outside(folder: Path, root: Path, warnings: list[str]) -> None:
+    """Warn of a subject folder that is a symbolic link to a folder outside the study."""
+    if not folder.is_symlink():
+        return
+    target = Path(os.path.realpath(folder))
+    if not target.is_relative_to(Path(os.path.realpath(root))):
+        warnings.append(f"{folder}: a link to {target}, outside the study folder: its trials "
+                        f"are analysed as subject {folder.name}'s; copy them into the study "
+                        "if they belong to it (or remove the link)")
 
 
 def load_study(path: str | os.PathLike[str], *, with_rig: bool = True) -> Study:

@@ -71,3 +71,25 @@ def test_unknown_waveform_names_the_key():
     with pytest.raises(RigConfigError, match="no waveform 'saw'") as err:
         command.frame(Excitation(True, 1.0, 1.0, "saw"))
     assert err.value.key == "excitation_command_waveform"
+
+
+def test_the_phases_begin_when_the_recording_does():
+    """A session holds the amplifier off until the trial's log is open (begin=False, then
+    begin()): however long a busy machine takes to open it, the first phase is the tare's
+    off stretch of the recording itself."""
+    db = default_rig().database
+    with can.Bus(interface="virtual", channel="cmd-begin") as tx, \
+            can.Bus(interface="virtual", channel="cmd-begin") as rx:
+        command = ExcitationCommand(tx, db, ROLES)
+        with command.hold(Excitation(True, 100.0, 10_000.0, "square"), "on",
+                          begin=False) as holder:
+            waiting = [db.decode_message(m.arbitration_id, m.data)["HvOn"]
+                       for m in (rx.recv(timeout=60) for _ in range(5))]
+            holder.begin()
+            for _ in range(10_000):  # the next commands are on (a loaded machine: later)
+                m = rx.recv(timeout=60)
+                if db.decode_message(m.arbitration_id, m.data)["HvOn"]:
+                    break
+            else:
+                pytest.fail("never commanded on after begin()")
+    assert waiting == [0] * 5

@@ -132,3 +132,79 @@ def test_chromium_watches_a_simulated_trial_stream_through_acquire_view(tmp_path
         kill_and_reap(proc, timeout=10)
     assert proc.returncode == 0
     assert (tmp_path / "study" / "P01" / "run-01.log").exists()
+
+
+def _get(url: str, host: str) -> tuple[int, bytes]:
+    request = urllib.request.Request(url, headers={"Host": host})
+    try:
+        with urllib.request.urlopen(request, timeout=30) as resp:
+            return resp.status, resp.read()
+    except urllib.error.HTTPError as err:
+        with err:
+            return err.code, err.read()
+
+
+def test_only_this_machines_names_are_answered():
+    """DNS rebinding: a page of attacker.example that resolves to 127.0.0.1 sends its own
+    name as Host; the view refuses it (403) and gives nothing of the state."""
+    with LiveView(0) as view:
+        view.publish({"subject": "P01", "normal_force_N": 0.5})
+        for path in ("", "state", "events"):
+            code, body = _get(view.url + path, "attacker.example")
+            assert code == 403 and b"P01" not in body, path
+            assert _get(view.url + path, f"attacker.example:{view.port}")[0] == 403
+        for host in ("127.0.0.1", f"127.0.0.1:{view.port}", f"localhost:{view.port}",
+                     "LOCALHOST", f"[::1]:{view.port}"):
+            code, body = _get(view.url + "state", host)
+            assert code == 200 and json.loads(body)["subject"] == "P01", host
+        assert _get(view.url + "state", f"localhost:{view.port + 1}")[0] == 403
+
+
+def _handler_threads() -> int:
+    return sum("process_request_thread" in t.name for t in threading.enumerate())
+
+
+def _closed(sock, deadline_s: float = 60.0) -> bool:
+    """Whether the server closes *sock* (reads EOF) before the deadline; a loaded machine
+    may be slow, so the deadline is far beyond the view's idle timeout."""
+    sock.settimeout(deadline_s)
+    try:
+        return sock.recv(1) == b""
+    except TimeoutError:
+        return False
+    except OSError:
+        return True
+
+
+def test_idle_connections_are_bounded_in_number_and_dropped():
+    """60 connections that send nothing held 47 threads for ever: now at most max_clients
+    are served at once (the others get 503 at once), and a silent one is dropped."""
+    import socket
+
+    with LiveView(0, idle_timeout_s=120.0, max_clients=4) as view:
+        idle = [socket.create_connection(("127.0.0.1", view.port), timeout=30)
+                for _ in range(60)]
+        try:
+            heads = []
+            for sock in idle[4:]:
+                sock.settimeout(30)
+                heads.append(sock.recv(64))
+            assert all(h.startswith(b"HTTP/1.0 503") for h in heads)
+            assert _handler_threads() <= 4
+        finally:
+            for sock in idle:
+                sock.close()
+    with LiveView(0, idle_timeout_s=0.5, max_clients=4) as view:
+        idle = [socket.create_connection(("127.0.0.1", view.port), timeout=30)
+                for _ in range(4)]
+        try:
+            assert all(_closed(sock) for sock in idle)  # dropped once silent
+        finally:
+            for sock in idle:
+                sock.close()
+        for _ in range(1200):  # their slots come back: a browser is served again
+            if _handler_threads() == 0:
+                break
+            time.sleep(0.05)
+        code, body = _get(view.url + "state", "127.0.0.1")
+        assert code == 200 and "seq" in json.loads(body)

@@ -82,10 +82,10 @@ def test_monitor_decodes_forces_and_rates_with_the_rig():
     rig = load_rig_toml(default_rig_path())
     stats = _stats(rig, 0.55, 0.2)
     mon = Monitor(rig, io.StringIO(), duration=10.0, target=0.5, band=0.1, tty=False)
-    mon._stats, mon._t0 = stats, time.monotonic() - 2.0
+    mon._stats, mon._t0 = stats, 1000.0  # the trial began 2 s before the picture
     mon._last = (mon._t0, {})
     stats.frames_by_id.update({"0C1": 2000, "0C2": 2000, "18FF0001": 10})
-    snap = mon.snapshot()
+    snap = mon.snapshot(now=1002.0)
     assert snap.normal_force_N == pytest.approx(0.55, abs=1e-5)
     assert snap.tangential_force_N == pytest.approx(0.2, abs=1e-5)
     assert snap.rates_Hz["FzCell"] == pytest.approx(1000, rel=0.01)
@@ -100,7 +100,11 @@ def test_monitor_thread_redraws_on_a_terminal_and_prints_lines_otherwise(tty):
     mon = Monitor(rig, out, duration=5.0, target=0.5, band=0.1, tty=tty, interval=0.05,
                   line_interval=0.05)
     mon.start(_stats(rig, 0.5, 0.1))
-    time.sleep(0.3)
+    drawn = "\x1b[5F" if tty else "\n"
+    for _ in range(600):  # two refreshes, however long a loaded machine takes to give them
+        if out.getvalue().count(drawn) >= 2:
+            break
+        time.sleep(0.05)
     mon.stop()
     text = out.getvalue()
     if tty:
@@ -122,10 +126,10 @@ def test_monitor_names_and_decodes_extended_id_messages():
     stats.latest[normal.frame_id & 0x7FF] = can.Message(arbitration_id=normal.frame_id & 0x7FF,
                                                         data=bytes(8))
     mon = Monitor(rig, io.StringIO(), duration=10.0, tty=False)
-    mon._stats, mon._t0 = stats, time.monotonic() - 2.0
+    mon._stats, mon._t0 = stats, 1000.0
     mon._last = (mon._t0, {})
     stats.frames_by_id.update({f"{normal.frame_id:08X}": 1000, "700": 20, "0C1": 30})
-    snap = mon.snapshot()
+    snap = mon.snapshot(now=1002.0)
     assert snap.normal_force_N == pytest.approx(0.75, abs=1e-6)
     assert snap.rates_Hz["NormalCell"] == pytest.approx(500, rel=0.01)
     assert snap.rates_Hz["AmpState"] == pytest.approx(10, rel=0.01)
@@ -145,11 +149,10 @@ def test_the_display_asks_for_the_finger_lifted_then_sliding():
     assert "LIFT" not in "".join(render_status(Snapshot(2.0), target=0.5))  # no tare
     rig = load_rig_toml(default_rig_path())
     mon = Monitor(rig, io.StringIO(), duration=10.0, tty=False, tare_s=1.5)
-    mon._stats, mon._t0 = _stats(rig, 0.0, 0.0), time.monotonic() - 0.5
+    mon._stats, mon._t0 = _stats(rig, 0.0, 0.0), 1000.0
     mon._last = (mon._t0, {})
-    assert mon.snapshot().tare_left_s == pytest.approx(1.0, abs=0.05)
-    mon._t0 = time.monotonic() - 3.0
-    assert mon.snapshot().tare_left_s == 0.0
+    assert mon.snapshot(now=1000.5).tare_left_s == pytest.approx(1.0)
+    assert mon.snapshot(now=1003.0).tare_left_s == 0.0
 
 
 _ANSI = re.compile(r"\x1b\[[0-9;]*m")

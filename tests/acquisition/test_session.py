@@ -74,12 +74,15 @@ def test_a_randomized_session_records_the_plan_with_the_commanded_excitation(
         assert (sidecar["amplitude_V"], sidecar["waveform"], sidecar["frequency_Hz"],
                 sidecar["condition"], sidecar["tare_s"]) == \
             (planned.amplitude_V, "square", 10000.0, "alternating", 0.5)
-        # the amplifier obeyed: while ON, its status reports the commanded amplitude
+        # the amplifier obeyed: off while taring, then switched on (how long each phase
+        # lasted depends on how busy this machine was, and is not asserted), and while ON
+        # its status reports the commanded amplitude
         ex = load_trial(subject / f"{planned.trial}.log", default_rig(), cache=False).excitation
         on = ex.enabled
-        assert 0.2 < on.mean() < 0.6, planned.trial
+        assert not on[(ex.t - ex.t[0]) < 0.4].any(), planned.trial
+        switched = np.flatnonzero(np.diff(on.astype(np.int8)))
+        assert on.any() and len(switched) >= 1, planned.trial
         assert set(np.round(ex.amplitude[on], 2)) == {planned.amplitude_V}, planned.trial
-        assert not on[(ex.t - ex.t[0]) < 0.4].any(), planned.trial  # off while taring
     assert "3 of 3 trials done" in out
     # the same command again records nothing
     before = _tree(tmp_path / "study")

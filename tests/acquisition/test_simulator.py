@@ -289,6 +289,7 @@ def test_streaming_on_a_virtual_bus_delivers_every_frame():
     reader = threading.Thread(target=receive)
     reader.start()
     try:
+        before = time.time()
         stats = Simulator(config=cfg).run(tx, duration=1.5)
     finally:
         stop.set()
@@ -297,7 +298,11 @@ def test_streaming_on_a_virtual_bus_delivers_every_frame():
         rx.shutdown()
     assert stats.sent == stats.generated == len(offline) == len(received)
     assert stats.not_sent == 0
-    assert 1.4 < stats.elapsed_s < 10.0            # paced, with room for a loaded machine
+    # paced: no frame left before its time (the virtual bus stamps each when it is sent);
+    # how late a busy machine sent them is not asserted
+    due = offline.timestamp - cfg.start_time
+    sent_at = np.array([m.timestamp for m in received]) - before
+    assert due[-1] > 1.4 and np.all(sent_at >= due - 1e-3)
     got_ids = np.array([m.arbitration_id for m in received])
     np.testing.assert_array_equal(got_ids, offline.arbitration_id)
     got = [bytes(m.data).ljust(8, b"\0") for m in received]
@@ -312,12 +317,11 @@ def test_stop_event_ends_a_stream_early():
     timer = threading.Timer(0.3, stop.set)
     timer.start()
     try:
-        t0 = time.monotonic()
-        stats = Simulator().run(bus, stop_event=stop)
+        stats = Simulator().run(bus, stop_event=stop)  # returns: stopped, not run for 24 h
     finally:
         bus.shutdown()
-    assert time.monotonic() - t0 < 5.0              # stopped, not run for its 24 h
-    assert 0 < stats.sent < 3050
+    assert stats.sent > 0 and stats.not_sent == 0
+    assert stats.generated == stats.sent  # what was made but not yet due is not counted
 
 
 def test_simulate_study_writes_a_study_folder(tmp_path):

@@ -111,9 +111,9 @@ def page(out) -> tuple[Path, _Outline]:
 
 def test_sections_in_order(page):
     _, outline = page
-    assert outline.sections == ["Electrostatic force", "Model fit", "All subjects",
-                                "Model comparison", "Subject P01", "Subject P02", "Warnings",
-                                "Provenance and settings"]
+    assert outline.sections == ["Electrostatic force", "Model fit", "Population",
+                                "All subjects", "Model comparison", "Subject P01",
+                                "Subject P02", "Warnings", "Provenance and settings"]
     # the study's facts (run_id, strict, elapsed_s...) are in the last section only
     facts = next(t for t in outline.tables if t["title"] == "Study")
     assert facts["section"] == "Provenance and settings"
@@ -306,8 +306,8 @@ def test_no_model_comparison_without_models(tmp_path):
     _, folder = analysed_study(tmp_path)
     compare(folder, dpi=30, trial_checks=False)
     outline = _outline(build_report(folder, tmp_path / "r.html"))
-    assert outline.sections == ["Electrostatic force", "Model fit", "All subjects",
-                                "Subject P01", "Subject P02", "Warnings",
+    assert outline.sections == ["Electrostatic force", "Model fit", "Population",
+                                "All subjects", "Subject P01", "Subject P02", "Warnings",
                                 "Provenance and settings"]
     assert not outline.details  # no checks drawn, none folded
 

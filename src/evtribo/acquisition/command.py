@@ -138,7 +138,7 @@ class ExcitationCommand:
         return True
 
     def hold(self, state: Excitation, condition: str, *, off_first_s: float = 0.0,
-             on_s: float = 2.0, off_s: float = 2.0) -> _Holder:
+             on_s: float = 2.0, off_s: float = 2.0, begin: bool = True) -> _Holder:
         """Keep commanding *state* in a background thread until :meth:`_Holder.stop`.
 
         Parameters
@@ -151,6 +151,9 @@ class ExcitationCommand:
             Off this long first (the tare stretch).
         on_s, off_s : float, s
             Phases of an alternating trial.
+        begin : bool
+            Start the phases now; False: command off until :meth:`_Holder.begin` (the
+            recording's start, however long opening its files took).
 
         Returns
         -------
@@ -159,7 +162,7 @@ class ExcitationCommand:
         """
         holder = _Holder(self, state, condition, off_first_s=off_first_s, on_s=on_s,
                          off_s=off_s)
-        holder.start()
+        holder.start(begin=begin)
         return holder
 
 
@@ -173,7 +176,7 @@ class _Holder:
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="evtribo-hv-command",
                                         daemon=True)
-        self._t0 = 0.0
+        self._t0: float | None = None
 
     def enabled_at(self, t: float) -> bool:
         """Whether the amplifier is commanded on *t* s after the start."""
@@ -184,14 +187,19 @@ class _Holder:
         phase = (t - self.off_first_s) % (self.on_s + self.off_s)
         return phase >= self.off_s
 
-    def start(self) -> None:
-        self._t0 = time.monotonic()
+    def start(self, begin: bool = True) -> None:
+        self._t0 = time.monotonic() if begin else None
         self._thread.start()
+
+    def begin(self) -> None:
+        """Start the phases now (the off stretch first): the recording has started."""
+        self._t0 = time.monotonic()
 
     def _run(self) -> None:
         period = 1.0 / COMMAND_RATE_HZ
         while not self._stop.is_set():
-            on = self.enabled_at(time.monotonic() - self._t0)
+            t0 = self._t0
+            on = t0 is not None and self.enabled_at(time.monotonic() - t0)
             self.command.send(Excitation(on, self.state.amplitude_V, self.state.frequency_Hz,
                                          self.state.waveform))
             self._stop.wait(period)

@@ -11,6 +11,13 @@ Server-Sent Events: ``GET /`` is the page (no external asset: styles and script 
 ``GET /events`` a ``text/event-stream`` of the state as JSON at :data:`RATE_HZ`,
 ``GET /state`` the latest state once. The recording publishes with :meth:`LiveView.publish`
 (a dict swap, never blocking the receive path); a browser that goes away costs nothing.
+
+Only this machine is served, whatever reaches the port: a request whose ``Host`` header is
+not a loopback name (``127.0.0.1``, ``localhost``, ``[::1]``) is refused with 403, so that a
+web page elsewhere cannot read the state through DNS rebinding; a client that sends nothing
+(or stops reading the stream) for :data:`IDLE_TIMEOUT_S` is dropped, and at most
+:data:`MAX_CLIENTS` are served at once (the others get 503), so half-open connections
+cannot pile up threads.
 """
 
 from __future__ import annotations
@@ -28,12 +35,56 @@ from typing import Any
 
 log = logging.getLogger(__name__)
 
-__all__ = ["RATE_HZ", "LiveView"]
+__all__ = ["IDLE_TIMEOUT_S", "MAX_CLIENTS", "RATE_HZ", "LiveView"]
 
 #: Updates per second sent to each browser.
 RATE_HZ = 20.0
 #: Default port of ``--view`` without a number.
 DEFAULT_PORT = 8765
+#: Seconds a client may stay silent (or leave the stream unread) before it is dropped.
+IDLE_TIMEOUT_S = 10.0
+#: Clients served at once (a browser tab holds one for its stream).
+MAX_CLIENTS = 16
+#: Host names the view answers to (with or without its port).
+LOOPBACK_HOSTS = frozenset({"127.0.0.1", "localhost", "[::1]"})
+
+
+def _own_host(header: str | None, names: frozenset[str], port: int) -> bool:
+    """Whether a request's ``Host`` header is one of *names* (with or without *port*)."""
+    if not header:
+        return False
+    host = header.strip().lower().rstrip(".")
+    if host in names:
+        return True
+    name, _, number = host.rpartition(":")
+    return name.rstrip(".") in names and number == str(port)
+
+
+class _BoundedServer(ThreadingHTTPServer):
+    """A threading HTTP server that serves at most *limit* connections at once."""
+
+    daemon_threads = True
+
+    def __init__(self, address: tuple[str, int], handler: Any, limit: int) -> None:
+        super().__init__(address, handler)
+        self._slots = threading.BoundedSemaphore(limit)
+
+    def process_request(self, request: Any, client_address: Any) -> None:
+        if not self._slots.acquire(blocking=False):
+            try:
+                request.sendall(b"HTTP/1.0 503 Service Unavailable\r\nContent-Length: 0\r\n"
+                                b"Connection: close\r\n\r\n")
+            except OSError:
+                pass
+            self.shutdown_request(request)
+            return
+        super().process_request(request, client_address)
+
+    def process_request_thread(self, request: Any, client_address: Any) -> None:
+        try:
+            super().process_request_thread(request, client_address)
+        finally:
+            self._slots.release()
 
 
 def _finite(value: Any) -> Any:
@@ -61,6 +112,10 @@ class LiveView:
         Address to bind; the default keeps the page on this machine.
     rate_Hz : float
         Updates per second to each browser.
+    idle_timeout_s : float, s
+        A client silent (or not reading its stream) this long is dropped.
+    max_clients : int
+        Clients served at once; more get 503.
 
     Examples
     --------
@@ -70,8 +125,10 @@ class LiveView:
     """
 
     def __init__(self, port: int = DEFAULT_PORT, host: str = "127.0.0.1",
-                 rate_Hz: float = RATE_HZ) -> None:
+                 rate_Hz: float = RATE_HZ, *, idle_timeout_s: float = IDLE_TIMEOUT_S,
+                 max_clients: int = MAX_CLIENTS) -> None:
         self.host, self.port, self.rate_Hz = host, port, rate_Hz
+        self.idle_timeout_s, self.max_clients = idle_timeout_s, max_clients
         self._state: dict[str, Any] = {"seq": 0}
         self._lock = threading.Lock()
         self._stop = threading.Event()
@@ -105,16 +162,21 @@ class LiveView:
             The port is taken (or not allowed).
         """
         view = self
+        names = LOOPBACK_HOSTS | {self.host.lower()}
 
         class Handler(BaseHTTPRequestHandler):
             server_version = "evtribo-liveview"
+            timeout = view.idle_timeout_s  # a silent client is dropped
 
             def log_message(self, format: str, *args: Any) -> None:
                 log.debug("live view: " + format, *args)
 
             def do_GET(self) -> None:
                 path = self.path.split("?", 1)[0]
-                if path in ("/", "/index.html"):
+                if not _own_host(self.headers.get("Host"), names, view.port):
+                    self.send_error(HTTPStatus.FORBIDDEN, "the live view answers only to "
+                                    "127.0.0.1, localhost and [::1]")
+                elif path in ("/", "/index.html"):
                     self._send(_page(), "text/html; charset=utf-8")
                 elif path == "/state":
                     self._send(json.dumps(view.state()).encode(), "application/json")
@@ -131,8 +193,7 @@ class LiveView:
                 self.end_headers()
                 self.wfile.write(body)
 
-        server = ThreadingHTTPServer((self.host, self.port), Handler)
-        server.daemon_threads = True
+        server = _BoundedServer((self.host, self.port), Handler, self.max_clients)
         self._server = server
         self.port = int(server.server_address[1])
         self._thread = threading.Thread(target=server.serve_forever, kwargs={
@@ -157,8 +218,8 @@ class LiveView:
                 handler.wfile.write(f"data: {data}\n\n".encode())
                 handler.wfile.flush()
                 time.sleep(period)
-        except (BrokenPipeError, ConnectionResetError, ValueError):
-            pass  # the browser went away
+        except (OSError, ValueError):
+            pass  # the browser went away, or stopped reading for IDLE_TIMEOUT_S
         finally:
             self.clients -= 1
 

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from evtribo.errors import ConfigError, toml_error_line, toml_key_line
+from evtribo.errors import ConfigError, toml_key_line, toml_problem
 from evtribo.files import read_limited
 
 __all__ = ["CONDITIONS", "PlannedTrial", "Protocol", "SessionSettings", "TrialSpec",
@@ -279,7 +279,8 @@ def read_protocol(path: str | os.PathLike[str]) -> Protocol:
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise ConfigError(f"not valid TOML: {err}", path=src, line=toml_error_line(err)) \
+        reason, line, key = toml_problem(err, text)
+        raise ConfigError(f"not valid TOML: {reason}", path=src, line=line, key=key) \
             from err
     r = _Reader(src, text)
     r.unknown(list(data), ("session", "trial"), "protocol",

@@ -78,6 +78,7 @@ from evtribo.analysis.workers import (
     trial_meta,
 )
 from evtribo.errors import StudyError
+from evtribo.guard import refuse_cache_in_study
 from evtribo.memo import HashMemo, default_cache_dir
 from evtribo.resultdir import locked, recover
 from evtribo.study import Study, TrialRef, load_study
@@ -244,6 +245,7 @@ def analyze_study(
     check_overwrite(out, force)
     study, settings = _prepare(study_dir, overrides, settings)
     check_out_dir(out, study.root)
+    refuse_cache_in_study(cache_dir, study.root)
     with locked(out, "evtribo analyze"):
         recover(out)
         check_overwrite(out, force)

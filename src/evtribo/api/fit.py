@@ -9,6 +9,7 @@ writes ``fit.csv``, ``fit.json`` and the figure files.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -25,6 +26,15 @@ from evtribo.compare.fit import SubjectFit, fit_study
 from evtribo.compare.fit_csv import fit_table
 from evtribo.compare.friction_only import friction_figures
 from evtribo.compare.params import load_parameters, resolve_fit_names
+from evtribo.compare.population import (
+    CONTRAST_COLUMNS,
+    POPULATION_COLUMNS,
+    Population,
+    PopulationOutlier,
+    population,
+)
+from evtribo.compare.population_plots import draw_population
+from evtribo.compare.population_section import read_population
 from evtribo.compare.run import CompareResult, draw_figures
 from evtribo.compare.run import compare as compare_folder
 from evtribo.compare.style import journal_style
@@ -65,6 +75,14 @@ class Fit:
         The result folder where ``fit.csv`` and the figures are (None: in memory only).
     files : dict of str to list of Path
         The figure files written, by stem (empty in memory).
+    population : pandas.DataFrame
+        ``population.csv`` (study format §10): the population's F_el at each amplitude,
+        exponent, prefactor, μ and air gap with 95 % intervals and the between-subject
+        spread; empty (with its columns) when the study has fewer than three subjects.
+    population_contrasts : pandas.DataFrame
+        ``population_contrasts.csv``: ratios and differences between conditions.
+    population_notes : list of str
+        What could not be estimated and why, and the subjects left out as outliers.
     """
 
     table: pd.DataFrame
@@ -75,6 +93,11 @@ class Fit:
     params_file: Path | None = None
     out: Path | None = None
     files: dict[str, list[Path]] = field(default_factory=dict)
+    population: pd.DataFrame = field(
+        default_factory=lambda: pd.DataFrame(columns=list(POPULATION_COLUMNS)))
+    population_contrasts: pd.DataFrame = field(
+        default_factory=lambda: pd.DataFrame(columns=list(CONTRAST_COLUMNS)))
+    population_notes: list[str] = field(default_factory=list)
     _results: Results | None = field(default=None, repr=False)
 
     @classmethod
@@ -114,10 +137,14 @@ class Fit:
                                  path=folder / FIT_CSV) from err
         records = [dict(r) for r in doc.get("figures") or [] if isinstance(r, dict)]
         pfile = doc.get("parameters_file")
+        pop, contrasts = read_population(folder)
         return cls(table=typed_table(table, text=FIT_TEXT_COLUMNS), figures={},
                    records=records, fits=[], fitted=tuple(doc.get("fit") or ()),
                    params_file=Path(pfile["path"]) if isinstance(pfile, dict) else None,
-                   out=folder, files=_files(folder, records), _results=results)
+                   out=folder, files=_files(folder, records),
+                   population=_or_empty(pop, POPULATION_COLUMNS),
+                   population_contrasts=_or_empty(contrasts, CONTRAST_COLUMNS),
+                   population_notes=_population_notes(doc.population), _results=results)
 
     def __repr__(self) -> str:
         where = "in memory" if self.out is None else f"in {str(self.out)!r}"
@@ -159,6 +186,23 @@ class Fit:
         return results.out
 
 
+def _or_empty(frame: pd.DataFrame | None, columns: tuple[str, ...]) -> pd.DataFrame:
+    return pd.DataFrame(columns=list(columns)) if frame is None else frame
+
+
+def _population_notes(doc: dict[str, Any]) -> list[str]:
+    """fit.json's population notes, then one line per outlier."""
+    notes = [str(n) for n in doc.get("notes") or []]
+    for o in doc.get("outliers") or []:
+        if isinstance(o, dict):
+            notes.append(PopulationOutlier(str(o.get("subject")), str(o.get("quantity")),
+                                           float(o.get("value") or math.nan),
+                                           float(o.get("low") or math.nan),
+                                           float(o.get("high") or math.nan),
+                                           str(o.get("unit") or "")).describe())
+    return notes
+
+
 def _files(folder: Path, records: list[dict[str, Any]]) -> dict[str, list[Path]]:
     """The figure files in *folder* of each record, by stem."""
     out: dict[str, list[Path]] = {}
@@ -194,8 +238,8 @@ class _Kept:
                             "caption": caption, **(extra or {})}, ax))
 
 
-def _figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...]
-             ) -> list[tuple[dict[str, Any], Axes]]:
+def _figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...],
+             pop: Population) -> list[tuple[dict[str, Any], Axes]]:
     """compare's figures of the fit, in the journal style, as ``evtribo compare`` draws them
     (without the trial checks, which need the study, and the models')."""
     kept = _Kept(tables, fits)
@@ -204,6 +248,7 @@ def _figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...
             friction_figures(tables, kept.emit)
         else:
             draw_figures(tables, fits, names, kept)
+            draw_population(tables.electrostatic, pop, kept.emit)
     return kept.drawn
 
 
@@ -212,7 +257,8 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
     """Fit the seed paper's model to each subject's electrostatic forces, in memory.
 
     The same fit as ``evtribo compare`` (weighted least squares, intervals from refits to
-    the bootstrap replicates); nothing is written: :meth:`Fit.save` writes it once the
+    the bootstrap replicates), and the population's estimates (``.population``, study
+    format §10) with their figure; nothing is written: :meth:`Fit.save` writes it once the
     results are in a folder.
 
     Parameters
@@ -244,11 +290,15 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
     base = load_parameters(None if params is None else Path(params))
     tables = _tables(results)
     fits = fit_study(tables, base, names)
-    figures = _figures(tables, fits, names)
+    pop = population(tables, fits)
+    figures = _figures(tables, fits, names, pop)
     out = Fit(table=typed_table(fit_table(fits, tables), text=FIT_TEXT_COLUMNS),
               figures={r["stem"]: ax.figure for r, ax in figures if isinstance(ax.figure,
                                                                                 Figure)},
               records=[r for r, _ in figures], fits=fits, fitted=names,
-              params_file=None if params is None else Path(params), _results=results)
+              params_file=None if params is None else Path(params),
+              population=pop.table, population_contrasts=pop.contrasts,
+              population_notes=[*pop.notes, *(o.describe() for o in pop.outliers)],
+              _results=results)
     results.fit = out
     return out

@@ -21,7 +21,7 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from evtribo.cli._startup import one_blas_thread, quick_exit
+from evtribo.cli._startup import one_blas_thread
 from evtribo.errors import EvtriboError
 
 #: Subcommands in the order ``evtribo --help`` lists them, with a line of help each.
@@ -211,4 +211,4 @@ def _main(argv: Sequence[str] | None) -> int:
 
 def entry() -> None:  # pragma: no cover - console script
     one_blas_thread()  # before numpy is imported
-    quick_exit(main())
+    sys.exit(main())

@@ -12,6 +12,18 @@ from evtribo.errors import ConfigError
 VIEW_PORT = 8765
 
 
+def _port(text: str) -> int:
+    """A TCP port of ``--view`` (0: any free one), else argparse's usage error."""
+    try:
+        port = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a TCP port, got {text!r}") from None
+    if not 0 <= port <= 65535:
+        raise argparse.ArgumentTypeError(f"expected a TCP port from 1 to 65535 (0: any free "
+                                         f"one), got {port}")
+    return port
+
+
 def add_bus_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the python-can bus options (``--interface``, ``--channel``, ``--bitrate``,
     ``--bus-option``, ``--log-channel``) and ``--view [PORT]`` to *parser*."""
@@ -26,7 +38,7 @@ def add_bus_arguments(parser: argparse.ArgumentParser) -> None:
                      "e.g. sleep_after_open=0")
     bus.add_argument("--log-channel", metavar="NAME",
                      help="channel name written in the log (default: --channel)")
-    parser.add_argument("--view", nargs="?", type=int, const=VIEW_PORT, default=None,
+    parser.add_argument("--view", nargs="?", type=_port, const=VIEW_PORT, default=None,
                         metavar="PORT",
                         help="serve a live view of the recording on http://127.0.0.1:PORT/ "
                              f"(default port {VIEW_PORT}) for the subject's screen")

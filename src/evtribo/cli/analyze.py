@@ -118,6 +118,9 @@ def run(args: argparse.Namespace) -> int:
     if args.jobs is not None and args.jobs < 1:
         print("evtribo analyze: error: --jobs must be 1 or more", file=sys.stderr)
         return 2
+    from evtribo.guard import refuse_cache_in_study
+
+    refuse_cache_in_study(args.cache_dir, args.study)  # before anything is written there
     address = scheduler_address(args.dask)
     if address is None and not args.recompute:  # an unchanged study: nothing to analyse
         from evtribo.analysis.unchanged import rerun

@@ -88,9 +88,26 @@ def run(args: argparse.Namespace) -> int:
               f"R² {r_squared(f.r2)}")
     for note in result.notes:
         print(f"note: {note}", file=sys.stderr)
+    _print_population(result)
     print(f"wrote {result.out / 'fit.csv'} and {len(result.figures)} figures in "
           f"{result.out / 'figures'}")
     return 0
+
+
+def _print_population(result: Any) -> None:
+    """The population's exponent per condition, its outliers, or why there is none."""
+    pop = result.population
+    if pop is None:
+        return
+    exponents = pop.table[pop.table["quantity"] == "exponent"]
+    for _, r in exponents.iterrows():
+        print(f"population ({r['waveform']} {r['frequency_Hz']:g} Hz, {r['n_subjects']} "
+              f"subjects): exponent n = {r['estimate']:.3g} [{r['ci_low']:.3g}, "
+              f"{r['ci_high']:.3g}]")
+    for o in pop.outliers:
+        print(f"population: outlier {o.describe()}", file=sys.stderr)
+    if pop.table.empty and pop.notes:
+        print(f"population: none: {pop.notes[0]}", file=sys.stderr)
 
 
 def _estimate(e: Any) -> str:

@@ -2,17 +2,19 @@
 
 One row per decoded frame, in log order: ``timestamp`` (s), ``message``, ``channel`` (only
 when the log holds several channels, or decode one with ``--channel``), then one column per
-signal (physical values after DBC scaling; ``--choices`` writes value-table names instead of
-codes). A signal name used by two messages, or named like a fixed column, becomes
-``Message.Signal``. A frame cantools cannot decode (a multiplexer value the DBC does not
-know) keeps its row, with empty signals. Output format by suffix: ``.parquet`` or ``.csv``.
+signal (physical values after DBC scaling; ``--choices`` writes value-table names instead,
+as cantools' ``decode_choices`` does: a code the table lacks as its physical value). A signal
+name used by two messages, or named like a fixed column, becomes ``Message.Signal``. A frame
+cantools cannot decode (a multiplexer value the DBC does not know, a signal beyond the
+message's length) keeps its row, with empty signals; so does a multiplexed signal in the
+frames that do not carry it. Output format by suffix: ``.parquet`` or ``.csv``.
 The log is read and written a block at a time (Parquet by row groups), so memory does not
 grow with the log.
 
-An existing output is kept unless ``--force``; a raw log never is, ``--force`` included: not
-the log being decoded (whatever the spelling of its path, symbolic links followed), not any
-other CAN log, and no ``.csv`` inside a study's subject folder (``evtribo analyze`` would
-take it for a trial's log).
+An existing output is kept unless ``--force``; a raw log or a study's input never is,
+``--force`` included (:mod:`evtribo.guard`): not the log being decoded (whatever the spelling
+of its path, symbolic links followed), not any other CAN log, and no ``.csv`` inside a
+study's subject folder (``evtribo analyze`` would take it for a trial's log).
 """
 
 from __future__ import annotations
@@ -22,12 +24,8 @@ import os
 
 from evtribo.decode_table import load_dbc_file, write_decoded
 from evtribo.errors import OutputExistsError, UserInputError
-from evtribo.frames import FrameStream, supported_suffixes
-from evtribo.frames.sniff import sniff
-
-#: What :func:`~evtribo.frames.sniff.sniff` calls the raw CAN logs decode never overwrites.
-_LOG_KINDS = {"candump-L", "candump-text", "candump-plain", "asc", "trc", "python-can-csv",
-              "savvycan", "blf", "mf4", "mdf", "sqlite"}
+from evtribo.frames import FrameStream
+from evtribo.guard import refuse_input
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -38,31 +36,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--dbc", required=True, help="CAN database (DBC)")
     p.add_argument("-o", "--output", required=True, help="output table (.parquet or .csv)")
     p.add_argument("--choices", action="store_true",
-                   help="write value-table names instead of raw codes")
+                   help="write value-table names instead of values (a code the table "
+                        "lacks: its physical value, as cantools gives it)")
     p.add_argument("--force", action="store_true", help="overwrite an existing output")
     p.add_argument("--strict", action="store_true", help="a damaged line is an error")
     p.add_argument("--channel", help="decode the frames of this channel (bus) only")
     p.set_defaults(func=run)
     return p
-
-
-def _refuse_raw_logs(out: str, log_path: str) -> None:
-    """Refuse an output that is a raw log (the input, or any CAN log), or a .csv that a
-    study would take for a trial's log; ``--force`` does not change this."""
-    never = "evtribo decode never overwrites a raw log, --force included; choose another output"
-    if os.path.exists(out):
-        if os.path.exists(log_path) and os.path.samefile(out, log_path):
-            raise OutputExistsError(f"is the log being decoded: {never}", path=out)
-        found = sniff(out)
-        if found is not None and found.kind.removeprefix("gzip:") in _LOG_KINDS:
-            raise OutputExistsError(f"is a CAN log ({found.description}): {never}", path=out)
-    folder = os.path.dirname(os.path.abspath(out))
-    suffix = os.path.splitext(out)[1].lower()
-    if suffix in supported_suffixes() and os.path.isfile(
-            os.path.join(os.path.dirname(folder), "study.toml")):
-        raise UserInputError(f"a {suffix} file in a study's subject folder is read as a trial's "
-                             "log by evtribo analyze: write the decoded table outside the study "
-                             "folder, or as .parquet", path=out)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -72,7 +52,8 @@ def run(args: argparse.Namespace) -> int:
     if suffix not in (".parquet", ".csv"):
         raise UserInputError(f"output must end in .parquet or .csv, not {suffix or '(none)'!r}",
                              path=out)
-    _refuse_raw_logs(out, args.log)
+    refuse_input(out, command="evtribo decode", source=args.log,  # --force or not
+                 source_is="the log being decoded", key="-o")
     if os.path.exists(out) and not args.force:
         raise OutputExistsError("exists; use --force to overwrite", path=out)
     FrameStream(args.log)  # the log is checked before the DBC is loaded

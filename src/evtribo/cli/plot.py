@@ -28,6 +28,7 @@ from matplotlib.figure import Figure
 
 from evtribo.errors import OutputExistsError, UserInputError
 from evtribo.files import atomic_open
+from evtribo.guard import refuse_cache_in_study, refuse_input
 
 #: Figure formats, by the output's suffix.
 FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
@@ -107,6 +108,7 @@ def _check_output(out: str | None, force: bool) -> str | None:
     if suffix not in FORMATS:
         raise UserInputError("the figure's format comes from its suffix: .png, .svg or .pdf, "
                              f"not {suffix or '(none)'!r}", path=out)
+    refuse_input(out, command="evtribo plot", key="-o")  # --force or not
     if os.path.exists(out) and not force:
         raise OutputExistsError("exists; use --force to overwrite", path=out)
     return FORMATS[suffix]
@@ -141,6 +143,7 @@ def _trial(args: argparse.Namespace, window: Figure | None) -> Figure:
         raise UserInputError("a trial is decoded with its study's DBC; --dbc is for a log's "
                              "signals", key="--dbc")
     _, study, subject, trial = args.args
+    refuse_cache_in_study(args.cache_dir, study)
     check = check_trial(study, subject, trial, cache_dir=args.cache_dir)
     ax = draw_trial_check(check, None if window is None else window.add_subplot())
     print(trial_caption(check))

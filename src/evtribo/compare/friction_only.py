@@ -104,8 +104,10 @@ def friction_figures(tables: ResultTables, emit: Callable[..., None]) -> None:
     """
     for row in subject_mu(tables.windows).itertuples(index=False):
         s: Any = row.subject
+        mu_value: Any = row.mu
+        mu = float(mu_value)
         win = tables.windows[tables.windows["subject"].astype(str) == s]
-        ax = plot_friction_normal_force(win, TABLE_1.with_values(mu=float(row.mu)), subject=s)
+        ax = plot_friction_normal_force(win, TABLE_1.with_values(mu=mu), subject=s)
         emit(ax, "friction_normal_force", f"Friction vs normal force, {s}",
              f"friction_normal_force_{safe_name(s)}", subject=s,
              caption=f"{s}: steady-sliding windows OFF (points) and F_t = μ·F_n with the "

@@ -173,7 +173,7 @@ def friction_table(windows: pd.DataFrame) -> Headline:
              "trials": str(r.trials), "OFF windows": str(r.windows),
              "F_n (mN)": f"{significant(1e3 * r.normal_force_min_N)} to "
                          f"{significant(1e3 * r.normal_force_max_N)}"}
-            for r in mu.itertuples(index=False)]
+            for r in _rows(mu)]
     return Headline(
         "friction", "Friction coefficient μ by subject",
         "No electrostatic force: no subject has ON windows to compare with its OFF ones. μ "
@@ -366,3 +366,8 @@ def model_comparison(models: pd.DataFrame, subject: str) -> Headline:
                     f"relative support of each model (they sum to 1){undefined}.",
                     pd.DataFrame(rows, columns=["model", "fitted", "parameters", "AIC",
                                                 "ΔAIC", "Akaike weight"]))
+
+
+def _rows(table: pd.DataFrame) -> list[Any]:
+    """The rows of *table* as named tuples whose fields are typed ``Any``."""
+    return list(table.itertuples(index=False))

@@ -33,6 +33,7 @@ from evtribo.compare.style import (
     styled,
 )
 from evtribo.errors import OutputExistsError
+from evtribo.guard import refuse_input
 from evtribo.model.circuit import electrostatic_force_drive, layer_elastances
 from evtribo.model.contact import area_increase_pct, contact_area_jkr
 from evtribo.model.friction import (
@@ -307,10 +308,13 @@ def save_model_figures(directory: str | os.PathLike[str], *, force: bool = False
     Raises
     ------
     OutputExistsError
-        If a file exists and *force* is false.
+        If a file exists and *force* is false, or is a study's input or a raw CAN log
+        (*force* or not).
     """
     out = Path(directory)
     paths = [out / f"{name}.{fmt}" for name in MODEL_FIGURES for fmt in formats]
+    for path in paths:  # a study's input or a raw log is never written over
+        refuse_input(path, command="evtribo model", key="--figures")
     existing = [p for p in paths if p.exists()]
     if existing and not force:
         raise OutputExistsError(

@@ -18,7 +18,7 @@ import tomllib
 from collections.abc import Iterable
 from pathlib import Path
 
-from evtribo.errors import ConfigError, toml_error_line
+from evtribo.errors import ConfigError, toml_problem
 from evtribo.model.params import TABLE_1, ModelParameters
 
 __all__ = ["DEFAULT_FIT", "load_parameters", "name_list", "parameter_names", "parameter_unit",
@@ -143,7 +143,9 @@ def load_parameters(path: str | Path | None,
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise ConfigError(f"not valid TOML: {err}", path=file, line=toml_error_line(err)) from err
+        reason, line, key = toml_problem(err, text)
+        raise ConfigError(f"not valid TOML: {reason}", path=file, line=line, key=key) \
+            from err
     if set(data) == {"model"} and isinstance(data["model"], dict):
         data, prefix = data["model"], "model."
     else:

@@ -8,6 +8,9 @@ Writes into the result folder:
   how its intervals were obtained (``interval``: ``bootstrap``, refits to the force
   replicates of ``electrostatic_bootstrap.csv``, or ``jacobian``, the fallback that takes
   the points' errors as independent), the figures and notes (read by ``evtribo report``);
+- ``population.csv`` and ``population_contrasts.csv`` (study format §10) when the study has
+  at least three subjects with electrostatic forces (:mod:`evtribo.compare.population`),
+  with a ``population_<waveform>_<frequency>Hz`` figure per condition;
 - ``figures/``: each figure once per format asked (``<stem>.svg`` and ``<stem>.png`` by
   default, ``<stem>.pdf`` too on request), in the journal style of
   :mod:`evtribo.compare.style` (a single column or a page wide, no titles: fit.json's
@@ -49,6 +52,8 @@ from evtribo.compare.plots import (
     safe_name,
     save_figure,
 )
+from evtribo.compare.population import Population, population
+from evtribo.compare.population_plots import draw_population
 from evtribo.compare.style import (
     journal_style,
     parse_dpi,
@@ -60,6 +65,7 @@ from evtribo.compare.trial_checks import write_trial_checks
 from evtribo.documents.fit import write_fit
 from evtribo.errors import OutputExistsError
 from evtribo.files import atomic_write, sha256_file
+from evtribo.guard import refuse_in_study, refuse_input
 from evtribo.model.params import ModelParameters
 from evtribo.resultdir import Staging, locked, recover
 
@@ -126,6 +132,7 @@ class CompareResult:
     files: list[Path] = field(default_factory=list)
     figures: list[FigureRecord] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    population: Population | None = None
 
 
 def figure_stems(subjects: Iterable[str], *, sine: bool = True) -> list[str]:
@@ -151,7 +158,10 @@ def figure_stems(subjects: Iterable[str], *, sine: bool = True) -> list[str]:
 
 
 def _check_outputs(out: Path, force: bool) -> None:
+    refuse_in_study(out, command="evtribo compare")
     existing = compare_files(out)
+    for rel in existing:  # a study's input or a raw log is never written over
+        refuse_input(out / rel, command="evtribo compare")
     if existing and not force:
         raise OutputExistsError(f"{len(existing)} output file(s) of a previous comparison "
                                 "exist; use {force} to overwrite them", path=out / existing[0])
@@ -304,12 +314,17 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
     table = fit_table(fits, tables)
     atomic_write(stage.path(FIT_CSV), table.to_csv(index=False))
     result.files.append(Path(FIT_CSV))
+    result.population = pop = population(tables, fits)
+    for name, text in pop.files().items():
+        atomic_write(stage.path(name), text)
+        result.files.append(Path(name))
     figures = _Figures(stage.folder / FIGURES, look, result)
     with journal_style(look.width):
         if only_mu:
             friction_figures(tables, figures.emit)
         else:
             draw_figures(tables, fits, names, figures)
+            draw_population(tables.electrostatic, pop, figures.emit)
         if models and not only_mu:
             files, notes = write_models(tables, stage, models, base, figures.emit)
             result.files += files
@@ -474,6 +489,7 @@ def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],
             } for f in result.fits},
         "figures": [r.as_dict() for r in result.figures],
         "notes": result.notes,
+        "population": None if result.population is None else result.population.as_json(),
         "output_sha256": {rel.as_posix(): sha256_file(stage.path(rel.as_posix()))
                           for rel in result.files},
     }

@@ -2,10 +2,11 @@
 the provenance, in one page.
 
 Reads a result folder (``evtribo analyze``'s tables and ``summary.json``, ``evtribo
-compare``'s ``fit.csv``, ``fit.json``, ``figures/`` and, when it compared models,
-``models.csv``) and, when ``summary.json`` names a study folder that still exists, the
-trials' sidecars there (for their notes) and the inputs ``summary.json`` records (hashed
-again, :mod:`evtribo.compare.study_files`). The page's sections and their order are
+compare``'s ``fit.csv``, ``fit.json``, ``figures/``, ``population.csv`` and
+``population_contrasts.csv`` and, when it compared models, ``models.csv``) and, when
+``summary.json`` names a study folder that still exists, the trials' sidecars there (for
+their notes) and the inputs ``summary.json`` records (hashed again,
+:mod:`evtribo.compare.study_files`). The page's sections and their order are
 :mod:`evtribo.compare.report_sections`'; with ``tables=("md", "tex")`` the headline tables
 are also written as Markdown and LaTeX into ``tables/`` beside the page
 (:mod:`evtribo.compare.table_export`).
@@ -30,7 +31,9 @@ from evtribo.analysis.outputs import FIGURES, FIT_CSV, FIT_JSON, REPORT_TABLES, 
 from evtribo.compare import report_sections as sections
 from evtribo.compare.friction_report import add_friction
 from evtribo.compare.headline import Headline
+from evtribo.compare.population_section import add_population, read_population
 from evtribo.compare.report import Report
+from evtribo.compare.report_provenance import add_provenance
 from evtribo.compare.run import compare
 from evtribo.compare.study_files import (
     file_hashes,
@@ -46,6 +49,7 @@ from evtribo.documents.fit import FitDocument, read_fit
 from evtribo.documents.summary import Summary
 from evtribo.errors import FORCE, OutputExistsError, ResultFolderError, UserInputError
 from evtribo.files import sha256_file
+from evtribo.guard import refuse_in_study, refuse_input
 from evtribo.resultdir import inside, locked, recover
 
 log = logging.getLogger(__name__)
@@ -150,12 +154,19 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
         The folder is not one analysis's complete results, or its model fit is of another
         analysis or not whole (exit code 2, naming ``evtribo compare OUT --force``).
     OutputExistsError
-        When the report exists and *force* is False.
+        When the report exists and *force* is False; when it or a table is a study's input
+        or a raw CAN log (*force* or not).
     OutputBusyError
         Another process is writing the folder or the report.
     """
     formats = parse_table_formats(tables)
     folder = check_out_folder(out)
+    refuse_in_study(folder, command="evtribo report")
+    refuse_input(output, command="evtribo report", key="-o")  # --force or not
+    for stem in REPORT_TABLES:
+        for fmt in formats:
+            refuse_input(Path(output).parent / TABLES / f"{stem}.{fmt}",
+                         command="evtribo report", key="--tables")
     if Path(output).exists() and not force:  # before the lock: a refusal writes nothing
         raise OutputExistsError("the report already exists; use {force} to overwrite it",
                                 path=output)
@@ -254,13 +265,14 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
     else:
         headlines = sections.add_headline(report, tables, fit, fit_doc)
         sections.add_notes(report, fit_doc.notes)
+        headlines += add_population(report, *read_population(tables.out), fit_doc, figures)
     sections.add_all_subjects(report, figures)
     sections.add_models(report, _models(tables.out), figures, tables.subjects)
     sections.add_subjects(report, tables, trials, figures)
     for w in input_warnings:
         log.warning("report: %s", w)
     sections.add_warnings(report, [*input_warnings, *_warnings(tables)])
-    sections.add_provenance(report, tables, fit_doc, study=name, study_dir=study_dir,
-                            inputs=inputs, trials=trials,
-                            rig=tables.summary.rig or study_rig(study_dir), output=output)
+    add_provenance(report, tables, fit_doc, study=name, study_dir=study_dir, inputs=inputs,
+                   trials=trials, rig=tables.summary.rig or study_rig(study_dir),
+                   output=output)
     return report, headlines

@@ -25,7 +25,7 @@ from typing import Any
 from evtribo.documents.names import validate_name
 from evtribo.documents.sidecar import CONDITIONS, WAVEFORMS
 from evtribo.errors import StudyError
-from evtribo.files import atomic_write, read_limited
+from evtribo.files import DuplicateKeyError, atomic_write, loads_json_unique, read_limited
 
 __all__ = ["EXCITATION_KEYS", "SESSION_FILE", "VERSION", "PlannedTrial", "Session", "parse_session",
            "read_session", "write_session"]
@@ -202,7 +202,10 @@ def read_session(path: str | os.PathLike[str]) -> Session:
     except UnicodeDecodeError as err:
         raise StudyError(f"not UTF-8 text ({err.reason} at byte {err.start})", path=p) from err
     try:
-        data = json.loads(text)
+        data = loads_json_unique(text)
+    except DuplicateKeyError as err:
+        raise StudyError(f"invalid JSON: {err} (JSON allows a key once in an object; a reader "
+                    "would keep either)", path=p, line=err.line, key=err.key) from err
     except json.JSONDecodeError as err:
         raise StudyError(f"invalid JSON: {err.msg} (column {err.colno})", path=p,
                          line=err.lineno) from err

@@ -26,7 +26,7 @@ from typing import Any
 
 from evtribo.documents.names import validate_name
 from evtribo.errors import OutputExistsError, SidecarError
-from evtribo.files import atomic_write, read_limited
+from evtribo.files import DuplicateKeyError, atomic_write, loads_json_unique, read_limited
 
 __all__ = ["CONDITIONS", "SIDECAR_KEYS", "VERSION", "WAVEFORMS", "Sidecar", "parse_sidecar",
            "read_sidecar", "rig_entry", "unknown_sidecar_keys", "write_sidecar"]
@@ -47,6 +47,8 @@ SIDECAR_KEYS = frozenset({
     "ended", "end_detail", "frames", "frames_by_id", "first_frame_time", "error_frames",
     "dropped_frames", "dropped_frames_by_message", "longest_gap_s_by_message", "bus_errors",
     "bus_exceptions", "damaged_lines", "bus", "software", "simulation",
+    "discarded_before_start", "error_frames_by_kind", "controller_state",
+    "worst_controller_state", "queue_dropped_frames", "receive",
 })
 
 
@@ -222,7 +224,10 @@ def read_sidecar(path: str | os.PathLike[str], *, default_subject: str) -> Sidec
     except OSError as err:
         raise SidecarError(f"cannot read: {err.strerror}", path=p) from err
     try:
-        data = json.loads(text)
+        data = loads_json_unique(text)
+    except DuplicateKeyError as err:
+        raise SidecarError(f"invalid JSON: {err} (JSON allows a key once in an object; a reader "
+                    "would keep either)", path=p, line=err.line, key=err.key) from err
     except json.JSONDecodeError as err:
         raise SidecarError(f"invalid JSON: {err.msg} (column {err.colno})", path=p,
                            line=err.lineno) from err

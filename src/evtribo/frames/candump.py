@@ -43,7 +43,7 @@ from evtribo.frames.candump_columns import (
     _parse_group,
     line_rows,
 )
-from evtribo.frames.candump_line import FD_SIZES, Notice, parse_line
+from evtribo.frames.candump_line import FD_SIZES, MAX_LINE, Notice, parse_line, too_long
 
 # the writer (and the CAN_ERR constants the logger shares) live in candump_writer; its
 # names stay importable from here
@@ -150,7 +150,8 @@ def _open_binary(path: str | os.PathLike[str]) -> IO[bytes]:
 
 
 def iter_blocks(stream: IO[bytes], block_size: int = _BLOCK) -> Iterator[bytes]:
-    """Blocks of whole lines of *stream* (the last may lack its newline).
+    """Blocks of whole lines of *stream* (the last may lack its newline); a line longer than
+    :data:`MAX_LINE` is left out (:func:`iter_candump` reports it as damaged).
 
     Parameters
     ----------
@@ -163,15 +164,21 @@ def iter_blocks(stream: IO[bytes], block_size: int = _BLOCK) -> Iterator[bytes]:
     bytes
     """
     for view in _line_blocks(stream, block_size):
-        yield bytes(view)
+        if not isinstance(view, int):
+            yield bytes(view)
 
 
-def _line_blocks(stream: IO[bytes], block_size: int) -> Iterator[memoryview]:
+def _line_blocks(stream: IO[bytes], block_size: int) -> Iterator[memoryview | int]:
     """:func:`iter_blocks`' blocks as views of one buffer that is read into again: each is
     valid until the next is asked for, and nothing may keep it (a reader that parses a block
     whole before taking the next). A new buffer for every block would cost more than
     reading (the kernel hands out and zeroes its pages anew: 20-35 ms a 31 MB log, against
-    4 ms read into one buffer)."""
+    4 ms read into one buffer).
+
+    A line longer than :data:`MAX_LINE` (no frame's line is: a gzip bomb of zeros, a file
+    of another kind) is not held: its bytes are read past up to its newline and its length
+    yielded (an int) in its place, so memory stays within two blocks whatever the file
+    holds."""
     readinto = getattr(stream, "readinto", None)
     if readinto is None:  # a stream that can only read()
         def readinto(into: memoryview) -> int:
@@ -179,7 +186,8 @@ def _line_blocks(stream: IO[bytes], block_size: int) -> Iterator[memoryview]:
             into[:len(data)] = data
             return len(data)
     buf = bytearray(2 * block_size)
-    held = 0  # bytes of an unfinished line at the start of buf
+    held = 0  # bytes of an unfinished line at the start of buf (at most MAX_LINE)
+    skipped = -1  # bytes of an over-long line read past so far (-1: none)
     while True:
         if held + block_size > len(buf):  # a line longer than a block: a larger buffer
             buf = buf[:held] + bytearray(held + block_size)
@@ -188,14 +196,28 @@ def _line_blocks(stream: IO[bytes], block_size: int) -> Iterator[memoryview]:
         if not got:
             break
         end = held + got
+        if skipped >= 0:  # inside an over-long line: up to its newline
+            nl = buf.find(b"\n", 0, end)
+            if nl < 0:
+                skipped, held = skipped + end, 0
+                continue
+            yield skipped + nl + 1
+            skipped, held = -1, end - nl - 1
+            buf[:held] = buf[nl + 1:end]
+            continue
         cut = buf.rfind(b"\n", 0, end)
         if cut < 0:
-            held = end
+            if end > MAX_LINE:
+                skipped, held = end, 0
+            else:
+                held = end
             continue
         yield memoryview(buf)[:cut + 1]
         held = end - cut - 1
         buf[:held] = buf[cut + 1:end]
-    if held:
+    if skipped >= 0:
+        yield skipped
+    elif held:
         yield memoryview(buf)[:held]
 
 
@@ -223,6 +245,10 @@ def iter_candump(path: str | os.PathLike[str], on_bad: BadLineHandler,
     lines = 0
     with _open_binary(path) as stream:
         for block in _line_blocks(stream, block_size):
+            if isinstance(block, int):  # a line no frame can have: damaged, not held
+                lines += 1
+                on_bad(lines, too_long(block))
+                continue
             table, n = _parse_block(block, lines + 1, on_bad)
             lines += n
             yield table, n

@@ -28,6 +28,52 @@ from evtribo.frames.candump_writer import CAN_EFF_MASK, CAN_ERR_FLAG
 FD_SIZES = (0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64)
 #: Longest payload kept (CAN FD's; an over-long classic frame up to this is kept whole).
 MAX_PAYLOAD = 64
+#: Longest line of a text log held, bytes: a CAN XL frame's line (2048 bytes of payload in
+#: hex) is about 4.2 kB; a longer line is no frame and is damaged without being held.
+MAX_LINE = 1 << 16
+
+
+def too_long(length: int) -> str:
+    """Why a line of *length* bytes is damaged.
+
+    Parameters
+    ----------
+    length : int
+        The line's length, bytes.
+
+    Returns
+    -------
+    str
+    """
+    return (f"a line of {length:,} bytes, longer than any frame's ({MAX_LINE:,} at most): "
+            "not read")
+
+
+def bounded_readline(stream: Any) -> bytes | str | int:
+    """The next line of a file (text or binary), or, for a line longer than
+    :data:`MAX_LINE`, its length (its bytes read past, never held).
+
+    Parameters
+    ----------
+    stream : file
+        Open for reading, text or binary.
+
+    Returns
+    -------
+    bytes, str or int
+        The line with its newline (``b""``/``""`` at the end), or an over-long line's
+        length in bytes (characters for a text file).
+    """
+    line = stream.readline(MAX_LINE + 1)
+    newline = b"\n" if isinstance(line, bytes) else "\n"
+    if len(line) <= MAX_LINE or line.endswith(newline):
+        return line
+    total = len(line)
+    while True:
+        more = stream.readline(1 << 20)
+        total += len(more)
+        if not more or more.endswith(newline):
+            return total
 
 _LINE = re.compile(
     r"\s*\(\s*(?P<ts>\d+(?:\.\d*)?)\s*\)\s+(?P<ch>\S+)\s+(?P<id>[0-9A-Fa-f]{1,8})#"
@@ -153,4 +199,5 @@ def parse_line(text: str) -> tuple[Any, ...] | Notice | str:  # noqa: PLR0911 - 
     return ts, m["ch"], can_id & CAN_EFF_MASK, extended and not error, remote, error, fd, payload
 
 
-__all__ = ["FD_SIZES", "MAX_PAYLOAD", "Notice", "notice", "parse_line"]
+__all__ = ["FD_SIZES", "MAX_LINE", "MAX_PAYLOAD", "Notice", "bounded_readline", "notice",
+           "parse_line", "too_long"]

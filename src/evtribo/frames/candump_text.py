@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from evtribo.frames.candump import _open_binary
-from evtribo.frames.candump_line import FD_SIZES, notice
+from evtribo.frames.candump_line import FD_SIZES, bounded_readline, notice, too_long
 from evtribo.frames.candump_writer import CAN_EFF_MASK, CAN_ERR_FLAG
 from evtribo.frames.table import CLASSIC_WIDTH, FD_WIDTH, FrameTable
 
@@ -195,9 +195,13 @@ def read_candump_text(path: str | os.PathLike[str], on_bad: Any) -> tuple[FrameT
     rows = _Rows()
     number = 0
     with _open_binary(path) as stream:
-        for raw in stream:
+        while raw := bounded_readline(stream):
             number += 1
-            text = _ANSI.sub("", raw.decode("utf-8", "replace")).rstrip("\r\n")
+            if isinstance(raw, int):  # no frame's line: damaged, not held
+                on_bad(number, too_long(raw))
+                continue
+            text = raw.decode("utf-8", "replace") if isinstance(raw, bytes) else raw
+            text = _ANSI.sub("", text).rstrip("\r\n")
             if not text.strip() or text.startswith("\t"):  # blank, or an error's explanation
                 continue
             _read_line(text, number, rows, on_bad)

@@ -31,6 +31,7 @@ from can.io.sqlite import SqliteReader
 
 from evtribo.errors import LogFormatError
 from evtribo.files import PARTIAL_SUFFIX
+from evtribo.frames.candump_line import bounded_readline, too_long
 from evtribo.frames.table import CLASSIC_WIDTH, FD_WIDTH, NO_CHANNEL, FrameTable
 
 #: The extra that installs what python-can's MF4 reader needs.
@@ -52,8 +53,9 @@ _ASC_FRAME_LIKE = re.compile(r"\s*\d+(?:\.\d*)?(?:\s+(?:\d+|CANFD)(?:\s+[0-9A-Fa
 class _CountingFile:
     """A text file that counts the lines handed out (to name a damaged line)."""
 
-    def __init__(self, raw: IO[str]) -> None:
+    def __init__(self, raw: IO[str], on_bad: BadLineHandler) -> None:
         self._raw = raw
+        self._on_bad = on_bad
         self.line = 0
         self._pending: list[str] = []
         #: Lines handed out since the last frame came back: (line number, text).
@@ -74,7 +76,12 @@ class _CountingFile:
         return text
 
     def readline(self, *_args: Any) -> str:
-        text = self._pending.pop() if self._pending else self._raw.readline()
+        text = self._pending.pop() if self._pending else bounded_readline(self._raw)
+        while isinstance(text, int):  # no frame's line: damaged, never held
+            self.line += 1
+            self._on_bad(self.line, too_long(text))
+            text = bounded_readline(self._raw)
+        assert isinstance(text, str)
         if text:
             self.line += 1
             if len(self.recent) < _MAX_RECENT:
@@ -240,7 +247,7 @@ def read_with_python_can(path: str | os.PathLike[str], on_bad: BadLineHandler
         else:
             handle = gzip.open(path, "rt") if gz else open(path, encoding="utf-8",
                                                            errors="replace")
-            counter = _CountingFile(handle)
+            counter = _CountingFile(handle, on_bad)
             reader = reader_cls(counter)
     except OSError:
         if handle is not None:

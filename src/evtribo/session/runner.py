@@ -64,6 +64,16 @@ SETTLE_S = 2.0
 FAULTS = ("bus-error", "disk-error", "no-rig-data")
 
 
+def _then(first: Callable[[Any], None] | None, then: Callable[[], None]
+          ) -> Callable[[Any], None]:
+    """A ``started`` callback that calls *first* (if any), then *then*."""
+    def started(paths: Any) -> None:
+        if first is not None:
+            first(paths)
+        then()
+    return started
+
+
 @dataclass
 class SessionConfig:
     """How to run a session.
@@ -370,8 +380,12 @@ class _Session:
             if self.command is None:
                 return record_trial(self.bus, self.cfg.study, self.cfg.subject, entry.trial,
                                     options)
+            # the phases begin when the log is open: a busy machine that takes seconds to
+            # open it cannot make the amplifier switch on within the tare stretch
             with self.command.hold(state, entry.condition or "alternating",
-                                   off_first_s=s.tare_s, on_s=s.on_s, off_s=s.off_s):
+                                   off_first_s=s.tare_s, on_s=s.on_s, off_s=s.off_s,
+                                   begin=False) as holder:
+                options = replace(options, started=_then(options.started, holder.begin))
                 return record_trial(self.bus, self.cfg.study, self.cfg.subject,
                                     entry.trial, options)
 

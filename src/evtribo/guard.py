@@ -1,0 +1,220 @@
+"""What no command writes over: a study's inputs and raw CAN logs, ``--force`` included.
+
+A study's inputs are its ``study.toml``, its DBC, its trials' logs and sidecars and its
+subjects' session records; a raw CAN log is any file that reads as one (candump, ASC, BLF,
+TRC, python-can CSV, MF4, SQLite...), in a study or not; a DBC or a TOML file is an input
+wherever it is (evtribo writes neither as an output). Every command that writes a file a
+user names (``report -o``, ``report --tables``, ``compare``, ``decode -o``, ``plot -o``,
+``model --figures``) asks :func:`refuse_input` first, before anything is written, and is
+refused with exit code 2 naming the file. Symbolic links are followed: a link to a log is
+the log.
+
+A new file is refused where a study would read it as one of its inputs: a log or a ``.json``
+in a subject folder (``evtribo analyze`` would take it for a trial), ``study.toml`` at a
+study's root.
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from pathlib import Path
+
+from evtribo.documents.session import SESSION_FILE
+from evtribo.errors import FORCE, OutputExistsError, UserInputError
+from evtribo.study import NOT_SUBJECTS, STUDY_FILE, log_stem
+
+__all__ = ["LOG_KINDS", "refuse_cache_in_study", "refuse_in_study", "refuse_input", "study_root",
+           "what_input"]
+
+#: What :func:`~evtribo.frames.sniff.sniff` calls the raw CAN logs.
+LOG_KINDS = frozenset({"candump-L", "candump-text", "candump-plain", "asc", "trc",
+                       "python-can-csv", "savvycan", "blf", "mf4", "mdf", "sqlite"})
+#: Bytes of a file looked at for a DBC's first keyword.
+_DBC_HEAD = 4096
+
+
+def study_root(path: str | os.PathLike[str]) -> Path | None:
+    """The study folder *path* is in, symbolic links followed.
+
+    Parameters
+    ----------
+    path : path-like
+        A file or folder, there or not.
+
+    Returns
+    -------
+    Path or None
+        The nearest folder at or above *path* holding a ``study.toml``; None outside any
+        study.
+    """
+    here = Path(os.path.realpath(path))
+    for folder in (here, *here.parents):
+        if (folder / STUDY_FILE).is_file():
+            return folder
+    return None
+
+
+def _study_dbc(root: Path) -> Path | None:
+    """The DBC a study's ``study.toml`` names (None when it names none or cannot be read)."""
+    try:
+        with open(root / STUDY_FILE, "rb") as fh:
+            rig = tomllib.load(fh).get("rig", {})
+    except (OSError, tomllib.TOMLDecodeError, UnicodeDecodeError, RecursionError):
+        return None
+    dbc = rig.get("dbc") if isinstance(rig, dict) else None
+    return Path(os.path.realpath(root / dbc)) if isinstance(dbc, str) else None
+
+
+def _looks_like_dbc(path: Path) -> bool:
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(_DBC_HEAD).decode("latin-1")
+    except OSError:
+        return False
+    words = head.lstrip("\ufeff\r\n\t ").split(None, 1)
+    return bool(words) and words[0] in ("VERSION", "NS_", "BS_:", "BU_:")
+
+
+def _in_study(real: Path) -> str | None:
+    """What *real* (a resolved path, there or not) is to the study it is in, if anything."""
+    root = study_root(real.parent)
+    if root is None:
+        return None
+    named = {Path(os.path.realpath(root / STUDY_FILE)): f"the study's {STUDY_FILE}",
+             _study_dbc(root): "the study's DBC"}
+    if real in named:
+        return named[real]
+    parts = real.relative_to(root).parts
+    if len(parts) != 2 or parts[0].startswith(".") or parts[0] in NOT_SUBJECTS:
+        return None
+    where = f"({real.name} in a study's subject folder)"
+    return ("a subject's session record" if real.name == SESSION_FILE
+            else f"a trial's log {where}" if log_stem(real) is not None
+            else f"a trial's sidecar {where}" if real.suffix.lower() == ".json" else None)
+
+
+def what_input(path: str | os.PathLike[str]) -> str | None:
+    """What study input or raw CAN log *path* is (or, for a file not yet there, would be
+    read as), in words; None for a file a command may write.
+
+    Parameters
+    ----------
+    path : path-like
+        An output a command is about to write.
+
+    Returns
+    -------
+    str or None
+        ``"a CAN log (a candump -L log)"``, ``"the study's DBC"``... or None.
+    """
+    from evtribo.frames.sniff import sniff  # numpy and python-can: imported on use
+
+    real = Path(os.path.realpath(path))
+    inside = _in_study(real)
+    if inside is not None or not real.is_file():
+        return inside
+    found = sniff(real)
+    if found is not None and found.kind.removeprefix("gzip:") in LOG_KINDS:
+        return f"a CAN log ({found.description})"
+    if real.suffix.lower() == ".dbc" or _looks_like_dbc(real):
+        return "a CAN database (DBC)"
+    if real.suffix.lower() == ".toml":
+        return "a TOML configuration (a study's or a rig's)"
+    return None
+
+
+def refuse_input(path: str | os.PathLike[str], *, command: str,
+                 source: str | os.PathLike[str] | None = None, source_is: str = "the file read",
+                 key: str | None = None) -> None:
+    """Refuse to write *path* when it is a study input or a raw CAN log (see the module's
+    docstring); ``--force`` does not change this.
+
+    Parameters
+    ----------
+    path : path-like
+        The output about to be written.
+    command : str
+        The command writing it (``"evtribo report"``), for the message.
+    source : path-like, optional
+        The file the command reads (``decode``'s log): writing over it is refused in so many
+        words.
+    source_is : str
+        What *source* is, for the message (``"the log being decoded"``).
+    key : str, optional
+        The option that named *path* (``"-o"``).
+
+    Raises
+    ------
+    OutputExistsError
+        *path* is an input or a raw log (exit code 2).
+    UserInputError
+        *path* is a folder where a file is to be written.
+    """
+    never = (f"{command} never writes over a study's input or a raw CAN log, {FORCE} "
+             "included; choose another output")
+    if os.path.isdir(path):
+        raise UserInputError("is a folder, not a file to write", path=path, key=key)
+    if source is not None and os.path.exists(path) and os.path.exists(source) \
+            and os.path.samefile(path, source):
+        raise OutputExistsError(f"is {source_is}: {never}", path=path, key=key)
+    what = what_input(path)
+    if what is None:
+        return
+    if os.path.exists(path):
+        raise OutputExistsError(f"is {what}: {never}", path=path, key=key)
+    raise OutputExistsError(f"would be read as {what} by evtribo analyze: write it outside the "
+                            "study folder", path=path, key=key)
+
+
+def refuse_in_study(folder: str | os.PathLike[str], *, command: str) -> None:
+    """Refuse a result folder inside a study folder (``evtribo analyze`` never writes one
+    there: it would read the results as part of the study) before *command* writes into it.
+
+    Parameters
+    ----------
+    folder : path-like
+        The result folder.
+    command : str
+        The command about to write into it.
+
+    Raises
+    ------
+    UserInputError
+        Naming the folder and the study.
+    """
+    root = study_root(folder)
+    if root is not None:
+        raise UserInputError(
+            f"is inside the study folder {root}: {command} writes nothing into a study (the "
+            "next analysis would read it as part of the study); move the result folder out "
+            "of the study", path=folder)
+
+
+def refuse_cache_in_study(cache_dir: str | os.PathLike[str] | None,
+                          study: str | os.PathLike[str]) -> None:
+    """Refuse a cache folder inside the study folder, as an output folder there is refused:
+    the next analysis would read its files as part of the study.
+
+    Parameters
+    ----------
+    cache_dir : path-like or None
+        The cache folder given (None: the default one, outside any study).
+    study : path-like
+        The study folder (or its ``study.toml``).
+
+    Raises
+    ------
+    UserInputError
+        Naming the cache folder (key ``--cache-dir``) and the study.
+    """
+    if cache_dir is None:
+        return
+    root = Path(os.path.realpath(study))
+    root = root.parent if root.name == STUDY_FILE else root
+    where = Path(os.path.realpath(cache_dir))
+    if where == root or root in where.parents:
+        raise UserInputError(
+            f"the cache folder is inside the study folder {study}: the next analysis would "
+            "read its files as part of the study; choose a folder outside it, e.g. "
+            f"{root.parent / (root.name + '-cache')}", path=cache_dir, key="--cache-dir")
