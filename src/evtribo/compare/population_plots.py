@@ -5,8 +5,9 @@ log-log, forces in mN, a tick at each measured amplitude (:mod:`evtribo.compare.
 Each subject's points (95 % intervals) and its own weighted power law are drawn thin and
 light in the subject's colour; the population's geometric mean at each amplitude (black
 diamonds, 95 % intervals) and its power law across subjects (a thick black line in a grey
-95 % band) on top. An outlier left out of the population's estimates is drawn with open
-markers and named in the legend.
+95 % band) on top. The legend gives each entry as it is drawn: the population's line
+in its band, the means, each subject (up to :data:`MAX_NAMED`, else one entry for all)
+and an outlier left out of the population's estimates (open markers).
 """
 
 from __future__ import annotations
@@ -18,13 +19,19 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from matplotlib.axes import Axes
+from matplotlib.legend_handler import HandlerTuple
+from matplotlib.patches import Patch
 
 from evtribo.compare.electrostatic_plots import _errors_mN, _force_axes, _nonpositive_note
 from evtribo.compare.layout import place_legend
 from evtribo.compare.population import Condition, Population, condition_label
-from evtribo.compare.style import new_axes, proxy, series_style, styled
+from evtribo.compare.style import EVERY_COLOUR, new_axes, proxy, series_style, styled
 
-__all__ = ["draw_population", "plot_population", "population_stem"]
+__all__ = ["MAX_NAMED", "draw_population", "plot_population", "population_stem"]
+
+#: Subjects named one by one in the legend at most; more share one entry in
+#: :data:`~evtribo.compare.style.EVERY_COLOUR` (an outlier is always named).
+MAX_NAMED = 6
 
 
 def population_stem(condition: Condition) -> str:
@@ -78,8 +85,11 @@ def plot_population(electrostatic: pd.DataFrame, pop: Population, condition: Con
     amps = es["amplitude_V"].to_numpy(float)
     grid = np.geomspace(np.nanmin(amps) / 1.1, np.nanmax(amps) * 1.1, 60)
     out = pop.left_out.get(condition, set())
-    handles, hidden = [], 0
-    for k, s in enumerate(dict.fromkeys(es["subject"].astype(str))):
+    subjects = list(dict.fromkeys(es["subject"].astype(str)))
+    named = len(subjects) <= MAX_NAMED  # each subject its entry; else one in every colour
+    handles: list[Any] = []
+    hidden = 0
+    for k, s in enumerate(subjects):
         style = series_style(k)
         sel = es[es["subject"].astype(str) == s]
         f, err = _errors_mN(sel)
@@ -91,10 +101,9 @@ def plot_population(electrostatic: pd.DataFrame, pop: Population, condition: Con
             a, n = own[s]
             ax.plot(grid, 1e3 * np.exp(a + n * (np.log(grid) - fit.log_u0)),
                     color=style["color"], lw=0.7, alpha=0.55)
-        if s in out:
-            handles.append(proxy(f"{s} (outlier, left out)", color=style["color"],
-                                 marker=style["marker"], linestyle="none",
-                                 markerfacecolor="white"))
+        if named or s in out:
+            handles.append(_subject_entry(f"{s} (outlier, left out)" if s in out else s,
+                                          style, s in own, open_=s in out))
     est = [fit.at(float(x)) for x in np.log(grid)]
     band = np.exp(np.array([e.interval() for e in est]))
     ax.fill_between(grid, 1e3 * band[:, 0], 1e3 * band[:, 1], color="0.75", alpha=0.6,
@@ -103,15 +112,26 @@ def plot_population(electrostatic: pd.DataFrame, pop: Population, condition: Con
     _population_points(ax, pop.table, condition)
     n_hat = fit.estimate([0.0, 1.0])
     lo, hi = n_hat.interval()
-    handles = [proxy(f"population: $n$ = {n_hat.value:.2f} [{lo:.2f}, {hi:.2f}]",
-                     color="black", lw=1.8),
-               proxy("geometric mean at each $U$", color="black", marker="D",
-                     linestyle="none", ms=4),
-               proxy("subjects", color="0.5", marker="o", lw=0.7, alpha=0.55), *handles]
+    line = (Patch(facecolor="0.75", alpha=0.6, lw=0), proxy("", color="black", lw=1.8))
+    first: list[Any] = [line, proxy("", color="black", marker="D", linestyle="none", ms=4)]
+    labels = [f"population: $n$ = {n_hat.value:.2f} [{lo:.2f}, {hi:.2f}], 95 % band",
+              "geometric mean at each $U$"]
+    if not named:
+        first.append(proxy("", color=EVERY_COLOUR, marker="o", lw=0.7, alpha=0.55))
+        labels.append("subjects (one colour each)")
+    labels += [str(h.get_label()) for h in handles]
     _force_axes(ax, amps)
     _nonpositive_note(ax, hidden)
-    place_legend(ax, handles, [str(h.get_label()) for h in handles], ncol_outside=2)
+    place_legend(ax, first + handles, labels, ncol_outside=2,
+                 handler_map={tuple: HandlerTuple(ndivide=1)})
     return ax
+
+
+def _subject_entry(label: str, style: dict[str, Any], line: bool, *, open_: bool) -> Any:
+    """A subject's legend entry, drawn as its points (and its power law's line) are."""
+    return proxy(label, color=style["color"], marker=style["marker"], alpha=0.55, ms=3,
+                 linestyle="-" if line else "none", lw=0.7,
+                 markerfacecolor="white" if open_ else style["color"])
 
 
 def _population_points(ax: Axes, table: pd.DataFrame, condition: Condition) -> None:
