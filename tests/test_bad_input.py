@@ -34,7 +34,9 @@ LOG = ("(1763700000.000000) vcan0 0C1#0000000000000000\n"
 SIDECAR = {"subject": "P01", "waveform": "square", "frequency_Hz": 10000, "amplitude_V": 140,
            "condition": "alternating"}
 RIG = {"dbc": "rig/default.dbc", "normal_force": "FzCell.Fz", "tangential_force": "FxCell.Fx"}
-
+#: A DBC of another rig: none of its messages is in the study's log.
+OTHER_DBC = ('VERSION ""\nNS_ :\nBS_:\nBU_: Cell\nBO_ 768 Cell: 8 Cell\n'
+             ' SG_ F : 0|16@1- (0.001,0) [-30|30] "N" Vector__XXX\n')
 
 PEER_LOGS = Path(__file__).parent / "data" / "logs"
 CANDUMP_PLAIN = ("  vcan0  0C1   [8]  00 00 00 00 00 00 00 00\n"
@@ -78,7 +80,7 @@ def _sidecar(study: Path, **values: object) -> None:
 
 
 #: Packages made unimportable by :func:`_without_dask`, importable again after each test.
-_DASK_PACKAGES = ("dask", "distributed")
+_DASK_PACKAGES = ("dask", "distributed", "asammdf")
 
 
 def _without_dask() -> None:
@@ -294,6 +296,9 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "decode-output-suffix": lambda t: None,
     "decode-output-exists": _text(Path("run-01.csv"), "timestamp\n"),
     "decode-dbc-missing": lambda t: None,
+    "decode-mf4-choices": lambda t: None,
+    "decode-mf4-no-message": _text(Path("other.dbc"), OTHER_DBC),
+    "decode-mf4-asammdf-missing": lambda t: sys.modules.update({"asammdf": None}),
     "model-set-unknown": lambda t: None,
     "model-set-not-a-number": lambda t: None,
     "model-set-syntax": lambda t: None,

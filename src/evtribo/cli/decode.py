@@ -7,7 +7,9 @@ as cantools' ``decode_choices`` does: a code the table lacks as its physical val
 name used by two messages, or named like a fixed column, becomes ``Message.Signal``. A frame
 cantools cannot decode (a multiplexer value the DBC does not know, a signal beyond the
 message's length) keeps its row, with empty signals; so does a multiplexed signal in the
-frames that do not carry it. Output format by suffix: ``.parquet`` or ``.csv``.
+frames that do not carry it. Output format by suffix: ``.parquet``, ``.csv`` or ``.mf4``
+(ASAM MDF 4, through asammdf: one channel group per message, the DBC's units, comments and
+value tables kept; :mod:`evtribo.decode_mf4`).
 The log is read and written a block at a time (Parquet by row groups), so memory does not
 grow with the log.
 
@@ -22,6 +24,7 @@ from __future__ import annotations
 import argparse
 import os
 
+from evtribo.decode_mf4 import write_mf4
 from evtribo.decode_table import load_dbc_file, write_decoded
 from evtribo.errors import OutputExistsError, UserInputError
 from evtribo.frames import FrameStream
@@ -30,11 +33,11 @@ from evtribo.guard import refuse_input
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Register ``decode``."""
-    p = subparsers.add_parser("decode", help="decode a CAN log's signals to Parquet or CSV",
+    p = subparsers.add_parser("decode", help="decode a CAN log's signals to Parquet, CSV or MF4",
                               description=__doc__.splitlines()[0])
     p.add_argument("log", help="CAN log (.log, .log.gz, .asc, .blf, .trc, .csv...)")
     p.add_argument("--dbc", required=True, help="CAN database (DBC)")
-    p.add_argument("-o", "--output", required=True, help="output table (.parquet or .csv)")
+    p.add_argument("-o", "--output", required=True, help="output (.parquet, .csv or .mf4)")
     p.add_argument("--choices", action="store_true",
                    help="write value-table names instead of values (a code the table "
                         "lacks: its physical value, as cantools gives it)")
@@ -49,9 +52,12 @@ def run(args: argparse.Namespace) -> int:
     """Decode ``args.log`` with ``args.dbc`` into ``args.output``, block by block."""
     out = args.output
     suffix = os.path.splitext(out)[1].lower()
-    if suffix not in (".parquet", ".csv"):
-        raise UserInputError(f"output must end in .parquet or .csv, not {suffix or '(none)'!r}",
-                             path=out)
+    if suffix not in (".parquet", ".csv", ".mf4"):
+        raise UserInputError("output must end in .parquet, .csv or .mf4, not "
+                             f"{suffix or '(none)'!r}", path=out)
+    if suffix == ".mf4" and args.choices:
+        raise UserInputError("--choices is for tables: an .mf4 keeps the values and their "
+                             "value tables (a reader shows the names)", key="--choices")
     refuse_input(out, command="evtribo decode", source=args.log,  # --force or not
                  source_is="the log being decoded", key="-o")
     if os.path.exists(out) and not args.force:
@@ -62,6 +68,12 @@ def run(args: argparse.Namespace) -> int:
     def open_stream(warn: bool) -> FrameStream:
         return FrameStream(args.log, strict=args.strict, warn=warn)
 
+    if suffix == ".mf4":
+        mf4 = write_mf4(open_stream, db, out, channel=args.channel)
+        print(f"{out}: {mf4.rows} frames decoded of {mf4.frames} "
+              f"({mf4.report.skipped_lines} damaged lines skipped), {mf4.signals} signals "
+              f"in {mf4.groups} channel groups (one per message)")
+        return 0
     done = write_decoded(open_stream, db, out, choices=args.choices, channel=args.channel)
     print(f"{out}: {done.rows} frames decoded of {done.frames} "
           f"({done.report.skipped_lines} damaged lines skipped), {done.signals} signals")
