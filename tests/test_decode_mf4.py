@@ -102,3 +102,23 @@ def test_any_log_round_trips_through_asammdf(lines):
         else:
             assert code == 0
             _compare(folder / "a.mf4", table, dbc)
+
+
+def test_force_replaces_an_mf4_evtribo_wrote_never_a_raw_can_log(tmp_path, capsys):
+    import can
+
+    raw = tmp_path / "bus.mf4"  # a raw CAN log as python-can (and CANape) write it
+    with can.Logger(raw) as writer:
+        for i in range(3):
+            writer.on_message_received(can.Message(timestamp=1763700000 + i * 1e-3,
+                                                   arbitration_id=0xC1, is_extended_id=False,
+                                                   data=bytes(8)))
+    before = raw.read_bytes()
+    ours = tmp_path / "signals.mf4"
+    args = [str(SINE_LOG), "--dbc", str(RIG_DBC)]
+    assert main(["decode", *args, "-o", str(ours)]) == 0
+    assert main(["decode", *args, "-o", str(ours)]) == 2  # exists
+    assert main(["decode", *args, "-o", str(ours), "--force"]) == 0
+    assert main(["decode", *args, "-o", str(raw), "--force"]) == 2
+    assert "is a CAN log" in capsys.readouterr().err
+    assert raw.read_bytes() == before

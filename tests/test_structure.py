@@ -18,7 +18,7 @@ LAYERS = {
     "signals": 2,
     "rig": 3, "frame_match": 3,
     "study": 4, "decode": 4,
-    "cache": 5, "decode_table": 5, "guard": 5,
+    "cache": 5, "decode_table": 5, "decode_mf4": 5, "guard": 5,
     "analysis": 6, "acquisition": 6,
     "compare": 7, "rigsetup": 7, "session": 7,
     "demo": 8, "api": 8,

@@ -28,9 +28,11 @@ from cantools.database.can import Database, Message, Signal
 
 from evtribo.decode import decode_message, message_mask
 from evtribo.errors import UserInputError
+from evtribo.files import MF4_PROGRAM_ID
 from evtribo.frames import FrameStream, FrameTable, ReadReport
 
-__all__ = ["EPOCH_AFTER_S", "MF4_EXTRA", "Mf4Written", "signal_conversion", "write_mf4"]
+__all__ = ["EPOCH_AFTER_S", "MF4_EXTRA", "Mf4Written", "save_mdf",
+           "signal_conversion", "write_mf4"]
 
 log = logging.getLogger(__name__)
 
@@ -181,7 +183,7 @@ def write_mf4(open_stream: Callable[[bool], FrameStream], db: Database, path: st
         start = groups.start or 0.0
         if start:
             groups.mdf.header.start_time = dt.datetime.fromtimestamp(start, dt.UTC)
-        _save(groups.mdf, Path(path))
+        save_mdf(groups.mdf, Path(path))
     finally:
         groups.mdf.close()
     return Mf4Written(len(groups.index), groups.rows, frames, groups.signals, start,
@@ -212,9 +214,21 @@ def _fill(groups: _Groups, stream: FrameStream, db: Database, channel: str | Non
     return frames
 
 
-def _save(mdf: Any, target: Path) -> None:
-    """Save *mdf* beside *target*, then put it in place (no half-written file)."""
+def save_mdf(mdf: Any, target: Path) -> None:
+    """Save an asammdf MDF beside *target*, then put it in place (no half-written file).
+
+    Parameters
+    ----------
+    mdf : asammdf.MDF
+    target : Path
+        The ``.mf4`` to write; an existing file is replaced.
+
+    Returns
+    -------
+    None
+    """
     tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp.mf4")
+    mdf.identification.program_identification = MF4_PROGRAM_ID
     try:
         mdf.save(tmp, overwrite=True, compression=2)
         os.replace(tmp, target)

@@ -36,10 +36,15 @@ from evtribo.errors import UserInputError
 log = logging.getLogger(__name__)
 T = TypeVar("T")
 
-__all__ = ["CHECKSUM_DIGITS", "MAX_CONFIG_BYTES", "PARTIAL_SUFFIX", "DuplicateKeyError",
+__all__ = ["CHECKSUM_DIGITS", "MAX_CONFIG_BYTES", "MF4_PROGRAM_ID", "PARTIAL_SUFFIX",
+           "DuplicateKeyError",
            "atomic_open", "atomic_write", "check_regular_file", "checksummed_entries",
            "fsync_path", "loads_json_unique", "partial_path", "read_checksummed", "read_entry",
            "read_limited", "sha256_file", "write_checksummed"]
+
+#: The program identification of the MF4 files evtribo writes (bytes 16-24 of the file):
+#: such a file holds decoded signals, not a raw CAN log, and ``--force`` may replace it.
+MF4_PROGRAM_ID = b"evtribo "
 
 #: Suffix of a file still being written by a recording (``run-01.log.part``).
 PARTIAL_SUFFIX = ".part"

@@ -22,6 +22,7 @@ from pathlib import Path
 
 from evtribo.documents.session import SESSION_FILE
 from evtribo.errors import FORCE, OutputExistsError, UserInputError
+from evtribo.files import MF4_PROGRAM_ID
 from evtribo.study import NOT_SUBJECTS, STUDY_FILE, log_stem
 
 __all__ = ["LOG_KINDS", "refuse_cache_in_study", "refuse_in_study", "refuse_input", "study_root",
@@ -32,6 +33,12 @@ LOG_KINDS = frozenset({"candump-L", "candump-text", "candump-plain", "asc", "trc
                        "python-can-csv", "savvycan", "blf", "mf4", "mdf", "sqlite"})
 #: Bytes of a file looked at for a DBC's first keyword.
 _DBC_HEAD = 4096
+
+
+def _written_by_evtribo(path: Path) -> bool:
+    """Whether an MF4 names evtribo as the program that wrote it (its bytes 16-24)."""
+    with open(path, "rb") as fh:
+        return fh.read(24)[16:24] == MF4_PROGRAM_ID
 
 
 def study_root(path: str | os.PathLike[str]) -> Path | None:
@@ -115,6 +122,8 @@ def what_input(path: str | os.PathLike[str]) -> str | None:
     if inside is not None or not real.is_file():
         return inside
     found = sniff(real)
+    if found is not None and found.kind == "mf4" and _written_by_evtribo(real):
+        return None  # decoded signals evtribo wrote (decode, export): --force replaces them
     if found is not None and found.kind.removeprefix("gzip:") in LOG_KINDS:
         return f"a CAN log ({found.description})"
     if real.suffix.lower() == ".dbc" or _looks_like_dbc(real):

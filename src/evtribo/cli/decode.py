@@ -33,7 +33,8 @@ from evtribo.guard import refuse_input
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Register ``decode``."""
-    p = subparsers.add_parser("decode", help="decode a CAN log's signals to Parquet, CSV or MF4",
+    p = subparsers.add_parser("decode",
+                              help="decode a CAN log through a DBC into Parquet, CSV or MF4",
                               description=__doc__.splitlines()[0])
     p.add_argument("log", help="CAN log (.log, .log.gz, .asc, .blf, .trc, .csv...)")
     p.add_argument("--dbc", required=True, help="CAN database (DBC)")
