@@ -4,8 +4,10 @@ width, marker and its fill, hatch).
 
 A drawn line is explained by an entry that looks like it: the same colour, line style
 and width; or an entry in :data:`~evtribo.compare.style.EVERY_COLOUR` with its line style
-(it stands for that style in every colour) together with an entry of its colour. A marker
-is explained by an entry with the same marker, colour and fill. A shaded stretch by a patch
+(it stands for that style in every colour) together with an entry of its colour or a
+colour bar holding its colour. A marker is explained by an entry with the same marker,
+colour and fill, or by an entry in EVERY_COLOUR with its marker and fill (open or filled)
+when a colour bar holds its colour. A shaded stretch by a patch
 of its colour and opacity, a hatched one by a patch of its hatch. An entry that explains
 nothing drawn is a phantom. Error bars' caps and bars, and lines with the gid ``zero`` (an
 axis line at 0), are not data.
@@ -77,6 +79,23 @@ def _drawn(ax: Axes) -> tuple[list[Line2D], list[Patch]]:
     return lines, [p for p in ax.patches if p.get_visible()]
 
 
+def _on_a_bar(ax: Axes, colour: tuple[float, ...]) -> bool:
+    """Whether a colour bar of the figure holds *colour* (within 0.01 in each channel)."""
+    for other in ax.figure.axes:
+        bar = getattr(other, "_colorbar", None)
+        if other is ax or bar is None:
+            continue
+        ramp = bar.cmap(np.linspace(0.0, 1.0, 1024))
+        if np.min(np.max(np.abs(ramp - np.asarray(colour)), axis=1)) < 0.01:
+            return True
+    return False
+
+
+def _fill(marker: tuple[Any, ...]) -> str:
+    """``open`` (a white face) or ``filled``."""
+    return "open" if marker[2][:3] == (1.0, 1.0, 1.0) else "filled"
+
+
 def unexplained(ax: Axes) -> tuple[list[str], list[str]]:
     """What the legend leaves unexplained, and its entries that explain nothing drawn.
 
@@ -99,18 +118,23 @@ def unexplained(ax: Axes) -> tuple[list[str], list[str]]:
         look = _line_look(line)
         if look["line"] is not None:
             colour, *style = look["line"]
+            known = colour in colours or _on_a_bar(ax, colour)
             hits = [label for label, lks, _ in looks for lk in lks if lk["line"] and (
                 lk["line"] == look["line"] or (lk["line"][0][:3] == every[:3]
                                                and list(lk["line"][1:]) == style
-                                               and colour in colours))]
+                                               and known))]
             if not hits:
                 missing.append(f"line {look['line']}")
             used.update(hits)
             if hits and lk_colour_label(looks, colour):
                 used.add(lk_colour_label(looks, colour))
         if look["marker"] is not None:
+            mark = look["marker"]
             hits = [label for label, lks, _ in looks for lk in lks
-                    if lk["marker"] == look["marker"]]
+                    if lk["marker"] == mark or (
+                        lk["marker"] and lk["marker"][0] == mark[0]
+                        and lk["marker"][1][:3] == every[:3]
+                        and _fill(lk["marker"]) == _fill(mark) and _on_a_bar(ax, mark[1]))]
             if not hits:
                 missing.append(f"marker {look['marker']}")
             used.update(hits)

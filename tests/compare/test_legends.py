@@ -136,6 +136,17 @@ def test_every_drive_of_a_sweep_is_drawn_and_every_model_explained(tmp_path):
     assert len(ax.containers) == len(drives) == 10  # every drive, not the first three
     missing, phantoms = unexplained(ax)
     assert (missing, phantoms) == ([], [])
+    # ten drives: the amplitude on a colour bar, one legend entry per waveform and model
+    labels = [label for label, _ in legend_entries(ax)]
+    assert labels[0] == "square drive" and len(labels) == 1 + 2
+    bar = ax.figure.axes[-1]
+    assert sorted(bar.yaxis.get_majorticklocs()) == sorted(drives["amplitude_V"])
+    few = rows[rows["amplitude_V"].isin(sorted(drives["amplitude_V"])[:4])]
+    with journal_style():
+        ax4 = plot_frequency_response(few, mine, subject=tables.subjects[0])
+    assert len(ax4.figure.axes) == 1 and unexplained(ax4) == ([], [])
+    assert {f"square {a:g} V" for a in sorted(drives["amplitude_V"])[:4]} <= {
+        label for label, _ in legend_entries(ax4)}
     # the legend keeps the data's height: the figure grew by it
     box = ax.get_position()
     assert box.height * ax.figure.get_figheight() > 0.55 * 85 / 25.4 * 0.75

@@ -14,21 +14,29 @@ import pandas as pd
 from matplotlib.axes import Axes
 
 from evtribo.analysis.outputs import MODELS_CSV
-from evtribo.compare.layout import place_legend, plain_log_axis
+from evtribo.compare.layout import place_legend, plain_log_axis, voltage_ticks
 from evtribo.compare.models import ModelFit, fit_models, models_table
 from evtribo.compare.plots import new_axes, safe_name
-from evtribo.compare.style import EVERY_COLOUR, proxy, series_style
+from evtribo.compare.style import (
+    EVERY_COLOUR,
+    MAX_DRIVE_ENTRIES,
+    amplitude_bar,
+    proxy,
+    series_style,
+)
 from evtribo.compare.tables import ResultTables
 from evtribo.files import atomic_write
 from evtribo.model.params import ModelParameters
 from evtribo.resultdir import Staging
 
-__all__ = ["frequency_response_stem", "models_text", "plot_frequency_response",
+__all__ = ["WIDE_RANGE", "frequency_response_stem", "models_text", "plot_frequency_response",
            "write_models"]
 
 #: ``emit(ax, kind, title, stem, subject=..., caption=...)`` of :mod:`evtribo.compare.run`.
 Emit = Callable[..., Any]
 
+#: Forces spanning more than this factor get a log axis.
+WIDE_RANGE = 20.0
 _STYLES = {"paper": "-", "hertz": ":", "maugis": "-.", "circuit": "--"}
 
 
@@ -64,7 +72,11 @@ def plot_frequency_response(rows: pd.DataFrame, fits: Sequence[ModelFit], *,
 
     Every drive (waveform and amplitude) has its colour and marker, every model its line
     style; the legend gives each drive (its points) and each model (its line style, in
-    :data:`~evtribo.compare.style.EVERY_COLOUR`: drawn in each drive's colour).
+    :data:`~evtribo.compare.style.EVERY_COLOUR`: drawn in each drive's colour). With more
+    than :data:`~evtribo.compare.style.MAX_DRIVE_ENTRIES` drives, a drive's colour is its
+    amplitude's on a colour bar, its marker a circle (open for a sine), and the legend gives
+    the waveforms and the models. Forces spanning more than :data:`WIDE_RANGE` times get a
+    log axis.
 
     Parameters
     ----------
@@ -91,30 +103,61 @@ def plot_frequency_response(rows: pd.DataFrame, fits: Sequence[ModelFit], *,
     f_all = rows["frequency_Hz"].to_numpy(float)
     grid = np.geomspace(f_all.min() / 2.0, f_all.max() * 2.0, 121)
     drawn = [fit for fit in fits if fit.params is not None]
+    groups = _groups(rows)
+    many = len(groups) > MAX_DRIVE_ENTRIES
+    colour = amplitude_bar(ax, [a for (_, a), _ in groups]) if many else None
     handles: list[Any] = []
-    for i, ((wave, amp), group) in enumerate(_groups(rows)):
+    for i, ((wave, amp), group) in enumerate(groups):
         g = group.sort_values("frequency_Hz")
         f = g["frequency_Hz"].to_numpy(float)
         y = 1e3 * g["electrostatic_force_N"].to_numpy(float)
         lo = 1e3 * g["electrostatic_force_ci_low_N"].to_numpy(float)
         hi = 1e3 * g["electrostatic_force_ci_high_N"].to_numpy(float)
         err = np.nan_to_num(np.vstack([y - lo, hi - y]), nan=0.0).clip(min=0.0)
-        look = series_style(i)
+        look = _look(i, wave, amp, colour)
         ax.errorbar(f, y, yerr=err, fmt=look["marker"], ms=4, color=look["color"],
-                    capsize=2)
-        handles.append(proxy(f"{wave} {amp:g} V", color=look["color"],
-                             marker=look["marker"], linestyle="none", markersize=4))
+                    markerfacecolor=look["markerfacecolor"], capsize=2)
+        if colour is None:
+            handles.append(proxy(f"{wave} {amp:g} V", color=look["color"],
+                                 marker=look["marker"], markerfacecolor=look["markerfacecolor"],
+                                 linestyle="none", markersize=4))
         fn = float(np.nanmean(g["normal_force_on_N"].to_numpy(float)))
         for fit in drawn:
             ax.plot(grid, 1e3 * fit.force(fn, amp, wave, grid),
                     linestyle=_STYLES.get(fit.model, "-"), color=look["color"], lw=1.1)
+    if colour is not None:  # the colour bar gives the amplitude, the marker the waveform
+        waves = dict.fromkeys(w for (w, _), _ in groups)
+        handles += [proxy(f"{w} drive", color=EVERY_COLOUR, linestyle="none", markersize=4,
+                          **{k: v for k, v in _look(0, w, 0.0, lambda _: EVERY_COLOUR).items()
+                             if k != "color"}) for w in waves]
+        voltage_ticks(ax.figure.axes[-1].yaxis, [a for (_, a), _ in groups])
     handles += [proxy(_model_label(fit), color=EVERY_COLOUR, lw=1.1,
                       linestyle=_STYLES.get(fit.model, "-")) for fit in drawn]
     ax.set(xscale="log", xlabel="drive frequency $f$ (Hz)",
-           ylabel=r"electrostatic force $F_\mathrm{el}$ (mN)", ylim=(0, None))
+           ylabel=r"electrostatic force $F_\mathrm{el}$ (mN)")
     plain_log_axis(ax.xaxis, subs=(1.0,))
+    y_all = rows["electrostatic_force_N"].to_numpy(float)
+    if (y_all > 0).all() and y_all.max() > WIDE_RANGE * y_all.min():
+        # forces over decades: a log axis shows each drive's roll-off alike
+        ax.set_yscale("log")
+        ax.set_ylim(1e3 * y_all.min() / 2.0, 1e3 * y_all.max() * 1.5)
+        plain_log_axis(ax.yaxis)
+    else:
+        ax.set_ylim(0, None)
     place_legend(ax, handles, [str(h.get_label()) for h in handles], ncol_outside=3)
     return ax
+
+
+def _look(i: int, wave: str, amp: float, colour: Callable[[float], Any] | None
+          ) -> dict[str, Any]:
+    """A drive's colour, marker and fill: the series' own, or (*colour* given, many drives)
+    its amplitude's colour with a circle, open for a sine."""
+    if colour is None:
+        look = series_style(i)
+        return {"color": look["color"], "marker": look["marker"],
+                "markerfacecolor": look["color"]}
+    return {"color": colour(amp), "marker": "o",
+            "markerfacecolor": "white" if wave == "sine" else colour(amp)}
 
 
 def _model_label(fit: ModelFit) -> str:

@@ -20,10 +20,11 @@ import functools
 import inspect
 import math
 import weakref
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Any, ParamSpec, TypeVar, cast
 
 import matplotlib as mpl
+import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -39,8 +40,10 @@ __all__ = [
     "FIGURE_WIDTHS",
     "LINESTYLES",
     "MARKERS",
+    "MAX_DRIVE_ENTRIES",
     "PALETTE",
     "active_width",
+    "amplitude_bar",
     "figure_size",
     "journal_style",
     "new_axes",
@@ -69,6 +72,9 @@ PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#0
 #: A legend entry drawn in this grey stands for its line style in every colour drawn (a
 #: model's line style, drawn in each drive's colour).
 EVERY_COLOUR = "#595959"
+#: More drives than this in one figure: their colours from the amplitude (a colour bar)
+#: instead of one legend entry per drive.
+MAX_DRIVE_ENTRIES = 6
 #: One marker per series (filled shapes that differ in outline).
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<")
 #: One line style per series.
@@ -377,3 +383,34 @@ def proxy(label: str, **style: Any) -> Line2D:
         A line not added to any Axes.
     """
     return Line2D([], [], label=label, **style)
+
+
+def amplitude_bar(ax: Axes, amplitudes: Sequence[float]) -> Callable[[float], Any]:
+    """A colour bar of the voltage amplitude beside *ax*; the colour of each amplitude.
+
+    The viridis map without its palest tenth (readable in greyscale, visible on white), a
+    tick at each amplitude (:func:`~evtribo.compare.layout.voltage_ticks` is the caller's).
+
+    Parameters
+    ----------
+    ax : Axes
+    amplitudes : sequence of float
+        The amplitudes drawn, V.
+
+    Returns
+    -------
+    callable
+        ``colour(amplitude)``: an RGBA tuple.
+    """
+    from matplotlib import colormaps
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import ListedColormap, Normalize
+
+    amps = np.asarray(amplitudes, float)
+    cmap = ListedColormap(colormaps["viridis"](np.linspace(0.0, 0.85, 256)))
+    norm = Normalize(float(amps.min()), float(amps.max())) if amps.size else Normalize()
+    flat = amps.size == 0 or float(np.ptp(amps)) == 0.0
+    fig = ax.figure.figure
+    bar = fig.colorbar(ScalarMappable(norm, cmap), ax=ax, pad=0.02, aspect=30)
+    bar.set_label("voltage amplitude $U$ (V)")
+    return lambda amp: cmap(0.5 if flat else norm(amp))
