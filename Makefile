@@ -8,9 +8,12 @@ JOBS   ?= 2
 .PHONY: demo test test-quick bench lint docs dist clean chromium vcan-vm
 
 $(STAMP): pyproject.toml
+	@echo "Setting up $(VENV): evtribo and its libraries (numpy, scipy, pandas, matplotlib,"
+	@echo "statsmodels, python-can, cantools, asammdf, dask...): a few minutes on the first run."
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[test,mf4,dask]'
+	$(PY) -m pip install --progress-bar off -e '.[test,mf4,dask]'
+	@echo "$(VENV) is ready."
 	touch $(STAMP)
 
 demo: $(STAMP)

@@ -29,6 +29,10 @@ def test_demo_end_to_end(tmp_path):
     HTMLParser().feed(res.report.read_text(encoding="utf-8"))
     assert res.report.stat().st_size > 50_000
     assert any("air gap fitted" in line for line in lines)
+    # compare says what it is doing, trial by trial for the checks
+    assert any(line.startswith("fitting h_L") for line in lines)
+    assert [line for line in lines if " check of " in line] == [
+        f"[{k}/3] check of P01/run-0{k}" for k in (1, 2, 3)]
     with pytest.raises(OutputExistsError):
         run_demo(tmp_path / "demo", subjects=1, amplitudes=(80.0,), trial_s=8.0)
     again = run_demo(tmp_path / "demo", subjects=1, amplitudes=(80.0,), trial_s=8.0,

@@ -225,7 +225,7 @@ def run_demo(out: str | Path, *, subjects: int = 3, amplitudes: Sequence[float] 
                              progress=analysis_progress)
     say(f"results in {res.results}")
     say(taring_line(analysis.trials, truths["trials"]))
-    cmp = compare(res.results, force=force)
+    cmp = compare(res.results, force=force, progress=say)
     for fit in cmp.fits:
         est = next((e for e in fit.estimates if e.name == "h_L"), None)
         if est is not None:

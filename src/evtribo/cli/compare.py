@@ -56,6 +56,9 @@ def run(args: argparse.Namespace) -> int:
     """Run ``evtribo compare``; return the exit code."""
     from contextlib import nullcontext
 
+    say = _say_progress()
+    say("loading the fitting and plotting libraries")
+
     from evtribo.analysis.distributed import (
         SCHEDULER_ENV,
         check_workers,
@@ -75,7 +78,8 @@ def run(args: argparse.Namespace) -> int:
             result = compare(args.out, fit=args.fit, params=args.params, force=args.force,
                              dpi=args.dpi, formats=args.figure_format,
                              width=args.figure_width, models=args.models,
-                             trial_checks=args.trial_checks, scheduler=client)
+                             trial_checks=args.trial_checks, scheduler=client,
+                             progress=say)
     except Terminated:
         print(f"evtribo compare: terminated; {args.out} holds the fit it held before (or all "
               "of the new one), nothing half-written", file=sys.stderr)
@@ -92,6 +96,18 @@ def run(args: argparse.Namespace) -> int:
     print(f"wrote {result.out / 'fit.csv'} and {len(result.figures)} figures in "
           f"{result.out / 'figures'}")
     return 0
+
+
+def _say_progress() -> Any:
+    """What compare is doing, on stderr, with the time since it started."""
+    import time
+
+    start = time.monotonic()
+
+    def say(what: str) -> None:
+        print(f"[{time.monotonic() - start:6.1f} s] {what}", file=sys.stderr, flush=True)
+
+    return say
 
 
 def _print_population(result: Any) -> None:

@@ -72,7 +72,8 @@ from evtribo.model.params import TABLE_1, ModelParameters
 log = logging.getLogger(__name__)
 
 __all__ = ["N_REFITS", "ParameterEstimate", "SubjectFit", "fit_study", "fit_subject",
-           "mean_electrostatic_force", "mean_friction_force", "model_exponent"]
+           "interval_notes", "mean_electrostatic_force", "mean_friction_force",
+           "model_exponent"]
 
 _Z95 = float(stats.norm.ppf(0.975))
 #: Bootstrap replicates refitted per subject (the first ones of electrostatic_bootstrap.csv).
@@ -421,3 +422,40 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
         fits.append(fit_subject(subject, rows, base, fit, win, replicates=reps,
                                 scheduler=scheduler))
     return fits
+
+
+def interval_notes(fits: list[SubjectFit], *, has_bootstrap: bool) -> list[str]:
+    """What fit.json's notes say about how the intervals were obtained.
+
+    Parameters
+    ----------
+    fits : list of SubjectFit
+        The subjects' fits.
+    has_bootstrap : bool
+        Whether the result folder has ``electrostatic_bootstrap.csv``.
+
+    Returns
+    -------
+    list of str
+    """
+    jac = [f for f in fits if f.interval_method != "bootstrap"]
+    boot = [f for f in fits if f.interval_method == "bootstrap"]
+    notes = []
+    if boot:
+        notes.append(f"Intervals of {', '.join(f.subject for f in boot)}: 2.5-97.5 % "
+                     "percentiles of the parameters refitted to the bootstrap replicates of "
+                     f"the electrostatic forces ({boot[0].n_replicates} replicates, "
+                     "electrostatic_bootstrap.csv), which carry the errors the points share "
+                     "through a common OFF reference.")
+    if jac and not has_bootstrap:
+        notes.append("No electrostatic_bootstrap.csv in the result folder (results of an "
+                     "older evtribo analyze?): intervals from the Jacobian, with each "
+                     "point's error taken as independent; they are too narrow when several "
+                     "amplitudes share an OFF reference. Re-run evtribo analyze to get the "
+                     "replicates.")
+    elif jac:
+        for f in jac:
+            why = f.interval_note or "no replicates for some of its points"
+            notes.append(f"Intervals of {f.subject} from the Jacobian (each point's error "
+                         f"taken as independent): {why}.")
+    return notes

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -37,7 +37,7 @@ import pandas as pd
 
 from evtribo import __version__
 from evtribo.analysis.outputs import FIGURES, FIT_CSV, FIT_JSON, compare_files
-from evtribo.compare.fit import SubjectFit, fit_study
+from evtribo.compare.fit import SubjectFit, fit_study, interval_notes
 from evtribo.compare.fit_csv import fit_table
 from evtribo.compare.frequency_plots import write_models
 from evtribo.compare.friction_only import NOTE, friction_figures
@@ -188,7 +188,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
             dpi: float | None = None, formats: str | Iterable[str] | None = None,
             width: str = "single",
             models: str | Iterable[str] | None = None,
-            trial_checks: bool = True, scheduler: Any = None) -> CompareResult:
+            trial_checks: bool = True, scheduler: Any = None,
+            progress: Callable[[str], None] | None = None) -> CompareResult:
     """Fit the model to the results in *out* and write ``fit.csv``, ``fit.json``, figures.
 
     Parameters
@@ -214,6 +215,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         Draw the check of every trial (kind ``trial``) when the study folder is there.
     scheduler : distributed.Client, optional
         A Dask cluster for the bootstrap refits (the same results as here).
+    progress : callable, optional
+        Told what is being done, stage by stage (and trial by trial for the checks).
 
     Returns
     -------
@@ -247,7 +250,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         stale = compare_files(folder)
         with Staging(folder) as stage:
             result = _compare(tables, stage, names, base, look, models=candidates,
-                              trial_checks=trial_checks, scheduler=scheduler)
+                              trial_checks=trial_checks, scheduler=scheduler,
+                              progress=progress or (lambda _: None))
             _write_json(stage, result, names, base, params,
                         run_id=tables.summary.run_id)
             stage.commit(remove=stale, last=[FIT_JSON])
@@ -304,12 +308,18 @@ class _Figures:
 
 def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
              base: ModelParameters, look: _Look, *, models: tuple[str, ...] = (),
-             trial_checks: bool = True, scheduler: Any = None) -> CompareResult:
+             trial_checks: bool = True, scheduler: Any = None,
+             progress: Callable[[str], None]) -> CompareResult:
     """The fits and figures, written into *stage* (``result.files`` relative to it)."""
     only_mu = tables.electrostatic.empty  # a study of OFF trials: its friction, no fit
+    if not only_mu:
+        replicates = ("" if tables.bootstrap is None else
+                      ", refitted to each bootstrap replicate for its interval")
+        progress(f"fitting {', '.join(names)} to each of {len(tables.subjects)} subjects"
+                 f"{replicates}")
     fits = [] if only_mu else fit_study(tables, base, names, scheduler=scheduler)
     result = CompareResult(out=tables.out, fits=fits)
-    result.notes += [NOTE] if only_mu else _interval_notes(
+    result.notes += [NOTE] if only_mu else interval_notes(
         fits, has_bootstrap=tables.bootstrap is not None)
     table = fit_table(fits, tables)
     atomic_write(stage.path(FIT_CSV), table.to_csv(index=False))
@@ -319,6 +329,8 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
         atomic_write(stage.path(name), text)
         result.files.append(Path(name))
     figures = _Figures(stage.folder / FIGURES, look, result)
+    progress("drawing the figures of the fit" if not only_mu else
+             "drawing each subject's friction")
     with journal_style(look.width):
         if only_mu:
             friction_figures(tables, figures.emit)
@@ -326,11 +338,15 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
             draw_figures(tables, fits, names, figures)
             draw_population(tables.electrostatic, pop, figures.emit)
         if models and not only_mu:
+            progress(f"fitting and ranking the models {', '.join(models)}")
             files, notes = write_models(tables, stage, models, base, figures.emit)
             result.files += files
             result.notes += notes
         if trial_checks:
-            result.notes += write_trial_checks(tables, figures.emit, look.formats)
+            progress("drawing each trial's check (each trial analysed again, as analyze "
+                     "did; --no-trial-checks leaves them out)")
+            result.notes += write_trial_checks(tables, figures.emit, look.formats,
+                                               progress=progress)
     return result
 
 
@@ -432,31 +448,6 @@ def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: _Figur
                  subject=None,
                  caption="JKR over Hertz contact area at each subject's mean normal force ON "
                          "with the fitted parameters, cf. the paper's Figure 7.")
-
-
-def _interval_notes(fits: list[SubjectFit], *, has_bootstrap: bool) -> list[str]:
-    """What fit.json's notes say about how the intervals were obtained."""
-    jac = [f for f in fits if f.interval_method != "bootstrap"]
-    boot = [f for f in fits if f.interval_method == "bootstrap"]
-    notes = []
-    if boot:
-        notes.append(f"Intervals of {', '.join(f.subject for f in boot)}: 2.5-97.5 % "
-                     "percentiles of the parameters refitted to the bootstrap replicates of "
-                     f"the electrostatic forces ({boot[0].n_replicates} replicates, "
-                     "electrostatic_bootstrap.csv), which carry the errors the points share "
-                     "through a common OFF reference.")
-    if jac and not has_bootstrap:
-        notes.append("No electrostatic_bootstrap.csv in the result folder (results of an "
-                     "older evtribo analyze?): intervals from the Jacobian, with each "
-                     "point's error taken as independent; they are too narrow when several "
-                     "amplitudes share an OFF reference. Re-run evtribo analyze to get the "
-                     "replicates.")
-    elif jac:
-        for f in jac:
-            why = f.interval_note or "no replicates for some of its points"
-            notes.append(f"Intervals of {f.subject} from the Jacobian (each point's error "
-                         f"taken as independent): {why}.")
-    return notes
 
 
 def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],

@@ -24,7 +24,8 @@ CHECK_DPI = 150.0
 
 
 def write_trial_checks(tables: ResultTables, emit: Callable[..., None],
-                       formats: tuple[str, ...]) -> list[str]:
+                       formats: tuple[str, ...],
+                       progress: Callable[[str], None] | None = None) -> list[str]:
     """Draw the check of every trial of the analysed study and write it through *emit*.
 
     Parameters
@@ -37,6 +38,8 @@ def write_trial_checks(tables: ResultTables, emit: Callable[..., None],
     formats : tuple of str
         The figure formats asked for; the checks are written as PNG (at :data:`CHECK_DPI`)
         when PNG is among them, else in the first.
+    progress : callable, optional
+        Told ``"[k/n] check of SUBJECT/TRIAL"`` after each trial's figure.
 
     Returns
     -------
@@ -56,7 +59,10 @@ def write_trial_checks(tables: ResultTables, emit: Callable[..., None],
     try:
         checks = trial_check_figures(study_dir, tables.all_subjects,
                                      tables.summary.settings)
-        for f in checks:
+        total = len(tables.trials) if not tables.trials.empty else None
+        for k, f in enumerate(checks, start=1):
+            if progress is not None:
+                progress(f"[{k}/{total or '?'}] check of {f.subject}/{f.trial}")
             if f.error is not None and f"{f.subject}/{f.trial}" not in failed:
                 notes.append(f.caption)  # not said by the analysis: the study changed since
             emit(f.axes, "trial", f"{f.subject} / {f.trial}", f.stem, subject=f.subject,
