@@ -106,6 +106,28 @@ def plot_frequency_response(rows: pd.DataFrame, fits: Sequence[ModelFit], *,
     groups = _groups(rows)
     many = len(groups) > MAX_DRIVE_ENTRIES
     colour = amplitude_bar(ax, [a for (_, a), _ in groups]) if many else None
+    handles = _draw_drives(ax, groups, drawn, grid, colour)
+    if colour is not None:  # the colour bar gives the amplitude, the marker the waveform
+        waves = dict.fromkeys(w for (w, _), _ in groups)
+        handles += [proxy(f"{w} drive", color=EVERY_COLOUR, linestyle="none", markersize=4,
+                          **{k: v for k, v in _look(0, w, 0.0, lambda _: EVERY_COLOUR).items()
+                             if k != "color"}) for w in waves]
+        voltage_ticks(ax.figure.axes[-1].yaxis, [a for (_, a), _ in groups])
+    handles += [proxy(_model_label(fit), color=EVERY_COLOUR, lw=1.1,
+                      linestyle=_STYLES.get(fit.model, "-")) for fit in drawn]
+    ax.set(xscale="log", xlabel="drive frequency $f$ (Hz)",
+           ylabel=r"electrostatic force $F_\mathrm{el}$ (mN)")
+    plain_log_axis(ax.xaxis, subs=(1.0,))
+    _force_axis(ax, rows["electrostatic_force_N"].to_numpy(float))
+    place_legend(ax, handles, [str(h.get_label()) for h in handles], ncol_outside=3)
+    return ax
+
+
+def _draw_drives(ax: Axes, groups: list[tuple[tuple[str, float], pd.DataFrame]],
+                 drawn: Sequence[ModelFit], grid: np.ndarray,
+                 colour: Callable[[float], Any] | None) -> list[Any]:
+    """Each drive's points and its models' curves; the drives' legend entries (none when
+    a colour bar gives them)."""
     handles: list[Any] = []
     for i, ((wave, amp), group) in enumerate(groups):
         g = group.sort_values("frequency_Hz")
@@ -125,18 +147,11 @@ def plot_frequency_response(rows: pd.DataFrame, fits: Sequence[ModelFit], *,
         for fit in drawn:
             ax.plot(grid, 1e3 * fit.force(fn, amp, wave, grid),
                     linestyle=_STYLES.get(fit.model, "-"), color=look["color"], lw=1.1)
-    if colour is not None:  # the colour bar gives the amplitude, the marker the waveform
-        waves = dict.fromkeys(w for (w, _), _ in groups)
-        handles += [proxy(f"{w} drive", color=EVERY_COLOUR, linestyle="none", markersize=4,
-                          **{k: v for k, v in _look(0, w, 0.0, lambda _: EVERY_COLOUR).items()
-                             if k != "color"}) for w in waves]
-        voltage_ticks(ax.figure.axes[-1].yaxis, [a for (_, a), _ in groups])
-    handles += [proxy(_model_label(fit), color=EVERY_COLOUR, lw=1.1,
-                      linestyle=_STYLES.get(fit.model, "-")) for fit in drawn]
-    ax.set(xscale="log", xlabel="drive frequency $f$ (Hz)",
-           ylabel=r"electrostatic force $F_\mathrm{el}$ (mN)")
-    plain_log_axis(ax.xaxis, subs=(1.0,))
-    y_all = rows["electrostatic_force_N"].to_numpy(float)
+    return handles
+
+
+def _force_axis(ax: Axes, y_all: np.ndarray) -> None:
+    """The force axis: log over a wide range (:data:`WIDE_RANGE`), else linear from 0."""
     if (y_all > 0).all() and y_all.max() > WIDE_RANGE * y_all.min():
         # forces over decades: a log axis shows each drive's roll-off alike
         ax.set_yscale("log")
@@ -144,8 +159,6 @@ def plot_frequency_response(rows: pd.DataFrame, fits: Sequence[ModelFit], *,
         plain_log_axis(ax.yaxis)
     else:
         ax.set_ylim(0, None)
-    place_legend(ax, handles, [str(h.get_label()) for h in handles], ncol_outside=3)
-    return ax
 
 
 def _look(i: int, wave: str, amp: float, colour: Callable[[float], Any] | None
