@@ -104,8 +104,9 @@ def _say_progress() -> Any:
 
     start = time.monotonic()
 
-    def say(what: str) -> None:
-        print(f"[{time.monotonic() - start:6.1f} s] {what}", file=sys.stderr, flush=True)
+    def say(what: str) -> None:  # on a terminal, as analyze's progress bar
+        if sys.stderr.isatty():
+            print(f"[{time.monotonic() - start:6.1f} s] {what}", file=sys.stderr, flush=True)
 
     return say
 
