@@ -118,7 +118,9 @@ def acquire_cmd(study, path, *extra):
             "--log-channel", "vcan0", *extra]
 
 
-def wait_for_frames(part, proc, n_bytes=2000, timeout=15.0):
+def wait_for_frames(part, proc, n_bytes=2000, timeout=300.0):
+    """Wait until *part* holds *n_bytes* (*timeout* only ends a hang: a loaded machine
+    starts the recorder slowly)."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         assert proc.poll() is None, proc.communicate()
@@ -155,7 +157,7 @@ def test_signal_mid_trial_leaves_a_complete_log(tmp_path, adapter, sig):
         side = json.loads((study / "P01" / "run-01.json").read_text())
         assert side["ended"] == "recording"          # what a killed process would leave
         proc.send_signal(sig)
-        _out, err = proc.communicate(timeout=15)
+        _out, err = proc.communicate(timeout=120)
     finally:
         kill_and_reap(proc)
     assert proc.returncode == 0, err
@@ -183,6 +185,16 @@ def slow_fsync(fd):            # a disk slow to sync: saving the trial takes sec
 
 os.fsync = slow_fsync
 
+import evtribo.acquisition.trial as trial_module
+
+real_close = trial_module._close_writer
+
+def saving(writer):            # the test's cue: the receive has ended, the log is saved
+    open(sys.argv[2], "w").close()
+    real_close(writer)
+
+trial_module._close_writer = saving
+
 def send():
     bus = can.Bus(interface="virtual", channel="slow-disk")
     k = 0
@@ -203,16 +215,20 @@ def test_more_signals_while_the_trial_is_saved_do_not_abandon_it(tmp_path):
     """Ctrl-C, then Ctrl-C and SIGTERM again while the log is being saved (a slow disk):
     the trial still ends as interrupted, with every frame received in its log."""
     study = tmp_path / "study"
-    proc = subprocess.Popen([sys.executable, "-c", SLOW_DISK_ACQUIRE, str(study)],
+    saving = tmp_path / "saving"
+    proc = subprocess.Popen([sys.executable, "-c", SLOW_DISK_ACQUIRE, str(study), str(saving)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         wait_for_frames(study / "P01" / "run-01.log.part", proc, n_bytes=200)
         proc.send_signal(signal.SIGINT)
-        time.sleep(0.3)
+        deadline = time.monotonic() + 300  # a hang guard: a loaded machine is slow
+        while not saving.exists():  # then the next signals come while the trial is saved
+            assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+            time.sleep(0.02)
         proc.send_signal(signal.SIGINT)
-        time.sleep(0.3)
+        time.sleep(0.1)
         proc.send_signal(signal.SIGTERM)
-        _out, err = proc.communicate(timeout=30)
+        _out, err = proc.communicate(timeout=120)
     finally:
         kill_and_reap(proc)
     assert proc.returncode == 0, err
@@ -233,7 +249,7 @@ def test_adapter_vanishing_mid_trial_exits_1_with_the_log(tmp_path, adapter):
     try:
         wait_for_frames(study / "P01" / "run-01.log.part", proc)
         adapter.vanish()
-        _out, err = proc.communicate(timeout=15)
+        _out, err = proc.communicate(timeout=120)
     finally:
         kill_and_reap(proc)
     assert proc.returncode == 1, err
@@ -264,7 +280,7 @@ def test_damaged_lines_are_counted_and_the_recording_goes_on(tmp_path, adapter, 
             time.sleep(0.1)
             if k == 1:
                 time.sleep(0.3)  # some between two flushes, some in one
-        out, err = proc.communicate(timeout=30)
+        out, err = proc.communicate(timeout=120)
     finally:
         kill_and_reap(proc)
     assert proc.returncode == 0, err

@@ -246,5 +246,6 @@ class Simulator:
             return adapter.send_frames(table, i, j)
 
         stats = self._pace(gen, deliver, stop_event, adapter.poll)
-        adapter.drain(timeout=2.0)
+        # what is written reaches a client that keeps reading, however busy the machine
+        adapter.drain(timeout=120.0, stalled=5.0)
         return stats
