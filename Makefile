@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 JOBS   ?= 2
 
-.PHONY: demo test test-quick bench lint docs dist clean chromium
+.PHONY: demo test test-quick bench lint docs dist clean chromium vcan-vm
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -16,7 +16,7 @@ $(STAMP): pyproject.toml
 demo: $(STAMP)
 	$(VENV)/bin/evtribo demo --out demo-output --force
 
-test: $(STAMP) chromium
+test: $(STAMP) chromium vcan-vm
 	$(PY) -m pytest -n $(JOBS) -q
 
 # headless Chromium (Debian's package) looks at the live view in the tests
@@ -25,6 +25,21 @@ chromium:
 	{ if [ "$$(id -u)" = 0 ]; then DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium; \
 	  else echo "the live view's tests need Chromium: sudo apt-get install chromium"; exit 1; fi; }
+
+# a qemu VM whose kernel has SocketCAN (Debian's linux-image-amd64, downloaded, not installed)
+# for the tests in tests/socketcan; without it (not root, no apt) they skip and say why
+vcan-vm: $(STAMP)
+	@missing=""; \
+	command -v qemu-system-x86_64 >/dev/null 2>&1 || missing="$$missing qemu-system-x86"; \
+	command -v canplayer >/dev/null 2>&1 || missing="$$missing can-utils"; \
+	bb=$$(command -v busybox || true); \
+	{ [ -n "$$bb" ] && ! grep -q ld-linux "$$bb"; } || missing="$$missing busybox-static"; \
+	if [ -n "$$missing" ]; then \
+	  if [ "$$(id -u)" = 0 ]; then DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
+	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $$missing; \
+	  else echo "the SocketCAN tests need:$$missing (sudo apt-get install$$missing); without them they are skipped"; fi; \
+	fi
+	@$(PY) tests/_vcanvm.py prepare || echo "the SocketCAN tests will be skipped: no VM"
 
 # the suite without the tests marked slow (real-time recordings across processes, coverage
 # over many seeds, kill-at-every-step): for the edit-and-test loop; `make test` runs them all

@@ -36,6 +36,7 @@ results = evtribo.analyze(study)            # in memory: .trials .windows .elect
 results.save("results")                     # the files of §2, as `evtribo analyze` writes
 results = evtribo.load_results("results")   # the same tables (+ .fit after compare)
 fit = evtribo.compare(results)              # .table (fit.csv as a DataFrame), .figures
+fit.population                              # population.csv (study format §10) as a DataFrame
 ```
 
 `examples/quickstart.ipynb` runs these steps on the recorded study in `data/`.

@@ -23,3 +23,20 @@ def _private_cache_dir(tmp_path_factory):
         os.environ.pop("EVTRIBO_CACHE_DIR", None)
     else:
         os.environ["EVTRIBO_CACHE_DIR"] = old
+
+
+#: The SocketCAN VM's figures, as its stand-ins report them (tests/socketcan/conftest.py).
+_VM_FIGURES: list[dict[str, float | str]] = []
+
+
+def pytest_runtest_logreport(report):
+    for name, value in getattr(report, "user_properties", ()):
+        if name == "socketcan_vm" and value not in _VM_FIGURES:
+            _VM_FIGURES.append(value)
+
+
+def pytest_terminal_summary(terminalreporter):
+    for fig in _VM_FIGURES:
+        terminalreporter.write_line(
+            f"SocketCAN VM: booted in {fig['boot_s']} s, its tests ran {fig['tests_s']} s, "
+            f"{fig['wall_s']} s from start to power-off (slowest: {fig.get('slowest')})")

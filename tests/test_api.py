@@ -350,6 +350,10 @@ def test_compare_refuses_unknown_parameters_and_empty_results(simulated):
     with pytest.raises(ConfigError, match="h_X"):
         evtribo.compare(results, fit="h_X")
     results.electrostatic = results.electrostatic.iloc[:0]
+    only_mu = evtribo.compare(results)  # OFF windows still give each subject's friction
+    assert only_mu.fits == [] and any(s.startswith("friction_normal_force")
+                                      for s in only_mu.figures)
+    results.windows = results.windows.iloc[:0]
     with pytest.raises(UserInputError, match="nothing to compare"):
         evtribo.compare(results)
 

@@ -41,3 +41,30 @@ def test_the_front_page_is_the_readme_and_the_notebook_the_example():
     notebook = DOCS / "quickstart.ipynb"
     assert notebook.is_symlink()
     assert notebook.resolve() == (DOCS.parent / "examples" / "quickstart.ipynb").resolve()
+
+
+def _words(text: str) -> str:
+    return " ".join(text.split())
+
+
+def test_the_electrostatic_force_is_defined_one_way_everywhere():
+    """F_el and the μ each row used, stated word for word as the report states it."""
+    import json
+
+    import pandas as pd
+
+    from evtribo.compare.headline import F_EL_DEFINITION, force_table
+
+    root = DOCS.parent
+    notebook = json.loads((root / "examples" / "quickstart.ipynb").read_text(encoding="utf-8"))
+    texts = {name: (root / name).read_text(encoding="utf-8")
+             for name in ("README.md", "docs/study-format.md", "docs/analysis.md")}
+    texts["examples/quickstart.ipynb"] = "\n".join(
+        "".join(c["source"]) for c in notebook["cells"] if c["cell_type"] == "markdown")
+    texts["the report"] = force_table(pd.DataFrame(columns=[
+        "subject", "waveform", "amplitude_V", "electrostatic_force_N",
+        "electrostatic_force_ci_low_N", "electrostatic_force_ci_high_N"])).caption
+    for name, text in texts.items():
+        assert _words(F_EL_DEFINITION) in _words(text), name
+    for path in [root / "README.md", *DOCS.glob("*.md")]:
+        assert "(F_on \u2212 F_off)/μ" not in path.read_text(encoding="utf-8"), path

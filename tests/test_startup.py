@@ -84,7 +84,7 @@ def _evtribo(*args: str, before: str = "", **env: str) -> subprocess.CompletedPr
                           timeout=120, env={**os.environ, **env})
 
 
-def test_the_quick_exit_runs_the_exit_handlers_and_keeps_the_status_and_output(tmp_path):
+def test_the_exit_runs_the_exit_handlers_and_keeps_the_status_and_output(tmp_path):
     """The exit handlers run, everything printed arrives (a long listing, piped), and the
     status is the command's: 0 done, 2 bad input (its message on standard error)."""
     done = _evtribo("model", "--list")
@@ -99,8 +99,8 @@ def test_the_quick_exit_runs_the_exit_handlers_and_keeps_the_status_and_output(t
     assert "no-study" in bad.stderr and bad.stdout.strip() == "atexit ran"
 
 
-def test_the_quick_exit_waits_for_a_thread_an_exit_waits_for(tmp_path):
-    """A thread that is not a daemon still running: a plain exit, which waits for it."""
+def test_the_exit_waits_for_a_thread_still_running(tmp_path):
+    """A thread that is not a daemon still running: the exit waits for it."""
     started = ("import threading, time\n"
                "threading.Thread(target=lambda: (time.sleep(1.5), print('thread done', "
                "flush=True))).start()")

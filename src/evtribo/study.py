@@ -154,8 +154,9 @@ def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
         text = read_limited(p, StudyError, what=STUDY_FILE).decode("utf-8")
         config = tomllib.loads(text)
     except FileNotFoundError as err:
-        raise StudyError(f"no {STUDY_FILE}: this folder is not a study "
-                         "(evtribo acquire creates one)", path=p) from err
+        raise StudyError(f"no {STUDY_FILE}: this folder is not a study (`evtribo init "
+                         f"{p.parent} --dbc YOUR.dbc` makes one for your rig)",
+                         path=p) from err
     except tomllib.TOMLDecodeError as err:
         reason, line, key = toml_problem(err, text)
         raise StudyError(f"invalid TOML: {reason}", path=p, line=line, key=key) from err

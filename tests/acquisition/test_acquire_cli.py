@@ -41,8 +41,8 @@ def _slcan_lines():
 
 class SlcanPty(threading.Thread):
     """A pseudo-terminal answering as an slcan adapter: once opened (``O``), it streams
-    FzCell/FxCell frames with rolling counters at *rate* frames/s; :meth:`inject` slips raw
-    bytes in between two of its lines."""
+    FzCell/FxCell frames with rolling counters at *rate* frames/s, none while its channel is
+    closed (``C``); :meth:`inject` slips raw bytes in between two of its lines."""
 
     LINES = _slcan_lines()
 
@@ -71,9 +71,12 @@ class SlcanPty(threading.Thread):
         self.opened.set()
         t0 = time.perf_counter()
         lines = self.LINES
+        is_open = True
         while not self.stop.is_set():
             due = int((time.perf_counter() - t0) * self.rate)
-            chunk = b"".join(lines[k % len(lines)] for k in range(self.sent, due))
+            # a closed channel (C) sends no frames until it is opened again (O)
+            chunk = b"".join(lines[k % len(lines)] for k in range(self.sent, due)) \
+                if is_open else b""
             while not self.injected.empty():
                 chunk = self.injected.get() + chunk
             while chunk and not self.stop.is_set():
@@ -85,7 +88,9 @@ class SlcanPty(threading.Thread):
             self.sent = due
             if select.select([self.master], [], [], 0.005)[0]:
                 with contextlib.suppress(BlockingIOError):
-                    os.read(self.master, 1024)     # drain the driver's commands
+                    commands = os.read(self.master, 1024)     # the driver's commands
+                    for cmd in commands.split(b"\r"):
+                        is_open = {b"C": False, b"O": True}.get(cmd, is_open)
 
     def vanish(self):
         """Stop and close the master side, as an adapter pulled out of its USB port."""

@@ -147,9 +147,11 @@ def test_without_a_command_message_the_operator_sets_the_amplifier_and_may_redo(
                         "condition = \"on\"\n")
     answers = iter(["", "r", "", "k"])  # set; redo; set again; keep
     asked: list[str] = []
+    seen: list[str] = []  # what the operator had read when asked
 
     def ask(question: str) -> str:
         asked.append(question)
+        seen.append(out.getvalue())
         return next(answers)
 
     stop = threading.Event()
@@ -171,6 +173,13 @@ def test_without_a_command_message_the_operator_sets_the_amplifier_and_may_redo(
     text = out.getvalue()
     assert "set the amplifier: sine 200 Hz 90 V, on" in text
     assert len(asked) == 4 and asked[1].startswith("keep run-01?")
+    # the check's reasons, each on its line, before the operator decides (the simulated rig
+    # here runs on without a tare stretch at the trial's start)
+    check = seen[1][seen[1].rindex("check: "):]
+    reasons = [line for line in check.splitlines() if line.startswith("  warning: ")]
+    assert any("no finger-lifted stretch was found" in r for r in reasons), check
+    assert f"{len(reasons)} warning(s)" in check.splitlines()[0]
+    assert len(set(reasons)) == len(reasons)
     assert outcome.recorded == ["run-01"] and outcome.rejected == ["run-01-1"]
     subject = tmp_path / "study" / "P03"
     assert sorted(p.name for p in (subject / "rejected").iterdir()) == \

@@ -9,12 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from evtribo.analysis.estimate import estimate_electrostatic
-from evtribo.analysis.reference import (
-    WindowFacts,
-    fit_mu_model,
-    fit_trial_model,
-    pooled_rate_slope,
-)
+from evtribo.analysis.pace import pooled_rate_slope
+from evtribo.analysis.reference import WindowFacts, fit_mu_model, fit_trial_model
 
 
 def _facts(t, direction, rate=None, cluster=None):

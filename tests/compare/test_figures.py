@@ -343,14 +343,14 @@ def test_many_drives_get_a_colour_bar_not_a_long_legend():
                  "normal_force_N": 0.5, "friction_force_N": 0.25})
     ax = plot_friction_normal_force(pd.DataFrame(rows), TABLE_1)
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
-    assert labels == ["OFF (μ = 0.5)", "ON, square", "ON, sine"]
+    assert labels == ["OFF (μ = 0.500)", "ON, square", "ON, sine"]
     (bar,) = [a for a in ax.figure.axes if a is not ax]
     assert list(bar.yaxis.get_majorticklocs()) == list(amps)
     assert "(V)" in bar.get_ylabel()
     # a few drives: one entry each
     few = plot_friction_normal_force(pd.DataFrame(rows[:3] + rows[-1:]), TABLE_1)
     assert [t.get_text() for t in few.get_legend().get_texts()] == [
-        "OFF (μ = 0.5)", "ON 40 V", "ON 60 V", "ON 80 V"]
+        "OFF (μ = 0.500)", "ON 40 V", "ON 60 V", "ON 80 V"]
     assert len(few.figure.axes) == 1
 
 

@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 import math
+import re
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from evtribo.compare.numbers import (
     auto_prefix,
     decimals_for,
     frequency,
+    plain,
     quantity,
     r_squared,
     significant,
@@ -21,7 +25,8 @@ from evtribo.compare.numbers import (
 @pytest.mark.parametrize(("value", "text"), [
     (0.0264716, "0.0265"), (148.3, "148"), (9.996, "10.0"), (0.0009996, "0.00100"),
     (12345.0, "12300"), (-0.0001234, "-0.000123"), (3e-6, "0.00000300"), (0.0, "0.00"),
-    (-0.0001, "-0.000100"), (math.nan, "—"), (None, "—"), (math.inf, "∞")])
+    (-0.0001, "-0.000100"), (math.nan, "—"), (None, "—"), (math.inf, "∞"),
+    (5.55e-14, "< 0.000001"), (-2e-9, "> -0.000001")])
 def test_significant(value, text):
     assert significant(value) == text
     assert "e" not in text.lower()
@@ -36,6 +41,25 @@ def test_interval_has_the_values_decimals():
     assert with_interval(148.4, 99.26, 197.6) == "148 [99, 198]"
     assert with_interval(1.0, math.nan, 2.0) == "1.00 (no interval)"
     assert with_interval(math.nan, 1, 2) == "—"
+    # not finer than the interval's half-width to two figures: one rule for a table's cells
+    assert with_interval(71.5, -398.0, 541.0) == "72 [-398, 541]"
+    assert with_interval(198.2, -168.1, 619.4) == "198 [-168, 619]"
+    assert with_interval(0.02647, 0.02571, 0.02741) == "0.0265 [0.0257, 0.0274]"
+
+
+@given(st.floats(-1e6, 1e6), st.floats(0, 1e6), st.floats(0, 1e6))
+def test_an_interval_s_three_numbers_share_their_decimals(value, below, above):
+    text = with_interval(value, value - below, value + above)
+    numbers = re.findall(r"-?\d+(?:\.(\d+))?", text)
+    assert len(numbers) == 3 and len({len(d) for d in numbers}) == 1, text
+    assert "e" not in text and len(text) < 60, text
+
+
+@pytest.mark.parametrize(("value", "text"), [
+    (0.15, "0.15"), (2000.0, "2000"), (1e-6, "0.000001"), (0.95, "0.95"), (7, "7"),
+    (2.5e-7, "0.00000025")])
+def test_settings_are_printed_as_given(value, text):
+    assert plain(value) == text
 
 
 @pytest.mark.parametrize(("r2", "text"), [

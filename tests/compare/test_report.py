@@ -115,7 +115,7 @@ def test_report_holds_every_figure_and_table(report_page, compared_out):
                         "Trials", "Power laws", "Result files", "Software",
                         "Analysis settings"):
         assert table_title in text
-    for col in ("air gap h_L (µm)", "μ measured (OFF)", "exponent n, measured", "R²",
+    for col in ("air gap h_L (µm)", "μ (mean of its rows)", "exponent n, measured", "R²",
                 "RMSE (mN)", "F_el (mN) [95 %]", "dropped frames", "sha256"):
         assert col in page.headers
     # the fitted air gap is in the page, in µm to three significant figures
@@ -228,3 +228,23 @@ def test_provenance_names_the_version_that_analysed_the_results(tmp_path):
     text = " ".join(page.text)
     assert (f"These results were analysed by evtribo {summary['evtribo_version']}: cite that "
             "version.") in text
+
+
+def test_an_exact_fit_prints_no_over_long_number(tmp_path):
+    """A model that goes through every point has an RMSE of 1e-17 N: the page says '<
+    0.000001' mN, not a number of sixteen decimals, nor one in scientific notation."""
+    import re
+
+    out = make_out(tmp_path / "out", exact=True)
+    compare(out, dpi=40, trial_checks=False)
+    rmse = pd.read_csv(out / "fit.csv")["rmse_N"].to_numpy(float)
+    assert (rmse < 1e-12).all()
+    page = _Page()
+    page.feed(build_report(out, tmp_path / "r.html").read_text(encoding="utf-8"))
+    text = " ".join(page.text)
+    assert "< 0.000001" in text
+    decimals = re.findall(r"(?<![\w.:/-])-?(\d+)\.(\d+)(?![\w.])", text)
+    assert len(decimals) > 50
+    assert [f"{w}.{f}" for w, f in decimals
+            if len(f) > 8 or len((w + f).lstrip("0")) > 4] == []
+    assert not re.search(r"(?<![\w.])\d+(?:\.\d+)?[eE][-+]?\d+(?![\w.])", text)

@@ -111,9 +111,9 @@ def page(out) -> tuple[Path, _Outline]:
 
 def test_sections_in_order(page):
     _, outline = page
-    assert outline.sections == ["Electrostatic force", "Model fit", "All subjects",
-                                "Model comparison", "Subject P01", "Subject P02", "Warnings",
-                                "Provenance and settings"]
+    assert outline.sections == ["Electrostatic force", "Model fit", "Population",
+                                "All subjects", "Model comparison", "Subject P01",
+                                "Subject P02", "Warnings", "Provenance and settings"]
     # the study's facts (run_id, strict, elapsed_s...) are in the last section only
     facts = next(t for t in outline.tables if t["title"] == "Study")
     assert facts["section"] == "Provenance and settings"
@@ -306,8 +306,8 @@ def test_no_model_comparison_without_models(tmp_path):
     _, folder = analysed_study(tmp_path)
     compare(folder, dpi=30, trial_checks=False)
     outline = _outline(build_report(folder, tmp_path / "r.html"))
-    assert outline.sections == ["Electrostatic force", "Model fit", "All subjects",
-                                "Subject P01", "Subject P02", "Warnings",
+    assert outline.sections == ["Electrostatic force", "Model fit", "Population",
+                                "All subjects", "Subject P01", "Subject P02", "Warnings",
                                 "Provenance and settings"]
     assert not outline.details  # no checks drawn, none folded
 
@@ -326,3 +326,42 @@ def test_figure_shown_at_twice_its_printed_width(tmp_path, fmt):
     report.add_figure(tmp_path / f"f.{fmt}", "f")
     shown = int(re.search(r'<img [^>]*width="(\d+)"', report.render()).group(1))
     assert abs(shown - 96 * SCREEN_SCALE * 85 / 25.4) <= 1  # 643 px, to a pixel's rounding
+
+
+#: A number with a decimal point, not inside a version, a date, a name or a hash.
+DECIMAL = re.compile(r"(?<![\w.:/-])-?(\d+)\.(\d+)(?![\w.])")
+#: A value and its interval: ``26.5 [25.7, 27.4]``, ``72 [-398, 541]``.
+INTERVAL = re.compile(r"(-?\d+(?:\.\d+)?) \[(-?\d+(?:\.\d+)?), (-?\d+(?:\.\d+)?)\]")
+
+
+def test_no_number_over_long_and_intervals_with_one_precision(page):
+    """Over the whole page's text: no number with more than four significant figures or
+    eight decimals (an RMSE of 5.55e-14 mN is '< 0.000001', not its sixteen decimals),
+    and in every value [interval] the three numbers have the same decimals."""
+    _, outline = page
+    text = " ".join(outline.text)
+    numbers = DECIMAL.findall(text)
+    assert len(numbers) > 100
+    long = [f"{w}.{f}" for w, f in numbers if len(f) > 8 or len((w + f).lstrip("0")) > 4]
+    assert not long, long[:10]
+    intervals = INTERVAL.findall(text)
+    assert len(intervals) > 10
+    for triple in intervals:
+        places = {len(x.partition(".")[2]) for x in triple}
+        assert len(places) == 1, triple
+    assert DECIMAL.findall("RMSE 0.0000000000000555 mN") == [("0", "0000000000000555")]
+
+
+def test_fit_notes_are_under_the_fit_and_settings_as_given(page, out):
+    path, outline = page
+    html = path.read_text(encoding="utf-8")
+    sections = {part.split("</h2>", 1)[0].split(">")[-1]: part for part in html.split("<h2")}
+    notes = json.loads((out / "fit.json").read_text(encoding="utf-8"))["notes"]
+    assert notes
+    from html import escape
+    for note in notes:
+        assert escape(note, quote=False) not in sections["Warnings"], note
+        assert escape(note, quote=False) in sections["Model fit"], note
+    settings = next(t for t in outline.tables if t["title"] == "Analysis settings")
+    values = dict(settings["rows"])
+    assert values["guard_s"] == "0.15" and values["confidence"] == "0.95"

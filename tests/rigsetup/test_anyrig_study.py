@@ -61,3 +61,24 @@ def test_a_study_keeps_its_rig(tmp_path):
     # the default rig asked of a default-rig study is no conflict
     write_trial(tmp_path / "s", "run-02", SubjectParams(), TrialConfig(duration_s=3.0),
                 rig=default_rig())
+
+
+@pytest.mark.parametrize("rig_file", ["lab.toml", "motorola.toml"])
+def test_the_sidecar_names_the_rig_s_own_messages(rig_file, tmp_path):
+    """The simulator's record in the sidecar names the messages of the rig it spoke, with
+    their identifiers and the frames each sent, not the default rig's."""
+    rig = load_rig(RIGS / rig_file)
+    write_trial(tmp_path / "s", "run-01", SubjectParams(),
+                TrialConfig(duration_s=3.0, drop_probability=0.002, seed=3), rig=rig)
+    sidecar = json.loads((tmp_path / "s" / "P01" / "run-01.json").read_text())
+    nodes = sidecar["simulation"]["nodes"]
+    spoken = {ref.message.name: ref.message for ref in rig.measured_roles.values()}
+    assert set(nodes) == set(spoken)
+    frames, _ = read_frames(tmp_path / "s" / "P01" / "run-01.log")
+    for name, node in nodes.items():
+        assert node["frame_id"] == spoken[name].frame_id
+        sent = int(((frames.arbitration_id == spoken[name].frame_id)
+                    & (frames.is_extended == bool(spoken[name].is_extended_frame))).sum())
+        assert sent == node["frames"]
+    assert sidecar["frames"] == len(frames)
+    assert sidecar["dropped_frames"] == sum(n["dropped"] for n in nodes.values())

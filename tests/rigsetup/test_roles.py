@@ -153,3 +153,24 @@ def test_inspect_shows_each_signal_s_range_behaviour_and_role(tmp_path, capsys):
     assert "changes sign" in rows["LoadCellT.Force"]
     assert rows["LoadCellN.Counter"].endswith("-> normal_force_counter")
     assert rows["AmpStatus.HV_On"].endswith("-> excitation_enabled")
+
+
+def test_a_load_cell_s_name_is_no_reason_for_a_role(tmp_path):
+    """Messages LoadCell1 and LoadCell2 both hold a load cell: their names tell no role, so
+    no reason cites them, and the roles come from the log (as for Ch1 / Ch2)."""
+    text = (RIGS / "lab.dbc").read_text().replace("LoadCellN", "LoadCell1") \
+        .replace("LoadCellT", "LoadCell2")
+    (tmp_path / "lab.dbc").write_text(text)
+    toml = (RIGS / "lab.toml").read_text().replace("LoadCellN", "LoadCell1") \
+        .replace("LoadCellT", "LoadCell2")
+    (tmp_path / "lab.toml").write_text(toml)
+    rig = load_rig(tmp_path / "lab.toml")
+    names_only = guess_roles(rig.database)
+    assert not names_only["normal_force"].certain
+    frames = simulated_frames(rig, seed=5, duration_s=5.0)
+    guesses = guess_roles(rig.database, signal_stats(frames, rig.database))
+    assert guesses["normal_force"].name == "LoadCell1.Force"
+    assert guesses["tangential_force"].name == "LoadCell2.Force"
+    for role in ("normal_force", "tangential_force"):
+        assert "LoadCell" not in guesses[role].reason, guesses[role].reason
+        assert "name says" not in guesses[role].reason, guesses[role].reason

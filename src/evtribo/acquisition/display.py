@@ -51,6 +51,12 @@ class Snapshot:
     hv_amplitude_V, hv_frequency_Hz : float or None
     hv_waveform : str or None
         Its value-table name (``"square"``).
+    queue_dropped : int or None
+        Frames the receive queue dropped (SocketCAN: the kernel's count), counted in
+        *dropped* too; None when the bus does not count them.
+    controller : str or None
+        The CAN controller's state its error frames reported (``"bus-off"``,
+        ``"error-passive"``...), None while none said.
     """
 
     elapsed_s: float
@@ -68,6 +74,8 @@ class Snapshot:
     hv_amplitude_V: float | None = None
     hv_frequency_Hz: float | None = None
     hv_waveform: str | None = None
+    queue_dropped: int | None = None
+    controller: str | None = None
 
 
 def instruction(snap: Snapshot) -> str:
@@ -254,9 +262,7 @@ def render_status(snap: Snapshot, *, target: float | None = None, band: float = 
                                             else hv))
     rates = "   ".join(f"{name} {rate:6.0f}" for name, rate in snap.rates_Hz.items())
     lines.append(f"frames/s   {rates or '--'}")
-    damaged = f" ({snap.damaged_lines} damaged lines)" if snap.damaged_lines else ""
-    lines.append(f"frames {snap.frames}   dropped {snap.dropped}   bus errors {snap.bus_errors}"
-                 + damaged)
+    lines.append(_counts_line(snap, colour))
     if snap.alert:
         words, line = snap.alert.split(), ""
         for w in words:  # the alert wrapped, never cut: the operator must read all of it
@@ -267,6 +273,28 @@ def render_status(snap: Snapshot, *, target: float | None = None, band: float = 
                 line = f"{line} {w}".strip()
         lines.append(f"{_RED}{line}{_RESET}" if colour else line)
     return [_fit(line, columns) for line in lines]
+
+
+def _queue_text(snap: Snapshot) -> str:
+    """`` (receive queue 12)`` when the queue dropped frames, else empty."""
+    return f" (receive queue {snap.queue_dropped})" if snap.queue_dropped else ""
+
+
+def _controller_text(snap: Snapshot) -> str:
+    """`` controller BUS-OFF`` when the controller is not error-active, else empty."""
+    if snap.controller in (None, "error-active"):
+        return ""
+    return f"  controller {str(snap.controller).upper()}"
+
+
+def _counts_line(snap: Snapshot, colour: bool) -> str:
+    """Frames, dropped (and by the receive queue), bus errors, the controller's state."""
+    damaged = f" ({snap.damaged_lines} damaged lines)" if snap.damaged_lines else ""
+    controller = _controller_text(snap)
+    if colour and controller:
+        controller = _RED + controller + _RESET
+    return (f"frames {snap.frames}   dropped {snap.dropped}{_queue_text(snap)}   bus errors "
+            f"{snap.bus_errors}" + damaged + controller)
 
 
 def render_line(snap: Snapshot, *, target: float | None = None, band: float = 0.1) -> str:
@@ -293,8 +321,9 @@ def render_line(snap: Snapshot, *, target: float | None = None, band: float = 0.
     todo = instruction(snap)
     hv = hv_text(snap)
     return (f"t={snap.elapsed_s:.1f} s  Fn={fn}  Ft={ft}" + (f"  HV={hv}" if hv else "")
-            + f"  frames={snap.frames} ({total:.0f}/s)  dropped={snap.dropped}  bus "
-            f"errors={snap.bus_errors}" + (f"  {todo}" if todo else "")
+            + f"  frames={snap.frames} ({total:.0f}/s)  dropped={snap.dropped}"
+            + _queue_text(snap) + f"  bus errors={snap.bus_errors}" + _controller_text(snap)
+            + (f"  {todo}" if todo else "")
             + (f"  {snap.alert}" if snap.alert else ""))
 
 

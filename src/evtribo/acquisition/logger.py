@@ -14,6 +14,7 @@ The log line format is candump's ``-L`` one, as read by ``can.CanutilsLogReader`
 
 from __future__ import annotations
 
+import copy
 import logging
 import os
 import queue
@@ -25,6 +26,7 @@ from typing import IO
 import can
 
 from evtribo.acquisition.counters import CounterSpec, CounterTracker, counter_spec_from_dbc
+from evtribo.acquisition.errorframes import ErrorTally
 from evtribo.acquisition.receive import (
     DAMAGED_EXAMPLES,
     HANDOFF_FRAMES,
@@ -44,8 +46,11 @@ FLUSH_INTERVAL_S = 0.5
 
 
 def _frame_field(msg: can.Message) -> str:
-    """``ID#DATA`` of one frame, candump style (without timestamp and channel)."""
-    flags = (1 if msg.bitrate_switch else 0) | (2 if msg.error_state_indicator else 0)
+    """``ID#DATA`` of one frame, candump style (without timestamp and channel); an FD
+    frame's flags as the kernel gave them when it did (SocketCAN), else python-can's."""
+    flags = getattr(msg, "fd_flags", None)
+    if flags is None:
+        flags = (1 if msg.bitrate_switch else 0) | (2 if msg.error_state_indicator else 0)
     return frame_field(msg.arbitration_id, bytes(msg.data), is_extended=msg.is_extended_id,
                        is_remote=msg.is_remote_frame, is_error=msg.is_error_frame,
                        is_fd=msg.is_fd, dlc=msg.dlc, fd_flags=flags)
@@ -94,6 +99,12 @@ class LogStats:
         Reception times, s, of the first and last frame.
     damaged_lines : int
         Lines the bus's driver could not parse (counted by :func:`receive`, skipped).
+    errors : ErrorTally
+        The error frames by kind, and the controller's state they report.
+    queue_dropped : int or None
+        Frames the receiving side dropped (SocketCAN: the kernel's count of the frames the
+        socket's full receive queue dropped), read by :func:`receive`; None when the bus
+        does not count them.
     """
 
     frames: int = 0
@@ -105,6 +116,8 @@ class LogStats:
     first_timestamp: float | None = None
     last_timestamp: float | None = None
     damaged_lines: int = 0
+    errors: ErrorTally = field(default_factory=ErrorTally)
+    queue_dropped: int | None = None
 
 
 def id_key(msg: can.Message) -> str:
@@ -213,7 +226,7 @@ class LogWriter:
             view = view[written:]
 
     def _keep_whole_lines(self, data: bytes, batch: list[can.Message],
-                          before: tuple[dict[str, int], int]) -> None:
+                          before: tuple[dict[str, int], int, ErrorTally]) -> None:
         """After a write of *batch* (as *data*) failed part way: truncate the file to its
         last whole line, and count only the frames whose lines are whole."""
         keep = data.rfind(b"\n", 0, self._pending) + 1
@@ -225,12 +238,14 @@ class LogWriter:
             return
         self._size += keep
         stats = self.stats
-        stats.frames_by_id, stats.error_frames = before
+        stats.frames_by_id, stats.error_frames, stats.errors = before
         kept = batch[:data.count(b"\n", 0, keep)]
         for msg in kept:
             key = id_key(msg)
             stats.frames_by_id[key] = stats.frames_by_id.get(key, 0) + 1
             stats.error_frames += msg.is_error_frame
+            if msg.is_error_frame:
+                stats.errors.add(msg.arbitration_id, msg.data)
         if kept:
             stats.frames += len(kept)
             stats.first_timestamp = stats.first_timestamp or kept[0].timestamp
@@ -238,7 +253,7 @@ class LogWriter:
 
     def _write(self, batch: list[can.Message]) -> None:
         stats = self.stats
-        before = (dict(stats.frames_by_id), stats.error_frames)
+        before = (dict(stats.frames_by_id), stats.error_frames, copy.deepcopy(stats.errors))
         lines = self._lines(batch)
         data = "".join(lines).encode()
         self._pending = 0
@@ -273,6 +288,7 @@ class LogWriter:
                 key = id_key(msg)
                 if msg.is_error_frame:
                     stats.error_frames += 1
+                    stats.errors.add(msg.arbitration_id, msg.data)
             else:
                 fkey = frame_key(msg.arbitration_id, msg.is_extended_id)
                 prefix = prefix_cache.get(fkey)

@@ -123,9 +123,11 @@ class Monitor:
         self._stats = stats
         self._t0 = time.monotonic() if t0 is None else t0
         self._last = (self._t0, {})
-        if self.tare_s > 0 and not self.tty:  # a pipe or a file: say it at once
-            self.stream.write(f"lift the finger off the screen for {self.tare_s:g} s "
-                              "(taring), then slide\n")
+        if not self.tty and not self.quiet:  # a pipe or a file: say it at once
+            self.stream.write(f"recording {self.title}".rstrip() + "\n")
+            if self.tare_s > 0:
+                self.stream.write(f"lift the finger off the screen for {self.tare_s:g} s "
+                                  "(taring), then slide\n")
             self.stream.flush()
         self._thread = threading.Thread(target=self._run, name="evtribo-monitor", daemon=True)
         self._thread.start()
@@ -240,10 +242,12 @@ class Monitor:
         return Snapshot(elapsed_s=elapsed, remaining_s=remaining,
                         normal_force_N=self._decode(latest, self._forces[0]),
                         tangential_force_N=self._decode(latest, self._forces[1]),
-                        rates_Hz=rates, frames=stats.frames, dropped=stats.dropped,
+                        rates_Hz=rates, frames=stats.frames,
+                        dropped=max(stats.dropped, stats.queue_dropped or 0),
                         bus_errors=stats.error_frames + stats.damaged_lines,
                         tare_left_s=tare_left, damaged_lines=stats.damaged_lines,
-                        alert=self._alert(), **self._hv_fields(latest))
+                        alert=self._alert(), queue_dropped=stats.queue_dropped,
+                        controller=stats.errors.state, **self._hv_fields(latest))
 
     def _draw(self, final: bool = False) -> None:
         snap = self.snapshot(final)

@@ -27,6 +27,8 @@ log = logging.getLogger(__name__)
 HANDOFF_INTERVAL_S = 0.05
 #: Frames after which the receive loop hands over a batch early.
 HANDOFF_FRAMES = 512
+#: Seconds between two readings of the receiving side's count of dropped frames.
+DROPS_INTERVAL_S = 0.5
 #: Damaged lines kept (as text) for the sidecar's ``bus_exceptions``.
 DAMAGED_EXAMPLES = 10
 #: Damaged lines in a row, without a frame between them, after which the adapter is taken
@@ -52,6 +54,8 @@ class ReceiveResult:
         Lines the driver could not parse (skipped; the recording went on).
     damaged_examples : list of str
         The first :data:`DAMAGED_EXAMPLES` of them, as ``"ValueError: ..."``.
+    stale : int or None
+        Frames queued before the trial's start, discarded (None: the bus cannot tell them).
     """
 
     reason: str
@@ -59,6 +63,7 @@ class ReceiveResult:
     frames: int = 0
     damaged_lines: int = 0
     damaged_examples: list[str] = field(default_factory=list)
+    stale: int | None = 0
 
 
 def is_damaged_line(err: BaseException) -> bool:
@@ -87,12 +92,17 @@ def is_damaged_line(err: BaseException) -> bool:
     return isinstance(err, can.CanError) and isinstance(err.__cause__, UnicodeError)
 
 
-def _drop_stuck_line(bus: can.BusABC) -> None:
+def drop_stuck_line(bus: can.BusABC) -> None:
     """Forget a complete line the driver failed to decode and still holds.
 
     python-can's ``slcan`` driver decodes its line buffer before clearing it: a line that is
     no text would fail again with every later byte. Its buffer then ends with the line's
     terminator; a buffer that holds part of a line (``slcan_bulk``'s) never does.
+
+    Parameters
+    ----------
+    bus : can.BusABC
+        The bus whose ``recv`` raised a damaged line (:func:`is_damaged_line`).
     """
     buffer = getattr(bus, "_buffer", None)
     if isinstance(buffer, bytearray) and buffer.endswith((b"\r", b"\a")):
@@ -119,7 +129,7 @@ class _Damaged:
             self.examples.append(text)
         if self.count <= DAMAGED_EXAMPLES:
             log.warning("damaged line from the bus, skipped: %s", text)
-        _drop_stuck_line(bus)
+        drop_stuck_line(bus)
         if self.in_a_row >= MAX_DAMAGED_IN_A_ROW:
             raise can.CanOperationError(
                 f"{self.in_a_row} damaged lines in a row and no frame: the adapter sends "
@@ -130,7 +140,8 @@ def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
             should_stop: Callable[[], bool], timeout: float = 0.1,
             until: Callable[[], bool] | None = None,
             expect: frozenset[int] | None = None,
-            expect_within: float | None = None) -> ReceiveResult:
+            expect_within: float | None = None, not_before: float | None = None,
+            dropped: Callable[[], int] | None = None) -> ReceiveResult:
     """Receive frames from *bus* into *writer* until *duration* s or *should_stop*.
 
     A line the driver cannot parse (:func:`is_damaged_line`) is counted and skipped; any
@@ -156,54 +167,128 @@ def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
     expect_within : float, s, optional
         With *expect*: when none of those frames arrived within this time, the trial ends
         as ``"no-rig-data"``.
+    not_before : float, optional, s since the epoch
+        The trial's start, for a bus that stamps each frame with this machine's clock as it
+        receives it (SocketCAN's kernel timestamps): a frame stamped earlier was queued
+        before the trial, and is discarded and counted (:attr:`ReceiveResult.stale`). When
+        the trial ends by its duration or a stop, the frames received until then and still
+        queued (a receiver that fell behind) are read into the log.
+    dropped : callable, optional
+        The receiving side's count of the frames it dropped (a full receive queue), read
+        into ``writer.stats.queue_dropped`` at most every :data:`DROPS_INTERVAL_S` s and at
+        the end.
 
     Returns
     -------
     ReceiveResult
     """
-    recv = bus.recv
-    monotonic = time.monotonic
-    start = monotonic()
-    end = float("inf") if duration is None else start + duration
-    waiting = expect is not None and expect_within is not None
-    deadline = start + (expect_within or 0.0)
-    batch: list[can.Message] = []
-    next_handoff = start + HANDOFF_INTERVAL_S
-    frames = 0
-    damaged = _Damaged(writer.stats)
+    loop = _Loop(bus, writer, duration,
+                 expect=expect if expect_within is not None else None,
+                 expect_within=expect_within, dropped=dropped)
     stop: tuple[str, BaseException | None] | None = None
-    now = start
     try:
-        while stop is None:
-            msg = _recv(bus, recv, min(timeout, max(end - now, 0.0)), damaged)
-            now = monotonic()
-            if msg is not None:
-                batch.append(msg)
-                damaged.in_a_row = 0
-                if len(batch) < HANDOFF_FRAMES and now < next_handoff and now < end:
-                    continue
-            if batch:
-                if waiting and expect is not None and _any_expected(batch, expect):
-                    waiting = False
-                frames += len(batch)
-                writer.put(batch)
-                batch = []
-            next_handoff = now + HANDOFF_INTERVAL_S
-            stop = _stop_reason(writer, now=now, end=end, idle=msg is None,
-                                should_stop=should_stop, until=until,
-                                no_rig_data=waiting and now >= deadline)
+        if not_before is not None:
+            loop.skip_stale(not_before, timeout, should_stop)
+        stop = loop.run(should_stop, until, timeout)
+        if not_before is not None and stop[0] in ("completed", "interrupted"):
+            loop.read_queued(time.time())
     except Exception as err:
         # CanOperationError, serial.SerialException (an OSError), a pty closed under the
         # driver (OSError), or anything else a driver raises: the adapter is gone.
         log.error("the bus failed: %s: %s", type(err).__name__, err)
         stop = ("bus-error", err)
     finally:
-        if batch:
-            frames += len(batch)
-            writer.put(batch)
+        loop.hand_over(final=True)
+    assert stop is not None
     reason, error = stop
-    return ReceiveResult(reason=reason, error=error, frames=frames,
-                         damaged_lines=damaged.count, damaged_examples=damaged.examples)
+    return ReceiveResult(reason=reason, error=error, frames=loop.frames,
+                         damaged_lines=loop.damaged.count,
+                         damaged_examples=loop.damaged.examples, stale=loop.stale)
+
+
+class _Loop:
+    """The state of :func:`receive`: the batch on its way to the writer, and the counts."""
+
+    def __init__(self, bus: can.BusABC, writer: LogWriter, duration: float | None, *,
+                 expect: frozenset[int] | None, expect_within: float | None,
+                 dropped: Callable[[], int] | None) -> None:
+        self.bus, self.writer, self.dropped = bus, writer, dropped
+        self.recv = bus.recv
+        self.start = time.monotonic()
+        self.end = float("inf") if duration is None else self.start + duration
+        self.expect = expect
+        self.deadline = self.start + (expect_within or 0.0)
+        self.batch: list[can.Message] = []
+        self.frames = 0
+        self.stale = 0
+        self.damaged = _Damaged(writer.stats)
+        self.next_drops = self.start
+
+    def skip_stale(self, not_before: float, timeout: float,
+                   should_stop: Callable[[], bool]) -> None:
+        """Discard the frames stamped before *not_before*, until the first one after it
+        (kept), an idle bus or a stop."""
+        while True:
+            msg = _recv(self.bus, self.recv, min(timeout, max(self.end - time.monotonic(),
+                                                              0.0)), self.damaged)
+            if msg is None:
+                return
+            if msg.timestamp >= not_before:
+                self.batch.append(msg)
+                return
+            self.stale += 1
+            if self.stale % HANDOFF_FRAMES == 0 and should_stop():
+                return
+
+    def run(self, should_stop: Callable[[], bool], until: Callable[[], bool] | None,
+            timeout: float) -> tuple[str, BaseException | None]:
+        """Receive until the trial ends; say why it ended."""
+        recv, monotonic, batch = self.recv, time.monotonic, self.batch
+        next_handoff = self.start + HANDOFF_INTERVAL_S
+        now, end = self.start, self.end
+        while True:
+            msg = _recv(self.bus, recv, min(timeout, max(end - now, 0.0)), self.damaged)
+            now = monotonic()
+            if msg is not None:
+                batch.append(msg)
+                self.damaged.in_a_row = 0
+                if len(batch) < HANDOFF_FRAMES and now < next_handoff and now < end:
+                    continue
+            self.hand_over()
+            batch = self.batch  # a new list: the writer has the last one
+            next_handoff = now + HANDOFF_INTERVAL_S
+            stop = _stop_reason(self.writer, now=now, end=end, idle=msg is None,
+                                should_stop=should_stop, until=until,
+                                no_rig_data=self.expect is not None and now >= self.deadline)
+            if stop is not None:
+                return stop
+
+    def read_queued(self, until: float) -> None:
+        """Read the frames stamped up to *until* that are still queued."""
+        while (msg := _recv(self.bus, self.recv, 0.0, self.damaged)) is not None:
+            if msg.timestamp > until:
+                return
+            self.batch.append(msg)
+            if len(self.batch) >= HANDOFF_FRAMES:
+                self.hand_over()
+
+    def hand_over(self, final: bool = False) -> None:
+        """Hand the batch to the writer; note whether the rig was heard from; read the
+        receiving side's drop count when it is time."""
+        batch = self.batch
+        if batch:
+            if self.expect is not None and _any_expected(batch, self.expect):
+                self.expect = None
+            self.frames += len(batch)
+            self.writer.put(batch)
+            self.batch = batch = []
+        if self.dropped is not None and (final or time.monotonic() >= self.next_drops):
+            self.next_drops = time.monotonic() + DROPS_INTERVAL_S
+            try:
+                self.writer.stats.queue_dropped = self.dropped()
+            except Exception as err:  # a count the driver cannot give ends nothing
+                log.warning("cannot read the frames the receiving side dropped: %s", err)
+                self.dropped = None
 
 
 def _recv(bus: can.BusABC, recv: Callable[[float], can.Message | None], wait: float,
@@ -243,5 +328,6 @@ def _any_expected(batch: list[can.Message], keys: frozenset[int]) -> bool:
                for m in batch if not m.is_error_frame)
 
 
-__all__ = ["DAMAGED_EXAMPLES", "HANDOFF_FRAMES", "HANDOFF_INTERVAL_S", "MAX_DAMAGED_IN_A_ROW",
-           "ReceiveResult", "is_damaged_line", "receive"]
+__all__ = ["DAMAGED_EXAMPLES", "DROPS_INTERVAL_S", "HANDOFF_FRAMES", "HANDOFF_INTERVAL_S",
+           "MAX_DAMAGED_IN_A_ROW", "ReceiveResult", "drop_stuck_line", "is_damaged_line",
+           "receive"]

@@ -42,9 +42,11 @@ import serial
 from can.exceptions import error_check
 from can.interfaces.slcan import slcanBus
 
+from evtribo.acquisition.receive import drop_stuck_line, is_damaged_line
 from evtribo.frames.table import FrameTable
 
-__all__ = ["BulkSlcanBus", "SlcanPtyAdapter", "check_slcan_line", "encode_slcan"]
+__all__ = ["DISCARD_LIMIT_S", "QUIET_S", "BulkSlcanBus", "SlcanPtyAdapter", "check_slcan_line",
+           "discard_queued", "encode_slcan"]
 
 log = logging.getLogger(__name__)
 
@@ -155,6 +157,57 @@ class BulkSlcanBus(slcanBus):
         """Discard what was received and not yet parsed."""
         self._lines.clear()
         super().flush()
+
+
+#: An adapter that sent nothing for this long after ``C`` has no more old frames, s.
+QUIET_S = 0.2
+#: Longest time spent reading away an adapter's old frames, s.
+DISCARD_LIMIT_S = 5.0
+
+
+def discard_queued(bus: slcanBus, limit: float = DISCARD_LIMIT_S) -> int:
+    """Read away the frames an slcan adapter holds (sent before a trial); return how many.
+
+    Frames sent by the adapter before now wait in the serial port's buffers, and in the
+    adapter's own (after a recording was killed, an adapter goes on sending into the port):
+    read now, they would be stamped as if just received. The channel is closed (``C``: the
+    adapter sends no more frames), what still comes is read until the port stays quiet for
+    :data:`QUIET_S` (at most *limit* s), and the channel is opened again (``O``, or ``L``
+    listen-only as the bus was opened).
+
+    Parameters
+    ----------
+    bus : can.interfaces.slcan.slcanBus
+        python-can's slcan bus or :class:`BulkSlcanBus`, open.
+    limit : float, s
+
+    Returns
+    -------
+    int
+        Frames read away (damaged lines are skipped, not counted).
+    """
+    bus.close()
+    count = 0
+    now = time.monotonic()
+    deadline, quiet_until = now + limit, now + QUIET_S
+    while (now := time.monotonic()) < min(deadline, quiet_until):
+        try:
+            msg = bus.recv(QUIET_S / 4)
+        except Exception as err:
+            if not is_damaged_line(err):  # the adapter is gone: the trial will say so
+                log.debug("reading the frames queued before the trial: %s", err)
+                return count
+            log.debug("a damaged line queued before the trial, discarded: %s", err)
+            drop_stuck_line(bus)
+            msg, quiet_until = None, now + QUIET_S
+        if msg is not None:
+            count += 1
+            quiet_until = time.monotonic() + QUIET_S
+    if now >= deadline:
+        log.warning("the adapter was still sending old frames after %g s; the trial starts "
+                    "anyway", limit)
+    bus.open()
+    return count
 
 
 def encode_slcan(table: FrameTable, start: int = 0, stop: int | None = None) -> bytes:

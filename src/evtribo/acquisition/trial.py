@@ -27,19 +27,34 @@ recording     (only in a sidecar left by a killed process)
 
 Keys the recording adds to the sidecar (besides spec §1's and the bus settings):
 
-========================  ===============================================================
-key                       meaning
-========================  ===============================================================
-frames, frames_by_id      frames written to the log, in all and per identifier
-error_frames              CAN error frames received
-damaged_lines             lines the adapter's driver could not parse (``t0CZ8...``); each
-                          is skipped and the recording goes on
-dropped_frames(_by_...)   frames missing by the load cells' rolling counters
-bus_errors                error_frames + damaged_lines (+ 1 when the bus failed)
-bus_exceptions            the first damaged lines' errors, and the one that ended a trial
-                          as bus-error
-ended, end_detail         how the trial ended (above), and why
-========================  ===============================================================
+==========================  ===============================================================
+key                         meaning
+==========================  ===============================================================
+frames, frames_by_id        frames written to the log, in all and per identifier
+discarded_before_start      frames the bus held when the trial started (queued before it:
+                            an adapter that went on sending after a killed recording),
+                            discarded; no frame stamped before ``start_time`` is in the log
+error_frames, ..._by_kind   CAN error frames received, in all and by kind (``bus-off``,
+                            ``controller rx-error-passive``...: :mod:`.errorframes`)
+controller_state            the CAN controller's last state the error frames reported:
+                            error-active, error-warning, error-passive, bus-off
+worst_controller_state      the worst of them during the trial
+damaged_lines               lines the adapter's driver could not parse (``t0CZ8...``); each
+                            is skipped and the recording goes on
+dropped_frames              frames lost before the log, at least: the larger of the load
+                            cells' counters' count and ``queue_dropped_frames``
+dropped_frames_by_message   frames missing by the load cells' rolling counters
+queue_dropped_frames        frames the receiving side dropped from its full receive queue
+                            (SocketCAN: the kernel's count, ``SO_RXQ_OVFL``); null when the
+                            bus does not count them
+receive                     how the bus receives: ``timestamps`` (``kernel``: the kernel's
+                            time of reception), ``queue`` (the receive queue asked for and
+                            granted), ``drop_counter``
+bus_errors                  error_frames + damaged_lines (+ 1 when the bus failed)
+bus_exceptions              the first damaged lines' errors, and the one that ended a trial
+                            as bus-error
+ended, end_detail           how the trial ended (above), and why
+==========================  ===============================================================
 """
 
 from __future__ import annotations
@@ -59,7 +74,7 @@ from typing import Any, BinaryIO
 import can
 
 import evtribo
-from evtribo.acquisition.bus import BusSettings
+from evtribo.acquisition.bus import BusSettings, ReceiveCare, receive_care
 from evtribo.acquisition.logger import CounterTracker, LogWriter, ReceiveResult, receive
 from evtribo.acquisition.rigfile import AcquisitionRig, check_name, open_study
 from evtribo.acquisition.trialdata import (
@@ -198,6 +213,9 @@ class _Recording:
     sidecar: dict[str, Any]
     previous: list[Path]
     channel: str
+    care: ReceiveCare = dataclasses.field(default_factory=ReceiveCare)
+    t_start: float = 0.0
+    discarded: int | None = None
 
 
 def _start(bus: can.BusABC, paths: TrialPaths, acq_rig: AcquisitionRig,
@@ -219,7 +237,7 @@ def _start(bus: can.BusABC, paths: TrialPaths, acq_rig: AcquisitionRig,
     rec = _Recording(paths=paths, fh=fh, previous=previous, channel=channel,
                      sidecar=_first_sidecar(paths, acq_rig, opts, settings, channel))
     try:
-        _prepare(rec, opts.started)
+        _prepare(rec, bus, opts.started)
     except BaseException:
         # nothing of this trial may stay behind to block the next attempt
         fh.close()
@@ -253,9 +271,11 @@ def _first_sidecar(paths: TrialPaths, acq_rig: AcquisitionRig, opts: TrialOption
     }
 
 
-def _prepare(rec: _Recording, started: Callable[[TrialPaths], None] | None) -> None:
+def _prepare(rec: _Recording, bus: can.BusABC,
+             started: Callable[[TrialPaths], None] | None) -> None:
     """Write the first sidecar (unless a previous trial's stays until this one ends), hold
-    the disk space for the last one, and tell the caller the log is open."""
+    the disk space for the last one, start the trial (what the bus held before is discarded:
+    :func:`_begin`) and tell the caller."""
     paths = rec.paths
     if paths.sidecar in rec.previous:
         log.info("%s is kept until the new trial has ended", paths.sidecar)
@@ -272,8 +292,19 @@ def _prepare(rec: _Recording, started: Callable[[TrialPaths], None] | None) -> N
             f"the disk is full: not even {RESERVE_BYTES // 1024} KiB are free for the "
             f"trial ({err.strerror or err}); nothing was recorded",
             path=paths.reserve) from err
+    _begin(rec, bus)
     if started is not None:
         started(paths)
+
+
+def _begin(rec: _Recording, bus: can.BusABC) -> None:
+    """The trial starts now: what the bus holds was queued before it. A bus that stamps
+    frames as this machine receives them (SocketCAN) has its older frames discarded as they
+    are read (:func:`receive`'s ``not_before``); an slcan adapter or a virtual bus is read
+    empty now; any other cannot tell (``discarded_before_start`` is null)."""
+    rec.care = receive_care(bus)
+    rec.discarded = rec.care.discard() if rec.care.discard is not None else None
+    rec.t_start = time.time()
 
 
 @dataclass
@@ -284,6 +315,8 @@ class _Received:
     writer: LogWriter
     elapsed: float
     t_end: float
+    t_start: float
+    care: ReceiveCare
 
 
 def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
@@ -312,7 +345,7 @@ def _receive(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
     """Receive into the log through a writer thread (and the display) until the trial ends,
     whatever ends it; the writer is closed, every queued frame written."""
     writer = LogWriter(rec.fh, rec.channel, CounterTracker(acq_rig.counters)).start()
-    t0 = time.monotonic()
+    care, t0 = rec.care, time.monotonic()
     monitor = opts.monitor
     if monitor is not None:
         monitor.start(writer.stats, t0)
@@ -327,7 +360,9 @@ def _receive(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
             flag.interruptible = True
         result = receive(bus, writer, duration=opts.duration,
                          should_stop=should_stop or (lambda: False), until=opts.until,
-                         expect=expect, expect_within=opts.rig_data_timeout)
+                         expect=expect, expect_within=opts.rig_data_timeout,
+                         not_before=rec.t_start if care.local_clock else None,
+                         dropped=care.dropped)
         if flag is not None:
             flag.interruptible = False  # from here on, the trial is saved whatever comes
     except KeyboardInterrupt:
@@ -343,7 +378,13 @@ def _receive(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
         _close_writer(writer)
         if monitor is not None:
             monitor.stop()
-    return _Received(result=result, writer=writer, elapsed=elapsed, t_end=t_end)
+    if rec.discarded is not None or rec.care.local_clock:
+        result.stale = (result.stale or 0) + (rec.discarded or 0)
+        log.info("discarded %d frames queued before the trial started", result.stale)
+    else:
+        result.stale = None
+    return _Received(result=result, writer=writer, elapsed=elapsed, t_end=t_end,
+                     t_start=rec.t_start, care=care)
 
 
 def _how_it_ended(rec: _Recording, got: _Received) -> tuple[str, BaseException | None]:
@@ -369,6 +410,7 @@ def _last_sidecar(rec: _Recording, got: _Received, ended: str, error: BaseExcept
         exceptions.append(f"{type(error).__name__}: {error}")
     sidecar = rec.sidecar
     sidecar.update({
+        "start_time": _iso(got.t_start),
         "end_time": _iso(got.t_end),
         "duration_s": round(got.elapsed, 6),
         "log": rec.paths.log.name,
@@ -376,9 +418,15 @@ def _last_sidecar(rec: _Recording, got: _Received, ended: str, error: BaseExcept
         "frames_by_id": dict(sorted(stats.frames_by_id.items())),
         "first_frame_time": None if stats.first_timestamp is None
         else _iso(stats.first_timestamp),
+        "discarded_before_start": got.result.stale,
         "error_frames": stats.error_frames,
+        "error_frames_by_kind": dict(sorted(stats.errors.by_kind.items())),
+        "controller_state": stats.errors.state,
+        "worst_controller_state": stats.errors.worst,
         "damaged_lines": stats.damaged_lines,
-        "dropped_frames": stats.dropped,
+        "dropped_frames": max(stats.dropped, stats.queue_dropped or 0),
+        "queue_dropped_frames": stats.queue_dropped,
+        "receive": got.care.as_dict(),
         "dropped_frames_by_message": stats.dropped_by_message,
         "longest_gap_s_by_message": got.writer.counters.longest_gap_by_message(),
         "bus_errors": stats.error_frames + stats.damaged_lines + int(ended == "bus-error"),

@@ -28,6 +28,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from evtribo.analysis.conditions import EXCLUDED, OFF, ON
+from evtribo.analysis.heard import heard_warnings
 from evtribo.analysis.lifted import EDGE_S
 from evtribo.analysis.observed import PieceState
 from evtribo.analysis.pipeline import study_settings
@@ -240,7 +241,8 @@ def check_trial(study: Study | str | os.PathLike[str], subject: str, trial: str,
                 settings: AnalysisSettings | Mapping[str, Any] | None = None,
                 cache_dir: str | os.PathLike[str] | None = None) -> TrialCheck:
     """Check one trial of a study: decode it through the cache, analyse it with the study's
-    settings, keep what the analysis worked on.
+    settings, keep what the analysis worked on. What the analysis warns of is kept in the
+    check's ``warnings`` and logged as debug messages only (``evtribo analyze`` says it).
 
     Parameters
     ----------
@@ -268,9 +270,10 @@ def check_trial(study: Study | str | os.PathLike[str], subject: str, trial: str,
         study = load_study(Path(study))
     ref = find_trial(study, subject, trial)
     assert study.rig is not None
-    return check_signals(trial_signals(ref, study, cache_dir), trial_meta(ref),
-                         settings=settings_of(study, settings),
-                         calibration=study.rig.calibration)
+    with heard_warnings():  # evtribo analyze said them; the check keeps them in .warnings
+        return check_signals(trial_signals(ref, study, cache_dir), trial_meta(ref),
+                             settings=settings_of(study, settings),
+                             calibration=study.rig.calibration)
 
 
 def _runs_of(mask: npt.NDArray[np.bool_], t: npt.NDArray[np.float64], dt: float

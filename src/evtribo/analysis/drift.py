@@ -189,13 +189,13 @@ def stroke_notes(subject: str, models: dict[int, MuModel], off_ratio_sd: float,
                   f"{'slower' if rate_gap < 0 else 'faster'} than the OFF ones")
         notes.append(f"{subject}: the friction follows the strokes' pace (faster strokes, "
                      f"other friction){slower}; each ON window was compared with the OFF "
-                     "friction at its own stroke's pace. A position or speed signal in the "
-                     "rig (docs/rig-file.md) measures the speed itself")
+                     "friction at its own stroke's pace (docs/analysis.md, \"Speed and "
+                     "direction\")")
     elif off_ratio_sd > 0.03:
         notes.append(f"{subject}: the OFF windows' friction coefficient scatters by "
-                     f"{100 * off_ratio_sd:.0f} % between strokes (speed, posture); the "
-                     "intervals include it, and a rig with a position or speed signal "
-                     "would let the analysis compare strokes of one speed")
+                     f"{100 * off_ratio_sd:.0f} % between strokes (speed, posture) beyond "
+                     "what the strokes' pace explains; the intervals include it: strokes of "
+                     "an even pace and length narrow them")
     return notes
 
 

@@ -5,10 +5,10 @@ over a fraction of a period keeps part of it, and a hum as large as a few mN is 
 the effects the analysis looks for; it also stands out in the friction's spectrum, where a
 sine drive's modulation is sought. :func:`find_hum` looks for a narrow peak at 50 or 60 Hz
 (and at their harmonics) standing well above the spectrum around it (Welch's density,
-:mod:`.psd`); :func:`remove_hum`
-notches those lines out with zero-phase IIR notch filters (``scipy.signal.iirnotch``'s, run
-forwards and backwards as ``scipy.signal.filtfilt`` runs them: :mod:`.iir`), which leave the
-rest of the spectrum, steps included, as it was.
+``scipy.signal.welch``); :func:`remove_hum` notches those lines out with zero-phase IIR
+notch filters (``scipy.signal.iirnotch``, run forwards and backwards by
+``scipy.signal.filtfilt``), which leave the rest of the spectrum, steps included, as it was.
+scipy.signal is imported where a hum is looked for (0.5 s, once per process).
 
 A harmonic that coincides with a frequency the friction itself oscillates at (twice the
 drive's frequency and its multiples) is not notched: it cannot be told apart from the physics.
@@ -22,9 +22,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-
-from evtribo.analysis.iir import filtfilt, iirnotch
-from evtribo.analysis.psd import welch
 
 log = logging.getLogger(__name__)
 
@@ -101,9 +98,11 @@ def find_hum(x: npt.ArrayLike, rate_Hz: float, *, avoid_Hz: Sequence[float] = ()
     finite = np.isfinite(x)
     if finite.sum() < 4 * rate_Hz / 10 or rate_Hz < 2.5 * min(MAINS_HZ):
         return None
+    from scipy import signal
+
     y = _filled(x)
     nper = int(min(y.size, round(2.0 * rate_Hz)))  # 0.5 Hz resolution
-    f, pxx = welch(y, rate_Hz, nper)  # scipy.signal's, in numpy (see .psd)
+    f, pxx = signal.welch(y, fs=rate_Hz, nperseg=nper)
     df = f[1] - f[0]
 
     def line(freq: float) -> tuple[float, float]:
@@ -158,12 +157,15 @@ def remove_hum(x: npt.ArrayLike, rate_Hz: float, hum: Hum) -> FloatArray:
     x = np.asarray(x, dtype=np.float64)
     if not hum.lines_Hz:
         return x.copy()
+    from scipy import signal
+
     bad = ~np.isfinite(x)
     y = _filled(x)
     for freq in hum.lines_Hz:
-        b, a = iirnotch(freq, NOTCH_Q, rate_Hz)
-        # pad by a few time constants of the notch (Q periods), reflected
-        y = filtfilt(b, a, y, min(y.size - 1, int(3 * NOTCH_Q * rate_Hz / freq)))
+        b, a = signal.iirnotch(freq, NOTCH_Q, fs=rate_Hz)
+        # pad by a few time constants of the notch (Q periods), odd-extended
+        y = signal.filtfilt(b, a, y, padlen=min(y.size - 1,
+                                                int(3 * NOTCH_Q * rate_Hz / freq)))
     y[bad] = np.nan
     return y
 

@@ -21,9 +21,9 @@ from evtribo.errors import OutputExistsError, UserInputError
 from evtribo.resultdir import Staging, inside
 
 __all__ = ["ANALYSIS_FILES", "BOOTSTRAP_FILE", "FIGURES", "FIT_CSV", "FIT_JSON",
-           "MODELS_CSV", "OUTPUT_FILES", "REPORT_TABLES", "SINE_TRACE_FILE", "SUMMARY_FILE",
-           "TABLES", "check_out_dir", "check_overwrite", "compare_files", "report_files",
-           "write_analysis"]
+           "MODELS_CSV", "OUTPUT_FILES", "POPULATION_CONTRASTS_CSV", "POPULATION_CSV",
+           "REPORT_TABLES", "SINE_TRACE_FILE", "SUMMARY_FILE", "TABLES", "check_out_dir",
+           "check_overwrite", "compare_files", "report_files", "write_analysis"]
 
 #: The files ``analyze_study`` writes into its output folder.
 OUTPUT_FILES = ("trials.csv", "windows.csv", "electrostatic.csv", "exponents.csv",
@@ -39,24 +39,27 @@ ANALYSIS_FILES = (*OUTPUT_FILES, SINE_TRACE_FILE)
 FIT_CSV, FIGURES = "fit.csv", "figures"
 #: compare's comparison of the candidate models (``compare --models``).
 MODELS_CSV = "models.csv"
+#: compare's estimates of the population (study format §10).
+POPULATION_CSV, POPULATION_CONTRASTS_CSV = "population.csv", "population_contrasts.csv"
 #: The formats of compare's figures.
 _FIGURE_FORMATS = ("png", "svg", "pdf")
 #: The stems of compare's figures (``electrostatic_force_all.png``,
 #: ``electrostatic_force_P01.svg``, ``trial_P01_run-01.pdf``...).
 _FIGURE = re.compile(r"^(friction_time|area_increase|electrostatic_force_.+|"
-                     r"friction_normal_force_.+|trial_.+|frequency_response_.+)"
+                     r"friction_normal_force_.+|trial_.+|frequency_response_.+|population_.+)"
                      r"\.(png|svg|pdf)$")
 #: The folder beside a report of its exported tables (``report --tables md,tex``), and their
 #: stems (``tables/electrostatic_force.md``, ``tables/fit.tex``).
-TABLES, REPORT_TABLES = "tables", ("electrostatic_force", "fit")
+TABLES, REPORT_TABLES = "tables", ("electrostatic_force", "fit", "population", "friction")
 _TABLE = re.compile(r"^(" + "|".join(REPORT_TABLES) + r")\.(md|tex)$")
 #: What the first bytes of a report written by ``evtribo report`` hold.
 _REPORT_MARK = b'<meta name="generator" content="evtribo'
 
 
 def compare_files(out: Path) -> list[str]:
-    """compare's files in *out* (relative): fit.csv, fit.json, and its figures (those
-    fit.json lists, and those named as compare names them).
+    """compare's files in *out* (relative): fit.csv, fit.json, models.csv, population.csv,
+    population_contrasts.csv, and its figures (those fit.json lists, and those named as
+    compare names them).
 
     Parameters
     ----------
@@ -68,7 +71,8 @@ def compare_files(out: Path) -> list[str]:
     list of str
         Names relative to *out*.
     """
-    found = [name for name in (FIT_CSV, FIT_JSON, MODELS_CSV) if (out / name).is_file()]
+    found = [name for name in (FIT_CSV, FIT_JSON, MODELS_CSV, POPULATION_CSV,
+                               POPULATION_CONTRASTS_CSV) if (out / name).is_file()]
     listed: set[str] = set()
     try:
         doc = json.loads((out / FIT_JSON).read_text(encoding="utf-8"))

@@ -49,6 +49,7 @@ from evtribo.analysis.aggregate import (
     EXPONENT_COLUMNS,
     summarize_study,
 )
+from evtribo.analysis.heard import no_force, say
 from evtribo.analysis.outputs import (
     BOOTSTRAP_FILE,
     OUTPUT_FILES,
@@ -73,6 +74,7 @@ from evtribo.analysis.workers import (
     TrialTask,
     WorkerContext,
     run_tasks,
+    say_outcome,
     trial_meta,
 )
 from evtribo.errors import StudyError
@@ -82,6 +84,10 @@ from evtribo.resultdir import locked, recover
 from evtribo.study import Study, TrialRef, load_study
 
 log = logging.getLogger(__name__)
+
+#: How each ON window's μ is found, as summary.json's settings say it.
+MU_ESTIMATOR = ("each ON window's reference: the OFF windows' F_t/F_n at its time, sliding "
+                "direction and stroke pace (their ratio of means when nothing more is supported)")
 
 _INT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off")
 
@@ -308,6 +314,7 @@ def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | Non
     inputs = input_files(study, memo)  # each input hashed once, here (or when it last changed)
     memo.save()
     tasks, not_run, duplicates, warnings = _plan(study, inputs)
+    say(warnings)
     assert study.rig is not None
     store = OutcomeStore(folder if reuse else None, context_text(
         rig=study.rig.fingerprint(), calibration=study.rig.calibration, settings=settings,
@@ -326,7 +333,7 @@ def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | Non
                                                              outcome))
     outcomes = sorted([*kept, *done, *not_run], key=lambda r: r.index)  # the study's order
     tables = _Tables.of(outcomes, settings)
-    warnings = [*study.warnings, *warnings, *tables.warnings, *changed_since(inputs)]
+    warnings = [*study.warnings, *warnings, *tables.warnings, *say(changed_since(inputs))]
     summary = _summary(study, tables, settings, started_at=started_at, inputs=inputs,
                        duplicates=duplicates, warnings=warnings, strict=strict, jobs=jobs)
     log.info("analysed %d of %d trials of %s", summary["trials_analysed"],
@@ -403,12 +410,11 @@ class _Tables:
         and errors collected."""
         warnings: list[str] = []
         failed = []
-        for o in outcomes:
-            warnings.extend(o.warnings)
+        for o in outcomes:  # each trial's warnings said here, once, in the study's order
+            warnings.extend(say_outcome(o))
             if o.error is not None:
-                key = f"{o.row['subject']}/{o.row['trial']}"
-                failed.append({"trial": key, "error": o.error})
-                warnings.append(f"{key}: not analysed: {o.error}")
+                failed.append({"trial": f"{o.row['subject']}/{o.row['trial']}",
+                               "error": o.error})
         trials = _typed(pd.DataFrame([o.row for o in outcomes]), TRIAL_COLUMNS)
         frames = [o.windows for o in outcomes if not o.windows.empty]
         windows = (pd.concat(frames, ignore_index=True) if frames else empty_windows())
@@ -418,6 +424,9 @@ class _Tables:
         electrostatic, exponents, bootstrap = found.electrostatic, found.exponents, \
             found.bootstrap
         warnings.extend(found.warnings)
+        if electrostatic.empty and not windows.empty:
+            warnings += say([no_force(int(np.count_nonzero(windows.condition == "on")),
+                                      len(windows))])
         windows = windows.assign(mu_reference=found.window_mu.reindex(windows.index))
         trials = trials.assign(mu_change_per_10s=pd.Series([
             found.mu_change.get(k) for k in zip(trials.subject, trials.trial, strict=True)],
@@ -462,7 +471,7 @@ def _summary(study: Study, tables: _Tables, settings: AnalysisSettings, *, start
         "strict": strict,
         "jobs": jobs,
         "calibration": study.rig.calibration.to_dict(),
-        "settings": {**settings.to_dict(), "mu_estimator": "ratio of means",
+        "settings": {**settings.to_dict(), "mu_estimator": MU_ESTIMATOR,
                      "interval": "percentile bootstrap over windows, stretched by a "
                                  "Welch-Satterthwaite Student-t factor for few windows",
                      "bootstrap_replicates_saved": int(bootstrap.replicate.nunique())

@@ -193,8 +193,8 @@ def _trial_text(task: TrialTask) -> str:
 
 def kept_outcomes(store: OutcomeStore, tasks: list[TrialTask]
                   ) -> tuple[list[TrialOutcome], list[TrialTask]]:
-    """The outcomes a former analysis of the same inputs kept, and the tasks still to run;
-    the kept outcomes' warnings are said again, as the trials' analysis said them.
+    """The outcomes a former analysis of the same inputs kept, and the tasks still to run
+    (the analysis says the kept outcomes' warnings with the others').
 
     Parameters
     ----------
@@ -211,15 +211,12 @@ def kept_outcomes(store: OutcomeStore, tasks: list[TrialTask]
     from evtribo.analysis.trial import empty_windows
     from evtribo.analysis.workers import TrialOutcome
 
-    said = logging.getLogger("evtribo.analysis.trial")
     kept, todo = [], []
     for task in tasks:
         found = store.get(store.trial_key(task))
         if found is None:
             todo.append(task)
             continue
-        for message in found["warnings"]:
-            said.warning("%s", message)
         kept.append(TrialOutcome(task.index, found["row"],
                                  found["windows"] if found["windows"] is not None
                                  else empty_windows(), found["warnings"], None,

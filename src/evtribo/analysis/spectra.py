@@ -4,7 +4,7 @@ Under a sine voltage the electrostatic force follows ``U(t)**2``, so the frictio
 at twice the drive frequency. Each ON window's friction magnitude, on the uniform grid, is
 split into Hann-windowed, linearly detrended segments; the segments' power spectra are
 averaged over all windows (weighted by segment count), zero-padded for a fine frequency grid
-(:func:`.psd.welch`, ``scipy.signal.welch``'s in numpy).
+(``scipy.signal.welch``).
 Among the highest local maxima above ``min_frequency_Hz`` the one that stands out most over
 the spectrum around it (its power over a line through the log-log spectrum from a factor 1.5
 below to 1.5 above it, its own peak left out) is the oscillation, if it stands out further
@@ -22,8 +22,6 @@ from collections.abc import Sequence
 import numpy as np
 import numpy.typing as npt
 from scipy import special  # stats.chi2.isf is special.chdtri (scipy.stats: 0.5 s to import)
-
-from evtribo.analysis.psd import welch  # scipy.signal's, in numpy
 
 log = logging.getLogger(__name__)
 
@@ -63,6 +61,8 @@ def dominant_frequency(
         Frequency in Hz; NaN when no window is long enough, the band is empty, or no peak
         stands out (:data:`MIN_PROMINENCE`).
     """
+    from scipy import signal
+
     arrays = [np.asarray(s, dtype=np.float64) for s in segments]
     arrays = [a for a in arrays if a.size >= 16 and np.all(np.isfinite(a))]
     if not arrays:
@@ -75,7 +75,8 @@ def dominant_frequency(
     for a in arrays:
         if a.size < nperseg:
             continue
-        freqs, pxx = welch(a, rate_Hz, nperseg, nfft=nfft, detrend="linear")
+        freqs, pxx = signal.welch(a, fs=rate_Hz, nperseg=nperseg, nfft=nfft,
+                                  detrend="linear")
         nseg = 1 + (a.size - nperseg) // (nperseg // 2)
         total = pxx * nseg if total is None else total + pxx * nseg
         weight += nseg

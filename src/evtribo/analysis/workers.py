@@ -29,6 +29,7 @@ from typing import Any
 
 import pandas as pd
 
+from evtribo.analysis.heard import heard_warnings, say
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals, empty_windows, failed_row
 from evtribo.cache import default_cache_dir, load_trial
@@ -39,7 +40,8 @@ from evtribo.signals import TrialSignals
 from evtribo.study import TrialRef
 
 __all__ = ["MAX_WARNINGS_PER_TRIAL", "SINE_WORK", "TrialOutcome", "TrialTask", "WorkerContext",
-           "analyze_in", "analyze_task", "longest_first", "run_tasks", "trial_meta"]
+           "analyze_in", "analyze_task", "longest_first", "run_tasks", "say_outcome",
+           "trial_meta"]
 
 log = logging.getLogger(__name__)
 
@@ -124,21 +126,6 @@ def trial_meta(ref: TrialRef) -> TrialMeta:
     return TrialMeta.from_sidecar(ref.subject, ref.name, ref.sidecar)
 
 
-class _Collector(logging.Handler):
-    """Keeps the warnings other evtribo modules log while one trial is processed (by this
-    thread: a Dask worker may run several trials at once, each in a thread of its own)."""
-
-    def __init__(self) -> None:
-        super().__init__(logging.WARNING)
-        self.messages: list[str] = []
-        self.thread = threading.get_ident()
-
-    def emit(self, record: logging.LogRecord) -> None:
-        """Keep a warning logged outside the analysis (the readers', the decoder's)."""
-        if record.thread == self.thread and not record.name.startswith("evtribo.analysis"):
-            self.messages.append(record.getMessage())
-
-
 #: This process's context: set by :func:`_enter` (each worker's initializer, or
 #: :func:`run_tasks` in this process), read by :func:`analyze_task`.
 _context: WorkerContext | None = None
@@ -212,6 +199,27 @@ def _outcome(task: TrialTask, context: WorkerContext) -> TrialOutcome:
     return TrialOutcome(task.index, result.row, result.windows, warnings, None, result.trace)
 
 
+def say_outcome(outcome: TrialOutcome) -> list[str]:
+    """Say a trial's warnings, and why it was not analysed, on the analysis's console (as
+    ``evtribo.analysis.trial`` warnings); return them for ``summary.json``.
+
+    Parameters
+    ----------
+    outcome : TrialOutcome
+        The trial's outcome, from a worker or from the cache.
+
+    Returns
+    -------
+    list of str
+        Its warnings, then ``<subject>/<trial>: not analysed: <why>`` when it failed.
+    """
+    texts = list(outcome.warnings)
+    if outcome.error is not None:
+        texts.append(f"{outcome.row['subject']}/{outcome.row['trial']}: not analysed: "
+                     f"{outcome.error}")
+    return say(texts, logging.getLogger("evtribo.analysis.trial"))
+
+
 def analyze_task(task: TrialTask) -> TrialOutcome:
     """One trial analysed with this process's context, with what other modules warned of
     meanwhile (at most :data:`MAX_WARNINGS_PER_TRIAL` of them).
@@ -245,15 +253,10 @@ def analyze_in(task: TrialTask, context: WorkerContext) -> TrialOutcome:
     -------
     TrialOutcome
     """
-    collector = _Collector()
-    root_logger = logging.getLogger("evtribo")
-    root_logger.addHandler(collector)
-    try:
+    with heard_warnings() as heard:  # said by the analysis gathering the outcomes
         outcome = _outcome(task, context)
-    finally:
-        root_logger.removeHandler(collector)
     key = task.ref.key
-    details = [f"{key}: {m}" for m in collector.messages]
+    details = [f"{key}: {m}" for m in heard.messages(besides="evtribo.analysis")]
     if len(details) > MAX_WARNINGS_PER_TRIAL:
         extra = len(details) - MAX_WARNINGS_PER_TRIAL
         details = [*details[:MAX_WARNINGS_PER_TRIAL], f"{key}: ... and {extra} more"]

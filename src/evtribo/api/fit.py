@@ -9,6 +9,7 @@ writes ``fit.csv``, ``fit.json`` and the figure files.
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -23,7 +24,17 @@ from evtribo.analysis.outputs import FIGURES, FIT_CSV
 from evtribo.api.results import CSV_EXACT, Results, typed_table
 from evtribo.compare.fit import SubjectFit, fit_study
 from evtribo.compare.fit_csv import fit_table
+from evtribo.compare.friction_only import friction_figures
 from evtribo.compare.params import load_parameters, resolve_fit_names
+from evtribo.compare.population import (
+    CONTRAST_COLUMNS,
+    POPULATION_COLUMNS,
+    Population,
+    PopulationOutlier,
+    population,
+)
+from evtribo.compare.population_plots import draw_population
+from evtribo.compare.population_section import read_population
 from evtribo.compare.run import CompareResult, draw_figures
 from evtribo.compare.run import compare as compare_folder
 from evtribo.compare.style import journal_style
@@ -64,6 +75,14 @@ class Fit:
         The result folder where ``fit.csv`` and the figures are (None: in memory only).
     files : dict of str to list of Path
         The figure files written, by stem (empty in memory).
+    population : pandas.DataFrame
+        ``population.csv`` (study format §10): the population's F_el at each amplitude,
+        exponent, prefactor, μ and air gap with 95 % intervals and the between-subject
+        spread; empty (with its columns) when the study has fewer than three subjects.
+    population_contrasts : pandas.DataFrame
+        ``population_contrasts.csv``: ratios and differences between conditions.
+    population_notes : list of str
+        What could not be estimated and why, and the subjects left out as outliers.
     """
 
     table: pd.DataFrame
@@ -74,6 +93,11 @@ class Fit:
     params_file: Path | None = None
     out: Path | None = None
     files: dict[str, list[Path]] = field(default_factory=dict)
+    population: pd.DataFrame = field(
+        default_factory=lambda: pd.DataFrame(columns=list(POPULATION_COLUMNS)))
+    population_contrasts: pd.DataFrame = field(
+        default_factory=lambda: pd.DataFrame(columns=list(CONTRAST_COLUMNS)))
+    population_notes: list[str] = field(default_factory=list)
     _results: Results | None = field(default=None, repr=False)
 
     @classmethod
@@ -113,10 +137,14 @@ class Fit:
                                  path=folder / FIT_CSV) from err
         records = [dict(r) for r in doc.get("figures") or [] if isinstance(r, dict)]
         pfile = doc.get("parameters_file")
+        pop, contrasts = read_population(folder)
         return cls(table=typed_table(table, text=FIT_TEXT_COLUMNS), figures={},
                    records=records, fits=[], fitted=tuple(doc.get("fit") or ()),
                    params_file=Path(pfile["path"]) if isinstance(pfile, dict) else None,
-                   out=folder, files=_files(folder, records), _results=results)
+                   out=folder, files=_files(folder, records),
+                   population=_or_empty(pop, POPULATION_COLUMNS),
+                   population_contrasts=_or_empty(contrasts, CONTRAST_COLUMNS),
+                   population_notes=_population_notes(doc.population), _results=results)
 
     def __repr__(self) -> str:
         where = "in memory" if self.out is None else f"in {str(self.out)!r}"
@@ -158,6 +186,23 @@ class Fit:
         return results.out
 
 
+def _or_empty(frame: pd.DataFrame | None, columns: tuple[str, ...]) -> pd.DataFrame:
+    return pd.DataFrame(columns=list(columns)) if frame is None else frame
+
+
+def _population_notes(doc: dict[str, Any]) -> list[str]:
+    """fit.json's population notes, then one line per outlier."""
+    notes = [str(n) for n in doc.get("notes") or []]
+    for o in doc.get("outliers") or []:
+        if isinstance(o, dict):
+            notes.append(PopulationOutlier(str(o.get("subject")), str(o.get("quantity")),
+                                           float(o.get("value") or math.nan),
+                                           float(o.get("low") or math.nan),
+                                           float(o.get("high") or math.nan),
+                                           str(o.get("unit") or "")).describe())
+    return notes
+
+
 def _files(folder: Path, records: list[dict[str, Any]]) -> dict[str, list[Path]]:
     """The figure files in *folder* of each record, by stem."""
     out: dict[str, list[Path]] = {}
@@ -170,10 +215,10 @@ def _files(folder: Path, records: list[dict[str, Any]]) -> dict[str, list[Path]]
 
 def _tables(results: Results) -> ResultTables:
     """The results as compare reads a result folder."""
-    if results.electrostatic.empty:
-        raise UserInputError("no electrostatic results (no ON data?): nothing to compare",
-                             path=None if results.out is None
-                             else results.out / "electrostatic.csv")
+    if results.electrostatic.empty and results.windows.empty:
+        raise UserInputError("no steady-sliding window in any trial (its summary says why): "
+                             "nothing to compare", path=None if results.out is None
+                             else results.out / "windows.csv")
     return ResultTables(out=results.out or Path(), electrostatic=results.electrostatic,
                         windows=results.windows, exponents=results.exponents,
                         trials=results.trials, summary=Summary(dict(results.summary)),
@@ -193,13 +238,17 @@ class _Kept:
                             "caption": caption, **(extra or {})}, ax))
 
 
-def _figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...]
-             ) -> list[tuple[dict[str, Any], Axes]]:
+def _figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...],
+             pop: Population) -> list[tuple[dict[str, Any], Axes]]:
     """compare's figures of the fit, in the journal style, as ``evtribo compare`` draws them
     (without the trial checks, which need the study, and the models')."""
     kept = _Kept(tables, fits)
     with journal_style("single"):
-        draw_figures(tables, fits, names, kept)
+        if tables.electrostatic.empty:  # OFF trials only: each subject's friction
+            friction_figures(tables, kept.emit)
+        else:
+            draw_figures(tables, fits, names, kept)
+            draw_population(tables.electrostatic, pop, kept.emit)
     return kept.drawn
 
 
@@ -208,7 +257,8 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
     """Fit the seed paper's model to each subject's electrostatic forces, in memory.
 
     The same fit as ``evtribo compare`` (weighted least squares, intervals from refits to
-    the bootstrap replicates); nothing is written: :meth:`Fit.save` writes it once the
+    the bootstrap replicates), and the population's estimates (``.population``, study
+    format §10) with their figure; nothing is written: :meth:`Fit.save` writes it once the
     results are in a folder.
 
     Parameters
@@ -231,7 +281,8 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
     ConfigError
         An unknown parameter name, or a bad parameter file.
     UserInputError
-        The results hold no electrostatic force (no ON data).
+        The results hold no window at all (results without electrostatic forces, a study
+        of OFF trials, give an empty table and each subject's friction figure).
     AnalysisError
         A fit cannot be made.
     """
@@ -239,11 +290,15 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
     base = load_parameters(None if params is None else Path(params))
     tables = _tables(results)
     fits = fit_study(tables, base, names)
-    figures = _figures(tables, fits, names)
+    pop = population(tables, fits)
+    figures = _figures(tables, fits, names, pop)
     out = Fit(table=typed_table(fit_table(fits, tables), text=FIT_TEXT_COLUMNS),
               figures={r["stem"]: ax.figure for r, ax in figures if isinstance(ax.figure,
                                                                                 Figure)},
               records=[r for r, _ in figures], fits=fits, fitted=names,
-              params_file=None if params is None else Path(params), _results=results)
+              params_file=None if params is None else Path(params),
+              population=pop.table, population_contrasts=pop.contrasts,
+              population_notes=[*pop.notes, *(o.describe() for o in pop.outliers)],
+              _results=results)
     results.fit = out
     return out

@@ -21,7 +21,7 @@ import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from evtribo.cli._startup import one_blas_thread, quick_exit
+from evtribo.cli._startup import one_blas_thread
 from evtribo.errors import EvtriboError
 
 #: Subcommands in the order ``evtribo --help`` lists them, with a line of help each.
@@ -84,6 +84,20 @@ def _unavailable(name: str, err: BaseException) -> Callable[[argparse.Namespace]
 def _chosen(argv: Sequence[str]) -> str | None:
     """The subcommand named in *argv* (its first word that is one), if any."""
     return next((a for a in argv if a in SUBCOMMANDS), None)
+
+
+def _unknown_command(argv: Sequence[str]) -> str | None:
+    """The error for a first word that is no subcommand (``analyse``), with the closest
+    ones; None when *argv* names a subcommand or none at all."""
+    import difflib
+
+    word = next((a for a in argv if not a.startswith("-")), None)
+    if word is None or word in SUBCOMMANDS:
+        return None
+    close = difflib.get_close_matches(word.lower(), SUBCOMMANDS, n=2, cutoff=0.6)
+    hint = (f"; did you mean {' or '.join(repr(c) for c in close)}?" if close else
+            f"; the commands: {', '.join(SUBCOMMANDS)}")
+    return f"unknown command {word!r}{hint} (evtribo --help lists them)"
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
@@ -168,6 +182,9 @@ def _main(argv: Sequence[str] | None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     chosen = _chosen(argv)
     parser = build_parser(only=chosen or "")
+    unknown = None if chosen else _unknown_command(argv)
+    if unknown is not None:
+        parser.error(unknown)  # usage and the error on stderr, exit 2
     args = parser.parse_args(argv)
     debug = bool(getattr(args, "debug", False))
     _configure_logging(int(getattr(args, "verbose", 0) or 0), debug)
@@ -194,4 +211,4 @@ def _main(argv: Sequence[str] | None) -> int:
 
 def entry() -> None:  # pragma: no cover - console script
     one_blas_thread()  # before numpy is imported
-    quick_exit(main())
+    sys.exit(main())

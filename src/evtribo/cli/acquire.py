@@ -89,6 +89,40 @@ def _check_finite(args: argparse.Namespace) -> None:
             raise ConfigError(f"expected a finite number, got {value}", key=flag)
 
 
+def summary_counts(side: dict[str, Any]) -> str:
+    """The recording's counts in words, from its sidecar: frames, drops (by the receive
+    queue), bus errors by kind and the controller's worst state, frames discarded as
+    queued before the trial.
+
+    Parameters
+    ----------
+    side : dict
+        The sidecar as the recording wrote it.
+
+    Returns
+    -------
+    str
+    """
+    text = (f"{side['frames']} frames in {side['duration_s']:.1f} s, "
+            f"{side['dropped_frames']} dropped")
+    if side.get("queue_dropped_frames"):
+        text += f" ({side['queue_dropped_frames']} by the receive queue: a bigger one, " \
+                "--bus-option receive_buffer=BYTES, or a less busy machine)"
+    text += f", {side['bus_errors']} bus errors"
+    details = [f"{kind} {n}" for kind, n in (side.get("error_frames_by_kind") or {}).items()]
+    if side["damaged_lines"]:
+        details.append(f"{side['damaged_lines']} damaged lines")
+    if details:
+        text += f" ({', '.join(details)})"
+    worst = side.get("worst_controller_state")
+    if worst in ("error-passive", "bus-off"):
+        text += f"; the CAN controller went {worst}: frames may be missing while it was"
+    if side.get("discarded_before_start"):
+        text += (f"; {side['discarded_before_start']} frames queued before the trial were "
+                 "discarded")
+    return text
+
+
 def run(args: argparse.Namespace) -> int:
     """Record the trial; return 0 (completed or stopped), 1 (bus or disk failed, or no
     frame of the rig's load cells)."""
@@ -155,11 +189,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"evtribo acquire: error: no frame arrived ({side['end_detail']}); "
               f"the trial recorded before is kept: {result.paths.log}", file=sys.stderr)
         return result.exit_code
-    summary = (f"{args.subject}/{args.trial}: {result.ended}, {side['frames']} frames in "
-               f"{side['duration_s']:.1f} s, {side['dropped_frames']} dropped, "
-               f"{side['bus_errors']} bus errors"
-               + (f" ({side['damaged_lines']} damaged lines)" if side["damaged_lines"] else "")
-               + f" -> {result.paths.log}")
+    summary = f"{args.subject}/{args.trial}: {result.ended}, " + summary_counts(side) \
+        + f" -> {result.paths.log}"
     if result.exit_code:
         print(f"evtribo acquire: error: {side.get('end_detail', result.ended)}; "
               f"what was received is kept.\n{summary}", file=sys.stderr)

@@ -179,6 +179,6 @@ def _report(s: dict[str, Any], out_dir: Path | None, out: str) -> int:
     print(f"analysed {s['trials_analysed']} of {s['trials']} trials{same} "
           f"({s['windows_on']} ON and {s['windows_off']} OFF windows) into {out_dir}")
     if s["warnings"]:
-        print(f"{len(s['warnings'])} warning(s), listed in {Path(out) / 'summary.json'}",
+        print(f"{len(s['warnings'])} warning(s) above, kept in {Path(out) / 'summary.json'}",
               file=sys.stderr)
     return 0 if s["trials_analysed"] else 1

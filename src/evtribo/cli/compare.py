@@ -80,13 +80,43 @@ def run(args: argparse.Namespace) -> int:
         print(f"evtribo compare: terminated; {args.out} holds the fit it held before (or all "
               "of the new one), nothing half-written", file=sys.stderr)
         return EXIT_TERMINATED
+    from evtribo.compare.numbers import r_squared, significant
+
     for f in result.fits:
-        parts = ", ".join(
-            f"{e.name} = {e.value:.4g} {e.unit} [{e.ci_low:.4g}, {e.ci_high:.4g}]"
-            for e in f.estimates)
-        print(f"{f.subject}: {parts}; RMSE {f.rmse_N:.3g} N, R² {f.r2:.3f}")
+        parts = ", ".join(_estimate(e) for e in f.estimates)
+        print(f"{f.subject}: {parts}; RMSE {significant(1e3 * f.rmse_N)} mN, "
+              f"R² {r_squared(f.r2)}")
     for note in result.notes:
         print(f"note: {note}", file=sys.stderr)
+    _print_population(result)
     print(f"wrote {result.out / 'fit.csv'} and {len(result.figures)} figures in "
           f"{result.out / 'figures'}")
     return 0
+
+
+def _print_population(result: Any) -> None:
+    """The population's exponent per condition, its outliers, or why there is none."""
+    pop = result.population
+    if pop is None:
+        return
+    exponents = pop.table[pop.table["quantity"] == "exponent"]
+    for _, r in exponents.iterrows():
+        print(f"population ({r['waveform']} {r['frequency_Hz']:g} Hz, {r['n_subjects']} "
+              f"subjects): exponent n = {r['estimate']:.3g} [{r['ci_low']:.3g}, "
+              f"{r['ci_high']:.3g}]")
+    for o in pop.outliers:
+        print(f"population: outlier {o.describe()}", file=sys.stderr)
+    if pop.table.empty and pop.notes:
+        print(f"population: none: {pop.notes[0]}", file=sys.stderr)
+
+
+def _estimate(e: Any) -> str:
+    """A fitted parameter as the report prints it: ``h_L = 3.47 [3.43, 3.52] µm``."""
+    from evtribo.compare.headline import PARAMETER_DISPLAY
+    from evtribo.compare.numbers import PREFIXES, auto_prefix, with_interval
+
+    _, unit, prefix = PARAMETER_DISPLAY.get(e.name, (e.name, "", ""))
+    p = (auto_prefix(e.value) if prefix is None else prefix) if unit else ""
+    k = 10.0 ** -PREFIXES[p]
+    return (f"{e.name} = {with_interval(k * e.value, k * e.ci_low, k * e.ci_high)}"
+            + (f" {p}{unit}" if unit else ""))

@@ -7,6 +7,7 @@ Examples::
     evtribo simulate --pty            # prints the pty's path, then acts as an slcan adapter
     evtribo simulate --study my-study --subject P01 --trial run-01   # offline, no waiting
     evtribo simulate --study my-study --subject P01 --trial run-02 --ideal
+    evtribo simulate --study pop-study --subjects 8 --air-gap-spread 0.3   # a population
 
 By default the rig is a real one (:mod:`evtribo.acquisition.simulator.realism`): its load
 cells have zero offsets (drawn with ``--seed`` up to +/-50 mN), drift and 50 Hz hum, the
@@ -25,6 +26,7 @@ import threading
 from collections.abc import Iterator
 from typing import Any
 
+from evtribo.cli._simulate_population import add_population_options, simulate_population
 from evtribo.errors import ConfigError
 
 # Option of each SubjectParams / TrialConfig field, to name it in error messages.
@@ -63,8 +65,8 @@ def _add_output_options(p: argparse.ArgumentParser) -> None:
                           "is the first line of stdout; frames flow once a client sends 'O'")
     out.add_argument("--study", metavar="DIR",
                      help="write one trial offline into this study folder (no waiting)")
-    out.add_argument("--subject", default="P01", help="subject name with --study (P01)")
-    out.add_argument("--trial", default="run-01", help="trial name with --study (run-01)")
+    out.add_argument("--subject", help="subject name with --study (P01)")
+    out.add_argument("--trial", help="trial name with --study (run-01)")
     out.add_argument("--force", action="store_true", help="overwrite a trial with --study")
     out.add_argument("--rig", metavar="PATH",
                      help="speak this rig: a rig TOML, or a study folder or study.toml (its "
@@ -173,6 +175,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     _add_subject_options(p)
     _add_rig_options(p)
     _add_real_rig_options(p)
+    add_population_options(p)
     p.set_defaults(func=run)
     return p
 
@@ -185,7 +188,8 @@ def _build(args: argparse.Namespace, duration: float, trial_s: float) -> tuple[A
     from evtribo.acquisition.simulator import SubjectParams, TrialConfig
     from evtribo.acquisition.simulator.realism import IDEAL_SUBJECT, human, realistic_rig
 
-    subject_kw: dict[str, Any] = {"name": args.subject, "mu": args.mu, "h_L": args.air_gap,
+    subject_kw: dict[str, Any] = {"name": args.subject or "P01", "mu": args.mu,
+                  "h_L": args.air_gap,
                   "normal_force_N": args.target_force, "drift_time_s": args.drift_time,
                   "stroke_length_m": args.stroke_length, "reversal_s": args.reversal_time}
     given_subject = {k: v for k, v in (
@@ -280,6 +284,8 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("only for a python-can bus (--interface)", key="--bus-option")
     if args.duration is not None and args.duration <= 0:
         raise ConfigError(f"{args.duration!r} is not allowed: must be > 0", key="--duration")
+    if args.subjects is not None:
+        return simulate_population(args)
     if args.study is not None:
         from evtribo.acquisition.simulator import write_trial
 
@@ -287,10 +293,10 @@ def run(args: argparse.Namespace) -> int:
         rig = study_rig(args.rig) if args.rig else None
         if rig is None:
             _say_new_study(args.study)
-        truth = write_trial(args.study, args.trial, subject, config, force=args.force,
-                            rig=rig)
+        trial = args.trial or "run-01"
+        truth = write_trial(args.study, trial, subject, config, force=args.force, rig=rig)
         nodes = truth.nodes
-        print(f"{args.study}/{subject.name}/{args.trial}.log: "
+        print(f"{args.study}/{subject.name}/{trial}.log: "
               f"{sum(int(n['frames']) for n in nodes.values()) + truth.foreign_frames} frames")
         return 0
 

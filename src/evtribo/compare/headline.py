@@ -7,7 +7,9 @@
   quality of the fit, to three significant figures;
 - :func:`parameter_roles`: every parameter of the model, and whether it was measured, fixed
   (and from where) or fitted;
-- :func:`model_comparison`: one subject's rows of ``models.csv``.
+- :func:`model_comparison`: one subject's rows of ``models.csv``;
+- :func:`friction_table`: each subject's friction coefficient, for results without any
+  electrostatic force (a study of OFF trials).
 
 Each returns a :class:`Headline` whose cells are text (:mod:`evtribo.compare.numbers`), so the
 HTML page and the Markdown and LaTeX exports print the same numbers.
@@ -23,6 +25,7 @@ from typing import Any
 
 import pandas as pd
 
+from evtribo.compare.friction_only import subject_mu
 from evtribo.compare.numbers import (
     PREFIXES,
     auto_prefix,
@@ -37,14 +40,23 @@ from evtribo.compare.numbers import (
 from evtribo.documents.fit import FitDocument
 from evtribo.model.params import TABLE_1, ModelParameters
 
-__all__ = ["CITATION", "DOI_URL", "PARAMETER_DISPLAY", "Headline", "fit_summary",
-           "force_table", "model_comparison", "parameter_roles"]
+__all__ = ["CITATION", "DOI_URL", "F_EL_DEFINITION", "MU_COLUMN", "PARAMETER_DISPLAY",
+           "Headline", "fit_summary", "force_table", "friction_table", "model_comparison",
+           "parameter_roles"]
 
 #: The seed paper, cited wherever its model is named.
 CITATION = ('"Voltage-Induced Friction with Application to Electrovibration", Lubricants 2019, '
             "7(12), 102, doi:10.3390/lubricants7120102")
 #: Where the paper is.
 DOI_URL = "https://doi.org/10.3390/lubricants7120102"
+
+#: The inferred electrostatic force, as the README, the docs, the notebook and the report
+#: state it (word for word: ``tests/test_docs.py`` checks them).
+F_EL_DEFINITION = ("F_el = F_t,on/μ \u2212 F_n,on, averaged over the ON windows, with μ each ON "
+                   "window's reference: the friction coefficient of the OFF windows at the "
+                   "window's own time, sliding direction and stroke pace")
+#: The column of the fit's table that gives each subject's μ.
+MU_COLUMN = "μ (mean of its rows)"
 
 #: How each model parameter is shown: its name for people, base unit and prefix (None: the
 #: prefix that suits the value).
@@ -134,9 +146,42 @@ def force_table(electrostatic: pd.DataFrame) -> Headline:
     columns = ["Subject", "Waveform", "Frequency", *(voltage(a) for a in amps)]
     return Headline(
         "electrostatic_force", "Electrostatic force F_el (mN) by subject and voltage",
-        "Inferred electrostatic force F_el = F_t,on/μ - F_n,on, in mN: mean [95 % "
-        "interval], per drive amplitude (columns); μ from the subject's OFF windows "
-        "(electrostatic.csv).", pd.DataFrame(rows, columns=columns))
+        f"Inferred electrostatic force {F_EL_DEFINITION}. In mN: mean [95 % interval], per "
+        "drive amplitude (columns); the mean μ each cell's ON windows were compared with is "
+        "in its subject's table (electrostatic.csv's mu).",
+        pd.DataFrame(rows, columns=columns))
+
+
+def friction_table(windows: pd.DataFrame) -> Headline:
+    """Each subject's friction coefficient, for results without electrostatic forces.
+
+    Parameters
+    ----------
+    windows : DataFrame
+        ``windows.csv``.
+
+    Returns
+    -------
+    Headline
+        One row per subject with OFF windows: μ (ratio of means of its OFF windows), its
+        range between trials, the trials and windows it rests on, the normal forces.
+    """
+    mu = subject_mu(windows)
+    rows = [{"Subject": r.subject, "μ": significant(r.mu),
+             "μ between trials": f"{significant(r.mu_trial_min)} to "
+                                 f"{significant(r.mu_trial_max)}",
+             "trials": str(r.trials), "OFF windows": str(r.windows),
+             "F_n (mN)": f"{significant(1e3 * r.normal_force_min_N)} to "
+                         f"{significant(1e3 * r.normal_force_max_N)}"}
+            for r in _rows(mu)]
+    return Headline(
+        "friction", "Friction coefficient μ by subject",
+        "No electrostatic force: no subject has ON windows to compare with its OFF ones. μ "
+        "of each subject: the ratio of means ΣF_t/ΣF_n of its steady-sliding OFF windows; "
+        "between trials: the same within each trial, lowest and highest; F_n: the windows' "
+        "normal forces.",
+        pd.DataFrame(rows, columns=["Subject", "μ", "μ between trials", "trials",
+                                    "OFF windows", "F_n (mN)"]))
 
 
 def _estimate_cell(rows: pd.DataFrame, name: str) -> str:
@@ -182,7 +227,7 @@ def fit_summary(fit: pd.DataFrame, fit_doc: FitDocument) -> Headline:
         for n in names:
             row[headers[n]] = _estimate_cell(mine, n)
         wf = str(first.get("waveform", "") or "")
-        row["μ measured (OFF)"] = significant(first.get("mu_measured"))
+        row[MU_COLUMN] = significant(first.get("mu_measured"))
         row["exponent n, measured"] = with_interval(
             first.get("exponent"), first.get("exponent_ci_low"),
             first.get("exponent_ci_high")) + (f" ({wf})" if wf and wf != "nan" else "")
@@ -195,8 +240,9 @@ def fit_summary(fit: pd.DataFrame, fit_doc: FitDocument) -> Headline:
     fitted = ", ".join(_label(n)[0] for n in names) or "nothing"
     return Headline(
         "fit", "Model fit per subject",
-        f"Fitted per subject: {fitted}, value [95 % interval]. μ is measured from the OFF "
-        "windows; exponent n of the power law F_el = k·U^n measured over the amplitudes "
+        f"Fitted per subject: {fitted}, value [95 % interval]. μ: the mean of the μ the "
+        "subject's rows of electrostatic.csv used (the model's friction takes it); exponent "
+        "n of the power law F_el = k·U^n measured over the amplitudes "
         "(95 % interval) and the fitted model's slope over the same amplitudes; R² and RMSE "
         "of the electrostatic force.", pd.DataFrame(rows))
 
@@ -205,7 +251,8 @@ def _role(name: str, value: float, fit_doc: FitDocument) -> str:
     if name in fit_doc.fit:
         return "fitted per subject (value and 95 % interval in the fit table)"
     if name == "mu":
-        return "measured per subject: friction over normal force of the OFF windows"
+        return ("measured per subject: the mean of the μ its ON windows were compared with "
+                "(electrostatic.csv's mu)")
     if name == "eps_0":
         return "physical constant"
     table_1 = getattr(TABLE_1, name, math.nan)
@@ -319,3 +366,8 @@ def model_comparison(models: pd.DataFrame, subject: str) -> Headline:
                     f"relative support of each model (they sum to 1){undefined}.",
                     pd.DataFrame(rows, columns=["model", "fitted", "parameters", "AIC",
                                                 "ΔAIC", "Akaike weight"]))
+
+
+def _rows(table: pd.DataFrame) -> list[Any]:
+    """The rows of *table* as named tuples whose fields are typed ``Any``."""
+    return list(table.itertuples(index=False))

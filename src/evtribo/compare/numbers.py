@@ -1,9 +1,11 @@
 """Numbers for people: significant figures without scientific notation, unit prefixes.
 
 The report and its exported tables print every quantity in a unit that keeps it readable
-(forces in mN, air gaps in µm, moduli in kPa) and to three significant figures; an interval
-is printed with the decimals of the value it belongs to, so ``148 [99, 198]`` and ``26.5
-[25.7, 27.4]`` read at a glance.
+(forces in mN, air gaps in µm, moduli in kPa) and to three significant figures, never in
+scientific notation nor finer than a millionth of its unit; an interval is printed with the
+decimals of the value it belongs to, no finer than its half-width to two significant
+figures, so ``148 [99, 198]``, ``72 [-398, 541]`` and ``26.5 [25.7, 27.4]`` read at a
+glance. Settings are printed as given (:func:`plain`: ``0.15``, not ``0.1500``).
 
 >>> significant(0.0264716, 3)
 '0.0265'
@@ -18,10 +20,11 @@ is printed with the decimals of the value it belongs to, so ``148 [99, 198]`` an
 from __future__ import annotations
 
 import math
+from decimal import Decimal
 from typing import Any
 
-__all__ = ["PREFIXES", "auto_prefix", "decimals_for", "frequency", "quantity", "r_squared",
-           "significant", "to_float", "voltage", "with_interval"]
+__all__ = ["PREFIXES", "TINY", "auto_prefix", "decimals_for", "frequency", "plain", "quantity",
+           "r_squared", "significant", "to_float", "voltage", "with_interval"]
 
 #: SI prefixes and their powers of ten.
 PREFIXES: dict[str, int] = {"p": -12, "n": -9, "µ": -6, "m": -3, "": 0, "k": 3, "M": 6,
@@ -29,6 +32,10 @@ PREFIXES: dict[str, int] = {"p": -12, "n": -9, "µ": -6, "m": -3, "": 0, "k": 3,
 
 #: What the page prints for a value that is missing or not finite.
 MISSING = "—"
+#: The smallest magnitude printed as a number (in the unit printed): below it, ``< 0.000001``
+#: (an exact fit's RMSE, 5.55e-14, is no number to print to its last digit).
+TINY = 1e-6
+_TINY_DECIMALS = 6
 
 
 def to_float(value: Any) -> float:
@@ -106,6 +113,8 @@ def significant(value: Any, sig: int = 3, *, decimals: int | None = None) -> str
     v = to_float(value)
     if not math.isfinite(v):
         return "∞" if v == math.inf else "-∞" if v == -math.inf else MISSING
+    if decimals is None and 0 < abs(v) < TINY:
+        return f"< {plain(TINY)}" if v > 0 else f"> -{plain(TINY)}"
     places = decimals_for(v, sig) if decimals is None else decimals
     if decimals is None and abs(v) >= 10 ** sig:  # 12345 -> 12300
         magnitude = math.floor(math.log10(abs(v)))
@@ -114,7 +123,9 @@ def significant(value: Any, sig: int = 3, *, decimals: int | None = None) -> str
 
 
 def with_interval(value: Any, low: Any, high: Any, *, sig: int = 3) -> str:
-    """``value [low, high]``, the bounds printed with the decimals of the value.
+    """``value [low, high]``, the three with the same decimals: the value's to *sig*
+    significant figures, fewer when the interval's half-width shown to two significant
+    figures needs fewer (a value is not printed finer than its uncertainty).
 
     Parameters
     ----------
@@ -126,17 +137,42 @@ def with_interval(value: Any, low: Any, high: Any, *, sig: int = 3) -> str:
     Returns
     -------
     str
-        ``26.5 [25.7, 27.4]``; the value alone followed by ``(no interval)`` when a bound is
-        missing, ``—`` when the value is.
+        ``26.5 [25.7, 27.4]``, ``72 [-398, 541]``; the value alone followed by ``(no
+        interval)`` when a bound is missing, ``—`` when the value is.
     """
     v, lo, hi = to_float(value), to_float(low), to_float(high)
     if not math.isfinite(v):
         return MISSING
-    places = decimals_for(v, sig)
-    text = significant(v, sig)
     if not (math.isfinite(lo) and math.isfinite(hi)):
-        return f"{text} (no interval)"
-    return f"{text} [{significant(lo, decimals=places)}, {significant(hi, decimals=places)}]"
+        return f"{significant(v, sig)} (no interval)"
+    places = min(decimals_for(v, sig), _TINY_DECIMALS)
+    if hi > lo:
+        places = min(places, decimals_for((hi - lo) / 2, 2))
+    return (f"{significant(v, decimals=places)} [{significant(lo, decimals=places)}, "
+            f"{significant(hi, decimals=places)}]")
+
+
+def plain(value: Any) -> str:
+    """A number as it was given, in positional notation: ``0.15``, ``2000``, ``0.000001``
+    (a setting, not a measurement: no rounding, no padding).
+
+    Parameters
+    ----------
+    value : Any
+        The number.
+
+    Returns
+    -------
+    str
+        Its shortest decimal form without an exponent; ``—`` when not finite.
+    """
+    v = to_float(value)
+    if not math.isfinite(v):
+        return significant(v)
+    if v.is_integer() and abs(v) < 1e15:
+        return str(int(v))
+    text = format(Decimal(repr(v)), "f")
+    return _trim(text)
 
 
 def r_squared(value: Any) -> str:

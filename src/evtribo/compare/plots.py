@@ -35,6 +35,7 @@ from evtribo.compare.electrostatic_plots import (
 )
 from evtribo.compare.layout import place_legend, voltage_ticks
 from evtribo.compare.model_points import mean_friction_force
+from evtribo.compare.numbers import significant
 from evtribo.compare.style import (
     DEFAULT_DPI,
     DEFAULT_FORMATS,
@@ -202,8 +203,8 @@ def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = 
             markerfacecolor="white", markersize=3, alpha=0.8)
     ax.plot(1e3 * grid, 1e3 * mean_friction_force(grid, 0.0, "square", params), "-",
             color="k")
-    handles = [proxy(f"OFF (μ = {params.mu:.3g})", color="k", marker="o", linestyle="-",
-                     markerfacecolor="white")]
+    handles = [proxy(f"OFF (μ = {significant(params.mu)})", color="k", marker="o",
+                     linestyle="-", markerfacecolor="white")]
     handles += _on_series(ax, windows[cond == "on"], grid, params)
     ax.set_xlabel("normal force $F_n$ (mN)")
     ax.set_ylabel("friction force $F_t$ (mN)")

@@ -2,7 +2,8 @@
 
 1. the electrostatic force by subject and voltage (mN, 95 % intervals);
 2. the model fit per subject (air gap in µm, exponents, μ) and the model's parameters, each
-   said to be measured, fixed or fitted, with the paper cited;
+   said to be measured, fixed or fitted, with the paper cited; then the population's
+   estimates (:mod:`evtribo.compare.population_section`);
 3. the figures of all subjects together (``electrostatic_force_all`` first);
 4. the model comparison (``models.csv`` and the ``frequency_response`` figures), when there
    is one;
@@ -18,20 +19,15 @@ Every number is printed for people (:mod:`evtribo.compare.numbers`).
 
 from __future__ import annotations
 
-import json
 import math
-import platform
 import re
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import pandas as pd
 from markupsafe import escape
 
-from evtribo import __version__
-from evtribo.analysis.outputs import FIGURES
-from evtribo.citation import PAPER, SOFTWARE, text
+from evtribo.compare.friction_report import add_trial_mu
 from evtribo.compare.headline import (
     CITATION,
     DOI_URL,
@@ -50,14 +46,11 @@ from evtribo.compare.numbers import (
     with_interval,
 )
 from evtribo.compare.report import Report
-from evtribo.compare.study_files import file_hashes
 from evtribo.compare.tables import ResultTables
 from evtribo.documents.fit import FitDocument
-from evtribo.documents.summary import Summary
-from evtribo.resultdir import inside
 
-__all__ = ["SECTIONS", "add_all_subjects", "add_headline", "add_models", "add_provenance",
-           "add_subjects", "add_warnings", "trial_summary"]
+__all__ = ["SECTIONS", "add_all_subjects", "add_headline", "add_models", "add_notes",
+           "add_subjects", "add_warnings", "trial_summary", "trials_view"]
 
 #: The sections' titles, in the page's order (a subject's is ``Subject <name>``).
 SECTIONS: dict[str, str] = {
@@ -65,10 +58,6 @@ SECTIONS: dict[str, str] = {
     "models": "Model comparison", "warnings": "Warnings",
     "provenance": "Provenance and settings"}
 
-#: Keys of summary.json shown in the provenance's facts.
-_SUMMARY_KEYS = ("run_id", "study_dir", "started", "created", "evtribo_version", "trials",
-                 "trials_analysed", "windows_on", "windows_off", "frames", "dropped_frames",
-                 "skipped_lines", "strict", "elapsed_s")
 
 
 def _add(report: Report, headline: Headline, section: str) -> None:
@@ -137,7 +126,7 @@ def add_all_subjects(report: Report, figures: Sequence[Mapping[str, Any]]) -> No
     None
     """
     study_wide = [f for f in figures if f.get("subject") is None
-                  and f.get("kind") not in ("trial", "frequency_response")]
+                  and f.get("kind") not in ("trial", "frequency_response", "population")]
     study_wide.sort(key=lambda f: f.get("kind") != "electrostatic_force_all")
     for f in study_wide:
         _figure(report, f, SECTIONS["all"])
@@ -264,16 +253,19 @@ def add_subjects(report: Report, tables: ResultTables, trials: pd.DataFrame,
     None
     """
     failed = {str(f.get("trial")): str(f.get("error")) for f in tables.summary.failed_trials}
-    for subject in tables.subjects:
+    for subject in tables.all_subjects:
         sec = f"Subject {subject}"
         es = tables.electrostatic[tables.electrostatic["subject"].astype(str) == subject]
-        report.add_table(_forces_of(es), "Electrostatic force", section=sec, wrap=True)
+        mine = trials[trials["subject"].astype(str) == subject]
+        if es.empty:  # no ON windows to compare: the friction coefficient of each trial
+            add_trial_mu(report, mine, tables.windows, sec)
+        else:
+            report.add_table(_forces_of(es), "Electrostatic force", section=sec, wrap=True)
         for f in figures:
             if f.get("subject") == subject and f.get("kind") not in (
                     "trial", "frequency_response"):
                 _figure(report, f, sec)
-        mine = trials[trials["subject"].astype(str) == subject]
-        report.add_table(_trials_view(mine), "Trials", section=sec, wrap=True)
+        report.add_table(trials_view(mine), "Trials", section=sec, wrap=True)
         checks = {str(f.get("trial")): f for f in figures
                   if f.get("kind") == "trial" and f.get("subject") == subject}
         win = tables.windows
@@ -289,8 +281,19 @@ def add_subjects(report: Report, tables: ResultTables, trials: pd.DataFrame,
             _figure(report, fig, sec, details=f"{trial}: not in trials.csv")
 
 
-def _trials_view(trials: pd.DataFrame) -> pd.DataFrame:
-    """trials.csv for people: forces' offsets in mN, frequencies with their unit."""
+def trials_view(trials: pd.DataFrame) -> pd.DataFrame:
+    """trials.csv for people: forces' offsets in mN, frequencies with their unit.
+
+    Parameters
+    ----------
+    trials : DataFrame
+        ``trials.csv`` (with the sidecars' notes, when the study is at hand).
+
+    Returns
+    -------
+    DataFrame
+        One row per trial, its columns worded and its numbers printed for people.
+    """
     view = pd.DataFrame({"trial": trials["trial"].astype(str)})
     if "waveform" in trials.columns:
         nan = pd.Series([math.nan] * len(trials), index=trials.index)
@@ -331,144 +334,27 @@ def add_warnings(report: Report, warnings: Sequence[str]) -> None:
     None
     """
     report.add_list(warnings, "Warnings", section=SECTIONS["warnings"],
-                    caption="The study folder now against the inputs summary.json records; "
-                            "then from summary.json, trials.csv (dropped frames, skipped "
-                            "lines) and the model comparison.")
+                    caption="First, any input of the study changed, removed or added since "
+                            "the analysis; then what the analysis warned of (summary.json), "
+                            "and the frames dropped and damaged lines skipped in each trial "
+                            "(trials.csv).")
 
 
-def _facts(tables: ResultTables, fit_doc: FitDocument, study: str) -> pd.DataFrame:
-    summary = tables.summary
-    facts = [{"item": "study", "value": study},
-             {"item": "result folder", "value": str(tables.out)}]
-    for k in _SUMMARY_KEYS:
-        if k in summary:
-            v = summary[k]
-            facts.append({"item": k, "value": json.dumps(v) if isinstance(v, dict | list)
-                          else significant(v) if isinstance(v, float) else str(v)})
-    facts.append({"item": "subjects", "value": ", ".join(tables.subjects)})
-    facts.append({"item": "fitted parameters", "value": ", ".join(fit_doc.fit) or "—"})
-    return pd.DataFrame(facts, columns=["item", "value"])
-
-
-def _software(summary: Summary, fit_doc: FitDocument) -> pd.DataFrame:
-    """Who analysed, compared and reported: evtribo's versions and the libraries'."""
-    software = [{"component": "evtribo (report)", "version": __version__},
-                {"component": "evtribo (analysis)",
-                 "version": summary.evtribo_version or summary.software.get("evtribo", "")},
-                {"component": "evtribo (compare)",
-                 "version": fit_doc.software.get("evtribo", "")}]
-    software += [{"component": f"{name} (analysis)", "version": v}
-                 for name, v in summary.software.items() if name != "evtribo"]
-    software.append({"component": "python (report)", "version": platform.python_version()})
-    for module in ("numpy", "scipy", "pandas", "matplotlib", "cantools", "can"):
-        try:
-            mod = __import__(module)
-        except ImportError:
-            continue
-        name = "python-can" if module == "can" else module
-        software.append({"component": f"{name} (report)",
-                         "version": getattr(mod, "__version__", "")})
-    return pd.DataFrame(software)
-
-
-def _how_to_cite(report: Report, summary: Summary, section: str) -> None:
-    """The two works a paper using these results cites: evtribo and the seed paper."""
-    analysed_by = summary.evtribo_version or summary.software.get("evtribo", "")
-    other = (f" These results were analysed by evtribo {analysed_by}: cite that version."
-             if analysed_by and analysed_by != __version__ else "")
-    paper = text(PAPER).removesuffix(DOI_URL)
-    report.add_html(f'<p class="cite">To cite: the software, {escape(text(SOFTWARE))}'
-                    f"{escape(other)} The model, {escape(paper)}"
-                    f'<a href="{DOI_URL}">{DOI_URL}</a>. BibTeX of both: '
-                    "<code>evtribo cite --bibtex</code>.</p>", section=section)
-
-
-def _result_files(folder: Path, output: Path) -> pd.DataFrame:
-    """The result folder's files and figures (not the report itself), hashed."""
-    html_path = output.resolve()
-    out_files = [p for p in sorted(folder.iterdir())
-                 if p.is_file() and p.resolve() != html_path and not p.name.startswith(".")]
-    out_files += sorted((folder / FIGURES).glob("*")) if (folder / FIGURES).is_dir() else []
-    out_files = [p for p in out_files if inside(folder, p.relative_to(folder).as_posix())]
-    return file_hashes(out_files, folder)
-
-
-def _setting(value: Any) -> str:
-    if isinstance(value, float):
-        return significant(value, 4) if not float(value).is_integer() else str(int(value))
-    return json.dumps(value) if isinstance(value, dict | list) else str(value)
-
-
-def add_provenance(report: Report, tables: ResultTables, fit_doc: FitDocument, *,
-                   study: str, study_dir: Path | None, inputs: pd.DataFrame,
-                   trials: pd.DataFrame, rig: Mapping[str, Any], output: Path) -> None:
-    """The last section: facts, trials, power laws, inputs, files, rig, software, settings.
+def add_notes(report: Report, notes: Sequence[str]) -> None:
+    """What the comparison says of how it fitted (how the intervals were obtained, what
+    was left out): notes, not warnings, under the model fit.
 
     Parameters
     ----------
     report : Report
         The page.
-    tables : ResultTables
-        The result folder's tables.
-    fit_doc : FitDocument
-        ``fit.json``.
-    study : str
-        The study's name.
-    study_dir : Path or None
-        The study folder, when it is at hand.
-    inputs : DataFrame
-        The inputs summary.json records (and whether each is unchanged now).
-    trials : DataFrame
-        ``trials.csv`` with the sidecars' notes.
-    rig : mapping
-        The rig as summary.json (or the study) records it.
-    output : Path
-        The page (left out of the result files).
+    notes : sequence of str
+        fit.json's notes.
 
     Returns
     -------
     None
     """
-    sec = SECTIONS["provenance"]
-    report.add_table(_facts(tables, fit_doc, study), "Study", section=sec, wrap=True)
-    view = _trials_view(trials)
-    view.insert(0, "subject", trials["subject"].astype(str).to_numpy())
-    report.add_table(view, "Trials", section=sec, wrap=True,
-                     caption="From trials.csv; notes from the trials' sidecars when the "
-                             "study folder is available.")
-    ex = tables.exponents
-    if not ex.empty:
-        report.add_table(pd.DataFrame({
-            "subject": ex["subject"].astype(str), "waveform": ex["waveform"].astype(str),
-            "frequency": [frequency(f) for f in ex.get("frequency_Hz", [math.nan] * len(ex))],
-            "exponent n [95 %]": [f"{significant(n)} [{significant(lo)}, {significant(hi)}]"
-                                  for n, lo, hi in zip(ex["exponent"], ex["exponent_ci_low"],
-                                                       ex["exponent_ci_high"], strict=True)],
-            "k at 1 V": [quantity(k, "N") for k in ex.get("prefactor_N", [math.nan] * len(ex))],
-        }), "Power laws F_el = k·U^n (exponents.csv)", section=sec)
-    if not inputs.empty:
-        caption = (f"now: each file of the study folder {study_dir} hashed again"
-                   if study_dir is not None else "The study folder named in summary.json is "
-                   "not available here: the inputs could not be hashed again.")
-        report.add_table(inputs, "Input files (as recorded in summary.json)", section=sec,
-                         caption=caption, wrap="anywhere")
-    else:
-        report.add_text("summary.json records no input files inside the study folder.",
-                        section=sec)
-    report.add_table(_result_files(tables.out, output), "Result files", section=sec,
-                     wrap="anywhere")
-    if rig:
-        report.add_table(pd.DataFrame([{"key": k, "value": _setting(v)}
-                                       for k, v in rig.items()]), "Rig", section=sec,
-                         wrap=True)
-    report.add_table(_software(tables.summary, fit_doc), "Software", section=sec, wrap=True)
-    _how_to_cite(report, tables.summary, sec)
-    settings = tables.summary.settings
-    if settings:
-        report.add_table(pd.DataFrame([{"setting": k, "value": _setting(v)}
-                                       for k, v in settings.items()]),
-                         "Analysis settings", section=sec, wrap=True)
-    pfile = fit_doc.parameters_file
-    if pfile:
-        report.add_text(f"Model parameter file: {pfile.get('path')} "
-                        f"(sha256 {pfile.get('sha256')})", section=sec)
+    if notes:
+        report.add_list(notes, "Notes on the fit", section=SECTIONS["fit"],
+                        caption="From evtribo compare (fit.json).")

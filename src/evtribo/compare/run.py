@@ -8,6 +8,9 @@ Writes into the result folder:
   how its intervals were obtained (``interval``: ``bootstrap``, refits to the force
   replicates of ``electrostatic_bootstrap.csv``, or ``jacobian``, the fallback that takes
   the points' errors as independent), the figures and notes (read by ``evtribo report``);
+- ``population.csv`` and ``population_contrasts.csv`` (study format §10) when the study has
+  at least three subjects with electrostatic forces (:mod:`evtribo.compare.population`),
+  with a ``population_<waveform>_<frequency>Hz`` figure per condition;
 - ``figures/``: each figure once per format asked (``<stem>.svg`` and ``<stem>.png`` by
   default, ``<stem>.pdf`` too on request), in the journal style of
   :mod:`evtribo.compare.style` (a single column or a page wide, no titles: fit.json's
@@ -37,6 +40,7 @@ from evtribo.analysis.outputs import FIGURES, FIT_CSV, FIT_JSON, compare_files
 from evtribo.compare.fit import SubjectFit, fit_study
 from evtribo.compare.fit_csv import fit_table
 from evtribo.compare.frequency_plots import write_models
+from evtribo.compare.friction_only import NOTE, friction_figures
 from evtribo.compare.models import resolve_models
 from evtribo.compare.params import load_parameters, resolve_fit_names
 from evtribo.compare.plots import (
@@ -48,6 +52,8 @@ from evtribo.compare.plots import (
     safe_name,
     save_figure,
 )
+from evtribo.compare.population import Population, population
+from evtribo.compare.population_plots import draw_population
 from evtribo.compare.style import (
     journal_style,
     parse_dpi,
@@ -126,6 +132,7 @@ class CompareResult:
     files: list[Path] = field(default_factory=list)
     figures: list[FigureRecord] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    population: Population | None = None
 
 
 def figure_stems(subjects: Iterable[str]) -> list[str]:
@@ -296,16 +303,26 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
              base: ModelParameters, look: _Look, *, models: tuple[str, ...] = (),
              trial_checks: bool = True, scheduler: Any = None) -> CompareResult:
     """The fits and figures, written into *stage* (``result.files`` relative to it)."""
-    fits = fit_study(tables, base, names, scheduler=scheduler)
+    only_mu = tables.electrostatic.empty  # a study of OFF trials: its friction, no fit
+    fits = [] if only_mu else fit_study(tables, base, names, scheduler=scheduler)
     result = CompareResult(out=tables.out, fits=fits)
-    result.notes += _interval_notes(fits, has_bootstrap=tables.bootstrap is not None)
+    result.notes += [NOTE] if only_mu else _interval_notes(
+        fits, has_bootstrap=tables.bootstrap is not None)
     table = fit_table(fits, tables)
     atomic_write(stage.path(FIT_CSV), table.to_csv(index=False))
     result.files.append(Path(FIT_CSV))
+    result.population = pop = population(tables, fits)
+    for name, text in pop.files().items():
+        atomic_write(stage.path(name), text)
+        result.files.append(Path(name))
     figures = _Figures(stage.folder / FIGURES, look, result)
     with journal_style(look.width):
-        draw_figures(tables, fits, names, figures)
-        if models:
+        if only_mu:
+            friction_figures(tables, figures.emit)
+        else:
+            draw_figures(tables, fits, names, figures)
+            draw_population(tables.electrostatic, pop, figures.emit)
+        if models and not only_mu:
             files, notes = write_models(tables, stage, models, base, figures.emit)
             result.files += files
             result.notes += notes
@@ -470,6 +487,7 @@ def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],
             } for f in result.fits},
         "figures": [r.as_dict() for r in result.figures],
         "notes": result.notes,
+        "population": None if result.population is None else result.population.as_json(),
         "output_sha256": {rel.as_posix(): sha256_file(stage.path(rel.as_posix()))
                           for rel in result.files},
     }

@@ -2,10 +2,11 @@
 the provenance, in one page.
 
 Reads a result folder (``evtribo analyze``'s tables and ``summary.json``, ``evtribo
-compare``'s ``fit.csv``, ``fit.json``, ``figures/`` and, when it compared models,
-``models.csv``) and, when ``summary.json`` names a study folder that still exists, the
-trials' sidecars there (for their notes) and the inputs ``summary.json`` records (hashed
-again, :mod:`evtribo.compare.study_files`). The page's sections and their order are
+compare``'s ``fit.csv``, ``fit.json``, ``figures/``, ``population.csv`` and
+``population_contrasts.csv`` and, when it compared models, ``models.csv``) and, when
+``summary.json`` names a study folder that still exists, the trials' sidecars there (for
+their notes) and the inputs ``summary.json`` records (hashed again,
+:mod:`evtribo.compare.study_files`). The page's sections and their order are
 :mod:`evtribo.compare.report_sections`'; with ``tables=("md", "tex")`` the headline tables
 are also written as Markdown and LaTeX into ``tables/`` beside the page
 (:mod:`evtribo.compare.table_export`).
@@ -28,8 +29,11 @@ import pandas as pd
 
 from evtribo.analysis.outputs import FIGURES, FIT_CSV, FIT_JSON, REPORT_TABLES, TABLES
 from evtribo.compare import report_sections as sections
+from evtribo.compare.friction_report import add_friction
 from evtribo.compare.headline import Headline
+from evtribo.compare.population_section import add_population, read_population
 from evtribo.compare.report import Report
+from evtribo.compare.report_provenance import add_provenance
 from evtribo.compare.run import compare
 from evtribo.compare.study_files import (
     file_hashes,
@@ -61,10 +65,10 @@ _MODELS_COLUMNS = ("subject", "model", "fitted", "n_params", "aic", "delta_aic",
 _FIGURE_SUFFIXES = (".png", ".svg", ".pdf")
 
 
-def _warnings(tables: ResultTables, fit_doc: FitDocument) -> list[str]:
+def _warnings(tables: ResultTables) -> list[str]:
     """The analysis's warnings, its failed trials, the trials' dropped frames and damaged
-    lines, and the comparison's notes, each once."""
-    items = tables.summary.warnings
+    lines, each once (the comparison's notes are the fit's: :func:`sections.add_notes`)."""
+    items = list(tables.summary.warnings)
     for failed in tables.summary.failed_trials:
         items.append(f"{failed.get('trial')}: not analysed: {failed.get('error')}")
     tr = tables.trials
@@ -75,7 +79,6 @@ def _warnings(tables: ResultTables, fit_doc: FitDocument) -> list[str]:
             for (_, row), n in zip(tr.iterrows(), counts, strict=True):
                 if n > 0:
                     items.append(f"{row['subject']}/{row['trial']}: {int(n)} {what}")
-    items += [f"model comparison: {n}" for n in fit_doc.notes]
     return list(dict.fromkeys(items))
 
 
@@ -257,14 +260,19 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
     trials = trials_with_notes(tables, study_dir)
     name = study_name(tables.summary, tables.out)
     report = Report(f"evtribo report: {name}")
-    headlines = sections.add_headline(report, tables, fit, fit_doc)
+    if tables.electrostatic.empty:  # a study of OFF trials: its friction, no fit
+        headlines = add_friction(report, tables.windows, fit_doc.notes)
+    else:
+        headlines = sections.add_headline(report, tables, fit, fit_doc)
+        sections.add_notes(report, fit_doc.notes)
+        headlines += add_population(report, *read_population(tables.out), fit_doc, figures)
     sections.add_all_subjects(report, figures)
     sections.add_models(report, _models(tables.out), figures, tables.subjects)
     sections.add_subjects(report, tables, trials, figures)
     for w in input_warnings:
         log.warning("report: %s", w)
-    sections.add_warnings(report, [*input_warnings, *_warnings(tables, fit_doc)])
-    sections.add_provenance(report, tables, fit_doc, study=name, study_dir=study_dir,
-                            inputs=inputs, trials=trials,
-                            rig=tables.summary.rig or study_rig(study_dir), output=output)
+    sections.add_warnings(report, [*input_warnings, *_warnings(tables)])
+    add_provenance(report, tables, fit_doc, study=name, study_dir=study_dir, inputs=inputs,
+                   trials=trials, rig=tables.summary.rig or study_rig(study_dir),
+                   output=output)
     return report, headlines

@@ -27,7 +27,7 @@ _LATEX = {"\\": r"\textbackslash{}", "&": r"\&", "%": r"\%", "$": r"\$", "#": r"
           "^": r"\textasciicircum{}", "µ": r"\textmu{}", "μ": r"$\mu$",
           "ε": r"$\varepsilon$", "Ω": r"$\Omega$", "Δ": r"$\Delta$", "²": r"$^{2}$",
           "·": r"$\cdot$", "—": "---", "∞": r"$\infty$", "<": r"$<$", ">": r"$>$",
-          "\u00d7": r"$\times$", "\u2212": "-", '"': "''"}
+          "\u00d7": r"$\times$", "\u00f7": r"$\div$", "\u2212": "-", '"': "''"}
 _LATEX_RE = re.compile("|".join(re.escape(k) for k in _LATEX))
 
 

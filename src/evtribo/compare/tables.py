@@ -121,6 +121,14 @@ class ResultTables:
         """Subjects with electrostatic results, in the table's order."""
         return list(dict.fromkeys(self.electrostatic["subject"]))
 
+    @property
+    def all_subjects(self) -> list[str]:
+        """Every subject the results hold: those with electrostatic results, then those with
+        windows only (a subject of OFF trials), then those whose trials gave none."""
+        return list(dict.fromkeys([*self.subjects, *self.windows["subject"].astype(str),
+                                   *self.trials.get("subject", pd.Series(dtype=str))
+                                   .astype(str)]))
+
 
 def _read_csv(path: Path, required: tuple[str, ...]) -> pd.DataFrame:
     try:
@@ -235,8 +243,9 @@ def read_results(out: str | Path) -> ResultTables:
     Raises
     ------
     UserInputError
-        When the folder, ``electrostatic.csv`` or ``windows.csv`` is missing, or a table
-        lacks a required column.
+        When the folder, ``electrostatic.csv`` or ``windows.csv`` is missing, a table lacks
+        a required column, or no trial gave a window (results without electrostatic forces
+        are read: a study of OFF trials has each subject's μ to report).
     ResultFolderError
         When the folder is not one analysis's complete results (see the module's notes).
     OutputBusyError
@@ -259,9 +268,9 @@ def read_results(out: str | Path) -> ResultTables:
             raise UserInputError("required result table not found (run `evtribo analyze` "
                                  "first)", path=path)
         tables[name] = _read_csv(path, required)
-    if tables["electrostatic.csv"].empty:
-        raise UserInputError("no electrostatic results (no ON data?): nothing to compare",
-                             path=folder / "electrostatic.csv")
+    if tables["electrostatic.csv"].empty and tables["windows.csv"].empty:
+        raise UserInputError("no steady-sliding window in any trial (summary.json says "
+                             "why): nothing to compare or report", path=folder / "windows.csv")
     trace = None
     trace_path = folder / "sine_trace.csv"
     if trace_path.is_file():

@@ -41,7 +41,8 @@ def write_trial_checks(tables: ResultTables, emit: Callable[..., None],
     Returns
     -------
     list of str
-        Notes for the user (the study is gone, a trial could not be checked).
+        Notes for the user (the study is gone, a trial the analysis analysed could not be
+        checked); a trial the analysis could not analyse is said by its figure alone.
     """
     from evtribo.compare.trial_plots import trial_check_figures
 
@@ -51,11 +52,13 @@ def write_trial_checks(tables: ResultTables, emit: Callable[..., None],
                 "figures of the trials (run compare where the study is)."]
     fmt = ("png",) if "png" in formats else formats[:1]
     notes: list[str] = []
+    failed = {str(f.get("trial")) for f in tables.summary.failed_trials}
     try:
-        checks = trial_check_figures(study_dir, tables.subjects, tables.summary.settings)
+        checks = trial_check_figures(study_dir, tables.all_subjects,
+                                     tables.summary.settings)
         for f in checks:
-            if f.error is not None:
-                notes.append(f.caption)
+            if f.error is not None and f"{f.subject}/{f.trial}" not in failed:
+                notes.append(f.caption)  # not said by the analysis: the study changed since
             emit(f.axes, "trial", f"{f.subject} / {f.trial}", f.stem, subject=f.subject,
                  caption=f.caption, extra={"trial": f.trial}, formats=fmt, dpi=CHECK_DPI)
             _close(f.axes)

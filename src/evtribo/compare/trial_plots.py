@@ -359,7 +359,7 @@ def trial_check_figures(study_root: Study | str | os.PathLike[str],
             check = check_trial(study, ref.subject, ref.name, settings=chosen,
                                 cache_dir=cache_dir)
         except (AnalysisError, UserInputError) as err:
-            log.warning("%s: no check figure: %s", ref.key, err)
+            log.info("%s: no check figure: %s", ref.key, err)  # its figure says why
             yield _failed(ref.subject, ref.name, err)
             continue
         yield TrialFigure(ref.subject, ref.name, draw_trial_check(check), trial_caption(check))

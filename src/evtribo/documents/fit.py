@@ -4,7 +4,9 @@ Keys (in the order ``compare`` writes them, :data:`FIT_KEYS`): ``run_id`` (the a
 fitted, from its ``summary.json``), ``software``, ``fit`` (the parameters fitted per subject),
 ``parameters_file`` (``{"path", "sha256"}`` or null), ``fixed_parameters``, ``subjects``
 (per subject: ``parameters``, ``estimates``, ``correlation``, ``rmse_N``, ``r2``,
-``chi2_reduced``, ``n_points``, ``mu_measured``, ``interval``), ``figures``, ``notes`` and
+``chi2_reduced``, ``n_points``, ``mu_measured``, ``interval``), ``figures``, ``notes``,
+``population`` (``n_subjects``, ``min_subjects``, ``notes``: what could not be estimated and
+why, ``outliers``: each ``{"subject", "quantity", "value", "low", "high", "unit"}``) and
 ``output_sha256`` (every file compare wrote, which ``evtribo report`` checks). The document
 is JSON with two-space indentation and a final newline; non-finite numbers are written as
 null. It carries no version key of its own: :data:`FIT_VERSION` is the version of the shape
@@ -34,7 +36,7 @@ FIT_VERSION = 1
 #: The keys ``evtribo compare`` writes, in its order.
 FIT_KEYS: tuple[str, ...] = ("run_id", "software", "fit", "parameters_file",
                              "fixed_parameters", "subjects", "figures", "notes",
-                             "output_sha256")
+                             "population", "output_sha256")
 
 
 @dataclass(frozen=True)
@@ -101,6 +103,12 @@ class FitDocument(Mapping[str, Any]):
     def notes(self) -> list[str]:
         """What the comparison noted (how the intervals were obtained, a missing trace)."""
         return [str(n) for n in self._typed("notes", list, [])]
+
+    @property
+    def population(self) -> dict[str, Any]:
+        """What compare noted of the population's estimates: ``n_subjects``,
+        ``min_subjects``, ``notes`` and ``outliers`` (empty for an older fit)."""
+        return dict(self._typed("population", dict, {}))
 
     @property
     def software(self) -> dict[str, Any]:

@@ -47,6 +47,8 @@ SIDECAR_KEYS = frozenset({
     "ended", "end_detail", "frames", "frames_by_id", "first_frame_time", "error_frames",
     "dropped_frames", "dropped_frames_by_message", "longest_gap_s_by_message", "bus_errors",
     "bus_exceptions", "damaged_lines", "bus", "software", "simulation",
+    "discarded_before_start", "error_frames_by_kind", "controller_state",
+    "worst_controller_state", "queue_dropped_frames", "receive",
 })
 
 

@@ -67,6 +67,14 @@ def tokens(name: str) -> list[str]:
     return [w.lower() for w in re.findall(r"[A-Z]?[a-z]+|[A-Z]+(?![a-z])|\d+", name)]
 
 
+def _meaning(name: str) -> set[str]:
+    """The words of *name* that may say a role: a "load cell" names the sensor, not the
+    load it measures (``LoadCell1`` says nothing of normal force)."""
+    words = tokens(name)
+    return {w for i, w in enumerate(words)
+            if not (w == "load" and words[i + 1:i + 2] in (["cell"], ["cells"]))}
+
+
 @dataclass(frozen=True)
 class RoleGuess:
     """One role of the rig and the signal guessed for it.
@@ -101,11 +109,11 @@ class _Candidate:
 
     @property
     def words(self) -> set[str]:
-        return set(tokens(self.signal.name))
+        return _meaning(self.signal.name)
 
     @property
     def message_words(self) -> set[str]:
-        return set(tokens(self.message.name))
+        return _meaning(self.message.name)
 
     @property
     def unit(self) -> str:

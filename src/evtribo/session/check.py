@@ -8,12 +8,10 @@ frames the bus lost.
 
 from __future__ import annotations
 
-import logging
 import math
-from collections.abc import Iterator
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 
+from evtribo.analysis.heard import heard_warnings
 from evtribo.analysis.pipeline import study_settings
 from evtribo.analysis.trial import TrialMeta, analyze_signals
 from evtribo.cache import load_trial
@@ -41,7 +39,8 @@ class TrialCheck:
     problems : list of str
         What should make the operator redo the trial.
     warnings : list of str
-        The analysis's warnings.
+        What the analysis, the readers and the decoder warned of, each once (without the
+        trial's name).
     """
 
     normal_frames: int = 0
@@ -61,30 +60,18 @@ class TrialCheck:
         """One line for the operator."""
         text = (f"forces {self.normal_frames} + {self.tangential_frames} samples, windows "
                 f"{self.windows_on} ON / {self.windows_off} OFF, {self.dropped} frames "
-                "dropped" + (f", {len(self.warnings)} analysis warnings (evtribo analyze "
-                             "lists them)" if self.warnings else ""))
+                "dropped" + (f", {len(self.warnings)} warning(s)" if self.warnings else ""))
         return text + ("" if self.ok else ": " + "; ".join(self.problems))
 
+    def lines(self) -> list[str]:
+        """What the operator reads before deciding to keep or redo the trial: the summary,
+        then each warning on a line of its own.
 
-@contextmanager
-def _quiet() -> Iterator[list[str]]:
-    """Keep what the analysis warns of (the session says how many) off the terminal, where
-    the operator needs the verdict; ``evtribo analyze`` lists them all."""
-    heard: list[str] = []
-
-    class Keep(logging.Handler):
-        def emit(self, record: logging.LogRecord) -> None:
-            heard.append(record.getMessage())
-
-    logger = logging.getLogger("evtribo")
-    handler, propagate = Keep(logging.WARNING), logger.propagate
-    logger.addHandler(handler)
-    logger.propagate = False
-    try:
-        yield heard
-    finally:
-        logger.removeHandler(handler)
-        logger.propagate = propagate
+        Returns
+        -------
+        list of str
+        """
+        return [self.summary(), *(f"  warning: {w}" for w in self.warnings)]
 
 
 def check_trial(study: Study, subject: str, trial: str, condition: str | None) -> TrialCheck:
@@ -113,7 +100,7 @@ def check_trial(study: Study, subject: str, trial: str, condition: str | None) -
         out.problems.append("the study has no rig")
         return out
     try:
-        with _quiet() as heard:
+        with heard_warnings() as heard:  # shown with the verdict, before keep or redo
             signals = load_trial(ref.log_path, rig, cache=False)
             result = analyze_signals(signals,
                                      TrialMeta.from_sidecar(subject, trial, ref.sidecar),
@@ -122,10 +109,12 @@ def check_trial(study: Study, subject: str, trial: str, condition: str | None) -
     except EvtriboError as err:
         out.problems.append(f"the analysis failed: {err}")
         return out
-    out.warnings = heard
+    where = f"{subject}/{trial}: "
+    # the trial's own warnings, then what the readers and the decoder said, each once
+    said = [*result.warnings, *(where + m for m in heard.messages(besides="evtribo.analysis"))]
+    out.warnings = list(dict.fromkeys(w.removeprefix(where) for w in said))
     out.normal_frames = int(signals.normal.t.size)
     out.tangential_frames = int(signals.tangential.t.size)
-    out.warnings += list(result.warnings)
     w = result.windows
     if len(w):
         on = w["condition"].astype(str) == "on"

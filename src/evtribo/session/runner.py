@@ -394,7 +394,10 @@ class _Session:
             return None
         result = check_trial(load_study(self.cfg.study), self.cfg.subject, entry.trial,
                              entry.condition)
-        self.say(f"check: {result.summary()}")
+        first, *rest = result.lines()
+        self.say(f"check: {first}")
+        for line in rest:  # each reason, before the operator decides
+            self.say(line)
         return result
 
     def reject(self, entry: PlannedTrial, why: str) -> None:

@@ -18,7 +18,13 @@ from evtribo.acquisition.simulator.core import (
     simulate_trial,
 )
 from evtribo.acquisition.simulator.realtime import RunStats, Simulator
-from evtribo.acquisition.simulator.study import default_subjects, simulate_study, write_trial
+from evtribo.acquisition.simulator.study import (
+    SubjectPopulation,
+    default_subjects,
+    population_subjects,
+    simulate_study,
+    write_trial,
+)
 
 __all__ = [
     "CONDITIONS",
@@ -27,10 +33,12 @@ __all__ = [
     "RunStats",
     "Simulator",
     "SubjectParams",
+    "SubjectPopulation",
     "TrialConfig",
     "TrialGenerator",
     "TrialTruth",
     "default_subjects",
+    "population_subjects",
     "simulate_study",
     "simulate_trial",
     "write_trial",

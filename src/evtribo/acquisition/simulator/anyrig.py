@@ -4,13 +4,13 @@ The simulator generates the default rig's frames (``FzCell``, ``FxCell``, ``HvSt
 :class:`RigEncoder` turns them, chunk by chunk, into the frames of another rig: each role of
 the target rig (``normal_force``, ``tangential_force``, their counters, the
 ``excitation_*`` status signals) carries the same physical value, encoded with cantools'
-layout of the target's signal (any ID, byte order, scale, offset, width) by
-:func:`~evtribo.acquisition.simulator.encode.pack_signals`. A message of the target is sent
-at the times of the node its first role comes from (the normal cell, the tangential cell or
-the amplifier); a role from another node holds that node's latest value. A counter counts
-the frames its node sent, lost ones too. Waveforms go through the value tables by name
-(``"square"``). Traffic of other nodes passes through, unless it collides with one of the
-target's identifiers.
+layout of the target's signal (any ID, byte order, scale, offset, width; a CAN FD message
+as an FD frame of its length) by :func:`~evtribo.acquisition.simulator.encode.pack_signals`.
+A message of the target is sent at the times of the node its first role comes from (the
+normal cell, the tangential cell or the amplifier); a role from another node holds that
+node's latest value. A counter counts the frames its node sent, lost ones too. Waveforms go
+through the value tables by name (``"square"``). Traffic of other nodes passes through,
+unless it collides with one of the target's identifiers.
 """
 
 from __future__ import annotations
@@ -114,6 +114,24 @@ class RigEncoder:
                                 for m in mine], dtype=np.int64)
         self._wave = _wave_map(self.source.excitation_waveform, rig.excitation_waveform)
 
+    def nodes(self, default: dict[str, dict[str, float]]) -> dict[str, dict[str, float]]:
+        """The simulator's record of each default node, told as the target rig's messages.
+
+        Parameters
+        ----------
+        default : dict
+            Per default node (``FzCell``, ``FxCell``, ``HvStatus``): its ``frame_id``,
+            rate, clock offset, frames sent and dropped.
+
+        Returns
+        -------
+        dict
+            Per message of the target rig: its own ``frame_id``, and the rate, clock offset,
+            frames and drops of the node that clocks it.
+        """
+        return {t.message.name: {**default[t.clock], "frame_id": t.message.frame_id}
+                for t in self.targets if t.clock in default}
+
     def _values(self, frames: FrameTable) -> dict[str, tuple[npt.NDArray[np.float64],
                                                              dict[str, npt.NDArray[np.float64]]]]:
         """Each default node's frame times and physical values in *frames*."""
@@ -207,9 +225,10 @@ def _table(message: Message, t: npt.NDArray[np.float64], values: dict[str, npt.A
            channel: str | None) -> FrameTable:
     """*message*'s frames at times *t* carrying *values*."""
     n = t.size
-    data = pack_signals(message, values, n) if n else np.zeros((0, 8), np.uint8)
+    data = pack_signals(message, values, n) if n else \
+        np.zeros((0, max(8, -(-message.length // 8) * 8)), np.uint8)
     return FrameTable(
         timestamp=t.copy(), arbitration_id=np.full(n, message.frame_id, np.uint32),
         is_extended=np.full(n, bool(message.is_extended_frame)), is_remote=np.zeros(n, bool),
-        is_error=np.zeros(n, bool), is_fd=np.zeros(n, bool),
+        is_error=np.zeros(n, bool), is_fd=np.full(n, bool(message.is_fd)),
         dlc=np.full(n, message.length, np.uint8), data=data, channel=channel)

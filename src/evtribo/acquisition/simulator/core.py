@@ -421,6 +421,9 @@ class TrialGenerator:
         if fn_on is not None:
             fel_model = expected_electrostatic_force(fn_on, cfg, self.params)
         sine_on = cfg.waveform == "sine" and s["n_on"] > 0 and cfg.amplitude_V > 0
+        nodes = {n.name: {"frame_id": n.message.frame_id, "rate_Hz": n.rate_eff,
+                          "clock_offset_s": n.offset, "frames": n.frames,
+                          "dropped": n.dropped} for n in self.nodes}
         return TrialTruth(
             subject=self.subject, config=cfg, schedule=on_off_schedule(cfg),
             slides=self.strokes.slides(cfg.duration_s),
@@ -432,9 +435,7 @@ class TrialGenerator:
             electrostatic_force_N=fel_model,
             electrostatic_force_mean_N=s["fel"] / s["n_fel"] if s["n_fel"] else None,
             friction_modulation_Hz=2 * cfg.frequency_Hz if sine_on else None,
-            nodes={n.name: {"frame_id": n.message.frame_id, "rate_Hz": n.rate_eff,
-                            "clock_offset_s": n.offset, "frames": n.frames,
-                            "dropped": n.dropped} for n in self.nodes},
+            nodes=nodes if self.encoder is None else self.encoder.nodes(nodes),
             foreign_frames=self.foreign_frames,
             lifted=self.contact.lifted(cfg.duration_s),
             contact_lost=self.contact.periods(cfg.duration_s),

@@ -42,10 +42,23 @@ def scaled_to_raw(signal: cantools.database.can.Signal,
     return np.clip(raw, lo, hi).astype(np.int64)
 
 
-def _big_endian_shift(start: int, length: int) -> int:
-    """Left shift of a Motorola signal's LSB in the payload read as a big-endian uint64."""
-    msb = 8 * (start // 8) + (7 - start % 8)  # position counted from byte 0's MSB
-    return 64 - (msb + length)
+def _place(words: npt.NDArray[np.uint64], bits: npt.NDArray[np.uint64], first: int,
+           length: int, little: bool) -> None:
+    """OR *bits* (a *length*-bit field per frame) into the payloads held as 64-bit words,
+    the field's lowest bit at bit *first* (Intel: counted from byte 0's LSB, the words
+    little-endian) or its highest at position *first* (Motorola: counted from byte 0's MSB,
+    the words big-endian); a field across two words is split."""
+    k, at = divmod(first, 64)
+    if little:
+        words[:, k] |= bits << np.uint64(at)
+        if at + length > 64:
+            words[:, k + 1] |= bits >> np.uint64(64 - at)
+    elif at + length <= 64:
+        words[:, k] |= bits << np.uint64(64 - (at + length))
+    else:
+        low = at + length - 64  # bits in the next word
+        words[:, k] |= bits >> np.uint64(low)
+        words[:, k + 1] |= (bits & np.uint64((1 << low) - 1)) << np.uint64(64 - low)
 
 
 def pack_signals(message: cantools.database.can.Message,
@@ -55,7 +68,7 @@ def pack_signals(message: cantools.database.can.Message,
     Parameters
     ----------
     message : cantools Message
-        The DBC message (classic CAN, up to 8 bytes).
+        The DBC message (classic CAN or CAN FD, up to 64 bytes).
     values : mapping of str to array_like
         Physical value of each signal, scalar or of length *n*; signals not given are 0
         (raw), ``*_raw`` keys are taken as raw integers.
@@ -64,11 +77,13 @@ def pack_signals(message: cantools.database.can.Message,
 
     Returns
     -------
-    ndarray of uint8, shape (n, 8)
-        Payloads, zero past the message's length.
+    ndarray of uint8, shape (n, width)
+        Payloads (*width*: 8, or the message's length rounded up to 8 bytes), zero past the
+        message's length.
     """
-    little = np.zeros(n, dtype=np.uint64)
-    big = np.zeros(n, dtype=np.uint64)
+    words = -(-max(message.length, 8) // 8)
+    little = np.zeros((n, words), dtype=np.uint64)
+    big = np.zeros((n, words), dtype=np.uint64)
     for signal in message.signals:
         if signal.name in values:
             raw = scaled_to_raw(signal, np.broadcast_to(values[signal.name], (n,)))
@@ -79,10 +94,11 @@ def pack_signals(message: cantools.database.can.Message,
         mask = np.uint64((1 << signal.length) - 1)
         bits = raw.astype(np.uint64) & mask  # two's complement for negative values
         if signal.byte_order == "little_endian":
-            little |= bits << np.uint64(signal.start)
+            _place(little, bits, signal.start, signal.length, True)
         else:
-            big |= bits << np.uint64(_big_endian_shift(signal.start, signal.length))
-    out = little.astype("<u8").view(np.uint8).reshape(n, 8).copy()
-    out |= big.astype(">u8").view(np.uint8).reshape(n, 8)
+            msb = 8 * (signal.start // 8) + (7 - signal.start % 8)  # from byte 0's MSB
+            _place(big, bits, msb, signal.length, False)
+    out = little.astype("<u8").view(np.uint8).reshape(n, 8 * words).copy()
+    out |= big.astype(">u8").view(np.uint8).reshape(n, 8 * words)
     out[:, message.length:] = 0
     return out

@@ -179,8 +179,15 @@ class Simulator:
         gen = self._generator(duration)
         errors = 0
 
+        def listen() -> None:
+            """Obey the command frames that have arrived (without waiting)."""
+            while (msg := bus.recv(timeout=0.0)) is not None:
+                self.obey(msg.arbitration_id, msg.is_extended_id, bytes(msg.data))
+
         def deliver(table: FrameTable, i: int, j: int) -> int:
             nonlocal errors
+            if self.commands is not None:  # a rig running late still hears its commands
+                listen()
             sent = 0
             for k in range(i, j):
                 dlc = int(table.dlc[k])
@@ -188,7 +195,7 @@ class Simulator:
                     timestamp=float(table.timestamp[k]),
                     arbitration_id=int(table.arbitration_id[k]),
                     is_extended_id=bool(table.is_extended[k]),
-                    is_remote_frame=bool(table.is_remote[k]),
+                    is_remote_frame=bool(table.is_remote[k]), is_fd=bool(table.is_fd[k]),
                     dlc=dlc, data=None if table.is_remote[k] else table.data[k, :dlc].tobytes(),
                     channel=table.channel)
                 try:

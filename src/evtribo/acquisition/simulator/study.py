@@ -5,8 +5,10 @@ from __future__ import annotations
 import dataclasses
 import json
 import logging
+import math
 import os
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -18,7 +20,7 @@ from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.core import TrialTruth, simulate_trial
 from evtribo.acquisition.simulator.realism import human, realistic_rig
 from evtribo.documents.sidecar import rig_entry, write_sidecar
-from evtribo.errors import OutputExistsError, RigConfigError
+from evtribo.errors import ConfigError, OutputExistsError, RigConfigError
 from evtribo.files import atomic_open, partial_path
 from evtribo.frames import write_candump
 from evtribo.frames.table import FrameTable
@@ -26,7 +28,8 @@ from evtribo.lock import WriteLock
 from evtribo.rig import Rig, default_rig
 from evtribo.study import STUDY_FILE, read_study_toml, validate_name
 
-__all__ = ["default_subjects", "simulate_study", "write_trial"]
+__all__ = ["SubjectPopulation", "default_subjects", "population_subjects", "simulate_study",
+           "write_trial"]
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +60,102 @@ def default_subjects(n: int = 3, seed: int = 0) -> list[SubjectParams]:
                       sliding_speed_m_s=round(float(rng.uniform(0.015, 0.03)), 4))
         for i in range(n)
     ]
+
+
+#: The smallest friction coefficient a simulated subject is drawn with.
+MIN_MU = 0.05
+
+
+@dataclass(frozen=True)
+class SubjectPopulation:
+    """Where simulated subjects come from: the population's typical values and spreads.
+
+    Attributes
+    ----------
+    mu : float
+        Mean friction coefficient.
+    mu_sd : float
+        Its standard deviation between subjects (normal; a draw below
+        :data:`MIN_MU` is drawn again).
+    h_L : float, m
+        Median equivalent air gap (the paper's Table 1: 5 µm).
+    h_L_log_sd : float
+        Standard deviation of ln h_L between subjects (log-normal: 0.3 is a factor of 1.35).
+    normal_force_N : float, N
+        Median target normal force.
+    force_log_sd : float
+        Standard deviation of ln F_n between subjects.
+    """
+
+    mu: float = 0.5
+    mu_sd: float = 0.1
+    h_L: float = 5e-6
+    h_L_log_sd: float = 0.3
+    normal_force_N: float = 0.5
+    force_log_sd: float = 0.3
+
+    def __post_init__(self) -> None:
+        for name, key in (("mu", "mu"), ("h_L", "h_L"), ("normal_force_N", "normal_force_N")):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ConfigError(f"{value!r} is not allowed: must be a finite number > 0",
+                                  key=f"SubjectPopulation.{key}")
+        for name in ("mu_sd", "h_L_log_sd", "force_log_sd"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and 0 <= value <= 3):
+                raise ConfigError(f"{value!r} is not allowed: a spread from 0 to 3",
+                                  key=f"SubjectPopulation.{name}")
+        if self.mu < MIN_MU:
+            raise ConfigError(f"{self.mu!r} is not allowed: the mean friction coefficient "
+                              f"must be at least {MIN_MU}", key="SubjectPopulation.mu")
+
+
+
+def population_subjects(n: int, population: SubjectPopulation | None = None, *,
+                        seed: int = 0, template: SubjectParams | None = None
+                        ) -> list[SubjectParams]:
+    """*n* subjects ``P01``, ``P02``... drawn from a population with known parameters.
+
+    Each subject's friction coefficient is normal (mean ``mu``, SD ``mu_sd``, at least
+    :data:`MIN_MU`), its air gap and target normal force log-normal (medians ``h_L`` and
+    ``normal_force_N``, SDs of their logs ``h_L_log_sd`` and ``force_log_sd``), all
+    independent; the other parameters are *template*'s.
+
+    Parameters
+    ----------
+    n : int
+        How many subjects (at least 1).
+    population : SubjectPopulation, optional
+        Default: :class:`SubjectPopulation` ().
+    seed : int
+        Seed of the draws.
+    template : SubjectParams, optional
+        The subjects' other parameters (strokes, drift, model); default SubjectParams().
+
+    Returns
+    -------
+    list of SubjectParams
+
+    Raises
+    ------
+    ConfigError
+        *n* below 1.
+    """
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ConfigError(f"{n!r} is not allowed: at least 1 subject", key="subjects")
+    pop = population or SubjectPopulation()
+    base = template or SubjectParams()
+    rng = np.random.default_rng([seed, 3003])
+    out = []
+    for i in range(n):
+        mu = float(rng.normal(pop.mu, pop.mu_sd))
+        while mu < MIN_MU:
+            mu = float(rng.normal(pop.mu, pop.mu_sd))
+        h_l = pop.h_L * math.exp(pop.h_L_log_sd * float(rng.standard_normal()))
+        fn = pop.normal_force_N * math.exp(pop.force_log_sd * float(rng.standard_normal()))
+        out.append(dataclasses.replace(base, name=f"P{i + 1:02d}", mu=round(mu, 4),
+                                       h_L=float(f"{h_l:.4g}"), normal_force_N=round(fn, 4)))
+    return out
 
 
 def _rig_table(rig: Rig, dbc_rel: str) -> dict[str, Any]:

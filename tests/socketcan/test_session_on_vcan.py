@@ -1,0 +1,114 @@
+"""The whole protocol on SocketCAN: the simulated rig on a vcan interface (``evtribo
+simulate --interface socketcan``, its amplifier obeying the command frames), ``evtribo
+session`` against it with the live view, stopped by Ctrl-C mid-trial and resumed; then, on
+the host (``_socketcan.on_host``), what the amplifier did in each trial and the study
+analysed. The session's own check of each trial (an analysis) is left out in the VM
+(``--no-check``): its processors are emulated, an analysis takes a minute there."""
+
+from __future__ import annotations
+
+import json
+import signal
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+from _socketcan import evtribo, on_host, wait_for
+from evtribo.documents.session import read_session
+
+pytestmark = pytest.mark.slow
+
+PROTOCOL = """\
+[session]
+trial_s = 9
+tare_s = 1.0
+on_s = 2.0
+off_s = 2.0
+target_force_N = 0.5
+
+[[trial]]
+waveform = "square"
+frequency_Hz = 10000
+amplitude_V = [80, 110, 140]
+condition = "alternating"
+"""
+
+
+def _view_state(output: str, timeout: float = 60.0) -> dict:
+    """The live view's state once it shows frames (its address is in *output*)."""
+    url = next(w for w in output.split() if w.startswith("http://127.0.0.1:"))
+    deadline = time.monotonic() + timeout
+    while True:
+        with urllib.request.urlopen(url + "state", timeout=10) as reply:
+            state = json.loads(reply.read())
+        if state.get("frames") or time.monotonic() > deadline:
+            return state
+        time.sleep(0.2)
+
+
+def _obeyed_and_analysed(exports: Path) -> None:
+    """On the host: in each trial the amplifier was at the commanded amplitude whenever its
+    status said ON; the study's F_el grows with the voltage."""
+    import numpy as np
+
+    from _bursts import expect_bursts
+    from evtribo.analysis.pipeline import compute_study
+    from evtribo.cache import load_trial
+    from evtribo.rig import default_rig
+
+    study = exports / "study"
+    for planned in read_session(study / "P01" / "session.json").order:
+        ex = load_trial(study / "P01" / f"{planned.trial}.log", default_rig(),
+                        cache=False).excitation
+        assert ex.enabled.any(), planned.trial
+        assert set(np.round(ex.amplitude[ex.enabled], 2)) == {planned.amplitude_V}
+
+    def analysed() -> None:
+        el = compute_study(study, jobs=1, cache_dir=exports / "cache").electrostatic
+        assert sorted(el.amplitude_V) == [80.0, 110.0, 140.0]
+        assert (el.n_on > 0).all() and (el.n_off > 0).all()
+        fel = el.sort_values("amplitude_V").electrostatic_force_N.to_numpy()
+        assert (fel > 0).all() and (np.diff(fel) > 0).all()  # F_el grows with the voltage
+
+    expect_bursts(analysed, sorted((study / "P01").glob("run-*.log")), [0x0C1, 0x0C2])
+
+
+@on_host(after=_obeyed_and_analysed)
+def test_a_session_over_vcan_against_the_simulated_rig_stopped_and_resumed(
+        tmp_path, vcan, exports):
+    protocol = tmp_path / "protocol.toml"
+    protocol.write_text(PROTOCOL)
+    study = exports / "study"
+    sim = evtribo(["simulate", "--interface", "socketcan", "--channel", vcan, "--fz-rate",
+                   "500", "--fx-rate", "500", "--seed", "7"], tmp_path / "simulate.out")
+    session = ["session", str(protocol), "--study", str(study), "--subject", "P01", "--yes",
+               "--no-check", "--interface", "socketcan", "--channel", vcan]
+    try:
+        first = evtribo([*session, "--view", "0"], tmp_path / "first.out")
+        wait_for(first, "recording P01/run-01", timeout=300)
+        state = _view_state(first.output())
+        assert state["frames"] > 0 and state["queue_dropped"] == 0  # the kernel's count
+        wait_for(first, "recording P01/run-02", timeout=300)
+        time.sleep(1.5)
+        first.send_signal(signal.SIGINT)  # Ctrl-C mid-trial
+        assert first.wait(300) == 0, first.output()
+        assert list(read_session(study / "P01" / "session.json").done) == ["run-01"]
+        assert sorted(p.name for p in (study / "P01" / "rejected").iterdir()) == \
+            ["run-02-1.json", "run-02-1.log"]
+        second = evtribo(session, tmp_path / "second.out")
+        assert second.wait(600) == 0, second.output()
+    finally:
+        sim.send_signal(signal.SIGINT)
+        sim.wait(60)
+    assert "1 of 3 trials done; going on" in second.output()
+    assert "3 of 3 trials done" in second.output()
+    doc = read_session(study / "P01" / "session.json")
+    assert list(doc.done) == ["run-01", "run-02", "run-03"]
+    for planned in doc.order:
+        side = json.loads((study / "P01" / f"{planned.trial}.json").read_text())
+        assert side["ended"] == "completed" and side["interface"] == "socketcan"
+        assert side["receive"]["timestamps"] == "kernel"
+        assert side["queue_dropped_frames"] == 0
+        assert side["amplitude_V"] == planned.amplitude_V
