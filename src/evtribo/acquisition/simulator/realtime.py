@@ -250,6 +250,9 @@ class Simulator:
         adapter.on_open = lambda: gen.lift(self.config.tare_s)
 
         def deliver(table: FrameTable, i: int, j: int) -> int:
+            # a rig running late (a busy machine) still hears the client: its amplifier
+            # commands, and C, after which it sends nothing until the next O
+            adapter.poll(0.0)
             return adapter.send_frames(table, i, j)
 
         stats = self._pace(gen, deliver, stop_event, adapter.poll)
