@@ -325,9 +325,11 @@ def add_population(report: Report, table: pd.DataFrame | None,
     only_mu = set(table["quantity"].astype(str)) == {"mu"}
     report.add_table(_quantities(table), "The population's friction coefficient μ" if only_mu
                      else "The population's power law, μ and air gap",
-                     caption="Population value [95 % interval]; for k and h_L the geometric "
-                             "mean, the spread as the factor of one standard deviation of "
-                             "their log.", section=SECTION, wrap=True)
+                     caption="Population value [95 % interval]; the spread as the standard "
+                             "deviation of the subjects' μ." if only_mu else
+                     "Population value [95 % interval]; for k and h_L the geometric mean, the "
+                     "spread as the factor of one standard deviation of their log.",
+                     section=SECTION, wrap=True)
     if contrasts is not None and not contrasts.empty:
         report.add_table(_contrasts_view(contrasts), "Between conditions",
                          caption="Within subjects measured in both: the ratio of F_el (over "
