@@ -112,7 +112,7 @@ def _stalled_bus(seed: int, stall_s: float, seconds: float = 8.0):
 @given(seed=st.integers(0, 10_000), stall=st.sampled_from([0.0, 0.05, 0.4, 0.9]))
 def test_the_status_is_placed_among_the_cells_frames_however_late_they_were_stamped(
         seed, stall):
-    (tn, sn), (tt, st_), (ts, ss) = _stalled_bus(seed, stall)
+    (tn, sn), (_, st_), (ts, ss) = _stalled_bus(seed, stall)
     fn = sample_times(sn, np.arange(sn.size) % 256)
     ft = sample_times(st_, np.arange(st_.size) % 256)
     placed = placed_among(ss, np.concatenate([sn, st_]), np.concatenate([fn, ft]))
