@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import gzip
 import shutil
+import signal
 import subprocess
 import time
 from collections.abc import Callable, Sequence
@@ -65,6 +66,29 @@ def play(log: Path, interface: str, *, from_channel: str = "vcan0",
     if ignore_times:
         args.append("-t")
     subprocess.run([*args, f"{interface}={from_channel}"], check=True, timeout=600)
+
+
+def play_then_stop(log: Path, interface: str, proc: Forked, *, from_channel: str = "vcan0"
+                   ) -> None:
+    """:func:`play` *log*, then end the recording *proc* with Ctrl-C once what was sent
+    has had a second to arrive (it reads what its queue still holds): canplayer takes as
+    long as the machine lets it (twice a trace's span on a busy one), which no duration
+    given in advance fits."""
+    play(log, interface, from_channel=from_channel)
+    assert proc.poll() is None, f"the recording ended before the trace: {proc.output()}"
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+
+
+def kernel_drops(interface: str) -> dict[str, int]:
+    """What the kernel dropped before any socket saw it: the interface's ``rx_dropped``
+    and ``tx_dropped``, and the processors' backlog queues' drops (``/proc/net/softnet_stat``'s
+    second column, summed; ``net.core.netdev_max_backlog``)."""
+    stats = Path("/sys/class/net") / interface / "statistics"
+    out = {name: int((stats / name).read_text()) for name in ("rx_dropped", "tx_dropped")}
+    rows = Path("/proc/net/softnet_stat").read_text().split("\n")
+    out["backlog_dropped"] = sum(int(row.split()[1], 16) for row in rows if row.strip())
+    return out
 
 
 def unzip(log_gz: Path, to: Path) -> Path:

@@ -27,7 +27,8 @@ jitter showed 3,400 "missing" frames where 600 were lost). Here:
   are counted, as lasting drops of the stream's upper envelope (the frame count minus the
   elapsed time in periods, its maximum over windows of many periods, which the earliest
   frames of each burst set), with a note saying so. Short pauses, bursts, stalls and a
-  clock off by 100 ppm make no drop, so they invent no loss.
+  clock off by 100 ppm make no lasting drop, so they invent no outage (symmetric jitter of
+  two periods can move the count by a few frames, less than the outage the note names).
 
 What no timestamp can tell: an adapter that stamps its polls, one frame a poll, at about the
 cell's own rate (a 1 kHz cell read by a USB adapter polled every 1 ms) skips a poll whenever

@@ -66,6 +66,7 @@ class Sender(threading.Thread):
         self.bus = can.Bus(interface="virtual", channel=channel)
         self.frames = frames
         self.rate = rate
+        self.done = threading.Event()
 
     def run(self):
         t0 = time.perf_counter()
@@ -77,15 +78,19 @@ class Sender(threading.Thread):
                 n += 1
             time.sleep(0.005)
         self.bus.shutdown()
+        self.done.set()
 
 
-def record_from_sender(tmp_path, channel, frames, duration=1.5, **kwargs):
+def record_from_sender(tmp_path, channel, frames, **kwargs):
+    """Record until the sender is done and every frame it sent was received (``until``): a
+    busy machine sends and receives more slowly, and the trial waits for it."""
     study = tmp_path / "study"
     sender = Sender(channel, frames)
     with can.Bus(interface="virtual", channel=channel) as bus:
-        result = record_trial(bus, study, "P01", "run-01", duration=duration,
+        result = record_trial(bus, study, "P01", "run-01", duration=None,
                               settings=BusSettings("virtual", channel, 1_000_000),
-                              started=lambda _paths: sender.start(), **kwargs)
+                              started=lambda _paths: sender.start(), until=sender.done.is_set,
+                              **kwargs)
     sender.join()
     return study, result
 
@@ -133,7 +138,9 @@ def test_records_every_frame_and_a_spec_sidecar(tmp_path):
     assert side["evtribo_version"]
     assert side["python_can_version"] == can.__version__
     assert side["start_time"].endswith("Z") and side["end_time"] > side["start_time"]
-    assert side["duration_s"] == pytest.approx(1.5, abs=0.2)
+    # the recording lasted at least as long as the frames it holds (how long that was on
+    # this machine is not asserted)
+    assert side["duration_s"] >= back[-1].timestamp - back[0].timestamp > 0
     # the study module's readers accept what acquire writes
     assert read_sidecar(study / "P01" / "run-01.json", default_subject="P01").amplitude_V == 140
     loaded = load_study(study)
@@ -146,7 +153,7 @@ def test_records_every_frame_and_a_spec_sidecar(tmp_path):
 def test_counts_frames_lost_by_the_counters(tmp_path):
     lost = {7, 8, 9, 200, 201, 1000}                # FzCell counter values never sent
     frames = rig_frames(3000, skip=lost, extra=False)
-    _study, result = record_from_sender(tmp_path, "acq_counts_lost", frames, duration=1.0)
+    _study, result = record_from_sender(tmp_path, "acq_counts_lost", frames)
     side = result.sidecar
     assert side["frames"] == len(frames)
     assert side["dropped_frames"] == len(lost)
@@ -159,9 +166,8 @@ def test_stop_request_ends_as_interrupted(tmp_path):
     with can.Bus(interface="virtual", channel="acq_stop") as bus:
         result = record_trial(bus, tmp_path / "s", "P02", "run-02", duration=20.0,
                               should_stop=stop.is_set)
-    assert result.ended == "interrupted"
+    assert result.ended == "interrupted"  # by the request, not after its 20 s
     assert result.exit_code == 0
-    assert result.sidecar["duration_s"] < 2.0
     assert (tmp_path / "s" / "P02" / "run-02.log").read_text() == ""
 
 
@@ -370,10 +376,12 @@ def test_records_the_simulated_rig_at_a_saturated_rate(tmp_path):
     out = {}
     channel = "acq_simulated_rig"
     tx = can.Bus(interface="virtual", channel=channel)
-    sender = threading.Thread(target=lambda: out.update(stats=sim.run(tx, duration=1.0)))
-    with can.Bus(interface="virtual", channel=channel) as rx:
-        result = record_trial(rx, tmp_path / "s", "P01", "run-01", duration=1.8,
-                              started=lambda _paths: sender.start())
+    done = threading.Event()
+    sender = threading.Thread(target=lambda: (out.update(stats=sim.run(tx, duration=1.0)),
+                                              done.set()))
+    with can.Bus(interface="virtual", channel=channel) as rx:  # until all sent is received
+        result = record_trial(rx, tmp_path / "s", "P01", "run-01", duration=None,
+                              started=lambda _paths: sender.start(), until=done.is_set)
     sender.join()
     tx.shutdown()
     stats, truth = out["stats"], sim.generator.truth()
@@ -408,7 +416,7 @@ def test_disk_full_mid_trial_keeps_the_log_so_far(tmp_path, monkeypatch):
         bus.shutdown()
     assert result.ended == "disk-error"
     assert result.exit_code == 1
-    assert result.sidecar["duration_s"] < 2.0
+    assert result.sidecar["duration_s"] < 5.0          # ended by the fault, not its duration
     assert "No space left on device" in result.sidecar["end_detail"]
     log = tmp_path / "s" / "P01" / "run-01.log"
     lines = log.read_text().splitlines()

@@ -175,7 +175,7 @@ def test_disk_full_mid_trial_the_sidecar_says_so_and_the_log_has_whole_lines(
     assert side["ended"] == "disk-error" and side == result.sidecar
     assert "No space left on device" in side["end_detail"]
     assert "the log ends with the last whole line written" in side["end_detail"]
-    assert side["duration_s"] < 5
+    assert side["duration_s"] < 10.0                   # ended by the fault, not its duration
     check_whole_lines(paths.log, side["frames"])
     assert side["frames"] > log_room // 60           # the room left was used
     assert sum(side["frames_by_id"].values()) == side["frames"]

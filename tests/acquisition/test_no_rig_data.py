@@ -62,17 +62,22 @@ def test_the_timeout_is_a_named_constant_of_a_few_seconds():
     ((0x0C1, 0x123), 0.3, "completed"),          # the rig, a little late
 ])
 def test_a_trial_without_the_rigs_frames_ends_as_no_rig_data(tmp_path, ids, delay, ended):
+    """The trial lasts longer than the time allowed for the rig's frames: one without them
+    ends as no-rig-data when that time is up (not as completed at its end, however late a
+    busy machine checks), one with them runs its duration."""
     channel = f"no-rig-{ids[0]}-{delay}"
+    timeout = 0.8 if ended == "no-rig-data" else 2.0
+    duration = 60.0 if ended == "no-rig-data" else 2.5  # 60 s: a hang guard
     with Sender(channel, ids, delay), can.Bus(interface="virtual", channel=channel) as bus:
-        result = record_trial(bus, tmp_path / "s", "P01", "run-01", duration=1.5,
-                              rig_data_timeout=0.8)
+        result = record_trial(bus, tmp_path / "s", "P01", "run-01", duration=duration,
+                              rig_data_timeout=timeout)
     side = json.loads((tmp_path / "s" / "P01" / "run-01.json").read_text())
     assert (result.ended, side["ended"]) == (ended, ended)
     assert result.exit_code == (1 if ended == "no-rig-data" else 0)
     log = tmp_path / "s" / "P01" / "run-01.log"
     assert len(list(can.LogReader(log))) == side["frames"] > 0   # the log is kept
     if ended == "no-rig-data":
-        assert side["duration_s"] < 1.4
+        assert side["duration_s"] < duration                    # it did not run its 60 s
         assert "FzCell (0x0C1), FxCell (0x0C2)" in side["end_detail"]
         assert "0.8 s" in side["end_detail"]
 
@@ -93,7 +98,7 @@ def test_acquire_with_the_wrong_rig_says_so_and_exits_1(tmp_path, capsys):
     assert "has no study.toml" not in err                     # --rig was given
     side = json.loads((study / "P01" / "run-01.json").read_text())
     assert side["ended"] == "no-rig-data" and side["frames"] > 100
-    assert side["duration_s"] < 10
+    assert side["duration_s"] < 20                     # ended before its --duration
 
 
 def test_a_new_study_without_rig_says_which_rig_it_assumed(tmp_path, capsys):

@@ -33,7 +33,8 @@ def acquire_process(study, path, log_channel):
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
-def wait_for_bytes(part, proc, n_bytes, timeout=30.0):
+def wait_for_bytes(part, proc, n_bytes, timeout=120.0):
+    """Wait until *part* holds *n_bytes* (*timeout* only ends a hang)."""
     deadline = time.monotonic() + timeout
     while not (part.exists() and part.stat().st_size >= n_bytes):
         assert proc.poll() is None, proc.communicate()
@@ -84,8 +85,7 @@ def test_a_trial_being_recorded_is_refused_to_everyone_force_included(tmp_path, 
         with can.Bus(interface="virtual", channel="lock-api") as bus:
             with pytest.raises(LockedError, match=f"PID {first.pid}"):
                 record_trial(bus, study, "P01", "run-01", duration=0.5, force=True)
-        time.sleep(0.3)
-        assert paths.part.stat().st_size > size          # the first one records on
+        wait_for_bytes(paths.part, first, size + 1)      # the first one records on
         assert not paths.log.exists()
     finally:
         _out, err = stop(first)
@@ -140,7 +140,7 @@ def test_a_lock_left_by_a_killed_recording_is_cleared(tmp_path, simulate_pty, ca
     paths = TrialPaths.of(study, "P01", "run-01")
     first = acquire_process(study, path, "busA")
     try:
-        deadline = time.monotonic() + 30
+        deadline = time.monotonic() + 120  # ends a hang only
         while not (paths.lock.exists() and paths.part.exists()
                    and paths.part.stat().st_size >= n_bytes):
             assert first.poll() is None and time.monotonic() < deadline, first.communicate()

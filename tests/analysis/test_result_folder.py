@@ -378,7 +378,7 @@ def test_a_stopped_analyze_leaves_no_worker_and_out_as_it_was(study, complete, t
         proc.join(30)
         expected = 128 + signal.SIGTERM if sig == signal.SIGTERM else -signal.SIGKILL
         assert proc.exitcode == expected, (tmp_path / "stop.log").read_text()
-        deadline = time.monotonic() + 10
+        deadline = time.monotonic() + 60  # ends a hang only: a loaded machine reaps late
         while any(alive(p) for p in workers) and time.monotonic() < deadline:
             time.sleep(0.05)
         assert not any(alive(p) for p in workers), "worker processes outlived analyze"

@@ -1,5 +1,6 @@
 """Sample times taken back from the timestamps a logger gives: jitter, batches, a clock of its
-own, stalls, lost frames with and without a counter."""
+own, stalls, lost frames with and without a counter; the amplifier's status placed among the
+load cells' frames."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evtribo.analysis.timebase import sample_times
+from evtribo.analysis.timebase import placed_among, sample_times
 
 RATE = 1000.0
 
@@ -85,3 +86,39 @@ def test_a_stream_that_is_not_periodic_keeps_its_timestamps():
     np.testing.assert_array_equal(sample_times(t), t)
     short = np.array([0.0, 0.001, 0.002])
     np.testing.assert_array_equal(sample_times(short, np.arange(3)), short)
+
+
+def _stalled_bus(seed: int, stall_s: float, seconds: float = 8.0):
+    """Two 1 kHz cells (counters) and a 50 Hz status on one bus, sent in order, stamped by a
+    logger that stalls now and then for up to *stall_s* and then takes its backlog at once
+    (as a busy replay or receiver does): the true times and the stamps of each stream."""
+    rng = np.random.default_rng(seed)
+    cells = np.arange(0.0, seconds, 1e-3) + 3.0
+    status = np.arange(0.0, seconds, 0.02) + 3.0 + 3.3e-4
+    sent = np.concatenate([cells, cells + 1.1e-4, status])
+    kind = np.repeat([0, 1, 2], [cells.size, cells.size, status.size])
+    order = np.argsort(sent, kind="stable")
+    sent, kind = sent[order], kind[order]
+    ready = sent + 1.5e-4 + rng.exponential(5e-5, sent.size)  # the bus and the driver
+    for start in rng.uniform(3.0, 3.0 + seconds, 4):  # stalls: nothing read until they end
+        end = start + rng.uniform(0.2, 1.0) * stall_s
+        ready[(ready > start) & (ready < end)] = end
+    step = np.arange(sent.size) * 2e-6  # the reader takes a frame in 2 µs at best
+    stamps = np.maximum.accumulate(ready - step) + step
+    return [(sent[kind == j], stamps[kind == j]) for j in range(3)]
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 10_000), stall=st.sampled_from([0.0, 0.05, 0.4, 0.9]))
+def test_the_status_is_placed_among_the_cells_frames_however_late_they_were_stamped(
+        seed, stall):
+    (tn, sn), (_, st_), (ts, ss) = _stalled_bus(seed, stall)
+    fn = sample_times(sn, np.arange(sn.size) % 256)
+    ft = sample_times(st_, np.arange(st_.size) % 256)
+    placed = placed_among(ss, np.concatenate([sn, st_]), np.concatenate([fn, ft]))
+    # against the cells' sample times, each status frame is where it was sent (a
+    # millisecond: the cells' period), whatever the stalls made of the cells' own line
+    where = np.interp(ts, tn, fn)
+    assert np.abs(placed - where).max() < 1.5e-3
+    if stall >= 0.4:  # where its own stamps were off by the stall
+        assert np.abs(ss - where).max() > 0.1

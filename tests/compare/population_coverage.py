@@ -1,19 +1,18 @@
 """Coverage of the population's 95 % intervals on simulated populations (population_sim.py).
 
-Run from the checkout: ``python tests/compare/population_coverage.py --seeds 400``. Prints,
-per kind of population and number of subjects, the share of runs whose interval held the
-truth: the exponent, and the force at each amplitude (all amplitudes counted). The test
-suite runs fewer seeds of the same (tests/compare/test_population_coverage.py).
+The kinds of population checked and the tally of runs whose interval held the truth: the
+exponent, the force at each amplitude, the friction coefficient mu and, for populations
+that follow the seed paper's model, the fitted air gap h_L. ``scripts/population_coverage.py``
+prints them over many seeds with their binomial uncertainty; the test suite runs fewer
+seeds of the same (tests/compare/test_population_coverage.py).
 """
 
 from __future__ import annotations
 
-import argparse
 import math
 import sys
-import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -22,6 +21,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 from population_sim import Lab, Truth, hierarchical_tables, physics_tables
 
+from evtribo.compare.fit import SubjectFit, fit_study
 from evtribo.compare.population import population
 from evtribo.compare.tables import ResultTables
 
@@ -40,68 +40,65 @@ KINDS: dict[str, Maker] = {
         rng, k, drop=lambda i, a: (i % 3 == 1 and a > 110) or (i % 4 == 2 and a == 60)),
     "the paper's model (eq. 11)": physics_tables,
 }
+#: The kinds whose subjects follow the seed paper's model: their air gap h_L is fitted.
+FITTED = ("the paper's model (eq. 11)",)
 
 
 @dataclass
 class Tally:
-    """Runs whose intervals held the truth."""
+    """Per quantity, the intervals that held the truth and the intervals counted.
 
-    exponent: int = 0
-    exponent_runs: int = 0
-    force: int = 0
-    force_runs: int = 0
+    Keys: ``exponent``, ``F_el`` (every amplitude), ``F_el at 60 V`` (each amplitude),
+    ``mu``, ``h_L``.
+    """
+
+    held: dict[str, int] = field(default_factory=dict)
+    counted: dict[str, int] = field(default_factory=dict)
     runs: int = 0
     named: int = 0  # runs that named an outlier (there is none in these populations)
 
-    def rates(self) -> tuple[float, float]:
-        return (self.exponent / max(self.exponent_runs, 1),
-                self.force / max(self.force_runs, 1))
+    def count(self, key: str, low: float, high: float, truth: float) -> None:
+        """One interval of *key*: did it hold *truth*?"""
+        self.counted[key] = self.counted.get(key, 0) + 1
+        self.held[key] = self.held.get(key, 0) + int(low <= truth <= high)
+
+    def rate(self, key: str) -> float:
+        """The share of *key*'s intervals that held the truth (NaN: none counted)."""
+        n = self.counted.get(key, 0)
+        return self.held.get(key, 0) / n if n else math.nan
+
+    def uncertainty(self, key: str) -> float:
+        """The binomial standard error of :meth:`rate` (runs taken as independent)."""
+        p, n = self.rate(key), self.counted.get(key, 0)
+        return math.sqrt(p * (1 - p) / n) if n else math.nan
 
 
-def check(tables: ResultTables, truth: Truth, tally: Tally) -> None:
-    """Count whether the population's exponent and forces hold the truth."""
-    pop = population(tables)
+def check(tables: ResultTables, truth: Truth, tally: Tally,
+          fits: Sequence[SubjectFit] = ()) -> None:
+    """Count whether the population's exponent, forces, mu and h_L hold the truth.
+
+    *fits*: the subjects' model fits (for h_L; the population's truth ``truth.h_l``).
+    """
+    pop = population(tables, fits)
     tally.runs += 1
     tally.named += bool(pop.outliers)
     for _, row in pop.table.iterrows():
-        if row["quantity"] == "exponent":
-            tally.exponent_runs += 1
-            tally.exponent += int(row["ci_low"] <= truth.exponent <= row["ci_high"])
-        elif row["quantity"] == "electrostatic_force_N":
-            true = math.exp(truth.log_force(float(row["amplitude_V"])))
-            tally.force_runs += 1
-            tally.force += int(row["ci_low"] <= true <= row["ci_high"])
+        lo, hi, what = float(row["ci_low"]), float(row["ci_high"]), row["quantity"]
+        if what == "exponent":
+            tally.count("exponent", lo, hi, truth.exponent)
+        elif what == "electrostatic_force_N":
+            amp = float(row["amplitude_V"])
+            true = math.exp(truth.log_force(amp))
+            tally.count("F_el", lo, hi, true)
+            tally.count(f"F_el at {amp:g} V", lo, hi, true)
+        elif what == "mu":
+            tally.count("mu", lo, hi, truth.mu)
+        elif what == "h_L_m" and truth.h_l is not None:
+            tally.count("h_L", lo, hi, truth.h_l)
 
 
-def coverage(make: Maker, sizes: Sequence[int], seeds: Sequence[int]) -> Tally:
-    """The tally over *seeds*, each run's number of subjects cycling through *sizes*."""
-    tally = Tally()
-    for i, seed in enumerate(seeds):
-        k = sizes[i % len(sizes)]
-        tables, truth = make(np.random.default_rng([seed, k]), k)
-        check(tables, truth, tally)
-    return tally
-
-
-def main() -> None:
-    """Print the coverage of every kind of population at 5, 8 and 12 subjects."""
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--seeds", type=int, default=200)
-    parser.add_argument("--kind", action="append", help="only these kinds (repeatable)")
-    args = parser.parse_args()
-    for name, make in KINDS.items():
-        if args.kind and not any(k in name for k in args.kind):
-            continue
-        for k in (5, 8, 12):
-            started = time.process_time()
-            tally = coverage(make, [k], range(args.seeds))
-            exp_rate, f_rate = tally.rates()
-            spent = (time.process_time() - started) / args.seeds
-            print(f"{name:36s} {k:2d} subjects: exponent {100 * exp_rate:5.1f} %, "
-                  f"F_el {100 * f_rate:5.1f} %, an outlier named in "
-                  f"{100 * tally.named / tally.runs:4.1f} %  ({args.seeds} runs, "
-                  f"{spent:.2f} s CPU each)", flush=True)
-
-
-if __name__ == "__main__":
-    main()
+def run(kind: str, k: int, seed: int, tally: Tally, *, fit: bool = True) -> None:
+    """One simulated study of *k* subjects of *kind*, checked into *tally*; its subjects
+    fitted with the seed paper's model (for h_L) when *fit* and the kind follows it."""
+    tables, truth = KINDS[kind](np.random.default_rng([seed, k]), k)
+    check(tables, truth, tally, fit_study(tables) if fit and kind in FITTED else ())

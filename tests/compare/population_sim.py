@@ -40,6 +40,7 @@ class Truth:
     exponent: float
     log_force: Callable[[float], float]  # log of the geometric mean F_el at U, N
     mu: float
+    h_l: float | None = None  # the population's geometric mean of the air gap, m
     subjects: dict[str, dict[str, float]] = field(default_factory=dict)
 
 
@@ -147,7 +148,7 @@ def physics_tables(rng: np.random.Generator, k: int, *, h_l: float = 5e-6,
     x = np.log(np.asarray(amps) / U_REF)
     slope = float(np.polyfit(x, mean_log, 1)[0])
     table = dict(zip(amps, mean_log, strict=True))
-    truth = Truth(slope, lambda u: float(table[u]), 0.5)
+    truth = Truth(slope, lambda u: float(table[u]), 0.5, h_l)
     es, boot, win = [], [], []
     for i in range(k):
         name = f"S{i + 1:02d}"

@@ -54,6 +54,10 @@ def test_compare_and_report_give_each_subject_s_mu(reported):
     table = (out / "tables" / "friction.md").read_text(encoding="utf-8")
     html = (out / "report.html").read_text(encoding="utf-8")
     assert "Friction coefficient μ by subject" in html
+    # two subjects: no population's mu, and why
+    assert not (out / "population.csv").exists()
+    assert ("No population estimate of μ: friction coefficient mu: 2 subject(s) to pool; a "
+            "population estimate needs at least 3") in html
     for subject, true_mu in MU.items():
         off = windows[(windows.subject == subject) & (windows.condition == "off")]
         mu = off.friction_force_N.sum() / off.normal_force_N.sum()

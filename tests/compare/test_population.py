@@ -148,3 +148,61 @@ def test_contrast_between_drives_every_subject_had():
     diff = c.loc["exponent"]
     assert diff["ci_low"] < 0.0 < diff["ci_high"] and math.isnan(diff["ratio"])
     assert set(_rows(pop, "exponent")["waveform"]) == {"square", "sine"}
+
+
+def test_one_amplitude_only_gives_forces_and_says_why_no_power_law():
+    """Every subject measured at 100 V only: the force at 100 V, no exponent, and why."""
+    tables, _ = hierarchical_tables(np.random.default_rng(16), 5)
+    keep = tables.electrostatic["amplitude_V"] == 100.0
+    one = dataclasses.replace(
+        tables, electrostatic=tables.electrostatic[keep].reset_index(drop=True),
+        bootstrap=tables.bootstrap[tables.bootstrap["amplitude_V"] == 100.0])
+    pop = population(one)
+    forces = _rows(pop, "electrostatic_force_N")
+    assert list(forces["amplitude_V"]) == [100.0] and forces.iloc[0]["n_subjects"] == 5
+    assert _rows(pop, "exponent").empty and _rows(pop, "prefactor_N").empty
+    assert "square 10000 Hz: one amplitude only, no power law" in pop.notes
+
+
+def test_contrast_between_two_drive_frequencies():
+    """The same subjects at 100 Hz, each with its forces at 10 kHz times its own factor
+    (the population's 0.8, spread 5 % between subjects), measured with the same errors:
+    the ratio's interval holds 1/0.8, the conditions named by their frequencies."""
+    tables, _ = hierarchical_tables(np.random.default_rng(17), 7)
+    es, boot = tables.electrostatic, tables.bootstrap
+    own = dict(zip(es["subject"].unique(), 0.8 * np.exp(
+        0.05 * np.random.default_rng(18).standard_normal(7)), strict=True))
+    slow = es.copy()
+    for c in ("electrostatic_force_N", "electrostatic_force_ci_low_N",
+              "electrostatic_force_ci_high_N"):
+        slow[c] *= slow["subject"].map(own)
+    slow["frequency_Hz"] = 100.0
+    slow_boot = boot.assign(frequency_Hz=100.0, electrostatic_force_N=boot[
+        "electrostatic_force_N"] * boot["subject"].map(own))
+    pop = population(dataclasses.replace(
+        tables, electrostatic=pd.concat([es, slow], ignore_index=True),
+        bootstrap=pd.concat([boot, slow_boot], ignore_index=True)))
+    ratio = pop.contrasts.set_index("quantity").loc["electrostatic_force_N"]
+    assert (ratio["condition_a"], ratio["condition_b"]) == ("square 100 Hz",
+                                                            "square 10000 Hz")
+    assert ratio["ci_low"] < 1 / 0.8 < ratio["ci_high"] and ratio["n_subjects"] == 7
+    assert ratio["ci_high"] / ratio["ci_low"] < 1.2  # paired within subjects: narrow
+
+
+def test_a_study_of_off_trials_gets_the_population_s_mu():
+    """No electrostatic force at all (OFF trials only) but five subjects' OFF windows: the
+    population's mu, and its file; the notes say why nothing else."""
+    tables, truth = hierarchical_tables(np.random.default_rng(19), 5)
+    off = dataclasses.replace(tables, electrostatic=tables.electrostatic.iloc[:0],
+                              bootstrap=tables.bootstrap.iloc[:0])
+    pop = population(off)
+    assert list(pop.table["quantity"]) == ["mu"] and pop.n_subjects == 0
+    mu = pop.table.iloc[0]
+    assert mu["n_subjects"] == 5 and mu["ci_low"] < truth.mu < mu["ci_high"]
+    assert pop.table.equals(_rows(population(tables), "mu").reset_index(drop=True))
+    assert set(pop.files()) == {"population.csv", "population_contrasts.csv"}
+    assert pop.notes[0].startswith("0 subject(s) with electrostatic forces")
+    two = population(_only(off, ["S01", "S02"]))
+    assert two.table.empty and two.files() == {}
+    assert "friction coefficient mu: 2 subject(s) to pool; a population estimate needs at " \
+        "least 3" in two.notes

@@ -4,6 +4,7 @@ estimates hold its truth; with two subjects, no estimates and the report says wh
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import re
@@ -24,6 +25,7 @@ from evtribo.acquisition.simulator import SubjectPopulation, population_subjects
 from evtribo.analysis.outputs import compare_files
 from evtribo.cli import main
 from evtribo.compare import compare
+from evtribo.compare.numbers import with_interval
 from evtribo.compare.population import POPULATION_COLUMNS
 from evtribo.compare.study_report import build_report
 
@@ -162,3 +164,26 @@ def test_the_report_names_the_outlier(tmp_path):
     assert "left out as outliers: S03" in text
     table = pd.read_csv(out / "population.csv")
     assert (table.loc[table["waveform"] == "square", "n_subjects"] == 7).all()
+
+
+def test_a_study_of_off_trials_reports_the_population_s_mu(tmp_path, capsys):
+    """Five subjects' OFF windows and no electrostatic force: compare writes mu's row of
+    population.csv and prints it, and the report's Population section follows the table
+    of mu with it and a paragraph for a methods section."""
+    tables, _ = hierarchical_tables(np.random.default_rng(21), 5)
+    off = dataclasses.replace(tables, electrostatic=tables.electrostatic.iloc[:0],
+                              bootstrap=tables.bootstrap.iloc[:0])
+    out = write_result_folder(tmp_path / "out", off)
+    assert main(["compare", str(out), "--dpi", "30", "--no-trial-checks"]) == 0
+    table = pd.read_csv(out / "population.csv")
+    assert list(table["quantity"]) == ["mu"] and table["n_subjects"].iloc[0] == 5
+    mu = table.iloc[0]
+    assert (f"population (5 subjects): μ = {mu['estimate']:.3g} [{mu['ci_low']:.3g}, "
+            f"{mu['ci_high']:.3g}]") in capsys.readouterr().out
+    html = build_report(out, tmp_path / "r.html").read_text("utf-8")
+    assert html.index(">Friction coefficient</h2>") < html.index(">Population</h2>")
+    text = _section(html, "Population")
+    assert "The population's friction coefficient μ" in text
+    assert with_interval(mu["estimate"], mu["ci_low"], mu["ci_high"]) in text, text
+    assert "per-subject results of 5 subjects: the population's friction coefficient" in text
+    assert "electrostatic" not in text

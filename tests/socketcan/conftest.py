@@ -51,6 +51,8 @@ VM_TIMEOUT_S = float(os.environ.get("EVTRIBO_VCAN_VM_TIMEOUT", "1800"))
 VM_CPUS = 1
 #: Environment variables the guest's tests see as the host's.
 PASSED_ON = ("HYPOTHESIS_PROFILE", "EVTRIBO_REPLAY_STUDIES")
+#: Set to 1 to keep the tests' exports folder (what each test recorded) after the run.
+KEEP_ENV = "EVTRIBO_SOCKETCAN_KEEP"
 GROUP = "socketcan-vm"
 FOLDER = Path(__file__).parent
 
@@ -139,7 +141,8 @@ class _GuestRun:
         self.figures: dict[str, float | str] = {}
         self.output = ""
         self.exports = Path(tempfile.mkdtemp(prefix="socketcan-exports-"))
-        config.add_cleanup(lambda: shutil.rmtree(self.exports, ignore_errors=True))
+        if os.environ.get(KEEP_ENV) != "1":
+            config.add_cleanup(lambda: shutil.rmtree(self.exports, ignore_errors=True))
 
     def folder(self, nodeid: str) -> Path:
         return self.exports / _folder_name(nodeid)

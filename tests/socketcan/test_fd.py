@@ -16,8 +16,9 @@ from _socketcan import (
     Candump,
     evtribo,
     frames_of,
+    kernel_drops,
     on_host,
-    play,
+    play_then_stop,
     times_of,
     wait_for,
     without_fdf,
@@ -26,7 +27,6 @@ from _socketcan import (
 pytestmark = pytest.mark.slow
 
 RIG = ROOT / "tests" / "data" / "rigs" / "fd.toml"
-CELLS = (0x111, 0x112)
 
 
 def _simulate(exports: Path) -> None:
@@ -43,7 +43,6 @@ def _decoded_and_analysed(exports: Path) -> None:
     and analysed like it."""
     import pandas as pd
 
-    from _bursts import expect_bursts
     from evtribo.analysis.pipeline import compute_study
     from evtribo.cli import main
 
@@ -64,10 +63,7 @@ def _decoded_and_analysed(exports: Path) -> None:
         assert len(el.electrostatic) == 1, "no F_el: no steady-sliding window found"
         return float(el.electrostatic.electrostatic_force_N.iloc[0])
 
-    def analysed_alike() -> None:
-        assert fel(exports / "recorded") == pytest.approx(fel(exports / "trace"), rel=0.02)
-
-    expect_bursts(analysed_alike, [trace, recorded], CELLS)
+    assert fel(exports / "recorded") == pytest.approx(fel(exports / "trace"), rel=0.02)
 
 
 @on_host(before=_simulate, after=_decoded_and_analysed)
@@ -78,15 +74,17 @@ def test_a_rig_on_can_fd_is_recorded_decoded_and_analysed(tmp_path, vcan, export
 
     recorded = exports / "recorded"
     candump = Candump(vcan, tmp_path / "candump.log")
+    before = kernel_drops(vcan)
     proc = evtribo(["acquire", "--study", str(recorded), "--rig", str(RIG), "--subject", "P01",
                     "--trial", "run-01", "--interface", "socketcan", "--channel", vcan,
-                    "--log-channel", "vcan0", "--tare-s", "0", "--duration", "22",
+                    "--log-channel", "vcan0", "--tare-s", "0", "--duration", "600",
                     "--waveform", "square", "--frequency", "10000", "--amplitude", "140",
                     "--condition", "alternating"], tmp_path / "acquire.out")
     wait_for(proc, "recording P01/run-01")
-    play(trace, vcan)
+    play_then_stop(trace, vcan, proc)  # Ctrl-C once canplayer is done
     assert proc.wait(600) == 0, proc.output()
     dumped = candump.stop()
+    assert kernel_drops(vcan) == before  # none lost before a socket
     got = (recorded / "P01" / "run-01.log").read_text().splitlines()
     assert frames_of(got) == frames_of(dumped)           # as candump writes them,
     assert times_of(got) == times_of(dumped)             # at the kernel's times

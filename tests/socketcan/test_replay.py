@@ -1,16 +1,15 @@
 """Recorded traces replayed through a kernel's CAN stack: can-utils' ``canplayer`` plays a
 trial's log into a vcan interface at its frames' times, ``evtribo acquire --interface
-socketcan`` records it (and ``candump -L`` beside it). Every frame must be in the log, in
-order, with the kernel's times (candump's, to the microsecond), none dropped; and the
-recorded trial must be analysed like the trace (F_el within 2 %: the kernel's times carry
-this busy machine's scheduling jitter, not the trace's).
+socketcan`` records it (and ``candump -L`` beside it) until Ctrl-C once canplayer is done.
+Every frame must be in the log, in order, with the kernel's times (candump's, to the
+microsecond), none dropped (by the socket's queue or before it); and the recorded trial must
+be analysed like the trace (F_el within 2 %: the kernel's times carry this busy machine's
+scheduling, canplayer sending in bursts when it falls behind, not the trace's).
 
 The traces of the rig at its full rate are a trial of ``data/vcan-traces`` (the reference
 study recorded through vcan0) and one of the reference study itself. Held-out traces are
 replayed the same way: every trial of each study folder in ``EVTRIBO_REPLAY_STUDIES``
-(folders separated by ``:``). Where the trace or its replay arrived in bursts (a busy
-machine), the analysis cannot read it yet (``tests/_bursts.py``): F_el's comparison is then
-an expected failure, said so. The analysis runs on the host (``_socketcan.on_host``)."""
+(folders separated by ``:``). The analysis runs on the host (``_socketcan.on_host``)."""
 
 from __future__ import annotations
 
@@ -26,8 +25,9 @@ from _socketcan import (
     Candump,
     evtribo,
     frames_of,
+    kernel_drops,
     on_host,
-    play,
+    play_then_stop,
     times_of,
     unzip,
     wait_for,
@@ -36,8 +36,12 @@ from evtribo.study import load_study
 
 pytestmark = pytest.mark.slow
 
-#: Seconds the recording goes on after the trace's span (canplayer may start late).
-SPARE_S = 10.0
+#: Seconds the recording may go on beyond LONGEST_S times the trace's span; it is ended by
+#: Ctrl-C once canplayer is done.
+SPARE_S = 60.0
+#: The longest canplayer may take, in multiples of the trace's span (in a busy machine's VM,
+#: a 10-12 s trace took 44-70 s from the recording's start to canplayer's end).
+LONGEST_S = 10.0
 
 
 def _traces() -> list[tuple[Path, str, str]]:
@@ -78,7 +82,6 @@ def _metadata(sidecar: dict) -> list[str]:
 
 def _analysed_like_the_trace(exports: Path) -> None:
     """On the host: the recorded trial's F_el within 2 % of the trace's."""
-    from _bursts import expect_bursts
     from evtribo.analysis.pipeline import compute_study
 
     what = json.loads((exports / "replay.json").read_text())
@@ -95,16 +98,10 @@ def _analysed_like_the_trace(exports: Path) -> None:
         return {(r.subject, r.waveform, r.amplitude_V): r.electrostatic_force_N
                 for r in el.electrostatic.itertuples()}
 
-    def analysed_alike() -> None:
-        want, have = fel(original), fel(recorded)
-        assert want.keys() == have.keys() and want, "no F_el: no steady-sliding window"
-        for key, value in want.items():
-            assert have[key] == pytest.approx(value, rel=0.02), key
-
-    rig = load_study(source).rig
-    assert rig is not None
-    expect_bursts(analysed_alike, [ref.log_path, recorded / subject / f"{trial}.log"],
-                  [rig.normal_force.message.frame_id, rig.tangential_force.message.frame_id])
+    want, have = fel(original), fel(recorded)
+    assert want.keys() == have.keys() and want, "no F_el: no steady-sliding window"
+    for key, value in want.items():
+        assert have[key] == pytest.approx(value, rel=0.02), key
 
 
 @on_host(after=_analysed_like_the_trace)
@@ -121,15 +118,17 @@ def test_a_trace_replayed_into_vcan_is_logged_whole_in_order_with_kernel_times(
 
     recorded = _study_like(source, exports / "recorded")
     candump = Candump(vcan, tmp_path / "candump.log")
+    before = kernel_drops(vcan)
     proc = evtribo(["acquire", "--study", str(recorded), "--subject", subject, "--trial",
                     trial, "--interface", "socketcan", "--channel", vcan, "--log-channel",
                     channel, "--tare-s", "0", "--duration",
-                    f"{times[-1] - times[0] + SPARE_S:.1f}", *_metadata(side)],
+                    f"{LONGEST_S * (times[-1] - times[0]) + SPARE_S:.1f}", *_metadata(side)],
                    tmp_path / "acquire.out")
     wait_for(proc, f"recording {subject}/{trial}")
-    play(log, vcan, from_channel=channel)
+    play_then_stop(log, vcan, proc, from_channel=channel)
     assert proc.wait(SPARE_S + 600) == 0, proc.output()
     dumped = candump.stop()
+    assert kernel_drops(vcan) == before  # none lost before a socket
     (exports / "replay.json").write_text(json.dumps(
         {"source": str(source), "subject": subject, "trial": trial}))
 
@@ -138,7 +137,7 @@ def test_a_trace_replayed_into_vcan_is_logged_whole_in_order_with_kernel_times(
     assert frames_of(dumped) == frames_of(lines)       # (candump too)
     assert times_of(got) == times_of(dumped)           # the kernel's times, to the µs
     new = json.loads((recorded / subject / f"{trial}.json").read_text())
-    assert new["ended"] == "completed" and new["frames"] == len(lines)
+    assert new["ended"] == "interrupted" and new["frames"] == len(lines)  # by Ctrl-C
     assert new["queue_dropped_frames"] == 0 and new["discarded_before_start"] == 0
     if "dropped_frames" in side:  # the trace's own lost frames, found again by the counters
         assert new["dropped_frames"] == side["dropped_frames"]

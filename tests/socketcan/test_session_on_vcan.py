@@ -53,7 +53,6 @@ def _obeyed_and_analysed(exports: Path) -> None:
     status said ON; the study's F_el grows with the voltage."""
     import numpy as np
 
-    from _bursts import expect_bursts
     from evtribo.analysis.pipeline import compute_study
     from evtribo.cache import load_trial
     from evtribo.rig import default_rig
@@ -65,14 +64,11 @@ def _obeyed_and_analysed(exports: Path) -> None:
         assert ex.enabled.any(), planned.trial
         assert set(np.round(ex.amplitude[ex.enabled], 2)) == {planned.amplitude_V}
 
-    def analysed() -> None:
-        el = compute_study(study, jobs=1, cache_dir=exports / "cache").electrostatic
-        assert sorted(el.amplitude_V) == [80.0, 110.0, 140.0]
-        assert (el.n_on > 0).all() and (el.n_off > 0).all()
-        fel = el.sort_values("amplitude_V").electrostatic_force_N.to_numpy()
-        assert (fel > 0).all() and (np.diff(fel) > 0).all()  # F_el grows with the voltage
-
-    expect_bursts(analysed, sorted((study / "P01").glob("run-*.log")), [0x0C1, 0x0C2])
+    el = compute_study(study, jobs=1, cache_dir=exports / "cache").electrostatic
+    assert sorted(el.amplitude_V) == [80.0, 110.0, 140.0]
+    assert (el.n_on > 0).all() and (el.n_off > 0).all()
+    fel = el.sort_values("amplitude_V").electrostatic_force_N.to_numpy()
+    assert (fel > 0).all() and (np.diff(fel) > 0).all(), el  # F_el grows with the voltage
 
 
 @on_host(after=_obeyed_and_analysed)

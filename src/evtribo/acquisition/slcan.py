@@ -418,15 +418,25 @@ class SlcanPtyAdapter:
         buf = fcntl.ioctl(self._slave, termios.FIONREAD, b"\0\0\0\0")
         return struct.unpack("i", buf)[0] + len(self._pending)
 
-    def drain(self, timeout: float = 2.0) -> bool:
-        """Wait until the client has read everything (at most *timeout* s); True if it has."""
+    def drain(self, timeout: float = 2.0, *, stalled: float | None = None) -> bool:
+        """Wait until the client has read everything (at most *timeout* s; with *stalled*,
+        also no longer than *stalled* s without the client reading a byte); True if it has.
+
+        A client on a busy machine reads late and in bursts: a long *timeout* with a
+        *stalled* limit waits for it as long as it keeps reading, and not for one that has
+        stopped (a recording that ended)."""
         # FIONREAD misses bytes still in the kernel's flip buffer on their way to the client's
         # queue: only trust an empty queue that stays empty for a while.
         deadline = time.monotonic() + timeout
         empty_since = None
-        while time.monotonic() < deadline:
-            now = time.monotonic()
-            if self.unread() == 0:
+        left, progress = self.unread(), time.monotonic()
+        while (now := time.monotonic()) < deadline:
+            unread = self.unread()
+            if unread < left:
+                left, progress = unread, now
+            elif stalled is not None and now - progress >= stalled:
+                return unread == 0
+            if unread == 0:
                 empty_since = now if empty_since is None else empty_since
                 if now - empty_since >= 0.1:
                     return True

@@ -25,7 +25,11 @@ persistent shift the gap leaves in them: a late batch, or a logger that stalls a
 delivers its backlog at once, shifts the timestamps only for a moment.
 
 A stream whose timestamps do not follow such a line (a node that sends on change, not
-periodically) keeps its timestamps as they are.
+periodically) keeps its timestamps as they are; :func:`placed_among` puts such a stream's
+frames (the amplifier's status) on the load cells' sample times by where they arrived among
+the cells' frames: a bus delivers frames in the order they were sent, so a status frame
+logged between two cell frames late by a stall was sent between their samples, however late
+all three were stamped.
 """
 
 from __future__ import annotations
@@ -40,7 +44,7 @@ from evtribo.median import median
 
 log = logging.getLogger(__name__)
 
-__all__ = ["KNOT_S", "sample_times"]
+__all__ = ["KNOT_S", "placed_among", "sample_times"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -250,3 +254,46 @@ def sample_times(t: npt.ArrayLike, counter: npt.ArrayLike | None = None) -> Floa
         log.debug("timestamps kept: they stray %.3g s from a periodic clock", spread)
         return t
     return fitted
+
+
+def placed_among(t: npt.ArrayLike, stamps: npt.ArrayLike, times: npt.ArrayLike) -> FloatArray:
+    """Another stream's frames put on a periodic stream's sample times, by where they arrived
+    among its frames.
+
+    The frames of one bus arrive in the order they were sent, and a logger stamps them in
+    that order; a frame stamped between two of the periodic stream's frames was sent between
+    their samples. Its time is read off the line from the periodic stream's timestamps to
+    its sample times (:func:`sample_times`), through the two frames around it; before the
+    first and after the last, the nearest frame's shift is kept. Frames stamped alike (a
+    batch) take their sample times' mean.
+
+    Parameters
+    ----------
+    t : array_like of float, s
+        The other stream's timestamps as logged.
+    stamps : array_like of float, s
+        The periodic stream's timestamps as logged (several streams' together, in any
+        order).
+    times : array_like of float, s
+        Their sample times, one per timestamp.
+
+    Returns
+    -------
+    ndarray of float64, s
+        One time per frame of *t* (non-finite ones kept); *t* itself when there is no
+        finite pair of *stamps* and *times*.
+    """
+    t = np.asarray(t, dtype=np.float64)
+    x = np.asarray(stamps, dtype=np.float64).ravel()
+    y = np.asarray(times, dtype=np.float64).ravel()
+    ok = np.isfinite(x) & np.isfinite(y)
+    if not ok.any() or t.size == 0:
+        return t
+    order = np.argsort(x[ok], kind="stable")
+    x, shift = x[ok][order], (y[ok] - x[ok])[order]
+    unique, group = np.unique(x, return_inverse=True)
+    mean_shift = np.bincount(group, shift) / np.bincount(group)
+    out = t.copy()
+    finite = np.isfinite(t)
+    out[finite] = t[finite] + np.interp(t[finite], unique, mean_shift)
+    return out

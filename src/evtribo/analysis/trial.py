@@ -14,6 +14,7 @@ corrected forces.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import logging
 from collections.abc import Callable, Mapping
@@ -39,7 +40,7 @@ from evtribo.analysis.tare import (
     removed_offsets,
 )
 from evtribo.analysis.taring import offset_warnings, tare_and_find_windows
-from evtribo.analysis.timebase import sample_times
+from evtribo.analysis.timebase import placed_among, sample_times
 from evtribo.analysis.trace import TRACE_COLUMNS
 from evtribo.documents.sidecar import Sidecar
 from evtribo.errors import AnalysisError
@@ -144,6 +145,20 @@ def _channel(cell: CellSignals) -> tuple[npt.NDArray[np.float64], npt.NDArray[np
     return sample_times(cell.t, cell.counter), np.asarray(cell.value, dtype=np.float64)
 
 
+def _excitation_placed(signals: TrialSignals, tn: npt.NDArray[np.float64],
+                       tt: npt.NDArray[np.float64]) -> TrialSignals:
+    """*signals* with the amplifier's status on the load cells' sample times *tn*, *tt*
+    (:func:`~evtribo.analysis.timebase.placed_among`): where frames arrived late in bursts,
+    its timestamps are as late as the cells' and the switches would move against them."""
+    exc = signals.excitation
+    if exc is None or not len(exc.t):
+        return signals
+    stamps = np.concatenate([np.asarray(signals.normal.t, dtype=np.float64),
+                             np.asarray(signals.tangential.t, dtype=np.float64)])
+    placed = placed_among(exc.t, stamps, np.concatenate([tn, tt]))
+    return dataclasses.replace(signals, excitation=dataclasses.replace(exc, t=placed))
+
+
 def _sample_times(signals: TrialSignals) -> list[npt.NDArray[np.float64]]:
     """The sample times of the load cells and the amplifier that have any, s."""
     streams = [signals.normal.t, signals.tangential.t]
@@ -243,7 +258,8 @@ def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, setting
         warn(swapped)
     given = {"waveform": meta.waveform, "frequency_Hz": meta.frequency_Hz,
              "amplitude_V": meta.amplitude_V, "condition": meta.condition}
-    exc = excitation_of(signals, given, aligned.t, settings.guard_s, warn)
+    exc = excitation_of(_excitation_placed(signals, tn, tt), given, aligned.t,
+                        settings.guard_s, warn)
     info = exc.info
     smooth, quantum = settings.smooth_s, HUM_FREE_S
     oscillates = friction_oscillates(info["waveform"], info.get("frequency_Hz"),

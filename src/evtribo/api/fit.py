@@ -78,7 +78,9 @@ class Fit:
     population : pandas.DataFrame
         ``population.csv`` (study format §10): the population's F_el at each amplitude,
         exponent, prefactor, μ and air gap with 95 % intervals and the between-subject
-        spread; empty (with its columns) when the study has fewer than three subjects.
+        spread; with fewer than three subjects with electrostatic forces, μ's row alone
+        (three subjects with OFF windows, a study of OFF trials too) or empty (with its
+        columns).
     population_contrasts : pandas.DataFrame
         ``population_contrasts.csv``: ratios and differences between conditions.
     population_notes : list of str

@@ -112,7 +112,7 @@ def _say_progress() -> Any:
 
 
 def _print_population(result: Any) -> None:
-    """The population's exponent per condition, its outliers, or why there is none."""
+    """The population's exponent per condition and μ, its outliers, or why there is none."""
     pop = result.population
     if pop is None:
         return
@@ -121,6 +121,9 @@ def _print_population(result: Any) -> None:
         print(f"population ({r['waveform']} {r['frequency_Hz']:g} Hz, {r['n_subjects']} "
               f"subjects): exponent n = {r['estimate']:.3g} [{r['ci_low']:.3g}, "
               f"{r['ci_high']:.3g}]")
+    for _, r in pop.table[pop.table["quantity"] == "mu"].iterrows():
+        print(f"population ({r['n_subjects']} subjects): μ = {r['estimate']:.3g} "
+              f"[{r['ci_low']:.3g}, {r['ci_high']:.3g}]")
     for o in pop.outliers:
         print(f"population: outlier {o.describe()}", file=sys.stderr)
     if pop.table.empty and pop.notes:

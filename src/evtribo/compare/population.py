@@ -83,7 +83,9 @@ class Population:
     Attributes
     ----------
     table : DataFrame
-        population.csv (:data:`POPULATION_COLUMNS`); empty with fewer than three subjects.
+        population.csv (:data:`POPULATION_COLUMNS`); with fewer than three subjects with
+        electrostatic forces, only the friction coefficient mu's row (when three subjects
+        or more have OFF windows), else empty.
     contrasts : DataFrame
         population_contrasts.csv (:data:`CONTRAST_COLUMNS`).
     n_subjects : int
@@ -112,14 +114,14 @@ class Population:
     left_out: dict[Condition, set[str]] = field(default_factory=dict)
 
     def files(self) -> dict[str, str]:
-        """The text of population.csv and population_contrasts.csv, by name; none with
-        fewer than three subjects (study format §10).
+        """The text of population.csv and population_contrasts.csv, by name; none when
+        nothing was estimated (fewer than three subjects: study format §10).
 
         Returns
         -------
         dict of str to str
         """
-        if self.n_subjects < MIN_SUBJECTS:
+        if self.table.empty:
             return {}
         return {POPULATION_CSV: self.table.to_csv(index=False),
                 POPULATION_CONTRASTS_CSV: self.contrasts.to_csv(index=False)}
@@ -300,7 +302,9 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = ()) -> Populat
     Returns
     -------
     Population
-        Empty tables, and a note saying why, with fewer than three subjects.
+        With fewer than three subjects with electrostatic forces: only mu's row (from
+        the OFF windows of every subject, a study of OFF trials too), and a note saying
+        why there is no other.
     """
     rows = Collector()
     boot = tables.bootstrap
@@ -313,9 +317,11 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = ()) -> Populat
     if len(subjects) < MIN_SUBJECTS:
         rows.notes.insert(0, f"{len(subjects)} subject(s) with electrostatic forces: a "
                              f"population estimate needs at least {MIN_SUBJECTS}, so none "
-                             "was made")
-        return Population(_frame([], POPULATION_COLUMNS), _frame([], CONTRAST_COLUMNS),
-                          len(subjects), rows.notes)
+                             "was made of F_el, its power law or h_L")
+        _mu(rows, tables, tables.all_subjects)  # mu needs OFF windows only
+        return Population(_frame(rows.rows, POPULATION_COLUMNS),
+                          _frame([], CONTRAST_COLUMNS), len(subjects),
+                          list(dict.fromkeys(rows.notes)), rows.outliers)
     conditions = conditions_of(subjects)
     # the study's 5 %, shared by the quantities checked: each condition's level and
     # exponent, mu, and h_L when it was fitted
@@ -326,7 +332,7 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = ()) -> Populat
         outliers = rows.left_out[condition] = _outliers(rows, subjects, condition)
         _forces(rows, subjects, condition, outliers)
         _power_law(rows, subjects, condition, outliers)
-    _mu(rows, tables, [s.name for s in subjects])
+    _mu(rows, tables, tables.all_subjects)
     _air_gap(rows, fits)
     for a, b in combinations(conditions, 2):
         contrast(rows, subjects, a, b)

@@ -106,8 +106,9 @@ def plot_population(electrostatic: pd.DataFrame, pop: Population, condition: Con
                                           style, s in own, open_=s in out))
     est = [fit.at(float(x)) for x in np.log(grid)]
     band = np.exp(np.array([e.interval() for e in est]))
-    ax.fill_between(grid, 1e3 * band[:, 0], 1e3 * band[:, 1], color="0.75", alpha=0.6,
-                    lw=0, zorder=2.5)
+    # under the subjects' points and lines, which stay readable inside it
+    ax.fill_between(grid, 1e3 * band[:, 0], 1e3 * band[:, 1], color="0.8", alpha=0.7,
+                    lw=0, zorder=1)
     ax.plot(grid, 1e3 * np.exp([e.value for e in est]), color="black", lw=1.8, zorder=3)
     _population_points(ax, pop.table, condition)
     n_hat = fit.estimate([0.0, 1.0])

@@ -236,6 +236,18 @@ def _outliers(doc: Mapping[str, Any]) -> list[str]:
 
 def _methods_text(table: pd.DataFrame, doc: Mapping[str, Any]) -> str:
     """A paragraph for a paper's methods section, with this study's numbers."""
+    mu_text = ("each subject's friction coefficient μ (the ratio of its mean friction force "
+               "to its mean normal force over its OFF windows, with the delta method's "
+               "standard error)")
+    if not (table["quantity"].astype(str) == "electrostatic_force_N").any():
+        n = int(table["n_subjects"].max())
+        return (f"Population estimates were computed with evtribo {__version__} from the "
+                f"per-subject results of {n} subjects: the population's friction "
+                f"coefficient is the random-effects mean of {mu_text}, each weighted by its "
+                "own standard error (Paule-Mandel between-subject variance, "
+                "Hartung-Knapp-Sidik-Jonkman interval; statsmodels). Subjects outside the "
+                "prediction interval of the others (Higgins et al. 2009, "
+                "Bonferroni-corrected) were reported and left out.")
     n = int(doc.get("n_subjects") or table["n_subjects"].max() if len(table) else 0)
     slopes = table["method"].astype(str).str.contains("intercept and exponent").any()
     random = "random intercepts and exponents" if slopes else "random intercepts"
@@ -249,13 +261,26 @@ def _methods_text(table: pd.DataFrame, doc: Mapping[str, Any]) -> str:
             f"model with {random} by subject (REML, statsmodels MixedLM), each subject's "
             "forces whitened by their known covariance (their intervals, correlated as their "
             "bootstrap replicates), intervals from Student's t with Satterthwaite's degrees "
-            "of freedom. Subjects outside the prediction interval of the others (Higgins et "
-            "al. 2009, Bonferroni-corrected) were reported and left out.")
+            f"of freedom. The friction coefficient ({mu_text}) and the fitted air gap h_L "
+            "(on the log scale) were pooled as the forces were. Subjects outside the "
+            "prediction interval of the others (Higgins et al. 2009, Bonferroni-corrected) "
+            "were reported and left out.")
+
+
+def _why_not(notes: Sequence[str], what: str = "") -> str:
+    """The text said when *what* (default: anything) was not estimated: the first note, or
+    a re-run hint."""
+    if notes:
+        return f"No population estimate{f' of {what}' if what else 's'}: {notes[0]}."
+    return ("No population estimates: this comparison was made by an older evtribo compare; "
+            f"run `evtribo compare OUT {FORCE}` for them (they need at least {MIN_SUBJECTS} "
+            "subjects with electrostatic forces).")
 
 
 def add_population(report: Report, table: pd.DataFrame | None,
                    contrasts: pd.DataFrame | None, fit_doc: FitDocument,
-                   figures: Sequence[Mapping[str, Any]]) -> list[Headline]:
+                   figures: Sequence[Mapping[str, Any]], *, friction_only: bool = False
+                   ) -> list[Headline]:
     """The "Population" section (nothing, or why not, when there are no estimates).
 
     Parameters
@@ -268,6 +293,8 @@ def add_population(report: Report, table: pd.DataFrame | None,
         ``fit.json`` (its ``population``: subjects, notes, outliers).
     figures : sequence of mapping
         fit.json's figure records, each with its ``file``.
+    friction_only : bool
+        A study of OFF trials: the population's μ only, or why there is none.
 
     Returns
     -------
@@ -275,26 +302,34 @@ def add_population(report: Report, table: pd.DataFrame | None,
         The population's table (for ``--tables``), or none.
     """
     doc = fit_doc.population
-    if table is None:
-        notes = [n for n in doc.get("notes") or [] if isinstance(n, str)]
-        report.add_text(f"No population estimates: {notes[0]}." if notes else
-                        "No population estimates: this comparison was made by an older "
-                        f"evtribo compare; run `evtribo compare OUT {FORCE}` for them (they "
-                        f"need at least {MIN_SUBJECTS} subjects with electrostatic forces).",
-                        section=SECTION)
-        return []
-    headline = population_headline(table)
-    report.add_table(headline.table, headline.title, caption=headline.caption,
-                     section=SECTION, wrap=True)
+    notes = [n for n in doc.get("notes") or [] if isinstance(n, str)]
+    headlines: list[Headline] = []
+    if table is None or not (table["quantity"].astype(str) == "electrostatic_force_N").any():
+        # fewer than three subjects with F_el: at most mu's row
+        notes = notes[1:] if friction_only else notes
+        if not friction_only or table is None or table.empty:
+            report.add_text(_why_not(notes, "μ" if friction_only else ""), section=SECTION)
+        if table is None or table.empty:
+            return []
+        notes = [] if friction_only else notes[1:]
+    else:
+        headline = population_headline(table)
+        report.add_table(headline.table, headline.title, caption=headline.caption,
+                         section=SECTION, wrap=True)
+        headlines.append(headline)
     for cond in _conditions(_of(table, "exponent", None)):
         r = _of(table, "exponent", cond).iloc[0]
         report.add_text(f"{cond[0]} {frequency(cond[1])}: the population's exponent "
                         + exponent_verdict(float(r["estimate"]), float(r["ci_low"]),
                                            float(r["ci_high"])) + ".", section=SECTION)
-    report.add_table(_quantities(table), "The population's power law, μ and air gap",
-                     caption="Population value [95 % interval]; for k and h_L the geometric "
-                             "mean, the spread as the factor of one standard deviation of "
-                             "their log.", section=SECTION, wrap=True)
+    only_mu = set(table["quantity"].astype(str)) == {"mu"}
+    report.add_table(_quantities(table), "The population's friction coefficient μ" if only_mu
+                     else "The population's power law, μ and air gap",
+                     caption="Population value [95 % interval]; the spread as the standard "
+                             "deviation of the subjects' μ." if only_mu else
+                     "Population value [95 % interval]; for k and h_L the geometric mean, the "
+                     "spread as the factor of one standard deviation of their log.",
+                     section=SECTION, wrap=True)
     if contrasts is not None and not contrasts.empty:
         report.add_table(_contrasts_view(contrasts), "Between conditions",
                          caption="Within subjects measured in both: the ratio of F_el (over "
@@ -303,7 +338,6 @@ def add_population(report: Report, table: pd.DataFrame | None,
     outliers = _outliers(doc)
     if outliers:
         report.add_list(outliers, "Outliers", section=SECTION)
-    notes = [n for n in doc.get("notes") or [] if isinstance(n, str)]
     if notes:
         report.add_list(notes, "Not estimated", section=SECTION)
     for f in figures:
@@ -311,4 +345,4 @@ def add_population(report: Report, table: pd.DataFrame | None,
             report.add_figure(f["file"], str(f.get("title") or f.get("stem")),
                               caption=str(f.get("caption") or ""), section=SECTION)
     report.add_text(_methods_text(table, doc), "For a methods section", section=SECTION)
-    return [headline]
+    return headlines

@@ -262,6 +262,8 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
     report = Report(f"evtribo report: {name}")
     if tables.electrostatic.empty:  # a study of OFF trials: its friction, no fit
         headlines = add_friction(report, tables.windows, fit_doc.notes)
+        headlines += add_population(report, *read_population(tables.out), fit_doc, figures,
+                                    friction_only=True)
     else:
         headlines = sections.add_headline(report, tables, fit, fit_doc)
         sections.add_notes(report, fit_doc.notes)

@@ -250,8 +250,12 @@ class Simulator:
         adapter.on_open = lambda: gen.lift(self.config.tare_s)
 
         def deliver(table: FrameTable, i: int, j: int) -> int:
+            # a rig running late (a busy machine) still hears the client: its amplifier
+            # commands, and C, after which it sends nothing until the next O
+            adapter.poll(0.0)
             return adapter.send_frames(table, i, j)
 
         stats = self._pace(gen, deliver, stop_event, adapter.poll)
-        adapter.drain(timeout=2.0)
+        # what is written reaches a client that keeps reading, however busy the machine
+        adapter.drain(timeout=120.0, stalled=5.0)
         return stats
