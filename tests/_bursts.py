@@ -4,7 +4,7 @@ A sender or receiver that is not scheduled for a while (a busy machine; a VM emu
 processors on one, as the SocketCAN tests use) moves frames in bursts: a cell's frames come
 tens of µs apart, with pauses between, some longer than its counter's period. The analysis
 takes each cell's sample times back from its counter and the timestamps
-(``analysis/timebase.py``); on the reference study played into vcan0 in such a VM
+(``analysis/forces/timebase.py``); on the reference study played into vcan0 in such a VM
 (``data/vcan-traces``: a cell's frames 56-104 µs apart at the median, stalls of up to 0.8 s)
 it still gives some trials' F_el 10-44 % off the reference study's (P02/run-05, 120 V:
 0.080 N against 0.143 N). Until it recovers them, a comparison of F_el that fails on such a
@@ -20,7 +20,7 @@ from collections.abc import Callable, Iterable
 import numpy as np
 import pytest
 
-from evtribo.frames import read_frames
+from evtribo.canlog.io import read_frames
 
 
 def burst_reason(logs: Iterable[str | os.PathLike[str]], ids: Iterable[int]) -> str | None:
