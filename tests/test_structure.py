@@ -146,6 +146,10 @@ def test_no_import_circles():
     assert not circles, "\n".join(sorted(circles))
 
 
+#: Names with a leading underscore that the standard library documents as public.
+DOCUMENTED = {"os._exit"}
+
+
 def test_no_private_api_of_the_standard_library():
     import sys
 
@@ -168,4 +172,4 @@ def test_no_private_api_of_the_standard_library():
                     not node.attr.startswith("__"):
                 used.append(f"{path.relative_to(SRC)}:{node.lineno} "
                             f"{aliases[node.value.id]}.{node.attr}")
-    assert not used, used
+    assert not [u for u in used if u.split()[-1] not in DOCUMENTED], used
