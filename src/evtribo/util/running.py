@@ -5,6 +5,9 @@ numpy accumulates booleans into 64-bit integers through a casting loop without v
 2.1 ms for the 330 k grid points of a load cell, where an accumulation into 32-bit integers
 takes 0.16 ms. The analysis counts the samples missing per moving-average span and present
 per window that way, several times a trial.
+
+What it replaces: ``numpy.cumsum`` of the mask; ``tests/util/test_median.py`` holds the two
+equal on any mask.
 """
 
 from __future__ import annotations

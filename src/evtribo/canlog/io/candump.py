@@ -23,6 +23,10 @@ refuses is damaged.
 
 Error frames keep their error-class bits as ``arbitration_id`` and their payload (the Linux
 SocketCAN convention); python-can's reader reports them with ID 0 and no payload.
+
+What it replaces: python-can's ``CanutilsLogReader`` (one :class:`can.Message` per line);
+``tests/canlog/test_python_can_logs.py`` and ``tests/canlog/test_candump_details.py`` hold
+the reader against :class:`can.LogReader` frame for frame.
 """
 
 from __future__ import annotations
