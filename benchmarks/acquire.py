@@ -32,7 +32,7 @@ from pathlib import Path
 import can
 
 from evtribo.acquisition import logger as logger_mod
-from evtribo.acquisition.bus import BusSettings, open_bus
+from evtribo.acquisition.buses.bus import BusSettings, open_bus
 from evtribo.acquisition.simulator import Simulator, TrialConfig
 from evtribo.acquisition.trial import record_trial
 

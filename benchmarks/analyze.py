@@ -11,9 +11,9 @@ is the child's own (``wait4``'s ``ru_maxrss``), so the simulation is not counted
 
 Four runs of each study, one after the other with one cache folder: *cold* (an empty
 cache: every log read, decoded and analysed), *warm* (nothing changed: the last results
-written again, :mod:`evtribo.analysis.unchanged`), *trials kept* (the study's analysis
+written again, :mod:`evtribo.results.unchanged`), *trials kept* (the study's analysis
 forgotten, as a file added to the study folder does: each trial's outcome taken from the
-cache, :mod:`evtribo.analysis.reuse`) and *recompute* (``--recompute``, what a changed
+cache, :mod:`evtribo.results.reuse`) and *recompute* (``--recompute``, what a changed
 setting costs: every trial analysed again from its decoded signals in the cache).
 
 Baseline: decoding alone, the way a script would do it without evtribo, with python-can's
@@ -43,7 +43,7 @@ import cantools
 from _measure import run
 
 from evtribo.acquisition.simulator import TrialConfig, default_subjects, simulate_study
-from evtribo.analysis.unchanged import ENTRIES
+from evtribo.results.unchanged import ENTRIES
 
 #: Frames per second of trial: two load cells at 2 kHz.
 FRAMES_PER_S = 4000

@@ -9,7 +9,7 @@ cells at 2 kHz, 1 % dropped frames, a real rig). Each configuration is timed bes
 - dask: ``analyze_study(scheduler=client)`` on a ``LocalCluster`` of N worker processes of
   one thread each (the cluster's start is timed apart: a real cluster is already running).
 
-Then ``compare``'s bootstrap refits (:func:`~evtribo.compare.fit.fit_study`, every subject's
+Then ``compare``'s bootstrap refits (:func:`~evtribo.fit.fit.fit_study`, every subject's
 200 replicates) on the same clusters against the same refits here, best of ``--repeat``.
 
 Baseline (named in every ratio): decoding alone, python-can's ``LogReader`` and cantools'
@@ -31,9 +31,9 @@ from pathlib import Path
 from typing import Any
 
 from evtribo.acquisition.simulator import TrialConfig, default_subjects, simulate_study
-from evtribo.analysis.pipeline import analyze_study
-from evtribo.compare.fit import fit_study
-from evtribo.compare.tables import read_results
+from evtribo.fit.fit import fit_study
+from evtribo.fit.tables import read_results
+from evtribo.results.pipeline import analyze_study
 
 
 def _analyze_benchmark() -> Any:

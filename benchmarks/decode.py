@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 from _measure import run
 
-from evtribo.frames import FrameTable, write_candump
+from evtribo.canlog.io import FrameTable, write_candump
 
 DBC = '''VERSION ""
 NS_ :
@@ -115,7 +115,7 @@ def fixed_width_log(path: Path, n_frames: int) -> None:
 
 READ_ONLY = """
 import sys, time
-from evtribo.frames import FrameStream
+from evtribo.canlog.io import FrameStream
 t = time.perf_counter()
 n = sum(len(b) for b in FrameStream(sys.argv[1]))
 print(n / (time.perf_counter() - t))
@@ -137,7 +137,7 @@ def limits(log: Path, tmp: Path, n: int) -> None:
                              capture_output=True, text=True).stdout
         rates.append(float(out))
     fixed.unlink()
-    t_imp, rss_imp = run([sys.executable, "-c", "import evtribo.cli.decode, pyarrow.parquet"])
+    t_imp, rss_imp = run([sys.executable, "-c", "import evtribo.cli.setup.decode, pyarrow.parquet"])
     print(f"limits on the {n / 1e6:g} M-frame log ({size:.0f} MB): cat {size / t_cat:.0f} MB/s "
           f"({t_cat:.2f} s), wc -l {size / t_wc:.0f} MB/s ({t_wc:.2f} s); evtribo's reader "
           f"in-process {rates[0] / 1e6:.2f} M frames/s ({n / rates[0]:.2f} s), on fixed-width "

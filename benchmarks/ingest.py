@@ -28,9 +28,9 @@ import time
 import can
 import numpy as np
 
-from evtribo.decode import decode_trial
-from evtribo.frames import FrameTable, read_frames, write_candump
-from evtribo.rig import default_rig
+from evtribo.canlog.decode import decode_trial
+from evtribo.canlog.io import FrameTable, read_frames, write_candump
+from evtribo.canlog.rig import default_rig
 
 BASELINE_FRAMES = 200_000
 
@@ -95,9 +95,9 @@ def baseline_run(path: str) -> tuple[float, int]:
 
 _MEMORY_PROBE = """
 import json, sys, tracemalloc
-from evtribo.decode import decode_trial
-from evtribo.frames import read_frames
-from evtribo.rig import default_rig
+from evtribo.canlog.decode import decode_trial
+from evtribo.canlog.io import read_frames
+from evtribo.canlog.rig import default_rig
 
 def hwm():  # peak resident set size, bytes (Linux)
     with open("/proc/self/status") as fh:

@@ -26,9 +26,9 @@ import numpy as np
 import pandas as pd
 
 from evtribo import model
-from evtribo.compare.fit import fit_subject
-from evtribo.compare.model_points import mean_electrostatic_force
-from evtribo.compare.models import CANDIDATES, fit_models
+from evtribo.fit.fit import fit_subject
+from evtribo.fit.model_points import mean_electrostatic_force
+from evtribo.fit.models import CANDIDATES, fit_models
 from evtribo.model import maugis
 
 SWEEP_HZ = (20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 3000.0, 10000.0)

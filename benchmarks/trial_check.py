@@ -1,5 +1,5 @@
 """Time per trial of the check figures ``evtribo compare`` makes for every trial
-(:func:`evtribo.compare.trial_plots.trial_check_figures`), and of ``evtribo plot trial``.
+(:func:`evtribo.figures.trial_plots.trial_check_figures`), and of ``evtribo plot trial``.
 
 The study: 2 subjects x 6 trials (5 square-wave amplitudes and one sine) x 30 s, on a real
 rig (load-cell offsets, drift, 50 Hz hum, a tare stretch, a person's strokes and
@@ -23,12 +23,12 @@ from pathlib import Path
 from matplotlib.figure import Figure
 
 from evtribo.acquisition.simulator import TrialConfig, default_subjects, simulate_study
-from evtribo.analysis.check import settings_of
-from evtribo.analysis.pipeline import analyze_study
 from evtribo.analysis.trial import analyze_signals
-from evtribo.analysis.workers import trial_meta
-from evtribo.cache import load_trial
-from evtribo.compare.trial_plots import trial_check_figures
+from evtribo.canlog.cache import load_trial
+from evtribo.figures.trial_plots import trial_check_figures
+from evtribo.results.check import settings_of
+from evtribo.results.pipeline import analyze_study
+from evtribo.results.workers import trial_meta
 from evtribo.study import load_study
 
 

@@ -57,8 +57,8 @@ What to know:
   must be saved first. A folder read after `evtribo compare` has `results.fit` (its table,
   and its figure files under `fit.files`); a fit of another analysis is left out with a
   warning.
-- **`evtribo.compare` is also a package** (`evtribo.compare.fit_study`,
-  `evtribo.compare.plots`...): once the API is imported, the package itself can be called
+- **`evtribo.compare` is also a package** (`evtribo.fit.fit.fit_study`,
+  `evtribo.figures.plots`...): once the API is imported, the package itself can be called
   as the function below.
 - **Errors** are evtribo's own exceptions (`evtribo.errors`), those the command line turns
   into exit code 2 with the file and line or key at fault: `StudyError`, `SidecarError`,

@@ -1,7 +1,7 @@
 """How often the population's 95 % intervals hold the truth, on simulated populations.
 
 Simulates studies of 5, 8 and 12 subjects of each kind of population of
-``tests/compare/population_coverage.py`` (power-law populations measured as a lab does,
+``tests/population_coverage.py`` (power-law populations measured as a lab does,
 and populations following the seed paper's eq. 11 with log-normal air gaps and normal
 forces; made without evtribo's simulator), estimates the population as ``evtribo compare``
 does, and prints per kind and number of subjects the share of runs whose interval held the

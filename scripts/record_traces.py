@@ -35,7 +35,7 @@ from typing import Any
 import can
 
 import evtribo
-from evtribo.acquisition.bus import BusSettings
+from evtribo.acquisition.buses.bus import BusSettings
 from evtribo.acquisition.rigfile import create_study, default_rig_path, load_rig_toml
 from evtribo.acquisition.simulator import RunStats, Simulator, SubjectParams, TrialConfig
 from evtribo.acquisition.trial import TrialInfo, record_trial

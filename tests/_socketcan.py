@@ -147,10 +147,10 @@ def preload() -> None:
     """Import what ``evtribo acquire``, ``simulate`` and ``session`` import when they run, in
     this process: the commands forked from it then import nothing (in the VM, an import of
     numpy and pandas takes 20-60 s)."""
+    import evtribo.acquisition.buses.socketcan
     import evtribo.acquisition.simulator
-    import evtribo.acquisition.socketcan
     import evtribo.acquisition.trial
-    import evtribo.cli.acquire
-    import evtribo.cli.session
-    import evtribo.cli.simulate
+    import evtribo.cli.recording.acquire
+    import evtribo.cli.recording.session
+    import evtribo.cli.recording.simulate
     import evtribo.session  # noqa: F401

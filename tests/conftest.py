@@ -1,6 +1,8 @@
-"""Suite-wide settings: hypothesis profiles and a private cache of decoded trials."""
+"""Suite-wide settings: hypothesis profiles and a private cache of decoded trials; result
+folders with known air gaps for the fit, figure and report tests (``synthetic.py``)."""
 
 import os
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -23,6 +25,26 @@ def _private_cache_dir(tmp_path_factory):
         os.environ.pop("EVTRIBO_CACHE_DIR", None)
     else:
         os.environ["EVTRIBO_CACHE_DIR"] = old
+
+
+@pytest.fixture
+def out_dir(tmp_path: Path) -> Path:
+    """A synthetic result folder with known air gaps (see synthetic.py)."""
+    from synthetic import make_out
+
+    return make_out(tmp_path / "out")
+
+
+@pytest.fixture(scope="module")
+def compared_out(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A synthetic result folder on which ``compare`` has run (low-dpi figures)."""
+    from evtribo.report.compare import compare
+    from synthetic import make_out
+
+    folder = make_out(tmp_path_factory.mktemp("cmp") / "out",
+                      note="<script>alert('x')</script> & notes")
+    compare(folder, dpi=40)
+    return folder
 
 
 #: The SocketCAN VM's figures, as its stand-ins report them (tests/socketcan/conftest.py).

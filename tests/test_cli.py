@@ -29,7 +29,8 @@ def test_only_the_chosen_subcommand_is_imported():
     import sys
 
     code = ("import sys; from evtribo.cli import main; main(['model', '--list']); "
-            "print('evtribo.analysis.pipeline' in sys.modules, 'evtribo.cli.model' in sys.modules)")
+            "print('evtribo.results.pipeline' in sys.modules, "
+            "'evtribo.cli.results.model' in sys.modules)")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip().splitlines()[-1] == "False True"
 

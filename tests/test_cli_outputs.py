@@ -9,8 +9,8 @@ from pathlib import Path
 import can
 import pytest
 
+from evtribo.canlog.rig import default_rig
 from evtribo.cli import main
-from evtribo.rig import default_rig
 
 DBC = str(default_rig().dbc)
 EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, what a shell reports for a tool SIGPIPE ended
@@ -127,7 +127,7 @@ def test_a_closed_stdout_while_parsing_arguments_is_quiet_too(monkeypatch, capsy
 
 
 def test_a_broken_pipe_that_is_not_stdout_is_a_failure(monkeypatch, capsys):
-    from evtribo.cli import model
+    from evtribo.cli.results import model
 
     def run(_args):
         raise BrokenPipeError("a pipe to a worker")

@@ -53,7 +53,7 @@ def test_the_electrostatic_force_is_defined_one_way_everywhere():
 
     import pandas as pd
 
-    from evtribo.compare.headline import F_EL_DEFINITION, force_table
+    from evtribo.report.headline import F_EL_DEFINITION, force_table
 
     root = DOCS.parent
     notebook = json.loads((root / "examples" / "quickstart.ipynb").read_text(encoding="utf-8"))

@@ -34,9 +34,9 @@ import evtribo.acquisition.logger as logger_module
 from _process import kill_and_reap
 from evtribo.acquisition.logger import FLUSH_INTERVAL_S, LogWriter
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_trial
+from evtribo.canlog.io import read_frames, write_candump
+from evtribo.canlog.rig import default_rig_path
 from evtribo.cli import main
-from evtribo.frames import read_frames, write_candump
-from evtribo.rig import default_rig_path
 
 DBC = default_rig_path().with_name("default.dbc")
 

@@ -16,14 +16,14 @@ import pandas as pd
 import pytest
 
 from _checks import fel_ok
-from evtribo.acquisition.bus import BusSettings
+from evtribo.acquisition.buses.bus import BusSettings
 from evtribo.acquisition.trial import TrialInfo, record_trial
-from evtribo.analysis.pipeline import SINE_TRACE_FILE, analyze_study
-from evtribo.compare import build_report
-from evtribo.compare.run import compare
-from evtribo.compare.tables import read_results
-from evtribo.dropped import missing_frames
-from evtribo.frames import read_frames
+from evtribo.canlog.dropped import missing_frames
+from evtribo.canlog.io import read_frames
+from evtribo.fit.tables import read_results
+from evtribo.report.compare import compare
+from evtribo.report.study_report import build_report
+from evtribo.results.pipeline import SINE_TRACE_FILE, analyze_study
 from evtribo.study import load_study
 
 STUDY = Path(__file__).resolve().parents[1] / "data" / "reference-study"

@@ -128,7 +128,7 @@ def test_the_installed_wheel_is_evtribo_on_its_own(installed):
     interfaces = _run([bin_dir / "python", "-c",
                        "from importlib.metadata import entry_points as e; "
                        "print([p.value for p in e(group='can.interface')])"], env=env).stdout
-    assert "evtribo.acquisition.slcan:BulkSlcanBus" in interfaces
+    assert "evtribo.acquisition.buses.slcan:BulkSlcanBus" in interfaces
 
 
 def test_the_installed_wheel_runs_the_demo(installed, tmp_path):

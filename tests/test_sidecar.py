@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, write_trial
+from evtribo.canlog.rig import default_rig
 from evtribo.documents.sidecar import (
     CONDITIONS,
     WAVEFORMS,
@@ -16,7 +17,6 @@ from evtribo.documents.sidecar import (
     rig_entry,
     write_sidecar,
 )
-from evtribo.rig import default_rig
 
 
 def test_simulated_sidecar_names_its_rig_as_acquire_does(tmp_path):

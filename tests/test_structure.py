@@ -11,18 +11,20 @@ SRC = Path(__file__).parents[1] / "src" / "evtribo"
 #: Each top-level module or package of evtribo and its layer: a module imports only from
 #: lower layers (or its own package).
 LAYERS = {
-    "evtribo": 0, "errors": 0, "_docs": 0,
-    "files": 1, "median": 1, "running": 1, "outages": 1, "citation": 1, "memo": 2,
-    "documents": 2, "dbc_file": 2,
-    "model": 2, "frames": 2, "signal_codec": 2, "lock": 2, "resultdir": 2, "dropped": 2,
-    "signals": 2,
-    "rig": 3, "frame_match": 3,
-    "study": 4, "decode": 4,
-    "cache": 5, "decode_table": 5, "decode_mf4": 5, "guard": 5,
+    "evtribo": 0, "errors": 0, "util": 0,
+    "citation": 1, "store": 1,
+    "documents": 2, "model": 2,
+    "canlog": 3,
+    "study": 4,
+    "guard": 5,
     "analysis": 6, "acquisition": 6,
-    "compare": 7, "rigsetup": 7, "session": 7,
-    "demo": 8, "api": 8,
-    "cli": 9, "__main__": 10,
+    "results": 7, "rigsetup": 7,
+    "fit": 8, "session": 8,
+    "population": 9,
+    "figures": 10,
+    "report": 11,
+    "demo": 12, "api": 12,
+    "cli": 13, "__main__": 14,
 }
 MAX_MODULE_LINES = 500
 MAX_FUNCTION_LINES = 80
@@ -84,3 +86,90 @@ def test_modules_and_functions_are_short():
                 long_functions.add(f"{rel}:{node.name}")
     assert long_modules == LONG_MODULES
     assert long_functions == LONG_FUNCTIONS
+
+
+#: Most modules directly in one folder of the package (its ``__init__.py`` not counted), and
+#: directly in ``src/evtribo`` (``__init__.py`` and ``__main__.py`` counted).
+MAX_MODULES_IN_A_FOLDER = 12
+MAX_MODULES_AT_THE_ROOT = 8
+
+
+def test_each_folder_holds_a_few_modules():
+    crowded = {}
+    for folder in [SRC, *(p for p in SRC.rglob("*") if p.is_dir())]:
+        if folder.name == "__pycache__" or not (folder / "__init__.py").is_file():
+            continue
+        modules = [p.name for p in folder.glob("*.py") if p.name != "__init__.py"]
+        if len(modules) > MAX_MODULES_IN_A_FOLDER:
+            crowded[folder.relative_to(SRC).as_posix()] = len(modules)
+    assert not crowded, crowded
+    assert len(list(SRC.glob("*.py"))) <= MAX_MODULES_AT_THE_ROOT
+
+
+def _module_graph() -> dict[str, set[str]]:
+    """Each module of evtribo and the modules of evtribo it imports anywhere (type hints,
+    functions included): ``from evtribo.x import y`` counts as importing ``evtribo.x.y`` when
+    that is a module, else ``evtribo.x``."""
+    names = {}
+    for path in SRC.rglob("*.py"):
+        parts = ("evtribo", *path.relative_to(SRC).with_suffix("").parts)
+        names[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    graph: dict[str, set[str]] = {}
+    for name, path in names.items():
+        out = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.ImportFrom) and node.level == 0 and node.module in names:
+                for alias in node.names:
+                    sub = f"{node.module}.{alias.name}"
+                    out.add(sub if sub in names else node.module)
+            elif isinstance(node, ast.Import):
+                out |= {a.name for a in node.names if a.name in names}
+        out.discard(name)
+        graph[name] = out
+    return graph
+
+
+def test_no_import_circles():
+    graph = _module_graph()
+    circles = []
+    for start in graph:  # a path back to the start from any module it imports
+        seen, todo = set(), [(m, (start, m)) for m in graph[start]]
+        while todo:
+            mod, path = todo.pop()
+            if mod == start:
+                circles.append(" -> ".join(path))
+                break
+            if mod in seen:
+                continue
+            seen.add(mod)
+            todo += [(m, (*path, m)) for m in graph.get(mod, ())]
+    assert not circles, "\n".join(sorted(circles))
+
+
+#: Names with a leading underscore that the standard library documents as public.
+DOCUMENTED = {"os._exit"}
+
+
+def test_no_private_api_of_the_standard_library():
+    import sys
+
+    stdlib = set(sys.stdlib_module_names)
+    used = []
+    for path, tree in _modules():
+        aliases = {}
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                for a in node.names:
+                    if a.name.split(".")[0] in stdlib:
+                        aliases[a.asname or a.name.split(".")[0]] = a.name
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0 and \
+                    node.module.split(".")[0] in stdlib:
+                used += [f"{path.relative_to(SRC)}:{node.lineno} {node.module}.{a.name}"
+                         for a in node.names if a.name.startswith("_")]
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) and \
+                    node.value.id in aliases and node.attr.startswith("_") and \
+                    not node.attr.startswith("__"):
+                used.append(f"{path.relative_to(SRC)}:{node.lineno} "
+                            f"{aliases[node.value.id]}.{node.attr}")
+    assert not [u for u in used if u.split()[-1] not in DOCUMENTED], used

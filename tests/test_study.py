@@ -211,7 +211,7 @@ def test_study_toml_round_trip_and_no_overwrite(tmp_path):
 
 def test_discovery_knows_every_format_the_readers_read(tmp_path):
     """Discovery's log suffixes are the reader registry's, each also gzipped and .part."""
-    from evtribo.frames.registry import supported_suffixes
+    from evtribo.canlog.io.registry import supported_suffixes
 
     suffixes = supported_suffixes()
     assert {".log", ".asc", ".blf", ".trc", ".csv"} <= set(suffixes)

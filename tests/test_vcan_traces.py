@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from _checks import fel_ok
-from evtribo.analysis.pipeline import compute_study
+from evtribo.results.pipeline import compute_study
 from evtribo.study import load_study
 
 DATA = Path(__file__).resolve().parents[1] / "data"

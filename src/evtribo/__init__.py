@@ -1,9 +1,12 @@
 """evtribo: tribometer experiments on electrovibration.
 
-Layers, lowest first: ``model`` (the seed paper's physics), ``rig``/``frames``/``decode``
-(CAN logs to forces), ``acquisition`` (buses, logger, simulated rig), ``analysis``
-(windows, friction, electrostatic force), ``compare`` (model fit and report), ``api`` (the
-Python interface below), ``cli``.
+The data's way, package by package: ``canlog`` (CAN logs read and decoded through the rig's
+DBC), ``analysis`` (one trial: its forces, windows, friction and electrostatic force),
+``results`` (a study's trials analysed and gathered into the result tables), ``fit`` (the
+seed paper's ``model`` fitted per subject), ``population`` (from subjects to the
+population), ``figures`` and ``report``; beside them ``acquisition`` (recording from a bus,
+the simulated rig), ``store`` (files written safely), ``util``, ``api`` (the Python
+interface below) and ``cli`` (docs/architecture.md draws it).
 
 The Python interface (study format §8; :mod:`evtribo.api`, imported on first use so that
 ``import evtribo`` stays light)::
@@ -38,8 +41,7 @@ def __getattr__(name: str) -> Any:
     """The names of :mod:`evtribo.api`, imported on first use (PEP 562)."""
     if name in _API:
         api = importlib.import_module("evtribo.api")
-        # evtribo.compare: the package, made callable as evtribo.api.compare by the import
-        value = globals()["compare"] if name == "compare" else getattr(api, name)
+        value = getattr(api, name)
         globals()[name] = value
         return value
     raise AttributeError(f"module 'evtribo' has no attribute {name!r}")

@@ -31,7 +31,7 @@ from evtribo.acquisition.simulator import Simulator, SubjectParams, TrialConfig,
 from evtribo.acquisition.simulator.realism import human, realistic_rig
 from evtribo.acquisition.trial import TrialInfo, record_trial
 from evtribo.errors import AcquisitionError, OutputExistsError
-from evtribo.files import atomic_write
+from evtribo.store.files import atomic_write
 
 log = logging.getLogger(__name__)
 
@@ -193,8 +193,9 @@ def run_demo(out: str | Path, *, subjects: int = 3, amplitudes: Sequence[float] 
     progress : callable, optional
         Called with a line of text after each step.
     """
-    from evtribo.analysis.pipeline import analyze_study
-    from evtribo.compare import build_report, compare
+    from evtribo.report.compare import compare
+    from evtribo.report.study_report import build_report
+    from evtribo.results.pipeline import analyze_study
 
     say = progress or (lambda _line: None)
     out = Path(out)

@@ -22,13 +22,13 @@ from pathlib import Path
 
 from evtribo.documents.session import SESSION_FILE
 from evtribo.errors import FORCE, OutputExistsError, UserInputError
-from evtribo.files import MF4_PROGRAM_ID
+from evtribo.store.files import MF4_PROGRAM_ID
 from evtribo.study import NOT_SUBJECTS, STUDY_FILE, log_stem
 
 __all__ = ["LOG_KINDS", "refuse_cache_in_study", "refuse_in_study", "refuse_input", "study_root",
            "what_input"]
 
-#: What :func:`~evtribo.frames.sniff.sniff` calls the raw CAN logs.
+#: What :func:`~evtribo.canlog.io.sniff.sniff` calls the raw CAN logs.
 LOG_KINDS = frozenset({"candump-L", "candump-text", "candump-plain", "asc", "trc",
                        "python-can-csv", "savvycan", "blf", "mf4", "mdf", "sqlite"})
 #: Bytes of a file looked at for a DBC's first keyword.
@@ -115,7 +115,7 @@ def what_input(path: str | os.PathLike[str]) -> str | None:
     str or None
         ``"a CAN log (a candump -L log)"``, ``"the study's DBC"``... or None.
     """
-    from evtribo.frames.sniff import sniff  # numpy and python-can: imported on use
+    from evtribo.canlog.io.sniff import sniff  # numpy and python-can: imported on use
 
     real = Path(os.path.realpath(path))
     inside = _in_study(real)

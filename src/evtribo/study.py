@@ -37,10 +37,10 @@ from evtribo.documents.sidecar import (
     write_sidecar,
 )
 from evtribo.errors import OutputExistsError, StudyError, toml_problem
-from evtribo.files import PARTIAL_SUFFIX, atomic_write, read_limited
+from evtribo.store.files import PARTIAL_SUFFIX, atomic_write, read_limited
 
 if TYPE_CHECKING:  # pragma: no cover
-    from evtribo.rig import Rig
+    from evtribo.canlog.rig import Rig
 
 log = logging.getLogger(__name__)
 
@@ -50,8 +50,8 @@ STUDY_FILE = "study.toml"
 @functools.cache
 def log_suffixes() -> tuple[str, ...]:
     """Suffixes of raw logs, longest first (``.log.gz`` before ``.log``): every format
-    :func:`evtribo.frames.read_frames` reads, each also gzipped."""
-    from evtribo.frames.registry import supported_suffixes  # imports python-can: on use
+    :func:`evtribo.canlog.io.read_frames` reads, each also gzipped."""
+    from evtribo.canlog.io.registry import supported_suffixes  # imports python-can: on use
 
     plain = supported_suffixes()
     return tuple(sorted([*plain, *(f"{x}.gz" for x in plain)], key=lambda x: (-len(x), x)))
@@ -309,7 +309,7 @@ def load_study(path: str | os.PathLike[str], *, with_rig: bool = True) -> Study:
     config = read_study_toml(toml_path)
     rig = None
     if with_rig:
-        from evtribo.rig import Rig
+        from evtribo.canlog.rig import Rig
 
         rig = Rig.from_mapping(config["rig"], base_dir=root, source=toml_path, key_prefix="rig")
     trials, warnings = discover_trials(root)
@@ -337,7 +337,7 @@ def study_rig(path: str | os.PathLike[str]) -> Rig:
     StudyError, RigConfigError
         With the file and the key at fault.
     """
-    from evtribo.rig import Rig, load_rig
+    from evtribo.canlog.rig import Rig, load_rig
 
     p = Path(path)
     if p.is_dir() or p.name == STUDY_FILE:

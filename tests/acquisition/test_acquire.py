@@ -9,7 +9,7 @@ import cantools
 import pytest
 
 import evtribo.acquisition.trial as trial_module
-from evtribo.acquisition.bus import BusSettings
+from evtribo.acquisition.buses.bus import BusSettings
 from evtribo.acquisition.rigfile import default_rig_path
 from evtribo.acquisition.simulator import Simulator, TrialConfig
 from evtribo.acquisition.trial import TrialInfo, TrialOptions, TrialPaths, record_trial
@@ -425,7 +425,7 @@ def test_disk_full_mid_trial_keeps_the_log_so_far(tmp_path, monkeypatch):
 
 
 def test_bus_options_and_python_can_configuration(monkeypatch):
-    from evtribo.acquisition.bus import open_bus, parse_bus_options
+    from evtribo.acquisition.buses.bus import open_bus, parse_bus_options
 
     assert parse_bus_options(["sleep_after_open=0", "fd=True", "app_name=my rig",
                               "timeout=0.5"]) == \

@@ -8,8 +8,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from evtribo.acquisition.command import Excitation, ExcitationCommand, _Holder
+from evtribo.canlog.rig import default_rig
 from evtribo.errors import RigConfigError
-from evtribo.rig import default_rig
 
 ROLES = {"excitation_command_enabled": "HvCmd.HvOn",
          "excitation_command_amplitude": "HvCmd.HvAmp",

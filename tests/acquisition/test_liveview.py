@@ -11,7 +11,7 @@ import urllib.request
 import pytest
 from tests._browser import Browser
 
-from evtribo.acquisition.liveview import LiveView
+from evtribo.acquisition.live.liveview import LiveView
 
 
 def _events(url: str, n: int) -> list[dict]:

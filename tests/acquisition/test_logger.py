@@ -13,17 +13,18 @@ import numpy as np
 import pytest
 
 import evtribo.acquisition.logger as logger_module
+import evtribo.acquisition.receive as receive_module
 from evtribo.acquisition.logger import (
     CounterSpec,
     CounterTracker,
     LogWriter,
     counter_spec_from_dbc,
     format_candump_line,
-    receive,
 )
+from evtribo.acquisition.receive import receive
 from evtribo.acquisition.rigfile import load_rig_toml
-from evtribo.frames import candump, frames_from_messages, write_candump
-from evtribo.signal_codec import SignalCodec
+from evtribo.canlog.io import candump, frames_from_messages, write_candump
+from evtribo.canlog.signal_codec import SignalCodec
 
 FRAMES = [
     can.Message(timestamp=1763700000.000123, arbitration_id=0x0C1, is_extended_id=False,
@@ -290,9 +291,9 @@ def test_an_adapter_sending_only_damaged_lines_is_taken_for_dead(tmp_path):
         fh.close()
         bus.shutdown()
     assert result.reason == "bus-error" and result.frames == 10
-    assert result.damaged_lines == logger_module.MAX_DAMAGED_IN_A_ROW
+    assert result.damaged_lines == receive_module.MAX_DAMAGED_IN_A_ROW
     assert "damaged lines in a row and no frame" in str(result.error)
-    assert len(result.damaged_examples) == logger_module.DAMAGED_EXAMPLES
+    assert len(result.damaged_examples) == receive_module.DAMAGED_EXAMPLES
 
 
 def test_receive_stops_when_asked(tmp_path):

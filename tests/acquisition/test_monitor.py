@@ -10,8 +10,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evtribo.acquisition.logger import LogStats, frame_key
-from evtribo.acquisition.monitor import (
+from evtribo.acquisition.live.monitor import (
     Monitor,
     Snapshot,
     band_state,
@@ -19,6 +18,7 @@ from evtribo.acquisition.monitor import (
     render_line,
     render_status,
 )
+from evtribo.acquisition.logger import LogStats, frame_key
 from evtribo.acquisition.rigfile import default_rig_path, load_rig_toml
 
 

@@ -13,8 +13,8 @@ from pathlib import Path
 import can
 import pytest
 
+from evtribo.acquisition.live.monitor import Monitor, Snapshot, render_line, render_status
 from evtribo.acquisition.logger import LogStats
-from evtribo.acquisition.monitor import Monitor, Snapshot, render_line, render_status
 from evtribo.acquisition.rigfile import default_rig_path, load_rig_toml
 from evtribo.acquisition.trial import RIG_DATA_TIMEOUT_S, record_trial
 from evtribo.cli import main

@@ -11,9 +11,9 @@ import pytest
 
 from evtribo.acquisition.simulator.config import SubjectParams
 from evtribo.acquisition.simulator.physics import CONTACT_RAMP_S, Contact
-from evtribo.analysis.pipeline import analyze_study
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.cli import main
+from evtribo.results.pipeline import analyze_study
 
 
 def test_a_lift_inserted_later_replaces_the_lift_offs_it_overlaps():

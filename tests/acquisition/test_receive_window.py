@@ -13,13 +13,14 @@ import can
 from hypothesis import given
 from hypothesis import strategies as st
 
-from evtribo.acquisition.bus import receive_care
-from evtribo.acquisition.display import Snapshot, render_line, render_status
-from evtribo.acquisition.errorframes import ErrorTally, error_kinds
-from evtribo.acquisition.logger import LogWriter, receive
+from evtribo.acquisition.buses.bus import receive_care
+from evtribo.acquisition.buses.errorframes import ErrorTally, error_kinds
+from evtribo.acquisition.live.display import Snapshot, render_line, render_status
+from evtribo.acquisition.logger import LogWriter
+from evtribo.acquisition.receive import receive
 from evtribo.acquisition.trial import record_trial
-from evtribo.cli.acquire import summary_counts
-from evtribo.frames import read_frames
+from evtribo.canlog.io import read_frames
+from evtribo.cli.recording.acquire import summary_counts
 
 
 def _frame(t: float, k: int) -> can.Message:

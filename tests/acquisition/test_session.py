@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from _process import kill_and_reap
-from evtribo.cache import load_trial
+from evtribo.canlog.cache import load_trial
+from evtribo.canlog.rig import default_rig
 from evtribo.documents.session import read_session
-from evtribo.rig import default_rig
 
 PROTOCOL = """\
 [session]
@@ -148,7 +148,7 @@ def test_without_a_command_message_the_operator_sets_the_amplifier_and_may_redo(
     import can
 
     from evtribo.acquisition.simulator import Simulator, TrialConfig
-    from evtribo.rig import load_rig
+    from evtribo.canlog.rig import load_rig
     from evtribo.session import SessionConfig, run_session
 
     rig_toml = Path(__file__).parents[1] / "data" / "rigs" / "motorola.toml"

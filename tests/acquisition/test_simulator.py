@@ -21,9 +21,9 @@ from evtribo.acquisition.simulator import (
     simulate_trial,
 )
 from evtribo.acquisition.simulator.encode import pack_signals
+from evtribo.canlog.io import read_frames
 from evtribo.cli import main
 from evtribo.errors import ConfigError, OutputExistsError
-from evtribo.frames import read_frames
 from evtribo.model import TABLE_1, electrostatic_force
 from evtribo.study import discover_trials, read_sidecar, read_study_toml
 

@@ -17,8 +17,8 @@ import serial
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from evtribo.acquisition.buses.slcan import BulkSlcanBus, SlcanPtyAdapter, encode_slcan
 from evtribo.acquisition.simulator import TrialConfig, simulate_trial
-from evtribo.acquisition.slcan import BulkSlcanBus, SlcanPtyAdapter, encode_slcan
 
 FZ, FX, HV = 0x0C1, 0x0C2, 0x1A0
 
@@ -382,7 +382,8 @@ def test_receive_counts_damaged_lines_of_either_driver_and_goes_on(tmp_path, int
     """python-can's ``slcan`` raises ValueError, IndexError, or (bytes that are no text) a
     CanOperationError that would poison its line buffer; ``slcan_bulk`` a ValueError. The
     receive loop counts each as one damaged line and loses no good frame."""
-    from evtribo.acquisition.logger import LogWriter, receive
+    from evtribo.acquisition.logger import LogWriter
+    from evtribo.acquisition.receive import receive
 
     good = [b"t0C18%016X\r" % k for k in range(40)]
     stream = b"".join(good[:10] + REPORTED[:2] + good[10:20] + REPORTED[2:3] + good[20:30]

@@ -13,10 +13,10 @@ import can
 import pytest
 
 from _process import kill_and_reap
-from evtribo.acquisition.bus import BusSettings
+from evtribo.acquisition.buses.bus import BusSettings
 from evtribo.acquisition.trial import record_trial
+from evtribo.canlog.io import read_frames
 from evtribo.cli import main
-from evtribo.frames import read_frames
 
 
 def test_frames_the_bus_held_when_the_trial_started_are_discarded_and_counted(tmp_path):

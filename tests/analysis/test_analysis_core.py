@@ -2,8 +2,8 @@
 
 import numpy as np
 import pytest
-from _analysis_synth import synth_trial
 
+from _analysis_synth import synth_trial
 from evtribo.analysis import (
     align_forces,
     condition_from_excitation,
@@ -14,9 +14,9 @@ from evtribo.analysis import (
     fit_power_law,
     friction_coefficient,
 )
-from evtribo.analysis.conditions import EXCLUDED, OFF, ON
-from evtribo.analysis.estimate import small_sample_scale
-from evtribo.analysis.windows import moving_average
+from evtribo.analysis.forces.conditions import EXCLUDED, OFF, ON
+from evtribo.analysis.friction.estimate import small_sample_scale
+from evtribo.analysis.friction.windows import moving_average
 from evtribo.errors import AnalysisError
 
 
@@ -277,7 +277,7 @@ def test_exponent_interval_coverage(shared):
 
 
 def test_replicate_with_a_non_positive_force_is_refitted_without_it():
-    from evtribo.analysis.powerlaw import _replicate_slopes
+    from evtribo.analysis.friction.powerlaw import _replicate_slopes
 
     x = np.log([50.0, 100.0, 200.0])
     reps = np.array([[-0.001, 0.04, 0.16], [0.01, 0.04, 0.16], [-1.0, -1.0, 0.16]])

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_trial
-from evtribo.dropped import coherence, count_dropped, estimate_period, missing_frames
-from evtribo.dropped import count_by_steps as step_heuristic
+from evtribo.canlog.dropped import coherence, count_dropped, estimate_period, missing_frames
+from evtribo.canlog.dropped import count_by_steps as step_heuristic
 
 
 def _stream(*, rate_hz=2000.0, duration_s=10.0, drop=0.03, jitter_s=2e-4, seed=0, ppm=-25.0):
@@ -100,9 +100,9 @@ def test_simulated_trial_counts_match_the_simulator():
 
 
 def test_the_decoders_count_is_carried_into_the_analysis_not_recounted(monkeypatch):
-    from evtribo import dropped
     from evtribo.analysis import trial
-    from evtribo.signals import CellSignals, TrialSignals
+    from evtribo.canlog import dropped
+    from evtribo.canlog.signals import CellSignals, TrialSignals
 
     def recount(*_a, **_k):
         raise AssertionError("counted again")
@@ -127,7 +127,7 @@ def test_the_logger_s_dropcount_and_decoder_warnings_reach_trials_csv_cold_and_w
     import json
 
     from evtribo.acquisition.simulator import simulate_study
-    from evtribo.analysis.pipeline import analyze_study
+    from evtribo.results.pipeline import analyze_study
 
     study = tmp_path / "study"
     simulate_study(study, [SubjectParams(name="P01")], amplitudes=(120.0,),
@@ -155,9 +155,9 @@ def test_the_logger_s_dropcount_and_decoder_warnings_reach_trials_csv_cold_and_w
 def test_a_clock_jump_inside_a_trial_invents_no_lost_frames(jump_s):
     """A logger's clock stepping back hours halfway through: counted in the order the frames
     came in, the counter sees exactly the frames lost, not the interleaving of the halves."""
-    from evtribo.decode import decode_trial
-    from evtribo.dropped import missing_frames_received
-    from evtribo.rig import default_rig
+    from evtribo.canlog.decode import decode_trial
+    from evtribo.canlog.dropped import missing_frames_received
+    from evtribo.canlog.rig import default_rig
 
     t, counter, lost, _ = _stream(rate_hz=1000.0, jitter_s=1e-4, drop=0.01, seed=3)
     half = t.size // 2

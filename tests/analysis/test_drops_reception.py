@@ -10,8 +10,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from evtribo.dropped import missing_frames, missing_frames_received
-from evtribo.outages import outage_count
+from evtribo.canlog.dropped import missing_frames, missing_frames_received
+from evtribo.canlog.outages import outage_count
 
 
 def _sent(rng, *, rate_hz, duration_s, ppm, outages=0, outage_frames=(2, 10), scattered=0.0):

@@ -9,7 +9,7 @@ import json
 import pandas as pd
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
-from evtribo.analysis.pipeline import analyze_study
+from evtribo.results.pipeline import analyze_study
 
 
 def _with_fd_frames(log, every: int = 50) -> int:

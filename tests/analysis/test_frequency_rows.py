@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from evtribo.analysis.aggregate import (
+from evtribo.results.aggregate import (
     BOOTSTRAP_COLUMNS,
     ELECTROSTATIC_COLUMNS,
     EXPONENT_COLUMNS,

@@ -13,12 +13,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from _realistic import EFFECTS, run_study
 
+from _realistic import EFFECTS, run_study
 from evtribo.acquisition.simulator import TrialConfig, default_subjects, simulate_study
-from evtribo.analysis.pipeline import analyze_study
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.cli import main
+from evtribo.results.pipeline import analyze_study
 
 REFERENCE_STUDY = Path(__file__).resolve().parents[2] / "data" / "reference-study"
 SEEDS = (0, 1, 2)

@@ -12,12 +12,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_trial
-from evtribo.analysis.pieces import continuous_pieces
+from evtribo.analysis.forces.pieces import continuous_pieces
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals
-from evtribo.decode import decode_trial
+from evtribo.canlog.decode import decode_trial
+from evtribo.canlog.rig import default_rig
 from evtribo.errors import AnalysisError
-from evtribo.rig import default_rig
 
 RIG = default_rig()
 SETTINGS = AnalysisSettings(n_boot=100)

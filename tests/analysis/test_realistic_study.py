@@ -14,6 +14,7 @@ import json
 import numpy as np
 import pandas as pd
 import pytest
+
 from _realistic import (
     AMPLITUDES,
     attach_truth,
@@ -22,11 +23,10 @@ from _realistic import (
     run_study,
     window_truth,
 )
-
 from evtribo.acquisition.simulator import TrialConfig, default_subjects, simulate_study
 from evtribo.acquisition.simulator.realism import human
-from evtribo.analysis.pipeline import analyze_study
 from evtribo.analysis.settings import AnalysisSettings
+from evtribo.results.pipeline import analyze_study
 
 CROSSTALK = ((1.0, 0.03), (-0.03, 1.0))
 #: [rig.calibration] of the study: a cross-talk matrix measured on the rig, and offsets from

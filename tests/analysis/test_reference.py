@@ -1,5 +1,5 @@
 """The friction an ON window is compared with: the OFF windows' coefficient at the window's own
-time, direction and stroke rate (:mod:`evtribo.analysis.reference`)."""
+time, direction and stroke rate (:mod:`evtribo.analysis.friction.reference`)."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evtribo.analysis.estimate import estimate_electrostatic
-from evtribo.analysis.pace import pooled_rate_slope
-from evtribo.analysis.reference import WindowFacts, fit_mu_model, fit_trial_model
+from evtribo.analysis.friction.estimate import estimate_electrostatic
+from evtribo.analysis.friction.pace import pooled_rate_slope
+from evtribo.analysis.friction.reference import WindowFacts, fit_mu_model, fit_trial_model
 
 
 def _facts(t, direction, rate=None, cluster=None):

@@ -8,7 +8,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy import special, stats
 
-from evtribo.analysis.estimate import small_sample_scale
+from evtribo.analysis.friction.estimate import small_sample_scale
 
 probabilities = st.floats(min_value=0.5, max_value=1 - 1e-9)
 dofs = st.floats(min_value=0.5, max_value=1e6)
@@ -47,7 +47,7 @@ def test_the_analysis_does_not_import_scipy_stats():
     import subprocess
     import sys
 
-    code = ("import sys, evtribo.cli.analyze, evtribo.analysis.pipeline; "
+    code = ("import sys, evtribo.cli.results.analyze, evtribo.results.pipeline; "
             "print(sorted(m for m in ('scipy.stats', 'scipy.signal') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
@@ -68,7 +68,7 @@ def test_a_sine_trials_hum_is_removed_by_scipy_signal(tmp_path):
     simulate_study(study, default_subjects(1), amplitudes=(140.0,),
                    config=TrialConfig(duration_s=20.0), sine_trial=True, realistic=True)
     code = ("import logging, sys\n"
-            "from evtribo.analysis.pipeline import compute_study\n"
+            "from evtribo.results.pipeline import compute_study\n"
             "removed = []\n"
             "class Keep(logging.Handler):\n"
             "    def emit(self, record):\n"

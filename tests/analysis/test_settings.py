@@ -11,10 +11,10 @@ import pandas as pd
 import pytest
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
-from evtribo.analysis.pipeline import analyze_study
 from evtribo.analysis.settings import SETTING_HELP, AnalysisSettings, parse_setting
 from evtribo.cli import main
 from evtribo.errors import ConfigError, toml_key_line
+from evtribo.results.pipeline import analyze_study
 
 DEFAULT_TOML = Path(__file__).resolve().parents[2] / "analysis" / "default.toml"
 

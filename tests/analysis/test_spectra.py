@@ -4,7 +4,7 @@ highest power (a person's slow force wander has more power than a weak oscillati
 import numpy as np
 import pytest
 
-from evtribo.analysis.spectra import dominant_frequency
+from evtribo.analysis.forces.spectra import dominant_frequency
 
 RATE = 2000.0
 

@@ -8,8 +8,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evtribo.analysis.align import _group_means
-from evtribo.analysis.windows import _Grid, _split, _steady
+from evtribo.analysis.forces.align import _group_means
+from evtribo.analysis.friction.windows import _Grid, _split, _steady
 
 
 @settings(max_examples=300, deadline=None)

@@ -1,5 +1,5 @@
-"""Taring (``evtribo.analysis.tare``) and hum removal (``evtribo.analysis.hum``) on synthetic
-load-cell traces made here, independently of the package's simulator."""
+"""Taring (``evtribo.analysis.forces.tare``) and hum removal (``evtribo.analysis.forces.hum``)
+on synthetic load-cell traces made here, independently of the package's simulator."""
 
 from __future__ import annotations
 
@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evtribo.analysis.align import AlignedForces
-from evtribo.analysis.hum import find_hum, modulation_lines, remove_hum
-from evtribo.analysis.tare import (
+from evtribo.analysis.forces.align import AlignedForces
+from evtribo.analysis.forces.hum import find_hum, modulation_lines, remove_hum
+from evtribo.analysis.forces.tare import (
     Tared,
     calibrate,
     find_lifted,
@@ -20,7 +20,7 @@ from evtribo.analysis.tare import (
     removed_offsets,
     tare_lifted,
 )
-from evtribo.rig import Calibration
+from evtribo.canlog.rig import Calibration
 
 RATE = 1000.0
 
@@ -217,7 +217,7 @@ def test_a_hum_line_where_the_friction_oscillates_is_left_in():
 def test_levels_of_means_that_fall_between_the_10ms_samples_are_none():
     # usable 0.1-s means everywhere but on the 10-ms grid the levels are read from: no
     # levels (there is nothing to read them from), not an IndexError (found by the fuzzer)
-    from evtribo.analysis.lifted import _levels
+    from evtribo.analysis.forces.lifted import _levels
 
     n, m = 2000, 100
     idx = np.arange(n)

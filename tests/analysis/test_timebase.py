@@ -8,7 +8,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from evtribo.analysis.timebase import placed_among, sample_times
+from evtribo.analysis.forces.timebase import placed_among, sample_times
 
 RATE = 1000.0
 

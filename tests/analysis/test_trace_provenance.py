@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, write_trial
-from evtribo.analysis.pipeline import SINE_TRACE_FILE, analyze_study
-from evtribo.analysis.trace import TRACE_COLUMNS, sine_trace
-from evtribo.compare.tables import read_results
+from evtribo.analysis.friction.trace import TRACE_COLUMNS, sine_trace
+from evtribo.fit.tables import read_results
+from evtribo.results.pipeline import SINE_TRACE_FILE, analyze_study
 
 
 def _grid(rate=2000.0, duration=10.0):

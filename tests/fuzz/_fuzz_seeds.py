@@ -18,7 +18,7 @@ import can
 from hypothesis import strategies as st
 
 from evtribo.acquisition.simulator import TrialConfig, simulate_trial
-from evtribo.frames import FrameTable, write_candump
+from evtribo.canlog.io import FrameTable, write_candump
 
 #: Every format the fuzzing covers; ``.log.gz`` is candump gzipped.
 FORMATS = (".log", ".log.gz", ".asc", ".blf", ".trc", ".csv")

@@ -14,10 +14,10 @@ from hypothesis import strategies as st
 
 from evtribo.acquisition.simulator import TrialConfig, simulate_trial
 from evtribo.analysis.trial import AnalysisSettings, TrialMeta, analyze_signals
-from evtribo.decode import decode_trial
+from evtribo.canlog.decode import decode_trial
+from evtribo.canlog.io import FrameTable
+from evtribo.canlog.rig import default_rig
 from evtribo.errors import AnalysisError, UserInputError
-from evtribo.frames import FrameTable
-from evtribo.rig import default_rig
 
 RIG = default_rig()
 SETTINGS = AnalysisSettings(n_boot=50)

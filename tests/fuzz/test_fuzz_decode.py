@@ -12,11 +12,11 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from evtribo.decode import decode_messages, decode_trial
-from evtribo.decode_table import decoded_table
-from evtribo.dropped import count_dropped
-from evtribo.frames import FrameTable
-from evtribo.rig import default_rig, load_rig
+from evtribo.canlog.decode import decode_messages, decode_trial
+from evtribo.canlog.decode_table import decoded_table
+from evtribo.canlog.dropped import count_dropped
+from evtribo.canlog.io import FrameTable
+from evtribo.canlog.rig import default_rig, load_rig
 
 RIGS = {"default": default_rig(),
         "motorola": load_rig(Path(__file__).parents[1] / "data" / "rigs" / "motorola.toml")}

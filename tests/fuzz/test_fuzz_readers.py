@@ -20,8 +20,8 @@ from _fuzz_seeds import (
 from hypothesis import given
 from hypothesis import strategies as st
 
+from evtribo.canlog.io import read_frames
 from evtribo.errors import LogFormatError
-from evtribo.frames import read_frames
 
 
 @pytest.fixture(scope="module")

@@ -12,8 +12,8 @@ import pytest
 from hypothesis import event, given
 from hypothesis import strategies as st
 
+from evtribo.canlog.rig import ROLES, default_rig_path
 from evtribo.errors import RigConfigError, SidecarError, StudyError, UserInputError
-from evtribo.rig import ROLES, default_rig_path
 from evtribo.study import load_study, parse_sidecar, read_sidecar, read_study_toml
 
 DBC = default_rig_path().with_name("default.dbc")

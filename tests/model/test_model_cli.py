@@ -103,7 +103,7 @@ def test_figures_written_not_blank_and_not_overwritten(tmp_path, capsys):
 
 
 def test_save_figures_raises_output_exists(tmp_path):
-    from evtribo.compare.model_figures import save_model_figures as save_figures
+    from evtribo.figures.model_figures import save_model_figures as save_figures
 
     (tmp_path / "fig7_area_increase.svg").write_text("keep")
     with pytest.raises(OutputExistsError):

@@ -5,7 +5,7 @@ import pytest
 from matplotlib.figure import Figure
 
 from evtribo import model
-from evtribo.compare import model_figures as figures
+from evtribo.figures import model_figures as figures
 
 
 @pytest.mark.parametrize("plot", list(figures.MODEL_FIGURES.values()),

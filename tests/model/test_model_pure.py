@@ -15,7 +15,7 @@ from evtribo.model.point import POINT_KEYS, evaluate_point
 
 MODEL = Path(evtribo.model.__file__).parent
 #: What a pure model does not use: plotting, and writing files.
-_NOT_PURE = {"matplotlib", "evtribo.files", "os", "shutil", "pathlib"}
+_NOT_PURE = {"matplotlib", "evtribo.store.files", "os", "shutil", "pathlib"}
 
 
 @pytest.mark.parametrize("path", sorted(MODEL.glob("*.py")), ids=lambda p: p.name)

@@ -11,10 +11,10 @@ import pytest
 
 from _checks import fel_ok
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, write_trial
-from evtribo.analysis.pipeline import analyze_study
+from evtribo.canlog.io import read_frames
+from evtribo.canlog.rig import default_rig, load_rig
 from evtribo.errors import RigConfigError
-from evtribo.frames import read_frames
-from evtribo.rig import default_rig, load_rig
+from evtribo.results.pipeline import analyze_study
 from evtribo.study import load_study
 
 RIGS = Path(__file__).parents[1] / "data" / "rigs"

@@ -13,12 +13,12 @@ from hypothesis import strategies as st
 from evtribo.acquisition.simulator.anyrig import RigEncoder
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.core import TrialGenerator
-from evtribo.decode import decode_trial
+from evtribo.canlog.decode import decode_trial
+from evtribo.canlog.io import read_frames
+from evtribo.canlog.io.candump_writer import write_candump
+from evtribo.canlog.io.table import FrameTable
+from evtribo.canlog.rig import default_rig, default_rig_path, load_rig
 from evtribo.errors import OutputExistsError, RigConfigError
-from evtribo.frames import read_frames
-from evtribo.frames.candump_writer import write_candump
-from evtribo.frames.table import FrameTable
-from evtribo.rig import default_rig, default_rig_path, load_rig
 from evtribo.rigsetup import guess_roles, init_study, signal_stats
 from evtribo.study import load_study
 

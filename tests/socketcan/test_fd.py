@@ -43,8 +43,8 @@ def _decoded_and_analysed(exports: Path) -> None:
     and analysed like it."""
     import pandas as pd
 
-    from evtribo.analysis.pipeline import compute_study
     from evtribo.cli import main
+    from evtribo.results.pipeline import compute_study
 
     trace = exports / "trace" / "P01" / "run-01.log"
     recorded = exports / "recorded" / "P01" / "run-01.log"

@@ -13,9 +13,9 @@ import can
 import pytest
 
 from _socketcan import Candump, evtribo, frames_of, play, wait_for
-from evtribo.acquisition.bus import BusSettings, open_bus
+from evtribo.acquisition.buses.bus import BusSettings, open_bus
 from evtribo.acquisition.trial import record_trial
-from evtribo.frames import read_frames
+from evtribo.canlog.io import read_frames
 
 pytestmark = pytest.mark.slow
 

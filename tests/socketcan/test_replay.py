@@ -82,7 +82,7 @@ def _metadata(sidecar: dict) -> list[str]:
 
 def _analysed_like_the_trace(exports: Path) -> None:
     """On the host: the recorded trial's F_el within 2 % of the trace's."""
-    from evtribo.analysis.pipeline import compute_study
+    from evtribo.results.pipeline import compute_study
 
     what = json.loads((exports / "replay.json").read_text())
     source, subject, trial = Path(what["source"]), what["subject"], what["trial"]

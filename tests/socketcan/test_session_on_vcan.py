@@ -53,9 +53,9 @@ def _obeyed_and_analysed(exports: Path) -> None:
     status said ON; the study's F_el grows with the voltage."""
     import numpy as np
 
-    from evtribo.analysis.pipeline import compute_study
-    from evtribo.cache import load_trial
-    from evtribo.rig import default_rig
+    from evtribo.canlog.cache import load_trial
+    from evtribo.canlog.rig import default_rig
+    from evtribo.results.pipeline import compute_study
 
     study = exports / "study"
     for planned in read_session(study / "P01" / "session.json").order:

@@ -2,8 +2,8 @@
 
 A load cell that numbers its frames (``FzCell.FzCounter``, +1 per frame, wrapping at
 ``2**length``) tells the logger how many of its frames never arrived. The counter is pulled
-out of the payloads by :class:`~evtribo.signal_codec.SignalCodec`, as the decoder pulls every
-signal, a batch of frames at a time; frames are keyed by :func:`evtribo.frames.ids.frame_key`.
+out of the payloads by :class:`~evtribo.canlog.signal_codec.SignalCodec`, as the decoder pulls every
+signal, a batch of frames at a time; frames are keyed by :func:`evtribo.canlog.io.ids.frame_key`.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ import numpy as np
 import numpy.typing as npt
 from cantools.database.can import Database
 
-from evtribo.frames.ids import frame_key
-from evtribo.signal_codec import SignalCodec
+from evtribo.canlog.io.ids import frame_key
+from evtribo.canlog.signal_codec import SignalCodec
 
 __all__ = ["CounterSpec", "CounterTracker", "counter_spec_from_dbc", "frame_key"]
 
@@ -47,7 +47,7 @@ class CounterSpec:
 
     @property
     def key(self) -> int:
-        """:func:`~evtribo.frames.ids.frame_key` of the message."""
+        """:func:`~evtribo.canlog.io.ids.frame_key` of the message."""
         return frame_key(self.arbitration_id, self.is_extended)
 
     @property

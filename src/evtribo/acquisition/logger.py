@@ -1,6 +1,6 @@
 """Record every frame of a python-can bus into a candump ``-L`` log, without dropping any.
 
-The receive loop (:func:`~evtribo.acquisition.receive.receive`, importable from here too)
+The receive loop (:func:`evtribo.acquisition.receive.receive`, which imports this module)
 runs in the caller's thread and does nothing but ``bus.recv(timeout)`` and appending to a
 list; every 50 ms (or 512 frames) it hands the batch to a :class:`LogWriter` thread, which
 formats the lines, counts frames per identifier, checks the rig's rolling counters
@@ -25,19 +25,10 @@ from typing import IO
 
 import can
 
+from evtribo.acquisition.buses.errorframes import ErrorTally
 from evtribo.acquisition.counters import CounterSpec, CounterTracker, counter_spec_from_dbc
-from evtribo.acquisition.errorframes import ErrorTally
-from evtribo.acquisition.receive import (
-    DAMAGED_EXAMPLES,
-    HANDOFF_FRAMES,
-    HANDOFF_INTERVAL_S,
-    MAX_DAMAGED_IN_A_ROW,
-    ReceiveResult,
-    is_damaged_line,
-    receive,
-)
-from evtribo.frames.candump import CAN_ERR_BUSERROR, CAN_ERR_FLAG, frame_field
-from evtribo.frames.ids import frame_key, id_text
+from evtribo.canlog.io.candump import CAN_ERR_BUSERROR, CAN_ERR_FLAG, frame_field
+from evtribo.canlog.io.ids import frame_key, id_text
 
 log = logging.getLogger(__name__)
 
@@ -130,7 +121,7 @@ def id_key(msg: can.Message) -> str:
     Returns
     -------
     str
-        ``"0C1"``, ``"18FF0001"`` (:func:`evtribo.frames.ids.id_text`) or ``"error"``.
+        ``"0C1"``, ``"18FF0001"`` (:func:`evtribo.canlog.io.ids.id_text`) or ``"error"``.
     """
     if msg.is_error_frame:
         return "error"
@@ -306,7 +297,5 @@ class LogWriter:
         return lines
 
 
-__all__ = ["CAN_ERR_BUSERROR", "CAN_ERR_FLAG", "DAMAGED_EXAMPLES", "HANDOFF_FRAMES",
-           "HANDOFF_INTERVAL_S", "MAX_DAMAGED_IN_A_ROW", "CounterSpec", "CounterTracker",
-           "LogStats", "LogWriter", "ReceiveResult", "counter_spec_from_dbc",
-           "format_candump_line", "frame_key", "id_key", "is_damaged_line", "receive"]
+__all__ = ["CAN_ERR_BUSERROR", "CAN_ERR_FLAG", "CounterSpec", "CounterTracker", "LogStats",
+           "LogWriter", "counter_spec_from_dbc", "format_candump_line", "frame_key", "id_key"]

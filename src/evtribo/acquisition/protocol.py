@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from evtribo.errors import ConfigError, toml_key_line, toml_problem
-from evtribo.files import read_limited
+from evtribo.store.files import read_limited
 
 __all__ = ["CONDITIONS", "PlannedTrial", "Protocol", "SessionSettings", "TrialSpec",
            "plan_trials", "read_protocol", "session_seed"]

@@ -12,14 +12,11 @@ import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import can
 
-from evtribo.frames.ids import frame_key
-
-if TYPE_CHECKING:  # pragma: no cover
-    from evtribo.acquisition.logger import LogStats, LogWriter
+from evtribo.acquisition.logger import LogStats, LogWriter
+from evtribo.canlog.io.ids import frame_key
 
 log = logging.getLogger(__name__)
 

@@ -3,7 +3,7 @@
 A rig TOML (``src/evtribo/data/rigs/default.toml``) holds the keys of the ``[rig]`` table of
 ``study.toml`` (spec §1) at top level, plus ``name`` and, optionally, the rolling counters of
 the load cells (``normal_force_counter``, ``tangential_force_counter``), with ``dbc``
-relative to the TOML. A new study folder gets a copy of the DBC under ``rig/`` and a
+relative to the TOML. A new study folder gets a copy of the DBC under ``canlog/rig/`` and a
 ``study.toml`` whose ``[rig]`` table names it, both written under temporary names and renamed
 into place (``study.toml`` last): a failure (a full disk) leaves nothing that blocks a retry.
 """
@@ -21,9 +21,9 @@ from typing import Any
 from cantools.database.can import Database, Message
 
 from evtribo.acquisition.counters import CounterSpec, counter_spec_from_dbc
+from evtribo.canlog.io.ids import frame_key, id_text
+from evtribo.canlog.rig import Rig, default_rig_path, load_rig
 from evtribo.errors import AcquisitionError, OutputExistsError, RigConfigError, StudyError
-from evtribo.frames.ids import frame_key, id_text
-from evtribo.rig import Rig, default_rig_path, load_rig
 from evtribo.study import STUDY_FILE, read_study_toml, validate_name, write_study_toml
 
 log = logging.getLogger(__name__)
@@ -82,7 +82,7 @@ class AcquisitionRig:
     signals: dict[str, str]
     counters: list[CounterSpec] = field(default_factory=list)
     source: Path | None = None
-    #: The DBC's messages by :func:`~evtribo.frames.ids.frame_key`.
+    #: The DBC's messages by :func:`~evtribo.canlog.io.ids.frame_key`.
     messages: dict[int, Message] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -95,7 +95,7 @@ class AcquisitionRig:
 
     @classmethod
     def from_rig(cls, rig: Rig, name: str | None = None) -> AcquisitionRig:
-        """Wrap a :class:`evtribo.rig.Rig` (names already checked against its DBC)."""
+        """Wrap a :class:`evtribo.canlog.rig.Rig` (names already checked against its DBC)."""
         signals = {role: ref.qualified_name for role, ref in rig.roles.items()}
         return cls(name=name or rig.name, dbc_path=rig.dbc, database=rig.database,
                    signals=signals, counters=_counters(rig),
@@ -300,7 +300,7 @@ def write_new_study(study: str | Path, dbc: str | Path, *, dbc_rel: str, name: s
 
 
 def create_study(study: str | Path, rig: AcquisitionRig, name: str | None = None) -> Path:
-    """Make *study* a study folder for *rig*: copy its DBC to ``rig/``, write ``study.toml``
+    """Make *study* a study folder for *rig*: copy its DBC to ``canlog/rig/``, write ``study.toml``
     (:func:`write_new_study`).
 
     Parameters

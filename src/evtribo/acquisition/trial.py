@@ -5,7 +5,7 @@
 sidecar (spec §1 plus the recording's facts). The sidecar is first written when recording
 starts, with ``"ended": "recording"``, so a trial whose process was killed still says what it
 is; it is rewritten, atomically, when the trial ends. While it records, the trial is locked
-(``TRIAL.lock``: PID, host, command; :mod:`evtribo.lock`), and ``.TRIAL.reserve`` holds a
+(``TRIAL.lock``: PID, host, command; :mod:`evtribo.store.lock`), and ``.TRIAL.reserve`` holds a
 little disk space, freed to write the last sidecar even when the disk has filled up.
 
 How a trial ends (``ended`` in the sidecar):
@@ -74,8 +74,9 @@ from typing import Any, BinaryIO
 import can
 
 import evtribo
-from evtribo.acquisition.bus import BusSettings, ReceiveCare, receive_care
-from evtribo.acquisition.logger import CounterTracker, LogWriter, ReceiveResult, receive
+from evtribo.acquisition.buses.bus import BusSettings, ReceiveCare, receive_care
+from evtribo.acquisition.logger import CounterTracker, LogWriter
+from evtribo.acquisition.receive import ReceiveResult, receive
 from evtribo.acquisition.rigfile import AcquisitionRig, check_name, open_study
 from evtribo.acquisition.trialdata import (
     RESERVE_BYTES,
@@ -89,14 +90,14 @@ from evtribo.acquisition.trialdata import (
     refuse_existing,
     trial_lock,
 )
+from evtribo.canlog.io.ids import key_id
 from evtribo.documents.sidecar import CONDITIONS, WAVEFORMS, rig_entry, write_sidecar
 from evtribo.errors import (
     AcquisitionError,
     EvtriboError,
     OutputExistsError,
 )
-from evtribo.frames.ids import key_id
-from evtribo.lock import WriteLock
+from evtribo.store.lock import WriteLock
 
 log = logging.getLogger(__name__)
 
@@ -140,7 +141,7 @@ def record_trial(bus: can.BusABC, study: str | Path, subject: str, trial: str,
                  options: TrialOptions | None = None, **fields: Any) -> TrialResult:
     """Record one trial from *bus* into *study* until its duration, a stop, or a fault.
 
-    The trial is locked while it records (``TRIAL.lock``, :class:`~evtribo.lock.WriteLock`):
+    The trial is locked while it records (``TRIAL.lock``, :class:`~evtribo.store.lock.WriteLock`):
     a second recording of it, by this process or another, is refused.
 
     Parameters

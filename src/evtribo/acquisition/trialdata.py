@@ -13,14 +13,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from evtribo.acquisition.bus import BusSettings
+from evtribo.acquisition.buses.bus import BusSettings
 from evtribo.errors import ConfigError, OutputExistsError, SidecarError
-from evtribo.files import partial_path
-from evtribo.lock import WriteLock
+from evtribo.store.files import partial_path
+from evtribo.store.lock import WriteLock
 from evtribo.study import CONDITIONS, WAVEFORMS
 
 if TYPE_CHECKING:  # pragma: no cover
-    from evtribo.acquisition.monitor import Monitor
+    from evtribo.acquisition.live.monitor import Monitor
 
 log = logging.getLogger(__name__)
 

@@ -3,27 +3,28 @@
 The layers, each a module of plain numpy functions:
 
 - :mod:`~evtribo.analysis.settings`: the settings, their defaults and ``[analysis]``;
-- :mod:`~evtribo.analysis.align`: the two load cells on one time grid, NaN in gaps;
-- :mod:`~evtribo.analysis.excitation`, :mod:`~evtribo.analysis.conditions`: what the
+- :mod:`~evtribo.analysis.forces.align`: the two load cells on one time grid, NaN in gaps;
+- :mod:`~evtribo.analysis.forces.excitation`, :mod:`~evtribo.analysis.forces.conditions`: what the
   excitation was, and ON/OFF per grid point, with guard times at switches;
-- :mod:`~evtribo.analysis.hum`: mains hum found and notched out;
-- :mod:`~evtribo.analysis.tare`, :mod:`~evtribo.analysis.lifted`: the load cells'
+- :mod:`~evtribo.analysis.forces.hum`: mains hum found and notched out;
+- :mod:`~evtribo.analysis.forces.tare`, :mod:`~evtribo.analysis.forces.lifted`: the load cells'
   calibration, their zero offsets and drift from finger-lifted stretches and the friction
   loop;
-- :mod:`~evtribo.analysis.windows`: steady-sliding windows found from the friction itself;
-- :mod:`~evtribo.analysis.estimate`: friction coefficient, inferred electrostatic force and
+- :mod:`~evtribo.analysis.friction.windows`: steady-sliding windows found from the friction itself;
+- :mod:`~evtribo.analysis.friction.estimate`: friction coefficient, inferred electrostatic force and
   their bootstrap intervals (calibrated for the few windows a trial gives; the replicates
   are written to ``electrostatic_bootstrap.csv`` for ``evtribo compare``, see
-  :mod:`~evtribo.analysis.pipeline`);
-- :mod:`~evtribo.analysis.powerlaw`: ``F_el = k * U**n`` over amplitudes;
-- :mod:`~evtribo.analysis.spectra`: the friction's dominant oscillation frequency.
+  :mod:`~evtribo.results.pipeline`);
+- :mod:`~evtribo.analysis.friction.powerlaw`: ``F_el = k * U**n`` over amplitudes;
+- :mod:`~evtribo.analysis.forces.spectra`: the friction's dominant oscillation frequency.
 
 Around them: :mod:`~evtribo.analysis.trial` analyses one decoded trial
-(:class:`evtribo.signals.TrialSignals`, cut into continuous pieces by
-:mod:`~evtribo.analysis.pieces`; a sine trial's extras in :mod:`~evtribo.analysis.sine`),
-:mod:`~evtribo.analysis.workers` runs the trials of a study in worker processes,
-:mod:`~evtribo.analysis.aggregate` turns all windows into the per-subject tables, and
-:mod:`~evtribo.analysis.pipeline` (``analyze_study``) ties them together and writes the
+(:class:`evtribo.canlog.signals.TrialSignals`, cut into continuous pieces by
+:mod:`~evtribo.analysis.forces.pieces`; a sine trial's extras in
+:mod:`~evtribo.analysis.friction.sine`),
+:mod:`~evtribo.results.workers` runs the trials of a study in worker processes,
+:mod:`~evtribo.results.aggregate` turns all windows into the per-subject tables, and
+:mod:`~evtribo.results.pipeline` (``analyze_study``) ties them together and writes the
 result folder.
 """
 
@@ -33,28 +34,28 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from evtribo.analysis.align import AlignedForces, align_forces
-    from evtribo.analysis.conditions import condition_from_excitation, constant_condition
-    from evtribo.analysis.estimate import (
+    from evtribo.analysis.forces.align import AlignedForces, align_forces
+    from evtribo.analysis.forces.conditions import condition_from_excitation, constant_condition
+    from evtribo.analysis.forces.spectra import dominant_frequency
+    from evtribo.analysis.friction.estimate import (
         ElectrostaticEstimate,
         electrostatic_force,
         estimate_electrostatic,
         friction_coefficient,
     )
-    from evtribo.analysis.powerlaw import PowerLawFit, fit_power_law
-    from evtribo.analysis.spectra import dominant_frequency
-    from evtribo.analysis.windows import find_windows
+    from evtribo.analysis.friction.powerlaw import PowerLawFit, fit_power_law
+    from evtribo.analysis.friction.windows import find_windows
 
 #: Where each name of this package lives: imported on first use, so that importing one
 #: module of the package (``evtribo analyze`` of an unchanged study reads only
-#: :mod:`evtribo.memo` and :mod:`.unchanged`) does not import numpy, pandas and scipy.
+#: :mod:`evtribo.store.memo` and :mod:`.unchanged`) does not import numpy, pandas and scipy.
 _HOMES = {
-    "AlignedForces": "align", "align_forces": "align",
-    "condition_from_excitation": "conditions", "constant_condition": "conditions",
-    "ElectrostaticEstimate": "estimate", "electrostatic_force": "estimate",
-    "estimate_electrostatic": "estimate", "friction_coefficient": "estimate",
-    "PowerLawFit": "powerlaw", "fit_power_law": "powerlaw",
-    "dominant_frequency": "spectra", "find_windows": "windows",
+    "AlignedForces": "forces.align", "align_forces": "forces.align",
+    "condition_from_excitation": "forces.conditions", "constant_condition": "forces.conditions",
+    "ElectrostaticEstimate": "friction.estimate", "electrostatic_force": "friction.estimate",
+    "estimate_electrostatic": "friction.estimate", "friction_coefficient": "friction.estimate",
+    "PowerLawFit": "friction.powerlaw", "fit_power_law": "friction.powerlaw",
+    "dominant_frequency": "forces.spectra", "find_windows": "friction.windows",
 }
 
 

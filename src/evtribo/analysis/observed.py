@@ -1,5 +1,5 @@
 """What the analysis of a trial worked on, handed out as it goes: the data of a check of the
-trial (:mod:`evtribo.analysis.check`), which draws the forces, the ON/OFF phases, the
+trial (:mod:`evtribo.results.check`), which draws the forces, the ON/OFF phases, the
 finger-lifted stretches and the windows exactly as
 :func:`~evtribo.analysis.trial.analyze_signals` found them.
 """
@@ -14,8 +14,8 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from evtribo.analysis.align import AlignedForces
-from evtribo.analysis.lifted import EDGE_S, Lifted
+from evtribo.analysis.forces.align import AlignedForces
+from evtribo.analysis.forces.lifted import EDGE_S, Lifted
 
 __all__ = ["PieceObserver", "PieceState", "lift_exclusion"]
 
@@ -57,7 +57,7 @@ class PieceState:
     lifted : list of Lifted
         The finger-lifted stretches found.
     windows : pandas.DataFrame
-        The windows (:func:`~evtribo.analysis.windows.find_windows`' table: grid indices,
+        The windows (:func:`~evtribo.analysis.friction.windows.find_windows`' table: grid indices,
         times on the log's clock, condition, direction, means).
     info : dict
         The excitation's ``waveform``, ``frequency_Hz``, ``amplitude_V``, ``condition``.

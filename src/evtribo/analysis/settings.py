@@ -18,11 +18,15 @@ from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
-from evtribo.analysis.align import DEFAULT_MAX_GAP_PERIODS
-from evtribo.analysis.conditions import DEFAULT_GUARD_S
-from evtribo.analysis.estimate import DEFAULT_CONFIDENCE, DEFAULT_N_BOOT
+from evtribo.analysis.forces.align import DEFAULT_MAX_GAP_PERIODS
+from evtribo.analysis.forces.conditions import DEFAULT_GUARD_S
+from evtribo.analysis.friction.estimate import DEFAULT_CONFIDENCE, DEFAULT_N_BOOT
+from evtribo.analysis.friction.windows import (
+    DEFAULT_MAX_WINDOW_S,
+    DEFAULT_MIN_WINDOW_S,
+    DEFAULT_SMOOTH_S,
+)
 from evtribo.analysis.modes import HUM_MODES, TARE_MODES
-from evtribo.analysis.windows import DEFAULT_MAX_WINDOW_S, DEFAULT_MIN_WINDOW_S, DEFAULT_SMOOTH_S
 from evtribo.errors import ConfigError, toml_key_line
 from evtribo.study import STUDY_FILE, Study
 
@@ -65,7 +69,7 @@ class AnalysisSettings:
     Attributes
     ----------
     tare : {"auto", "lifted", "friction-loop", "calibration", "none"}
-        How the load cells' zero offsets are removed (:mod:`evtribo.analysis.tare`).
+        How the load cells' zero offsets are removed (:mod:`evtribo.analysis.forces.tare`).
     guard_s : float, s
         Excluded on both sides of an ON/OFF switch.
     smooth_s : float, s

@@ -25,27 +25,24 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from evtribo._docs import fill_doc
-from evtribo.analysis.align import AlignedForces, align_forces
-from evtribo.analysis.crosstalk import ReversalSums, direction_share, reversal_sums
-from evtribo.analysis.excitation import excitation_of
-from evtribo.analysis.hum import find_hum, friction_oscillates, modulation_lines, remove_hum
+from evtribo.analysis.forces.align import AlignedForces, align_forces
+from evtribo.analysis.forces.crosstalk import ReversalSums, direction_share, reversal_sums
+from evtribo.analysis.forces.excitation import excitation_of
+from evtribo.analysis.forces.hum import find_hum, friction_oscillates, modulation_lines, remove_hum
+from evtribo.analysis.forces.pieces import check_seconds, continuous_pieces, describe_gap, restrict
+from evtribo.analysis.forces.tare import HUM_FREE_S, removed_offsets
+from evtribo.analysis.forces.taring import offset_warnings, tare_and_find_windows
+from evtribo.analysis.forces.timebase import placed_among, sample_times
+from evtribo.analysis.friction.plausible import swapped_roles
+from evtribo.analysis.friction.sine import friction_modulation, trace_around_switch
+from evtribo.analysis.friction.trace import TRACE_COLUMNS
 from evtribo.analysis.observed import PieceObserver, PieceState
-from evtribo.analysis.pieces import check_seconds, continuous_pieces, describe_gap, restrict
-from evtribo.analysis.plausible import swapped_roles
 from evtribo.analysis.settings import AnalysisSettings
-from evtribo.analysis.sine import friction_modulation, trace_around_switch
-from evtribo.analysis.tare import (
-    HUM_FREE_S,
-    removed_offsets,
-)
-from evtribo.analysis.taring import offset_warnings, tare_and_find_windows
-from evtribo.analysis.timebase import placed_among, sample_times
-from evtribo.analysis.trace import TRACE_COLUMNS
+from evtribo.canlog.rig import Calibration
+from evtribo.canlog.signals import CellSignals, TrialSignals
 from evtribo.documents.sidecar import Sidecar
 from evtribo.errors import AnalysisError
-from evtribo.rig import Calibration
-from evtribo.signals import CellSignals, TrialSignals
+from evtribo.util.docstrings import fill_doc
 
 log = logging.getLogger(__name__)
 
@@ -60,7 +57,7 @@ WINDOW_CSV_COLUMNS = ("subject", "trial", "condition", "amplitude_V", "waveform"
                       "t_end_s", "normal_force_N", "friction_force_N", "direction", "stroke",
                       "stroke_s", "mu_reference")
 
-#: Columns of sine_trace.csv (read by :mod:`evtribo.compare.tables`).
+#: Columns of sine_trace.csv (read by :mod:`evtribo.fit.tables`).
 SINE_TRACE_CSV_COLUMNS = TRACE_COLUMNS
 
 
@@ -141,14 +138,14 @@ def empty_windows() -> pd.DataFrame:
 
 def _channel(cell: CellSignals) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """A load cell's sample times (s: its frames' timestamps without the logger's jitter,
-    :func:`~evtribo.analysis.timebase.sample_times`) and forces (N) as float arrays."""
+    :func:`~evtribo.analysis.forces.timebase.sample_times`) and forces (N) as float arrays."""
     return sample_times(cell.t, cell.counter), np.asarray(cell.value, dtype=np.float64)
 
 
 def _excitation_placed(signals: TrialSignals, tn: npt.NDArray[np.float64],
                        tt: npt.NDArray[np.float64]) -> TrialSignals:
     """*signals* with the amplifier's status on the load cells' sample times *tn*, *tt*
-    (:func:`~evtribo.analysis.timebase.placed_among`): where frames arrived late in bursts,
+    (:func:`~evtribo.analysis.forces.timebase.placed_among`): where frames arrived late in bursts,
     its timestamps are as late as the cells' and the switches would move against them."""
     exc = signals.excitation
     if exc is None or not len(exc.t):
@@ -198,7 +195,7 @@ def _trial_end(signals: TrialSignals) -> float:
 
 def _dropped(signals: TrialSignals, warn: Callable[[str], None]) -> int:
     """Frames missing from both load cells, as the decoder counted them
-    (:func:`evtribo.dropped.missing_frames`: counters first, else the timing), and what the
+    (:func:`evtribo.canlog.dropped.missing_frames`: counters first, else the timing), and what the
     count's method and notes are worth saying; never counted again here."""
     total = 0
     for name, cell in (("normal", signals.normal), ("tangential", signals.tangential)):
@@ -335,7 +332,7 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
 
     A trial whose load cells both fall silent for more than a second (a jump of the log's
     clock, a pause of the recording) is analysed in its continuous pieces
-    (:mod:`evtribo.analysis.pieces`), so that memory follows its frames, not its time span;
+    (:mod:`evtribo.analysis.forces.pieces`), so that memory follows its frames, not its time span;
     ``duration_s`` is then the pieces' total.
 
     Parameters

@@ -16,30 +16,12 @@
 
 The command line runs the same functions: ``evtribo analyze`` computes and saves as
 ``analyze(study).save(out)`` does, ``evtribo compare`` fits as :func:`compare` does.
-
-``evtribo.compare`` is also the package of the fit and its figures (:mod:`evtribo.compare`):
-importing this module makes that package callable (its module class gets a ``__call__``,
-as Python's data model allows), so that ``evtribo.compare(results)`` is :func:`compare` and
-``evtribo.compare.fit_study`` is still the package's.
 """
 
-import sys
-import types
-from typing import Any
-
 from evtribo.api.fit import Fit, compare
-from evtribo.api.results import Results, analyze, load_results
+from evtribo.api.load import load_results
+from evtribo.api.results import Results, analyze
 from evtribo.api.study import Study, Trial, open_study
-
-
-class _CallablePackage(types.ModuleType):
-    """The :mod:`evtribo.compare` package, callable as :func:`evtribo.api.compare`."""
-
-    def __call__(self, *args: Any, **kwargs: Any) -> Fit:
-        return compare(*args, **kwargs)
-
-
-sys.modules["evtribo.compare"].__class__ = _CallablePackage
 
 __all__ = ["Fit", "Results", "Study", "Trial", "analyze", "compare", "load_results",
            "open_study"]

@@ -1,8 +1,8 @@
 """The seed paper's model fitted to a study's results, from Python: :func:`compare`.
 
-The fit is ``evtribo compare``'s (:func:`evtribo.compare.fit.fit_study`, its table
-:func:`evtribo.compare.fit_csv.fit_table`), made in memory from the :class:`Results`; the
-figures are drawn by the plot functions of :mod:`evtribo.compare.plots` and kept as
+The fit is ``evtribo compare``'s (:func:`evtribo.fit.fit.fit_study`, its table
+:func:`evtribo.fit.fit_csv.fit_table`), made in memory from the :class:`Results`; the
+figures are drawn by the plot functions of :mod:`evtribo.figures.plots` and kept as
 matplotlib figures. :meth:`Fit.save` runs ``evtribo compare`` on the results' folder, which
 writes ``fit.csv``, ``fit.json`` and the figure files.
 """
@@ -20,28 +20,28 @@ import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from evtribo.analysis.outputs import FIGURES, FIT_CSV
 from evtribo.api.results import CSV_EXACT, Results, typed_table
-from evtribo.compare.fit import SubjectFit, fit_study
-from evtribo.compare.fit_csv import fit_table
-from evtribo.compare.friction_only import friction_figures
-from evtribo.compare.params import load_parameters, resolve_fit_names
-from evtribo.compare.population import (
+from evtribo.documents.fit import FitDocument, read_fit
+from evtribo.documents.summary import Summary
+from evtribo.errors import UserInputError
+from evtribo.figures.friction_only import friction_figures
+from evtribo.figures.population_plots import draw_population
+from evtribo.figures.style import journal_style
+from evtribo.fit.fit import SubjectFit, fit_study
+from evtribo.fit.fit_csv import fit_table
+from evtribo.fit.params import load_parameters, resolve_fit_names
+from evtribo.fit.tables import ResultTables
+from evtribo.population.estimates import (
     CONTRAST_COLUMNS,
     POPULATION_COLUMNS,
     Population,
     PopulationOutlier,
     population,
 )
-from evtribo.compare.population_plots import draw_population
-from evtribo.compare.population_section import read_population
-from evtribo.compare.run import CompareResult, draw_figures
-from evtribo.compare.run import compare as compare_folder
-from evtribo.compare.style import journal_style
-from evtribo.compare.tables import ResultTables
-from evtribo.documents.fit import FitDocument, read_fit
-from evtribo.documents.summary import Summary
-from evtribo.errors import UserInputError
+from evtribo.report.compare import CompareResult, draw_figures
+from evtribo.report.compare import compare as compare_folder
+from evtribo.report.population import read_population
+from evtribo.results.outputs import FIGURES, FIT_CSV
 
 __all__ = ["FIT_TEXT_COLUMNS", "Fit", "compare"]
 
@@ -228,7 +228,8 @@ def _tables(results: Results) -> ResultTables:
 
 
 class _Kept:
-    """Keeps compare's figures in memory (the sink of :func:`~evtribo.compare.run.draw_figures`)."""
+    """Keeps compare's figures in memory (the sink of
+    :func:`~evtribo.report.compare.draw_figures`)."""
 
     def __init__(self, tables: ResultTables, fits: list[SubjectFit]) -> None:
         self.result = CompareResult(out=tables.out, fits=fits)

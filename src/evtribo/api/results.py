@@ -2,8 +2,8 @@
 result folder of study format §2), :func:`load_results` (a result folder read back).
 
 ``evtribo analyze`` runs the same two functions as ``analyze(study).save(out)``:
-:func:`evtribo.analysis.pipeline.compute_study`, then
-:func:`evtribo.analysis.pipeline.write_results`.
+:func:`evtribo.results.pipeline.compute_study`, then
+:func:`evtribo.results.pipeline.write_results`.
 
 The tables have the same columns, in the same order, whether computed or read back, with
 one set of types: names (``subject``, ``trial``, ``waveform``, ``condition``, ``tare``) as
@@ -15,37 +15,27 @@ every other column as float64 (NaN where empty in the CSV file).
 from __future__ import annotations
 
 import os
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 import pandas as pd
 
-from evtribo.analysis.aggregate import BOOTSTRAP_COLUMNS, ELECTROSTATIC_COLUMNS, EXPONENT_COLUMNS
-from evtribo.analysis.outputs import (
-    BOOTSTRAP_FILE,
-    FIT_CSV,
-    FIT_JSON,
-    SINE_TRACE_FILE,
-    SUMMARY_FILE,
-)
-from evtribo.analysis.pipeline import StudyResults, compute_study, write_results
 from evtribo.analysis.trial import SINE_TRACE_CSV_COLUMNS, TRIAL_COLUMNS, WINDOW_CSV_COLUMNS
-from evtribo.analysis.workers import ProgressCallback
 from evtribo.api.study import Study
-from evtribo.compare.tables import check_analysis, check_out_folder, read_summary
-from evtribo.documents.fit import read_fit
 from evtribo.errors import UserInputError
-from evtribo.files import sha256_file
-from evtribo.resultdir import locked, pending, recover
+from evtribo.fit.tables import read_summary
+from evtribo.results.aggregate import BOOTSTRAP_COLUMNS, ELECTROSTATIC_COLUMNS, EXPONENT_COLUMNS
+from evtribo.results.outputs import (
+    BOOTSTRAP_FILE,
+    SINE_TRACE_FILE,
+)
+from evtribo.results.pipeline import StudyResults, compute_study, write_results
+from evtribo.results.workers import ProgressCallback
 
-if TYPE_CHECKING:
-    from evtribo.api.fit import Fit
-
-__all__ = ["COUNT_COLUMNS", "CSV_EXACT", "TEXT_COLUMNS", "Results", "analyze", "load_results",
-           "typed_table"]
+__all__ = ["COUNT_COLUMNS", "CSV_EXACT", "TEXT_COLUMNS", "FitView", "Results", "analyze",
+           "read_table", "typed_table"]
 
 #: Columns of names (strings), and of counts (nullable integers); the others are floats.
 TEXT_COLUMNS = ("subject", "trial", "waveform", "condition", "tare")
@@ -96,6 +86,16 @@ def typed_table(df: pd.DataFrame, text: tuple[str, ...] = TEXT_COLUMNS) -> pd.Da
     return out
 
 
+class FitView(Protocol):
+    """What :attr:`Results.fit` holds: an :class:`evtribo.api.fit.Fit`, which is made from
+    results (its module builds on this one), seen here by what a user reads of it."""
+
+    table: pd.DataFrame
+    figures: dict[str, Any]
+    population: pd.DataFrame
+    out: Path | None
+
+
 @dataclass(eq=False)
 class Results:
     """A study's results: the tables of study format §2 and ``summary.json``.
@@ -114,8 +114,8 @@ class Results:
     out : Path or None
         The result folder they were saved to or loaded from (None: in memory only).
     fit : Fit or None
-        The model fit: from :func:`evtribo.compare`, or the folder's ``fit.csv`` when it
-        was loaded after ``evtribo compare``.
+        The model fit (:class:`evtribo.api.fit.Fit`): from :func:`evtribo.compare`, or the
+        folder's ``fit.csv`` when it was loaded after ``evtribo compare``.
     """
 
     trials: pd.DataFrame
@@ -126,7 +126,7 @@ class Results:
     bootstrap: pd.DataFrame | None = None
     sine_trace: pd.DataFrame | None = None
     out: Path | None = None
-    fit: Fit | None = None
+    fit: FitView | None = None
     _computed: StudyResults | None = field(default=None, repr=False)
 
     @property
@@ -220,13 +220,13 @@ def analyze(study: Study | str | os.PathLike[str], *, jobs: int | None = None,
         A damaged line in a log is an error instead of a warning.
     cache_dir : path-like, optional
         Where decoded trials, the inputs' hashes and each trial's outcome are kept
-        (default: :func:`evtribo.cache.default_cache_dir`).
+        (default: :func:`evtribo.canlog.cache.default_cache_dir`).
     progress : callable, optional
         Called as ``progress(done, total)`` as trials complete.
     recompute : bool
         Analyse every trial again (by default a trial whose log, sidecar, rig, settings and
         evtribo are those of an outcome the cache kept is not analysed again:
-        :mod:`evtribo.analysis.reuse`).
+        :mod:`evtribo.results.reuse`).
     **settings
         Analysis settings that take precedence over the study's ``[analysis]`` table, by
         name (``tare="none"``, ``guard_s=0.3``, ``n_boot=500``; every key in
@@ -252,8 +252,26 @@ def analyze(study: Study | str | os.PathLike[str], *, jobs: int | None = None,
                                         reuse=not recompute))
 
 
-def _read_table(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
-    """A result table as written (names read as text, only empty cells missing)."""
+def read_table(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
+    """A result table as written (names read as text, only empty cells missing).
+
+    Parameters
+    ----------
+    path : Path
+        The CSV table.
+    columns : tuple of str
+        The columns it must have.
+
+    Returns
+    -------
+    DataFrame
+        Typed as :func:`typed_table` types it.
+
+    Raises
+    ------
+    UserInputError
+        It cannot be read, or a column is missing.
+    """
     try:
         raw = pd.read_csv(path, dtype=dict.fromkeys(TEXT_COLUMNS, str), keep_default_na=False,
                           na_values=[""], **CSV_EXACT)
@@ -264,85 +282,3 @@ def _read_table(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
         raise UserInputError(f"missing column(s) {', '.join(missing)}: not a table evtribo "
                              "analyze wrote", path=path, key=missing[0])
     return typed_table(raw)
-
-
-def load_results(out: str | os.PathLike[str]) -> Results:
-    """Read a result folder written by ``evtribo analyze`` (or :meth:`Results.save`).
-
-    Parameters
-    ----------
-    out : path-like
-        The result folder.
-
-    Returns
-    -------
-    Results
-        The same tables as :func:`analyze` gave, with :attr:`Results.out` set and
-        :attr:`Results.fit` when ``evtribo compare`` has fitted these results.
-
-    Raises
-    ------
-    UserInputError
-        No such folder, or it holds no analysis (no ``summary.json``), or a table is missing
-        or lacks a column.
-    ResultFolderError
-        The folder is not one analysis's complete results (a table changed since, or of
-        another analysis): run the analysis again with ``--force``.
-    OutputBusyError
-        Another process is writing the folder.
-    """
-    folder = check_out_folder(Path(out))
-    if pending(folder):  # a write interrupted after its commit: finish it first
-        with locked(folder, "evtribo (reading results)"):
-            recover(folder)
-    summary = read_summary(folder)
-    if not summary.data:
-        raise UserInputError("missing: the folder holds no results of evtribo analyze (run "
-                             f"`evtribo analyze STUDY --out {folder}`)",
-                             path=folder / SUMMARY_FILE)
-    check_analysis(folder, summary)
-    tables: dict[str, pd.DataFrame | None] = {}
-    for name, (file, columns) in _TABLES.items():
-        path = folder / file
-        if path.is_file():
-            tables[name] = _read_table(path, columns)
-        elif name in ("bootstrap", "sine_trace"):
-            tables[name] = None
-        else:
-            raise UserInputError("missing: not a complete result folder of evtribo analyze",
-                                 path=path)
-    results = Results(_required(tables, "trials"), _required(tables, "windows"),
-                      _required(tables, "electrostatic"), _required(tables, "exponents"),
-                      summary=summary.data, bootstrap=tables["bootstrap"],
-                      sine_trace=tables["sine_trace"], out=folder)
-    results.fit = _fit_of(folder, results)
-    return results
-
-
-def _required(tables: dict[str, pd.DataFrame | None], name: str) -> pd.DataFrame:
-    table = tables[name]
-    assert table is not None
-    return table
-
-
-def _fit_of(folder: Path, results: Results) -> Fit | None:
-    """The folder's fit when ``evtribo compare`` fitted these results (a warning and None
-    when its fit is of another analysis, or its fit.csv changed since)."""
-    if not (folder / FIT_JSON).is_file():
-        return None
-    from evtribo.api.fit import Fit  # fit.py builds on this module
-
-    doc = read_fit(folder / FIT_JSON)
-    run_id = results.summary.get("run_id")
-    recorded = (doc.get("output_sha256") or {}).get(FIT_CSV)
-    if doc.get("run_id") != run_id:
-        why = f"it fitted analysis {doc.get('run_id')}, not these results ({run_id})"
-    elif not (folder / FIT_CSV).is_file():
-        why = f"{FIT_CSV} is missing"
-    elif recorded is not None and sha256_file(folder / FIT_CSV) != recorded:
-        why = f"{FIT_CSV} changed since compare wrote it"
-    else:
-        return Fit.from_folder(folder, doc, results)
-    warnings.warn(f"{folder / FIT_JSON}: not used ({why}); run `evtribo compare {folder} "
-                  "--force` to fit these results", UserWarning, stacklevel=3)
-    return None

@@ -1,9 +1,9 @@
 """A study folder from Python: :func:`open_study`, its :class:`Study` and each :class:`Trial`.
 
 A trial's forces come through the same path as the analysis's: the log decoded with the
-study's rig (or read from the decoded-trial cache, :mod:`evtribo.cache`), the two load cells
-put on one time grid (:func:`evtribo.analysis.align.align_forces`), each continuous piece of
-the trial on its own (:mod:`evtribo.analysis.pieces`).
+study's rig (or read from the decoded-trial cache, :mod:`evtribo.canlog.cache`), the two load cells
+put on one time grid (:func:`evtribo.analysis.forces.align.align_forces`), each continuous piece of
+the trial on its own (:mod:`evtribo.analysis.forces.pieces`).
 """
 
 from __future__ import annotations
@@ -17,19 +17,19 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from evtribo._docs import fill_doc
-from evtribo.analysis.align import align_forces
-from evtribo.analysis.conditions import OFF, ON, condition_from_excitation
-from evtribo.analysis.pieces import check_seconds, continuous_pieces, restrict
-from evtribo.analysis.pipeline import study_settings
+from evtribo.analysis.forces.align import align_forces
+from evtribo.analysis.forces.conditions import OFF, ON, condition_from_excitation
+from evtribo.analysis.forces.pieces import check_seconds, continuous_pieces, restrict
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import trial_start
-from evtribo.cache import load_trial
+from evtribo.canlog.cache import load_trial
+from evtribo.canlog.rig import Rig
+from evtribo.canlog.signals import ExcitationSignals, TrialSignals
 from evtribo.errors import AnalysisError, SidecarError, UserInputError
-from evtribo.rig import Rig
-from evtribo.signals import ExcitationSignals, TrialSignals
+from evtribo.results.pipeline import study_settings
 from evtribo.study import Study as StudyFolder
 from evtribo.study import TrialRef, load_study
+from evtribo.util.docstrings import fill_doc
 
 __all__ = ["FORCE_COLUMNS", "Study", "Trial", "open_study", "trial_forces"]
 
@@ -85,7 +85,8 @@ class Trial:
         Parameters
         ----------
         cache_dir : path-like, optional
-            Where decoded trials are cached (default: :func:`evtribo.cache.default_cache_dir`).
+            Where decoded trials are cached (default:
+            :func:`evtribo.canlog.cache.default_cache_dir`).
         strict : bool
             A damaged line in the log is an error instead of a warning.
 
@@ -255,7 +256,7 @@ def trial_forces(ref: TrialRef, rig: Rig, *, settings: AnalysisSettings | None =
     The forces are those the load cells sent (decoded with the rig's DBC and its
     ``[rig.calibration]``), their zero offsets not removed (``trials.csv`` gives the
     offsets the analysis removed). Points inside a gap of a load cell are NaN, never
-    interpolated; a trial with a long pause (its pieces, :mod:`evtribo.analysis.pieces`)
+    interpolated; a trial with a long pause (its pieces, :mod:`evtribo.analysis.forces.pieces`)
     has no grid points across it.
 
     Parameters

@@ -1,7 +1,10 @@
-"""The ``evtribo`` command line: one module per subcommand.
+"""The ``evtribo`` command line: one module per subcommand, grouped by what it works on
+(:data:`GROUPS`): :mod:`~evtribo.cli.recording`, :mod:`~evtribo.cli.setup`,
+:mod:`~evtribo.cli.results`; ``demo`` and ``cite`` stand here.
 
-Each module ``evtribo.cli.<name>`` exposes ``add_parser(subparsers)`` (returning its parser,
-with ``func`` set to its ``run(args)`` through ``set_defaults``) and ``run(args) -> int``.
+Each subcommand's module (``evtribo.cli.results.analyze``...) exposes
+``add_parser(subparsers)`` (returning its parser, with ``func`` set to its ``run(args)``
+through ``set_defaults``) and ``run(args) -> int``.
 A subcommand whose module (or one of its optional dependencies) fails to import is still
 listed, and explains why when it is called; the rest of the tool keeps working.
 
@@ -42,6 +45,14 @@ SUBCOMMANDS: dict[str, str] = {
     "report": "one self-contained HTML report of a study's results",
     "demo": "simulate, record, analyse, compare and report a small study",
     "cite": "how to cite evtribo and the model it implements (text, BibTeX)",
+}
+
+#: The package of each subcommand's module that is not directly in :mod:`evtribo.cli`:
+#: recording (``acquire``...), a rig and its logs (``init``...), results (``analyze``...).
+GROUPS: dict[str, str] = {
+    **dict.fromkeys(("acquire", "session", "simulate"), "recording."),
+    **dict.fromkeys(("init", "inspect", "calibrate", "decode"), "setup."),
+    **dict.fromkeys(("analyze", "compare", "report", "plot", "model", "export"), "results."),
 }
 
 log = logging.getLogger(__name__)
@@ -124,7 +135,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
             sub.add_parser(name, help=help_line, add_help=False)
             continue
         try:
-            module = importlib.import_module(f"evtribo.cli.{name}")
+            module = importlib.import_module(f"evtribo.cli.{GROUPS.get(name, '')}{name}")
         except ImportError as err:
             p = sub.add_parser(name, help=f"{help_line} (unavailable: {err})")
             p.set_defaults(func=_unavailable(name, err))

@@ -10,9 +10,10 @@ repository holds the same.
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``cite``."""
     p = subparsers.add_parser("cite", help="how to cite evtribo and the model (text, BibTeX)",
                               description=__doc__.split("\n\n")[1].replace("\n", " "))

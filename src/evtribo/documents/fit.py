@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from evtribo.errors import ResultFolderError
-from evtribo.files import atomic_write
+from evtribo.store.files import atomic_write
 
 __all__ = ["FIT_JSON", "FIT_KEYS", "FIT_VERSION", "FitDocument", "fit_text", "read_fit",
            "write_fit"]

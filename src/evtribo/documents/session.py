@@ -25,7 +25,7 @@ from typing import Any
 from evtribo.documents.names import validate_name
 from evtribo.documents.sidecar import CONDITIONS, WAVEFORMS
 from evtribo.errors import StudyError
-from evtribo.files import DuplicateKeyError, atomic_write, loads_json_unique, read_limited
+from evtribo.store.files import DuplicateKeyError, atomic_write, loads_json_unique, read_limited
 
 __all__ = ["EXCITATION_KEYS", "SESSION_FILE", "VERSION", "PlannedTrial", "Session", "parse_session",
            "read_session", "write_session"]

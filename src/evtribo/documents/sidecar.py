@@ -26,7 +26,7 @@ from typing import Any
 
 from evtribo.documents.names import validate_name
 from evtribo.errors import OutputExistsError, SidecarError
-from evtribo.files import DuplicateKeyError, atomic_write, loads_json_unique, read_limited
+from evtribo.store.files import DuplicateKeyError, atomic_write, loads_json_unique, read_limited
 
 __all__ = ["CONDITIONS", "SIDECAR_KEYS", "VERSION", "WAVEFORMS", "Sidecar", "parse_sidecar",
            "read_sidecar", "rig_entry", "unknown_sidecar_keys", "write_sidecar"]

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from evtribo.errors import ResultFolderError
-from evtribo.files import atomic_write
+from evtribo.store.files import atomic_write
 
 __all__ = ["SUMMARY_FILE", "SUMMARY_KEYS", "SUMMARY_VERSION", "InputRecord", "Summary",
            "read_summary", "summary_text", "write_summary"]

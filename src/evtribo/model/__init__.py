@@ -7,7 +7,7 @@ Modules, lowest first: :mod:`~evtribo.model.params` (Table 1 in one frozen objec
 waveforms), :mod:`~evtribo.model.circuit` (the drive's frequency: the layers as a circuit,
 an extension of the paper's model). :mod:`~evtribo.model.point` gives every quantity at one
 operating point. The model's figures (Figures 5-7 and F_el against frequency) are drawn by
-:mod:`evtribo.compare.model_figures`: this package computes, it neither plots nor writes.
+:mod:`evtribo.figures.model_figures`: this package computes, it neither plots nor writes.
 
 Every function broadcasts over numpy arrays; ``voltage`` is the instantaneous or amplitude
 value in V (only U^2 matters), ``normal_force`` the external normal force in N, and

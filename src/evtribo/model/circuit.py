@@ -30,9 +30,9 @@ from typing import TypeVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from evtribo._docs import fill_doc
 from evtribo.model.friction import electrostatic_force
 from evtribo.model.params import TABLE_1, ModelParameters
+from evtribo.util.docstrings import fill_doc
 
 __all__ = ["WAVEFORMS", "effective_voltage", "electrostatic_force_drive", "gap_factor",
            "layer_elastances"]

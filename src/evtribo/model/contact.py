@@ -17,9 +17,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from evtribo._docs import fill_doc
 from evtribo.model.electrostatics import _f, _out, surface_energy
 from evtribo.model.params import TABLE_1, ModelParameters
+from evtribo.util.docstrings import fill_doc
 
 __all__ = [
     "area_increase_pct",

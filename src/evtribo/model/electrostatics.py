@@ -15,8 +15,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from evtribo._docs import fill_doc
 from evtribo.model.params import TABLE_1, ModelParameters
+from evtribo.util.docstrings import fill_doc
 
 __all__ = [
     "adhesion_stress",

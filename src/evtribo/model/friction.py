@@ -17,10 +17,10 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from evtribo._docs import fill_doc
 from evtribo.model.contact import contact_area_hertz, contact_area_jkr, jkr_terms
 from evtribo.model.electrostatics import _f, _out, adhesion_stress, surface_energy
 from evtribo.model.params import TABLE_1, ModelParameters
+from evtribo.util.docstrings import fill_doc
 
 __all__ = [
     "adhesion_load_ratio",

@@ -29,7 +29,7 @@ where A itself is ill-conditioned (dA/dP is infinite at the pull-off); both agre
 
 Here dg / sigma_0 = eps_L * gap is the same at every voltage (5.48 um for Table 1), so
 lambda = 2 sigma_0^(2/3) (R / (pi h_0 K^2))^(1/3) grows as U^(4/3). For Table 1 (computed by
-this module; ``md_jkr_departure`` and :func:`evtribo.compare.model_figures.plot_maugis` give them):
+this module; ``md_jkr_departure`` and :func:`evtribo.figures.model_figures.plot_maugis` give them):
 
 =========  ======  ======  ======  ======  ======  ======
 U (V)        10      30      60     100     140     150
@@ -55,10 +55,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize
 
-from evtribo._docs import fill_doc
 from evtribo.model.contact import hertz_radius
 from evtribo.model.electrostatics import _out, adhesion_stress, surface_energy
 from evtribo.model.params import TABLE_1, ModelParameters
+from evtribo.util.docstrings import fill_doc
 
 __all__ = [
     "MaugisDugdale",

@@ -19,8 +19,8 @@ import numpy as np
 import numpy.typing as npt
 from cantools.database.can import Database
 
-from evtribo.decode import DecodedMessage, decode_messages
-from evtribo.frames import FrameTable
+from evtribo.canlog.decode import DecodedMessage, decode_messages
+from evtribo.canlog.io import FrameTable
 
 __all__ = ["SignalStats", "signal_stats"]
 
@@ -178,7 +178,7 @@ def signal_stats(frames: FrameTable, db: Database) -> dict[str, SignalStats]:
     Parameters
     ----------
     frames : FrameTable
-        A log's frames (:func:`evtribo.frames.read_frames`).
+        A log's frames (:func:`evtribo.canlog.io.read_frames`).
     db : cantools Database
         The rig's DBC.
 

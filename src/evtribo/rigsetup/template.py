@@ -16,12 +16,12 @@ from pathlib import Path
 
 from evtribo import __version__
 from evtribo.analysis.settings import SETTING_HELP, AnalysisSettings
+from evtribo.canlog.io import read_frames
+from evtribo.canlog.rig import load_dbc
 from evtribo.errors import FORCE, OutputExistsError, RigConfigError
-from evtribo.files import atomic_write
-from evtribo.frames import read_frames
-from evtribo.rig import load_dbc
 from evtribo.rigsetup.roles import RoleGuess, guess_roles
 from evtribo.rigsetup.stats import signal_stats
+from evtribo.store.files import atomic_write
 
 __all__ = ["ROLE_HELP", "InitResult", "init_study", "render_study_toml"]
 

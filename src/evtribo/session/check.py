@@ -12,10 +12,10 @@ import math
 from dataclasses import dataclass, field
 
 from evtribo.analysis.heard import heard_warnings
-from evtribo.analysis.pipeline import study_settings
 from evtribo.analysis.trial import TrialMeta, analyze_signals
-from evtribo.cache import load_trial
+from evtribo.canlog.cache import load_trial
 from evtribo.errors import EvtriboError
+from evtribo.results.pipeline import study_settings
 from evtribo.study import Study
 
 __all__ = ["DROPPED_SHARE_WARN", "TrialCheck", "check_trial"]

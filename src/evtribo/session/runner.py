@@ -33,10 +33,10 @@ from typing import Any, TextIO
 
 import can
 
-from evtribo.acquisition.bus import BusSettings
+from evtribo.acquisition.buses.bus import BusSettings
 from evtribo.acquisition.command import Excitation, ExcitationCommand
-from evtribo.acquisition.liveview import LiveView
-from evtribo.acquisition.monitor import Monitor
+from evtribo.acquisition.live.liveview import LiveView
+from evtribo.acquisition.live.monitor import Monitor
 from evtribo.acquisition.protocol import Protocol, plan_trials, read_protocol, session_seed
 from evtribo.acquisition.rigfile import AcquisitionRig, check_name, open_study
 from evtribo.acquisition.trial import record_trial

@@ -1,6 +1,6 @@
 """The simulated rig: the default rig's frames from the seed paper's model.
 
-:func:`simulate_trial` gives one trial's frames offline (a :class:`~evtribo.frames.FrameTable`)
+:func:`simulate_trial` gives one trial's frames offline (a :class:`~evtribo.canlog.io.FrameTable`)
 with the truth the analysis must recover; :func:`simulate_study` writes a whole study folder;
 :class:`Simulator` streams the same frames in real time on a python-can bus or an slcan pty.
 """

@@ -22,11 +22,11 @@ import numpy.typing as npt
 from cantools.database.can import Message
 
 from evtribo.acquisition.simulator.encode import pack_signals
-from evtribo.decode import message_mask
-from evtribo.frames.ids import frame_key, frame_keys
-from evtribo.frames.table import FrameTable
-from evtribo.rig import Rig, SignalRef, default_rig
-from evtribo.signal_codec import SignalCodec
+from evtribo.canlog.decode import message_mask
+from evtribo.canlog.io.ids import frame_key, frame_keys
+from evtribo.canlog.io.table import FrameTable
+from evtribo.canlog.rig import Rig, SignalRef, default_rig
+from evtribo.canlog.signal_codec import SignalCodec
 
 __all__ = ["RigEncoder"]
 

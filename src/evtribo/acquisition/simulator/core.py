@@ -45,9 +45,9 @@ from evtribo.acquisition.simulator.physics import (
     on_off_schedule,
 )
 from evtribo.acquisition.simulator.truth import FEL_BIN_S, TrialTruth
+from evtribo.canlog.io.table import FrameTable
+from evtribo.canlog.rig import Rig, default_rig
 from evtribo.errors import RigConfigError
-from evtribo.frames.table import FrameTable
-from evtribo.rig import Rig, default_rig
 
 log = logging.getLogger(__name__)
 

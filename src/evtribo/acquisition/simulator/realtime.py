@@ -17,12 +17,12 @@ import numpy as np
 from evtribo.acquisition.command import CommandDecoder
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.core import OBEY_CHUNK_S, TrialGenerator
+from evtribo.canlog.io.table import FrameTable
+from evtribo.canlog.rig import Rig, default_rig
 from evtribo.errors import ConfigError
-from evtribo.frames.table import FrameTable
-from evtribo.rig import Rig, default_rig
 
 if TYPE_CHECKING:  # pragma: no cover
-    from evtribo.acquisition.slcan import SlcanPtyAdapter
+    from evtribo.acquisition.buses.slcan import SlcanPtyAdapter
 
 __all__ = ["MAX_DURATION_S", "RunStats", "Simulator"]
 

@@ -19,13 +19,13 @@ from evtribo.acquisition.rigfile import write_new_study
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.core import TrialTruth, simulate_trial
 from evtribo.acquisition.simulator.realism import human, realistic_rig
+from evtribo.canlog.io import write_candump
+from evtribo.canlog.io.table import FrameTable
+from evtribo.canlog.rig import Rig, default_rig
 from evtribo.documents.sidecar import rig_entry, write_sidecar
 from evtribo.errors import ConfigError, OutputExistsError, RigConfigError
-from evtribo.files import atomic_open, partial_path
-from evtribo.frames import write_candump
-from evtribo.frames.table import FrameTable
-from evtribo.lock import WriteLock
-from evtribo.rig import Rig, default_rig
+from evtribo.store.files import atomic_open, partial_path
+from evtribo.store.lock import WriteLock
 from evtribo.study import STUDY_FILE, read_study_toml, validate_name
 
 __all__ = ["SubjectPopulation", "default_subjects", "population_subjects", "simulate_study",

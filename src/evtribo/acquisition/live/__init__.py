@@ -1,0 +1,2 @@
+"""What a recording shows while it runs: the console line, the monitor's rates and state, the
+live view in the browser."""

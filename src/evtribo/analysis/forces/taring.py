@@ -1,0 +1,153 @@
+"""A trial's taring step: the calibration, the finger-lifted stretches and the friction loop
+(:mod:`.tare`), with the steady-sliding windows they give, and what they are worth saying.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from evtribo.analysis.forces.align import AlignedForces
+from evtribo.analysis.forces.excitation import Excitation, window_amplitudes
+from evtribo.analysis.forces.tare import (
+    Tared,
+    calibrate,
+    friction_loop_offset,
+    tare_lifted,
+    tare_loop,
+)
+from evtribo.analysis.friction.windows import find_windows, with_means
+from evtribo.analysis.observed import lift_exclusion
+from evtribo.analysis.settings import AnalysisSettings
+from evtribo.canlog.rig import Calibration
+
+log = logging.getLogger(__name__)
+
+__all__ = ["offset_warnings", "tare_and_find_windows"]
+
+
+def _windows(tared: Tared, cond: npt.NDArray[np.int8], smooth: float, quantum: float,
+             settings: AnalysisSettings) -> pd.DataFrame:
+    f = tared.forces
+    return find_windows(f.t, f.normal, f.tangential, cond, smooth_s=smooth,
+                        min_window_s=settings.min_window_s, max_window_s=settings.max_window_s,
+                        exclude=lift_exclusion(f.t, tared.lifted), quantum_s=quantum)
+
+
+def tare_and_find_windows(aligned: AlignedForces, exc: Excitation, *, smooth: float,
+                          quantum: float, tare_s: float | None, settings: AnalysisSettings,
+                          calibration: Calibration | None, warn: Callable[[str], None]
+                          ) -> tuple[Tared, pd.DataFrame, npt.NDArray[np.float64]]:
+    """Calibration and taring (:mod:`.tare`), the steady-sliding windows they give and the
+    windows' amplitudes (the friction loop groups the ON windows by them).
+
+    Parameters
+    ----------
+    aligned : AlignedForces
+        The forces on their grid, as decoded (hum removed where it was).
+    exc : Excitation
+        The excitation: each grid point's condition.
+    smooth, quantum : float, s
+        The windows' smoothing span and quantum (:func:`~evtribo.analysis.friction.windows.
+        find_windows`).
+    tare_s : float or None, s
+        How long the sidecar says the finger was lifted at the start.
+    settings : AnalysisSettings
+    calibration : Calibration or None
+        The rig's ``[rig.calibration]``.
+    warn : callable
+        Told what is worth saying.
+
+    Returns
+    -------
+    tared : Tared
+    windows : pandas.DataFrame
+        :func:`~evtribo.analysis.friction.windows.find_windows`' table, means from the tared forces.
+    amplitudes : ndarray, V
+        Each window's amplitude.
+    """
+    mode = settings.tare
+    cal = calibration or Calibration()
+    tared = calibrate(aligned, cal if mode != "none" else
+                      Calibration(matrix=cal.matrix), warn)
+    if mode in ("auto", "lifted"):
+        tared = tare_lifted(tared, min_s=settings.min_lift_s)
+        if not tared.lifted and tare_s:
+            warn(f"the sidecar says the finger was lifted for the first {tare_s:g} s, "
+                 "but no finger-lifted stretch was found in the forces (was it kept on the "
+                 "screen?)")
+    w = _windows(tared, exc.condition, smooth, quantum, settings)
+    amps = window_amplitudes(w, exc)
+    if mode in ("auto", "friction-loop") and not w.empty:
+        groups = [None if c != "on" else ("on" if not np.isfinite(a) else a)
+                  for c, a in zip(w.condition, amps, strict=True)]
+        loop = friction_loop_offset(tared.forces.t, tared.forces.normal,
+                                    tared.forces.tangential, w, groups,
+                                    max_knots=2 if tared.lifted else None)
+        if loop is not None and not tared.lifted:
+            # the same windows (found with relative thresholds, which an offset does not
+            # move), their means from the corrected forces
+            tared = tare_loop(tared, loop)
+            w = with_means(w, tared.forces.normal, tared.forces.tangential)
+        elif loop is not None and loop.significant:
+            # the lifted finger measured the zero: what is left between the directions is
+            # the finger's own (posture, the ridges' direction), compared direction by
+            # direction in the estimate, not taken out as an offset
+            level = float(np.mean(w.friction_force_N))
+            log.info("forward and backward friction differ by %.1f mN (%.0f %% of %.3f N), "
+                     "with the zero measured with the finger lifted", 2e3 * np.mean(
+                         loop.offset_N), 200 * abs(np.mean(loop.offset_N)) / level, level)
+        elif not tared.lifted and cal.tangential_offset_N is None:
+            warn("the tangential cell's zero is unknown: no finger-lifted stretch, no "
+                 "[rig.calibration] tangential_offset_N, and too few strokes in both "
+                 "directions for the friction loop; an offset adds to the friction one way "
+                 "and subtracts the other")
+    if mode != "none" and not tared.normal_known:
+        fn = float(np.nanmean(w.normal_force_N)) if len(w) else float(
+            np.nanmedian(tared.forces.normal))
+        warn(f"the normal cell's zero is unknown (no finger-lifted stretch and no "
+             f"[rig.calibration] normal_offset_N): an offset of 10 mN would change F_el by "
+             f"{1.0 / fn:.1f} % (offset / F_n, at this trial's {fn:.2f} N); record a tare "
+             "stretch (evtribo acquire --tare-s) or give [rig.calibration] normal_offset_N")
+    return tared, w, amps
+
+
+def offset_warnings(tared: Tared, w: pd.DataFrame, offsets: tuple[float | None, float | None],
+                    warn: Callable[[str], None]) -> None:
+    """Offsets large against the forces measured, and zeros that drifted beyond the noise.
+
+    Parameters
+    ----------
+    tared : Tared
+    w : pandas.DataFrame
+        The windows.
+    offsets : (float or None, float or None), N
+        The offsets removed from the normal and the tangential cell.
+    warn : callable
+    """
+    if w.empty:
+        return
+    scale = {"normal": float(np.mean(w.normal_force_N)),
+             "tangential": float(np.mean(w.friction_force_N))}
+    for name, value in zip(("normal", "tangential"), offsets, strict=True):
+        if value is not None and scale[name] > 0 and abs(value) > 0.1 * scale[name]:
+            warn(f"the {name} cell's zero offset was {1e3 * value:+.1f} mN, "
+                 f"{100 * abs(value) / scale[name]:.0f} % of the {name} force measured "
+                 f"({scale[name]:.3f} N); removed, but tare the load cells before recording")
+    if len(tared.lifted) < 2:
+        return
+    first, last = tared.lifted[0], tared.lifted[-1]
+    for name, se_name in (("normal", "normal_se_N"), ("tangential", "tangential_se_N")):
+        moved = getattr(last, f"{name}_N") - getattr(first, f"{name}_N")
+        noise = 3 * float(np.hypot(getattr(first, se_name), getattr(last, se_name)))
+        if abs(moved) > max(noise, 0.01 * scale["normal"]):
+            warn(f"the {name} cell's zero drifted by {1e3 * moved:+.1f} mN between the "
+                 f"finger-lifted stretches at {first.t_mid - tared.forces.t[0]:.1f} s and "
+                 f"{last.t_mid - tared.forces.t[0]:.1f} s (noise {1e3 * noise / 3:.2f} mN); "
+                 "interpolated between them")
+
+

@@ -1,0 +1,124 @@
+"""Results that physics rules out, and the rig file that most likely caused them.
+
+A finger sliding on a screen presses steadily (the normal force is positive and keeps its
+sign) while the friction changes sign with every stroke. A rig file that names the two cells
+the other way round, or the same signal for both, gives numbers that look like results:
+friction coefficients of 2-4, negative electrostatic forces. :func:`swapped_roles` looks at a
+trial's forces for that evidence (the same that ``evtribo init`` guesses the roles from);
+:func:`implausible_rows` looks at electrostatic.csv's rows for what no finger gives.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from evtribo.analysis.friction.windows import moving_average
+
+__all__ = ["MAX_MU", "MIN_MU", "implausible_rows", "sign_behaviour", "swapped_roles"]
+
+#: Friction coefficients of a fingertip on glass lie between these (Adams et al. 2013 and
+#: Dzidek et al. 2017 measured 0.1-1.2; moist fingers reach the upper end).
+MIN_MU, MAX_MU = 0.05, 1.5
+#: A signal changes sign with the strokes at this many crossings a second or more.
+STROKE_CROSSINGS_PER_S = 0.2
+#: Hysteresis of a crossing: this share of the 90th percentile of |force|.
+HYSTERESIS = 0.25
+
+
+def sign_behaviour(x: npt.ArrayLike, rate_Hz: float) -> tuple[float, float]:
+    """How a force keeps or changes its sign: the share of time it is positive and its
+    crossings of zero per second (0.1-s means, with hysteresis).
+
+    Parameters
+    ----------
+    x : array_like of float, N
+        The force on a uniform grid (NaN in gaps).
+    rate_Hz : float
+        The grid's rate.
+
+    Returns
+    -------
+    positive : float
+        Share of the (0.1-s averaged) samples above zero.
+    crossings_per_s : float
+    """
+    smooth = moving_average(x, max(1, round(0.1 * rate_Hz)), min_fraction=0.5)
+    v = smooth[np.isfinite(smooth)]
+    if v.size < 2:
+        return float("nan"), float("nan")
+    h = HYSTERESIS * float(np.percentile(np.abs(v), 90))
+    state = np.where(v > h, 1, np.where(v < -h, -1, 0))
+    state = state[state != 0]
+    crossings = int(np.count_nonzero(np.diff(state))) if h > 0 else 0
+    return float(np.mean(v > 0)), crossings * rate_Hz / v.size
+
+
+def _strokes(positive: float, crossings: float) -> bool:
+    return crossings >= STROKE_CROSSINGS_PER_S and 0.1 <= positive <= 0.9
+
+
+def _steady(positive: float, crossings: float) -> bool:
+    return crossings < STROKE_CROSSINGS_PER_S and (positive >= 0.9 or positive <= 0.1)
+
+
+def swapped_roles(normal: npt.ArrayLike, tangential: npt.ArrayLike, rate_Hz: float
+                  ) -> str | None:
+    """A warning when the two cells' roles look swapped: the signal named the normal force
+    changes sign with the strokes while the one named the tangential force keeps its sign.
+
+    Parameters
+    ----------
+    normal, tangential : array_like of float, N
+        The forces as decoded (before any taring), on one uniform grid.
+    rate_Hz : float
+
+    Returns
+    -------
+    str or None
+    """
+    pn, cn = sign_behaviour(normal, rate_Hz)
+    pt, ct = sign_behaviour(tangential, rate_Hz)
+    if not (_strokes(pn, cn) and _steady(pt, ct)):
+        return None
+    return ("the normal and tangential roles look swapped: the signal named normal_force "
+            f"changes sign with the strokes ({cn:.2f} crossings/s, positive {100 * pn:.0f} % "
+            "of the time) while the one named tangential_force keeps its sign ("
+            f"{ct:.2f} crossings/s, positive {100 * pt:.0f} %); check [rig] normal_force and "
+            "tangential_force in study.toml (evtribo inspect LOG --dbc DBC shows how each "
+            "signal behaves); every number of this trial assumes the roles as named")
+
+
+def implausible_rows(electrostatic: pd.DataFrame) -> list[str]:
+    """Warnings for what no finger gives: a subject's friction coefficient outside
+    [:data:`MIN_MU`, :data:`MAX_MU`], an electrostatic force below zero beyond its
+    interval.
+
+    Parameters
+    ----------
+    electrostatic : pandas.DataFrame
+        electrostatic.csv's rows.
+
+    Returns
+    -------
+    list of str
+    """
+    out: list[str] = []
+    if electrostatic.empty:
+        return out
+    for subject, rows in electrostatic.groupby("subject", sort=True):
+        mu = float(np.nanmedian(rows.mu.to_numpy(float)))
+        if not MIN_MU <= mu <= MAX_MU:
+            out.append(f"{subject}: friction coefficient {mu:.2f}, outside what fingers give "
+                       f"on glass ({MIN_MU:g}-{MAX_MU:g}): the roles normal_force and "
+                       "tangential_force in study.toml may be swapped, or a cell's scale "
+                       "in the DBC wrong; the electrostatic forces rest on it")
+        below = rows[rows.electrostatic_force_ci_high_N.to_numpy(float) < 0]
+        if len(below):
+            amps = ", ".join(f"{a:g} V" for a in below.amplitude_V)
+            out.append(f"{subject}: the electrostatic force is below zero beyond its interval "
+                       f"at {amps} (the voltage lowered the friction): the roles in "
+                       "study.toml may be swapped, the excitation's ON/OFF signal "
+                       "inverted, or a sidecar's condition wrong")
+    return out

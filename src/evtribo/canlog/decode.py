@@ -1,0 +1,473 @@
+"""CAN frames to signals, vectorised, compiled from the DBC's signal definitions.
+
+Two entry points:
+
+``decode_messages(frames, db) -> dict[str, DecodedMessage]``
+    Every message of the database found in the frames; each :class:`DecodedMessage` holds
+    ``timestamp`` (s), the ``raw`` codes of each signal (integers, or floats for IEEE float
+    signals) and gives ``scaled(name)`` (physical value, ``raw * scale + offset`` as
+    cantools' ``raw_to_scaled``) and ``choice_names(name)`` (value-table names). Used by
+    ``evtribo decode``.
+
+``decode_trial(frames, rig, channel=None) -> TrialSignals``
+    The forces of one trial (:mod:`evtribo.canlog.signals`, the analysis's input): the two load
+    cells, the excitation (waveforms named by the DBC's value table, else
+    :data:`FALLBACK_WAVEFORMS` with a warning), and the counts of frames decoded and ignored
+    (other IDs, other channels, error, remote and CAN XL frames, frames too short, unknown
+    multiplexer values). The rig's frames come from one channel (bus): the one named, else
+    the one carrying most of them, with a warning when the rig's IDs arrive on several (the
+    same ID on two buses is two streams, never merged).
+
+How a signal is extracted: :class:`~evtribo.canlog.signal_codec.SignalCodec` (any byte order,
+start bit, length up to 64 bits, sign, IEEE float), vectorised over frames. Multiplexed
+messages fall back to cantools' ``decode`` frame by frame; a frame cantools refuses (an
+unknown multiplexer value) gets NaN signals and is counted, not fatal. Frames match a
+message by ID, standard/extended kind and CAN FD or classic kind (a standard 0x0C1 frame is
+not the extended message 0x000000C1, a CAN FD frame on 0x0C1 not the classic message 0x0C1:
+such frames are not decoded, and a warning says so); frames shorter than the message's
+length are not decoded (cantools refuses them too).
+
+What it replaces: cantools' ``Database.decode_message``, called once per frame (one Python
+dict per frame); it stays the reference: ``tests/canlog/test_decode_conformance.py`` decodes
+random frames of every message of cantools' own test DBCs both ways and requires the same
+values, and multiplexed messages are decoded by cantools itself.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+from cantools.database import DecodeError
+from cantools.database.can import Database, Message
+
+from evtribo.canlog.dropped import missing_frames_received
+from evtribo.canlog.frame_match import kind_mismatches, message_mask
+from evtribo.canlog.io.table import FrameTable, take_rows
+from evtribo.canlog.rig import Rig, SignalRef
+from evtribo.canlog.signal_codec import SignalCodec
+from evtribo.canlog.signals import CellSignals, ExcitationSignals, TrialProvenance, TrialSignals
+from evtribo.errors import UserInputError
+
+log = logging.getLogger(__name__)
+
+Array = npt.NDArray[np.float64]
+
+
+@dataclass
+class DecodedMessage:
+    """One message's frames, decoded.
+
+    Attributes
+    ----------
+    name : str
+    frame_id : int
+    is_extended : bool
+    timestamp : ndarray of float64, s
+    index : ndarray of int64
+        Row of each decoded frame in the frame table.
+    raw : dict of str to ndarray
+        Raw code of each signal (NaN where a multiplexed signal is absent).
+    codecs : dict of str to SignalCodec
+    units : dict of str to str
+    undecoded : ndarray of int64
+        Rows (in the frame table) of frames cantools refused, such as a multiplexer value
+        the DBC does not know; their signals are NaN.
+    undecoded_reason : str
+        cantools' reason for the first of them.
+    """
+
+    name: str
+    frame_id: int
+    is_extended: bool
+    timestamp: Array
+    index: npt.NDArray[np.int64]
+    raw: dict[str, npt.NDArray[np.generic]] = field(default_factory=dict)
+    codecs: dict[str, SignalCodec] = field(default_factory=dict)
+    units: dict[str, str] = field(default_factory=dict)
+    undecoded: npt.NDArray[np.int64] = field(
+        default_factory=lambda: np.zeros(0, dtype=np.int64))
+    undecoded_reason: str = ""
+
+    def __len__(self) -> int:
+        return int(self.timestamp.shape[0])
+
+    def scaled(self, signal: str) -> Array:
+        """Physical values of *signal* (float64, in its DBC unit)."""
+        return self.codecs[signal].raw_to_scaled(self.raw[signal])
+
+    def choice_names(self, signal: str) -> npt.NDArray[np.object_]:
+        """Value-table names of *signal*'s raw codes."""
+        return self.codecs[signal].choice_names(self.raw[signal])
+
+    @property
+    def signals(self) -> dict[str, Array]:
+        """Every signal's physical values."""
+        return {name: self.scaled(name) for name in self.raw}
+
+
+def decode_message(frames: FrameTable, message: Message, signals: list[str] | None = None,
+                   *, mask: npt.NDArray[np.bool_] | None = None, quiet: bool = False
+                   ) -> DecodedMessage:
+    """Decode the frames of one message (all its signals, or those named).
+
+    Parameters
+    ----------
+    frames : FrameTable
+        The log's frames.
+    message : cantools.database.can.Message
+        The message.
+    signals : list of str, optional
+        The signals to decode (default: all).
+    mask : ndarray of bool, optional
+        The frames of the message, when already known (:func:`message_mask`).
+    quiet : bool
+        No warning on short or refused frames (a caller that counts them over blocks).
+
+    Returns
+    -------
+    DecodedMessage
+        Frames shorter than the message are left out (with a warning).
+    """
+    sel = message_mask(frames, message) if mask is None else mask
+    full = sel & (frames.dlc >= message.length)
+    short = int(np.count_nonzero(sel)) - int(np.count_nonzero(full))
+    if short and not quiet:
+        log.warning("%d frames of %s (0x%X) are shorter than its %d bytes: not decoded",
+                    short, message.name, message.frame_id, message.length)
+    index = np.flatnonzero(full)
+    data = take_rows(frames.data, index)
+    wanted = [s for s in message.signals if signals is None or s.name in signals]
+    out = DecodedMessage(message.name, message.frame_id, bool(message.is_extended_frame),
+                         frames.timestamp[index], index)
+    for sig in wanted:
+        out.codecs[sig.name] = SignalCodec.from_signal(sig)
+        out.units[sig.name] = sig.unit or ""
+    beyond = beyond_length(message)
+    if beyond:  # cantools decodes none of its frames: neither does evtribo
+        out.raw = {name: np.full(index.size, np.nan) for name in out.codecs}
+        out.undecoded, out.undecoded_reason = index, beyond
+        if index.size and not quiet:
+            log.warning("%d frames of %s (0x%X) not decoded: %s", index.size, message.name,
+                        message.frame_id, beyond)
+    elif message.is_multiplexed():
+        failed, out.undecoded_reason = _decode_multiplexed(message, data, frames.dlc[index], out)
+        out.undecoded = index[failed]
+        if failed.size and not quiet:
+            log.warning("%d frames of %s (0x%X) could not be decoded (first, frame %d: %s): "
+                        "their signals are NaN", failed.size, message.name, message.frame_id,
+                        out.undecoded[0], out.undecoded_reason)
+    else:
+        for name, codec in out.codecs.items():
+            out.raw[name] = codec.raw(data)
+    return out
+
+
+def beyond_length(message: Message) -> str:
+    """Why no frame of *message* can be decoded, when one of its signals lies beyond its
+    length (cantools refuses every such frame), else ``""``.
+
+    Parameters
+    ----------
+    message : cantools.database.can.Message
+
+    Returns
+    -------
+    str
+    """
+    for sig in message.signals:
+        last = SignalCodec.from_signal(sig).last_byte()
+        if last >= message.length:
+            return (f"its signal {sig.name} ends in byte {last + 1}, beyond the message's "
+                    f"{message.length} bytes (cantools decodes none of its frames): fix the "
+                    "DBC")
+    return ""
+
+
+def _decode_multiplexed(message: Message, data: npt.NDArray[np.uint8],
+                        dlc: npt.NDArray[np.uint8], out: DecodedMessage
+                        ) -> tuple[npt.NDArray[np.int64], str]:
+    """Decode frame by frame with cantools; return the positions of the frames it refused,
+    and cantools' message for the first one."""
+    cols = {name: np.full(len(dlc), np.nan) for name in out.codecs}
+    failed: list[int] = []
+    first_error = ""
+    for i in range(len(dlc)):
+        try:
+            values = message.decode(data[i, :dlc[i]].tobytes(), decode_choices=False,
+                                    scaling=False)
+        except DecodeError as err:  # a multiplexer value the DBC does not know...
+            first_error = first_error or str(err)
+            failed.append(i)
+            continue
+        if not isinstance(values, dict):  # a container message's parts: no rig signal
+            continue
+        for name, v in values.items():
+            if name in cols and isinstance(v, int | float):
+                cols[name][i] = float(v)
+    out.raw.update(cols)
+    return np.asarray(failed, dtype=np.int64), first_error
+
+
+def decode_messages(frames: FrameTable, db: Database, *, messages: list[str] | None = None
+                    ) -> dict[str, DecodedMessage]:
+    """Decode every message of *db* present in *frames* (or the messages named).
+
+    Parameters
+    ----------
+    frames : FrameTable
+        The log's frames.
+    db : cantools.database.can.Database
+        The DBC.
+    messages : list of str, optional
+        Names of the messages to decode (default: all).
+
+    Returns
+    -------
+    dict of str to DecodedMessage
+        By message name, in DBC order; messages without frames are left out.
+    """
+    out = {}
+    wanted = [m for m in db.messages if messages is None or m.name in messages]
+    for text in kind_mismatches(frames, wanted, db):
+        log.warning("%s", text)
+    for message in wanted:
+        mask = message_mask(frames, message)
+        if mask.any():
+            out[message.name] = decode_message(frames, message, mask=mask)
+    return out
+
+
+#: Names of a waveform signal's codes when the rig's DBC gives it no value table: the default
+#: rig's (``VAL_ ... HvWave 0 "sine" 1 "square" 2 "triangle" 3 "dc"``). Other codes keep
+#: their number as their name; a DBC's own value table always takes precedence.
+FALLBACK_WAVEFORMS: dict[int, str] = {0: "sine", 1: "square", 2: "triangle", 3: "dc"}
+
+
+def _rows(msg: DecodedMessage, sel: npt.NDArray[Any]) -> DecodedMessage:
+    """*msg*'s frames selected by *sel* (a mask or an order)."""
+    return DecodedMessage(msg.name, msg.frame_id, msg.is_extended, msg.timestamp[sel],
+                          msg.index[sel], {k: v[sel] for k, v in msg.raw.items()}, msg.codecs,
+                          msg.units)
+
+
+def _decoded_only(msg: DecodedMessage, undecoded: list[npt.NDArray[np.int64]]
+                  ) -> DecodedMessage:
+    """*msg* without the frames cantools refused (noted in *undecoded*): they are no samples."""
+    if not msg.undecoded.size:
+        return msg
+    undecoded.append(msg.undecoded)
+    return _rows(msg, ~np.isin(msg.index, msg.undecoded))
+
+
+def _in_time_order(msg: DecodedMessage) -> DecodedMessage:
+    """*msg* with its frames sorted by time (stable: frames stamped alike keep their order)."""
+    ts = msg.timestamp
+    return _rows(msg, np.argsort(ts, kind="stable")) if np.any(ts[1:] < ts[:-1]) else msg
+
+
+def _cell(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
+          undecoded: list[npt.NDArray[np.int64]]) -> CellSignals:
+    """One load cell's samples in time order, and the frames missing from it (counted in
+    the order the frames came in)."""
+    names = [force.signal.name] + ([counter.signal.name] if counter is not None
+                                   and counter.message is force.message else [])
+    msg = _decoded_only(decode_message(frames, force.message, names), undecoded)
+    backwards = np.any(msg.timestamp[1:] < msg.timestamp[:-1])
+    order = np.argsort(msg.timestamp, kind="stable") if backwards else None
+    t = msg.timestamp if order is None else msg.timestamp[order]
+    value = msg.scaled(force.signal.name)
+    value = value if order is None else value[order]
+    count = received = modulus = None
+    if counter is not None:
+        cmsg = msg if counter.message is force.message else decode_message(
+            frames, counter.message, [counter.signal.name])
+        if cmsg is msg:
+            received = msg.raw[counter.signal.name].astype(np.int64)
+            count = received if order is None else received[order]
+            modulus = 1 << counter.signal.length
+        else:
+            log.warning("counter %s is not in the force's message %s: timing gaps only",
+                        counter.qualified_name, force.message.name)
+    # counted in the order the frames came in: a clock that jumped back must not make the
+    # frames from before and after the jump look like gaps in each other
+    found = missing_frames_received(msg.timestamp, received, modulus)
+    return CellSignals(t, value, count, found.count, found.method, found.note)
+
+
+def _hold(t_src: Array, values: npt.NDArray[Any], t: Array) -> npt.NDArray[Any]:
+    """Values of a stream sampled at *t* by holding the last value (first one before)."""
+    idx = np.clip(np.searchsorted(t_src, t, side="right") - 1, 0, max(len(t_src) - 1, 0))
+    return values[idx] if len(t_src) else np.zeros(len(t), dtype=values.dtype)
+
+
+def waveform_names(msg: DecodedMessage, ref: SignalRef, warnings: list[str]
+                   ) -> npt.NDArray[np.object_]:
+    """Names of a waveform signal's codes: its value table's, else :data:`FALLBACK_WAVEFORMS`
+    (with a warning naming the signal); None where a multiplexed frame does not carry it.
+
+    Parameters
+    ----------
+    msg : DecodedMessage
+        The decoded frames of the signal's message.
+    ref : SignalRef
+        The waveform signal.
+    warnings : list of str
+        Where the warning on a missing value table is added.
+
+    Returns
+    -------
+    ndarray of object
+        A name (str) or None per frame.
+    """
+    codec = msg.codecs[ref.signal.name]
+    raw = msg.raw[ref.signal.name]
+    if not codec.choices:
+        text = (f"the DBC gives the waveform signal {ref.qualified_name} no value table: its "
+                "codes are read as " + ", ".join(f"{k} {v}" for k, v in
+                                                 FALLBACK_WAVEFORMS.items()))
+        log.warning("%s", text)
+        warnings.append(text)
+        codec = dataclasses.replace(codec, choices=FALLBACK_WAVEFORMS)
+    names = np.full(raw.shape, None, dtype=object)
+    present = np.isfinite(raw) if raw.dtype.kind == "f" else np.ones(raw.shape, dtype=bool)
+    names[present] = codec.choice_names(raw[present])
+    return names
+
+
+def _excitation(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]],
+                warnings: list[str]) -> ExcitationSignals | None:
+    """The amplifier's status signals, each held at the times of the first role's message."""
+    roles = {r.removeprefix("excitation_"): ref for r, ref in rig.measured_roles.items()
+             if r.startswith("excitation_")}
+    if not roles:
+        return None
+    by_msg: dict[str, DecodedMessage] = {}
+    for ref in roles.values():
+        if ref.message.name not in by_msg:
+            names = [r.signal.name for r in roles.values() if r.message is ref.message]
+            by_msg[ref.message.name] = _in_time_order(_decoded_only(
+                decode_message(frames, ref.message, names), undecoded))
+    base = by_msg[next(iter(roles.values())).message.name]
+
+    def role(name: str) -> npt.NDArray[Any] | None:
+        ref = roles.get(name)
+        if ref is None:
+            return None
+        msg = by_msg[ref.message.name]
+        values: npt.NDArray[Any] = (
+            msg.raw[ref.signal.name] != 0 if name == "enabled"
+            else waveform_names(msg, ref, warnings) if name == "waveform"
+            else msg.scaled(ref.signal.name))
+        return values if msg is base else _hold(msg.timestamp, values, base.timestamp)
+
+    return ExcitationSignals(t=base.timestamp, enabled=role("enabled"),
+                             amplitude=role("amplitude"), frequency=role("frequency"),
+                             waveform=role("waveform"))
+
+
+def _rig_messages(rig: Rig) -> list[Message]:
+    """The messages of the rig's roles, each once."""
+    return list({id(r.message): r.message for r in rig.measured_roles.values()}.values())
+
+
+def _rig_mask(frames: FrameTable, rig: Rig) -> npt.NDArray[np.bool_]:
+    mask = np.zeros(len(frames), dtype=bool)
+    for m in _rig_messages(rig):
+        mask |= message_mask(frames, m)
+    return mask
+
+
+def _rig_channel(frames: FrameTable, rig: Rig, channel: str | None, warnings: list[str]
+                 ) -> tuple[FrameTable, str | None]:
+    """The frames of the channel the rig is decoded from, and its name."""
+    if channel is not None and channel not in frames.channel_names:
+        have = ", ".join(frames.channel_names) or "none (its format names no channel)"
+        raise UserInputError(f"the log has no channel {channel!r}; its channels: {have}",
+                             key="channel")
+    if len(frames.channel_names) <= 1 and channel is None:
+        return frames, frames.channel
+    counts = frames.channel_counts(_rig_mask(frames, rig))
+    chosen = channel if channel is not None else (
+        max(counts, key=lambda k: counts[k]) if counts else frames.channel)
+    if len(counts) > 1:
+        shared = [m.name for m in _rig_messages(rig)
+                  if len(frames.channel_counts(message_mask(frames, m))) > 1]
+        text = ("the rig's messages arrive on several channels ("
+                + ", ".join(f"{k}: {v} frames" for k, v in counts.items()) + ")"
+                + (f", {', '.join(shared)} on more than one" if shared else "")
+                + f": decoded from {chosen}"
+                + (" (the channel carrying most of them)" if channel is None else "")
+                + "; the others are ignored, never merged (choose with channel=...)")
+        log.warning("%s", text)
+        warnings.append(text)
+    return frames.take(frames.on_channel(chosen)), chosen
+
+
+def _decoded_count(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]]
+                   ) -> int:
+    """Frames of the rig's messages decoded: long enough, and not refused by cantools."""
+    decoded = np.zeros(len(frames), dtype=bool)
+    for ref in rig.measured_roles.values():
+        m = ref.message
+        decoded |= message_mask(frames, m) & (frames.dlc >= m.length)
+    decoded[np.concatenate([np.zeros(0, dtype=np.int64), *undecoded])] = False
+    return int(np.count_nonzero(decoded))
+
+
+def decode_trial(frames: FrameTable, rig: Rig, *, channel: str | None = None) -> TrialSignals:
+    """Decode a trial's frames with *rig*'s roles.
+
+    Parameters
+    ----------
+    frames : FrameTable
+        The trial's log, any order.
+    rig : Rig
+    channel : str, optional
+        The channel (bus) to decode the rig's frames from. Default: the one that carries
+        most of the rig's frames (a warning names the others when there are several).
+
+    Returns
+    -------
+    TrialSignals
+
+    Raises
+    ------
+    UserInputError
+        *channel* is not one of the log's channels.
+    """
+    total = len(frames) + frames.xl_frames
+    warnings: list[str] = []
+    frames, chosen = _rig_channel(frames, rig, channel, warnings)
+    for text in kind_mismatches(frames, _rig_messages(rig), rig.database):
+        log.warning("%s", text)
+        warnings.append(text)
+    drops = frames.reported_drops
+    logger_dropped = (sum(drops.values()) if chosen is None or len(frames.channel_names) <= 1
+                      else drops.get(chosen, 0))
+    finite = np.isfinite(frames.timestamp)
+    if not finite.all():
+        log.warning("%d frames with a timestamp that is not a finite number: not decoded",
+                    len(frames) - int(np.count_nonzero(finite)))
+        frames = frames.take(finite)
+    # logs merged or written out of order, clocks that jumped: each stream is put in time
+    # order on its own, after its lost frames are counted in the order they came in
+    undecoded: list[npt.NDArray[np.int64]] = []
+    # the counter the logger checks too: the rig's role, or a *Counter signal of the cell
+    normal = _cell(frames, rig.normal_force, rig.counter("normal"), undecoded)
+    tangential = _cell(frames, rig.tangential_force, rig.counter("tangential"), undecoded)
+    excitation = _excitation(frames, rig, undecoded, warnings)
+    n = _decoded_count(frames, rig, undecoded)
+    return TrialSignals(normal, tangential, excitation, frames=n, ignored_frames=total - n,
+                        channel=chosen, logger_dropped=logger_dropped,
+                        warnings=tuple(warnings))
+
+
+__all__ = ["FALLBACK_WAVEFORMS", "CellSignals", "DecodedMessage", "ExcitationSignals",
+           "SignalCodec", "TrialProvenance", "TrialSignals", "beyond_length", "decode_message",
+           "decode_messages",
+           "decode_trial", "kind_mismatches", "message_mask", "waveform_names"]

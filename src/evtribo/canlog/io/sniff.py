@@ -1,0 +1,227 @@
+"""What a log file holds, from its first bytes and lines, whatever its name says.
+
+A log saved under another format's suffix (Vector ASC text as ``run-01.log``, a SavvyCAN CSV
+as ``run-01.csv``, candump's screen output as ``run-01.log``) would otherwise be read by the
+wrong reader: zero frames and every line "damaged". :func:`sniff` looks at the first
+64 KiB (decompressed for a ``.gz`` name) and tells what the file looks like, which suffix
+evtribo reads it under, and how to convert it, the way MNE's ``read_raw`` suggests the
+right reader for a file.
+"""
+
+from __future__ import annotations
+
+import gzip
+import os
+import re
+import zlib
+from collections import Counter
+from dataclasses import dataclass
+
+from evtribo.store.files import PARTIAL_SUFFIX
+
+#: Bytes looked at.
+HEAD_BYTES = 1 << 16
+#: Non-empty lines looked at.
+HEAD_LINES = 40
+#: What a header line weighs against one frame line.
+_HEADER_WEIGHT = 5
+
+PYTHON_CAN_CSV_HEADER = "timestamp,arbitration_id,extended,remote,error,dlc,data"
+
+_MAGIC = (
+    (b"LOGG", "blf", "a Vector BLF binary log", ".blf"),
+    (b"MDF     4", "mf4", "an ASAM MDF 4 (MF4) measurement file", ".mf4"),
+    (b"MDF     ", "mdf", "an ASAM MDF 3 measurement file (python-can reads MDF 4 only)", None),
+    (b"SQLite format 3\x00", "sqlite", "an SQLite database (python-can's .db)", ".db"),
+    (b"PK\x03\x04", "zip", "a ZIP archive", None),
+)
+
+#: (kind, pattern of one line, is a header line).
+_LINES = (
+    ("candump-L", re.compile(r"\s*\(\s*\d+(?:\.\d+)?\s*\)\s+\S+\s+[0-9A-Fa-f]{1,8}#.*"), False),
+    ("candump-text", re.compile(
+        r"\s*\((?:\d+\.\d+|\d{4}-\d\d-\d\d \d\d:\d\d:\d\d\.\d+)\)\s+\S+\s+(?:[RT]X\s+\S\s\S\s+)?"
+        r"[0-9A-Fa-f]{3,8}\s+(?:\[\d{1,4}\]|\{[0-9A-Fa-f]\}).*"), False),
+    ("candump-plain", re.compile(
+        r"\s*[^\s(]\S*\s+(?:[RT]X\s+\S\s\S\s+)?[0-9A-Fa-f]{3,8}\s+(?:\[\d{1,4}\]|"
+        r"\{[0-9A-Fa-f]\}).*"), False),
+    ("asc", re.compile(r"(?:date \w|base (?:hex|dec)|(?:no )?internal events logged|"
+                       r"Begin Triggerblock).*", re.IGNORECASE), True),
+    ("asc", re.compile(r"\s*\d+\.\d+\s+(?:\d+|CANFD)\s+.*"), False),
+    ("trc", re.compile(r";\s*(?:\$FILEVERSION|Start time|\$STARTTIME|Message Number).*"), True),
+    ("python-can-csv", re.compile(re.escape(PYTHON_CAN_CSV_HEADER) + r"\s*", re.IGNORECASE),
+     True),
+    ("python-can-csv", re.compile(r"\d+(?:\.\d*)?,(?:0x)?[0-9A-Fa-f]+,[01],[01],[01],\d+,"
+                                  r"[A-Za-z0-9+/=]*\s*"), False),
+    ("savvycan", re.compile(r"Time Stamp,ID,Extended,.*", re.IGNORECASE), True),
+    ("savvycan", re.compile(r"\d+,[0-9A-Fa-f]+,(?:true|false),(?:\w+,)?\d+,\d+,.*",
+                            re.IGNORECASE), False),
+    ("decoded", re.compile(r"timestamp,message(?:,.*)?", re.IGNORECASE), True),
+)
+
+_DESCRIPTIONS = {
+    "candump-L": ("a candump -L log", ".log"),
+    "candump-text": ("candump's screen output with timestamps (candump -ta, -tz, -td or -tA)",
+                     ".log"),
+    "candump-plain": ("candump's screen output without timestamps (plain `candump can0`)",
+                      None),
+    "asc": ("a Vector ASC log", ".asc"),
+    "trc": ("a PEAK TRC log", ".trc"),
+    "python-can-csv": ("a python-can CSV log", ".csv"),
+    "savvycan": ("a SavvyCAN/GVRET CSV log (header 'Time Stamp,ID,Extended,...')", None),
+    "decoded": ("a table of decoded signals (what `evtribo decode` writes), not a raw CAN log",
+                None),
+}
+
+
+_HINTS = {
+    "candump-plain": "it has no timestamps, hence no time base to analyse: record with "
+                     "`candump -L can0 > {stem}.log` (or `candump -l`), which evtribo reads",
+    "savvycan": "save it from SavvyCAN as a candump log instead (File > Save Log File..., "
+                "type 'Candump/Kayak (*.log)') and give evtribo that .log",
+    "decoded": "give evtribo the raw CAN log it was decoded from",
+    "zip": "unpack it and give evtribo the log inside",
+    "mdf": "convert it to MDF 4 (asammdf: MDF(file).convert('4.10').save(...))",
+}
+
+
+@dataclass(frozen=True)
+class Sniffed:
+    """What a file looks like.
+
+    Attributes
+    ----------
+    kind : str
+        ``candump-L``, ``candump-text``, ``candump-plain``, ``asc``, ``trc``,
+        ``python-can-csv``, ``savvycan``, ``decoded``, ``csv``, ``blf``, ``mf4``, ``mdf``,
+        ``sqlite``, ``zip``, ``gzip:<kind>``, ``binary`` or ``unknown``.
+    description : str
+        In words (``"a Vector ASC log"``).
+    suffix : str or None
+        The suffix evtribo reads it under (``".asc"``; ``".log.gz"`` for gzip), or None
+        when evtribo cannot read it.
+    first_line : str
+        Its first non-empty line (text files), shortened.
+    """
+
+    kind: str
+    description: str
+    suffix: str | None
+    first_line: str = ""
+
+    def hint(self, path: str | os.PathLike[str]) -> str:
+        """How to give evtribo this file (a sentence naming the file's new name)."""
+        stem = _stem(path)
+        if self.kind in _HINTS:
+            return _HINTS[self.kind].format(stem=stem)
+        if self.suffix is None:
+            return ("convert it to a format evtribo reads: candump -L (.log), python-can's "
+                    f"CSV (header '{PYTHON_CAN_CSV_HEADER}'), .asc, .blf, .trc, .mf4 or .db; "
+                    "python-can converts between its formats: python -m can.logconvert IN OUT")
+        return f"rename it to {stem}{self.suffix}"
+
+
+def _stem(path: str | os.PathLike[str]) -> str:
+    """The file's name without its format suffixes (``run-01`` of ``run-01.log.gz``)."""
+    name = os.path.basename(os.fspath(path))
+    for _ in range(3):
+        stem, ext = os.path.splitext(name)
+        if not ext or len(ext) > 5 or not stem:
+            break
+        name = stem
+    return name
+
+
+def _head(path: str | os.PathLike[str]) -> bytes | None:
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(HEAD_BYTES)
+    except OSError:
+        return None
+
+
+def _gunzip_head(raw: bytes) -> bytes | None:
+    try:
+        return zlib.decompressobj(wbits=31).decompress(raw, HEAD_BYTES)
+    except zlib.error:
+        return None
+
+
+def sniff_bytes(head: bytes) -> Sniffed | None:
+    """What a file whose first bytes are *head* looks like (None: empty).
+
+    Parameters
+    ----------
+    head : bytes
+        The file's first bytes.
+
+    Returns
+    -------
+    Sniffed or None
+    """
+    for magic, kind, description, suffix in _MAGIC:
+        if head.startswith(magic):
+            return Sniffed(kind, description, suffix)
+    if head.startswith(b"\x1f\x8b"):
+        inner = _gunzip_head(head)
+        found = sniff_bytes(inner) if inner else None
+        if found is None or found.suffix is None:
+            return Sniffed("gzip", "gzip-compressed data", None)
+        return Sniffed(f"gzip:{found.kind}", f"gzip-compressed {found.description}",
+                       found.suffix + ".gz", found.first_line)
+    # NUL bytes: binary data, or a text log with a run of them (a file system's answer to a
+    # power cut): the lines decide
+    found = _sniff_text(head.replace(b"\x00", b"").decode("utf-8", "replace"))
+    if b"\x00" in head[:4096] and (found is None or found.kind in ("unknown", "csv")):
+        return Sniffed("binary", "binary data of no log format evtribo knows", None)
+    return found
+
+
+def _sniff_text(text: str) -> Sniffed | None:
+    lines = [ln.rstrip("\r") for ln in text.split("\n")[:4 * HEAD_LINES]]
+    lines = [ln for ln in lines if ln.strip()][:HEAD_LINES]
+    if not lines:
+        return None
+    first = lines[0].strip()[:80]
+    votes: Counter[str] = Counter()
+    for line in lines:
+        for kind, pattern, header in _LINES:
+            if pattern.fullmatch(line):
+                votes[kind] += _HEADER_WEIGHT if header else 1
+                break
+    if votes:
+        kind = votes.most_common(1)[0][0]
+        description, suffix = _DESCRIPTIONS[kind]
+        return Sniffed(kind, description, suffix, first)
+    if first.count(",") >= 2 or first.count(";") >= 2:
+        return Sniffed("csv", f"a table whose first line is {first!r}", None, first)
+    return Sniffed("unknown", f"text whose first line is {first!r}", None, first)
+
+
+def sniff(path: str | os.PathLike[str]) -> Sniffed | None:
+    """What *path* looks like (decompressed first when its name ends in ``.gz``).
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    Sniffed or None
+        None when the file is empty or cannot be read (its reader then says why).
+    """
+    head = _head(path)
+    if head is None:
+        return None
+    if os.fspath(path).lower().removesuffix(PARTIAL_SUFFIX).endswith(".gz"):
+        if not head.startswith(b"\x1f\x8b"):
+            return None  # not gzip: gzip's own error names it
+        try:
+            with gzip.open(path, "rb") as fh:
+                head = fh.read(HEAD_BYTES)
+        except (OSError, EOFError, zlib.error):
+            head = _gunzip_head(head) or b""
+    return sniff_bytes(head)
+
+
+__all__ = ["PYTHON_CAN_CSV_HEADER", "Sniffed", "sniff", "sniff_bytes"]

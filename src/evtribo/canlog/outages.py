@@ -1,0 +1,199 @@
+"""Frames lost from a periodic stream, read from its upper envelope: the lead of each
+frame's index over the periods elapsed since the first frame.
+
+A frame's latency (bus arbitration, an adapter's USB polling or serial line, the operating
+system) only ever delays it, so in any window of many periods the frames that arrived
+earliest set the highest lead; a lost frame lowers that envelope by one for good, while a
+burst, a logger's stall or a few late frames lower it only for a while. Comparing the
+envelope just before and just after a place therefore says how many frames were lost
+there, whatever the timestamps' bursts and jitter, and independently of small errors of the
+period (a clock off by 100 ppm moves it by a hundredth of a frame over a hundred periods).
+:mod:`evtribo.canlog.dropped` decides which stream is counted how.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import numpy.typing as npt
+
+__all__ = ["MIN_OUTAGE", "lasting_gaps", "outage_count", "whole_periods"]
+
+#: Least drop of the upper envelope taken for frames lost in a row, frames (more where the
+#: envelope is noisier: four times its scatter).
+MIN_OUTAGE = 1.5
+#: The upper envelope's windows span at least this many periods.
+_ENVELOPE_PERIODS = 32
+#: Windows of the upper envelope compared either side of a change.
+_ENVELOPE_K = 4
+#: Frames either side of a gap whose mean lead says how many frames it lost.
+_GAP_FRAMES = 32
+#: Fewest frames for an envelope.
+_MIN_FRAMES = 16
+
+
+def _envelope(t: npt.NDArray[np.float64], index: npt.NDArray[np.float64], period: float
+              ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The stream's upper envelope: in windows of many periods (and of several of the
+    longest usual steps: bursts), the largest lead of a frame's index over the periods
+    elapsed since the first frame; returns each window's start (s from the first frame)
+    and that lead (frames), the partial first and last windows left out. Latency only
+    delays frames, so the earliest frames of each window set it; a lost frame lowers it
+    by one for good."""
+    lead = index - (t - t[0]) / period
+    width = max(_ENVELOPE_PERIODS * period, 4 * float(np.quantile(np.diff(t), 0.99)))
+    w = np.floor((t - t[0]) / width).astype(np.int64)
+    starts = np.flatnonzero(np.r_[True, w[1:] != w[:-1]])
+    top = np.maximum.reduceat(lead, starts)
+    return (w[starts] * width)[1:-1], top[1:-1]
+
+
+def _noise(level: npt.NDArray[np.float64]) -> float:
+    """Scatter of a level from one window to the next (robust: outages do not count), frames."""
+    d = np.diff(level)
+    return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2)) if d.size else 0.0
+
+
+def _lasting_drops(level: npt.NDArray[np.float64], threshold: float) -> float:
+    """Lasting drops of *level* minus its lasting rises, frames.
+
+    Around each boundary between windows the highest of the :data:`_ENVELOPE_K` windows
+    before is compared with the highest of those after; each run of boundaries where they
+    differ by *threshold* or more is one change, measured between the medians of the
+    windows before and after the run (a dip shorter than the windows compared, such as a
+    logger's stall, is no change)."""
+    k = _ENVELOPE_K
+    if level.size < 2 * k:
+        return 0.0
+    # boundary b (between windows b and b + 1, for b from k - 1 to n - k - 1): the highest
+    # of the k windows up to it and of the k after it
+    top = np.lib.stride_tricks.sliding_window_view(level, k).max(axis=1)
+    diff = top[:-k] - top[k:]
+    total = 0.0
+    for sign in (1.0, -1.0):
+        edges = np.flatnonzero(np.diff(np.r_[0, (sign * diff >= threshold).astype(np.int8), 0]))
+        for a, b in zip(edges[::2] + k - 1, edges[1::2] + k - 1, strict=True):
+            total += sign * float(np.median(level[a - k + 1:a + 1])
+                                  - np.median(level[b - k + 1:b + 1]))
+    return total
+
+
+def outage_count(t: npt.ArrayLike) -> tuple[int, float]:
+    """Frames lost in outages of a stream whose timestamps cannot show single lost frames
+    (frames received in bursts, jitter of the order of the period).
+
+    The upper envelope (see the module's docstring) is levelled by its median slope
+    (frames lost one by one all along, and a clock error, cannot be told from a slightly
+    other period); its lasting drops are the frames lost in outages.
+
+    Parameters
+    ----------
+    t : array_like of float, s
+        Reception times, increasing.
+
+    Returns
+    -------
+    count : int
+        Frames lost in outages.
+    threshold : float
+        The fewest frames lost in a row that are seen (more where the envelope is noisier).
+    """
+    times = np.asarray(t, dtype=np.float64)
+    if times.size < _MIN_FRAMES or not times[-1] > times[0]:
+        return 0, float("nan")
+    period = float(times[-1] - times[0]) / (times.size - 1)
+    starts, level = _envelope(times, np.arange(times.size, dtype=np.float64), period)
+    if level.size < 3:
+        return 0, float("nan")
+    level = level - float(np.median(np.diff(level) / np.diff(starts))) * starts
+    threshold = max(MIN_OUTAGE, 4 * _noise(level))
+    return max(int(np.rint(_lasting_drops(level, threshold))), 0), threshold
+
+
+def whole_periods(t: npt.NDArray[np.float64], index: npt.NDArray[np.float64],
+                   pauses: npt.NDArray[np.intp], modulus: int) -> tuple[int, str | None]:
+    """Whole counter periods lost in the *pauses* (steps where the counter shows frames lost
+    and the stream paused for half a counter period or more), and a note where the timing
+    cannot tell.
+
+    Across such a pause the frames after it lead the periods elapsed by as much as before
+    it, less any frames the counter did not see: the highest lead over ``2 * modulus``
+    frames either side (up to the neighbouring pauses) is compared.
+
+    Parameters
+    ----------
+    t : ndarray of float, s
+        Reception times, increasing.
+    index : ndarray of float
+        Each frame's place in the stream by the counter (the frames it shows lost counted).
+    pauses : ndarray of int
+        The steps (``t[j]`` to ``t[j + 1]``) to look at.
+    modulus : int
+        The counter's period, frames.
+
+    Returns
+    -------
+    wraps : int
+        Whole counter periods lost, in all.
+    note : str or None
+        The pauses where the timing cannot tell (too noisy for the counter's period).
+    """
+    bounds = np.r_[0, pauses + 1, t.size]
+    # the period from the stretches between the pauses (what they hide left out)
+    first, last = bounds[:-1], bounds[1:] - 1
+    period = float(np.sum(t[last] - t[first]) / max(np.sum(index[last] - index[first]), 1.0))
+    lead = index - (t - t[0]) / period
+    tolerance = max(2.0, 4 * _noise(_envelope(t, index, period)[1]))
+    reach = max(2 * modulus, 64)
+    wraps, unsure = 0, []
+    for i, j in enumerate(pauses):
+        before = lead[max(bounds[i], j + 1 - reach):j + 1].max()
+        after = lead[j + 1:min(bounds[i + 2], j + 1 + reach)].max()
+        hidden = float(before - after)
+        k = int(np.rint(hidden / modulus))
+        if abs(hidden - k * modulus) > tolerance or (k > 0 and tolerance > modulus / 4):
+            unsure.append(f"{t[j + 1] - t[j]:.3g} s at {t[j] - t[0]:.3f} s")
+        elif k > 0:
+            wraps += k
+    note = None if not unsure else (
+        "whole counter periods may have been lost in the pause(s) of " + ", ".join(unsure[:3])
+        + (" ..." if len(unsure) > 3 else "") + f" (the counter repeats every {modulus} "
+        "frames; the timing cannot tell): counted by the counter alone")
+    return wraps, note
+
+
+def lasting_gaps(t: npt.ArrayLike, period: float, gap_factor: float = 1.5) -> int:
+    """Frames lost in the steps longer than *gap_factor* periods of a regular stream, each
+    step's count the lasting drop of the frames' lead across it (its mean over up to
+    :data:`_GAP_FRAMES` frames either side, up to the neighbouring steps).
+
+    On a clean clock this is ``round(dt / period) - 1`` per step; where the timestamps are
+    the polls of an adapter at about the stream's rate, a poll that finds no frame (its
+    clock and the cell's drift apart by a few ppm) makes a long step and no lasting drop,
+    and counts nothing.
+
+    Parameters
+    ----------
+    t : array_like of float, s
+        Reception times, increasing.
+    period : float, s
+        The stream's period.
+    gap_factor : float
+        A step longer than this many periods may have lost frames.
+
+    Returns
+    -------
+    int
+        Frames lost.
+    """
+    times = np.asarray(t, dtype=np.float64)
+    gaps = np.flatnonzero(np.diff(times) > gap_factor * period)
+    if not gaps.size or not period > 0:
+        return 0
+    lead = np.arange(times.size) - (times - times[0]) / period
+    total = np.concatenate([[0.0], np.cumsum(lead)])
+    bounds = np.r_[0, gaps + 1, times.size]  # the stretches between the steps
+    a = np.maximum(bounds[:-2], gaps + 1 - _GAP_FRAMES)  # before step k: lead[a:gaps+1]
+    b = np.minimum(bounds[2:], gaps + 1 + _GAP_FRAMES)   # after it: lead[gaps+1:b]
+    before = (total[gaps + 1] - total[a]) / (gaps + 1 - a)
+    after = (total[b] - total[gaps + 1]) / (b - gaps - 1)
+    return int(np.clip(np.rint(before - after), 0, None).sum())

@@ -1,0 +1,90 @@
+"""``evtribo session PROTOCOL --study DIR --subject NAME``: a subject's whole protocol.
+
+Records every trial of the protocol file, one after another (spec §7): the tare stretch at
+each trial's start, the excitation set through the rig's command message or by asking the
+operator, a check of each trial by the analysis with the choice to redo it, pauses between
+trials. Trials are named run-01, run-02, ... in the order recorded; SUBJECT/session.json
+keeps the plan and what is done. Ctrl-C stops and keeps every finished trial; the same
+command again goes on with the first trial not done.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
+from evtribo.cli.recording._bus import add_bus_arguments, bus_settings, start_view
+
+log = logging.getLogger(__name__)
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``session``."""
+    p = subparsers.add_parser(
+        "session", help="record a subject's whole protocol, trial after trial",
+        description=__doc__.split("\n\n")[1].replace("\n", " ")
+        + " Exit 0 when every trial is done or the session was stopped; 1 when the bus or "
+          "the disk failed (what was recorded is kept); 2 for a bad protocol, study or name.")
+    p.add_argument("protocol", metavar="PROTOCOL", help="the protocol file (TOML, spec §7)")
+    p.add_argument("--study", required=True, metavar="DIR",
+                   help="study folder (created with a study.toml for --rig if new)")
+    p.add_argument("--subject", required=True, help="subject name (letters, digits, - and _)")
+    p.add_argument("--rig", metavar="RIG.toml",
+                   help="rig description for a new study (default: the simulator's rig)")
+    p.add_argument("--yes", action="store_true",
+                   help="ask nothing: keep every trial, go on after each pause (scripts)")
+    p.add_argument("--no-check", action="store_true",
+                   help="do not analyse each trial after recording it")
+    p.add_argument("--quiet", action="store_true", help="no live display in the terminal")
+    add_bus_arguments(p)
+    p.set_defaults(func=run)
+    return p
+
+
+@contextmanager
+def _stop_on_signals() -> Iterator[Callable[[], bool] | None]:
+    """While a trial records, Ctrl-C and SIGTERM end it as ``interrupted`` (its log saved)."""
+    from evtribo.acquisition.trialdata import StopFlag, StopOnSignals
+
+    flag = StopFlag()
+    with StopOnSignals(flag):
+        yield flag
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the session; return the exit code."""
+    from evtribo.acquisition.buses.bus import open_bus
+    from evtribo.acquisition.protocol import read_protocol
+    from evtribo.session import SessionConfig, run_session
+
+    read_protocol(args.protocol)  # a bad protocol fails before the bus opens
+    settings = bus_settings(args)
+    view = start_view(args)
+    try:
+        bus = open_bus(settings)
+    except BaseException:
+        if view is not None:
+            view.stop()
+        raise
+    try:
+        outcome = run_session(bus, SessionConfig(
+            protocol=args.protocol, study=args.study, subject=args.subject, yes=args.yes,
+            rig=args.rig, settings=settings, view=view, display=not args.quiet,
+            check=not args.no_check, stop_guard=_stop_on_signals))
+    finally:
+        if view is not None:
+            view.stop()
+        try:
+            bus.shutdown()
+        except Exception as err:  # a vanished adapter may fail to close
+            log.warning("closing the bus failed: %s", err)
+    if outcome.stopped in ("bus-error", "disk-error", "no-rig-data"):
+        print(f"evtribo session: error: the last trial ended in a fault ({outcome.stopped}); "
+              "what was recorded is kept, run the same command again to go on",
+              file=sys.stderr)
+        return 1
+    return 0

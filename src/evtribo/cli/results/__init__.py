@@ -1,0 +1,1 @@
+"""Commands on a study's results: ``analyze``, ``compare``, ``report``, ``plot``, ``model``."""

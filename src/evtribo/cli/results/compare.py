@@ -1,0 +1,142 @@
+"""``evtribo compare OUT``: fit the model to a result folder, write fit.csv and figures."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``compare`` on *subparsers*."""
+    p = subparsers.add_parser(
+        "compare", help="fit the model to analysis results; write fit.csv and figures",
+        description="Fit the seed paper's model to the per-subject results of "
+                    "`evtribo analyze` (the equivalent air gap h_L by default) by weighted "
+                    "least squares, and write OUT/fit.csv, OUT/fit.json and OUT/figures/ "
+                    "(one file per figure and format, ready for a journal: no titles, "
+                    "text as text, PNG at 300 dpi), as one unit. OUT must hold one "
+                    "analysis's complete results (exit 2 otherwise, as when another process "
+                    "is writing OUT).",
+        epilog="The model: \"Voltage-Induced Friction with Application to "
+               "Electrovibration\", Lubricants 2019, 7(12), 102, "
+               "doi:10.3390/lubricants7120102.")
+    p.add_argument("out", metavar="OUT", help="result folder written by `evtribo analyze`")
+    p.add_argument("--fit", metavar="NAMES", default=None,
+                   help="comma-separated model parameters to fit per subject "
+                        "(default: h_L; e.g. h_L,E_star; see `evtribo model --list`)")
+    p.add_argument("--params", metavar="PARAMS.toml", default=None,
+                   help="TOML of fixed model parameters, `name = value` in SI units "
+                        "(default: the paper's Table 1)")
+    p.add_argument("--figure-format", metavar="FORMATS", default=None,
+                   help="comma-separated figure formats among pdf, svg, png (default: svg,png; "
+                        "the report embeds the PNG, else the SVG)")
+    p.add_argument("--figure-width", metavar="WIDTH", default="single",
+                   help="figure width: single (one journal column, 85 mm; the default) or "
+                        "double (a page, 175 mm)")
+    p.add_argument("--models", metavar="NAMES", default=None,
+                   help="comma-separated candidate models to fit and rank per subject by "
+                        "AIC (paper, hertz, maugis, circuit): writes OUT/models.csv and a "
+                        "figure of F_el against the drive frequency per subject")
+    p.add_argument("--dpi", type=float, default=None, help="PNG resolution (default 300)")
+    p.add_argument("--no-trial-checks", dest="trial_checks", action="store_false",
+                   help="do not draw the check of every trial (what the analysis did with "
+                        "it: forces, ON phases, windows, lifted and excluded stretches)")
+    p.add_argument("--force", action="store_true",
+                   help="overwrite the outputs of a previous comparison")
+    p.add_argument("--dask", metavar="ADDRESS", default=None,
+                   help="run the bootstrap refits on this Dask cluster (tcp://HOST:PORT; "
+                        "default: $EVTRIBO_DASK_SCHEDULER, else here); the same results; "
+                        "needs pip install 'evtribo[dask]' (docs/cluster.md)")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``evtribo compare``; return the exit code."""
+    from contextlib import nullcontext
+
+    say = _say_progress()
+    say("loading the fitting and plotting libraries")
+
+    from evtribo.cli.setup._signals import EXIT_TERMINATED, Terminated, sigterm_interrupts
+    from evtribo.report.compare import compare
+    from evtribo.results.distributed import (
+        SCHEDULER_ENV,
+        check_workers,
+        connect,
+        scheduler_address,
+    )
+
+    address = scheduler_address(args.dask)
+    key = "--dask" if args.dask else SCHEDULER_ENV
+    try:
+        with sigterm_interrupts(), \
+                (nullcontext(None) if address is None else connect(address, key=key)) as client:
+            if client is not None:  # workers there, running this evtribo
+                check_workers(client, [], key=key)
+            result = compare(args.out, fit=args.fit, params=args.params, force=args.force,
+                             dpi=args.dpi, formats=args.figure_format,
+                             width=args.figure_width, models=args.models,
+                             trial_checks=args.trial_checks, scheduler=client,
+                             progress=say)
+    except Terminated:
+        print(f"evtribo compare: terminated; {args.out} holds the fit it held before (or all "
+              "of the new one), nothing half-written", file=sys.stderr)
+        return EXIT_TERMINATED
+    from evtribo.util.numbers import r_squared, significant
+
+    for f in result.fits:
+        parts = ", ".join(_estimate(e) for e in f.estimates)
+        print(f"{f.subject}: {parts}; RMSE {significant(1e3 * f.rmse_N)} mN, "
+              f"R² {r_squared(f.r2)}")
+    for note in result.notes:
+        print(f"note: {note}", file=sys.stderr)
+    _print_population(result)
+    print(f"wrote {result.out / 'fit.csv'} and {len(result.figures)} figures in "
+          f"{result.out / 'figures'}")
+    return 0
+
+
+def _say_progress() -> Any:
+    """What compare is doing, on stderr, with the time since it started."""
+    import time
+
+    start = time.monotonic()
+
+    def say(what: str) -> None:  # on a terminal, as analyze's progress bar
+        if sys.stderr.isatty():
+            print(f"[{time.monotonic() - start:6.1f} s] {what}", file=sys.stderr, flush=True)
+
+    return say
+
+
+def _print_population(result: Any) -> None:
+    """The population's exponent per condition and μ, its outliers, or why there is none."""
+    pop = result.population
+    if pop is None:
+        return
+    exponents = pop.table[pop.table["quantity"] == "exponent"]
+    for _, r in exponents.iterrows():
+        print(f"population ({r['waveform']} {r['frequency_Hz']:g} Hz, {r['n_subjects']} "
+              f"subjects): exponent n = {r['estimate']:.3g} [{r['ci_low']:.3g}, "
+              f"{r['ci_high']:.3g}]")
+    for _, r in pop.table[pop.table["quantity"] == "mu"].iterrows():
+        print(f"population ({r['n_subjects']} subjects): μ = {r['estimate']:.3g} "
+              f"[{r['ci_low']:.3g}, {r['ci_high']:.3g}]")
+    for o in pop.outliers:
+        print(f"population: outlier {o.describe()}", file=sys.stderr)
+    if pop.table.empty and pop.notes:
+        print(f"population: none: {pop.notes[0]}", file=sys.stderr)
+
+
+def _estimate(e: Any) -> str:
+    """A fitted parameter as the report prints it: ``h_L = 3.47 [3.43, 3.52] µm``."""
+    from evtribo.report.headline import PARAMETER_DISPLAY
+    from evtribo.util.numbers import PREFIXES, auto_prefix, with_interval
+
+    _, unit, prefix = PARAMETER_DISPLAY.get(e.name, (e.name, "", ""))
+    p = (auto_prefix(e.value) if prefix is None else prefix) if unit else ""
+    k = 10.0 ** -PREFIXES[p]
+    return (f"{e.name} = {with_interval(k * e.value, k * e.ci_low, k * e.ci_high)}"
+            + (f" {p}{unit}" if unit else ""))

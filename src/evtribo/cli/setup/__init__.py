@@ -1,0 +1,1 @@
+"""Commands for a rig and its logs: ``init``, ``inspect``, ``calibrate``, ``decode``."""

@@ -1,0 +1,80 @@
+"""``evtribo calibrate STUDY --press SUBJECT/TRIAL [--slide SUBJECT/TRIAL ...]``: the load
+cells' cross-talk matrix from calibration recordings.
+
+Record, with ``evtribo acquire`` into the study, a trial with the finger lifted for the tare
+stretch and then pressing without sliding, harder and lighter (from a light touch to about
+twice the usual force), for 10-20 s: the tangential cell's reading against the normal one
+there gives the share of the normal force it reads. Trials with the finger sliding back and
+forth (``--slide``, default every other trial of the study) give, at each reversal, the
+share of the tangential force the normal cell reads. The command prints both and the
+``[rig.calibration] matrix`` that undoes them, to paste into study.toml.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Register ``calibrate``."""
+    p = subparsers.add_parser("calibrate", help="the load cells' cross-talk matrix from "
+                              "calibration recordings",
+                              description=__doc__.split("\n\n")[0],
+                              epilog=__doc__.split("\n\n", 1)[1],
+                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("study", help="the study folder")
+    p.add_argument("--press", metavar="SUBJECT/TRIAL",
+                   help="a recording of the finger pressing without sliding")
+    p.add_argument("--slide", metavar="SUBJECT/TRIAL", action="append",
+                   help="a recording of the finger sliding (repeat; default: every other "
+                        "trial of the study)")
+    p.set_defaults(func=run)
+    return p
+
+
+def _split(text: str, key: str) -> tuple[str, str]:
+    from evtribo.errors import UserInputError
+
+    subject, _, trial = text.partition("/")
+    if not subject or not trial:
+        raise UserInputError(f"{text!r} is not SUBJECT/TRIAL (e.g. P01/run-03)", key=key)
+    return subject, trial
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``evtribo calibrate``; return the exit code."""
+    from evtribo.analysis.calibration import crosstalk_matrix
+    from evtribo.errors import UserInputError
+    from evtribo.results.check import find_trial, trial_signals
+    from evtribo.results.workers import trial_meta
+    from evtribo.study import load_study
+
+    study = load_study(args.study)
+    if args.press is None and not args.slide and len(study.trials) < 1:
+        raise UserInputError("the study has no trials to calibrate from", path=args.study)
+    press_ref = find_trial(study, *_split(args.press, "--press")) if args.press else None
+    slides = ([find_trial(study, *_split(s, "--slide")) for s in args.slide] if args.slide
+              else [t for t in study.trials if press_ref is None
+                    or t.key != press_ref.key])
+    print(f"evtribo calibrate: pressing from {press_ref.key if press_ref else 'no trial'}, "
+          f"sliding from {len(slides)} trial(s)", flush=True)
+    found = crosstalk_matrix(
+        trial_signals(press_ref, study) if press_ref else None,
+        [(trial_signals(ref, study), trial_meta(ref)) for ref in slides])
+    if found.press_s:
+        print(f"the tangential cell reads {100 * found.b:+.2f} % (+/- {100 * found.b_se:.2f}) "
+              f"of the normal force ({found.press_s:.1f} s of pressing)")
+    else:
+        print("the tangential cell's share of the normal force: not measured (record the "
+              "finger pressing without sliding, give it with --press)")
+    if found.reversals >= 3:
+        print(f"the normal cell reads {100 * found.a:+.2f} % (+/- {100 * found.a_se:.2f}) of "
+              f"the tangential force ({found.reversals} reversals)")
+    else:
+        print("the normal cell's share of the tangential force: not measured (fewer than 3 "
+              "reversals of the strokes)")
+    (a, b), (c, d) = found.matrix
+    print("\nin study.toml:\n[rig.calibration]\n"
+          f"matrix = [[{a!r}, {b!r}], [{c!r}, {d!r}]]")
+    return 0

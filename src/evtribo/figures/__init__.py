@@ -1,0 +1,1 @@
+"""The figures of ``evtribo compare`` and ``evtribo plot``, in a journal's style."""

@@ -1,0 +1,369 @@
+"""Figures comparing the model with the measurements (the seed paper's Figures 5-7); the
+electrostatic force against the voltage, per subject and of every subject in one figure, is
+:mod:`evtribo.figures.electrostatic_plots`' (re-exported here).
+
+Every ``plot_*`` function draws on the Axes it is given, or, with ``ax=None``, on a new
+figure in the journal style (:mod:`evtribo.figures.style`: a single column wide, no title,
+forces in mN, plain voltage ticks at the measured amplitudes, a legend that covers no
+data), and returns the Axes, like lmfit's ``plot_fit``. Figures are built with
+:class:`matplotlib.figure.Figure` directly (no pyplot state), so they render with the Agg
+canvas on a machine without a display; :func:`save_figure` writes them with text as text.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import matplotlib as mpl
+import numpy as np
+import pandas as pd
+from matplotlib import colormaps
+from matplotlib.axes import Axes
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import ListedColormap, Normalize
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from numpy.typing import NDArray
+
+from evtribo.figures.electrostatic_plots import (
+    plot_electrostatic_force,
+    plot_electrostatic_force_all,
+)
+from evtribo.figures.layout import place_legend, voltage_ticks
+from evtribo.figures.style import (
+    DEFAULT_DPI,
+    DEFAULT_FORMATS,
+    PALETTE,
+    new_axes,
+    proxy,
+    series_style,
+    styled,
+)
+from evtribo.fit.model_points import mean_friction_force
+from evtribo.model import (
+    area_increase_pct,
+    friction_force,
+    friction_time_series,
+    sine_voltage,
+)
+from evtribo.model.params import TABLE_1, ModelParameters
+from evtribo.store.files import atomic_open
+from evtribo.util.numbers import significant
+
+log = logging.getLogger(__name__)
+
+__all__ = ["new_axes", "plot_area_increase", "plot_electrostatic_force",
+           "plot_electrostatic_force_all", "plot_friction_normal_force", "plot_friction_time",
+           "safe_name", "save_figure", "trace_voltage"]
+
+#: Text as text in SVG and PDF, whatever style the figure was drawn in.
+_TEXT_AS_TEXT: Any = {"svg.fonttype": "none", "pdf.fonttype": 42, "ps.fonttype": 42}
+
+
+def safe_name(name: str) -> str:
+    """*name* reduced to letters, digits, ``-`` and ``_`` (for file names).
+
+    Parameters
+    ----------
+    name : str
+        A subject's name, say.
+
+    Returns
+    -------
+    str
+        Every other character replaced by ``_`` (``"_"`` for an empty name).
+    """
+    return re.sub(r"[^A-Za-z0-9_-]", "_", str(name)) or "_"
+
+
+def save_figure(fig: Figure, folder: str | Path, stem: str, *, dpi: float = DEFAULT_DPI,
+                formats: Sequence[str] = DEFAULT_FORMATS) -> list[Path]:
+    """Write *fig* as ``folder/stem.<format>`` for each format, text as text, without a
+    creation date (the same data give byte-identical files).
+
+    Parameters
+    ----------
+    fig : Figure
+        The figure.
+    folder : str or Path
+        Where the files go (created if missing).
+    stem : str
+        The files' name without suffix.
+    dpi : float
+        Resolution of raster formats, dots per inch (300 by default).
+    formats : sequence of str
+        Suffixes matplotlib knows (``png``, ``svg``, ``pdf``...).
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    with mpl.rc_context(_TEXT_AS_TEXT):
+        for fmt in formats:
+            path = folder / f"{stem}.{fmt}"
+            with atomic_open(path, "wb") as fh:  # a killed process leaves no half figure
+                fig.savefig(fh, dpi=dpi, format=fmt, metadata=_metadata(fmt))
+            paths.append(path)
+    return paths
+
+
+def _metadata(fmt: str) -> dict[str, str | None]:
+    # no creation date: the same data give byte-identical files
+    if fmt == "svg":
+        return {"Date": None}
+    if fmt == "pdf":
+        return {"CreationDate": None}
+    return {}
+
+
+#: More ON drives than this in one friction-versus-load figure: a colour bar for the
+#: amplitude instead of one legend entry per drive.
+_MAX_ON_ENTRIES = 6
+
+
+def _on_series(ax: Axes, on: pd.DataFrame, grid: NDArray[np.float64],
+               params: ModelParameters) -> list[Line2D]:
+    """Draw each ON drive's windows and model curve; return the legend entries."""
+    pairs = on[["waveform", "amplitude_V"]].drop_duplicates().itertuples(index=False)
+    keys = sorted(((str(p[0]), float(p[1])) for p in pairs),
+                  key=lambda wa: (wa[0] != "square", wa[0], wa[1]))
+    amps = np.array([a for _, a in keys])
+    many = len(keys) > _MAX_ON_ENTRIES
+    cmap = ListedColormap(colormaps["viridis"](np.linspace(0.0, 0.85, 256)))
+    norm = Normalize(float(amps.min()), float(amps.max())) if amps.size else Normalize()
+    handles: list[Line2D] = []
+    waves: dict[str, dict[str, Any]] = {}
+    for k, (wave, amp) in enumerate(keys):
+        sel = on[(on["waveform"].astype(str) == wave) & (on["amplitude_V"] == amp)]
+        style: dict[str, Any] = series_style(k + 1) if not many else {
+            "marker": "o", "linestyle": "-" if wave == "square" else "--"}
+        style = {**style, "color": cmap(norm(amp) if np.ptp(amps) > 0 else 0.5),
+                 "markerfacecolor": "white" if wave == "sine" else None}
+        points: dict[str, Any] = {key: v for key, v in style.items() if key != "linestyle"}
+        ax.plot(1e3 * sel["normal_force_N"], 1e3 * sel["friction_force_N"], linestyle="none",
+                markersize=3, **points)
+        ax.plot(1e3 * grid, 1e3 * mean_friction_force(grid, amp, wave, params),
+                linestyle=style["linestyle"], color=style["color"])
+        if not many:
+            handles.append(proxy(f"ON {amp:g} V" + (f" {wave}" if wave != "square" else ""),
+                                 **style))
+        waves.setdefault(wave, {**style, "color": "0.35"})
+    if many:
+        handles += [proxy(f"ON, {wave}", **style) for wave, style in waves.items()]
+        fig = ax.get_figure()
+        assert fig is not None
+        bar = fig.colorbar(ScalarMappable(norm, cmap), ax=ax, pad=0.02, aspect=30)
+        bar.set_label("voltage amplitude $U$ (V)")
+        voltage_ticks(bar.ax.yaxis, amps)
+    return handles
+
+
+@styled
+def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = TABLE_1, *,
+                               subject: str | None = None, ax: Axes | None = None) -> Axes:
+    """Friction versus normal force, OFF and ON: measured windows and the model (Figure 6).
+
+    Points are the steady-sliding windows, lines the model (eq. 5); OFF in black, each ON
+    drive (waveform and amplitude) in the colour of its amplitude on the viridis map
+    (readable in greyscale) with its own marker and line style; open markers for a sine
+    drive. With more than six ON drives a colour bar gives the amplitude and the legend
+    only the waveforms (solid: square, dashed: sine).
+
+    Parameters
+    ----------
+    windows : DataFrame
+        Rows of ``windows.csv`` (one subject's, or several).
+    params : ModelParameters
+        Model parameters (``mu`` from the measured OFF windows unless fitted).
+    subject : str, optional
+        The subject (the caption names it; no title is drawn).
+    ax : Axes, optional
+        Where to draw; a new figure in the journal style when None.
+
+    Returns
+    -------
+    Axes
+        Forces in mN.
+    """
+    ax = new_axes() if ax is None else ax
+    fn = windows["normal_force_N"].to_numpy(float)
+    top = float(np.nanmax(fn)) * 1.15 if fn.size and np.isfinite(fn).any() else 1.0
+    grid = np.linspace(0.02 * top, top, 60)
+    cond = windows["condition"].astype(str).str.lower()
+    off = windows[cond == "off"]
+    ax.plot(1e3 * off["normal_force_N"], 1e3 * off["friction_force_N"], "o", color="k",
+            markerfacecolor="white", markersize=3)
+    ax.plot(1e3 * grid, 1e3 * mean_friction_force(grid, 0.0, "square", params), "-",
+            color="k")
+    handles = [proxy(f"OFF (μ = {significant(params.mu)})", color="k", marker="o",
+                     linestyle="-", markerfacecolor="white")]
+    handles += _on_series(ax, windows[cond == "on"], grid, params)
+    ax.set_xlabel("normal force $F_n$ (mN)")
+    ax.set_ylabel("friction force $F_t$ (mN)")
+    ax.set_xlim(0, 1e3 * top)
+    ax.set_ylim(bottom=0)
+    place_legend(ax, handles, [str(h.get_label()) for h in handles], ncol_outside=3)
+    return ax
+
+
+def trace_voltage(trace: pd.DataFrame, params: ModelParameters = TABLE_1,
+                  n_phases: int = 90) -> NDArray[np.float64]:
+    """Instantaneous voltage U(t) of a sine trace, V.
+
+    ``voltage_V`` when the trace has it; otherwise A(t) sin(2 pi f t + phi) from
+    ``amplitude_V`` and ``frequency_Hz``, with the phase phi in [0, pi) that best matches the
+    measured friction (the model's friction depends on U^2, so phi + pi gives the same).
+
+    Parameters
+    ----------
+    trace : DataFrame
+        Rows of ``sine_trace.csv`` (one trial).
+    params : ModelParameters
+        Model parameters for matching the phase.
+    n_phases : int
+        Phases tried.
+
+    Returns
+    -------
+    ndarray
+        U(t) at the trace's rows, V.
+    """
+    if "voltage_V" in trace.columns:
+        return trace["voltage_V"].to_numpy(float)
+    t = trace["time_s"].to_numpy(float)
+    amp = np.nan_to_num(trace["amplitude_V"].to_numpy(float))
+    freq = np.nan_to_num(trace["frequency_Hz"].to_numpy(float))
+    fn = trace["normal_force_N"].to_numpy(float)
+    ft = trace["friction_force_N"].to_numpy(float)
+    phases = np.linspace(0.0, np.pi, n_phases, endpoint=False)
+    u = amp[None, :] * np.sin(2 * np.pi * freq[None, :] * t[None, :] + phases[:, None])
+    model = np.asarray(friction_force(fn[None, :], u, params), dtype=float)
+    err = np.nansum((model - ft[None, :]) ** 2, axis=1)
+    return u[int(np.argmin(err))]
+
+
+@styled
+def plot_friction_time(trace: pd.DataFrame | None, params: ModelParameters = TABLE_1, *,
+                       amplitude: float = 140.0, frequency: float = 10.0,
+                       normal_force: float = 0.5, subject: str | None = None,
+                       ax: Axes | None = None) -> Axes:
+    """Friction versus time during a sine drive, measured and model (Figure 5).
+
+    With a measured trace (``sine_trace.csv``), the model is evaluated at its normal force
+    and voltage sample by sample. Without one the model alone is drawn for the paper's
+    conditions (*amplitude*, *frequency*, constant *normal_force*), ON and OFF, and the
+    Axes says so.
+
+    Parameters
+    ----------
+    trace : DataFrame or None
+        Columns ``time_s``, ``normal_force_N``, ``friction_force_N``, ``voltage_V``.
+    params : ModelParameters
+        Model parameters.
+    amplitude, frequency : float
+        Drive for the model-only figure, V and Hz.
+    normal_force : float
+        Normal force for the model-only figure, N.
+    subject : str, optional
+        The subject (the caption names it; no title is drawn).
+    ax : Axes, optional
+        Where to draw; a new figure in the journal style when None.
+
+    Returns
+    -------
+    Axes
+        Forces in mN.
+    """
+    ax = new_axes() if ax is None else ax
+    if trace is not None and len(trace):
+        t = trace["time_s"].to_numpy(float)
+        fn = trace["normal_force_N"].to_numpy(float)
+        u = trace_voltage(trace, params)
+        fitted_phase = "voltage_V" not in trace.columns
+        ax.plot(t, 1e3 * fn, "-.", color=PALETTE[2], label="normal force, measured")
+        # the model underneath, wide and pale, so that the measured trace stays visible
+        ax.plot(t, 1e3 * friction_time_series(t, fn, u, params), "-", color=PALETTE[1],
+                lw=3.0, alpha=0.45, solid_capstyle="butt",
+                label="friction, model (drive phase fitted)" if fitted_phase
+                else "friction, model")
+        ax.plot(t, 1e3 * friction_time_series(t, fn, np.zeros_like(t), params), "--",
+                color=PALETTE[0], label="friction, model OFF")
+        ax.plot(t, 1e3 * trace["friction_force_N"].to_numpy(float), "-", color="k", lw=0.7,
+                label="friction, measured")
+    else:
+        t = np.linspace(0.0, 3.0 / frequency, 600)
+        fn = np.full_like(t, normal_force)
+        ax.plot(t, 1e3 * fn, "-.", color=PALETTE[2], label="normal force")
+        ax.plot(t, 1e3 * friction_time_series(t, fn, sine_voltage(t, amplitude, frequency),
+                                              params),
+                "-", color=PALETTE[1], label=f"model ON ({amplitude:g} V, {frequency:g} Hz)")
+        ax.plot(t, 1e3 * friction_time_series(t, fn, np.zeros_like(t), params), "--",
+                color=PALETTE[0], label="model OFF")
+    ax.set_xlabel("time $t$ (s)")
+    ax.set_ylabel("force (mN)")
+    ax.set_xlim(float(np.nanmin(t)), float(np.nanmax(t)))
+    ax.set_ylim(bottom=0)
+    place_legend(ax)
+    return ax
+
+
+@styled
+def plot_area_increase(normal_forces: Mapping[str, float],
+                       params: Mapping[str, ModelParameters], *, u_max: float = 150.0,
+                       amplitudes: Sequence[float] | None = None,
+                       ax: Axes | None = None) -> Axes:
+    """Predicted increase of the contact area versus voltage amplitude (Figure 7).
+
+    Parameters
+    ----------
+    normal_forces : mapping
+        ``{label: normal force in N}``, e.g. each subject's mean normal force ON; one
+        colour and line style per label, in this order.
+    params : mapping
+        ``{label: ModelParameters}`` with the same keys.
+    u_max : float
+        Largest voltage amplitude drawn, V.
+    amplitudes : sequence of float, optional
+        The measured amplitudes, V: the voltage axis gets a tick at each (and at 0).
+    ax : Axes, optional
+        Where to draw; a new figure in the journal style when None.
+
+    Returns
+    -------
+    Axes
+    """
+    ax = new_axes() if ax is None else ax
+    u = np.linspace(0.0, u_max, 120)
+    for k, (label, fn) in enumerate(normal_forces.items()):
+        style = series_style(k)
+        ax.plot(u, area_increase_pct(fn, u, params[label]), color=style["color"],
+                linestyle=style["linestyle"], label=f"{label} ($F_n$ = {1e3 * fn:.0f} mN)")
+    ax.set_xlabel("voltage amplitude $U$ (V)")
+    ax.set_ylabel("contact area increase (%)")
+    ax.set_xlim(0, u_max)
+    ax.set_ylim(bottom=0)
+    if amplitudes is not None and len(amplitudes):
+        voltage_ticks(ax.xaxis, _from_zero(amplitudes))
+    place_legend(ax)
+    return ax
+
+
+def _from_zero(amplitudes: Sequence[float]) -> list[float]:
+    """The measured amplitudes and, below the lowest, ticks down to 0 at their own step
+    (60, 80... 140 V get 0, 20, 40 too: no gap without a label on a linear axis)."""
+    amps = np.unique(np.asarray(amplitudes, float))
+    amps = amps[np.isfinite(amps) & (amps > 0)]
+    if amps.size == 0:
+        return [0.0]
+    steps = np.diff(amps)
+    step = float(np.min(steps)) if steps.size else float(amps[0])
+    below = np.arange(0.0, float(amps[0]) - 0.5 * step, step)
+    return [*below.tolist(), *amps.tolist()]

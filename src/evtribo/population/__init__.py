@@ -1,0 +1,2 @@
+"""From subjects to the population: random-effects pooling, the power law across subjects,
+contrasts and outliers (study format section 10)."""

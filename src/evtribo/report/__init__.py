@@ -1,0 +1,2 @@
+"""``evtribo compare`` (fits and figures written as one unit) and ``evtribo report`` (one self-
+contained HTML page)."""

@@ -1,0 +1,353 @@
+"""The sections of ``evtribo report``'s page, in the order a reader wants them.
+
+1. the electrostatic force by subject and voltage (mN, 95 % intervals);
+2. the model fit per subject (air gap in µm, exponents, μ) and the model's parameters, each
+   said to be measured, fixed or fitted, with the paper cited; then the population's
+   estimates (:mod:`evtribo.report.population`);
+3. the figures of all subjects together (``electrostatic_force_all`` first);
+4. the model comparison (``models.csv`` and the ``frequency_response`` figures), when there
+   is one;
+5. one section per subject: its forces, its figures, its trials, and each trial's check
+   figure folded in a ``<details>`` element;
+6. the warnings;
+7. provenance and settings: the study's facts, the trials, the power laws, the inputs and
+   result files with their SHA-256, the rig, the software and the analysis settings, and
+   how to cite the software and the model.
+
+Every number is printed for people (:mod:`evtribo.util.numbers`).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import pandas as pd
+from markupsafe import escape
+
+from evtribo.documents.fit import FitDocument
+from evtribo.fit.tables import ResultTables
+from evtribo.report.friction_report import add_trial_mu
+from evtribo.report.headline import (
+    CITATION,
+    DOI_URL,
+    Headline,
+    fit_summary,
+    force_table,
+    model_comparison,
+    parameter_roles,
+)
+from evtribo.report.page import Report
+from evtribo.util.numbers import frequency, quantity, significant, to_float, voltage, with_interval
+
+__all__ = ["SECTIONS", "add_all_subjects", "add_headline", "add_models", "add_notes",
+           "add_subjects", "add_warnings", "trial_summary", "trials_view"]
+
+#: The sections' titles, in the page's order (a subject's is ``Subject <name>``).
+SECTIONS: dict[str, str] = {
+    "forces": "Electrostatic force", "fit": "Model fit", "all": "All subjects",
+    "models": "Model comparison", "warnings": "Warnings",
+    "provenance": "Provenance and settings"}
+
+
+
+def _add(report: Report, headline: Headline, section: str) -> None:
+    report.add_table(headline.table, headline.title, caption=headline.caption,
+                     section=section, wrap=True)
+
+
+def _cite(report: Report, section: str, lead: str) -> None:
+    report.add_html(f'<p class="cite">{escape(lead)} {escape(CITATION)} '
+                    f'(<a href="{DOI_URL}">{DOI_URL}</a>).</p>', section=section)
+
+
+def _figure(report: Report, fig: Mapping[str, Any], section: str,
+            details: str | None = None) -> None:
+    report.add_figure(fig["file"], str(fig.get("title") or fig.get("stem")),
+                      caption=str(fig.get("caption") or ""), section=section, details=details)
+
+
+def add_headline(report: Report, tables: ResultTables, fit: pd.DataFrame,
+                 fit_doc: FitDocument) -> list[Headline]:
+    """The page's first two sections: F_el by subject and voltage, and the fit.
+
+    Parameters
+    ----------
+    report : Report
+        The page.
+    tables : ResultTables
+        The result folder's tables.
+    fit : DataFrame
+        ``fit.csv``.
+    fit_doc : FitDocument
+        ``fit.json``.
+
+    Returns
+    -------
+    list of Headline
+        The two headline tables (what ``--tables`` exports).
+    """
+    forces, summary = force_table(tables.electrostatic), fit_summary(fit, fit_doc)
+    _add(report, forces, SECTIONS["forces"])
+    _add(report, summary, SECTIONS["fit"])
+    methods = {str(v.get("interval", {}).get("method", "jacobian"))
+               for v in fit_doc.subjects.values() if isinstance(v, dict)}
+    how = {"bootstrap": "refits to the bootstrap replicates of the electrostatic forces",
+           "jacobian": "the fit's Jacobian (each point's error taken as independent)"}
+    intervals = " or ".join(how.get(m, m) for m in sorted(methods)) or how["jacobian"]
+    report.add_html(f'<p class="caption">95 % intervals of the fitted parameters from '
+                    f"{escape(intervals)}.</p>", section=SECTIONS["fit"])
+    _cite(report, SECTIONS["fit"], "Model:")
+    _add(report, parameter_roles(fit_doc, fit), SECTIONS["fit"])
+    return [forces, summary]
+
+
+def add_all_subjects(report: Report, figures: Sequence[Mapping[str, Any]]) -> None:
+    """The figures of no one subject: all subjects' F_el first, then the model's figures.
+
+    Parameters
+    ----------
+    report : Report
+        The page.
+    figures : sequence of mapping
+        fit.json's figure records, each with its ``file``.
+
+    Returns
+    -------
+    None
+    """
+    study_wide = [f for f in figures if f.get("subject") is None
+                  and f.get("kind") not in ("trial", "frequency_response", "population")]
+    study_wide.sort(key=lambda f: f.get("kind") != "electrostatic_force_all")
+    for f in study_wide:
+        _figure(report, f, SECTIONS["all"])
+
+
+def add_models(report: Report, models: pd.DataFrame | None,
+               figures: Sequence[Mapping[str, Any]], subjects: Sequence[str]) -> None:
+    """The model comparison: each subject's models ranked by AIC, and F_el vs frequency.
+
+    Parameters
+    ----------
+    report : Report
+        The page.
+    models : DataFrame or None
+        ``models.csv`` (None: no models were compared; the section then holds the
+        ``frequency_response`` figures alone, and is left out without them).
+    figures : sequence of mapping
+        fit.json's figure records, each with its ``file``.
+    subjects : sequence of str
+        The subjects, in order.
+
+    Returns
+    -------
+    None
+    """
+    responses = [f for f in figures if f.get("kind") == "frequency_response"]
+    if models is None and not responses:
+        return
+    sec = SECTIONS["models"]
+    _cite(report, sec, "The paper's model and its variants; the paper:")
+    for s in subjects:
+        if models is not None and (models["subject"].astype(str) == s).any():
+            _add(report, model_comparison(models, s), sec)
+        for f in figures:
+            if f in responses and f.get("subject") == s:
+                _figure(report, f, sec)
+
+
+def _excluded_in(caption: str) -> str:
+    """What a trial check's caption says was excluded (``excluded (hatched): ...``)."""
+    m = re.search(r"\bexcluded(?: \([^)]*\))?: (.+?)\.?$", caption.strip())
+    return m.group(1).strip() if m else ""
+
+
+def trial_summary(row: Mapping[str, Any], windows: pd.DataFrame,
+                  failed: Mapping[str, str], caption: str = "") -> str:
+    """The summary line of a trial's check: name, drive, windows, what was left out.
+
+    Parameters
+    ----------
+    row : mapping
+        The trial's row of ``trials.csv``.
+    windows : DataFrame
+        The trial's rows of ``windows.csv``.
+    failed : mapping of str to str
+        ``subject/trial`` -> why it was not analysed.
+    caption : str
+        The caption of the trial's check figure: the stretches it names as excluded
+        (``excluded (hatched): ON/OFF switch (guard) 0.64 s.``) are named too.
+
+    Returns
+    -------
+    str
+        E.g. ``run-03: square 10 kHz, 160 V; 2 ON / 4 OFF windows; excluded: 1 damaged
+        line``.
+    """
+    key = f"{row.get('subject')}/{row.get('trial')}"
+    drive = " ".join(x for x in (str(row.get("waveform") or ""),
+                                 frequency(row.get("frequency_Hz"))) if x and x != "—")
+    parts = [f"{row.get('trial')}: {drive}, {voltage(row.get('amplitude_V'))}"]
+    cond = windows["condition"].astype(str).str.lower() if not windows.empty else None
+    if cond is not None:
+        parts.append(f"{int((cond == 'on').sum())} ON / {int((cond == 'off').sum())} OFF "
+                     "windows")
+    excluded = [x for x in (_excluded_in(caption),) if x]
+    for col, what in (("dropped_frames", "dropped frame(s)"),
+                      ("skipped_lines", "damaged line(s) skipped")):
+        n = to_float(row.get(col))
+        if math.isfinite(n) and n > 0:
+            excluded.append(f"{int(n)} {what}")
+    if key in failed:
+        excluded.append(f"not analysed: {failed[key]}")
+    parts.append("excluded: " + ", ".join(excluded) if excluded else "nothing excluded")
+    return "; ".join(parts)
+
+
+def _forces_of(rows: pd.DataFrame) -> pd.DataFrame:
+    """A subject's rows of electrostatic.csv in readable units."""
+    out = pd.DataFrame({
+        "waveform": rows["waveform"].astype(str),
+        "frequency": [frequency(f) for f in rows.get("frequency_Hz", [math.nan] * len(rows))],
+        "amplitude": [voltage(a) for a in rows["amplitude_V"]],
+        "μ": [significant(m) for m in rows["mu"]],
+        "F_n ON (mN)": [significant(1e3 * to_float(x)) for x in rows["normal_force_on_N"]],
+        "F_el (mN) [95 %]": [
+            with_interval(1e3 * to_float(v), 1e3 * to_float(lo), 1e3 * to_float(hi))
+            for v, lo, hi in zip(rows["electrostatic_force_N"],
+                                 rows["electrostatic_force_ci_low_N"],
+                                 rows["electrostatic_force_ci_high_N"], strict=True)]})
+    for col, name in (("n_on", "ON windows"), ("n_off", "OFF windows")):
+        if col in rows.columns:
+            out[name] = [str(int(n)) if math.isfinite(to_float(n)) else "—"
+                         for n in rows[col]]
+    return out
+
+
+def add_subjects(report: Report, tables: ResultTables, trials: pd.DataFrame,
+                 figures: Sequence[Mapping[str, Any]]) -> None:
+    """One section per subject: forces, figures, trials, each trial's check folded.
+
+    Parameters
+    ----------
+    report : Report
+        The page.
+    tables : ResultTables
+        The result folder's tables.
+    trials : DataFrame
+        ``trials.csv`` with the sidecars' notes.
+    figures : sequence of mapping
+        fit.json's figure records, each with its ``file``.
+
+    Returns
+    -------
+    None
+    """
+    failed = {str(f.get("trial")): str(f.get("error")) for f in tables.summary.failed_trials}
+    for subject in tables.all_subjects:
+        sec = f"Subject {subject}"
+        es = tables.electrostatic[tables.electrostatic["subject"].astype(str) == subject]
+        mine = trials[trials["subject"].astype(str) == subject]
+        if es.empty:  # no ON windows to compare: the friction coefficient of each trial
+            add_trial_mu(report, mine, tables.windows, sec)
+        else:
+            report.add_table(_forces_of(es), "Electrostatic force", section=sec, wrap=True)
+        for f in figures:
+            if f.get("subject") == subject and f.get("kind") not in (
+                    "trial", "frequency_response"):
+                _figure(report, f, sec)
+        report.add_table(trials_view(mine), "Trials", section=sec, wrap=True)
+        checks = {str(f.get("trial")): f for f in figures
+                  if f.get("kind") == "trial" and f.get("subject") == subject}
+        win = tables.windows
+        for _, row in mine.iterrows():
+            fig = checks.pop(str(row["trial"]), None)
+            if fig is not None:
+                w = win[(win["subject"].astype(str) == subject)
+                        & (win["trial"].astype(str) == str(row["trial"]))]
+                _figure(report, fig, sec,
+                        details=trial_summary({str(k): v for k, v in row.items()}, w, failed,
+                                              str(fig.get("caption") or "")))
+        for trial, fig in checks.items():  # a check of a trial trials.csv does not list
+            _figure(report, fig, sec, details=f"{trial}: not in trials.csv")
+
+
+def trials_view(trials: pd.DataFrame) -> pd.DataFrame:
+    """trials.csv for people: forces' offsets in mN, frequencies with their unit.
+
+    Parameters
+    ----------
+    trials : DataFrame
+        ``trials.csv`` (with the sidecars' notes, when the study is at hand).
+
+    Returns
+    -------
+    DataFrame
+        One row per trial, its columns worded and its numbers printed for people.
+    """
+    view = pd.DataFrame({"trial": trials["trial"].astype(str)})
+    if "waveform" in trials.columns:
+        nan = pd.Series([math.nan] * len(trials), index=trials.index)
+        view["drive"] = [f"{w} {frequency(f)}, {voltage(a)}" for w, f, a in zip(
+            trials["waveform"].astype(str), trials.get("frequency_Hz", nan),
+            trials.get("amplitude_V", nan), strict=True)]
+    names = {"condition": "condition", "duration_s": "duration (s)", "frames": "frames",
+             "dropped_frames": "dropped frames", "skipped_lines": "damaged lines"}
+    for col, name in names.items():
+        if col in trials.columns:
+            view[name] = [significant(v, 3) if col == "duration_s" else
+                          (str(int(to_float(v))) if math.isfinite(to_float(v)) else str(v))
+                          for v in trials[col]]
+    for col, name in (("normal_offset_N", "normal offset"),
+                      ("tangential_offset_N", "tangential offset")):
+        if col in trials.columns:
+            view[name] = [quantity(v, "N", prefix="m") if math.isfinite(to_float(v))
+                          else "—" for v in trials[col]]
+    for col in ("tare", "notes"):
+        if col in trials.columns:
+            view[col] = [("" if v is None or (isinstance(v, float) and math.isnan(v))
+                          else str(v)) for v in trials[col]]
+    return view
+
+
+def add_warnings(report: Report, warnings: Sequence[str]) -> None:
+    """The warnings: the study now against the analysis, then the analysis's, each once.
+
+    Parameters
+    ----------
+    report : Report
+        The page.
+    warnings : sequence of str
+        The warnings, in order.
+
+    Returns
+    -------
+    None
+    """
+    report.add_list(warnings, "Warnings", section=SECTIONS["warnings"],
+                    caption="First, any input of the study changed, removed or added since "
+                            "the analysis; then what the analysis warned of (summary.json), "
+                            "and the frames dropped and damaged lines skipped in each trial "
+                            "(trials.csv).")
+
+
+def add_notes(report: Report, notes: Sequence[str]) -> None:
+    """What the comparison says of how it fitted (how the intervals were obtained, what
+    was left out): notes, not warnings, under the model fit.
+
+    Parameters
+    ----------
+    report : Report
+        The page.
+    notes : sequence of str
+        fit.json's notes.
+
+    Returns
+    -------
+    None
+    """
+    if notes:
+        report.add_list(notes, "Notes on the fit", section=SECTIONS["fit"],
+                        caption="From evtribo compare (fit.json).")

@@ -1,0 +1,280 @@
+"""``evtribo report``: the study's answer first, then the fit, the figures, the trials and
+the provenance, in one page.
+
+Reads a result folder (``evtribo analyze``'s tables and ``summary.json``, ``evtribo
+compare``'s ``fit.csv``, ``fit.json``, ``figures/``, ``population.csv`` and
+``population_contrasts.csv`` and, when it compared models, ``models.csv``) and, when
+``summary.json`` names a study folder that still exists, the trials' sidecars there (for
+their notes) and the inputs ``summary.json`` records (hashed again,
+:mod:`evtribo.report.study_files`). The page's sections and their order are
+:mod:`evtribo.report.sections`'; with ``tables=("md", "tex")`` the headline tables
+are also written as Markdown and LaTeX into ``tables/`` beside the page
+(:mod:`evtribo.report.table_export`).
+
+The folder must be one unit: the analysis's complete results
+(:func:`~evtribo.fit.tables.read_results`) and a model fit of that analysis (``fit.json``'s
+``run_id`` and the SHA-256 of compare's files); anything else is refused, naming
+``evtribo compare OUT --force``.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from evtribo.documents.fit import FitDocument, read_fit
+from evtribo.documents.summary import Summary
+from evtribo.errors import FORCE, OutputExistsError, ResultFolderError, UserInputError
+from evtribo.fit.tables import ResultTables, check_out_folder, read_results
+from evtribo.guard import refuse_in_study, refuse_input
+from evtribo.report import sections
+from evtribo.report.compare import compare
+from evtribo.report.friction_report import add_friction
+from evtribo.report.headline import Headline
+from evtribo.report.page import Report
+from evtribo.report.population import add_population, read_population
+from evtribo.report.provenance import add_provenance
+from evtribo.report.study_files import (
+    file_hashes,
+    input_table,
+    study_dir_of,
+    study_name,
+    study_rig,
+    trials_with_notes,
+)
+from evtribo.report.table_export import TABLE_FORMATS, parse_table_formats, table_files
+from evtribo.results.outputs import FIGURES, FIT_CSV, FIT_JSON, REPORT_TABLES, TABLES
+from evtribo.store.files import sha256_file
+from evtribo.store.resultdir import inside, locked, recover
+
+log = logging.getLogger(__name__)
+
+__all__ = ["MODELS_CSV", "build_report", "file_hashes"]
+
+#: The table of compared models ``evtribo compare --models`` writes.
+MODELS_CSV = "models.csv"
+#: Its columns the report reads.
+_MODELS_COLUMNS = ("subject", "model", "fitted", "n_params", "aic", "delta_aic",
+                   "akaike_weight")
+#: Figure files, in the order the page prefers them.
+_FIGURE_SUFFIXES = (".png", ".svg", ".pdf")
+
+
+def _warnings(tables: ResultTables) -> list[str]:
+    """The analysis's warnings, its failed trials, the trials' dropped frames and damaged
+    lines, each once (the comparison's notes are the fit's: :func:`sections.add_notes`)."""
+    items = list(tables.summary.warnings)
+    for failed in tables.summary.failed_trials:
+        items.append(f"{failed.get('trial')}: not analysed: {failed.get('error')}")
+    tr = tables.trials
+    for col, what in (("dropped_frames", "dropped frame(s)"),
+                      ("skipped_lines", "damaged line(s) skipped")):
+        if col in tr.columns:
+            counts = pd.to_numeric(tr[col], errors="coerce").fillna(0)
+            for (_, row), n in zip(tr.iterrows(), counts, strict=True):
+                if n > 0:
+                    items.append(f"{row['subject']}/{row['trial']}: {int(n)} {what}")
+    return list(dict.fromkeys(items))
+
+
+def _fit_doc(folder: Path, summary: Summary | Mapping[str, Any]) -> FitDocument:
+    """fit.json, checked: a fit of the analysis now in *folder*, its files as compare wrote
+    them.
+
+    Raises
+    ------
+    ResultFolderError
+        Naming ``evtribo compare OUT --force``.
+    """
+    if not isinstance(summary, Summary):
+        summary = Summary(dict(summary))
+    again = f"run `evtribo compare {folder} {FORCE}`"
+    path = folder / FIT_JSON
+    if not path.is_file():
+        if summary.run_id is None:  # results of an older evtribo: a fit.csv alone
+            return FitDocument()
+        raise ResultFolderError(f"missing beside fit.csv (a comparison that did not finish?); "
+                                f"{again}", path=path)
+    doc = read_fit(path, again=f"; {again}")
+    run_id = summary.run_id
+    if run_id is not None and doc.get("run_id") != run_id:
+        fitted = doc.get("run_id") or "one without a run_id"
+        raise ResultFolderError(
+            f"the model fit is of another analysis ({fitted}) than the results now in the "
+            f"folder ({run_id}): it was fitted to data that are no longer these; {again}",
+            path=path)
+    for rel, digest in doc.output_sha256.items():
+        file = inside(folder, rel)
+        if file is None or not file.is_file() or sha256_file(file) != digest:
+            raise ResultFolderError(f"missing, or not the file compare wrote (fit.json "
+                                    f"records its SHA-256); {again}", path=folder / rel)
+    return doc
+
+
+def build_report(out: str | Path, output: str | Path, *, force: bool = False,
+                 run_compare: bool = True, dpi: float | None = None,
+                 tables: str | Iterable[str] | None = None) -> Path:
+    """Write the HTML report of a result folder.
+
+    Parameters
+    ----------
+    out : str or Path
+        Result folder (``evtribo analyze``; ``evtribo compare`` is run with its defaults
+        when ``fit.csv`` is missing and *run_compare* is True).
+    output : str or Path
+        The HTML file.
+    force : bool
+        Overwrite an existing report (and its tables).
+    run_compare : bool
+        Run the comparison when it is missing (else raise).
+    dpi : float, optional
+        Resolution of the PNG figures when the comparison is run here (default:
+        compare's).
+    tables : str or iterable of str, optional
+        Also write the headline tables in these formats (``"md,tex"``,
+        :data:`~evtribo.report.table_export.TABLE_FORMATS`) into ``tables/`` beside the
+        page.
+
+    Returns
+    -------
+    Path
+        The HTML file.
+
+    Raises
+    ------
+    UserInputError
+        Missing result folder or tables; missing comparison with *run_compare* False; an
+        unknown table format (key ``--tables``).
+    ResultFolderError
+        The folder is not one analysis's complete results, or its model fit is of another
+        analysis or not whole (exit code 2, naming ``evtribo compare OUT --force``).
+    OutputExistsError
+        When the report exists and *force* is False; when it or a table is a study's input
+        or a raw CAN log (*force* or not).
+    OutputBusyError
+        Another process is writing the folder or the report.
+    """
+    formats = parse_table_formats(tables)
+    folder = check_out_folder(out)
+    refuse_in_study(folder, command="evtribo report")
+    refuse_input(output, command="evtribo report", key="-o")  # --force or not
+    for stem in REPORT_TABLES:
+        for fmt in formats:
+            refuse_input(Path(output).parent / TABLES / f"{stem}.{fmt}",
+                         command="evtribo report", key="--tables")
+    if Path(output).exists() and not force:  # before the lock: a refusal writes nothing
+        raise OutputExistsError("the report already exists; use {force} to overwrite it",
+                                path=output)
+    with locked(folder, "evtribo report"):
+        recover(folder)
+        results = read_results(folder)
+        if not (folder / FIT_CSV).is_file() and not (folder / FIT_JSON).is_file():
+            if not run_compare:
+                raise UserInputError(f"no model fit yet: run `evtribo compare {folder}` "
+                                     "first", path=folder / FIT_CSV)
+            log.warning("report: %s has no fit.csv; running `evtribo compare` with its "
+                        "defaults", folder)
+            compare(folder, dpi=dpi)
+        fit_doc = _fit_doc(folder, results.summary)
+        if not (folder / FIT_CSV).is_file():
+            raise ResultFolderError(f"missing beside fit.json; run `evtribo compare {folder} "
+                                    f"{FORCE}`", path=folder / FIT_CSV)
+        fit = pd.read_csv(folder / FIT_CSV, dtype={"subject": str})
+        report, headlines = _page(results, fit, fit_doc, Path(output))
+        html = Path(os.path.realpath(output))
+        in_folder = html.is_relative_to(Path(os.path.realpath(folder)))
+        stale = [f"{TABLES}/{stem}.{fmt}" for stem in REPORT_TABLES for fmt in TABLE_FORMATS]
+        return report.save(output, overwrite=force, unit=folder if in_folder else None,
+                           figure_files=False, extra_files=table_files(headlines, formats),
+                           stale=stale)
+
+
+def _figure_file(folder: Path, stem: str) -> Path | None:
+    """A figure's file in figures/: its PNG, else its SVG, else its PDF."""
+    for suffix in _FIGURE_SUFFIXES:
+        path = inside(folder, f"{FIGURES}/{stem}{suffix}")
+        if path is not None and path.is_file():
+            return path
+    return None
+
+
+def _figures(tables: ResultTables, fit_doc: FitDocument) -> list[dict[str, Any]]:
+    """The figures fit.json lists (else those in figures/), each with its file.
+
+    Raises
+    ------
+    ResultFolderError
+        A figure fit.json lists has no file in figures/.
+    """
+    folder = tables.out
+    figures = fit_doc.figures
+    if not figures and (folder / FIGURES).is_dir():  # results of an older evtribo compare
+        stems = dict.fromkeys(p.stem for p in sorted((folder / FIGURES).iterdir())
+                              if p.suffix in _FIGURE_SUFFIXES)
+        figures = [{"stem": s, "title": s.replace("_", " "), "caption": "",
+                    "subject": next((x for x in tables.subjects if s.endswith(f"_{x}")),
+                                    None)} for s in stems]
+    for f in figures:
+        path = _figure_file(folder, str(f.get("stem")))
+        if path is None:
+            raise ResultFolderError(f"figure missing: run `evtribo compare {folder} {FORCE}`",
+                                    path=folder / FIGURES / f"{f.get('stem')}.png")
+        f["file"] = path
+    return figures
+
+
+def _models(folder: Path) -> pd.DataFrame | None:
+    """models.csv when compare wrote one (None otherwise).
+
+    Raises
+    ------
+    ResultFolderError
+        It lacks a column the report shows.
+    """
+    path = folder / MODELS_CSV
+    if not path.is_file():
+        return None
+    try:
+        models = pd.read_csv(path, dtype={"subject": str, "model": str, "fitted": str})
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
+        raise ResultFolderError(f"cannot read this table: {err}; run `evtribo compare "
+                                f"{folder} {FORCE}`", path=path) from err
+    missing = [c for c in _MODELS_COLUMNS if c not in models.columns]
+    if missing:
+        raise ResultFolderError(f"missing column(s) {', '.join(missing)}; run `evtribo "
+                                f"compare {folder} {FORCE}`", path=path, key=missing[0])
+    return models
+
+
+def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
+          output: Path) -> tuple[Report, list[Headline]]:
+    """The report's page (figures from the folder's figures/) and its headline tables."""
+    figures = _figures(tables, fit_doc)
+    study_dir = study_dir_of(tables.summary, tables.out)
+    inputs, input_warnings = input_table(tables.summary, study_dir)
+    trials = trials_with_notes(tables, study_dir)
+    name = study_name(tables.summary, tables.out)
+    report = Report(f"evtribo report: {name}")
+    if tables.electrostatic.empty:  # a study of OFF trials: its friction, no fit
+        headlines = add_friction(report, tables.windows, fit_doc.notes)
+        headlines += add_population(report, *read_population(tables.out), fit_doc, figures,
+                                    friction_only=True)
+    else:
+        headlines = sections.add_headline(report, tables, fit, fit_doc)
+        sections.add_notes(report, fit_doc.notes)
+        headlines += add_population(report, *read_population(tables.out), fit_doc, figures)
+    sections.add_all_subjects(report, figures)
+    sections.add_models(report, _models(tables.out), figures, tables.subjects)
+    sections.add_subjects(report, tables, trials, figures)
+    for w in input_warnings:
+        log.warning("report: %s", w)
+    sections.add_warnings(report, [*input_warnings, *_warnings(tables)])
+    add_provenance(report, tables, fit_doc, study=name, study_dir=study_dir, inputs=inputs,
+                   trials=trials, rig=tables.summary.rig or study_rig(study_dir),
+                   output=output)
+    return report, headlines

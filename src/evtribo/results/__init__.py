@@ -1,0 +1,2 @@
+"""A study's results: the trials analysed in workers (or on Dask), reused when unchanged,
+gathered into the result tables with their provenance."""

@@ -1,0 +1,420 @@
+"""Per-subject results from every trial's windows: electrostatic.csv and exponents.csv.
+
+Each ON window is compared with a *reference* set of OFF windows:
+
+- in a trial that alternates, its own OFF windows (same finger state, same session);
+- otherwise the OFF windows of the subject's whole-OFF trials; if the subject has none,
+  every OFF window of the subject (reported as a warning).
+
+The estimates and their bootstrap are
+:func:`evtribo.analysis.friction.estimate.estimate_electrostatic`,
+run once per subject over all its (waveform, frequency, amplitude) groups, so that the
+replicates are
+shared by the subject's points (an OFF reference serving several of them is resampled once
+per replicate, and its error in ``mu`` is common to them, as in the data). They feed the
+power law's interval (:func:`evtribo.analysis.friction.powerlaw.fit_power_law`, one per waveform and
+frequency)
+and, through ``electrostatic_bootstrap.csv`` (:data:`BOOTSTRAP_COLUMNS`), the model fit of
+``evtribo compare``. Each subject gets its own seed (derived from its name and the settings'
+seed), so the output does not depend on the order of the trials or on the number of
+processes.
+"""
+
+from __future__ import annotations
+
+import logging
+import zlib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from evtribo.analysis.forces.crosstalk import crosstalk_notes
+from evtribo.analysis.friction.drift import (
+    TrialDrift,
+    drift_notes,
+    relative_scatter,
+    stroke_notes,
+    trial_drifts,
+    window_facts,
+)
+from evtribo.analysis.friction.estimate import (
+    DEFAULT_N_BOOT,
+    ElectrostaticEstimate,
+    estimate_electrostatic,
+)
+from evtribo.analysis.friction.plausible import implausible_rows
+from evtribo.analysis.friction.powerlaw import fit_power_law
+from evtribo.errors import AnalysisError
+
+log = logging.getLogger(__name__)
+
+#: Columns of electrostatic.csv (study format, section 2).
+ELECTROSTATIC_COLUMNS = ("subject", "waveform", "frequency_Hz", "amplitude_V", "mu",
+                         "normal_force_on_N",
+                         "normal_force_off_N", "friction_on_N", "friction_off_N",
+                         "electrostatic_force_N", "electrostatic_force_ci_low_N",
+                         "electrostatic_force_ci_high_N", "n_on", "n_off")
+#: Columns of exponents.csv (study format, section 2).
+EXPONENT_COLUMNS = ("subject", "waveform", "frequency_Hz", "exponent", "exponent_ci_low",
+                    "exponent_ci_high",
+                    "prefactor_N")
+#: Columns of electrostatic_bootstrap.csv (not in the study format: an addition for
+#: ``evtribo compare``): one row per electrostatic.csv row and bootstrap replicate.
+BOOTSTRAP_COLUMNS = ("subject", "waveform", "frequency_Hz", "amplitude_V", "replicate",
+                     "electrostatic_force_N")
+#: Bootstrap replicates written to electrostatic_bootstrap.csv per row of electrostatic.csv.
+N_BOOTSTRAP_SAVED = 200
+#: Below this many ON or OFF windows behind an amplitude, summary.json says so. The
+#: intervals are calibrated for small counts (Student-t widening, 95 % coverage measured at
+#: 6 windows), so the warning is kept for counts where they become very wide.
+MIN_WINDOWS = 5
+
+
+#: Group key of windows whose trial's drive frequency is unknown.
+_NO_FREQUENCY = -1.0
+
+
+def _frequency(value: object) -> float:
+    """A trial's drive frequency as a group key, Hz: to three significant digits (an
+    amplifier reporting 9999.8 Hz and 10000.2 Hz in two trials drove them alike), or
+    :data:`_NO_FREQUENCY`."""
+    try:
+        f = float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        return _NO_FREQUENCY
+    return float(f"{f:.3g}") if np.isfinite(f) and f > 0 else _NO_FREQUENCY
+
+
+def _where(subject: object, waveform: str, frequency: float) -> str:
+    """``P01 (square, 10000 Hz)`` for messages."""
+    drive = waveform or "unknown waveform"
+    if frequency != _NO_FREQUENCY:
+        drive += f", {frequency:g} Hz"
+    return f"{subject} ({drive})"
+
+
+def _seed(base: int, *names: str) -> np.random.SeedSequence:
+    """A subject's seed: the settings' *base* and its names' checksums."""
+    return np.random.SeedSequence([base, *(zlib.crc32(n.encode()) for n in names)])
+
+
+#: A trial's place in the study: (subject, trial) as the tables name them.
+TrialKey = tuple[object, object]
+#: A point of electrostatic.csv within a subject: (waveform, frequency key, amplitude V).
+PointKey = tuple[str, float, float]
+
+
+def _references(subject: str, on: pd.DataFrame, off: pd.DataFrame, whole_off: pd.DataFrame,
+                *, condition_of: Mapping[TrialKey, object], warnings: list[str]
+                ) -> tuple[list[pd.DataFrame], npt.NDArray[np.int64], list[bool]]:
+    """The OFF reference of each ON window: the sets of OFF windows, each one's index, and
+    whether each set is one trial's (its mu may follow the trial's time)."""
+    subject_ref = whole_off if len(whole_off) else off
+    refs: list[pd.DataFrame] = []
+    ref_index: dict[str, int] = {}
+    on_ref = np.empty(len(on), dtype=np.int64)
+    owns: dict[object, pd.DataFrame] = {}  # each trial's OFF windows, selected once
+    for k, (trial, waveform) in enumerate(zip(on.trial, on.waveform, strict=True)):
+        where = f"{subject} ({waveform or 'unknown waveform'})"
+        if trial not in owns:
+            owns[trial] = off[off.trial == trial]
+        own = owns[trial]
+        if condition_of.get((subject, trial)) == "alternating" and len(own):
+            key, frame = f"trial:{trial}", own
+        else:
+            if condition_of.get((subject, trial)) == "alternating":
+                msg = (f"{where}: trial {trial} alternates but has no OFF window; "
+                       "using the subject's OFF windows")
+            elif not len(whole_off):
+                msg = (f"{where}: no whole-OFF trial; trial {trial} is compared with "
+                       "the OFF phases of alternating trials")
+            else:
+                msg = ""
+            if msg and msg not in warnings:
+                warnings.append(msg)
+            key, frame = "subject", subject_ref
+        if key not in ref_index:
+            ref_index[key] = len(refs)
+            refs.append(frame)
+        on_ref[k] = ref_index[key]
+    return refs, on_ref, [key.startswith("trial:") for key in ref_index]
+
+
+@dataclass(frozen=True)
+class _TrialFacts:
+    """What the trials table tells the aggregation: each trial's condition and drive
+    frequency key, and each frequency key's reported frequency (the median of its
+    trials')."""
+
+    condition_of: dict[TrialKey, object]
+    frequency_of: dict[TrialKey, float]
+    shown: dict[float, float]
+
+
+def _trial_facts(trials: pd.DataFrame) -> _TrialFacts:
+    """Each trial's condition and frequency key, and the frequencies to report."""
+    keys = list(zip(trials.subject, trials.trial, strict=True))
+    condition_of: dict[TrialKey, object] = dict(zip(keys, trials.condition, strict=True))
+    reported_Hz = (trials.frequency_Hz.tolist() if "frequency_Hz" in trials.columns
+                   else [None] * len(keys))
+    frequency_of = {k: _frequency(f) for k, f in zip(keys, reported_Hz, strict=True)}
+    reported: dict[float, list[float]] = {}
+    for k, f in zip(keys, reported_Hz, strict=True):
+        if frequency_of[k] != _NO_FREQUENCY:
+            reported.setdefault(frequency_of[k], []).append(float(f))
+    return _TrialFacts(condition_of, frequency_of,
+                       {k: float(np.median(v)) for k, v in reported.items()})
+
+
+@dataclass
+class _Tables:
+    """The rows of electrostatic.csv and exponents.csv, and the parts of the bootstrap
+    table, as the subjects add them."""
+
+    electrostatic: list[dict[str, object]] = field(default_factory=list)
+    exponents: list[dict[str, object]] = field(default_factory=list)
+    bootstrap: list[pd.DataFrame] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class _SubjectEstimate:
+    """A subject's estimate, its points, the coefficient each window was compared with (or,
+    for an OFF window, its reference's model there) and the trials' drifts."""
+
+    est: ElectrostaticEstimate
+    points: list[PointKey]
+    window_mu: pd.Series
+    drifts: dict[object, TrialDrift]
+
+
+def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_boot: int,
+                      seed: int, confidence: float, warnings: list[str]
+                      ) -> _SubjectEstimate | None:
+    """A subject's electrostatic force per point (waveform, frequency, amplitude), each ON
+    window against its OFF reference; None when the subject has no ON window with an
+    amplitude, or no OFF windows to compare them with."""
+    off = sub[sub.condition == "off"]
+    whole_off = off[[facts.condition_of.get((subject, t)) == "off" for t in off.trial]]
+    on = sub[(sub.condition == "on") & np.isfinite(sub.amplitude_V.to_numpy(float))]
+    if on.empty:
+        return None
+    refs, on_ref, trends = _references(subject, on, off, whole_off,
+                                       condition_of=facts.condition_of, warnings=warnings)
+    if any(r.empty for r in refs):
+        warnings.append(f"{subject}: no OFF windows to estimate mu from; no "
+                        "electrostatic force")
+        return None
+    window_points: list[PointKey] = list(zip(on.waveform, on.frequency_Hz,
+                                             on.amplitude_V.to_numpy(float), strict=True))
+    points = sorted(set(window_points))  # numbered in sorted order: the estimator's groups
+    group_number = {p: i for i, p in enumerate(points)}
+    off_facts = [window_facts(r) for r in refs]
+    est = estimate_electrostatic(
+        [r.normal_force_N.to_numpy(float) for r in refs],
+        [r.friction_force_N.to_numpy(float) for r in refs],
+        on.normal_force_N.to_numpy(float), on.friction_force_N.to_numpy(float),
+        on_ref, [group_number[p] for p in window_points], n_boot=n_boot,
+        confidence=confidence, seed=_seed(seed, subject), off_facts=off_facts,
+        on_facts=window_facts(on), time_trend=trends)
+    window_mu = pd.Series(est.on_mu, index=on.index)
+    own = {}
+    for r, model in est.models.items():
+        window_mu = pd.concat([window_mu, pd.Series(model.at(off_facts[r]),
+                                                    index=refs[r].index)])
+        if trends[r]:
+            own[refs[r].trial.iloc[0]] = model
+    window_mu = window_mu[~window_mu.index.duplicated()]
+    drifts = trial_drifts(off, own)
+    alone = sorted({t for t in on.trial if facts.condition_of.get((subject, t)) == "on"},
+                   key=str)
+    warnings += drift_notes(subject, drifts, compared_in_trial=any(trends),
+                            on_trials_alone=alone)
+    ratios = {r: (refs[r].friction_force_N / refs[r].normal_force_N).to_numpy(float)
+              for r in est.models}
+    rate_on, rate_off = window_facts(on).rate, window_facts(off).rate
+    gap = (float(np.exp(np.nanmean(rate_on) - np.nanmean(rate_off))) - 1.0
+           if np.isfinite(rate_on).any() and np.isfinite(rate_off).any() else None)
+    warnings += stroke_notes(subject, est.models, relative_scatter(est.models, ratios), gap)
+    return _SubjectEstimate(est, [points[int(g)] for g in est.groups], window_mu, drifts)
+
+
+def _add_points(tables: _Tables, subject: str, est: ElectrostaticEstimate, *,
+                points: list[PointKey], shown: Mapping[float, float], n_saved: int,
+                warnings: list[str]) -> None:
+    """A subject's rows of electrostatic.csv and of the bootstrap table, with a warning for
+    a point resting on few windows."""
+    keep = min(n_saved, est.replicates_N.shape[0])
+    for j, (waveform, freq, amp) in enumerate(points):
+        names = {"subject": subject, "waveform": waveform or None,
+                 "frequency_Hz": shown.get(freq), "amplitude_V": amp}
+        tables.electrostatic.append({
+            **names, "mu": est.mu[j], "normal_force_on_N": est.normal_on_N[j],
+            "normal_force_off_N": est.normal_off_N[j],
+            "friction_on_N": est.friction_on_N[j],
+            "friction_off_N": est.friction_off_N[j],
+            "electrostatic_force_N": est.force_N[j],
+            "electrostatic_force_ci_low_N": est.ci_low_N[j],
+            "electrostatic_force_ci_high_N": est.ci_high_N[j],
+            "n_on": int(est.n_on[j]), "n_off": int(est.n_off[j])})
+        tables.bootstrap.append(pd.DataFrame({
+            **names, "replicate": np.arange(keep),
+            "electrostatic_force_N": est.replicates_N[:keep, j]}))
+        if est.n_on[j] < MIN_WINDOWS or est.n_off[j] < MIN_WINDOWS:
+            warnings.append(f"{_where(subject, waveform, freq)} at {amp:g} V: only "
+                            f"{est.n_on[j]} ON and {est.n_off[j]} OFF windows (fewer "
+                            f"than {MIN_WINDOWS}); the interval is calibrated for small "
+                            "counts but rests on few windows")
+
+
+def _add_power_laws(tables: _Tables, subject: str, est: ElectrostaticEstimate, *,
+                    points: list[PointKey], shown: Mapping[float, float], confidence: float,
+                    warnings: list[str]) -> None:
+    """A subject's rows of exponents.csv: a power law per drive (waveform, frequency) with
+    two positive amplitudes or more."""
+    for waveform, freq in dict.fromkeys((w, f) for w, f, _ in points):
+        in_drive = np.array([w == waveform and f == freq and a > 0 for w, f, a in points])
+        if np.count_nonzero(in_drive) < 2:
+            continue
+        amplitudes_V = np.array([a for _, _, a in points])[in_drive]
+        try:
+            fit = fit_power_law(amplitudes_V, est.force_N[in_drive],
+                                replicates_N=est.replicates_N[:, in_drive],
+                                confidence=confidence)
+        except AnalysisError as err:
+            warnings.append(f"{_where(subject, waveform, freq)}: no power law: {err}")
+            continue
+        tables.exponents.append({"subject": subject, "waveform": waveform or None,
+                                 "frequency_Hz": shown.get(freq),
+                                 "exponent": fit.exponent,
+                                 "exponent_ci_low": fit.exponent_ci_low,
+                                 "exponent_ci_high": fit.exponent_ci_high,
+                                 "prefactor_N": fit.prefactor_N})
+
+
+@dataclass(frozen=True)
+class StudySummary:
+    """The per-subject results of a study's windows.
+
+    Attributes
+    ----------
+    electrostatic, exponents, bootstrap : pandas.DataFrame
+        electrostatic.csv, exponents.csv and electrostatic_bootstrap.csv
+        (:data:`BOOTSTRAP_COLUMNS`: the calibrated bootstrap replicates of every
+        electrostatic.csv row, replicate ``i`` of a subject's rows coming from the same
+        resampling).
+    warnings : list of str
+        What the aggregation found worth saying (missing references, few windows, no
+        power law, friction that changed within trials or between strokes).
+    window_mu : pandas.Series
+        By the windows' index: the friction coefficient each ON window was compared with,
+        and each OFF window's reference model at its place (windows.csv's
+        ``mu_reference``).
+    mu_change : dict
+        ``{(subject, trial): change of mu per 10 s}`` (trials.csv's ``mu_change_per_10s``).
+    """
+
+    electrostatic: pd.DataFrame
+    exponents: pd.DataFrame
+    bootstrap: pd.DataFrame
+    warnings: list[str]
+    window_mu: pd.Series
+    mu_change: dict[TrialKey, float]
+
+
+def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
+                    n_boot: int = DEFAULT_N_BOOT, seed: int = 0, confidence: float = 0.95,
+                    n_saved: int = N_BOOTSTRAP_SAVED) -> StudySummary:
+    """Electrostatic force per subject, waveform, frequency and amplitude, and the power laws
+    (per subject, waveform and frequency).
+
+    Parameters
+    ----------
+    windows : pandas.DataFrame
+        All trials' windows (windows.csv columns).
+    trials : pandas.DataFrame
+        All trials' rows (trials.csv columns); ``condition`` tells alternating trials.
+    n_boot : int
+        Bootstrap replicates.
+    seed : int
+        Base seed.
+    confidence : float
+        Coverage of the intervals.
+    n_saved : int
+        Replicates kept in the bootstrap table (the first ones; at most *n_boot*).
+
+    Returns
+    -------
+    StudySummary
+    """
+    warnings: list[str] = []
+    facts = _trial_facts(trials)
+    tables = _Tables()
+    window_mu: list[pd.Series] = []
+    mu_change: dict[TrialKey, float] = {}
+    if not windows.empty:
+        tagged = windows.assign(
+            waveform=windows.waveform.fillna(""),
+            frequency_Hz=[facts.frequency_of.get((s, t), _NO_FREQUENCY)
+                          for s, t in zip(windows.subject, windows.trial, strict=True)])
+        for subject, sub in tagged.groupby("subject", sort=True):
+            try:
+                found = _estimate_subject(str(subject), sub, facts, n_boot=n_boot,
+                                          seed=seed, confidence=confidence,
+                                          warnings=warnings)
+            except AnalysisError as err:
+                warnings.append(f"{subject}: no electrostatic force: {err}")
+                continue
+            if found is None:
+                continue
+            window_mu.append(found.window_mu)
+            mu_change.update({(subject, t): d.change_per_10s for t, d in found.drifts.items()})
+            _add_points(tables, str(subject), found.est, points=found.points,
+                        shown=facts.shown, n_saved=n_saved, warnings=warnings)
+            _add_power_laws(tables, str(subject), found.est, points=found.points,
+                            shown=facts.shown, confidence=confidence, warnings=warnings)
+    electrostatic = pd.DataFrame(tables.electrostatic, columns=list(ELECTROSTATIC_COLUMNS))
+    warnings += implausible_rows(electrostatic) + crosstalk_notes(trials)
+    for w in warnings:
+        log.warning("%s", w)
+    boot = (pd.concat(tables.bootstrap, ignore_index=True)
+            .reindex(columns=list(BOOTSTRAP_COLUMNS)) if tables.bootstrap
+            else pd.DataFrame(columns=list(BOOTSTRAP_COLUMNS)))
+    return StudySummary(
+        electrostatic, pd.DataFrame(tables.exponents, columns=list(EXPONENT_COLUMNS)), boot,
+        warnings,
+        pd.concat(window_mu) if window_mu else pd.Series(dtype=float), mu_change)
+
+
+def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFAULT_N_BOOT,
+              seed: int = 0, confidence: float = 0.95, n_saved: int = N_BOOTSTRAP_SAVED
+              ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame, list[str]]:
+    """:func:`summarize_study`'s tables and warnings.
+
+    Parameters
+    ----------
+    windows, trials : pandas.DataFrame
+        As :func:`summarize_study`'s.
+    n_boot : int
+        Bootstrap replicates.
+    seed : int
+        Base seed.
+    confidence : float
+        Coverage of the intervals.
+    n_saved : int
+        Replicates kept in the bootstrap table.
+
+    Returns
+    -------
+    electrostatic, exponents, bootstrap : pandas.DataFrame
+    warnings : list of str
+    """
+    out = summarize_study(windows, trials, n_boot=n_boot, seed=seed, confidence=confidence,
+                          n_saved=n_saved)
+    return out.electrostatic, out.exponents, out.bootstrap, out.warnings
+
+
+__all__ = ["BOOTSTRAP_COLUMNS", "ELECTROSTATIC_COLUMNS", "EXPONENT_COLUMNS", "MIN_WINDOWS",
+           "N_BOOTSTRAP_SAVED", "StudySummary", "summarize", "summarize_study"]

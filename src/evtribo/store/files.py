@@ -1,0 +1,414 @@
+"""Files, read safely and written whole: the one place evtribo does either.
+
+Reading: a sidecar, a study.toml, a rig TOML or a DBC is read whole. A hostile or broken
+study folder may name something else under those names: a FIFO (reading blocks forever), a
+link to a device such as ``/dev/zero`` (reading never ends), a file of gigabytes. Only
+regular files of a sane size are read (:func:`read_limited`); anything else is the caller's
+error class (exit 2), naming the file.
+
+Writing: every file evtribo writes whole (a sidecar, study.toml, a cache entry, a decoded
+table, a figure, a journal) goes through :func:`atomic_open` or :func:`atomic_write`: a
+temporary file beside the target, renamed over it only when it is complete, removed
+otherwise. A reader sees the old file or the new one, never half of one. The exceptions are
+the logs being recorded, which grow as ``TRIAL.log.part`` (:func:`partial_path`).
+
+Hashing: :func:`sha256_file` is the one file hash (inputs, result tables, cache entries).
+"""
+
+from __future__ import annotations
+
+import errno
+import hashlib
+import json
+import logging
+import os
+import re
+import stat
+import sys
+import tempfile
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import IO, Any, TypeVar
+
+from evtribo.errors import UserInputError
+
+log = logging.getLogger(__name__)
+T = TypeVar("T")
+
+__all__ = ["CHECKSUM_DIGITS", "MAX_CONFIG_BYTES", "MF4_PROGRAM_ID", "PARTIAL_SUFFIX",
+           "DuplicateKeyError",
+           "atomic_open", "atomic_write", "check_regular_file", "checksummed_entries",
+           "fsync_path", "loads_json_unique", "partial_path", "read_checksummed", "read_entry",
+           "read_limited", "sha256_file", "write_checksummed"]
+
+#: The program identification of the MF4 files evtribo writes (bytes 16-24 of the file):
+#: such a file holds decoded signals, not a raw CAN log, and ``--force`` may replace it.
+MF4_PROGRAM_ID = b"evtribo "
+
+#: Suffix of a file still being written by a recording (``run-01.log.part``).
+PARTIAL_SUFFIX = ".part"
+
+#: Largest sidecar, study.toml or rig TOML read, bytes.
+MAX_CONFIG_BYTES = 1 << 20
+
+
+def check_regular_file(path: str | os.PathLike[str], error: type[UserInputError], *,
+                       what: str = "file") -> os.stat_result:
+    """The ``stat`` of *path* (links followed) if it is a regular file, else raise *error*.
+
+    Parameters
+    ----------
+    path : path-like
+    error : type
+        The error raised (a :class:`~evtribo.errors.UserInputError`), naming *path*.
+    what : str
+        What the file is, for the message (``"sidecar"``).
+
+    Returns
+    -------
+    os.stat_result
+
+    Raises
+    ------
+    FileNotFoundError
+        *path* does not exist (the caller says what that means).
+    error
+        *path* is a folder, a FIFO, a socket or a device.
+    """
+    st = os.stat(path)
+    if stat.S_ISREG(st.st_mode):
+        return st
+    kind = ("a folder" if stat.S_ISDIR(st.st_mode) else "a FIFO (named pipe)"
+            if stat.S_ISFIFO(st.st_mode) else "a device" if stat.S_ISCHR(st.st_mode)
+            or stat.S_ISBLK(st.st_mode) else "a socket" if stat.S_ISSOCK(st.st_mode)
+            else "not a regular file")
+    raise error(f"is {kind}, not a {what}; only regular files are read", path=Path(path))
+
+
+def read_limited(path: str | os.PathLike[str], error: type[UserInputError], *,
+                 limit: int = MAX_CONFIG_BYTES, what: str = "file") -> bytes:
+    """The bytes of a regular file of at most *limit* bytes, else raise *error*.
+
+    Parameters
+    ----------
+    path : path-like
+    error : type
+        The error raised (a :class:`~evtribo.errors.UserInputError`), naming *path*.
+    limit : int
+        Largest size read, bytes.
+    what : str
+        What the file is, for the message (``"sidecar"``).
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    FileNotFoundError
+        *path* does not exist.
+    error
+        Not a regular file, or larger than *limit*.
+    """
+    st = check_regular_file(path, error, what=what)
+    if st.st_size > limit:
+        raise error(f"is {st.st_size:,} bytes, too large for a {what} (at most {limit:,})",
+                    path=Path(path))
+    with open(path, "rb") as fh:
+        data = fh.read(limit + 1)
+    if len(data) > limit:  # it grew while being read
+        raise error(f"is larger than {limit:,} bytes, too large for a {what}", path=Path(path))
+    return data
+
+
+def partial_path(path: str | os.PathLike[str]) -> Path:
+    """Where a recording of *path* grows until it is complete.
+
+    Parameters
+    ----------
+    path : path-like
+        The complete file's name (``P01/run-01.log``).
+
+    Returns
+    -------
+    Path
+        ``NAME`` + :data:`PARTIAL_SUFFIX` (``P01/run-01.log.part``).
+    """
+    p = Path(path)
+    return p.with_name(p.name + PARTIAL_SUFFIX)
+
+
+def sha256_file(path: str | os.PathLike[str]) -> str:
+    """SHA-256 of a file's bytes (:func:`hashlib.file_digest`, which reads in blocks into one
+    buffer and releases the interpreter's lock while it hashes).
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    str
+        64 hexadecimal digits.
+    """
+    with open(path, "rb", buffering=0) as fh:
+        return hashlib.file_digest(fh, "sha256").hexdigest()
+
+
+def fsync_path(path: str | os.PathLike[str], *, directory: bool = False) -> None:
+    """Flush a file (or, with *directory*, a folder's entries) to the disk.
+
+    A file system that cannot flush a folder (or a file: EINVAL) is not an error.
+
+    Parameters
+    ----------
+    path : path-like
+    directory : bool
+        *path* is a folder: flush its entries (a rename in it).
+    """
+    if directory and sys.platform == "win32":  # pragma: no cover
+        return
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    except OSError as err:
+        if not directory and err.errno not in (errno.EINVAL, errno.ENOTSUP):
+            raise
+    finally:
+        os.close(fd)
+
+
+@contextmanager
+def atomic_open(path: str | os.PathLike[str], mode: str = "wb", *,
+                encoding: str | None = None, durable: bool = False) -> Iterator[IO[Any]]:
+    """Open a temporary file beside *path*; it becomes *path* when the block ends without
+    an exception, and is removed otherwise.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to write (its folder must exist). An existing file is replaced; refusing
+        to overwrite is the caller's decision, made before.
+    mode : {"wb", "w"}
+    encoding : str, optional
+        For text mode (default UTF-8).
+    durable : bool
+        Flush the file and its folder to the disk before and after the rename (a sidecar, a
+        journal: what must survive a power cut).
+
+    Yields
+    ------
+    file object
+        The temporary file, named ``.NAME.XXXXXXXX.tmp`` in *path*'s folder.
+
+    Examples
+    --------
+    >>> with atomic_open("fit.csv", "w") as fh:  # doctest: +SKIP
+    ...     table.to_csv(fh, index=False)
+    """
+    if mode not in ("wb", "w"):
+        raise ValueError(f"atomic_open writes whole files: mode 'wb' or 'w', not {mode!r}")
+    target = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp",
+                               dir=target.parent if str(target.parent) else ".")
+    try:
+        fh: IO[Any] = (os.fdopen(fd, "wb") if mode == "wb" else
+                       os.fdopen(fd, "w", encoding=encoding or "utf-8", newline=""))
+        with fh:
+            yield fh
+            fh.flush()
+            if durable:
+                os.fsync(fh.fileno())
+        os.chmod(tmp, 0o666 & ~_UMASK)
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    if durable:
+        fsync_path(target.parent, directory=True)
+
+
+def atomic_write(path: str | os.PathLike[str], data: bytes | memoryview | str, *,
+                 encoding: str = "utf-8", durable: bool = False) -> Path:
+    """Write *data* to *path* whole or not at all (see :func:`atomic_open`).
+
+    Parameters
+    ----------
+    path : path-like
+    data : bytes, memoryview or str
+        The file's content (a str is encoded with *encoding*).
+    encoding : str
+    durable : bool
+        Flush to the disk before and after the rename.
+
+    Returns
+    -------
+    Path
+        *path*.
+    """
+    with atomic_open(path, "wb", durable=durable) as fh:
+        fh.write(data.encode(encoding) if isinstance(data, str) else data)
+    return Path(path)
+
+
+#: The process's umask, read once (mkstemp creates files 0600; written files get the mode
+#: any other file the user writes gets).
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+
+
+#: Hex digits of a checksummed entry's SHA-256 in its name.
+CHECKSUM_DIGITS = 16
+
+
+def checksummed_entries(directory: Path, key: str, suffix: str) -> list[Path]:
+    """The entries of *key* in *directory*: files ``<key>.<checksum><suffix>``.
+
+    Parameters
+    ----------
+    directory : Path
+    key : str
+    suffix : str
+        The entries' ending (``".arrow"``).
+
+    Returns
+    -------
+    list of Path
+        Sorted; none when the folder cannot be read.
+    """
+    try:
+        return sorted(directory.glob(f"{key}.*{suffix}"))
+    except OSError:
+        return []
+
+
+def read_checksummed(path: Path, key: str, suffix: str) -> bytes:
+    """The bytes of an entry of :func:`checksummed_entries`, checked against its name.
+
+    Parameters
+    ----------
+    path : Path
+    key, suffix : str
+        As the entry was written (:func:`write_checksummed`).
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    ValueError
+        The bytes are not those the checksum in the name was taken of.
+    OSError
+        The file cannot be read.
+    """
+    data = path.read_bytes()
+    if hashlib.sha256(data).hexdigest()[:CHECKSUM_DIGITS] != \
+            path.name[len(key) + 1:-len(suffix)]:
+        raise ValueError("its bytes do not match its checksum")
+    return data
+
+
+def read_entry(directory: Path, key: str, suffix: str, parse: Callable[[bytes], T], *,
+               what: str, then: str) -> T | None:
+    """The entry of *key* (:func:`read_checksummed`) as *parse* makes it, or None. An entry
+    whose bytes do not match its checksum, or that *parse* refuses, is removed, with a
+    warning: ``<path>: damaged <what> (<why>); removed, <then>``.
+
+    Parameters
+    ----------
+    directory : Path
+    key, suffix : str
+        As the entry was written (:func:`write_checksummed`).
+    parse : callable
+        The entry's value from its bytes (any exception: a damaged entry).
+    what, then : str
+        The warning's words: what the entry is, and what happens instead.
+
+    Returns
+    -------
+    object or None
+    """
+    for path in checksummed_entries(directory, key, suffix):
+        try:
+            return parse(read_checksummed(path, key, suffix))
+        except Exception as err:  # damaged, foreign or unreadable: done again
+            log.warning("%s: damaged %s (%s); removed, %s", path, what, err, then)
+            try:
+                path.unlink()
+            except OSError:
+                pass
+    return None
+
+
+def write_checksummed(directory: Path, key: str, data: bytes | memoryview, suffix: str
+                      ) -> Path:
+    """Write *data* as the entry of *key*, named after its checksum
+    (``<key>.<checksum><suffix>``, whole or not at all), and remove the key's other entries.
+
+    Parameters
+    ----------
+    directory : Path
+        Created if needed.
+    key : str
+    data : bytes or memoryview
+    suffix : str
+
+    Returns
+    -------
+    Path
+        The entry.
+
+    Raises
+    ------
+    OSError
+        It cannot be written.
+    """
+    directory.mkdir(parents=True, exist_ok=True)
+    path = directory / f"{key}.{hashlib.sha256(data).hexdigest()[:CHECKSUM_DIGITS]}{suffix}"
+    atomic_write(path, data)
+    for other in checksummed_entries(directory, key, suffix):
+        if other != path:
+            other.unlink(missing_ok=True)
+    return path
+
+
+class DuplicateKeyError(ValueError):
+    """A JSON object with a key given twice (JSON parsers keep the last one, silently)."""
+
+    def __init__(self, key: str, line: int | None) -> None:
+        self.key, self.line = key, line
+        super().__init__(f"key {key!r} given twice")
+
+
+def loads_json_unique(text: str) -> Any:
+    """:func:`json.loads`, refusing an object that gives a key twice.
+
+    Parameters
+    ----------
+    text : str
+        The JSON document.
+
+    Returns
+    -------
+    object
+
+    Raises
+    ------
+    DuplicateKeyError
+        Naming the key and the line of its second occurrence.
+    json.JSONDecodeError
+        Not JSON.
+    """
+    def unique(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        for key, value in pairs:
+            if key in out:
+                found = list(re.finditer(re.escape(json.dumps(key)) + r"\s*:", text))
+                line = text.count("\n", 0, found[1].start()) + 1 if len(found) > 1 else None
+                raise DuplicateKeyError(key, line)
+            out[key] = value
+        return out
+
+    return json.loads(text, object_pairs_hook=unique)

@@ -1,0 +1,405 @@
+"""An output written as one unit: one writer at a time, and never half-written.
+
+``evtribo analyze``, ``compare`` and ``report`` write their outputs (a result folder OUT, a
+report) this way:
+
+1. **A lock.** ``.OUT.evtribo-lock`` beside OUT, held for the whole command and naming the
+   process (pid, command, host, start): a :class:`~evtribo.store.lock.WriteLock`, the lock
+   a trial being recorded is held by too. A second process is refused with
+   :class:`~evtribo.errors.OutputBusyError` (exit 2) naming the holder. A lock file left by
+   a process that is gone holds no lock (the system releases it with the process): it is
+   taken over.
+2. **A new folder beside OUT.** Everything is written into ``.OUT.evtribo-new-<id>/``.
+3. **The commit.** The new files are flushed to disk, then a journal (``.evtribo-commit.json``
+   in the new folder: the files to install, and the stale files of the same commands to
+   remove) is written and flushed. From then on the new results are OUT's results.
+4. **The swap.** The stale files are removed, the new ones renamed into OUT (one rename
+   each, on the same file system), then the journal and the new folder are removed.
+
+A command killed before step 3 leaves OUT as it was (its new folder is deleted by the next
+command on OUT); killed during step 4, the next command on OUT finishes the swap before
+anything else (:func:`recover`, under the lock). Files in OUT that the commands did not write
+are never touched.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import json
+import logging
+import os
+import shutil
+import threading
+import uuid
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+from evtribo.errors import EvtriboError, LockedError, OutputBusyError, OutputWriteError
+from evtribo.store.files import atomic_write, fsync_path
+from evtribo.store.lock import WriteLock, lock_holder
+
+log = logging.getLogger(__name__)
+
+__all__ = ["JOURNAL", "Staging", "holder", "inside", "lock_path", "locked", "pending",
+           "recover", "release_inherited_locks"]
+
+LOCK_SUFFIX = ".evtribo-lock"
+STAGE_INFIX = ".evtribo-new-"
+#: The commit record in a new folder: its presence is the commit.
+JOURNAL = ".evtribo-commit.json"
+#: Errors of writing, whichever file they name.
+_WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EIO}
+
+
+def inside(root: Path, rel: str) -> Path | None:
+    """``root / rel`` when *rel* is a relative path that stays inside *root* (symbolic links
+    resolved), else None.
+
+    Parameters
+    ----------
+    root : Path
+    rel : str
+        A path relative to *root*.
+
+    Returns
+    -------
+    Path or None
+    """
+    if not isinstance(rel, str) or not rel or Path(rel).is_absolute() or \
+            ".." in Path(rel).parts:
+        return None
+    path = root / rel
+    try:
+        path.resolve().relative_to(root.resolve())
+    except (ValueError, OSError):
+        return None
+    return path
+
+
+# ------------------------------------------------------------------------------ the lock
+
+def _real(unit: str | os.PathLike[str]) -> Path:
+    return Path(os.path.realpath(unit))
+
+
+def _home(unit: Path) -> tuple[Path, str]:
+    """Where an output's lock file and new folders go, and the prefix of their names:
+    beside it (``.NAME``), or inside it when it is a folder on its own file system (a mount
+    point: a rename from beside it would cross file systems) or in a folder this process
+    cannot write."""
+    if unit.is_dir() and (os.path.ismount(unit) or not os.access(unit.parent, os.W_OK)):
+        return unit, ""
+    return unit.parent, f".{unit.name}"
+
+
+def lock_path(unit: str | os.PathLike[str]) -> Path:
+    """The lock file of an output: ``.NAME.evtribo-lock`` beside it (see :func:`_home`).
+
+    Parameters
+    ----------
+    unit : path-like
+        The output.
+
+    Returns
+    -------
+    Path
+    """
+    folder, prefix = _home(_real(unit))
+    return folder / f"{prefix}{LOCK_SUFFIX}"
+
+
+@dataclass
+class _Held:
+    lock: WriteLock
+    thread: int
+    count: int
+
+
+_HELD: dict[str, _Held] = {}
+_HELD_GUARD = threading.Lock()
+
+
+def holder(unit: str | os.PathLike[str]) -> dict[str, Any] | None:
+    """What the lock file of *unit* says about its holder (None when there is none).
+
+    Parameters
+    ----------
+    unit : path-like
+        The output (a result folder, a report).
+
+    Returns
+    -------
+    dict or None
+    """
+    return lock_holder(lock_path(unit))
+
+
+def _busy(unit: Path, shown: str | os.PathLike[str]) -> OutputBusyError:
+    who = holder(unit) or {}
+    pid = who.get("pid")
+    what = f"process {pid}" if pid else "another process"
+    details = ", ".join(str(who[k]) for k in ("command", "host") if who.get(k))
+    since = f", since {who['since']}" if who.get("since") else ""
+    return OutputBusyError(
+        f"being written by {what}{f' ({details}{since})' if details else since}; wait until it "
+        "has finished (or stop it), then run this again ({force} does not override this)",
+        path=shown)
+
+
+def _acquire(unit: Path, command: str, shown: str | os.PathLike[str]) -> WriteLock:
+    path = lock_path(unit)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        return WriteLock(path, os.fspath(shown), command=command).acquire()
+    except LockedError:
+        raise _busy(unit, shown) from None
+    except OSError as err:
+        raise OutputWriteError(
+            f"cannot create the lock file beside {unit.name} ({err.strerror}): its "
+            "folder must be writable (results are written into a new folder beside "
+            f"{unit.name}, then swapped in)", path=path) from err
+
+
+@contextlib.contextmanager
+def locked(unit: str | os.PathLike[str], command: str) -> Iterator[None]:
+    """Hold the lock of an output (a result folder, a report) for the body of a ``with``.
+
+    Re-entrant within one thread (``report`` runs ``compare`` on the folder it holds).
+
+    Parameters
+    ----------
+    unit : path-like
+        The output (it need not exist yet; its parent folder is created).
+    command : str
+        What is writing it, for the message another process gets (``"evtribo analyze"``).
+
+    Yields
+    ------
+    None
+        The body of the ``with`` runs holding the lock.
+
+    Raises
+    ------
+    OutputBusyError
+        Another process (or thread) holds the lock.
+    """
+    path = _real(unit)
+    key = os.fspath(lock_path(path))
+    me = threading.get_ident()
+    with _HELD_GUARD:
+        held = _HELD.get(key)
+        if held is not None and held.thread != me:
+            raise _busy(path, unit)
+        if held is None:
+            held = _HELD[key] = _Held(_acquire(path, command, unit), me, 0)
+        held.count += 1
+    try:
+        yield
+    finally:
+        with _HELD_GUARD:
+            held.count -= 1
+            if held.count == 0:
+                del _HELD[key]
+                held.lock.release()
+
+
+def release_inherited_locks() -> None:
+    """In a process forked from one holding locks: close its copies of the lock files
+    (without unlocking: the parent holds them) so that they die with the parent."""
+    with _HELD_GUARD:
+        for held in _HELD.values():
+            held.lock.forget()
+        _HELD.clear()
+
+
+def _holds(unit: Path) -> bool:
+    held = _HELD.get(os.fspath(lock_path(unit)))
+    return held is not None and held.thread == threading.get_ident()
+
+
+# -------------------------------------------------------------------- staging and commit
+
+def _stages(unit: Path) -> list[Path]:
+    folder, prefix = _home(unit)
+    try:
+        names = os.listdir(folder)
+    except FileNotFoundError:
+        return []
+    return sorted(folder / n for n in names if n.startswith(f"{prefix}{STAGE_INFIX}"))
+
+
+def pending(unit: str | os.PathLike[str]) -> list[Path]:
+    """New folders of *unit* whose commit is written but whose swap is not finished.
+
+    Parameters
+    ----------
+    unit : path-like
+        The output.
+
+    Returns
+    -------
+    list of Path
+    """
+    return [s for s in _stages(_real(unit)) if (s / JOURNAL).is_file()]
+
+
+def _remove_file(target: Path, rel: str) -> None:
+    path = inside(target, rel)
+    if path is None or not (path.is_file() or path.is_symlink()):
+        return
+    path.unlink()
+    parent = path.parent
+    while parent != target and parent.is_dir() and not any(parent.iterdir()):
+        parent.rmdir()  # a folder of ours left empty (figures/, report_files/)
+        parent = parent.parent
+
+
+def _apply(stage: Path) -> None:
+    doc = json.loads((stage / JOURNAL).read_text(encoding="utf-8"))
+    target = stage.parent / doc["target"]
+    target.mkdir(parents=True, exist_ok=True)
+    for rel in doc["remove"]:
+        _remove_file(target, rel)
+    folders = {target}
+    for rel in doc["install"]:
+        src, dst = stage / rel, target / rel
+        if src.is_file():
+            dst.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(src, dst)
+            folders.add(dst.parent)
+    for folder in folders:
+        fsync_path(folder, directory=True)
+    (stage / JOURNAL).unlink()
+    shutil.rmtree(stage, ignore_errors=True)
+
+
+def recover(unit: str | os.PathLike[str]) -> list[str]:
+    """Finish the swap of a committed write into *unit* that was interrupted, and delete the
+    new folders of writes that were killed before their commit. Call it holding the lock.
+
+    Parameters
+    ----------
+    unit : path-like
+        The output.
+
+    Returns
+    -------
+    list of str
+        What was done, one line each (also logged).
+    """
+    path = _real(unit)
+    if not _holds(path):
+        raise RuntimeError(f"recover({path}) without holding its lock")
+    done = []
+    for stage in _stages(path):
+        if (stage / JOURNAL).is_file():
+            _apply(stage)
+            done.append(f"{path}: finished writing the results of an interrupted run "
+                        f"({stage.name})")
+        else:
+            shutil.rmtree(stage, ignore_errors=True)
+            done.append(f"{path}: removed {stage.name}, left by a run that was interrupted "
+                        "before it finished writing (the results were not changed)")
+    for line in done:
+        log.warning("%s", line)
+    return done
+
+
+class Staging:
+    """Files written into a new folder beside *unit*, swapped into *target* on commit.
+
+    >>> with locked(out, "evtribo analyze"), Staging(out) as stage:   # doctest: +SKIP
+    ...     df.to_csv(stage.path("trials.csv"))
+    ...     stage.commit(remove=["fit.csv"], last=["summary.json"])
+
+    Leaving the ``with`` block without a commit (an error, Ctrl-C) deletes the new folder.
+    An :class:`OSError` while writing (a full disk) becomes :class:`OutputWriteError`.
+
+    Parameters
+    ----------
+    unit : path-like
+        The output the lock and the new folder are named after.
+    target : path-like, optional
+        The folder the files go into (default: *unit* itself, a result folder).
+    """
+
+    def __init__(self, unit: str | os.PathLike[str],
+                 target: str | os.PathLike[str] | None = None) -> None:
+        self.unit = _real(unit)
+        self.target = _real(target) if target is not None else self.unit
+        home, prefix = _home(self.unit)
+        self.folder = home / f"{prefix}{STAGE_INFIX}{uuid.uuid4().hex}"
+        self.committed = False
+
+    def __enter__(self) -> Staging:
+        try:
+            self.folder.mkdir(parents=True)
+        except OSError as err:
+            raise self._write_error(err) from err
+        return self
+
+    def path(self, rel: str) -> Path:
+        """Where to write the file that will be ``target / rel`` (its folder created)."""
+        p = inside(self.folder, rel)
+        if p is None:
+            raise ValueError(f"not a path inside the output: {rel!r}")
+        p.parent.mkdir(parents=True, exist_ok=True)
+        return p
+
+    def files(self) -> list[str]:
+        """The files written so far, relative to the target."""
+        return sorted(p.relative_to(self.folder).as_posix() for p in self.folder.rglob("*")
+                      if p.is_file() and p.name != JOURNAL)
+
+    def commit(self, remove: Iterable[str] = (), last: Sequence[str] = ()) -> None:
+        """Make the new files the output's: flush them, write the journal, swap them in.
+
+        Parameters
+        ----------
+        remove : iterable of str
+            Files of the target (relative) to remove: stale outputs of the same commands.
+        last : sequence of str
+            Files installed after all others (the one that says what the others are).
+        """
+        install = self.files()
+        install.sort(key=lambda rel: (rel in last, last.index(rel) if rel in last else 0))
+        stale = sorted(set(remove) - set(install))
+        try:
+            for rel in install:
+                fsync_path(self.folder / rel)
+            doc = {"target": os.path.relpath(self.target, self.folder.parent),
+                   "install": install, "remove": stale}
+            atomic_write(self.folder / JOURNAL, json.dumps(doc, indent=1), durable=True)
+        except OSError as err:
+            raise self._write_error(err) from err
+        self.committed = True  # from here on, the new files are the output
+        try:
+            _apply(self.folder)
+        except BaseException:
+            _apply(self.folder)  # interrupted (Ctrl-C, SIGTERM) mid-swap: finish it first
+            raise
+
+    def abort(self) -> None:
+        """Delete the new folder (nothing of the target is touched)."""
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    def _write_error(self, err: OSError) -> OutputWriteError:
+        why = err.strerror or str(err)
+        if err.errno in (errno.ENOSPC, errno.EDQUOT):
+            why = "the disk is full"
+        return OutputWriteError(f"cannot write the results ({why}); {self.target} is left "
+                                "as it was", path=err.filename or self.folder)
+
+    def __exit__(self, exc_type: type[BaseException] | None, exc: BaseException | None,
+                 tb: TracebackType | None) -> None:
+        if self.committed:
+            return
+        self.abort()
+        if isinstance(exc, OSError) and not isinstance(exc, EvtriboError) and (
+                exc.errno in _WRITE_ERRNOS or str(exc.filename or "").startswith(
+                    os.fspath(self.folder))):
+            raise self._write_error(exc) from exc

@@ -1,0 +1,156 @@
+"""compare --models: each candidate fitted per subject, ranked by AIC, models.csv and the
+frequency-response figures; on data made with each candidate the true one ranks first."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+from matplotlib.axes import Axes
+
+from evtribo.cli import main
+from evtribo.errors import ConfigError
+from evtribo.figures.frequency_plots import plot_frequency_response
+from evtribo.figures.plots import new_axes
+from evtribo.fit.models import CANDIDATES, MODELS_COLUMNS, fit_models, models_table, resolve_models
+from evtribo.report.compare import compare
+from sweep_data import sweep_out, sweep_rows
+
+ALL = tuple(CANDIDATES)
+
+
+def _strict_json(text: str) -> dict:
+    def refuse(name: str) -> None:
+        raise ValueError(f"not JSON: {name}")
+    return json.loads(text, parse_constant=refuse)
+
+
+def test_an_unknown_model_is_refused_naming_the_known_ones():
+    with pytest.raises(ConfigError) as err:
+        resolve_models("paper,jkr")
+    assert err.value.key == "models"
+    assert "'jkr'" in err.value.message
+    for name in ALL:
+        assert name in err.value.message
+    assert resolve_models(" circuit, paper,circuit") == ("circuit", "paper")
+
+
+def test_compare_models_writes_the_table_and_a_figure_per_subject(tmp_path):
+    out = tmp_path / "out"
+    truth = sweep_out(out, "circuit", seed=3)
+    result = compare(out, fit="h_L,r_g", models=",".join(ALL), formats=("png",), dpi=40)
+    table = pd.read_csv(out / "models.csv")
+    assert tuple(table.columns) == MODELS_COLUMNS
+    assert list(table["subject"]) == sorted(table["subject"])  # P01's rows, then P02's
+    for subject, rows in table.groupby("subject", sort=False):
+        assert sorted(rows["model"]) == sorted(ALL)
+        assert list(rows["aic"]) == sorted(rows["aic"])
+        assert rows["delta_aic"].iloc[0] == 0.0 and (rows["delta_aic"] >= 0).all()
+        assert rows["akaike_weight"].sum() == pytest.approx(1.0)
+        assert rows["model"].iloc[0] == "circuit"
+        circuit = rows[rows["model"] == "circuit"].iloc[0]
+        assert circuit["n_params"] == 2 and circuit["n_points"] == 80
+        fitted = dict(kv.split("=") for kv in circuit["fitted"].split("; "))
+        assert set(fitted) == {"h_L", "r_g"}
+        assert float(fitted["h_L"]) == pytest.approx(truth[subject]["h_L"], rel=0.05)
+        assert float(fitted["r_g"]) == pytest.approx(truth[subject]["r_g"], rel=0.1)
+    doc = _strict_json((out / "fit.json").read_text())
+    stems = {f["stem"]: f for f in doc["figures"] if f["kind"] == "frequency_response"}
+    assert set(stems) == {"frequency_response_P01", "frequency_response_P02"}
+    assert {f["subject"] for f in stems.values()} == {"P01", "P02"}
+    for stem in stems:
+        assert (out / "figures" / f"{stem}.png").is_file()
+    assert "models.csv" in doc["output_sha256"]
+    assert any("AICc" in n for n in result.notes)  # 40 points for 3 parameters: AICc
+
+
+def test_fit_json_is_strict_json_with_an_infinite_resistance(tmp_path):
+    """A paper-made sweep leaves r_g undetermined above: its interval runs to infinity,
+    written as null (JSON has no infinity), and the fixed r_sc = inf likewise."""
+    out = tmp_path / "out"
+    sweep_out(out, "paper", seed=1)
+    compare(out, fit="h_L,r_g", formats=("png",), dpi=40)
+    doc = _strict_json((out / "fit.json").read_text())
+    assert doc["fixed_parameters"]["r_sc"] is None
+    for subject in ("P01", "P02"):
+        r_g = doc["subjects"][subject]["estimates"]["r_g"]
+        assert r_g["ci_high"] is None
+
+
+def test_the_command_line_takes_models(tmp_path, capsys):
+    out = tmp_path / "out"
+    sweep_out(out, "hertz", seed=2)
+    assert main(["compare", str(out), "--models", "paper,hertz"]) == 0
+    table = pd.read_csv(out / "models.csv")
+    assert list(table.groupby("subject")["model"].first()) == ["hertz", "hertz"]
+
+
+def test_criteria_follow_their_formulas():
+    rows, _ = sweep_rows("paper", 5, subjects=1)
+    few = rows.iloc[::8]  # 10 points: AICc
+    for data, criterion in ((few, "AICc"), (rows, "AICc")):
+        fits = fit_models(data, ["paper", "circuit"])
+        for f in fits:
+            n, k = f.n_points, f.n_params + 1
+            assert f.criterion == criterion
+            aic = n * math.log(f.wrss / n) + 2 * k
+            assert f.aic == pytest.approx(aic + 2 * k * (k + 1) / (n - k - 1))
+            assert f.bic == pytest.approx(n * math.log(f.wrss / n) + k * math.log(n))
+    big = pd.concat([rows] * 3, ignore_index=True)  # 240 points, 3 parameters: AIC
+    fits = fit_models(big, ["paper", "circuit"])
+    for f in fits:
+        n, k = f.n_points, f.n_params + 1
+        assert f.criterion == "AIC"
+        assert f.aic == pytest.approx(n * math.log(f.wrss / n) + 2 * k)
+
+
+def test_a_model_that_cannot_be_fitted_is_a_row_without_numbers():
+    rows, _ = sweep_rows("paper", 0, subjects=1)
+    one = rows.iloc[:2]  # 2 points: the circuit (2 parameters) has no degree of freedom
+    table = models_table(fit_models(one, ["paper", "circuit"]))
+    assert len(table) == 2
+    assert table["aic"].isna().any()  # AICc needs n > K + 1
+
+
+def _winners(model: str, seeds: range) -> tuple[int, int]:
+    wins = total = 0
+    for seed in seeds:
+        rows, _ = sweep_rows(model, seed)
+        table = models_table(fit_models(rows, ALL))
+        for _, g in table.groupby("subject"):
+            total += 1
+            wins += g["model"].iloc[0] == model
+    return wins, total
+
+
+@pytest.mark.parametrize("model", ALL)
+def test_the_true_model_has_the_lowest_aic(model):
+    wins, total = _winners(model, range(2))
+    assert wins >= 0.9 * total, f"{model}: {wins} of {total}"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("model", ALL)
+def test_the_true_model_has_the_lowest_aic_in_nine_seeds_of_ten(model):
+    wins, total = _winners(model, range(2, 12))
+    assert wins >= 0.9 * total, f"{model}: {wins} of {total}"
+
+
+def test_the_frequency_response_figure_draws_on_the_axes_given():
+    rows, _ = sweep_rows("circuit", 0, subjects=1)
+    fits = fit_models(rows, ["paper", "circuit"])
+    ax = new_axes()
+    assert plot_frequency_response(rows, fits, subject="P01", ax=ax) is ax
+    lines = ax.get_lines()
+    # per drive (every amplitude at each normal force: 10): one curve per model; the
+    # circuit's falls at low frequency
+    curves = [ln for ln in lines if len(ln.get_xdata()) == 121]
+    assert len(curves) == 10 * 2
+    circuit = curves[[f.model for f in fits].index("circuit")].get_ydata()
+    assert circuit[0] < 0.5 * circuit[-1]
+    new = plot_frequency_response(rows, fits, subject="P01")
+    assert isinstance(new, Axes) and new is not ax
+    assert np.isclose(np.log10(new.get_xlim()), np.log10([10, 20000]), atol=0.3).all()

@@ -1,0 +1,103 @@
+"""Coverage of the population's 95 % intervals on simulated populations (population_sim.py).
+
+The kinds of population checked and the tally of runs whose interval held the truth: the
+exponent, the force at each amplitude, the friction coefficient mu and, for populations
+that follow the seed paper's model, the fitted air gap h_L. ``scripts/population_coverage.py``
+prints them over many seeds with their binomial uncertainty; the test suite runs fewer
+seeds of the same (tests/population/test_population_coverage.py).
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+from evtribo.fit.fit import SubjectFit, fit_study
+from evtribo.fit.tables import ResultTables
+from evtribo.population.estimates import population
+from population_sim import Lab, Truth, hierarchical_tables, physics_tables
+
+Maker = Callable[[np.random.Generator, int], tuple[ResultTables, Truth]]
+
+#: The kinds of population checked: name -> maker.
+KINDS: dict[str, Maker] = {
+    "power law, exponents spread 0.1": hierarchical_tables,
+    "power law, exponents spread 0.3": lambda rng, k: hierarchical_tables(
+        rng, k, sd_exponent=0.3),
+    "power law, one exponent": lambda rng, k: hierarchical_tables(
+        rng, k, sd_exponent=0.0, sd_log_f=0.3),
+    "power law, noisy cells": lambda rng, k: hierarchical_tables(
+        rng, k, lab=Lab(on_rel=(0.05, 0.15), mu_rel=(0.01, 0.03))),
+    "power law, amplitudes missing": lambda rng, k: hierarchical_tables(
+        rng, k, drop=lambda i, a: (i % 3 == 1 and a > 110) or (i % 4 == 2 and a == 60)),
+    "the paper's model (eq. 11)": physics_tables,
+}
+#: The kinds whose subjects follow the seed paper's model: their air gap h_L is fitted.
+FITTED = ("the paper's model (eq. 11)",)
+
+
+@dataclass
+class Tally:
+    """Per quantity, the intervals that held the truth and the intervals counted.
+
+    Keys: ``exponent``, ``F_el`` (every amplitude), ``F_el at 60 V`` (each amplitude),
+    ``mu``, ``h_L``.
+    """
+
+    held: dict[str, int] = field(default_factory=dict)
+    counted: dict[str, int] = field(default_factory=dict)
+    runs: int = 0
+    named: int = 0  # runs that named an outlier (there is none in these populations)
+
+    def count(self, key: str, low: float, high: float, truth: float) -> None:
+        """One interval of *key*: did it hold *truth*?"""
+        self.counted[key] = self.counted.get(key, 0) + 1
+        self.held[key] = self.held.get(key, 0) + int(low <= truth <= high)
+
+    def rate(self, key: str) -> float:
+        """The share of *key*'s intervals that held the truth (NaN: none counted)."""
+        n = self.counted.get(key, 0)
+        return self.held.get(key, 0) / n if n else math.nan
+
+    def uncertainty(self, key: str) -> float:
+        """The binomial standard error of :meth:`rate` (runs taken as independent)."""
+        p, n = self.rate(key), self.counted.get(key, 0)
+        return math.sqrt(p * (1 - p) / n) if n else math.nan
+
+
+def check(tables: ResultTables, truth: Truth, tally: Tally,
+          fits: Sequence[SubjectFit] = ()) -> None:
+    """Count whether the population's exponent, forces, mu and h_L hold the truth.
+
+    *fits*: the subjects' model fits (for h_L; the population's truth ``truth.h_l``).
+    """
+    pop = population(tables, fits)
+    tally.runs += 1
+    tally.named += bool(pop.outliers)
+    for _, row in pop.table.iterrows():
+        lo, hi, what = float(row["ci_low"]), float(row["ci_high"]), row["quantity"]
+        if what == "exponent":
+            tally.count("exponent", lo, hi, truth.exponent)
+        elif what == "electrostatic_force_N":
+            amp = float(row["amplitude_V"])
+            true = math.exp(truth.log_force(amp))
+            tally.count("F_el", lo, hi, true)
+            tally.count(f"F_el at {amp:g} V", lo, hi, true)
+        elif what == "mu":
+            tally.count("mu", lo, hi, truth.mu)
+        elif what == "h_L_m" and truth.h_l is not None:
+            tally.count("h_L", lo, hi, truth.h_l)
+
+
+def run(kind: str, k: int, seed: int, tally: Tally, *, fit: bool = True) -> None:
+    """One simulated study of *k* subjects of *kind*, checked into *tally*; its subjects
+    fitted with the seed paper's model (for h_L) when *fit* and the kind follows it."""
+    tables, truth = KINDS[kind](np.random.default_rng([seed, k]), k)
+    check(tables, truth, tally, fit_study(tables) if fit and kind in FITTED else ())
