@@ -2,7 +2,7 @@
 
 From the DBC alone the names (``Fz``, ``NormalCell``, ``HvOn``...), units (N, V, Hz), bit
 widths and value tables (``sine`` / ``square``) speak; with a sample log the signals'
-behaviour speaks too (:mod:`.stats`): the normal force is positive and steady, the
+behaviour speaks too (:mod:`~evtribo.rigsetup.stats`): the normal force is positive and steady, the
 tangential force changes sign with the strokes, a status signal switches, a counter counts.
 Behaviour outweighs names, so a rig whose cells are named ``Ch1`` and ``Ch2`` is told apart
 from a log. Every guess carries its reason, and says when it is uncertain.
