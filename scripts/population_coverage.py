@@ -23,7 +23,7 @@ import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "compare"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from population_coverage import KINDS, Tally, run
 

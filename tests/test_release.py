@@ -13,6 +13,7 @@ that is not satisfied here fails the install instead of being downloaded.
 from __future__ import annotations
 
 import email.parser
+import fcntl
 import os
 import shutil
 import subprocess
@@ -43,9 +44,22 @@ def _run(args: list[str | Path], **kwargs) -> subprocess.CompletedProcess[str]:
 
 @pytest.fixture(scope="module")
 def dist(tmp_path_factory) -> Path:
-    """``python -m build`` of this tree: the sdist, then the wheel built from the sdist."""
-    out = tmp_path_factory.mktemp("dist")
-    _run([sys.executable, "-m", "build", "--no-isolation", "--outdir", out, ROOT], cwd=ROOT)
+    """``python -m build`` of this tree: the sdist, then the wheel built from the sdist.
+
+    Built once for the whole run, whichever worker asks first: the build writes ``build/``
+    and the egg-info in the tree, which two builds at once would share (the others wait on
+    a lock file beside the workers' temporary folders, then use what it built)."""
+    base = tmp_path_factory.getbasetemp()  # a worker's is inside this run's folder
+    shared = base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+    out = shared / "release-dist"
+    with open(shared / "release-dist.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (shared / "release-dist.built").is_file():
+            shutil.rmtree(out, ignore_errors=True)
+            out.mkdir()
+            _run([sys.executable, "-m", "build", "--no-isolation", "--outdir", out, ROOT],
+                 cwd=ROOT)
+            (shared / "release-dist.built").touch()
     return out
 
 
@@ -100,7 +114,7 @@ def test_the_wheel_holds_the_data_the_licence_and_the_metadata(dist):
             whl.read(f"{info}/METADATA").decode("utf-8"))
         licence = whl.read(f"{info}/licenses/LICENSE")
     for name in ("evtribo/data/rigs/default.dbc", "evtribo/data/rigs/default.toml",
-                 "evtribo/data/liveview.html", "evtribo/compare/templates/report.html.j2",
+                 "evtribo/data/liveview.html", "evtribo/report/templates/report.html.j2",
                  "evtribo/py.typed", "evtribo/citation.py"):
         assert name in names
     assert not [n for n in names if n.startswith(("tests/", "docs/", "data/"))]

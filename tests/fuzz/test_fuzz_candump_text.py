@@ -12,7 +12,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from test_fuzz_readers import check_read
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "frames"))
+sys.path.insert(0, str(Path(__file__).parents[1] / "canlog"))
 from _candump_screen import screen_log
 
 
