@@ -106,6 +106,11 @@ poweroff -f
 """
 
 
+#: Folders the guest mounts a tmpfs of its own on (INIT): a checkout inside one of them is
+#: shared with the guest on its own, or the guest would not see it.
+GUEST_TMPFS = (Path("/tmp"), Path("/run"), Path("/dev/shm"))
+
+
 class Unavailable(RuntimeError):
     """The VM cannot run on this machine (the message says why, and what to do)."""
 
@@ -418,7 +423,12 @@ def run(argv: Sequence[str], *, cwd: str | os.PathLike[str] | None = None,
         append = ("console=ttyS0 quiet loglevel=3 panic=-1 mitigations=off "
                   f"random.trust_cpu=on vcanvm.out={out}")
         shares = []
-        for k, folder in enumerate(Path(w).resolve(strict=True) for w in writable):
+        folders = [Path(w).resolve(strict=True) for w in writable]
+        here = Path(cwd or os.getcwd()).resolve()
+        if any(here.is_relative_to(t) for t in GUEST_TMPFS) and \
+                not any(here.is_relative_to(f) for f in folders):
+            folders.append(here)  # the guest has its own tmpfs there: bring the checkout
+        for k, folder in enumerate(folders):
             append += f" vcanvm.rw=rw{k}:{folder}"
             shares += ["-virtfs", f"local,path={folder},mount_tag=rw{k},security_model=none,"
                        "multidevs=remap"]
