@@ -160,6 +160,22 @@ def test_counts_frames_lost_by_the_counters(tmp_path):
     assert side["dropped_frames_by_message"] == {"FzCell": len(lost), "FxCell": 0}
 
 
+def test_a_frame_received_twice_or_late_is_no_frame_lost(tmp_path):
+    """One frame received twice made the sidecar say 255 frames lost, two received
+    swapped 256: a duplicate is counted as one, a late frame is no loss."""
+    lost = {7, 8, 9}
+    frames = rig_frames(3000, skip=lost, extra=False)
+    fz = [i for i, f in enumerate(frames) if f.arbitration_id == 0x0C1]
+    a, b = fz[900], fz[901]
+    frames[a], frames[b] = frames[b], frames[a]                  # received swapped
+    frames.insert(fz[500] + 1, frames[fz[500]])                  # received twice
+    _study, result = record_from_sender(tmp_path, "acq_twice_late", frames)
+    side = result.sidecar
+    assert (side["dropped_frames"], side["duplicate_frames"]) == (len(lost), 1)
+    assert side["dropped_frames_by_message"] == {"FzCell": len(lost), "FxCell": 0}
+    assert side["counter_restarts_s"] == {}
+
+
 def test_stop_request_ends_as_interrupted(tmp_path):
     stop = threading.Event()
     threading.Timer(0.3, stop.set).start()

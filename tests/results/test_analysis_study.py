@@ -61,7 +61,7 @@ def test_outputs_have_the_spec_columns(default_study):
                              "skipped_lines", "friction_modulation_Hz", "normal_offset_N",
                              "tangential_offset_N", "tare", "mu_change_per_10s",
                              "crosstalk_normal", "crosstalk_normal_se",
-                             "tangential_direction_share")
+                             "tangential_direction_share", "duplicate_frames")
     assert WINDOW_CSV_COLUMNS[:9] == ("subject", "trial", "condition", "amplitude_V",
                                       "waveform", "t_start_s", "t_end_s", "normal_force_N",
                                       "friction_force_N")

@@ -44,6 +44,9 @@ damaged_lines               lines the adapter's driver could not parse (``t0CZ8.
 dropped_frames              frames lost before the log, at least: the larger of the load
                             cells' counters' count and ``queue_dropped_frames``
 dropped_frames_by_message   frames missing by the load cells' rolling counters
+duplicate_frames            frames of the load cells received twice: no loss
+counter_restarts_s          by message, when its counter restarted at 0 (s from the first
+                            frame): no frame is counted lost there
 queue_dropped_frames        frames the receiving side dropped from its full receive queue
                             (SocketCAN: the kernel's count, ``SO_RXQ_OVFL``); null when the
                             bus does not count them
@@ -429,6 +432,8 @@ def _last_sidecar(rec: _Recording, got: _Received, ended: str, error: BaseExcept
         "queue_dropped_frames": stats.queue_dropped,
         "receive": got.care.as_dict(),
         "dropped_frames_by_message": stats.dropped_by_message,
+        "duplicate_frames": stats.duplicates,
+        "counter_restarts_s": got.writer.counters.restarts_by_message(stats.first_timestamp),
         "longest_gap_s_by_message": got.writer.counters.longest_gap_by_message(),
         "bus_errors": stats.error_frames + stats.damaged_lines + int(ended == "bus-error"),
         "bus_exceptions": exceptions,

@@ -39,7 +39,8 @@ __all__ = ["COUNT_COLUMNS", "CSV_EXACT", "TEXT_COLUMNS", "FitView", "Results", "
 
 #: Columns of names (strings), and of counts (nullable integers); the others are floats.
 TEXT_COLUMNS = ("subject", "trial", "waveform", "condition", "tare")
-COUNT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off", "replicate")
+COUNT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off", "replicate",
+                 "duplicate_frames")
 
 #: read_csv's options that read back every float to_csv wrote, bit for bit (pandas 3's
 #: default parser does; pandas 2's needs its round-trip parser).
