@@ -53,7 +53,7 @@ from evtribo.util.docstrings import fill_doc
 log = logging.getLogger(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
-CACHE_VERSION = 12  # 2: dropped frames counted by evtribo.canlog.dropped; 3: Rig.counter guess,
+CACHE_VERSION = 13  # 2: dropped frames counted by evtribo.canlog.dropped; 3: Rig.counter guess,
 #                    frames with an unknown multiplexer value ignored; 5: checksummed entries;
 #                    6: channel, logger's DROPCOUNT and decoder warnings kept; 7: waveform
 #                    codes named without a value table (evtribo.canlog.decode.FALLBACK_WAVEFORMS);
@@ -64,7 +64,8 @@ CACHE_VERSION = 12  # 2: dropped frames counted by evtribo.canlog.dropped; 3: Ri
 #                    by the counter alone where it steps by one, outages only on bursty
 #                    timestamps (evtribo.canlog.outages); CAN FD frames only as FD messages;
 #                    12: the cells' frames in the order sent, duplicates counted, counter
-#                    jumps and the log's clock steps taken out (evtribo.canlog.sequence)
+#                    jumps and the log's clock steps taken out (evtribo.canlog.sequence);
+#                    13: a force's samples outside its DBC range left out (bad samples)
 _META = b"evtribo.trial"
 #: An entry's file name ends so.
 SUFFIX = ".arrow"

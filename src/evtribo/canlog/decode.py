@@ -52,7 +52,7 @@ from evtribo.canlog.dropped import missing_frames_received
 from evtribo.canlog.frame_match import kind_mismatches, message_mask
 from evtribo.canlog.io.table import FrameTable, take_rows
 from evtribo.canlog.rig import Rig, SignalRef
-from evtribo.canlog.signal_codec import SignalCodec
+from evtribo.canlog.signal_codec import SignalCodec, bad_samples
 from evtribo.canlog.signals import CellSignals, ExcitationSignals, TrialProvenance, TrialSignals
 from evtribo.errors import UserInputError
 
@@ -312,11 +312,13 @@ def _cells(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]],
     warnings += sequence.said(steps, named, t0)
     out = []
     for (msg, seq, modulus), (force, _) in zip(cells, roles, strict=True):
-        found = missing_frames_received(seq.t, seq.counter, modulus)
-        out.append(CellSignals(
-            seq.t[seq.by_time], msg.scaled(force.signal.name)[seq.rows[seq.by_time]],
-            None if seq.counter is None else seq.counter[seq.by_time], found.count,
-            found.method, found.note, seq.duplicates))
+        found = missing_frames_received(seq.t, seq.counter, modulus)  # bad samples too
+        t, value = seq.t[seq.by_time], msg.scaled(force.signal.name)[seq.rows[seq.by_time]]
+        bad, text = bad_samples(t, value, force.signal, t0, force.qualified_name)
+        warnings += [text] if text else []
+        out.append(CellSignals(t[~bad], value[~bad], None if seq.counter is None else
+                               seq.counter[seq.by_time][~bad], found.count, found.method,
+                               found.note, seq.duplicates))
     return frames, out
 
 
