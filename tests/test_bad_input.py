@@ -349,6 +349,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "log-candump-no-timestamps": _text(Path("run-01.log"), CANDUMP_PLAIN),
     "log-asc-named-log": lambda t: shutil.copy(PEER_LOGS / "logfile.asc", t / "run-01.log"),
     "log-savvycan-csv": _text(Path("run-01.csv"), SAVVYCAN),
+    "log-utf16": lambda t: (t / "a80.log").write_text(
+        "(1763700000.000000) vcan0 0C1#0000000000000001\n" * 20, encoding="utf-16"),
     "log-no-frame": _text(Path("run-01.log"), "trial 1, P01: finger slipped at 3 s\n"),
     "log-db-gz": lambda t: (t / "run-01.db.gz").write_bytes(gzip.compress(b"SQLite format 3")),
     "log-db-unreadable": _text(Path("run-01.db"), "not a database\n"),
