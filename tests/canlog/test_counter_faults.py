@@ -21,6 +21,7 @@ from hypothesis import strategies as st
 from _counter_faults import inject
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_trial
 from evtribo.canlog.decode import decode_trial
+from evtribo.canlog.dropped import missing_frames
 from evtribo.canlog.rig import default_rig
 
 RIG = default_rig()
@@ -85,6 +86,16 @@ def test_a_step_of_the_clock_is_said_and_invents_no_loss(step_s):
     assert at == pytest.approx(faulted.clock_step[0], abs=0.01)
     # the frames after the step are put back on the clock of those before
     assert np.ptp(got.normal.t) == pytest.approx(np.ptp(frames.timestamp), abs=0.01)
+
+
+def test_timestamps_that_stand_still_between_pauses_leave_the_counters_count():
+    """Two blocks of frames stamped alike, a second apart, 10 frames lost between them by
+    the counter: the timing has no period to look for whole counter periods with (it
+    failed with 'cannot convert float NaN to integer')."""
+    t = 1.76e9 + np.r_[np.zeros(500), np.ones(500)]
+    counter = np.r_[np.arange(500), np.arange(510, 1010)] % 256
+    found = missing_frames(t, counter, 256)
+    assert found.count == 10 and "the timing cannot tell" in found.note
 
 
 def _far_from_whole_counter_periods(step: float) -> bool:

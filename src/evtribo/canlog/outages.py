@@ -185,6 +185,10 @@ def whole_periods(t: npt.NDArray[np.float64], index: npt.NDArray[np.float64],
     # the period from the stretches between the pauses (what they hide left out)
     first, last = bounds[:-1], bounds[1:] - 1
     period = float(np.sum(t[last] - t[first]) / max(np.sum(index[last] - index[first]), 1.0))
+    if not (np.isfinite(period) and period > 0):  # no time passes between the pauses
+        return 0, ("whole counter periods may have been lost in the pauses (the timestamps "
+                   "stand still between them; the timing cannot tell): counted by the counter "
+                   "alone")
     lead = index - (t - t[0]) / period
     tolerance = max(2.0, 4 * _noise(_envelope(t, index, period)[1]))
     reach = max(2 * modulus, 64)
