@@ -136,3 +136,25 @@ def test_any_duplicates_swaps_restarts_and_one_clock_step_lose_no_frame_and_inve
     steps = _said(got, "clock stepped")
     step = faults["clock_step"]
     assert len(steps) == (0 if step is None else 1 if abs(step[1]) >= 0.01 else len(steps))
+
+
+@settings(max_examples=300, deadline=None)
+@given(steps=st.lists(st.one_of(st.floats(-2.0, 2.0), st.sampled_from([0.0, 1e-3, -1e-3, 1e4])),
+                      min_size=0, max_size=400),
+       counter=st.one_of(st.none(), st.lists(st.integers(0, 255), min_size=400, max_size=400)),
+       modulus=st.sampled_from([4, 16, 256]))
+def test_any_stream_is_put_in_an_order_without_failing(steps, counter, modulus):
+    """Whatever the timestamps and the counter, every frame but the duplicates is kept
+    once, in increasing time within each stretch."""
+    from evtribo.canlog.sequence import sending_order
+
+    t = 1.76e9 + np.cumsum(np.r_[0.0, steps])
+    c = None
+    if counter is not None:  # a counter stepping by one but where it does not
+        odd = np.asarray(counter[:t.size - 1])
+        c = np.cumsum(np.r_[0, np.where(odd < 200, 1, odd % 9 - 3)]).astype(np.int64) % modulus
+    got = sending_order(t, c, modulus if c is not None else None,
+                        np.zeros((t.size, 8), np.uint8))
+    assert np.unique(got.rows).size == got.rows.size == t.size - got.duplicates
+    assert np.sort(got.by_time).tolist() == list(range(got.rows.size))
+    assert np.isfinite(got.t).all()
