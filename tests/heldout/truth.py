@@ -120,10 +120,48 @@ def _population(subjects: dict[str, dict], cells: list[dict]) -> dict:
     exps = [s["exponent"] for s in subjects.values() if np.isfinite(s["exponent"])]
     pref = [s["prefactor_N"] for s in subjects.values() if np.isfinite(s["prefactor_N"])]
     mus = [s["mu_off_mean"] for s in subjects.values() if s["mu_off_mean"] is not None]
-    return {"electrostatic_force_N": force,
+    gaps = [s["h_L_m"] for s in subjects.values() if s["h_L_m"] is not None]
+    return {"h_L_m": float(np.exp(np.mean(np.log(gaps)))) if gaps else None,
+            "electrostatic_force_N": force,
             "exponent": float(np.mean(exps)) if exps else None,
             "prefactor_N": float(np.exp(np.mean(np.log(pref)))) if pref else None,
             "mu": float(np.mean(mus)) if mus else None}
+
+
+def superpopulation(cfg: StudyConfig) -> dict | None:
+    """The population the subjects are drawn from, where it has one typical value.
+
+    Geometric means of the force at each amplitude (at the press's target) and of the
+    prefactor, the mean exponent, the median air gap; by Gauss-Hermite quadrature over the
+    subjects' log-normal air gap (paper model) or in closed form (power law). None with
+    weak responders (a mixture) or outside a square drive.
+    """
+    e = cfg.electrostatic
+    if e.weak_share > 0 or cfg.drive.waveform != "square":
+        return None
+    amps = np.asarray(cfg.drive.amplitudes_V, dtype=float)
+    if e.model == "power":
+        log_f = np.log(e.force_at_140V_N) + e.n_mean * np.log(amps / 140.0)
+        return {"electrostatic_force_N": {str(a): float(np.exp(v)) for a, v in zip(amps, log_f,
+                                                                                 strict=True)},
+                "exponent": e.n_mean, "prefactor_N": e.force_at_140V_N / 140.0**e.n_mean,
+                "h_L_m": None}
+    nodes, weights = np.polynomial.hermite_e.hermegauss(20)
+    weights = weights / weights.sum()
+    logs, exps, logk = [], [], []
+    for z in nodes:
+        h = e.h_L_median_m * np.exp(e.h_L_log_sd * z)
+        f = physics.paper_force(e, h, amps, np.full(amps.size, cfg.press.target_N))
+        k, n = physics.power_law_fit(amps, f)
+        logs.append(np.log(f))
+        exps.append(n)
+        logk.append(np.log(k))
+    mean_log = np.average(np.array(logs), axis=0, weights=weights)
+    return {"electrostatic_force_N": {str(a): float(np.exp(v)) for a, v in zip(amps, mean_log,
+                                                                             strict=True)},
+            "exponent": float(np.average(exps, weights=weights)),
+            "prefactor_N": float(np.exp(np.average(logk, weights=weights))),
+            "h_L_m": e.h_L_median_m}
 
 
 def study_truth(cfg: StudyConfig, seed: int, subjects: list[Subject], records: list[dict],
@@ -133,7 +171,8 @@ def study_truth(cfg: StudyConfig, seed: int, subjects: list[Subject], records: l
     subj = {s.name: _subject_truth(cfg, s, cells, records) for s in subjects}
     return {"scenario": cfg.name, "seed": seed, "config": asdict(cfg),
             "crosstalk_matrix": xtalk.tolist(), "subjects": subj, "cells": cells,
-            "population": _population(subj, cells), "trials": records}
+            "population": _population(subj, cells),
+            "superpopulation": superpopulation(cfg), "trials": records}
 
 
 def window_truth(trace: dict, starts: np.ndarray, ends: np.ndarray) -> np.ndarray:
