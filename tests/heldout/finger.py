@@ -19,6 +19,7 @@ from .config import Drive, Press, Strokes
 
 LANDING_S = 0.25   # the finger's landing after the tare stretch
 SETTLE_S = 0.3     # pressing before the first stroke
+SMOOTH_S = 0.05    # the pressing force's smoothness
 
 
 @dataclass
@@ -105,13 +106,20 @@ def motion(t: np.ndarray, strokes: Strokes, tare_s: float,
     return Motion(velocity, direction, stroke, env, tare_s)
 
 
+def _smooth(x: np.ndarray, dt: float, tau: float = SMOOTH_S) -> np.ndarray:
+    """First-order low-pass: a hand's force has no content above a few tens of Hz."""
+    a = np.exp(-dt / tau)
+    return np.asarray(lfilter([1.0 - a], [1.0, -a], x, zi=[a * x[0]])[0])
+
+
 def _ou(n: int, dt: float, tau: float, sd: float, rng: np.random.Generator) -> np.ndarray:
-    """An Ornstein-Uhlenbeck process of stationary sd ``sd`` and correlation time ``tau``."""
+    """An Ornstein-Uhlenbeck process of stationary sd ``sd`` and correlation time ``tau``,
+    smoothed over 50 ms (muscles do not jump from one millisecond to the next)."""
     a = np.exp(-dt / tau)
     z = rng.standard_normal(n) * sd * np.sqrt(1.0 - a * a)
     x0 = rng.standard_normal() * sd
     out = lfilter([1.0], [1.0, -a], z, zi=[a * x0])[0]
-    return np.asarray(out)
+    return _smooth(np.asarray(out), dt)
 
 
 def _fold(x: np.ndarray, lo: float, hi: float) -> np.ndarray:
@@ -131,14 +139,13 @@ def press(t: np.ndarray, p: Press, pair: np.ndarray, rng: np.random.Generator) -
     if p.mode == "walk":
         steps = rng.standard_normal(n) * (hi - lo) / np.sqrt(p.walk_traverse_s) * np.sqrt(dt)
         start = rng.uniform(lo + 0.2 * (hi - lo), hi - 0.2 * (hi - lo))
-        return _fold(start + np.cumsum(steps), lo, hi) + _ou(n, dt, p.tau_s, 0.02, rng)
+        walk = _smooth(_fold(start + np.cumsum(steps), lo, hi), dt)
+        return walk + _ou(n, dt, p.tau_s, 0.02, rng)
     if p.mode == "sweep":
         phase = rng.uniform(0, 1) + t / p.sweep_period_s
         tri = 2.0 * np.abs(np.mod(phase, 1.0) - 0.5)
         return lo + (hi - lo) * tri + _ou(n, dt, p.tau_s, 0.02, rng)
     if p.mode == "targets":
         goal = np.asarray(p.targets_N)[pair % len(p.targets_N)]
-        a = np.exp(-dt / 0.3)
-        smooth = lfilter([1.0 - a], [1.0, -a], goal, zi=[a * goal[0]])[0]
-        return np.asarray(smooth) + _ou(n, dt, p.tau_s, p.band_N / 3.0, rng)
+        return _smooth(goal, dt, 0.3) + _ou(n, dt, p.tau_s, p.band_N / 3.0, rng)
     raise ValueError(f"unknown press mode {p.mode!r}")
