@@ -31,6 +31,11 @@ if __package__ in (None, ""):  # run as a script: import the package from tests/
 from heldout.physics import power_law_fit
 
 Z95 = 1.959964
+TRIAL_COLUMNS = ["subject", "trial", "waveform", "frequency_Hz", "amplitude_V", "condition",
+                 "duration_s", "frames", "dropped_frames", "skipped_lines",
+                 "friction_modulation_Hz", "normal_offset_N", "tangential_offset_N", "tare",
+                 "mu_change_per_10s", "crosstalk_normal", "crosstalk_normal_se",
+                 "tangential_direction_share"]
 
 
 @dataclass(frozen=True)
@@ -163,7 +168,10 @@ def write_folder(out: Path, cfg: PopulationCells, cells: pd.DataFrame, subjects:
         amplitude_V=("amplitude_V", "max"))
     trials = trials.assign(waveform="square", frequency_Hz=10000.0, condition="alternating",
                            duration_s=12.0, frames=24000, dropped_frames=0, skipped_lines=0,
-                           tare="none")
+                           friction_modulation_Hz=np.nan, normal_offset_N=np.nan,
+                           tangential_offset_N=np.nan, tare="none", mu_change_per_10s=np.nan,
+                           crosstalk_normal=np.nan, crosstalk_normal_se=np.nan,
+                           tangential_direction_share=np.nan)[TRIAL_COLUMNS]
     est = pd.DataFrame({
         "subject": cells["subject"], "waveform": "square", "frequency_Hz": 10000.0,
         "amplitude_V": cells["amplitude_V"],

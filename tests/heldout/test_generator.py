@@ -233,3 +233,23 @@ def test_every_scenario_writes_a_study(name: str, tmp_path: Path) -> None:
     study = evtribo.open_study(tmp_path / name / "study")
     assert len(study.trials) == len(truth["trials"])
     assert all(c["F_el_N"] > 0 for c in truth["cells"])
+
+
+def test_population_cells_make_a_result_folder_evtribo_reads(tmp_path: Path) -> None:
+    from heldout import population_cells as pc
+
+    cfg = replace(pc.CELL_SCENARIOS["cells-weak"], subjects=4, weak_share=0.5, n_boot=50)
+    truth = pc.generate(tmp_path / "cells", cfg, seed=2)
+    results = evtribo.load_results(tmp_path / "cells" / "out")
+    est = results.electrostatic.set_index(["subject", "amplitude_V"])
+    assert len(est) == 4 * len(cfg.amplitudes_V)
+    for c in truth["cells"]:
+        row = est.loc[(c["subject"], c["amplitude_V"])]
+        assert row["electrostatic_force_N"] == pytest.approx(c["estimate_N"])
+        half = (row["electrostatic_force_ci_high_N"] - row["electrostatic_force_ci_low_N"]) / 2
+        assert half == pytest.approx(1.959964 * c["se_N"])
+        s = truth["subjects"][c["subject"]]
+        assert c["true_N"] == pytest.approx(s["k"] * c["amplitude_V"] ** s["n"])
+    assert sum(s["weak"] for s in truth["subjects"].values()) == 2
+    assert set(results.exponents["subject"]) == set(truth["subjects"])
+    assert truth["superpopulation"] is None  # weak responders: a mixture, no one typical value
