@@ -88,6 +88,22 @@ def test_a_step_of_the_clock_is_said_and_invents_no_loss(step_s):
     assert np.ptp(got.normal.t) == pytest.approx(np.ptp(frames.timestamp), abs=0.01)
 
 
+def test_a_counter_that_stands_still_is_no_255_frames_lost_a_step():
+    """A cell whose counter stood still for 50 frames (the same value, other forces): each
+    of its 49 steps read as 255 frames lost and the step out of it as 49, 12,544 in all;
+    the frames are the next ones all the same, and the step out of it the counter's own."""
+    frames, truth = _trial(1, 0.0, 0.0)
+    stuck = frames.take(np.arange(len(frames)))
+    stuck.data = frames.data.copy()
+    rows = np.flatnonzero(frames.arbitration_id == 0x0C1)[5000:5050]
+    stuck.data[rows, 7] = stuck.data[rows[0], 7]
+    got = decode_trial(stuck, RIG)
+    assert got.normal.dropped == truth.nodes["FzCell"]["dropped"] == 0
+    (said,) = [w for w in got.warnings if "stood still" in w]
+    assert "for 49 frames" in said
+    assert not [w for w in got.warnings if "clock stepped" in w]
+
+
 def test_timestamps_that_stand_still_between_pauses_leave_the_counters_count():
     """Two blocks of frames stamped alike, a second apart, 10 frames lost between them by
     the counter: the timing has no period to look for whole counter periods with (it

@@ -125,6 +125,11 @@ class Sequenced:
         Frames received twice, dropped.
     first_duplicate : float, s
         Timestamp of the first of them (NaN: none).
+    stood : int
+        Frames whose counter stood still (the value of the frame before, another payload):
+        taken for the next frame, their counter put right.
+    first_stood : float, s
+        Timestamp of the first of them (NaN: none).
     reordered : int
         Frames that arrived out of their place, put back.
     jumps : list of CounterJump
@@ -137,6 +142,8 @@ class Sequenced:
     by_time: IntArray
     duplicates: int = 0
     first_duplicate: float = float("nan")
+    stood: int = 0
+    first_stood: float = float("nan")
     reordered: int = 0
     jumps: list[CounterJump] = field(default_factory=list)
     steps: list[ClockStep] = field(default_factory=list)
@@ -208,8 +215,8 @@ def _events(s: Lead, c: IntArray | None) -> tuple[list[tuple[int, float]],
         pick = near[int(np.argmax(np.abs(dt)))]
         j, h = int(cand[pick]), float(shifts[pick])
         done.add(j)
-        step_back = s.t[j + 1] < s.t[j]
-        if step_back:
+        held = float(dt[near == pick][0])  # the step's own disagreement, frames
+        if s.t[j + 1] < s.t[j] and held <= h / 2:  # the clock went back, by about h
             steps.append((j, h * s.period))
             s.t[j + 1:s.bounds[np.searchsorted(s.bounds, j, side="right")]] -= h * s.period
         elif c is None or s.modulus is None:
@@ -222,8 +229,9 @@ def _events(s: Lead, c: IntArray | None) -> tuple[list[tuple[int, float]],
             s.index[j + 1:] -= k
         else:
             whole = round(h / s.modulus)
-            if whole >= 1 and abs(h - whole * s.modulus) <= s.tol:
-                continue  # whole counter periods lost: counted by dropped.missing_frames
+            if (whole >= 1 and abs(h - whole * s.modulus) <= s.tol) or held < h / 2:
+                continue  # whole counter periods lost (counted by dropped.missing_frames),
+                # or a shift no step of the clock holds: no step of the clock
             steps.append((j, h * s.period))
             s.t[j + 1:s.bounds[np.searchsorted(s.bounds, j, side="right")]] -= h * s.period
     return steps, jumps
@@ -275,9 +283,17 @@ def sending_order(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
             d = _steps(c[rows], modulus)
     elif c is not None:
         modulus = None  # no counter to trust: its values are kept as they are
+    if d is not None and modulus and np.any(d == 0):
+        # the counter stood still (not a duplicate: the payload differs): the frame is the
+        # next one all the same, its counter put right
+        out.stood = int(np.count_nonzero(d == 0))
+        out.first_stood = float(times[rows[int(np.argmax(d == 0)) + 1]])
+        d = np.where(d == 0, 1, d)
     moved = rows.size < n or out.reordered
     ts = times[rows] if moved else times
     cs = None if c is None else c[rows] if moved else c
+    if out.stood and cs is not None and d is not None and modulus:
+        cs = (cs[0] + np.concatenate([[0], np.cumsum(d)])) % modulus
     index = (np.concatenate([[0], np.cumsum(d)]) if d is not None and modulus
              else np.arange(rows.size))
     s = Lead.of(ts, index, modulus) if rows.size >= MIN_FRAMES else None
@@ -413,14 +429,19 @@ def said(steps: list[tuple[int, int, float, float]],
     for name, counter, seq in cells:
         for jump in seq.jumps:
             how = "restarted at 0" if jump.new == 0 else f"jumped from {jump.old} to {jump.new}"
-            out.append(f"the counter {counter} {how} at {jump.t - t0:.3f} s into the trial "
-                       f"(it read {jump.old}): {jump.lost} frames lost there, by the timing, "
-                       "not the counter's step")
+            out.append(f"the counter {counter} {how} at {jump.t - t0:.3f} s into the trial: "
+                       f"{jump.lost} frame{'' if jump.lost == 1 else 's'} lost there, by the "
+                       "timing, not the counter's step")
         if seq.duplicates:
             out.append(f"{seq.duplicates} frame{'s' if seq.duplicates > 1 else ''} of {name} "
                        f"received twice, the first at {seq.first_duplicate - t0:.3f} s into "
                        "the trial (the counter and the payload of a frame just before): "
                        "dropped, counted in duplicate_frames")
+        if seq.stood:
+            out.append(f"the counter {counter} stood still for {seq.stood} frames, the first at "
+                       f"{seq.first_stood - t0:.3f} s into the trial (the value of the frame "
+                       "before, another payload): each taken for the next frame, not 255 "
+                       "lost")
         if seq.reordered:
             log.info("%d frames of %s arrived out of their place: put back in the counter's "
                      "order", seq.reordered, name)
