@@ -68,3 +68,13 @@ def test_one_frame_received_twice_and_two_swapped_count_no_frame_lost():
     for k in order:
         tracker.update_many(SPEC.key, [_frame(k, k)], [k * PERIOD_S])
     assert (tracker.dropped, tracker.duplicates) == (0, 1)
+
+
+def test_a_counter_that_stands_still_counts_no_frame_lost():
+    """Frames 10-19 all read 10 (other forces): no 255 frames lost a step (nor one less),
+    and the 10 places the counter steps over after them are theirs; frames 30-34 lost."""
+    tracker = CounterTracker([SPEC])
+    frames = [(k, 10 if 10 <= k < 20 else k) for k in range(40) if not 30 <= k < 35]
+    tracker.update_many(SPEC.key, [_frame(k, c) for k, c in frames],
+                        [k * PERIOD_S for k, _ in frames])
+    assert tracker.dropped == 5 and tracker.duplicates == 0

@@ -115,6 +115,7 @@ class _CounterState:
     dropped: int = 0
     duplicates: int = 0
     reordered: int = 0
+    stood: int = 0  # frames in a row whose counter stood still
     restarts: list[float] = field(default_factory=list)
     recent: deque[tuple[int, bytes]] = field(
         default_factory=lambda: deque(maxlen=DUPLICATE_REACH))
@@ -133,6 +134,8 @@ class CounterTracker:
       not 255 frames lost;
     - a frame whose counter was counted missing among the last :data:`REORDER_REACH` steps
       arrived late: its loss is counted back (two frames received swapped are no 256 lost);
+    - a frame whose counter stood still (the value of the frame before, another payload) is
+      the next frame, no 255 frames lost, and holds a place the counter steps over later;
     - a counter that steps to 0 skipping :data:`RESTART_SKIP` or more values, sooner than
       half the time those frames would take, restarted (the cell was reset): no frame is
       counted lost there, and the time is kept (:meth:`restarts_by_message`). A real loss
@@ -203,17 +206,24 @@ class CounterTracker:
             st.reordered += 1
             return
         step = (value - st.last) % modulus
+        if step == 0:  # standing still (another payload): the next frame, its place kept
+            st.stood += 1
+            st.places += 1
+            st.longest_gap = max(st.longest_gap, t - st.last_time)
+            st.last_time = t
+            return
         period = (st.last_time - st.first_time) / st.places if st.places else 0.0
         if value == 0 and step - 1 >= RESTART_SKIP and t - st.last_time < 0.5 * step * period:
             st.restarts.append(t)
             log.warning("the counter of %s restarted at 0 (it read %d): no frame counted "
                         "lost there", spec.message, st.last)
             step = 1
-        else:
-            st.dropped += step - 1
+        else:  # the frames it stood still for held the places it steps over
+            st.dropped += max(step - 1 - st.stood, 0)
             st.missing.update({(st.last + k) % modulus: st.places + k
                                for k in range(max(1, step - REORDER_REACH), step)})
-        st.places += step
+        st.places += max(step - st.stood, 1)
+        st.stood = 0
         st.missing = {v: p for v, p in st.missing.items() if st.places - p <= REORDER_REACH}
         st.longest_gap = max(st.longest_gap, t - st.last_time)
         st.last, st.last_time = value, t
