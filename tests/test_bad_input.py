@@ -394,6 +394,9 @@ BUILD: dict[str, Callable[[Path], None]] = {
                                            "repetiton = 2\n[[trial]]\namplitude_V = 100\n"),
     "session-protocol-changed": _session_begun,
     "init-study-exists": lambda t: None,
+    "analyze-subject-folder": lambda t: None,
+    "report-given-study": lambda t: None,
+    "acquire-no-interface": lambda t: None,
     "init-dbc-missing": lambda t: None,
 }
 

@@ -154,6 +154,10 @@ def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
         text = read_limited(p, StudyError, what=STUDY_FILE).decode("utf-8")
         config = tomllib.loads(text)
     except FileNotFoundError as err:
+        above, name = p.parent.parent, os.path.basename(os.path.abspath(p.parent))
+        if (above / STUDY_FILE).is_file():  # a subject's folder (or any folder) of a study
+            raise StudyError(f"no {STUDY_FILE}: {name} is a folder of the study {above}, "
+                             f"not a study; give the study folder: {above}", path=p) from err
         raise StudyError(f"no {STUDY_FILE}: this folder is not a study (`evtribo init "
                          f"{p.parent} --dbc YOUR.dbc` makes one for your rig)",
                          path=p) from err

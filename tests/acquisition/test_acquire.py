@@ -1,6 +1,8 @@
 """``record_trial``: every frame of a python-can bus into a study folder, nothing lost."""
 
+import errno
 import json
+import os
 import threading
 import time
 
@@ -441,6 +443,47 @@ def test_bus_options_and_python_can_configuration(monkeypatch):
         assert bus.channel_info == "Virtual bus channel acq_from_env"
     finally:
         bus.shutdown()
+
+
+@pytest.mark.parametrize(("number", "says"), [
+    (errno.EAFNOSUPPORT, ["kernel offers no SocketCAN", "modprobe can_raw", "--interface slcan",
+                          "docs/hardware.md"]),
+    (errno.ENODEV, ["ip -brief link show type can", "ip link add dev vcan0 type vcan",
+                    "docs/hardware.md"]),
+    (errno.ENETDOWN, ["sudo ip link set can7 up type can bitrate", "docs/hardware.md"]),
+])
+def test_a_socketcan_bus_that_cannot_open_says_what_to_check(monkeypatch, number, says):
+    """A machine without SocketCAN, a channel it has not, an interface that is down: each
+    is said with what to give and how to check (ip link, vcan, docs/hardware.md)."""
+    import evtribo.acquisition.buses.socketcan as sc
+    from evtribo.acquisition.buses.bus import open_bus
+    from evtribo.errors import AcquisitionError
+
+    def refuse(*_args, **_kwargs):
+        raise OSError(number, os.strerror(number))
+
+    monkeypatch.setattr(sc, "SocketcanBus", refuse)
+    with pytest.raises(AcquisitionError) as caught:
+        open_bus(BusSettings(interface="socketcan", channel="can7"))
+    text = str(caught.value)
+    assert f"cannot open socketcan can7: [Errno {number}]" in text
+    for part in says:
+        assert part in text, text
+
+
+def test_no_interface_anywhere_says_what_to_give(monkeypatch):
+    from evtribo.acquisition.buses.bus import open_bus
+    from evtribo.errors import ConfigError
+
+    for name in ("CAN_INTERFACE", "CAN_CHANNEL", "CAN_BITRATE", "CAN_CONFIG"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setattr(can.util, "CONFIG_FILES", [])
+    with pytest.raises(ConfigError) as caught:
+        open_bus(BusSettings())
+    text = str(caught.value)
+    assert caught.value.key == "--interface"
+    assert "no interface given" in text and "None" not in text
+    assert "--interface socketcan --channel can0" in text and "docs/hardware.md" in text
 
 
 def test_options_come_as_one_object_or_as_keywords(tmp_path):
