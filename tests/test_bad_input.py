@@ -397,7 +397,10 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "analyze-subject-folder": lambda t: None,
     "report-given-study": lambda t: None,
     "acquire-no-interface": lambda t: None,
+    "acquire-study-misspelt": lambda t: None,
+    "simulate-study-misspelt": lambda t: None,
     "init-dbc-missing": lambda t: None,
+    "init-log-of-another-rig": _text(Path("other.dbc"), OTHER_DBC),
 }
 
 

@@ -11,6 +11,7 @@ import cantools
 import pytest
 
 import evtribo.acquisition.trial as trial_module
+from _rigcells import rig_heard
 from evtribo.acquisition.buses.bus import BusSettings
 from evtribo.acquisition.rigfile import default_rig_path
 from evtribo.acquisition.simulator import Simulator, TrialConfig
@@ -279,7 +280,8 @@ def test_refuses_to_overwrite_a_trial(tmp_path, leftover):
         with pytest.raises(OutputExistsError, match=leftover):
             record_trial(bus, study, "P01", "run-01", duration=0.1)
         assert (study / "P01" / leftover).read_text() == "precious\n"
-        result = record_trial(bus, study, "P01", "run-01", duration=0.1, force=True)
+        result = record_trial(bus, study, "P01", "run-01", duration=0.1, force=True,
+                              started=rig_heard(f"acq_refuse_{leftover}"))
     assert result.ended == "completed"
     assert sorted(p.name for p in (study / "P01").iterdir()) == ["run-01.json", "run-01.log"]
 
@@ -288,7 +290,8 @@ def test_forced_trial_keeps_the_previous_one_until_it_ends(tmp_path):
     study = tmp_path / "s"
     old = {}
     with can.Bus(interface="virtual", channel="acq_force_keep") as bus:
-        record_trial(bus, study, "P01", "run-01", duration=0.1, info=TrialInfo(notes="first"))
+        record_trial(bus, study, "P01", "run-01", duration=0.1, info=TrialInfo(notes="first"),
+                     started=rig_heard("acq_force_keep"))
         paths = TrialPaths.of(study, "P01", "run-01")
         before = {p.name: p.read_bytes() for p in (paths.log, paths.sidecar)}
 
@@ -297,7 +300,8 @@ def test_forced_trial_keeps_the_previous_one_until_it_ends(tmp_path):
             old["part"] = p.part.exists()
 
         result = record_trial(bus, study, "P01", "run-01", duration=0.1, force=True,
-                              info=TrialInfo(notes="second"), started=started)
+                              info=TrialInfo(notes="second"),
+                              started=rig_heard("acq_force_keep", started))
     assert old == {**before, "part": True}       # while recording: old trial intact
     assert result.ended == "completed" and not result.kept_previous
     assert json.loads(paths.sidecar.read_text())["notes"] == "second"
@@ -307,7 +311,8 @@ def test_forced_trial_keeps_the_previous_one_until_it_ends(tmp_path):
 def test_forced_trial_failing_before_any_frame_keeps_the_previous_one(tmp_path):
     study = tmp_path / "s"
     with can.Bus(interface="virtual", channel="acq_force_fail") as bus:
-        record_trial(bus, study, "P01", "run-01", duration=0.1)
+        record_trial(bus, study, "P01", "run-01", duration=0.1,
+                     started=rig_heard("acq_force_fail"))
     paths = TrialPaths.of(study, "P01", "run-01")
     before = {p.name: p.read_bytes() for p in paths.folder.iterdir()}
     bus = VanishingBus(0)
@@ -332,7 +337,8 @@ def test_first_sidecar_failing_leaves_nothing_that_blocks_a_retry(tmp_path, monk
             record_trial(bus, study, "P01", "run-01", duration=0.1)
         assert list((study / "P01").iterdir()) == []
         monkeypatch.setattr(trial_module, "_write_json", real)
-        result = record_trial(bus, study, "P01", "run-01", duration=0.1)   # no --force
+        result = record_trial(bus, study, "P01", "run-01", duration=0.1,   # no --force
+                              started=rig_heard("acq_first_sidecar"))
     assert result.ended == "completed"
     assert sorted(p.name for p in (study / "P01").iterdir()) == ["run-01.json", "run-01.log"]
 
@@ -488,7 +494,8 @@ def test_no_interface_anywhere_says_what_to_give(monkeypatch):
 
 def test_options_come_as_one_object_or_as_keywords(tmp_path):
     study = tmp_path / "s"
-    options = TrialOptions(duration=0.1, info=TrialInfo(notes="first"))
+    options = TrialOptions(duration=0.1, info=TrialInfo(notes="first"),
+                           started=rig_heard("acq_options"))
     with can.Bus(interface="virtual", channel="acq_options") as bus:
         assert record_trial(bus, study, "P01", "run-01", options).ended == "completed"
         with pytest.raises(OutputExistsError):

@@ -313,6 +313,7 @@ def test_damaged_lines_are_counted_and_the_recording_goes_on(tmp_path, adapter, 
     check_log(study / "P01" / "run-01.log", side)   # not one good frame lost around them
 
 
+@pytest.mark.usefixtures("rig_heard_by_acquire")
 def test_second_acquire_into_the_same_trial_is_refused(tmp_path, capsys):
     study = tmp_path / "study"
     args = ["acquire", "--study", str(study), "--subject", "P01", "--trial", "t1",
@@ -323,10 +324,11 @@ def test_second_acquire_into_the_same_trial_is_refused(tmp_path, capsys):
     assert "--force" in capsys.readouterr().err
     assert (study / "P01" / "t1.json").read_text() == before
     assert main([*args, "--force", "--notes", "again"]) == 0
-    assert "completed, 0 frames" in capsys.readouterr().out
+    assert "completed, 2 frames" in capsys.readouterr().out
     assert json.loads((study / "P01" / "t1.json").read_text())["notes"] == "again"
 
 
+@pytest.mark.usefixtures("rig_heard_by_acquire")
 def test_acquire_records_the_tare_stretch_it_asked_for(tmp_path, capsys):
     study = tmp_path / "study"
     args = ["acquire", "--study", str(study), "--subject", "P01", "--interface", "virtual",

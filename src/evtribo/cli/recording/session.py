@@ -32,6 +32,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("protocol", metavar="PROTOCOL", help="the protocol file (TOML, spec §7)")
     p.add_argument("--study", required=True, metavar="DIR",
                    help="study folder (created with a study.toml for --rig if new)")
+    p.add_argument("--new-study", action="store_true",
+                   help="make --study a new study even when one of a similar name is beside "
+                        "it (without it, my-stuyd beside my-study is refused as a typo)")
     p.add_argument("--subject", required=True, help="subject name (letters, digits, - and _)")
     p.add_argument("--rig", metavar="RIG.toml",
                    help="rig description for a new study (default: the simulator's rig)")
@@ -59,9 +62,11 @@ def run(args: argparse.Namespace) -> int:
     """Run the session; return the exit code."""
     from evtribo.acquisition.buses.bus import open_bus
     from evtribo.acquisition.protocol import read_protocol
+    from evtribo.acquisition.rigfile import refuse_misspelt_study
     from evtribo.session import SessionConfig, run_session
 
     read_protocol(args.protocol)  # a bad protocol fails before the bus opens
+    refuse_misspelt_study(args.study, new=args.new_study)
     settings = bus_settings(args)
     view = start_view(args)
     try:

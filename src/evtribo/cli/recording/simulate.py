@@ -68,6 +68,9 @@ def _add_output_options(p: argparse.ArgumentParser) -> None:
     out.add_argument("--subject", help="subject name with --study (P01)")
     out.add_argument("--trial", help="trial name with --study (run-01)")
     out.add_argument("--force", action="store_true", help="overwrite a trial with --study")
+    out.add_argument("--new-study", action="store_true",
+                     help="with --study: a new study even when one of a similar name is "
+                          "beside it (without it, my-stuyd beside my-study is refused)")
     out.add_argument("--rig", metavar="PATH",
                      help="speak this rig: a rig TOML, or a study folder or study.toml (its "
                           "[rig]); its DBC and roles encode the frames, whatever their IDs, "
@@ -287,7 +290,10 @@ def run(args: argparse.Namespace) -> int:
     if args.subjects is not None:
         return simulate_population(args)
     if args.study is not None:
+        from evtribo.acquisition.rigfile import refuse_misspelt_study
         from evtribo.acquisition.simulator import write_trial
+
+        refuse_misspelt_study(args.study, new=args.new_study)
 
         subject, config = _build(args, args.duration or 30.0, args.duration or 30.0)
         rig = study_rig(args.rig) if args.rig else None
