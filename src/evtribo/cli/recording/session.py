@@ -12,9 +12,11 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 from evtribo.cli.recording._bus import add_bus_arguments, bus_settings, start_view
@@ -29,7 +31,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description=__doc__.split("\n\n")[1].replace("\n", " ")
         + " Exit 0 when every trial is done or the session was stopped; 1 when the bus or "
           "the disk failed (what was recorded is kept); 2 for a bad protocol, study or name.")
-    p.add_argument("protocol", metavar="PROTOCOL", help="the protocol file (TOML, spec §7)")
+    examples = Path(__file__).parents[2] / "data" / "protocols"  # package data
+    p.add_argument("protocol", metavar="PROTOCOL",
+                   help=f"the protocol file (TOML, spec §7; examples to copy and edit, "
+                        f"installed with evtribo: {examples}{os.sep}meyer2013.toml, "
+                        "frequency-sweep.toml)")
     p.add_argument("--study", required=True, metavar="DIR",
                    help="study folder (created with a study.toml for --rig if new)")
     p.add_argument("--new-study", action="store_true",
