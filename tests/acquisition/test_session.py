@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import re
 import signal
 import subprocess
 import sys
@@ -82,6 +83,8 @@ def test_a_randomized_session_records_the_plan_with_the_commanded_excitation(
     proc = _session(tmp_path, pty, "P01")
     out, err = kill_and_reap(proc, timeout=10)
     assert proc.returncode == 0, err
+    unconfirmed = {float(v) for v in re.findall(
+        r"the amplifier's status does not confirm the command \(off, ([\d.]+) V\)", err)}
     subject = tmp_path / "study" / "P01"
     session = read_session(subject / "session.json")
     assert [t.trial for t in session.order] == ["run-01", "run-02", "run-03"]
@@ -100,9 +103,12 @@ def test_a_randomized_session_records_the_plan_with_the_commanded_excitation(
         ex = load_trial(subject / f"{planned.trial}.log", default_rig(), cache=False).excitation
         on = ex.enabled
         # no frame received before the tare stretch had passed says ON (the first ON is
-        # commanded once it has, from the trial's start on, however late the rig answers)
+        # commanded once it has, from the trial's start on, however late the rig answers),
+        # unless the session said that the amplifier had not confirmed the OFF it was sent
+        # before the trial (a rig too late to answer within SETTLE_S, on a busy machine)
         start = datetime.fromisoformat(sidecar["start_time"]).timestamp()
-        assert not on[ex.t < start + sidecar["tare_s"]].any(), planned.trial
+        assert not on[ex.t < start + sidecar["tare_s"]].any() \
+            or planned.amplitude_V in unconfirmed, (planned.trial, err)
         switched = np.flatnonzero(np.diff(on.astype(np.int8)))
         assert on.any() and len(switched) >= 1, planned.trial
         assert set(np.round(ex.amplitude[on], 2)) == {planned.amplitude_V}, planned.trial
