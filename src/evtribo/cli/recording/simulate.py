@@ -343,6 +343,22 @@ def run(args: argparse.Namespace) -> int:
         finally:
             bus.shutdown()
         dropped = 0
-    print(f"evtribo simulate: {stats.sent} frames sent in {stats.elapsed_s:.1f} s, "
-          f"{stats.not_sent} not sent ({dropped} to a full buffer)", file=sys.stderr)
+    print(f"evtribo simulate: {stats.sent} frames sent in {stats.elapsed_s:.1f} s"
+          + _not_sent(stats.not_sent, dropped, pty=args.pty), file=sys.stderr)
     return 0
+
+
+def _not_sent(not_sent: int, dropped: int, *, pty: bool) -> str:
+    """The frames the rig made but did not send, by why (each as a real rig would)."""
+    if not not_sent:
+        return ", none lost"
+    if not pty:
+        return (f", {not_sent} not sent: the bus refused them (no other node acknowledging, "
+                "or its transmit queue full), as a real node's would be lost")
+    parts = []
+    if dropped:
+        parts.append(f"{dropped} to a full buffer (the client did not read them in time)")
+    if not_sent > dropped:
+        parts.append(f"{not_sent - dropped} while no client had the channel open (before "
+                     "its 'O', between recordings: a real adapter sends nothing then)")
+    return f", {not_sent} not sent: " + "; ".join(parts)

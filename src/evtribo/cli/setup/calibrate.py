@@ -7,7 +7,11 @@ twice the usual force), for 10-20 s: the tangential cell's reading against the n
 there gives the share of the normal force it reads. Trials with the finger sliding back and
 forth (``--slide``, default every other trial of the study) give, at each reversal, the
 share of the tangential force the normal cell reads. The command prints both and the
-``[rig.calibration] matrix`` that undoes them, to paste into study.toml.
+``[rig.calibration] matrix`` that undoes them, to paste into study.toml: of the shares found
+(measured within +/-1.5 % and beyond two standard errors of zero; a less precise one is
+left out, with the recording that would make it precise). A sliding trial given as
+``--press`` is refused. ``evtribo simulate --study STUDY --press-only`` records a press of
+the simulated rig, to rehearse.
 """
 
 from __future__ import annotations
