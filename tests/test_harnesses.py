@@ -1,6 +1,8 @@
-"""The SocketCAN tests' stand-ins (``tests/socketcan/conftest.py``), on this machine: a host
-step's failure is shown from the step on, as a test function's is, without the frames of
-pytest and pluggy that ran it (hundreds of lines before the assertion)."""
+"""The suite's harnesses on a machine without what some tests need: the SocketCAN tests'
+stand-ins (``tests/socketcan/conftest.py``) show a host step's failure from the step on, as
+a test function's is, without the frames of pytest and pluggy that ran it (hundreds of lines
+before the assertion); without Chromium, a test that looks at a page is skipped, saying
+why (``tests/_browser.py``)."""
 
 from __future__ import annotations
 
@@ -38,3 +40,11 @@ def test_a_host_step_s_failure_is_shown_without_pytest_s_and_pluggy_s_frames():
     names = [entry.name for entry in kept]
     assert "host_step" in names and "run" not in names
     assert not [e for e in kept if "pluggy" in str(e.path) or "_pytest" in str(e.path)]
+
+
+def test_without_chromium_a_test_that_looks_at_a_page_is_skipped_saying_why(monkeypatch):
+    import _browser
+
+    monkeypatch.setattr(_browser, "CHROMIUM", None)
+    with pytest.raises(pytest.skip.Exception, match=r"no Chromium .* apt-get install chromium"):
+        _browser.Browser()
