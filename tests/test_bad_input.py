@@ -199,6 +199,13 @@ def _edit(path: Path, old: str, new: str) -> None:
     path.write_text(text.replace(old, new), encoding="utf-8")
 
 
+def _sliding_trial(tmp: Path) -> None:
+    """A simulated trial of the finger sliding, run-02 of the study."""
+    from evtribo.acquisition.simulator import SubjectParams, TrialConfig, write_trial
+
+    write_trial(tmp / "study", "run-02", SubjectParams(), TrialConfig(duration_s=4.0, seed=3))
+
+
 def _link(link: Path, target: Path) -> None:
     link.parent.mkdir(parents=True, exist_ok=True)
     link.symlink_to(target)
@@ -396,7 +403,14 @@ BUILD: dict[str, Callable[[Path], None]] = {
                                            "repetiton = 2\n[[trial]]\namplitude_V = 100\n"),
     "session-protocol-changed": _session_begun,
     "init-study-exists": lambda t: None,
+    "calibrate-press-slides": _sliding_trial,
+    "analyze-subject-folder": lambda t: None,
+    "report-given-study": lambda t: None,
+    "acquire-no-interface": lambda t: None,
+    "acquire-study-misspelt": lambda t: None,
+    "simulate-study-misspelt": lambda t: None,
     "init-dbc-missing": lambda t: None,
+    "init-log-of-another-rig": _text(Path("other.dbc"), OTHER_DBC),
 }
 
 

@@ -5,6 +5,7 @@ estimates hold its truth; with two subjects, no estimates and the report says wh
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import json
 import math
 import re
@@ -118,6 +119,9 @@ def test_compare_writes_the_population_and_the_report_shows_it(chain):
     assert "the population's exponent n = " in text
     assert "2, the square law" in text and "10/3" in text
     assert "For a methods section" in text and "MixedLM" in text
+    methods = text[text.index("For a methods section"):]
+    depth = itertools.accumulate(1 if c == "(" else -1 if c == ")" else 0 for c in methods)
+    assert max(depth) <= 1, methods  # no parenthesis inside another
     md = (out / "tables" / "population.md").read_text(encoding="utf-8")
     assert "| square | 10 kHz |" in md
 

@@ -20,8 +20,9 @@ bus-error     the bus raised on receive (adapter unplugged, pty      1
 disk-error    the log could not be written (disk full...); the log   1
               ends with the last whole line written
 no-rig-data   none of the rig's load-cell messages arrived within    1
-              ``rig_data_timeout`` (3 s): the wrong bus, or a study
-              whose DBC is not this rig's; the log keeps what came
+              ``rig_data_timeout`` (3 s), or in a shorter trial: the
+              wrong bus, or a study whose DBC is not this rig's; the
+              log keeps what came
 recording     (only in a sidecar left by a killed process)
 ============  =====================================================  =========
 
@@ -329,7 +330,8 @@ def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
     got = _receive(rec, bus, acq_rig, opts)
     ended, error = _how_it_ended(rec, got)
     if ended == "no-rig-data":
-        error = AcquisitionError(_no_rig_data(acq_rig, opts.rig_data_timeout))
+        error = AcquisitionError(_no_rig_data(acq_rig, min(opts.rig_data_timeout or 0.0,
+                                                           round(got.elapsed, 1))))
     if rec.previous and error is not None and got.writer.stats.frames == 0:
         return _keep_previous(rec, ended, error, got.elapsed)
     paths = rec.paths

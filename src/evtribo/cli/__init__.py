@@ -143,7 +143,20 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
             continue
         p = module.add_parser(sub)
         _add_common(p)
+        _as_text(p)
     return parser
+
+
+def _as_text(parser: argparse.ArgumentParser) -> None:
+    """A subcommand's help as a terminal shows it: its docstring's reStructuredText
+    literals (````code````) as `code`, as the rest of the help writes them."""
+    for attr in ("description", "epilog"):
+        text = getattr(parser, attr)
+        if text:
+            setattr(parser, attr, text.replace("``", "`"))
+    for action in parser._actions:
+        if isinstance(action.help, str):
+            action.help = action.help.replace("``", "`")
 
 
 def _configure_logging(verbose: int, debug: bool) -> None:

@@ -250,8 +250,8 @@ def _methods_text(table: pd.DataFrame, doc: Mapping[str, Any]) -> str:
             f"model with {random} by subject (REML, statsmodels MixedLM), each subject's "
             "forces whitened by their known covariance (their intervals, correlated as their "
             "bootstrap replicates), intervals from Student's t with Satterthwaite's degrees "
-            f"of freedom. The friction coefficient ({mu_text}) and the fitted air gap h_L "
-            "(on the log scale) were pooled as the forces were. Subjects outside the "
+            f"of freedom. The friction coefficient, from {mu_text}, and the fitted air gap "
+            "h_L, on the log scale, were pooled as the forces were. Subjects outside the "
             "prediction interval of the others (Higgins et al. 2009, Bonferroni-corrected) "
             "were reported and left out.")
 
