@@ -205,11 +205,16 @@ def test_model_comparison(page, out):
     _, outline = page
     models = pd.read_csv(out / "models.csv", dtype={"subject": str})
     tables = [t for t in outline.tables if t["section"] == "Model comparison"]
-    assert [t["title"] for t in tables] == ["Models compared, P01", "Models compared, P02"]
+    assert [t["title"] for t in tables] == ["Models ranked over the study",
+                                            "Models compared, P01", "Models compared, P02"]
+    ranking, tables = tables[0], tables[1:]
+    assert models["criterion"].eq("AICc").all()  # 3 points a subject: the small-sample AICc
+    assert ranking["headers"][:4] == ["model", "summed AICc", "ΔAICc", "Akaike weight"]
+    assert sorted(r[0] for r in ranking["rows"]) == sorted(set(models["model"]))
     for t in tables:
         mine = models[models["subject"] == t["title"].rsplit(" ", 1)[1]]
-        assert t["headers"] == ["model", "fitted", "parameters", "AIC", "ΔAIC",
-                                "Akaike weight"]
+        assert t["headers"] == ["model", "fitted", "parameters", "AICc", "ΔAICc",
+                                "Akaike weight", "verdict"]
         assert sorted(r[0] for r in t["rows"]) == sorted(mine["model"])
         for row in t["rows"]:
             m = mine[mine["model"] == row[0]].iloc[0]
@@ -219,9 +224,14 @@ def test_model_comparison(page, out):
             else:  # not defined: shown as absent, and the caption says why
                 assert row[3] == row[4] == row[5] == "—"
             assert "µm" in row[1] and not SCIENTIFIC.search(row[1])
+            bound = str(m["at_bound"]) if isinstance(m["at_bound"], str) else ""
+            for name in filter(None, bound.split(";")):  # at its bound, not as fitted
+                assert f"{name} at its bound" in row[1]
         ranked = [float(r[3]) for r in t["rows"] if r[3] != "—"]
         assert ranked == sorted(ranked)  # best first
-    assert any(f.startswith("Electrostatic force vs drive frequency") for f in outline.text)
+    # one drive frequency: no figure of F_el against the frequency
+    assert not any(f.startswith("Electrostatic force vs drive frequency")
+                   for f in outline.text)
 
 
 def test_figure_files_embedded_or_linked(tmp_path):
@@ -358,10 +368,10 @@ def test_fit_notes_are_under_the_fit_and_settings_as_given(page, out):
     sections = {part.split("</h2>", 1)[0].split(">")[-1]: part for part in html.split("<h2")}
     notes = json.loads((out / "fit.json").read_text(encoding="utf-8"))["notes"]
     assert notes
-    from html import escape
+    from markupsafe import escape
     for note in notes:
-        assert escape(note, quote=False) not in sections["Warnings"], note
-        assert escape(note, quote=False) in sections["Model fit"], note
+        assert str(escape(note)) not in sections["Warnings"], note
+        assert str(escape(note)) in sections["Model fit"], note
     settings = next(t for t in outline.tables if t["title"] == "Analysis settings")
     values = dict(settings["rows"])
     assert values["guard_s"] == "0.15" and values["confidence"] == "0.95"

@@ -45,6 +45,10 @@ def test_interval_has_the_values_decimals():
     assert with_interval(71.5, -398.0, 541.0) == "72 [-398, 541]"
     assert with_interval(198.2, -168.1, 619.4) == "198 [-168, 619]"
     assert with_interval(0.02647, 0.02571, 0.02741) == "0.0265 [0.0257, 0.0274]"
+    # half-widths of 15 and 9.8 give the same decimals
+    assert with_interval(70.0, 55.0, 85.0) == "70 [55, 85]"
+    assert with_interval(97.7, 87.9, 107.5) == "98 [88, 108]"
+    assert with_interval(26.4, 25.2, 27.6) == "26.4 [25.2, 27.6]"
 
 
 @given(st.floats(-1e6, 1e6), st.floats(0, 1e6), st.floats(0, 1e6))

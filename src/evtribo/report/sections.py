@@ -37,6 +37,7 @@ from evtribo.report.headline import (
     fit_summary,
     force_table,
     model_comparison,
+    model_ranking,
     parameter_roles,
 )
 from evtribo.report.page import Report
@@ -150,6 +151,8 @@ def add_models(report: Report, models: pd.DataFrame | None,
         return
     sec = SECTIONS["models"]
     _cite(report, sec, "The paper's model and its variants; the paper:")
+    if models is not None:
+        _add(report, model_ranking(models), sec)
     for s in subjects:
         if models is not None and (models["subject"].astype(str) == s).any():
             _add(report, model_comparison(models, s), sec)

@@ -124,8 +124,9 @@ def significant(value: Any, sig: int = 3, *, decimals: int | None = None) -> str
 
 def with_interval(value: Any, low: Any, high: Any, *, sig: int = 3) -> str:
     """``value [low, high]``, the three with the same decimals: the value's to *sig*
-    significant figures, fewer when the interval's half-width shown to two significant
-    figures needs fewer (a value is not printed finer than its uncertainty).
+    significant figures, fewer when the interval's half-width needs fewer, shown to two
+    significant figures when it begins with 1 or 2 and to one otherwise (a value is not
+    printed finer than its uncertainty; ``70 [55, 85]`` and ``98 [88, 108]`` alike).
 
     Parameters
     ----------
@@ -146,8 +147,10 @@ def with_interval(value: Any, low: Any, high: Any, *, sig: int = 3) -> str:
     if not (math.isfinite(lo) and math.isfinite(hi)):
         return f"{significant(v, sig)} (no interval)"
     places = min(decimals_for(v, sig), _TINY_DECIMALS)
-    if hi > lo:
-        places = min(places, decimals_for((hi - lo) / 2, 2))
+    if hi > lo:  # the half-width to two figures when it begins with 1 or 2, else to one
+        half = (hi - lo) / 2
+        lead = int(f"{half:e}"[0])
+        places = min(places, decimals_for(half, 2 if lead <= 2 else 1))
     return (f"{significant(v, decimals=places)} [{significant(lo, decimals=places)}, "
             f"{significant(hi, decimals=places)}]")
 
