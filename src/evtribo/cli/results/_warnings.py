@@ -77,6 +77,7 @@ def say_grouped(summary: dict[str, Any], out_dir: Path | None, out: str,
     groups = group_warnings(kept, (), trials)
     for line in console_lines(groups, trials, cells):
         print(line, file=sys.stderr)
-    worst = EFFECTS[groups[0].effect]
-    print(f"{len(kept)} warning(s) of {len(groups)} kind(s), the first {worst}; each as the "
-          f"analysis said it in {Path(out) / 'summary.json'}", file=sys.stderr)
+    counts = {e: sum(g.effect == e for g in groups) for e in EFFECTS}
+    said = ", ".join(f"{n} {EFFECTS[e].split(' (')[0]}" for e, n in counts.items() if n)
+    print(f"{len(kept)} warning(s) of {len(groups)} kind(s) ({said}); each as the analysis "
+          f"said it in {Path(out) / 'summary.json'}", file=sys.stderr)
