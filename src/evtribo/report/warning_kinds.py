@@ -365,12 +365,20 @@ def _cells_text(mine: Sequence[Cell], all_cells: Sequence[Cell]) -> str:
     by_subject: dict[str, list[Cell]] = {}
     for c in mine:
         by_subject.setdefault(c.subject, []).append(c)
-    lead = f"{len(mine)} of {n} cells" if n else f"{len(mine)} cell(s)"
     parts = []
     for s, cs in by_subject.items():
         every = {c for c in all_cells if c.subject == s}
-        parts.append(f"{s} (all)" if every and set(cs) >= every else f"{s} at {_amps(cs)}")
-    return f"{lead}: {'; '.join(parts)}"
+        at = [c for c in cs if c.amplitude_V is not None]
+        drives = [c.waveform or "unknown waveform" for c in cs if c.amplitude_V is None]
+        if every and set(cs) >= every:
+            parts.append(f"{s} (all)")
+            continue
+        said = ([f"{s} ({', '.join(dict.fromkeys(drives))})"] if drives else [])
+        said += [f"{s} at {_amps(at)}"] if at else []
+        parts.append("; ".join(said))
+    full = all(c.amplitude_V is not None for c in mine)
+    lead = (f"{len(mine)} of {n} cells: " if n else f"{len(mine)} cell(s): ") if full else ""
+    return lead + "; ".join(parts)
 
 
 def scope_text(group: WarningGroup, all_trials: Sequence[tuple[str, str]] = (),
