@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
-from evtribo.report.warning_kinds import group_warnings, read_scope
+from evtribo.report.lead.warning_kinds import group_warnings, read_scope
 
 
 def _evtribo(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:

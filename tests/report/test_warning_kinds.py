@@ -6,7 +6,7 @@ from __future__ import annotations
 from hypothesis import given
 from hypothesis import strategies as st
 
-from evtribo.report.warning_kinds import (
+from evtribo.report.lead.warning_kinds import (
     EFFECTS,
     Cell,
     console_lines,

@@ -85,7 +85,7 @@ def test_an_unchanged_study_is_written_again_without_the_analysis(study, tmp_pat
     assert {k for k in full if full[k] != again[k]} <= VOLATILE
     assert again["run_id"] != full["run_id"] and again["jobs"] == 1
     assert again["output_sha256"] == full["output_sha256"]
-    from evtribo.report.warning_kinds import group_warnings, read_scope
+    from evtribo.report.lead.warning_kinds import group_warnings, read_scope
 
     for group in group_warnings(again["warnings"], (), read_scope(tmp_path / "b")[0]):
         assert f"] {group.title}: " in err  # each kind said again, once

@@ -256,9 +256,6 @@ def write_models(tables: ResultTables, stage: Staging, models: Sequence[str],
         mine = [f for f in fits if f.subject == str(subject)]
         notes += [f"Model {f.model} of {subject} could not be fitted: {f.note}"
                   for f in mine if f.params is None]
-        notes += [f"Model {f.model} of {subject}: {', '.join(f.at_bound)} at its bound (the "
-                  "data do not set it; models.csv's fitted holds the bound, not an "
-                  "estimate)." for f in mine if f.at_bound]
         rows = tables.electrostatic[tables.electrostatic["subject"].astype(str) == str(subject)]
         if frequencies_of(rows) < MIN_FREQUENCIES:
             continue
@@ -269,6 +266,13 @@ def write_models(tables: ResultTables, stage: Staging, models: Sequence[str],
                      "drive's frequency, one colour and marker per drive, and each candidate "
                      "model fitted to the subject's points (models.csv; one line style per "
                      "model, in each drive's colour), at the points' mean normal force ON.")
+    bound: dict[tuple[str, str], list[str]] = {}
+    for f in fits:
+        for name in f.at_bound:
+            bound.setdefault((f.model, name), []).append(f.subject)
+    notes += [f"Model {model}: {name} at its bound for {', '.join(subjects)} (the data do "
+              "not set it; models.csv's fitted holds the bound, not an estimate)."
+              for (model, name), subjects in bound.items()]
     few = [str(s) for s in tables.subjects if frequencies_of(
         tables.electrostatic[tables.electrostatic["subject"].astype(str) == str(s)])
         < MIN_FREQUENCIES]

@@ -172,7 +172,7 @@ def _on_series(ax: Axes, on: pd.DataFrame, params: ModelParameters
                    for wave, look in waves.items()]
         amplitude_bar(ax, amps)
         voltage_ticks(ax.figure.axes[-1].yaxis, amps)
-    lines = [proxy("model (eq. 5), ON" + (f" {wave}" if len(waves) > 1 else ""),
+    lines = [proxy("model, ON" + (f" {wave}" if len(waves) > 1 else ""),
                    color=EVERY_COLOUR, linestyle=_WAVE_LINES.get(wave, ":"))
              for wave in waves]
     return points, lines
@@ -233,7 +233,7 @@ def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = 
     points = [proxy(f"OFF ($\\mu$ = {significant(params.mu)})", color="k", marker="o",
                     linestyle="none", markerfacecolor="white")]
     on_points, lines = _on_series(ax, windows[cond == "on"], params)
-    lines.insert(0, proxy("model (eq. 5), OFF", color="k", linestyle="-"))
+    lines.insert(0, proxy("model, OFF", color="k", linestyle="-"))
     handles = points + on_points + lines
     ax.set_xlabel("normal force $F_n$ (mN)")
     ax.set_ylabel("friction force $F_t$ (mN)")
@@ -366,7 +366,8 @@ def plot_area_increase(normal_forces: Mapping[str, float],
     ----------
     normal_forces : mapping
         ``{label: normal force in N}``, e.g. each subject's mean normal force ON; one
-        colour and line style per label, in this order.
+        colour and line style per label, in this order (the legend gives each label's
+        force).
     params : mapping
         ``{label: ModelParameters}`` with the same keys.
     u_max : float
@@ -385,14 +386,14 @@ def plot_area_increase(normal_forces: Mapping[str, float],
     for k, (label, fn) in enumerate(normal_forces.items()):
         style = series_style(k)
         ax.plot(u, area_increase_pct(fn, u, params[label]), color=style["color"],
-                linestyle=style["linestyle"], label=f"{label} ($F_n$ = {1e3 * fn:.0f} mN)")
+                linestyle=style["linestyle"], label=f"{label} ({1e3 * fn:.0f} mN)")
     ax.set_xlabel("voltage amplitude $U$ (V)")
     ax.set_ylabel("contact area increase, model (%)")
     ax.set_xlim(0, u_max)
     ax.set_ylim(bottom=0)
     if amplitudes is not None and len(amplitudes):
         voltage_ticks(ax.xaxis, _from_zero(amplitudes))
-    place_legend(ax)
+    place_legend(ax, ncol_outside=4, title="at the normal force $F_n$ ON")
     return ax
 
 

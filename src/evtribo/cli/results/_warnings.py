@@ -1,5 +1,5 @@
 """``evtribo analyze``'s warnings on its console: each kind once, with the trials or cells it
-concerns, at the end (:mod:`evtribo.report.warning_kinds`), rather than one line per trial as
+concerns, at the end (:mod:`evtribo.report.lead.warning_kinds`), rather than one line per trial as
 the analysis says them.
 
 While the analysis runs, :func:`held` holds back the warnings of the analysis's loggers
@@ -18,7 +18,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from evtribo.report.warning_kinds import EFFECTS, console_lines, group_warnings, read_scope
+from evtribo.report.lead.warning_kinds import EFFECTS, console_lines, group_warnings, read_scope
 
 #: The loggers whose warnings the analysis keeps in summary.json.
 _ANALYSIS = ("evtribo.analysis", "evtribo.results", "evtribo.canlog")

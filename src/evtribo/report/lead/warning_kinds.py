@@ -30,6 +30,7 @@ import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 __all__ = ["EFFECTS", "KINDS", "Cell", "Kind", "WarningGroup", "console_lines",
            "group_warnings", "read_scope", "scope_text", "study_cells"]
@@ -439,7 +440,7 @@ def console_lines(groups: Sequence[WarningGroup], all_trials: Sequence[tuple[str
     return out
 
 
-def study_cells(rows: Iterable[Mapping[str, object]]) -> list[Cell]:
+def study_cells(rows: Iterable[Mapping[Any, Any]]) -> list[Cell]:
     """The cells of electrostatic.csv's rows.
 
     Parameters
