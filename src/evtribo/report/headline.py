@@ -438,7 +438,7 @@ def model_ranking(models: pd.DataFrame) -> Headline:
                                                 "Akaike weight", "lowest in",
                                                 f"within Δ{crit} {INDISTINGUISHABLE:g} in",
                                                 "parameter at its bound in", "verdict"]
-                                 ).fillna("—"))
+                                 ).astype(object).fillna("—"))
 
 
 def _rows(table: pd.DataFrame) -> list[Any]:

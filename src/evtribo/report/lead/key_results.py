@@ -243,7 +243,7 @@ def _by_subject(tables: ResultTables, fit: pd.DataFrame, population: pd.DataFram
             return "—" if pop[q].empty else _interval(pop[q].iloc[0], factor)
         rows.append({"subject": "population", "h_L (µm) [95 %]": shown("h_L_m", 1e6),
                      "n of F_el ∝ U^n [95 %]": shown("exponent"), "μ": shown("mu")})
-    table = pd.DataFrame(rows).fillna("—")
+    table = pd.DataFrame(rows).astype(object).fillna("—")
     return Headline(
         "key_subjects", "Key results by subject",
         "h_L: the equivalent air gap of the seed paper's model fitted per subject [95 % "
@@ -267,7 +267,8 @@ def _sentence(tables: ResultTables, population: pd.DataFrame | None,
     drive = elec[(elec["waveform"].fillna("").astype(str) == wave)]
     rel = relative_increase(drive)
     by_amp = rel.groupby(drive["amplitude_V"].astype(float)).mean()
-    parts = [f"{subjects} subject(s), {wave} drive at {frequency(freq)}".replace(" at —", "")]
+    parts = [f"{subjects} subject{'s' if subjects != 1 else ''}, {wave} drive at "
+             f"{frequency(freq)}".replace(" at —", "")]
     if len(by_amp) and by_amp.notna().any():
         lo, hi = by_amp.index.min(), by_amp.index.max()
         parts.append(f"the voltage raised the friction by {significant(by_amp[lo], 2)} % at "
