@@ -80,6 +80,7 @@ def test_population_estimates_recover_the_drawn_subjects(chain):
     table = pd.read_csv(out / "population.csv", keep_default_na=False, na_values=[""])
     assert tuple(table.columns) == POPULATION_COLUMNS
     truth, exponent = _sample_truth(study)
+    table = table[table["analysis"] == "primary"]
     forces = table[table["quantity"] == "electrostatic_force_N"]
     assert list(forces["amplitude_V"]) == list(AMPS)
     for _, r in forces.iterrows():
@@ -105,7 +106,8 @@ def test_compare_writes_the_population_and_the_report_shows_it(chain):
     _, out = chain
     doc = json.loads((out / "fit.json").read_text(encoding="utf-8"))
     assert doc["population"]["n_subjects"] == 6
-    assert {"population.csv", "population_contrasts.csv"} <= set(doc["output_sha256"])
+    assert {"population.csv", "population_contrasts.csv",
+            "population_subjects.csv"} <= set(doc["output_sha256"])
     kinds = [f for f in doc["figures"] if f["kind"] == "population"]
     assert [f["stem"] for f in kinds] == ["population_square_10000Hz"]
     assert (out / "figures" / "population_square_10000Hz.png").is_file()
@@ -117,7 +119,8 @@ def test_compare_writes_the_population_and_the_report_shows_it(chain):
     text = _section(html, "Population")
     assert "the population's exponent n = " in text
     assert "2, the square law" in text and "10/3" in text
-    assert "For a methods section" in text and "MixedLM" in text
+    assert "For a methods section" in text and "nonlinear mixed-effects model" in text
+    assert "Relative friction increase" in text and "p (Holm)" in text
     md = (out / "tables" / "population.md").read_text(encoding="utf-8")
     assert "| square | 10 kHz |" in md
 
@@ -146,9 +149,9 @@ def test_two_subjects_no_population_and_the_report_says_why(compared_out):
             "estimate needs at least 3") in _section(html, "Population")
 
 
-def test_the_report_names_the_outlier(tmp_path):
-    """Eight subjects, one at twelve times the others' typical force: the report names it
-    and says what it was left out of."""
+def test_the_report_names_the_subject_far_from_the_others(tmp_path):
+    """Eight subjects, one at twelve times the others' typical force: the report names it,
+    keeps it in every estimate and shows them without it."""
     tables, truth = hierarchical_tables(np.random.default_rng(12), 8, sd_log_f=0.3)
     factor = math.exp(math.log(0.1) + 2.5 - truth.subjects["S03"]["log_f100"])
     es = tables.electrostatic
@@ -159,10 +162,12 @@ def test_the_report_names_the_outlier(tmp_path):
     out = write_result_folder(tmp_path / "out", tables)
     compare(out, dpi=30, trial_checks=False)
     text = _section(build_report(out, tmp_path / "r.html").read_text("utf-8"), "Population")
-    assert "S03 lies far from the other subjects: F_el of its power law at 95.8 V" in text
-    assert "left out as outliers: S03" in text
-    table = pd.read_csv(out / "population.csv")
-    assert (table.loc[table["waveform"] == "square", "n_subjects"] == 7).all()
+    assert "S03 lies far from the other subjects: F_el of its power law at " in text
+    assert "It is in every estimate above" in text and "without S03" in text
+    table = pd.read_csv(out / "population.csv", keep_default_na=False, na_values=[""])
+    square = table[table["waveform"] == "square"]
+    assert (square.loc[square["analysis"] == "primary", "n_subjects"] == 8).all()
+    assert (square.loc[square["analysis"] == "without S03", "n_subjects"] == 7).all()
 
 
 def test_a_study_of_off_trials_reports_the_population_s_mu(tmp_path, capsys):
