@@ -158,3 +158,37 @@ def cell_run(seed: int, tally: Tally, *, maker: Callable[..., tuple[ResultTables
             tally.count(f"F_el at {amp:g} V", lo, hi, true, est)
         elif row["quantity"] == "mu":
             tally.count("mu", lo, hi, truth.mu, est)
+
+
+def heldout_run(scenario: str, seed: int, tally: Tally, work: Path) -> None:
+    """One study of tests/heldout/population_cells.py's *scenario* (an independent
+    generator), written as its result folder under *work*, read as compare reads it, its
+    primary rows checked into *tally* against the population it was drawn from (the drawn
+    subjects' own values where it has none: weak responders)."""
+    from evtribo.fit.tables import read_results
+    from heldout import population_cells
+
+    dest = work / f"{scenario}-{seed}"
+    truth = population_cells.generate(dest, population_cells.CELL_SCENARIOS[scenario], seed)
+    target = truth["superpopulation"] or truth["population"]
+    tables = read_results(dest / "out")
+    started = time.process_time()
+    pop = population(tables)
+    tally.cpu_s += time.process_time() - started
+    tally.runs += 1
+    tally.named += bool(pop.outliers)
+    forces = {float(a): v for a, v in target["electrostatic_force_N"].items()}
+    for _, row in pop.primary.iterrows():
+        lo, hi, est = float(row["ci_low"]), float(row["ci_high"]), float(row["estimate"])
+        if row["quantity"] == "exponent":
+            tally.count("exponent", lo, hi, target["exponent"], est)
+            if abs(est - target["exponent"]) > 1.0:
+                tally.far += 1
+                if str(row["checks"]).startswith("ok"):
+                    tally.silent.append(f"{scenario} seed {seed}: n = {est:.2f}")
+        elif row["quantity"] == "electrostatic_force_N":
+            amp = float(row["amplitude_V"])
+            tally.count("F_el", lo, hi, forces[amp], est)
+            tally.count(f"F_el at {amp:g} V", lo, hi, forces[amp], est)
+        elif row["quantity"] == "mu":
+            tally.count("mu", lo, hi, target["mu"], est)

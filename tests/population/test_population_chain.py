@@ -191,3 +191,34 @@ def test_a_study_of_off_trials_reports_the_population_s_mu(tmp_path, capsys):
     assert with_interval(mu["estimate"], mu["ci_low"], mu["ci_high"]) in text, text
     assert "per-subject results of 5 subjects: the population's friction coefficient" in text
     assert "electrostatic" not in text
+
+
+def test_compare_goes_on_past_a_subject_without_a_force(tmp_path, caplog):
+    """S03's forces are noise about zero (some negative): compare fits the others, says
+    S03's air gap is not determined (an infinite interval), leaves it out of the
+    population's air gap and keeps it in the population's forces; no numpy warning (pytest
+    turns any into an error)."""
+    tables, _ = hierarchical_tables(np.random.default_rng(23), 5)
+    es, boot = tables.electrostatic, tables.bootstrap
+    rng = np.random.default_rng(24)
+    none = es["subject"] == "S03"
+    noise = rng.normal(0.0, 0.004, int(none.sum()))
+    es.loc[none, "electrostatic_force_N"] = noise
+    es.loc[none, "electrostatic_force_ci_low_N"] = noise - 0.008
+    es.loc[none, "electrostatic_force_ci_high_N"] = noise + 0.008
+    mine = boot["subject"] == "S03"
+    at = boot.loc[mine, "amplitude_V"].map(dict(zip(es.loc[none, "amplitude_V"], noise,
+                                                    strict=True)))
+    boot.loc[mine, "electrostatic_force_N"] = at + rng.normal(0.0, 0.004, int(mine.sum()))
+    out = write_result_folder(tmp_path / "out", tables)
+    assert main(["compare", str(out), "--dpi", "30", "--no-trial-checks"]) == 0
+    fit = pd.read_csv(out / "fit.csv")
+    gap = fit[(fit["subject"] == "S03") & (fit["parameter"] == "h_L")].iloc[0]
+    assert math.isinf(gap["ci_high"])
+    assert ((fit["subject"] != "S03") & np.isfinite(fit["ci_high"])).sum() == 4
+    assert "S03: h_L is not determined by these data" in caplog.text
+    table = pd.read_csv(out / "population.csv", keep_default_na=False, na_values=[""])
+    primary = table[table["analysis"] == "primary"]
+    assert (primary.loc[primary["quantity"] == "electrostatic_force_N", "n_subjects"]
+            == 5).all()
+    assert primary.loc[primary["quantity"] == "h_L_m", "n_subjects"].tolist() == [4]

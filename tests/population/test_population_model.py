@@ -53,7 +53,7 @@ def test_the_likelihood_is_the_integral_over_the_random_effects():
     data = nonlinear_data(["S"], cells, log_u0=math.log(100.0))
     p = np.array([math.log(0.04), 2.0, 0.5, 0.05, 0.2])
     beta, load, _ = _unpack(p, _Spec(2, False))
-    grid = np.linspace(-7.0, 7.0, 561)
+    grid = np.linspace(-7.0, 7.0, 281)
     v = np.stack(np.meshgrid(grid, grid, indexing="ij"), -1).reshape(-1, 2)
     rep = nonlinear_data(["S"] * len(v), cells * len(v), log_u0=data.log_u0)
     obj = _state(rep, beta, load, 1.0, v)[0]
@@ -81,12 +81,13 @@ def test_a_subject_s_own_fit_recovers_an_exact_power_law(a, n, rho):
 
 
 def test_exact_subjects_give_their_mean():
-    """Every subject's cells on its own power law with tiny errors: the population's level
-    and exponent are the subjects' means, and every check passes."""
-    cells, truth = _study(5, 7, error=1e-6)
+    """Every subject's cells on its own power law with tiny errors (0.1 mN on forces of
+    tens of mN): the population's level and exponent are the subjects' means, and every
+    check passes."""
+    cells, truth = _study(5, 7, error=1e-4)
     fit = fit_nonlinear(nonlinear_data([f"S{i}" for i in range(7)], cells,
                                        log_u0=math.log(100.0)))
-    assert fit.beta == pytest.approx(truth.mean(axis=0), abs=2e-3)
+    assert fit.beta == pytest.approx(truth.mean(axis=0), abs=5e-3)
     assert fit.convergence.ok, fit.convergence.summary()
     assert fit.between_sd == pytest.approx(truth.std(axis=0, ddof=1), rel=0.05)
 

@@ -2,8 +2,8 @@
 ``checks`` column says).
 
 A fit is *checked*: its deviance is finite, the Hessian of the deviance at the optimum is
-positive-definite (its smallest eigenvalue above a millionth of its largest; at a
-variance's boundary, the fixed effects' profile curvature), the other optimisers reached the
+positive-definite (its correlation form's smallest eigenvalue above 1e-8; at a variance's
+boundary, the fixed effects' profile curvature), the other optimisers reached the
 same estimates (within a fifth of a standard error of the population's level and exponent),
 and the exponent is determined by the data (its 95 % interval within +/- 1 with three degrees
 of freedom or more). Each failed check is said, with every optimiser's deviance and exponent
@@ -33,8 +33,8 @@ OPTIMISERS = ("L-BFGS-B", "Nelder-Mead", "Powell")
 AGREE_SE = 0.2
 #: The fewest degrees of freedom of a determined exponent, and its widest 95 % half-interval.
 MIN_DF, MAX_HALF_WIDTH = 3.0, 1.0
-#: The smallest eigenvalue of a positive-definite Hessian, relative to its largest.
-PD_TOLERANCE = 1e-6
+#: The smallest eigenvalue of a positive-definite Hessian in its correlation form.
+PD_TOLERANCE = 1e-8
 
 
 @dataclass(frozen=True)
@@ -101,8 +101,9 @@ class Convergence:
 
 
 def positive_definite(m: Array) -> bool:
-    """Whether the symmetric matrix *m* is positive-definite (its smallest eigenvalue above
-    :data:`PD_TOLERANCE` of its largest).
+    """Whether the symmetric matrix *m* is positive-definite: its diagonal positive and the
+    smallest eigenvalue of its correlation form (scaled by its diagonal, so that parameters
+    on different scales do not count) above :data:`PD_TOLERANCE`.
 
     Parameters
     ----------
@@ -112,9 +113,12 @@ def positive_definite(m: Array) -> bool:
     -------
     bool
     """
-    eig = np.linalg.eigvalsh((m + m.T) / 2.0)
-    return bool(np.all(np.isfinite(eig)) and eig.min() > PD_TOLERANCE * max(
-        float(np.abs(eig).max()), 1e-300))
+    sym = (m + m.T) / 2.0
+    d = np.diag(sym)
+    if not (np.all(np.isfinite(sym)) and np.all(d > 0)):
+        return False
+    scaled = sym / np.sqrt(np.outer(d, d))
+    return bool(np.linalg.eigvalsh(scaled).min() > PD_TOLERANCE)
 
 
 def _agreement(runs: Sequence[OptimiserRun], best: OptimiserRun, se: Array

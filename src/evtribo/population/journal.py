@@ -166,7 +166,8 @@ def subjects_view(subjects: pd.DataFrame) -> pd.DataFrame:
             row[voltage(a)] = "—" if hit.empty else with_interval(
                 hit["friction_increase_pct"].iloc[0], hit["increase_ci_low_pct"].iloc[0],
                 hit["increase_ci_high_pct"].iloc[0])
-        row["p (Holm)"] = significant(g["p_holm"].iloc[0], 2)
+        p = float(g["p_holm"].iloc[0])
+        row["p (Holm)"] = "< 0.001" if p < 0.001 else significant(p, 2)
         row["F_el > 0"] = "yes" if bool(g["responds"].iloc[0]) else "not shown"
         rows.append(row)
     return pd.DataFrame(rows, columns=["subject", "condition", *(voltage(a) for a in amps),

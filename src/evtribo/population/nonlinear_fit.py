@@ -206,8 +206,9 @@ class NonlinearFit:
         if not (math.isfinite(var) and var > 0):
             return math.nan, math.nan
         nu = 2.0 * tau2 * tau2 / var
-        lo = nu * tau2 / float(stats.chi2.ppf(_Q95, nu))
-        hi = nu * tau2 / float(stats.chi2.ppf(1.0 - _Q95, nu))
+        q_hi, q_lo = float(stats.chi2.ppf(_Q95, nu)), float(stats.chi2.ppf(1.0 - _Q95, nu))
+        lo = nu * tau2 / q_hi if q_hi > 0 else 0.0
+        hi = nu * tau2 / q_lo if q_lo > 0 else math.inf  # next to no degrees of freedom
         return math.sqrt(lo), math.sqrt(hi)
 
     def prediction_interval(self, c: ArrayLike) -> tuple[float, float]:
@@ -237,6 +238,9 @@ def _minimise(objective: _Objective, p0: Array, method: str
               ) -> tuple[OptimiserRun, Array] | None:
     """One optimiser's run from *p0* (the random effects' modes started afresh)."""
     objective.v = np.zeros_like(objective.v)
+    # the modes to 1e-10 where finite differences give the gradient, else to 1e-7 (a
+    # deviance error of about 1e-14 for a simplex or a line search)
+    objective.tol = 1e-10 if method == "L-BFGS-B" else 1e-7
     n = p0.size
     options: dict[str, object] = {"maxiter": 4000}
     bounds: list[tuple[float | None, float | None]] | None = None
@@ -263,6 +267,7 @@ def _minimise(objective: _Objective, p0: Array, method: str
             log.info("population: %s failed: %s", method, err)
             return None
     x = _canonical(np.asarray(res.x, dtype=float), objective.spec)
+    objective.tol = 1e-10
     dev = float(objective(x))
     if not math.isfinite(dev) or dev >= 1e299:
         return None

@@ -175,6 +175,8 @@ def i_squared(tau: float, typical: float) -> float:
     -------
     float
     """
+    if tau == math.inf and math.isfinite(typical):
+        return 1.0
     if not (math.isfinite(tau) and math.isfinite(typical)):
         return math.nan
     return tau * tau / (tau * tau + typical)

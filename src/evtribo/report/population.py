@@ -9,9 +9,8 @@ friction increase; each subject's test of F_el > 0 (Holm); the spread between su
 and I^2 with their intervals); the estimates without each subject far from the others; the
 meta-analysis of log F_el where it is valid, as a second method; the contrasts between
 conditions; the subjects excluded beforehand; what could not be estimated and why; a
-paragraph for a methods section; and the population's figures. It reads ``population.csv``,
-``population_contrasts.csv``, ``population_subjects.csv`` and ``fit.json``'s
-``population`` (written by ``evtribo compare``).
+paragraph for a methods section; and the population's figures. It reads compare's
+population.csv, population_contrasts.csv, population_subjects.csv and fit.json's population.
 """
 
 from __future__ import annotations
@@ -215,6 +214,7 @@ def _value(r: Any, unit: str, low: str = "ci_low", high: str = "ci_high") -> str
     return with_interval(est, lo, hi)
 
 
+_NAMES = {"electrostatic_force_N": "F_el", "friction_increase_pct": "dF_t/F_t,OFF (%)"}
 _SHOWN = {"exponent": ("exponent n", "", False), "prefactor_N": ("prefactor k at 1 V", "N", True),
           "mu": ("friction coefficient μ", "", False), "h_L_m": ("air gap h_L", "m", True)}
 
@@ -256,9 +256,9 @@ def _per_amplitude(table: pd.DataFrame, quantity_name: str, analysis: str,
 
 def _where(r: Any) -> dict[str, str]:
     """A row's quantity (with its amplitude) and condition, for people."""
-    amp = float(r["amplitude_V"])
-    return {"quantity": str(r["quantity"]) + (f" at {voltage(amp)}" if math.isfinite(amp)
-                                              else ""),
+    amp, name = float(r["amplitude_V"]), str(r["quantity"])
+    name = _NAMES.get(name, _SHOWN.get(name, (name,))[0])
+    return {"quantity": name + (f" at {voltage(amp)}" if math.isfinite(amp) else ""),
             "condition": (f"{r['waveform']} {frequency(r['frequency_Hz'])}"
                           if str(r["waveform"]) else "all")}
 
@@ -278,12 +278,12 @@ def _spread(table: pd.DataFrame) -> pd.DataFrame:
 
 def _sensitivity(table: pd.DataFrame) -> pd.DataFrame:
     """Every primary estimate beside the same without each subject far from the others."""
-    units = {"electrostatic_force_N": "N", "prefactor_N": "N", "h_L_m": "m"}
     primary = {tuple(_where(r).values()): r for _, r in
                table[table["analysis"].astype(str) == _PRIMARY].iterrows()}
     rows = []
     for _, r in table[table["analysis"].astype(str).str.startswith("without ")].iterrows():
-        unit, where = units.get(str(r["quantity"]), ""), _where(r)
+        name, where = str(r["quantity"]), _where(r)
+        unit = "N" if name == "electrostatic_force_N" else _SHOWN.get(name, ("", ""))[1]
         same = primary.get(tuple(where.values()))
         rows.append({**where, "every subject [95 %]": "—" if same is None else
                      _value(same, unit), "analysis": str(r["analysis"]),
