@@ -399,6 +399,12 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "plot-no-dbc": lambda t: None,
     "plot-log-missing": lambda t: None,
     "compare-summary-edited": lambda t: _results(t, edit={"study": {"name": "x"}}),
+    "plan-too-few-subjects": lambda t: None,
+    "plan-force-beyond-the-model": lambda t: None,
+    "compare-population-exclude-unknown": lambda t: _results(t) or _append(
+        t / "study", '[population]\nexclude = [{subject = "P09", reason = "recalibrated"}]'),
+    "compare-population-exclude-no-reason": lambda t: _results(t) or _append(
+        t / "study", '[population]\nexclude = [{subject = "P01"}]'),
     "session-protocol-misspelt-key": _text(Path("protocol.toml"), "[session]\ntrial_s = 20\n"
                                            "repetiton = 2\n[[trial]]\namplitude_V = 100\n"),
     "session-protocol-changed": _session_begun,

@@ -60,7 +60,8 @@ def log_suffixes() -> tuple[str, ...]:
 #: Files an operating system leaves in folders (``Thumbs.db`` would read as a SQLite log).
 OS_CLUTTER = {"thumbs.db", "ehthumbs.db", "desktop.ini", ".ds_store"}
 #: Top-level keys of study.toml and their types.
-STUDY_KEYS: dict[str, type | tuple[type, ...]] = {"name": str, "rig": dict, "analysis": dict}
+STUDY_KEYS: dict[str, type | tuple[type, ...]] = {"name": str, "rig": dict, "analysis": dict,
+                                                  "population": dict}
 #: Folders of a study that are not subjects.
 NOT_SUBJECTS = {"rig"}
 

@@ -31,6 +31,7 @@ from evtribo.errors import EvtriboError
 #: Only the module of the subcommand being run is imported (start-up stays fast).
 SUBCOMMANDS: dict[str, str] = {
     "init": "create a study folder for your rig from its DBC (roles guessed, with reasons)",
+    "plan": "size a study before recording: expected intervals and power, simulated",
     "model": "the seed paper's model at a point; its figures",
     "simulate": "run the simulated rig on a CAN bus, a pty (slcan) or into a study folder",
     "acquire": "record one trial from a CAN bus into a study folder",
@@ -51,7 +52,7 @@ SUBCOMMANDS: dict[str, str] = {
 #: recording (``acquire``...), a rig and its logs (``init``...), results (``analyze``...).
 GROUPS: dict[str, str] = {
     **dict.fromkeys(("acquire", "session", "simulate"), "recording."),
-    **dict.fromkeys(("init", "inspect", "calibrate", "decode"), "setup."),
+    **dict.fromkeys(("init", "plan", "inspect", "calibrate", "decode"), "setup."),
     **dict.fromkeys(("analyze", "compare", "report", "plot", "model", "export"), "results."),
 }
 
