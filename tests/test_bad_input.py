@@ -26,6 +26,7 @@ import _studies
 from evtribo.canlog.rig import default_rig_path
 from evtribo.cli import main
 from evtribo.store.lock import WriteLock
+from evtribo.store.owned import claim
 
 ERRORS_MD = Path(__file__).parents[1] / "docs" / "errors.md"
 DBC = default_rig_path().with_name("default.dbc")
@@ -211,6 +212,21 @@ def _text(path: Path, text: str) -> Callable[[Path], None]:
     return build
 
 
+def _planted_record(tmp: Path) -> None:
+    """A result folder, and beside it a commit record whose target is a trial's folder."""
+    import hashlib
+
+    _results(tmp)
+    stage = tmp / f".out.evtribo-new-{'0' * 32}"
+    stage.mkdir()
+    evil = b"(1763700000.000000) vcan0 7FF#DEADBEEF\n"
+    (stage / "run-01.log").write_bytes(evil)
+    digest = hashlib.sha256(evil).hexdigest()
+    (stage / ".evtribo-commit.json").write_text(json.dumps({
+        "evtribo": "commit", "version": 2, "unit": "out", "target": "study/P01",
+        "by": "analyze", "install": [["run-01.log", digest, None]], "remove": []}))
+
+
 #: Locks the builders hold while their case runs (released after it).
 HELD: list[WriteLock] = []
 
@@ -266,7 +282,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "unknown-command": lambda t: None,
     "no-such-study": lambda t: None,
     "no-trials": lambda t: shutil.rmtree(t / "study" / "P01"),
-    "results-exist": _text(Path("out/trials.csv"), "subject,trial\n"),
+    "results-exist": lambda t: (_text(Path("out/trials.csv"), "subject,trial\n")(t),
+                                claim(t / "out" / "trials.csv", "analyze")),
     "analysis-unknown-key": lambda t: _append(t / "study", "[analysis]\nguard_sec = 0.3\n"),
     "analysis-tare-mode": lambda t: _append(t / "study", '[analysis]\ntare = "zero"\n'),
     "analysis-negative": lambda t: _append(t / "study", "[analysis]\nguard_s = -0.1\n"),
@@ -294,14 +311,16 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "log-suffix-typo": _text(Path("run-01.lgo"), LOG),
     "log-missing": lambda t: None,
     "decode-output-suffix": lambda t: None,
-    "decode-output-exists": _text(Path("run-01.csv"), "timestamp\n"),
+    "decode-output-exists": lambda t: (_text(Path("run-01.csv"), "timestamp\n")(t),
+                                       claim(t / "run-01.csv", "decode")),
     "decode-dbc-missing": lambda t: None,
     "decode-mf4-choices": lambda t: None,
     "decode-mf4-no-message": _text(Path("other.dbc"), OTHER_DBC),
     "decode-mf4-asammdf-missing": lambda t: sys.modules.update({"asammdf": None}),
     "export-output-suffix": lambda t: None,
     "export-subject-unknown": lambda t: None,
-    "export-output-exists": _text(Path("forces.mf4"), "an earlier export\n"),
+    "export-output-exists": lambda t: (_text(Path("forces.mf4"), "an earlier export\n")(t),
+                                       claim(t / "forces.mf4", "export")),
     "model-set-unknown": lambda t: None,
     "model-set-not-a-number": lambda t: None,
     "model-set-syntax": lambda t: None,
@@ -376,6 +395,15 @@ BUILD: dict[str, Callable[[Path], None]] = {
                                                t / "study" / "P01" / "run-01.log"),
                                          (t / "out").mkdir()),
     "compare-out-in-study": lambda t: (t / "study" / "P02").mkdir(),
+    "analyze-results-not-evtribo-s": _text(Path("out/trials.csv"), "subject,trial\n"),
+    "report-tables-over-users-table": lambda t: (_text(Path("tables/fit.md"), "| mine |\n")(t),
+                                                 (t / "out").mkdir()),
+    "report-over-result-table": lambda t: (_results(t, fit_of="aaaa"),
+                                           claim(t / "out" / "trials.csv", "analyze")),
+    "decode-output-not-evtribo-s": _text(Path("run-01.csv"), "timestamp\n"),
+    "compare-planted-record": _planted_record,
+    "compare-lock-not-a-lock": lambda t: (_results(t), _link(
+        t / ".out.evtribo-lock", t / "study" / "P01" / "run-01.log")),
     "plot-over-log": lambda t: _link(t / "check.png", t / "study" / "P01" / "run-01.log"),
     "model-figures-over-dbc": lambda t: _link(t / "figures" / "fig5_friction_time.png",
                                               t / "study" / "rig" / "default.dbc"),
@@ -384,7 +412,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "plot-subject-missing": lambda t: None,
     "plot-trial-missing": lambda t: None,
     "plot-figure-suffix": lambda t: None,
-    "plot-figure-exists": _text(Path("check.png"), "a figure kept\n"),
+    "plot-figure-exists": lambda t: (_text(Path("check.png"), "a figure kept\n")(t),
+                                     claim(t / "check.png", "plot")),
     "plot-signal-unknown": lambda t: None,
     "plot-dbc-missing": lambda t: None,
     "plot-no-dbc": lambda t: None,

@@ -222,12 +222,14 @@ def save_mdf(mdf: Any, target: Path) -> None:
     ----------
     mdf : asammdf.MDF
     target : Path
-        The ``.mf4`` to write; an existing file is replaced.
+        The ``.mf4`` to write (its folder created if missing); an existing file is
+        replaced.
 
     Returns
     -------
     None
     """
     mdf.identification.program_identification = MF4_PROGRAM_ID
+    target.parent.mkdir(parents=True, exist_ok=True)
     with atomic_open(target, "w+b") as fh:
         mdf.save(fh, overwrite=True, compression=2)

@@ -65,8 +65,9 @@ from evtribo.fit.tables import ResultTables, check_out_folder, read_results
 from evtribo.guard import refuse_in_study, refuse_input
 from evtribo.model.params import ModelParameters
 from evtribo.population.estimates import Population, population
-from evtribo.results.outputs import FIGURES, FIT_CSV, FIT_JSON, compare_files
+from evtribo.results.outputs import COMPARE_TABLES, FIGURES, FIT_CSV, FIT_JSON, compare_files
 from evtribo.store.files import atomic_write, sha256_file
+from evtribo.store.owned import refuse_foreign
 from evtribo.store.resultdir import Staging, locked, recover
 
 log = logging.getLogger(__name__)
@@ -157,8 +158,10 @@ def figure_stems(subjects: Iterable[str], *, sine: bool = True) -> list[str]:
     return stems
 
 
-def _check_outputs(out: Path, force: bool) -> None:
+def _check_outputs(out: Path, force: bool, figures: Iterable[str] = ()) -> None:
     refuse_in_study(out, command="evtribo compare")
+    # a file of compare's names that evtribo did not write: never replaced, force or not
+    refuse_foreign(out, [*COMPARE_TABLES, *figures], {"compare"})
     existing = compare_files(out)
     for rel in existing:  # a study's input or a raw log is never written over
         refuse_input(out / rel, command="evtribo compare")
@@ -246,9 +249,11 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     with locked(folder, "evtribo compare"):
         recover(folder)
         tables = read_results(folder)
-        _check_outputs(folder, force)
+        _check_outputs(folder, force, [
+            f"{FIGURES}/{stem}.{fmt}" for fmt in look.formats
+            for stem in figure_stems(tables.subjects, sine=tables.sine_trace is not None)])
         stale = compare_files(folder)
-        with Staging(folder) as stage:
+        with Staging(folder, by="compare") as stage:
             result = _compare(tables, stage, names, base, look, models=candidates,
                               trial_checks=trial_checks, scheduler=scheduler,
                               progress=progress or (lambda _: None))

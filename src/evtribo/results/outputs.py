@@ -2,13 +2,17 @@
 
 ``evtribo analyze --force`` replaces the files of all three commands in OUT, and no others
 (a user's notes beside them stay): this module names them, so that an analysis removes the
-model fit and the report of the results it replaces. :mod:`evtribo.store.resultdir` writes the
-folder as one unit; :func:`check_out_dir` keeps it out of the study.
+model fit and the report of the results it replaces. Of the files named, only those OUT's
+manifest shows evtribo wrote, with the bytes they have now, are ever replaced or removed
+(:mod:`evtribo.store.owned`); a file of such a name that a user put there, or edited, is
+left, and a command that would write over it is refused. :mod:`evtribo.store.resultdir`
+writes the folder as one unit; :func:`check_out_dir` keeps it out of the study.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import re
 import time
 from collections.abc import Callable, Mapping
@@ -18,11 +22,12 @@ from typing import Any
 from evtribo.documents.fit import FIT_JSON
 from evtribo.documents.summary import SUMMARY_FILE, write_summary
 from evtribo.errors import OutputExistsError, UserInputError
+from evtribo.store.owned import read_manifest, refuse_foreign
 from evtribo.store.resultdir import Staging, inside
 
-__all__ = ["ANALYSIS_FILES", "BOOTSTRAP_FILE", "FIGURES", "FIT_CSV", "FIT_JSON",
+__all__ = ["ANALYSIS_FILES", "BOOTSTRAP_FILE", "COMPARE_TABLES", "FIGURES", "FIT_CSV", "FIT_JSON",
            "MODELS_CSV", "OUTPUT_FILES", "POPULATION_CONTRASTS_CSV", "POPULATION_CSV",
-           "REPORT_TABLES", "SINE_TRACE_FILE", "SUMMARY_FILE", "TABLES", "check_out_dir",
+           "REPORT_TABLES", "SINE_TRACE_FILE", "SUMMARY_FILE", "TABLES", "WRITERS", "check_out_dir",
            "check_overwrite", "compare_files", "report_files", "write_analysis"]
 
 #: The files ``analyze_study`` writes into its output folder.
@@ -41,6 +46,8 @@ FIT_CSV, FIGURES = "fit.csv", "figures"
 MODELS_CSV = "models.csv"
 #: compare's estimates of the population (study format §10).
 POPULATION_CSV, POPULATION_CONTRASTS_CSV = "population.csv", "population_contrasts.csv"
+#: compare's tables (and fit.json).
+COMPARE_TABLES = (FIT_CSV, FIT_JSON, MODELS_CSV, POPULATION_CSV, POPULATION_CONTRASTS_CSV)
 #: The formats of compare's figures.
 _FIGURE_FORMATS = ("png", "svg", "pdf")
 #: The stems of compare's figures (``electrostatic_force_all.png``,
@@ -52,6 +59,9 @@ _FIGURE = re.compile(r"^(friction_time|area_increase|electrostatic_force_.+|"
 #: stems (``tables/electrostatic_force.md``, ``tables/fit.tex``).
 TABLES, REPORT_TABLES = "tables", ("electrostatic_force", "fit", "population", "friction")
 _TABLE = re.compile(r"^(" + "|".join(REPORT_TABLES) + r")\.(md|tex)$")
+#: The commands that write into a result folder (as its manifest names them): analyze
+#: replaces the files of all three.
+WRITERS = ("analyze", "compare", "report")
 #: What the first bytes of a report written by ``evtribo report`` hold.
 _REPORT_MARK = b'<meta name="generator" content="evtribo'
 
@@ -71,8 +81,7 @@ def compare_files(out: Path) -> list[str]:
     list of str
         Names relative to *out*.
     """
-    found = [name for name in (FIT_CSV, FIT_JSON, MODELS_CSV, POPULATION_CSV,
-                               POPULATION_CONTRASTS_CSV) if (out / name).is_file()]
+    found = [name for name in COMPARE_TABLES if (out / name).is_file()]
     listed: set[str] = set()
     try:
         doc = json.loads((out / FIT_JSON).read_text(encoding="utf-8"))
@@ -86,6 +95,7 @@ def compare_files(out: Path) -> list[str]:
     if (out / FIGURES).is_dir():
         listed.update(f"{FIGURES}/{p.name}" for p in (out / FIGURES).iterdir()
                       if _FIGURE.match(p.name))
+    listed.update(rel for rel, e in read_manifest(out).items() if e.by == "compare")
     found += sorted(rel for rel in listed - set(found)
                     if (p := inside(out, rel)) is not None and p.is_file())
     return found
@@ -127,6 +137,8 @@ def report_files(out: Path) -> list[str]:
     if found and (out / TABLES).is_dir():
         found += sorted(f"{TABLES}/{p.name}" for p in (out / TABLES).iterdir()
                         if p.is_file() and _TABLE.match(p.name))
+    found += sorted(rel for rel, e in read_manifest(out).items()
+                    if e.by == "report" and rel not in found and (out / rel).is_file())
     return found
 
 
@@ -144,11 +156,14 @@ def check_overwrite(out: Path, force: bool) -> None:
     Raises
     ------
     OutputExistsError
-        Naming the first such file.
+        Naming the first such file; or, *force* or not, a file of analyze's names that
+        evtribo did not write (:func:`~evtribo.store.owned.refuse_foreign`).
     """
+    if out.is_dir():
+        refuse_foreign(out, ANALYSIS_FILES, WRITERS, key="--out")
     if force:
         return
-    taken = [out / n for n in ANALYSIS_FILES if (out / n).exists()]
+    taken = [out / n for n in ANALYSIS_FILES if os.path.lexists(out / n)]
     if out.is_dir():
         taken += [out / rel for rel in (*compare_files(out), *report_files(out))]
     if taken:
@@ -203,7 +218,7 @@ def write_analysis(out: Path, writers: Mapping[str, Callable[[Path], str]],
     started = time.perf_counter()
     stale = [n for n in ANALYSIS_FILES if (out / n).is_file()]
     stale += [*compare_files(out), *report_files(out)] if out.is_dir() else []
-    with Staging(out) as stage:
+    with Staging(out, by="analyze", replaces=WRITERS) as stage:
         for name, write in writers.items():
             summary["output_sha256"][name] = write(stage.path(name))
         summary["elapsed_s"] = round(elapsed + time.perf_counter() - started, 3)
