@@ -200,6 +200,12 @@ def _edit(path: Path, old: str, new: str) -> None:
     path.write_text(text.replace(old, new), encoding="utf-8")
 
 
+def _fifo(path: Path) -> None:
+    """*path* replaced by a FIFO (named pipe)."""
+    path.unlink()
+    os.mkfifo(path)
+
+
 def _link(link: Path, target: Path) -> None:
     link.parent.mkdir(parents=True, exist_ok=True)
     link.symlink_to(target)
@@ -379,6 +385,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "rig-signal-beyond-message": lambda t: _edit(t / "study" / "rig" / "default.dbc",
                                                  "BO_ 193 FzCell: 8", "BO_ 193 FzCell: 6"),
     "dbc-device": lambda t: _toml(t / "study", '"rig/default.dbc"', '"/dev/zero"'),
+    "study-toml-fifo": lambda t: _fifo(t / "study" / "study.toml"),
+    "dbc-fifo": lambda t: _fifo(t / "study" / "rig" / "default.dbc"),
     "decode-dbc-not-a-dbc": _text(Path("passwd"), PASSWD),
     "sidecar-duplicate-key": _text(Path("study/P01/run-01.json"), SIDECAR_TWICE),
     "toml-duplicate-key": lambda t: _toml(t / "study", 'name = "bad input"',
