@@ -399,6 +399,9 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "report-over-dbc": lambda t: (t / "out").mkdir(),
     "report-over-other-log": lambda t: (_text(Path("bench.asc"), ASC)(t), (t / "out").mkdir()),
     "report-new-sidecar": lambda t: (t / "out").mkdir(),
+    "report-new-sidecar-linked-subject": lambda t: (
+        shutil.copytree(t / "study" / "P01", t / "elsewhere"),
+        _link(t / "study" / "P02", t / "elsewhere"), (t / "out").mkdir()),
     "report-tables-over-log": lambda t: (_link(t / "tables" / "fit.md",
                                                t / "study" / "P01" / "run-01.log"),
                                          (t / "out").mkdir()),

@@ -188,8 +188,9 @@ def check_out_dir(out: Path, study_root: Path) -> None:
         Naming the output folder and the study.
     """
     study = Path(study_root).resolve()
-    where = Path(out).resolve()
-    if where == study or study in where.parents:
+    inside = [study, Path(os.path.abspath(study_root))]
+    spelt = [Path(out).resolve(), Path(os.path.abspath(out))]  # a linked subject: the study's
+    if any(w == s or s in w.parents for w in spelt for s in inside):
         raise UserInputError(
             f"the output folder is inside the study folder {study_root}: the next analysis "
             "would read the results as part of the study; choose a folder outside it, e.g. "
