@@ -398,6 +398,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "report-over-study-toml": lambda t: (t / "out").mkdir(),
     "report-over-dbc": lambda t: (t / "out").mkdir(),
     "report-over-other-log": lambda t: (_text(Path("bench.asc"), ASC)(t), (t / "out").mkdir()),
+    "report-over-power-cut-log": lambda t: ((t / "bench.log").write_bytes(
+        b"\x00" * 300_000 + LOG.encode()), (t / "out").mkdir()),
     "report-new-sidecar": lambda t: (t / "out").mkdir(),
     "report-new-sidecar-linked-subject": lambda t: (
         shutil.copytree(t / "study" / "P01", t / "elsewhere"),

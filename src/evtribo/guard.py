@@ -2,7 +2,9 @@
 
 A study's inputs are its ``study.toml``, its DBC, its trials' logs and sidecars and its
 subjects' session records; a raw CAN log is any file that reads as one (candump, ASC, BLF,
-TRC, python-can CSV, MF4, SQLite...), in a study or not; a DBC or a TOML file is an input
+TRC, python-can CSV, MF4, SQLite...), in a study or not, whatever precedes its frames (a
+log after a power cut begins with NUL bytes or a junk line: what a reader reads frames from
+is a log); a DBC or a TOML file is an input
 wherever it is (evtribo writes neither as an output). Every command that writes a file a
 user names (``report -o``, ``report --tables``, ``compare``, ``decode -o``, ``plot -o``,
 ``model --figures``) asks :func:`refuse_input` first, before anything is written, and is
@@ -136,7 +138,7 @@ def what_input(path: str | os.PathLike[str]) -> str | None:
     str or None
         ``"a CAN log (a candump -L log)"``, ``"the study's DBC"``... or None.
     """
-    from evtribo.canlog.io.sniff import sniff  # numpy and python-can: imported on use
+    from evtribo.canlog.io.sniff import frame_line, sniff  # python-can: imported on use
 
     real = Path(os.path.realpath(path))
     inside = next((w for w in map(_in_study, _spellings(path)) if w is not None), None)
@@ -145,6 +147,9 @@ def what_input(path: str | os.PathLike[str]) -> str | None:
     found = sniff(real)
     if found is not None and found.kind == "mf4" and _written_by_evtribo(real):
         return None  # decoded signals evtribo wrote (decode, export): --force replaces them
+    if found is None or found.kind in ("unknown", "binary", "csv"):
+        # a log after a power cut: NULs or a junk line first; the readers skip them
+        found = frame_line(real) or found
     if found is not None and found.kind.removeprefix("gzip:") in LOG_KINDS:
         return f"a CAN log ({found.description})"
     if real.suffix.lower() == ".dbc" or _looks_like_dbc(real):
