@@ -20,10 +20,8 @@ from __future__ import annotations
 import errno
 import hashlib
 import io
-import json
 import logging
 import os
-import re
 import stat
 import sys
 from collections.abc import Callable, Iterator
@@ -32,6 +30,7 @@ from pathlib import Path
 from typing import IO, Any, TypeVar
 
 from evtribo.errors import UserInputError
+from evtribo.store.jsondoc import DuplicateKeyError, loads_json_unique
 from evtribo.store.tempfiles import Temporary
 
 log = logging.getLogger(__name__)
@@ -454,43 +453,3 @@ def write_checksummed(directory: Path, key: str, data: bytes | memoryview, suffi
         if other != path:
             other.unlink(missing_ok=True)
     return path
-
-
-class DuplicateKeyError(ValueError):
-    """A JSON object with a key given twice (JSON parsers keep the last one, silently)."""
-
-    def __init__(self, key: str, line: int | None) -> None:
-        self.key, self.line = key, line
-        super().__init__(f"key {key!r} given twice")
-
-
-def loads_json_unique(text: str) -> Any:
-    """:func:`json.loads`, refusing an object that gives a key twice.
-
-    Parameters
-    ----------
-    text : str
-        The JSON document.
-
-    Returns
-    -------
-    object
-
-    Raises
-    ------
-    DuplicateKeyError
-        Naming the key and the line of its second occurrence.
-    json.JSONDecodeError
-        Not JSON.
-    """
-    def unique(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-        out: dict[str, Any] = {}
-        for key, value in pairs:
-            if key in out:
-                found = list(re.finditer(re.escape(json.dumps(key)) + r"\s*:", text))
-                line = text.count("\n", 0, found[1].start()) + 1 if len(found) > 1 else None
-                raise DuplicateKeyError(key, line)
-            out[key] = value
-        return out
-
-    return json.loads(text, object_pairs_hook=unique)
