@@ -351,6 +351,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "acquire-trial-exists": lambda t: None,
     "acquire-bus-option": lambda t: None,
     "acquire-receive-buffer": lambda t: None,
+    "acquire-receive-buffer-huge": lambda t: None,
     "acquire-duration-inf": lambda t: None,
     "acquire-amplitude-inf": lambda t: None,
     "acquire-band-nan": lambda t: None,
