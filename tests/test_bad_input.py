@@ -363,6 +363,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "acquire-new-study-bad-interface": lambda t: None,
     "acquire-trial-locked": _being_recorded,
     "simulate-trial-locked": _being_recorded,
+    "simulate-over-recording": lambda t: _sidecar(t / "study", bus={"interface": "socketcan",
+                                                                    "channel": "can0"}),
     "simulate-subjects-no-study": lambda t: None,
     "simulate-subjects-zero": lambda t: None,
     "simulate-subjects-one-trial-option": lambda t: None,
