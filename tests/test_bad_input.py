@@ -443,6 +443,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
                                            "repetiton = 2\n[[trial]]\namplitude_V = 100\n"),
     "session-protocol-changed": _session_begun,
     "init-study-exists": lambda t: None,
+    "init-force-over-users-study-toml": lambda t: None,
     "init-dbc-missing": lambda t: None,
 }
 
