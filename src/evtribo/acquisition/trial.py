@@ -228,8 +228,10 @@ def _start(bus: can.BusABC, paths: TrialPaths, acq_rig: AcquisitionRig,
     channel = _log_channel(opts.log_channel or settings.channel, bus)
     # with force, the previous trial's log and sidecar stay until this one has ended
     previous = [p for p in (paths.log, paths.sidecar) if p.exists()]
-    try:
-        fh = paths.part.open("wb" if opts.force else "xb", buffering=0)
+    try:  # never through a link planted at the partial log's name
+        flags = os.O_WRONLY | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0) | (
+            os.O_TRUNC if opts.force else os.O_EXCL)
+        fh = os.fdopen(os.open(paths.part, flags, 0o644), "wb", buffering=0)
     except FileExistsError as err:
         raise OutputExistsError("another recording of this trial is in progress",
                                 path=paths.part) from err
