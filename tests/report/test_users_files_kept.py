@@ -129,3 +129,59 @@ def test_decode_and_plot_make_the_output_s_folder(tmp_path, capsys):
                  ["plot", "trial", str(study), "P01", "run-01", "-o", str(figure), "--force"]):
         code, err = _run(argv, capsys)
         assert code == 0, err
+
+
+def test_results_of_an_older_evtribo_are_replaced_as_their_documents_vouch(tmp_path, capsys):
+    """A result folder written before manifests: summary.json and fit.json record the
+    SHA-256 of what analyze and compare wrote, which makes those files evtribo's (and
+    --force replaces them); a table edited since is not, and stays."""
+    from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
+    from evtribo.store.owned import MANIFEST
+
+    study, out = tmp_path / "study", tmp_path / "out"
+    simulate_study(study, [SubjectParams(name="P01")], amplitudes=(80.0, 140.0),
+                   config=TrialConfig(duration_s=3.0), sine_trial=False)
+    assert main(["analyze", str(study), "--out", str(out), "--jobs", "1"]) == 0
+    assert main(["compare", str(out), "--dpi", "20", "--no-trial-checks"]) == 0
+    (out / MANIFEST).unlink()  # as an older evtribo left it
+    (out / "notes.txt").write_text("mine\n")
+    assert main(["analyze", str(study), "--out", str(out), "--jobs", "1", "--force",
+                 "--set", "seed=2"]) == 0
+    assert not (out / "fit.csv").exists()  # compare's, as fit.json vouched: stale, removed
+    assert (out / "notes.txt").read_text() == "mine\n"
+    (out / MANIFEST).unlink()
+    edited = (out / "windows.csv").read_bytes() + b"# checked\n"
+    (out / "windows.csv").write_bytes(edited)
+    capsys.readouterr()
+    assert main(["analyze", str(study), "--out", str(out), "--jobs", "1", "--force"]) == 2
+    assert f"{out / 'windows.csv'}: key '--out': is not a file evtribo wrote" in \
+        capsys.readouterr().err
+    assert (out / "windows.csv").read_bytes() == edited
+
+
+def test_an_older_result_s_document_vouches_only_for_its_command_s_names(tmp_path):
+    """summary.json and fit.json of a folder without a manifest make evtribo's only files
+    of analyze's and compare's names with the bytes they list: a user's file they name
+    (a hand-edited or planted document) is never adopted, so never removed as stale."""
+    import hashlib
+    import json
+
+    from evtribo.results.outputs import earlier_results
+
+    def sha(data: bytes) -> str:
+        return hashlib.sha256(data).hexdigest()
+
+    (tmp_path / "figures").mkdir()
+    files = {"windows.csv": b"a,b\n", "notes.txt": b"mine\n", "fit.csv": b"x\n",
+             "figures/trial_P01_run-01.png": b"png", "figures/photo.png": b"mine too"}
+    for rel, data in files.items():
+        (tmp_path / rel).write_bytes(data)
+    listed = {rel: sha(data) for rel, data in files.items()}
+    (tmp_path / "summary.json").write_text(json.dumps({"output_sha256": listed}))
+    (tmp_path / "fit.json").write_text(json.dumps({"output_sha256": listed}))
+    adopted = earlier_results(tmp_path)
+    assert {rel: e.by for rel, e in adopted.items()} == {
+        "windows.csv": "analyze", "fit.csv": "compare",
+        "figures/trial_P01_run-01.png": "compare"}
+    (tmp_path / ".evtribo-manifest.json").write_text("{}")
+    assert earlier_results(tmp_path) == {}  # a manifest says what is evtribo's

@@ -37,7 +37,6 @@ import pandas as pd
 
 from evtribo import __version__
 from evtribo.documents.fit import write_fit
-from evtribo.errors import OutputExistsError
 from evtribo.figures.frequency_plots import write_models
 from evtribo.figures.friction_only import NOTE, friction_figures
 from evtribo.figures.plots import (
@@ -65,9 +64,15 @@ from evtribo.fit.tables import ResultTables, check_out_folder, read_results
 from evtribo.guard import refuse_in_study, refuse_input
 from evtribo.model.params import ModelParameters
 from evtribo.population.estimates import Population, population
-from evtribo.results.outputs import COMPARE_TABLES, FIGURES, FIT_CSV, FIT_JSON, compare_files
+from evtribo.results.outputs import (
+    FIGURES,
+    FIT_CSV,
+    FIT_JSON,
+    check_compare,
+    compare_files,
+    earlier_results,
+)
 from evtribo.store.files import atomic_write, sha256_file
-from evtribo.store.owned import refuse_foreign
 from evtribo.store.resultdir import Staging, locked, recover
 
 log = logging.getLogger(__name__)
@@ -160,14 +165,9 @@ def figure_stems(subjects: Iterable[str], *, sine: bool = True) -> list[str]:
 
 def _check_outputs(out: Path, force: bool, figures: Iterable[str] = ()) -> None:
     refuse_in_study(out, command="evtribo compare")
-    # a file of compare's names that evtribo did not write: never replaced, force or not
-    refuse_foreign(out, [*COMPARE_TABLES, *figures], {"compare"})
-    existing = compare_files(out)
+    existing = check_compare(out, force, figures)
     for rel in existing:  # a study's input or a raw log is never written over
         refuse_input(out / rel, command="evtribo compare")
-    if existing and not force:
-        raise OutputExistsError(f"{len(existing)} output file(s) of a previous comparison "
-                                "exist; use {force} to overwrite them", path=out / existing[0])
 
 
 def _jsonable(x: float) -> float | None:
@@ -253,7 +253,7 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
             f"{FIGURES}/{stem}.{fmt}" for fmt in look.formats
             for stem in figure_stems(tables.subjects, sine=tables.sine_trace is not None)])
         stale = compare_files(folder)
-        with Staging(folder, by="compare") as stage:
+        with Staging(folder, by="compare", also=earlier_results(folder)) as stage:
             result = _compare(tables, stage, names, base, look, models=candidates,
                               trial_checks=trial_checks, scheduler=scheduler,
                               progress=progress or (lambda _: None))

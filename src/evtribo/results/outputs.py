@@ -15,20 +15,30 @@ import json
 import os
 import re
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
 from evtribo.documents.fit import FIT_JSON
 from evtribo.documents.summary import SUMMARY_FILE, write_summary
 from evtribo.errors import OutputExistsError, UserInputError
-from evtribo.store.owned import read_manifest, refuse_foreign
+from evtribo.store.files import read_limited
+from evtribo.store.owned import (
+    MANIFEST,
+    Entry,
+    file_sha256,
+    output_name,
+    plain_path,
+    read_manifest,
+    refuse_foreign,
+)
 from evtribo.store.resultdir import Staging, inside
 
 __all__ = ["ANALYSIS_FILES", "BOOTSTRAP_FILE", "COMPARE_TABLES", "FIGURES", "FIT_CSV", "FIT_JSON",
            "MODELS_CSV", "OUTPUT_FILES", "POPULATION_CONTRASTS_CSV", "POPULATION_CSV",
-           "REPORT_TABLES", "SINE_TRACE_FILE", "SUMMARY_FILE", "TABLES", "WRITERS", "check_out_dir",
-           "check_overwrite", "compare_files", "report_files", "write_analysis"]
+           "REPORT_TABLES", "SINE_TRACE_FILE", "SUMMARY_FILE", "TABLES", "WRITERS", "check_compare",
+           "check_out_dir", "check_overwrite", "compare_files", "earlier_results", "report_files",
+           "write_analysis"]
 
 #: The files ``analyze_study`` writes into its output folder.
 OUTPUT_FILES = ("trials.csv", "windows.csv", "electrostatic.csv", "exponents.csv",
@@ -142,6 +152,56 @@ def report_files(out: Path) -> list[str]:
     return found
 
 
+def _compare_name(rel: str) -> bool:
+    folder, _, name = rel.rpartition("/")
+    return rel in COMPARE_TABLES or (folder == FIGURES and _FIGURE.match(name) is not None)
+
+
+def _vouched(out: Path, document: str, by: str,
+             names: Callable[[str], bool]) -> dict[str, Entry]:
+    """The files of the command's own *names* that a document evtribo wrote lists with
+    their SHA-256 (``output_sha256``) and that still have those bytes, and the document
+    itself when all of them do."""
+    try:
+        doc = json.loads(read_limited(out / document, UserInputError, what=document,
+                                      follow=False))
+        listed = dict(doc.get("output_sha256") or {})
+    except (OSError, ValueError, TypeError, AttributeError, UserInputError):
+        return {}
+    found = {rel: Entry(digest, by) for rel, digest in listed.items()
+             if isinstance(rel, str) and output_name(rel) and names(rel)
+             and isinstance(digest, str)
+             and (p := plain_path(out, rel)) is not None and file_sha256(p) == digest}
+    if found and len(found) == len(listed):
+        digest_doc = file_sha256(out / document)
+        if digest_doc is not None:
+            found[document] = Entry(digest_doc, by)
+    return found
+
+
+def earlier_results(out: Path) -> dict[str, Entry]:
+    """In a result folder an older evtribo wrote (no manifest yet), the files it can be
+    shown to have written: those of analyze's names that summary.json lists, and those of
+    compare's names that fit.json lists, with the SHA-256 they still have, and each of the
+    two documents when every file it lists is so (a name of neither is never adopted).
+    ``analyze --force`` and ``compare --force`` replace these as their own.
+
+    Parameters
+    ----------
+    out : Path
+        The result folder.
+
+    Returns
+    -------
+    dict of str to Entry
+        Empty when the folder has a manifest (it says what is evtribo's).
+    """
+    if not out.is_dir() or os.path.lexists(out / MANIFEST):
+        return {}
+    return {**_vouched(out, SUMMARY_FILE, "analyze", ANALYSIS_FILES.__contains__),
+            **_vouched(out, FIT_JSON, "compare", _compare_name)}
+
+
 def check_overwrite(out: Path, force: bool) -> None:
     """Refuse (unless *force*) an output folder that holds results of analyze, compare or
     report.
@@ -160,7 +220,7 @@ def check_overwrite(out: Path, force: bool) -> None:
         evtribo did not write (:func:`~evtribo.store.owned.refuse_foreign`).
     """
     if out.is_dir():
-        refuse_foreign(out, ANALYSIS_FILES, WRITERS, key="--out")
+        refuse_foreign(out, ANALYSIS_FILES, WRITERS, key="--out", also=earlier_results(out))
     if force:
         return
     taken = [out / n for n in ANALYSIS_FILES if os.path.lexists(out / n)]
@@ -169,6 +229,37 @@ def check_overwrite(out: Path, force: bool) -> None:
     if taken:
         raise OutputExistsError("already exists; give --force to overwrite the results",
                                 path=taken[0])
+
+
+def check_compare(out: Path, force: bool, figures: Iterable[str] = ()) -> list[str]:
+    """Refuse what compare may not write over in *out*; its earlier files.
+
+    Parameters
+    ----------
+    out : Path
+        The result folder.
+    force : bool
+        Replace an earlier comparison.
+    figures : iterable of str
+        The figures compare will write (relative names), as far as known.
+
+    Returns
+    -------
+    list of str
+        compare's earlier files in *out* (:func:`compare_files`).
+
+    Raises
+    ------
+    OutputExistsError
+        A file of compare's names that evtribo did not write (*force* or not), or an
+        earlier comparison without *force*.
+    """
+    refuse_foreign(out, [*COMPARE_TABLES, *figures], {"compare"}, also=earlier_results(out))
+    existing = compare_files(out)
+    if existing and not force:
+        raise OutputExistsError(f"{len(existing)} output file(s) of a previous comparison "
+                                "exist; use {force} to overwrite them", path=out / existing[0])
+    return existing
 
 
 def check_out_dir(out: Path, study_root: Path) -> None:
@@ -219,7 +310,7 @@ def write_analysis(out: Path, writers: Mapping[str, Callable[[Path], str]],
     started = time.perf_counter()
     stale = [n for n in ANALYSIS_FILES if (out / n).is_file()]
     stale += [*compare_files(out), *report_files(out)] if out.is_dir() else []
-    with Staging(out, by="analyze", replaces=WRITERS) as stage:
+    with Staging(out, by="analyze", replaces=WRITERS, also=earlier_results(out)) as stage:
         for name, write in writers.items():
             summary["output_sha256"][name] = write(stage.path(name))
         summary["elapsed_s"] = round(elapsed + time.perf_counter() - started, 3)

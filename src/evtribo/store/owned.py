@@ -226,7 +226,8 @@ def owned(folder: str | os.PathLike[str], rel: str, by: Collection[str] | None =
 
 
 def foreign(folder: str | os.PathLike[str], rels: Iterable[str],
-            by: Collection[str] | None = None) -> list[str]:
+            by: Collection[str] | None = None, *,
+            also: Mapping[str, Entry] | None = None) -> list[str]:
     """The names among *rels* that exist in *folder* and are not evtribo's (:func:`owned`).
 
     Parameters
@@ -236,12 +237,15 @@ def foreign(folder: str | os.PathLike[str], rels: Iterable[str],
         Names relative to *folder*.
     by : collection of str, optional
         The commands whose files count as evtribo's (default: any).
+    also : mapping of str to Entry, optional
+        Files evtribo wrote that the manifest does not list (yet): those that documents
+        evtribo wrote vouch for with their SHA-256 (:func:`record` them before replacing).
 
     Returns
     -------
     list of str
     """
-    manifest = read_manifest(folder)
+    manifest = {**(also or {}), **read_manifest(folder)}
     out = []
     for rel in rels:
         path = Path(folder) / rel
@@ -251,7 +255,8 @@ def foreign(folder: str | os.PathLike[str], rels: Iterable[str],
 
 
 def refuse_foreign(folder: str | os.PathLike[str], rels: Iterable[str],
-                   by: Collection[str] | None = None, *, key: str | None = None) -> None:
+                   by: Collection[str] | None = None, *, key: str | None = None,
+                   also: Mapping[str, Entry] | None = None) -> None:
     """Refuse to write where a file evtribo did not write is (see the module's notes),
     ``--force`` or not.
 
@@ -265,17 +270,19 @@ def refuse_foreign(folder: str | os.PathLike[str], rels: Iterable[str],
         The commands whose files may be replaced (default: any).
     key : str, optional
         The option that named the output (``"-o"``).
+    also : mapping of str to Entry, optional
+        As for :func:`foreign`.
 
     Raises
     ------
     OutputExistsError
         Naming the first such file (exit code 2).
     """
-    found = foreign(folder, rels, by)
+    found = foreign(folder, rels, by, also=also)
     if not found:
         return
     path = Path(folder) / found[0]
-    entry = read_manifest(folder).get(found[0])
+    entry = {**(also or {}), **read_manifest(folder)}.get(found[0])
     if entry is not None and by is not None and entry.holds(file_sha256(path)):
         raise OutputExistsError(
             f"is an output of evtribo {entry.by}, which evtribo {' or '.join(sorted(by))} "

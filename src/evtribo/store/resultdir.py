@@ -39,7 +39,7 @@ import shutil
 import stat
 import threading
 import uuid
-from collections.abc import Collection, Iterable, Iterator, Sequence
+from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -50,11 +50,13 @@ from evtribo.store.files import atomic_write, fsync_path
 from evtribo.store.journal import JOURNAL, STAGE_MARK, VERSION, apply, discard, read_record
 from evtribo.store.lock import WriteLock, lock_holder
 from evtribo.store.owned import (
+    Entry,
     file_sha256,
     output_name,
     owned,
     plain_path,
     read_manifest,
+    record,
     refuse_foreign,
 )
 
@@ -330,15 +332,21 @@ class Staging:
     replaces : collection of str, optional
         The commands whose files in *target* this one may replace or remove (default:
         its own).
+    also : mapping of str to Entry, optional
+        Files of the target evtribo wrote that its manifest does not list (an older
+        evtribo's results, vouched for by their documents' SHA-256): recorded in the
+        manifest at the commit, before anything is replaced.
     """
 
     def __init__(self, unit: str | os.PathLike[str],
                  target: str | os.PathLike[str] | None = None, *, by: str,
-                 replaces: Collection[str] | None = None) -> None:
+                 replaces: Collection[str] | None = None,
+                 also: Mapping[str, Entry] | None = None) -> None:
         self.unit = _real(unit)
         self.target = _real(target) if target is not None else self.unit
         self.by = by
         self.replaces = frozenset(replaces if replaces is not None else (by,))
+        self.also = dict(also or {})
         home, prefix = _home(self.unit)
         self.folder = home / f"{prefix}{STAGE_INFIX}{uuid.uuid4().hex}"
         self.committed = False
@@ -420,6 +428,11 @@ class Staging:
         install.sort(key=lambda rel: (rel in last, last.index(rel) if rel in last else 0))
         try:
             self.target.mkdir(parents=True, exist_ok=True)
+            adopt = {rel: e for rel, e in self.also.items()
+                     if (p := plain_path(self.target, rel)) is not None
+                     and file_sha256(p) == e.sha256}
+            if adopt:  # what an older evtribo wrote, as its documents show: now listed
+                record(self.target, adopt)
             doc = self._plan(install, remove)
             atomic_write(self.folder / JOURNAL, json.dumps(doc, indent=1), durable=True)
         except OSError as err:
