@@ -64,6 +64,7 @@ from evtribo.fit.tables import ResultTables, check_out_folder, read_results
 from evtribo.guard import refuse_in_study, refuse_input
 from evtribo.model.params import ModelParameters
 from evtribo.population.estimates import Population, population
+from evtribo.population.exclusions import study_exclusions
 from evtribo.results.outputs import (
     FIGURES,
     FIT_CSV,
@@ -165,8 +166,7 @@ def figure_stems(subjects: Iterable[str], *, sine: bool = True) -> list[str]:
 
 def _check_outputs(out: Path, force: bool, figures: Iterable[str] = ()) -> None:
     refuse_in_study(out, command="evtribo compare")
-    existing = check_compare(out, force, figures)
-    for rel in existing:  # a study's input or a raw log is never written over
+    for rel in check_compare(out, force, figures):  # nor a study's input or a raw log
         refuse_input(out / rel, command="evtribo compare")
 
 
@@ -252,13 +252,13 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         _check_outputs(folder, force, [
             f"{FIGURES}/{stem}.{fmt}" for fmt in look.formats
             for stem in figure_stems(tables.subjects, sine=tables.sine_trace is not None)])
+        exclude = study_exclusions(tables)  # a bad [population] rule: before any write
         stale = compare_files(folder)
         with Staging(folder, by="compare", also=earlier_results(folder)) as stage:
             result = _compare(tables, stage, names, base, look, models=candidates,
                               trial_checks=trial_checks, scheduler=scheduler,
-                              progress=progress or (lambda _: None))
-            _write_json(stage, result, names, base, params,
-                        run_id=tables.summary.run_id)
+                              progress=progress or (lambda _: None), exclude=exclude)
+            _write_json(stage, result, names, base, params, run_id=tables.summary.run_id)
             stage.commit(remove=stale, last=[FIT_JSON])
     result.files = [folder / rel for rel in result.files]
     log.info("compare: wrote %d files into %s", len(result.files), folder)
@@ -314,8 +314,10 @@ class _Figures:
 def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
              base: ModelParameters, look: _Look, *, models: tuple[str, ...] = (),
              trial_checks: bool = True, scheduler: Any = None,
-             progress: Callable[[str], None]) -> CompareResult:
-    """The fits and figures, written into *stage* (``result.files`` relative to it)."""
+             progress: Callable[[str], None],
+             exclude: tuple[dict[str, str], list[str]] = ({}, [])) -> CompareResult:
+    """The fits and figures, written into *stage* (``result.files`` relative to it);
+    *exclude*: the study's exclusions from the population and notes on them."""
     only_mu = tables.electrostatic.empty  # a study of OFF trials: its friction, no fit
     if not only_mu:
         replicates = ("" if tables.bootstrap is None else
@@ -329,7 +331,11 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
     table = fit_table(fits, tables)
     atomic_write(stage.path(FIT_CSV), table.to_csv(index=False))
     result.files.append(Path(FIT_CSV))
-    result.population = pop = population(tables, fits)
+    if not only_mu:
+        progress("estimating the population (a mixed model per condition, checked with "
+                 "several optimisers)")
+    result.population = pop = population(tables, fits, exclude=exclude[0],
+                                         rule_notes=exclude[1])
     for name, text in pop.files().items():
         atomic_write(stage.path(name), text)
         result.files.append(Path(name))
@@ -405,15 +411,16 @@ def _subject_figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[
         ax = plot_electrostatic_force(rows, f.params, subject=s)
         figures.emit(ax, "electrostatic_force", f"Electrostatic force vs voltage, {s}",
                      f"electrostatic_force_{safe_name(s)}", subject=s,
-                     caption=f"{s}: inferred electrostatic force (95 % intervals) and the "
-                             "fitted model at the subject's mean normal force ON; dotted: a "
-                             "U² power law for reference.")
+                     caption=f"{s}: inferred electrostatic force (points, 95 % intervals) "
+                             "and the fitted model (lines) at the subject's mean normal force "
+                             "ON, over the amplitudes measured.")
         win = tables.windows[tables.windows["subject"] == s]
         ax = plot_friction_normal_force(win, f.params, subject=s)
         figures.emit(ax, "friction_normal_force", f"Friction vs normal force, {s}",
                      f"friction_normal_force_{safe_name(s)}", subject=s,
                      caption=f"{s}: steady-sliding windows OFF and ON (points) and the model "
-                             f"(lines, eq. 5, cf. the paper's Figure 6); μ {mu_how}")
+                             "(lines, eq. 5, cf. the paper's Figure 6) over the normal forces "
+                             f"each drive's windows span; axes zoomed to the windows; μ {mu_how}")
 
 
 def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: _Figures) -> None:
@@ -451,18 +458,17 @@ def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: _Figur
                             amplitudes=sorted(set(amps[np.isfinite(amps)].tolist())))
     figures.emit(ax, "area_increase", "Predicted contact-area increase", "area_increase",
                  subject=None,
-                 caption="JKR over Hertz contact area at each subject's mean normal force ON "
-                         "with the fitted parameters, cf. the paper's Figure 7.")
+                 caption="A prediction of the model, nothing measured: JKR over Hertz "
+                         "contact area at each subject's mean normal force ON with the fitted "
+                         "parameters, cf. the paper's Figure 7.")
 
 
 def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],
                 base: ModelParameters, params_file: str | Path | None, *,
                 run_id: str | None) -> None:
     """fit.json, into *stage*, naming the analysis fitted and the files written."""
-    pfile: dict[str, Any] | None = None
-    if params_file is not None:
-        p = Path(params_file)
-        pfile = {"path": str(p), "sha256": sha256_file(p)}
+    pfile: dict[str, Any] | None = None if params_file is None else {
+        "path": str(Path(params_file)), "sha256": sha256_file(Path(params_file))}
     doc = {
         "run_id": run_id,
         "software": {"evtribo": __version__},

@@ -36,9 +36,9 @@ from evtribo.store.resultdir import Staging, inside
 
 __all__ = ["ANALYSIS_FILES", "BOOTSTRAP_FILE", "COMPARE_TABLES", "FIGURES", "FIT_CSV", "FIT_JSON",
            "MODELS_CSV", "OUTPUT_FILES", "POPULATION_CONTRASTS_CSV", "POPULATION_CSV",
-           "REPORT_TABLES", "SINE_TRACE_FILE", "SUMMARY_FILE", "TABLES", "WRITERS", "check_compare",
-           "check_out_dir", "check_overwrite", "compare_files", "earlier_results", "report_files",
-           "write_analysis"]
+           "POPULATION_SUBJECTS_CSV", "REPORT_TABLES", "SINE_TRACE_FILE", "SUMMARY_FILE", "TABLES",
+           "WRITERS", "check_compare", "check_out_dir", "check_overwrite", "compare_files",
+           "earlier_results", "report_files", "write_analysis"]
 
 #: The files ``analyze_study`` writes into its output folder.
 OUTPUT_FILES = ("trials.csv", "windows.csv", "electrostatic.csv", "exponents.csv",
@@ -56,8 +56,11 @@ FIT_CSV, FIGURES = "fit.csv", "figures"
 MODELS_CSV = "models.csv"
 #: compare's estimates of the population (study format §10).
 POPULATION_CSV, POPULATION_CONTRASTS_CSV = "population.csv", "population_contrasts.csv"
+#: Each subject's relative friction increase and test of F_el > 0 (compare's population).
+POPULATION_SUBJECTS_CSV = "population_subjects.csv"
 #: compare's tables (and fit.json).
-COMPARE_TABLES = (FIT_CSV, FIT_JSON, MODELS_CSV, POPULATION_CSV, POPULATION_CONTRASTS_CSV)
+COMPARE_TABLES = (FIT_CSV, FIT_JSON, MODELS_CSV, POPULATION_CSV, POPULATION_CONTRASTS_CSV,
+                  POPULATION_SUBJECTS_CSV)
 #: The formats of compare's figures.
 _FIGURE_FORMATS = ("png", "svg", "pdf")
 #: The stems of compare's figures (``electrostatic_force_all.png``,
