@@ -237,6 +237,37 @@ def _events(s: Lead, c: IntArray | None) -> tuple[list[tuple[int, float]],
     return steps, jumps
 
 
+def _counted(out: Sequenced, times: FloatArray, c: IntArray | None, rows: IntArray, *,
+             d: IntArray | None, modulus: int | None, payload: npt.ArrayLike | None
+             ) -> tuple[IntArray, IntArray | None, int | None]:
+    """Duplicates dropped, late frames put back and a standing counter stepped on, as the
+    counter tells them (recorded in *out*); return the rows kept, their counter steps and the
+    modulus (None when there is no counter to trust)."""
+    if c is not None and d is not None and modulus and 2 * np.count_nonzero(d == 1) >= d.size > 0:
+        # a counter, stepping by one for most frames (a constant is none)
+        if payload is not None:
+            dup = _duplicates(c, np.asarray(payload), modulus)
+            out.duplicates = int(dup.sum())
+            if out.duplicates:
+                out.first_duplicate = float(times[np.argmax(dup)])
+                rows = rows[~dup]
+        if out.duplicates:
+            d = _steps(c[rows], modulus)
+        order, out.reordered = _local_order(c[rows], modulus, d)
+        if out.reordered:
+            rows = rows[order]
+            d = _steps(c[rows], modulus)
+    elif c is not None:
+        modulus = None  # no counter to trust: its values are kept as they are
+    if d is not None and modulus and np.any(d == 0):
+        # the counter stood still (not a duplicate: the payload differs): the frame is the
+        # next one all the same, its counter put right
+        out.stood = int(np.count_nonzero(d == 0))
+        out.first_stood = float(times[rows[int(np.argmax(d == 0)) + 1]])
+        d = np.where(d == 0, 1, d)
+    return rows, d, modulus
+
+
 def sending_order(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
                   modulus: int | None = None, payload: npt.ArrayLike | None = None
                   ) -> Sequenced:
@@ -267,28 +298,8 @@ def sending_order(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
         modulus = 1 << max(int(c.max(initial=0)).bit_length(), 1)
     out = Sequenced(rows, times, c, rows)
     d = None if c is None or not modulus else _steps(c, modulus)
-    if c is not None and d is not None and modulus and 2 * np.count_nonzero(d == 1) >= d.size > 0:
-        # a counter, stepping by one for most frames (a constant is none)
-        if payload is not None:
-            dup = _duplicates(c, np.asarray(payload), modulus)
-            out.duplicates = int(dup.sum())
-            if out.duplicates:
-                out.first_duplicate = float(times[np.argmax(dup)])
-                rows = rows[~dup]
-        if out.duplicates:
-            d = _steps(c[rows], modulus)
-        order, out.reordered = _local_order(c[rows], modulus, d)
-        if out.reordered:
-            rows = rows[order]
-            d = _steps(c[rows], modulus)
-    elif c is not None:
-        modulus = None  # no counter to trust: its values are kept as they are
-    if d is not None and modulus and np.any(d == 0):
-        # the counter stood still (not a duplicate: the payload differs): the frame is the
-        # next one all the same, its counter put right
-        out.stood = int(np.count_nonzero(d == 0))
-        out.first_stood = float(times[rows[int(np.argmax(d == 0)) + 1]])
-        d = np.where(d == 0, 1, d)
+    rows, d, modulus = _counted(out, times, c, rows, d=d, modulus=modulus,
+                                payload=payload)
     moved = rows.size < n or out.reordered
     ts = times[rows] if moved else times
     cs = None if c is None else c[rows] if moved else c
