@@ -37,7 +37,6 @@ import pandas as pd
 
 from evtribo import __version__
 from evtribo.documents.fit import write_fit
-from evtribo.errors import OutputExistsError
 from evtribo.figures.frequency_plots import write_models
 from evtribo.figures.friction_only import NOTE, friction_figures
 from evtribo.figures.plots import (
@@ -66,7 +65,14 @@ from evtribo.guard import refuse_in_study, refuse_input
 from evtribo.model.params import ModelParameters
 from evtribo.population.estimates import Population, population
 from evtribo.population.exclusions import study_exclusions
-from evtribo.results.outputs import FIGURES, FIT_CSV, FIT_JSON, compare_files
+from evtribo.results.outputs import (
+    FIGURES,
+    FIT_CSV,
+    FIT_JSON,
+    check_compare,
+    compare_files,
+    earlier_results,
+)
 from evtribo.store.files import atomic_write, sha256_file
 from evtribo.store.resultdir import Staging, locked, recover
 
@@ -158,14 +164,10 @@ def figure_stems(subjects: Iterable[str], *, sine: bool = True) -> list[str]:
     return stems
 
 
-def _check_outputs(out: Path, force: bool) -> None:
+def _check_outputs(out: Path, force: bool, figures: Iterable[str] = ()) -> None:
     refuse_in_study(out, command="evtribo compare")
-    existing = compare_files(out)
-    for rel in existing:  # a study's input or a raw log is never written over
+    for rel in check_compare(out, force, figures):  # nor a study's input or a raw log
         refuse_input(out / rel, command="evtribo compare")
-    if existing and not force:
-        raise OutputExistsError(f"{len(existing)} output file(s) of a previous comparison "
-                                "exist; use {force} to overwrite them", path=out / existing[0])
 
 
 def _jsonable(x: float) -> float | None:
@@ -247,15 +249,16 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     with locked(folder, "evtribo compare"):
         recover(folder)
         tables = read_results(folder)
-        _check_outputs(folder, force)
+        _check_outputs(folder, force, [
+            f"{FIGURES}/{stem}.{fmt}" for fmt in look.formats
+            for stem in figure_stems(tables.subjects, sine=tables.sine_trace is not None)])
         exclude = study_exclusions(tables)  # a bad [population] rule: before any write
         stale = compare_files(folder)
-        with Staging(folder) as stage:
+        with Staging(folder, by="compare", also=earlier_results(folder)) as stage:
             result = _compare(tables, stage, names, base, look, models=candidates,
                               trial_checks=trial_checks, scheduler=scheduler,
                               progress=progress or (lambda _: None), exclude=exclude)
-            _write_json(stage, result, names, base, params,
-                        run_id=tables.summary.run_id)
+            _write_json(stage, result, names, base, params, run_id=tables.summary.run_id)
             stage.commit(remove=stale, last=[FIT_JSON])
     result.files = [folder / rel for rel in result.files]
     log.info("compare: wrote %d files into %s", len(result.files), folder)
@@ -464,10 +467,8 @@ def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],
                 base: ModelParameters, params_file: str | Path | None, *,
                 run_id: str | None) -> None:
     """fit.json, into *stage*, naming the analysis fitted and the files written."""
-    pfile: dict[str, Any] | None = None
-    if params_file is not None:
-        p = Path(params_file)
-        pfile = {"path": str(p), "sha256": sha256_file(p)}
+    pfile: dict[str, Any] | None = None if params_file is None else {
+        "path": str(Path(params_file)), "sha256": sha256_file(Path(params_file))}
     doc = {
         "run_id": run_id,
         "software": {"evtribo": __version__},
