@@ -175,8 +175,17 @@ Changes = tuple[Callable[[TrialConfig], TrialConfig] | None,
 
 
 def _finger(**only: bool) -> Callable[[SubjectParams], SubjectParams]:
-    flags = {"moisture": False, "speed": False, "direction": False, "trials": False, **only}
+    flags = {"moisture": False, "speed": False, "direction": False, "trials": False,
+             "load": False, **only}
     return lambda s: real_finger(s, seed=int(s.name[1:]), **flags)
+
+
+def wandering(change: Callable[[SubjectParams], SubjectParams]
+              ) -> Callable[[SubjectParams], SubjectParams]:
+    """*change*, then a press wandering over about 0.2-1.0 N (0.6 N +/- 0.2 N, a slow
+    Ornstein-Uhlenbeck wander of 3 s)."""
+    return lambda s: dataclasses.replace(change(s), normal_force_N=0.6, force_drift=0.33,
+                                         drift_time_s=3.0)
 
 
 def _rig(**changes: object) -> Callable[[TrialConfig], TrialConfig]:
@@ -202,6 +211,8 @@ EFFECTS: dict[str, Changes] = {
     "none": (None, None),
     "moisture": (None, _finger(moisture=True, trials=True)),
     "speed": (None, _finger(speed=True, direction=True)),
+    "load": (None, _finger(load=True)),
+    "load+wander": (None, wandering(_finger(load=True))),
     "crosstalk": (crosstalk, None),
     "timing": (real_logger, None),
     "creep+spikes": (_rig(creep=0.01, creep_time_s=3.0, spike_rate_Hz=0.5, spike_N=0.3),
