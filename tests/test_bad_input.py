@@ -270,6 +270,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "analysis-unknown-key": lambda t: _append(t / "study", "[analysis]\nguard_sec = 0.3\n"),
     "analysis-tare-mode": lambda t: _append(t / "study", '[analysis]\ntare = "zero"\n'),
     "analysis-negative": lambda t: _append(t / "study", "[analysis]\nguard_s = -0.1\n"),
+    "analysis-friction-law": lambda t: _append(t / "study",
+                                               '[analysis]\nfriction_law = "coulomb"\n'),
     "analysis-not-a-number": lambda t: _append(t / "study", '[analysis]\nn_boot = "many"\n'),
     "analyze-set-unknown": lambda t: None,
     "analyze-set-syntax": lambda t: None,

@@ -38,7 +38,7 @@ __all__ = ["COUNT_COLUMNS", "CSV_EXACT", "TEXT_COLUMNS", "FitView", "Results", "
            "read_table", "typed_table"]
 
 #: Columns of names (strings), and of counts (nullable integers); the others are floats.
-TEXT_COLUMNS = ("subject", "trial", "waveform", "condition", "tare")
+TEXT_COLUMNS = ("subject", "trial", "waveform", "condition", "tare", "friction_law")
 COUNT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off", "replicate")
 
 #: read_csv's options that read back every float to_csv wrote, bit for bit (pandas 3's

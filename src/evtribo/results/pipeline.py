@@ -420,7 +420,8 @@ class _Tables:
         windows = (pd.concat(frames, ignore_index=True) if frames else empty_windows())
         windows = windows.reindex(columns=list(WINDOW_CSV_COLUMNS))
         found = summarize_study(windows, trials, n_boot=settings.n_boot, seed=settings.seed,
-                                confidence=settings.confidence)
+                                confidence=settings.confidence,
+                                friction_law=settings.friction_law)
         electrostatic, exponents, bootstrap = found.electrostatic, found.exponents, \
             found.bootstrap
         warnings.extend(found.warnings)

@@ -17,7 +17,8 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from evtribo.analysis.friction.reference import MuModel, WindowFacts, fit_mu_model
+from evtribo.analysis.friction.facts import WindowFacts
+from evtribo.analysis.friction.reference import MuModel, fit_mu_model
 from evtribo.errors import AnalysisError
 
 __all__ = ["MIN_OFF_WINDOWS", "NOTABLE_CHANGE", "TrialDrift", "drift_notes", "relative_scatter",

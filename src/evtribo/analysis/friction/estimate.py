@@ -64,10 +64,20 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from evtribo.analysis.friction.balance import balanced_weights
-from evtribo.analysis.friction.pace import pooled_rate_slope
-from evtribo.analysis.friction.reference import MuModel, WindowFacts, fit_mu_model, fit_trial_model
-from evtribo.analysis.friction.smallsample import DEFAULT_CONFIDENCE, small_sample_scale
+from evtribo.analysis.friction.bootstrap import (
+    DEFAULT_CONFIDENCE,
+    GroupForce,
+    Pooled,
+    References,
+    Windows,
+    checked_windows,
+    group_force,
+    small_sample_scale,
+    subject_law,
+)
+from evtribo.analysis.friction.facts import WindowFacts
+from evtribo.analysis.friction.law import FrictionLaw, electrostatic_force, force_of
+from evtribo.analysis.friction.reference import MuModel
 from evtribo.errors import AnalysisError
 
 log = logging.getLogger(__name__)
@@ -76,9 +86,6 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
 DEFAULT_N_BOOT = 2000
-#: A subject's friction follows its strokes' rate when the pooled slope stands this many
-#: standard errors from zero (:func:`~evtribo.analysis.friction.reference.pooled_rate_slope`).
-RATE_SE = 3.0
 
 
 def friction_coefficient(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike) -> float:
@@ -111,29 +118,6 @@ def friction_coefficient(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike) -> 
     return float(np.sum(ft)) / total
 
 
-def electrostatic_force(normal_on_N: npt.ArrayLike, friction_on_N: npt.ArrayLike,
-                        mu: float | npt.ArrayLike) -> float:
-    """Inferred electrostatic force: the mean of ``F_t,on / mu - F_n,on`` over ON windows.
-
-    Parameters
-    ----------
-    normal_on_N, friction_on_N : array_like of float, N
-        Mean normal force and friction magnitude of each ON window.
-    mu : float or array_like of float
-        The friction coefficient (one, or one per ON window).
-
-    Returns
-    -------
-    float
-        Force in N.
-    """
-    fn = np.asarray(normal_on_N, dtype=np.float64)
-    ft = np.asarray(friction_on_N, dtype=np.float64)
-    if fn.size == 0:
-        raise AnalysisError("no ON windows to infer the electrostatic force from")
-    return float(np.mean(ft / np.asarray(mu, dtype=np.float64) - fn))
-
-
 @dataclass(frozen=True)
 class ElectrostaticEstimate:
     """Electrostatic force per group of ON windows (an amplitude, or any label the caller
@@ -164,6 +148,9 @@ class ElectrostaticEstimate:
         The coefficient each ON window was compared with, in the order given.
     models : dict
         Each used reference's :class:`~evtribo.analysis.friction.reference.MuModel`, by its index.
+    law : FrictionLaw
+        The subject's friction law the forces were inferred with
+        (:mod:`evtribo.analysis.friction.law`).
     """
 
     groups: FloatArray
@@ -182,6 +169,7 @@ class ElectrostaticEstimate:
     dof: FloatArray
     on_mu: FloatArray = field(default_factory=lambda: np.empty(0))
     models: dict[int, MuModel] = field(default_factory=dict)
+    law: FrictionLaw = field(default_factory=FrictionLaw)
 
 
 def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
@@ -198,6 +186,8 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     off_facts: Sequence[WindowFacts] | None = None,
     on_facts: WindowFacts | None = None,
     time_trend: Sequence[bool] | None = None,
+    friction_law: str = "auto",
+    exponent: float | None = None,
 ) -> ElectrostaticEstimate:
     """Electrostatic force per group of ON windows, with bootstrap intervals that carry
     ``mu``'s error.
@@ -228,6 +218,13 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     time_trend : sequence of bool, optional
         Per reference, whether its ``mu`` may change with time (its windows share a
         trial's clock); default: no.
+    friction_law : {"auto", "amontons", "power"}
+        How the friction grows with the load (:func:`~evtribo.analysis.friction.law.
+        fit_subject_law`): the forces are inferred with the subject's exponent ``m``
+        where the law is a power law.
+    exponent : float, optional
+        Infer the forces with this ``m`` instead (a sensitivity: the law's other terms
+        are fitted as usual).
 
     Returns
     -------
@@ -239,25 +236,26 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     AnalysisError
         An ON window refers to a reference without OFF windows, or there are no ON windows.
     """
-    w = _windows(off_normal_N, off_friction_N, on_normal_N=on_normal_N,
+    w = checked_windows(off_normal_N, off_friction_N, on_normal_N=on_normal_N,
                  on_friction_N=on_friction_N, on_reference=on_reference, on_group=on_group)
     offs = list(off_facts) if off_facts is not None else [
         WindowFacts.plain(a.size) for a in w.off_normal]
     ons = on_facts if on_facts is not None else WindowFacts.plain(w.on_normal.size)
     trends = list(time_trend) if time_trend is not None else [False] * len(offs)
     rng = np.random.default_rng(seed)
-    refs = _References.fit(w, offs, ons, trends, rng=rng, n_boot=n_boot)
+    law = subject_law(w, offs, ons, friction_law, exponent)
+    refs = References.fit(w, offs, ons, trends, rng=rng, n_boot=n_boot, law=law)
     labels = np.unique(w.on_group)
-    pooled = _Pooled.of(w, refs, ons)
-    forces = [_group_force(rng, w, w.on_group == g, refs=refs, facts=ons, n_boot=n_boot,
+    pooled = Pooled.of(w, refs, ons)
+    forces = [group_force(rng, w, w.on_group == g, refs=refs, facts=ons, n_boot=n_boot,
                            confidence=confidence, pooled=pooled) for g in labels]
     return _estimate(labels, forces, [_group_means(w, w.on_group == g, refs.mu_on)
                                       for g in labels], refs, n_boot=n_boot,
                      confidence=confidence)
 
 
-def _estimate(labels: FloatArray, forces: list[_GroupForce], means: list[_GroupMeans],
-              refs: _References, *, n_boot: int, confidence: float) -> ElectrostaticEstimate:
+def _estimate(labels: FloatArray, forces: list[GroupForce], means: list[_GroupMeans],
+              refs: References, *, n_boot: int, confidence: float) -> ElectrostaticEstimate:
     """The groups' forces, means and replicates gathered, with the intervals."""
     reps = np.column_stack([f.replicates_N for f in forces]) if forces \
         else np.empty((n_boot, 0))
@@ -277,190 +275,7 @@ def _estimate(labels: FloatArray, forces: list[_GroupForce], means: list[_GroupM
         n_on=np.asarray([m.n_on for m in means], dtype=np.int64),
         n_off=np.asarray([m.n_off for m in means], dtype=np.int64), replicates_N=reps,
         interval_scale=column([f.scale for f in forces]), dof=column([f.dof for f in forces]),
-        on_mu=refs.mu_on, models=refs.models)
-
-
-@dataclass(frozen=True)
-class _Windows:
-    """The windows of one estimate as flat float arrays (see
-    :func:`estimate_electrostatic`'s parameters)."""
-
-    off_normal: list[FloatArray]
-    off_friction: list[FloatArray]
-    on_normal: FloatArray
-    on_friction: FloatArray
-    on_ref: npt.NDArray[np.int64]
-    on_group: FloatArray
-
-
-def _windows(off_normal_N: Sequence[npt.ArrayLike], off_friction_N: Sequence[npt.ArrayLike],
-             *, on_normal_N: npt.ArrayLike, on_friction_N: npt.ArrayLike,
-             on_reference: npt.ArrayLike, on_group: npt.ArrayLike) -> _Windows:
-    """The windows as arrays, checked: ON windows there are, of one length, each referring
-    to a reference given."""
-    w = _Windows([np.asarray(a, dtype=np.float64).ravel() for a in off_normal_N],
-                 [np.asarray(a, dtype=np.float64).ravel() for a in off_friction_N],
-                 np.asarray(on_normal_N, dtype=np.float64).ravel(),
-                 np.asarray(on_friction_N, dtype=np.float64).ravel(),
-                 np.asarray(on_reference, dtype=np.int64).ravel(),
-                 np.asarray(on_group, dtype=np.float64).ravel())
-    if w.on_normal.size == 0:
-        raise AnalysisError("no ON windows to infer the electrostatic force from")
-    if not (w.on_normal.size == w.on_friction.size == w.on_ref.size == w.on_group.size):
-        raise ValueError("the ON windows' arrays differ in length")
-    if w.on_ref.min() < 0 or w.on_ref.max() >= len(w.off_normal):
-        raise ValueError("on_reference holds an index with no OFF windows given")
-    return w
-
-
-@dataclass(frozen=True)
-class _References:
-    """The references' models of ``mu``, what they give each ON window, and their
-    bootstrap replicates at each ON window."""
-
-    models: dict[int, MuModel]
-    mu_on: FloatArray  # (n_on,)
-    mu_on_b: FloatArray  # (n_boot, n_on)
-    off_clusters: dict[int, int]  # strokes behind each model
-
-    @classmethod
-    def fit(cls, w: _Windows, offs: list[WindowFacts], ons: WindowFacts, trends: list[bool],
-            *, rng: np.random.Generator, n_boot: int) -> _References:
-        """Each used reference's model (a trial's from its OFF and ON windows together,
-        :func:`~evtribo.analysis.friction.reference.fit_trial_model`), and its replicates."""
-        models: dict[int, MuModel] = {}
-        mu_on = np.empty(w.on_normal.size)
-        mu_on_b = np.empty((n_boot, w.on_normal.size))
-        clusters = {}
-        used = [int(x) for x in np.unique(w.on_ref)]
-        slope, se = pooled_rate_slope(
-            [(w.off_normal[r], w.off_friction[r], offs[r], np.full(w.off_normal[r].size,
-                                                                   np.nan)) for r in used]
-            + [(w.on_normal, w.on_friction, ons, w.on_group)])
-        rate = slope if np.isfinite(slope) and abs(slope) > RATE_SE * se else 0.0
-        slope_b = rng.normal(rate, se, n_boot) if rate else np.zeros(n_boot)
-        for r in used:
-            if w.off_normal[r].size == 0:
-                raise AnalysisError("no OFF windows to estimate the friction coefficient from")
-            sel = w.on_ref == r
-            here = ons.take(sel)
-            if trends[r]:
-                model = fit_trial_model((w.off_normal[r], w.off_friction[r], offs[r]),
-                                        (w.on_normal[sel], w.on_friction[sel], here,
-                                         w.on_group[sel]), rate_slope=rate)
-            else:
-                model = fit_mu_model(w.off_normal[r], w.off_friction[r], offs[r],
-                                     time_trend=False, rate_slope=rate)
-            mu_on[sel] = model.at(here)
-            mu_on_b[:, sel] = model.replicates_at(here, rng, n_boot)
-            if model.rate:  # the rate's slope is uncertain too
-                centred = np.where(np.isfinite(here.rate), here.rate - model.rate_mean, 0.0)
-                mu_on_b[:, sel] *= np.exp(np.outer(slope_b - rate, centred))
-            clusters[r] = int(np.unique(model.cluster).size)
-            models[r] = model
-        if not np.all(mu_on > 0):
-            raise AnalysisError("the OFF windows' friction coefficient is not positive")
-        # a replicate's coefficient at or below zero is no coefficient: held at a tenth
-        np.maximum(mu_on_b, 0.1 * mu_on, out=mu_on_b)
-        return cls(models, mu_on, mu_on_b, clusters)
-
-
-@dataclass(frozen=True)
-class _GroupForce:
-    """One group's force, its ``mu``, its calibrated replicates and their stretch."""
-
-    force_N: float
-    mu: float
-    replicates_N: FloatArray
-    scale: float
-    dof: float
-
-
-@dataclass(frozen=True)
-class _Pooled:
-    """A subject's scatter pooled over all its windows, for a group whose own windows are
-    too few to show any (one stroke ON, one OFF window): the ON windows' ``F_t/mu - F_n``
-    about their trial's mean (N^2), and the OFF windows' relative scatter about
-    their references' models; each with its degrees of freedom."""
-
-    on_var: float
-    on_dof: int
-    mu_rel_var: float
-    mu_dof: int
-
-    @classmethod
-    def of(cls, w: _Windows, refs: _References, ons: WindowFacts) -> _Pooled:
-        e = w.on_friction / refs.mu_on - w.on_normal
-        ss, dof = 0.0, 0
-        for s in np.unique(ons.stratum):  # about each trial's mean (both directions)
-            part = e[ons.stratum == s]
-            ss, dof = ss + float(np.sum((part - part.mean()) ** 2)), dof + part.size - 1
-        mu_ss, mu_dof = 0.0, 0
-        for r, model in refs.models.items():
-            free = refs.off_clusters[r] - model.coef.size
-            if free > 0:
-                scale = 1.0 if model.log else float(np.mean(w.off_friction[r] / w.off_normal[r]))
-                mu_ss += float(np.sum((model.resid / scale) ** 2))
-                mu_dof += free
-        return cls(ss / dof if dof else np.nan, dof, mu_ss / mu_dof if mu_dof else np.nan,
-                   mu_dof)
-
-
-def _group_force(rng: np.random.Generator, w: _Windows, sel: npt.NDArray[np.bool_], *,
-                 refs: _References, facts: WindowFacts, n_boot: int, confidence: float,
-                 pooled: _Pooled) -> _GroupForce:
-    """The force of the ON windows *sel* (the balanced mean of ``F_t/mu - F_n``) and its
-    bootstrap replicates: the strokes resampled within each trial (the two directions
-    averaged alike in every replicate), each reference's ``mu`` from its wild bootstrap,
-    stretched by the small-sample calibration (one error source for the ON windows, one per
-    reference's ``mu``). A source with too few strokes to show its scatter (one ON stroke,
-    an OFF reference its model fits exactly) takes the subject's pooled scatter instead."""
-    idx = np.flatnonzero(sel)
-    trial, direction = facts.stratum[idx], np.sign(facts.direction[idx])
-    weight = balanced_weights(np.ones((1, idx.size)), trial, direction)[0]
-    fn, ft = w.on_normal[sel], w.on_friction[sel]
-    mu, mu_b = refs.mu_on[sel], refs.mu_on_b[:, sel]
-    force = float(weight @ (ft / mu - fn))
-    counts = np.ones((n_boot, fn.size))
-    n_clusters = 0
-    trials = np.unique(trial)
-    for s in trials:
-        part = np.flatnonzero(trial == s)
-        _, which = np.unique(facts.cluster[idx[part]], return_inverse=True)
-        k = int(which.max()) + 1
-        n_clusters += k
-        counts[:, part] = rng.multinomial(k, np.full(k, 1.0 / k), size=n_boot)[:, which]
-    weights_b = balanced_weights(counts, trial, direction)
-
-    def replicate(mu_rep: FloatArray, wts: FloatArray) -> FloatArray:
-        return ((ft / mu_rep - fn) * wts).sum(axis=-1)
-
-    acc = replicate(mu_b, weights_b)
-    variances = [float(np.var(replicate(mu, weights_b)))]
-    counts_n = [n_clusters]
-    dofs = [max(n_clusters - trials.size, 1)]
-    if n_clusters - trials.size < 1 and pooled.on_dof > 0:  # one stroke: the subject's
-        extra = np.sqrt(pooled.on_var * float(weight @ weight))
-        acc = acc + extra * rng.standard_normal(n_boot)
-        variances[0], counts_n[0], dofs[0] = extra**2, pooled.on_dof, pooled.on_dof
-    refs_here = w.on_ref[sel]
-    for r in np.unique(refs_here):
-        one = np.where(refs_here == r, mu_b, mu)  # only reference r's mu resampled
-        model = refs.models[int(r)]
-        free = refs.off_clusters[int(r)] - model.coef.size
-        if free < 1 and pooled.mu_dof > 0:  # the model fits exactly: the subject's scatter
-            part = refs_here == r
-            load = float((weight[part] * ft[part] / mu[part]).sum())
-            extra = load * np.sqrt(pooled.mu_rel_var / max(w.off_normal[int(r)].size, 1))
-            acc = acc + extra * rng.standard_normal(n_boot)
-            variances.append(extra**2)
-            free = pooled.mu_dof
-        else:
-            variances.append(float(np.var(replicate(one, weight))))
-        counts_n.append(max(free, 1))  # HC2 residuals: the bootstrap variance is not plug-in
-        dofs.append(max(free, 1))
-    scale, nu = small_sample_scale(variances, counts_n, confidence, dofs=dofs)
-    return _GroupForce(force, float(weight @ mu), force + scale * (acc - force), scale, nu)
+        on_mu=refs.mu_on, models=refs.models, law=refs.law)
 
 
 @dataclass(frozen=True)
@@ -476,7 +291,7 @@ class _GroupMeans:
     n_off: int
 
 
-def _group_means(w: _Windows, sel: npt.NDArray[np.bool_], mu_on: FloatArray) -> _GroupMeans:
+def _group_means(w: Windows, sel: npt.NDArray[np.bool_], mu_on: FloatArray) -> _GroupMeans:
     """The means of the ON windows *sel* and of the OFF windows of their references."""
     refs = np.unique(w.on_ref[sel])
     pool_n = np.concatenate([w.off_normal[r] for r in refs])
@@ -488,5 +303,5 @@ def _group_means(w: _Windows, sel: npt.NDArray[np.bool_], mu_on: FloatArray) -> 
 
 
 __all__ = ["DEFAULT_CONFIDENCE", "DEFAULT_N_BOOT", "ElectrostaticEstimate",
-           "electrostatic_force", "estimate_electrostatic", "friction_coefficient",
+           "electrostatic_force", "estimate_electrostatic", "force_of", "friction_coefficient",
            "small_sample_scale"]

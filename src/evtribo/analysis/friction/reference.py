@@ -30,69 +30,29 @@ and every replicate chooses its model again by AICc.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import product
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from numpy.polynomial import legendre
 
+from evtribo.analysis.friction.facts import (
+    MAX_DEGREE,
+    SPAN_PER_DEGREE_S,
+    WindowFacts,
+    stack_facts,
+    time_basis,
+)
 from evtribo.errors import AnalysisError
 
-__all__ = ["MAX_DEGREE", "SPAN_PER_DEGREE_S", "MuModel", "WindowFacts", "fit_mu_model",
-           "fit_trial_model", "stack_facts", "time_basis"]
+__all__ = ["MuModel", "fit_mu_model", "fit_trial_model"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
-#: Highest degree of the time polynomial.
-MAX_DEGREE = 3
-#: Seconds of OFF windows' span per degree of the time polynomial.
-SPAN_PER_DEGREE_S = 4.0
 #: Webb's six-point weights for the wild bootstrap (each drawn with probability 1/6).
 WEBB = np.array([-np.sqrt(1.5), -1.0, -np.sqrt(0.5), np.sqrt(0.5), 1.0, np.sqrt(1.5)])
-
-
-@dataclass(frozen=True)
-class WindowFacts:
-    """What locates windows in their trial, beside their forces (one value per window).
-
-    Attributes
-    ----------
-    t_s : ndarray of float, s
-        Middle of each window on its trial's clock (NaN: unknown).
-    direction : ndarray of float
-        Sliding direction, +1 / -1 (0: unknown).
-    rate : ndarray of float
-        Logarithm of the stroke's rate, ``-log(stroke duration / s)`` (NaN: unknown).
-    cluster : ndarray of int
-        Windows with the same number share a stroke: they are resampled together.
-    stratum : ndarray of int
-        The trial of each window (ON windows are averaged within a trial over both
-        directions alike).
-    """
-
-    t_s: FloatArray
-    direction: FloatArray
-    rate: FloatArray
-    cluster: IntArray
-    stratum: IntArray
-
-    @classmethod
-    def plain(cls, n: int) -> WindowFacts:
-        """*n* windows of which nothing is known but their forces (each its own stroke)."""
-        return cls(np.full(n, np.nan), np.zeros(n), np.full(n, np.nan),
-                   np.arange(n, dtype=np.int64), np.zeros(n, dtype=np.int64))
-
-    def take(self, sel: npt.NDArray[np.bool_] | npt.NDArray[np.intp]) -> WindowFacts:
-        """The facts of the windows *sel* (a mask or indices)."""
-        return WindowFacts(self.t_s[sel], self.direction[sel], self.rate[sel],
-                           self.cluster[sel], self.stratum[sel])
-
-    def __len__(self) -> int:
-        return int(self.t_s.size)
 
 
 @dataclass(frozen=True)
@@ -141,6 +101,13 @@ class MuModel:
         The design, response and weights it was fitted to, and its AICc.
     rivals : tuple of MuModel
         The other candidates fitted to the same windows (each replicate chooses again).
+    exponent : float
+        ``m`` of the friction law ``F_t ~ W**m`` (:mod:`evtribo.analysis.friction.law`;
+        1: Amontons): the model's coefficient is the one at the load :attr:`load_ref`
+        (N), and a window's is :meth:`mu_at`.
+    log_load_mean : float
+        The fitted OFF windows' mean of ``log(F_n / load_ref)`` (weighted as the fit):
+        where the coefficient is known best, whatever ``m``.
     """
 
     degree: int
@@ -158,6 +125,9 @@ class MuModel:
     rate_slope: float = 0.0
     fit: _Fit | None = None
     rivals: tuple[MuModel, ...] = ()
+    exponent: float = 1.0
+    load_ref: float = 1.0
+    log_load_mean: float = 0.0
 
     @property
     def trend(self) -> bool:
@@ -179,8 +149,20 @@ class MuModel:
             return np.ones(len(facts))
         return np.exp(self.rate_slope * _centred(facts.rate, self.rate_mean))
 
+    def load_factor(self, normal_N: npt.ArrayLike) -> FloatArray:
+        """``(F_n / load_ref)**(exponent - 1)`` at each normal force (ones for Amontons)."""
+        fn = np.asarray(normal_N, dtype=np.float64)
+        if self.exponent == 1.0:
+            return np.ones(fn.shape)
+        return np.asarray((np.maximum(fn, 1e-12) / self.load_ref) ** (self.exponent - 1.0))
+
+    def mu_at(self, facts: WindowFacts, normal_N: npt.ArrayLike) -> FloatArray:
+        """The coefficient ``F_t / F_n`` without the voltage at each window of *facts*,
+        at its normal force *normal_N* (N)."""
+        return self.at(facts) * self.load_factor(normal_N)
+
     def at(self, facts: WindowFacts) -> FloatArray:
-        """The coefficient at each window of *facts*."""
+        """The coefficient at each window of *facts* (at the load :attr:`load_ref`)."""
         return self.at_replicates(facts, self.coef[None, :])[0]
 
     def at_replicates(self, facts: WindowFacts, coef: FloatArray) -> FloatArray:
@@ -241,35 +223,6 @@ class MuModel:
         return " + ".join(terms) or "constant"
 
 
-def time_basis(t: FloatArray, lo: float, hi: float, degree: int) -> FloatArray:
-    """Legendre polynomials 1..degree of *t* scaled from [lo, hi] to [-1, 1], continued as
-    straight lines (value and slope at the end) beyond it.
-
-    Parameters
-    ----------
-    t : ndarray of float, s
-    lo, hi : float, s
-        The span scaled to [-1, 1].
-    degree : int
-
-    Returns
-    -------
-    ndarray, shape (t.size, degree)
-        One column per degree (NaN times give 0).
-    """
-    half = 0.5 * (hi - lo) if hi > lo else 1.0
-    x = (np.asarray(t, dtype=np.float64) - 0.5 * (hi + lo)) / half
-    x = np.where(np.isfinite(x), x, 0.0)
-    edge = np.clip(x, -1.0, 1.0)
-    out = []
-    for k in range(1, degree + 1):
-        c = np.zeros(k + 1)
-        c[k] = 1.0
-        slope = legendre.legval(edge, legendre.legder(c))
-        out.append(legendre.legval(edge, c) + slope * (x - edge))
-    return np.column_stack(out)
-
-
 def _fit(X: FloatArray, ratio: FloatArray, weight: FloatArray
          ) -> tuple[FloatArray, FloatArray, FloatArray, float] | None:
     """Weighted least squares: coefficients, ``unit`` (see :class:`MuModel`), HC2-scaled
@@ -314,7 +267,8 @@ def _offers(facts: WindowFacts, time_trend: bool) -> tuple[list[int], list[bool]
 
 
 def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: WindowFacts, *,
-                 time_trend: bool, rate_slope: float = 0.0) -> MuModel:
+                 time_trend: bool, rate_slope: float = 0.0, exponent: float = 1.0,
+                 load_ref_N: float = 1.0) -> MuModel:
     """The friction coefficient of a reference's OFF windows as a model of their facts.
 
     Parameters
@@ -327,7 +281,11 @@ def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: Wind
         Whether a trend in time may be fitted (the windows share one trial's clock).
     rate_slope : float
         The coefficient's change per unit of log stroke rate, relative (the subject's,
-        :func:`pooled_rate_slope`; 0: none).
+        :func:`~evtribo.analysis.friction.law.fit_subject_law`; 0: none).
+    exponent : float
+        ``m`` of the friction law (the subject's; 1: Amontons).
+    load_ref_N : float, N
+        The load at which the model's coefficient is ``F_t / F_n``.
 
     Returns
     -------
@@ -346,12 +304,13 @@ def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: Wind
         raise AnalysisError("no OFF windows to estimate the friction coefficient from")
     if not np.all(fn > 0):
         raise AnalysisError("an OFF window's normal force is not positive")
-    shape = _Shape.of(facts, rate_slope)
-    ratio = ft / fn / shape.rate_factor(facts)
+    shape = _Shape.of(facts, rate_slope, exponent, load_ref_N, fn)
+    load = shape.load_factor(fn)
+    ratio = ft / fn / shape.rate_factor(facts) / load
     candidates = []
     for degree, direction in product(*_offers(facts, time_trend)):
         template = shape.model(degree, direction, facts.cluster, log=False)
-        fitted = _fitted(template, template.design(facts), ratio, fn)
+        fitted = _fitted(template, template.design(facts), ratio, fn * load)
         if fitted is not None:
             candidates.append(fitted)
     if not candidates:
@@ -368,23 +327,37 @@ class _Shape:
     t_hi: float
     rate_mean: float
     rate_slope: float
+    exponent: float = 1.0
+    load_ref: float = 1.0
+    log_load_mean: float = 0.0
 
     @classmethod
-    def of(cls, facts: WindowFacts, rate_slope: float) -> _Shape:
+    def of(cls, facts: WindowFacts, rate_slope: float, exponent: float = 1.0,
+           load_ref: float = 1.0, normal_N: FloatArray | None = None) -> _Shape:
         t = facts.t_s[np.isfinite(facts.t_s)]
         rates = facts.rate[np.isfinite(facts.rate)]
+        mean = 0.0
+        if normal_N is not None and normal_N.size and np.all(normal_N > 0):
+            mean = float(np.average(np.log(normal_N / load_ref), weights=normal_N))
         return cls(float(t.min()) if t.size else 0.0, float(t.max()) if t.size else 0.0,
                    float(rates.mean()) if rates.size else 0.0,
-                   rate_slope if rates.size else 0.0)
+                   rate_slope if rates.size else 0.0, exponent, load_ref, mean)
 
     def rate_factor(self, facts: WindowFacts) -> FloatArray:
         return np.exp(self.rate_slope * _centred(facts.rate, self.rate_mean))
+
+    def load_factor(self, normal_N: FloatArray) -> FloatArray:
+        if self.exponent == 1.0:
+            return np.ones(normal_N.shape)
+        return np.asarray((np.maximum(normal_N, 1e-12) / self.load_ref)
+                          ** (self.exponent - 1.0))
 
     def model(self, degree: int, direction: bool, cluster: IntArray, *, log: bool
               ) -> MuModel:
         return MuModel(degree, direction, self.rate_slope != 0, self.t_lo, self.t_hi,
                        self.rate_mean, np.empty(0), np.empty((0, 0)), np.empty(0), cluster,
-                       log=log, rate_slope=self.rate_slope)
+                       log=log, rate_slope=self.rate_slope, exponent=self.exponent,
+                       load_ref=self.load_ref, log_load_mean=self.log_load_mean)
 
 
 def _centred(rate: FloatArray, mean: float) -> FloatArray:
@@ -417,7 +390,8 @@ def _choose(candidates: list[MuModel]) -> MuModel:
 
 def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
                     on: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts, npt.ArrayLike], *,
-                    rate_slope: float = 0.0) -> MuModel:
+                    rate_slope: float = 0.0, exponent: float = 1.0,
+                    load_ref_N: float = 1.0) -> MuModel:
     """A trial's friction coefficient in time, from its OFF and its ON windows together.
 
     ``log(F_t / F_n) = b0 + sum_k b_k P_k(x) + c d + sum_g a_g [window in ON group g]``
@@ -434,7 +408,7 @@ def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
         The trial's OFF windows.
     on : (normal_N, friction_N, facts, group)
         Its ON windows and each one's group (an amplitude, say).
-    rate_slope : float
+    rate_slope, exponent, load_ref_N : float
         As :func:`fit_mu_model`'s.
 
     Returns
@@ -447,12 +421,14 @@ def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
     group = np.asarray(on[3])
     facts = stack_facts([off[2], on[2]])
     fn, ft = np.concatenate([fn_off, fn_on]), np.concatenate([ft_off, ft_on])
-    flat = fit_mu_model(fn_off, ft_off, off[2], time_trend=False, rate_slope=0.0)
+    law = {"exponent": exponent, "load_ref_N": load_ref_N}
+    flat = fit_mu_model(fn_off, ft_off, off[2], time_trend=False, rate_slope=0.0, **law)
     if not (np.all(fn > 0) and np.all(ft > 0)):
         return flat
-    shape = _Shape.of(facts, rate_slope)
+    shape = _Shape.of(facts, rate_slope, exponent, load_ref_N, fn_off)
     ons = _on_terms(fn_off.size, fn_on, group)
-    y = np.log(ft / fn) - shape.rate_slope * _centred(facts.rate, shape.rate_mean)
+    y = (np.log(ft / fn) - shape.rate_slope * _centred(facts.rate, shape.rate_mean)
+         - np.log(shape.load_factor(fn)))
     candidates = []
     for degree, direction in product(*_offers(facts, True)):
         template = shape.model(degree, direction, facts.cluster, log=True)
@@ -463,7 +439,8 @@ def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
         return flat
     best = _choose(candidates)
     if best.degree == 0 and not best.direction:
-        return fit_mu_model(fn_off, ft_off, off[2], time_trend=False, rate_slope=rate_slope)
+        return fit_mu_model(fn_off, ft_off, off[2], time_trend=False, rate_slope=rate_slope,
+                            **law)
     return best
 
 
@@ -481,18 +458,3 @@ def _on_terms(n_off: int, fn_on: FloatArray, group: npt.NDArray[Any]) -> FloatAr
             log_fn = np.log(fn_on)
             cols.append(member * (log_fn - log_fn[member > 0].mean()))
     return np.concatenate([np.zeros((n_off, len(cols))), np.column_stack(cols)])
-
-
-def stack_facts(parts: Sequence[WindowFacts]) -> WindowFacts:
-    """Several sets of window facts as one, in order.
-
-    Parameters
-    ----------
-    parts : sequence of WindowFacts
-
-    Returns
-    -------
-    WindowFacts
-    """
-    return WindowFacts(*(np.concatenate([getattr(p, f) for p in parts])
-                         for f in ("t_s", "direction", "rate", "cluster", "stratum")))
