@@ -41,6 +41,7 @@ class StudyRun:
     exponents: pd.DataFrame  # exponents.csv plus exponent_true
     warnings: list[str]
     truths: dict[tuple[str, str], TrialTruth]
+    study_warnings: list[str] = dataclasses.field(default_factory=list)  # the aggregation's
 
 
 def window_truth(windows: pd.DataFrame, truth: TrialTruth) -> pd.DataFrame:
@@ -136,7 +137,7 @@ def run_study(seed: int, *, n_subjects: int = 4, amplitudes=AMPLITUDES,
                                         n_boot=settings.n_boot, seed=settings.seed,
                                         confidence=settings.confidence)
     el, ex = attach_truth(el, ex, windows, mu_of)
-    return StudyRun(trials, windows, el, ex, warnings + agg_warnings, truths)
+    return StudyRun(trials, windows, el, ex, warnings + agg_warnings, truths, agg_warnings)
 
 
 def fel_within(measured: pd.Series, true: pd.Series, rel: float = 0.03,

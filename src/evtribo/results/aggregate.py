@@ -36,8 +36,10 @@ from evtribo.analysis.forces.crosstalk import crosstalk_notes
 from evtribo.analysis.friction.drift import (
     TrialDrift,
     drift_notes,
+    phase_notes,
     relative_scatter,
     stroke_notes,
+    trial_confounding,
     trial_drifts,
     window_facts,
 )
@@ -46,7 +48,7 @@ from evtribo.analysis.friction.estimate import (
     ElectrostaticEstimate,
     estimate_electrostatic,
 )
-from evtribo.analysis.friction.law import SENSITIVITY_EXPONENT, FrictionLaw
+from evtribo.analysis.friction.law import SENSITIVITY_EXPONENT, untold_note
 from evtribo.analysis.friction.plausible import implausible_rows
 from evtribo.analysis.friction.powerlaw import fit_power_law
 from evtribo.errors import AnalysisError
@@ -235,7 +237,7 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
     if friction_law == "auto" and est.law.kind == "amontons":
         sensitivity = estimate_electrostatic(*args, seed=_seed(seed, subject),
                                              exponent=SENSITIVITY_EXPONENT, **options)
-        warnings.append(_untold(subject, est.law))
+        warnings.append(untold_note(subject, est.law))
     window_mu = pd.Series(est.on_mu, index=on.index)
     own = {}
     for r, model in est.models.items():
@@ -244,7 +246,9 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
         if trends[r]:
             own[refs[r].trial.iloc[0]] = model
     window_mu = window_mu[~window_mu.index.duplicated()]
-    drifts = trial_drifts(off, own)
+    law = est.law
+    drifts = trial_drifts(off, own, rate_slope=law.rate_slope, exponent=law.exponent,
+                          load_ref_N=law.load_ref_N)
     alone = sorted({t for t in on.trial if facts.condition_of.get((subject, t)) == "on"},
                    key=str)
     warnings += drift_notes(subject, drifts, compared_in_trial=any(trends),
@@ -255,22 +259,11 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
     gap = (float(np.exp(np.nanmean(rate_on) - np.nanmean(rate_off))) - 1.0
            if np.isfinite(rate_on).any() and np.isfinite(rate_off).any() else None)
     warnings += stroke_notes(subject, est.models, relative_scatter(est.models, ratios), gap)
+    alternating = [t for t in sub.trial.unique()
+                   if facts.condition_of.get((subject, t)) == "alternating"]
+    warnings += phase_notes(subject, trial_confounding(sub[sub.trial.isin(alternating)]))
     return _SubjectEstimate(est, [points[int(g)] for g in est.groups], window_mu, drifts,
                             sensitivity)
-
-
-def _untold(subject: str, law: FrictionLaw) -> str:
-    """The note of a subject whose presses do not tell how the friction grows with the
-    load."""
-    low, high = law.interval
-    found = (f"m = {law.estimate:.2f} [{low:.2f}, {high:.2f}]" if np.isfinite(low)
-             else "no spread of the normal force to fit m to")
-    return (f"{subject}: the OFF windows' normal forces span too little to tell how the "
-            f"friction grows with the load ({found}; F_t = c W^m, a finger pad's m is "
-            f"0.67-0.9): electrostatic_force_N is Amontons' (m = 1), and "
-            f"electrostatic_force_m075_N gives F_el at m = {SENSITIVITY_EXPONENT:g}, "
-            "higher by about a third; OFF phases at two or three target presses measure m "
-            "(docs/analysis.md, \"The friction law\")")
 
 
 def _law_columns(est: ElectrostaticEstimate, sensitivity: ElectrostaticEstimate | None,

@@ -48,7 +48,7 @@ from evtribo.analysis.friction.facts import (
 from evtribo.errors import AnalysisError
 
 __all__ = ["LAWS", "RATE_SE", "SENSITIVITY_EXPONENT", "TOLD_WIDTH", "FrictionLaw",
-           "electrostatic_force", "fit_subject_law", "force_of"]
+           "electrostatic_force", "fit_subject_law", "force_of", "untold_note"]
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -228,14 +228,19 @@ def _pooled(parts: Sequence[tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts, npt
 
 def _robust_cov(sums: _Sums, clusters: list[npt.NDArray[np.int64]], coef: FloatArray,
                 use: npt.NDArray[np.bool_]) -> tuple[FloatArray, int]:
-    """Cluster-robust (CR1, strokes) covariance of the coefficients *use*, and the
-    strokes behind it."""
+    """The coefficients' covariance, and the strokes behind it: cluster-robust (CR1,
+    strokes), but never below the classical one of independent windows (the robust one
+    rests on the strokes' own scatter, which is itself uncertain with few of them; the
+    presses are said to tell ``m`` from its interval, and a robust variance that came out
+    small by chance would say so too often)."""
     a = sums.xx[np.ix_(use, use)]
     inv = np.linalg.inv(a)
     meat = np.zeros((use.sum(), use.sum()))
     n_clusters = 0
+    rss = 0.0
     for rx, ry, cl in zip(sums.resid_x, sums.resid_y, clusters, strict=True):
         e = ry - rx[:, use] @ coef
+        rss += float(e @ e)
         _, which = np.unique(cl, return_inverse=True)
         k = int(which.max()) + 1 if which.size else 0
         score = np.zeros((k, use.sum()))
@@ -245,7 +250,11 @@ def _robust_cov(sums: _Sums, clusters: list[npt.NDArray[np.int64]], coef: FloatA
     p = int(use.sum()) + sums.coefs
     n = sums.windows
     factor = (n_clusters / max(n_clusters - 1, 1)) * ((n - 1) / max(n - p, 1))
-    return inv @ meat @ inv * factor, n_clusters
+    robust = inv @ meat @ inv * factor
+    classical = inv * rss / max(n - p, 1)
+    scale = np.sqrt(np.maximum(np.diag(classical), np.diag(robust))
+                    / np.maximum(np.diag(robust), 1e-300))
+    return robust * np.outer(scale, scale), n_clusters
 
 
 def fit_subject_law(parts: Sequence[tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts,
@@ -351,3 +360,28 @@ def electrostatic_force(normal_on_N: npt.ArrayLike, friction_on_N: npt.ArrayLike
     if fn.size == 0:
         raise AnalysisError("no ON windows to infer the electrostatic force from")
     return float(np.mean(ft / np.asarray(mu, dtype=np.float64) - fn))
+
+
+def untold_note(subject: str, law: FrictionLaw) -> str:
+    """The note of a subject whose presses do not tell how the friction grows with the
+    load.
+
+    Parameters
+    ----------
+    subject : str
+    law : FrictionLaw
+        Its law, as :func:`fit_subject_law` found it.
+
+    Returns
+    -------
+    str
+    """
+    low, high = law.interval
+    found = (f"m = {law.estimate:.2f} [{low:.2f}, {high:.2f}]" if np.isfinite(low)
+             else "no spread of the normal force to fit m to")
+    return (f"{subject}: the OFF windows' normal forces span too little to tell how the "
+            f"friction grows with the load ({found}; F_t = c W^m, a finger pad's m is "
+            f"0.67-0.9): electrostatic_force_N is Amontons' (m = 1), and "
+            f"electrostatic_force_m075_N gives F_el at m = {SENSITIVITY_EXPONENT:g}, "
+            "higher by about a third; OFF phases at two or three target presses measure m "
+            "(docs/analysis.md, \"The friction law\")")

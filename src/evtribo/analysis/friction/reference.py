@@ -41,16 +41,19 @@ from evtribo.analysis.friction.facts import (
     MAX_DEGREE,
     SPAN_PER_DEGREE_S,
     WindowFacts,
+    cr2_residuals,
     stack_facts,
     time_basis,
 )
 from evtribo.errors import AnalysisError
 
-__all__ = ["MuModel", "fit_mu_model", "fit_trial_model"]
+__all__ = ["MATTERS_SE", "MuModel", "fit_mu_model", "fit_trial_model"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
+#: A model's description names a term whose effect stands this many standard errors out.
+MATTERS_SE = 3.0
 #: Webb's six-point weights for the wild bootstrap (each drawn with probability 1/6).
 WEBB = np.array([-np.sqrt(1.5), -1.0, -np.sqrt(0.5), np.sqrt(0.5), 1.0, np.sqrt(1.5)])
 
@@ -88,7 +91,7 @@ class MuModel:
     unit : ndarray, shape (n_off, p)
         ``(X' W X)^-1 X' W`` transposed: how each OFF window's ratio moves the coefficients.
     resid : ndarray
-        The fitted windows' residuals, HC2-scaled.
+        The fitted windows' residuals, CR2-scaled (per stroke).
     cluster : ndarray of int
         The fitted windows' strokes.
     log : bool
@@ -188,7 +191,12 @@ class MuModel:
         """Bootstrap replicates of the coefficient at each window of *facts*, shape
         (n_boot, windows): the wild cluster bootstrap's data fitted by every candidate
         model, each replicate taking the candidate its data give the least AICc."""
-        noise = self._noise(rng, n_boot)
+        return self.replicates_given(facts, self._noise(rng, n_boot))
+
+    def replicates_given(self, facts: WindowFacts, noise: FloatArray) -> FloatArray:
+        """:meth:`replicates_at` with the wild bootstrap's noise given (its residuals
+        times each replicate's weights, shape (n_boot, fitted windows))."""
+        n_boot = noise.shape[0]
         if not self.rivals or self.fit is None:
             return self.at_replicates(facts, self.coef + noise @ self.unit)
         data = self.fit.fitted + noise  # (n_boot, n)
@@ -215,18 +223,51 @@ class MuModel:
         lo, hi = self.at(ends)
         return float((hi - lo) / (self.t_hi - self.t_lo))
 
+    def change_se(self) -> float:
+        """Standard error of :meth:`change_per_s`: the coefficients' covariance robust to
+        the strokes (CR2, from the scaled residuals), through the change (0 without trend).
+        """
+        if not self.trend or self.t_hi <= self.t_lo or self.unit.size == 0:
+            return 0.0
+        ends = WindowFacts(np.array([self.t_lo, self.t_hi]), np.zeros(2), np.full(2, np.nan),
+                           np.zeros(2, np.int64), np.zeros(2, np.int64))
+        X = self.design(ends)
+        jac = X * (self.at(ends) if self.log else self.rate_factor(ends))[:, None]
+        grad = (jac[1] - jac[0]) / (self.t_hi - self.t_lo)
+        share = (self.unit[:, :X.shape[1]] @ grad) * self.resid
+        _, which = np.unique(self.cluster, return_inverse=True)
+        return float(np.sqrt(np.sum(np.bincount(which, weights=share) ** 2)))
+
     def describe(self) -> str:
-        """The model's terms, for summary.json (``"constant"``, ``"time^2 + direction"``)."""
-        terms = ([f"time^{self.degree}" if self.degree > 1 else "time"] if self.degree
-                 else []) + (["direction"] if self.direction else []) + (
-                     ["stroke rate"] if self.rate else [])
+        """The terms that matter (``"constant"``, ``"time^2 + direction"``): AICc keeps a
+        term whose fit is better by a little (about 1 in 6 of the terms of no effect, more
+        with few windows), and the bootstrap carries that choice; a description names a
+        term only where its effect stands :data:`MATTERS_SE` standard errors from zero
+        (the drift over the span, the difference between the directions)."""
+        terms = []
+        if self.degree and abs(self.change_per_s()) > MATTERS_SE * self.change_se():
+            terms.append(f"time^{self.degree}" if self.degree > 1 else "time")
+        if self.direction and abs(self.coef[1 + self.degree]) > MATTERS_SE * self.coef_se(
+                1 + self.degree):
+            terms.append("direction")
+        if self.rate:
+            terms.append("stroke rate")
         return " + ".join(terms) or "constant"
 
+    def coef_se(self, k: int) -> float:
+        """Standard error of coefficient *k*, robust to the strokes (CR2)."""
+        if self.unit.size == 0:
+            return float("inf")
+        _, which = np.unique(self.cluster, return_inverse=True)
+        return float(np.sqrt(np.sum(np.bincount(which, weights=self.unit[:, k] * self.resid)
+                                    ** 2)))
 
-def _fit(X: FloatArray, ratio: FloatArray, weight: FloatArray
+
+def _fit(X: FloatArray, ratio: FloatArray, weight: FloatArray, cluster: IntArray
          ) -> tuple[FloatArray, FloatArray, FloatArray, float] | None:
-    """Weighted least squares: coefficients, ``unit`` (see :class:`MuModel`), HC2-scaled
-    residuals and the weighted residual sum of squares; None when singular."""
+    """Weighted least squares: coefficients, ``unit`` (see :class:`MuModel`), CR2-scaled
+    residuals (per stroke, :func:`~evtribo.analysis.friction.facts.cr2_residuals`) and the
+    weighted residual sum of squares; None when singular."""
     sw = np.sqrt(weight)
     A = X * sw[:, None]
     try:
@@ -238,9 +279,8 @@ def _fit(X: FloatArray, ratio: FloatArray, weight: FloatArray
     except np.linalg.LinAlgError:
         return None
     resid = ratio - X @ coef
-    lever = np.clip(np.sum(q * q, axis=1), 0.0, 0.999)
     rss = float(np.sum(weight * resid**2))
-    return coef, unit, resid / np.sqrt(1.0 - lever), rss
+    return coef, unit, cr2_residuals(q, resid, weight, cluster), rss
 
 
 def _aicc(rss: float | FloatArray, n: int, p: int) -> FloatArray:
@@ -369,7 +409,7 @@ def _fitted(template: MuModel, X: FloatArray, y: FloatArray, weight: FloatArray
             ) -> MuModel | None:
     """*template* fitted to ``(X, y)`` by weighted least squares; None when singular or
     when the windows are too few to score it (the constant alone is always scored)."""
-    found = _fit(X, y, weight)
+    found = _fit(X, y, weight, template.cluster)
     if found is None or (y.size <= X.shape[1] + 2 and X.shape[1] > 1):
         return None
     coef, unit, resid, rss = found
