@@ -262,6 +262,7 @@ def check_scenario(scenario: str, seeds: list[int], work: Path, jobs: int,
                    compare: bool) -> dict:
     """Every seed of one scenario, summarised."""
     cells, exps, pops, kinds = [], [], [], Counter()
+    examples: dict[str, str] = {}
     times = {"generate_s": [], "analyze_s": [], "compare_s": []}
     failures = []
     is_cells = scenario in population_cells.CELL_SCENARIOS
@@ -288,7 +289,9 @@ def check_scenario(scenario: str, seeds: list[int], work: Path, jobs: int,
         if compare:
             pops.append(population_table(run, seed))
         summary = json.loads((run["out"] / "summary.json").read_text())
-        kinds.update(warning_kind(w) for w in summary.get("warnings", []))
+        for text in summary.get("warnings", []):
+            kinds[warning_kind(text)] += 1
+            examples.setdefault(warning_kind(text), text)
     result: dict = {"scenario": scenario, "seeds": seeds, "failures": failures,
                     "time_s": {k: float(np.mean(v)) if v else None for k, v in times.items()}}
     if cells:
@@ -296,6 +299,7 @@ def check_scenario(scenario: str, seeds: list[int], work: Path, jobs: int,
         result.update(summarize_exponents(pd.concat(exps, ignore_index=True)))
     studies = len(seeds) - len(failures)
     result["warnings_per_study"] = {k: v / max(studies, 1) for k, v in kinds.most_common()}
+    result["warning_examples"] = examples
     if pops:
         result["population"] = summarize_population(pd.concat(pops, ignore_index=True))
     return result

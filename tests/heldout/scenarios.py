@@ -33,6 +33,7 @@ def _scenarios() -> dict[str, StudyConfig]:
             cfg = _powerlaw(m, press)
             out[cfg.name] = cfg
     out["wander"] = replace(CLEAN, name="wander", press=WANDER)
+    out["sweep"] = replace(CLEAN, name="sweep", press=Press(mode="sweep"))
     out["speed"] = replace(CLEAN, name="speed", strokes=IRREGULAR,
                            friction=Friction(speed_exponent=0.15, direction_asymmetry=0.06))
     out["moisture"] = replace(CLEAN, name="moisture", trial_s=24.0,

@@ -65,6 +65,7 @@ from evtribo.fit.tables import ResultTables, check_out_folder, read_results
 from evtribo.guard import refuse_in_study, refuse_input
 from evtribo.model.params import ModelParameters
 from evtribo.population.estimates import Population, population
+from evtribo.population.exclusions import study_exclusions
 from evtribo.results.outputs import FIGURES, FIT_CSV, FIT_JSON, compare_files
 from evtribo.store.files import atomic_write, sha256_file
 from evtribo.store.resultdir import Staging, locked, recover
@@ -247,11 +248,12 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         recover(folder)
         tables = read_results(folder)
         _check_outputs(folder, force)
+        exclude = study_exclusions(tables)  # a bad [population] rule: before any write
         stale = compare_files(folder)
         with Staging(folder) as stage:
             result = _compare(tables, stage, names, base, look, models=candidates,
                               trial_checks=trial_checks, scheduler=scheduler,
-                              progress=progress or (lambda _: None))
+                              progress=progress or (lambda _: None), exclude=exclude)
             _write_json(stage, result, names, base, params,
                         run_id=tables.summary.run_id)
             stage.commit(remove=stale, last=[FIT_JSON])
@@ -309,8 +311,10 @@ class _Figures:
 def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
              base: ModelParameters, look: _Look, *, models: tuple[str, ...] = (),
              trial_checks: bool = True, scheduler: Any = None,
-             progress: Callable[[str], None]) -> CompareResult:
-    """The fits and figures, written into *stage* (``result.files`` relative to it)."""
+             progress: Callable[[str], None],
+             exclude: tuple[dict[str, str], list[str]] = ({}, [])) -> CompareResult:
+    """The fits and figures, written into *stage* (``result.files`` relative to it);
+    *exclude*: the study's exclusions from the population and notes on them."""
     only_mu = tables.electrostatic.empty  # a study of OFF trials: its friction, no fit
     if not only_mu:
         replicates = ("" if tables.bootstrap is None else
@@ -324,7 +328,11 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
     table = fit_table(fits, tables)
     atomic_write(stage.path(FIT_CSV), table.to_csv(index=False))
     result.files.append(Path(FIT_CSV))
-    result.population = pop = population(tables, fits)
+    if not only_mu:
+        progress("estimating the population (a mixed model per condition, checked with "
+                 "several optimisers)")
+    result.population = pop = population(tables, fits, exclude=exclude[0],
+                                         rule_notes=exclude[1])
     for name, text in pop.files().items():
         atomic_write(stage.path(name), text)
         result.files.append(Path(name))
@@ -400,15 +408,16 @@ def _subject_figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[
         ax = plot_electrostatic_force(rows, f.params, subject=s)
         figures.emit(ax, "electrostatic_force", f"Electrostatic force vs voltage, {s}",
                      f"electrostatic_force_{safe_name(s)}", subject=s,
-                     caption=f"{s}: inferred electrostatic force (95 % intervals) and the "
-                             "fitted model at the subject's mean normal force ON; dotted: a "
-                             "U² power law for reference.")
+                     caption=f"{s}: inferred electrostatic force (points, 95 % intervals) "
+                             "and the fitted model (lines) at the subject's mean normal force "
+                             "ON, over the amplitudes measured.")
         win = tables.windows[tables.windows["subject"] == s]
         ax = plot_friction_normal_force(win, f.params, subject=s)
         figures.emit(ax, "friction_normal_force", f"Friction vs normal force, {s}",
                      f"friction_normal_force_{safe_name(s)}", subject=s,
                      caption=f"{s}: steady-sliding windows OFF and ON (points) and the model "
-                             f"(lines, eq. 5, cf. the paper's Figure 6); μ {mu_how}")
+                             "(lines, eq. 5, cf. the paper's Figure 6) over the normal forces "
+                             f"each drive's windows span; axes zoomed to the windows; μ {mu_how}")
 
 
 def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: _Figures) -> None:
@@ -446,8 +455,9 @@ def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: _Figur
                             amplitudes=sorted(set(amps[np.isfinite(amps)].tolist())))
     figures.emit(ax, "area_increase", "Predicted contact-area increase", "area_increase",
                  subject=None,
-                 caption="JKR over Hertz contact area at each subject's mean normal force ON "
-                         "with the fitted parameters, cf. the paper's Figure 7.")
+                 caption="A prediction of the model, nothing measured: JKR over Hertz "
+                         "contact area at each subject's mean normal force ON with the fitted "
+                         "parameters, cf. the paper's Figure 7.")
 
 
 def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],

@@ -86,7 +86,8 @@ from evtribo.util.docstrings import fill_doc
 
 log = logging.getLogger(__name__)
 
-_INT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off")
+_INT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off",
+                "duplicate_frames")
 
 
 @dataclass
