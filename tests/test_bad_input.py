@@ -409,6 +409,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
         t / "study", '[population]\nexclude = [{subject = "P01"}]'),
     "session-protocol-misspelt-key": _text(Path("protocol.toml"), "[session]\ntrial_s = 20\n"
                                            "repetiton = 2\n[[trial]]\namplitude_V = 100\n"),
+    "session-protocol-steps-not-a-list": _text(Path("protocol.toml"), "[session]\n"
+                                               "target_steps_N = 0.3\n[[trial]]\n"),
     "session-protocol-changed": _session_begun,
     "init-study-exists": lambda t: None,
     "calibrate-press-slides": _sliding_trial,

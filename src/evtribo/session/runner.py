@@ -179,7 +179,8 @@ def _load_or_plan(cfg: SessionConfig, protocol: Protocol, subject_dir: Path
     path = subject_dir / SESSION_FILE
     if path.exists():
         doc = read_session(path)
-        if doc.protocol != protocol.to_dict():
+        # read back as a protocol: a session begun before a setting existed has its default
+        if Protocol.from_dict(doc.protocol).to_dict() != protocol.to_dict():
             raise ConfigError(
                 f"differs from the protocol this subject's session began with (kept in "
                 f"{path}): finish that session with the same protocol, or record this one "
@@ -318,6 +319,7 @@ class _Session:
                           target=s.target_force_N, band=s.band_N, title=title,
                           tare_s=s.tare_s, rig_data_timeout=self.cfg.rig_data_timeout,
                           view=self.cfg.view, quiet=not self.cfg.display,
+                          steps=s.target_steps_N, step_s=s.step_s,
                           ) if (self.cfg.display or self.cfg.view) else None
         info = TrialInfo(waveform=entry.waveform, frequency_Hz=entry.frequency_Hz,
                          amplitude_V=entry.amplitude_V, condition=entry.condition,
