@@ -317,6 +317,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "model-set-negative": lambda t: None,
     "compare-no-results": lambda t: None,
     "compare-fit-unknown": _text(Path("out/electrostatic.csv"), "subject\n"),
+    "compare-fit-friction-law": _text(Path("out/electrostatic.csv"), "subject\n"),
     "compare-models-unknown": _text(Path("out/electrostatic.csv"), "subject\n"),
     "compare-params-not-toml": _text(Path("params.toml"), "h_L = = 3\n"),
     "compare-figure-format-unknown": _results,
