@@ -224,6 +224,7 @@ class References:
     exponent_b: FloatArray  # (n_boot, 1): the law's exponent in each replicate
     law_shift: FloatArray  # (n_on,): d log mu / d m at each ON window
     sources: list[Source]
+    on_dof: float = 0.0  # the ON windows' degrees of freedom about their cells' models
 
     @classmethod
     def fit(cls, w: Windows, offs: list[WindowFacts], ons: WindowFacts, trends: list[bool],
@@ -290,7 +291,7 @@ class References:
         # a replicate's coefficient at or below zero is no coefficient: held at a tenth
         np.maximum(mu_on_b, 0.1 * mu_on, out=mu_on_b)
         return cls(models, mu_on, mu_on_b, noise_on_b, resid_on, clusters, law, m_b[:, None],
-                   shift, sources)
+                   shift, sources, float(sum(dofs.values())))
 
 
 @dataclass(frozen=True)
@@ -318,7 +319,7 @@ class Pooled:
 
     @classmethod
     def of(cls, w: Windows, refs: References) -> Pooled:
-        on_dof = float(sum(s.dof for s in refs.sources if s.noise_part.any()))
+        on_dof = refs.on_dof
         on_var = float(np.sum(refs.resid_on**2)) / on_dof if on_dof > 0 else np.nan
         mu_ss, mu_dof = 0.0, 0
         for r, model in refs.models.items():
@@ -329,6 +330,29 @@ class Pooled:
                 mu_dof += free
         return cls(on_var, on_dof,
                    mu_ss / mu_dof if mu_dof else np.nan, mu_dof)
+
+
+def _pooled_in(w: Windows, sel: npt.NDArray[np.bool_], src: Source, pooled: Pooled, *,
+               sensitivity: FloatArray, acc: FloatArray, rng: np.random.Generator
+               ) -> tuple[float, float]:
+    """A source's error from the subject's pooled scatter, added to the replicates *acc*
+    in place: of ``mu`` (the OFF windows' relative scatter over its reference's windows)
+    and of the ON windows' ``log F_t``; *sensitivity* is ``d F_el / d log F_t`` of each
+    window of *sel*, times its weight. Returns the variance and its degrees of freedom
+    (0 when the subject shows no scatter either)."""
+    mu_part, noise_part = src.mu_part[sel], src.noise_part[sel]
+    v, parts = 0.0, list[float]()
+    if mu_part.any() and pooled.mu_dof > 0:
+        r = int(np.unique(w.on_ref[sel][mu_part])[0])
+        extra = float(sensitivity[mu_part].sum()) * np.sqrt(
+            pooled.mu_rel_var / max(w.off_normal[r].size, 1))
+        acc += extra * rng.standard_normal(acc.size)
+        v, parts = v + extra**2, [*parts, float(pooled.mu_dof)]
+    if noise_part.any() and pooled.on_dof > 0:
+        extra = float(np.sqrt(pooled.on_var * np.sum(sensitivity[noise_part] ** 2)))
+        acc += extra * rng.standard_normal(acc.size)
+        v, parts = v + extra**2, [*parts, pooled.on_dof]
+    return v, min(parts) if parts else 0.0
 
 
 def group_force(rng: np.random.Generator, w: Windows, sel: npt.NDArray[np.bool_], *,
@@ -354,7 +378,6 @@ def group_force(rng: np.random.Generator, w: Windows, sel: npt.NDArray[np.bool_]
     mu, mu_b = refs.mu_on[sel], refs.mu_on_b[:, sel]
     noise = refs.noise_on_b[:, sel]
     m, m_b = refs.law.exponent, refs.exponent_b
-    n_boot = mu_b.shape[0]
     force = float(weight @ force_of(fn, ft, mu, m))
 
     def replicate(mu_rep: FloatArray, noise_rep: FloatArray | float,
@@ -373,20 +396,11 @@ def group_force(rng: np.random.Generator, w: Windows, sel: npt.NDArray[np.bool_]
         v = float(np.var(replicate(np.where(mu_part, without_m, mu),
                                    np.where(noise_part, noise, 0.0))))
         dof = src.dof_for(sel)
-        if mu_part.any() and not noise_part.any() and dof < 1 and pooled.mu_dof > 0:
-            # the model fits its windows exactly: the subject's scatter of mu
-            r = int(np.unique(w.on_ref[sel][mu_part])[0])
-            extra = float(weight[mu_part] @ load[mu_part]) * np.sqrt(
-                pooled.mu_rel_var / max(w.off_normal[r].size, 1))
-            acc = acc + extra * rng.standard_normal(n_boot)
-            v, dof = extra**2, pooled.mu_dof
+        if dof < 1:  # no scatter of its own (one stroke, a model that fits exactly)
+            v, dof = _pooled_in(w, sel, src, pooled, sensitivity=weight * load, acc=acc,
+                                rng=rng)
         variances.append(v)
         dofs.append(max(dof, 1.0))
-    if not np.any(noise) and pooled.on_dof > 0:  # one stroke: the subject's ON scatter
-        extra = float(np.sqrt(pooled.on_var * np.sum((weight * load) ** 2)))
-        acc = acc + extra * rng.standard_normal(n_boot)
-        variances.append(extra**2)
-        dofs.append(pooled.on_dof)
     if refs.law.kind == "power" and np.ptp(m_b) > 0:  # the exponent alone
         alone = mu * np.exp((m_b - m) * refs.law_shift[sel])
         variances.append(float(np.var(replicate(alone, 0.0, m_b))))
