@@ -334,25 +334,25 @@ class Pooled:
 
 def _pooled_in(w: Windows, sel: npt.NDArray[np.bool_], src: Source, pooled: Pooled, *,
                sensitivity: FloatArray, acc: FloatArray, rng: np.random.Generator
-               ) -> tuple[float, float]:
+               ) -> list[tuple[float, float]]:
     """A source's error from the subject's pooled scatter, added to the replicates *acc*
     in place: of ``mu`` (the OFF windows' relative scatter over its reference's windows)
     and of the ON windows' ``log F_t``; *sensitivity* is ``d F_el / d log F_t`` of each
-    window of *sel*, times its weight. Returns the variance and its degrees of freedom
-    (0 when the subject shows no scatter either)."""
+    window of *sel*, times its weight. Returns each part's variance and degrees of
+    freedom (none when the subject shows no scatter either)."""
     mu_part, noise_part = src.mu_part[sel], src.noise_part[sel]
-    v, parts = 0.0, list[float]()
+    parts: list[tuple[float, float]] = []
     if mu_part.any() and pooled.mu_dof > 0:
         r = int(np.unique(w.on_ref[sel][mu_part])[0])
         extra = float(sensitivity[mu_part].sum()) * np.sqrt(
             pooled.mu_rel_var / max(w.off_normal[r].size, 1))
         acc += extra * rng.standard_normal(acc.size)
-        v, parts = v + extra**2, [*parts, float(pooled.mu_dof)]
+        parts.append((extra**2, float(pooled.mu_dof)))
     if noise_part.any() and pooled.on_dof > 0:
         extra = float(np.sqrt(pooled.on_var * np.sum(sensitivity[noise_part] ** 2)))
         acc += extra * rng.standard_normal(acc.size)
-        v, parts = v + extra**2, [*parts, pooled.on_dof]
-    return v, min(parts) if parts else 0.0
+        parts.append((extra**2, pooled.on_dof))
+    return parts
 
 
 def group_force(rng: np.random.Generator, w: Windows, sel: npt.NDArray[np.bool_], *,
@@ -396,11 +396,12 @@ def group_force(rng: np.random.Generator, w: Windows, sel: npt.NDArray[np.bool_]
         v = float(np.var(replicate(np.where(mu_part, without_m, mu),
                                    np.where(noise_part, noise, 0.0))))
         dof = src.dof_for(sel)
+        parts = [(v, dof)]
         if dof < 1:  # no scatter of its own (one stroke, a model that fits exactly)
-            v, dof = _pooled_in(w, sel, src, pooled, sensitivity=weight * load, acc=acc,
-                                rng=rng)
-        variances.append(v)
-        dofs.append(max(dof, 1.0))
+            parts = _pooled_in(w, sel, src, pooled, sensitivity=weight * load, acc=acc,
+                               rng=rng) or [(v, dof)]
+        variances += [p[0] for p in parts]
+        dofs += [max(p[1], 1.0) for p in parts]
     if refs.law.kind == "power" and np.ptp(m_b) > 0:  # the exponent alone
         alone = mu * np.exp((m_b - m) * refs.law_shift[sel])
         variances.append(float(np.var(replicate(alone, 0.0, m_b))))
