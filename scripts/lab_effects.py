@@ -6,7 +6,8 @@ drift, hum, irregular strokes, lift-offs, a tare stretch), each with one effect 
 ``evtribo analyze`` does, and prints per effect what the truth says of the results:
 
 - F_el bias: the mean over cells of (estimate / truth - 1), its standard error, the share
-  of cells too high, and the worst cell's;
+  of cells too high, and the worst cell's; the same mean over the cells of 30 mN or more
+  (``bias30_%``);
 - covered: the share of the 95 % intervals that hold the true force;
 - mu error: the mean and the worst relative error of the ``mu`` column against the true
   coefficient over the cell's ON windows (averaged as the estimate averages them);
@@ -50,7 +51,9 @@ def evaluate(effect: str, seeds: list[int], n_boot: int) -> dict[str, object]:
     covered = ((el.electrostatic_force_ci_low_N <= el.fel_true_N)
                & (el.fel_true_N <= el.electrostatic_force_ci_high_N))
     ex_cov = (ex.exponent_ci_low <= ex.exponent_true) & (ex.exponent_true <= ex.exponent_ci_high)
+    big = el.fel_true_N >= 0.03
     return {"effect": effect, "cells": len(el), "bias_%": 100 * rel.mean(),
+            "bias30_%": 100 * rel[big].mean(),
             "bias_se_%": 100 * rel.std() / np.sqrt(len(rel)),
             "high_%": 100 * (rel > 0).mean(),
             "worst_%": 100 * rel.abs().max(), "covered_%": 100 * covered.mean(),

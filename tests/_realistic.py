@@ -41,6 +41,7 @@ class StudyRun:
     exponents: pd.DataFrame  # exponents.csv plus exponent_true
     warnings: list[str]
     truths: dict[tuple[str, str], TrialTruth]
+    study_warnings: list[str] = dataclasses.field(default_factory=list)  # the aggregation's
 
 
 def window_truth(windows: pd.DataFrame, truth: TrialTruth) -> pd.DataFrame:
@@ -136,7 +137,7 @@ def run_study(seed: int, *, n_subjects: int = 4, amplitudes=AMPLITUDES,
                                         n_boot=settings.n_boot, seed=settings.seed,
                                         confidence=settings.confidence)
     el, ex = attach_truth(el, ex, windows, mu_of)
-    return StudyRun(trials, windows, el, ex, warnings + agg_warnings, truths)
+    return StudyRun(trials, windows, el, ex, warnings + agg_warnings, truths, agg_warnings)
 
 
 def fel_within(measured: pd.Series, true: pd.Series, rel: float = 0.03,
@@ -175,8 +176,17 @@ Changes = tuple[Callable[[TrialConfig], TrialConfig] | None,
 
 
 def _finger(**only: bool) -> Callable[[SubjectParams], SubjectParams]:
-    flags = {"moisture": False, "speed": False, "direction": False, "trials": False, **only}
+    flags = {"moisture": False, "speed": False, "direction": False, "trials": False,
+             "load": False, **only}
     return lambda s: real_finger(s, seed=int(s.name[1:]), **flags)
+
+
+def wandering(change: Callable[[SubjectParams], SubjectParams]
+              ) -> Callable[[SubjectParams], SubjectParams]:
+    """*change*, then a press wandering over about 0.2-1.0 N (0.6 N +/- 0.2 N, a slow
+    Ornstein-Uhlenbeck wander of 3 s)."""
+    return lambda s: dataclasses.replace(change(s), normal_force_N=0.6, force_drift=0.33,
+                                         drift_time_s=3.0)
 
 
 def _rig(**changes: object) -> Callable[[TrialConfig], TrialConfig]:
@@ -202,6 +212,8 @@ EFFECTS: dict[str, Changes] = {
     "none": (None, None),
     "moisture": (None, _finger(moisture=True, trials=True)),
     "speed": (None, _finger(speed=True, direction=True)),
+    "load": (None, _finger(load=True)),
+    "load+wander": (None, wandering(_finger(load=True))),
     "crosstalk": (crosstalk, None),
     "timing": (real_logger, None),
     "creep+spikes": (_rig(creep=0.01, creep_time_s=3.0, spike_rate_Hz=0.5, spike_N=0.3),

@@ -301,6 +301,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "analysis-unknown-key": lambda t: _append(t / "study", "[analysis]\nguard_sec = 0.3\n"),
     "analysis-tare-mode": lambda t: _append(t / "study", '[analysis]\ntare = "zero"\n'),
     "analysis-negative": lambda t: _append(t / "study", "[analysis]\nguard_s = -0.1\n"),
+    "analysis-friction-law": lambda t: _append(t / "study",
+                                               '[analysis]\nfriction_law = "coulomb"\n'),
     "analysis-not-a-number": lambda t: _append(t / "study", '[analysis]\nn_boot = "many"\n'),
     "analysis-n-boot-inf": lambda t: _append(t / "study", "[analysis]\nn_boot = inf\n"),
     "analysis-n-boot-huge": lambda t: _append(t / "study", "[analysis]\nn_boot = 1e9\n"),
@@ -344,6 +346,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "model-normal-force-huge": lambda t: None,
     "compare-no-results": lambda t: None,
     "compare-fit-unknown": _text(Path("out/electrostatic.csv"), "subject\n"),
+    "compare-fit-friction-law": _text(Path("out/electrostatic.csv"), "subject\n"),
     "compare-models-unknown": _text(Path("out/electrostatic.csv"), "subject\n"),
     "compare-params-not-toml": _text(Path("params.toml"), "h_L = = 3\n"),
     "compare-figure-format-unknown": _results,
@@ -456,6 +459,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
         t / "study", '[population]\nexclude = [{subject = "P01"}]'),
     "session-protocol-misspelt-key": _text(Path("protocol.toml"), "[session]\ntrial_s = 20\n"
                                            "repetiton = 2\n[[trial]]\namplitude_V = 100\n"),
+    "session-protocol-steps-not-a-list": _text(Path("protocol.toml"), "[session]\n"
+                                               "target_steps_N = 0.3\n[[trial]]\n"),
     "session-protocol-changed": _session_begun,
     "init-study-exists": lambda t: None,
     "init-force-over-users-study-toml": lambda t: None,

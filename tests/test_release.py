@@ -117,7 +117,8 @@ def test_the_wheel_holds_the_data_the_licence_and_the_metadata(dist):
                  "evtribo/data/liveview.html", "evtribo/report/templates/report.html.j2",
                  "evtribo/py.typed", "evtribo/citation.py",
                  "evtribo/data/protocols/meyer2013.toml",
-                 "evtribo/data/protocols/frequency-sweep.toml"):
+                 "evtribo/data/protocols/frequency-sweep.toml",
+                 "evtribo/data/protocols/friction-law.toml"):
         assert name in names
     assert not [n for n in names if n.startswith(("tests/", "docs/", "data/"))]
     assert metadata["Version"] == VERSION

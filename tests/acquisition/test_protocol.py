@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 from collections import Counter
 from pathlib import Path
 
@@ -24,6 +25,29 @@ def test_example_protocols_plan_what_they_say():
         {("square", 10000.0, "alternating")}
     sweep = plan_trials(read_protocol(PROTOCOLS / "frequency-sweep.toml"))
     assert len(sweep) == 13 and {p.amplitude_V for p in sweep} == {100.0}
+    law = read_protocol(PROTOCOLS / "friction-law.toml")
+    assert law.session.target_steps_N == (0.3, 0.6, 0.9) and law.session.step_s == 5.0
+    assert len(plan_trials(law)) == 10
+    assert type(law).from_dict(law.to_dict(), law.source) == law  # as session.json keeps it
+
+
+@given(elapsed=st.floats(0, 60), steps=st.lists(st.floats(0.1, 2.0), min_size=1, max_size=4),
+       step_s=st.floats(0.5, 10))
+@settings(max_examples=60, deadline=None)
+def test_the_monitors_target_steps_through_the_presses_after_the_tare(elapsed, steps, step_s):
+    from evtribo.acquisition.live.monitor import Monitor
+    from evtribo.acquisition.rigfile import default_rig_path, load_rig_toml
+
+    mon = Monitor(load_rig_toml(default_rig_path()), io.StringIO(), target=0.5, tare_s=1.5,
+                  steps=tuple(steps), step_s=step_s)
+    target = mon.target_at(elapsed)
+    if elapsed < 1.5:
+        assert target == 0.5
+    else:  # the step of that time, each held step_s, in turn
+        k = int((elapsed - 1.5) // step_s)
+        assert target == steps[k % len(steps)]
+        assert mon.target_at(1.5 + (k + 0.5) * step_s) == target
+    assert Monitor(mon.rig, io.StringIO(), target=0.5).target_at(elapsed) == 0.5
 
 
 def test_the_example_protocols_are_in_the_package_as_they_are_here():
@@ -32,7 +56,8 @@ def test_the_example_protocols_are_in_the_package_as_they_are_here():
     from evtribo.acquisition.protocol import example_protocols
 
     shipped = example_protocols()
-    assert sorted(p.name for p in shipped) == ["frequency-sweep.toml", "meyer2013.toml"]
+    assert sorted(p.name for p in shipped) == ["frequency-sweep.toml", "friction-law.toml",
+                                               "meyer2013.toml"]
     for path in shipped:
         assert path.read_bytes() == (PROTOCOLS / path.name).read_bytes(), path.name
 
@@ -67,6 +92,10 @@ def test_plan_is_every_combination_repeated_and_seeded(tmp_path_factory, amps, f
     ("[[trial]]\nwaveform = \"saw\"\n", "trial[1].waveform", 2, "sine, square"),
     ("[[trial]]\namplitude_V = []\n", "trial[1].amplitude_V", 2, "no trial"),
     ("[session]\ntrial_s = 20\n", "trial", None, "no [[trial]]"),
+    ("[session]\ntarget_steps_N = [0.3, -0.6]\n[[trial]]\n", "session.target_steps_N", 2,
+     "> 0"),
+    ("[session]\ntarget_steps_N = 0.3\n[[trial]]\n", "session.target_steps_N", 2,
+     "a list of numbers"),
 ])
 def test_bad_protocols_name_file_line_and_key(tmp_path, text, key, line, message):
     path = tmp_path / "p.toml"
@@ -80,3 +109,13 @@ def test_bad_protocols_name_file_line_and_key(tmp_path, text, key, line, message
 def test_missing_protocol_is_a_config_error(tmp_path):
     with pytest.raises(ConfigError, match="not found"):
         read_protocol(tmp_path / "nope.toml")
+
+
+def test_a_protocol_kept_before_the_stepped_target_reads_back_with_its_defaults():
+    from evtribo.acquisition.protocol import Protocol
+
+    meyer = read_protocol(PROTOCOLS / "meyer2013.toml")
+    kept = meyer.to_dict()
+    for key in ("target_steps_N", "step_s"):  # what session.json held before these existed
+        del kept["session"][key]
+    assert Protocol.from_dict(kept).to_dict() == meyer.to_dict()

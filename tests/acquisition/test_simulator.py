@@ -219,6 +219,38 @@ def test_truth_is_the_model_and_the_frames_carry_it():
     assert np.any(np.abs(ft) < 0.02)
 
 
+@pytest.mark.parametrize("m", [0.67, 0.8, 1.0])
+def test_friction_grows_as_the_load_to_the_power_m_and_the_voltage_loads_the_contact(m):
+    # F_t = mu W0 (W / W0)^m with W = F_n + F_el (Adams et al. 2013): a press wandering
+    # over 0.3-0.9 N shows m in the OFF slides, and the law inverted gives F_el ON
+    subject = SubjectParams(mu=0.5, h_L=4e-6, normal_force_N=0.6, force_drift=0.25,
+                            drift_time_s=2.0, friction_exponent=m)
+    cfg = short(duration_s=16.0, amplitude_V=140.0, noise_N=0.0, seed=5)
+    frames, truth = simulate_trial(subject, cfg)
+    assert truth.friction["exponent"] == m and truth.friction["reference_load_N"] == 0.6
+    t, ft, fn = _forces_on_fx_times(frames, cfg.start_time)
+    on, near_on = np.zeros(t.shape, bool), np.zeros(t.shape, bool)
+    for a, b, is_on in truth.schedule:
+        on |= is_on & (t > a + 0.02) & (t < b)
+        near_on |= is_on & (t > a - 0.02) & (t < b + 0.02)
+    use = _in_slides(t, truth) & (fn > 0.1)
+    off = use & ~near_on
+    slope = np.polyfit(np.log(fn[off]), np.log(np.abs(ft[off])), 1)[0]
+    assert slope == pytest.approx(m, abs=0.02)
+    load = 0.6 * (np.abs(ft) / (0.5 * 0.6)) ** (1 / m)
+    assert np.mean(load[use & on] - fn[use & on]) == pytest.approx(
+        truth.electrostatic_force_mean_N, rel=0.05)
+    # the truth's coefficient is F_t / F_n at each instant's press, without the voltage
+    mid = [(a + b) / 2 for a, b, _ in truth.slides if b - a > 0.4]
+    quiet = [c for c in mid if any(not is_on and a + 0.1 < c < b - 0.1
+                                   for a, b, is_on in truth.schedule)]
+    assert len(quiet) >= 3
+    for c in quiet:
+        near = np.abs(t - c) < 0.05
+        assert truth.mu_between(c - 0.05, c + 0.05) == pytest.approx(
+            np.mean(np.abs(ft[near]) / fn[near]), rel=0.01)
+
+
 def test_normal_force_drifts_by_a_few_percent_around_the_target():
     subject = SubjectParams(normal_force_N=1.0, force_drift=0.06)
     frames, _ = simulate_trial(subject, short(duration_s=30.0, noise_N=0.0, seed=9))

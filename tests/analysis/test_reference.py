@@ -9,8 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from evtribo.analysis.friction.estimate import estimate_electrostatic
-from evtribo.analysis.friction.pace import pooled_rate_slope
-from evtribo.analysis.friction.reference import WindowFacts, fit_mu_model, fit_trial_model
+from evtribo.analysis.friction.facts import WindowFacts
+from evtribo.analysis.friction.law import fit_subject_law
+from evtribo.analysis.friction.reference import fit_mu_model, fit_trial_model
 
 
 def _facts(t, direction, rate=None, cluster=None):
@@ -66,7 +67,8 @@ def test_the_electrostatic_force_of_a_moistening_finger_is_unbiased():
         est = estimate_electrostatic([fn[~on]], [ft[~on]], fn[on], ft[on],
                                      np.zeros(on.sum(), int), np.full(on.sum(), 100.0),
                                      n_boot=200, seed=seed, off_facts=[facts.take(~on)],
-                                     on_facts=facts.take(on), time_trend=[True])
+                                     on_facts=facts.take(on), time_trend=[True],
+                                     friction_law="amontons")
         truth = np.mean(0.2 * fn[on])  # F_t/mu - F_n, the voltage's share of the load
         forces.append(est.force_N[0] / truth - 1)
         assert est.ci_low_N[0] < est.force_N[0] < est.ci_high_N[0]
@@ -104,7 +106,8 @@ def test_a_stroke_rate_that_sets_the_friction_is_taken_into_account():
     facts = _facts(np.arange(n, dtype=float), np.where(np.arange(n) % 2, 1.0, -1.0), rate)
     facts = WindowFacts(facts.t_s, facts.direction, facts.rate, facts.cluster,
                         np.arange(n) // 20)  # three trials
-    slope, se = pooled_rate_slope([(fn, ft, facts, np.full(n, np.nan))])
+    law = fit_subject_law([(fn, ft, facts, np.full(n, np.nan))])
+    slope, se = law.rate_slope, law.rate_se
     assert slope == pytest.approx(0.15, abs=3 * se) and se < 0.02
     model = fit_mu_model(fn, ft, facts, time_trend=False, rate_slope=slope)
     assert model.rate

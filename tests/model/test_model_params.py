@@ -21,7 +21,7 @@ def test_table_1_defaults():
 def test_names_and_info_cover_every_field():
     names = ModelParameters.names()
     assert names == ("mu", "R", "E_star", "eps_sc", "eps_i", "eps_L", "h_sc", "h_i", "h_L",
-                     "eps_0", "r_sc", "r_g")
+                     "eps_0", "r_sc", "r_g", "m", "W0")
     info = ModelParameters.info()
     assert [row.name for row in info] == list(names)
     for row in info:

@@ -62,6 +62,12 @@ class SessionSettings:
         Pause between trials (the operator can go on earlier with Enter).
     on_s, off_s : float, s
         ON and OFF phases of an alternating trial whose excitation evtribo commands.
+    target_steps_N : tuple of float, N
+        Targets the band steps through in each trial after the tare stretch, each held
+        :attr:`step_s`, in turn (empty: :attr:`target_force_N` all through): presses that
+        span a range within a trial tell how the friction grows with the load
+        (docs/analysis.md, "The friction law").
+    step_s : float, s
     """
 
     trial_s: float = 20.0
@@ -74,6 +80,8 @@ class SessionSettings:
     pause_s: float = 0.0
     on_s: float = 2.0
     off_s: float = 2.0
+    target_steps_N: tuple[float, ...] = ()
+    step_s: float = 4.0
 
 
 @dataclass(frozen=True)
@@ -105,7 +113,8 @@ class Protocol:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready, as recorded in ``session.json``."""
-        return {"session": asdict(self.session),
+        return {"session": {**asdict(self.session),
+                            "target_steps_N": list(self.session.target_steps_N)},
                 "trial": [{**asdict(t), "frequency_Hz": list(t.frequency_Hz),
                            "amplitude_V": list(t.amplitude_V)} for t in self.trials]}
 
@@ -115,7 +124,9 @@ class Protocol:
         trials = tuple(TrialSpec(**{**t, "frequency_Hz": tuple(t["frequency_Hz"]),
                                     "amplitude_V": tuple(t["amplitude_V"])})
                        for t in data["trial"])
-        return cls(SessionSettings(**data["session"]), trials, source)
+        session = {**data["session"],
+                   "target_steps_N": tuple(data["session"].get("target_steps_N", ()))}
+        return cls(SessionSettings(**session), trials, source)
 
 
 @dataclass(frozen=True)
@@ -219,6 +230,10 @@ def _session(r: _Reader, table: object) -> SessionSettings:
             if not isinstance(v, bool):
                 raise r.fail(f"expected true or false, got {v!r}", key, line(k))
             values[k] = v
+        elif k == "target_steps_N":
+            if not isinstance(v, list) or not v:
+                raise r.fail(f"expected a list of numbers > 0, N, got {v!r}", key, line(k))
+            values[k] = tuple(_number(r, x, key, line(k)) for x in v)
         elif k in ("repetitions", "seed"):
             values[k] = int(_number(r, v, key, line(k), integer=True,
                                     positive=k == "repetitions"))
@@ -258,7 +273,8 @@ def _trial(r: _Reader, index: int, table: object) -> TrialSpec:
 
 def example_protocols() -> list[Path]:
     """The example protocols installed with evtribo (package data
-    ``evtribo/data/protocols/``: ``meyer2013.toml``, ``frequency-sweep.toml``).
+    ``evtribo/data/protocols/``: ``meyer2013.toml``, ``frequency-sweep.toml``,
+    ``friction-law.toml``).
 
     Returns
     -------

@@ -21,6 +21,7 @@ from typing import Any
 from evtribo.analysis.forces.align import DEFAULT_MAX_GAP_PERIODS
 from evtribo.analysis.forces.conditions import DEFAULT_GUARD_S
 from evtribo.analysis.friction.estimate import DEFAULT_CONFIDENCE, DEFAULT_N_BOOT
+from evtribo.analysis.friction.law import LAWS
 from evtribo.analysis.friction.windows import (
     DEFAULT_MAX_WINDOW_S,
     DEFAULT_MIN_WINDOW_S,
@@ -34,7 +35,7 @@ __all__ = ["HUM_MODES", "SETTING_HELP", "TARE_MODES", "AnalysisSettings", "parse
            "study_settings"]
 
 #: The allowed values of each setting that is a word.
-CHOICES = {"tare": TARE_MODES, "hum": HUM_MODES}
+CHOICES = {"tare": TARE_MODES, "hum": HUM_MODES, "friction_law": LAWS}
 
 #: One line per key: its meaning (``analysis/default.toml`` carries the same words).
 SETTING_HELP = {
@@ -59,6 +60,10 @@ SETTING_HELP = {
     "trace_off_s": "sine trace for the model comparison: seconds before a switch to ON",
     "trace_on_s": "sine trace: seconds after the switch",
     "trace_rate_Hz": "highest sample rate of the sine trace, Hz",
+    "friction_law": "how the friction grows with the load W = F_n + F_el, F_t = c W^m: auto "
+                    "(m measured from each subject's OFF windows where their normal forces "
+                    "tell it, else Amontons' m = 1 with F_el at m = 0.75 beside it), power "
+                    "(the measured m however uncertain) or amontons (m = 1)",
 }
 
 
@@ -95,6 +100,8 @@ class AnalysisSettings:
         long before and after a switch from OFF to ON.
     trace_rate_Hz : float, Hz
         Highest sample rate of the sine trace (block means of the aligned forces).
+    friction_law : {"auto", "amontons", "power"}
+        How the friction grows with the load (:mod:`evtribo.analysis.friction.law`).
     """
 
     tare: str = "auto"
@@ -111,6 +118,7 @@ class AnalysisSettings:
     trace_off_s: float = 0.5
     trace_on_s: float = 1.0
     trace_rate_Hz: float = 1000.0
+    friction_law: str = "auto"
 
     def __post_init__(self) -> None:
         for f in fields(self):

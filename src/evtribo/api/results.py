@@ -38,13 +38,17 @@ __all__ = ["COUNT_COLUMNS", "CSV_EXACT", "TEXT_COLUMNS", "FitView", "Results", "
            "read_table", "typed_table"]
 
 #: Columns of names (strings), and of counts (nullable integers); the others are floats.
-TEXT_COLUMNS = ("subject", "trial", "waveform", "condition", "tare")
+TEXT_COLUMNS = ("subject", "trial", "waveform", "condition", "tare", "friction_law")
 COUNT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off", "replicate",
                  "duplicate_frames")
 
 #: Columns a result folder written by an earlier version lacks: read as empty.
 NEWER_COLUMNS = frozenset({"duplicate_frames", "analysed_s", "excluded_switch_s",
-                           "excluded_lift_s", "excluded_unsteady_s", "excluded_other_s"})
+                           "excluded_lift_s", "excluded_unsteady_s", "excluded_other_s",
+                           "friction_law", "friction_exponent", "friction_exponent_ci_low",
+                           "friction_exponent_ci_high", "electrostatic_force_m075_N",
+                           "electrostatic_force_m075_ci_low_N",
+                           "electrostatic_force_m075_ci_high_N"})
 
 #: read_csv's options that read back every float to_csv wrote, bit for bit (pandas 3's
 #: default parser does; pandas 2's needs its round-trip parser).

@@ -61,7 +61,7 @@ from scipy import optimize, stats
 from evtribo.fit.intervals import covariance, refit_replicates
 from evtribo.fit.model_points import mean_electrostatic_force, mean_friction_force, model_exponent
 from evtribo.fit.params import DEFAULT_FIT, parameter_unit
-from evtribo.fit.problem import LOG_PARAMETERS, Points, Problem
+from evtribo.fit.problem import LOG_PARAMETERS, Points, Problem, with_friction_law
 from evtribo.fit.tables import MIN_REPLICATES, ResultTables, replicate_matrix
 from evtribo.model.params import TABLE_1, ModelParameters
 
@@ -337,6 +337,7 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
     pts = Points.of(subject, rows, windows, use_windows=use_windows, need_frequency=need_f)
     if not use_windows and pts.mu_measured > 0:
         base = base.with_values(mu=pts.mu_measured)
+    base = with_friction_law(base, rows)
     problem = Problem(subject, names, base, pts, use_windows)
     res = problem.solve()
 

@@ -106,6 +106,11 @@ def resolve_fit_names(names: str | Iterable[str] | None) -> tuple[str, ...]:
     fixed_by_nature = [n for n in wanted if n == "eps_0"]
     if fixed_by_nature:
         raise ConfigError("eps_0 is a physical constant and cannot be fitted", key="fit")
+    law = [n for n in wanted if n in ("m", "W0")]
+    if law:
+        raise ConfigError(f"{', '.join(law)}: the friction law is measured by evtribo analyze "
+                          "from the OFF windows (electrostatic.csv's friction_exponent), and "
+                          "compare uses it as it is: it cannot be fitted", key="fit")
     return tuple(wanted)
 
 

@@ -32,7 +32,7 @@ from evtribo.model.params import TABLE_1, ModelParameters
 
 log = logging.getLogger(__name__)
 
-__all__ = ["LOG_PARAMETERS", "Points", "Problem", "fit_points"]
+__all__ = ["LOG_PARAMETERS", "Points", "Problem", "fit_points", "with_friction_law"]
 
 _Z95 = float(stats.norm.ppf(0.975))
 #: Parameters fitted in log space (they span decades).
@@ -157,6 +157,31 @@ class Points:
         return cls(fn[good], amp[good], freq[good], wave[good], measured[good],
                    _sigmas(rows[good], subject), good, mu_measured, w_fn, w_ft, w_amp, w_wave,
                    w_freq)
+
+
+def with_friction_law(base: ModelParameters, rows: pd.DataFrame) -> ModelParameters:
+    """*base* with the subject's friction law as evtribo analyze measured it: ``m`` its
+    ``friction_exponent`` (the one its forces were inferred with) and ``W0`` its ON
+    windows' mean normal force (where its ``mu`` was taken); *base* as it is without them.
+
+    Parameters
+    ----------
+    base : ModelParameters
+    rows : DataFrame
+        The subject's rows of ``electrostatic.csv``.
+
+    Returns
+    -------
+    ModelParameters
+    """
+    if "friction_exponent" not in rows.columns:
+        return base
+    m = pd.to_numeric(rows["friction_exponent"], errors="coerce").to_numpy(float)
+    fn = pd.to_numeric(rows["normal_force_on_N"], errors="coerce").to_numpy(float)
+    m, fn = m[np.isfinite(m) & (m > 0)], fn[np.isfinite(fn) & (fn > 0)]
+    if m.size == 0 or fn.size == 0:
+        return base
+    return base.with_values(m=float(m[0]), W0=float(np.mean(fn)))
 
 
 def _resistance_range(name: str, base: ModelParameters,
@@ -404,6 +429,7 @@ def fit_points(subject: str, rows: pd.DataFrame, names: tuple[str, ...],
     pts = Points.of(subject, rows.reset_index(drop=True), need_frequency=need)
     if pts.mu_measured > 0:
         base = base.with_values(mu=pts.mu_measured)
+    base = with_friction_law(base, rows)
     problem = Problem(subject, names, base, pts, force=force)
     return problem, problem.solve()
 

@@ -54,10 +54,11 @@ def friction_force_dugdale(normal_force: ArrayLike, radius: ArrayLike, voltage: 
     Returns
     -------
     ndarray
-        F_R = mu (F_ext + sigma_0 pi b^2), N.
+        F_R = mu (F_ext + sigma_0 pi b^2), N (with ``params.m`` not 1, the law
+        :meth:`~evtribo.model.params.ModelParameters.friction` of that load).
     """
     sigma0 = _f(adhesion_stress(voltage, params))
-    return _out(params.mu * (_f(normal_force) + sigma0 * np.pi * _f(radius) ** 2))
+    return _out(params.friction(_f(normal_force) + sigma0 * np.pi * _f(radius) ** 2))
 
 
 def electrostatic_force(normal_force: ArrayLike, voltage: ArrayLike,
@@ -98,10 +99,11 @@ def friction_force(normal_force: ArrayLike, voltage: ArrayLike,
     Returns
     -------
     ndarray
-        F_R = mu (F_ext + F_el), N.
+        F_R = mu (F_ext + F_el), N (with ``params.m`` not 1, the law
+        :meth:`~evtribo.model.params.ModelParameters.friction` of that load).
     """
     f = _f(normal_force)
-    return _out(params.mu * (f + _f(electrostatic_force(f, voltage, params))))
+    return _out(params.friction(f + _f(electrostatic_force(f, voltage, params))))
 
 
 def adhesion_load_ratio(normal_force: ArrayLike, voltage: ArrayLike,

@@ -410,7 +410,7 @@ def friction_force_md(normal_force: ArrayLike, voltage: ArrayLike,
         The friction force, N.
     """
     f = np.asarray(normal_force, dtype=float)
-    return _out(params.mu * (f + np.asarray(electrostatic_force_md(f, voltage, params))))
+    return _out(params.friction(f + np.asarray(electrostatic_force_md(f, voltage, params))))
 
 
 def md_jkr_departure(normal_force: ArrayLike, voltage: ArrayLike,

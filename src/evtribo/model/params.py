@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from evtribo.errors import ConfigError
 
@@ -57,6 +58,12 @@ class ModelParameters:
         Ohm m^2; infinite by default, the paper's perfect insulators (see
         :mod:`evtribo.model.circuit`: with finite values the force depends on the drive's
         frequency).
+    m : float
+        Exponent of the friction law ``F_t = mu W0 (W / W0)**m`` of the load ``W = F_ext +
+        F_el`` (:meth:`friction`): 1 is the paper's Coulomb friction, a finger pad's is
+        about 0.67-0.9 (Adams et al. 2013).
+    W0 : float
+        The load at which ``mu`` is the friction coefficient, N (no effect when ``m = 1``).
     """
 
     mu: float = _p(0.5, "1", "Coulomb friction coefficient", "positive")
@@ -76,6 +83,10 @@ class ModelParameters:
     r_g: float = _p(float("inf"), "Ohm m^2",
                     "area-specific leakage resistance of the air gap (inf: none)",
                     "resistance")
+    m: float = _p(1.0, "1", "exponent of the friction law F_t = mu W0 (W/W0)^m of the load "
+                  "W = F_ext + F_el (1: Coulomb)", "positive")
+    W0: float = _p(0.5, "N", "load at which mu is the friction coefficient (m != 1)",
+                   "positive")
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -103,6 +114,25 @@ class ModelParameters:
                               key="h_L")
 
     # ------------------------------------------------------------------ derived values
+    def friction(self, load: ArrayLike) -> NDArray[np.float64]:
+        """The friction of a contact loaded by *load*, N: ``mu W0 (W / W0)**m`` (``mu W``
+        when ``m = 1``, the paper's eq. 1).
+
+        Parameters
+        ----------
+        load : float or ndarray
+            The contact's load ``W = F_ext + F_el``, N.
+
+        Returns
+        -------
+        ndarray
+            The friction force, N.
+        """
+        w = np.asarray(load, dtype=np.float64)
+        if self.m == 1.0:
+            return self.mu * w
+        return np.asarray(self.mu * self.W0 * (np.maximum(w, 0.0) / self.W0) ** self.m)
+
     @property
     def effective_gap(self) -> float:
         """Air-equivalent dielectric thickness h_sc/eps_sc + h_L/eps_L + h_i/eps_i, m."""

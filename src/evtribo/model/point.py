@@ -103,5 +103,5 @@ def evaluate_point(normal_force: float, voltage: float,
     if frequency is not None and waveform == "sine":
         fel = float(electrostatic_force_drive(f, voltage, frequency, "sine", params))
         values["electrostatic_force_N"] = fel
-        values["friction_force_N"] = params.mu * (f + fel)
+        values["friction_force_N"] = float(params.friction(f + fel))
     return {key: _finite(value) for key, value in values.items()}

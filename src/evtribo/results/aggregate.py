@@ -26,6 +26,7 @@ import logging
 import zlib
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -35,8 +36,10 @@ from evtribo.analysis.forces.crosstalk import crosstalk_notes
 from evtribo.analysis.friction.drift import (
     TrialDrift,
     drift_notes,
+    phase_notes,
     relative_scatter,
     stroke_notes,
+    trial_confounding,
     trial_drifts,
     window_facts,
 )
@@ -45,18 +48,26 @@ from evtribo.analysis.friction.estimate import (
     ElectrostaticEstimate,
     estimate_electrostatic,
 )
+from evtribo.analysis.friction.law import SENSITIVITY_EXPONENT, untold_note
 from evtribo.analysis.friction.plausible import implausible_rows
 from evtribo.analysis.friction.powerlaw import fit_power_law
 from evtribo.errors import AnalysisError
 
 log = logging.getLogger(__name__)
 
+#: Columns of electrostatic.csv beyond the study format's: the subject's friction law
+#: (:mod:`evtribo.analysis.friction.law`), and the force at ``m = 0.75`` where the presses
+#: do not tell ``m`` (``friction_law = "auto"``; empty elsewhere).
+LAW_COLUMNS = ("friction_law", "friction_exponent", "friction_exponent_ci_low",
+               "friction_exponent_ci_high", "electrostatic_force_m075_N",
+               "electrostatic_force_m075_ci_low_N", "electrostatic_force_m075_ci_high_N")
 #: Columns of electrostatic.csv (study format, section 2).
 ELECTROSTATIC_COLUMNS = ("subject", "waveform", "frequency_Hz", "amplitude_V", "mu",
                          "normal_force_on_N",
                          "normal_force_off_N", "friction_on_N", "friction_off_N",
                          "electrostatic_force_N", "electrostatic_force_ci_low_N",
-                         "electrostatic_force_ci_high_N", "n_on", "n_off")
+                         "electrostatic_force_ci_high_N", "n_on", "n_off",
+                         *LAW_COLUMNS)
 #: Columns of exponents.csv (study format, section 2).
 EXPONENT_COLUMNS = ("subject", "waveform", "frequency_Hz", "exponent", "exponent_ci_low",
                     "exponent_ci_high",
@@ -188,11 +199,12 @@ class _SubjectEstimate:
     points: list[PointKey]
     window_mu: pd.Series
     drifts: dict[object, TrialDrift]
+    sensitivity: ElectrostaticEstimate | None = None
 
 
 def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_boot: int,
-                      seed: int, confidence: float, warnings: list[str]
-                      ) -> _SubjectEstimate | None:
+                      seed: int, confidence: float, warnings: list[str],
+                      friction_law: str = "auto") -> _SubjectEstimate | None:
     """A subject's electrostatic force per point (waveform, frequency, amplitude), each ON
     window against its OFF reference; None when the subject has no ON window with an
     amplitude, or no OFF windows to compare them with."""
@@ -212,13 +224,20 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
     points = sorted(set(window_points))  # numbered in sorted order: the estimator's groups
     group_number = {p: i for i, p in enumerate(points)}
     off_facts = [window_facts(r) for r in refs]
-    est = estimate_electrostatic(
-        [r.normal_force_N.to_numpy(float) for r in refs],
-        [r.friction_force_N.to_numpy(float) for r in refs],
-        on.normal_force_N.to_numpy(float), on.friction_force_N.to_numpy(float),
-        on_ref, [group_number[p] for p in window_points], n_boot=n_boot,
-        confidence=confidence, seed=_seed(seed, subject), off_facts=off_facts,
-        on_facts=window_facts(on), time_trend=trends)
+    args = ([r.normal_force_N.to_numpy(float) for r in refs],
+            [r.friction_force_N.to_numpy(float) for r in refs],
+            on.normal_force_N.to_numpy(float), on.friction_force_N.to_numpy(float),
+            on_ref, [group_number[p] for p in window_points])
+    options: dict[str, Any] = {"n_boot": n_boot, "confidence": confidence,
+               "off_facts": off_facts,
+               "on_facts": window_facts(on), "time_trend": trends}
+    est = estimate_electrostatic(*args, seed=_seed(seed, subject), friction_law=friction_law,
+                                 **options)
+    sensitivity = None
+    if friction_law == "auto" and est.law.kind == "amontons":
+        sensitivity = estimate_electrostatic(*args, seed=_seed(seed, subject),
+                                             exponent=SENSITIVITY_EXPONENT, **options)
+        warnings.append(untold_note(subject, est.law))
     window_mu = pd.Series(est.on_mu, index=on.index)
     own = {}
     for r, model in est.models.items():
@@ -227,7 +246,9 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
         if trends[r]:
             own[refs[r].trial.iloc[0]] = model
     window_mu = window_mu[~window_mu.index.duplicated()]
-    drifts = trial_drifts(off, own)
+    law = est.law
+    drifts = trial_drifts(off, own, rate_slope=law.rate_slope, exponent=law.exponent,
+                          load_ref_N=law.load_ref_N)
     alone = sorted({t for t in on.trial if facts.condition_of.get((subject, t)) == "on"},
                    key=str)
     warnings += drift_notes(subject, drifts, compared_in_trial=any(trends),
@@ -238,14 +259,36 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
     gap = (float(np.exp(np.nanmean(rate_on) - np.nanmean(rate_off))) - 1.0
            if np.isfinite(rate_on).any() and np.isfinite(rate_off).any() else None)
     warnings += stroke_notes(subject, est.models, relative_scatter(est.models, ratios), gap)
-    return _SubjectEstimate(est, [points[int(g)] for g in est.groups], window_mu, drifts)
+    alternating = [t for t in sub.trial.unique()
+                   if facts.condition_of.get((subject, t)) == "alternating"]
+    warnings += phase_notes(subject, trial_confounding(sub[sub.trial.isin(alternating)]))
+    return _SubjectEstimate(est, [points[int(g)] for g in est.groups], window_mu, drifts,
+                            sensitivity)
 
 
-def _add_points(tables: _Tables, subject: str, est: ElectrostaticEstimate, *,
-                points: list[PointKey], shown: Mapping[float, float], n_saved: int,
-                warnings: list[str]) -> None:
+def _law_columns(est: ElectrostaticEstimate, sensitivity: ElectrostaticEstimate | None,
+                 j: int) -> dict[str, object]:
+    """A row's columns of :data:`LAW_COLUMNS`."""
+    low, high = est.law.interval
+    out: dict[str, object] = {"friction_law": est.law.kind,
+                              "friction_exponent": est.law.exponent,
+                              "friction_exponent_ci_low": low if est.law.kind == "power"
+                              else np.nan,
+                              "friction_exponent_ci_high": high if est.law.kind == "power"
+                              else np.nan}
+    found = sensitivity is not None and j < sensitivity.force_N.size
+    for col, values in (("electrostatic_force_m075_N", "force_N"),
+                        ("electrostatic_force_m075_ci_low_N", "ci_low_N"),
+                        ("electrostatic_force_m075_ci_high_N", "ci_high_N")):
+        out[col] = float(getattr(sensitivity, values)[j]) if found else np.nan
+    return out
+
+
+def _add_points(tables: _Tables, subject: str, found: _SubjectEstimate, *,
+                shown: Mapping[float, float], n_saved: int, warnings: list[str]) -> None:
     """A subject's rows of electrostatic.csv and of the bootstrap table, with a warning for
     a point resting on few windows."""
+    est, points = found.est, found.points
     keep = min(n_saved, est.replicates_N.shape[0])
     for j, (waveform, freq, amp) in enumerate(points):
         names = {"subject": subject, "waveform": waveform or None,
@@ -258,7 +301,8 @@ def _add_points(tables: _Tables, subject: str, est: ElectrostaticEstimate, *,
             "electrostatic_force_N": est.force_N[j],
             "electrostatic_force_ci_low_N": est.ci_low_N[j],
             "electrostatic_force_ci_high_N": est.ci_high_N[j],
-            "n_on": int(est.n_on[j]), "n_off": int(est.n_off[j])})
+            "n_on": int(est.n_on[j]), "n_off": int(est.n_off[j]),
+            **_law_columns(est, found.sensitivity, j)})
         tables.bootstrap.append(pd.DataFrame({
             **names, "replicate": np.arange(keep),
             "electrostatic_force_N": est.replicates_N[:keep, j]}))
@@ -326,7 +370,8 @@ class StudySummary:
 
 def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
                     n_boot: int = DEFAULT_N_BOOT, seed: int = 0, confidence: float = 0.95,
-                    n_saved: int = N_BOOTSTRAP_SAVED) -> StudySummary:
+                    n_saved: int = N_BOOTSTRAP_SAVED, friction_law: str = "auto"
+                    ) -> StudySummary:
     """Electrostatic force per subject, waveform, frequency and amplitude, and the power laws
     (per subject, waveform and frequency).
 
@@ -344,6 +389,9 @@ def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
         Coverage of the intervals.
     n_saved : int
         Replicates kept in the bootstrap table (the first ones; at most *n_boot*).
+    friction_law : {"auto", "amontons", "power"}
+        How the friction grows with the load (``[analysis] friction_law``,
+        :func:`~evtribo.analysis.friction.law.fit_subject_law`).
 
     Returns
     -------
@@ -363,7 +411,7 @@ def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
             try:
                 found = _estimate_subject(str(subject), sub, facts, n_boot=n_boot,
                                           seed=seed, confidence=confidence,
-                                          warnings=warnings)
+                                          warnings=warnings, friction_law=friction_law)
             except AnalysisError as err:
                 warnings.append(f"{subject}: no electrostatic force: {err}")
                 continue
@@ -371,8 +419,8 @@ def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
                 continue
             window_mu.append(found.window_mu)
             mu_change.update({(subject, t): d.change_per_10s for t, d in found.drifts.items()})
-            _add_points(tables, str(subject), found.est, points=found.points,
-                        shown=facts.shown, n_saved=n_saved, warnings=warnings)
+            _add_points(tables, str(subject), found, shown=facts.shown, n_saved=n_saved,
+                        warnings=warnings)
             _add_power_laws(tables, str(subject), found.est, points=found.points,
                             shown=facts.shown, confidence=confidence, warnings=warnings)
     electrostatic = pd.DataFrame(tables.electrostatic, columns=list(ELECTROSTATIC_COLUMNS))
@@ -389,7 +437,8 @@ def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
 
 
 def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFAULT_N_BOOT,
-              seed: int = 0, confidence: float = 0.95, n_saved: int = N_BOOTSTRAP_SAVED
+              seed: int = 0, confidence: float = 0.95, n_saved: int = N_BOOTSTRAP_SAVED,
+              friction_law: str = "auto"
               ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame, list[str]]:
     """:func:`summarize_study`'s tables and warnings.
 
@@ -405,6 +454,8 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
         Coverage of the intervals.
     n_saved : int
         Replicates kept in the bootstrap table.
+    friction_law : {"auto", "amontons", "power"}
+        As :func:`summarize_study`'s.
 
     Returns
     -------
@@ -412,9 +463,10 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
     warnings : list of str
     """
     out = summarize_study(windows, trials, n_boot=n_boot, seed=seed, confidence=confidence,
-                          n_saved=n_saved)
+                          n_saved=n_saved, friction_law=friction_law)
     return out.electrostatic, out.exponents, out.bootstrap, out.warnings
 
 
-__all__ = ["BOOTSTRAP_COLUMNS", "ELECTROSTATIC_COLUMNS", "EXPONENT_COLUMNS", "MIN_WINDOWS",
+__all__ = ["BOOTSTRAP_COLUMNS", "ELECTROSTATIC_COLUMNS", "EXPONENT_COLUMNS", "LAW_COLUMNS",
+           "MIN_WINDOWS",
            "N_BOOTSTRAP_SAVED", "StudySummary", "summarize", "summarize_study"]

@@ -42,6 +42,7 @@ import numpy as np
 import pandas as pd
 
 from evtribo import __version__
+from evtribo.analysis.friction.estimate import INTERVAL, MU_ESTIMATOR
 from evtribo.analysis.heard import no_force, say
 from evtribo.analysis.settings import AnalysisSettings, study_settings
 from evtribo.analysis.trial import (
@@ -84,10 +85,6 @@ from evtribo.study import Study, TrialRef, load_study
 from evtribo.util.docstrings import fill_doc
 
 log = logging.getLogger(__name__)
-
-#: How each ON window's μ is found, as summary.json's settings say it.
-MU_ESTIMATOR = ("each ON window's reference: the OFF windows' F_t/F_n at its time, sliding "
-                "direction and stroke pace (their ratio of means when nothing more is supported)")
 
 _INT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off",
                 "duplicate_frames")
@@ -421,7 +418,8 @@ class _Tables:
         windows = (pd.concat(frames, ignore_index=True) if frames else empty_windows())
         windows = windows.reindex(columns=list(WINDOW_CSV_COLUMNS))
         found = summarize_study(windows, trials, n_boot=settings.n_boot, seed=settings.seed,
-                                confidence=settings.confidence)
+                                confidence=settings.confidence,
+                                friction_law=settings.friction_law)
         electrostatic, exponents, bootstrap = found.electrostatic, found.exponents, \
             found.bootstrap
         warnings.extend(found.warnings)
@@ -473,8 +471,7 @@ def _summary(study: Study, tables: _Tables, settings: AnalysisSettings, *, start
         "jobs": jobs,
         "calibration": study.rig.calibration.to_dict(),
         "settings": {**settings.to_dict(), "mu_estimator": MU_ESTIMATOR,
-                     "interval": "percentile bootstrap over windows, stretched by a "
-                                 "Welch-Satterthwaite Student-t factor for few windows",
+                     "interval": INTERVAL,
                      "bootstrap_replicates_saved": int(bootstrap.replicate.nunique())
                      if not bootstrap.empty else 0},
         "warnings": warnings,

@@ -37,7 +37,13 @@ from evtribo.acquisition.buses.bus import BusSettings
 from evtribo.acquisition.command import Excitation, ExcitationCommand
 from evtribo.acquisition.live.liveview import LiveView
 from evtribo.acquisition.live.monitor import Monitor
-from evtribo.acquisition.protocol import Protocol, plan_trials, read_protocol, session_seed
+from evtribo.acquisition.protocol import (
+    Protocol,
+    SessionSettings,
+    plan_trials,
+    read_protocol,
+    session_seed,
+)
 from evtribo.acquisition.rigfile import AcquisitionRig, check_name, open_study
 from evtribo.acquisition.trial import record_trial
 from evtribo.acquisition.trialdata import RIG_DATA_TIMEOUT_S, TrialInfo, TrialOptions
@@ -179,7 +185,10 @@ def _load_or_plan(cfg: SessionConfig, protocol: Protocol, subject_dir: Path
     path = subject_dir / SESSION_FILE
     if path.exists():
         doc = read_session(path)
-        if doc.protocol != protocol.to_dict():
+        # a session begun before a [session] setting existed has its default
+        kept = {**doc.protocol, "session": {**Protocol(SessionSettings(), ()).to_dict()[
+            "session"], **doc.protocol.get("session", {})}}
+        if kept != protocol.to_dict():
             raise ConfigError(
                 f"differs from the protocol this subject's session began with (kept in "
                 f"{path}): finish that session with the same protocol, or record this one "
@@ -318,6 +327,7 @@ class _Session:
                           target=s.target_force_N, band=s.band_N, title=title,
                           tare_s=s.tare_s, rig_data_timeout=self.cfg.rig_data_timeout,
                           view=self.cfg.view, quiet=not self.cfg.display,
+                          steps=s.target_steps_N, step_s=s.step_s,
                           ) if (self.cfg.display or self.cfg.view) else None
         info = TrialInfo(waveform=entry.waveform, frequency_Hz=entry.frequency_Hz,
                          amplitude_V=entry.amplitude_V, condition=entry.condition,

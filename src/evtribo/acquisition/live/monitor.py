@@ -63,6 +63,10 @@ class Monitor:
         Planned duration (for the remaining time).
     target, band : float, N
         Target normal force and half-width of its band; ``target=None`` for no gauge.
+    steps : tuple of float, N
+        Targets the band steps through after the tare stretch, each held *step_s*, in turn
+        (empty: *target* all through).
+    step_s : float, s
     tty : bool or None
         Redraw in place (default: ``stream.isatty()``).
     interval : float, s
@@ -85,8 +89,10 @@ class Monitor:
                  target: float | None = None, band: float = 0.1, tty: bool | None = None,
                  interval: float = 0.25, line_interval: float = 5.0, title: str = "",
                  tare_s: float = 0.0, rig_data_timeout: float | None = None,
-                 view: LiveView | None = None, quiet: bool = False) -> None:
+                 view: LiveView | None = None, quiet: bool = False,
+                 steps: tuple[float, ...] = (), step_s: float = 4.0) -> None:
         self.rig = rig
+        self.steps, self.step_s = tuple(steps), step_s
         self.stream = stream
         self.duration = duration
         self.target = target
@@ -167,10 +173,17 @@ class Monitor:
             except Exception as err:  # the display must never stop the recording
                 log.warning("display failed: %s", err)
 
+    def target_at(self, elapsed_s: float) -> float | None:
+        """The target *elapsed_s* seconds into the trial, N: :attr:`target` during the tare
+        stretch and without steps, else the step of that time."""
+        if not self.steps or self.target is None or elapsed_s < self.tare_s:
+            return self.target
+        return self.steps[int((elapsed_s - self.tare_s) // self.step_s) % len(self.steps)]
+
     def _publish(self, snap: Snapshot) -> None:
         """Hand *snap* to the live view."""
         assert self.view is not None
-        self.view.publish(view_state(snap, target=self.target, band=self.band,
+        self.view.publish(view_state(snap, target=self.target_at(snap.elapsed_s), band=self.band,
                                      title=self.title, duration=self.duration))
 
     def _decode(self, latest: dict[int, Any], which: tuple[int, str, str] | None
@@ -256,11 +269,13 @@ class Monitor:
         if self.quiet:
             return
         if not self.tty:
-            self.stream.write(render_line(snap, target=self.target, band=self.band) + "\n")
+            self.stream.write(render_line(snap, target=self.target_at(snap.elapsed_s),
+                                          band=self.band) + "\n")
             self.stream.flush()
             return
         columns = shutil.get_terminal_size(fallback=(80, 24)).columns
-        lines = render_status(snap, target=self.target, band=self.band, colour=True,
+        lines = render_status(snap, target=self.target_at(snap.elapsed_s), band=self.band,
+                              colour=True,
                               title=self.title, columns=columns)
         out = f"\x1b[{self._drawn}F" if self._drawn else ""
         out += "".join(f"\x1b[2K{line}\n" for line in lines) + "\x1b[J"

@@ -112,6 +112,11 @@ class SubjectParams:
     mu_trial_spread : float
         Relative standard deviation of each trial's friction coefficient about ``mu`` (the
         skin's state differs between trials; 0: the same in every trial).
+    friction_exponent : float
+        ``m`` of the friction's dependence on the load ``W = F_n + F_el``:
+        ``F_t = mu * W_0 * (W / W_0)**m`` with ``W_0 = normal_force_N`` (``mu`` is the
+        coefficient at the target press). 1: Amontons-Coulomb friction; a finger pad on
+        glass, a soft Hertzian contact, has about 0.67-0.9 (Adams et al. 2013).
     model : dict
         Other parameters of the model for this subject (``ModelParameters`` names, SI
         units), e.g. ``{"r_g": 80.0}``: a gap that leaks, so that the force depends on the
@@ -137,6 +142,7 @@ class SubjectParams:
     speed_spread: float = 1.0
     direction_asymmetry: float = 0.0
     mu_trial_spread: float = 0.0
+    friction_exponent: float = 1.0
     model: dict[str, float] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -153,6 +159,10 @@ class SubjectParams:
                 and abs(self.direction_asymmetry) < 0.5):
             raise ConfigError(f"{self.direction_asymmetry!r} is not allowed: |a| < 0.5",
                               key="SubjectParams.direction_asymmetry")
+        if not (isinstance(self.friction_exponent, int | float)
+                and 0.3 <= self.friction_exponent <= 1.5):
+            raise ConfigError(f"{self.friction_exponent!r} is not allowed: must be between "
+                              "0.3 and 1.5", key="SubjectParams.friction_exponent")
         if self.mu_trial_spread >= 0.5:
             raise ConfigError(f"{self.mu_trial_spread!r} is not allowed: must be < 0.5",
                               key="SubjectParams.mu_trial_spread")

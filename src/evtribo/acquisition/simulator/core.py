@@ -95,17 +95,6 @@ class _Node:
         return np.arange(k0, k1, dtype=np.int64)
 
 
-def _friction_law(subject: SubjectParams, rng: np.random.Generator) -> FrictionLaw:
-    """The subject's friction in one trial (its coefficient drawn about the subject's when
-    trials differ)."""
-    mu0 = subject.mu
-    if subject.mu_trial_spread > 0:
-        mu0 *= float(np.clip(1.0 + subject.mu_trial_spread * rng.standard_normal(), 0.5, 1.5))
-    return FrictionLaw(mu0, subject.moisture_rise, subject.moisture_time_s,
-                       subject.speed_exponent, subject.sliding_speed_m_s,
-                       subject.direction_asymmetry)
-
-
 def _load_dbc(dbc: str | os.PathLike[str] | None) -> Any:
     path = Path(dbc) if dbc is not None else DEFAULT_DBC
     try:
@@ -165,7 +154,7 @@ class TrialGenerator:
                                     np.random.default_rng([seed, _S_STROKE]),
                                     np.random.default_rng([seed, _S_DWELL]),
                                     np.random.default_rng([seed, _S_SPEED]))
-        self.friction = _friction_law(subject, np.random.default_rng([seed, _S_FINGER]))
+        self.friction = FrictionLaw.of(subject, np.random.default_rng([seed, _S_FINGER]))
         self.delivery = Delivery.draw(config, np.random.default_rng([seed, _S_DELIVERY]))
         self.creep = {"normal": Creep(config.creep, config.creep_time_s),
                       "tangential": Creep(config.creep, config.creep_time_s)}
@@ -249,10 +238,11 @@ class TrialGenerator:
         if self.config.press_only:  # no sliding: the skin's small shear only
             shear = PRESS_SHEAR * self.subject.normal_force_N * np.sin(2 * np.pi * t / 7.0)
             return np.where(contact > 0, shear, 0.0), fel
-        return self.mu_at(t) * (fn + fel) * self.strokes.factor(t), fel
+        return self.friction.force(self.mu_at(t), fn + fel) * self.strokes.factor(t), fel
 
     def mu_at(self, t: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-        """The finger's friction coefficient at times *t* (s from the trial's start)."""
+        """The finger's friction coefficient at times *t* (s from the trial's start), at
+        the law's reference load (:class:`~evtribo.acquisition.simulator.finger.FrictionLaw`)."""
         law = self.friction
         if law.constant:
             return np.full(t.shape, law.mu0)
@@ -329,7 +319,8 @@ class TrialGenerator:
             self._fel_sum.append(np.bincount(bins, weights=fel, minlength=size)[:size]
                                  .astype(np.float64, copy=False))
             self._fel_count.append(np.bincount(bins, minlength=size)[:size])
-            self._mu_sum.append(np.bincount(bins, weights=self.mu_at(t), minlength=size)[:size]
+            mu = self.friction.coefficient_at(self.mu_at(t), fn)  # F_t / F_n when OFF
+            self._mu_sum.append(np.bincount(bins, weights=mu, minlength=size)[:size]
                                 .astype(np.float64, copy=False))
         values = {"Fx": self._reading("tangential", xtalk[1], fn, ft, t, rng=noise),
                   "FxTemp": 24.5 + 0.5 * np.sin(2 * np.pi * t / 700.0)}

@@ -16,7 +16,15 @@ glass does not (``docs/simulator.md`` gives the sources and the ranges):
 - **direction**: forward and backward strokes differ (finger posture, the ridges'
   direction), ``mu * (1 + a * d)`` with ``d`` the sliding direction;
 - **trial to trial**: the skin's state differs between trials (``mu`` of each trial drawn
-  about the subject's).
+  about the subject's);
+- **load**: a finger pad on smooth glass is a soft Hertzian contact whose real area grows
+  as ``W**(2/3)``, and its friction follows the area: ``F_t = c * W**m`` with ``m`` from
+  2/3 (the dry limit, ``mu ~ W**(-1/3)``) towards 1, ``m`` about 0.67-0.9 for finger pads
+  (Adams et al., J. R. Soc. Interface 2013; Dzidek et al., J. R. Soc. Interface 2017).
+  Under electroadhesion the electrostatic force loads the same contact: ``W = F_n +
+  F_el``. The law is written about the subject's target press ``W_0``,
+  ``F_t = mu * W_0 * (W / W_0)**m``, so that ``mu`` is the coefficient at that press
+  (and ``m = 1`` is Amontons-Coulomb friction, ``F_t = mu * W``).
 
 :class:`FrictionLaw` combines them; the simulator evaluates it at every sample of the
 tangential cell and records it as the truth.
@@ -25,11 +33,15 @@ tangential cell and records it as the truth.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
 
 __all__ = ["PRESS_PERIOD_S", "FrictionLaw", "contact_time", "press_cycle"]
+
+if TYPE_CHECKING:
+    from evtribo.acquisition.simulator.config import SubjectParams
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -66,9 +78,11 @@ def contact_time(t: npt.ArrayLike, off_start: npt.ArrayLike, off_end: npt.ArrayL
 
 @dataclass(frozen=True)
 class FrictionLaw:
-    """A trial's friction coefficient at each instant.
+    """A trial's friction at each instant.
 
-    ``mu(t) = mu0 * moisture(t) * (v / v_ref)**speed_exponent * (1 + asymmetry * d)``
+    ``mu(t) = mu0 * moisture(t) * (v / v_ref)**speed_exponent * (1 + asymmetry * d)``, the
+    coefficient at the reference load ``W_0``; the friction under a load ``W`` is
+    ``F_t = mu(t) * W_0 * (W / W_0)**exponent`` (:meth:`force`).
 
     Attributes
     ----------
@@ -85,6 +99,10 @@ class FrictionLaw:
         Speed at which the speed factor is 1.
     asymmetry : float
         ``a`` of the direction dependence.
+    exponent : float
+        ``m`` of the friction's dependence on the load (1: Amontons-Coulomb).
+    reference_load_N : float, N
+        ``W_0``, the load at which ``mu`` is the coefficient ``F_t / W``.
     """
 
     mu0: float
@@ -93,6 +111,74 @@ class FrictionLaw:
     speed_exponent: float = 0.0
     reference_speed_m_s: float = 0.02
     asymmetry: float = 0.0
+    exponent: float = 1.0
+    reference_load_N: float = 1.0
+
+    @classmethod
+    def of(cls, subject: SubjectParams, rng: np.random.Generator) -> FrictionLaw:
+        """The subject's friction in one trial (its coefficient drawn about the subject's
+        when trials differ, ``mu_trial_spread``).
+
+        Parameters
+        ----------
+        subject : SubjectParams
+        rng : numpy.random.Generator
+
+        Returns
+        -------
+        FrictionLaw
+        """
+        mu0 = subject.mu
+        if subject.mu_trial_spread > 0:
+            mu0 *= float(np.clip(1.0 + subject.mu_trial_spread * rng.standard_normal(),
+                                 0.5, 1.5))
+        return cls(mu0, subject.moisture_rise, subject.moisture_time_s,
+                   subject.speed_exponent, subject.sliding_speed_m_s,
+                   subject.direction_asymmetry, subject.friction_exponent,
+                   subject.normal_force_N)
+
+    def force(self, mu: npt.ArrayLike, load_N: npt.ArrayLike) -> FloatArray:
+        """The friction's magnitude under *load_N* with the coefficient *mu* (at the
+        reference load), ``mu * W_0 * (W / W_0)**m``, N.
+
+        Parameters
+        ----------
+        mu : array_like of float
+            The coefficient at the reference load (:meth:`mu`).
+        load_N : array_like of float, N
+            The contact's load ``W = F_n + F_el`` (>= 0).
+
+        Returns
+        -------
+        ndarray of float64, N
+        """
+        w = np.maximum(np.asarray(load_N, dtype=np.float64), 0.0)
+        mu_a = np.asarray(mu, dtype=np.float64)
+        if self.exponent == 1.0:
+            return np.asarray(mu_a * w, dtype=np.float64)
+        w0 = self.reference_load_N
+        return np.asarray(mu_a * w0 * (w / w0) ** self.exponent, dtype=np.float64)
+
+    def coefficient_at(self, mu: npt.ArrayLike, load_N: npt.ArrayLike) -> FloatArray:
+        """The coefficient ``F_t / W`` under *load_N*: ``mu * (W / W_0)**(m - 1)`` (*mu*
+        where the load is zero).
+
+        Parameters
+        ----------
+        mu : array_like of float
+        load_N : array_like of float, N
+
+        Returns
+        -------
+        ndarray of float64
+        """
+        mu_a = np.asarray(mu, dtype=np.float64)
+        if self.exponent == 1.0:
+            return np.asarray(np.broadcast_to(mu_a, np.broadcast_shapes(
+                mu_a.shape, np.shape(load_N))), dtype=np.float64).copy()
+        w = np.asarray(load_N, dtype=np.float64)
+        ratio = np.where(w > 0, w / self.reference_load_N, 1.0)
+        return np.asarray(mu_a * ratio ** (self.exponent - 1.0), dtype=np.float64)
 
     @property
     def constant(self) -> bool:

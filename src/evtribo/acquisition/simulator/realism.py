@@ -22,7 +22,8 @@ fingertip (:func:`real_finger`)   friction rising by 20-40 % as the contact mois
                                   constant 5-10 s of contact), depending on speed
                                   (exponent 0.1-0.2, strokes' speeds spread 3x) and on
                                   direction (+/- 3-8 %), each trial's coefficient 5-10 %
-                                  apart
+                                  apart, and a friction that grows slower than the load
+                                  (``F_t ~ W**m``, m 0.67-0.9)
 logger (:func:`real_logger`)      1 ms of reception jitter, batches every 1 ms, a clock
                                   100 ppm off, an outage of 50 ms or so a minute
 ================================  ==========================================================
@@ -144,8 +145,8 @@ def human(subject: SubjectParams, seed: int = 0) -> SubjectParams:
 
 
 def real_finger(subject: SubjectParams, seed: int = 0, *, moisture: bool = True,
-                speed: bool = True, direction: bool = True, trials: bool = True
-                ) -> SubjectParams:
+                speed: bool = True, direction: bool = True, trials: bool = True,
+                load: bool = True) -> SubjectParams:
     """*subject* with a real fingertip's friction (:mod:`~evtribo.acquisition.simulator.
     finger`), drawn with *seed*; each effect can be left out.
 
@@ -161,13 +162,16 @@ def real_finger(subject: SubjectParams, seed: int = 0, *, moisture: bool = True,
         Forward and backward strokes 3-8 % apart (either way).
     trials : bool
         Each trial's coefficient 5-10 % (standard deviation) apart.
+    load : bool
+        Friction ``F_t ~ W**m`` of the load ``W = F_n + F_el``, ``m`` drawn in 0.67-0.9
+        (a soft Hertzian contact, Adams et al. 2013).
 
     Returns
     -------
     SubjectParams
     """
     rng = np.random.default_rng([seed, _S_FINGER])
-    draws = rng.uniform(0.0, 1.0, 6)
+    draws = rng.uniform(0.0, 1.0, 7)
     changes: dict[str, Any] = {}
     if moisture:
         changes.update(moisture_rise=round(0.2 + 0.2 * float(draws[0]), 3),
@@ -179,6 +183,8 @@ def real_finger(subject: SubjectParams, seed: int = 0, *, moisture: bool = True,
         changes.update(direction_asymmetry=round(sign * (0.03 + 0.05 * float(draws[4])), 4))
     if trials:
         changes.update(mu_trial_spread=round(0.05 + 0.05 * float(draws[5]), 3))
+    if load:
+        changes.update(friction_exponent=round(0.67 + 0.23 * float(draws[6]), 3))
     return dataclasses.replace(subject, **changes)
 
 

@@ -64,7 +64,8 @@ class TrialTruth:
         The finger's speed in each of :attr:`slides`.
     friction : dict
         The trial's friction law (:class:`~evtribo.acquisition.simulator.finger.
-        FrictionLaw`'s fields: ``mu0``, moisture, speed and direction terms).
+        FrictionLaw`'s fields: ``mu0``, moisture, speed and direction terms, the load's
+        ``exponent`` and ``reference_load_N``).
     outages : list of (start_s, end_s)
         Periods in which the logger received nothing.
     """
@@ -107,7 +108,9 @@ class TrialTruth:
 
     def mu_between(self, t0: float, t1: float) -> float:
         """Mean of the finger's friction coefficient over the tangential cell's samples in
-        ``[t0, t1)`` (as :meth:`electrostatic_between`)."""
+        ``[t0, t1)`` (as :meth:`electrostatic_between`): the ratio ``F_t / F_n`` the finger
+        would give without the voltage at the press of each instant (``mu`` itself with
+        Amontons friction; ``mu * (F_n / W_0)**(m - 1)`` with the law ``F_t ~ W**m``)."""
         return self._between(self.mu_sum, t0, t1)
 
     def _between(self, sums: npt.NDArray[np.float64] | None, t0: float, t1: float) -> float:

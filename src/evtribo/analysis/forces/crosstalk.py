@@ -30,15 +30,19 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
+from scipy import special  # stats.t.sf is special.stdtr, stats.norm.cdf special.ndtr
 
-__all__ = ["EDGE_S", "MAX_GAP_S", "ReversalSums", "crosstalk_notes", "direction_share",
-           "reversal_sums"]
+__all__ = ["EDGE_S", "MAX_GAP_S", "NOTE_SIGMA", "ReversalSums", "crosstalk_notes",
+           "direction_share", "pooled_over_trials", "reversal_sums"]
 
 #: Length of the stretch at the end of one window and the start of the next that gives the
 #: forces before and after a reversal, s.
 EDGE_S = 0.2
 #: Two windows of opposite directions at most this far apart frame one reversal, s.
 MAX_GAP_S = 1.0
+#: A study's cross-talk is noted when it stands this far from zero: the two-sided tail of
+#: so many normal standard deviations (0.27 %), in Student's t over the trials.
+NOTE_SIGMA = 3.0
 
 
 @dataclass(frozen=True)
@@ -154,8 +158,55 @@ def direction_share(windows: pd.DataFrame) -> float:
     return 0.5 * (ratios[0] + ratios[1])
 
 
+def pooled_over_trials(values: npt.ArrayLike, se: npt.ArrayLike | None = None
+                       ) -> tuple[float, float, float]:
+    """A rig's constant from its trials' estimates, with the trials' own variation between
+    them: a random-effects mean (DerSimonian & Laird's between-trial variance; without
+    standard errors, the plain mean) and its Hartung-Knapp standard error, in Student's t
+    with one degree of freedom less than the trials.
+
+    A trial's standard error counts its reversals as independent; what differs from trial
+    to trial (the finger's posture, how it presses in each direction) does not average out
+    within a trial, and a mean weighted by those errors alone is far surer of itself than
+    the trials are of each other.
+
+    Parameters
+    ----------
+    values : array_like of float
+        Each trial's estimate.
+    se : array_like of float, optional
+        Their standard errors.
+
+    Returns
+    -------
+    mean, se, p : float
+        The pooled value, its standard error, and the two-sided p-value of its difference
+        from zero (NaN with fewer than 2 trials).
+    """
+    x = np.asarray(values, dtype=np.float64)
+    k = x.size
+    if k < 2:
+        return (float(x[0]) if k else float("nan")), float("nan"), float("nan")
+    if se is None:
+        w = np.ones(k)
+    else:
+        v = np.asarray(se, dtype=np.float64) ** 2
+        w0 = 1.0 / v
+        mean0 = float(np.sum(w0 * x) / np.sum(w0))
+        q = float(np.sum(w0 * (x - mean0) ** 2))
+        tau2 = max(0.0, (q - (k - 1)) / (np.sum(w0) - np.sum(w0**2) / np.sum(w0)))
+        w = 1.0 / (v + tau2)
+    mean = float(np.sum(w * x) / np.sum(w))
+    var = float(np.sum(w * (x - mean) ** 2) / ((k - 1) * np.sum(w)))
+    err = float(np.sqrt(var))
+    p = float(2.0 * special.stdtr(k - 1, -abs(mean) / err)) if err > 0 else (
+        0.0 if mean != 0 else 1.0)
+    return mean, err, p
+
+
 def crosstalk_notes(trials: pd.DataFrame) -> list[str]:
-    """What the trials' cross-talk columns say of the rig, pooled over the study.
+    """What the trials' cross-talk columns say of the rig, pooled over the study's trials
+    with their variation between them (:func:`pooled_over_trials`).
 
     Parameters
     ----------
@@ -168,18 +219,18 @@ def crosstalk_notes(trials: pd.DataFrame) -> list[str]:
     list of str
     """
     notes = []
+    alpha = float(2.0 * special.ndtr(-NOTE_SIGMA))
     if {"crosstalk_normal", "crosstalk_normal_se"} <= set(trials.columns):
         a = pd.to_numeric(trials.crosstalk_normal, errors="coerce").to_numpy(float)
         se = pd.to_numeric(trials.crosstalk_normal_se, errors="coerce").to_numpy(float)
         ok = np.isfinite(a) & np.isfinite(se) & (se > 0)
-        if ok.sum() >= 2:
-            w = 1.0 / se[ok] ** 2
-            pooled, pooled_se = float(np.sum(w * a[ok]) / np.sum(w)), float(1 / np.sqrt(w.sum()))
-            if abs(pooled) > max(3 * pooled_se, 0.005):
+        if ok.sum() >= 3:
+            pooled, pooled_se, p = pooled_over_trials(a[ok], se[ok])
+            if p < alpha and abs(pooled) > 0.005:
                 notes.append(
-                    f"the normal cell reads {100 * pooled:+.1f} % (+/- {100 * pooled_se:.1f}) "
-                    "of the tangential force: its reading jumps with each reversal of the "
-                    f"strokes ({int(ok.sum())} trials); cross-talk, or a finger pressing "
+                    f"the normal cell reads {100 * pooled:+.1f} % (+/- {100 * pooled_se:.1f}, "
+                    f"over {int(ok.sum())} trials) of the tangential force: its reading jumps "
+                    "with each reversal of the strokes; cross-talk, or a finger pressing "
                     "harder one way. The electrostatic force weighs both directions alike "
                     "and is not biased by it, but the normal forces reported are: give "
                     f"[rig.calibration] matrix = [[1.0, {-pooled:.4f}], [0.0, 1.0]] in "
@@ -187,10 +238,10 @@ def crosstalk_notes(trials: pd.DataFrame) -> list[str]:
     if "tangential_direction_share" in trials.columns:
         b = pd.to_numeric(trials.tangential_direction_share, errors="coerce").dropna()
         if len(b) >= 3:
-            med = float(b.median())
-            if abs(med) > 0.01 and float(np.mean(np.sign(b) == np.sign(med))) >= 0.75:
+            mean, _, p = pooled_over_trials(b.to_numpy(float))
+            if p < alpha and abs(mean) > 0.01:
                 notes.append(
-                    f"the tangential reading follows the normal force by {100 * med:+.1f} % "
+                    f"the tangential reading follows the normal force by {100 * mean:+.1f} % "
                     f"of it in both sliding directions ({len(b)} trials): cross-talk from the "
                     "normal axis, or friction that differs between the directions; the "
                     "electrostatic force compares each direction with its own friction. "

@@ -17,16 +17,46 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from evtribo.analysis.friction.reference import MuModel, WindowFacts, fit_mu_model
+from evtribo.analysis.friction.facts import (
+    MAX_DEGREE,
+    SPAN_PER_DEGREE_S,
+    WindowFacts,
+    time_basis,
+)
+from evtribo.analysis.friction.reference import MuModel, fit_mu_model
 from evtribo.errors import AnalysisError
 
-__all__ = ["MIN_OFF_WINDOWS", "NOTABLE_CHANGE", "TrialDrift", "drift_notes", "relative_scatter",
-           "stroke_notes", "trial_drifts", "window_facts"]
+__all__ = [
+    "CONFOUNDED",
+    "MIN_OFF_WINDOWS",
+    "NOTABLE_CHANGE",
+    "NOTABLE_SE",
+    "TrialDrift",
+    "clear_phase_s",
+    "drift_notes",
+    "phase_confounding",
+    "phase_notes",
+    "relative_scatter",
+    "stroke_notes",
+    "trial_confounding",
+    "trial_drifts",
+    "window_facts",
+]
+
+FloatArray = npt.NDArray[np.float64]
 
 #: Fewest OFF windows a trial needs for its ``mu_change_per_10s``.
 MIN_OFF_WINDOWS = 6
 #: A change of mu over a trial, relative to mu, worth a note.
 NOTABLE_CHANGE = 0.05
+#: ... when it also stands this many standard errors from zero (a trend the model's terms
+#: chose from noise is no change of the finger).
+NOTABLE_SE = 3.0
+#: An alternating trial's phases are too long when a drift of mu and the ON phases share so
+#: much that F_el's variance grows by this factor (its standard error by its root, 1.4).
+CONFOUNDED = 2.0
+#: The phase length suggested instead keeps the variance's growth within this factor.
+CLEAR = 1.3
 
 
 def window_facts(frame: pd.DataFrame) -> WindowFacts:
@@ -76,17 +106,30 @@ class TrialDrift:
     mu : float
         The mean of the model over the trial's OFF windows.
     model : MuModel
+    relative_se : float
+        Standard error of :attr:`relative`.
     """
 
     change_per_10s: float
     relative: float
     mu: float
     model: MuModel
+    relative_se: float = 0.0
+
+    @property
+    def notable(self) -> bool:
+        """Whether the change is worth a note: :data:`NOTABLE_CHANGE` of ``mu`` or more,
+        and :data:`NOTABLE_SE` standard errors from zero."""
+        return (abs(self.relative) >= NOTABLE_CHANGE
+                and abs(self.relative) >= NOTABLE_SE * self.relative_se)
 
 
-def trial_drifts(off: pd.DataFrame, models: dict[object, MuModel] | None = None
+def trial_drifts(off: pd.DataFrame, models: dict[object, MuModel] | None = None, *,
+                 rate_slope: float = 0.0, exponent: float = 1.0, load_ref_N: float = 1.0
                  ) -> dict[object, TrialDrift]:
-    """Each trial's drift of mu, from its OFF windows.
+    """Each trial's drift of mu, from its OFF windows, at a constant stroke pace and press
+    (the subject's friction law's terms taken out, so that strokes that slow down over a
+    trial, or a press that wanders, are not taken for a finger that dries).
 
     Parameters
     ----------
@@ -95,6 +138,8 @@ def trial_drifts(off: pd.DataFrame, models: dict[object, MuModel] | None = None
     models : dict, optional
         Models already fitted to a trial's OFF windows alone (its alternating reference),
         by trial name: used as they are.
+    rate_slope, exponent, load_ref_N : float
+        The subject's friction law (:class:`~evtribo.analysis.friction.law.FrictionLaw`).
 
     Returns
     -------
@@ -111,14 +156,15 @@ def trial_drifts(off: pd.DataFrame, models: dict[object, MuModel] | None = None
         if model is None:
             try:
                 model = fit_mu_model(rows.normal_force_N, rows.friction_force_N, facts,
-                                     time_trend=True)
+                                     time_trend=True, rate_slope=rate_slope,
+                                     exponent=exponent, load_ref_N=load_ref_N)
             except AnalysisError:
                 continue
         mu = float(np.mean(model.at(facts)))
         per_s = model.change_per_s()
         span = model.t_hi - model.t_lo
         out[trial] = TrialDrift(10.0 * per_s, per_s * span / mu if mu > 0 else 0.0, mu,
-                                model)
+                                model, model.change_se() * span / mu if mu > 0 else 0.0)
     return out
 
 
@@ -141,7 +187,7 @@ def drift_notes(subject: str, drifts: dict[object, TrialDrift], *, compared_in_t
     -------
     list of str
     """
-    notable = {t: d for t, d in drifts.items() if abs(d.relative) >= NOTABLE_CHANGE}
+    notable = {t: d for t, d in drifts.items() if d.notable}
     if not notable:
         return []
     worst = max(notable, key=lambda t: abs(notable[t].relative))
@@ -149,8 +195,8 @@ def drift_notes(subject: str, drifts: dict[object, TrialDrift], *, compared_in_t
     text = (f"{subject}: the friction coefficient changed within {len(notable)} of "
             f"{len(drifts)} trials (by {100 * notable[worst].relative:+.0f} % over trial "
             f"{worst}; {'rising' if np.median(rel) > 0 else 'falling'} in "
-            f"{int(np.sum(np.sign(rel) == np.sign(np.median(rel))))}: a fingertip "
-            "moistening or drying)")
+            f"{int(np.sum(np.sign(rel) == np.sign(np.median(rel))))}, at a constant stroke "
+            "pace and press: a fingertip moistening or drying)")
     notes = []
     if compared_in_trial:
         notes.append(text + "; each ON window was compared with its trial's OFF friction at "
@@ -217,6 +263,138 @@ def relative_scatter(models: dict[int, MuModel], ratios: dict[int, npt.NDArray[n
     parts = []
     for r, model in models.items():
         if r in ratios and ratios[r].size > model.coef.size + 1:
-            resid = model.resid  # HC2-scaled residuals of the ratio
-            parts.append(resid / np.mean(ratios[r]))
+            resid = model.resid  # CR2-scaled residuals: of log(F_t/F_n), or of the ratio
+            parts.append(resid if model.log else resid / np.mean(ratios[r]))
     return float(np.std(np.concatenate(parts))) if parts else 0.0
+
+
+def _degree(span_s: float) -> int:
+    """The highest degree of drift a trial of *span_s* seconds is fitted with."""
+    return max(1, min(MAX_DEGREE, int(span_s // SPAN_PER_DEGREE_S)))
+
+
+def phase_confounding(t_s: npt.ArrayLike, group: npt.ArrayLike,
+                      weight: npt.ArrayLike | None = None) -> float:
+    """How much a drift of the friction in time and the ON phases of an alternating trial
+    are confounded: the factor by which the variance of an ON group's level grows when a
+    polynomial drift of the degree the trial's span allows is fitted beside it (the
+    variance inflation of ordinary regression; 1: the design tells them apart).
+
+    Parameters
+    ----------
+    t_s : array_like of float, s
+        The trial's windows' times, OFF and ON.
+    group : array_like of float
+        Each window's ON group (NaN: OFF).
+    weight : array_like of float, optional
+        The fit's weights (the windows' normal forces).
+
+    Returns
+    -------
+    float
+        The largest factor over the ON groups (1 without ON windows or times).
+    """
+    t = np.asarray(t_s, dtype=np.float64)
+    g = np.asarray(group, dtype=np.float64)
+    w = np.ones(t.size) if weight is None else np.asarray(weight, dtype=np.float64)
+    if t.size < 4 or not np.isfinite(t).all() or np.ptp(t) <= 0:
+        return 1.0
+    groups = np.unique(g[np.isfinite(g)])
+    if groups.size == 0 or not (~np.isfinite(g)).any():
+        return 1.0
+    on = np.column_stack([(g == x).astype(np.float64) for x in groups])
+    trend = time_basis(t, float(t.min()), float(t.max()), _degree(float(np.ptp(t))))
+    sw = np.sqrt(w)[:, None]
+
+    def variances(cols: list[FloatArray]) -> FloatArray:
+        X = np.column_stack(cols) * sw
+        try:
+            return np.asarray(np.diag(np.linalg.pinv(X.T @ X))[-groups.size:])
+        except np.linalg.LinAlgError:
+            return np.full(groups.size, np.inf)
+
+    plain = variances([np.ones(t.size), on])
+    full = variances([np.ones(t.size), trend, on])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(plain > 0, full / plain, np.inf)
+    return float(np.max(ratio))
+
+
+def clear_phase_s(span_s: float, guard_s: float = 0.15) -> float:
+    """The longest ON/OFF phase (a grid of 0.5-s steps) with which a trial of *span_s*
+    seconds keeps the drift apart from the ON effect (:func:`phase_confounding` within
+    :data:`CLEAR`), sampled every 0.1 s outside the guards about each switch.
+
+    Parameters
+    ----------
+    span_s : float, s
+    guard_s : float, s
+
+    Returns
+    -------
+    float, s
+    """
+    t = np.arange(0.05, span_s, 0.1)
+    best = 0.5
+    for length in np.arange(0.5, span_s / 2 + 1e-9, 0.5):
+        phase = np.floor(t / length)
+        edge = np.minimum(t - phase * length, (phase + 1) * length - t)
+        keep = edge > guard_s
+        group = np.where(phase % 2 == 1, 1.0, np.nan)
+        if phase_confounding(t[keep], group[keep]) <= CLEAR:
+            best = float(length)
+    return best
+
+
+def phase_notes(subject: str, confounded: dict[object, tuple[float, float]]) -> list[str]:
+    """The note of a subject whose alternating trials' phases are too long to tell a drift
+    of the friction from the voltage's effect.
+
+    Parameters
+    ----------
+    subject : str
+    confounded : dict
+        ``{trial: (phase_confounding, span_s)}`` of its alternating trials.
+
+    Returns
+    -------
+    list of str
+    """
+    bad = {t: v for t, v in confounded.items() if v[0] >= CONFOUNDED}
+    if not bad:
+        return []
+    worst = max(v[0] for v in bad.values())
+    span = float(np.median([v[1] for v in bad.values()]))
+    names = ", ".join(str(t) for t in list(bad)[:4]) + (", ..." if len(bad) > 4 else "")
+    return [f"{subject}: in trials {names} the ON and OFF phases are too long to tell a "
+            "drift of the friction (a moistening finger) from the voltage's effect: fitting "
+            f"the drift widens F_el's interval up to {np.sqrt(worst):.1f}-fold, and a drift "
+            "the data do not show clearly goes into F_el; with trials of "
+            f"{span:.0f} s, phases of {clear_phase_s(span):g} s or shorter keep the two "
+            "apart"]
+
+
+def trial_confounding(windows: pd.DataFrame) -> dict[object, tuple[float, float]]:
+    """Each trial's :func:`phase_confounding` and its windows' span, s.
+
+    Parameters
+    ----------
+    windows : pandas.DataFrame
+        A subject's windows of its alternating trials (windows.csv's columns).
+
+    Returns
+    -------
+    dict
+        ``{trial: (factor, span_s)}``.
+    """
+    out: dict[object, tuple[float, float]] = {}
+    if not {"t_start_s", "t_end_s"} <= set(windows.columns):
+        return out
+    for trial, rows in windows.groupby("trial", sort=False):
+        t = 0.5 * (rows.t_start_s.to_numpy(float) + rows.t_end_s.to_numpy(float))
+        on = (rows.condition == "on").to_numpy()
+        group = np.where(on, pd.factorize(rows.amplitude_V)[0].astype(float), np.nan)
+        if np.isfinite(t).all() and t.size >= 4:
+            out[trial] = (phase_confounding(t, group, rows.normal_force_N.to_numpy(float)),
+                          float(np.ptp(t)))
+    return out

@@ -7,52 +7,57 @@ Friction coefficient
     weighted least-squares fit of the windows' ``F_t / F_n`` to their time in the trial,
     sliding direction and stroke rate. The ratio of means is the estimator the
     electrostatic force is defined against (``F_off = mu * F_n,off``): with no voltage
-    effect the inferred force is exactly zero whatever the spread of normal forces, and it
-    is the maximum-likelihood estimate when the friction's noise grows with the load; the
-    model keeps that weighting.
+    effect and Amontons' law the inferred force is exactly zero whatever the spread of
+    normal forces, and it is the maximum-likelihood estimate when the friction's noise
+    grows with the load; the model keeps that weighting. The subject's friction law
+    ``F_t = c W**m`` (:mod:`evtribo.analysis.friction.law`) enters as a known factor
+    ``(F_n / W_0)**(m - 1)``, as the stroke rate's does.
 
 Electrostatic force
-    As the study format defines it, the mean over the ON windows of ``F_t,on / mu - F_n,on``,
-    where ``mu`` is the ON window's own reference at the window's time, direction and stroke
-    rate. The mean gives each trial its share of the ON windows and, within a trial, both
-    sliding directions the same share, so that a difference between the directions (of the
-    finger's friction, or the normal cell read into the tangential one) cancels instead of
-    following how many strokes went each way.
+    The mean over the ON windows of the law inverted, ``F_n ((F_t,on / (mu F_n))**(1/m) -
+    1)`` (``F_t,on / mu - F_n,on`` as the study format defines it when ``m = 1``), where
+    ``mu`` is the ON window's own reference at the window's time, direction, stroke rate
+    and normal force. The mean gives each trial its share of the ON windows and, within a
+    trial, both sliding directions the same share, so that a difference between the
+    directions (of the finger's friction, or the normal cell read into the tangential one)
+    cancels instead of following how many strokes went each way.
 
 Uncertainty
-    Stratified bootstrap: every replicate resamples the ON windows' strokes (windows of one
-    stroke together) within each trial and direction, and draws each reference's ``mu``
-    model from its wild cluster bootstrap (:meth:`~evtribo.analysis.friction.reference.MuModel.
-    replicates`), so the replicates carry ``mu``'s uncertainty. Replicates are shared by the
-    amplitudes of a subject (a reference serving several of them is drawn once per
+    One wild cluster bootstrap of everything a force rests on (Cameron, Gelbach & Miller
+    2008, for few clusters; the clusters are strokes): the design held (the windows, their
+    normal forces, their weights in the mean), each window's ``log F_t`` perturbed by its
+    model's residual, scaled as the CR2 variance scales it (Bell & McCaffrey 2002), times
+    a standard normal weight drawn per stroke; every reference refitted to its perturbed
+    windows (its terms chosen again by AICc), the force computed again from the perturbed
+    ON windows and the refitted ``mu``. An alternating trial's ON windows are fitted with
+    its OFF windows (:func:`~evtribo.analysis.friction.reference.fit_trial_model`), so their
+    perturbations move its ``mu`` and its ON windows together, as their errors do; the ON
+    windows of other trials than their reference's are perturbed about a model of their
+    own (each trial and group's level, its change with ``log F_n``, direction:
+    :func:`~evtribo.analysis.friction.bootstrap.on_residuals`). The law's exponent and the
+    stroke rate's slope are drawn from their own distributions. Replicates are shared by
+    the amplitudes of a subject (a reference serving several of them is drawn once per
     replicate: their errors are correlated, as in the data), and feed the power-law
     exponent's interval and the model fit of ``evtribo compare``. The generator is seeded
     for reproducible output.
 
-    Small-sample calibration. A trial gives 6-10 windows per condition, and at such counts
-    the plain percentile bootstrap is too narrow: it uses the plug-in variance (biased low
-    by ``(n-1)/n``) and normal rather than Student tails (Monte Carlo, independent window
-    noise, 400 repeats: 88 % coverage at 6 windows per group, 92.5 % at 10, 94.5 % at 25).
-    The replicates of each amplitude are therefore stretched about the point estimate by
+    Small-sample calibration. A trial gives 4-10 windows per condition. The residuals'
+    CR2 scaling makes each source's bootstrap variance unbiased, and the normal weights make
+    the percentile interval of a mean the normal one; what remains is Student's tails: the
+    replicates of each amplitude are stretched about the point estimate by
 
-        ``c = sqrt(sum_i v_i n_i/f_i / sum_i v_i) * t(1-alpha/2, nu) / z(1-alpha/2)``
+        ``c = t(1-alpha/2, nu) / z(1-alpha/2)``
 
-    where the sum runs over the force's independent error sources: the ON strokes' scatter
-    (``n_i`` its strokes, ``f_i = n_i`` less its trial-direction strata) and each reference's
-    ``mu`` (``f_i`` its strokes less the model's coefficients; its wild bootstrap uses
-    HC2-scaled residuals, whose variance is not a plug-in one: ``n_i = f_i``); ``v_i`` is
-    that source's bootstrap variance (the ON part with ``mu`` held at its estimate, the
-    ``mu`` part with the ON windows held), and ``nu`` the Welch-Satterthwaite degrees of
-    freedom ``(sum w_i)^2 / sum w_i^2/f_i`` with ``w_i = v_i n_i/f_i``. For one Gaussian
-    mean this turns the percentile interval into the Student-t interval; for the difference
-    of two groups it is Welch's interval, the classic answer to unequal variances and
-    counts. It keeps the bootstrap's shape (skew from ``1/mu``) and was chosen over a
-    studentized bootstrap, which needs a variance per replicate and is erratic with 6
-    windows, and over the ``min(n_on, n_off)`` rule, which over-widens when a subject's
-    shared OFF reference has many more windows than an amplitude's ON phases. The intervals
-    are the percentiles of the stretched replicates, which are also what
-    :attr:`ElectrostaticEstimate.replicates_N` holds. Measured coverage of the 95 %
-    interval (same Monte Carlo): see ``tests/analysis/test_analysis_core.py``.
+    with ``nu`` the Welch-Satterthwaite degrees of freedom ``(sum v_i)^2 / sum v_i^2/f_i``
+    over the force's independent error sources (each reference with the ON windows fitted
+    with it, the ON windows of other trials, the law's exponent): ``v_i`` that source's
+    bootstrap variance, ``f_i`` its strokes less the coefficients fitted to them
+    (:func:`~evtribo.analysis.friction.bootstrap.small_sample_scale`). For one Gaussian mean
+    this is the Student-t interval; for the difference of two groups Welch's. It keeps the
+    bootstrap's shape (skew from ``1/mu`` and ``1/m``). Coverage of the 95 % interval,
+    measured (Monte Carlo of windows, 600 repeats): 95.3 % at 6 windows per group, 95.5 %
+    at 25, 94.5 % at 25 with the law's exponent measured (``tests/analysis/
+    test_analysis_core.py``); over simulated studies, ``docs/analysis.md``.
 """
 
 from __future__ import annotations
@@ -64,10 +69,20 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-from evtribo.analysis.friction.balance import balanced_weights
-from evtribo.analysis.friction.pace import pooled_rate_slope
-from evtribo.analysis.friction.reference import MuModel, WindowFacts, fit_mu_model, fit_trial_model
-from evtribo.analysis.friction.smallsample import DEFAULT_CONFIDENCE, small_sample_scale
+from evtribo.analysis.friction.bootstrap import (
+    DEFAULT_CONFIDENCE,
+    GroupForce,
+    Pooled,
+    References,
+    Windows,
+    checked_windows,
+    group_force,
+    small_sample_scale,
+    subject_law,
+)
+from evtribo.analysis.friction.facts import WindowFacts
+from evtribo.analysis.friction.law import FrictionLaw, electrostatic_force, force_of
+from evtribo.analysis.friction.reference import MuModel
 from evtribo.errors import AnalysisError
 
 log = logging.getLogger(__name__)
@@ -76,9 +91,6 @@ FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
 DEFAULT_N_BOOT = 2000
-#: A subject's friction follows its strokes' rate when the pooled slope stands this many
-#: standard errors from zero (:func:`~evtribo.analysis.friction.reference.pooled_rate_slope`).
-RATE_SE = 3.0
 
 
 def friction_coefficient(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike) -> float:
@@ -111,29 +123,6 @@ def friction_coefficient(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike) -> 
     return float(np.sum(ft)) / total
 
 
-def electrostatic_force(normal_on_N: npt.ArrayLike, friction_on_N: npt.ArrayLike,
-                        mu: float | npt.ArrayLike) -> float:
-    """Inferred electrostatic force: the mean of ``F_t,on / mu - F_n,on`` over ON windows.
-
-    Parameters
-    ----------
-    normal_on_N, friction_on_N : array_like of float, N
-        Mean normal force and friction magnitude of each ON window.
-    mu : float or array_like of float
-        The friction coefficient (one, or one per ON window).
-
-    Returns
-    -------
-    float
-        Force in N.
-    """
-    fn = np.asarray(normal_on_N, dtype=np.float64)
-    ft = np.asarray(friction_on_N, dtype=np.float64)
-    if fn.size == 0:
-        raise AnalysisError("no ON windows to infer the electrostatic force from")
-    return float(np.mean(ft / np.asarray(mu, dtype=np.float64) - fn))
-
-
 @dataclass(frozen=True)
 class ElectrostaticEstimate:
     """Electrostatic force per group of ON windows (an amplitude, or any label the caller
@@ -164,6 +153,9 @@ class ElectrostaticEstimate:
         The coefficient each ON window was compared with, in the order given.
     models : dict
         Each used reference's :class:`~evtribo.analysis.friction.reference.MuModel`, by its index.
+    law : FrictionLaw
+        The subject's friction law the forces were inferred with
+        (:mod:`evtribo.analysis.friction.law`).
     """
 
     groups: FloatArray
@@ -182,6 +174,7 @@ class ElectrostaticEstimate:
     dof: FloatArray
     on_mu: FloatArray = field(default_factory=lambda: np.empty(0))
     models: dict[int, MuModel] = field(default_factory=dict)
+    law: FrictionLaw = field(default_factory=FrictionLaw)
 
 
 def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
@@ -198,6 +191,8 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     off_facts: Sequence[WindowFacts] | None = None,
     on_facts: WindowFacts | None = None,
     time_trend: Sequence[bool] | None = None,
+    friction_law: str = "auto",
+    exponent: float | None = None,
 ) -> ElectrostaticEstimate:
     """Electrostatic force per group of ON windows, with bootstrap intervals that carry
     ``mu``'s error.
@@ -228,6 +223,13 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     time_trend : sequence of bool, optional
         Per reference, whether its ``mu`` may change with time (its windows share a
         trial's clock); default: no.
+    friction_law : {"auto", "amontons", "power"}
+        How the friction grows with the load (:func:`~evtribo.analysis.friction.law.
+        fit_subject_law`): the forces are inferred with the subject's exponent ``m``
+        where the law is a power law.
+    exponent : float, optional
+        Infer the forces with this ``m`` instead (a sensitivity: the law's other terms
+        are fitted as usual).
 
     Returns
     -------
@@ -239,25 +241,26 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     AnalysisError
         An ON window refers to a reference without OFF windows, or there are no ON windows.
     """
-    w = _windows(off_normal_N, off_friction_N, on_normal_N=on_normal_N,
+    w = checked_windows(off_normal_N, off_friction_N, on_normal_N=on_normal_N,
                  on_friction_N=on_friction_N, on_reference=on_reference, on_group=on_group)
     offs = list(off_facts) if off_facts is not None else [
         WindowFacts.plain(a.size) for a in w.off_normal]
     ons = on_facts if on_facts is not None else WindowFacts.plain(w.on_normal.size)
     trends = list(time_trend) if time_trend is not None else [False] * len(offs)
     rng = np.random.default_rng(seed)
-    refs = _References.fit(w, offs, ons, trends, rng=rng, n_boot=n_boot)
+    law = subject_law(w, offs, ons, friction_law, exponent)
+    refs = References.fit(w, offs, ons, trends, rng=rng, n_boot=n_boot, law=law)
     labels = np.unique(w.on_group)
-    pooled = _Pooled.of(w, refs, ons)
-    forces = [_group_force(rng, w, w.on_group == g, refs=refs, facts=ons, n_boot=n_boot,
+    pooled = Pooled.of(w, refs)
+    forces = [group_force(rng, w, w.on_group == g, refs=refs, facts=ons,
                            confidence=confidence, pooled=pooled) for g in labels]
     return _estimate(labels, forces, [_group_means(w, w.on_group == g, refs.mu_on)
                                       for g in labels], refs, n_boot=n_boot,
                      confidence=confidence)
 
 
-def _estimate(labels: FloatArray, forces: list[_GroupForce], means: list[_GroupMeans],
-              refs: _References, *, n_boot: int, confidence: float) -> ElectrostaticEstimate:
+def _estimate(labels: FloatArray, forces: list[GroupForce], means: list[_GroupMeans],
+              refs: References, *, n_boot: int, confidence: float) -> ElectrostaticEstimate:
     """The groups' forces, means and replicates gathered, with the intervals."""
     reps = np.column_stack([f.replicates_N for f in forces]) if forces \
         else np.empty((n_boot, 0))
@@ -277,190 +280,7 @@ def _estimate(labels: FloatArray, forces: list[_GroupForce], means: list[_GroupM
         n_on=np.asarray([m.n_on for m in means], dtype=np.int64),
         n_off=np.asarray([m.n_off for m in means], dtype=np.int64), replicates_N=reps,
         interval_scale=column([f.scale for f in forces]), dof=column([f.dof for f in forces]),
-        on_mu=refs.mu_on, models=refs.models)
-
-
-@dataclass(frozen=True)
-class _Windows:
-    """The windows of one estimate as flat float arrays (see
-    :func:`estimate_electrostatic`'s parameters)."""
-
-    off_normal: list[FloatArray]
-    off_friction: list[FloatArray]
-    on_normal: FloatArray
-    on_friction: FloatArray
-    on_ref: npt.NDArray[np.int64]
-    on_group: FloatArray
-
-
-def _windows(off_normal_N: Sequence[npt.ArrayLike], off_friction_N: Sequence[npt.ArrayLike],
-             *, on_normal_N: npt.ArrayLike, on_friction_N: npt.ArrayLike,
-             on_reference: npt.ArrayLike, on_group: npt.ArrayLike) -> _Windows:
-    """The windows as arrays, checked: ON windows there are, of one length, each referring
-    to a reference given."""
-    w = _Windows([np.asarray(a, dtype=np.float64).ravel() for a in off_normal_N],
-                 [np.asarray(a, dtype=np.float64).ravel() for a in off_friction_N],
-                 np.asarray(on_normal_N, dtype=np.float64).ravel(),
-                 np.asarray(on_friction_N, dtype=np.float64).ravel(),
-                 np.asarray(on_reference, dtype=np.int64).ravel(),
-                 np.asarray(on_group, dtype=np.float64).ravel())
-    if w.on_normal.size == 0:
-        raise AnalysisError("no ON windows to infer the electrostatic force from")
-    if not (w.on_normal.size == w.on_friction.size == w.on_ref.size == w.on_group.size):
-        raise ValueError("the ON windows' arrays differ in length")
-    if w.on_ref.min() < 0 or w.on_ref.max() >= len(w.off_normal):
-        raise ValueError("on_reference holds an index with no OFF windows given")
-    return w
-
-
-@dataclass(frozen=True)
-class _References:
-    """The references' models of ``mu``, what they give each ON window, and their
-    bootstrap replicates at each ON window."""
-
-    models: dict[int, MuModel]
-    mu_on: FloatArray  # (n_on,)
-    mu_on_b: FloatArray  # (n_boot, n_on)
-    off_clusters: dict[int, int]  # strokes behind each model
-
-    @classmethod
-    def fit(cls, w: _Windows, offs: list[WindowFacts], ons: WindowFacts, trends: list[bool],
-            *, rng: np.random.Generator, n_boot: int) -> _References:
-        """Each used reference's model (a trial's from its OFF and ON windows together,
-        :func:`~evtribo.analysis.friction.reference.fit_trial_model`), and its replicates."""
-        models: dict[int, MuModel] = {}
-        mu_on = np.empty(w.on_normal.size)
-        mu_on_b = np.empty((n_boot, w.on_normal.size))
-        clusters = {}
-        used = [int(x) for x in np.unique(w.on_ref)]
-        slope, se = pooled_rate_slope(
-            [(w.off_normal[r], w.off_friction[r], offs[r], np.full(w.off_normal[r].size,
-                                                                   np.nan)) for r in used]
-            + [(w.on_normal, w.on_friction, ons, w.on_group)])
-        rate = slope if np.isfinite(slope) and abs(slope) > RATE_SE * se else 0.0
-        slope_b = rng.normal(rate, se, n_boot) if rate else np.zeros(n_boot)
-        for r in used:
-            if w.off_normal[r].size == 0:
-                raise AnalysisError("no OFF windows to estimate the friction coefficient from")
-            sel = w.on_ref == r
-            here = ons.take(sel)
-            if trends[r]:
-                model = fit_trial_model((w.off_normal[r], w.off_friction[r], offs[r]),
-                                        (w.on_normal[sel], w.on_friction[sel], here,
-                                         w.on_group[sel]), rate_slope=rate)
-            else:
-                model = fit_mu_model(w.off_normal[r], w.off_friction[r], offs[r],
-                                     time_trend=False, rate_slope=rate)
-            mu_on[sel] = model.at(here)
-            mu_on_b[:, sel] = model.replicates_at(here, rng, n_boot)
-            if model.rate:  # the rate's slope is uncertain too
-                centred = np.where(np.isfinite(here.rate), here.rate - model.rate_mean, 0.0)
-                mu_on_b[:, sel] *= np.exp(np.outer(slope_b - rate, centred))
-            clusters[r] = int(np.unique(model.cluster).size)
-            models[r] = model
-        if not np.all(mu_on > 0):
-            raise AnalysisError("the OFF windows' friction coefficient is not positive")
-        # a replicate's coefficient at or below zero is no coefficient: held at a tenth
-        np.maximum(mu_on_b, 0.1 * mu_on, out=mu_on_b)
-        return cls(models, mu_on, mu_on_b, clusters)
-
-
-@dataclass(frozen=True)
-class _GroupForce:
-    """One group's force, its ``mu``, its calibrated replicates and their stretch."""
-
-    force_N: float
-    mu: float
-    replicates_N: FloatArray
-    scale: float
-    dof: float
-
-
-@dataclass(frozen=True)
-class _Pooled:
-    """A subject's scatter pooled over all its windows, for a group whose own windows are
-    too few to show any (one stroke ON, one OFF window): the ON windows' ``F_t/mu - F_n``
-    about their trial's mean (N^2), and the OFF windows' relative scatter about
-    their references' models; each with its degrees of freedom."""
-
-    on_var: float
-    on_dof: int
-    mu_rel_var: float
-    mu_dof: int
-
-    @classmethod
-    def of(cls, w: _Windows, refs: _References, ons: WindowFacts) -> _Pooled:
-        e = w.on_friction / refs.mu_on - w.on_normal
-        ss, dof = 0.0, 0
-        for s in np.unique(ons.stratum):  # about each trial's mean (both directions)
-            part = e[ons.stratum == s]
-            ss, dof = ss + float(np.sum((part - part.mean()) ** 2)), dof + part.size - 1
-        mu_ss, mu_dof = 0.0, 0
-        for r, model in refs.models.items():
-            free = refs.off_clusters[r] - model.coef.size
-            if free > 0:
-                scale = 1.0 if model.log else float(np.mean(w.off_friction[r] / w.off_normal[r]))
-                mu_ss += float(np.sum((model.resid / scale) ** 2))
-                mu_dof += free
-        return cls(ss / dof if dof else np.nan, dof, mu_ss / mu_dof if mu_dof else np.nan,
-                   mu_dof)
-
-
-def _group_force(rng: np.random.Generator, w: _Windows, sel: npt.NDArray[np.bool_], *,
-                 refs: _References, facts: WindowFacts, n_boot: int, confidence: float,
-                 pooled: _Pooled) -> _GroupForce:
-    """The force of the ON windows *sel* (the balanced mean of ``F_t/mu - F_n``) and its
-    bootstrap replicates: the strokes resampled within each trial (the two directions
-    averaged alike in every replicate), each reference's ``mu`` from its wild bootstrap,
-    stretched by the small-sample calibration (one error source for the ON windows, one per
-    reference's ``mu``). A source with too few strokes to show its scatter (one ON stroke,
-    an OFF reference its model fits exactly) takes the subject's pooled scatter instead."""
-    idx = np.flatnonzero(sel)
-    trial, direction = facts.stratum[idx], np.sign(facts.direction[idx])
-    weight = balanced_weights(np.ones((1, idx.size)), trial, direction)[0]
-    fn, ft = w.on_normal[sel], w.on_friction[sel]
-    mu, mu_b = refs.mu_on[sel], refs.mu_on_b[:, sel]
-    force = float(weight @ (ft / mu - fn))
-    counts = np.ones((n_boot, fn.size))
-    n_clusters = 0
-    trials = np.unique(trial)
-    for s in trials:
-        part = np.flatnonzero(trial == s)
-        _, which = np.unique(facts.cluster[idx[part]], return_inverse=True)
-        k = int(which.max()) + 1
-        n_clusters += k
-        counts[:, part] = rng.multinomial(k, np.full(k, 1.0 / k), size=n_boot)[:, which]
-    weights_b = balanced_weights(counts, trial, direction)
-
-    def replicate(mu_rep: FloatArray, wts: FloatArray) -> FloatArray:
-        return ((ft / mu_rep - fn) * wts).sum(axis=-1)
-
-    acc = replicate(mu_b, weights_b)
-    variances = [float(np.var(replicate(mu, weights_b)))]
-    counts_n = [n_clusters]
-    dofs = [max(n_clusters - trials.size, 1)]
-    if n_clusters - trials.size < 1 and pooled.on_dof > 0:  # one stroke: the subject's
-        extra = np.sqrt(pooled.on_var * float(weight @ weight))
-        acc = acc + extra * rng.standard_normal(n_boot)
-        variances[0], counts_n[0], dofs[0] = extra**2, pooled.on_dof, pooled.on_dof
-    refs_here = w.on_ref[sel]
-    for r in np.unique(refs_here):
-        one = np.where(refs_here == r, mu_b, mu)  # only reference r's mu resampled
-        model = refs.models[int(r)]
-        free = refs.off_clusters[int(r)] - model.coef.size
-        if free < 1 and pooled.mu_dof > 0:  # the model fits exactly: the subject's scatter
-            part = refs_here == r
-            load = float((weight[part] * ft[part] / mu[part]).sum())
-            extra = load * np.sqrt(pooled.mu_rel_var / max(w.off_normal[int(r)].size, 1))
-            acc = acc + extra * rng.standard_normal(n_boot)
-            variances.append(extra**2)
-            free = pooled.mu_dof
-        else:
-            variances.append(float(np.var(replicate(one, weight))))
-        counts_n.append(max(free, 1))  # HC2 residuals: the bootstrap variance is not plug-in
-        dofs.append(max(free, 1))
-    scale, nu = small_sample_scale(variances, counts_n, confidence, dofs=dofs)
-    return _GroupForce(force, float(weight @ mu), force + scale * (acc - force), scale, nu)
+        on_mu=refs.mu_on, models=refs.models, law=refs.law)
 
 
 @dataclass(frozen=True)
@@ -476,7 +296,7 @@ class _GroupMeans:
     n_off: int
 
 
-def _group_means(w: _Windows, sel: npt.NDArray[np.bool_], mu_on: FloatArray) -> _GroupMeans:
+def _group_means(w: Windows, sel: npt.NDArray[np.bool_], mu_on: FloatArray) -> _GroupMeans:
     """The means of the ON windows *sel* and of the OFF windows of their references."""
     refs = np.unique(w.on_ref[sel])
     pool_n = np.concatenate([w.off_normal[r] for r in refs])
@@ -487,6 +307,18 @@ def _group_means(w: _Windows, sel: npt.NDArray[np.bool_], mu_on: FloatArray) -> 
                        n_on=int(np.count_nonzero(sel)), n_off=int(pool_n.size))
 
 
-__all__ = ["DEFAULT_CONFIDENCE", "DEFAULT_N_BOOT", "ElectrostaticEstimate",
-           "electrostatic_force", "estimate_electrostatic", "friction_coefficient",
+__all__ = ["DEFAULT_CONFIDENCE", "DEFAULT_N_BOOT", "INTERVAL", "MU_ESTIMATOR",
+           "ElectrostaticEstimate",
+           "electrostatic_force", "estimate_electrostatic", "force_of", "friction_coefficient",
            "small_sample_scale"]
+
+#: How each ON window's μ is found, as summary.json's settings say it.
+MU_ESTIMATOR = ("each ON window's reference: the OFF windows' F_t/F_n at its time, sliding "
+                "direction, stroke pace and normal force (their ratio of means when nothing "
+                "more is supported); F_el = F_n ((F_t,on / (mu F_n))^(1/m) - 1) with the "
+                "subject's friction law F_t = c W^m (friction_exponent in electrostatic.csv)")
+
+#: How the intervals are found, as summary.json's settings say it.
+INTERVAL = ("wild cluster bootstrap over strokes (CR2-scaled residuals, normal weights, every "
+            "reference refitted), percentiles stretched by a Welch-Satterthwaite Student-t "
+            "factor for few strokes")

@@ -13,14 +13,18 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
+from scipy import special  # stats.norm.cdf is special.ndtr, its inverse special.ndtri
 
 from evtribo.analysis.friction.windows import moving_average
 
-__all__ = ["MAX_MU", "MIN_MU", "implausible_rows", "sign_behaviour", "swapped_roles"]
+__all__ = ["FAMILY_ALPHA", "MAX_MU", "MIN_MU", "below_zero", "implausible_rows",
+           "sign_behaviour", "swapped_roles"]
 
 #: Friction coefficients of a fingertip on glass lie between these (Adams et al. 2013 and
 #: Dzidek et al. 2017 measured 0.1-1.2; moist fingers reach the upper end).
 MIN_MU, MAX_MU = 0.05, 1.5
+#: Family-wise error rate of the study's check for forces below zero.
+FAMILY_ALPHA = 0.05
 #: A signal changes sign with the strokes at this many crossings a second or more.
 STROKE_CROSSINGS_PER_S = 0.2
 #: Hysteresis of a crossing: this share of the 90th percentile of |force|.
@@ -90,10 +94,45 @@ def swapped_roles(normal: npt.ArrayLike, tangential: npt.ArrayLike, rate_Hz: flo
             "signal behaves); every number of this trial assumes the roles as named")
 
 
+def below_zero(electrostatic: pd.DataFrame, alpha: float = FAMILY_ALPHA
+               ) -> npt.NDArray[np.bool_]:
+    """Which rows' electrostatic force is below zero beyond chance, over the whole table:
+    each row's one-sided p-value of a force at or above zero (from its interval taken as
+    a normal one), held to Holm's step-down at the family-wise level *alpha*, so that a
+    study of many cells, every one of them truly at or above zero, flags one in no more
+    than that share of studies (a 95 % interval alone misses below zero in 2.5 % of
+    cells).
+
+    Parameters
+    ----------
+    electrostatic : pandas.DataFrame
+        electrostatic.csv's rows.
+    alpha : float
+        The family-wise error rate.
+
+    Returns
+    -------
+    ndarray of bool
+    """
+    force = electrostatic.electrostatic_force_N.to_numpy(float)
+    half = 0.5 * (electrostatic.electrostatic_force_ci_high_N.to_numpy(float)
+                  - electrostatic.electrostatic_force_ci_low_N.to_numpy(float))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = force / (half / special.ndtri(0.975))
+    p = np.where(np.isfinite(z) & (half > 0), special.ndtr(z), np.where(force < 0, 0.0, 1.0))
+    p = np.where(np.isfinite(force), p, 1.0)
+    out = np.zeros(p.size, dtype=bool)
+    for rank, i in enumerate(np.argsort(p, kind="stable")):
+        if p[i] > alpha / (p.size - rank):
+            break
+        out[i] = True
+    return out
+
+
 def implausible_rows(electrostatic: pd.DataFrame) -> list[str]:
     """Warnings for what no finger gives: a subject's friction coefficient outside
-    [:data:`MIN_MU`, :data:`MAX_MU`], an electrostatic force below zero beyond its
-    interval.
+    [:data:`MIN_MU`, :data:`MAX_MU`], an electrostatic force below zero beyond chance over
+    the study's cells (:func:`below_zero`).
 
     Parameters
     ----------
@@ -107,6 +146,7 @@ def implausible_rows(electrostatic: pd.DataFrame) -> list[str]:
     out: list[str] = []
     if electrostatic.empty:
         return out
+    flagged = below_zero(electrostatic)
     for subject, rows in electrostatic.groupby("subject", sort=True):
         mu = float(np.nanmedian(rows.mu.to_numpy(float)))
         if not MIN_MU <= mu <= MAX_MU:
@@ -114,11 +154,12 @@ def implausible_rows(electrostatic: pd.DataFrame) -> list[str]:
                        f"on glass ({MIN_MU:g}-{MAX_MU:g}): the roles normal_force and "
                        "tangential_force in study.toml may be swapped, or a cell's scale "
                        "in the DBC wrong; the electrostatic forces rest on it")
-        below = rows[rows.electrostatic_force_ci_high_N.to_numpy(float) < 0]
+        below = rows[flagged[electrostatic.index.get_indexer(rows.index)]]
         if len(below):
             amps = ", ".join(f"{a:g} V" for a in below.amplitude_V)
-            out.append(f"{subject}: the electrostatic force is below zero beyond its interval "
-                       f"at {amps} (the voltage lowered the friction): the roles in "
-                       "study.toml may be swapped, the excitation's ON/OFF signal "
+            out.append(f"{subject}: the electrostatic force is below zero beyond chance at "
+                       f"{amps} (Holm's test over the study's {len(electrostatic)} cells at "
+                       f"{100 * FAMILY_ALPHA:g} %: the voltage lowered the friction): the "
+                       "roles in study.toml may be swapped, the excitation's ON/OFF signal "
                        "inverted, or a sidecar's condition wrong")
     return out

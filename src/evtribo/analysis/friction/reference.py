@@ -30,69 +30,32 @@ and every replicate chooses its model again by AICc.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
 from dataclasses import dataclass
 from itertools import product
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
-from numpy.polynomial import legendre
 
+from evtribo.analysis.friction.facts import (
+    MAX_DEGREE,
+    SPAN_PER_DEGREE_S,
+    WindowFacts,
+    cr2_residuals,
+    stack_facts,
+    time_basis,
+)
 from evtribo.errors import AnalysisError
 
-__all__ = ["MAX_DEGREE", "SPAN_PER_DEGREE_S", "MuModel", "WindowFacts", "fit_mu_model",
-           "fit_trial_model", "stack_facts", "time_basis"]
+__all__ = ["MATTERS_SE", "MuModel", "fit_mu_model", "fit_trial_model"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
 
-#: Highest degree of the time polynomial.
-MAX_DEGREE = 3
-#: Seconds of OFF windows' span per degree of the time polynomial.
-SPAN_PER_DEGREE_S = 4.0
+#: A model's description names a term whose effect stands this many standard errors out.
+MATTERS_SE = 3.0
 #: Webb's six-point weights for the wild bootstrap (each drawn with probability 1/6).
 WEBB = np.array([-np.sqrt(1.5), -1.0, -np.sqrt(0.5), np.sqrt(0.5), 1.0, np.sqrt(1.5)])
-
-
-@dataclass(frozen=True)
-class WindowFacts:
-    """What locates windows in their trial, beside their forces (one value per window).
-
-    Attributes
-    ----------
-    t_s : ndarray of float, s
-        Middle of each window on its trial's clock (NaN: unknown).
-    direction : ndarray of float
-        Sliding direction, +1 / -1 (0: unknown).
-    rate : ndarray of float
-        Logarithm of the stroke's rate, ``-log(stroke duration / s)`` (NaN: unknown).
-    cluster : ndarray of int
-        Windows with the same number share a stroke: they are resampled together.
-    stratum : ndarray of int
-        The trial of each window (ON windows are averaged within a trial over both
-        directions alike).
-    """
-
-    t_s: FloatArray
-    direction: FloatArray
-    rate: FloatArray
-    cluster: IntArray
-    stratum: IntArray
-
-    @classmethod
-    def plain(cls, n: int) -> WindowFacts:
-        """*n* windows of which nothing is known but their forces (each its own stroke)."""
-        return cls(np.full(n, np.nan), np.zeros(n), np.full(n, np.nan),
-                   np.arange(n, dtype=np.int64), np.zeros(n, dtype=np.int64))
-
-    def take(self, sel: npt.NDArray[np.bool_] | npt.NDArray[np.intp]) -> WindowFacts:
-        """The facts of the windows *sel* (a mask or indices)."""
-        return WindowFacts(self.t_s[sel], self.direction[sel], self.rate[sel],
-                           self.cluster[sel], self.stratum[sel])
-
-    def __len__(self) -> int:
-        return int(self.t_s.size)
 
 
 @dataclass(frozen=True)
@@ -128,7 +91,7 @@ class MuModel:
     unit : ndarray, shape (n_off, p)
         ``(X' W X)^-1 X' W`` transposed: how each OFF window's ratio moves the coefficients.
     resid : ndarray
-        The fitted windows' residuals, HC2-scaled.
+        The fitted windows' residuals, CR2-scaled (per stroke).
     cluster : ndarray of int
         The fitted windows' strokes.
     log : bool
@@ -141,6 +104,13 @@ class MuModel:
         The design, response and weights it was fitted to, and its AICc.
     rivals : tuple of MuModel
         The other candidates fitted to the same windows (each replicate chooses again).
+    exponent : float
+        ``m`` of the friction law ``F_t ~ W**m`` (:mod:`evtribo.analysis.friction.law`;
+        1: Amontons): the model's coefficient is the one at the load :attr:`load_ref`
+        (N), and a window's is :meth:`mu_at`.
+    log_load_mean : float
+        The fitted OFF windows' mean of ``log(F_n / load_ref)`` (weighted as the fit):
+        where the coefficient is known best, whatever ``m``.
     """
 
     degree: int
@@ -158,6 +128,9 @@ class MuModel:
     rate_slope: float = 0.0
     fit: _Fit | None = None
     rivals: tuple[MuModel, ...] = ()
+    exponent: float = 1.0
+    load_ref: float = 1.0
+    log_load_mean: float = 0.0
 
     @property
     def trend(self) -> bool:
@@ -179,8 +152,20 @@ class MuModel:
             return np.ones(len(facts))
         return np.exp(self.rate_slope * _centred(facts.rate, self.rate_mean))
 
+    def load_factor(self, normal_N: npt.ArrayLike) -> FloatArray:
+        """``(F_n / load_ref)**(exponent - 1)`` at each normal force (ones for Amontons)."""
+        fn = np.asarray(normal_N, dtype=np.float64)
+        if self.exponent == 1.0:
+            return np.ones(fn.shape)
+        return np.asarray((np.maximum(fn, 1e-12) / self.load_ref) ** (self.exponent - 1.0))
+
+    def mu_at(self, facts: WindowFacts, normal_N: npt.ArrayLike) -> FloatArray:
+        """The coefficient ``F_t / F_n`` without the voltage at each window of *facts*,
+        at its normal force *normal_N* (N)."""
+        return self.at(facts) * self.load_factor(normal_N)
+
     def at(self, facts: WindowFacts) -> FloatArray:
-        """The coefficient at each window of *facts*."""
+        """The coefficient at each window of *facts* (at the load :attr:`load_ref`)."""
         return self.at_replicates(facts, self.coef[None, :])[0]
 
     def at_replicates(self, facts: WindowFacts, coef: FloatArray) -> FloatArray:
@@ -206,7 +191,12 @@ class MuModel:
         """Bootstrap replicates of the coefficient at each window of *facts*, shape
         (n_boot, windows): the wild cluster bootstrap's data fitted by every candidate
         model, each replicate taking the candidate its data give the least AICc."""
-        noise = self._noise(rng, n_boot)
+        return self.replicates_given(facts, self._noise(rng, n_boot))
+
+    def replicates_given(self, facts: WindowFacts, noise: FloatArray) -> FloatArray:
+        """:meth:`replicates_at` with the wild bootstrap's noise given (its residuals
+        times each replicate's weights, shape (n_boot, fitted windows))."""
+        n_boot = noise.shape[0]
         if not self.rivals or self.fit is None:
             return self.at_replicates(facts, self.coef + noise @ self.unit)
         data = self.fit.fitted + noise  # (n_boot, n)
@@ -233,47 +223,51 @@ class MuModel:
         lo, hi = self.at(ends)
         return float((hi - lo) / (self.t_hi - self.t_lo))
 
+    def change_se(self) -> float:
+        """Standard error of :meth:`change_per_s`: the coefficients' covariance robust to
+        the strokes (CR2, from the scaled residuals), through the change (0 without trend).
+        """
+        if not self.trend or self.t_hi <= self.t_lo or self.unit.size == 0:
+            return 0.0
+        ends = WindowFacts(np.array([self.t_lo, self.t_hi]), np.zeros(2), np.full(2, np.nan),
+                           np.zeros(2, np.int64), np.zeros(2, np.int64))
+        X = self.design(ends)
+        jac = X * (self.at(ends) if self.log else self.rate_factor(ends))[:, None]
+        grad = (jac[1] - jac[0]) / (self.t_hi - self.t_lo)
+        share = (self.unit[:, :X.shape[1]] @ grad) * self.resid
+        _, which = np.unique(self.cluster, return_inverse=True)
+        return float(np.sqrt(np.sum(np.bincount(which, weights=share) ** 2)))
+
     def describe(self) -> str:
-        """The model's terms, for summary.json (``"constant"``, ``"time^2 + direction"``)."""
-        terms = ([f"time^{self.degree}" if self.degree > 1 else "time"] if self.degree
-                 else []) + (["direction"] if self.direction else []) + (
-                     ["stroke rate"] if self.rate else [])
+        """The terms that matter (``"constant"``, ``"time^2 + direction"``): AICc keeps a
+        term whose fit is better by a little (about 1 in 6 of the terms of no effect, more
+        with few windows), and the bootstrap carries that choice; a description names a
+        term only where its effect stands :data:`MATTERS_SE` standard errors from zero
+        (the drift over the span, the difference between the directions)."""
+        terms = []
+        if self.degree and abs(self.change_per_s()) > MATTERS_SE * self.change_se():
+            terms.append(f"time^{self.degree}" if self.degree > 1 else "time")
+        if self.direction and abs(self.coef[1 + self.degree]) > MATTERS_SE * self.coef_se(
+                1 + self.degree):
+            terms.append("direction")
+        if self.rate:
+            terms.append("stroke rate")
         return " + ".join(terms) or "constant"
 
-
-def time_basis(t: FloatArray, lo: float, hi: float, degree: int) -> FloatArray:
-    """Legendre polynomials 1..degree of *t* scaled from [lo, hi] to [-1, 1], continued as
-    straight lines (value and slope at the end) beyond it.
-
-    Parameters
-    ----------
-    t : ndarray of float, s
-    lo, hi : float, s
-        The span scaled to [-1, 1].
-    degree : int
-
-    Returns
-    -------
-    ndarray, shape (t.size, degree)
-        One column per degree (NaN times give 0).
-    """
-    half = 0.5 * (hi - lo) if hi > lo else 1.0
-    x = (np.asarray(t, dtype=np.float64) - 0.5 * (hi + lo)) / half
-    x = np.where(np.isfinite(x), x, 0.0)
-    edge = np.clip(x, -1.0, 1.0)
-    out = []
-    for k in range(1, degree + 1):
-        c = np.zeros(k + 1)
-        c[k] = 1.0
-        slope = legendre.legval(edge, legendre.legder(c))
-        out.append(legendre.legval(edge, c) + slope * (x - edge))
-    return np.column_stack(out)
+    def coef_se(self, k: int) -> float:
+        """Standard error of coefficient *k*, robust to the strokes (CR2)."""
+        if self.unit.size == 0:
+            return float("inf")
+        _, which = np.unique(self.cluster, return_inverse=True)
+        return float(np.sqrt(np.sum(np.bincount(which, weights=self.unit[:, k] * self.resid)
+                                    ** 2)))
 
 
-def _fit(X: FloatArray, ratio: FloatArray, weight: FloatArray
+def _fit(X: FloatArray, ratio: FloatArray, weight: FloatArray, cluster: IntArray
          ) -> tuple[FloatArray, FloatArray, FloatArray, float] | None:
-    """Weighted least squares: coefficients, ``unit`` (see :class:`MuModel`), HC2-scaled
-    residuals and the weighted residual sum of squares; None when singular."""
+    """Weighted least squares: coefficients, ``unit`` (see :class:`MuModel`), CR2-scaled
+    residuals (per stroke, :func:`~evtribo.analysis.friction.facts.cr2_residuals`) and the
+    weighted residual sum of squares; None when singular."""
     sw = np.sqrt(weight)
     A = X * sw[:, None]
     try:
@@ -285,9 +279,8 @@ def _fit(X: FloatArray, ratio: FloatArray, weight: FloatArray
     except np.linalg.LinAlgError:
         return None
     resid = ratio - X @ coef
-    lever = np.clip(np.sum(q * q, axis=1), 0.0, 0.999)
     rss = float(np.sum(weight * resid**2))
-    return coef, unit, resid / np.sqrt(1.0 - lever), rss
+    return coef, unit, cr2_residuals(q, resid, weight, cluster), rss
 
 
 def _aicc(rss: float | FloatArray, n: int, p: int) -> FloatArray:
@@ -314,7 +307,8 @@ def _offers(facts: WindowFacts, time_trend: bool) -> tuple[list[int], list[bool]
 
 
 def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: WindowFacts, *,
-                 time_trend: bool, rate_slope: float = 0.0) -> MuModel:
+                 time_trend: bool, rate_slope: float = 0.0, exponent: float = 1.0,
+                 load_ref_N: float = 1.0) -> MuModel:
     """The friction coefficient of a reference's OFF windows as a model of their facts.
 
     Parameters
@@ -327,7 +321,11 @@ def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: Wind
         Whether a trend in time may be fitted (the windows share one trial's clock).
     rate_slope : float
         The coefficient's change per unit of log stroke rate, relative (the subject's,
-        :func:`pooled_rate_slope`; 0: none).
+        :func:`~evtribo.analysis.friction.law.fit_subject_law`; 0: none).
+    exponent : float
+        ``m`` of the friction law (the subject's; 1: Amontons).
+    load_ref_N : float, N
+        The load at which the model's coefficient is ``F_t / F_n``.
 
     Returns
     -------
@@ -346,12 +344,13 @@ def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: Wind
         raise AnalysisError("no OFF windows to estimate the friction coefficient from")
     if not np.all(fn > 0):
         raise AnalysisError("an OFF window's normal force is not positive")
-    shape = _Shape.of(facts, rate_slope)
-    ratio = ft / fn / shape.rate_factor(facts)
+    shape = _Shape.of(facts, rate_slope, exponent, load_ref_N, fn)
+    load = shape.load_factor(fn)
+    ratio = ft / fn / shape.rate_factor(facts) / load
     candidates = []
     for degree, direction in product(*_offers(facts, time_trend)):
         template = shape.model(degree, direction, facts.cluster, log=False)
-        fitted = _fitted(template, template.design(facts), ratio, fn)
+        fitted = _fitted(template, template.design(facts), ratio, fn * load)
         if fitted is not None:
             candidates.append(fitted)
     if not candidates:
@@ -368,23 +367,37 @@ class _Shape:
     t_hi: float
     rate_mean: float
     rate_slope: float
+    exponent: float = 1.0
+    load_ref: float = 1.0
+    log_load_mean: float = 0.0
 
     @classmethod
-    def of(cls, facts: WindowFacts, rate_slope: float) -> _Shape:
+    def of(cls, facts: WindowFacts, rate_slope: float, exponent: float = 1.0,
+           load_ref: float = 1.0, normal_N: FloatArray | None = None) -> _Shape:
         t = facts.t_s[np.isfinite(facts.t_s)]
         rates = facts.rate[np.isfinite(facts.rate)]
+        mean = 0.0
+        if normal_N is not None and normal_N.size and np.all(normal_N > 0):
+            mean = float(np.average(np.log(normal_N / load_ref), weights=normal_N))
         return cls(float(t.min()) if t.size else 0.0, float(t.max()) if t.size else 0.0,
                    float(rates.mean()) if rates.size else 0.0,
-                   rate_slope if rates.size else 0.0)
+                   rate_slope if rates.size else 0.0, exponent, load_ref, mean)
 
     def rate_factor(self, facts: WindowFacts) -> FloatArray:
         return np.exp(self.rate_slope * _centred(facts.rate, self.rate_mean))
+
+    def load_factor(self, normal_N: FloatArray) -> FloatArray:
+        if self.exponent == 1.0:
+            return np.ones(normal_N.shape)
+        return np.asarray((np.maximum(normal_N, 1e-12) / self.load_ref)
+                          ** (self.exponent - 1.0))
 
     def model(self, degree: int, direction: bool, cluster: IntArray, *, log: bool
               ) -> MuModel:
         return MuModel(degree, direction, self.rate_slope != 0, self.t_lo, self.t_hi,
                        self.rate_mean, np.empty(0), np.empty((0, 0)), np.empty(0), cluster,
-                       log=log, rate_slope=self.rate_slope)
+                       log=log, rate_slope=self.rate_slope, exponent=self.exponent,
+                       load_ref=self.load_ref, log_load_mean=self.log_load_mean)
 
 
 def _centred(rate: FloatArray, mean: float) -> FloatArray:
@@ -396,7 +409,7 @@ def _fitted(template: MuModel, X: FloatArray, y: FloatArray, weight: FloatArray
             ) -> MuModel | None:
     """*template* fitted to ``(X, y)`` by weighted least squares; None when singular or
     when the windows are too few to score it (the constant alone is always scored)."""
-    found = _fit(X, y, weight)
+    found = _fit(X, y, weight, template.cluster)
     if found is None or (y.size <= X.shape[1] + 2 and X.shape[1] > 1):
         return None
     coef, unit, resid, rss = found
@@ -417,7 +430,8 @@ def _choose(candidates: list[MuModel]) -> MuModel:
 
 def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
                     on: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts, npt.ArrayLike], *,
-                    rate_slope: float = 0.0) -> MuModel:
+                    rate_slope: float = 0.0, exponent: float = 1.0,
+                    load_ref_N: float = 1.0) -> MuModel:
     """A trial's friction coefficient in time, from its OFF and its ON windows together.
 
     ``log(F_t / F_n) = b0 + sum_k b_k P_k(x) + c d + sum_g a_g [window in ON group g]``
@@ -434,7 +448,7 @@ def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
         The trial's OFF windows.
     on : (normal_N, friction_N, facts, group)
         Its ON windows and each one's group (an amplitude, say).
-    rate_slope : float
+    rate_slope, exponent, load_ref_N : float
         As :func:`fit_mu_model`'s.
 
     Returns
@@ -447,12 +461,14 @@ def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
     group = np.asarray(on[3])
     facts = stack_facts([off[2], on[2]])
     fn, ft = np.concatenate([fn_off, fn_on]), np.concatenate([ft_off, ft_on])
-    flat = fit_mu_model(fn_off, ft_off, off[2], time_trend=False, rate_slope=0.0)
+    law = {"exponent": exponent, "load_ref_N": load_ref_N}
+    flat = fit_mu_model(fn_off, ft_off, off[2], time_trend=False, rate_slope=0.0, **law)
     if not (np.all(fn > 0) and np.all(ft > 0)):
         return flat
-    shape = _Shape.of(facts, rate_slope)
+    shape = _Shape.of(facts, rate_slope, exponent, load_ref_N, fn_off)
     ons = _on_terms(fn_off.size, fn_on, group)
-    y = np.log(ft / fn) - shape.rate_slope * _centred(facts.rate, shape.rate_mean)
+    y = (np.log(ft / fn) - shape.rate_slope * _centred(facts.rate, shape.rate_mean)
+         - np.log(shape.load_factor(fn)))
     candidates = []
     for degree, direction in product(*_offers(facts, True)):
         template = shape.model(degree, direction, facts.cluster, log=True)
@@ -463,7 +479,8 @@ def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
         return flat
     best = _choose(candidates)
     if best.degree == 0 and not best.direction:
-        return fit_mu_model(fn_off, ft_off, off[2], time_trend=False, rate_slope=rate_slope)
+        return fit_mu_model(fn_off, ft_off, off[2], time_trend=False, rate_slope=rate_slope,
+                            **law)
     return best
 
 
@@ -481,18 +498,3 @@ def _on_terms(n_off: int, fn_on: FloatArray, group: npt.NDArray[Any]) -> FloatAr
             log_fn = np.log(fn_on)
             cols.append(member * (log_fn - log_fn[member > 0].mean()))
     return np.concatenate([np.zeros((n_off, len(cols))), np.column_stack(cols)])
-
-
-def stack_facts(parts: Sequence[WindowFacts]) -> WindowFacts:
-    """Several sets of window facts as one, in order.
-
-    Parameters
-    ----------
-    parts : sequence of WindowFacts
-
-    Returns
-    -------
-    WindowFacts
-    """
-    return WindowFacts(*(np.concatenate([getattr(p, f) for p in parts])
-                         for f in ("t_s", "direction", "rate", "cluster", "stratum")))

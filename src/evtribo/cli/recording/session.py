@@ -35,7 +35,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("protocol", metavar="PROTOCOL",
                    help=f"the protocol file (TOML, spec §7; examples to copy and edit, "
                         f"installed with evtribo: {examples}{os.sep}meyer2013.toml, "
-                        "frequency-sweep.toml)")
+                        "frequency-sweep.toml, friction-law.toml)")
     p.add_argument("--study", required=True, metavar="DIR",
                    help="study folder (created with a study.toml for --rig if new)")
     p.add_argument("--new-study", action="store_true",
