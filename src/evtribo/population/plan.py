@@ -470,5 +470,11 @@ def plan_study(design: Design, expected: Expected, *, runs: int = 40, pilots: in
              "at the cell level, each fitted with the mixed model's primary optimiser; the "
              f"contrast {expected.contrast:g} between two conditions as "
              "population_contrasts.csv computes it (paired, log F_el of positive cells)."]
-    return Plan(pilot, pd.DataFrame(rows, columns=["subjects", "quantity", "amplitude_V",
-                                                   "value", "mc_error", "runs"]), notes)
+    table = pd.DataFrame(rows, columns=["subjects", "quantity", "amplitude_V", "value",
+                                        "mc_error", "runs"])
+    fitted = table[table["quantity"] == "population F_el"].groupby("subjects")["runs"].min()
+    notes += [f"With {k} subjects the mixed model gave no fit in {runs - int(n)} of {runs} "
+              "studies (forces near or below their errors); the intervals and the power are "
+              f"over the {int(n)} it fitted: longer trials or more subjects would help."
+              for k, n in fitted.items() if n < runs]
+    return Plan(pilot, table, notes)
