@@ -1,6 +1,7 @@
-"""Each reason is said once, where the decision is made: ``analyze`` says every warning of
-the analysis on its console (a failed trial's reason too), ``compare`` and ``plot trial``
-(which analyse the trials again to draw them) say none of them again."""
+"""Each reason is said once, where the decision is made: ``analyze`` says every kind of warning
+of the analysis once on its console, with the trials it concerns (a failed trial's reason
+too), ``compare`` and ``plot trial`` (which analyse the trials again to draw them) say none of
+them again."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
+from evtribo.report.lead.warning_kinds import group_warnings, read_scope
 
 
 def _evtribo(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
@@ -41,7 +43,7 @@ def analysed(study: Path) -> tuple[Path, subprocess.CompletedProcess[str]]:
     return out, run
 
 
-def test_analyze_says_every_warning_once_a_failed_trial_s_reason_included(analysed):
+def test_analyze_says_every_kind_of_warning_once_a_failed_trial_s_reason_included(analysed):
     out, run = analysed
     assert run.returncode == 0, run.stderr
     summary = json.loads((out / "summary.json").read_text())
@@ -49,9 +51,18 @@ def test_analyze_says_every_warning_once_a_failed_trial_s_reason_included(analys
     failed = [w for w in warnings if w.startswith("P02/run-02: not analysed: ")]
     assert len(failed) == 1 and summary["failed_trials"][0]["trial"] == "P02/run-02"
     assert len(warnings) >= 2  # the failed trial, and the real rig's large offsets
-    for w in warnings:
-        assert run.stderr.count(w) == 1, (w, run.stderr)
-    assert f"{len(warnings)} warning(s) above" in run.stderr
+    trials, _ = read_scope(out)
+    groups = group_warnings(warnings, (), trials)
+    assert len(groups) < len(warnings)  # the offsets of several trials said as one kind
+    for g in groups:  # each kind once, with the trials it concerns
+        assert run.stderr.count(f"] {g.title}: ") == 1, (g.title, run.stderr)
+        for subject, trial in g.trials:
+            assert subject in run.stderr and trial in run.stderr
+    assert "trials not analysed: P02: run-02" in run.stderr
+    assert summary["failed_trials"][0]["error"] in run.stderr  # its reason, said once
+    assert run.stderr.count(summary["failed_trials"][0]["error"]) == 1
+    assert "WARNING" not in run.stderr  # no line per trial
+    assert f"{len(warnings)} warning(s) of {len(groups)} kind(s)" in run.stderr
 
 
 def test_compare_and_plot_trial_say_none_of_them_again(analysed, study):

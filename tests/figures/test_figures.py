@@ -343,15 +343,18 @@ def test_many_drives_get_a_colour_bar_not_a_long_legend():
     rows.append({"condition": "off", "waveform": "square", "amplitude_V": 0.0,
                  "normal_force_N": 0.5, "friction_force_N": 0.25})
     ax = plot_friction_normal_force(pd.DataFrame(rows), TABLE_1)
-    labels = [t.get_text() for t in ax.get_legend().get_texts()]
-    assert labels == ["OFF (μ = 0.500)", "ON, square", "ON, sine"]
+    labels = {t.get_text() for t in ax.get_legend().get_texts()}
+    # the points apart from the model's lines (one style per waveform, in each drive's colour)
+    assert labels == {"OFF ($\\mu$ = 0.500)", "ON, square", "ON, sine", "model, OFF",
+                      "model, ON square", "model, ON sine"}
     (bar,) = [a for a in ax.figure.axes if a is not ax]
     assert list(bar.yaxis.get_majorticklocs()) == list(amps)
     assert "(V)" in bar.get_ylabel()
     # a few drives: one entry each
     few = plot_friction_normal_force(pd.DataFrame(rows[:3] + rows[-1:]), TABLE_1)
-    assert [t.get_text() for t in few.get_legend().get_texts()] == [
-        "OFF (μ = 0.500)", "ON 40 V", "ON 60 V", "ON 80 V"]
+    assert {t.get_text() for t in few.get_legend().get_texts()} == {
+        "OFF ($\\mu$ = 0.500)", "ON 40 V", "ON 60 V", "ON 80 V", "model, OFF",
+        "model, ON"}
     assert len(few.figure.axes) == 1
 
 

@@ -154,3 +154,58 @@ def test_the_frequency_response_figure_draws_on_the_axes_given():
     new = plot_frequency_response(rows, fits, subject="P01")
     assert isinstance(new, Axes) and new is not ax
     assert np.isclose(np.log10(new.get_xlim()), np.log10([10, 20000]), atol=0.3).all()
+
+
+def test_one_frequency_draws_no_frequency_figure_and_a_leak_at_its_bound_is_said(tmp_path):
+    """A study at one drive frequency: no F_el-versus-frequency figure (one x-value), the
+    models ranked over the study, and the circuit's r_g, which one frequency cannot set,
+    named at its bound wherever the optimiser left it there."""
+    out = tmp_path / "out"
+    sweep_out(out, "paper", seed=4)
+    elec = pd.read_csv(out / "electrostatic.csv")
+    f0 = sorted(elec["frequency_Hz"].unique())[-1]
+    elec[elec["frequency_Hz"] == f0].to_csv(out / "electrostatic.csv", index=False)
+    for name in ("electrostatic_bootstrap.csv", "sine_trace.csv"):
+        (out / name).unlink(missing_ok=True)
+    result = compare(out, models="paper,circuit", formats=("png",), dpi=40,
+                     trial_checks=False)
+    assert not [f for f in result.figures if f.kind == "frequency_response"]
+    assert any("at a single frequency" in n for n in result.notes)
+    assert any(n.startswith("Models over the study") for n in result.notes)
+    table = pd.read_csv(out / "models.csv", keep_default_na=False)
+    bounded = table[table["at_bound"] != ""]
+    assert set(bounded["at_bound"]) <= {"r_g"}
+    if len(bounded):
+        [said] = [n for n in result.notes if n.startswith("Model circuit: r_g at its bound")]
+        assert all(str(s) in said for s in bounded["subject"])
+
+
+def test_the_study_ranking_sums_each_model_over_the_subjects_with_every_model():
+    from evtribo.fit.models import study_ranking, verdict
+
+    rows = []
+    for subject, aics in (("P01", {"paper": 0.0, "maugis": 1.0, "hertz": 9.0}),
+                          ("P02", {"paper": 2.0, "maugis": 1.5, "hertz": 12.0}),
+                          ("P03", {"paper": 1.0, "maugis": math.nan, "hertz": 3.0})):
+        best = min(v for v in aics.values() if math.isfinite(v))
+        rows += [{"subject": subject, "model": m, "aic": a, "delta_aic": a - best,
+                  "criterion": "AICc", "at_bound": ""} for m, a in aics.items()]
+    ranking = study_ranking(pd.DataFrame(rows))
+    assert list(ranking["model"]) == ["paper", "maugis", "hertz"]
+    assert (ranking["subjects"] == 2).all()  # P03 lacks maugis's criterion
+    assert list(ranking["aic_sum"]) == [2.0, 2.5, 21.0]
+    assert ranking["akaike_weight"].sum() == pytest.approx(1.0)
+    assert list(ranking["best_in"]) == [1, 1, 0]
+    said = verdict(ranking)
+    assert said.startswith("paper lowest summed AICc over 2 subject(s)")
+    assert "maugis indistinguishable from it (ΔAICc 0.5 < 2)" in said
+    assert "hertz ΔAICc 19.0" in said
+
+
+def test_a_parameter_on_a_bound_of_its_range_is_found():
+    from evtribo.fit.models import _at_bound
+
+    lower, upper = np.array([0.0, -3.0]), np.array([np.inf, 3.0])
+    assert _at_bound(("h_L", "r_g"), np.array([1.0, 3.0]), lower, upper) == ("r_g",)
+    assert _at_bound(("h_L", "r_g"), np.array([0.0, 0.2]), lower, upper) == ("h_L",)
+    assert _at_bound(("h_L", "r_g"), np.array([1.0, 2.99]), lower, upper) == ()

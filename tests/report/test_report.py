@@ -86,15 +86,26 @@ def report_page(compared_out, tmp_path_factory):
     return path, page, html
 
 
-def test_report_is_self_contained(report_page):
-    _, page, html = report_page
+def test_report_is_self_contained(report_page, compared_out):
+    path, page, html = report_page
     assert page.tags[0] == "html" and "body" in page.tags
     assert "script" not in page.tags and "link" not in page.tags and "iframe" not in page.tags
+    linked = set()
     for tag, name, value in page.refs:
-        # embedded figures, anchors, and the paper's DOI as a link (nothing is loaded)
+        # embedded figures, anchors, the paper's DOI, and links to the result folder's files
+        # by their paths relative to the page (followed by a reader, never loaded)
+        if (tag, name) == ("a", "href") and not value.startswith(("#", "http", "data:")):
+            target = (path.parent / value).resolve()
+            assert target.is_file() and target.is_relative_to(compared_out.resolve()), value
+            linked.add(target.relative_to(compared_out.resolve()).as_posix())
+            continue
         assert value.startswith(("data:image/png;base64,", "data:image/svg+xml;base64,", "#")) \
             or (tag, name, value) == ("a", "href", DOI_URL), (tag, name, value[:60])
     assert "@import" not in html and "url(" not in html
+    # every table and every figure file of the result folder is linked
+    files = {p.relative_to(compared_out).as_posix() for p in compared_out.rglob("*")
+             if p.is_file() and p.suffix in (".csv", ".png", ".svg", ".pdf")}
+    assert files and files <= linked, sorted(files - linked)[:5]
 
 
 def test_report_holds_every_figure_and_table(report_page, compared_out):
@@ -110,13 +121,15 @@ def test_report_holds_every_figure_and_table(report_page, compared_out):
     for section in ("Electrostatic force", "Model fit", "All subjects", "Subject P01",
                     "Subject P02", "Warnings", "Provenance and settings"):
         assert section in text
-    for table_title in ("Electrostatic force F_el (mN) by subject and voltage",
+    for table_title in ("Key results by voltage", "Key results by subject",
+                        "Electrostatic force F_el (mN) by subject and voltage",
+                        "What was analysed and what was left out, per subject",
                         "Model fit per subject", "Model parameters: measured, fixed or fitted",
-                        "Trials", "Power laws", "Result files", "Software",
-                        "Analysis settings"):
+                        "Trials", "Result files", "Software", "Analysis settings"):
         assert table_title in text
     for col in ("air gap h_L (µm)", "μ (mean of its rows)", "exponent n, measured", "R²",
-                "RMSE (mN)", "F_el (mN) [95 %]", "dropped frames", "sha256"):
+                "RMSE (mN)", "F_el (mN) [95 %]", "dropped frames", "sha256", "analysed (s)",
+                "guard around switches (s)", "lift-offs (s)", "unsteady sliding (s)"):
         assert col in page.headers
     # the fitted air gap is in the page, in µm to three significant figures
     fit = pd.read_csv(compared_out / "fit.csv")
@@ -142,8 +155,10 @@ def test_user_text_is_escaped(report_page):
 def test_warnings_and_provenance(report_page, compared_out):
     _, page, _ = report_page
     text = " ".join(page.text)
-    assert "P02/run-02: 3 dropped frame(s)" in text
-    assert "P01/run-03: 1 damaged line(s) skipped" in text
+    # each kind once, with the trials it concerns
+    assert text.count("load-cell frames lost") == 1 and "P02: run-02" in text
+    assert "3 dropped frame(s)" in text
+    assert text.count("damaged log lines skipped") == 1 and "P01: run-03" in text
     assert "skipped damaged line" in text  # from summary.json
     digest = hashlib.sha256((compared_out / "fit.csv").read_bytes()).hexdigest()
     assert digest in text

@@ -72,7 +72,7 @@ class _Outline(HTMLParser):
             self._cell = None
 
     def handle_data(self, data):
-        if "style" in self._stack:
+        if "style" in self._stack or "sup" in self._stack:  # a cell's links to warnings
             return
         self.text.append(data)
         top = self._stack[-1] if self._stack else ""
@@ -111,19 +111,27 @@ def page(out) -> tuple[Path, _Outline]:
 
 def test_sections_in_order(page):
     _, outline = page
-    assert outline.sections == ["Electrostatic force", "Model fit", "Population",
-                                "All subjects", "Model comparison", "Subject P01",
-                                "Subject P02", "Warnings", "Provenance and settings"]
+    assert outline.sections == ["Key results", "Warnings", "Electrostatic force", "Model fit",
+                                "Population", "All subjects", "Model predictions",
+                                "Model comparison", "Subject P01", "Subject P02",
+                                "Provenance and settings"]
+    # the answer first: a sentence, then the tables by voltage and by subject
+    assert [t["title"] for t in outline.tables[:2]] == ["Key results by voltage",
+                                                        "Key results by subject"]
     # the study's facts (run_id, strict, elapsed_s...) are in the last section only
     facts = next(t for t in outline.tables if t["title"] == "Study")
     assert facts["section"] == "Provenance and settings"
     assert ["strict", "False"] in facts["rows"]
 
 
-def test_first_table_is_the_force_table_in_mN(page, out):
+def _force_table(outline: _Outline) -> dict:
+    return next(t for t in outline.tables if t["section"] == "Electrostatic force")
+
+
+def test_the_force_table_leads_its_section_in_mN(page, out):
     _, outline = page
-    first = outline.tables[0]
-    assert "(mN)" in first["title"] and first["section"] == "Electrostatic force"
+    first = _force_table(outline)
+    assert "(mN)" in first["title"]
     assert first["headers"] == ["Subject", "Waveform", "Frequency", "80 V", "120 V", "160 V"]
     es = pd.read_csv(out / "electrostatic.csv", dtype={"subject": str})
     seen = 0
@@ -159,7 +167,7 @@ def test_air_gaps_in_micrometres(page, out):
         assert low < value < high
     r2 = fit_table["headers"].index("R²")
     assert all(row[r2] not in ("1", "1.0") for row in fit_table["rows"])
-    params = next(t for t in outline.tables if t["title"].startswith("Model parameters"))
+    params = next(t for t in outline.tables if "Model parameters" in t["title"])
     roles = {r[0]: r[2] for r in params["rows"]}
     assert roles["friction coefficient μ"].startswith("measured")
     assert roles["air gap h_L"].startswith("fitted")
@@ -205,11 +213,16 @@ def test_model_comparison(page, out):
     _, outline = page
     models = pd.read_csv(out / "models.csv", dtype={"subject": str})
     tables = [t for t in outline.tables if t["section"] == "Model comparison"]
-    assert [t["title"] for t in tables] == ["Models compared, P01", "Models compared, P02"]
+    assert [t["title"] for t in tables] == ["Models ranked over the study",
+                                            "Models compared, P01", "Models compared, P02"]
+    ranking, tables = tables[0], tables[1:]
+    assert models["criterion"].eq("AICc").all()  # 3 points a subject: the small-sample AICc
+    assert ranking["headers"][:4] == ["model", "summed AICc", "ΔAICc", "Akaike weight"]
+    assert sorted(r[0] for r in ranking["rows"]) == sorted(set(models["model"]))
     for t in tables:
         mine = models[models["subject"] == t["title"].rsplit(" ", 1)[1]]
-        assert t["headers"] == ["model", "fitted", "parameters", "AIC", "ΔAIC",
-                                "Akaike weight"]
+        assert t["headers"] == ["model", "fitted", "parameters", "AICc", "ΔAICc",
+                                "Akaike weight", "verdict"]
         assert sorted(r[0] for r in t["rows"]) == sorted(mine["model"])
         for row in t["rows"]:
             m = mine[mine["model"] == row[0]].iloc[0]
@@ -219,9 +232,14 @@ def test_model_comparison(page, out):
             else:  # not defined: shown as absent, and the caption says why
                 assert row[3] == row[4] == row[5] == "—"
             assert "µm" in row[1] and not SCIENTIFIC.search(row[1])
+            bound = str(m["at_bound"]) if isinstance(m["at_bound"], str) else ""
+            for name in filter(None, bound.split(";")):  # at its bound, not as fitted
+                assert f"{name} at its bound" in row[1]
         ranked = [float(r[3]) for r in t["rows"] if r[3] != "—"]
         assert ranked == sorted(ranked)  # best first
-    assert any(f.startswith("Electrostatic force vs drive frequency") for f in outline.text)
+    # one drive frequency: no figure of F_el against the frequency
+    assert not any(f.startswith("Electrostatic force vs drive frequency")
+                   for f in outline.text)
 
 
 def test_figure_files_embedded_or_linked(tmp_path):
@@ -251,7 +269,7 @@ def _md_rows(text: str) -> list[list[str]]:
 
 def test_tables_exported_as_markdown_and_latex(page, out):
     _, outline = page
-    html_tables = {"electrostatic_force": outline.tables[0],
+    html_tables = {"electrostatic_force": _force_table(outline),
                    "fit": next(t for t in outline.tables
                                if t["title"] == "Model fit per subject")}
     for stem, table in html_tables.items():
@@ -306,9 +324,9 @@ def test_no_model_comparison_without_models(tmp_path):
     _, folder = analysed_study(tmp_path)
     compare(folder, dpi=30, trial_checks=False)
     outline = _outline(build_report(folder, tmp_path / "r.html"))
-    assert outline.sections == ["Electrostatic force", "Model fit", "Population",
-                                "All subjects", "Subject P01", "Subject P02", "Warnings",
-                                "Provenance and settings"]
+    assert outline.sections == ["Key results", "Warnings", "Electrostatic force", "Model fit",
+                                "Population", "All subjects", "Model predictions",
+                                "Subject P01", "Subject P02", "Provenance and settings"]
     assert not outline.details  # no checks drawn, none folded
 
 
@@ -358,10 +376,10 @@ def test_fit_notes_are_under_the_fit_and_settings_as_given(page, out):
     sections = {part.split("</h2>", 1)[0].split(">")[-1]: part for part in html.split("<h2")}
     notes = json.loads((out / "fit.json").read_text(encoding="utf-8"))["notes"]
     assert notes
-    from html import escape
+    from markupsafe import escape
     for note in notes:
-        assert escape(note, quote=False) not in sections["Warnings"], note
-        assert escape(note, quote=False) in sections["Model fit"], note
+        assert str(escape(note)) not in sections["Warnings"], note
+        assert str(escape(note)) in sections["Model fit"], note
     settings = next(t for t in outline.tables if t["title"] == "Analysis settings")
     values = dict(settings["rows"])
     assert values["guard_s"] == "0.15" and values["confidence"] == "0.95"

@@ -48,6 +48,25 @@ def default_study(tmp_path_factory):
     return root, truth, res
 
 
+
+def test_a_trial_s_seconds_are_its_windows_and_what_was_left_out_by_reason(default_study):
+    """trials.csv's seconds: the windows' own span analysed, the rest excluded by reason,
+    all of it adding up to the trial's duration."""
+    _, _, res = default_study
+    trials = pd.read_csv(res.out_dir / "trials.csv")
+    windows = pd.read_csv(res.out_dir / "windows.csv")
+    parts = ["analysed_s", "excluded_switch_s", "excluded_lift_s", "excluded_unsteady_s",
+             "excluded_other_s"]
+    step = 2e-3  # a grid step per piece, at most
+    assert (trials[parts].sum(axis=1) - trials["duration_s"]).abs().max() < step
+    span = (windows.t_end_s - windows.t_start_s).groupby([windows.subject, windows.trial]).sum()
+    own = trials.set_index(["subject", "trial"])["analysed_s"].loc[span.index]
+    assert np.allclose(own.to_numpy(), span.to_numpy(), atol=1e-4)
+    alternating = trials["condition"] == "alternating"
+    assert (trials.loc[alternating, "excluded_switch_s"] > 0).all()  # the guard, each switch
+    assert (trials.loc[~alternating, "excluded_switch_s"] == 0).all()
+    assert (trials["excluded_unsteady_s"] > 0).all()  # the reversals
+
 def test_outputs_have_the_spec_columns(default_study):
     _, _, res = default_study
     expected = {"trials.csv": TRIAL_COLUMNS, "windows.csv": WINDOW_CSV_COLUMNS,
@@ -61,7 +80,8 @@ def test_outputs_have_the_spec_columns(default_study):
                              "skipped_lines", "friction_modulation_Hz", "normal_offset_N",
                              "tangential_offset_N", "tare", "mu_change_per_10s",
                              "crosstalk_normal", "crosstalk_normal_se",
-                             "tangential_direction_share")
+                             "tangential_direction_share", "analysed_s", "excluded_switch_s",
+                             "excluded_lift_s", "excluded_unsteady_s", "excluded_other_s")
     assert WINDOW_CSV_COLUMNS[:9] == ("subject", "trial", "condition", "amplitude_V",
                                       "waveform", "t_start_s", "t_end_s", "normal_force_N",
                                       "friction_force_N")

@@ -10,6 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from evtribo.util.numbers import (
+    UNBOUNDED,
     auto_prefix,
     decimals_for,
     frequency,
@@ -45,11 +46,20 @@ def test_interval_has_the_values_decimals():
     assert with_interval(71.5, -398.0, 541.0) == "72 [-398, 541]"
     assert with_interval(198.2, -168.1, 619.4) == "198 [-168, 619]"
     assert with_interval(0.02647, 0.02571, 0.02741) == "0.0265 [0.0257, 0.0274]"
+    # half-widths of 15 and 9.8 give the same decimals
+    assert with_interval(70.0, 55.0, 85.0) == "70 [55, 85]"
+    assert with_interval(97.7, 87.9, 107.5) == "98 [88, 108]"
+    assert with_interval(26.4, 25.2, 27.6) == "26.4 [25.2, 27.6]"
+    # a fit that does not determine its value: no interval rather than 10^160 digits
+    assert with_interval(16.0, -160.0, 2.4e166) == "16.0 (no interval)"
 
 
 @given(st.floats(-1e6, 1e6), st.floats(0, 1e6), st.floats(0, 1e6))
 def test_an_interval_s_three_numbers_share_their_decimals(value, below, above):
     text = with_interval(value, value - below, value + above)
+    if max(abs(value - below), abs(value + above)) > UNBOUNDED * abs(value) and value != 0:
+        assert text.endswith(" (no interval)"), text  # an interval that bounds nothing
+        return
     numbers = re.findall(r"-?\d+(?:\.(\d+))?", text)
     assert len(numbers) == 3 and len({len(d) for d in numbers}) == 1, text
     assert "e" not in text and len(text) < 60, text

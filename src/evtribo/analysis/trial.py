@@ -51,7 +51,8 @@ TRIAL_COLUMNS = ("subject", "trial", "waveform", "frequency_Hz", "amplitude_V", 
                  "duration_s", "frames", "dropped_frames", "skipped_lines",
                  "friction_modulation_Hz", "normal_offset_N", "tangential_offset_N", "tare",
                  "mu_change_per_10s", "crosstalk_normal", "crosstalk_normal_se",
-                 "tangential_direction_share")
+                 "tangential_direction_share", "analysed_s", "excluded_switch_s",
+                 "excluded_lift_s", "excluded_unsteady_s", "excluded_other_s")
 #: Columns of windows.csv (study format, section 2).
 WINDOW_CSV_COLUMNS = ("subject", "trial", "condition", "amplitude_V", "waveform", "t_start_s",
                       "t_end_s", "normal_force_N", "friction_force_N", "direction", "stroke",

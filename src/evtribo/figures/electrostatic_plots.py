@@ -1,9 +1,11 @@
-"""The electrostatic force against the voltage amplitude: one subject's (measured, model,
-U^2 guide) and every subject's in one figure (``electrostatic_force_all``).
+"""The electrostatic force against the voltage amplitude: one subject's (measured and model)
+and every subject's in one figure (``electrostatic_force_all``).
 
 Both are log-log with forces in mN, a tick at each measured amplitude and plain numbers
-(:mod:`evtribo.figures.layout`); with ``ax=None`` they draw on a new figure in the journal
-style (:mod:`evtribo.figures.style`) and return the Axes.
+(:mod:`evtribo.figures.layout`); a model line runs over its waveform's measured amplitudes
+(and 15 % beyond each end on the log axis), never from one point over amplitudes not
+measured; with ``ax=None`` they draw on a new figure in the journal style
+(:mod:`evtribo.figures.style`) and return the Axes.
 """
 
 from __future__ import annotations
@@ -76,10 +78,22 @@ def _force_axes(ax: Axes, amplitudes: NDArray[np.float64]) -> None:
     ax.set_ylabel("electrostatic force $F_\\mathrm{el}$ (mN)")
 
 
+def _grid(amplitudes: NDArray[np.float64], n: int = 80) -> NDArray[np.float64]:
+    """The voltages a model line is drawn at: the measured amplitudes' span, 15 % beyond
+    each end (a single amplitude: that 15 % about it), V."""
+    amps = amplitudes[np.isfinite(amplitudes) & (amplitudes > 0)]
+    if amps.size == 0:
+        return np.empty(0)
+    return np.geomspace(float(amps.min()) / 1.15, float(amps.max()) * 1.15, n)
+
+
 @styled
 def plot_electrostatic_force(rows: pd.DataFrame, params: ModelParameters = TABLE_1, *,
                              subject: str | None = None, ax: Axes | None = None) -> Axes:
-    """Electrostatic force versus voltage amplitude, log-log: measured, model, U^2 guide.
+    """Electrostatic force versus voltage amplitude, log-log: measured and model.
+
+    The legend gives the points (``measured``, a marker per waveform) apart from the
+    model's lines (one per waveform, at the points' mean normal force ON).
 
     Parameters
     ----------
@@ -99,29 +113,28 @@ def plot_electrostatic_force(rows: pd.DataFrame, params: ModelParameters = TABLE
     """
     ax = new_axes() if ax is None else ax
     amps_all = rows["amplitude_V"].to_numpy(float)
-    grid = np.geomspace(np.nanmin(amps_all) / 1.15, np.nanmax(amps_all) * 1.15, 80)
-    hidden, handles, guide = 0, [], False
-    for k, (wave, sel) in enumerate(_by_waveform(rows)):
+    hidden, points, lines = 0, [], []
+    groups = _by_waveform(rows)
+    for k, (wave, sel) in enumerate(groups):
         style = {**series_style(k), "marker": _WAVE_MARKERS.get(wave, series_style(k)["marker"])}
         amp = sel["amplitude_V"].to_numpy(float)
         f, err = _errors_mN(sel)
         hidden += int(np.sum(~(f > 0)))
         ax.errorbar(amp, f, yerr=err, fmt=style["marker"], color=style["color"])
         fn = float(np.nanmean(sel["normal_force_on_N"].to_numpy(float)))
+        grid = _grid(amp)
         for curve in _model_curves_mN(sel, grid, wave, params):
             ax.plot(grid, curve, linestyle=style["linestyle"], color=style["color"])
-        handles.append(proxy(f"{wave} ($F_n$ = {1e3 * fn:.0f} mN)", **style))
-        pos = f > 0
-        if pos.any():  # U^2 through the points' geometric centre
-            centre_u = np.exp(np.mean(np.log(amp[pos])))
-            centre_f = np.exp(np.mean(np.log(f[pos])))
-            ax.plot(grid, centre_f * (grid / centre_u) ** 2, ":", color="0.5", lw=0.8)
-            guide = True
-    if guide:
-        handles.append(proxy("$\\propto U^2$ guide", color="0.5", linestyle=":", lw=0.8))
+        named = f", {wave}" if len(groups) > 1 else ""
+        points.append(proxy(f"measured{named}", color=style["color"], marker=style["marker"],
+                            linestyle="none"))
+        lines.append(proxy(f"model{named} ($F_n$ = {1e3 * fn:.0f} mN)", color=style["color"],
+                           linestyle=style["linestyle"]))
     _force_axes(ax, amps_all)
     _nonpositive_note(ax, hidden)
-    place_legend(ax, handles, [str(h.get_label()) for h in handles])
+    handles = points + lines
+    place_legend(ax, handles, [str(h.get_label()) for h in handles],
+                 ncol_outside=2 if len(groups) > 1 else 1)
     return ax
 
 
@@ -132,7 +145,8 @@ def plot_electrostatic_force_all(electrostatic: pd.DataFrame,
     """Every subject's electrostatic force versus voltage amplitude, with its fitted model.
 
     One colour, marker and line style per subject (in the order of *params*); filled
-    markers for a square drive, open ones for a sine drive. Points are spread by 1.5 % in U
+    markers for a square drive, open ones for a sine drive; each model line over its
+    subject's and waveform's own amplitudes. Points are spread by 1.5 % in U
     between subjects (by at most ±3 % in all) around their amplitude so that the intervals
     of different subjects do not hide one another.
 
@@ -153,7 +167,6 @@ def plot_electrostatic_force_all(electrostatic: pd.DataFrame,
     ax = new_axes() if ax is None else ax
     subjects = [s for s in params if (electrostatic["subject"].astype(str) == s).any()]
     amps_all = electrostatic["amplitude_V"].to_numpy(float)
-    grid = np.geomspace(np.nanmin(amps_all) / 1.15, np.nanmax(amps_all) * 1.15, 80)
     n = len(subjects)
     several = electrostatic["waveform"].astype(str).nunique() > 1
     handles: list[Any] = []
@@ -172,6 +185,7 @@ def plot_electrostatic_force_all(electrostatic: pd.DataFrame,
             ax.errorbar(sel["amplitude_V"].to_numpy(float) * shift, f, yerr=err,
                         fmt=style["marker"], color=style["color"], elinewidth=0.7,
                         markerfacecolor=look["markerfacecolor"])
+            grid = _grid(sel["amplitude_V"].to_numpy(float))
             for curve in _model_curves_mN(sel, grid, wave, params[s]):
                 ax.plot(grid, curve, color=style["color"], linestyle=style["linestyle"],
                         alpha=look["alpha"])

@@ -3,10 +3,10 @@
 :func:`voltage_ticks` puts a tick at each measured amplitude with a plain label (``140``,
 not a power of ten), leaving out labels that would run into a neighbour's
 (:class:`SpacedPlainFormatter`); :func:`plain_log_axis` labels a log axis with plain
-numbers. :func:`place_legend` puts a legend in a corner of the Axes where it covers no
-data, checked against the drawn data (:func:`legend_overlap`), or above the Axes when no
-corner is free (a figure of :func:`~evtribo.figures.style.new_axes` then grows by the
-legend's height, so that the data keep theirs).
+numbers. :func:`place_legend` puts a legend above the Axes, where it covers no data, in
+every figure alike (a figure of :func:`~evtribo.figures.style.new_axes` then grows by the
+legend's height, so that the data keep theirs); asked to, it tries the corners of the Axes
+first, each checked against the drawn data (:func:`legend_overlap`).
 """
 
 from __future__ import annotations
@@ -225,9 +225,10 @@ _CORNERS = ("upper left", "upper right", "lower right", "lower left", "center le
 
 def place_legend(ax: Axes, handles: Sequence[Any] | None = None,
                  labels: Sequence[str] | None = None, *, ncol_outside: int = 2,
-                 inside: bool = True, **kwargs: Any) -> Legend | None:
-    """A legend where it covers no data: the first free corner (in one column, then in two),
-    else above the Axes; its entries read in their order, row by row.
+                 inside: bool = False, **kwargs: Any) -> Legend | None:
+    """A legend where it covers no data: above the Axes, as in every figure of evtribo
+    (with *inside*, the first free corner, in one column then in two, else above); its
+    entries read in their order, row by row.
 
     The figure is laid out first (so the Axes have their final size), then each corner is
     tried and checked with :func:`legend_overlap`.
@@ -241,8 +242,8 @@ def place_legend(ax: Axes, handles: Sequence[Any] | None = None,
     ncol_outside : int
         Columns of the legend when it goes above the Axes.
     inside : bool
-        Try the corners inside the Axes first (False: straight above, e.g. when a twin
-        Axes draws data this check does not see).
+        Try the corners inside the Axes first (default False: straight above, the place of
+        every legend of evtribo's figures, so that they read alike).
     **kwargs
         Passed to :meth:`Axes.legend`.
 

@@ -21,10 +21,7 @@ from typing import Any
 import matplotlib as mpl
 import numpy as np
 import pandas as pd
-from matplotlib import colormaps
 from matplotlib.axes import Axes
-from matplotlib.cm import ScalarMappable
-from matplotlib.colors import ListedColormap, Normalize
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from numpy.typing import NDArray
@@ -37,7 +34,10 @@ from evtribo.figures.layout import place_legend, voltage_ticks
 from evtribo.figures.style import (
     DEFAULT_DPI,
     DEFAULT_FORMATS,
+    EVERY_COLOUR,
     PALETTE,
+    amplitude_bar,
+    amplitude_colours,
     new_axes,
     proxy,
     series_style,
@@ -127,43 +127,69 @@ def _metadata(fmt: str) -> dict[str, str | None]:
 #: More ON drives than this in one friction-versus-load figure: a colour bar for the
 #: amplitude instead of one legend entry per drive.
 _MAX_ON_ENTRIES = 6
+#: The model's line style per waveform (its colour is the drive's).
+_WAVE_LINES = {"square": "-", "sine": "--"}
 
 
-def _on_series(ax: Axes, on: pd.DataFrame, grid: NDArray[np.float64],
-               params: ModelParameters) -> list[Line2D]:
-    """Draw each ON drive's windows and model curve; return the legend entries."""
+def _span(fn: NDArray[np.float64], n: int = 40) -> NDArray[np.float64]:
+    """The normal forces a model line is drawn over: those measured, N (empty without)."""
+    fn = fn[np.isfinite(fn)]
+    if fn.size == 0:
+        return np.empty(0)
+    return np.linspace(float(fn.min()), float(fn.max()), n)
+
+
+def _on_series(ax: Axes, on: pd.DataFrame, params: ModelParameters
+               ) -> tuple[list[Line2D], list[Line2D]]:
+    """Draw each ON drive's windows and its model line over their normal forces; return
+    the legend entries of the points (one per drive, or per waveform with a colour bar) and
+    of the model's lines (one per waveform)."""
     pairs = on[["waveform", "amplitude_V"]].drop_duplicates().itertuples(index=False)
     keys = sorted(((str(p[0]), float(p[1])) for p in pairs),
                   key=lambda wa: (wa[0] != "square", wa[0], wa[1]))
     amps = np.array([a for _, a in keys])
     many = len(keys) > _MAX_ON_ENTRIES
-    cmap = ListedColormap(colormaps["viridis"](np.linspace(0.0, 0.85, 256)))
-    norm = Normalize(float(amps.min()), float(amps.max())) if amps.size else Normalize()
-    handles: list[Line2D] = []
+    colour = amplitude_colours(amps)
+    points: list[Line2D] = []
     waves: dict[str, dict[str, Any]] = {}
     for k, (wave, amp) in enumerate(keys):
         sel = on[(on["waveform"].astype(str) == wave) & (on["amplitude_V"] == amp)]
-        style: dict[str, Any] = series_style(k + 1) if not many else {
-            "marker": "o", "linestyle": "-" if wave == "square" else "--"}
-        style = {**style, "color": cmap(norm(amp) if np.ptp(amps) > 0 else 0.5),
-                 "markerfacecolor": "white" if wave == "sine" else None}
-        points: dict[str, Any] = {key: v for key, v in style.items() if key != "linestyle"}
+        look = {"color": colour(amp), "marker": "o" if many else series_style(k + 1)["marker"],
+                "markerfacecolor": "white" if wave == "sine" else colour(amp)}
         ax.plot(1e3 * sel["normal_force_N"], 1e3 * sel["friction_force_N"], linestyle="none",
-                markersize=3, **points)
-        ax.plot(1e3 * grid, 1e3 * mean_friction_force(grid, amp, wave, params),
-                linestyle=style["linestyle"], color=style["color"])
+                markersize=3, **look)
+        span = _span(sel["normal_force_N"].to_numpy(float))
+        line = _WAVE_LINES.get(wave, ":")
+        ax.plot(1e3 * span, 1e3 * mean_friction_force(span, amp, wave, params),
+                linestyle=line, color=look["color"])
         if not many:
-            handles.append(proxy(f"ON {amp:g} V" + (f" {wave}" if wave != "square" else ""),
-                                 **style))
-        waves.setdefault(wave, {**style, "color": "0.35"})
+            points.append(proxy(f"ON {amp:g} V" + (f" {wave}" if wave != "square" else ""),
+                                linestyle="none", **look))
+        waves.setdefault(wave, {**look, "color": EVERY_COLOUR,
+                                "markerfacecolor": "white" if wave == "sine" else EVERY_COLOUR})
     if many:
-        handles += [proxy(f"ON, {wave}", **style) for wave, style in waves.items()]
-        fig = ax.get_figure()
-        assert fig is not None
-        bar = fig.colorbar(ScalarMappable(norm, cmap), ax=ax, pad=0.02, aspect=30)
-        bar.set_label("voltage amplitude $U$ (V)")
-        voltage_ticks(bar.ax.yaxis, amps)
-    return handles
+        points += [proxy(f"ON, {wave}", linestyle="none", **look)
+                   for wave, look in waves.items()]
+        amplitude_bar(ax, amps)
+        voltage_ticks(ax.figure.axes[-1].yaxis, amps)
+    lines = [proxy("model, ON" + (f" {wave}" if len(waves) > 1 else ""),
+                   color=EVERY_COLOUR, linestyle=_WAVE_LINES.get(wave, ":"))
+             for wave in waves]
+    return points, lines
+
+
+def _zoom(ax: Axes, fn: NDArray[np.float64]) -> None:
+    """Limits around what is drawn (8 % margins): the measured windows and the model's lines
+    over their normal forces, the axes not forced to 0."""
+    ys = [np.asarray(line.get_ydata(), float) for line in ax.lines]
+    for values, setter in ((1e3 * fn, ax.set_xlim),
+                           (np.concatenate(ys) if ys else np.empty(0), ax.set_ylim)):
+        v = values[np.isfinite(values)]
+        if v.size == 0:
+            continue
+        lo, hi = float(v.min()), float(v.max())
+        pad = 0.08 * (hi - lo) if hi > lo else 0.1 * max(abs(hi), 1.0)
+        setter(lo - pad, hi + pad)
 
 
 @styled
@@ -171,11 +197,14 @@ def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = 
                                subject: str | None = None, ax: Axes | None = None) -> Axes:
     """Friction versus normal force, OFF and ON: measured windows and the model (Figure 6).
 
-    Points are the steady-sliding windows, lines the model (eq. 5); OFF in black, each ON
-    drive (waveform and amplitude) in the colour of its amplitude on the viridis map
-    (readable in greyscale) with its own marker and line style; open markers for a sine
-    drive. With more than six ON drives a colour bar gives the amplitude and the legend
-    only the waveforms (solid: square, dashed: sine).
+    Points are the steady-sliding windows, lines the model (eq. 5) over the normal forces
+    each drive's windows span (nowhere else: the axes are zoomed to the windows); OFF in
+    black, each ON drive (waveform and amplitude) in the colour of its amplitude
+    (:func:`~evtribo.figures.style.amplitude_colours`, dark enough on white, ordered in
+    greyscale) with its own marker; open markers for a sine drive. The legend gives the
+    points (one entry per drive) apart from the model's lines (solid for a square drive,
+    dashed for a sine, in each drive's colour). With more than six ON drives a colour bar
+    gives the amplitude and the legend only the waveforms.
 
     Parameters
     ----------
@@ -194,22 +223,21 @@ def plot_friction_normal_force(windows: pd.DataFrame, params: ModelParameters = 
         Forces in mN.
     """
     ax = new_axes() if ax is None else ax
-    fn = windows["normal_force_N"].to_numpy(float)
-    top = float(np.nanmax(fn)) * 1.15 if fn.size and np.isfinite(fn).any() else 1.0
-    grid = np.linspace(0.02 * top, top, 60)
     cond = windows["condition"].astype(str).str.lower()
     off = windows[cond == "off"]
     ax.plot(1e3 * off["normal_force_N"], 1e3 * off["friction_force_N"], "o", color="k",
             markerfacecolor="white", markersize=3)
-    ax.plot(1e3 * grid, 1e3 * mean_friction_force(grid, 0.0, "square", params), "-",
+    span = _span(off["normal_force_N"].to_numpy(float))
+    ax.plot(1e3 * span, 1e3 * mean_friction_force(span, 0.0, "square", params), "-",
             color="k")
-    handles = [proxy(f"OFF (μ = {significant(params.mu)})", color="k", marker="o",
-                     linestyle="-", markerfacecolor="white")]
-    handles += _on_series(ax, windows[cond == "on"], grid, params)
+    points = [proxy(f"OFF ($\\mu$ = {significant(params.mu)})", color="k", marker="o",
+                    linestyle="none", markerfacecolor="white")]
+    on_points, lines = _on_series(ax, windows[cond == "on"], params)
+    lines.insert(0, proxy("model, OFF", color="k", linestyle="-"))
+    handles = points + on_points + lines
     ax.set_xlabel("normal force $F_n$ (mN)")
     ax.set_ylabel("friction force $F_t$ (mN)")
-    ax.set_xlim(0, 1e3 * top)
-    ax.set_ylim(bottom=0)
+    _zoom(ax, windows["normal_force_N"].to_numpy(float))
     place_legend(ax, handles, [str(h.get_label()) for h in handles], ncol_outside=3)
     return ax
 
@@ -288,31 +316,43 @@ def plot_friction_time(trace: pd.DataFrame | None, params: ModelParameters = TAB
         fn = trace["normal_force_N"].to_numpy(float)
         u = trace_voltage(trace, params)
         fitted_phase = "voltage_V" not in trace.columns
-        ax.plot(t, 1e3 * fn, "-.", color=PALETTE[2], label="normal force, measured")
         # the model underneath, wide and pale, so that the measured trace stays visible
-        ax.plot(t, 1e3 * friction_time_series(t, fn, u, params), "-", color=PALETTE[1],
-                lw=3.0, alpha=0.45, solid_capstyle="butt",
-                label="friction, model (drive phase fitted)" if fitted_phase
-                else "friction, model")
-        ax.plot(t, 1e3 * friction_time_series(t, fn, np.zeros_like(t), params), "--",
-                color=PALETTE[0], label="friction, model OFF")
-        ax.plot(t, 1e3 * trace["friction_force_N"].to_numpy(float), "-", color="k", lw=0.7,
-                label="friction, measured")
+        model = ax.plot(t, 1e3 * friction_time_series(t, fn, u, params), "-",
+                        color=PALETTE[1], lw=3.0, alpha=0.45, solid_capstyle="butt",
+                        label="friction, model (drive phase fitted)" if fitted_phase
+                        else "friction, model")
+        off = ax.plot(t, 1e3 * friction_time_series(t, fn, np.zeros_like(t), params), "--",
+                      color=PALETTE[0], label="friction, model OFF")
+        normal = ax.plot(t, 1e3 * fn, "-", color=PALETTE[2], lw=0.7,
+                         label="normal force $F_n$, measured")
+        measured = ax.plot(t, 1e3 * trace["friction_force_N"].to_numpy(float), "-", color="k",
+                           lw=0.7, label="friction $F_t$, measured")
+        handles = [*measured, *normal, *model, *off]  # the measurements, then the model's
     else:
         t = np.linspace(0.0, 3.0 / frequency, 600)
         fn = np.full_like(t, normal_force)
-        ax.plot(t, 1e3 * fn, "-.", color=PALETTE[2], label="normal force")
-        ax.plot(t, 1e3 * friction_time_series(t, fn, sine_voltage(t, amplitude, frequency),
-                                              params),
-                "-", color=PALETTE[1], label=f"model ON ({amplitude:g} V, {frequency:g} Hz)")
-        ax.plot(t, 1e3 * friction_time_series(t, fn, np.zeros_like(t), params), "--",
-                color=PALETTE[0], label="model OFF")
+        handles = [
+            *ax.plot(t, 1e3 * friction_time_series(t, fn, sine_voltage(t, amplitude, frequency),
+                                                   params),
+                     "-", color=PALETTE[1], label=f"model ON ({amplitude:g} V, {frequency:g} Hz)"),
+            *ax.plot(t, 1e3 * friction_time_series(t, fn, np.zeros_like(t), params), "--",
+                     color=PALETTE[0], label="model OFF"),
+            *ax.plot(t, 1e3 * fn, "-", color=PALETTE[2], lw=0.7, label="normal force (given)")]
     ax.set_xlabel("time $t$ (s)")
     ax.set_ylabel("force (mN)")
     ax.set_xlim(float(np.nanmin(t)), float(np.nanmax(t)))
     ax.set_ylim(bottom=0)
-    place_legend(ax)
+    _zero_tick(ax.yaxis)
+    place_legend(ax, handles, [str(h.get_label()) for h in handles])
     return ax
+
+
+def _zero_tick(axis: Any) -> None:
+    """A labelled tick at 0 on a linear axis that starts there (the locator's own ticks
+    otherwise, which may leave 0 out)."""
+    from matplotlib.ticker import MaxNLocator
+
+    axis.set_major_locator(MaxNLocator(nbins=5, steps=[1, 2, 2.5, 5, 10], min_n_ticks=3))
 
 
 @styled
@@ -326,7 +366,8 @@ def plot_area_increase(normal_forces: Mapping[str, float],
     ----------
     normal_forces : mapping
         ``{label: normal force in N}``, e.g. each subject's mean normal force ON; one
-        colour and line style per label, in this order.
+        colour and line style per label, in this order (the legend gives each label's
+        force).
     params : mapping
         ``{label: ModelParameters}`` with the same keys.
     u_max : float
@@ -345,14 +386,14 @@ def plot_area_increase(normal_forces: Mapping[str, float],
     for k, (label, fn) in enumerate(normal_forces.items()):
         style = series_style(k)
         ax.plot(u, area_increase_pct(fn, u, params[label]), color=style["color"],
-                linestyle=style["linestyle"], label=f"{label} ($F_n$ = {1e3 * fn:.0f} mN)")
+                linestyle=style["linestyle"], label=f"{label} ({1e3 * fn:.0f} mN)")
     ax.set_xlabel("voltage amplitude $U$ (V)")
-    ax.set_ylabel("contact area increase (%)")
+    ax.set_ylabel("contact area increase, model (%)")
     ax.set_xlim(0, u_max)
     ax.set_ylim(bottom=0)
     if amplitudes is not None and len(amplitudes):
         voltage_ticks(ax.xaxis, _from_zero(amplitudes))
-    place_legend(ax)
+    place_legend(ax, ncol_outside=4, title="at the normal force $F_n$ ON")
     return ax
 
 

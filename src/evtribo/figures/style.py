@@ -29,10 +29,12 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
+from numpy.typing import NDArray
 
 from evtribo.errors import UserInputError
 
 __all__ = [
+    "AMPLITUDE_MAP",
     "DEFAULT_DPI",
     "DEFAULT_FORMATS",
     "EVERY_COLOUR",
@@ -41,9 +43,11 @@ __all__ = [
     "LINESTYLES",
     "MARKERS",
     "MAX_DRIVE_ENTRIES",
+    "MIN_TEXT_PT",
     "PALETTE",
     "active_width",
     "amplitude_bar",
+    "amplitude_colours",
     "figure_size",
     "journal_style",
     "new_axes",
@@ -66,6 +70,10 @@ DEFAULT_DPI = 300.0
 FIGURE_WIDTHS = {"single": 85.0, "double": 175.0}
 
 _MM = 1.0 / 25.4
+#: The smallest text of a figure, pt: a subscript of the legend's (mathtext shrinks one to
+#: 70 %: a 7-pt legend's F_n had a 4.9-pt n).
+MIN_TEXT_PT = 5.25
+_SUBSCRIPT = 0.7
 #: Okabe & Ito (2008), without yellow (too pale on white) until the eighth series.
 PALETTE = ("#0072B2", "#D55E00", "#009E73", "#CC79A7", "#E69F00", "#56B4E9", "#000000",
            "#F0E442")
@@ -103,8 +111,8 @@ def _rc(width: str) -> dict[str, Any]:
         "axes.labelsize": 8,
         "xtick.labelsize": 7,
         "ytick.labelsize": 7,
-        "legend.fontsize": 7,
-        "legend.title_fontsize": 7,
+        "legend.fontsize": MIN_TEXT_PT / _SUBSCRIPT,
+        "legend.title_fontsize": MIN_TEXT_PT / _SUBSCRIPT,
         "legend.frameon": False,
         "legend.handlelength": 2.6,
         "axes.linewidth": 0.6,
@@ -385,11 +393,54 @@ def proxy(label: str, **style: Any) -> Line2D:
     return Line2D([], [], label=label, **style)
 
 
-def amplitude_bar(ax: Axes, amplitudes: Sequence[float]) -> Callable[[float], Any]:
+#: The part of the viridis map the amplitudes are drawn in: its darker 60 %, from purple to
+#: teal, each colour at least 3:1 against white (its palest tenth, lime, was 1.5:1), its
+#: grey level rising with the amplitude.
+AMPLITUDE_MAP = (0.0, 0.6)
+
+
+def _amplitude_map() -> Any:
+    from matplotlib import colormaps
+    from matplotlib.colors import ListedColormap
+
+    return ListedColormap(colormaps["viridis"](np.linspace(*AMPLITUDE_MAP, 256)))
+
+
+def _amplitude_norm(amplitudes: Sequence[float] | NDArray[np.float64]) -> Any:
+    from matplotlib.colors import Normalize
+
+    amps = np.asarray(amplitudes, float)
+    amps = amps[np.isfinite(amps)]
+    return Normalize(float(amps.min()), float(amps.max())) if amps.size else Normalize()
+
+
+def amplitude_colours(amplitudes: Sequence[float] | NDArray[np.float64]
+                      ) -> Callable[[float], Any]:
+    """The colour of each voltage amplitude of a figure: the lowest darkest, the highest
+    lightest, on :data:`AMPLITUDE_MAP` of viridis.
+
+    Parameters
+    ----------
+    amplitudes : sequence of float
+        The amplitudes drawn, V.
+
+    Returns
+    -------
+    callable
+        ``colour(amplitude)``: an RGBA tuple (the middle of the map for a single amplitude).
+    """
+    cmap, norm = _amplitude_map(), _amplitude_norm(amplitudes)
+    amps = np.asarray(amplitudes, float)
+    flat = amps.size == 0 or float(np.ptp(amps[np.isfinite(amps)] if amps.size else amps)) == 0
+    return lambda amp: cmap(0.5 if flat else norm(amp))
+
+
+def amplitude_bar(ax: Axes, amplitudes: Sequence[float] | NDArray[np.float64]
+                  ) -> Callable[[float], Any]:
     """A colour bar of the voltage amplitude beside *ax*; the colour of each amplitude.
 
-    The viridis map without its palest tenth (readable in greyscale, visible on white), a
-    tick at each amplitude (:func:`~evtribo.figures.layout.voltage_ticks` is the caller's).
+    The colours of :func:`amplitude_colours`, a tick at each amplitude
+    (:func:`~evtribo.figures.layout.voltage_ticks` is the caller's).
 
     Parameters
     ----------
@@ -402,15 +453,10 @@ def amplitude_bar(ax: Axes, amplitudes: Sequence[float]) -> Callable[[float], An
     callable
         ``colour(amplitude)``: an RGBA tuple.
     """
-    from matplotlib import colormaps
     from matplotlib.cm import ScalarMappable
-    from matplotlib.colors import ListedColormap, Normalize
 
-    amps = np.asarray(amplitudes, float)
-    cmap = ListedColormap(colormaps["viridis"](np.linspace(0.0, 0.85, 256)))
-    norm = Normalize(float(amps.min()), float(amps.max())) if amps.size else Normalize()
-    flat = amps.size == 0 or float(np.ptp(amps)) == 0.0
     fig = ax.figure.figure
-    bar = fig.colorbar(ScalarMappable(norm, cmap), ax=ax, pad=0.02, aspect=30)
+    bar = fig.colorbar(ScalarMappable(_amplitude_norm(amplitudes), _amplitude_map()), ax=ax,
+                       pad=0.02, aspect=30)
     bar.set_label("voltage amplitude $U$ (V)")
-    return lambda amp: cmap(0.5 if flat else norm(amp))
+    return amplitude_colours(amplitudes)

@@ -18,7 +18,15 @@ Burnham and Anderson's rule) the ``aic`` column holds the small-sample AICc, ``A
 1) / (n - K - 1)``, for every model of that subject (NaN when ``n <= K + 1``);
 :attr:`ModelFit.criterion` says which. ``delta_aic`` is the difference to the subject's best
 and ``akaike_weight`` is ``exp(-delta / 2)`` normalised over the subject's models. ``rss_N2``
-is the unweighted sum of squared residuals, N^2.
+is the unweighted sum of squared residuals, N^2. ``criterion`` says which of AIC and AICc
+``aic`` is; ``at_bound`` names the fitted parameters the optimiser left at a bound of their
+search range (the data do not set them: ``fitted`` then holds the bound, not an estimate).
+
+Over the study (:func:`study_ranking`), each model's criterion is summed over the subjects
+where every model has one (the subjects are independent data sets, each with its own
+parameters), and the sums ranked: Δ to the lowest, Akaike weights, and a model within
+:data:`INDISTINGUISHABLE` of the lowest said to be indistinguishable from it (Burnham and
+Anderson: Δ < 2 has substantial support).
 """
 
 from __future__ import annotations
@@ -46,14 +54,20 @@ from evtribo.results.outputs import MODELS_CSV
 
 log = logging.getLogger(__name__)
 
-__all__ = ["CANDIDATES", "MODELS_COLUMNS", "MODELS_CSV", "Candidate", "ModelFit",
-           "electrostatic_force_hertz", "fit_models", "models_table", "resolve_models"]
+__all__ = ["CANDIDATES", "INDISTINGUISHABLE", "MODELS_COLUMNS", "MODELS_CSV", "RANKING_COLUMNS",
+           "Candidate", "ModelFit", "electrostatic_force_hertz", "fit_models", "models_table",
+           "resolve_models", "study_ranking", "verdict"]
 
 #: Its columns.
 MODELS_COLUMNS = ("subject", "model", "fitted", "n_params", "n_points", "rss_N2", "aic",
-                  "bic", "delta_aic", "akaike_weight")
+                  "bic", "delta_aic", "akaike_weight", "criterion", "at_bound")
 #: Fewer points than this per parameter: AICc instead of AIC.
 AICC_RATIO = 40
+#: Models whose criterion is within this of the lowest are indistinguishable from the best.
+INDISTINGUISHABLE = 2.0
+#: The columns of :func:`study_ranking`.
+RANKING_COLUMNS = ("model", "subjects", "aic_sum", "delta", "akaike_weight", "best_in",
+                   "indistinguishable_in", "criterion", "at_bound_in")
 
 
 def electrostatic_force_hertz(normal_force: ArrayLike, voltage: ArrayLike,
@@ -165,6 +179,8 @@ class ModelFit:
         ``"AIC"`` or ``"AICc"``.
     note : str
         Why the fit failed ("" otherwise).
+    at_bound : tuple of str
+        The fitted parameters left at a bound of their search range.
     """
 
     subject: str
@@ -181,6 +197,7 @@ class ModelFit:
     akaike_weight: float = math.nan
     criterion: str = "AIC"
     note: str = ""
+    at_bound: tuple[str, ...] = ()
 
     def force(self, normal_force: ArrayLike, amplitude: ArrayLike, waveform: ArrayLike,
               frequency: ArrayLike | None) -> NDArray[np.float64]:
@@ -226,7 +243,20 @@ def _fit_one(subject: str, rows: pd.DataFrame, candidate: Candidate,
     return ModelFit(subject, candidate.name, problem.params_at(res.x),
                     dict(zip(candidate.fit, values.tolist(), strict=True)),
                     n_params=len(candidate.fit), n_points=len(pts.measured),
-                    rss_N2=float(np.sum(resid**2)), wrss=float(np.sum(res.fun**2)))
+                    rss_N2=float(np.sum(resid**2)), wrss=float(np.sum(res.fun**2)),
+                    at_bound=_at_bound(candidate.fit, res.x, problem.lower, problem.upper))
+
+
+def _at_bound(names: Sequence[str], x: NDArray[np.float64], lower: NDArray[np.float64],
+              upper: NDArray[np.float64]) -> tuple[str, ...]:
+    """The parameters whose scaled value lies on a finite bound of its range (within a
+    millionth of the range, or of 1 where it is unbounded above)."""
+    out = []
+    for name, xi, lo, hi in zip(names, x, lower, upper, strict=True):
+        tol = 1e-6 * ((hi - lo) if math.isfinite(hi - lo) else 1.0)
+        if (math.isfinite(lo) and xi - lo <= tol) or (math.isfinite(hi) and hi - xi <= tol):
+            out.append(str(name))
+    return tuple(out)
 
 
 def _criteria(fits: Sequence[ModelFit]) -> None:
@@ -303,5 +333,105 @@ def models_table(fits: Sequence[ModelFit]) -> pd.DataFrame:
              "fitted": "; ".join(f"{k}={v:.3g}" for k, v in f.fitted.items()),
              "n_params": f.n_params, "n_points": f.n_points, "rss_N2": f.rss_N2,
              "aic": f.aic, "bic": f.bic, "delta_aic": f.delta_aic,
-             "akaike_weight": f.akaike_weight} for f in fits]
+             "akaike_weight": f.akaike_weight,
+             "criterion": f.criterion if f.params is not None else None,
+             "at_bound": ";".join(f.at_bound)} for f in fits]
     return pd.DataFrame(rows, columns=list(MODELS_COLUMNS))
+
+
+def study_ranking(models: pd.DataFrame) -> pd.DataFrame:
+    """The models ranked over the study: each one's criterion summed over the subjects where
+    every model ranked has one (a model without a criterion in any of them is not ranked).
+
+    Parameters
+    ----------
+    models : DataFrame
+        ``models.csv`` (:data:`MODELS_COLUMNS`; ``criterion`` and ``at_bound`` may be
+        missing, as in the files of an older evtribo).
+
+    Returns
+    -------
+    DataFrame
+        :data:`RANKING_COLUMNS`, best first: ``subjects`` summed over, ``aic_sum``,
+        ``delta`` to the lowest sum, ``akaike_weight`` of the sums, ``best_in`` and
+        ``indistinguishable_in`` (how many subjects each model was best in, or within
+        :data:`INDISTINGUISHABLE` of the best), ``criterion`` (``AICc`` if any subject's was)
+        and ``at_bound_in`` (subjects where a parameter stayed at its bound). Empty when no
+        subject has every model's criterion.
+    """
+    table = models.copy()
+    table["aic"] = pd.to_numeric(table["aic"], errors="coerce")
+    table["delta_aic"] = pd.to_numeric(table["delta_aic"], errors="coerce")
+    names, complete = _ranked_set(table)
+    used = table[table["subject"].astype(str).isin(complete)
+                 & table["model"].astype(str).isin(names)]
+    if used.empty:
+        return pd.DataFrame(columns=list(RANKING_COLUMNS))
+    sums = used.groupby(used["model"].astype(str), sort=False)["aic"].sum()
+    delta = sums - float(sums.min())
+    weight = np.exp(-delta / 2.0)
+    weight = weight / float(weight.sum())
+    crit = set(used.get("criterion", pd.Series(["AIC"] * len(used))).dropna().astype(str))
+    bound = used.get("at_bound", pd.Series([""] * len(used), index=used.index))
+    rows = []
+    for name in sums.index:
+        mine = used[used["model"].astype(str) == name]
+        rows.append({"model": name, "subjects": len(complete), "aic_sum": float(sums[name]),
+                     "delta": float(delta[name]), "akaike_weight": float(weight[name]),
+                     "best_in": int((mine["delta_aic"] <= 1e-12).sum()),
+                     "indistinguishable_in": int((mine["delta_aic"] < INDISTINGUISHABLE)
+                                                 .sum()),
+                     "criterion": "AICc" if "AICc" in crit else "AIC",
+                     "at_bound_in": int(bound.loc[mine.index].fillna("").astype(str)
+                                        .str.len().gt(0).sum())})
+    out = pd.DataFrame(rows, columns=list(RANKING_COLUMNS))
+    return out.sort_values("aic_sum", kind="stable").reset_index(drop=True)
+
+
+def _ranked_set(table: pd.DataFrame) -> tuple[list[str], list[str]]:
+    """The models ranked and the subjects summed over: the most models that have a
+    criterion in a common subject (those with it in most subjects first), and the subjects
+    where all of them have one (a model that no subject's points can rank, AICc with
+    ``n <= K + 1``, is left out rather than every subject)."""
+    finite = table[table["aic"].notna()]
+    counts = finite.groupby(finite["model"].astype(str), sort=False).size()
+    order = sorted(counts.index, key=lambda m: -int(counts[m]))
+    for k in range(len(order), 0, -1):
+        names = order[:k]
+        subjects = [s for s, g in finite.groupby(finite["subject"].astype(str), sort=False)
+                    if set(g["model"].astype(str)) >= set(names)]
+        if subjects:
+            return names, subjects
+    return [], []
+
+
+def verdict(ranking: pd.DataFrame) -> str:
+    """The study's ranking in one sentence: the best model, those indistinguishable from it,
+    the others' Δ.
+
+    Parameters
+    ----------
+    ranking : DataFrame
+        :func:`study_ranking`'s table.
+
+    Returns
+    -------
+    str
+        E.g. ``paper lowest summed AICc over 8 subjects; maugis indistinguishable from it
+        (ΔAICc 1.2 < 2); hertz ΔAICc 8.5, circuit ΔAICc 19.9``; "" without a ranking.
+    """
+    if ranking.empty:
+        return ""
+    crit = str(ranking["criterion"].iloc[0])
+    best = ranking.iloc[0]
+    same = ranking[(ranking["delta"] < INDISTINGUISHABLE) & (ranking.index > 0)]
+    worse = ranking[ranking["delta"] >= INDISTINGUISHABLE]
+    text = f"{best['model']} lowest summed {crit} over {int(best['subjects'])} subject(s)"
+    if not same.empty:
+        text += "; " + ", ".join(f"{r.model} indistinguishable from it (\u0394{crit} "
+                                 f"{r.delta:.1f} < {INDISTINGUISHABLE:g})"
+                                 for r in same.itertuples())
+    if not worse.empty:
+        text += "; " + ", ".join(f"{r.model} \u0394{crit} {r.delta:.1f}"
+                                 for r in worse.itertuples())
+    return text

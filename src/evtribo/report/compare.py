@@ -400,15 +400,16 @@ def _subject_figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[
         ax = plot_electrostatic_force(rows, f.params, subject=s)
         figures.emit(ax, "electrostatic_force", f"Electrostatic force vs voltage, {s}",
                      f"electrostatic_force_{safe_name(s)}", subject=s,
-                     caption=f"{s}: inferred electrostatic force (95 % intervals) and the "
-                             "fitted model at the subject's mean normal force ON; dotted: a "
-                             "U² power law for reference.")
+                     caption=f"{s}: inferred electrostatic force (points, 95 % intervals) "
+                             "and the fitted model (lines) at the subject's mean normal force "
+                             "ON, over the amplitudes measured.")
         win = tables.windows[tables.windows["subject"] == s]
         ax = plot_friction_normal_force(win, f.params, subject=s)
         figures.emit(ax, "friction_normal_force", f"Friction vs normal force, {s}",
                      f"friction_normal_force_{safe_name(s)}", subject=s,
                      caption=f"{s}: steady-sliding windows OFF and ON (points) and the model "
-                             f"(lines, eq. 5, cf. the paper's Figure 6); μ {mu_how}")
+                             "(lines, eq. 5, cf. the paper's Figure 6) over the normal forces "
+                             f"each drive's windows span; axes zoomed to the windows; μ {mu_how}")
 
 
 def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: _Figures) -> None:
@@ -446,8 +447,9 @@ def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: _Figur
                             amplitudes=sorted(set(amps[np.isfinite(amps)].tolist())))
     figures.emit(ax, "area_increase", "Predicted contact-area increase", "area_increase",
                  subject=None,
-                 caption="JKR over Hertz contact area at each subject's mean normal force ON "
-                         "with the fitted parameters, cf. the paper's Figure 7.")
+                 caption="A prediction of the model, nothing measured: JKR over Hertz "
+                         "contact area at each subject's mean normal force ON with the fitted "
+                         "parameters, cf. the paper's Figure 7.")
 
 
 def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],

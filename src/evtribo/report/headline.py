@@ -27,6 +27,7 @@ import pandas as pd
 
 from evtribo.documents.fit import FitDocument
 from evtribo.figures.friction_only import subject_mu
+from evtribo.fit.models import INDISTINGUISHABLE, study_ranking, verdict
 from evtribo.model.params import TABLE_1, ModelParameters
 from evtribo.util.numbers import (
     PREFIXES,
@@ -42,7 +43,7 @@ from evtribo.util.numbers import (
 
 __all__ = ["CITATION", "DOI_URL", "F_EL_DEFINITION", "MU_COLUMN", "PARAMETER_DISPLAY",
            "Headline", "fit_summary", "force_table", "friction_table", "model_comparison",
-           "parameter_roles"]
+           "model_ranking", "parameter_roles"]
 
 #: The seed paper, cited wherever its model is named.
 CITATION = ('"Voltage-Induced Friction with Application to Electrovibration", Lubricants 2019, '
@@ -314,8 +315,11 @@ def parameter_roles(fit_doc: FitDocument, fit: pd.DataFrame) -> Headline:
                     pd.DataFrame(rows, columns=["parameter", "value", "role"]))
 
 
-def _fitted_text(text: Any) -> str:
-    """``h_L=3.21e-06; r_g=0.012`` -> ``h_L = 3.21 µm; r_g = 12.0 mΩ·m²``."""
+def _fitted_text(text: Any, at_bound: Any = "") -> str:
+    """``h_L=3.21e-06; r_g=0.012`` -> ``h_L = 3.21 µm; r_g = 12.0 mΩ·m²``; a parameter left
+    at a bound of its range is said to be there (``r_g at its bound, 788 Ω·m²``), not shown
+    as fitted."""
+    bound = {b.strip() for b in str(at_bound if isinstance(at_bound, str) else "").split(";")}
     parts = []
     for item in str(text if isinstance(text, str) else "").split(";"):
         name, sep, raw = item.partition("=")
@@ -323,8 +327,21 @@ def _fitted_text(text: Any) -> str:
         if not sep or math.isnan(value):
             parts.append(item.strip())
             continue
-        parts.append(f"{name} = {_shown(name, value)}")
+        parts.append(f"{name} at its bound ({_shown(name, value)}), not fitted"
+                     if name in bound else f"{name} = {_shown(name, value)}")
     return "; ".join(p for p in parts if p) or "—"
+
+
+def _criterion(models: pd.DataFrame) -> str:
+    """``AICc`` when models.csv's ``criterion`` says any subject's is (``AIC`` otherwise)."""
+    if "criterion" in models.columns and (models["criterion"].astype(str) == "AICc").any():
+        return "AICc"
+    return "AIC"
+
+
+def _weight(w: Any) -> str:
+    weight = to_float(w)
+    return "< 0.001" if 0 <= weight < 0.0005 else significant(weight, decimals=3)
 
 
 def model_comparison(models: pd.DataFrame, subject: str) -> Headline:
@@ -334,38 +351,94 @@ def model_comparison(models: pd.DataFrame, subject: str) -> Headline:
     ----------
     models : DataFrame
         ``models.csv``: subject, model, fitted, n_params, n_points, rss_N2, aic, bic,
-        delta_aic, akaike_weight.
+        delta_aic, akaike_weight (criterion and at_bound when compare wrote them).
     subject : str
         Whose rows.
 
     Returns
     -------
     Headline
-        Columns model, fitted, parameters, AIC, ΔAIC, Akaike weight.
+        Columns model, fitted, parameters, AICc (or AIC), ΔAICc, Akaike weight, verdict.
     """
+    crit = _criterion(models)
     mine = models[models["subject"].astype(str) == subject].copy()
     mine = mine.sort_values("aic", kind="stable")
     rows = []
     for _, r in mine.iterrows():
-        weight = to_float(r["akaike_weight"])
+        delta = to_float(r["delta_aic"])
         rows.append({
-            "model": str(r["model"]), "fitted": _fitted_text(r.get("fitted")),
+            "model": str(r["model"]),
+            "fitted": _fitted_text(r.get("fitted"), r.get("at_bound", "")),
             "parameters": str(int(to_float(r["n_params"]))) if math.isfinite(
                 to_float(r["n_params"])) else "—",
-            "AIC": significant(r["aic"], decimals=1),
-            "ΔAIC": significant(r["delta_aic"], decimals=1),
-            "Akaike weight": "< 0.001" if 0 <= weight < 0.0005 else
-            significant(weight, decimals=3)})
+            crit: significant(r["aic"], decimals=1),
+            f"Δ{crit}": significant(r["delta_aic"], decimals=1),
+            "Akaike weight": _weight(r["akaike_weight"]),
+            "verdict": "—" if not math.isfinite(delta) else "lowest" if delta == 0 else
+            f"indistinguishable (Δ < {INDISTINGUISHABLE:g})" if delta < INDISTINGUISHABLE
+            else "less supported"})
     undefined = ("; — where the criterion is not defined: no more points than the model's "
                  "parameters + 2, the model cannot be ranked") if any(
-        r["AIC"] == "—" for r in rows) else ""
+        r[crit] == "—" for r in rows) else ""
     return Headline(f"models_{subject}", f"Models compared, {subject}",
-                    "Each model fitted to the subject's electrostatic forces; AIC from the "
-                    "weighted residual sum of squares (the small-sample AICc when there are "
-                    "few points per parameter), ΔAIC to the best model, Akaike weight the "
-                    f"relative support of each model (they sum to 1){undefined}.",
-                    pd.DataFrame(rows, columns=["model", "fitted", "parameters", "AIC",
-                                                "ΔAIC", "Akaike weight"]))
+                    f"Each model fitted to the subject's electrostatic forces; {crit} from the "
+                    "weighted residual sum of squares"
+                    + (" (the small-sample AICc: fewer than 40 points per parameter)"
+                       if crit == "AICc" else "")
+                    + f", Δ{crit} to the best model, Akaike weight the relative support of "
+                    f"each model (they sum to 1); models within Δ{crit} "
+                    f"{INDISTINGUISHABLE:g} of the lowest are indistinguishable from it"
+                    f"{undefined}.",
+                    pd.DataFrame(rows, columns=["model", "fitted", "parameters", crit,
+                                                f"Δ{crit}", "Akaike weight", "verdict"]))
+
+
+def model_ranking(models: pd.DataFrame) -> Headline:
+    """The models ranked over the study (:func:`evtribo.fit.models.study_ranking`).
+
+    Parameters
+    ----------
+    models : DataFrame
+        ``models.csv``.
+
+    Returns
+    -------
+    Headline
+        Columns model, summed AICc (or AIC), ΔAICc, Akaike weight, lowest in,
+        indistinguishable in, at a bound in, verdict; its caption says the study's verdict.
+    """
+    ranking = study_ranking(models)
+    crit = str(ranking["criterion"].iloc[0]) if not ranking.empty else _criterion(models)
+    rows = []
+    for r in _rows(ranking):
+        n = int(r.subjects)
+        rows.append({"model": str(r.model), f"summed {crit}": significant(r.aic_sum,
+                                                                         decimals=1),
+                     f"Δ{crit}": significant(r.delta, decimals=1),
+                     "Akaike weight": _weight(r.akaike_weight),
+                     "lowest in": f"{int(r.best_in)} of {n}",
+                     f"within Δ{crit} {INDISTINGUISHABLE:g} in": f"{int(r.indistinguishable_in)} "
+                                                               f"of {n}",
+                     "parameter at its bound in": f"{int(r.at_bound_in)} of {n}",
+                     "verdict": "lowest" if r.delta == 0 else
+                     "indistinguishable" if r.delta < INDISTINGUISHABLE else "less supported"})
+    for name in dict.fromkeys(models["model"].astype(str)):
+        if name not in set(ranking["model"].astype(str)):
+            rows.append({"model": name, "verdict": "not ranked: no criterion where the "
+                                                   "others have one"})
+    said = verdict(ranking)
+    return Headline("models", "Models ranked over the study",
+                    f"Each model's {crit} summed over the subjects where every model has one "
+                    "(each subject its own parameters), Δ to the lowest sum and Akaike "
+                    f"weights of the sums; within Δ{crit} {INDISTINGUISHABLE:g} of the lowest "
+                    "a model is indistinguishable from it. "
+                    + (f"Verdict: {said}." if said else "No subject has every model's "
+                       "criterion: no ranking."),
+                    pd.DataFrame(rows, columns=["model", f"summed {crit}", f"Δ{crit}",
+                                                "Akaike weight", "lowest in",
+                                                f"within Δ{crit} {INDISTINGUISHABLE:g} in",
+                                                "parameter at its bound in", "verdict"]
+                                 ).astype(object).fillna("—"))
 
 
 def _rows(table: pd.DataFrame) -> list[Any]:

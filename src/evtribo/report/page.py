@@ -38,11 +38,11 @@ from markupsafe import Markup
 from evtribo import __version__
 from evtribo.errors import OutputExistsError, UserInputError
 from evtribo.store.resultdir import Staging, locked, recover
-from evtribo.util.numbers import significant
+from evtribo.util.numbers import frequency, significant
 
 log = logging.getLogger(__name__)
 
-__all__ = ["Report", "files_dir_for"]
+__all__ = ["Report", "files_dir_for", "hertz"]
 
 _env = jinja2.Environment(
     loader=jinja2.PackageLoader("evtribo.report", "templates"),
@@ -64,6 +64,24 @@ def files_dir_for(path: str | Path) -> Path:
     """
     p = Path(path)
     return p.with_name(f"{p.stem}_files")
+
+
+_HZ = re.compile(r"(?<![\w.])(\d+(?:\.\d+)?) Hz\b")
+
+
+def hertz(text: str) -> str:
+    """Frequencies in a text as people write them: ``10000 Hz`` -> ``10 kHz`` (every title,
+    caption and summary line of the page goes through it).
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    str
+    """
+    return _HZ.sub(lambda m: frequency(float(m.group(1))), text)
 
 
 def _slug(text: str, used: set[str]) -> str:
@@ -142,7 +160,7 @@ def _figure_file(path: Path) -> dict[str, Any]:
 
 @dataclass
 class _Item:
-    kind: str  # "figure", "table", "text", "html", "list"
+    kind: str  # "figure", "grid", "table", "text", "html", "list"
     title: str
     caption: str = ""
     data: dict[str, Any] = field(default_factory=dict)
@@ -189,7 +207,8 @@ class Report:
         return [s.title for s in self._sections]
 
     def add_figure(self, fig: Any, title: str, *, caption: str = "",
-                   section: str | None = None, details: str | None = None) -> None:
+                   section: str | None = None, details: str | None = None,
+                   links: Sequence[str | Path] = ()) -> None:
         """Add a figure.
 
         Parameters
@@ -205,6 +224,9 @@ class Report:
             Section title (default: the report's title).
         details : str, optional
             Show the figure folded, in a ``<details>`` element with this summary line.
+        links : sequence of str or Path
+            Files to link under the figure (its PNG, SVG, PDF), named relative to the page
+            by :meth:`render`.
 
         Returns
         -------
@@ -212,7 +234,8 @@ class Report:
         """
         sec = self._section(section)
         slug = _slug(f"{sec.slug}-{title}", self._slugs)
-        data: dict[str, Any] = {"slug": slug, "details": details}
+        data: dict[str, Any] = {"slug": slug, "details": details,
+                                "links": [Path(x) for x in links]}
         if isinstance(fig, str | Path):
             data.update(_figure_file(Path(fig)))
         else:
@@ -225,9 +248,39 @@ class Report:
             data["src"] = "data:image/png;base64," + base64.b64encode(png).decode()
         sec.items.append(_Item("figure", title, caption, data))
 
+    def add_figure_grid(self, panels: Sequence[tuple[str | Path, str]], title: str, *,
+                        caption: str = "", section: str | None = None,
+                        links: Sequence[str | Path] = ()) -> None:
+        """Add figures of one kind side by side, as one figure of small multiples (a panel
+        per subject, say): each panel a PNG or SVG file on disk, embedded, with its label.
+
+        Parameters
+        ----------
+        panels : sequence of (str or Path, str)
+            Each panel's file and its label (``P01``).
+        title, caption : str
+            Shown above and below the grid (escaped).
+        section : str, optional
+            Section title.
+        links : sequence of str or Path
+            Files to link under the grid.
+
+        Returns
+        -------
+        None
+        """
+        sec = self._section(section)
+        slug = _slug(f"{sec.slug}-{title}", self._slugs)
+        shown = [{"label": label, **_figure_file(Path(f))} for f, label in panels]
+        sec.items.append(_Item("grid", title, caption, {
+            "slug": slug, "panels": shown, "links": [Path(x) for x in links]}))
+
     def add_table(self, table: pd.DataFrame, title: str, *, caption: str = "",
                   section: str | None = None, float_format: str = ".4g",
-                  columns: Sequence[str] | None = None, wrap: bool | str = False) -> None:
+                  columns: Sequence[str] | None = None, wrap: bool | str = False,
+                  marks: Mapping[tuple[int, str], Sequence[tuple[str, str]]] | None = None,
+                  anchor: str | None = None,
+                  links: Mapping[tuple[int, str], str | Path] | None = None) -> None:
         """Add a table (every cell escaped).
 
         Parameters
@@ -245,6 +298,14 @@ class Report:
         wrap : bool or str
             Let long cells wrap at their spaces (a table that must fit the page's width);
             ``"anywhere"`` also breaks long words (file names, hashes).
+        marks : mapping, optional
+            ``(row, column) -> [(text, href), ...]``: links set after a cell (``W1`` to a
+            warning), the row counted from 0 in *table*'s order.
+        anchor : str, optional
+            An id of the table, for links to it (one is made from its title otherwise).
+        links : mapping, optional
+            ``(row, column) -> file``: the cell links to the file, named relative to the
+            page by :meth:`render`.
 
         Returns
         -------
@@ -253,19 +314,26 @@ class Report:
         cols = [c for c in (columns or list(table.columns)) if c in table.columns]
         rows = [[_cell(v, float_format) for v in rec]
                 for rec in table[cols].itertuples(index=False, name=None)]
+        marks = marks or {}
+        cell_marks = [[list(marks.get((i, str(c)), ())) for c in cols] for i in range(len(rows))]
+        files = {(i, str(c)): Path(f) for (i, c), f in (links or {}).items()}
+        slug = _slug(anchor or f"table-{title}", self._slugs)
         self._section(section).items.append(
             _Item("table", title, caption, {"columns": [str(c) for c in cols], "rows": rows,
-                                            "wrap": wrap}))
+                                            "wrap": wrap, "marks": cell_marks,
+                                            "slug": slug, "files": files}))
 
     def add_text(self, text: str, title: str = "", *, section: str | None = None) -> None:
         """Add a paragraph of plain text (escaped)."""
         self._section(section).items.append(_Item("text", title, "", {"text": text}))
 
     def add_list(self, items: Iterable[str], title: str = "", *, caption: str = "",
-                 section: str | None = None) -> None:
-        """Add a bulleted list of plain-text items (escaped)."""
+                 section: str | None = None, warning: bool = False) -> None:
+        """Add a bulleted list of plain-text items (escaped): notes, or with *warning* in a
+        warning's colour."""
         self._section(section).items.append(
-            _Item("list", title, caption, {"items": [str(i) for i in items]}))
+            _Item("list", title, caption, {"items": [str(i) for i in items],
+                                           "style": "warnings" if warning else "notes"}))
 
     def add_html(self, html: str, title: str = "", *, section: str | None = None) -> None:
         """Add HTML as given (NOT escaped: only for markup the program writes itself)."""
@@ -293,13 +361,33 @@ class Report:
         str
             The HTML.
         """
+        def href(path: Path) -> str:
+            return (Path(path).resolve().as_uri() if base is None else
+                    Path(os.path.relpath(Path(path).resolve(), Path(base).resolve())).as_posix())
+
+        counts = {"figure": 0, "table": 0}
         for sec in self._sections:
             for item in sec.items:
+                item.title, item.caption = hertz(item.title), hertz(item.caption)
+                if item.data.get("details"):
+                    item.data["details"] = hertz(str(item.data["details"]))
+                if item.kind == "text":
+                    item.data["text"] = hertz(str(item.data["text"]))
                 pdf = item.data.get("pdf")
                 if pdf is not None:
-                    item.data["href"] = (Path(pdf).resolve().as_uri() if base is None else
-                                         Path(os.path.relpath(Path(pdf).resolve(),
-                                                              Path(base).resolve())).as_posix())
+                    item.data["href"] = href(pdf)
+                item.data["hrefs"] = [(Path(p).name, href(p))
+                                      for p in item.data.get("links", ())]
+                if item.kind == "table":
+                    cols = item.data["columns"]
+                    files = item.data.get("files", {})
+                    item.data["cell_hrefs"] = [[href(files[(i, c)]) if (i, c) in files else ""
+                                                for c in cols]
+                                               for i in range(len(item.data["rows"]))]
+                kind = "figure" if item.kind in ("figure", "grid") else item.kind
+                if kind in counts:
+                    counts[kind] += 1
+                    item.data["number"] = counts[kind]
         template = _env.get_template("report.html.j2")
         return template.render(title=self.title, sections=self._sections, version=__version__)
 

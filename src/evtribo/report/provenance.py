@@ -1,14 +1,14 @@
 """The last section of ``evtribo report``'s page: provenance and settings.
 
-The study's facts, the trials, the power laws, the inputs and result files with their
-SHA-256, the rig, the software and the analysis settings, and how to cite the software and
-the model (:data:`evtribo.citation.SOFTWARE`, :data:`evtribo.citation.PAPER`).
+The study's facts, the inputs and result files with their SHA-256 (each result file
+linked), the rig, the software and the analysis settings, and how to cite the software and
+the model (:data:`evtribo.citation.SOFTWARE`, :data:`evtribo.citation.PAPER`). The trials
+are in their subjects' sections, the power laws in the fit's table: not repeated here.
 """
 
 from __future__ import annotations
 
 import json
-import math
 import platform
 from collections.abc import Mapping
 from pathlib import Path
@@ -24,11 +24,11 @@ from evtribo.documents.summary import Summary
 from evtribo.fit.tables import ResultTables
 from evtribo.report.headline import DOI_URL
 from evtribo.report.page import Report
-from evtribo.report.sections import SECTIONS, trials_view
+from evtribo.report.sections import SECTIONS
 from evtribo.report.study_files import file_hashes
 from evtribo.results.outputs import FIGURES
 from evtribo.store.resultdir import inside
-from evtribo.util.numbers import frequency, plain, quantity, significant
+from evtribo.util.numbers import plain, significant
 
 __all__ = ["add_provenance"]
 
@@ -104,7 +104,7 @@ def _setting(value: Any) -> str:
 def add_provenance(report: Report, tables: ResultTables, fit_doc: FitDocument, *,
                    study: str, study_dir: Path | None, inputs: pd.DataFrame,
                    trials: pd.DataFrame, rig: Mapping[str, Any], output: Path) -> None:
-    """The last section: facts, trials, power laws, inputs, files, rig, software, settings.
+    """The last section: facts, inputs, files, rig, software, settings.
 
     Parameters
     ----------
@@ -133,21 +133,6 @@ def add_provenance(report: Report, tables: ResultTables, fit_doc: FitDocument, *
     """
     sec = SECTIONS["provenance"]
     report.add_table(_facts(tables, fit_doc, study), "Study", section=sec, wrap=True)
-    view = trials_view(trials)
-    view.insert(0, "subject", trials["subject"].astype(str).to_numpy())
-    report.add_table(view, "Trials", section=sec, wrap=True,
-                     caption="From trials.csv; notes from the trials' sidecars when the "
-                             "study folder is available.")
-    ex = tables.exponents
-    if not ex.empty:
-        report.add_table(pd.DataFrame({
-            "subject": ex["subject"].astype(str), "waveform": ex["waveform"].astype(str),
-            "frequency": [frequency(f) for f in ex.get("frequency_Hz", [math.nan] * len(ex))],
-            "exponent n [95 %]": [f"{significant(n)} [{significant(lo)}, {significant(hi)}]"
-                                  for n, lo, hi in zip(ex["exponent"], ex["exponent_ci_low"],
-                                                       ex["exponent_ci_high"], strict=True)],
-            "k at 1 V": [quantity(k, "N") for k in ex.get("prefactor_N", [math.nan] * len(ex))],
-        }), "Power laws F_el = k·U^n (exponents.csv)", section=sec)
     if not inputs.empty:
         caption = (f"now: each file of the study folder {study_dir} hashed again"
                    if study_dir is not None else "The study folder named in summary.json is "
@@ -157,8 +142,12 @@ def add_provenance(report: Report, tables: ResultTables, fit_doc: FitDocument, *
     else:
         report.add_text("summary.json records no input files inside the study folder.",
                         section=sec)
-    report.add_table(_result_files(tables.out, output), "Result files", section=sec,
-                     wrap="anywhere")
+    files = _result_files(tables.out, output)
+    report.add_table(files, "Result files", section=sec, wrap="anywhere",
+                     caption="Each file of the result folder (every table and figure "
+                             "linked) and its SHA-256.",
+                     links={(i, "file"): tables.out / name
+                            for i, name in enumerate(files["file"].astype(str))})
     if rig:
         report.add_table(pd.DataFrame([{"key": k, "value": _setting(v)}
                                        for k, v in rig.items()]), "Rig", section=sec,

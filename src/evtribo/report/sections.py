@@ -1,20 +1,25 @@
 """The sections of ``evtribo report``'s page, in the order a reader wants them.
 
-1. the electrostatic force by subject and voltage (mN, 95 % intervals);
-2. the model fit per subject (air gap in µm, exponents, μ) and the model's parameters, each
+1. the key results: a sentence, a table per voltage and one per subject
+   (:mod:`evtribo.report.lead`);
+2. the warnings, each kind once, by what they do to the reported numbers;
+3. the electrostatic force by subject and voltage (mN, 95 % intervals; the cells a warning
+   touches linked to it), what was analysed and left out per subject, and the methods;
+4. the model fit per subject (air gap in µm, exponents, μ) and the model's parameters, each
    said to be measured, fixed or fitted, with the paper cited; then the population's
    estimates (:mod:`evtribo.report.population`);
-3. the figures of all subjects together (``electrostatic_force_all`` first);
-4. the model comparison (``models.csv`` and the ``frequency_response`` figures), when there
-   is one;
-5. one section per subject: its forces, its figures, its trials, and each trial's check
-   figure folded in a ``<details>`` element;
-6. the warnings;
-7. provenance and settings: the study's facts, the trials, the power laws, the inputs and
-   result files with their SHA-256, the rig, the software and the analysis settings, and
-   how to cite the software and the model.
+5. the measured figures of all subjects together (``electrostatic_force_all`` first) and,
+   with :data:`GRID_FROM` subjects or more, each kind of per-subject figure as one grid of
+   small multiples;
+6. the model's predictions (nothing measured: ``area_increase``);
+7. the model comparison (``models.csv`` ranked over the study and per subject, and the
+   ``frequency_response`` figures), when there is one;
+8. one section per subject: its forces, its figures (when not in a grid), its trials, and
+   each trial's check figure folded in a ``<details>`` element;
+9. provenance and settings (:mod:`evtribo.report.provenance`).
 
-Every number is printed for people (:mod:`evtribo.util.numbers`).
+Every number is printed for people (:mod:`evtribo.util.numbers`), every frequency as
+``10 kHz``; every figure links its files.
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import pandas as pd
@@ -37,25 +43,58 @@ from evtribo.report.headline import (
     fit_summary,
     force_table,
     model_comparison,
+    model_ranking,
     parameter_roles,
 )
+from evtribo.report.lead.marks import Marks
+from evtribo.report.lead.sections import KEY_SECTION, WARNINGS_SECTION, add_analysed, hertz
 from evtribo.report.page import Report
 from evtribo.util.numbers import frequency, quantity, significant, to_float, voltage, with_interval
 
-__all__ = ["SECTIONS", "add_all_subjects", "add_headline", "add_models", "add_notes",
-           "add_subjects", "add_warnings", "trial_summary", "trials_view"]
+__all__ = ["GRID_FROM", "SECTIONS", "add_all_subjects", "add_headline", "add_models",
+           "add_notes", "add_predictions", "add_subjects", "figure_files", "trial_summary",
+           "trials_view"]
 
 #: The sections' titles, in the page's order (a subject's is ``Subject <name>``).
 SECTIONS: dict[str, str] = {
+    "key": KEY_SECTION, "warnings": WARNINGS_SECTION,
     "forces": "Electrostatic force", "fit": "Model fit", "all": "All subjects",
-    "models": "Model comparison", "warnings": "Warnings",
+    "predictions": "Model predictions", "models": "Model comparison",
     "provenance": "Provenance and settings"}
+#: With this many subjects or more, each kind of per-subject figure is one grid.
+GRID_FROM = 4
+#: The per-subject figures a grid gathers, with its title and caption.
+_GRIDS = {"electrostatic_force": ("Electrostatic force vs voltage, each subject",
+                                  "Each subject's inferred electrostatic force (points, 95 % "
+                                  "intervals) and its fitted model (lines) at its mean normal "
+                                  "force ON, over the amplitudes measured."),
+          "friction_normal_force": ("Friction vs normal force, each subject",
+                                    "Each subject's steady-sliding windows OFF and ON (points) "
+                                    "and the model (lines, eq. 5) over the normal forces each "
+                                    "drive's windows span; axes zoomed to the windows.")}
 
 
 
-def _add(report: Report, headline: Headline, section: str) -> None:
-    report.add_table(headline.table, headline.title, caption=headline.caption,
-                     section=section, wrap=True)
+def _add(report: Report, headline: Headline, section: str, **kwargs: Any) -> None:
+    report.add_table(headline.table, headline.title, caption=hertz(headline.caption),
+                     section=section, wrap=True, **kwargs)
+
+
+def figure_files(fig: Mapping[str, Any]) -> list[Path]:
+    """The files of a figure record in its result folder's figures/ (PNG, SVG, PDF).
+
+    Parameters
+    ----------
+    fig : mapping
+        A fit.json figure record with its ``file`` (one of them).
+
+    Returns
+    -------
+    list of Path
+        Those that exist.
+    """
+    first = Path(fig["file"])
+    return [f for f in (first.with_suffix(s) for s in (".png", ".svg", ".pdf")) if f.is_file()]
 
 
 def _cite(report: Report, section: str, lead: str) -> None:
@@ -65,13 +104,35 @@ def _cite(report: Report, section: str, lead: str) -> None:
 
 def _figure(report: Report, fig: Mapping[str, Any], section: str,
             details: str | None = None) -> None:
-    report.add_figure(fig["file"], str(fig.get("title") or fig.get("stem")),
-                      caption=str(fig.get("caption") or ""), section=section, details=details)
+    report.add_figure(fig["file"], hertz(str(fig.get("title") or fig.get("stem"))),
+                      caption=hertz(str(fig.get("caption") or "")), section=section,
+                      details=None if details is None else hertz(details),
+                      links=figure_files(fig))
+
+
+def _force_marks(headline: Headline, electrostatic: pd.DataFrame, marks: Marks
+                 ) -> dict[tuple[int, str], list[tuple[str, str]]]:
+    """The links of the force table's cells to the warnings that touch them."""
+    out: dict[tuple[int, str], list[tuple[str, str]]] = {}
+    es = electrostatic.reset_index(drop=True)
+    waves = es["waveform"].fillna("").astype(str)
+    freqs = pd.to_numeric(es.get("frequency_Hz", pd.Series(math.nan, index=es.index)),
+                          errors="coerce")
+    for i, row in enumerate(headline.table.to_dict("records")):
+        for j in es.index[(es["subject"].astype(str) == str(row["Subject"]))
+                          & (waves == ("" if row["Waveform"] == "—" else row["Waveform"]))]:
+            if frequency(freqs[j]) != row["Frequency"]:
+                continue
+            ks = marks.by_row[j]
+            if ks:
+                out[(i, voltage(es.loc[j, "amplitude_V"]))] = [(f"W{k}", f"#w{k}") for k in ks]
+    return out
 
 
 def add_headline(report: Report, tables: ResultTables, fit: pd.DataFrame,
-                 fit_doc: FitDocument) -> list[Headline]:
-    """The page's first two sections: F_el by subject and voltage, and the fit.
+                 fit_doc: FitDocument, marks: Marks | None = None) -> list[Headline]:
+    """The sections of F_el by subject and voltage (with what was analysed and how), and of
+    the fit.
 
     Parameters
     ----------
@@ -83,6 +144,8 @@ def add_headline(report: Report, tables: ResultTables, fit: pd.DataFrame,
         ``fit.csv``.
     fit_doc : FitDocument
         ``fit.json``.
+    marks : Marks, optional
+        The warnings touching each cell (linked from the force table's cells).
 
     Returns
     -------
@@ -90,10 +153,15 @@ def add_headline(report: Report, tables: ResultTables, fit: pd.DataFrame,
         The two headline tables (what ``--tables`` exports).
     """
     forces, summary = force_table(tables.electrostatic), fit_summary(fit, fit_doc)
-    _add(report, forces, SECTIONS["forces"])
-    _add(report, summary, SECTIONS["fit"])
+    links = _force_marks(forces, tables.electrostatic, marks) if marks is not None else {}
+    every = ", ".join(f"W{k}" for k in marks.everywhere) if marks is not None else ""
+    _add(report, forces if not every else Headline(
+        forces.stem, forces.title, forces.caption + f" Every cell: see {every}.",
+        forces.table), SECTIONS["forces"], marks=links, anchor="forces")
     methods = {str(v.get("interval", {}).get("method", "jacobian"))
                for v in fit_doc.subjects.values() if isinstance(v, dict)}
+    add_analysed(report, tables, SECTIONS["forces"], bootstrap=methods == {"bootstrap"})
+    _add(report, summary, SECTIONS["fit"])
     how = {"bootstrap": "refits to the bootstrap replicates of the electrostatic forces",
            "jacobian": "the fit's Jacobian (each point's error taken as independent)"}
     intervals = " or ".join(how.get(m, m) for m in sorted(methods)) or how["jacobian"]
@@ -104,8 +172,42 @@ def add_headline(report: Report, tables: ResultTables, fit: pd.DataFrame,
     return [forces, summary]
 
 
-def add_all_subjects(report: Report, figures: Sequence[Mapping[str, Any]]) -> None:
-    """The figures of no one subject: all subjects' F_el first, then the model's figures.
+def add_all_subjects(report: Report, figures: Sequence[Mapping[str, Any]],
+                     subjects: Sequence[str] = ()) -> None:
+    """The measured figures of no one subject (all subjects' F_el first) and, with
+    :data:`GRID_FROM` subjects or more, each kind of per-subject figure as one grid.
+
+    Parameters
+    ----------
+    report : Report
+        The page.
+    figures : sequence of mapping
+        fit.json's figure records, each with its ``file``.
+    subjects : sequence of str
+        The subjects, in order.
+
+    Returns
+    -------
+    None
+    """
+    study_wide = [f for f in figures if f.get("subject") is None and f.get("kind") not in (
+        "trial", "frequency_response", "population", "area_increase")]
+    study_wide.sort(key=lambda f: f.get("kind") != "electrostatic_force_all")
+    for f in study_wide:
+        _figure(report, f, SECTIONS["all"])
+    if len(subjects) < GRID_FROM:
+        return
+    for kind, (title, caption) in _GRIDS.items():
+        panels = [f for s in subjects for f in figures
+                  if f.get("kind") == kind and f.get("subject") == s]
+        if panels:
+            report.add_figure_grid([(f["file"], str(f.get("subject"))) for f in panels],
+                                   title, caption=caption, section=SECTIONS["all"],
+                                   links=[p for f in panels for p in figure_files(f)])
+
+
+def add_predictions(report: Report, figures: Sequence[Mapping[str, Any]]) -> None:
+    """The model's predictions, apart from the measured results (``area_increase``).
 
     Parameters
     ----------
@@ -118,11 +220,9 @@ def add_all_subjects(report: Report, figures: Sequence[Mapping[str, Any]]) -> No
     -------
     None
     """
-    study_wide = [f for f in figures if f.get("subject") is None
-                  and f.get("kind") not in ("trial", "frequency_response", "population")]
-    study_wide.sort(key=lambda f: f.get("kind") != "electrostatic_force_all")
-    for f in study_wide:
-        _figure(report, f, SECTIONS["all"])
+    for f in figures:
+        if f.get("kind") == "area_increase":
+            _figure(report, f, SECTIONS["predictions"])
 
 
 def add_models(report: Report, models: pd.DataFrame | None,
@@ -150,8 +250,20 @@ def add_models(report: Report, models: pd.DataFrame | None,
         return
     sec = SECTIONS["models"]
     _cite(report, sec, "The paper's model and its variants; the paper:")
+    if models is not None:
+        _add(report, model_ranking(models), sec)
+    have = [s for s in subjects if models is not None
+            and (models["subject"].astype(str) == s).any()]
+    if models is not None and len(have) >= GRID_FROM:  # one table, a subject's rows together
+        tables = [model_comparison(models, s) for s in have]
+        joined = pd.concat([t.table.assign(subject=s) for s, t in zip(have, tables,
+                                                                      strict=True)])
+        joined = joined[["subject", *tables[0].table.columns]]
+        _add(report, Headline("models_subjects", "Models compared per subject",
+                              tables[0].caption, joined), sec)
+        have = []
     for s in subjects:
-        if models is not None and (models["subject"].astype(str) == s).any():
+        if models is not None and s in have:
             _add(report, model_comparison(models, s), sec)
         for f in figures:
             if f in responses and f.get("subject") == s:
@@ -194,6 +306,9 @@ def trial_summary(row: Mapping[str, Any], windows: pd.DataFrame,
     if cond is not None:
         parts.append(f"{int((cond == 'on').sum())} ON / {int((cond == 'off').sum())} OFF "
                      "windows")
+    analysed, total = to_float(row.get("analysed_s")), to_float(row.get("duration_s"))
+    if math.isfinite(analysed) and math.isfinite(total) and total > 0:
+        parts.append(f"analysed {significant(analysed, 3)} s of {significant(total, 3)} s")
     excluded = [x for x in (_excluded_in(caption),) if x]
     for col, what in (("dropped_frames", "dropped frame(s)"),
                       ("skipped_lines", "damaged line(s) skipped")):
@@ -227,7 +342,7 @@ def _forces_of(rows: pd.DataFrame) -> pd.DataFrame:
 
 
 def add_subjects(report: Report, tables: ResultTables, trials: pd.DataFrame,
-                 figures: Sequence[Mapping[str, Any]]) -> None:
+                 figures: Sequence[Mapping[str, Any]], *, grid: bool = False) -> None:
     """One section per subject: forces, figures, trials, each trial's check folded.
 
     Parameters
@@ -240,12 +355,15 @@ def add_subjects(report: Report, tables: ResultTables, trials: pd.DataFrame,
         ``trials.csv`` with the sidecars' notes.
     figures : sequence of mapping
         fit.json's figure records, each with its ``file``.
+    grid : bool
+        The per-subject figures are in the grids of all subjects (not repeated here).
 
     Returns
     -------
     None
     """
     failed = {str(f.get("trial")): str(f.get("error")) for f in tables.summary.failed_trials}
+    gridded = set(_GRIDS) if grid else set()
     for subject in tables.all_subjects:
         sec = f"Subject {subject}"
         es = tables.electrostatic[tables.electrostatic["subject"].astype(str) == subject]
@@ -256,7 +374,7 @@ def add_subjects(report: Report, tables: ResultTables, trials: pd.DataFrame,
             report.add_table(_forces_of(es), "Electrostatic force", section=sec, wrap=True)
         for f in figures:
             if f.get("subject") == subject and f.get("kind") not in (
-                    "trial", "frequency_response"):
+                    "trial", "frequency_response", *gridded):
                 _figure(report, f, sec)
         report.add_table(trials_view(mine), "Trials", section=sec, wrap=True)
         checks = {str(f.get("trial")): f for f in figures
@@ -293,11 +411,12 @@ def trials_view(trials: pd.DataFrame) -> pd.DataFrame:
         view["drive"] = [f"{w} {frequency(f)}, {voltage(a)}" for w, f, a in zip(
             trials["waveform"].astype(str), trials.get("frequency_Hz", nan),
             trials.get("amplitude_V", nan), strict=True)]
-    names = {"condition": "condition", "duration_s": "duration (s)", "frames": "frames",
+    names = {"condition": "condition", "duration_s": "duration (s)",
+             "analysed_s": "analysed (s)", "frames": "frames",
              "dropped_frames": "dropped frames", "skipped_lines": "damaged lines"}
     for col, name in names.items():
         if col in trials.columns:
-            view[name] = [significant(v, 3) if col == "duration_s" else
+            view[name] = [significant(v, 3) if col.endswith("_s") else
                           (str(int(to_float(v))) if math.isfinite(to_float(v)) else str(v))
                           for v in trials[col]]
     for col, name in (("normal_offset_N", "normal offset"),
@@ -310,27 +429,6 @@ def trials_view(trials: pd.DataFrame) -> pd.DataFrame:
             view[col] = [("" if v is None or (isinstance(v, float) and math.isnan(v))
                           else str(v)) for v in trials[col]]
     return view
-
-
-def add_warnings(report: Report, warnings: Sequence[str]) -> None:
-    """The warnings: the study now against the analysis, then the analysis's, each once.
-
-    Parameters
-    ----------
-    report : Report
-        The page.
-    warnings : sequence of str
-        The warnings, in order.
-
-    Returns
-    -------
-    None
-    """
-    report.add_list(warnings, "Warnings", section=SECTIONS["warnings"],
-                    caption="First, any input of the study changed, removed or added since "
-                            "the analysis; then what the analysis warned of (summary.json), "
-                            "and the frames dropped and damaged lines skipped in each trial "
-                            "(trials.csv).")
 
 
 def add_notes(report: Report, notes: Sequence[str]) -> None:
@@ -349,5 +447,5 @@ def add_notes(report: Report, notes: Sequence[str]) -> None:
     None
     """
     if notes:
-        report.add_list(notes, "Notes on the fit", section=SECTIONS["fit"],
+        report.add_list([hertz(n) for n in notes], "Notes on the fit", section=SECTIONS["fit"],
                         caption="From evtribo compare (fit.json).")

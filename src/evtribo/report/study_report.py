@@ -36,6 +36,9 @@ from evtribo.report import sections
 from evtribo.report.compare import compare
 from evtribo.report.friction_report import add_friction
 from evtribo.report.headline import Headline
+from evtribo.report.lead.key_results import key_results
+from evtribo.report.lead.sections import add_key_results, add_warnings
+from evtribo.report.lead.warning_kinds import group_warnings, study_cells
 from evtribo.report.page import Report
 from evtribo.report.population import add_population, read_population
 from evtribo.report.provenance import add_provenance
@@ -260,20 +263,31 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
     trials = trials_with_notes(tables, study_dir)
     name = study_name(tables.summary, tables.out)
     report = Report(f"evtribo report: {name}")
-    if tables.electrostatic.empty:  # a study of OFF trials: its friction, no fit
-        headlines = add_friction(report, tables.windows, fit_doc.notes)
-        headlines += add_population(report, *read_population(tables.out), fit_doc, figures,
-                                    friction_only=True)
-    else:
-        headlines = sections.add_headline(report, tables, fit, fit_doc)
-        sections.add_notes(report, fit_doc.notes)
-        headlines += add_population(report, *read_population(tables.out), fit_doc, figures)
-    sections.add_all_subjects(report, figures)
-    sections.add_models(report, _models(tables.out), figures, tables.subjects)
-    sections.add_subjects(report, tables, trials, figures)
     for w in input_warnings:
         log.warning("report: %s", w)
-    sections.add_warnings(report, [*input_warnings, *_warnings(tables)])
+    keys = list(zip(tables.trials["subject"].astype(str), tables.trials["trial"].astype(str),
+                    strict=True))
+    groups = group_warnings([*input_warnings, *_warnings(tables)], tables.all_subjects, keys)
+    cells = study_cells(tables.electrostatic.to_dict("records"))
+    models = _models(tables.out)
+    population, contrasts = read_population(tables.out)
+    if tables.electrostatic.empty:  # a study of OFF trials: its friction, no fit
+        headlines = add_friction(report, tables.windows, fit_doc.notes)
+        add_warnings(report, groups, keys, cells)
+        headlines += add_population(report, population, contrasts, fit_doc, figures,
+                                    friction_only=True)
+    else:
+        key = key_results(tables, fit, population, models, groups)
+        add_key_results(report, key)
+        add_warnings(report, groups, keys, cells)
+        headlines = sections.add_headline(report, tables, fit, fit_doc, key.marks)
+        sections.add_notes(report, fit_doc.notes)
+        headlines += add_population(report, population, contrasts, fit_doc, figures)
+    grid = len(tables.subjects) >= sections.GRID_FROM
+    sections.add_all_subjects(report, figures, tables.subjects if grid else ())
+    sections.add_predictions(report, figures)
+    sections.add_models(report, models, figures, tables.subjects)
+    sections.add_subjects(report, tables, trials, figures, grid=grid)
     add_provenance(report, tables, fit_doc, study=name, study_dir=study_dir, inputs=inputs,
                    trials=trials, rig=tables.summary.rig or study_rig(study_dir),
                    output=output)

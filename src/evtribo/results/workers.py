@@ -36,6 +36,7 @@ from evtribo.canlog.cache import default_cache_dir, load_trial
 from evtribo.canlog.rig import Rig
 from evtribo.canlog.signals import TrialSignals
 from evtribo.errors import AnalysisError, SidecarError, UserInputError
+from evtribo.results.exclusions import TrialSeconds
 from evtribo.store.resultdir import release_inherited_locks
 from evtribo.study import TrialRef
 
@@ -175,10 +176,11 @@ def _outcome(task: TrialTask, context: WorkerContext) -> TrialOutcome:
     trial's error; any other fault too, unless ``strict``."""
     ref = task.ref
     meta = trial_meta(ref)
+    seconds = TrialSeconds()
     try:
         result = analyze_signals(_load(ref, context, task.log), meta,
                                  settings=context.settings,
-                                 calibration=context.rig.calibration)
+                                 calibration=context.rig.calibration, observe=seconds)
     except AnalysisError as err:
         return TrialOutcome(task.index, failed_row(meta), error=str(err))
     except UserInputError as err:
@@ -192,6 +194,7 @@ def _outcome(task: TrialTask, context: WorkerContext) -> TrialOutcome:
         return TrialOutcome(task.index, failed_row(meta),
                             error=f"{ref.log_path}: {type(err).__name__}: {err} (run with "
                                   "--strict --debug for the traceback)")
+    result.row.update(seconds.columns())
     warnings = result.warnings
     if result.row.get("skipped_lines"):
         warnings.append(f"{ref.key}: {result.row['skipped_lines']} damaged line(s) skipped "

@@ -23,8 +23,8 @@ import math
 from decimal import Decimal
 from typing import Any
 
-__all__ = ["PREFIXES", "TINY", "auto_prefix", "decimals_for", "frequency", "plain", "quantity",
-           "r_squared", "significant", "to_float", "voltage", "with_interval"]
+__all__ = ["PREFIXES", "TINY", "UNBOUNDED", "auto_prefix", "decimals_for", "frequency", "plain",
+           "quantity", "r_squared", "significant", "to_float", "voltage", "with_interval"]
 
 #: SI prefixes and their powers of ten.
 PREFIXES: dict[str, int] = {"p": -12, "n": -9, "µ": -6, "m": -3, "": 0, "k": 3, "M": 6,
@@ -122,10 +122,15 @@ def significant(value: Any, sig: int = 3, *, decimals: int | None = None) -> str
     return _fixed(v, places)
 
 
+#: An interval reaching beyond this many times its value bounds nothing: it is not printed.
+UNBOUNDED = 1e6
+
+
 def with_interval(value: Any, low: Any, high: Any, *, sig: int = 3) -> str:
     """``value [low, high]``, the three with the same decimals: the value's to *sig*
-    significant figures, fewer when the interval's half-width shown to two significant
-    figures needs fewer (a value is not printed finer than its uncertainty).
+    significant figures, fewer when the interval's half-width needs fewer, shown to two
+    significant figures when it begins with 1 or 2 and to one otherwise (a value is not
+    printed finer than its uncertainty; ``70 [55, 85]`` and ``98 [88, 108]`` alike).
 
     Parameters
     ----------
@@ -138,16 +143,20 @@ def with_interval(value: Any, low: Any, high: Any, *, sig: int = 3) -> str:
     -------
     str
         ``26.5 [25.7, 27.4]``, ``72 [-398, 541]``; the value alone followed by ``(no
-        interval)`` when a bound is missing, ``—`` when the value is.
+        interval)`` when a bound is missing or beyond :data:`UNBOUNDED` times the value (a
+        fit whose data do not determine the value), ``—`` when the value is missing.
     """
     v, lo, hi = to_float(value), to_float(low), to_float(high)
     if not math.isfinite(v):
         return MISSING
-    if not (math.isfinite(lo) and math.isfinite(hi)):
+    if not (math.isfinite(lo) and math.isfinite(hi)) or (
+            v != 0 and max(abs(lo), abs(hi)) > UNBOUNDED * abs(v)):
         return f"{significant(v, sig)} (no interval)"
     places = min(decimals_for(v, sig), _TINY_DECIMALS)
-    if hi > lo:
-        places = min(places, decimals_for((hi - lo) / 2, 2))
+    if hi > lo:  # the half-width to two figures when it begins with 1 or 2, else to one
+        half = (hi - lo) / 2
+        lead = int(f"{half:e}"[0])
+        places = min(places, decimals_for(half, 2 if lead <= 2 else 1))
     return (f"{significant(v, decimals=places)} [{significant(lo, decimals=places)}, "
             f"{significant(hi, decimals=places)}]")
 

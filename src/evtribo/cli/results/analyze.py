@@ -11,6 +11,7 @@ from typing import Any, TextIO
 
 from evtribo.analysis.modes import TARE_MODES
 from evtribo.cli._startup import heavy_imports
+from evtribo.cli.results._warnings import held, say_grouped
 from evtribo.cli.setup._signals import EXIT_TERMINATED, Terminated, sigterm_interrupts
 
 # the analysis is imported when it is needed: not for an unchanged study (.unchanged)
@@ -123,6 +124,12 @@ def run(args: argparse.Namespace) -> int:
 
     refuse_cache_in_study(args.cache_dir, args.study)  # before anything is written there
     address = scheduler_address(args.dask)
+    with held(int(getattr(args, "verbose", 0) or 0)) as hold:
+        return _run(args, address, hold)
+
+
+def _run(args: argparse.Namespace, address: str | None, hold: Any) -> int:
+    """The analysis, or an unchanged study's results again; the exit code."""
     if address is None and not args.recompute:  # an unchanged study: nothing to analyse
         from evtribo.results.unchanged import rerun
 
@@ -133,7 +140,7 @@ def run(args: argparse.Namespace) -> int:
             except Terminated:
                 return _terminated(args.out)
         if summary is not None:
-            return _report(summary, Path(args.out), args.out)
+            return _report(summary, Path(args.out), args.out, hold)
     from evtribo.store.memo import prehash
 
     hashing = prehash(args.study, args.cache_dir)  # while the analysis is imported
@@ -163,7 +170,7 @@ def run(args: argparse.Namespace) -> int:
                 remember(args.study, _options(args), res.summary, args.out, args.cache_dir)
     except Terminated:
         return _terminated(args.out)
-    return _report(res.summary, res.out_dir, args.out)
+    return _report(res.summary, res.out_dir, args.out, hold)
 
 
 def _terminated(out: str) -> int:
@@ -172,14 +179,12 @@ def _terminated(out: str) -> int:
     return EXIT_TERMINATED
 
 
-def _report(s: dict[str, Any], out_dir: Path | None, out: str) -> int:
-    """What the analysis did, on standard output (its warnings' count on standard error);
-    the exit code."""
+def _report(s: dict[str, Any], out_dir: Path | None, out: str, hold: Any) -> int:
+    """What the analysis did, on standard output (its warnings, each kind once, on standard
+    error); the exit code."""
     dup = len(s.get("duplicate_trials") or [])
     same = f"; {dup} the same log as another trial, counted once" if dup else ""
     print(f"analysed {s['trials_analysed']} of {s['trials']} trials{same} "
           f"({s['windows_on']} ON and {s['windows_off']} OFF windows) into {out_dir}")
-    if s["warnings"]:
-        print(f"{len(s['warnings'])} warning(s) above, kept in {Path(out) / 'summary.json'}",
-              file=sys.stderr)
+    say_grouped(s, out_dir, out, hold)
     return 0 if s["trials_analysed"] else 1
