@@ -2,36 +2,47 @@
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
+# evtribo and what it needs to run (the demo's); the test, mf4 and dask extras beside it
 STAMP  := $(VENV)/.installed
+TEST_STAMP := $(VENV)/.test-installed
 JOBS   ?= 2
 
 .PHONY: demo test test-quick bench lint docs dist clean chromium vcan-vm
 
 $(STAMP): pyproject.toml
-	@echo "Setting up $(VENV): evtribo and its libraries (numpy, scipy, pandas, matplotlib,"
-	@echo "statsmodels, python-can, cantools, asammdf, dask...): a few minutes on the first run."
+	@echo "Setting up $(VENV): evtribo and the libraries it runs on (numpy, scipy, pandas,"
+	@echo "matplotlib, statsmodels, python-can, cantools, pyarrow): about 2 minutes on the first"
+	@echo "run, most of it downloading; pip says nothing while it installs them."
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --progress-bar off -e '.[test,mf4,dask]'
+	$(PY) -m pip install --progress-bar off -e .
 	@echo "$(VENV) is ready."
 	touch $(STAMP)
+
+# the test suite's libraries (pytest, hypothesis, the release's and the notebook's tools),
+# asammdf (MDF 4) and dask, whose code the tests run too
+$(TEST_STAMP): $(STAMP)
+	@echo "Adding the test, mf4 and dask extras to $(VENV): a few more minutes the first time."
+	$(PY) -m pip install --progress-bar off -e '.[test,mf4,dask]'
+	touch $(TEST_STAMP)
 
 demo: $(STAMP)
 	$(VENV)/bin/evtribo demo --out demo-output --force
 
-test: $(STAMP) chromium vcan-vm
+test: $(TEST_STAMP) chromium vcan-vm
 	$(PY) -m pytest -n $(JOBS) -q
 
-# headless Chromium (Debian's package) looks at the live view in the tests
+# headless Chromium (Debian's package) looks at the live view and the report in the tests;
+# without it (not root, no apt) those tests are skipped and say why
 chromium:
 	@command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 || \
 	{ if [ "$$(id -u)" = 0 ]; then DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
 	  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium; \
-	  else echo "the live view's tests need Chromium: sudo apt-get install chromium"; exit 1; fi; }
+	  else echo "the tests that look at a page need Chromium (sudo apt-get install chromium); without it they are skipped"; fi; }
 
 # a qemu VM whose kernel has SocketCAN (Debian's linux-image-amd64, downloaded, not installed)
 # for the tests in tests/socketcan; without it (not root, no apt) they skip and say why
-vcan-vm: $(STAMP)
+vcan-vm: $(TEST_STAMP)
 	@missing=""; \
 	command -v qemu-system-x86_64 >/dev/null 2>&1 || missing="$$missing qemu-system-x86"; \
 	command -v canplayer >/dev/null 2>&1 || missing="$$missing can-utils"; \
@@ -46,13 +57,13 @@ vcan-vm: $(STAMP)
 
 # the suite without the tests marked slow (real-time recordings across processes, coverage
 # over many seeds, kill-at-every-step): for the edit-and-test loop; `make test` runs them all
-test-quick: $(STAMP) chromium
+test-quick: $(TEST_STAMP) chromium
 	$(PY) -m pytest -n $(JOBS) -q -m "not slow"
 
-bench: $(STAMP)
+bench: $(TEST_STAMP)
 	for b in benchmarks/[!_]*.py; do $(PY) $$b || exit 1; done
 
-lint: $(STAMP)
+lint: $(TEST_STAMP)
 	$(PY) -m pip install --quiet -e '.[dev]'
 	$(VENV)/bin/ruff check src tests benchmarks docs/conf.py
 	$(VENV)/bin/mypy
@@ -62,7 +73,7 @@ lint: $(STAMP)
 # broken link or anchor, a page out of the navigation, a docstring Sphinx cannot read, a
 # failing cell); built afresh (-E), since an incremental build repeats no old warning
 DOCS_STAMP := $(VENV)/.docs-installed
-$(DOCS_STAMP): $(STAMP)
+$(DOCS_STAMP): $(TEST_STAMP)
 	$(PY) -m pip install --quiet -e '.[docs]'
 	touch $(DOCS_STAMP)
 
@@ -72,7 +83,7 @@ docs: $(DOCS_STAMP)
 	@echo "the documentation: build/docs/html/index.html"
 
 # the release's files: dist/evtribo-<version>.tar.gz and the wheel, checked by twine
-dist: $(STAMP)
+dist: $(TEST_STAMP)
 	rm -rf dist
 	$(PY) -m build --outdir dist
 	$(VENV)/bin/twine check --strict dist/*

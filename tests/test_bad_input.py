@@ -199,6 +199,13 @@ def _edit(path: Path, old: str, new: str) -> None:
     path.write_text(text.replace(old, new), encoding="utf-8")
 
 
+def _sliding_trial(tmp: Path) -> None:
+    """A simulated trial of the finger sliding, run-02 of the study."""
+    from evtribo.acquisition.simulator import SubjectParams, TrialConfig, write_trial
+
+    write_trial(tmp / "study", "run-02", SubjectParams(), TrialConfig(duration_s=4.0, seed=3))
+
+
 def _link(link: Path, target: Path) -> None:
     link.parent.mkdir(parents=True, exist_ok=True)
     link.symlink_to(target)
@@ -349,6 +356,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "log-candump-no-timestamps": _text(Path("run-01.log"), CANDUMP_PLAIN),
     "log-asc-named-log": lambda t: shutil.copy(PEER_LOGS / "logfile.asc", t / "run-01.log"),
     "log-savvycan-csv": _text(Path("run-01.csv"), SAVVYCAN),
+    "log-utf16": lambda t: (t / "a80.log").write_text(
+        "(1763700000.000000) vcan0 0C1#0000000000000001\n" * 20, encoding="utf-16"),
     "log-no-frame": _text(Path("run-01.log"), "trial 1, P01: finger slipped at 3 s\n"),
     "log-db-gz": lambda t: (t / "run-01.db.gz").write_bytes(gzip.compress(b"SQLite format 3")),
     "log-db-unreadable": _text(Path("run-01.db"), "not a database\n"),
@@ -390,11 +399,24 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "plot-no-dbc": lambda t: None,
     "plot-log-missing": lambda t: None,
     "compare-summary-edited": lambda t: _results(t, edit={"study": {"name": "x"}}),
+    "plan-too-few-subjects": lambda t: None,
+    "plan-force-beyond-the-model": lambda t: None,
+    "compare-population-exclude-unknown": lambda t: _results(t) or _append(
+        t / "study", '[population]\nexclude = [{subject = "P09", reason = "recalibrated"}]'),
+    "compare-population-exclude-no-reason": lambda t: _results(t) or _append(
+        t / "study", '[population]\nexclude = [{subject = "P01"}]'),
     "session-protocol-misspelt-key": _text(Path("protocol.toml"), "[session]\ntrial_s = 20\n"
                                            "repetiton = 2\n[[trial]]\namplitude_V = 100\n"),
     "session-protocol-changed": _session_begun,
     "init-study-exists": lambda t: None,
+    "calibrate-press-slides": _sliding_trial,
+    "analyze-subject-folder": lambda t: None,
+    "report-given-study": lambda t: None,
+    "acquire-no-interface": lambda t: None,
+    "acquire-study-misspelt": lambda t: None,
+    "simulate-study-misspelt": lambda t: None,
     "init-dbc-missing": lambda t: None,
+    "init-log-of-another-rig": _text(Path("other.dbc"), OTHER_DBC),
 }
 
 

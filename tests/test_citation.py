@@ -80,11 +80,12 @@ def test_citation_cff_says_what_evtribo_cite_says():
     assert document["version"] == evtribo.__version__ == SOFTWARE.field("version")
     assert document["date-released"] == RELEASED
     assert document["license"] == PYPROJECT["project"]["license"]
+    assert document["url"] == SOFTWARE.field("url")
     assert [a["name"] for a in document["authors"]] == [f for f, _ in SOFTWARE.authors]
     assert [a["name"] for a in document["authors"]] == \
         [a["name"] for a in PYPROJECT["project"]["authors"]]
     (paper,) = document["references"]
-    assert paper["type"] == "article"
+    assert paper["type"] == "article" and paper["url"] == PAPER.field("url")
     assert paper["title"] == PAPER.title
     assert [(a["family-names"], a["given-names"]) for a in paper["authors"]] == \
         list(PAPER.authors)
@@ -117,6 +118,9 @@ def test_evtribo_cite_bibtex_is_read_by_bibtex(capsys):
     assert [(p.first_names, p.last_names) for p in paper.persons["author"]] == \
         [(["Fabian"], ["Forsbach"]), (["Markus"], [r"He{\ss}"])]
     assert paper.fields["doi"] == "10.3390/lubricants7120102"
+    # each entry says where the work is: the paper's DOI and URL, the package's URL
+    assert paper.fields["url"] == "https://doi.org/10.3390/lubricants7120102"
+    assert software.fields["url"] == "https://pypi.org/project/evtribo/"
     printed = _formatted(source)
     assert "Fabian Forsbach and Markus Heß. Voltage-Induced Friction with Application to " \
            "Electrovibration. Lubricants, 7(12):102, 2019." in printed

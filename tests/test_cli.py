@@ -40,3 +40,15 @@ def test_subcommand_help_lists_its_options(capsys):
         main(["model", "--help"])
     assert exc.value.code == 0
     assert "--normal-force" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("name", list(SUBCOMMANDS))
+def test_help_is_plain_text_without_the_docstrings_markup(name, capsys):
+    """--help shows `code` as the rest of the help writes it, never reStructuredText's
+    double backticks or roles (the descriptions come from the modules' docstrings)."""
+    with pytest.raises(SystemExit):
+        main([name, "--help"])
+    shown = capsys.readouterr().out
+    assert shown.strip()
+    for markup in ("``", ":func:", ":mod:", ":data:", ":class:", ":meth:"):
+        assert markup not in shown, (name, markup)

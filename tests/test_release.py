@@ -115,7 +115,9 @@ def test_the_wheel_holds_the_data_the_licence_and_the_metadata(dist):
         licence = whl.read(f"{info}/licenses/LICENSE")
     for name in ("evtribo/data/rigs/default.dbc", "evtribo/data/rigs/default.toml",
                  "evtribo/data/liveview.html", "evtribo/report/templates/report.html.j2",
-                 "evtribo/py.typed", "evtribo/citation.py"):
+                 "evtribo/py.typed", "evtribo/citation.py",
+                 "evtribo/data/protocols/meyer2013.toml",
+                 "evtribo/data/protocols/frequency-sweep.toml"):
         assert name in names
     assert not [n for n in names if n.startswith(("tests/", "docs/", "data/"))]
     assert metadata["Version"] == VERSION
@@ -126,7 +128,12 @@ def test_the_wheel_holds_the_data_the_licence_and_the_metadata(dist):
         inside = {Path(n).relative_to(f"evtribo-{VERSION}").as_posix()
                   for n in sdist.getnames() if n != f"evtribo-{VERSION}"}
     for name in ("LICENSE", "CITATION.cff", "CHANGELOG.md", "README.md", "pyproject.toml",
-                 "src/evtribo/data/rigs/default.dbc"):
+                 "src/evtribo/data/rigs/default.dbc",
+                 # the examples the README's commands name, at the paths it gives
+                 "acquisition/protocols/meyer2013.toml",
+                 "acquisition/protocols/frequency-sweep.toml",
+                 "acquisition/rigs/default.toml", "acquisition/rigs/default.dbc",
+                 "src/evtribo/data/protocols/meyer2013.toml"):
         assert name in inside
 
 

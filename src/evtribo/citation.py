@@ -38,7 +38,7 @@ class Work:
         The year of publication (of the release, for the software).
     fields : tuple of (str, str)
         Further BibTeX fields, in order (journal, volume, number, pages, doi, version,
-        note).
+        note, url).
     """
 
     key: str
@@ -68,7 +68,8 @@ class Work:
 SOFTWARE = Work(
     key="evtribo", entry="misc", authors=(("The evtribo developers", ""),),
     title="evtribo: tribometer experiments on electrovibration", year=int(RELEASED[:4]),
-    fields=(("version", __version__), ("note", f"Python package, version {__version__}")))
+    fields=(("version", __version__), ("note", f"Python package, version {__version__}"),
+            ("url", "https://pypi.org/project/evtribo/")))
 
 #: The seed paper: the model evtribo implements (equations 1-13, Table 1).
 PAPER = Work(
@@ -76,7 +77,8 @@ PAPER = Work(
     authors=(("Forsbach", "Fabian"), ("Heß", "Markus")),
     title="Voltage-Induced Friction with Application to Electrovibration", year=2019,
     fields=(("journal", "Lubricants"), ("volume", "7"), ("number", "12"), ("pages", "102"),
-            ("doi", "10.3390/lubricants7120102")))
+            ("doi", "10.3390/lubricants7120102"),
+            ("url", "https://doi.org/10.3390/lubricants7120102")))
 
 
 def _initials(given: str) -> str:
@@ -109,7 +111,8 @@ def text(work: Work) -> str:
         out += f"{work.field('pages')}"
     elif work.field("version"):
         out += f" (version {work.field('version')}) [Computer software]"
-    return out + (f". https://doi.org/{doi}" if doi else ".")
+    where = f"https://doi.org/{doi}" if doi else work.field("url")
+    return out + (f". {where}" if where else ".")
 
 
 #: Characters BibTeX needs written as commands (in names and titles).
@@ -139,6 +142,6 @@ def bibtex(work: Work) -> str:
                            for family, given in work.authors)
     fields = [("author", authors), ("title", f"{{{_tex(work.title)}}}"),
               ("year", str(work.year))]
-    fields += [(k, v if k == "doi" else _tex(v)) for k, v in work.fields]
+    fields += [(k, v if k in ("doi", "url") else _tex(v)) for k, v in work.fields]
     body = ",\n".join(f"  {k} = {{{v}}}" for k, v in fields)
     return f"@{work.entry}{{{work.key},\n{body}\n}}\n"

@@ -60,7 +60,8 @@ def log_suffixes() -> tuple[str, ...]:
 #: Files an operating system leaves in folders (``Thumbs.db`` would read as a SQLite log).
 OS_CLUTTER = {"thumbs.db", "ehthumbs.db", "desktop.ini", ".ds_store"}
 #: Top-level keys of study.toml and their types.
-STUDY_KEYS: dict[str, type | tuple[type, ...]] = {"name": str, "rig": dict, "analysis": dict}
+STUDY_KEYS: dict[str, type | tuple[type, ...]] = {"name": str, "rig": dict, "analysis": dict,
+                                                  "population": dict}
 #: Folders of a study that are not subjects.
 NOT_SUBJECTS = {"rig"}
 
@@ -154,6 +155,10 @@ def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
         text = read_limited(p, StudyError, what=STUDY_FILE).decode("utf-8")
         config = tomllib.loads(text)
     except FileNotFoundError as err:
+        above, name = p.parent.parent, os.path.basename(os.path.abspath(p.parent))
+        if (above / STUDY_FILE).is_file():  # a subject's folder (or any folder) of a study
+            raise StudyError(f"no {STUDY_FILE}: {name} is a folder of the study {above}, "
+                             f"not a study; give the study folder: {above}", path=p) from err
         raise StudyError(f"no {STUDY_FILE}: this folder is not a study (`evtribo init "
                          f"{p.parent} --dbc YOUR.dbc` makes one for your rig)",
                          path=p) from err
@@ -245,6 +250,8 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
             if partial:
                 warnings.append(f"{log_path}: partial trial (acquisition did not finish); "
                                 "analysing what was recorded")
+            elif (cut := _cut_short(sidecar.extra)) is not None:
+                warnings.append(f"{log_path}: {cut}; analysing what was recorded")
             trials.append(TrialRef(subject=sidecar.subject, name=trial, log_path=log_path,
                                    sidecar_path=sidecar_path, sidecar=sidecar, partial=partial))
     seen: dict[str, Path] = {}
@@ -254,6 +261,28 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
                              path=t.sidecar_path or t.log_path, key="subject")
         seen[t.key] = t.log_path
     return trials, warnings
+
+
+#: How a recording can end before its time, in words (``ended`` of the sidecar).
+_ENDED_EARLY = {"interrupted": "interrupted (Ctrl-C or SIGTERM)",
+                "bus-error": "ended by a bus fault", "disk-error": "ended by a disk fault",
+                "no-rig-data": "ended with no frame of the rig's load cells"}
+
+
+def _cut_short(extra: Mapping[str, Any]) -> str | None:
+    """What a sidecar says of a recording that ended before its requested duration (an
+    interrupted or faulted trial), or None (completed; or stopped by hand when no duration
+    was asked, the way such a recording ends)."""
+    ended = extra.get("ended")
+    if ended not in _ENDED_EARLY:
+        return None
+    asked, lasted = extra.get("requested_duration_s"), extra.get("duration_s")
+    if ended == "interrupted" and not isinstance(asked, int | float):
+        return None
+    how = f"the recording was {_ENDED_EARLY[ended]}"
+    if isinstance(lasted, int | float) and isinstance(asked, int | float):
+        how += f" after {lasted:.1f} s of the {asked:g} s asked"
+    return how
 
 
 def _sidecars_without_logs(folder: Path, others: Mapping[str, list[str]],

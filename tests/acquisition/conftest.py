@@ -1,4 +1,5 @@
-"""Shared fixtures of the acquisition tests: the simulated rig as a separate process."""
+"""Shared fixtures of the acquisition tests: the simulated rig as a separate process; the
+default rig's load cells heard once as a trial on python-can's virtual bus starts."""
 
 from __future__ import annotations
 
@@ -9,6 +10,22 @@ from collections.abc import Callable, Iterator
 import pytest
 
 from _process import kill_and_reap
+from _rigcells import rig_heard
+
+
+@pytest.fixture
+def rig_heard_by_acquire(monkeypatch):
+    """Every ``evtribo acquire`` run in this process on python-can's virtual bus hears the
+    default rig's load cells once as its trial starts."""
+    import evtribo.cli.recording.acquire as cli
+
+    real = cli.record_trial
+
+    def record(bus, *args, **kwargs):
+        kwargs["started"] = rig_heard(bus.channel_id, kwargs.get("started"))
+        return real(bus, *args, **kwargs)
+
+    monkeypatch.setattr(cli, "record_trial", record)
 
 
 @pytest.fixture

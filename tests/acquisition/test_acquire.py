@@ -1,6 +1,8 @@
 """``record_trial``: every frame of a python-can bus into a study folder, nothing lost."""
 
+import errno
 import json
+import os
 import threading
 import time
 
@@ -9,6 +11,7 @@ import cantools
 import pytest
 
 import evtribo.acquisition.trial as trial_module
+from _rigcells import rig_heard
 from evtribo.acquisition.buses.bus import BusSettings
 from evtribo.acquisition.rigfile import default_rig_path
 from evtribo.acquisition.simulator import Simulator, TrialConfig
@@ -160,6 +163,22 @@ def test_counts_frames_lost_by_the_counters(tmp_path):
     assert side["dropped_frames_by_message"] == {"FzCell": len(lost), "FxCell": 0}
 
 
+def test_a_frame_received_twice_or_late_is_no_frame_lost(tmp_path):
+    """One frame received twice made the sidecar say 255 frames lost, two received
+    swapped 256: a duplicate is counted as one, a late frame is no loss."""
+    lost = {7, 8, 9}
+    frames = rig_frames(3000, skip=lost, extra=False)
+    fz = [i for i, f in enumerate(frames) if f.arbitration_id == 0x0C1]
+    a, b = fz[900], fz[901]
+    frames[a], frames[b] = frames[b], frames[a]                  # received swapped
+    frames.insert(fz[500] + 1, frames[fz[500]])                  # received twice
+    _study, result = record_from_sender(tmp_path, "acq_twice_late", frames)
+    side = result.sidecar
+    assert (side["dropped_frames"], side["duplicate_frames"]) == (len(lost), 1)
+    assert side["dropped_frames_by_message"] == {"FzCell": len(lost), "FxCell": 0}
+    assert side["counter_restarts_s"] == {}
+
+
 def test_stop_request_ends_as_interrupted(tmp_path):
     stop = threading.Event()
     threading.Timer(0.3, stop.set).start()
@@ -277,7 +296,8 @@ def test_refuses_to_overwrite_a_trial(tmp_path, leftover):
         with pytest.raises(OutputExistsError, match=leftover):
             record_trial(bus, study, "P01", "run-01", duration=0.1)
         assert (study / "P01" / leftover).read_text() == "precious\n"
-        result = record_trial(bus, study, "P01", "run-01", duration=0.1, force=True)
+        result = record_trial(bus, study, "P01", "run-01", duration=0.1, force=True,
+                              started=rig_heard(f"acq_refuse_{leftover}"))
     assert result.ended == "completed"
     assert sorted(p.name for p in (study / "P01").iterdir()) == ["run-01.json", "run-01.log"]
 
@@ -286,7 +306,8 @@ def test_forced_trial_keeps_the_previous_one_until_it_ends(tmp_path):
     study = tmp_path / "s"
     old = {}
     with can.Bus(interface="virtual", channel="acq_force_keep") as bus:
-        record_trial(bus, study, "P01", "run-01", duration=0.1, info=TrialInfo(notes="first"))
+        record_trial(bus, study, "P01", "run-01", duration=0.1, info=TrialInfo(notes="first"),
+                     started=rig_heard("acq_force_keep"))
         paths = TrialPaths.of(study, "P01", "run-01")
         before = {p.name: p.read_bytes() for p in (paths.log, paths.sidecar)}
 
@@ -295,7 +316,8 @@ def test_forced_trial_keeps_the_previous_one_until_it_ends(tmp_path):
             old["part"] = p.part.exists()
 
         result = record_trial(bus, study, "P01", "run-01", duration=0.1, force=True,
-                              info=TrialInfo(notes="second"), started=started)
+                              info=TrialInfo(notes="second"),
+                              started=rig_heard("acq_force_keep", started))
     assert old == {**before, "part": True}       # while recording: old trial intact
     assert result.ended == "completed" and not result.kept_previous
     assert json.loads(paths.sidecar.read_text())["notes"] == "second"
@@ -305,7 +327,8 @@ def test_forced_trial_keeps_the_previous_one_until_it_ends(tmp_path):
 def test_forced_trial_failing_before_any_frame_keeps_the_previous_one(tmp_path):
     study = tmp_path / "s"
     with can.Bus(interface="virtual", channel="acq_force_fail") as bus:
-        record_trial(bus, study, "P01", "run-01", duration=0.1)
+        record_trial(bus, study, "P01", "run-01", duration=0.1,
+                     started=rig_heard("acq_force_fail"))
     paths = TrialPaths.of(study, "P01", "run-01")
     before = {p.name: p.read_bytes() for p in paths.folder.iterdir()}
     bus = VanishingBus(0)
@@ -330,7 +353,8 @@ def test_first_sidecar_failing_leaves_nothing_that_blocks_a_retry(tmp_path, monk
             record_trial(bus, study, "P01", "run-01", duration=0.1)
         assert list((study / "P01").iterdir()) == []
         monkeypatch.setattr(trial_module, "_write_json", real)
-        result = record_trial(bus, study, "P01", "run-01", duration=0.1)   # no --force
+        result = record_trial(bus, study, "P01", "run-01", duration=0.1,   # no --force
+                              started=rig_heard("acq_first_sidecar"))
     assert result.ended == "completed"
     assert sorted(p.name for p in (study / "P01").iterdir()) == ["run-01.json", "run-01.log"]
 
@@ -443,9 +467,51 @@ def test_bus_options_and_python_can_configuration(monkeypatch):
         bus.shutdown()
 
 
+@pytest.mark.parametrize(("number", "says"), [
+    (errno.EAFNOSUPPORT, ["kernel offers no SocketCAN", "modprobe can_raw", "--interface slcan",
+                          "docs/hardware.md"]),
+    (errno.ENODEV, ["ip -brief link show type can", "ip link add dev vcan0 type vcan",
+                    "docs/hardware.md"]),
+    (errno.ENETDOWN, ["sudo ip link set can7 up type can bitrate", "docs/hardware.md"]),
+])
+def test_a_socketcan_bus_that_cannot_open_says_what_to_check(monkeypatch, number, says):
+    """A machine without SocketCAN, a channel it has not, an interface that is down: each
+    is said with what to give and how to check (ip link, vcan, docs/hardware.md)."""
+    import evtribo.acquisition.buses.socketcan as sc
+    from evtribo.acquisition.buses.bus import open_bus
+    from evtribo.errors import AcquisitionError
+
+    def refuse(*_args, **_kwargs):
+        raise OSError(number, os.strerror(number))
+
+    monkeypatch.setattr(sc, "SocketcanBus", refuse)
+    with pytest.raises(AcquisitionError) as caught:
+        open_bus(BusSettings(interface="socketcan", channel="can7"))
+    text = str(caught.value)
+    assert f"cannot open socketcan can7: [Errno {number}]" in text
+    for part in says:
+        assert part in text, text
+
+
+def test_no_interface_anywhere_says_what_to_give(monkeypatch):
+    from evtribo.acquisition.buses.bus import open_bus
+    from evtribo.errors import ConfigError
+
+    for name in ("CAN_INTERFACE", "CAN_CHANNEL", "CAN_BITRATE", "CAN_CONFIG"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setattr(can.util, "CONFIG_FILES", [])
+    with pytest.raises(ConfigError) as caught:
+        open_bus(BusSettings())
+    text = str(caught.value)
+    assert caught.value.key == "--interface"
+    assert "no interface given" in text and "None" not in text
+    assert "--interface socketcan --channel can0" in text and "docs/hardware.md" in text
+
+
 def test_options_come_as_one_object_or_as_keywords(tmp_path):
     study = tmp_path / "s"
-    options = TrialOptions(duration=0.1, info=TrialInfo(notes="first"))
+    options = TrialOptions(duration=0.1, info=TrialInfo(notes="first"),
+                           started=rig_heard("acq_options"))
     with can.Bus(interface="virtual", channel="acq_options") as bus:
         assert record_trial(bus, study, "P01", "run-01", options).ended == "completed"
         with pytest.raises(OutputExistsError):

@@ -22,6 +22,7 @@ import can
 import cantools
 import pytest
 
+from _rigcells import rig_heard
 from evtribo.acquisition.rigfile import default_rig_path
 from evtribo.acquisition.trial import RESERVE_BYTES, TrialPaths, record_trial
 from evtribo.cli import main
@@ -165,7 +166,8 @@ def test_disk_full_mid_trial_the_sidecar_says_so_and_the_log_has_whole_lines(
     paths = TrialPaths.of(study, "P01", "run-01")
     bus = FastBus()
     try:
-        record_trial(bus, study, "P01", "run-00", duration=0.05)   # the study exists
+        record_trial(bus, study, "P01", "run-00", duration=0.05,
+                     started=rig_heard("full-disk-start"))   # the study exists
         disk.fill(RESERVE_BYTES + 3_000 + log_room)
         result = record_trial(bus, study, "P01", "run-01", duration=10.0)
     finally:
@@ -186,14 +188,16 @@ def test_disk_full_mid_trial_the_sidecar_says_so_and_the_log_has_whole_lines(
 def test_a_disk_too_full_to_start_leaves_nothing_that_blocks_a_retry(tmp_path, disk):
     study = tmp_path / "study"
     with can.Bus(interface="virtual", channel="full-disk-start") as bus:
-        record_trial(bus, study, "P01", "run-00", duration=0.05)
+        record_trial(bus, study, "P01", "run-00", duration=0.05,
+                     started=rig_heard("full-disk-start"))
         disk.fill(RESERVE_BYTES // 2)
         with pytest.raises(AcquisitionError, match="the disk is full"):
             record_trial(bus, study, "P01", "run-01", duration=1.0)
         assert sorted(p.name for p in (study / "P01").iterdir()) == ["run-00.json",
                                                                     "run-00.log"]
         disk.fill(None)
-        assert record_trial(bus, study, "P01", "run-01", duration=0.05).ended == "completed"
+        assert record_trial(bus, study, "P01", "run-01", duration=0.05,
+                            started=rig_heard("full-disk-start")).ended == "completed"
 
 
 class Sender(threading.Thread):
@@ -215,6 +219,7 @@ class Sender(threading.Thread):
                 time.sleep(0.005)
 
 
+@pytest.mark.usefixtures("rig_heard_by_acquire")
 def test_acquire_on_a_full_disk_exits_1_saying_what_is_kept(tmp_path, disk, capsys):
     study = tmp_path / "study"
     argv = ["acquire", "--study", str(study), "--subject", "P01", "--interface", "virtual",
@@ -241,8 +246,9 @@ def test_acquire_on_a_full_disk_exits_1_saying_what_is_kept(tmp_path, disk, caps
 
 @pytest.mark.parametrize("command", ["acquire", "simulate"])
 @pytest.mark.parametrize("room", [0, 1_000])
-def test_a_new_study_on_a_full_disk_leaves_nothing_that_blocks_a_retry(tmp_path, disk,
-                                                                       capsys, command, room):
+@pytest.mark.usefixtures("rig_heard_by_acquire")
+def test_a_new_study_on_a_full_disk_leaves_nothing_that_blocks_a_retry(
+        tmp_path, disk, capsys, command, room):
     """The DBC copy and study.toml are written whole or not at all: the retry, with room
     again, creates the study (it is not refused by a half-written DBC)."""
     study = tmp_path / "study"

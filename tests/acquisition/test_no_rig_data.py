@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import io
 import json
+import re
 import threading
 import time
 from pathlib import Path
@@ -82,6 +83,21 @@ def test_a_trial_without_the_rigs_frames_ends_as_no_rig_data(tmp_path, ids, dela
         assert "0.8 s" in side["end_detail"]
 
 
+def test_a_trial_shorter_than_the_wait_without_the_rig_is_not_completed(tmp_path, capsys):
+    """A trial over before the rig's time is up, that heard nothing of the rig (a misspelt
+    study beside the real one, a silent bus): no-rig-data and exit 1, never "completed"."""
+    argv = ["acquire", "--study", str(tmp_path / "s"), "--subject", "P01", "--trial",
+            "run-01", "--interface", "virtual", "--channel", "short-silent", "--duration",
+            "0.3", "--quiet"]
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert "P01/run-01: no-rig-data, 0 frames" in err
+    assert re.search(r"none of the rig's load-cell messages \(FzCell \(0x0C1\), FxCell "
+                     r"\(0x0C2\)\) arrived within [\d.]+ s", err), err
+    side = json.loads((tmp_path / "s" / "P01" / "run-01.json").read_text())
+    assert side["ended"] == "no-rig-data" and side["frames"] == 0
+
+
 def test_acquire_with_the_wrong_rig_says_so_and_exits_1(tmp_path, capsys):
     """The study's DBC is another rig's (extended NormalCell...), the bus carries the
     default rig's FzCell/FxCell: the display's line says so, exit 1, not "completed"."""
@@ -101,6 +117,7 @@ def test_acquire_with_the_wrong_rig_says_so_and_exits_1(tmp_path, capsys):
     assert side["duration_s"] < 20                     # ended before its --duration
 
 
+@pytest.mark.usefixtures("rig_heard_by_acquire")
 def test_a_new_study_without_rig_says_which_rig_it_assumed(tmp_path, capsys):
     study = tmp_path / "study"
     argv = ["acquire", "--study", str(study), "--subject", "P01", "--interface", "virtual",
@@ -140,3 +157,24 @@ def test_the_monitor_raises_the_alert_only_without_the_rigs_frames(rig_frames):
     mon.stop()                                                 # a pipe: a last line, if alert
     assert ("NO DATA FROM THE RIG: no FzCell (0x0C1) or FxCell (0x0C2) frame in 3 s"
             in out.getvalue()) != rig_frames
+
+
+@pytest.mark.usefixtures("rig_heard_by_acquire")
+def test_a_misspelt_study_beside_the_one_meant_is_refused_unless_a_new_one_is_asked_for(
+        tmp_path, capsys):
+    """``--study my-stuyd`` beside my-study: "did you mean", exit 2, nothing made; with
+    --new-study, or with no similar study beside it, the new study is made."""
+    base = ["--subject", "P01", "--trial", "run-01", "--interface", "virtual", "--channel",
+            "misspelt", "--duration", "0.1", "--quiet"]
+    assert main(["simulate", "--study", str(tmp_path / "my-study"), "--duration", "1"]) == 0
+    capsys.readouterr()
+    assert main(["acquire", "--study", str(tmp_path / "my-stuyd"), *base]) == 2
+    err = capsys.readouterr().err
+    assert f"did you mean {tmp_path / 'my-study'}, the study beside it?" in err
+    assert "--new-study" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["my-study"]
+    assert main(["acquire", "--study", str(tmp_path / "my-stuyd"), *base, "--new-study"]) == 0
+    assert (tmp_path / "my-stuyd" / "study.toml").is_file()
+    assert main(["acquire", "--study", str(tmp_path / "pilot"), *base]) == 0  # nothing like it
+    assert (tmp_path / "pilot" / "P01" / "run-01.json").is_file()
+

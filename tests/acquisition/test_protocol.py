@@ -26,6 +26,17 @@ def test_example_protocols_plan_what_they_say():
     assert len(sweep) == 13 and {p.amplitude_V for p in sweep} == {100.0}
 
 
+def test_the_example_protocols_are_in_the_package_as_they_are_here():
+    """The README's examples reach an installed evtribo (the wheel's package data; the
+    sdist has acquisition/ too: tests/test_release.py), byte for byte."""
+    from evtribo.acquisition.protocol import example_protocols
+
+    shipped = example_protocols()
+    assert sorted(p.name for p in shipped) == ["frequency-sweep.toml", "meyer2013.toml"]
+    for path in shipped:
+        assert path.read_bytes() == (PROTOCOLS / path.name).read_bytes(), path.name
+
+
 @settings(max_examples=30, deadline=None)
 @given(amps=st.lists(st.integers(1, 300), min_size=1, max_size=5),
        freqs=st.lists(st.integers(1, 20000), min_size=1, max_size=4),

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import re
 import signal
 import subprocess
 import sys
@@ -44,17 +45,29 @@ condition = "alternating"
 RIG_RATES = ("--fz-rate", "250", "--fx-rate", "250")
 
 
+#: Longest a session may take before the test calls it hung, s: a guard, not a measure (a
+#: machine busy with other suites takes many times the protocol's length).
+HANG_S = 900.0
+
+
 def _session(tmp_path: Path, pty: str, subject: str, *, trial_s: float = 4.0,
              wait: bool = True) -> subprocess.Popen[str]:
+    """``evtribo session`` of the protocol, without the check of each trial (an analysis:
+    what is tested here is the plan, the amplifier and the resume; the check's output is
+    tested against the in-process session below)."""
     protocol = tmp_path / "protocol.toml"
     protocol.write_text(PROTOCOL.format(trial_s=trial_s))
     proc = subprocess.Popen(
         [sys.executable, "-m", "evtribo", "session", str(protocol), "--study",
          str(tmp_path / "study"), "--subject", subject, "--interface", "slcan", "--channel",
-         pty, "--bus-option", "sleep_after_open=0", "--yes", "--quiet"],
+         pty, "--bus-option", "sleep_after_open=0", "--yes", "--quiet", "--no-check"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     if wait:
-        proc.wait(timeout=120)
+        try:
+            proc.wait(timeout=HANG_S)
+        except subprocess.TimeoutExpired:
+            out, err = kill_and_reap(proc, timeout=10)
+            pytest.fail(f"the session hung ({HANG_S:g} s): {out[-2000:]}{err[-2000:]}")
     return proc
 
 
@@ -70,6 +83,8 @@ def test_a_randomized_session_records_the_plan_with_the_commanded_excitation(
     proc = _session(tmp_path, pty, "P01")
     out, err = kill_and_reap(proc, timeout=10)
     assert proc.returncode == 0, err
+    unconfirmed = {float(v) for v in re.findall(
+        r"the amplifier's status does not confirm the command \(off, ([\d.]+) V\)", err)}
     subject = tmp_path / "study" / "P01"
     session = read_session(subject / "session.json")
     assert [t.trial for t in session.order] == ["run-01", "run-02", "run-03"]
@@ -88,9 +103,12 @@ def test_a_randomized_session_records_the_plan_with_the_commanded_excitation(
         ex = load_trial(subject / f"{planned.trial}.log", default_rig(), cache=False).excitation
         on = ex.enabled
         # no frame received before the tare stretch had passed says ON (the first ON is
-        # commanded once it has, from the trial's start on, however late the rig answers)
+        # commanded once it has, from the trial's start on, however late the rig answers),
+        # unless the session said that the amplifier had not confirmed the OFF it was sent
+        # before the trial (a rig too late to answer within SETTLE_S, on a busy machine)
         start = datetime.fromisoformat(sidecar["start_time"]).timestamp()
-        assert not on[ex.t < start + sidecar["tare_s"]].any(), planned.trial
+        assert not on[ex.t < start + sidecar["tare_s"]].any() \
+            or planned.amplitude_V in unconfirmed, (planned.trial, err)
         switched = np.flatnonzero(np.diff(on.astype(np.int8)))
         assert on.any() and len(switched) >= 1, planned.trial
         assert set(np.round(ex.amplitude[on], 2)) == {planned.amplitude_V}, planned.trial
@@ -111,13 +129,14 @@ def test_a_session_stopped_mid_trial_goes_on_and_records_each_trial_once(
     subject = tmp_path / "study" / "P02"
     proc = _session(tmp_path, pty, "P02", trial_s=3.0, wait=False)
     try:
-        deadline = time.monotonic() + 60
+        deadline = time.monotonic() + HANG_S
         while not (subject / "run-02.log.part").exists():
-            assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()
+            assert proc.poll() is None, proc.communicate()
+            assert time.monotonic() < deadline, "run-02 never began"
             time.sleep(0.05)
         time.sleep(0.5)  # mid-trial
         proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=30)
+        out, err = proc.communicate(timeout=HANG_S)
     finally:
         kill_and_reap(proc, timeout=10)
     assert proc.returncode == 0, err

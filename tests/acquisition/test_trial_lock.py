@@ -16,6 +16,7 @@ import can
 import pytest
 
 from _process import kill_and_reap
+from _rigcells import rig_heard
 from evtribo.acquisition.trial import TrialPaths, record_trial
 from evtribo.cli import main
 from evtribo.errors import LockedError
@@ -131,6 +132,7 @@ def test_two_recordings_started_together_one_records_the_other_is_refused(
 
 
 @pytest.mark.parametrize("n_bytes", [1, 20_000])
+@pytest.mark.usefixtures("rig_heard_by_acquire")
 def test_a_lock_left_by_a_killed_recording_is_cleared(tmp_path, simulate_pty, capsys, caplog,
                                                       n_bytes):
     """SIGKILL at two moments (the log just opened, well into the trial): the lock file
@@ -166,7 +168,8 @@ def test_a_stale_lock_file_of_a_dead_process_is_cleared(tmp_path, caplog):
                                       "command": "evtribo acquire --study study",
                                       "since": "2025-01-01T00:00:00Z"}))
     with can.Bus(interface="virtual", channel="lock-dead") as bus:
-        result = record_trial(bus, tmp_path / "study", "P01", "run-01", duration=0.2)
+        result = record_trial(bus, tmp_path / "study", "P01", "run-01", duration=0.2,
+                              started=rig_heard("lock-dead"))
     assert result.ended == "completed"
     assert f"cleared a stale lock (PID {dead.pid}" in caplog.text
     assert sorted(p.name for p in paths.folder.iterdir()) == ["run-01.json", "run-01.log"]

@@ -16,6 +16,7 @@ from evtribo.errors import UserInputError
 
 TEXT = Path(__file__).parents[1] / "data" / "candump-text"
 T0 = 1763700000.0
+CANTOOLS = Path(__file__).parents[1] / "data" / "cantools"
 
 
 def _cell_lines(channel: str, fz: float, fx: float, n: int, *, t0: float = T0,
@@ -241,3 +242,23 @@ def test_classic_frames_are_not_decoded_as_an_fd_message_of_their_id(tmp_path):
         "40 classic CAN frames have the standard (11-bit) ID 0x0C1 of the DBC's CAN FD "
         "message FzCell: not decoded as FzCell, counted with the frames the DBC does not "
         "describe (a CAN FD frame is only an FD message, a classic frame only a classic one)"]
+
+
+def test_a_message_longer_than_8_bytes_is_can_fd_whatever_its_frame_format(tmp_path, caplog):
+    """cantools' variable_dlc.dbc: a 10-byte J1939 message (``VFrameFormat`` 3), which
+    cantools calls classic. Only a CAN FD frame carries 10 bytes: its frames were refused,
+    with a warning, and their values lost. Many DBCs in the wild give no frame format."""
+    db = load_dbc(CANTOOLS / "variable_dlc.dbc")
+    msg = db.get_message_by_name("TestMessage2")
+    assert msg.length == 10 and not msg.is_fd   # cantools' reading of the attribute
+    payloads = [bytes(range(k, k + 10)) for k in range(20)]
+    lines = [(T0 + k * 1e-3, f"({T0 + k * 1e-3:.6f}) vcan0 {msg.frame_id:08X}##0"
+              f"{(p + bytes(2)).hex().upper()}") for k, p in enumerate(payloads)]
+    frames = read_frames(_write(tmp_path / "j1939.log", lines))[0]
+    with caplog.at_level(logging.WARNING, logger="evtribo.canlog.decode"):
+        decoded = decode_messages(frames, db)
+    assert "not decoded" not in caplog.text
+    assert len(decoded["TestMessage2"]) == 20
+    for name in ("Signal4", "Signal8"):
+        np.testing.assert_array_equal(decoded["TestMessage2"].scaled(name),
+                                      [msg.decode(p)[name] for p in payloads])

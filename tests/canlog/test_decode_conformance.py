@@ -24,6 +24,7 @@ import pytest
 from cantools.database.can import Message
 
 from evtribo.canlog.decode import beyond_length, decode_messages
+from evtribo.canlog.frame_match import is_fd_message
 from evtribo.canlog.io import read_frames, write_candump
 from evtribo.canlog.io.table import FrameTable
 from evtribo.canlog.rig import load_dbc
@@ -86,7 +87,7 @@ def _frames(db, rng: np.random.Generator) -> tuple[FrameTable, list[tuple[Messag
         arbitration_id=np.array([m.frame_id for m, _ in rows], np.uint32),
         is_extended=np.array([bool(m.is_extended_frame) for m, _ in rows]),
         is_remote=np.zeros(n, bool), is_error=np.zeros(n, bool),
-        is_fd=np.array([bool(m.is_fd) for m, _ in rows]),
+        is_fd=np.array([is_fd_message(m) for m, _ in rows]),
         dlc=np.array([len(p) for _, p in rows], np.uint8), data=data, channel="vcan0"), rows
 
 

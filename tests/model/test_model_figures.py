@@ -42,7 +42,7 @@ def test_figure_6_on_is_the_square_wave_average():
 
 def test_figure_7_data():
     ax = figures.plot_paper_area_increase()
-    assert [line.get_label() for line in ax.lines] == ["F_ext = 0.1 N", "F_ext = 0.5 N",
-                                                       "F_ext = 2 N"]
+    assert [line.get_label() for line in ax.lines] == [
+        "$F_\\mathrm{ext}$ = 0.1 N", "$F_\\mathrm{ext}$ = 0.5 N", "$F_\\mathrm{ext}$ = 2 N"]
     ends = [line.get_ydata()[-1] for line in ax.lines]
     assert ends[0] == pytest.approx(13.0, abs=0.5) and ends[2] == pytest.approx(3.0, abs=0.5)

@@ -5,6 +5,7 @@ estimates hold its truth; with two subjects, no estimates and the report says wh
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import json
 import math
 import re
@@ -80,6 +81,7 @@ def test_population_estimates_recover_the_drawn_subjects(chain):
     table = pd.read_csv(out / "population.csv", keep_default_na=False, na_values=[""])
     assert tuple(table.columns) == POPULATION_COLUMNS
     truth, exponent = _sample_truth(study)
+    table = table[table["analysis"] == "primary"]
     forces = table[table["quantity"] == "electrostatic_force_N"]
     assert list(forces["amplitude_V"]) == list(AMPS)
     for _, r in forces.iterrows():
@@ -105,7 +107,8 @@ def test_compare_writes_the_population_and_the_report_shows_it(chain):
     _, out = chain
     doc = json.loads((out / "fit.json").read_text(encoding="utf-8"))
     assert doc["population"]["n_subjects"] == 6
-    assert {"population.csv", "population_contrasts.csv"} <= set(doc["output_sha256"])
+    assert {"population.csv", "population_contrasts.csv",
+            "population_subjects.csv"} <= set(doc["output_sha256"])
     kinds = [f for f in doc["figures"] if f["kind"] == "population"]
     assert [f["stem"] for f in kinds] == ["population_square_10000Hz"]
     assert (out / "figures" / "population_square_10000Hz.png").is_file()
@@ -117,7 +120,11 @@ def test_compare_writes_the_population_and_the_report_shows_it(chain):
     text = _section(html, "Population")
     assert "the population's exponent n = " in text
     assert "2, the square law" in text and "10/3" in text
-    assert "For a methods section" in text and "MixedLM" in text
+    assert "For a methods section" in text and "nonlinear mixed-effects model" in text
+    assert "Relative friction increase" in text and "p (Holm)" in text
+    methods = text[text.index("For a methods section"):]
+    depth = itertools.accumulate(1 if c == "(" else -1 if c == ")" else 0 for c in methods)
+    assert max(depth) <= 1, methods  # no parenthesis inside another
     md = (out / "tables" / "population.md").read_text(encoding="utf-8")
     assert "| square | 10 kHz |" in md
 
@@ -146,9 +153,9 @@ def test_two_subjects_no_population_and_the_report_says_why(compared_out):
             "estimate needs at least 3") in _section(html, "Population")
 
 
-def test_the_report_names_the_outlier(tmp_path):
-    """Eight subjects, one at twelve times the others' typical force: the report names it
-    and says what it was left out of."""
+def test_the_report_names_the_subject_far_from_the_others(tmp_path):
+    """Eight subjects, one at twelve times the others' typical force: the report names it,
+    keeps it in every estimate and shows them without it."""
     tables, truth = hierarchical_tables(np.random.default_rng(12), 8, sd_log_f=0.3)
     factor = math.exp(math.log(0.1) + 2.5 - truth.subjects["S03"]["log_f100"])
     es = tables.electrostatic
@@ -159,10 +166,12 @@ def test_the_report_names_the_outlier(tmp_path):
     out = write_result_folder(tmp_path / "out", tables)
     compare(out, dpi=30, trial_checks=False)
     text = _section(build_report(out, tmp_path / "r.html").read_text("utf-8"), "Population")
-    assert "S03 lies far from the other subjects: F_el of its power law at 95.8 V" in text
-    assert "left out as outliers: S03" in text
-    table = pd.read_csv(out / "population.csv")
-    assert (table.loc[table["waveform"] == "square", "n_subjects"] == 7).all()
+    assert "S03 lies far from the other subjects: F_el of its power law at " in text
+    assert "It is in every estimate above" in text and "without S03" in text
+    table = pd.read_csv(out / "population.csv", keep_default_na=False, na_values=[""])
+    square = table[table["waveform"] == "square"]
+    assert (square.loc[square["analysis"] == "primary", "n_subjects"] == 8).all()
+    assert (square.loc[square["analysis"] == "without S03", "n_subjects"] == 7).all()
 
 
 def test_a_study_of_off_trials_reports_the_population_s_mu(tmp_path, capsys):
@@ -186,3 +195,34 @@ def test_a_study_of_off_trials_reports_the_population_s_mu(tmp_path, capsys):
     assert with_interval(mu["estimate"], mu["ci_low"], mu["ci_high"]) in text, text
     assert "per-subject results of 5 subjects: the population's friction coefficient" in text
     assert "electrostatic" not in text
+
+
+def test_compare_goes_on_past_a_subject_without_a_force(tmp_path, caplog):
+    """S03's forces are noise about zero (some negative): compare fits the others, says
+    S03's air gap is not determined (an infinite interval), leaves it out of the
+    population's air gap and keeps it in the population's forces; no numpy warning (pytest
+    turns any into an error)."""
+    tables, _ = hierarchical_tables(np.random.default_rng(23), 5)
+    es, boot = tables.electrostatic, tables.bootstrap
+    rng = np.random.default_rng(24)
+    none = es["subject"] == "S03"
+    noise = rng.normal(0.0, 0.004, int(none.sum()))
+    es.loc[none, "electrostatic_force_N"] = noise
+    es.loc[none, "electrostatic_force_ci_low_N"] = noise - 0.008
+    es.loc[none, "electrostatic_force_ci_high_N"] = noise + 0.008
+    mine = boot["subject"] == "S03"
+    at = boot.loc[mine, "amplitude_V"].map(dict(zip(es.loc[none, "amplitude_V"], noise,
+                                                    strict=True)))
+    boot.loc[mine, "electrostatic_force_N"] = at + rng.normal(0.0, 0.004, int(mine.sum()))
+    out = write_result_folder(tmp_path / "out", tables)
+    assert main(["compare", str(out), "--dpi", "30", "--no-trial-checks"]) == 0
+    fit = pd.read_csv(out / "fit.csv")
+    gap = fit[(fit["subject"] == "S03") & (fit["parameter"] == "h_L")].iloc[0]
+    assert math.isinf(gap["ci_high"])
+    assert ((fit["subject"] != "S03") & np.isfinite(fit["ci_high"])).sum() == 4
+    assert "S03: h_L is not determined by these data" in caplog.text
+    table = pd.read_csv(out / "population.csv", keep_default_na=False, na_values=[""])
+    primary = table[table["analysis"] == "primary"]
+    assert (primary.loc[primary["quantity"] == "electrostatic_force_N", "n_subjects"]
+            == 5).all()
+    assert primary.loc[primary["quantity"] == "h_L_m", "n_subjects"].tolist() == [4]

@@ -1,4 +1,5 @@
-"""The population's statistics: pooling, outliers, and the power law across subjects."""
+"""The population's statistics: pooling (with tau, I^2 and the prediction interval) and the
+subjects far from the others."""
 
 from __future__ import annotations
 
@@ -10,24 +11,12 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scipy import optimize
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-from evtribo.population.data import subject_data
 from evtribo.population.estimates import population
-from evtribo.population.model import (
-    SubjectCells,
-    _batches,
-    _deviance,
-    _theta_of,
-    _whiten,
-    fit_power_law,
-)
-from evtribo.population.stats import find_outliers, pool
+from evtribo.population.stats import find_outliers, pool, tau_interval
 from population_sim import hierarchical_tables
-
-LOG_U = np.log([60.0, 80.0, 100.0, 120.0, 140.0])
 
 
 @settings(max_examples=40, deadline=None)
@@ -79,78 +68,44 @@ def test_no_outlier_among_twelve_normal_subjects():
     assert find_outliers(y, np.full(12, 0.02**2), [str(i) for i in range(12)]) == []
 
 
+def test_tau_interval_holds_the_spread_and_i2_follows():
+    """Subjects spread by 0.5 with errors of 0.1: tau's Q-profile interval holds 0.5 and
+    the estimate; I^2 near 1 with its interval in [0, 1]; the prediction interval is wider
+    than the confidence interval and holds most subjects."""
+    rng = np.random.default_rng(7)
+    y = rng.normal(1.0, 0.5, 10) + rng.normal(0, 0.1, 10)
+    p = pool(y, np.full(10, 0.01))
+    assert p.tau_low <= p.between_sd <= p.tau_high
+    assert p.tau_low < 0.5 < p.tau_high
+    assert 0.0 <= p.i2_low <= p.i2 <= p.i2_high <= 1.0 and p.i2 > 0.9
+    assert p.pi_low < p.ci_low < p.ci_high < p.pi_high
+    assert np.mean((p.pi_low <= y) & (y <= p.pi_high)) >= 0.8
+
+
 @settings(max_examples=30, deadline=None)
-@given(st.floats(-5, 0), st.floats(1, 4), st.floats(0.005, 0.2), st.floats(0.0, 0.95))
-def test_own_fit_recovers_an_exact_line(a, n, se, rho):
-    """A subject's own weighted power law of forces exactly on a line is that line,
-    whatever the cells' covariance (here: correlated by *rho*, each its own size)."""
-    sizes = se * np.linspace(1.0, 3.0, 5)
-    cov = np.outer(sizes, sizes) * (np.eye(5) * (1 - rho) + rho)
-    cells = SubjectCells("S", LOG_U, a + n * (LOG_U - 4.6), cov)
-    (a_hat, n_hat), _ = cells.own_fit(4.6)
-    assert a_hat == pytest.approx(a, abs=1e-9)
-    assert n_hat == pytest.approx(n, abs=1e-9)
-
-
-def _cells(seed: int, k: int, **kw: float) -> list[SubjectCells]:
-    tables, _ = hierarchical_tables(np.random.default_rng(seed), k, **kw)
-    notes: list[str] = []
-    out = []
-    for name in tables.subjects:
-        data = subject_data(tables, name, notes)
-        assert data is not None
-        out.append(data.condition(("square", 10_000.0)))
-    return out
-
-
-@pytest.mark.parametrize("seed", [0, 1, 2, 3])
-def test_mixedlm_reaches_the_reml_optimum(seed):
-    """MixedLM's estimate (statsmodels, Powell's method) is the REML optimum: no start of
-    an independent minimiser of the same deviance finds a lower one."""
-    cells = _cells(seed, [5, 8, 12, 6][seed])
-    fit = fit_power_law(cells)
-    batches = _batches(_whiten(cells, fit.log_u0, True))
-    at_fit = _deviance(_theta_of(fit.scale, fit.cov_re), batches)
-    best = min(optimize.minimize(_deviance, start, args=(batches,), method="Nelder-Mead",
-                                 options={"maxiter": 4000, "xatol": 1e-7,
-                                          "fatol": 1e-9}).fun
-               for start in ([1, 0.3, 0, 0.1], [1, 0.05, 0, 0.01], [1, 1, 0, 1]))
-    assert at_fit <= best + 0.02
-
-
-def test_random_slopes_only_where_the_data_support_them():
-    cells = _cells(5, 6)
-    assert fit_power_law(cells).random_slopes
-    two = [SubjectCells(c.subject, c.log_u[[0, 4]], c.log_f[[0, 4]],
-                        c.cov[np.ix_([0, 4], [0, 4])]) for c in cells]
-    fit = fit_power_law(two)  # two amplitudes each: the exponent's spread is not separable
-    assert not fit.random_slopes
-    assert math.isnan(fit.between_sd[1])  # not estimated
-    assert "random intercept by subject" in fit.method
-
-
-def test_satterthwaite_degrees_of_freedom_follow_what_dominates():
-    """About k - 1 for the level, which the subjects' spread dominates; more for an
-    exponent that all subjects share and the cells measure well."""
-    fit = fit_power_law(_cells(7, 8, sd_exponent=0.0, sd_log_f=0.6))
-    level = fit.at(fit.log_u0)
-    assert 5.0 <= level.df <= 9.0
-    assert fit.estimate([0.0, 1.0]).df > level.df
-
-
-def test_fewer_than_three_subjects_no_power_law():
-    with pytest.raises(ValueError, match="at least 3"):
-        fit_power_law(_cells(0, 2))
+@given(st.lists(st.floats(-2, 2), min_size=3, max_size=10), st.floats(0.01, 0.5))
+def test_tau_interval_brackets_the_estimate(values, se):
+    """Q-profile: tau's interval holds the Paule-Mandel estimate (both solve the generalised
+    Q statistic, at its expectation and at the chi-square quantiles)."""
+    y = np.array(values)
+    p = pool(y, np.full(y.size, se**2))
+    assert p.tau_low <= p.between_sd + 1e-9
+    assert p.between_sd <= p.tau_high + 1e-9 or p.tau_high == 0.0
+    lo, hi = tau_interval(y, np.full(y.size, se**2))
+    assert (lo, hi) == (p.tau_low, p.tau_high)
 
 
 def test_population_rows_of_a_simulated_population():
     tables, truth = hierarchical_tables(np.random.default_rng(21), 8)
     pop = population(tables)
-    n = pop.table[pop.table["quantity"] == "exponent"].iloc[0]
+    primary = pop.primary
+    n = primary[primary["quantity"] == "exponent"].iloc[0]
     assert n["ci_low"] <= truth.exponent <= n["ci_high"]
-    assert n["n_subjects"] == 8
-    forces = pop.table[pop.table["quantity"] == "electrostatic_force_N"]
+    assert n["n_subjects"] == 8 and n["checks"].startswith("ok")
+    forces = primary[primary["quantity"] == "electrostatic_force_N"]
     assert list(forces["amplitude_V"]) == [60.0, 80.0, 100.0, 120.0, 140.0]
     assert (forces["ci_low"] < forces["estimate"]).all()
     assert (forces["estimate"] < forces["ci_high"]).all()
+    assert (forces["pi_low"] < forces["ci_low"]).all()
+    assert (forces["ci_high"] < forces["pi_high"]).all()
     assert not pop.outliers

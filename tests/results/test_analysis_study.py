@@ -81,7 +81,8 @@ def test_outputs_have_the_spec_columns(default_study):
                              "tangential_offset_N", "tare", "mu_change_per_10s",
                              "crosstalk_normal", "crosstalk_normal_se",
                              "tangential_direction_share", "analysed_s", "excluded_switch_s",
-                             "excluded_lift_s", "excluded_unsteady_s", "excluded_other_s")
+                             "excluded_lift_s", "excluded_unsteady_s", "excluded_other_s",
+                             "duplicate_frames")
     assert WINDOW_CSV_COLUMNS[:9] == ("subject", "trial", "condition", "amplitude_V",
                                       "waveform", "t_start_s", "t_end_s", "normal_force_N",
                                       "friction_force_N")

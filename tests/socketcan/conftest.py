@@ -173,6 +173,7 @@ class _GuestRun:
                "PYTHONUNBUFFERED": "1", EXPORTS_ENV: str(self.exports),
                **{k: os.environ[k] for k in PASSED_ON if k in os.environ}}
         argv = [sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider",
+                "--tb=short",
                 "--basetemp", "/tmp/pytest-socketcan", *nodeids]
         t0 = time.monotonic()
         try:
@@ -196,6 +197,8 @@ class _GuestRun:
 
 
 _RUN = pytest.StashKey[_GuestRun]()
+#: Where pytest's and pluggy's own frames come from, and this stand-in's running of them.
+_INTERNALS = re.compile(r"[/\\](_pytest|pluggy|xdist)[/\\]|[/\\]socketcan[/\\]conftest\.py$")
 
 
 class GuestFailure(Exception):
@@ -246,6 +249,13 @@ class SocketcanStandIn(pytest.Item):
         if isinstance(excinfo.value, GuestFailure):
             return str(excinfo.value)
         return super().repr_failure(excinfo, style=style)
+
+    def _traceback_filter(self, excinfo: pytest.ExceptionInfo[BaseException]) -> Any:
+        """A host step's failure from the step on, as a test function's is shown: not the
+        frames of pytest and pluggy that ran this stand-in (hundreds of lines)."""
+        kept = excinfo.traceback.filter(excinfo).filter(
+            lambda entry: not _INTERNALS.search(str(entry.path)))
+        return kept or excinfo.traceback
 
     def reportinfo(self) -> tuple[Path, int | None, str]:
         return self.path, None, self.name

@@ -8,8 +8,10 @@ signal, a batch of frames at a time; frames are keyed by :func:`evtribo.canlog.i
 
 from __future__ import annotations
 
+import logging
+from collections import deque
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import numpy.typing as npt
@@ -17,6 +19,8 @@ from cantools.database.can import Database
 
 from evtribo.canlog.io.ids import frame_key
 from evtribo.canlog.signal_codec import SignalCodec
+
+log = logging.getLogger(__name__)
 
 __all__ = ["CounterSpec", "CounterTracker", "counter_spec_from_dbc", "frame_key"]
 
@@ -92,22 +96,56 @@ def counter_spec_from_dbc(database: Database, message: str, signal: str) -> Coun
                        is_extended=bool(msg.is_extended_frame))
 
 
+#: Frames before a frame among which a copy of it is looked for (as
+#: :data:`evtribo.canlog.sequence.DUPLICATE_REACH`).
+DUPLICATE_REACH = 8
+#: Most steps back a frame that arrived late is put back (its loss counted back).
+REORDER_REACH = 8
+#: Fewest frames a counter's step to 0 must skip to be taken for a restart.
+RESTART_SKIP = 8
+
+
 @dataclass
 class _CounterState:
     last: int | None = None
     last_time: float = 0.0
+    first_time: float = 0.0
+    places: int = 0  # frames since the first, lost ones counted
     longest_gap: float = 0.0
     dropped: int = 0
+    duplicates: int = 0
+    reordered: int = 0
+    stood: int = 0  # frames in a row whose counter stood still
+    restarts: list[float] = field(default_factory=list)
+    recent: deque[tuple[int, bytes]] = field(
+        default_factory=lambda: deque(maxlen=DUPLICATE_REACH))
+    missing: dict[int, int] = field(default_factory=dict)  # counter value: its place
 
 
 class CounterTracker:
     """Count frames missing from each message's rolling counter (+1 per frame).
 
     A step of ``k`` between two consecutive counter values (modulo ``2**length``) means
-    ``k - 1`` frames lost. A run of ``2**length`` or more consecutive lost frames of one
-    message is therefore counted modulo ``2**length``; the longest silence between two frames
-    of each message (:meth:`longest_gap_by_message`) shows such holes. (Time cannot correct
-    the count: adapters such as slcan stamp frames on the host, in bursts.)
+    ``k - 1`` frames lost. Three things a counter does are no loss, and are told apart as
+    frames arrive (:mod:`evtribo.canlog.sequence` does the same on the whole log):
+
+    - a frame whose counter and payload are those of one of the :data:`DUPLICATE_REACH`
+      frames before it is the same frame received again: a duplicate (:attr:`duplicates`),
+      not 255 frames lost;
+    - a frame whose counter was counted missing among the last :data:`REORDER_REACH` steps
+      arrived late: its loss is counted back (two frames received swapped are no 256 lost);
+    - a frame whose counter stood still (the value of the frame before, another payload) is
+      the next frame, no 255 frames lost, and holds a place the counter steps over later;
+    - a counter that steps to 0 skipping :data:`RESTART_SKIP` or more values, sooner than
+      half the time those frames would take, restarted (the cell was reset): no frame is
+      counted lost there, and the time is kept (:meth:`restarts_by_message`). A real loss
+      that ends exactly at 0 is taken for one, and a restart that skips fewer values is
+      counted as frames lost (the analysis tells both from the timing).
+
+    A run of ``2**length`` or more consecutive lost frames of one message is counted modulo
+    ``2**length``; the longest silence between two frames of each message
+    (:meth:`longest_gap_by_message`) shows such holes. (Time cannot correct the count:
+    adapters such as slcan stamp frames on the host, in bursts.)
     """
 
     def __init__(self, specs: Iterable[CounterSpec]) -> None:
@@ -123,24 +161,72 @@ class CounterTracker:
     def update_many(self, key: int, payloads: Sequence[bytes | bytearray],
                     timestamps: Sequence[float]) -> int:
         """Account for frames of one message, in the order received; return the frames
-        missing among them (0 for a message without a counter)."""
+        missing among them (0 for a message without a counter; negative when frames
+        counted missing arrived late)."""
         spec = self.specs.get(key)
         if spec is None or not payloads:
             return 0
         st = self._state[key]
         values = spec.values(payloads)
         times = np.asarray(timestamps, dtype=np.float64)
-        if st.last is not None:
-            values = np.concatenate(([st.last], values))
-            times = np.concatenate(([st.last_time], times))
-        lost = 0
-        if len(values) > 1:
-            lost = int(((np.diff(values) - 1) % (1 << spec.length)).sum())
-            st.longest_gap = max(st.longest_gap, float(np.diff(times).max()))
-        st.dropped += lost
-        st.last = int(values[-1])
-        st.last_time = float(times[-1])
-        return lost
+        modulus = 1 << spec.length
+        steps = np.diff(np.concatenate(([st.last], values)) if st.last is not None
+                        else values) % modulus
+        if st.last is not None and np.all(steps == 1):  # the usual batch: nothing lost
+            gaps = np.diff(np.concatenate(([st.last_time], times)))
+            st.longest_gap = max(st.longest_gap, float(gaps.max()))
+            st.places += values.size
+            st.recent.extend(zip(values[-DUPLICATE_REACH:].tolist(),
+                                 [bytes(p) for p in payloads[-DUPLICATE_REACH:]], strict=True))
+            st.missing = {v: p for v, p in st.missing.items()
+                          if st.places - p <= REORDER_REACH}
+            st.last, st.last_time = int(values[-1]), float(times[-1])
+            return 0
+        before = st.dropped
+        for value, data, t in zip(values.tolist(), payloads, times.tolist(), strict=True):
+            self._one(spec, st, value, bytes(data), t)
+        return st.dropped - before
+
+    def _one(self, spec: CounterSpec, st: _CounterState, value: int, data: bytes,
+             t: float) -> None:
+        """Account for one frame of *spec*'s message."""
+        modulus = 1 << spec.length
+        if st.last is None:
+            st.last, st.last_time, st.first_time = value, t, t
+            st.recent.append((value, data))
+            return
+        reach = min(DUPLICATE_REACH, max(modulus // 2 - 1, 1))  # within one counter period
+        if (value, data) in list(st.recent)[-reach:]:
+            st.duplicates += 1
+            return
+        st.recent.append((value, data))
+        place = st.missing.pop(value, None)
+        if place is not None and st.places - place <= min(REORDER_REACH, modulus // 4):
+            st.dropped -= 1  # counted missing a few steps ago: it arrived late
+            st.reordered += 1
+            return
+        step = (value - st.last) % modulus
+        if step == 0:  # standing still (another payload): the next frame, its place kept
+            st.stood += 1
+            st.places += 1
+            st.longest_gap = max(st.longest_gap, t - st.last_time)
+            st.last_time = t
+            return
+        period = (st.last_time - st.first_time) / st.places if st.places else 0.0
+        if value == 0 and step - 1 >= RESTART_SKIP and t - st.last_time < 0.5 * step * period:
+            st.restarts.append(t)
+            log.warning("the counter of %s restarted at 0 (it read %d): no frame counted "
+                        "lost there", spec.message, st.last)
+            step = 1
+        else:  # the frames it stood still for held the places it steps over
+            st.dropped += max(step - 1 - st.stood, 0)
+            st.missing.update({(st.last + k) % modulus: st.places + k
+                               for k in range(max(1, step - REORDER_REACH), step)})
+        st.places += max(step - st.stood, 1)
+        st.stood = 0
+        st.missing = {v: p for v, p in st.missing.items() if st.places - p <= REORDER_REACH}
+        st.longest_gap = max(st.longest_gap, t - st.last_time)
+        st.last, st.last_time = value, t
 
     def longest_gap_by_message(self) -> dict[str, float]:
         """Longest time, s, between two consecutive frames of each counted message."""
@@ -150,7 +236,18 @@ class CounterTracker:
         """Frames lost so far, per message name."""
         return {self.specs[i].message: st.dropped for i, st in self._state.items()}
 
+    def restarts_by_message(self, since: float | None = None) -> dict[str, list[float]]:
+        """When the counted messages' counters restarted at 0 (those that did): timestamps,
+        s, or seconds from *since*."""
+        return {self.specs[i].message: [round(t - (since or 0.0), 6) for t in st.restarts]
+                for i, st in self._state.items() if st.restarts}
+
     @property
     def dropped(self) -> int:
         """Frames lost so far, all messages together."""
         return sum(st.dropped for st in self._state.values())
+
+    @property
+    def duplicates(self) -> int:
+        """Frames received twice so far, all messages together."""
+        return sum(st.duplicates for st in self._state.values())

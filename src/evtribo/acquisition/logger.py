@@ -84,6 +84,9 @@ class LogStats:
         Frames missing by the rig's counters.
     dropped_by_message : dict
         The same per message name.
+    duplicates : int
+        Frames of the counted messages received twice (the counter and payload of a frame
+        just before), not counted as lost.
     latest : dict
         The latest frame per :func:`frame_key` (data frames only).
     first_timestamp, last_timestamp : float or None
@@ -103,6 +106,7 @@ class LogStats:
     error_frames: int = 0
     dropped: int = 0
     dropped_by_message: dict[str, int] = field(default_factory=dict)
+    duplicates: int = 0
     latest: dict[int, can.Message] = field(default_factory=dict)
     first_timestamp: float | None = None
     last_timestamp: float | None = None
@@ -259,6 +263,7 @@ class LogWriter:
             stats.first_timestamp = batch[0].timestamp
         stats.last_timestamp = batch[-1].timestamp
         stats.dropped_by_message = self.counters.dropped_by_message()
+        stats.duplicates = self.counters.duplicates
 
     def _lines(self, batch: list[can.Message]) -> list[str]:
         """The log lines of *batch*; count its frames per identifier, keep each message's

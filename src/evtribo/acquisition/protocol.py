@@ -22,6 +22,8 @@ import re
 import secrets
 import tomllib
 from dataclasses import asdict, dataclass
+from importlib import resources
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -30,7 +32,7 @@ from evtribo.errors import ConfigError, toml_key_line, toml_problem
 from evtribo.store.files import read_limited
 
 __all__ = ["CONDITIONS", "PlannedTrial", "Protocol", "SessionSettings", "TrialSpec",
-           "plan_trials", "read_protocol", "session_seed"]
+           "example_protocols", "plan_trials", "read_protocol", "session_seed"]
 
 #: Values of a trial's ``condition`` (spec §1's sidecar).
 CONDITIONS = ("alternating", "on", "off")
@@ -252,6 +254,19 @@ def _trial(r: _Reader, index: int, table: object) -> TrialSpec:
         else:
             values.setdefault(k, v)
     return TrialSpec(**values)
+
+
+def example_protocols() -> list[Path]:
+    """The example protocols installed with evtribo (package data
+    ``evtribo/data/protocols/``: ``meyer2013.toml``, ``frequency-sweep.toml``).
+
+    Returns
+    -------
+    list of Path
+        Their files, by name.
+    """
+    folder = Path(str(resources.files("evtribo") / "data" / "protocols"))
+    return sorted(folder.glob("*.toml"))
 
 
 def read_protocol(path: str | os.PathLike[str]) -> Protocol:

@@ -162,8 +162,8 @@ def receive(bus: can.BusABC, writer: LogWriter, *, duration: float | None,
     expect : frozenset of int, optional
         :func:`frame_key` of the frames the rig must send (its load cells).
     expect_within : float, s, optional
-        With *expect*: when none of those frames arrived within this time, the trial ends
-        as ``"no-rig-data"``.
+        With *expect*: when none of those frames arrived within this time, or by the end
+        of a shorter trial, the trial ends as ``"no-rig-data"``.
     not_before : float, optional, s since the epoch
         The trial's start, for a bus that stamps each frame with this machine's clock as it
         receives it (SocketCAN's kernel timestamps): a frame stamped earlier was queued
@@ -258,6 +258,8 @@ class _Loop:
                                 should_stop=should_stop, until=until,
                                 no_rig_data=self.expect is not None and now >= self.deadline)
             if stop is not None:
+                if stop[0] == "completed" and self.expect is not None:
+                    return "no-rig-data", None  # never "completed" without the rig's frames
                 return stop
 
     def read_queued(self, until: float) -> None:

@@ -347,6 +347,42 @@ def create_study(study: str | Path, rig: AcquisitionRig, name: str | None = None
     return path
 
 
+def refuse_misspelt_study(study: str | Path, *, new: bool = False) -> None:
+    """Refuse a study folder that is not there when a study of a similar name is beside
+    it (``my-stuyd`` beside ``my-study``): a new study would be made for the default rig
+    without a word about the one meant.
+
+    Parameters
+    ----------
+    study : path
+        The study folder given.
+    new : bool
+        A new study was asked for (``--new-study``): nothing is refused.
+
+    Raises
+    ------
+    StudyError
+        Naming the similar study (key ``--study``).
+    """
+    import difflib
+
+    study = Path(study)
+    if new or (study / STUDY_FILE).exists():
+        return
+    parent = study.absolute().parent
+    try:
+        beside = [p.name for p in parent.iterdir()
+                  if p.name != study.name and (p / STUDY_FILE).is_file()]
+    except OSError:
+        return
+    close = difflib.get_close_matches(study.name, beside, n=1, cutoff=0.75)
+    if close:
+        meant = study.with_name(close[0])
+        raise StudyError(f"{study} is not a study; did you mean {meant}, the study beside "
+                         f"it? (--new-study makes a new study named {study.name})",
+                         key="--study")
+
+
 def open_study(study: str | Path, rig_path: str | Path | None = None, *,
                create: bool = True) -> AcquisitionRig:
     """The rig of *study*, creating the study folder for *rig_path* when it has none.
@@ -410,5 +446,6 @@ __all__ = [
     "load_rig_toml",
     "load_study_rig",
     "open_study",
+    "refuse_misspelt_study",
     "write_new_study",
 ]

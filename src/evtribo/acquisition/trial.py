@@ -20,8 +20,9 @@ bus-error     the bus raised on receive (adapter unplugged, pty      1
 disk-error    the log could not be written (disk full...); the log   1
               ends with the last whole line written
 no-rig-data   none of the rig's load-cell messages arrived within    1
-              ``rig_data_timeout`` (3 s): the wrong bus, or a study
-              whose DBC is not this rig's; the log keeps what came
+              ``rig_data_timeout`` (3 s), or in a shorter trial: the
+              wrong bus, or a study whose DBC is not this rig's; the
+              log keeps what came
 recording     (only in a sidecar left by a killed process)
 ============  =====================================================  =========
 
@@ -44,6 +45,9 @@ damaged_lines               lines the adapter's driver could not parse (``t0CZ8.
 dropped_frames              frames lost before the log, at least: the larger of the load
                             cells' counters' count and ``queue_dropped_frames``
 dropped_frames_by_message   frames missing by the load cells' rolling counters
+duplicate_frames            frames of the load cells received twice: no loss
+counter_restarts_s          by message, when its counter restarted at 0 (s from the first
+                            frame): no frame is counted lost there
 queue_dropped_frames        frames the receiving side dropped from its full receive queue
                             (SocketCAN: the kernel's count, ``SO_RXQ_OVFL``); null when the
                             bus does not count them
@@ -326,7 +330,8 @@ def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
     got = _receive(rec, bus, acq_rig, opts)
     ended, error = _how_it_ended(rec, got)
     if ended == "no-rig-data":
-        error = AcquisitionError(_no_rig_data(acq_rig, opts.rig_data_timeout))
+        error = AcquisitionError(_no_rig_data(acq_rig, min(opts.rig_data_timeout or 0.0,
+                                                           round(got.elapsed, 1))))
     if rec.previous and error is not None and got.writer.stats.frames == 0:
         return _keep_previous(rec, ended, error, got.elapsed)
     paths = rec.paths
@@ -429,6 +434,8 @@ def _last_sidecar(rec: _Recording, got: _Received, ended: str, error: BaseExcept
         "queue_dropped_frames": stats.queue_dropped,
         "receive": got.care.as_dict(),
         "dropped_frames_by_message": stats.dropped_by_message,
+        "duplicate_frames": stats.duplicates,
+        "counter_restarts_s": got.writer.counters.restarts_by_message(stats.first_timestamp),
         "longest_gap_s_by_message": got.writer.counters.longest_gap_by_message(),
         "bus_errors": stats.error_frames + stats.damaged_lines + int(ended == "bus-error"),
         "bus_exceptions": exceptions,

@@ -34,7 +34,10 @@ from evtribo.canlog.signals import TrialSignals
 from evtribo.errors import AnalysisError
 
 __all__ = [
+    "MAX_SE",
+    "MAX_SLIDING_SHARE",
     "MIN_PRESS_RANGE",
+    "SIGNIFICANT_SE",
     "CrossTalk",
     "crosstalk_matrix",
     "pressing_slope",
@@ -46,6 +49,15 @@ MIN_PRESS_RANGE = 0.5
 #: A 0.1-s mean counts as pressing when the normal force is above this share of its 95th
 #: percentile and the tangential reading within this share of the normal one.
 PRESS_LOAD, PRESS_SHEAR = 0.2, 0.25
+#: A press recording in which the tangential reading is beyond :data:`PRESS_SHEAR` of the
+#: normal one for more than this share of the loaded time is of a finger sliding.
+MAX_SLIDING_SHARE = 0.3
+#: A share measured less precisely than this (its standard error) is not put into a matrix:
+#: a term off by that much moves the other cell's reading by 1.5 % of this one's (3 % of
+#: the friction at a friction coefficient of 0.5), as large as the cross-talk it corrects.
+MAX_SE = 0.015
+#: A share within this many standard errors of zero is no cross-talk.
+SIGNIFICANT_SE = 2.0
 
 
 @dataclass(frozen=True)
@@ -71,12 +83,35 @@ class CrossTalk:
     reversals: int
     press_s: float
 
+    def verdict(self, term: str) -> str:
+        """What the recordings tell of one share: ``"not measured"``, ``"imprecise"``
+        (its standard error over :data:`MAX_SE`), ``"none"`` (within
+        :data:`SIGNIFICANT_SE` standard errors of zero) or ``"found"``.
+
+        Parameters
+        ----------
+        term : str
+            ``"a"`` or ``"b"``.
+
+        Returns
+        -------
+        str
+        """
+        value, se = (self.a, self.a_se) if term == "a" else (self.b, self.b_se)
+        if np.isnan(value):
+            return "not measured"
+        if not se <= MAX_SE:
+            return "imprecise"
+        return "found" if abs(value) > SIGNIFICANT_SE * se else "none"
+
     @property
-    def matrix(self) -> list[list[float]]:
-        """``[rig.calibration] matrix``: the inverse of ``[[1, a], [b, 1]]`` (a term not
-        measured taken as 0)."""
-        a = 0.0 if np.isnan(self.a) else self.a
-        b = 0.0 if np.isnan(self.b) else self.b
+    def matrix(self) -> list[list[float]] | None:
+        """``[rig.calibration] matrix``: the inverse of ``[[1, a], [b, 1]]``, each share
+        taken as 0 unless it was found (:meth:`verdict`); None when neither was."""
+        a = self.a if self.verdict("a") == "found" else 0.0
+        b = self.b if self.verdict("b") == "found" else 0.0
+        if a == 0.0 and b == 0.0:
+            return None
         inv = np.linalg.inv(np.array([[1.0, a], [b, 1.0]]))
         return [[round(float(x), 6) for x in row] for row in inv]
 
@@ -98,7 +133,8 @@ def pressing_slope(signals: TrialSignals) -> tuple[float, float, float]:
     Raises
     ------
     AnalysisError
-        No pressing found, or a force that hardly varied.
+        No pressing found, a force that hardly varied, or a finger that slid (the
+        tangential reading a friction coefficient's worth of the normal one).
     """
     tn = sample_times(signals.normal.t, signals.normal.counter)
     tt = sample_times(signals.tangential.t, signals.tangential.counter)
@@ -113,8 +149,10 @@ def pressing_slope(signals: TrialSignals) -> tuple[float, float, float]:
         raise AnalysisError("the recording is too short to calibrate from")
     floor = float(np.percentile(fn, 2))
     top = float(np.percentile(fn, 95)) - floor
-    pressing = (fn - floor > PRESS_LOAD * top) & (np.abs(ft - np.median(ft)) < PRESS_SHEAR * (
-        fn - floor))
+    loaded = fn - floor > PRESS_LOAD * top
+    pressing = loaded & (np.abs(ft - np.median(ft)) < PRESS_SHEAR * (fn - floor))
+    if loaded.any():
+        _refuse_sliding(np.abs(ft[loaded] - np.median(ft[loaded])) / (fn[loaded] - floor))
     if pressing.sum() < 20:
         raise AnalysisError("no pressing without sliding found: press with the finger "
                             "still, harder and lighter, after the tare stretch")
@@ -129,6 +167,22 @@ def pressing_slope(signals: TrialSignals) -> tuple[float, float, float]:
     se = float(np.sqrt(np.sum(resid**2) / (x.size - 2) / np.sum((x - x.mean()) ** 2)
                        * x.size / n_eff))
     return float(slope), se, float(pressing.sum() * m / f.rate_Hz)
+
+
+def _refuse_sliding(ratio: np.ndarray) -> None:
+    """Refuse a press recording whose tangential reading is, most of the loaded time, a
+    friction coefficient's worth of the normal one: the finger slid."""
+    if ratio.size == 0:
+        return
+    share = float(np.mean(ratio >= PRESS_SHEAR))
+    if share > MAX_SLIDING_SHARE:
+        raise AnalysisError(
+            f"not a recording of the finger pressing without sliding: the tangential force "
+            f"was over {100 * PRESS_SHEAR:.0f} % of the normal force in {100 * share:.0f} % "
+            f"of the time the finger pressed (median {100 * float(np.median(ratio)):.0f} %: "
+            "a friction coefficient's worth), so the finger slid; record the finger pressing "
+            "still, harder and lighter, after the tare stretch (`evtribo simulate --study "
+            "STUDY --press-only` rehearses one)")
 
 
 def reversal_slope(trials: Sequence[tuple[TrialSignals, TrialMeta]],

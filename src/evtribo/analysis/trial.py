@@ -52,7 +52,8 @@ TRIAL_COLUMNS = ("subject", "trial", "waveform", "frequency_Hz", "amplitude_V", 
                  "friction_modulation_Hz", "normal_offset_N", "tangential_offset_N", "tare",
                  "mu_change_per_10s", "crosstalk_normal", "crosstalk_normal_se",
                  "tangential_direction_share", "analysed_s", "excluded_switch_s",
-                 "excluded_lift_s", "excluded_unsteady_s", "excluded_other_s")
+                 "excluded_lift_s", "excluded_unsteady_s", "excluded_other_s",
+                 "duplicate_frames")
 #: Columns of windows.csv (study format, section 2).
 WINDOW_CSV_COLUMNS = ("subject", "trial", "condition", "amplitude_V", "waveform", "t_start_s",
                       "t_end_s", "normal_force_N", "friction_force_N", "direction", "stroke",
@@ -395,6 +396,7 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
         "condition": info["condition"], "duration_s": round(duration, 6),
         "frames": signals.frames,
         "dropped_frames": _dropped(signals, warn),
+        "duplicate_frames": signals.duplicate_frames,
         "skipped_lines": signals.skipped_lines,
         "friction_modulation_Hz": modulation,
         "normal_offset_N": None if offsets[0] is None else round(offsets[0], 6),

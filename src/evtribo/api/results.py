@@ -39,7 +39,11 @@ __all__ = ["COUNT_COLUMNS", "CSV_EXACT", "TEXT_COLUMNS", "FitView", "Results", "
 
 #: Columns of names (strings), and of counts (nullable integers); the others are floats.
 TEXT_COLUMNS = ("subject", "trial", "waveform", "condition", "tare")
-COUNT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off", "replicate")
+COUNT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off", "replicate",
+                 "duplicate_frames")
+
+#: Columns a result folder written by an earlier version lacks: read as empty.
+NEWER_COLUMNS = frozenset({"duplicate_frames"})
 
 #: read_csv's options that read back every float to_csv wrote, bit for bit (pandas 3's
 #: default parser does; pandas 2's needs its round-trip parser).
@@ -277,6 +281,8 @@ def read_table(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
                           na_values=[""], **CSV_EXACT)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
         raise UserInputError(f"cannot read this CSV table: {err}", path=path) from err
+    for c in NEWER_COLUMNS & set(columns) - set(raw.columns):  # a folder written before
+        raw[c] = pd.NA
     missing = [c for c in columns if c not in raw.columns]
     if missing:
         raise UserInputError(f"missing column(s) {', '.join(missing)}: not a table evtribo "

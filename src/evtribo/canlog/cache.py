@@ -53,7 +53,7 @@ from evtribo.util.docstrings import fill_doc
 log = logging.getLogger(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
-CACHE_VERSION = 11  # 2: dropped frames counted by evtribo.canlog.dropped; 3: Rig.counter guess,
+CACHE_VERSION = 13  # 2: dropped frames counted by evtribo.canlog.dropped; 3: Rig.counter guess,
 #                    frames with an unknown multiplexer value ignored; 5: checksummed entries;
 #                    6: channel, logger's DROPCOUNT and decoder warnings kept; 7: waveform
 #                    codes named without a value table (evtribo.canlog.decode.FALLBACK_WAVEFORMS);
@@ -62,7 +62,10 @@ CACHE_VERSION = 11  # 2: dropped frames counted by evtribo.canlog.dropped; 3: Ri
 #                    run-end encoded, counters in the narrowest ints, times as clock
 #                    ticks' steps and forces as their codes where exact; 11: frames lost
 #                    by the counter alone where it steps by one, outages only on bursty
-#                    timestamps (evtribo.canlog.outages); CAN FD frames only as FD messages
+#                    timestamps (evtribo.canlog.outages); CAN FD frames only as FD messages;
+#                    12: the cells' frames in the order sent, duplicates counted, counter
+#                    jumps and the log's clock steps taken out (evtribo.canlog.sequence);
+#                    13: a force's samples outside its DBC range left out (bad samples)
 _META = b"evtribo.trial"
 #: An entry's file name ends so.
 SUFFIX = ".arrow"
@@ -275,6 +278,7 @@ def _to_table(trial: TrialSignals,
         "dropped": [trial.normal.dropped, trial.tangential.dropped],
         "dropped_method": [trial.normal.dropped_method, trial.tangential.dropped_method],
         "dropped_note": [trial.normal.dropped_note, trial.tangential.dropped_note],
+        "duplicates": [trial.normal.duplicates, trial.tangential.duplicates],
         "counter": [trial.normal.counter is not None, trial.tangential.counter is not None],
         "excitation": None if ex is None else
         [k for k in _EXCITATION_TYPES if getattr(ex, k) is not None],
@@ -296,7 +300,8 @@ def _from_table(table: pa.Table) -> TrialSignals:
         sel = stream == k
         cnt = counter[sel].astype(np.int64) if meta["counter"][k] else None
         cells.append(CellSignals(t[sel].copy(), value[sel].copy(), cnt, int(meta["dropped"][k]),
-                                 meta["dropped_method"][k], meta["dropped_note"][k]))
+                                 meta["dropped_method"][k], meta["dropped_note"][k],
+                                 int(meta["duplicates"][k])))
     ex = None
     if meta["excitation"] is not None:
         sel = np.flatnonzero(stream == 2)

@@ -14,9 +14,11 @@ Two entry points:
     cells, the excitation (waveforms named by the DBC's value table, else
     :data:`FALLBACK_WAVEFORMS` with a warning), and the counts of frames decoded and ignored
     (other IDs, other channels, error, remote and CAN XL frames, frames too short, unknown
-    multiplexer values). The rig's frames come from one channel (bus): the one named, else
-    the one carrying most of them, with a warning when the rig's IDs arrive on several (the
-    same ID on two buses is two streams, never merged).
+    multiplexer values). Each cell's frames are put in the order sent first
+    (:mod:`evtribo.canlog.sequence`: duplicates dropped, late frames put back, counter
+    restarts and the logger's clock steps taken out). The rig's frames come from one channel
+    (bus): the one named, else the one carrying most of them, with a warning when the rig's
+    IDs arrive on several (the same ID on two buses is two streams, never merged).
 
 How a signal is extracted: :class:`~evtribo.canlog.signal_codec.SignalCodec` (any byte order,
 start bit, length up to 64 bits, sign, IEEE float), vectorised over frames. Multiplexed
@@ -45,11 +47,12 @@ import numpy.typing as npt
 from cantools.database import DecodeError
 from cantools.database.can import Database, Message
 
+from evtribo.canlog import sequence
 from evtribo.canlog.dropped import missing_frames_received
 from evtribo.canlog.frame_match import kind_mismatches, message_mask
 from evtribo.canlog.io.table import FrameTable, take_rows
 from evtribo.canlog.rig import Rig, SignalRef
-from evtribo.canlog.signal_codec import SignalCodec
+from evtribo.canlog.signal_codec import SignalCodec, bad_samples
 from evtribo.canlog.signals import CellSignals, ExcitationSignals, TrialProvenance, TrialSignals
 from evtribo.errors import UserInputError
 
@@ -270,33 +273,53 @@ def _in_time_order(msg: DecodedMessage) -> DecodedMessage:
     return _rows(msg, np.argsort(ts, kind="stable")) if np.any(ts[1:] < ts[:-1]) else msg
 
 
-def _cell(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
-          undecoded: list[npt.NDArray[np.int64]]) -> CellSignals:
-    """One load cell's samples in time order, and the frames missing from it (counted in
-    the order the frames came in)."""
+def _sequenced(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
+               undecoded: list[npt.NDArray[np.int64]]
+               ) -> tuple[DecodedMessage, sequence.Sequenced, int | None]:
+    """One load cell's frames decoded and put in the order sent
+    (:func:`~evtribo.canlog.sequence.sending_order`), and its counter's period."""
     names = [force.signal.name] + ([counter.signal.name] if counter is not None
                                    and counter.message is force.message else [])
     msg = _decoded_only(decode_message(frames, force.message, names), undecoded)
-    backwards = np.any(msg.timestamp[1:] < msg.timestamp[:-1])
-    order = np.argsort(msg.timestamp, kind="stable") if backwards else None
-    t = msg.timestamp if order is None else msg.timestamp[order]
-    value = msg.scaled(force.signal.name)
-    value = value if order is None else value[order]
-    count = received = modulus = None
-    if counter is not None:
-        cmsg = msg if counter.message is force.message else decode_message(
-            frames, counter.message, [counter.signal.name])
-        if cmsg is msg:
-            received = msg.raw[counter.signal.name].astype(np.int64)
-            count = received if order is None else received[order]
-            modulus = 1 << counter.signal.length
-        else:
-            log.warning("counter %s is not in the force's message %s: timing gaps only",
-                        counter.qualified_name, force.message.name)
-    # counted in the order the frames came in: a clock that jumped back must not make the
-    # frames from before and after the jump look like gaps in each other
-    found = missing_frames_received(msg.timestamp, received, modulus)
-    return CellSignals(t, value, count, found.count, found.method, found.note)
+    received = modulus = None
+    if counter is not None and counter.message is force.message:
+        received = msg.raw[counter.signal.name].astype(np.int64)
+        modulus = 1 << counter.signal.length
+    elif counter is not None:
+        log.warning("counter %s is not in the force's message %s: timing gaps only",
+                    counter.qualified_name, force.message.name)
+    return msg, sequence.sending_order(msg.timestamp, received, modulus,
+                                       take_rows(frames.data, msg.index)), modulus
+
+
+def _cells(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]],
+           warnings: list[str]) -> tuple[FrameTable, list[CellSignals]]:
+    """The two load cells in time order and the frames missing from each (counted in the
+    order sent, duplicates left out), once the logger's clock steps are taken out of the
+    whole log (the amplifier's frames with them); what was put right is said in
+    *warnings*."""
+    roles = ((rig.normal_force, rig.counter("normal")),
+             (rig.tangential_force, rig.counter("tangential")))
+    cells = [_sequenced(frames, force, counter, undecoded) for force, counter in roles]
+    steps = sequence.log_clock_steps([(m.index, s) for m, s, _ in cells])
+    if steps:
+        frames = dataclasses.replace(frames, timestamp=sequence.clock_corrected(
+            frames.timestamp, [(b, a, step) for b, a, step, _ in steps]))
+        cells = [_sequenced(frames, force, counter, undecoded) for force, counter in roles]
+    t0 = min((float(m.timestamp.min()) for m, _, _ in cells if len(m)), default=0.0)
+    named = [(f.message.name, None if c is None else c.qualified_name, s)
+             for (f, c), (_, s, _) in zip(roles, cells, strict=True)]
+    warnings += sequence.said(steps, named, t0)
+    out = []
+    for (msg, seq, modulus), (force, _) in zip(cells, roles, strict=True):
+        found = missing_frames_received(seq.t, seq.counter, modulus)  # bad samples too
+        t, value = seq.t[seq.by_time], msg.scaled(force.signal.name)[seq.rows[seq.by_time]]
+        bad, text = bad_samples(t, value, force.signal, t0, force.qualified_name)
+        warnings += [text] if text else []
+        out.append(CellSignals(t[~bad], value[~bad], None if seq.counter is None else
+                               seq.counter[seq.by_time][~bad], found.count, found.method,
+                               found.note, seq.duplicates))
+    return frames, out
 
 
 def _hold(t_src: Array, values: npt.NDArray[Any], t: Array) -> npt.NDArray[Any]:
@@ -454,12 +477,12 @@ def decode_trial(frames: FrameTable, rig: Rig, *, channel: str | None = None) ->
         log.warning("%d frames with a timestamp that is not a finite number: not decoded",
                     len(frames) - int(np.count_nonzero(finite)))
         frames = frames.take(finite)
-    # logs merged or written out of order, clocks that jumped: each stream is put in time
-    # order on its own, after its lost frames are counted in the order they came in
+    # logs merged or written out of order, clocks that stepped: each cell is put in the
+    # order sent on its own, its lost frames counted in that order, the log's clock steps
+    # taken out of every frame (the counter the logger checks too: the rig's role, or a
+    # *Counter signal of the cell)
     undecoded: list[npt.NDArray[np.int64]] = []
-    # the counter the logger checks too: the rig's role, or a *Counter signal of the cell
-    normal = _cell(frames, rig.normal_force, rig.counter("normal"), undecoded)
-    tangential = _cell(frames, rig.tangential_force, rig.counter("tangential"), undecoded)
+    frames, (normal, tangential) = _cells(frames, rig, undecoded, warnings)
     excitation = _excitation(frames, rig, undecoded, warnings)
     n = _decoded_count(frames, rig, undecoded)
     return TrialSignals(normal, tangential, excitation, frames=n, ignored_frames=total - n,

@@ -8,6 +8,10 @@ A standard ``0x0C1`` frame is not the extended message ``0x000000C1``, and a CAN
 other data that happen to share a number, and decoding them as the message would mix them
 into its samples. Such frames are counted with the frames the DBC does not describe, and
 named in a warning.
+
+A message longer than 8 bytes is a CAN FD message whatever its frame format attribute says
+(``VFrameFormat``: many DBCs give none, and J1939 ones give 3, which cantools reads as
+classic): no classic frame carries more than 8 bytes (:func:`is_fd_message`).
 """
 
 from __future__ import annotations
@@ -19,12 +23,28 @@ from cantools.database.can import Database, Message
 from evtribo.canlog.io.ids import id_text
 from evtribo.canlog.io.table import FrameTable
 
-__all__ = ["kind_mismatches", "message_mask"]
+__all__ = ["is_fd_message", "kind_mismatches", "message_mask"]
+
+
+def is_fd_message(message: Message) -> bool:
+    """Whether *message*'s frames are CAN FD: its frame format says so, or it is longer than
+    a classic frame's 8 bytes.
+
+    Parameters
+    ----------
+    message : cantools.database.can.Message
+        The message.
+
+    Returns
+    -------
+    bool
+    """
+    return bool(message.is_fd) or int(message.length) > 8
 
 
 def message_mask(frames: FrameTable, message: Message) -> npt.NDArray[np.bool_]:
-    """Frames carrying *message*: same ID, ID kind and CAN FD or classic kind, data frames
-    (not error or remote).
+    """Frames carrying *message*: same ID, ID kind and CAN FD or classic kind
+    (:func:`is_fd_message`), data frames (not error or remote).
 
     Parameters
     ----------
@@ -40,7 +60,7 @@ def message_mask(frames: FrameTable, message: Message) -> npt.NDArray[np.bool_]:
     """
     return ((frames.arbitration_id == np.uint32(message.frame_id))
             & (frames.is_extended == bool(message.is_extended_frame))
-            & (frames.is_fd == bool(message.is_fd)) & ~frames.is_error & ~frames.is_remote)
+            & (frames.is_fd == is_fd_message(message)) & ~frames.is_error & ~frames.is_remote)
 
 
 
@@ -68,11 +88,11 @@ def kind_mismatches(frames: FrameTable, messages: list[Message], db: Database) -
     -------
     list of str
     """
-    known = {(m.frame_id, bool(m.is_extended_frame), bool(m.is_fd)) for m in db.messages}
+    known = {(m.frame_id, bool(m.is_extended_frame), is_fd_message(m)) for m in db.messages}
     data = ~frames.is_error & ~frames.is_remote
     out = []
     for m in messages:
-        ext, fd = bool(m.is_extended_frame), bool(m.is_fd)
+        ext, fd = bool(m.is_extended_frame), is_fd_message(m)
         same = data & (frames.arbitration_id == np.uint32(m.frame_id))
         other_id = sum(int(np.count_nonzero(same & (frames.is_extended != ext)
                                             & (frames.is_fd == f)))

@@ -13,10 +13,16 @@ period (a clock off by 100 ppm moves it by a hundredth of a frame over a hundred
 
 from __future__ import annotations
 
+import itertools
+from dataclasses import dataclass, field
+
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["MIN_OUTAGE", "lasting_gaps", "outage_count", "whole_periods"]
+from evtribo.util.median import median
+
+__all__ = ["LARGEST_STEP_S", "MAX_CANDIDATES", "MIN_OUTAGE", "Lead", "envelope_noise",
+           "lasting_gaps", "outage_count", "whole_periods"]
 
 #: Least drop of the upper envelope taken for frames lost in a row, frames (more where the
 #: envelope is noisier: four times its scatter).
@@ -29,6 +35,16 @@ _ENVELOPE_K = 4
 _GAP_FRAMES = 32
 #: Fewest frames for an envelope.
 _MIN_FRAMES = 16
+#: Most frames whose envelope's scatter is measured (:func:`envelope_noise`).
+_NOISE_FRAMES = 50_000
+#: Most steps of a stream looked at as a possible counter jump or clock step.
+MAX_CANDIDATES = 400
+#: A step of the clock larger than this is left as it is, s (the analysis cuts the trial
+#: there: :mod:`evtribo.analysis.forces.pieces`).
+LARGEST_STEP_S = 1.0
+
+FloatArray = npt.NDArray[np.float64]
+IntArray = npt.NDArray[np.int64]
 
 
 def _envelope(t: npt.NDArray[np.float64], index: npt.NDArray[np.float64], period: float
@@ -51,6 +67,34 @@ def _noise(level: npt.NDArray[np.float64]) -> float:
     """Scatter of a level from one window to the next (robust: outages do not count), frames."""
     d = np.diff(level)
     return float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2)) if d.size else 0.0
+
+
+def envelope_noise(t: npt.NDArray[np.float64], index: npt.NDArray[np.float64], period: float
+                   ) -> float:
+    """How much the stream's upper envelope scatters from one window to the next, frames:
+    the least disagreement between a stream's places and its clock that can be told from
+    noise is a few times this.
+
+    Parameters
+    ----------
+    t : ndarray of float, s
+        Reception times, non-decreasing.
+    index : ndarray of float
+        Each frame's place in the stream.
+    period : float, s
+        The stream's period.
+
+    Returns
+    -------
+    float
+        The robust scatter (0 for a stream too short for windows).
+    """
+    if t.size > _NOISE_FRAMES:  # a long stretch from the middle says it as well
+        a = (t.size - _NOISE_FRAMES) // 2
+        t, index = t[a:a + _NOISE_FRAMES], index[a:a + _NOISE_FRAMES]
+    if t.size < _MIN_FRAMES or not period > 0 or not t[-1] > t[0]:
+        return 0.0
+    return _noise(_envelope(t, index, period)[1])
 
 
 def _lasting_drops(level: npt.NDArray[np.float64], threshold: float) -> float:
@@ -141,6 +185,10 @@ def whole_periods(t: npt.NDArray[np.float64], index: npt.NDArray[np.float64],
     # the period from the stretches between the pauses (what they hide left out)
     first, last = bounds[:-1], bounds[1:] - 1
     period = float(np.sum(t[last] - t[first]) / max(np.sum(index[last] - index[first]), 1.0))
+    if not (np.isfinite(period) and period > 0):  # no time passes between the pauses
+        return 0, ("whole counter periods may have been lost in the pauses (the timestamps "
+                   "stand still between them; the timing cannot tell): counted by the counter "
+                   "alone")
     lead = index - (t - t[0]) / period
     tolerance = max(2.0, 4 * _noise(_envelope(t, index, period)[1]))
     reach = max(2 * modulus, 64)
@@ -197,3 +245,160 @@ def lasting_gaps(t: npt.ArrayLike, period: float, gap_factor: float = 1.5) -> in
     before = (total[gaps + 1] - total[a]) / (gaps + 1 - a)
     after = (total[b] - total[gaps + 1]) / (b - gaps - 1)
     return int(np.clip(np.rint(before - after), 0, None).sum())
+
+
+@dataclass
+class Lead:
+    """A stream's places against its clock, where the two may disagree for good (a counter
+    that jumps, a clock that steps): :mod:`evtribo.canlog.sequence` puts them right.
+
+    Attributes
+    ----------
+    t : ndarray of float, s
+        Timestamps, in the order sent.
+    index : ndarray of int
+        Each frame's place (by the counter, or the rank).
+    modulus : int or None
+        The counter's period (None: no counter).
+    period : float, s
+        The stream's period, by least squares between the steps that may hide a jump.
+    width_s : float, s
+        The windows of time either side of a step over which the upper envelope is taken.
+    tol : float
+        The least disagreement told from noise, frames.
+    bounds : ndarray of int
+        The stretches between steps of the clock left as they are.
+    odd : ndarray of int
+        The steps where the counter or the clock does something out of the ordinary (at
+        most :data:`MAX_CANDIDATES`, the most out of it); when there is none, *t* and *index*
+        are the arrays given (not copies) and *width_s* 0.
+    """
+
+    t: FloatArray
+    index: IntArray
+    modulus: int | None
+    period: float
+    width_s: float
+    tol: float
+    bounds: IntArray
+    odd: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+    def lead(self) -> FloatArray:
+        """Each frame's place less the periods elapsed since the first frame, frames."""
+        return self.index - (self.t - self.t[0]) / self.period
+
+    def monotone(self) -> FloatArray:
+        """The timestamps made non-decreasing within each stretch (for windows of time), s."""
+        return _monotone(self.t, self.bounds)
+
+    def shift(self, j: int, lead: FloatArray, mono: FloatArray) -> float:
+        """How many frames the places and the clock disagree by after step j than before
+        it: the upper envelope over a window of time either side (within its stretch)."""
+        k = int(np.searchsorted(self.bounds, j, side="right"))
+        a, b = int(self.bounds[k - 1]), int(self.bounds[k])
+        lo = max(a, int(np.searchsorted(mono[a:j + 1], mono[j] - self.width_s)) + a)
+        hi = min(b, int(np.searchsorted(mono[j + 1:b], mono[j + 1] + self.width_s,
+                                        side="right")) + j + 1)
+        if hi <= j + 1 or lo > j:
+            return 0.0
+        return float(lead[lo:j + 1].max() - lead[j + 1:hi].max())
+
+    @classmethod
+    def of(cls, t: FloatArray, index: IntArray, modulus: int | None) -> Lead | None:
+        """The stream with its period, windows and tolerance; None when it has no period."""
+        return _lead(cls, t, index, modulus)
+
+
+def _stretches(t: FloatArray) -> IntArray:
+    """The bounds of the stretches between steps of the clock left as they are: ahead by
+    more than :data:`LARGEST_STEP_S`, or back so far that no frame after it reaches the
+    frames before it."""
+    dt = np.diff(t)
+    big = np.flatnonzero(np.abs(dt) > LARGEST_STEP_S)
+    if big.size:
+        first = np.minimum.accumulate(t)
+        later = np.maximum.accumulate(t[::-1])[::-1]  # the latest frame from each on
+        big = big[(dt[big] > 0) | (later[big + 1] < first[big])]
+    return np.concatenate([[0], big + 1, [t.size]]).astype(np.int64)
+
+
+def _monotone(t: FloatArray, bounds: IntArray) -> FloatArray:
+    """*t* made non-decreasing within each stretch (for windows of time)."""
+    if not np.any(t[1:] < t[:-1]):
+        return t
+    out = t.copy()
+    for a, b in itertools.pairwise(bounds):
+        out[a:b] = np.maximum.accumulate(t[a:b])
+    return out
+
+
+def _period(t: FloatArray, index: IntArray) -> float:
+    """The stream's period, from spans of many frames (a few disturbed ones left out by
+    the median), s."""
+    w = max(1, min(200, t.size // 4))
+    every = max(1, (t.size - w) // 20_000)  # a median's worth of spans
+    spans = (t[w::every] - t[:-w:every]) / np.maximum(index[w::every] - index[:-w:every], 1)
+    return median(spans[np.isfinite(spans) & (spans > 0)]) if np.any(spans > 0) else 0.0
+
+
+def _pooled_slope(t: FloatArray, x: FloatArray, cut: IntArray) -> float:
+    """The least-squares slope of *t* against *x*, pooled over the pieces between *cut*
+    (each piece with its own intercept); 0 when there is none."""
+    cut = cut[np.r_[np.diff(cut) > 0, False]]  # the starts of pieces with frames
+    if not cut.size:
+        return 0.0
+    x = x - x[0]
+    t = t - t[0]
+    n = np.diff(np.r_[cut, x.size]).astype(np.float64)
+    sx, st = np.add.reduceat(x, cut), np.add.reduceat(t, cut)
+    sxx, sxt = np.add.reduceat(x * x, cut), np.add.reduceat(x * t, cut)
+    den = float(np.sum(sxx - sx * sx / n))
+    return float(np.sum(sxt - sx * st / n)) / den if den > 0 else 0.0
+
+
+def _quantile(x: FloatArray, q: float) -> float:
+    """*x*'s *q* quantile, from at most 20,000 of its values evenly spread (a threshold's
+    worth of precision, at a fraction of the cost)."""
+    if x.size > 20_000:
+        x = x[np.linspace(0, x.size - 1, 20_000).astype(np.int64)]
+    return float(np.quantile(x, q)) if x.size else 0.0
+
+
+def _candidates(t: FloatArray, index: IntArray, period: float, bounds: IntArray,
+                counted: bool) -> IntArray:
+    """The steps where the counter or the clock does something out of the ordinary: the
+    clock going back, the counter standing or skipping two or more, the clock going on far
+    longer than the counter (beyond three times the most that 999 steps in 1000 show)."""
+    dt = np.diff(t)
+    d = np.diff(index)
+    odd = dt < -period
+    if counted:
+        odd |= (d >= 3) | (d == 0)
+        if dt.size and dt.max() > 4 * period:  # else no step goes on long enough
+            off = dt - d * period
+            odd |= off > max(3 * _quantile(np.abs(off), 0.999), 4 * period)
+    odd[bounds[1:-1] - 1] = False
+    found = np.flatnonzero(odd)
+    if found.size > MAX_CANDIDATES:
+        score = np.abs(dt[found] / period - d[found])
+        found = np.sort(found[np.argsort(score)[::-1][:MAX_CANDIDATES]])
+    return found
+
+
+def _lead(cls: type[Lead], t: FloatArray, index: IntArray, modulus: int | None
+          ) -> Lead | None:
+    bounds = _stretches(t)
+    period = _period(t, index)
+    if not period > 0:
+        return None
+    found = _candidates(t, index, period, bounds, modulus is not None)
+    if not found.size:  # nothing out of the ordinary: nothing more to know
+        return cls(t, index, modulus, period, 0.0, 2.0, bounds, found)
+    mono = _monotone(t, bounds)
+    width = max(max(2 * (modulus or 32), 64) * period, 4 * _quantile(np.diff(mono), 0.99))
+    # the period again by least squares between the steps that may hide a jump or a step (a
+    # median of spans of a stream stamped in bursts is off by up to a burst per span)
+    cut = np.unique(np.concatenate([[0], found + 1, bounds[1:-1], [t.size]]))
+    period = _pooled_slope(t, index.astype(np.float64), cut) or period
+    tol = max(2.0, 4 * envelope_noise(mono, index.astype(np.float64), period))
+    return cls(t.copy(), index.copy(), modulus, period, width, tol, bounds, found)

@@ -167,4 +167,65 @@ def scaled(raw: npt.NDArray[np.generic], scale: float, offset: float) -> Array:
     return value
 
 
-__all__ = ["SignalCodec", "scaled"]
+#: Largest share of a signal's samples outside its declared range that are taken for bad
+#: samples; more, and the range is taken for wrong (the samples are kept, and it is said).
+MAX_OUT_OF_RANGE = 0.01
+
+
+def bad_samples(t: Array, values: Array, signal: Signal, t0: float, name: str
+                ) -> tuple[npt.NDArray[np.bool_], str | None]:
+    """The samples of a signal no sensor gives: no number (infinite, or NaN where every
+    frame carries the signal: a multiplexed one's NaN are frames without it), or outside the
+    DBC's declared ``[minimum|maximum]`` (by more than half a scale step; a float node's
+    3.4e38 "no reading"), and what to say of them.
+
+    Outside the range, the samples are bad only while they are few (at most
+    :data:`MAX_OUT_OF_RANGE` of them: spikes); where more miss it, the range is wrong for
+    the sensor, and they are kept.
+
+    Parameters
+    ----------
+    t : ndarray of float, s
+        The samples' times.
+    values : ndarray of float
+        The samples, in the signal's unit.
+    signal : cantools.database.can.Signal
+        The signal.
+    t0 : float, s
+        The trial's start, for the time said.
+    name : str
+        The signal as the sentence names it (``FzCell.Fz``).
+
+    Returns
+    -------
+    bad : ndarray of bool
+        The samples to leave out.
+    said : str or None
+        A sentence on them (or on a range most samples miss), or None.
+    """
+    with np.errstate(invalid="ignore"):
+        # NaN where a multiplexed signal is not in a frame: no sample, not a bad one
+        bad = np.isinf(values) if signal.multiplexer_ids else ~np.isfinite(values)
+        lo, hi = signal.minimum, signal.maximum
+        step = abs(float(signal.scale)) / 2 if not signal.is_float else 0.0
+        outside = np.zeros(values.size, dtype=bool)
+        if lo is not None:
+            outside |= values < float(lo) - step
+        if hi is not None:
+            outside |= values > float(hi) + step
+    unit = f" {signal.unit}" if signal.unit else ""
+    where = f"the DBC's declared range [{lo}, {hi}]{unit}"
+    share = np.count_nonzero(outside) / max(values.size, 1)
+    if share > MAX_OUT_OF_RANGE:
+        return bad, (f"{share:.0%} of the samples of {name} are outside {where}: "
+                     "kept, the range is wrong for this sensor (fix the DBC's range)")
+    bad |= outside
+    if not bad.any():
+        return bad, None
+    k = int(np.argmax(bad))
+    return bad, (f"{int(bad.sum())} samples of {name} are no number or outside {where} "
+                 f"(the first at {t[k] - t0:.3f} s into the trial: {values[k]:.3g}): left "
+                 "out as bad samples")
+
+
+__all__ = ["MAX_OUT_OF_RANGE", "SignalCodec", "bad_samples", "scaled"]

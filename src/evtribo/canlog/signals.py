@@ -40,6 +40,9 @@ class CellSignals:
         How they were counted (:class:`evtribo.canlog.dropped.DropCount`'s ``method``).
     dropped_note : str or None
         Why the count may be unreliable.
+    duplicates : int
+        Frames received twice (the counter and the payload of a frame just before), left
+        out of the samples (:mod:`evtribo.canlog.sequence`).
     """
 
     t: Array
@@ -48,6 +51,7 @@ class CellSignals:
     dropped: int
     dropped_method: str = "counter"
     dropped_note: str | None = None
+    duplicates: int = 0
 
 
 @dataclass(frozen=True)
@@ -147,3 +151,8 @@ class TrialSignals:
         from its cell's counter: the two counts overlap, so the larger is taken, not the
         sum)."""
         return max(self.normal.dropped + self.tangential.dropped, self.logger_dropped)
+
+    @property
+    def duplicate_frames(self) -> int:
+        """Frames of the load cells received twice, left out of their samples."""
+        return self.normal.duplicates + self.tangential.duplicates

@@ -31,6 +31,7 @@ from evtribo.errors import EvtriboError
 #: Only the module of the subcommand being run is imported (start-up stays fast).
 SUBCOMMANDS: dict[str, str] = {
     "init": "create a study folder for your rig from its DBC (roles guessed, with reasons)",
+    "plan": "size a study before recording: expected intervals and power, simulated",
     "model": "the seed paper's model at a point; its figures",
     "simulate": "run the simulated rig on a CAN bus, a pty (slcan) or into a study folder",
     "acquire": "record one trial from a CAN bus into a study folder",
@@ -51,7 +52,7 @@ SUBCOMMANDS: dict[str, str] = {
 #: recording (``acquire``...), a rig and its logs (``init``...), results (``analyze``...).
 GROUPS: dict[str, str] = {
     **dict.fromkeys(("acquire", "session", "simulate"), "recording."),
-    **dict.fromkeys(("init", "inspect", "calibrate", "decode"), "setup."),
+    **dict.fromkeys(("init", "plan", "inspect", "calibrate", "decode"), "setup."),
     **dict.fromkeys(("analyze", "compare", "report", "plot", "model", "export"), "results."),
 }
 
@@ -143,7 +144,20 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
             continue
         p = module.add_parser(sub)
         _add_common(p)
+        _as_text(p)
     return parser
+
+
+def _as_text(parser: argparse.ArgumentParser) -> None:
+    """A subcommand's help as a terminal shows it: its docstring's reStructuredText
+    literals (````code````) as `code`, as the rest of the help writes them."""
+    for attr in ("description", "epilog"):
+        text = getattr(parser, attr)
+        if text:
+            setattr(parser, attr, text.replace("``", "`"))
+    for action in parser._actions:
+        if isinstance(action.help, str):
+            action.help = action.help.replace("``", "`")
 
 
 def _configure_logging(verbose: int, debug: bool) -> None:

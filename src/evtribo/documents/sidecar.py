@@ -48,7 +48,8 @@ SIDECAR_KEYS = frozenset({
     "dropped_frames", "dropped_frames_by_message", "longest_gap_s_by_message", "bus_errors",
     "bus_exceptions", "damaged_lines", "bus", "software", "simulation",
     "discarded_before_start", "error_frames_by_kind", "controller_state",
-    "worst_controller_state", "queue_dropped_frames", "receive",
+    "worst_controller_state", "queue_dropped_frames", "receive", "duplicate_frames",
+    "counter_restarts_s",
 })
 
 

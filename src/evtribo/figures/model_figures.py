@@ -90,7 +90,7 @@ def plot_paper_friction_time(ax: Axes | None = None, *, normal_force: float = 0.
     ax.plot(t, np.full_like(t, normal_force), "-.", color=PALETTE[2], label="external force")
     ax.plot(t, on, "-", color=PALETTE[1],
             label=f"friction, ON ({amplitude:g} V, {frequency:g} Hz)")
-    ax.plot(t, off, "--", color=PALETTE[0], label=f"friction, OFF (μ = {params.mu:g})")
+    ax.plot(t, off, "--", color=PALETTE[0], label=f"friction, OFF ($\\mu$ = {params.mu:g})")
     ax.set(xlabel="time $t$ (s)", ylabel="force (N)", xlim=(0, duration), ylim=(0, None))
     place_legend(ax)
     return ax
@@ -128,7 +128,7 @@ def plot_paper_friction_vs_load(ax: Axes | None = None, *, amplitude: float = 14
     u = square_voltage(t, amplitude, frequency)
     on = friction_force(forces[:, None], u[None, :], params).mean(axis=1)
     ax.plot(forces, friction_force(forces, 0.0, params), "-", color="k",
-            label=f"OFF (μ = {params.mu:g})")
+            label=f"OFF ($\\mu$ = {params.mu:g})")
     ax.plot(forces, on, "--", color=PALETTE[1],
             label=f"ON ({amplitude:g} V square, {frequency / 1e3:g} kHz)")
     ax.set(xlabel="external normal force $F_\\mathrm{ext}$ (N)",
@@ -164,7 +164,7 @@ def plot_paper_area_increase(ax: Axes | None = None, *,
     for k, f in enumerate(normal_forces):
         style = series_style(k)
         ax.plot(u, area_increase_pct(f, u, params), color=style["color"],
-                linestyle=style["linestyle"], label=f"F_ext = {f:g} N")
+                linestyle=style["linestyle"], label=f"$F_\\mathrm{{ext}}$ = {f:g} N")
     ax.set(xlabel="voltage amplitude $U$ (V)", ylabel="contact area increase (%)",
            xlim=(0, max_voltage), ylim=(0, None))
     place_legend(ax)
@@ -202,20 +202,20 @@ def plot_maugis(ax: Axes | None = None, *, normal_forces: Sequence[float] = (0.1
     for i, f in enumerate(normal_forces):
         color = PALETTE[i % len(PALETTE)]
         ax.plot(u, 100 * md_jkr_departure(f, u, params), color=color,
-                label=f"force, F_ext = {f:g} N")
+                label=f"force, $F_\\mathrm{{ext}}$ = {f:g} N")
         area = 100 * (contact_area_md(f, u, params) / contact_area_jkr(f, u, params) - 1)
-        ax.plot(u, area, color=color, linestyle="--", label=f"area, F_ext = {f:g} N")
+        ax.plot(u, area, color=color, linestyle="--", label=f"area, $F_\\mathrm{{ext}}$ = {f:g} N")
         keys.append(proxy(f"$F_\\mathrm{{ext}}$ = {f:g} N", color=color))
     ax.axhline(0.0, color="0.5", linewidth=0.8)
     ax.set(xlabel="voltage amplitude $U$ (V)", ylabel="Maugis-Dugdale vs JKR (%)",
            xlim=(0, max_voltage))
     twin = ax.twinx()
     twin.spines["right"].set_visible(True)
-    twin.plot(u, maugis_parameter(u, params), color="k", linestyle=":", label="λ")
-    twin.set_ylabel("Maugis parameter λ (1)")
+    twin.plot(u, maugis_parameter(u, params), color="k", linestyle=":", label="$\\lambda$")
+    twin.set_ylabel("Maugis parameter $\\lambda$ (1)")
     twin.set_ylim(0, None)
     keys += [proxy("force", color="0.4"), proxy("area", color="0.4", linestyle="--"),
-             proxy("λ (right axis)", color="k", linestyle=":")]
+             proxy("$\\lambda$ (right axis)", color="k", linestyle=":")]
     # above the plot: the twin's curve is not seen by the corner check
     place_legend(ax, keys, [str(h.get_label()) for h in keys], ncol_outside=3, inside=False)
     return ax

@@ -2,12 +2,18 @@
 
 One figure per condition (waveform x drive frequency) with a power law across subjects:
 log-log, forces in mN, a tick at each measured amplitude (:mod:`evtribo.figures.layout`).
-Each subject's points (95 % intervals) and its own weighted power law are drawn thin and
-light in the subject's colour; the population's geometric mean at each amplitude (black
-diamonds, 95 % intervals) and its power law across subjects (a thick black line in a grey
-95 % band) on top. The legend gives each entry as it is drawn: the population's line
-in its band, the means, each subject (up to :data:`MAX_NAMED`, else one entry for all)
-and an outlier left out of the population's estimates (open markers).
+Everything drawn comes from the one model of the population (the nonlinear mixed model of
+:mod:`evtribo.population.power_law`; the meta-analysis's per-amplitude means are not drawn
+beside it):
+
+- each subject's points (95 % intervals) and its own power law (its conditional mode in the
+  model), in the subject's colour, marker and line style, so that the subjects stay apart in
+  greyscale and for colour-blind readers; each named in the legend (a subject named as far
+  from the others: open markers);
+- the population's power law (a thick black line), the 95 % confidence band of that mean
+  (mid grey) and the 95 % prediction band for a new subject (light grey, dashed edges).
+
+The bands lie under the subjects, whose lines stay readable across them.
 """
 
 from __future__ import annotations
@@ -18,20 +24,24 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+from matplotlib import patheffects
 from matplotlib.axes import Axes
+from matplotlib.colors import to_rgb
 from matplotlib.legend_handler import HandlerTuple
 from matplotlib.patches import Patch
 
 from evtribo.figures.electrostatic_plots import _errors_mN, _force_axes, _nonpositive_note
 from evtribo.figures.layout import place_legend
-from evtribo.figures.style import EVERY_COLOUR, new_axes, proxy, series_style, styled
+from evtribo.figures.style import new_axes, proxy, series_style, styled
 from evtribo.population.estimates import Condition, Population, condition_label
 
-__all__ = ["MAX_NAMED", "draw_population", "plot_population", "population_stem"]
+__all__ = ["draw_population", "plot_population", "population_stem"]
 
-#: Subjects named one by one in the legend at most; more share one entry in
-#: :data:`~evtribo.figures.style.EVERY_COLOUR` (an outlier is always named).
-MAX_NAMED = 6
+#: A thin white edge around each subject's line and markers: they stay apart from the grey
+#: bands under them in greyscale.
+HALO = [patheffects.withStroke(linewidth=1.8, foreground="white"), patheffects.Normal()]
+#: The grey of the confidence band of the population's mean, and of the prediction band.
+CI_GREY, PI_GREY = "0.7", "0.9"
 
 
 def population_stem(condition: Condition) -> str:
@@ -59,6 +69,48 @@ def _rows_of(electrostatic: pd.DataFrame, condition: Condition) -> pd.DataFrame:
     return es
 
 
+def _legible(color: str) -> tuple[float, float, float]:
+    """*color*, darkened where it is pale (the palette's yellow): its grey, its relative
+    luminance, at most 0.18 (a grey of 47 % in sRGB), so that its line shows on white and
+    on the light bands."""
+    rgb = np.array(to_rgb(color))
+    lin = np.where(rgb <= 0.04045, rgb / 12.92, ((rgb + 0.055) / 1.055) ** 2.4)
+    lum = float(lin @ [0.2126, 0.7152, 0.0722])
+    if lum > 0.18:
+        lin = lin * 0.18 / lum
+        rgb = np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)
+    r, g, b = (float(x) for x in np.clip(rgb, 0.0, 1.0))
+    return r, g, b
+
+
+def _subject(ax: Axes, sel: pd.DataFrame, k: int, line: tuple[float, float] | None,
+             log_u0: float, *, far: bool) -> tuple[Any, int]:
+    """One subject's points and line; its legend entry and its points a log axis hides."""
+    style = series_style(k)
+    style["color"] = _legible(style["color"])
+    f, err = _errors_mN(sel)
+    u = sel["amplitude_V"].to_numpy(float)
+    face = "white" if far else style["color"]
+    ax.errorbar(u, f, yerr=err, fmt=style["marker"], color=style["color"], ms=3.2,
+                elinewidth=0.6, capsize=0, markerfacecolor=face, markeredgewidth=0.8,
+                zorder=4)
+    if line is not None:
+        grid = np.geomspace(np.nanmin(u), np.nanmax(u), 30)
+        ax.plot(grid, 1e3 * np.exp(line[0] + line[1] * (np.log(grid) - log_u0)),
+                color=style["color"], linestyle=style["linestyle"], lw=1.0, zorder=3,
+                path_effects=HALO)
+    entry = proxy("", color=style["color"], marker=style["marker"], ms=3.2, lw=1.0,
+                  linestyle=style["linestyle"] if line is not None else "none",
+                  markerfacecolor=face, markeredgewidth=0.8)
+    return entry, int(np.sum(~(f > 0)))
+
+
+def _band(ax: Axes, x: np.ndarray, ends: np.ndarray, colour: str, *, zorder: float) -> None:
+    """A shaded band between ``ends[:, 0]`` and ``ends[:, 1]`` (one polygon patch)."""
+    ax.fill(np.concatenate([x, x[::-1]]), np.concatenate([ends[:, 0], ends[::-1, 1]]),
+            facecolor=colour, edgecolor="none", lw=0, zorder=zorder)
+
+
 @styled
 def plot_population(electrostatic: pd.DataFrame, pop: Population, condition: Condition, *,
                     ax: Axes | None = None) -> Axes:
@@ -81,87 +133,58 @@ def plot_population(electrostatic: pd.DataFrame, pop: Population, condition: Con
     """
     ax = new_axes() if ax is None else ax
     es = _rows_of(electrostatic, condition)
+    es = es[~es["subject"].astype(str).isin(pop.excluded)]
     fit, own = pop.lines[condition], pop.subject_lines.get(condition, {})
     amps = es["amplitude_V"].to_numpy(float)
     grid = np.geomspace(np.nanmin(amps) / 1.1, np.nanmax(amps) * 1.1, 60)
-    out = pop.left_out.get(condition, set())
-    subjects = list(dict.fromkeys(es["subject"].astype(str)))
-    named = len(subjects) <= MAX_NAMED  # each subject its entry; else one in every colour
+    far = pop.far.get(condition, set())
     handles: list[Any] = []
+    labels: list[str] = []
     hidden = 0
-    for k, s in enumerate(subjects):
-        style = series_style(k)
-        sel = es[es["subject"].astype(str) == s]
-        f, err = _errors_mN(sel)
-        hidden += int(np.sum(~(f > 0)))
-        ax.errorbar(sel["amplitude_V"].to_numpy(float), f, yerr=err, fmt=style["marker"],
-                    color=style["color"], alpha=0.55, ms=3, elinewidth=0.6,
-                    markerfacecolor="white" if s in out else style["color"])
-        if s in own:
-            a, n = own[s]
-            ax.plot(grid, 1e3 * np.exp(a + n * (np.log(grid) - fit.log_u0)),
-                    color=style["color"], lw=0.7, alpha=0.55)
-        if named or s in out:
-            handles.append(_subject_entry(f"{s} (outlier, left out)" if s in out else s,
-                                          style, s in own, open_=s in out))
+    for k, s in enumerate(dict.fromkeys(es["subject"].astype(str))):
+        entry, n = _subject(ax, es[es["subject"].astype(str) == s], k, own.get(s),
+                            fit.log_u0, far=s in far)
+        hidden += n
+        handles.append(entry)
+        labels.append(f"{s} (far from the others)" if s in far else s)
     est = [fit.at(float(x)) for x in np.log(grid)]
     band = np.exp(np.array([e.interval() for e in est]))
-    # under the subjects' points and lines, which stay readable inside it
-    ax.fill_between(grid, 1e3 * band[:, 0], 1e3 * band[:, 1], color="0.8", alpha=0.7,
-                    lw=0, zorder=1)
-    ax.plot(grid, 1e3 * np.exp([e.value for e in est]), color="black", lw=1.8, zorder=3)
-    _population_points(ax, pop.table, condition)
+    pred = np.exp(np.array([fit.prediction_interval([1.0, float(x) - fit.log_u0])
+                            for x in np.log(grid)]))
+    _band(ax, grid, 1e3 * pred, PI_GREY, zorder=1)
+    for edge in (pred[:, 0], pred[:, 1]):
+        ax.plot(grid, 1e3 * edge, color="0.35", lw=0.6, linestyle=(0, (4, 2)), zorder=1.5)
+    _band(ax, grid, 1e3 * band, CI_GREY, zorder=2)
+    ax.plot(grid, 1e3 * np.exp([e.value for e in est]), color="black", lw=2.0, zorder=5)
     n_hat = fit.estimate([0.0, 1.0])
     lo, hi = n_hat.interval()
-    line = (Patch(facecolor="0.75", alpha=0.6, lw=0), proxy("", color="black", lw=1.8))
-    first: list[Any] = [line, proxy("", color="black", marker="D", linestyle="none", ms=4)]
-    labels = [f"population: $n$ = {n_hat.value:.2f} [{lo:.2f}, {hi:.2f}], 95 % band",
-              "geometric mean at each $U$"]
-    if not named:
-        first.append(proxy("", color=EVERY_COLOUR, marker="o", lw=0.7, alpha=0.55))
-        labels.append("subjects (one colour each)")
-    labels += [str(h.get_label()) for h in handles]
+    first: list[Any] = [proxy("", color="black", lw=2.0), Patch(facecolor=CI_GREY, lw=0),
+                        (Patch(facecolor=PI_GREY, lw=0),
+                         proxy("", color="0.35", lw=0.6, linestyle=(0, (4, 2))))]
+    first_labels = ["population mean", "95 % CI of the mean", "95 % PI, new subject"]
+    ax.text(0.03, 0.97, f"population: $n$ = {n_hat.value:.2f} [{lo:.2f}, {hi:.2f}]",
+            transform=ax.transAxes, ha="left", va="top", fontsize="small")
     _force_axes(ax, amps)
     _nonpositive_note(ax, hidden)
-    place_legend(ax, first + handles, labels, ncol_outside=2,
-                 handler_map={tuple: HandlerTuple(ndivide=1)})
+    place_legend(ax, first + handles, first_labels + labels, ncol_outside=4, inside=False,
+                 handler_map={tuple: HandlerTuple(ndivide=1)}, fontsize="small",
+                 handlelength=2.4, columnspacing=1.0)
     return ax
-
-
-def _subject_entry(label: str, style: dict[str, Any], line: bool, *, open_: bool) -> Any:
-    """A subject's legend entry, drawn as its points (and its power law's line) are."""
-    return proxy(label, color=style["color"], marker=style["marker"], alpha=0.55, ms=3,
-                 linestyle="-" if line else "none", lw=0.7,
-                 markerfacecolor="white" if open_ else style["color"])
-
-
-def _population_points(ax: Axes, table: pd.DataFrame, condition: Condition) -> None:
-    """The geometric mean at each amplitude with its interval (black diamonds)."""
-    rows = table[(table["quantity"] == "electrostatic_force_N")
-                 & (table["waveform"].astype(str) == condition[0])]
-    f = rows["frequency_Hz"].to_numpy(float)
-    rows = rows[np.isnan(f)] if math.isnan(condition[1]) else rows[np.isclose(f, condition[1])]
-    if rows.empty:
-        return
-    est = 1e3 * rows["estimate"].to_numpy(float)
-    err = np.vstack([est - 1e3 * rows["ci_low"].to_numpy(float),
-                     1e3 * rows["ci_high"].to_numpy(float) - est])
-    ax.errorbar(rows["amplitude_V"].to_numpy(float), est, yerr=err, fmt="D", color="black",
-                ms=4, elinewidth=1.0, capsize=2, zorder=4)
 
 
 def _caption(pop: Population, condition: Condition) -> str:
     fit = pop.lines[condition]
-    out = sorted(pop.left_out.get(condition, set()))
-    left = (f" Open markers: {', '.join(out)}, left out of the population's estimates as "
-            "outlier(s)." if out else "")
-    random = "intercepts and exponents" if fit.random_slopes else "intercepts"
+    far = sorted(pop.far.get(condition, set()))
+    named = (f" Open markers: {', '.join(far)}, far from the other subjects (every estimate "
+             "has it; population.csv has them without it too)." if far else "")
+    random = "levels and exponents" if fit.random_slopes else "levels"
     return (f"{condition_label(*condition)}: every subject's inferred electrostatic force "
-            "(points, 95 % intervals) and its own power law (thin lines, weighted by the "
-            "intervals), and the population's: the geometric mean at each amplitude "
-            "(diamonds, 95 % intervals; random-effects meta-analysis) and the power law "
-            f"across {len(fit.subjects)} subjects (thick line and its 95 % band; "
-            f"mixed-effects REML, subjects' {random} random).{left}")
+            "(points, 95 % intervals) and its own power law (lines, its conditional mode), "
+            "and the population's power law across "
+            f"{len(fit.subjects)} subjects (thick line; a nonlinear mixed model on the "
+            f"linear scale, subjects' {random} random, each force with its own error): the "
+            "mid-grey band is the 95 % confidence band of the population's mean, the light "
+            "band with dashed edges the 95 % prediction band for a new subject." + named)
 
 
 def draw_population(electrostatic: pd.DataFrame, pop: Population,

@@ -185,7 +185,8 @@ def _bootstrap(problem: Problem, res: optimize.OptimizeResult, cov_x: NDArray[np
     else:
         refits = _refits(problem, res.x, reps[:, pts.good], scheduler)
         if refits.shape[0] >= MIN_REFITS:
-            boot = res.x + stretch * (np.minimum(refits, problem.upper) - res.x)
+            with np.errstate(invalid="ignore", over="ignore"):  # an infinite refit stays so
+                boot = res.x + stretch * (np.minimum(refits, problem.upper) - res.x)
         else:
             note = f"only {refits.shape[0]} of {reps.shape[0]} refits converged"
     if note:
@@ -205,8 +206,11 @@ def _estimates(problem: Problem, x: NDArray[np.float64], cov_x: NDArray[np.float
     values = problem.to_values(x)
     deriv = problem.derivative(x)
     if boot is not None:  # percentiles of the scaled values (a monotone map of the values)
-        lo_b, hi_b = np.quantile(boot, [0.025, 0.975], axis=0)
         with np.errstate(over="ignore", invalid="ignore"):
+            q = np.quantile(boot, [0.025, 0.975], axis=0)
+            # refits run off to infinity: the percentile there is infinite, not NaN
+            lo_b, hi_b = np.where(np.isnan(q), np.quantile(boot, [0.025, 0.975], axis=0,
+                                                           method="higher"), q)
             spread = np.std(problem.to_values(boot), axis=0, ddof=1)
     estimates = []
     for i, name in enumerate(problem.names):
@@ -227,9 +231,10 @@ def _estimates(problem: Problem, x: NDArray[np.float64], cov_x: NDArray[np.float
         else:
             lo, hi = -math.inf, math.inf
         if not math.isfinite(se_x) and not (problem.is_log[i] and (p_lo > 0 or p_hi < math.inf)):
-            log.warning("subject %s: %s is not determined by these data (its effect cannot "
-                        "be told apart from the other fitted parameters'); interval is "
-                        "infinite", problem.subject, name)
+            log.warning("subject %s: %s is not determined by these data (the forces "
+                        "hardly depend on it, or its effect cannot be told apart from the "
+                        "other fitted parameters'); interval is infinite", problem.subject,
+                        name)
         estimates.append(ParameterEstimate(name, float(values[i]), se, float(lo), float(hi),
                                            parameter_unit(name)))
     return estimates
@@ -347,7 +352,8 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
         boot, note = _bootstrap(problem, res, cov_x, replicates, n_rows=len(rows),
                                 stretch=math.sqrt(scale) * quantile / _Z95,
                                 scheduler=scheduler)
-    cov_corr = cov_x if boot is None else np.atleast_2d(np.cov(boot, rowvar=False))
+    with np.errstate(invalid="ignore", over="ignore"):  # an infinite refit: no correlation
+        cov_corr = cov_x if boot is None else np.atleast_2d(np.cov(boot, rowvar=False))
     estimates = _estimates(problem, res.x, cov_x if boot is None else cov_corr, boot,
                            quantile, profile=_profile_intervals(problem, res, scale,
                                                                  quantile))

@@ -4,12 +4,19 @@ the measured values (see :mod:`evtribo.fit.fit`)."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["covariance", "refit_replicates"]
+from evtribo.errors import ConfigError
+
+__all__ = ["RUNAWAY", "covariance", "refit_replicates"]
+
+#: A refit's step that takes a parameter this many times past the solution's scale has left
+#: the region the replicate determines: the parameter counts as infinite in that refit.
+RUNAWAY = 1e6
 
 
 def covariance(jac: NDArray[np.float64],
@@ -51,6 +58,41 @@ def covariance(jac: NDArray[np.float64],
     return cov
 
 
+class _Weighted:
+    """The model's forces at the scaled parameters and their weighted Jacobian, and the
+    misfit of a replicate (:func:`refit_replicates`)."""
+
+    def __init__(self, model: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                 sigma: NDArray[np.float64]) -> None:
+        self.model, self.sigma = model, sigma
+
+    def __call__(self, x: NDArray[np.float64]) -> tuple[NDArray[np.float64],
+                                                       NDArray[np.float64]]:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            m = self.model(x)
+            jac = np.empty((m.size, x.size))
+            for i in range(x.size):
+                h = 1e-7 * max(abs(x[i]), 1.0)
+                xi = x.copy()
+                xi[i] += h
+                jac[:, i] = (self.model(xi) - m) / h / self.sigma
+        return m, jac
+
+    def misfit(self, t: NDArray[np.float64], x: NDArray[np.float64]
+               ) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
+        """The cost at *x* (infinite where the model has no finite value there: a
+        parameter run off to where the data no longer determine it)."""
+        if not np.all(np.isfinite(x)):
+            return math.inf, x, x
+        try:
+            m, g = self(x)
+        except (ConfigError, FloatingPointError, ValueError, np.linalg.LinAlgError):
+            return math.inf, x, x
+        if not (np.all(np.isfinite(m)) and np.all(np.isfinite(g))):
+            return math.inf, m, g
+        return float(np.sum(((t - m) / self.sigma) ** 2)), m, g
+
+
 def refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]],
                       x0: NDArray[np.float64], targets: NDArray[np.float64],
                       sigma: NDArray[np.float64], lower: NDArray[np.float64],
@@ -81,20 +123,13 @@ def refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]]
     Returns
     -------
     ndarray, shape (n_converged, n_parameters)
-        The refitted (scaled) parameters of the replicates whose refit converged.
+        The refitted (scaled) parameters of the replicates whose refit converged; a
+        parameter that ran off (:data:`RUNAWAY`) is infinite there.
     """
-    def weighted(x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        m = model(x)
-        jac = np.empty((m.size, x.size))
-        for i in range(x.size):
-            h = 1e-7 * max(abs(x[i]), 1.0)
-            xi = x.copy()
-            xi[i] += h
-            jac[:, i] = (model(xi) - m) / h / sigma
-        return m, jac
-
+    weighted = _Weighted(model, sigma)
     high = np.full(x0.size, np.inf) if upper is None else upper
     m0, g0 = weighted(x0)
+    misfit = weighted.misfit
     out = []
     for t in targets:
         if not np.all(np.isfinite(t)):
@@ -103,13 +138,19 @@ def refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]]
         cost = float(np.sum(((t - m) / sigma) ** 2))
         for _ in range(max_iter):
             step = np.linalg.lstsq(g, (t - m) / sigma, rcond=None)[0]
+            if not np.all(np.isfinite(step)):
+                break  # the data do not determine the step: this refit failed
             if np.all(np.abs(step) <= tol * np.maximum(np.abs(x), 1.0)):
                 out.append(np.clip(x + step, lower, high))  # Gauss-Newton's last step is tiny
                 break
+            if np.any(np.abs(x + step) > RUNAWAY * np.maximum(np.abs(x0), 1.0)):
+                # a parameter the replicate no longer holds (its force gone: an air gap
+                # off to infinity): infinite in this refit, as the data leave it
+                out.append(np.where(np.abs(x + step) > RUNAWAY, np.inf * np.sign(step), x))
+                break
             for _ in range(10):  # backtrack while the step raises the misfit
                 x_new = np.clip(x + step, lower, high)
-                m_new, g_new = weighted(x_new)
-                cost_new = float(np.sum(((t - m_new) / sigma) ** 2))
+                cost_new, m_new, g_new = misfit(t, x_new)
                 if cost_new <= cost:
                     break
                 step = step / 2.0

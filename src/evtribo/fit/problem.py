@@ -25,7 +25,7 @@ import pandas as pd
 from numpy.typing import NDArray
 from scipy import optimize, stats
 
-from evtribo.errors import AnalysisError
+from evtribo.errors import AnalysisError, ConfigError
 from evtribo.fit.model_points import ForceFunction, mean_electrostatic_force, mean_friction_force
 from evtribo.model.circuit import layer_elastances
 from evtribo.model.params import TABLE_1, ModelParameters
@@ -281,8 +281,9 @@ class Problem:
         ndarray
         """
         p = self.pts
-        return mean_electrostatic_force(p.fn, p.amp, p.wave, self.params_at(x),
-                                        frequency=p.freq, force=self.force)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            return mean_electrostatic_force(p.fn, p.amp, p.wave, self.params_at(x),
+                                            frequency=p.freq, force=self.force)
 
     def residuals(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """Weighted residuals of the points (and of the windows when they are fitted).
@@ -296,14 +297,20 @@ class Problem:
         -------
         ndarray
         """
-        p, params = self.pts, self.params_at(x)
-        r = (p.measured - mean_electrostatic_force(p.fn, p.amp, p.wave, params,
-                                                   frequency=p.freq, force=self.force)
-             ) / p.sigma
-        if self.use_windows:
-            rw = (p.w_ft - mean_friction_force(p.w_fn, p.w_amp, p.w_wave, params,
-                                               frequency=p.w_freq)) / self.w_sigma
-            r = np.concatenate([r, rw])
+        p = self.pts
+        n = len(p.measured) + (len(p.w_fn) if self.use_windows else 0)
+        try:  # an air gap run off to infinity (no force to see): the model has no value
+            params = self.params_at(x)
+        except ConfigError:
+            return np.full(n, 1e6)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            r = (p.measured - mean_electrostatic_force(p.fn, p.amp, p.wave, params,
+                                                       frequency=p.freq, force=self.force)
+                 ) / p.sigma
+            if self.use_windows:
+                rw = (p.w_ft - mean_friction_force(p.w_fn, p.w_amp, p.w_wave, params,
+                                                   frequency=p.w_freq)) / self.w_sigma
+                r = np.concatenate([r, rw])
         return np.nan_to_num(r, nan=1e6, posinf=1e6, neginf=-1e6)
 
     def profile_cost(self, i: int, xi: float, x: NDArray[np.float64]) -> float:

@@ -12,8 +12,8 @@ logarithm is left out, and named in the notes.
 from __future__ import annotations
 
 import math
-from collections.abc import Collection, Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -22,16 +22,29 @@ from numpy.typing import NDArray
 from scipy import stats
 
 from evtribo.fit.tables import MIN_REPLICATES, ResultTables
-from evtribo.population.model import PowerLawFit, SubjectCells
-from evtribo.population.stats import MIN_SUBJECTS, OUTLIER_ALPHA, Outlier, find_outliers, pool
+from evtribo.population.nonlinear_fit import NonlinearFit
+from evtribo.population.stats import (
+    MIN_SUBJECTS,
+    OUTLIER_ALPHA,
+    Outlier,
+    Pooled,
+    find_outliers,
+    pool,
+)
 from evtribo.util.numbers import quantity
 
-__all__ = ["CONTRAST_COLUMNS", "POPULATION_COLUMNS", "Collector", "Condition",
-           "PopulationOutlier", "SubjectData", "condition_label", "conditions_of",
-           "subject_data"]
+__all__ = ["CONTRAST_COLUMNS", "LINEAR_COLUMNS", "META", "POPULATION_COLUMNS", "PRIMARY",
+           "Collector", "Condition", "PopulationOutlier", "SubjectData", "condition_label",
+           "conditions_of", "subject_data"]
 
 POPULATION_COLUMNS = ("quantity", "waveform", "frequency_Hz", "amplitude_V", "estimate",
-                      "ci_low", "ci_high", "between_subject_sd", "n_subjects", "method")
+                      "ci_low", "ci_high", "between_subject_sd", "n_subjects", "method",
+                      "analysis", "pi_low", "pi_high", "between_sd_low", "between_sd_high",
+                      "i2", "i2_low", "i2_high", "checks")
+#: ``analysis`` of the rows every subject is in (but those the study excluded beforehand).
+PRIMARY = "primary"
+#: ``analysis`` of the rows of a meta-analysis of log F_el at each amplitude.
+META = "meta-analysis"
 #: Columns of population_contrasts.csv (study format §10).
 CONTRAST_COLUMNS = ("condition_a", "condition_b", "quantity", "ratio", "difference",
                     "ci_low", "ci_high", "n_subjects")
@@ -90,37 +103,62 @@ class PopulationOutlier:
                 f"subjects' prediction interval [{q(self.low)}, {q(self.high)}]")
 
 
+#: Columns of a subject's linear cells.
+LINEAR_COLUMNS = ("waveform", "frequency_Hz", "amplitude_V", "force_N", "ci_low_N",
+                  "ci_high_N", "normal_force_N")
+
+
+def _positions(cells: pd.DataFrame, condition: Condition) -> NDArray[np.int64]:
+    """Positions of the rows of *cells* in *condition*, by amplitude."""
+    f = cells["frequency_Hz"].to_numpy(float)
+    same = np.isnan(f) if math.isnan(condition[1]) else np.isclose(f, condition[1])
+    idx = np.flatnonzero((cells["waveform"].to_numpy() == condition[0]) & same)
+    return idx[np.argsort(cells["amplitude_V"].to_numpy(float)[idx], kind="stable")]
+
+
 @dataclass(frozen=True)
 class SubjectData:
-    """One subject's usable cells, all conditions: keys, log forces, their covariance."""
+    """One subject's usable cells, all conditions.
+
+    ``cells`` and ``cov``: the cells with a logarithm (a positive force and interval), their
+    log forces and covariance, for the meta-analysis and the contrasts; ``linear`` and
+    ``linear_cov``: every cell with a force and an interval (negative ones too), its
+    force and covariance in N, for the mixed model on the linear scale.
+    """
 
     name: str
     cells: pd.DataFrame  # waveform, frequency_Hz, amplitude_V, log_f
     cov: NDArray[np.float64]
+    linear: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=LINEAR_COLUMNS))
+    linear_cov: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 0)))
 
     def select(self, condition: Condition) -> NDArray[np.int64]:
-        """Positions of the cells of *condition*, by amplitude."""
-        f = self.cells["frequency_Hz"].to_numpy(float)
-        same = np.isnan(f) if math.isnan(condition[1]) else np.isclose(f, condition[1])
-        idx = np.flatnonzero((self.cells["waveform"].to_numpy() == condition[0]) & same)
-        return idx[np.argsort(self.amplitudes[idx], kind="stable")]
+        """Positions of the log cells of *condition*, by amplitude."""
+        return _positions(self.cells, condition)
+
+    def select_linear(self, condition: Condition) -> NDArray[np.int64]:
+        """Positions of the linear cells of *condition*, by amplitude."""
+        return _positions(self.linear, condition)
 
     @property
     def amplitudes(self) -> NDArray[np.float64]:
-        """Each cell's amplitude, V."""
+        """Each log cell's amplitude, V."""
         return np.asarray(self.cells["amplitude_V"].to_numpy(float))
 
     @property
     def log_f(self) -> NDArray[np.float64]:
-        """Each cell's log F_el (N)."""
+        """Each log cell's log F_el (N)."""
         return np.asarray(self.cells["log_f"].to_numpy(float))
 
-    def condition(self, condition: Condition) -> SubjectCells:
-        """Its cells in *condition*."""
-        idx = self.select(condition)
-        c = self.cells.iloc[idx]
-        return SubjectCells(self.name, np.log(c["amplitude_V"].to_numpy(float)),
-                            c["log_f"].to_numpy(float), self.cov[np.ix_(idx, idx)])
+    def on_linear_scale(self, condition: Condition
+                        ) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                   NDArray[np.float64]]:
+        """Its cells in *condition* on the linear scale: ln U (V), F_el (N), covariance
+        (N^2)."""
+        idx = self.select_linear(condition)
+        c = self.linear.iloc[idx]
+        return (np.log(c["amplitude_V"].to_numpy(float)), c["force_N"].to_numpy(float),
+                self.linear_cov[np.ix_(idx, idx)])
 
 
 def _log_se(f: NDArray[np.float64], lo: NDArray[np.float64],
@@ -162,6 +200,31 @@ def _replicates(rows: pd.DataFrame, boot: pd.DataFrame) -> NDArray[np.float64] |
     return mat if mat.shape[0] >= MIN_REPLICATES else None
 
 
+def _correlation(rows: pd.DataFrame, bootstrap: pd.DataFrame | None
+                 ) -> NDArray[np.float64]:
+    """The correlation of *rows*' forces, from their replicates (independent without)."""
+    corr: NDArray[np.float64] = np.eye(len(rows))
+    if bootstrap is not None:
+        reps = _replicates(rows, bootstrap)
+        if reps is not None:
+            with np.errstate(invalid="ignore", divide="ignore"):
+                corr = np.atleast_2d(np.nan_to_num(np.corrcoef(reps, rowvar=False)))
+            np.fill_diagonal(corr, 1.0)
+    return corr
+
+
+def _covariance(corr: NDArray[np.float64], se: NDArray[np.float64],
+                idx: NDArray[np.int64]) -> NDArray[np.float64]:
+    """The covariance of the cells *idx*; the correlation dropped when it is not positive
+    definite (replicates too few for the cells)."""
+    cov = corr[np.ix_(idx, idx)] * np.outer(se[idx], se[idx])
+    try:
+        np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        cov = np.diag(se[idx] ** 2)
+    return cov
+
+
 def subject_data(tables: ResultTables, subject: str, notes: list[str], *,
                  bootstrap: pd.DataFrame | None = None) -> SubjectData | None:
     """A subject's usable cells and their covariance (correlation from its replicates).
@@ -173,50 +236,57 @@ def subject_data(tables: ResultTables, subject: str, notes: list[str], *,
     subject : str
         Whose cells.
     notes : list of str
-        Where a cell left out (no logarithm, no interval) is named.
+        Where a cell left out (no interval; no logarithm, for the log-scale estimates) is
+        named.
     bootstrap : DataFrame, optional
         The subject's rows of the bootstrap table (default: picked from *tables*).
 
     Returns
     -------
     SubjectData or None
-        None when no cell of the subject is usable.
+        None when no cell of the subject has a force and an interval.
     """
     es = tables.electrostatic
     rows = es[es["subject"].astype(str) == subject].reset_index(drop=True)
     if "frequency_Hz" not in rows.columns:
         rows = rows.assign(frequency_Hz=math.nan)
     f = rows["electrostatic_force_N"].to_numpy(float)
-    se = _log_se(f, rows["electrostatic_force_ci_low_N"].to_numpy(float),
-                 rows["electrostatic_force_ci_high_N"].to_numpy(float))
-    good = (f > 0) & np.isfinite(f) & np.isfinite(se) & (se > 0)
-    for _, r in rows[~good].iterrows():
+    lo = rows["electrostatic_force_ci_low_N"].to_numpy(float)
+    hi = rows["electrostatic_force_ci_high_N"].to_numpy(float)
+    with np.errstate(invalid="ignore"):
+        lin_se = (hi - lo) / (2 * _Z95)
+        usable = np.isfinite(f) & np.isfinite(lin_se) & (lin_se > 0)
+    se = _log_se(f, lo, hi)
+    logged = usable & (f > 0) & np.isfinite(se) & (se > 0)
+    for _, r in rows[~usable].iterrows():
         notes.append(f"{subject}, {condition_label(str(r['waveform']), float(r['frequency_Hz']))}"
-                     f", {float(r['amplitude_V']):g} V: F_el not positive or without an "
-                     "interval (no logarithm): left out of the population estimates")
-    if not good.any():
+                     f", {float(r['amplitude_V']):g} V: F_el without an interval: left out of "
+                     "the population estimates")
+    for _, r in rows[usable & ~logged].iterrows():
+        notes.append(f"{subject}, {condition_label(str(r['waveform']), float(r['frequency_Hz']))}"
+                     f", {float(r['amplitude_V']):g} V: F_el not positive (no logarithm): "
+                     "counted in the mixed model on the linear scale, left out of the "
+                     "meta-analysis of log F_el and of the contrasts")
+    if not usable.any():
         return None
-    corr: NDArray[np.float64] = np.eye(len(rows))
     boot = tables.bootstrap
     if bootstrap is None and boot is not None:
         bootstrap = boot[boot["subject"].astype(str) == subject]
-    if bootstrap is not None:
-        reps = _replicates(rows, bootstrap)
-        if reps is not None:
-            with np.errstate(invalid="ignore", divide="ignore"):
-                corr = np.atleast_2d(np.nan_to_num(np.corrcoef(reps, rowvar=False)))
-            np.fill_diagonal(corr, 1.0)
-    idx = np.flatnonzero(good)
-    cov = corr[np.ix_(idx, idx)] * np.outer(se[idx], se[idx])
-    try:
-        np.linalg.cholesky(cov)
-    except np.linalg.LinAlgError:  # replicates too few for the cells: correlation dropped
-        cov = np.diag(se[idx] ** 2)
-    cells = pd.DataFrame({"waveform": rows["waveform"].fillna("").astype(str).to_numpy()[idx],
-                          "frequency_Hz": rows["frequency_Hz"].to_numpy(float)[idx],
-                          "amplitude_V": rows["amplitude_V"].to_numpy(float)[idx],
-                          "log_f": np.log(f[idx])})
-    return SubjectData(subject, cells, cov)
+    corr = _correlation(rows, bootstrap)
+    idx, lin = np.flatnonzero(logged), np.flatnonzero(usable)
+    wave = rows["waveform"].fillna("").astype(str).to_numpy()
+    freq = rows["frequency_Hz"].to_numpy(float)
+    amp = rows["amplitude_V"].to_numpy(float)
+    cells = pd.DataFrame({"waveform": wave[idx], "frequency_Hz": freq[idx],
+                          "amplitude_V": amp[idx], "log_f": np.log(f[idx])})
+    fn = rows["normal_force_on_N"].to_numpy(float) if "normal_force_on_N" in rows.columns \
+        else np.full(len(rows), math.nan)
+    linear = pd.DataFrame({"waveform": wave[lin], "frequency_Hz": freq[lin],
+                           "amplitude_V": amp[lin], "force_N": f[lin], "ci_low_N": lo[lin],
+                           "ci_high_N": hi[lin], "normal_force_N": fn[lin]},
+                          columns=list(LINEAR_COLUMNS))
+    return SubjectData(subject, cells, _covariance(corr, se, idx), linear,
+                       _covariance(corr, lin_se, lin))
 
 
 def conditions_of(subjects: Sequence[SubjectData]) -> list[Condition]:
@@ -232,7 +302,7 @@ def conditions_of(subjects: Sequence[SubjectData]) -> list[Condition]:
         Each condition once (frequencies compared as numbers; NaN: no frequency).
     """
     found = {(str(w), float(f)) for s in subjects
-             for w, f in zip(s.cells["waveform"], s.cells["frequency_Hz"], strict=True)}
+             for w, f in zip(s.linear["waveform"], s.linear["frequency_Hz"], strict=True)}
     unique: list[Condition] = []
     for c in sorted(found, key=lambda c: (c[0] != "square", c[0],
                                           math.inf if math.isnan(c[1]) else c[1])):
@@ -243,52 +313,64 @@ def conditions_of(subjects: Sequence[SubjectData]) -> list[Condition]:
 
 
 class Collector:
-    """Collects population.csv's rows, the notes and the outliers."""
+    """Collects population.csv's rows, the notes and the subjects far from the others."""
 
     def __init__(self) -> None:
         self.rows: list[dict[str, Any]] = []
         self.contrasts: list[dict[str, Any]] = []
         self.notes: list[str] = []
         self.outliers: list[PopulationOutlier] = []
-        self.lines: dict[Condition, PowerLawFit] = {}
+        self.lines: dict[Condition, NonlinearFit] = {}
         self.subject_lines: dict[Condition, dict[str, tuple[float, float]]] = {}
-        self.left_out: dict[Condition, set[str]] = {}
+        #: Per condition, the subjects named as far from the others (in every estimate).
+        self.far: dict[Condition, set[str]] = {}
         #: The level of each quantity's outlier test (the study's, shared among them).
         self.alpha = OUTLIER_ALPHA
 
     def flag(self, what: str, found: Sequence[Outlier], unit: str | None) -> None:
-        """Record outliers; *unit*: their values are logs of a quantity in that unit."""
+        """Record subjects far from the others; *unit*: their values are logs of a
+        quantity in that unit."""
         f = math.exp if unit is not None else float
         self.outliers += [PopulationOutlier(o.subject, what, f(o.value), f(o.low),
                                             f(o.high), unit or "") for o in found]
 
     def pooled(self, what: str, subjects: Sequence[str], values: NDArray[np.float64],
                variances: NDArray[np.float64], unit: str | None = None, *,
-               exclude: Collection[str] | None = None) -> tuple[Any, list[str]] | None:
-        """Pool the subjects' values, leaving out outliers; None (and a note) when fewer
-        than three remain. *unit*: the values are logs of a quantity in that unit.
-        *exclude*: the outliers, found elsewhere (else they are looked for here)."""
-        if exclude is None:
-            found = find_outliers(values, variances, subjects, alpha=self.alpha)
-            self.flag(what, found, unit)
-            exclude = {o.subject for o in found}
-        gone = sorted(set(subjects) & set(exclude))
-        keep = np.array([s not in exclude for s in subjects], dtype=bool)
-        if keep.sum() < MIN_SUBJECTS:
-            self.notes.append(f"{what}: {int(keep.sum())} subject(s) to pool; a population "
+               check: bool = True) -> tuple[Pooled, list[str]] | None:
+        """Pool every subject's value, and name those far from the others (*check*); None
+        (and a note) with fewer than three. *unit*: the values are logs of a quantity in
+        that unit."""
+        if len(subjects) < MIN_SUBJECTS:
+            self.notes.append(f"{what}: {len(subjects)} subject(s) to pool; a population "
                               f"estimate needs at least {MIN_SUBJECTS}")
             return None
-        return pool(values[keep], variances[keep]), gone
+        far: list[str] = []
+        if check:
+            found = find_outliers(values, variances, subjects, alpha=self.alpha)
+            self.flag(what, found, unit)
+            far = [o.subject for o in found]
+        return pool(values, variances), far
 
     def add(self, quantity: str, condition: Condition | None, amplitude: float,
             values: tuple[float, float, float], *, between_sd: float, n: int, method: str,
-            left_out: Sequence[str] = ()) -> None:
-        """One row of population.csv."""
+            analysis: str = PRIMARY, extra: Mapping[str, float | str] | None = None) -> None:
+        """One row of population.csv (*extra*: its other columns, NaN or "" when absent)."""
         wave, freq = condition if condition is not None else ("", math.nan)
-        if left_out:
-            method += f"; left out as outliers: {', '.join(left_out)}"
-        self.rows.append({"quantity": quantity, "waveform": wave, "frequency_Hz": freq,
-                          "amplitude_V": amplitude, "estimate": values[0],
-                          "ci_low": values[1], "ci_high": values[2],
-                          "between_subject_sd": between_sd, "n_subjects": n,
-                          "method": method})
+        row: dict[str, Any] = dict.fromkeys(POPULATION_COLUMNS, math.nan)
+        row.update({"quantity": quantity, "waveform": wave, "frequency_Hz": freq,
+                    "amplitude_V": amplitude, "estimate": values[0], "ci_low": values[1],
+                    "ci_high": values[2], "between_subject_sd": between_sd,
+                    "n_subjects": n, "method": method, "analysis": analysis, "checks": ""})
+        row.update(extra or {})
+        self.rows.append(row)
+
+    def add_pooled(self, quantity: str, condition: Condition | None, amplitude: float,
+                   p: Pooled, *, method: str, analysis: str = PRIMARY,
+                   log: bool = False) -> None:
+        """A row from a meta-analysis (*log*: of the quantity's logarithm)."""
+        f = math.exp if log else float
+        self.add(quantity, condition, amplitude, (f(p.estimate), f(p.ci_low), f(p.ci_high)),
+                 between_sd=p.between_sd, n=p.n_subjects, method=method, analysis=analysis,
+                 extra={"pi_low": f(p.pi_low), "pi_high": f(p.pi_high),
+                        "between_sd_low": p.tau_low, "between_sd_high": p.tau_high,
+                        "i2": p.i2, "i2_low": p.i2_low, "i2_high": p.i2_high})

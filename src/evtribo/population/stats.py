@@ -34,12 +34,12 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import stats
+from scipy import optimize, stats
 
 log = logging.getLogger(__name__)
 
 __all__ = ["MIN_SUBJECTS", "MIN_SUBJECTS_OUTLIERS", "OUTLIER_ALPHA", "POOL_METHOD", "Outlier",
-           "Pooled", "find_outliers", "pool"]
+           "Pooled", "find_outliers", "i_squared", "pool", "tau_interval", "typical_variance"]
 
 #: Fewest subjects for a population estimate.
 MIN_SUBJECTS = 3
@@ -68,6 +68,14 @@ class Pooled:
         Subjects pooled.
     method : str
         How it was estimated.
+    pi_low, pi_high : float
+        The 95 % prediction interval of a new subject's value (Higgins, Thompson and
+        Spiegelhalter 2009: Student's t with k - 2 degrees of freedom).
+    tau_low, tau_high : float
+        The 95 % interval of tau (Q-profile, Viechtbauer 2007).
+    i2, i2_low, i2_high : float
+        I^2, the share of the subjects' scatter that is between them rather than their
+        measurements' (Higgins and Thompson 2002), and its 95 % interval (from tau's).
     """
 
     estimate: float
@@ -76,6 +84,13 @@ class Pooled:
     between_sd: float
     n_subjects: int
     method: str = POOL_METHOD
+    pi_low: float = math.nan
+    pi_high: float = math.nan
+    tau_low: float = math.nan
+    tau_high: float = math.nan
+    i2: float = math.nan
+    i2_low: float = math.nan
+    i2_high: float = math.nan
 
 
 def _pm(values: NDArray[np.float64], variances: NDArray[np.float64]) -> tuple[float, float,
@@ -88,6 +103,83 @@ def _pm(values: NDArray[np.float64], variances: NDArray[np.float64]) -> tuple[fl
     tau2 = max(float(res.tau2), 0.0)
     var_hk = max(float(res.var_hksj_re), float(res.var_eff_w_re))
     return float(res.mean_effect_re), var_hk, tau2
+
+
+def _q_generalised(tau2: float, y: NDArray[np.float64], v: NDArray[np.float64]) -> float:
+    w = 1.0 / (v + tau2)
+    mean = float(np.sum(w * y) / np.sum(w))
+    return float(np.sum(w * (y - mean) ** 2))
+
+
+def tau_interval(values: ArrayLike, variances: ArrayLike) -> tuple[float, float]:
+    """The 95 % interval of tau by the Q-profile method (Viechtbauer 2007): where the
+    generalised Q statistic meets the 2.5 and 97.5 % points of chi-square with k - 1
+    degrees of freedom.
+
+    Parameters
+    ----------
+    values, variances : array_like
+        Each subject's estimate and its variance.
+
+    Returns
+    -------
+    (float, float)
+        0 where Q is below the quantile at tau = 0.
+    """
+    y, v = np.asarray(values, dtype=float), np.asarray(variances, dtype=float)
+    k = y.size
+    ends = []
+    for p in (_Q95, 1.0 - _Q95):
+        target = float(stats.chi2.ppf(p, k - 1))
+        if _q_generalised(0.0, y, v) <= target:
+            ends.append(0.0)
+            continue
+        hi = max(float(np.var(y, ddof=1)), float(np.max(v)), 1e-12)
+        while _q_generalised(hi, y, v) > target:
+            hi *= 4.0
+        def excess(t: float, target: float = target) -> float:
+            return _q_generalised(t, y, v) - target
+
+        ends.append(float(optimize.brentq(excess, 0.0, hi, xtol=1e-14, rtol=1e-10)))
+    return math.sqrt(ends[0]), math.sqrt(ends[1])
+
+
+def typical_variance(variances: ArrayLike) -> float:
+    """The "typical" within-subject variance of I^2 (Higgins and Thompson 2002):
+    ``(k - 1) sum w / ((sum w)^2 - sum w^2)`` with ``w = 1 / variance``.
+
+    Parameters
+    ----------
+    variances : array_like
+
+    Returns
+    -------
+    float
+    """
+    w = 1.0 / np.asarray(variances, dtype=float)
+    w = w[np.isfinite(w) & (w > 0)]
+    denom = float(w.sum() ** 2 - np.sum(w * w))
+    return (w.size - 1) * float(w.sum()) / denom if w.size > 1 and denom > 0 else math.nan
+
+
+def i_squared(tau: float, typical: float) -> float:
+    """``tau^2 / (tau^2 + typical)`` (NaN when either is not finite).
+
+    Parameters
+    ----------
+    tau : float
+    typical : float
+        The typical within-subject variance.
+
+    Returns
+    -------
+    float
+    """
+    if tau == math.inf and math.isfinite(typical):
+        return 1.0
+    if not (math.isfinite(tau) and math.isfinite(typical)):
+        return math.nan
+    return tau * tau / (tau * tau + typical)
 
 
 def pool(values: ArrayLike, variances: ArrayLike) -> Pooled:
@@ -104,7 +196,7 @@ def pool(values: ArrayLike, variances: ArrayLike) -> Pooled:
     -------
     Pooled
         The mean with its Hartung-Knapp 95 % interval (Student's t, k - 1 degrees of
-        freedom) and tau.
+        freedom), tau and I^2 with their intervals, and the prediction interval.
 
     Raises
     ------
@@ -118,8 +210,15 @@ def pool(values: ArrayLike, variances: ArrayLike) -> Pooled:
     if not (np.all(np.isfinite(y)) and np.all(np.isfinite(v)) and np.all(v > 0)):
         raise ValueError("values and variances must be finite, variances > 0")
     mean, var, tau2 = _pm(y, v)
-    half = float(stats.t.ppf(_Q95, y.size - 1)) * math.sqrt(var)
-    return Pooled(mean, mean - half, mean + half, math.sqrt(tau2), int(y.size))
+    k = y.size
+    half = float(stats.t.ppf(_Q95, k - 1)) * math.sqrt(var)
+    pi = float(stats.t.ppf(_Q95, k - 2)) * math.sqrt(tau2 + var)
+    t_lo, t_hi = tau_interval(y, v)
+    s2 = typical_variance(v)
+    return Pooled(mean, mean - half, mean + half, math.sqrt(tau2), int(k),
+                  pi_low=mean - pi, pi_high=mean + pi, tau_low=t_lo, tau_high=t_hi,
+                  i2=i_squared(math.sqrt(tau2), s2), i2_low=i_squared(t_lo, s2),
+                  i2_high=i_squared(t_hi, s2))
 
 
 @dataclass(frozen=True)

@@ -65,6 +65,7 @@ from evtribo.fit.tables import ResultTables, check_out_folder, read_results
 from evtribo.guard import refuse_in_study, refuse_input
 from evtribo.model.params import ModelParameters
 from evtribo.population.estimates import Population, population
+from evtribo.population.exclusions import study_exclusions
 from evtribo.report.drawing import Drawing, FigureRecord, Figures, Look, Runner, emit_checks
 from evtribo.report.kept import FigureStore, compare_key, last_fit, options_text
 from evtribo.results.outputs import FIGURES, FIT_CSV, FIT_JSON, compare_files
@@ -260,13 +261,14 @@ def _run(folder: Path, tables: ResultTables, setup: _Setup, params: str | Path |
          runner: Runner, *, progress: Callable[[str], None], scheduler: Any) -> CompareResult:
     """The comparison, under the folder's lock: written as one unit, the figures that did
     not change left as they are."""
+    exclude = study_exclusions(tables)  # a bad [population] rule: before any write
     stale = compare_files(folder)
     previous = last_fit(folder)
     with Staging(folder) as stage:
         figures = Figures(stage, setup.look, CompareResult(out=tables.out, fits=[]), runner,
                           FigureStore(setup.cache), previous=previous, progress=progress)
         result = _compare(tables, stage, setup, figures, scheduler=scheduler,
-                          progress=progress)
+                          progress=progress, exclude=exclude)
         _write_json(stage, result, setup.names, setup.base, params,
                     run_id=tables.summary.run_id,
                     key=compare_key(tables.summary, setup.options))
@@ -276,8 +278,10 @@ def _run(folder: Path, tables: ResultTables, setup: _Setup, params: str | Path |
 
 
 def _compare(tables: ResultTables, stage: Staging, setup: _Setup, figures: Figures, *,
-             scheduler: Any = None, progress: Callable[[str], None]) -> CompareResult:
-    """The fits and figures, written into *stage* (``result.files`` relative to it)."""
+             scheduler: Any = None, progress: Callable[[str], None],
+             exclude: tuple[dict[str, str], list[str]] = ({}, [])) -> CompareResult:
+    """The fits and figures, written into *stage* (``result.files`` relative to it);
+    *exclude*: the study's exclusions from the population and notes on them."""
     names = setup.names
     check_notes = emit_checks(figures, tables, setup.checks, setup.cache, progress)
     only_mu = tables.electrostatic.empty  # a study of OFF trials: its friction, no fit
@@ -294,7 +298,11 @@ def _compare(tables: ResultTables, stage: Staging, setup: _Setup, figures: Figur
     table = fit_table(fits, tables)
     atomic_write(stage.path(FIT_CSV), table.to_csv(index=False))
     result.files.append(Path(FIT_CSV))
-    result.population = pop = population(tables, fits)
+    if not only_mu:
+        progress("estimating the population (a mixed model per condition, checked with "
+                 "several optimisers)")
+    result.population = pop = population(tables, fits, exclude=exclude[0],
+                                         rule_notes=exclude[1])
     for name, text in pop.files().items():
         atomic_write(stage.path(name), text)
         result.files.append(Path(name))

@@ -373,6 +373,8 @@ class Report:
                     item.data["details"] = hertz(str(item.data["details"]))
                 if item.kind == "text":
                     item.data["text"] = hertz(str(item.data["text"]))
+                if item.kind == "list":
+                    item.data["items"] = [hertz(x) for x in item.data["items"]]
                 pdf = item.data.get("pdf")
                 if pdf is not None:
                     item.data["href"] = href(pdf)

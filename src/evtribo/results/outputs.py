@@ -22,6 +22,7 @@ from evtribo.store.resultdir import Staging, inside
 
 __all__ = ["ANALYSIS_FILES", "BOOTSTRAP_FILE", "FIGURES", "FIT_CSV", "FIT_JSON",
            "MODELS_CSV", "OUTPUT_FILES", "POPULATION_CONTRASTS_CSV", "POPULATION_CSV",
+           "POPULATION_SUBJECTS_CSV",
            "REPORT_TABLES", "SINE_TRACE_FILE", "SUMMARY_FILE", "TABLES", "check_out_dir",
            "check_overwrite", "compare_files", "report_files", "write_analysis"]
 
@@ -41,6 +42,8 @@ FIT_CSV, FIGURES = "fit.csv", "figures"
 MODELS_CSV = "models.csv"
 #: compare's estimates of the population (study format §10).
 POPULATION_CSV, POPULATION_CONTRASTS_CSV = "population.csv", "population_contrasts.csv"
+#: Each subject's relative friction increase and test of F_el > 0 (compare's population).
+POPULATION_SUBJECTS_CSV = "population_subjects.csv"
 #: The formats of compare's figures.
 _FIGURE_FORMATS = ("png", "svg", "pdf")
 #: The stems of compare's figures (``electrostatic_force_all.png``,
@@ -72,7 +75,8 @@ def compare_files(out: Path) -> list[str]:
         Names relative to *out*.
     """
     found = [name for name in (FIT_CSV, FIT_JSON, MODELS_CSV, POPULATION_CSV,
-                               POPULATION_CONTRASTS_CSV) if (out / name).is_file()]
+                               POPULATION_CONTRASTS_CSV, POPULATION_SUBJECTS_CSV)
+             if (out / name).is_file()]
     listed: set[str] = set()
     try:
         doc = json.loads((out / FIT_JSON).read_text(encoding="utf-8"))

@@ -89,7 +89,8 @@ log = logging.getLogger(__name__)
 MU_ESTIMATOR = ("each ON window's reference: the OFF windows' F_t/F_n at its time, sliding "
                 "direction and stroke pace (their ratio of means when nothing more is supported)")
 
-_INT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off")
+_INT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off",
+                "duplicate_frames")
 
 
 @dataclass

@@ -14,9 +14,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from pathlib import Path
 
+import numpy as np
+from cantools.database.can import Database
+
 from evtribo import __version__
 from evtribo.analysis.settings import SETTING_HELP, AnalysisSettings
-from evtribo.canlog.io import read_frames
+from evtribo.canlog.io import FrameTable, read_frames
+from evtribo.canlog.io.ids import frame_key, frame_keys, id_text, key_id
 from evtribo.canlog.rig import load_dbc
 from evtribo.errors import FORCE, OutputExistsError, RigConfigError
 from evtribo.rigsetup.roles import RoleGuess, guess_roles
@@ -136,6 +140,26 @@ class InitResult:
         return [r for r in _REQUIRED if self.guesses[r].name is None]
 
 
+def _refuse_a_log_of_another_rig(frames: FrameTable, db: Database, log: Path,
+                                 dbc: Path) -> None:
+    """Refuse a sample log none of whose identifiers is a message of the DBC: the two are
+    not of one rig, and nothing could be guessed from it."""
+    data = ~frames.is_error
+    keys = np.unique(frame_keys(frames.arbitration_id[data], frames.is_extended[data]))
+    known = {frame_key(m.frame_id, bool(m.is_extended_frame)): m.name for m in db.messages}
+    if keys.size == 0 or any(int(k) in known for k in keys):
+        return
+    shown = ", ".join(f"0x{id_text(*key_id(int(k)))}" for k in keys[:8])
+    more = f" and {keys.size - 8} more" if keys.size > 8 else ""
+    messages = ", ".join(f"{name} (0x{id_text(*key_id(k))})" for k, name in
+                         list(known.items())[:8]) or "none"
+    raise RigConfigError(
+        f"none of the log's {keys.size} identifiers ({shown}{more}) is a message of the DBC "
+        f"{dbc} (its messages: {messages}): the log and the DBC are not of one rig; give "
+        "the rig's DBC, or a log recorded from that rig (`evtribo inspect LOG` lists a "
+        "log's identifiers)", path=os.fspath(log), key="--log")
+
+
 def init_study(study: str | os.PathLike[str], dbc: str | os.PathLike[str], *,
                log: str | os.PathLike[str] | None = None, force: bool = False,
                strict: bool = False) -> InitResult:
@@ -164,7 +188,8 @@ def init_study(study: str | os.PathLike[str], dbc: str | os.PathLike[str], *,
     OutputExistsError
         STUDY already has a study.toml and *force* is False.
     RigConfigError
-        The DBC is missing or unreadable.
+        The DBC is missing or unreadable, or none of the sample log's identifiers is a
+        message of it.
     """
     folder = Path(study)
     toml = folder / "study.toml"
@@ -177,6 +202,7 @@ def init_study(study: str | os.PathLike[str], dbc: str | os.PathLike[str], *,
     stats = None
     if log is not None:
         frames, _ = read_frames(log, strict=strict)
+        _refuse_a_log_of_another_rig(frames, db, Path(log), src)
         stats = signal_stats(frames, db)
     guesses = guess_roles(db, stats)
     copy = folder / "rig" / src.name

@@ -10,6 +10,7 @@ strings otherwise. Anything not given is left to python-can's own configuration 
 from __future__ import annotations
 
 import ast
+import errno
 import logging
 import queue
 from collections.abc import Callable, Iterable
@@ -88,6 +89,45 @@ class BusSettings:
                 "bitrate": self.bitrate, "bus_options": opts}
 
 
+#: Said when neither the command line nor python-can's configuration names an interface.
+NO_INTERFACE = (
+    "no interface given (and python-can's configuration names none): give --interface and "
+    "--channel, e.g. --interface socketcan --channel can0 (a SocketCAN adapter on Linux), "
+    "--interface slcan --channel /dev/ttyACM0 (an slcan USB adapter), --interface pcan "
+    "--channel PCAN_USBBUS1, or --interface virtual --channel vcan0 (no hardware); "
+    "docs/hardware.md shows each set-up")
+#: What to check when a SocketCAN interface cannot be opened, by the error's number.
+SOCKETCAN_HINTS = {
+    errno.EAFNOSUPPORT: (
+        "this machine's kernel offers no SocketCAN (Linux with the can and can_raw modules: "
+        "`sudo modprobe can_raw`; on another system use the adapter's own python-can "
+        "interface, e.g. --interface slcan or pcan); docs/hardware.md"),
+    errno.ENODEV: (
+        "no such interface: `ip -brief link show type can` lists this machine's CAN "
+        "interfaces (`ip -brief link show type vcan` its virtual ones; `sudo modprobe vcan; "
+        "sudo ip link add dev vcan0 type vcan; sudo ip link set up vcan0` makes one); "
+        "docs/hardware.md"),
+    errno.ENETDOWN: (
+        "the interface is down: `sudo ip link set CHANNEL up type can bitrate 1000000` "
+        "brings it up at the rig's bitrate; `ip -details link show CHANNEL` shows its "
+        "state; docs/hardware.md"),
+}
+
+
+def _hint(settings: BusSettings, err: BaseException) -> str:
+    """What to check, for an interface that could not be opened (or ``""``)."""
+    if settings.interface != "socketcan":
+        return ""
+    number = next((e.errno for e in (err, err.__cause__, err.__context__)
+                   if isinstance(e, OSError) and e.errno is not None), None)
+    if number is None and "No such device" in str(err):
+        number = errno.ENODEV
+    hint = SOCKETCAN_HINTS.get(number) if number is not None else None
+    if hint is None:
+        return ""
+    return " (" + hint.replace("CHANNEL", settings.channel or "can0") + ")"
+
+
 def open_bus(settings: BusSettings) -> can.BusABC:
     """Open the python-can bus *settings* describe; fill in what python-can's config chose.
 
@@ -136,17 +176,21 @@ def open_bus(settings: BusSettings) -> can.BusABC:
         else:
             bus = can.Bus(**kwargs)
     except can.CanInterfaceNotImplementedError as err:
+        if settings.interface in (None, "None"):
+            raise ConfigError(NO_INTERFACE, key="--interface") from err
         raise ConfigError(f"python-can cannot use interface {settings.interface!r}: {err}",
                           key="--interface") from err
     except can.CanInitializationError as err:
         raise AcquisitionError(f"cannot open {settings.interface or 'the bus'} "
-                               f"{settings.channel or ''}: {err}".replace("  ", " ")) from err
+                               f"{settings.channel or ''}: {err}".replace("  ", " ")
+                               + _hint(settings, err)) from err
     except (TypeError, ValueError) as err:
         raise ConfigError(f"the bus refused its settings {kwargs}: {err}",
                           key="--bus-option") from err
     except OSError as err:
         raise AcquisitionError(f"cannot open {settings.interface or 'the bus'} "
-                               f"{settings.channel or ''}: {err}") from err
+                               f"{settings.channel or ''}: {err}".replace("  ", " ")
+                               + _hint(settings, err)) from err
     log.info("opened %s", bus.channel_info)
     return bus
 

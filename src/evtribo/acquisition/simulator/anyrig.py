@@ -23,6 +23,7 @@ from cantools.database.can import Message
 
 from evtribo.acquisition.simulator.encode import pack_signals
 from evtribo.canlog.decode import message_mask
+from evtribo.canlog.frame_match import is_fd_message
 from evtribo.canlog.io.ids import frame_key, frame_keys
 from evtribo.canlog.io.table import FrameTable
 from evtribo.canlog.rig import Rig, SignalRef, default_rig
@@ -230,5 +231,5 @@ def _table(message: Message, t: npt.NDArray[np.float64], values: dict[str, npt.A
     return FrameTable(
         timestamp=t.copy(), arbitration_id=np.full(n, message.frame_id, np.uint32),
         is_extended=np.full(n, bool(message.is_extended_frame)), is_remote=np.zeros(n, bool),
-        is_error=np.zeros(n, bool), is_fd=np.full(n, bool(message.is_fd)),
+        is_error=np.zeros(n, bool), is_fd=np.full(n, is_fd_message(message)),
         dlc=np.full(n, message.length, np.uint8), data=data, channel=channel)

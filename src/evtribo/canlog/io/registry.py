@@ -136,6 +136,8 @@ def _reader(path: str | os.PathLike[str], fmt: str, base: str) -> Reader:
         raise LogFormatError("a gzipped SQLite database cannot be read in place: decompress "
                              "it first (gunzip), then give evtribo the .db", path=path)
     found = sniff(path)
+    if found is not None and found.encoding is not None:
+        raise LogFormatError(f"{found.description}: {found.hint(path)}.", path=path)
     if found is not None and found.kind not in ("unknown", "binary") and found.suffix != base:
         raise LogFormatError(f"not a {_name(base)} log.{_looks_like(path, found)}", path=path)
     if found is not None and found.kind == "candump-text":

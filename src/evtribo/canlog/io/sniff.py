@@ -102,16 +102,27 @@ class Sniffed:
         when evtribo cannot read it.
     first_line : str
         Its first non-empty line (text files), shortened.
+    encoding : str or None
+        ``"UTF-16"`` or ``"UTF-32"`` (with a byte order mark), ``"UTF-16LE"`` or
+        ``"UTF-16BE"`` (without) for text saved so (a Windows editor's "Unicode"), which no
+        reader of evtribo or python-can reads; None for UTF-8, ASCII and binary.
     """
 
     kind: str
     description: str
     suffix: str | None
     first_line: str = ""
+    encoding: str | None = None
 
     def hint(self, path: str | os.PathLike[str]) -> str:
         """How to give evtribo this file (a sentence naming the file's new name)."""
         stem = _stem(path)
+        if self.encoding is not None:
+            name = os.path.basename(os.fspath(path))
+            return (f"evtribo and python-can read logs as UTF-8 (or ASCII) only; save a copy "
+                    f"as UTF-8 (`iconv -f {self.encoding} -t UTF-8 {name} > "
+                    f"{stem}-utf8{self.suffix or '.log'}`, or an editor's Save As with the "
+                    "encoding UTF-8) and give evtribo the copy")
         if self.kind in _HINTS:
             return _HINTS[self.kind].format(stem=stem)
         if self.suffix is None:
@@ -169,12 +180,36 @@ def sniff_bytes(head: bytes) -> Sniffed | None:
             return Sniffed("gzip", "gzip-compressed data", None)
         return Sniffed(f"gzip:{found.kind}", f"gzip-compressed {found.description}",
                        found.suffix + ".gz", found.first_line)
+    wide = _wide_text(head)
+    if wide is not None:
+        found = _sniff_text(head.decode(wide, "replace"))
+        if found is not None and found.kind not in ("unknown", "csv"):
+            encoding = wide.upper().replace("-LE", "LE").replace("-BE", "BE")
+            return Sniffed(found.kind, f"{found.description} saved as {encoding[:6]} text",
+                           found.suffix, found.first_line, encoding)
     # NUL bytes: binary data, or a text log with a run of them (a file system's answer to a
     # power cut): the lines decide
     found = _sniff_text(head.replace(b"\x00", b"").decode("utf-8", "replace"))
     if b"\x00" in head[:4096] and (found is None or found.kind in ("unknown", "csv")):
         return Sniffed("binary", "binary data of no log format evtribo knows", None)
     return found
+
+
+def _wide_text(head: bytes) -> str | None:
+    """The codec of text saved as UTF-16 or UTF-32 (by its byte order mark, or without one
+    by a NUL byte beside every character of the first ones), else None."""
+    for bom, codec in ((b"\xff\xfe\x00\x00", "utf-32"), (b"\x00\x00\xfe\xff", "utf-32"),
+                       (b"\xff\xfe", "utf-16"), (b"\xfe\xff", "utf-16")):
+        if head.startswith(bom):
+            return codec
+    sample = head[:4096 - 4096 % 4]
+    if len(sample) < 64:
+        return None
+    even, odd = sample[0::2], sample[1::2]
+    for zeros, other, codec in ((odd, even, "utf-16-le"), (even, odd, "utf-16-be")):
+        if zeros.count(0) > 0.9 * len(zeros) and other.count(0) < 0.05 * len(other):
+            return codec
+    return None
 
 
 def _sniff_text(text: str) -> Sniffed | None:

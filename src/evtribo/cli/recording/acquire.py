@@ -16,6 +16,7 @@ from evtribo.acquisition.rigfile import (
     check_name,
     default_rig_path,
     open_study,
+    refuse_misspelt_study,
 )
 from evtribo.acquisition.trial import (
     CONDITIONS,
@@ -51,6 +52,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                     "recording.")
     p.add_argument("--study", required=True, metavar="DIR",
                    help="study folder (created with a study.toml for --rig if new)")
+    p.add_argument("--new-study", action="store_true",
+                   help="make --study a new study even when one of a similar name is beside "
+                        "it (without it, my-stuyd beside my-study is refused as a typo)")
     p.add_argument("--subject", required=True, help="subject name (letters, digits, - and _)")
     p.add_argument("--trial", required=True, help="trial name, e.g. run-01")
     p.add_argument("--duration", type=float, default=None, metavar="S",
@@ -145,6 +149,7 @@ def run(args: argparse.Namespace) -> int:
     info.check()
     # everything the user can get wrong is checked before the bus opens and before the
     # study folder is created
+    refuse_misspelt_study(args.study, new=args.new_study)
     rig: AcquisitionRig = open_study(args.study, args.rig, create=False)
     paths = TrialPaths.of(args.study, args.subject, args.trial)
     trial_lock(paths, args.subject, args.trial).check()  # --force included

@@ -12,9 +12,11 @@ from __future__ import annotations
 
 import argparse
 import logging
+import os
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any
 
 from evtribo.cli.recording._bus import add_bus_arguments, bus_settings, start_view
@@ -29,9 +31,16 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description=__doc__.split("\n\n")[1].replace("\n", " ")
         + " Exit 0 when every trial is done or the session was stopped; 1 when the bus or "
           "the disk failed (what was recorded is kept); 2 for a bad protocol, study or name.")
-    p.add_argument("protocol", metavar="PROTOCOL", help="the protocol file (TOML, spec §7)")
+    examples = Path(__file__).parents[2] / "data" / "protocols"  # package data
+    p.add_argument("protocol", metavar="PROTOCOL",
+                   help=f"the protocol file (TOML, spec §7; examples to copy and edit, "
+                        f"installed with evtribo: {examples}{os.sep}meyer2013.toml, "
+                        "frequency-sweep.toml)")
     p.add_argument("--study", required=True, metavar="DIR",
                    help="study folder (created with a study.toml for --rig if new)")
+    p.add_argument("--new-study", action="store_true",
+                   help="make --study a new study even when one of a similar name is beside "
+                        "it (without it, my-stuyd beside my-study is refused as a typo)")
     p.add_argument("--subject", required=True, help="subject name (letters, digits, - and _)")
     p.add_argument("--rig", metavar="RIG.toml",
                    help="rig description for a new study (default: the simulator's rig)")
@@ -59,9 +68,11 @@ def run(args: argparse.Namespace) -> int:
     """Run the session; return the exit code."""
     from evtribo.acquisition.buses.bus import open_bus
     from evtribo.acquisition.protocol import read_protocol
+    from evtribo.acquisition.rigfile import refuse_misspelt_study
     from evtribo.session import SessionConfig, run_session
 
     read_protocol(args.protocol)  # a bad protocol fails before the bus opens
+    refuse_misspelt_study(args.study, new=args.new_study)
     settings = bus_settings(args)
     view = start_view(args)
     try:

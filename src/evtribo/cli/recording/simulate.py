@@ -7,6 +7,7 @@ Examples::
     evtribo simulate --pty            # prints the pty's path, then acts as an slcan adapter
     evtribo simulate --study my-study --subject P01 --trial run-01   # offline, no waiting
     evtribo simulate --study my-study --subject P01 --trial run-02 --ideal
+    evtribo simulate --study my-study --subject P00 --trial press --press-only  # calibrate
     evtribo simulate --study pop-study --subjects 8 --air-gap-spread 0.3   # a population
 
 By default the rig is a real one (:mod:`evtribo.acquisition.simulator.realism`): its load
@@ -68,6 +69,9 @@ def _add_output_options(p: argparse.ArgumentParser) -> None:
     out.add_argument("--subject", help="subject name with --study (P01)")
     out.add_argument("--trial", help="trial name with --study (run-01)")
     out.add_argument("--force", action="store_true", help="overwrite a trial with --study")
+    out.add_argument("--new-study", action="store_true",
+                     help="with --study: a new study even when one of a similar name is "
+                          "beside it (without it, my-stuyd beside my-study is refused)")
     out.add_argument("--rig", metavar="PATH",
                      help="speak this rig: a rig TOML, or a study folder or study.toml (its "
                           "[rig]); its DBC and roles encode the frames, whatever their IDs, "
@@ -89,6 +93,11 @@ def _add_trial_options(p: argparse.ArgumentParser) -> None:
     trial.add_argument("--on-time", type=float, default=2.0, help="ON phase, s (2)")
     trial.add_argument("--off-time", type=float, default=2.0, help="OFF phase, s (2)")
     trial.add_argument("--start-on", action="store_true", help="alternate starting ON")
+    trial.add_argument("--press-only", action="store_true",
+                       help="a calibration recording for `evtribo calibrate --press`: after "
+                            "the tare stretch the finger presses without sliding, from 40 %% "
+                            "to 160 %% of --target-force and back every 4 s; the amplifier "
+                            "off (--condition off)")
     trial.add_argument("--seed", type=int, default=0, help="random seed (0)")
 
 
@@ -198,7 +207,8 @@ def _build(args: argparse.Namespace, duration: float, trial_s: float) -> tuple[A
         ("lifts_per_min", args.lifts_per_min), ("lift_s", args.lift_time)) if v is not None}
     trial_kw = {"duration_s": duration, "waveform": args.waveform,
                 "frequency_Hz": args.frequency, "amplitude_V": args.amplitude,
-                "condition": args.condition, "on_s": args.on_time, "off_s": args.off_time,
+                "condition": "off" if args.press_only else args.condition,
+                "press_only": args.press_only, "on_s": args.on_time, "off_s": args.off_time,
                 "start_on": args.start_on, "fz_rate_Hz": args.fz_rate,
                 "fx_rate_Hz": args.fx_rate, "hv_rate_Hz": args.hv_rate,
                 "fz_ppm": args.fz_ppm, "fx_ppm": args.fx_ppm, "hv_ppm": args.hv_ppm,
@@ -284,10 +294,19 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("only for a python-can bus (--interface)", key="--bus-option")
     if args.duration is not None and args.duration <= 0:
         raise ConfigError(f"{args.duration!r} is not allowed: must be > 0", key="--duration")
+    if args.press_only and args.condition != "alternating":
+        raise ConfigError("a press-only recording is made with the amplifier off: leave "
+                          "--condition out", key="--condition")
     if args.subjects is not None:
+        if args.press_only:
+            raise ConfigError("a population's study is of sliding trials: record a press "
+                              "with --study --subject --trial", key="--press-only")
         return simulate_population(args)
     if args.study is not None:
+        from evtribo.acquisition.rigfile import refuse_misspelt_study
         from evtribo.acquisition.simulator import write_trial
+
+        refuse_misspelt_study(args.study, new=args.new_study)
 
         subject, config = _build(args, args.duration or 30.0, args.duration or 30.0)
         rig = study_rig(args.rig) if args.rig else None
@@ -324,6 +343,22 @@ def run(args: argparse.Namespace) -> int:
         finally:
             bus.shutdown()
         dropped = 0
-    print(f"evtribo simulate: {stats.sent} frames sent in {stats.elapsed_s:.1f} s, "
-          f"{stats.not_sent} not sent ({dropped} to a full buffer)", file=sys.stderr)
+    print(f"evtribo simulate: {stats.sent} frames sent in {stats.elapsed_s:.1f} s"
+          + _not_sent(stats.not_sent, dropped, pty=args.pty), file=sys.stderr)
     return 0
+
+
+def _not_sent(not_sent: int, dropped: int, *, pty: bool) -> str:
+    """The frames the rig made but did not send, by why (each as a real rig would)."""
+    if not not_sent:
+        return ", none lost"
+    if not pty:
+        return (f", {not_sent} not sent: the bus refused them (no other node acknowledging, "
+                "or its transmit queue full), as a real node's would be lost")
+    parts = []
+    if dropped:
+        parts.append(f"{dropped} to a full buffer (the client did not read them in time)")
+    if not_sent > dropped:
+        parts.append(f"{not_sent - dropped} while no client had the channel open (before "
+                     "its 'O', between recordings: a real adapter sends nothing then)")
+    return f", {not_sent} not sent: " + "; ".join(parts)

@@ -176,20 +176,25 @@ def _say_progress() -> Any:
 
 
 def _print_population(result: Any) -> None:
-    """The population's exponent per condition and μ, its outliers, or why there is none."""
+    """The population's exponent per condition and μ (every subject in), its checks, the
+    subjects far from the others or excluded, or why there is none."""
     pop = result.population
     if pop is None:
         return
-    exponents = pop.table[pop.table["quantity"] == "exponent"]
-    for _, r in exponents.iterrows():
+    primary = pop.primary
+    for _, r in primary[primary["quantity"] == "exponent"].iterrows():
         print(f"population ({r['waveform']} {r['frequency_Hz']:g} Hz, {r['n_subjects']} "
               f"subjects): exponent n = {r['estimate']:.3g} [{r['ci_low']:.3g}, "
-              f"{r['ci_high']:.3g}]")
-    for _, r in pop.table[pop.table["quantity"] == "mu"].iterrows():
+              f"{r['ci_high']:.3g}]; checks: {r['checks']}")
+    for _, r in primary[primary["quantity"] == "mu"].iterrows():
         print(f"population ({r['n_subjects']} subjects): μ = {r['estimate']:.3g} "
               f"[{r['ci_low']:.3g}, {r['ci_high']:.3g}]")
     for o in pop.outliers:
-        print(f"population: outlier {o.describe()}", file=sys.stderr)
+        print(f"population: far from the others (kept; population.csv has the estimates "
+              f"without it too): {o.describe()}", file=sys.stderr)
+    for subject, reason in pop.excluded.items():
+        print(f"population: {subject} excluded by study.toml's [population] rule: {reason}",
+              file=sys.stderr)
     if pop.table.empty and pop.notes:
         print(f"population: none: {pop.notes[0]}", file=sys.stderr)
 

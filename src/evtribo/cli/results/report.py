@@ -48,6 +48,13 @@ def run(args: argparse.Namespace) -> int:
     from evtribo.cli.setup._signals import EXIT_TERMINATED, Terminated, sigterm_interrupts
     from evtribo.report.study_report import build_report
 
+    if (Path(args.out) / "study.toml").is_file():
+        from evtribo.errors import UserInputError
+
+        raise UserInputError(
+            "is a study folder: report takes the result folder `evtribo analyze` wrote "
+            f"(`evtribo analyze {args.out} --out RESULTS`, then `evtribo report RESULTS`)",
+            path=args.out)
     output = Path(args.output) if args.output else Path(args.out) / "report.html"
     try:
         with sigterm_interrupts():

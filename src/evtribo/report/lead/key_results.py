@@ -148,7 +148,7 @@ def _by_voltage(tables: ResultTables, population: pd.DataFrame | None, marks: Ma
             row = {"drive": f"{wave} {frequency(freq)}".strip(), "U": voltage(amp),
                    "F_el (mN), population [95 %]": est,
                    "F_el (mN), subjects' range":
-                       f"{significant(np.nanmin(force))}\u2013{significant(np.nanmax(force))}"
+                       f"{significant(np.nanmin(force))} to {significant(np.nanmax(force))}"
                        if len(force) > 1 else significant(force[0]),
                    "ΔF_t/F_t,OFF (%), mean [95 %]": _mean_ci(rel.loc[sel].to_numpy(float),
                                                              confidence),
