@@ -402,7 +402,9 @@ def _check_drawing(check: CheckFigure) -> Drawing:
 def emit_checks(figures: Figures, tables: ResultTables, which: str, cache: Path,
                 progress: Callable[[str], None]) -> list[str]:
     """Each trial's check (:func:`~evtribo.figures.trial_checks.trial_checks`) handed to
-    the workers, recorded after the other figures; the notes on them.
+    the workers, recorded after the other figures; the notes on them. A check is written
+    as PNG (at most :data:`~evtribo.figures.trial_checks.CHECK_DPI`) when PNG is among the
+    formats asked, else in the first: a figure to look at, not to print.
 
     Parameters
     ----------
@@ -428,9 +430,11 @@ def emit_checks(figures: Figures, tables: ResultTables, which: str, cache: Path,
     if checks:
         progress(f"drawing the check of {len(checks)} trial(s) from what analyze kept of "
                  "each, while the model is fitted (--trial-checks none leaves them out)")
+    formats = figures.look.formats
+    fmt = ("png",) if "png" in formats else formats[:1]  # figures to look at, not to print
     for c in checks:
         figures.emit(_check_drawing(c), "trial", f"{c.subject} / {c.trial}", c.stem,
                      subject=c.subject, caption=c.caption, extra={"trial": c.trial},
-                     dpi=min(figures.look.dpi, CHECK_DPI), late=True,
+                     formats=fmt, dpi=min(figures.look.dpi, CHECK_DPI), late=True,
                      tell=f"check of {c.subject}/{c.trial}")
     return notes
