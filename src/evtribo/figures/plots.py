@@ -140,8 +140,9 @@ def figure_bytes(fig: Figure, formats: Sequence[str], *, dpi: float = DEFAULT_DP
     """
     out = {}
     with mpl.rc_context(_TEXT_AS_TEXT):
-        if fig.get_layout_engine() is not None:
-            fig.draw_without_rendering()  # the layout, once
+        engine = fig.get_layout_engine()
+        if engine is not None:
+            engine.execute(fig)  # the layout, once (the artists are drawn by each format)
             with mpl.rc_context({"figure.autolayout": False,
                                  "figure.constrained_layout.use": False}):
                 fig.set_layout_engine(None)
