@@ -26,6 +26,7 @@ import _studies
 from evtribo.canlog.rig import default_rig_path
 from evtribo.cli import main
 from evtribo.store.lock import WriteLock
+from evtribo.store.owned import claim
 
 ERRORS_MD = Path(__file__).parents[1] / "docs" / "errors.md"
 DBC = default_rig_path().with_name("default.dbc")
@@ -199,6 +200,12 @@ def _edit(path: Path, old: str, new: str) -> None:
     path.write_text(text.replace(old, new), encoding="utf-8")
 
 
+def _fifo(path: Path) -> None:
+    """*path* replaced by a FIFO (named pipe)."""
+    path.unlink()
+    os.mkfifo(path)
+
+
 def _sliding_trial(tmp: Path) -> None:
     """A simulated trial of the finger sliding, run-02 of the study."""
     from evtribo.acquisition.simulator import SubjectParams, TrialConfig, write_trial
@@ -216,6 +223,21 @@ def _text(path: Path, text: str) -> Callable[[Path], None]:
         (tmp / path).parent.mkdir(parents=True, exist_ok=True)
         (tmp / path).write_text(text, encoding="utf-8")
     return build
+
+
+def _planted_record(tmp: Path) -> None:
+    """A result folder, and beside it a commit record whose target is a trial's folder."""
+    import hashlib
+
+    _results(tmp)
+    stage = tmp / f".out.evtribo-new-{'0' * 32}"
+    stage.mkdir()
+    evil = b"(1763700000.000000) vcan0 7FF#DEADBEEF\n"
+    (stage / "run-01.log").write_bytes(evil)
+    digest = hashlib.sha256(evil).hexdigest()
+    (stage / ".evtribo-commit.json").write_text(json.dumps({
+        "evtribo": "commit", "version": 2, "unit": "out", "target": "study/P01",
+        "by": "analyze", "install": [["run-01.log", digest, None]], "remove": []}))
 
 
 #: Locks the builders hold while their case runs (released after it).
@@ -259,6 +281,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "sidecar-waveform": lambda t: _sidecar(t / "study", waveform="triangle"),
     "sidecar-amplitude-string": lambda t: _sidecar(t / "study", amplitude_V="140 V"),
     "sidecar-negative": lambda t: _sidecar(t / "study", frequency_Hz=-10000),
+    "sidecar-amplitude-400-digits": lambda t: _sidecar(t / "study", amplitude_V=10**400),
     "sidecar-condition": lambda t: _sidecar(t / "study", condition="half"),
     "subject-folder-name": lambda t: (t / "study" / "P01").rename(t / "study" / "P 01"),
     "two-logs-one-trial": lambda t: (t / "study" / "P01" / "run-01.asc").write_text(""),
@@ -273,11 +296,14 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "unknown-command": lambda t: None,
     "no-such-study": lambda t: None,
     "no-trials": lambda t: shutil.rmtree(t / "study" / "P01"),
-    "results-exist": _text(Path("out/trials.csv"), "subject,trial\n"),
+    "results-exist": lambda t: (_text(Path("out/trials.csv"), "subject,trial\n")(t),
+                                claim(t / "out" / "trials.csv", "analyze")),
     "analysis-unknown-key": lambda t: _append(t / "study", "[analysis]\nguard_sec = 0.3\n"),
     "analysis-tare-mode": lambda t: _append(t / "study", '[analysis]\ntare = "zero"\n'),
     "analysis-negative": lambda t: _append(t / "study", "[analysis]\nguard_s = -0.1\n"),
     "analysis-not-a-number": lambda t: _append(t / "study", '[analysis]\nn_boot = "many"\n'),
+    "analysis-n-boot-inf": lambda t: _append(t / "study", "[analysis]\nn_boot = inf\n"),
+    "analysis-n-boot-huge": lambda t: _append(t / "study", "[analysis]\nn_boot = 1e9\n"),
     "analyze-set-unknown": lambda t: None,
     "analyze-set-syntax": lambda t: None,
     "calibration-unknown-key": lambda t: _append(
@@ -301,18 +327,21 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "log-suffix-typo": _text(Path("run-01.lgo"), LOG),
     "log-missing": lambda t: None,
     "decode-output-suffix": lambda t: None,
-    "decode-output-exists": _text(Path("run-01.csv"), "timestamp\n"),
+    "decode-output-exists": lambda t: (_text(Path("run-01.csv"), "timestamp\n")(t),
+                                       claim(t / "run-01.csv", "decode")),
     "decode-dbc-missing": lambda t: None,
     "decode-mf4-choices": lambda t: None,
     "decode-mf4-no-message": _text(Path("other.dbc"), OTHER_DBC),
     "decode-mf4-asammdf-missing": lambda t: sys.modules.update({"asammdf": None}),
     "export-output-suffix": lambda t: None,
     "export-subject-unknown": lambda t: None,
-    "export-output-exists": _text(Path("forces.mf4"), "an earlier export\n"),
+    "export-output-exists": lambda t: (_text(Path("forces.mf4"), "an earlier export\n")(t),
+                                       claim(t / "forces.mf4", "export")),
     "model-set-unknown": lambda t: None,
     "model-set-not-a-number": lambda t: None,
     "model-set-syntax": lambda t: None,
     "model-set-negative": lambda t: None,
+    "model-normal-force-huge": lambda t: None,
     "compare-no-results": lambda t: None,
     "compare-fit-unknown": _text(Path("out/electrostatic.csv"), "subject\n"),
     "compare-models-unknown": _text(Path("out/electrostatic.csv"), "subject\n"),
@@ -329,6 +358,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "acquire-trial-exists": lambda t: None,
     "acquire-bus-option": lambda t: None,
     "acquire-receive-buffer": lambda t: None,
+    "acquire-receive-buffer-huge": lambda t: None,
     "acquire-duration-inf": lambda t: None,
     "acquire-amplitude-inf": lambda t: None,
     "acquire-band-nan": lambda t: None,
@@ -340,6 +370,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "acquire-new-study-bad-interface": lambda t: None,
     "acquire-trial-locked": _being_recorded,
     "simulate-trial-locked": _being_recorded,
+    "simulate-over-recording": lambda t: _sidecar(t / "study", bus={"interface": "socketcan",
+                                                                    "channel": "can0"}),
     "simulate-subjects-no-study": lambda t: None,
     "simulate-subjects-zero": lambda t: None,
     "simulate-subjects-one-trial-option": lambda t: None,
@@ -369,6 +401,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "rig-signal-beyond-message": lambda t: _edit(t / "study" / "rig" / "default.dbc",
                                                  "BO_ 193 FzCell: 8", "BO_ 193 FzCell: 6"),
     "dbc-device": lambda t: _toml(t / "study", '"rig/default.dbc"', '"/dev/zero"'),
+    "study-toml-fifo": lambda t: _fifo(t / "study" / "study.toml"),
+    "dbc-fifo": lambda t: _fifo(t / "study" / "rig" / "default.dbc"),
     "decode-dbc-not-a-dbc": _text(Path("passwd"), PASSWD),
     "sidecar-duplicate-key": _text(Path("study/P01/run-01.json"), SIDECAR_TWICE),
     "toml-duplicate-key": lambda t: _toml(t / "study", 'name = "bad input"',
@@ -380,11 +414,25 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "report-over-study-toml": lambda t: (t / "out").mkdir(),
     "report-over-dbc": lambda t: (t / "out").mkdir(),
     "report-over-other-log": lambda t: (_text(Path("bench.asc"), ASC)(t), (t / "out").mkdir()),
+    "report-over-power-cut-log": lambda t: ((t / "bench.log").write_bytes(
+        b"\x00" * 300_000 + LOG.encode()), (t / "out").mkdir()),
     "report-new-sidecar": lambda t: (t / "out").mkdir(),
+    "report-new-sidecar-linked-subject": lambda t: (
+        shutil.copytree(t / "study" / "P01", t / "elsewhere"),
+        _link(t / "study" / "P02", t / "elsewhere"), (t / "out").mkdir()),
     "report-tables-over-log": lambda t: (_link(t / "tables" / "fit.md",
                                                t / "study" / "P01" / "run-01.log"),
                                          (t / "out").mkdir()),
     "compare-out-in-study": lambda t: (t / "study" / "P02").mkdir(),
+    "analyze-results-not-evtribo-s": _text(Path("out/trials.csv"), "subject,trial\n"),
+    "report-tables-over-users-table": lambda t: (_text(Path("tables/fit.md"), "| mine |\n")(t),
+                                                 (t / "out").mkdir()),
+    "report-over-result-table": lambda t: (_results(t, fit_of="aaaa"),
+                                           claim(t / "out" / "trials.csv", "analyze")),
+    "decode-output-not-evtribo-s": _text(Path("run-01.csv"), "timestamp\n"),
+    "compare-planted-record": _planted_record,
+    "compare-lock-not-a-lock": lambda t: (_results(t), _link(
+        t / ".out.evtribo-lock", t / "study" / "P01" / "run-01.log")),
     "plot-over-log": lambda t: _link(t / "check.png", t / "study" / "P01" / "run-01.log"),
     "model-figures-over-dbc": lambda t: _link(t / "figures" / "fig5_friction_time.png",
                                               t / "study" / "rig" / "default.dbc"),
@@ -393,7 +441,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "plot-subject-missing": lambda t: None,
     "plot-trial-missing": lambda t: None,
     "plot-figure-suffix": lambda t: None,
-    "plot-figure-exists": _text(Path("check.png"), "a figure kept\n"),
+    "plot-figure-exists": lambda t: (_text(Path("check.png"), "a figure kept\n")(t),
+                                     claim(t / "check.png", "plot")),
     "plot-signal-unknown": lambda t: None,
     "plot-dbc-missing": lambda t: None,
     "plot-no-dbc": lambda t: None,
@@ -409,6 +458,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
                                            "repetiton = 2\n[[trial]]\namplitude_V = 100\n"),
     "session-protocol-changed": _session_begun,
     "init-study-exists": lambda t: None,
+    "init-force-over-users-study-toml": lambda t: None,
     "calibrate-press-slides": _sliding_trial,
     "analyze-subject-folder": lambda t: None,
     "report-given-study": lambda t: None,

@@ -54,3 +54,22 @@ def test_demo_cli_refuses_bad_options(tmp_path, capsys):
     assert main(["demo", "--out", str(tmp_path / "d"), "--subjects", "0"]) == 2
     assert "--subjects" in capsys.readouterr().err
     assert not (tmp_path / "d").exists()
+
+
+def test_demo_force_never_deletes_a_users_file_in_its_study(tmp_path):
+    """A previous demo's folder (its mark, truth.json) whose study holds a file the demo did
+    not write: --force deletes nothing of it."""
+    from evtribo.demo import MARKER
+
+    demo = tmp_path / "demo"
+    (demo / "study" / "P01").mkdir(parents=True)
+    (demo / MARKER).write_text("written by evtribo demo\n")
+    (demo / "truth.json").write_text(json.dumps({"trials": {"P01/run-01": {}}}))
+    for rel in ("study/study.toml", "study/P01/run-01.log", "study/P01/run-01.json"):
+        (demo / rel).write_text("the demo's\n")
+    notes = demo / "study" / "P01" / "notes.txt"
+    notes.write_text("the subject said the screen felt warm\n")
+    before = {p: p.read_bytes() for p in demo.rglob("*") if p.is_file()}
+    with pytest.raises(OutputExistsError, match="did not write"):
+        run_demo(demo, subjects=1, amplitudes=(80.0,), trial_s=8.0, force=True)
+    assert {p: p.read_bytes() for p in demo.rglob("*") if p.is_file()} == before

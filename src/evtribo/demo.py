@@ -164,8 +164,36 @@ def _check_out(out: Path, force: bool) -> None:
         raise OutputExistsError("holds a previous demo (" + ", ".join(p.name for p in taken)
                                 + "); use {force} to replace it", path=out)
     if (out / STUDY).exists():
-        # The demo's own simulated study is the only thing it ever deletes.
+        # The demo's own simulated study is the only thing it ever deletes: files of the
+        # user's in it (or links) stop it before anything is deleted.
+        foreign = sorted(set(_files(out / STUDY)) - _demo_study_files(out))
+        if foreign:
+            raise OutputExistsError(
+                f"holds {len(foreign)} file(s) evtribo demo did not write ("
+                + ", ".join(foreign[:3]) + "): the demo deletes only its own study, {force} "
+                "included; move them away or choose another --out", path=out / STUDY)
         shutil.rmtree(out / STUDY)
+
+
+def _files(folder: Path) -> list[str]:
+    """Every file and link under *folder*, relative (links are not followed)."""
+    return [p.relative_to(folder).as_posix() for p in folder.rglob("*")
+            if p.is_symlink() or not p.is_dir()]
+
+
+def _demo_study_files(out: Path) -> set[str]:
+    """What the demo recorded into its study, as its truth.json lists the trials: each
+    trial's log and sidecar, study.toml and the rig's DBC."""
+    try:
+        truth = json.loads((out / TRUTH).read_text(encoding="utf-8"))
+        trials = list(truth.get("trials", {}))
+    except (OSError, ValueError, AttributeError):
+        trials = []
+    own = {"study.toml", "rig/default.dbc"}
+    for key in trials:
+        if isinstance(key, str) and key.count("/") == 1:
+            own |= {f"{key}.log", f"{key}.json"}
+    return own
 
 
 def run_demo(out: str | Path, *, subjects: int = 3, amplitudes: Sequence[float] = AMPLITUDES_V,

@@ -2,12 +2,16 @@
 
 A study's inputs are its ``study.toml``, its DBC, its trials' logs and sidecars and its
 subjects' session records; a raw CAN log is any file that reads as one (candump, ASC, BLF,
-TRC, python-can CSV, MF4, SQLite...), in a study or not; a DBC or a TOML file is an input
+TRC, python-can CSV, MF4, SQLite...), in a study or not, whatever precedes its frames (a
+log after a power cut begins with NUL bytes or a junk line: what a reader reads frames from
+is a log); a DBC or a TOML file is an input
 wherever it is (evtribo writes neither as an output). Every command that writes a file a
 user names (``report -o``, ``report --tables``, ``compare``, ``decode -o``, ``plot -o``,
 ``model --figures``) asks :func:`refuse_input` first, before anything is written, and is
 refused with exit code 2 naming the file. Symbolic links are followed: a link to a log is
-the log.
+the log. A path through a study's subject folder that is a link to a folder elsewhere
+(supported, with a warning) is the study's, whether it is judged as spelt or as it
+resolves: what the study holds through the link is protected as the study's.
 
 A new file is refused where a study would read it as one of its inputs: a log or a ``.json``
 in a subject folder (``evtribo analyze`` would take it for a trial), ``study.toml`` at a
@@ -41,8 +45,25 @@ def _written_by_evtribo(path: Path) -> bool:
         return fh.read(24)[16:24] == MF4_PROGRAM_ID
 
 
+def _spellings(path: str | os.PathLike[str]) -> list[Path]:
+    """*path* as written (made absolute, no link resolved) and with its links resolved: a
+    study's subject folder may be a link to a folder elsewhere, and what the study holds
+    through it is the study's."""
+    lexical = Path(os.path.abspath(path))
+    real = Path(os.path.realpath(path))
+    return [real] if lexical == real else [real, lexical]
+
+
+def _root_above(here: Path) -> Path | None:
+    for folder in (here, *here.parents):
+        if (folder / STUDY_FILE).is_file():
+            return folder
+    return None
+
+
 def study_root(path: str | os.PathLike[str]) -> Path | None:
-    """The study folder *path* is in, symbolic links followed.
+    """The study folder *path* is in: with its links resolved, or as it is spelt (a path
+    through a study's subject folder that is a link to a folder elsewhere is in the study).
 
     Parameters
     ----------
@@ -52,13 +73,13 @@ def study_root(path: str | os.PathLike[str]) -> Path | None:
     Returns
     -------
     Path or None
-        The nearest folder at or above *path* holding a ``study.toml``; None outside any
-        study.
+        The nearest folder at or above *path* holding a ``study.toml`` (its real path when
+        the resolved path is in it); None outside any study.
     """
-    here = Path(os.path.realpath(path))
-    for folder in (here, *here.parents):
-        if (folder / STUDY_FILE).is_file():
-            return folder
+    for here in _spellings(path):
+        root = _root_above(here)
+        if root is not None:
+            return root
     return None
 
 
@@ -83,22 +104,24 @@ def _looks_like_dbc(path: Path) -> bool:
     return bool(words) and words[0] in ("VERSION", "NS_", "BS_:", "BU_:")
 
 
-def _in_study(real: Path) -> str | None:
-    """What *real* (a resolved path, there or not) is to the study it is in, if anything."""
-    root = study_root(real.parent)
+def _in_study(path: Path) -> str | None:
+    """What *path* (absolute, resolved or as spelt, there or not) is to the study it is in,
+    if anything."""
+    root = _root_above(path.parent)
     if root is None:
         return None
+    real = Path(os.path.realpath(path))
     named = {Path(os.path.realpath(root / STUDY_FILE)): f"the study's {STUDY_FILE}",
              _study_dbc(root): "the study's DBC"}
     if real in named:
         return named[real]
-    parts = real.relative_to(root).parts
+    parts = path.relative_to(root).parts
     if len(parts) != 2 or parts[0].startswith(".") or parts[0] in NOT_SUBJECTS:
         return None
-    where = f"({real.name} in a study's subject folder)"
-    return ("a subject's session record" if real.name == SESSION_FILE
-            else f"a trial's log {where}" if log_stem(real) is not None
-            else f"a trial's sidecar {where}" if real.suffix.lower() == ".json" else None)
+    where = f"({path.name} in a study's subject folder)"
+    return ("a subject's session record" if path.name == SESSION_FILE
+            else f"a trial's log {where}" if log_stem(path) is not None
+            else f"a trial's sidecar {where}" if path.suffix.lower() == ".json" else None)
 
 
 def what_input(path: str | os.PathLike[str]) -> str | None:
@@ -115,15 +138,18 @@ def what_input(path: str | os.PathLike[str]) -> str | None:
     str or None
         ``"a CAN log (a candump -L log)"``, ``"the study's DBC"``... or None.
     """
-    from evtribo.canlog.io.sniff import sniff  # numpy and python-can: imported on use
+    from evtribo.canlog.io.sniff import frame_line, sniff  # python-can: imported on use
 
     real = Path(os.path.realpath(path))
-    inside = _in_study(real)
+    inside = next((w for w in map(_in_study, _spellings(path)) if w is not None), None)
     if inside is not None or not real.is_file():
         return inside
     found = sniff(real)
     if found is not None and found.kind == "mf4" and _written_by_evtribo(real):
         return None  # decoded signals evtribo wrote (decode, export): --force replaces them
+    if found is None or found.kind in ("unknown", "binary", "csv"):
+        # a log after a power cut: NULs or a junk line first; the readers skip them
+        found = frame_line(real) or found
     if found is not None and found.kind.removeprefix("gzip:") in LOG_KINDS:
         return f"a CAN log ({found.description})"
     if real.suffix.lower() == ".dbc" or _looks_like_dbc(real):
@@ -221,8 +247,8 @@ def refuse_cache_in_study(cache_dir: str | os.PathLike[str] | None,
         return
     root = Path(os.path.realpath(study))
     root = root.parent if root.name == STUDY_FILE else root
-    where = Path(os.path.realpath(cache_dir))
-    if where == root or root in where.parents:
+    if any(w == root or root in w.parents or study_root(w) == root
+           for w in _spellings(cache_dir)):
         raise UserInputError(
             f"the cache folder is inside the study folder {study}: the next analysis would "
             "read its files as part of the study; choose a folder outside it, e.g. "

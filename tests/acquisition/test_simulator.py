@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import re
 import threading
 import time
@@ -372,7 +373,7 @@ def test_cli_writes_a_trial_to_a_study(tmp_path, capsys):
 def test_simulated_trial_never_overwrites_a_partial_log_or_sidecar_without_force(
         tmp_path, capsys, leftover):
     """A killed recording's ``.log.part``, or a sidecar alone, is a trial: left untouched
-    without --force, replaced (with nothing else left behind) with it."""
+    without --force, and with it (simulate replaces only a trial it simulated)."""
     folder = tmp_path / "st" / "P01"
     folder.mkdir(parents=True)
     (folder / leftover).write_text("precious\n")
@@ -382,9 +383,10 @@ def test_simulated_trial_never_overwrites_a_partial_log_or_sidecar_without_force
     assert "--force" in capsys.readouterr().err
     assert sorted(p.name for p in folder.iterdir()) == [leftover]
     assert (folder / leftover).read_text() == "precious\n"
-    assert main([*argv, "--force"]) == 0
-    assert sorted(p.name for p in folder.iterdir()) == ["run-01.json", "run-01.log"]
-    assert read_frames(folder / "run-01.log")[0].arbitration_id.size > 0
+    assert main([*argv, "--force"]) == 2
+    assert "replaces only a trial it simulated" in capsys.readouterr().err
+    assert sorted(p.name for p in folder.iterdir()) == [leftover]
+    assert (folder / leftover).read_text() == "precious\n"
 
 
 @pytest.mark.parametrize(("argv", "needle"), [
@@ -439,3 +441,31 @@ def test_cli_opens_its_bus_as_acquire_does_with_bus_options(capsys):
     assert main(["simulate", "--interface", "virtual", "--bus-option", "novalue",
                  "--duration", "0.1"]) == 2
     assert "'--bus-option'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("recording", ["from a bus", "cut short", "log without sidecar"])
+def test_simulate_force_never_replaces_a_recording(recording, tmp_path, capsys):
+    """``simulate --study --force`` replaces a trial it simulated, never a recording: a log
+    recorded from a bus (its sidecar names the bus), one cut short (``.log.part``), or a log
+    without a sidecar that says it was simulated."""
+    study = tmp_path / "study"
+    argv = ["simulate", "--study", str(study), "--subject", "P01", "--trial", "run-01",
+            "--duration", "1", "--force"]
+    assert main(argv) == 0  # a simulated trial: --force replaces it
+    assert main([*argv, "--seed", "5"]) == 0
+    log, sidecar = study / "P01" / "run-01.log", study / "P01" / "run-01.json"
+    if recording == "from a bus":
+        doc = json.loads(sidecar.read_text())
+        doc.pop("simulation")
+        doc["bus"] = {"interface": "socketcan", "channel": "can0"}
+        sidecar.write_text(json.dumps(doc))
+    elif recording == "cut short":
+        log.with_name("run-01.log.part").write_bytes(log.read_bytes()[:1000])
+    else:
+        sidecar.unlink()
+    before = {p.name: p.read_bytes() for p in (study / "P01").iterdir()}
+    capsys.readouterr()
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "replaces only a trial it simulated" in err and "--force included" in err, err
+    assert {p.name: p.read_bytes() for p in (study / "P01").iterdir()} == before

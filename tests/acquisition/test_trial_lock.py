@@ -173,3 +173,20 @@ def test_a_stale_lock_file_of_a_dead_process_is_cleared(tmp_path, caplog):
     assert result.ended == "completed"
     assert f"cleared a stale lock (PID {dead.pid}" in caplog.text
     assert sorted(p.name for p in paths.folder.iterdir()) == ["run-01.json", "run-01.log"]
+
+
+@pytest.mark.parametrize("name", [".run-01.reserve", "run-01.log.part"])
+def test_acquire_never_writes_through_a_link_at_its_working_names(tmp_path, name, capsys):
+    """The disk reserve (``.TRIAL.reserve``) and the growing log (``TRIAL.log.part``) have
+    names anyone can foresee: a link planted there is never written through."""
+    from evtribo.acquisition.simulator import SubjectParams, TrialConfig, write_trial
+
+    study = tmp_path / "study"
+    write_trial(study, "run-00", SubjectParams(), TrialConfig(duration_s=1.0))
+    victim = study / "P01" / "run-00.log"
+    before = victim.read_bytes()
+    (study / "P01" / name).symlink_to(victim)
+    main(["acquire", "--study", str(study), "--subject", "P01", "--trial", "run-01",
+          "--interface", "virtual", "--channel", f"links-{name}", "--duration", "0.2",
+          "--force"])
+    assert victim.read_bytes() == before

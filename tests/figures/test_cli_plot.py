@@ -52,8 +52,13 @@ def test_an_existing_figure_is_kept_without_force(study, tmp_path, capsys):
     out.write_bytes(b"mine")
     argv = ["plot", "trial", str(study), "P01", "run-01", "-o", str(out)]
     assert main(argv) == 2
-    assert "exists; use --force to overwrite" in capsys.readouterr().err
+    assert main([*argv, "--force"]) == 2  # a file plot did not write: never replaced
+    assert "is not a file evtribo wrote" in capsys.readouterr().err
     assert out.read_bytes() == b"mine"
+    out.unlink()
+    assert main(argv) == 0
+    assert main(argv) == 2  # its own figure: kept without --force
+    assert "exists; use --force to overwrite" in capsys.readouterr().err
     assert main([*argv, "--force"]) == 0
     assert out.read_bytes().startswith(b"\x89PNG")
 

@@ -35,7 +35,8 @@ TRIAL_COLUMNS = ["subject", "trial", "waveform", "frequency_Hz", "amplitude_V", 
                  "duration_s", "frames", "dropped_frames", "skipped_lines",
                  "friction_modulation_Hz", "normal_offset_N", "tangential_offset_N", "tare",
                  "mu_change_per_10s", "crosstalk_normal", "crosstalk_normal_se",
-                 "tangential_direction_share"]
+                 "tangential_direction_share", "analysed_s", "excluded_switch_s",
+                 "excluded_lift_s", "excluded_unsteady_s", "excluded_other_s"]
 
 
 @dataclass(frozen=True)
@@ -171,7 +172,9 @@ def write_folder(out: Path, cfg: PopulationCells, cells: pd.DataFrame, subjects:
                            friction_modulation_Hz=np.nan, normal_offset_N=np.nan,
                            tangential_offset_N=np.nan, tare="none", mu_change_per_10s=np.nan,
                            crosstalk_normal=np.nan, crosstalk_normal_se=np.nan,
-                           tangential_direction_share=np.nan)[TRIAL_COLUMNS]
+                           tangential_direction_share=np.nan, analysed_s=12.0,
+                           excluded_switch_s=0.0, excluded_lift_s=0.0,
+                           excluded_unsteady_s=0.0, excluded_other_s=0.0)[TRIAL_COLUMNS]
     est = pd.DataFrame({
         "subject": cells["subject"], "waveform": "square", "frequency_Hz": 10000.0,
         "amplitude_V": cells["amplitude_V"],

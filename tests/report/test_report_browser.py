@@ -207,8 +207,6 @@ def test_printed_each_check_unfolded_each_heading_with_its_figure(page, out):
     assert 0 < pages <= (figures + sections) / 2
 
 
-@pytest.mark.xfail(strict=True, reason="the population figure gives its subjects one entry "
-                                       "in every colour, not their names")
 def test_the_population_figure_names_its_subjects(out):
     from evtribo.figures.population_plots import plot_population
     from evtribo.figures.style import journal_style

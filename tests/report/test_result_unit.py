@@ -98,6 +98,14 @@ def test_report_refuses_a_fit_that_is_not_compare_s(analysed, tmp_path, capsys, 
     err = capsys.readouterr().err
     assert f"run `evtribo compare {out} --force`" in err and "Traceback" not in err, err
     assert not (tmp_path / "r.html").exists()
+    changed = {"fit.csv half-written": "fit.csv",
+               "a figure changed": "figures/area_increase.png"}.get(case)
+    if changed is not None:  # not the file compare wrote: never replaced, --force or not
+        kept = (out / changed).read_bytes()
+        assert main(["compare", str(out), "--force", "--dpi", "30"]) == 2
+        assert f"{out / changed}: is not a file evtribo wrote" in capsys.readouterr().err
+        assert (out / changed).read_bytes() == kept
+        (out / changed).unlink()  # the user's to remove
     assert main(["compare", str(out), "--force", "--dpi", "30"]) == 0
     assert main(["report", str(out), "-o", str(tmp_path / "r.html")]) == 0
 

@@ -22,6 +22,7 @@ from evtribo.results.aggregate import (
     summarize,
 )
 from evtribo.results.pipeline import BOOTSTRAP_FILE, OUTPUT_FILES, SINE_TRACE_FILE, analyze_study
+from evtribo.store.owned import MANIFEST
 from evtribo.study import write_sidecar, write_study_toml
 
 AMPLITUDES = (60.0, 100.0, 140.0)
@@ -91,7 +92,7 @@ def test_outputs_have_the_spec_columns(default_study):
     assert isinstance(summary["warnings"], list)
     # the study has sine trials: their traces are written for the model comparison
     assert sorted(p.name for p in res.out_dir.iterdir()) == sorted(
-        [*OUTPUT_FILES, SINE_TRACE_FILE])
+        [*OUTPUT_FILES, SINE_TRACE_FILE, MANIFEST])
 
 
 def test_recovers_mu_electrostatic_force_exponent_and_modulation(default_study):
@@ -206,6 +207,15 @@ def test_refuses_to_overwrite_without_force(default_study, tmp_path):
     assert (out / "exponents.csv").read_text(encoding="utf-8") == "mine\n"
     assert main(["analyze", str(root), "--out", str(out), "--jobs", "1",
                  "--cache-dir", str(tmp_path / "cache")]) == 2
+    # the user's file, not evtribo's: --force does not replace it either
+    assert main(["analyze", str(root), "--out", str(out), "--jobs", "1", "--force",
+                 "--cache-dir", str(tmp_path / "cache")]) == 2
+    assert (out / "exponents.csv").read_text(encoding="utf-8") == "mine\n"
+    (out / "exponents.csv").unlink()
+    assert main(["analyze", str(root), "--out", str(out), "--jobs", "1",
+                 "--cache-dir", str(tmp_path / "cache")]) == 0
+    assert main(["analyze", str(root), "--out", str(out), "--jobs", "1",
+                 "--cache-dir", str(tmp_path / "cache")]) == 2  # its own results: --force
     assert main(["analyze", str(root), "--out", str(out), "--jobs", "1", "--force",
                  "--cache-dir", str(tmp_path / "cache")]) == 0
     assert (out / "exponents.csv").read_text(encoding="utf-8").startswith("subject,")

@@ -25,6 +25,7 @@ from _forked import alive, children, file_size_limit, run, run_id, start, tree
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
 from evtribo.cli import main
 from evtribo.results import workers as trial_workers
+from evtribo.store.owned import MANIFEST
 from evtribo.store.resultdir import holder, lock_path, locked, pending, recover
 
 
@@ -73,7 +74,7 @@ def _new_results(out: Path, old_run: str) -> None:
     summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     assert summary["run_id"] != old_run
     check_analysis(out, summary)  # every table as that analysis wrote it
-    assert files == {*summary["output_sha256"], "summary.json", *USER_FILES}
+    assert files == {*summary["output_sha256"], "summary.json", MANIFEST, *USER_FILES}
 
 
 # --- item 4: analyze --force replaces the fit and the report; report checks the fit ---------

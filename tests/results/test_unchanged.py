@@ -186,3 +186,32 @@ def test_the_software_fingerprint_follows_the_libraries_metadata_folders(tmp_pat
     monkeypatch.syspath_prepend(str(tmp_path))
     assert memo.software_fingerprint() != before
     memo.software_fingerprint.cache_clear()
+
+
+def test_a_trial_recorded_while_analyze_runs_is_analysed_next_time(study, tmp_path,
+                                                                   monkeypatch, capsys):
+    """The study's listing that keys the kept results is the one taken before the analysis:
+    a trial recorded meanwhile (a session still recording) is not filed as already seen."""
+    from evtribo.acquisition.simulator import SubjectParams, write_trial
+    from evtribo.results import pipeline
+
+    cache = tmp_path / "cache"
+    real = pipeline.analyze_study
+    recorded = []
+
+    def recording_meanwhile(*args, **kwargs):
+        result = real(*args, **kwargs)
+        if not recorded:  # a trial lands while the analysis is finishing
+            write_trial(study, "run-99", SubjectParams(name="P01"),
+                        TrialConfig(duration_s=4.0, amplitude_V=100.0))
+            recorded.append(True)
+        return result
+
+    monkeypatch.setattr(pipeline, "analyze_study", recording_meanwhile)
+    before = len(list(study.glob("*/*.log")))
+    args = [str(study), "--cache-dir", str(cache), "--force"]
+    assert main(["analyze", *args, "--out", str(tmp_path / "a")]) == 0
+    assert f"analysed {before} of {before} trials" in capsys.readouterr().out
+    assert main(["analyze", *args, "--out", str(tmp_path / "b")]) == 0
+    assert f"of {before + 1} trials" in capsys.readouterr().out
+    assert "P01/run-99" in (tmp_path / "b" / "trials.csv").read_text().replace(",", "/")

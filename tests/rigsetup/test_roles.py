@@ -127,6 +127,12 @@ def test_init_refuses_an_existing_study(tmp_path):
     assert (tmp_path / "s" / "study.toml").read_text() == before
     init_study(tmp_path / "s", RIG_FILES["motorola"].with_suffix(".dbc"), force=True)
     assert "NormalCell.Force_mN" in (tmp_path / "s" / "study.toml").read_text()
+    # once the user has edited it, it is theirs: --force does not replace it either
+    edited = (tmp_path / "s" / "study.toml").read_text() + "# roles checked by hand\n"
+    (tmp_path / "s" / "study.toml").write_text(edited)
+    with pytest.raises(OutputExistsError, match="not a file evtribo wrote"):
+        init_study(tmp_path / "s", default_rig().dbc, force=True)
+    assert (tmp_path / "s" / "study.toml").read_text() == edited
 
 
 def test_init_names_a_missing_dbc(tmp_path):

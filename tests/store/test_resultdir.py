@@ -21,24 +21,34 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from evtribo.errors import OutputBusyError, OutputWriteError
-from evtribo.store import resultdir
+from evtribo.store import journal, resultdir
+from evtribo.store.owned import MANIFEST
 from evtribo.store.resultdir import JOURNAL, Staging, holder, lock_path, locked, pending, recover
 
 FORK = multiprocessing.get_context("fork")
 
 
 def tree(folder: Path) -> dict[str, bytes]:
-    """Every file under *folder*, relative name -> bytes."""
+    """Every file under *folder* but its manifest, relative name -> bytes."""
     if not folder.is_dir():
         return {}
     return {p.relative_to(folder).as_posix(): p.read_bytes()
-            for p in sorted(folder.rglob("*")) if p.is_file()}
+            for p in sorted(folder.rglob("*")) if p.is_file() and p.name != MANIFEST}
 
 
 def write_tree(folder: Path, files: dict[str, bytes]) -> None:
     for rel, data in files.items():
         (folder / rel).parent.mkdir(parents=True, exist_ok=True)
         (folder / rel).write_bytes(data)
+
+
+def committed(folder: Path, files: dict[str, bytes], by: str = "t") -> None:
+    """*files* written into *folder* by a commit (its manifest records them)."""
+    if not files:
+        return
+    with locked(folder, by), Staging(folder, by=by) as stage:
+        write_tree(stage.folder, files)
+        stage.commit()
 
 
 def _hold(out: Path, ready, release) -> None:  # in a forked process
@@ -101,8 +111,9 @@ def test_the_lock_is_reentrant_in_a_thread_and_refused_to_another_thread(tmp_pat
 
 def test_a_staging_left_without_commit_changes_nothing(tmp_path):
     out = tmp_path / "out"
-    write_tree(out, {"a.csv": b"old", "notes.txt": b"mine"})
-    with pytest.raises(RuntimeError), locked(out, "t"), Staging(out) as stage:
+    committed(out, {"a.csv": b"old"})
+    write_tree(out, {"notes.txt": b"mine"})
+    with pytest.raises(RuntimeError), locked(out, "t"), Staging(out, by="t") as stage:
         stage.path("a.csv").write_bytes(b"new")
         raise RuntimeError("boom")
     assert tree(out) == {"a.csv": b"old", "notes.txt": b"mine"}
@@ -111,9 +122,9 @@ def test_a_staging_left_without_commit_changes_nothing(tmp_path):
 
 def test_a_write_error_becomes_output_write_error_and_changes_nothing(tmp_path):
     out = tmp_path / "out"
-    write_tree(out, {"a.csv": b"old"})
+    committed(out, {"a.csv": b"old"})
     with pytest.raises(OutputWriteError, match="disk is full") as info, \
-            locked(out, "t"), Staging(out) as stage:
+            locked(out, "t"), Staging(out, by="t") as stage:
         stage.path("a.csv").write_bytes(b"new")
         raise OSError(28, "No space left on device", str(stage.path("b.csv")))
     assert info.value.exit_code == 1
@@ -164,7 +175,7 @@ def _commit(out: Path, new: dict[str, bytes], remove: list[str], stop_at: int | 
     counted, log = report
     count, originals, steps = _counting(stop_at)
     try:
-        with locked(out, "t"), Staging(out) as stage:
+        with locked(out, "t"), Staging(out, by="t") as stage:
             write_tree(stage.folder, new)
             stage.commit(remove=remove, last=["summary.json"])
     finally:
@@ -199,15 +210,15 @@ def test_killed_at_any_step_the_folder_is_old_or_new(tmp_path_factory, old, new,
                                                      fraction):
     root = tmp_path_factory.mktemp("kill")
     out = root / "out"
-    if old or user:
-        write_tree(out, {**old, **user})
+    committed(out, old)  # the command's old files, as a commit wrote them
+    write_tree(out, user)
     before = tree(out)
     stale = [n for n in old if n not in new]  # the command's old files the new run lacks
     expected_new = {**user, **new}
     # how many steps a commit takes here (a dry run in another folder), then kill at one
     dry = root / "dry"
-    if before:
-        write_tree(dry / "out", before)
+    committed(dry / "out", old)
+    write_tree(dry / "out", user)
     counted = FORK.Value("i", 0)
     assert _run(_commit, dry / "out", new, stale, None, (counted, None)) == 0
     assert tree(dry / "out") == expected_new
@@ -215,13 +226,13 @@ def test_killed_at_any_step_the_folder_is_old_or_new(tmp_path_factory, old, new,
     code = _run(_commit, out, new, stale, stop_at)
     assert code in (-signal.SIGKILL, 0)
     now = tree(out)
-    committed = bool(pending(out))
-    if not committed:  # killed before the commit, or after the swap: nothing to finish
+    was_committed = bool(pending(out))
+    if not was_committed:  # killed before the commit, or after the swap: nothing to finish
         assert now in (before, expected_new), (stop_at, counted.value)
     with locked(out, "t"):
         recover(out)
     assert tree(out) in (before, expected_new)
-    if code == 0 or committed:
+    if code == 0 or was_committed:
         assert tree(out) == expected_new
     # nothing of the write is left beside the folder
     assert sorted(p.name for p in root.iterdir()) == sorted(["dry", *(["out"] if (
@@ -231,11 +242,12 @@ def test_killed_at_any_step_the_folder_is_old_or_new(tmp_path_factory, old, new,
 
 def test_a_kill_after_the_commit_is_finished_by_the_next_reader(tmp_path):
     out = tmp_path / "out"
-    write_tree(out, {"trials.csv": b"old", "fit.csv": b"old fit", "notes.txt": b"mine"})
+    dry = tmp_path / "dry" / "out"
+    for folder in (out, dry):
+        committed(folder, {"trials.csv": b"old", "fit.csv": b"old fit"})
+        write_tree(folder, {"notes.txt": b"mine"})
     counted = FORK.Value("i", 0)
     new = {"trials.csv": b"new", "summary.json": b"{}"}
-    dry = tmp_path / "dry" / "out"
-    write_tree(dry, tree(out))
     _run(_commit, dry, new, ["fit.csv"], None, (counted, tmp_path / "steps"))
     steps = (tmp_path / "steps").read_text().splitlines()
     # kill at the second rename into the folder: trials.csv is new, summary.json not yet
@@ -253,7 +265,7 @@ def test_a_kill_after_the_commit_is_finished_by_the_next_reader(tmp_path):
 
 def test_the_module_names_each_step_it_counts():
     # the kill tests count these calls: a commit must use no other way to change files
-    source = Path(resultdir.__file__).read_text(encoding="utf-8")
+    source = "".join(Path(m.__file__).read_text(encoding="utf-8") for m in (resultdir, journal))
     for call in ("os.rename(", "shutil.move(", "os.remove(", ".rename("):
         assert call not in source, call
     assert all(s in source for s in _STEPS)
@@ -262,11 +274,12 @@ def test_the_module_names_each_step_it_counts():
 def test_an_output_on_its_own_file_system_is_written_from_inside(tmp_path, monkeypatch):
     # a mount point: a rename from beside it would cross file systems
     out = tmp_path / "usb"
-    write_tree(out, {"a.csv": b"old", "notes.txt": b"mine"})
+    committed(out, {"a.csv": b"old"})
+    write_tree(out, {"notes.txt": b"mine"})
     real = os.path.ismount
     monkeypatch.setattr(os.path, "ismount", lambda p: Path(p) == out or real(p))
     assert lock_path(out).parent == out
-    with locked(out, "t"), Staging(out) as stage:
+    with locked(out, "t"), Staging(out, by="t") as stage:
         assert stage.folder.parent == out
         stage.path("a.csv").write_bytes(b"new")
         stage.path("figures/f.png").write_bytes(b"png")
@@ -275,7 +288,7 @@ def test_an_output_on_its_own_file_system_is_written_from_inside(tmp_path, monke
     assert sorted(p.name for p in tmp_path.iterdir()) == ["usb"]
     # an interrupted one is found there too
     with locked(out, "t"):
-        stage = Staging(out).__enter__()
+        stage = Staging(out, by="t").__enter__()
         stage.path("b.csv").write_bytes(b"b")
         assert not pending(out)
         recover(out)

@@ -232,8 +232,10 @@ def _start(bus: can.BusABC, paths: TrialPaths, acq_rig: AcquisitionRig,
     channel = _log_channel(opts.log_channel or settings.channel, bus)
     # with force, the previous trial's log and sidecar stay until this one has ended
     previous = [p for p in (paths.log, paths.sidecar) if p.exists()]
-    try:
-        fh = paths.part.open("wb" if opts.force else "xb", buffering=0)
+    try:  # never through a link planted at the partial log's name
+        flags = os.O_WRONLY | os.O_CREAT | (os.O_TRUNC if opts.force else os.O_EXCL)
+        fh = os.fdopen(os.open(paths.part, flags | getattr(os, "O_NOFOLLOW", 0), 0o644), "wb",
+                       buffering=0)
     except FileExistsError as err:
         raise OutputExistsError("another recording of this trial is in progress",
                                 path=paths.part) from err
@@ -243,8 +245,7 @@ def _start(bus: can.BusABC, paths: TrialPaths, acq_rig: AcquisitionRig,
                      sidecar=_first_sidecar(paths, acq_rig, opts, settings, channel))
     try:
         _prepare(rec, bus, opts.started)
-    except BaseException:
-        # nothing of this trial may stay behind to block the next attempt
+    except BaseException:  # nothing of this trial may stay behind to block the next attempt
         fh.close()
         paths.part.unlink(missing_ok=True)
         paths.reserve.unlink(missing_ok=True)
@@ -288,8 +289,7 @@ def _prepare(rec: _Recording, bus: can.BusABC,
         try:
             _write_json(paths.sidecar, rec.sidecar)
         except OSError as err:
-            raise AcquisitionError(f"cannot write the sidecar: {err}",
-                                   path=paths.sidecar) from err
+            raise AcquisitionError(f"cannot write the sidecar: {err}", path=paths.sidecar) from err
     try:
         keep_reserve(paths.reserve)
     except OSError as err:

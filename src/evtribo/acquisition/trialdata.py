@@ -7,6 +7,7 @@ import logging
 import math
 import os
 import signal
+import stat
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -231,8 +232,17 @@ def keep_reserve(path: Path) -> None:
     OSError
         The disk has not that much room left (nothing is left behind).
     """
-    try:
-        with path.open("wb") as fh:
+    try:  # one left by a killed recording (of its size), or a link (the link only)
+        st = os.lstat(path)
+        if stat.S_ISLNK(st.st_mode) or (stat.S_ISREG(st.st_mode)
+                                        and st.st_size == RESERVE_BYTES):
+            path.unlink()
+    except FileNotFoundError:
+        pass
+    try:  # created here, never through a link planted at its foreseeable name
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0),
+                     0o600)
+        with os.fdopen(fd, "wb") as fh:
             fallocate = getattr(os, "posix_fallocate", None)
             try:
                 if fallocate is None:

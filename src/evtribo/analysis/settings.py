@@ -177,18 +177,22 @@ def _checked(name: str, value: Any) -> Any:
         return value
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ConfigError(f"expected a number, got {value!r}", key=name)
+    if isinstance(value, float) and not math.isfinite(value):
+        raise ConfigError(f"expected a finite number, got {value!r}", key=name)
+    given = value
     if kind == "int":
         if value != int(value):
             raise ConfigError(f"expected a whole number, got {value!r}", key=name)
         value = int(value)
-    elif not math.isfinite(value):
-        raise ConfigError(f"expected a finite number, got {value!r}", key=name)
     else:
         value = float(value)
     low, strict = _RANGES.get(name, (0.0, True))
     if value < low or (strict and value == low):
         raise ConfigError(f"{value!r} is not allowed: must be {'>' if strict else '>='} "
                           f"{low:g}", key=name)
+    high, why = _HIGHEST.get(name, (math.inf, ""))
+    if value > high:
+        raise ConfigError(f"{given!r} is not allowed: at most {high:,} ({why})", key=name)
     if name == "confidence" and value >= 1:
         raise ConfigError(f"{value!r} is not allowed: must be between 0 and 1", key=name)
     return value
@@ -196,6 +200,12 @@ def _checked(name: str, value: Any) -> Any:
 
 #: Lowest value of each numeric setting, and whether it is excluded (default: > 0).
 _RANGES = {"guard_s": (0.0, False), "seed": (0.0, False), "n_boot": (10.0, False)}
+#: Highest value of the settings that have one, and why.
+_HIGHEST = {
+    "n_boot": (100_000, "the bootstrap's own error on a 95 % interval's ends is then below "
+                        "1 % of its width; more replicates cost memory and time for nothing"),
+    "seed": (2**64 - 1, "a seed is a 64-bit number"),
+}
 
 
 def parse_setting(text: str) -> tuple[str, Any]:

@@ -17,7 +17,6 @@ from __future__ import annotations
 import datetime as dt
 import logging
 import math
-import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -29,7 +28,7 @@ from cantools.database.can import Database, Message, Signal
 from evtribo.canlog.decode import decode_message, message_mask
 from evtribo.canlog.io import FrameStream, FrameTable, ReadReport
 from evtribo.errors import UserInputError
-from evtribo.store.files import MF4_PROGRAM_ID
+from evtribo.store.files import MF4_PROGRAM_ID, atomic_open
 
 __all__ = ["EPOCH_AFTER_S", "MF4_EXTRA", "Mf4Written", "save_mdf",
            "signal_conversion", "write_mf4"]
@@ -215,23 +214,22 @@ def _fill(groups: _Groups, stream: FrameStream, db: Database, channel: str | Non
 
 
 def save_mdf(mdf: Any, target: Path) -> None:
-    """Save an asammdf MDF beside *target*, then put it in place (no half-written file).
+    """Save an asammdf MDF as *target*, whole or not at all: written into a temporary file
+    created exclusively beside it (:func:`~evtribo.store.files.atomic_open`: no name anyone
+    could plant a link at, nothing left behind by a killed process), then put in place.
 
     Parameters
     ----------
     mdf : asammdf.MDF
     target : Path
-        The ``.mf4`` to write; an existing file is replaced.
+        The ``.mf4`` to write (its folder created if missing); an existing file is
+        replaced.
 
     Returns
     -------
     None
     """
-    tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp.mf4")
     mdf.identification.program_identification = MF4_PROGRAM_ID
-    try:
-        mdf.save(tmp, overwrite=True, compression=2)
-        os.replace(tmp, target)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    target.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_open(target, "w+b") as fh:
+        mdf.save(fh, overwrite=True, compression=2)

@@ -136,9 +136,15 @@ def _number(value: object, key: str, path: Path) -> float | None:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise SidecarError(f"expected a number, got {value!r} ({type(value).__name__})",
                            path=path, key=key)
-    if not math.isfinite(value) or value < 0:
-        raise SidecarError(f"expected a finite number >= 0, got {value!r}", path=path, key=key)
-    return float(value)
+    try:
+        number = float(value)
+    except OverflowError:  # an integer beyond any float
+        number = math.inf
+    if not math.isfinite(number) or number < 0:
+        shown = f"{value!r}" if math.isfinite(number) or isinstance(value, float) else \
+            f"an integer of {len(str(abs(value)))} digits"
+        raise SidecarError(f"expected a finite number >= 0, got {shown}", path=path, key=key)
+    return number
 
 
 def _choice(value: object, key: str, path: Path, allowed: tuple[str, ...]) -> str | None:

@@ -44,6 +44,7 @@ from evtribo.model.friction import (
 )
 from evtribo.model.maugis import contact_area_md, maugis_parameter, md_jkr_departure
 from evtribo.model.params import TABLE_1, ModelParameters
+from evtribo.store.owned import claim, refuse_foreign
 
 __all__ = [
     "MODEL_FIGURES",
@@ -315,6 +316,7 @@ def save_model_figures(directory: str | os.PathLike[str], *, force: bool = False
     paths = [out / f"{name}.{fmt}" for name in MODEL_FIGURES for fmt in formats]
     for path in paths:  # a study's input or a raw log is never written over
         refuse_input(path, command="evtribo model", key="--figures")
+    refuse_foreign(out, [p.name for p in paths], {"model"}, key="--figures")
     existing = [p for p in paths if p.exists()]
     if existing and not force:
         raise OutputExistsError(
@@ -328,6 +330,7 @@ def save_model_figures(directory: str | os.PathLike[str], *, force: bool = False
             fig = ax.get_figure()
             assert isinstance(fig, Figure)
             for path in save_figure(fig, out, name, dpi=DEFAULT_DPI, formats=formats):
+                claim(path, "model")
                 written.append(path)
                 log.info("wrote %s", path)
     return written

@@ -38,7 +38,6 @@ import pandas as pd
 
 from evtribo import __version__
 from evtribo.documents.fit import write_fit
-from evtribo.errors import OutputExistsError
 from evtribo.figures.frequency_plots import write_models
 from evtribo.figures.friction_only import NOTE, friction_figures
 from evtribo.figures.plots import (
@@ -68,7 +67,14 @@ from evtribo.population.estimates import Population, population
 from evtribo.population.exclusions import study_exclusions
 from evtribo.report.drawing import Drawing, FigureRecord, Figures, Look, Runner, emit_checks
 from evtribo.report.kept import FigureStore, compare_key, last_fit, options_text
-from evtribo.results.outputs import FIGURES, FIT_CSV, FIT_JSON, compare_files
+from evtribo.results.outputs import (
+    FIGURES,
+    FIT_CSV,
+    FIT_JSON,
+    check_compare,
+    compare_files,
+    earlier_results,
+)
 from evtribo.store.files import atomic_write, sha256_file
 from evtribo.store.memo import default_cache_dir
 from evtribo.store.resultdir import Staging, locked, recover
@@ -122,14 +128,10 @@ def figure_stems(subjects: Iterable[str], *, sine: bool = True) -> list[str]:
     return stems
 
 
-def _check_outputs(out: Path, force: bool) -> None:
+def _check_outputs(out: Path, force: bool, figures: Iterable[str] = ()) -> None:
     refuse_in_study(out, command="evtribo compare")
-    existing = compare_files(out)
-    for rel in existing:  # a study's input or a raw log is never written over
+    for rel in check_compare(out, force, figures):  # nor a study's input or a raw log
         refuse_input(out / rel, command="evtribo compare")
-    if existing and not force:
-        raise OutputExistsError(f"{len(existing)} output file(s) of a previous comparison "
-                                "exist; use {force} to overwrite them", path=out / existing[0])
 
 
 def _jsonable(x: float) -> float | None:
@@ -217,8 +219,7 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
         with locked(folder, "evtribo compare"):
             recover(folder)
             tables = read_results(folder)
-            _check_outputs(folder, force)
-            result = _run(folder, tables, setup, params, runner,
+            result = _run(folder, tables, setup, params, runner, force=force,
                           progress=progress or (lambda _: None), scheduler=scheduler)
     except BaseException:
         runner.close(failed=True)  # no worker outlives the comparison
@@ -258,13 +259,17 @@ class _Setup:
 
 
 def _run(folder: Path, tables: ResultTables, setup: _Setup, params: str | Path | None,
-         runner: Runner, *, progress: Callable[[str], None], scheduler: Any) -> CompareResult:
+         runner: Runner, *, force: bool, progress: Callable[[str], None],
+         scheduler: Any) -> CompareResult:
     """The comparison, under the folder's lock: written as one unit, the figures that did
     not change left as they are."""
+    _check_outputs(folder, force, [
+        f"{FIGURES}/{stem}.{fmt}" for fmt in setup.look.formats
+        for stem in figure_stems(tables.subjects, sine=tables.sine_trace is not None)])
     exclude = study_exclusions(tables)  # a bad [population] rule: before any write
     stale = compare_files(folder)
     previous = last_fit(folder)
-    with Staging(folder) as stage:
+    with Staging(folder, by="compare", also=earlier_results(folder)) as stage:
         figures = Figures(stage, setup.look, CompareResult(out=tables.out, fits=[]), runner,
                           FigureStore(setup.cache), previous=previous, progress=progress)
         result = _compare(tables, stage, setup, figures, scheduler=scheduler,
@@ -445,10 +450,8 @@ def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],
                 run_id: str | None, key: str) -> None:
     """fit.json, into *stage*, naming the analysis fitted, what the comparison was made
     from (its key) and the files written."""
-    pfile: dict[str, Any] | None = None
-    if params_file is not None:
-        p = Path(params_file)
-        pfile = {"path": str(p), "sha256": sha256_file(p)}
+    pfile: dict[str, Any] | None = None if params_file is None else {
+        "path": str(Path(params_file)), "sha256": sha256_file(Path(params_file))}
     doc = {
         "run_id": run_id,
         "software": {"evtribo": __version__},

@@ -37,6 +37,7 @@ from markupsafe import Markup
 
 from evtribo import __version__
 from evtribo.errors import OutputExistsError, UserInputError
+from evtribo.store.owned import refuse_foreign
 from evtribo.store.resultdir import Staging, locked, recover
 from evtribo.util.numbers import frequency, significant
 
@@ -341,6 +342,7 @@ class Report:
 
     @staticmethod
     def _refuse_existing(folder: Path, names: list[str], overwrite: bool) -> None:
+        refuse_foreign(folder, names, {"report"})  # a user's file: never, overwrite or not
         existing = [folder / n for n in names if (folder / n).exists()]
         if existing and not overwrite:
             raise OutputExistsError("the report already exists; use {force} to overwrite it",
@@ -455,7 +457,7 @@ class Report:
             old = [f"{files_dir.name}/{p.name}" for p in sorted(files_dir.glob("*"))
                    if p.suffix.lower() in (".png", ".svg")] if files_dir.is_dir() else []
             old += [rel for rel in stale if (html_path.parent / rel).is_file()]
-            with Staging(unit, target=html_path.parent) as stage:
+            with Staging(unit, target=html_path.parent, by="report") as stage:
                 if figure_files:
                     for slug, png, svg in self._figure_files:
                         stage.path(f"{files_dir.name}/{slug}.png").write_bytes(png)

@@ -53,6 +53,7 @@ from evtribo.report.study_files import (
 from evtribo.report.table_export import TABLE_FORMATS, parse_table_formats, table_files
 from evtribo.results.outputs import FIGURES, FIT_CSV, FIT_JSON, REPORT_TABLES, TABLES
 from evtribo.store.files import sha256_file
+from evtribo.store.owned import refuse_foreign
 from evtribo.store.resultdir import inside, locked, recover
 
 log = logging.getLogger(__name__)
@@ -166,10 +167,12 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
     folder = check_out_folder(out)
     refuse_in_study(folder, command="evtribo report")
     refuse_input(output, command="evtribo report", key="-o")  # --force or not
-    for stem in REPORT_TABLES:
-        for fmt in formats:
-            refuse_input(Path(output).parent / TABLES / f"{stem}.{fmt}",
-                         command="evtribo report", key="--tables")
+    tables_out = [f"{TABLES}/{stem}.{fmt}" for stem in REPORT_TABLES for fmt in formats]
+    for rel in tables_out:
+        refuse_input(Path(output).parent / rel, command="evtribo report", key="--tables")
+    # what the report writes replaces only a report's own files, --force or not
+    refuse_foreign(Path(output).parent, [Path(output).name], {"report"}, key="-o")
+    refuse_foreign(Path(output).parent, tables_out, {"report"}, key="--tables")
     if Path(output).exists() and not force:  # before the lock: a refusal writes nothing
         raise OutputExistsError("the report already exists; use {force} to overwrite it",
                                 path=output)

@@ -8,7 +8,8 @@ summary.json, which lists the inputs it read (each file's name, size and SHA-256
 covers:
 
 - what the study folder holds: the names of its files and folders, two levels deep (as the
-  study's subjects and trials are found), and its absolute path;
+  study's subjects and trials are found), and its absolute path, as listed before the
+  analysis began (a trial recorded while it ran makes the next key another one);
 - the options of the command that change the results (``--set`` and the settings' own
   options, ``--strict``);
 - the software: evtribo's source files, the Python build and the libraries' versions
@@ -115,7 +116,8 @@ def _inputs_unchanged(summary: Mapping[str, Any], memo: HashMemo) -> bool:
 
 def remember(study_dir: str | os.PathLike[str], options: Mapping[str, Any],
              summary: Mapping[str, Any], out_dir: str | os.PathLike[str],
-             cache_dir: str | os.PathLike[str] | None = None) -> Path | None:
+             cache_dir: str | os.PathLike[str] | None = None, *,
+             key: str | None = None) -> Path | None:
     """Keep what an analysis wrote, for :func:`rerun`; nothing when a trial failed (the
     failure might not happen again), when its inputs or its result folder changed meanwhile,
     or when the cache cannot be written.
@@ -132,6 +134,10 @@ def remember(study_dir: str | os.PathLike[str], options: Mapping[str, Any],
         The result folder it wrote.
     cache_dir : path-like, optional
         The cache folder (default: :func:`~evtribo.store.memo.default_cache_dir`).
+    key : str, optional
+        The study's key (:func:`study_key`) taken BEFORE the analysis started: a trial
+        recorded while it ran is then not filed as analysed. Default: taken now (only
+        right when nothing was added meanwhile).
 
     Returns
     -------
@@ -142,7 +148,7 @@ def remember(study_dir: str | os.PathLike[str], options: Mapping[str, Any],
         return None  # a failure may not happen again: such a study is always analysed
     folder = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     try:
-        key = study_key(study_dir, options)
+        key = key if key is not None else study_key(study_dir, options)
         memo = HashMemo(folder, study_dir)
         unchanged = _inputs_unchanged(summary, memo)
         memo.save()

@@ -159,7 +159,8 @@ def _watch_parent(parent: int) -> None:
 
 def init_worker() -> None:
     """Make this process a worker of its parent's pool: the parent stops it (Ctrl-C reaches
-    the whole process group, the parent handles it), it ends when the parent is gone, and
+    the whole process group, the parent handles it; SIGTERM ends it, whatever handler the
+    parent had when it was forked), it ends when the parent is gone, and
     it does not keep the parent's locks (a pool's initializer: analyze's, and compare's for
     its figures).
 
@@ -168,6 +169,7 @@ def init_worker() -> None:
     None
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler: stopped, it ends
     threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True,
                      name="evtribo-parent-watch").start()
     release_inherited_locks()

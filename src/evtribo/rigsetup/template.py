@@ -26,6 +26,7 @@ from evtribo.errors import FORCE, OutputExistsError, RigConfigError
 from evtribo.rigsetup.roles import RoleGuess, guess_roles
 from evtribo.rigsetup.stats import signal_stats
 from evtribo.store.files import atomic_write
+from evtribo.store.owned import claim, refuse_foreign
 
 __all__ = ["ROLE_HELP", "InitResult", "init_study", "render_study_toml"]
 
@@ -186,7 +187,8 @@ def init_study(study: str | os.PathLike[str], dbc: str | os.PathLike[str], *,
     Raises
     ------
     OutputExistsError
-        STUDY already has a study.toml and *force* is False.
+        STUDY already has a study.toml and *force* is False; or, *force* or not, one (or a
+        DBC of the same name in ``rig/``) that init did not write.
     RigConfigError
         The DBC is missing or unreadable, or none of the sample log's identifiers is a
         message of it.
@@ -195,9 +197,15 @@ def init_study(study: str | os.PathLike[str], dbc: str | os.PathLike[str], *,
     toml = folder / "study.toml"
     if toml.exists() and not force:
         raise OutputExistsError(f"already has a study.toml; {FORCE} replaces it", path=folder)
+    # --force replaces a study.toml init wrote, never one a user wrote or edited
+    refuse_foreign(folder, ["study.toml"], {"init"})
     src = Path(dbc)
     if not src.is_file():
         raise RigConfigError("DBC file not found", path=os.fspath(src))
+    copy = folder / "rig" / src.name
+    if copy.exists() and copy.resolve() != src.resolve() and \
+            copy.read_bytes() != src.read_bytes():
+        refuse_foreign(copy.parent, [copy.name], {"init"})  # another DBC of that name
     db = load_dbc(src, source=os.fspath(src))
     stats = None
     if log is not None:
@@ -205,12 +213,13 @@ def init_study(study: str | os.PathLike[str], dbc: str | os.PathLike[str], *,
         _refuse_a_log_of_another_rig(frames, db, Path(log), src)
         stats = signal_stats(frames, db)
     guesses = guess_roles(db, stats)
-    copy = folder / "rig" / src.name
     copy.parent.mkdir(parents=True, exist_ok=True)
     if copy.resolve() != src.resolve():
         atomic_write(copy, src.read_bytes())
+        claim(copy, "init")
     source = src.name + (f" and {Path(log).name}" if log is not None else "")
     text = render_study_toml(folder.resolve().name, f"rig/{src.name}", guesses, source=source)
     atomic_write(toml, text)
+    claim(toml, "init")
     return InitResult(study_toml=toml, dbc=copy, guesses=guesses)
 

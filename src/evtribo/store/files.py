@@ -19,19 +19,19 @@ from __future__ import annotations
 
 import errno
 import hashlib
-import json
+import io
 import logging
 import os
-import re
 import stat
 import sys
-import tempfile
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import IO, Any, TypeVar
 
 from evtribo.errors import UserInputError
+from evtribo.store.jsondoc import DuplicateKeyError, loads_json_unique
+from evtribo.store.tempfiles import Temporary
 
 log = logging.getLogger(__name__)
 T = TypeVar("T")
@@ -39,8 +39,8 @@ T = TypeVar("T")
 __all__ = ["CHECKSUM_DIGITS", "MAX_CONFIG_BYTES", "MF4_PROGRAM_ID", "PARTIAL_SUFFIX",
            "DuplicateKeyError",
            "atomic_open", "atomic_write", "check_regular_file", "checksummed_entries",
-           "fsync_path", "loads_json_unique", "partial_path", "read_checksummed", "read_entry",
-           "read_limited", "sha256_file", "write_checksummed"]
+           "fsync_path", "loads_json_unique", "open_regular", "partial_path", "read_checksummed",
+           "read_entry", "read_limited", "sha256_file", "write_checksummed"]
 
 #: The program identification of the MF4 files evtribo writes (bytes 16-24 of the file):
 #: such a file holds decoded signals, not a raw CAN log, and ``--force`` may replace it.
@@ -51,6 +51,14 @@ PARTIAL_SUFFIX = ".part"
 
 #: Largest sidecar, study.toml or rig TOML read, bytes.
 MAX_CONFIG_BYTES = 1 << 20
+
+
+def _kind(mode: int) -> str:
+    """What a file that is not a regular one is, in words."""
+    return ("a folder" if stat.S_ISDIR(mode) else "a FIFO (named pipe)" if stat.S_ISFIFO(mode)
+            else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+            else "a socket" if stat.S_ISSOCK(mode) else "a symbolic link"
+            if stat.S_ISLNK(mode) else "not a regular file")
 
 
 def check_regular_file(path: str | os.PathLike[str], error: type[UserInputError], *,
@@ -79,15 +87,70 @@ def check_regular_file(path: str | os.PathLike[str], error: type[UserInputError]
     st = os.stat(path)
     if stat.S_ISREG(st.st_mode):
         return st
-    kind = ("a folder" if stat.S_ISDIR(st.st_mode) else "a FIFO (named pipe)"
-            if stat.S_ISFIFO(st.st_mode) else "a device" if stat.S_ISCHR(st.st_mode)
-            or stat.S_ISBLK(st.st_mode) else "a socket" if stat.S_ISSOCK(st.st_mode)
-            else "not a regular file")
-    raise error(f"is {kind}, not a {what}; only regular files are read", path=Path(path))
+    raise error(f"is {_kind(st.st_mode)}, not a {what}; only regular files are read",
+                path=Path(path))
+
+
+def open_regular(path: str | os.PathLike[str], error: type[UserInputError] = UserInputError,
+                 *, what: str = "file", follow: bool = True) -> int:
+    """A file descriptor of *path*, opened for reading only if it is a regular file: the one
+    way evtribo opens a file a user or a study names.
+
+    Opened without blocking and checked on the descriptor itself (no gap between the check
+    and the open): a FIFO, a device (a link to ``/dev/zero``), a socket or a folder is
+    refused by name, never read, never waited on.
+
+    Parameters
+    ----------
+    path : path-like
+    error : type
+        The error raised (a :class:`~evtribo.errors.UserInputError`), naming *path*.
+    what : str
+        What the file is, for the message.
+    follow : bool
+        Follow a symbolic link (False: a link is refused).
+
+    Returns
+    -------
+    int
+        The descriptor (blocking again); the caller closes it.
+
+    Raises
+    ------
+    FileNotFoundError
+        *path* does not exist.
+    error
+        Not a regular file (or, without *follow*, a symbolic link).
+    """
+    flags = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0)
+    if not follow:
+        flags |= getattr(os, "O_NOFOLLOW", 0)
+    try:
+        fd = os.open(path, flags)
+    except OSError as err:
+        if err.errno == errno.ELOOP and not follow:
+            raise error(f"is a symbolic link, not a {what}; it is not followed",
+                        path=Path(path)) from None
+        if err.errno in (errno.ENXIO, errno.EISDIR, errno.EOPNOTSUPP):  # a socket, a folder
+            mode = os.stat(path).st_mode if follow else os.lstat(path).st_mode
+            raise error(f"is {_kind(mode)}, not a {what}; only regular files are read",
+                        path=Path(path)) from None
+        raise
+    try:
+        mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(mode):
+            raise error(f"is {_kind(mode)}, not a {what}; only regular files are read",
+                        path=Path(path))
+        os.set_blocking(fd, True)
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
 
 
 def read_limited(path: str | os.PathLike[str], error: type[UserInputError], *,
-                 limit: int = MAX_CONFIG_BYTES, what: str = "file") -> bytes:
+                 limit: int = MAX_CONFIG_BYTES, what: str = "file",
+                 follow: bool = True) -> bytes:
     """The bytes of a regular file of at most *limit* bytes, else raise *error*.
 
     Parameters
@@ -99,6 +162,8 @@ def read_limited(path: str | os.PathLike[str], error: type[UserInputError], *,
         Largest size read, bytes.
     what : str
         What the file is, for the message (``"sidecar"``).
+    follow : bool
+        Follow a symbolic link (False: a link is refused).
 
     Returns
     -------
@@ -111,11 +176,12 @@ def read_limited(path: str | os.PathLike[str], error: type[UserInputError], *,
     error
         Not a regular file, or larger than *limit*.
     """
-    st = check_regular_file(path, error, what=what)
-    if st.st_size > limit:
-        raise error(f"is {st.st_size:,} bytes, too large for a {what} (at most {limit:,})",
-                    path=Path(path))
-    with open(path, "rb") as fh:
+    fd = open_regular(path, error, what=what, follow=follow)
+    with os.fdopen(fd, "rb") as fh:
+        size = os.fstat(fd).st_size
+        if size > limit:
+            raise error(f"is {size:,} bytes, too large for a {what} (at most {limit:,})",
+                        path=Path(path))
         data = fh.read(limit + 1)
     if len(data) > limit:  # it grew while being read
         raise error(f"is larger than {limit:,} bytes, too large for a {what}", path=Path(path))
@@ -139,20 +205,26 @@ def partial_path(path: str | os.PathLike[str]) -> Path:
     return p.with_name(p.name + PARTIAL_SUFFIX)
 
 
-def sha256_file(path: str | os.PathLike[str]) -> str:
-    """SHA-256 of a file's bytes (:func:`hashlib.file_digest`, which reads in blocks into one
-    buffer and releases the interpreter's lock while it hashes).
+def sha256_file(path: str | os.PathLike[str], error: type[UserInputError] = UserInputError,
+                *, what: str = "file") -> str:
+    """SHA-256 of a regular file's bytes (:func:`hashlib.file_digest`, which reads in blocks
+    into one buffer and releases the interpreter's lock while it hashes).
 
     Parameters
     ----------
     path : path-like
+    error : type
+        Raised, naming *path*, when it is not a regular file (:func:`open_regular`: a FIFO
+        or a device is never read).
+    what : str
+        What the file is, for that message.
 
     Returns
     -------
     str
         64 hexadecimal digits.
     """
-    with open(path, "rb", buffering=0) as fh:
+    with os.fdopen(open_regular(path, error, what=what), "rb", buffering=0) as fh:
         return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
@@ -185,12 +257,18 @@ def atomic_open(path: str | os.PathLike[str], mode: str = "wb", *,
     """Open a temporary file beside *path*; it becomes *path* when the block ends without
     an exception, and is removed otherwise.
 
+    The temporary file is created exclusively (:class:`~evtribo.store.tempfiles.Temporary`:
+    nameless while it is written where the system allows it, else under a name nobody can
+    foresee, never through a link), so a killed process leaves none behind, or one the next
+    write of *path* removes.
+
     Parameters
     ----------
     path : path-like
         The file to write (its folder must exist). An existing file is replaced; refusing
         to overwrite is the caller's decision, made before.
-    mode : {"wb", "w"}
+    mode : {"wb", "w", "w+b"}
+        ``"w+b"``: bytes, readable too (a writer that reads back what it wrote).
     encoding : str, optional
         For text mode (default UTF-8).
     durable : bool
@@ -200,30 +278,33 @@ def atomic_open(path: str | os.PathLike[str], mode: str = "wb", *,
     Yields
     ------
     file object
-        The temporary file, named ``.NAME.XXXXXXXX.tmp`` in *path*'s folder.
+        The temporary file; its ``name`` is *path*.
 
     Examples
     --------
     >>> with atomic_open("fit.csv", "w") as fh:  # doctest: +SKIP
     ...     table.to_csv(fh, index=False)
     """
-    if mode not in ("wb", "w"):
-        raise ValueError(f"atomic_open writes whole files: mode 'wb' or 'w', not {mode!r}")
+    if mode not in ("wb", "w", "w+b"):
+        raise ValueError(f"atomic_open writes whole files: mode 'wb', 'w' or 'w+b', not "
+                         f"{mode!r}")
     target = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp",
-                               dir=target.parent if str(target.parent) else ".")
+    temp = Temporary(target)
+    raw = io.FileIO(temp.fd, "r+", closefd=True)
+    raw.name = os.fspath(target)  # what writers that name it see
+    buffered = io.BufferedRandom(raw)
+    fh: IO[Any] = (buffered if mode != "w" else
+                   io.TextIOWrapper(buffered, encoding=encoding or "utf-8", newline=""))
     try:
-        fh: IO[Any] = (os.fdopen(fd, "wb") if mode == "wb" else
-                       os.fdopen(fd, "w", encoding=encoding or "utf-8", newline=""))
         with fh:
             yield fh
             fh.flush()
             if durable:
-                os.fsync(fh.fileno())
-        os.chmod(tmp, 0o666 & ~_UMASK)
-        os.replace(tmp, target)
+                os.fsync(raw.fileno())
+            os.fchmod(raw.fileno(), 0o666 & ~_UMASK)
+            temp.install()
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        temp.drop()
         raise
     if durable:
         fsync_path(target.parent, directory=True)
@@ -252,8 +333,8 @@ def atomic_write(path: str | os.PathLike[str], data: bytes | memoryview | str, *
     return Path(path)
 
 
-#: The process's umask, read once (mkstemp creates files 0600; written files get the mode
-#: any other file the user writes gets).
+#: The process's umask, read once (temporary files are created 0600; written files get the
+#: mode any other file the user writes gets).
 _UMASK = os.umask(0)
 os.umask(_UMASK)
 
@@ -372,43 +453,3 @@ def write_checksummed(directory: Path, key: str, data: bytes | memoryview, suffi
         if other != path:
             other.unlink(missing_ok=True)
     return path
-
-
-class DuplicateKeyError(ValueError):
-    """A JSON object with a key given twice (JSON parsers keep the last one, silently)."""
-
-    def __init__(self, key: str, line: int | None) -> None:
-        self.key, self.line = key, line
-        super().__init__(f"key {key!r} given twice")
-
-
-def loads_json_unique(text: str) -> Any:
-    """:func:`json.loads`, refusing an object that gives a key twice.
-
-    Parameters
-    ----------
-    text : str
-        The JSON document.
-
-    Returns
-    -------
-    object
-
-    Raises
-    ------
-    DuplicateKeyError
-        Naming the key and the line of its second occurrence.
-    json.JSONDecodeError
-        Not JSON.
-    """
-    def unique(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-        out: dict[str, Any] = {}
-        for key, value in pairs:
-            if key in out:
-                found = list(re.finditer(re.escape(json.dumps(key)) + r"\s*:", text))
-                line = text.count("\n", 0, found[1].start()) + 1 if len(found) > 1 else None
-                raise DuplicateKeyError(key, line)
-            out[key] = value
-        return out
-
-    return json.loads(text, object_pairs_hook=unique)

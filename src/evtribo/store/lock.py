@@ -28,12 +28,13 @@ import logging
 import os
 import shlex
 import socket
+import stat
 import sys
 import time
 from pathlib import Path
 from typing import Any
 
-from evtribo.errors import LockedError
+from evtribo.errors import LockedError, OutputExistsError
 
 try:
     import fcntl
@@ -44,6 +45,8 @@ __all__ = ["WriteLock", "command_line", "lock_holder"]
 
 log = logging.getLogger(__name__)
 
+_NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
+_CLOEXEC = getattr(os, "O_CLOEXEC", 0)
 #: A lock file without content younger than this is being written by its holder, s.
 _EMPTY_GRACE_S = 5.0
 
@@ -170,10 +173,14 @@ def lock_holder(path: str | os.PathLike[str]) -> dict[str, Any] | None:
     """
     path = Path(path)
     try:
-        fd = os.open(path, os.O_RDONLY)
+        fd = os.open(path, os.O_RDONLY | _NOFOLLOW | os.O_NONBLOCK | _CLOEXEC)
     except FileNotFoundError:
         return None
+    except OSError:  # a link, or what cannot be opened: it holds no lock of evtribo's
+        return None
     try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            return None
         lock = _try_flock(fd, shared=True)
         if lock:
             fcntl.flock(fd, fcntl.LOCK_UN)
@@ -223,24 +230,36 @@ class WriteLock:
     def acquire(self) -> WriteLock:
         """Take the lock, clearing a stale one; return self.
 
+        The lock file is opened without following a link and must be a regular file of
+        one name holding a lock's content (or nothing): anything else (a link planted in
+        its place, a FIFO, a second name of another file) is refused by name, never
+        written.
+
         Raises
         ------
         LockedError
             A live process holds it.
+        OutputExistsError
+            The file is not a lock file (exit code 2, naming it).
         OSError
             The lock file cannot be created.
         """
         for _ in range(20):
             try:  # created here: nobody else's
-                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL, 0o644)
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_EXCL | _NOFOLLOW
+                             | _CLOEXEC, 0o644)
                 created = True
             except FileExistsError:
                 try:
-                    fd = os.open(self.path, os.O_RDWR)
+                    fd = os.open(self.path, os.O_RDWR | _NOFOLLOW | os.O_NONBLOCK | _CLOEXEC)
                 except FileNotFoundError:  # its holder just removed it
                     continue
+                except OSError as err:
+                    raise self._not_a_lock(err) from None
                 created = False
             try:
+                if not created:
+                    self._check_file(fd)
                 if self._take(fd, created):
                     self._fd = fd
                     return self
@@ -250,6 +269,25 @@ class WriteLock:
             os.close(fd)  # the file was replaced or removed meanwhile: try again
         raise LockedError(f"{self.what}: cannot take its lock (it keeps changing)",
                           path=self.path)
+
+    def _not_a_lock(self, why: OSError | str) -> OutputExistsError:
+        text = why if isinstance(why, str) else (
+            "a symbolic link" if why.errno == errno.ELOOP else why.strerror or str(why))
+        return OutputExistsError(f"not a lock file evtribo wrote ({text}): it is not opened for "
+                           f"writing; if no evtribo command is writing {self.what}, remove "
+                           "it and run this again", path=self.path)
+
+    def _check_file(self, fd: int) -> None:
+        """Refuse a lock file that is not one: not a regular file, a second name of another
+        file, or one holding something else than a lock's content."""
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise self._not_a_lock("not a regular file")
+        if st.st_nlink != 1:
+            raise self._not_a_lock(f"a file of {st.st_nlink} names")
+        raw = _read(fd)
+        if raw and _parse(raw) is None:
+            raise self._not_a_lock("its content is not a lock's")
 
     def _take(self, fd: int, created: bool) -> bool:
         lock = _try_flock(fd)

@@ -30,15 +30,27 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from evtribo.store.files import atomic_write, sha256_file
+from evtribo.errors import UserInputError
+from evtribo.store.files import atomic_write, open_regular, read_limited, sha256_file
 
 log = logging.getLogger(__name__)
 
-__all__ = ["SETTLED_S", "HashMemo", "default_cache_dir", "installed_distributions", "prehash",
-           "software_fingerprint", "software_versions", "tree_digest"]
+__all__ = [
+    "SETTLED_S",
+    "Halted",
+    "HashMemo",
+    "default_cache_dir",
+    "installed_distributions",
+    "prehash",
+    "software_fingerprint",
+    "software_versions",
+    "tree_digest",
+]
 
 #: A file changed less than this long before it was hashed is hashed again next time, s.
 SETTLED_S = 3.0
+#: How long the analysis waits for the head start's hashing to stop once told, s.
+_FINISH_S = 5.0
 
 #: What :func:`prehash` takes for a trial's log or sidecar (the log formats of
 #: :mod:`evtribo.canlog.io.registry`, gzipped or not, and ``.json``): a guess, never a result.
@@ -96,16 +108,29 @@ class HashMemo:
         except (OSError, ValueError, TypeError):
             pass  # unreadable or foreign: every file is hashed
 
-    def sha256(self, path: str | os.PathLike[str]) -> tuple[str, os.stat_result]:
+    def sha256(self, path: str | os.PathLike[str], *, halt: Any = None
+               ) -> tuple[str, os.stat_result]:
         """The file's SHA-256 (remembered, or read now), and its stat from before hashing.
 
         Parameters
         ----------
         path : path-like
+            A regular file (a FIFO or a device is refused, never read:
+            :func:`~evtribo.store.files.open_regular`).
+        halt : Event, optional
+            Stop reading as soon as it is set (:class:`Halted`); the file is read a block
+            at a time.
 
         Returns
         -------
         (str, os.stat_result)
+
+        Raises
+        ------
+        UserInputError
+            *path* is not a regular file.
+        Halted
+            *halt* was set while the file was read.
         """
         name = os.path.abspath(path)
         st = os.stat(path)
@@ -114,7 +139,7 @@ class HashMemo:
                 and st.st_ctime_ns <= rec.get("hashed_ns", 0) - SETTLED_S * 1e9):
             return str(rec["sha256"]), st
         hashed_ns = time.time_ns()
-        digest = sha256_file(path)
+        digest = sha256_file(path) if halt is None else _sha256_until(path, halt)
         self._known[name] = {"stat": _stat_key(st), "sha256": digest, "hashed_ns": hashed_ns}
         self._changed = True
         return digest, st
@@ -134,6 +159,25 @@ class HashMemo:
             atomic_write(self.path, json.dumps({"version": 1, "files": files}))
         except OSError as err:
             log.debug("cannot write %s: %s", self.path, err)
+
+
+class Halted(Exception):
+    """Hashing was stopped before the file's end (its hash is not known)."""
+
+
+#: Bytes read at a time by a hashing that can be stopped.
+_BLOCK = 1 << 20
+
+
+def _sha256_until(path: str | os.PathLike[str], halt: Any) -> str:
+    """SHA-256 of a regular file, read a block at a time until *halt* is set."""
+    h = hashlib.sha256()
+    with os.fdopen(open_regular(path), "rb", buffering=0) as fh:
+        while block := fh.read(_BLOCK):
+            if halt.is_set():
+                raise Halted(os.fspath(path))
+            h.update(block)
+    return h.hexdigest()
 
 
 def tree_digest(folder: Path) -> str:
@@ -238,16 +282,17 @@ def _likely_inputs(root: Path) -> list[Path]:
     :func:`evtribo.study.discover_trials`: it imports python-can for the log formats'
     suffixes, which would hold this thread until the imports it is to overlap are done."""
     files = [root / "study.toml"]
-    try:
-        rig = tomllib.loads(files[0].read_text(encoding="utf-8")).get("rig", {})
+    try:  # a FIFO or a device in its place is never read (the analysis says what it is)
+        text = read_limited(files[0], UserInputError, what="study.toml").decode("utf-8")
+        rig = tomllib.loads(text).get("rig", {})
         if isinstance(rig, dict) and isinstance(rig.get("dbc"), str):
             files.append(root / rig["dbc"])
-    except (OSError, ValueError):
+    except (OSError, ValueError, UserInputError):
         pass
     for folder in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")):
         files += sorted(f for f in folder.iterdir() if not f.name.startswith(".")
-                        and f.name.lower().endswith(_INPUT_SUFFIXES) and f.is_file())
-    return files
+                        and f.name.lower().endswith(_INPUT_SUFFIXES))
+    return [f for f in files if f.is_file()]  # regular files only (links followed)
 
 
 def _hash_ahead(study_dir: str | os.PathLike[str], cache_dir: str | os.PathLike[str] | None,
@@ -261,9 +306,11 @@ def _hash_ahead(study_dir: str | os.PathLike[str], cache_dir: str | os.PathLike[
             if halt.is_set():
                 break
             try:
-                memo.sha256(path)
-            except OSError:
+                memo.sha256(path, halt=halt)
+            except (OSError, UserInputError):  # gone, or not a regular file
                 continue
+            except Halted:
+                break
         memo.save()
     except Exception as err:  # only a head start: the analysis hashes what is left
         log.debug("inputs of %s not hashed ahead: %s", study_dir, err)
@@ -311,9 +358,14 @@ class _Prehash:
         return bool(self._runner.is_alive())
 
     def finish(self) -> None:
-        """Stop after the file being hashed, keep what was hashed, and return."""
+        """Stop hashing (within a block of the file being read), keep what was hashed, and
+        return; a process that does not stop (a file system that does not answer) is
+        ended."""
         self._halt.set()
-        self.join()
+        self.join(_FINISH_S)
+        if self.is_alive() and hasattr(self._runner, "terminate"):
+            self._runner.terminate()
+            self.join(_FINISH_S)
 
 
 def prehash(study_dir: str | os.PathLike[str], cache_dir: str | os.PathLike[str] | None

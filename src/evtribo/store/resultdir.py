@@ -11,15 +11,21 @@ report) this way:
    taken over.
 2. **A new folder beside OUT.** Everything is written into ``.OUT.evtribo-new-<id>/``.
 3. **The commit.** The new files are flushed to disk, then a journal (``.evtribo-commit.json``
-   in the new folder: the files to install, and the stale files of the same commands to
-   remove) is written and flushed. From then on the new results are OUT's results.
+   in the new folder, :mod:`evtribo.store.journal`: the files to install, and the stale files
+   of the same commands to remove, each with its SHA-256) is written and flushed. From then
+   on the new results are OUT's results.
 4. **The swap.** The stale files are removed, the new ones renamed into OUT (one rename
-   each, on the same file system), then the journal and the new folder are removed.
+   each, on the same file system), OUT's manifest records them
+   (:mod:`evtribo.store.owned`), then the journal and the new folder are removed.
 
 A command killed before step 3 leaves OUT as it was (its new folder is deleted by the next
 command on OUT); killed during step 4, the next command on OUT finishes the swap before
-anything else (:func:`recover`, under the lock). Files in OUT that the commands did not write
-are never touched.
+anything else (:func:`recover`, under the lock), once the journal passes its checks
+(:func:`~evtribo.store.journal.read_record`: one planted beside OUT is refused by name).
+A file is replaced or removed only if OUT's manifest shows that the command (or one it
+supersedes) wrote it, with the bytes it has now: files in OUT that evtribo did not write,
+or that were edited since, are never touched, ``--force`` or not; a commit that would
+replace one is refused (exit 2) before anything is moved.
 """
 
 from __future__ import annotations
@@ -30,9 +36,10 @@ import json
 import logging
 import os
 import shutil
+import stat
 import threading
 import uuid
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
@@ -40,17 +47,26 @@ from typing import Any
 
 from evtribo.errors import EvtriboError, LockedError, OutputBusyError, OutputWriteError
 from evtribo.store.files import atomic_write, fsync_path
+from evtribo.store.journal import JOURNAL, STAGE_MARK, VERSION, apply, discard, read_record
 from evtribo.store.lock import WriteLock, lock_holder
+from evtribo.store.owned import (
+    Entry,
+    file_sha256,
+    output_name,
+    owned,
+    plain_path,
+    read_manifest,
+    record,
+    refuse_foreign,
+)
 
 log = logging.getLogger(__name__)
 
-__all__ = ["JOURNAL", "Staging", "holder", "inside", "lock_path", "locked", "pending",
-           "recover", "release_inherited_locks"]
+__all__ = ["JOURNAL", "STAGE_MARK", "Staging", "holder", "inside", "lock_path", "locked",
+           "pending", "recover", "release_inherited_locks"]
 
 LOCK_SUFFIX = ".evtribo-lock"
 STAGE_INFIX = ".evtribo-new-"
-#: The commit record in a new folder: its presence is the commit.
-JOURNAL = ".evtribo-commit.json"
 #: Errors of writing, whichever file they name.
 _WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EIO}
 
@@ -157,6 +173,8 @@ def _acquire(unit: Path, command: str, shown: str | os.PathLike[str]) -> WriteLo
         return WriteLock(path, os.fspath(shown), command=command).acquire()
     except LockedError:
         raise _busy(unit, shown) from None
+    except EvtriboError:  # not a lock file: refused by name
+        raise
     except OSError as err:
         raise OutputWriteError(
             f"cannot create the lock file beside {unit.name} ({err.strerror}): its "
@@ -244,37 +262,7 @@ def pending(unit: str | os.PathLike[str]) -> list[Path]:
     -------
     list of Path
     """
-    return [s for s in _stages(_real(unit)) if (s / JOURNAL).is_file()]
-
-
-def _remove_file(target: Path, rel: str) -> None:
-    path = inside(target, rel)
-    if path is None or not (path.is_file() or path.is_symlink()):
-        return
-    path.unlink()
-    parent = path.parent
-    while parent != target and parent.is_dir() and not any(parent.iterdir()):
-        parent.rmdir()  # a folder of ours left empty (figures/, report_files/)
-        parent = parent.parent
-
-
-def _apply(stage: Path) -> None:
-    doc = json.loads((stage / JOURNAL).read_text(encoding="utf-8"))
-    target = stage.parent / doc["target"]
-    target.mkdir(parents=True, exist_ok=True)
-    for rel in doc["remove"]:
-        _remove_file(target, rel)
-    folders = {target}
-    for rel in doc["install"]:
-        src, dst = stage / rel, target / rel
-        if src.is_file():
-            dst.parent.mkdir(parents=True, exist_ok=True)
-            os.replace(src, dst)
-            folders.add(dst.parent)
-    for folder in folders:
-        fsync_path(folder, directory=True)
-    (stage / JOURNAL).unlink()
-    shutil.rmtree(stage, ignore_errors=True)
+    return [s for s in _stages(_real(unit)) if os.path.lexists(s / JOURNAL)]
 
 
 def recover(unit: str | os.PathLike[str]) -> list[str]:
@@ -296,23 +284,37 @@ def recover(unit: str | os.PathLike[str]) -> list[str]:
         raise RuntimeError(f"recover({path}) without holding its lock")
     done = []
     for stage in _stages(path):
-        if (stage / JOURNAL).is_file():
-            _apply(stage)
+        if os.path.lexists(stage / JOURNAL):
+            apply(stage, read_record(stage, path))
             done.append(f"{path}: finished writing the results of an interrupted run "
                         f"({stage.name})")
-        else:
-            shutil.rmtree(stage, ignore_errors=True)
+        elif _made_here(stage):
+            discard(stage)
             done.append(f"{path}: removed {stage.name}, left by a run that was interrupted "
                         "before it finished writing (the results were not changed)")
+        else:
+            log.warning("%s: left alone: named like a new folder of evtribo's, but not one it "
+                        "made", stage)
     for line in done:
         log.warning("%s", line)
     return done
 
 
+def _made_here(stage: Path) -> bool:
+    """Whether *stage* is a new folder evtribo made (a folder, not a link, holding its
+    mark; or empty)."""
+    try:
+        if not stat.S_ISDIR(os.lstat(stage).st_mode):
+            return False
+        return not any(stage.iterdir()) or stat.S_ISREG(os.lstat(stage / STAGE_MARK).st_mode)
+    except OSError:
+        return False
+
+
 class Staging:
     """Files written into a new folder beside *unit*, swapped into *target* on commit.
 
-    >>> with locked(out, "evtribo analyze"), Staging(out) as stage:   # doctest: +SKIP
+    >>> with locked(out, "evtribo analyze"), Staging(out, by="analyze") as stage:   # doctest: +SKIP
     ...     df.to_csv(stage.path("trials.csv"))
     ...     stage.commit(remove=["fit.csv"], last=["summary.json"])
 
@@ -325,12 +327,26 @@ class Staging:
         The output the lock and the new folder are named after.
     target : path-like, optional
         The folder the files go into (default: *unit* itself, a result folder).
+    by : str
+        The command writing (``"analyze"``), as the target's manifest records it.
+    replaces : collection of str, optional
+        The commands whose files in *target* this one may replace or remove (default:
+        its own).
+    also : mapping of str to Entry, optional
+        Files of the target evtribo wrote that its manifest does not list (an older
+        evtribo's results, vouched for by their documents' SHA-256): recorded in the
+        manifest at the commit, before anything is replaced.
     """
 
     def __init__(self, unit: str | os.PathLike[str],
-                 target: str | os.PathLike[str] | None = None) -> None:
+                 target: str | os.PathLike[str] | None = None, *, by: str,
+                 replaces: Collection[str] | None = None,
+                 also: Mapping[str, Entry] | None = None) -> None:
         self.unit = _real(unit)
         self.target = _real(target) if target is not None else self.unit
+        self.by = by
+        self.replaces = frozenset(replaces if replaces is not None else (by,))
+        self.also = dict(also or {})
         home, prefix = _home(self.unit)
         self.folder = home / f"{prefix}{STAGE_INFIX}{uuid.uuid4().hex}"
         self.committed = False
@@ -338,22 +354,59 @@ class Staging:
     def __enter__(self) -> Staging:
         try:
             self.folder.mkdir(parents=True)
+            (self.folder / STAGE_MARK).write_bytes(b"")
         except OSError as err:
             raise self._write_error(err) from err
         return self
 
     def path(self, rel: str) -> Path:
         """Where to write the file that will be ``target / rel`` (its folder created)."""
-        p = inside(self.folder, rel)
-        if p is None:
-            raise ValueError(f"not a path inside the output: {rel!r}")
+        if not output_name(rel):
+            raise ValueError(f"not a name evtribo writes inside the output: {rel!r}")
+        p = self.folder / rel
         p.parent.mkdir(parents=True, exist_ok=True)
         return p
 
     def files(self) -> list[str]:
         """The files written so far, relative to the target."""
         return sorted(p.relative_to(self.folder).as_posix() for p in self.folder.rglob("*")
-                      if p.is_file() and p.name != JOURNAL)
+                      if p.is_file() and p.name not in (JOURNAL, STAGE_MARK))
+
+    def refuse_foreign(self, rels: Iterable[str]) -> None:
+        """Refuse (before the work) outputs where files this command may not replace are.
+
+        Parameters
+        ----------
+        rels : iterable of str
+            Names relative to the target.
+
+        Raises
+        ------
+        OutputExistsError
+            Naming the first such file (:func:`~evtribo.store.owned.refuse_foreign`).
+        """
+        refuse_foreign(self.target, rels, self.replaces)
+
+    def _plan(self, install: list[str], remove: Iterable[str]) -> dict[str, Any]:
+        """The commit record: what to install (over what), what to remove."""
+        self.refuse_foreign(install)
+        manifest = read_manifest(self.target)
+        todo = []
+        for rel in install:
+            fsync_path(self.folder / rel)
+            old = owned(self.target, rel, self.replaces, manifest=manifest)
+            todo.append([rel, file_sha256(self.folder / rel), old])
+        stale = []
+        for rel in sorted(set(remove) - set(install)):
+            digest = owned(self.target, rel, self.replaces, manifest=manifest)
+            if digest is not None:
+                stale.append([rel, digest])
+            elif (p := plain_path(self.target, rel)) is not None and os.path.lexists(p):
+                log.info("%s: left as it is: not a file evtribo %s wrote", p,
+                         " or ".join(sorted(self.replaces)))
+        return {"evtribo": "commit", "version": VERSION, "unit": self.unit.name,
+                "target": os.path.relpath(self.target, self.folder.parent), "by": self.by,
+                "install": todo, "remove": stale}
 
     def commit(self, remove: Iterable[str] = (), last: Sequence[str] = ()) -> None:
         """Make the new files the output's: flush them, write the journal, swap them in.
@@ -361,26 +414,36 @@ class Staging:
         Parameters
         ----------
         remove : iterable of str
-            Files of the target (relative) to remove: stale outputs of the same commands.
+            Files of the target (relative) to remove: stale outputs of the same commands
+            (only those the target's manifest shows evtribo wrote are removed).
         last : sequence of str
             Files installed after all others (the one that says what the others are).
+
+        Raises
+        ------
+        OutputExistsError
+            A file to replace is not one this command may replace (nothing is moved).
         """
         install = self.files()
         install.sort(key=lambda rel: (rel in last, last.index(rel) if rel in last else 0))
-        stale = sorted(set(remove) - set(install))
         try:
-            for rel in install:
-                fsync_path(self.folder / rel)
-            doc = {"target": os.path.relpath(self.target, self.folder.parent),
-                   "install": install, "remove": stale}
+            self.target.mkdir(parents=True, exist_ok=True)
+            adopt = {rel: e for rel, e in self.also.items()
+                     if (p := plain_path(self.target, rel)) is not None
+                     and file_sha256(p) == e.sha256}
+            if adopt:  # what an older evtribo wrote, as its documents show: now listed
+                record(self.target, adopt)
+            doc = self._plan(install, remove)
             atomic_write(self.folder / JOURNAL, json.dumps(doc, indent=1), durable=True)
         except OSError as err:
+            if isinstance(err, EvtriboError):
+                raise
             raise self._write_error(err) from err
         self.committed = True  # from here on, the new files are the output
         try:
-            _apply(self.folder)
+            apply(self.folder, doc)
         except BaseException:
-            _apply(self.folder)  # interrupted (Ctrl-C, SIGTERM) mid-swap: finish it first
+            apply(self.folder, doc)  # interrupted (Ctrl-C, SIGTERM) mid-swap: finish it first
             raise
 
     def abort(self) -> None:

@@ -68,6 +68,8 @@ _TIMESPEC = struct.Struct("@ll")
 _COUNT = struct.Struct("@I")
 _ANCILLARY = socket.CMSG_SPACE(_TIMESPEC.size) + socket.CMSG_SPACE(_COUNT.size)
 _RMEM_MAX = Path("/proc/sys/net/core/rmem_max")
+#: The largest receive queue a socket option can ask for (a C int), bytes.
+_INT_MAX = 2**31 - 1
 
 
 @dataclass(frozen=True)
@@ -177,6 +179,9 @@ class SocketcanBus(_PythonCanSocketcanBus):
                 or receive_buffer < 0:
             raise ValueError(f"receive_buffer must be a number of bytes >= 0, got "
                              f"{receive_buffer!r}")
+        if receive_buffer > _INT_MAX:  # setsockopt takes a C int
+            raise ValueError(f"receive_buffer must be at most {_INT_MAX} bytes (the kernel "
+                             f"takes a C int), got {receive_buffer!r}")
         super().__init__(channel, fd=fd, **kwargs)
         try:
             self.receive_queue = size_receive_queue(self.socket, receive_buffer)

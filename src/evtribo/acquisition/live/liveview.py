@@ -14,10 +14,17 @@ Server-Sent Events: ``GET /`` is the page (no external asset: styles and script 
 
 Only this machine is served, whatever reaches the port: a request whose ``Host`` header is
 not a loopback name (``127.0.0.1``, ``localhost``, ``[::1]``) is refused with 403, so that a
-web page elsewhere cannot read the state through DNS rebinding; a client that sends nothing
-(or stops reading the stream) for :data:`IDLE_TIMEOUT_S` is dropped, and at most
-:data:`MAX_CLIENTS` are served at once (the others get 503), so half-open connections
-cannot pile up threads.
+web page elsewhere cannot read the state through DNS rebinding. At most :data:`MAX_CLIENTS`
+connections are served at once, so half-open connections cannot pile up threads; and they
+cannot shut the viewer out either:
+
+- a request must arrive whole within :data:`IDLE_TIMEOUT_S` of its connection, however
+  its bytes trickle in (a client sending a byte every few seconds is dropped then, not kept
+  for ever by a timeout that each byte restarts);
+- when every connection is taken, the oldest one whose request is still incomplete is
+  dropped to make room for the newcomer (a browser sends its request at once, so it is
+  served); only when all are streams being watched does a newcomer get 503;
+- a client that stops reading its stream for :data:`IDLE_TIMEOUT_S` is dropped.
 """
 
 from __future__ import annotations
@@ -25,6 +32,7 @@ from __future__ import annotations
 import json
 import logging
 import math
+import socket
 import threading
 import time
 from collections.abc import Mapping
@@ -41,7 +49,8 @@ __all__ = ["IDLE_TIMEOUT_S", "MAX_CLIENTS", "RATE_HZ", "LiveView"]
 RATE_HZ = 20.0
 #: Default port of ``--view`` without a number.
 DEFAULT_PORT = 8765
-#: Seconds a client may stay silent (or leave the stream unread) before it is dropped.
+#: Seconds a client has to send its whole request (and may leave its stream unread) before
+#: it is dropped.
 IDLE_TIMEOUT_S = 10.0
 #: Clients served at once (a browser tab holds one for its stream).
 MAX_CLIENTS = 16
@@ -61,16 +70,61 @@ def _own_host(header: str | None, names: frozenset[str], port: int) -> bool:
 
 
 class _BoundedServer(ThreadingHTTPServer):
-    """A threading HTTP server that serves at most *limit* connections at once."""
+    """A threading HTTP server that serves at most *limit* connections at once, gives each
+    *deadline_s* to deliver its whole request, and drops the oldest incomplete one to make
+    room for a newcomer."""
 
     daemon_threads = True
 
-    def __init__(self, address: tuple[str, int], handler: Any, limit: int) -> None:
+    def __init__(self, address: tuple[str, int], handler: Any, limit: int,
+                 deadline_s: float) -> None:
         super().__init__(address, handler)
         self._slots = threading.BoundedSemaphore(limit)
+        self._deadline_s = deadline_s
+        self._pending: dict[Any, float] = {}  # connection -> when it came, in order
+        self._pending_lock = threading.Lock()
+
+    def started(self, request: Any) -> None:
+        """A connection is served: its request is awaited."""
+        with self._pending_lock:
+            self._pending[request] = time.monotonic()
+
+    def complete(self, request: Any) -> None:
+        """Its request arrived whole (or the connection ended)."""
+        with self._pending_lock:
+            self._pending.pop(request, None)
+
+    def _drop(self, request: Any) -> None:
+        try:
+            request.shutdown(socket.SHUT_RDWR)  # its thread's read ends; the slot comes back
+        except OSError:
+            pass
+
+    def _make_room(self) -> bool:
+        """Drop the oldest connection whose request is incomplete; whether there was one."""
+        with self._pending_lock:
+            oldest = next(iter(self._pending), None)
+            if oldest is None:
+                return False
+            del self._pending[oldest]
+        self._drop(oldest)
+        return True
+
+    def service_actions(self) -> None:
+        """Between polls: drop the connections whose request is late."""
+        now = time.monotonic()
+        with self._pending_lock:
+            late = [r for r, t in self._pending.items() if now - t > self._deadline_s]
+            for r in late:
+                del self._pending[r]
+        for r in late:
+            self._drop(r)
 
     def process_request(self, request: Any, client_address: Any) -> None:
-        if not self._slots.acquire(blocking=False):
+        free = self._slots.acquire(blocking=False)
+        if not free and self._make_room():
+            free = self._slots.acquire(timeout=2.0)
+        if not free:
             try:
                 request.sendall(b"HTTP/1.0 503 Service Unavailable\r\nContent-Length: 0\r\n"
                                 b"Connection: close\r\n\r\n")
@@ -78,12 +132,14 @@ class _BoundedServer(ThreadingHTTPServer):
                 pass
             self.shutdown_request(request)
             return
+        self.started(request)
         super().process_request(request, client_address)
 
     def process_request_thread(self, request: Any, client_address: Any) -> None:
         try:
             super().process_request_thread(request, client_address)
         finally:
+            self.complete(request)
             self._slots.release()
 
 
@@ -113,7 +169,8 @@ class LiveView:
     rate_Hz : float
         Updates per second to each browser.
     idle_timeout_s : float, s
-        A client silent (or not reading its stream) this long is dropped.
+        A client whose request is not whole this long after it connected (or that does not
+        read its stream this long) is dropped.
     max_clients : int
         Clients served at once; more get 503.
 
@@ -171,6 +228,11 @@ class LiveView:
             def log_message(self, format: str, *args: Any) -> None:
                 log.debug("live view: " + format, *args)
 
+            def parse_request(self) -> bool:
+                ok = super().parse_request()  # the request line and headers are in
+                server.complete(self.connection)
+                return ok
+
             def do_GET(self) -> None:
                 path = self.path.split("?", 1)[0]
                 if not _own_host(self.headers.get("Host"), names, view.port):
@@ -193,7 +255,8 @@ class LiveView:
                 self.end_headers()
                 self.wfile.write(body)
 
-        server = _BoundedServer((self.host, self.port), Handler, self.max_clients)
+        server = _BoundedServer((self.host, self.port), Handler, self.max_clients,
+                                self.idle_timeout_s)
         self._server = server
         self.port = int(server.server_address[1])
         self._thread = threading.Thread(target=server.serve_forever, kwargs={

@@ -22,8 +22,8 @@ from evtribo.acquisition.simulator.realism import human, realistic_rig
 from evtribo.canlog.io import write_candump
 from evtribo.canlog.io.table import FrameTable
 from evtribo.canlog.rig import Rig, default_rig
-from evtribo.documents.sidecar import rig_entry, write_sidecar
-from evtribo.errors import ConfigError, OutputExistsError, RigConfigError
+from evtribo.documents.sidecar import read_sidecar, rig_entry, write_sidecar
+from evtribo.errors import ConfigError, EvtriboError, OutputExistsError, RigConfigError
 from evtribo.store.files import atomic_open, partial_path
 from evtribo.store.lock import WriteLock
 from evtribo.study import STUDY_FILE, read_study_toml, validate_name
@@ -255,6 +255,32 @@ def _refuse_existing(log_path: Path, force: bool) -> None:
     if existing and not force:
         raise OutputExistsError("trial exists already (use {force} to overwrite): "
                                 + ", ".join(str(p) for p in existing), path=existing[0])
+    if existing:
+        _refuse_recorded(log_path)
+
+
+def _refuse_recorded(log_path: Path) -> None:
+    """``--force`` replaces a trial evtribo simulated (its sidecar says so), never a
+    recording: nothing recorded is ever lost."""
+    sidecar = log_path.with_suffix(".json")
+    part = partial_path(log_path)
+    why = None
+    if part.exists():
+        why = f"{part.name} is a recording that was cut short"
+    else:
+        try:
+            extra = read_sidecar(sidecar, default_subject=log_path.parent.name).extra
+        except (OSError, EvtriboError):
+            extra = {}
+        bus = extra.get("bus")
+        if "simulation" not in extra or not isinstance(bus, dict) or \
+                bus.get("interface") != "simulated":
+            why = ("its sidecar does not say it was simulated: a recording (made from a bus)"
+                   if sidecar.exists() else "it has no sidecar saying it was simulated")
+    if why is not None:
+        raise OutputExistsError(f"{why}; evtribo simulate replaces only a trial it simulated, "
+                                "{force} included (nothing recorded is ever lost): choose "
+                                "another trial name", path=log_path)
 
 
 def _write_files(log_path: Path, frames: FrameTable, truth: TrialTruth, subject: SubjectParams,

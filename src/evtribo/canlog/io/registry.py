@@ -35,7 +35,7 @@ from evtribo.canlog.io.pycan import read_with_python_can
 from evtribo.canlog.io.sniff import Sniffed, sniff
 from evtribo.canlog.io.table import FrameTable
 from evtribo.errors import LogFormatError
-from evtribo.store.files import PARTIAL_SUFFIX
+from evtribo.store.files import PARTIAL_SUFFIX, check_regular_file
 
 log = logging.getLogger(__name__)
 
@@ -156,8 +156,10 @@ def _checked_reader(path: str | os.PathLike[str]) -> tuple[str, Reader]:
         raise LogFormatError(
             f"unknown log format {fmt or '(no suffix)'!r}{hint}; supported: "
             + ", ".join(supported_suffixes()) + f" (each also gzipped, .gz).{looks}", path=path)
-    if not os.path.isfile(path):
-        raise LogFormatError("no such file", path=path)
+    try:  # a FIFO or a device is refused by name, never read
+        check_regular_file(path, LogFormatError, what="CAN log")
+    except FileNotFoundError:
+        raise LogFormatError("no such file", path=path) from None
     return fmt, _reader(path, fmt, base)
 
 

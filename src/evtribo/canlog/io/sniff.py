@@ -2,10 +2,17 @@
 
 A log saved under another format's suffix (Vector ASC text as ``run-01.log``, a SavvyCAN CSV
 as ``run-01.csv``, candump's screen output as ``run-01.log``) would otherwise be read by the
-wrong reader: zero frames and every line "damaged". :func:`sniff` looks at the first
-64 KiB (decompressed for a ``.gz`` name) and tells what the file looks like, which suffix
+wrong reader: zero frames and every line "damaged". :func:`sniff` looks at the file's first
+lines (decompressed for a ``.gz`` name) and tells what the file looks like, which suffix
 evtribo reads it under, and how to convert it, the way MNE's ``read_raw`` suggests the
 right reader for a file.
+
+A text log after a power cut may begin with a run of NUL bytes (blocks the file system lost)
+or a junk line of any length; the readers skip both, and so does :func:`sniff`: it looks
+past NULs and lines longer than :data:`MAX_LINE`, through up to :data:`SCAN_BYTES`, for the
+first :data:`HEAD_LINES` lines. :func:`frame_line` goes through the whole file for one
+line that is a frame of a text log (what :mod:`evtribo.guard` asks before it lets a file be
+written over).
 """
 
 from __future__ import annotations
@@ -13,16 +20,22 @@ from __future__ import annotations
 import gzip
 import os
 import re
+import stat
 import zlib
 from collections import Counter
 from dataclasses import dataclass
+from typing import BinaryIO
 
 from evtribo.store.files import PARTIAL_SUFFIX
 
-#: Bytes looked at.
+#: Bytes looked at (of a binary format; read at a time for a text one).
 HEAD_BYTES = 1 << 16
 #: Non-empty lines looked at.
 HEAD_LINES = 40
+#: A line longer than this is no record of any log format: junk, skipped, bytes.
+MAX_LINE = 4096
+#: Bytes of a text file looked through for its first lines (past NULs and junk lines).
+SCAN_BYTES = 16 << 20
 #: What a header line weighs against one frame line.
 _HEADER_WEIGHT = 5
 
@@ -143,12 +156,75 @@ def _stem(path: str | os.PathLike[str]) -> str:
     return name
 
 
-def _head(path: str | os.PathLike[str]) -> bytes | None:
+def _open(path: str | os.PathLike[str]) -> BinaryIO | None:
+    """*path* open for reading if it is a regular file (a FIFO or a device is not read)."""
     try:
-        with open(path, "rb") as fh:
-            return fh.read(HEAD_BYTES)
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
     except OSError:
         return None
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        return None
+    return os.fdopen(fd, "rb")
+
+
+def _head(path: str | os.PathLike[str]) -> bytes | None:
+    fh = _open(path)
+    if fh is None:
+        return None
+    with fh:
+        try:
+            return fh.read(HEAD_BYTES)
+        except OSError:
+            return None
+
+
+class _Lines:
+    """The lines of a text file, NUL bytes removed and lines over :data:`MAX_LINE` dropped,
+    fed a block at a time."""
+
+    def __init__(self) -> None:
+        self.lines: list[bytes] = []
+        self._part = b""
+        self._junk = False  # inside a line too long to keep
+
+    def feed(self, block: bytes, *, last: bool = False) -> None:
+        pieces = (self._part + block.replace(b"\x00", b"")).split(b"\n")
+        self._part = b"" if last else pieces.pop()
+        for i, piece in enumerate(pieces):
+            if not (self._junk and i == 0) and len(piece) <= MAX_LINE:
+                self.lines.append(piece)
+            self._junk = False
+        if len(self._part) > MAX_LINE:
+            self._part, self._junk = b"", True
+
+    def text(self) -> str:
+        return "\n".join(ln.decode("utf-8", "replace") for ln in self.lines)
+
+    def count(self) -> int:
+        return sum(1 for ln in self.lines if ln.strip())
+
+
+def _text_head(path: str | os.PathLike[str], first: bytes) -> str:
+    """The first lines of a text file whose first bytes are *first* (see :class:`_Lines`),
+    read further while there are fewer than :data:`HEAD_LINES`, up to SCAN_BYTES."""
+    lines = _Lines()
+    lines.feed(first)
+    fh = _open(path) if lines.count() < HEAD_LINES and len(first) == HEAD_BYTES else None
+    if fh is None:
+        lines.feed(b"", last=True)
+        return lines.text()
+    with fh:
+        fh.seek(len(first))
+        seen = len(first)
+        while lines.count() < HEAD_LINES and seen < SCAN_BYTES:
+            block = fh.read(HEAD_BYTES)
+            if not block:
+                break
+            seen += len(block)
+            lines.feed(block)
+    lines.feed(b"", last=True)
+    return lines.text()
 
 
 def _gunzip_head(raw: bytes) -> bytes | None:
@@ -180,6 +256,14 @@ def sniff_bytes(head: bytes) -> Sniffed | None:
             return Sniffed("gzip", "gzip-compressed data", None)
         return Sniffed(f"gzip:{found.kind}", f"gzip-compressed {found.description}",
                        found.suffix + ".gz", found.first_line)
+    lines = _Lines()
+    lines.feed(head, last=True)
+    return _sniff_lines(head, lines.text())
+
+
+def _sniff_lines(head: bytes, text: str) -> Sniffed | None:
+    """What a file of no binary format is, from its first bytes and its first lines (NUL
+    bytes and junk lines left out)."""
     wide = _wide_text(head)
     if wide is not None:
         found = _sniff_text(head.decode(wide, "replace"))
@@ -189,7 +273,7 @@ def sniff_bytes(head: bytes) -> Sniffed | None:
                            found.suffix, found.first_line, encoding)
     # NUL bytes: binary data, or a text log with a run of them (a file system's answer to a
     # power cut): the lines decide
-    found = _sniff_text(head.replace(b"\x00", b"").decode("utf-8", "replace"))
+    found = _sniff_text(text)
     if b"\x00" in head[:4096] and (found is None or found.kind in ("unknown", "csv")):
         return Sniffed("binary", "binary data of no log format evtribo knows", None)
     return found
@@ -256,7 +340,55 @@ def sniff(path: str | os.PathLike[str]) -> Sniffed | None:
                 head = fh.read(HEAD_BYTES)
         except (OSError, EOFError, zlib.error):
             head = _gunzip_head(head) or b""
-    return sniff_bytes(head)
+        return sniff_bytes(head)
+    if any(head.startswith(magic) for magic, *_ in _MAGIC) or head.startswith(b"\x1f\x8b"):
+        return sniff_bytes(head)
+    return _sniff_lines(head, _text_head(path, head))
 
 
-__all__ = ["PYTHON_CAN_CSV_HEADER", "Sniffed", "sniff", "sniff_bytes"]
+#: A frame's line in each text log format, anywhere in a file (bytes, one line at a time).
+_FRAME_LINE = re.compile(
+    rb"^[ \t]*(?:"
+    rb"(?P<candump_L>\([ \t]*\d+(?:\.\d+)?[ \t]*\)[ \t]+\S+[ \t]+[0-9A-Fa-f]{1,8}#)"
+    rb"|(?P<candump_text>\((?:\d+\.\d+|\d{4}-\d\d-\d\d \d\d:\d\d:\d\d\.\d+)\)[ \t]+\S+"
+    rb"[ \t]+(?:[RT]X[ \t]+\S[ \t]\S[ \t]+)?[0-9A-Fa-f]{3,8}[ \t]+"
+    rb"(?:\[\d{1,4}\]|\{[0-9A-Fa-f]\}))"
+    rb"|(?P<asc>\d+\.\d+[ \t]+(?:\d+|CANFD)[ \t]+(?:\d+[ \t]+)?[0-9A-Fa-f]+x?[ \t]+"
+    rb"(?:Rx|Tx))"
+    rb"|(?P<python_can_csv>\d+(?:\.\d*)?,(?:0x)?[0-9A-Fa-f]+,[01],[01],[01],\d+,))",
+    re.MULTILINE)
+
+
+def frame_line(path: str | os.PathLike[str]) -> Sniffed | None:
+    """The first line anywhere in *path* (NUL bytes and junk lines skipped, however long the
+    file) that is a frame of a text log (candump, ASC, python-can CSV), as what the file
+    is; None when there is none, or when *path* is not a regular file.
+
+    Parameters
+    ----------
+    path : path-like
+
+    Returns
+    -------
+    Sniffed or None
+    """
+    fh = _open(path)
+    if fh is None:
+        return None
+    with fh:
+        lines = _Lines()
+        while True:
+            block = fh.read(1 << 22)
+            lines.feed(block, last=not block)
+            found = _FRAME_LINE.search(b"\n".join(lines.lines))
+            if found is not None:
+                kind = str(found.lastgroup).replace("_", "-")
+                description, suffix = _DESCRIPTIONS[kind]
+                return Sniffed(kind, description, suffix, found.group(0).decode(
+                    "utf-8", "replace").strip()[:80])
+            if not block:
+                return None
+            lines.lines.clear()
+
+
+__all__ = ["PYTHON_CAN_CSV_HEADER", "Sniffed", "frame_line", "sniff", "sniff_bytes"]

@@ -147,9 +147,15 @@ def _run(args: argparse.Namespace, address: str | None, hold: Any) -> int:
     with heavy_imports():
         from evtribo.analysis.settings import parse_setting
         from evtribo.results.pipeline import analyze_study
-        from evtribo.results.unchanged import remember
+        from evtribo.results.unchanged import remember, study_key
 
     hashing.finish()
+    # the study as it is before the analysis keys what it wrote: a trial recorded meanwhile
+    # (a session still recording) is not filed as analysed
+    try:
+        study_now = study_key(args.study, _options(args)) if address is None else None
+    except OSError:  # the analysis says what is wrong; nothing is kept
+        study_now = None
     overrides = dict(parse_setting(text) for text in args.set)
     for key in _FLAGS:
         if getattr(args, key) is not None:
@@ -166,8 +172,9 @@ def _run(args: argparse.Namespace, address: str | None, hold: Any) -> int:
                                 force=args.force, cache_dir=cache_dir,
                                 overrides=overrides, progress=progress, scheduler=client,
                                 reuse=not args.recompute)
-            if client is None:
-                remember(args.study, _options(args), res.summary, args.out, args.cache_dir)
+            if study_now is not None:
+                remember(args.study, _options(args), res.summary, args.out, args.cache_dir,
+                         key=study_now)
     except Terminated:
         return _terminated(args.out)
     return _report(res.summary, res.out_dir, args.out, hold)

@@ -31,17 +31,17 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """Export the study's forces; return the exit code."""
-    from evtribo.errors import OutputExistsError, UserInputError
+    from evtribo.errors import UserInputError
     from evtribo.guard import refuse_input
     from evtribo.results.export import export_forces
+    from evtribo.store.owned import check_output, claim
 
     out = args.output
     suffix = os.path.splitext(out)[1].lower()
     if suffix != ".mf4":
         raise UserInputError(f"output must end in .mf4, not {suffix or '(none)'!r}", path=out)
     refuse_input(out, command="evtribo export", key="-o")
-    if os.path.exists(out) and not args.force:
-        raise OutputExistsError("exists; use --force to overwrite", path=out)
+    check_output(out, "export", force=args.force, key="-o")  # only its own: --force or not
 
     def progress(done: int, total: int, key: str) -> None:
         print(f"[{done}/{total}] {key}", file=sys.stderr, flush=True)
@@ -49,6 +49,7 @@ def run(args: argparse.Namespace) -> int:
     print("analysing each trial again to export its aligned forces (a few seconds a trial)",
           file=sys.stderr, flush=True)
     done = export_forces(args.study, out, subjects=args.subject, progress=progress)
+    claim(out, "export")
     for why in done.skipped:
         print(f"left out: {why}", file=sys.stderr)
     print(f"{out}: {len(done.groups)} trials' aligned forces ({done.samples} samples in all: "

@@ -91,11 +91,21 @@ def _json_number(value: float) -> float | None:
     return value if math.isfinite(value) else None
 
 
+#: The largest magnitude of each point option the model is evaluated at (far beyond a
+#: fingertip's; beyond them its numbers overflow).
+_HIGHEST = {"--normal-force": (1e6, "N"), "--voltage": (1e9, "V"),
+            "--frequency": (1e15, "Hz")}
+
+
 def _check_point(value: float, key: str, *, minimum: float | None = None) -> float:
     if not math.isfinite(value):
         raise ConfigError(f"must be finite, got {value!r}", key=key)
     if minimum is not None and value < minimum:
         raise ConfigError(f"must be >= {minimum:g}, got {value!r}", key=key)
+    high, unit = _HIGHEST[key]
+    if abs(value) > high:
+        raise ConfigError(f"must be at most {high:g} {unit} in magnitude, got {value!r}",
+                          key=key)
     return value
 
 

@@ -22,13 +22,15 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+from pathlib import Path
 from typing import Any
 
 from matplotlib.figure import Figure
 
-from evtribo.errors import OutputExistsError, UserInputError
+from evtribo.errors import UserInputError
 from evtribo.guard import refuse_cache_in_study, refuse_input
 from evtribo.store.files import atomic_open
+from evtribo.store.owned import check_output, claim
 
 #: Figure formats, by the output's suffix.
 FORMATS = {".png": "png", ".svg": "svg", ".pdf": "pdf"}
@@ -109,8 +111,7 @@ def _check_output(out: str | None, force: bool) -> str | None:
         raise UserInputError("the figure's format comes from its suffix: .png, .svg or .pdf, "
                              f"not {suffix or '(none)'!r}", path=out)
     refuse_input(out, command="evtribo plot", key="-o")  # --force or not
-    if os.path.exists(out) and not force:
-        raise OutputExistsError("exists; use --force to overwrite", path=out)
+    check_output(out, "plot", force=force, key="-o")  # only its own: --force or not
     return FORMATS[suffix]
 
 
@@ -127,8 +128,10 @@ def _window_figure() -> Figure:
 
 def _save(fig: Figure, out: str, fmt: str) -> None:
     """Write *fig* to *out* as one unit."""
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
     with atomic_open(out, "wb") as fh:
         fig.savefig(fh, format=fmt, dpi=PNG_DPI if fmt == "png" else "figure")
+    claim(out, "plot")
 
 
 def _trial(args: argparse.Namespace, window: Figure | None) -> Figure:

@@ -13,23 +13,27 @@ value tables kept; :mod:`evtribo.canlog.decode_mf4`).
 The log is read and written a block at a time (Parquet by row groups), so memory does not
 grow with the log.
 
-An existing output is kept unless ``--force``; a raw log or a study's input never is,
-``--force`` included (:mod:`evtribo.guard`): not the log being decoded (whatever the spelling
-of its path, symbolic links followed), not any other CAN log, and no ``.csv`` inside a
-study's subject folder (``evtribo analyze`` would take it for a trial's log).
+An existing output is kept unless ``--force``, and ``--force`` replaces only a table
+``decode`` wrote, as its folder's manifest shows (:mod:`evtribo.store.owned`); a raw log or
+a study's input never is replaced (:mod:`evtribo.guard`): not the log being decoded
+(whatever the spelling of its path, symbolic links followed), not any other CAN log, and no
+``.csv`` inside a study's subject folder (``evtribo analyze`` would take it for a trial's
+log). The output's folder is created if missing.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+from pathlib import Path
 from typing import Any
 
 from evtribo.canlog.decode_mf4 import write_mf4
 from evtribo.canlog.decode_table import load_dbc_file, write_decoded
 from evtribo.canlog.io import FrameStream
-from evtribo.errors import OutputExistsError, UserInputError
+from evtribo.errors import UserInputError
 from evtribo.guard import refuse_input
+from evtribo.store.owned import check_output, claim
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -62,21 +66,23 @@ def run(args: argparse.Namespace) -> int:
                              "value tables (a reader shows the names)", key="--choices")
     refuse_input(out, command="evtribo decode", source=args.log,  # --force or not
                  source_is="the log being decoded", key="-o")
-    if os.path.exists(out) and not args.force:
-        raise OutputExistsError("exists; use --force to overwrite", path=out)
+    check_output(out, "decode", force=args.force, key="-o")  # only its own: --force or not
     FrameStream(args.log)  # the log is checked before the DBC is loaded
     db = load_dbc_file(args.dbc)
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
 
     def open_stream(warn: bool) -> FrameStream:
         return FrameStream(args.log, strict=args.strict, warn=warn)
 
     if suffix == ".mf4":
         mf4 = write_mf4(open_stream, db, out, channel=args.channel)
+        claim(out, "decode")
         print(f"{out}: {mf4.rows} frames decoded of {mf4.frames} "
               f"({mf4.report.skipped_lines} damaged lines skipped), {mf4.signals} signals "
               f"in {mf4.groups} channel groups (one per message)")
         return 0
     done = write_decoded(open_stream, db, out, choices=args.choices, channel=args.channel)
+    claim(out, "decode")
     print(f"{out}: {done.rows} frames decoded of {done.frames} "
           f"({done.report.skipped_lines} damaged lines skipped), {done.signals} signals")
     return 0

@@ -5,7 +5,7 @@ A few pilot subjects record the design's trials on the simulated rig and are ana
 the researcher expects and measured with the pilots' errors, are then analysed as ``evtribo
 compare`` does. Printed: the expected 95 % interval of a subject's F_el, of the population's
 F_el and of its exponent, and the power to detect a contrast between two conditions, for each
-number of subjects asked (:mod:`evtribo.population.plan`; docs/population.md).
+number of subjects asked (evtribo.population.plan; docs/population.md).
 """
 
 from __future__ import annotations

@@ -116,6 +116,8 @@ KINDS: tuple[Kind, ...] = (
          r"friction modulation at|no oscillation of the friction"),
     Kind("same-log", "information", "the same recording under two names",
          r"the same recording under\s+two names"),
+    Kind("cut-short", "information", "recordings cut short (what was recorded analysed)",
+         r"the recording was (?:interrupted|ended)"),
     Kind("whole-off", "information", "no whole-OFF trial", r"no whole-OFF trial"),
     Kind("study-files", "information", "study files",
          r"no sidecar|partial trial|unknown key .* ignored|is the trial's complete|"
@@ -126,6 +128,9 @@ _COMPILED = tuple((k, re.compile(k.pattern)) for k in KINDS)
 #: A number in a message (not a digit of a name: run-03, 0C1).
 _NUMBER = re.compile(r"(?<![\w.-])[-+]?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?(?![\w.]\d)(?!\w)")
 _TRIAL = re.compile(r"^(?P<subject>[^\s/:]+)/(?P<trial>[^\s/:]+): (?P<rest>.*)$", re.S)
+#: A trial named by its log's path (``.../P01/run-02.log: ...``).
+_LOG = re.compile(r"^(?:[^:]*/)?(?P<subject>[^\s/:]+)/(?P<trial>[^\s/:.]+)\.\w+: (?P<rest>.*)$",
+                  re.S)
 _CELL = re.compile(r"^(?P<subject>[^\s:]+) \((?P<drive>[^()]*)\) at (?P<amp>[-+0-9.eE]+) V: "
                    r"(?P<rest>.*)$", re.S)
 _DRIVE = re.compile(r"^(?P<subject>[^\s:]+) \((?P<drive>[^()]*)\): (?P<rest>.*)$", re.S)
@@ -247,9 +252,10 @@ def _drive(text: str) -> tuple[str | None, float | None]:
 def _scope(line: str, subjects: set[str], trials: set[tuple[str, str]]
            ) -> tuple[str, object, str]:
     """``(kind of scope, where, the rest of the text)`` of one line."""
-    m = _TRIAL.match(line)
-    if m and (m["subject"], m["trial"]) in trials:
-        return "trial", (m["subject"], m["trial"]), m["rest"]
+    for pattern in (_TRIAL, _LOG):
+        m = pattern.match(line)
+        if m and (m["subject"], m["trial"]) in trials:
+            return "trial", (m["subject"], m["trial"]), m["rest"]
     m = _CELL.match(line)
     if m and m["subject"] in subjects:
         wave, freq = _drive(m["drive"])
