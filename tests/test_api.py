@@ -370,3 +370,22 @@ def test_the_api_page_is_up_to_date():
     assert page == module.page(), "docs/api.md is out of date: python scripts/api_doc.py"
     for name in evtribo.api.__all__:
         assert f"## `evtribo.{name}`" in page
+
+
+def test_a_trials_table_of_an_earlier_version_is_read_with_the_newer_columns_empty(tmp_path):
+    """trials.csv as evtribo 0.2.0 wrote it (no seconds analysed and left out, no duplicate
+    frames): read, those columns empty; a column 0.2.0 wrote missing is still refused."""
+    from evtribo.analysis.trial import TRIAL_COLUMNS
+    from evtribo.api.results import NEWER_COLUMNS, read_table
+    from evtribo.errors import UserInputError
+
+    old = [c for c in TRIAL_COLUMNS if c not in NEWER_COLUMNS]
+    row = {c: ("P01" if c == "subject" else "run-01" if c == "trial" else "1") for c in old}
+    path = tmp_path / "trials.csv"
+    pd.DataFrame([row], columns=old).to_csv(path, index=False)
+    table = read_table(path, TRIAL_COLUMNS)
+    assert set(NEWER_COLUMNS) <= set(table.columns)
+    assert table[sorted(NEWER_COLUMNS)].isna().all().all()
+    pd.DataFrame([row], columns=old).drop(columns="frames").to_csv(path, index=False)
+    with pytest.raises(UserInputError, match="frames"):
+        read_table(path, TRIAL_COLUMNS)

@@ -226,3 +226,42 @@ def test_compare_goes_on_past_a_subject_without_a_force(tmp_path, caplog):
     assert (primary.loc[primary["quantity"] == "electrostatic_force_N", "n_subjects"]
             == 5).all()
     assert primary.loc[primary["quantity"] == "h_L_m", "n_subjects"].tolist() == [4]
+
+
+@pytest.mark.parametrize("subjects", [3, 6])
+def test_the_population_figure_shows_the_subjects_not_the_whole_prediction_band(chain,
+                                                                              subjects):
+    """Every subject's point and the mean's band are inside the force axis; the prediction
+    band (wide with few subjects: three give its t one degree of freedom) runs beyond it
+    only with a word on the plot."""
+    import dataclasses
+
+    from evtribo.figures.population_plots import plot_population
+    from evtribo.figures.style import journal_style
+    from evtribo.fit.tables import read_results
+    from evtribo.population.estimates import population
+
+    _, out = chain
+    tables = read_results(out)
+    kept = tables.subjects[:subjects]
+
+    def only(df):
+        return None if df is None else df[df["subject"].astype(str).isin(kept)]
+
+    tables = dataclasses.replace(
+        tables, **{name: only(getattr(tables, name)) for name in
+                   ("electrostatic", "windows", "exponents", "trials", "bootstrap")})
+    pop = population(tables)
+    condition = next(iter(pop.lines))
+    with journal_style():
+        ax = plot_population(tables.electrostatic, pop, condition)
+    low, high = ax.get_ylim()
+    forces = 1e3 * tables.electrostatic["electrostatic_force_N"].to_numpy(float)
+    assert np.all((forces[forces > 0] >= low) & (forces[forces > 0] <= high))
+    assert high / low < 1e3  # decades of the data, not the band of a new subject
+    edges = [line.get_ydata() for line in ax.get_lines() if line.get_linewidth() == 0.6]
+    assert len(edges) == 2  # the prediction band's
+    beyond = any(np.nanmin(y) < low or np.nanmax(y) > high for y in edges)
+    said = any("beyond the axes" in t.get_text() for t in ax.texts)
+    assert said == beyond
+    assert beyond == (subjects == 3)

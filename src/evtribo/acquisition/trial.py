@@ -20,9 +20,9 @@ bus-error     the bus raised on receive (adapter unplugged, pty      1
 disk-error    the log could not be written (disk full...); the log   1
               ends with the last whole line written
 no-rig-data   none of the rig's load-cell messages arrived within    1
-              ``rig_data_timeout`` (3 s), or in a shorter trial: the
-              wrong bus, or a study whose DBC is not this rig's; the
-              log keeps what came
+              ``rig_data_timeout`` (3 s), or in a shorter trial:
+              the wrong bus, or a study whose DBC is not this
+              rig's; the log keeps what came
 recording     (only in a sidecar left by a killed process)
 ============  =====================================================  =========
 

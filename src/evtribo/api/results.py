@@ -43,7 +43,8 @@ COUNT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off", "
                  "duplicate_frames")
 
 #: Columns a result folder written by an earlier version lacks: read as empty.
-NEWER_COLUMNS = frozenset({"duplicate_frames"})
+NEWER_COLUMNS = frozenset({"duplicate_frames", "analysed_s", "excluded_switch_s",
+                           "excluded_lift_s", "excluded_unsteady_s", "excluded_other_s"})
 
 #: read_csv's options that read back every float to_csv wrote, bit for bit (pandas 3's
 #: default parser does; pandas 2's needs its round-trip parser).

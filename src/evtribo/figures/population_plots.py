@@ -165,11 +165,29 @@ def plot_population(electrostatic: pd.DataFrame, pop: Population, condition: Con
     ax.text(0.03, 0.97, f"population: $n$ = {n_hat.value:.2f} [{lo:.2f}, {hi:.2f}]",
             transform=ax.transAxes, ha="left", va="top", fontsize="small")
     _force_axes(ax, amps)
+    _zoomed(ax, es, 1e3 * band, 1e3 * pred)
     _nonpositive_note(ax, hidden)
     place_legend(ax, first + handles, first_labels + labels, ncol_outside=4, inside=False,
                  handler_map={tuple: HandlerTuple(ndivide=1)}, fontsize="small",
                  handlelength=2.4, columnspacing=1.0)
     return ax
+
+
+def _zoomed(ax: Axes, es: pd.DataFrame, band: np.ndarray, pred: np.ndarray) -> None:
+    """The force axis over the subjects' points with their intervals and the mean's band
+    (mN), a factor of 2 beyond; where the prediction band reaches further (few subjects: its
+    t has k - 2 degrees of freedom), it runs off the axes, and the plot says so."""
+    f, err = _errors_mN(es)
+    values = np.concatenate([f - err[0], f + err[1], band.ravel()])
+    values = values[np.isfinite(values) & (values > 0)]
+    if values.size == 0:
+        return
+    low, high = float(values.min()) / 2.0, float(values.max()) * 2.0
+    if np.nanmin(pred) >= low and np.nanmax(pred) <= high:
+        return
+    ax.set_ylim(low, high)
+    ax.text(0.97, 0.03, "prediction band runs beyond the axes", transform=ax.transAxes,
+            ha="right", va="bottom", fontsize="x-small", color="0.3")
 
 
 def _caption(pop: Population, condition: Condition) -> str:

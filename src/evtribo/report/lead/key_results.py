@@ -3,8 +3,8 @@
 - :func:`key_results`: one sentence; a table per voltage (the population's F_el, the relative
   friction increase ΔF_t/F_t,OFF over the subjects, how many subjects, the cells flagged by a
   warning) and one per subject (the air gap h_L, the exponent n of F_el ∝ U^n, the friction
-  law's exponent m when the analysis gives it, the model verdict, the flagged cells);
-with the warnings (``W1``...) that touch each cell (:mod:`evtribo.report.lead.marks`).
+  law's exponent m when the analysis gives it, the model verdict, the flagged cells),
+  with the warnings (``W1``...) that touch each cell (:mod:`evtribo.report.lead.marks`).
 
 The relative friction increase of a cell is ``100 (friction_on_N / friction_off_N - 1)`` of
 electrostatic.csv: the mean friction of its ON windows over that of the OFF windows they
