@@ -117,22 +117,40 @@ def test_what_is_excluded_is_what_the_simulator_did(lab):
     assert found_mid >= 1, "a lift-off in the middle of a trial should be found"
 
 
+def _segments(line: Line2D) -> list[tuple[float, float, float]]:
+    """``(x0, x1, y)`` of each bar of a line drawn as bars broken by NaN."""
+    x = np.asarray(line.get_xdata(), float)
+    y = np.asarray(line.get_ydata(), float)
+    assert np.isnan(x[2::3]).all() and (y[0::3] == y[1::3]).all()
+    return [(x[i], x[i + 1], y[i]) for i in range(0, x.size, 3)]
+
+
 def test_the_figure_draws_each_window_and_the_stretches(lab):
     study, _, _ = lab
     check = check_trial(study, "P01", "run-02")
     ax = draw_trial_check(check)
     bars = [ln for ln in ax.get_lines() if ln.get_linewidth() > 2]
-    assert len(bars) == 2 * len(check.windows)  # on the normal force and on the friction
-    on_bars = {ln.get_color() for ln in bars if ln.get_linestyle() == "-"}
-    off_bars = {ln.get_color() for ln in bars if ln.get_linestyle() != "-"}
-    assert len(on_bars) == len(off_bars) == 1 and on_bars != off_bars
+    on_bars = [ln for ln in bars if ln.get_linestyle() == "-"]
+    off_bars = [ln for ln in bars if ln.get_linestyle() != "-"]
+    assert len(on_bars) == len(off_bars) == 2  # on the normal force and on the friction
+    assert len({ln.get_color() for ln in on_bars}) == len({ln.get_color() for ln in off_bars})\
+        == 1 and on_bars[0].get_color() != off_bars[0].get_color()
+    drawn = [seg for ln in bars for seg in _segments(ln)]
+    assert len(drawn) == 2 * len(check.windows)
+    for w in check.windows.itertuples():  # each window's bars, at its means in mN
+        mine = [seg for seg in drawn if seg[0] == pytest.approx(w.t_start_s, abs=1e-6)
+                and seg[1] == pytest.approx(w.t_end_s, abs=1e-6)]
+        heights = sorted(abs(y) for _, _, y in mine)
+        assert heights == pytest.approx(sorted([1e3 * w.normal_force_N,
+                                                1e3 * w.friction_force_N]), rel=1e-9)
     legend = [t.get_text() for t in ax.get_legend().get_texts()]
     assert {"normal force", "tangential force", "ON window (mean)", "OFF window (mean)",
             "voltage ON", "finger lifted: zero read", "ON/OFF switch (guard)"} <= set(legend)
-    for bar, w in zip(bars[::2], check.windows.itertuples(), strict=True):
-        assert bar.get_xdata()[0] == pytest.approx(w.t_start_s, abs=1e-6)
-        assert bar.get_ydata()[0] == pytest.approx(w.normal_force_N)
-    assert ax.get_title() == ""
+    assert ax.get_title() == "" and ax.get_ylabel() == "force (mN)"
+    traces = [ln for ln in ax.get_lines() if ln.get_linewidth() < 1 and ln.get_gid() != "zero"]
+    assert traces and all(ln.get_rasterized() for ln in traces)  # light in SVG and PDF
+    normal = check.pieces[0].forces.normal
+    assert np.nanmax(traces[0].get_ydata()) == pytest.approx(1e3 * np.nanmax(normal), rel=1e-6)
 
 
 def test_the_caption_counts_what_the_figure_shows(lab):
@@ -156,7 +174,7 @@ def test_a_figure_per_trial_and_one_saying_why_for_a_trial_not_analysed(lab, tmp
     assert [f.stem for f in figures] == ["trial_P01_run-01", "trial_P01_run-02",
                                          "trial_P01_run-03"]
     good, bad = figures[0], figures[1]
-    assert len([ln for ln in good.axes.get_lines() if ln.get_linewidth() > 2]) > 0
+    assert len([ln for ln in good.axes.get_lines() if ln.get_linewidth() > 2]) == 4
     assert "not analysed" in bad.caption
     assert any("not analysed" in t.get_text() for t in bad.axes.texts)
     assert bad.error and bad.error in bad.caption  # compare makes a note of it
@@ -220,7 +238,7 @@ def test_the_recorded_reference_study(tmp_path):
         check = check_trial(study, "P02", trial)
         _same_windows(check.windows, res.windows[res.windows.trial == trial])
         ax = draw_trial_check(check)
-        assert len([ln for ln in ax.get_lines() if isinstance(ln, Line2D)
-                    and ln.get_linewidth() > 2]) == 2 * len(check.windows)
+        assert len([seg for ln in ax.get_lines() if ln.get_linewidth() > 2
+                    for seg in _segments(ln)]) == 2 * len(check.windows)
         kinds = {s.kind for s in excluded_stretches(check)}
         assert "switch" in kinds and "lifted" not in kinds  # no tare stretch recorded

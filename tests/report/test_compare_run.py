@@ -39,7 +39,8 @@ def test_compare_writes_fit_and_figures(compared_out):
     assert [f["stem"] for f in doc["figures"]] == list(stems)
     first = doc["figures"][0]
     assert first["kind"] == "electrostatic_force_all" and first["subject"] is None
-    assert set(first) == {"kind", "title", "stem", "subject", "caption"}
+    assert set(first) == {"kind", "title", "stem", "subject", "caption", "key", "dpi"}
+    assert len(first["key"]) == 40 and first["dpi"] == 40.0  # what its files were drawn from
     assert doc["fit"] == ["h_L"]
     assert doc["subjects"]["P02"]["parameters"]["h_L"] == pytest.approx(
         fit.loc[fit["subject"] == "P02", "value"].item())

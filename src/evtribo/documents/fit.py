@@ -6,8 +6,11 @@ fitted, from its ``summary.json``), ``software``, ``fit`` (the parameters fitted
 (per subject: ``parameters``, ``estimates``, ``correlation``, ``rmse_N``, ``r2``,
 ``chi2_reduced``, ``n_points``, ``mu_measured``, ``interval``), ``figures``, ``notes``,
 ``population`` (``n_subjects``, ``min_subjects``, ``notes``: what could not be estimated and
-why, ``outliers``: each ``{"subject", "quantity", "value", "low", "high", "unit"}``) and
-``output_sha256`` (every file compare wrote, which ``evtribo report`` checks). The document
+why, ``outliers``: each ``{"subject", "quantity", "value", "low", "high", "unit"}``),
+``compare_key`` (what the comparison was made from: the analysis, the options, the software;
+:func:`evtribo.report.kept.compare_key`) and ``output_sha256`` (every file compare wrote,
+which ``evtribo report`` checks). Each figure's record names the key and resolution its
+files were drawn from (``key``, ``dpi``). The document
 is JSON with two-space indentation and a final newline; non-finite numbers are written as
 null. It carries no version key of its own: :data:`FIT_VERSION` is the version of the shape
 this module writes and reads.
@@ -36,7 +39,7 @@ FIT_VERSION = 1
 #: The keys ``evtribo compare`` writes, in its order.
 FIT_KEYS: tuple[str, ...] = ("run_id", "software", "fit", "parameters_file",
                              "fixed_parameters", "subjects", "figures", "notes",
-                             "population", "output_sha256")
+                             "population", "compare_key", "output_sha256")
 
 
 @dataclass(frozen=True)

@@ -257,7 +257,11 @@ def place_legend(ax: Axes, handles: Sequence[Any] | None = None,
     if not handles:
         return None
     root: Figure = ax.figure.figure  # the figure itself, or a subfigure's
-    root.draw_without_rendering()  # fixes the layout and the limits
+    engine = root.get_layout_engine()
+    if engine is not None:
+        engine.execute(root)  # fixes the layout (the limits below)
+    else:
+        root.draw_without_rendering()
     ax.set_xlim(ax.get_xlim())
     ax.set_ylim(ax.get_ylim())
     make: Any = ax.legend  # loc as a plain str

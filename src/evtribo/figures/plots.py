@@ -12,6 +12,7 @@ canvas on a machine without a display; :func:`save_figure` writes them with text
 
 from __future__ import annotations
 
+import io
 import logging
 import re
 from collections.abc import Mapping, Sequence
@@ -56,12 +57,14 @@ from evtribo.util.numbers import significant
 
 log = logging.getLogger(__name__)
 
-__all__ = ["new_axes", "plot_area_increase", "plot_electrostatic_force",
+__all__ = ["figure_bytes", "new_axes", "plot_area_increase", "plot_electrostatic_force",
            "plot_electrostatic_force_all", "plot_friction_normal_force", "plot_friction_time",
            "safe_name", "save_figure", "trace_voltage"]
 
-#: Text as text in SVG and PDF, whatever style the figure was drawn in.
-_TEXT_AS_TEXT: Any = {"svg.fonttype": "none", "pdf.fonttype": 42, "ps.fonttype": 42}
+#: Text as text in SVG and PDF, whatever style the figure was drawn in; the SVG's ids
+#: from a fixed salt (not a random one), so that the same figure gives the same bytes.
+_TEXT_AS_TEXT: Any = {"svg.fonttype": "none", "pdf.fonttype": 42, "ps.fonttype": 42,
+                      "svg.hashsalt": "evtribo"}
 
 
 def safe_name(name: str) -> str:
@@ -113,6 +116,41 @@ def save_figure(fig: Figure, folder: str | Path, stem: str, *, dpi: float = DEFA
                 fig.savefig(fh, dpi=dpi, format=fmt, metadata=_metadata(fmt))
             paths.append(path)
     return paths
+
+
+def figure_bytes(fig: Figure, formats: Sequence[str], *, dpi: float = DEFAULT_DPI
+                 ) -> dict[str, bytes]:
+    """*fig* in each format, as :func:`save_figure` writes it, its layout worked out once
+    for all of them (then fixed: each format is drawn once).
+
+    Parameters
+    ----------
+    fig : Figure
+        The figure (its layout engine, if any, is run once and then removed).
+    formats : sequence of str
+        Suffixes matplotlib knows (``png``, ``svg``, ``pdf``).
+    dpi : float
+        Resolution of raster formats, and of rasterised artists in vector ones, dots per
+        inch.
+
+    Returns
+    -------
+    dict
+        The bytes of each format; the same figure gives the same bytes.
+    """
+    out = {}
+    with mpl.rc_context(_TEXT_AS_TEXT):
+        engine = fig.get_layout_engine()
+        if engine is not None:
+            engine.execute(fig)  # the layout, once (the artists are drawn by each format)
+            with mpl.rc_context({"figure.autolayout": False,
+                                 "figure.constrained_layout.use": False}):
+                fig.set_layout_engine(None)
+        for fmt in formats:
+            buf = io.BytesIO()
+            fig.savefig(buf, dpi=dpi, format=fmt, metadata=_metadata(fmt))
+            out[fmt] = buf.getvalue()
+    return out
 
 
 def _metadata(fmt: str) -> dict[str, str | None]:

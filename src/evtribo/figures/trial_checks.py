@@ -1,78 +1,229 @@
-"""The check of every trial in compare's figures: what the analysis did with each trial.
+"""The check of each trial among compare's figures: what the analysis did with each trial.
 
 ``compare`` draws one figure per trial of the analysed study (kind ``trial``, stem
-``trial_<subject>_<trial>``; :mod:`evtribo.figures.trial_plots`) when the study folder that
-``summary.json`` names is still there, and says so in its notes when it is not.
+``trial_<subject>_<trial>``; :mod:`evtribo.figures.trial_plots`) from the sketch ``evtribo
+analyze`` kept of it (:func:`evtribo.results.check.kept_sketches`): no trial is read or
+analysed again. A trial whose sketch is not kept (a cache cleared, another cache folder,
+an analysis of an older evtribo) is analysed again from the study folder, which must then be
+there; a trial the analysis could not analyse gets a figure saying why.
+
+Which trials (:data:`WHICH`): ``all``, ``none``, or ``auto`` (the default): every trial of a
+study of at most :data:`AUTO_ALL` trials; of a larger one, those the analysis warned about
+or could not analyse, and a note says how to draw the others.
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+import os
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from evtribo.errors import UserInputError
+from evtribo.errors import AnalysisError, UserInputError
+from evtribo.figures.trial_plots import trial_stem
 from evtribo.fit.tables import ResultTables
+from evtribo.results.check import check_trial, kept_sketches, sketch_of
+from evtribo.results.sketch import TrialSketch
+from evtribo.study import load_study
 
-__all__ = ["CHECK_DPI", "write_trial_checks"]
+__all__ = ["AUTO_ALL", "CHECK_DPI", "WHICH", "CheckFigure", "chosen_trials", "parse_which",
+           "sketch_again", "trial_checks"]
 
 log = logging.getLogger(__name__)
 
-#: Resolution of the trial checks' PNGs: figures to look at, not to print.
+#: Most resolution of the trial checks' PNGs (and of their rasterised traces in SVG and
+#: PDF), dots per inch: figures to look at on a screen, 1033 pixels wide at 175 mm.
 CHECK_DPI = 150.0
+#: Which trials' checks compare draws.
+WHICH = ("auto", "all", "none")
+#: A study of at most this many trials gets every trial's check by default (``auto``).
+AUTO_ALL = 24
 
 
-def write_trial_checks(tables: ResultTables, emit: Callable[..., None],
-                       formats: tuple[str, ...],
-                       progress: Callable[[str], None] | None = None) -> list[str]:
-    """Draw the check of every trial of the analysed study and write it through *emit*.
+@dataclass(frozen=True)
+class CheckFigure:
+    """A trial's check to draw: from its sketch, or saying why it was not analysed.
+
+    Attributes
+    ----------
+    subject, trial : str
+        The trial.
+    caption : str
+        The figure's caption (:func:`~evtribo.figures.trial_plots.trial_caption`).
+    sketch : TrialSketch or None
+        What the figure draws; None for a trial not analysed.
+    error : str or None
+        Why the trial was not analysed.
+    """
+
+    subject: str
+    trial: str
+    caption: str
+    sketch: TrialSketch | None = None
+    error: str | None = None
+
+    @property
+    def stem(self) -> str:
+        """``trial_<subject>_<trial>`` (:func:`~evtribo.figures.trial_plots.trial_stem`)."""
+        return trial_stem(self.subject, self.trial)
+
+
+def parse_which(which: bool | str | None) -> str:
+    """Which trials' checks to draw, as compare's ``trial_checks`` takes it.
+
+    Parameters
+    ----------
+    which : bool or str or None
+        One of :data:`WHICH`; True is ``all``, False ``none``, None ``auto``.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    UserInputError
+        Another word (key ``--trial-checks``).
+    """
+    if which is None or which is True or which is False:
+        return {None: "auto", True: "all", False: "none"}[which]
+    if str(which) not in WHICH:
+        raise UserInputError(f"expected one of {', '.join(WHICH)}, got {which!r}",
+                             key="--trial-checks")
+    return str(which)
+
+
+def _warned(warnings: Iterable[Any], keys: Sequence[str]) -> set[str]:
+    """The trials (``subject/trial``) a warning of the analysis begins with."""
+    heads = {str(w).split(": ", 1)[0] for w in warnings}
+    return {k for k in keys if k in heads}
+
+
+def chosen_trials(tables: ResultTables, which: str) -> tuple[list[tuple[str, str]], list[str]]:
+    """The trials (of ``trials.csv``, in its order) whose checks to draw, and a note on
+    those left out.
+
+    Parameters
+    ----------
+    tables : ResultTables
+        The result folder.
+    which : str
+        One of :data:`WHICH`.
+
+    Returns
+    -------
+    (list of (str, str), list of str)
+        ``(subject, trial)`` of each check to draw; the notes.
+    """
+    rows = tables.trials
+    if which == "none" or rows.empty:
+        return [], []
+    trials = list(zip(rows["subject"].astype(str), rows["trial"].astype(str), strict=True))
+    if which == "all" or len(trials) <= AUTO_ALL:
+        return trials, []
+    keys = [f"{s}/{t}" for s, t in trials]
+    flagged = _warned(tables.summary.get("warnings") or [], keys)
+    flagged |= {str(f.get("trial")) for f in tables.summary.failed_trials}
+    chosen = [st for st, k in zip(trials, keys, strict=True) if k in flagged]
+    note = (f"Each trial's check: drawn for the {len(chosen)} of {len(trials)} trials the "
+            f"analysis warned about or could not analyse (a study of more than {AUTO_ALL} "
+            "trials); `evtribo compare OUT --force --trial-checks all` draws every trial's "
+            "(from what the analysis kept of each, no trial analysed again; the figures "
+            "drawn before are reused), `evtribo plot trial STUDY SUBJECT TRIAL` one.")
+    return chosen, [note]
+
+
+def sketch_again(job: tuple[str, str, str, Mapping[str, Any], str | None]) -> bytes | str:
+    """A trial analysed again for its check: its sketch's bytes, or why it could not be.
+
+    Parameters
+    ----------
+    job : tuple
+        ``(study folder, subject, trial, settings, cache folder)``; the settings as
+        ``summary.json`` gives them.
+
+    Returns
+    -------
+    bytes or str
+        The sketch (:meth:`~evtribo.results.sketch.TrialSketch.to_bytes`), or the error.
+    """
+    study, subject, trial, settings, cache_dir = job
+    try:
+        return sketch_of(check_trial(study, subject, trial, settings=settings,
+                                     cache_dir=cache_dir)).to_bytes()
+    except (AnalysisError, UserInputError) as err:
+        log.info("%s/%s: no check figure: %s", subject, trial, err)  # its figure says why
+        return str(err)
+
+
+Mapper = Callable[[Callable[[Any], Any], list[Any]], list[Any]]
+
+
+def trial_checks(tables: ResultTables, which: str = "auto", *,
+                 cache_dir: str | os.PathLike[str] | None = None,
+                 mapper: Mapper | None = None) -> tuple[list[CheckFigure], list[str]]:
+    """The check of each trial chosen (:func:`chosen_trials`), ready to draw.
 
     Parameters
     ----------
     tables : ResultTables
         The result folder's tables (``summary.json`` names the study and the settings).
-    emit : callable
-        ``emit(ax, kind, title, stem, *, subject, caption, extra, formats, dpi)``, which
-        writes one figure and records it.
-    formats : tuple of str
-        The figure formats asked for; the checks are written as PNG (at :data:`CHECK_DPI`)
-        when PNG is among them, else in the first.
-    progress : callable, optional
-        Told ``"[k/n] check of SUBJECT/TRIAL"`` after each trial's figure.
+    which : str
+        One of :data:`WHICH`.
+    cache_dir : path-like, optional
+        The cache folder the analysis used (default: ``$EVTRIBO_CACHE_DIR`` or
+        ``~/.cache/evtribo``).
+    mapper : callable, optional
+        ``mapper(func, items)``: the results of ``func`` on each item, in order (a pool of
+        worker processes); the trials analysed again go through it (default: here).
 
     Returns
     -------
-    list of str
-        Notes for the user (the study is gone, a trial the analysis analysed could not be
-        checked); a trial the analysis could not analyse is said by its figure alone.
+    (list of CheckFigure, list of str)
+        The checks in ``trials.csv``'s order; notes for the user (the study is gone, a
+        trial the analysis analysed could not be checked, the trials left out).
     """
-    from evtribo.figures.trial_plots import trial_check_figures
+    from evtribo.figures.trial_plots import trial_caption
 
+    chosen, notes = chosen_trials(tables, which)
+    if not chosen:
+        return [], notes
     study_dir = tables.summary.study_dir
     if not study_dir or not Path(study_dir).is_dir():
-        return [f"The study folder {study_dir or '(not recorded)'} is not there: no check "
-                "figures of the trials (run compare where the study is)."]
-    fmt = ("png",) if "png" in formats else formats[:1]
-    notes: list[str] = []
-    failed = {str(f.get("trial")) for f in tables.summary.failed_trials}
+        return [], [*notes, f"The study folder {study_dir or '(not recorded)'} is not there: "
+                            "no check figures of the trials (run compare where the study is)."]
     try:
-        checks = trial_check_figures(study_dir, tables.all_subjects,
-                                     tables.summary.settings)
-        total = len(tables.trials) if not tables.trials.empty else None
-        for k, f in enumerate(checks, start=1):
-            if progress is not None:
-                progress(f"[{k}/{total or '?'}] check of {f.subject}/{f.trial}")
-            if f.error is not None and f"{f.subject}/{f.trial}" not in failed:
-                notes.append(f.caption)  # not said by the analysis: the study changed since
-            emit(f.axes, "trial", f"{f.subject} / {f.trial}", f.stem, subject=f.subject,
-                 caption=f.caption, extra={"trial": f.trial}, formats=fmt, dpi=CHECK_DPI)
-            _close(f.axes)
+        study = load_study(study_dir)
     except UserInputError as err:  # the study changed since the analysis
-        notes.append(f"No check figures of the trials: {err}")
-    return notes
+        return [], [*notes, f"No check figures of the trials: {err}"]
+    kept = kept_sketches(study, tables.summary, cache_dir)
+    failed = {str(f.get("trial")): str(f.get("error")) for f in tables.summary.failed_trials}
+    again = [(s, t) for s, t in chosen if f"{s}/{t}" not in kept and f"{s}/{t}" not in failed]
+    if again:
+        log.info("%d trial(s) analysed again for their checks (no sketch kept of them)",
+                 len(again))
+        jobs = [(os.fspath(study.root), s, t, dict(tables.summary.settings),
+                 None if cache_dir is None else os.fspath(cache_dir)) for s, t in again]
+        found = (mapper or _here)(sketch_again, jobs)
+        for (s, t), got in zip(again, found, strict=True):
+            if isinstance(got, bytes):
+                kept[f"{s}/{t}"] = TrialSketch.from_bytes(got)
+            else:
+                failed[f"{s}/{t}"] = got
+                notes.append(f"Trial {s}/{t}: not analysed, so nothing to check: {got}")
+    out = []
+    for s, t in chosen:
+        sketch = kept.get(f"{s}/{t}")
+        if sketch is not None:
+            out.append(CheckFigure(s, t, trial_caption(sketch), sketch))
+        else:
+            why = failed.get(f"{s}/{t}", "no sketch")
+            out.append(CheckFigure(s, t, f"Trial {s}/{t}: not analysed, so nothing to check: "
+                                         f"{why}", error=why))
+    return out, notes
 
 
-def _close(ax: Any) -> None:
-    """Let a drawn figure go (the figures are pyplot-free, but drop their canvas)."""
-    ax.figure.clear()
+def _here(func: Callable[[Any], Any], items: list[Any]) -> list[Any]:
+    return [func(item) for item in items]

@@ -1,17 +1,23 @@
 """The check of a trial as a figure: what the analysis used, and what it left out.
 
 One Axes per trial: the normal force and the tangential force (with its sign: it follows
-the sliding direction) over time from the trial's start, as the analysis worked on them
-(calibrated, tared, mains hum removed); the ON phases shaded; each steady-sliding window a
-thick bar at its mean force over its span, ON and OFF windows apart (colour and line style,
-so that they stay apart in greyscale); the finger-lifted stretches where the zero was read;
-and, hatched, what no window may use (guard times at ON/OFF switches, unknown state, the
-finger leaving or touching down, missing frames, pauses). A researcher sees at once when
-the analysis picked the wrong stretches.
+the sliding direction) over time from the trial's start, in mN, as the analysis worked on
+them (calibrated, tared, mains hum removed); the ON phases shaded; each steady-sliding
+window a thick bar at its mean force over its span, ON and OFF windows apart (colour and
+line style, so that they stay apart in greyscale); the finger-lifted stretches where the
+zero was read; and, hatched, what no window may use (guard times at ON/OFF switches,
+unknown state, the finger leaving or touching down, missing frames, pauses). A researcher
+sees at once when the analysis picked the wrong stretches.
 
-:func:`trial_check_figures` gives one such figure per trial of a study, with its caption, for
-``evtribo compare`` to save as kind ``trial`` (stem ``trial_<subject>_<trial>``, see
-:func:`trial_stem`).
+A check is drawn from the trial's :class:`~evtribo.results.sketch.TrialSketch`: the one
+``evtribo analyze`` kept (:func:`evtribo.results.check.kept_sketches`), or one made from a
+new analysis (:func:`~evtribo.results.check.check_trial`, :func:`~evtribo.results.check.
+sketch_of`). The traces are rasterised in SVG and PDF (a trial's thousands of points, drawn
+at the resolution asked) and the windows are two lines per condition, so that a check is
+quick to write and to open.
+
+:func:`trial_check_figures` gives one such figure per trial of a study, with its caption
+(stem ``trial_<subject>_<trial>``, see :func:`trial_stem`).
 """
 
 from __future__ import annotations
@@ -23,14 +29,12 @@ from collections.abc import Iterator, Mapping, Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
-import numpy.typing as npt
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from evtribo.analysis.forces.conditions import ON
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.errors import AnalysisError, UserInputError
 from evtribo.results.check import (
@@ -38,20 +42,20 @@ from evtribo.results.check import (
     Stretch,
     TrialCheck,
     check_trial,
-    excluded_stretches,
     settings_of,
+    sketch_of,
 )
+from evtribo.results.sketch import MAX_POINTS, TrialSketch, envelope
 from evtribo.study import Study, load_study
 
 log = logging.getLogger(__name__)
 
-__all__ = ["MAX_POINTS", "TRIAL_FIGSIZE", "TrialFigure", "draw_trial_check", "envelope",
-           "plot_trial", "trial_caption", "trial_check_figures", "trial_stem"]
+__all__ = ["MAX_POINTS", "TRIAL_FIGSIZE", "TrialFigure", "draw_failed",
+           "draw_trial_check", "envelope", "plot_trial", "trial_caption",
+           "trial_check_figures", "trial_stem"]
 
 #: Size of a trial's figure, inches: a journal's double column (175 mm) wide.
 TRIAL_FIGSIZE = (6.89, 2.9)
-#: Most points drawn per force line (longer traces are drawn as their min/max envelope).
-MAX_POINTS = 4000
 
 # Okabe-Ito colours: apart for colour-blind readers
 _NORMAL, _TANGENTIAL = "#0072B2", "#009E73"
@@ -61,6 +65,8 @@ _TRACE_LW = 0.6
 #: One pattern per kind of excluded stretch, each unlike the others (not only its direction).
 _HATCH = {"switch": "///", "lift-edge": "ooo", "unknown": "xxx", "hole": "...",
           "pause": "|||"}
+#: The forces are drawn in mN.
+_MN = 1e3
 
 
 def trial_stem(subject: str, trial: str) -> str:
@@ -90,48 +96,16 @@ def _new_axes() -> Axes:
     return fig.add_subplot()
 
 
-def envelope(t: npt.NDArray[np.float64], y: npt.NDArray[np.float64]
-             ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
-    """A trace as drawn: its samples, or for a long one the minimum and maximum of each of
-    :data:`MAX_POINTS` / 2 bins (what the pixels would show anyway; a bin without samples
-    breaks the line).
-
-    Parameters
-    ----------
-    t : ndarray of float64
-        Times, increasing.
-    y : ndarray of float64
-        Values (NaN where missing).
-
-    Returns
-    -------
-    (ndarray, ndarray)
-        The times and values to draw.
-    """
-    if t.size <= MAX_POINTS:
-        return t, y
-    starts = np.linspace(0, t.size, MAX_POINTS // 2, endpoint=False).astype(np.int64)
-    with np.errstate(invalid="ignore"):
-        lo = np.fmin.reduceat(y, starts)
-        hi = np.fmax.reduceat(y, starts)
-    stops = np.append(starts[1:], t.size)
-    mid = t[(starts + stops - 1) // 2]
-    return (np.column_stack([t[starts], mid]).ravel(), np.column_stack([lo, hi]).ravel())
+def _as_sketch(check: TrialCheck | TrialSketch) -> TrialSketch:
+    return check if isinstance(check, TrialSketch) else sketch_of(check)
 
 
-def _spans(ax: Axes, check: TrialCheck, stretches: list[Stretch]) -> set[str]:
+def _spans(ax: Axes, sketch: TrialSketch, stretches: list[Stretch]) -> set[str]:
     """Shade the ON phases, the lifted stretches and what is excluded; the kinds drawn."""
     kinds = set()
-    lifted = [(s.t_start, s.t_end) for s in stretches if s.kind == "lifted"]
-    for piece in check.pieces:
-        t = piece.forces.t - check.t0
-        dt = 1.0 / piece.forces.rate_Hz
-        on = piece.condition == ON
-        for a0, b0 in lifted:  # a lifted stretch shows as lifted, not in a mix of colours
-            on &= ~((t + dt > a0) & (t < b0))
-        edges = np.flatnonzero(np.diff(np.concatenate(([0], on.view(np.int8), [0]))))
-        for a, b in zip(edges[::2], edges[1::2], strict=True):
-            ax.axvspan(t[a], t[b - 1] + dt, color=_ON_SHADE, alpha=0.35, lw=0, zorder=0)
+    for piece in sketch.pieces:
+        for a, b in piece.on:
+            ax.axvspan(a, b, color=_ON_SHADE, alpha=0.35, lw=0, zorder=0)
             kinds.add("on")
     for s in stretches:
         if s.kind == "lifted":
@@ -143,29 +117,35 @@ def _spans(ax: Axes, check: TrialCheck, stretches: list[Stretch]) -> set[str]:
     return kinds
 
 
-def _windows(ax: Axes, check: TrialCheck) -> set[str]:
+def _bars(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Segments ``(x0, x1)`` at heights *y* as one line, broken between them."""
+    n = x.shape[0]
+    xs = np.column_stack([x, np.full(n, np.nan)]).ravel()
+    ys = np.column_stack([y, y, np.full(n, np.nan)]).ravel()
+    return xs, ys
+
+
+def _windows(ax: Axes, sketch: TrialSketch) -> set[str]:
     """Each window a thick bar at its mean force (normal, and the friction with the
-    stroke's sign) over its span, a tick at each end (windows often follow each other); the
-    conditions drawn."""
+    stroke's sign) over its span, a tick at each end (windows often follow each other): one
+    line per condition and force; the conditions drawn."""
+    bars = np.concatenate([p.windows for p in sketch.pieces]) if sketch.pieces else \
+        np.empty((0, 4))
+    on = np.concatenate([p.window_on for p in sketch.pieces]) if sketch.pieces else \
+        np.empty(0, dtype=bool)
     drawn = set()
-    for piece in check.pieces:
-        w = piece.windows
-        if w.empty:
+    for condition, mask in (("on", on), ("off", ~on)):
+        if not mask.any():
             continue
-        starts = w.t_start.to_numpy(np.float64) - check.t0
-        ends = w.t_end.to_numpy(np.float64) - check.t0
-        normal = w.normal_force_N.to_numpy(np.float64)
-        friction = (w.direction.to_numpy(np.float64)
-                    * w.friction_force_N.to_numpy(np.float64))
-        for i, condition in enumerate(w.condition.astype(str)):
-            on = condition == "on"
-            style: dict[str, Any] = {"color": _ON_WINDOW if on else _OFF_WINDOW, "lw": 2.6,
-                                     "ls": "-" if on else (0, (1.2, 0.6)),
-                                     "solid_capstyle": "butt", "zorder": 4,
-                                     "marker": "|", "markersize": 7, "markeredgewidth": 1.0}
-            ax.plot((starts[i], ends[i]), (normal[i],) * 2, **style)
-            ax.plot((starts[i], ends[i]), (friction[i],) * 2, **style)
-            drawn.add(condition)
+        style: dict[str, Any] = {"color": _ON_WINDOW if condition == "on" else _OFF_WINDOW,
+                                 "lw": 2.6, "ls": "-" if condition == "on" else (0, (1.2, 0.6)),
+                                 "solid_capstyle": "butt", "dash_capstyle": "butt",
+                                 "zorder": 4, "marker": "|", "markersize": 7,
+                                 "markeredgewidth": 1.0}
+        span = bars[mask, :2]
+        ax.plot(*_bars(span, bars[mask, 2] * _MN), **style)
+        ax.plot(*_bars(span, bars[mask, 3] * _MN), **style)
+        drawn.add(condition)
     return drawn
 
 
@@ -192,13 +172,14 @@ def _legend(ax: Axes, kinds: set[str], conditions: set[str]) -> None:
               ncol=min(3, len(handles)), fontsize="small", frameon=False)
 
 
-def draw_trial_check(check: TrialCheck, ax: Axes | None = None) -> Axes:
-    """Draw a trial's check: the forces, the ON phases, the windows, what was left out.
+def draw_trial_check(check: TrialCheck | TrialSketch, ax: Axes | None = None) -> Axes:
+    """Draw a trial's check: the forces (mN), the ON phases, the windows, what was left out.
 
     Parameters
     ----------
-    check : TrialCheck
-        The trial as its analysis saw it (:func:`evtribo.results.check.check_trial`).
+    check : TrialCheck or TrialSketch
+        The trial as its analysis saw it (:func:`evtribo.results.check.check_trial`), or
+        its sketch (what analyze kept of it).
     ax : matplotlib.axes.Axes, optional
         Where to draw (default: a new figure, :data:`TRIAL_FIGSIZE`).
 
@@ -206,23 +187,42 @@ def draw_trial_check(check: TrialCheck, ax: Axes | None = None) -> Axes:
     -------
     matplotlib.axes.Axes
     """
+    sketch = _as_sketch(check)
     ax = ax if ax is not None else _new_axes()
-    stretches = excluded_stretches(check)
-    kinds = _spans(ax, check, stretches)
-    for piece in check.pieces:
-        t = piece.forces.t - check.t0
-        ax.plot(*envelope(t, piece.forces.normal), color=_NORMAL, lw=_TRACE_LW, zorder=2)
-        ax.plot(*envelope(t, piece.forces.tangential), color=_TANGENTIAL, lw=_TRACE_LW,
-                zorder=2)
-    conditions = _windows(ax, check)
+    stretches = sketch.stretches
+    kinds = _spans(ax, sketch, stretches)
+    for piece in sketch.pieces:
+        for y, colour in ((piece.normal, _NORMAL), (piece.tangential, _TANGENTIAL)):
+            ax.plot(piece.t, y * _MN, color=colour, lw=_TRACE_LW, zorder=2, rasterized=True)
+    conditions = _windows(ax, sketch)
     ax.axhline(0.0, color="0.3", lw=0.5, zorder=1, gid="zero")  # an axis line, not data
     ax.set_xlabel("time from the trial's start (s)")
-    ax.set_ylabel("force (N)")
-    if check.pieces:
-        ends = [(p.forces.t[0] - check.t0, p.forces.t[-1] - check.t0) for p in check.pieces
-                if p.forces.t.size]
-        ax.set_xlim(min(0.0, *(a for a, _ in ends)), max(b for _, b in ends))
+    ax.set_ylabel("force (mN)")
+    spans = [p.span for p in sketch.pieces if np.isfinite(p.span[0])]
+    if spans:
+        ax.set_xlim(min(0.0, *(a for a, _ in spans)), max(b for _, b in spans))
     _legend(ax, kinds, conditions)
+    return ax
+
+
+def draw_failed(subject: str, trial: str, error: str) -> Axes:
+    """The figure of a trial that could not be analysed: why, in words.
+
+    Parameters
+    ----------
+    subject, trial : str
+        The trial.
+    error : str
+        Why it was not analysed.
+
+    Returns
+    -------
+    matplotlib.axes.Axes
+    """
+    ax = _new_axes()
+    ax.set_axis_off()
+    ax.text(0.5, 0.5, f"{subject}/{trial}: not analysed\n{error}", ha="center", va="center",
+            wrap=True, transform=ax.transAxes)
     return ax
 
 
@@ -230,29 +230,29 @@ def _seconds(stretches: list[Stretch], kind: str) -> float:
     return sum(s.t_end - s.t_start for s in stretches if s.kind == kind)
 
 
-def trial_caption(check: TrialCheck) -> str:
+def trial_caption(check: TrialCheck | TrialSketch) -> str:
     """A caption for a trial's check figure: what it shows, counted.
 
     Parameters
     ----------
-    check : TrialCheck
-        The trial's check.
+    check : TrialCheck or TrialSketch
+        The trial's check, or its sketch.
 
     Returns
     -------
     str
     """
-    row = check.row
-    w = check.windows
-    n_on = int((w.condition == "on").sum()) if len(w) else 0
-    n_off = len(w) - n_on
+    sketch = _as_sketch(check)
+    row = sketch.row
+    n_on = int(sum(int(p.window_on.sum()) for p in sketch.pieces))
+    n_off = int(sum(p.window_on.size for p in sketch.pieces)) - n_on
     drive = (f"{row.get('waveform') or 'unknown waveform'}"
              + (f" {row['frequency_Hz']:g} Hz" if row.get("frequency_Hz") else "")
              + (f" at {row['amplitude_V']:g} V" if row.get("amplitude_V") else ""))
-    parts = [f"Trial {check.key} ({drive}): normal and tangential force as analysed "
+    parts = [f"Trial {sketch.key} ({drive}): normal and tangential force as analysed, in mN "
              f"(tare: {row.get('tare') or 'none'}); ON phases shaded; {n_on} ON and {n_off} "
              "OFF steady-sliding windows, each a bar at its mean force over its span"]
-    stretches = excluded_stretches(check)
+    stretches = sketch.stretches
     lifted = [s for s in stretches if s.kind == "lifted"]
     if lifted:
         parts.append(f"finger lifted (zero read) {len(lifted)} time(s), "
@@ -262,7 +262,7 @@ def trial_caption(check: TrialCheck) -> str:
             if any(s.kind == k for s in stretches)]
     if left:
         parts.append("excluded (hatched): " + ", ".join(left))
-    if not len(w):
+    if not n_on + n_off:
         parts.append("no steady-sliding window was found: this trial gives no estimate")
     return "; ".join(parts) + "."
 
@@ -321,12 +321,8 @@ class TrialFigure(NamedTuple):
 
 
 def _failed(subject: str, trial: str, err: Exception) -> TrialFigure:
-    """The figure of a trial that could not be analysed: why, in words."""
-    ax = _new_axes()
-    ax.set_axis_off()
-    ax.text(0.5, 0.5, f"{subject}/{trial}: not analysed\n{err}", ha="center", va="center",
-            wrap=True, transform=ax.transAxes)
-    return TrialFigure(subject, trial, ax,
+    """The figure of a trial that could not be analysed, and its caption."""
+    return TrialFigure(subject, trial, draw_failed(subject, trial, str(err)),
                        f"Trial {subject}/{trial}: not analysed, so nothing to check: {err}",
                        error=str(err))
 
@@ -369,4 +365,5 @@ def trial_check_figures(study_root: Study | str | os.PathLike[str],
             log.info("%s: no check figure: %s", ref.key, err)  # its figure says why
             yield _failed(ref.subject, ref.name, err)
             continue
-        yield TrialFigure(ref.subject, ref.name, draw_trial_check(check), trial_caption(check))
+        sketch = sketch_of(check)
+        yield TrialFigure(ref.subject, ref.name, draw_trial_check(sketch), trial_caption(sketch))

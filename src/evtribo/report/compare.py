@@ -27,7 +27,8 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Iterable, Mapping
+import os
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -46,7 +47,6 @@ from evtribo.figures.plots import (
     plot_friction_normal_force,
     plot_friction_time,
     safe_name,
-    save_figure,
 )
 from evtribo.figures.population_plots import draw_population
 from evtribo.figures.style import (
@@ -55,7 +55,7 @@ from evtribo.figures.style import (
     parse_figure_formats,
     parse_figure_width,
 )
-from evtribo.figures.trial_checks import write_trial_checks
+from evtribo.figures.trial_checks import parse_which
 from evtribo.fit.fit import SubjectFit, fit_study, interval_notes
 from evtribo.fit.fit_csv import fit_table
 from evtribo.fit.models import resolve_models
@@ -65,6 +65,8 @@ from evtribo.guard import refuse_in_study, refuse_input
 from evtribo.model.params import ModelParameters
 from evtribo.population.estimates import Population, population
 from evtribo.population.exclusions import study_exclusions
+from evtribo.report.drawing import Drawing, FigureRecord, Figures, Look, Runner, emit_checks
+from evtribo.report.kept import FigureStore, compare_key, last_fit, options_text
 from evtribo.results.outputs import (
     FIGURES,
     FIT_CSV,
@@ -74,6 +76,7 @@ from evtribo.results.outputs import (
     earlier_results,
 )
 from evtribo.store.files import atomic_write, sha256_file
+from evtribo.store.memo import default_cache_dir
 from evtribo.store.resultdir import Staging, locked, recover
 
 log = logging.getLogger(__name__)
@@ -87,49 +90,6 @@ PAPER = ("Voltage-Induced Friction with Application to Electrovibration, Lubrica
          "7(12), 102, doi:10.3390/lubricants7120102")
 
 
-@dataclass(frozen=True)
-class FigureRecord:
-    """One figure written by :func:`compare`: its kind, subject (or None) and files.
-
-    Parameters
-    ----------
-    kind : str
-        What the figure shows (``electrostatic_force_all``, ``electrostatic_force``...).
-    title : str
-        A short title (the figure itself has none).
-    stem : str
-        The files' name in ``figures/`` without suffix.
-    subject : str or None
-        The subject shown, None for a figure of the whole study.
-    caption : str
-        What a reader needs to read the figure.
-    extra : mapping
-        Further keys of the record in fit.json (``trial`` for a trial's figure).
-
-    Returns
-    -------
-    FigureRecord
-    """
-
-    kind: str
-    title: str
-    stem: str
-    subject: str | None
-    caption: str
-    extra: Mapping[str, Any] = field(default_factory=dict)
-
-    def as_dict(self) -> dict[str, Any]:
-        """The record as fit.json lists it.
-
-        Returns
-        -------
-        dict
-            ``kind``, ``title``, ``stem``, ``subject``, ``caption``, then the extra keys.
-        """
-        return {"kind": self.kind, "title": self.title, "stem": self.stem,
-                "subject": self.subject, "caption": self.caption, **self.extra}
-
-
 @dataclass
 class CompareResult:
     """What :func:`compare` did."""
@@ -140,6 +100,10 @@ class CompareResult:
     figures: list[FigureRecord] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     population: Population | None = None
+    sha256: dict[str, str] = field(default_factory=dict)
+    """The SHA-256 of each figure file (relative), those kept as they were included."""
+    kept: set[str] = field(default_factory=set)
+    """The figure files (relative) left as they were: their figures had not changed."""
 
 
 def figure_stems(subjects: Iterable[str], *, sine: bool = True) -> list[str]:
@@ -191,8 +155,9 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
             dpi: float | None = None, formats: str | Iterable[str] | None = None,
             width: str = "single",
             models: str | Iterable[str] | None = None,
-            trial_checks: bool = True, scheduler: Any = None,
-            progress: Callable[[str], None] | None = None) -> CompareResult:
+            trial_checks: bool | str | None = None, scheduler: Any = None,
+            progress: Callable[[str], None] | None = None, jobs: int | None = None,
+            cache_dir: str | Path | None = None) -> CompareResult:
     """Fit the model to the results in *out* and write ``fit.csv``, ``fit.json``, figures.
 
     Parameters
@@ -204,7 +169,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     params : str or Path, optional
         TOML file of fixed parameters (SI units); Table 1 for those it does not set.
     force : bool
-        Overwrite the outputs of a previous comparison.
+        Replace the outputs of a previous comparison: a figure whose data and settings
+        have not changed is left as it is (not drawn, not written).
     dpi : float, optional
         Resolution of the PNG figures, dots per inch (300 by default).
     formats : str or iterable of str, optional
@@ -214,12 +180,17 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     models : str or iterable of str, optional
         Candidate models to fit and rank per subject (``"paper,hertz,maugis,circuit"``):
         writes ``models.csv`` and a ``frequency_response`` figure per subject.
-    trial_checks : bool
-        Draw the check of every trial (kind ``trial``) when the study folder is there.
+    trial_checks : bool or str, optional
+        Which trials' checks to draw (kind ``trial``): ``"all"`` (True), ``"none"``
+        (False), ``"auto"`` (None): :func:`~evtribo.figures.trial_checks.chosen_trials`.
     scheduler : distributed.Client, optional
-        A Dask cluster for the bootstrap refits (the same results as here).
+        A Dask cluster for the bootstrap refits and the figures (the same results as here).
     progress : callable, optional
         Told what is being done, stage by stage (and trial by trial for the checks).
+    jobs : int, optional
+        Worker processes drawing the figures (default: the number of CPUs; 1: here).
+    cache_dir : str or Path, optional
+        The analysis's cache folder (its sketches), keeping the figures drawn too.
 
     Returns
     -------
@@ -228,8 +199,8 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     Raises
     ------
     UserInputError
-        Missing folder or tables, bad ``fit`` names, parameter file, figure format, width
-        or resolution (exit code 2).
+        Missing folder or tables, bad ``fit`` names, parameter file, figure format, width,
+        resolution or ``trial_checks`` (exit code 2).
     OutputExistsError
         When outputs exist and *force* is False.
     OutputBusyError
@@ -239,93 +210,94 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     AnalysisError
         When a fit cannot be made.
     """
-    look = _Look(dpi=parse_dpi(dpi),
-                 formats=parse_figure_formats(formats), width=parse_figure_width(width))
-    names = resolve_fit_names(fit)
-    candidates = resolve_models(models) if models is not None else ()
-    base = load_parameters(params)
+    setup = _Setup.of(fit=fit, params=params, formats=formats, dpi=dpi, width=width,
+                      models=models, trial_checks=trial_checks, cache_dir=cache_dir)
     folder = check_out_folder(out)
     _check_outputs(folder, force)  # before the lock: a refusal writes nothing
-    with locked(folder, "evtribo compare"):
-        recover(folder)
-        tables = read_results(folder)
-        _check_outputs(folder, force, [
-            f"{FIGURES}/{stem}.{fmt}" for fmt in look.formats
-            for stem in figure_stems(tables.subjects, sine=tables.sine_trace is not None)])
-        exclude = study_exclusions(tables)  # a bad [population] rule: before any write
-        stale = compare_files(folder)
-        with Staging(folder, by="compare", also=earlier_results(folder)) as stage:
-            result = _compare(tables, stage, names, base, look, models=candidates,
-                              trial_checks=trial_checks, scheduler=scheduler,
-                              progress=progress or (lambda _: None), exclude=exclude)
-            _write_json(stage, result, names, base, params, run_id=tables.summary.run_id)
-            stage.commit(remove=stale, last=[FIT_JSON])
+    runner = Runner((os.cpu_count() or 1) if jobs is None else jobs, scheduler)
+    try:
+        with locked(folder, "evtribo compare"):
+            recover(folder)
+            tables = read_results(folder)
+            result = _run(folder, tables, setup, params, runner, force=force,
+                          progress=progress or (lambda _: None), scheduler=scheduler)
+    except BaseException:
+        runner.close(failed=True)  # no worker outlives the comparison
+        raise
+    runner.close()
     result.files = [folder / rel for rel in result.files]
-    log.info("compare: wrote %d files into %s", len(result.files), folder)
+    log.info("compare: wrote %d files into %s (%d figure files as they were)",
+             len(result.files) - len(result.kept), folder, len(result.kept))
     return result
 
 
 @dataclass(frozen=True)
-class _Look:
-    """How the figures are written: resolution, formats, width."""
+class _Setup:
+    """What a comparison is asked to do."""
 
-    dpi: float
-    formats: tuple[str, ...]
-    width: str
+    names: tuple[str, ...]
+    base: ModelParameters
+    look: Look
+    models: tuple[str, ...]
+    checks: str
+    cache: Path
+    options: dict[str, Any]
 
-
-@dataclass
-class _Figures:
-    """Writes figures into a staging folder and records them in a :class:`CompareResult`."""
-
-    folder: Path
-    look: _Look
-    result: CompareResult
-
-    def emit(self, ax: Any, kind: str, title: str, stem: str, *, subject: str | None = None,
-             caption: str = "", extra: Mapping[str, Any] | None = None,
-             formats: tuple[str, ...] | None = None, dpi: float | None = None) -> None:
-        """Write the figure of *ax* once per format as ``figures/<stem>.<fmt>``, record it.
-
-        Parameters
-        ----------
-        ax : Axes
-            The figure's (first) Axes.
-        kind, title, stem, subject, caption : str
-            The record in fit.json (:class:`FigureRecord`).
-        extra : mapping, optional
-            Further keys of the record (``{"trial": "run-01"}``).
-        formats : tuple of str, optional
-            Formats of this figure (default: those asked for).
-        dpi : float, optional
-            Resolution of this figure's PNG (default: the one asked for).
-
-        Returns
-        -------
-        None
-        """
-        written = save_figure(ax.figure, self.folder, stem, dpi=dpi or self.look.dpi,
-                              formats=formats or self.look.formats)
-        self.result.files += [Path(FIGURES) / p.name for p in written]
-        self.result.figures.append(FigureRecord(kind, title, stem, subject, caption,
-                                                dict(extra or {})))
+    @classmethod
+    def of(cls, *, fit: Any, params: Any, formats: Any, dpi: Any, width: str, models: Any,
+           trial_checks: Any, cache_dir: Any) -> _Setup:
+        """compare's options checked (each bad one an error naming it)."""
+        look = Look(dpi=parse_dpi(dpi),
+                    formats=parse_figure_formats(formats), width=parse_figure_width(width))
+        return cls(names=resolve_fit_names(fit), base=load_parameters(params), look=look,
+                   models=resolve_models(models) if models is not None else (),
+                   checks=parse_which(trial_checks),
+                   cache=Path(cache_dir) if cache_dir is not None else default_cache_dir(),
+                   options=options_text(fit=fit, params=params, formats=formats, dpi=dpi,
+                                        width=width, models=models,
+                                        trial_checks=trial_checks))
 
 
-def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
-             base: ModelParameters, look: _Look, *, models: tuple[str, ...] = (),
-             trial_checks: bool = True, scheduler: Any = None,
-             progress: Callable[[str], None],
+def _run(folder: Path, tables: ResultTables, setup: _Setup, params: str | Path | None,
+         runner: Runner, *, force: bool, progress: Callable[[str], None],
+         scheduler: Any) -> CompareResult:
+    """The comparison, under the folder's lock: written as one unit, the figures that did
+    not change left as they are."""
+    _check_outputs(folder, force, [
+        f"{FIGURES}/{stem}.{fmt}" for fmt in setup.look.formats
+        for stem in figure_stems(tables.subjects, sine=tables.sine_trace is not None)])
+    exclude = study_exclusions(tables)  # a bad [population] rule: before any write
+    stale = compare_files(folder)
+    previous = last_fit(folder)
+    with Staging(folder, by="compare", also=earlier_results(folder)) as stage:
+        figures = Figures(stage, setup.look, CompareResult(out=tables.out, fits=[]), runner,
+                          FigureStore(setup.cache), previous=previous, progress=progress)
+        result = _compare(tables, stage, setup, figures, scheduler=scheduler,
+                          progress=progress, exclude=exclude)
+        _write_json(stage, result, setup.names, setup.base, params,
+                    run_id=tables.summary.run_id,
+                    key=compare_key(tables.summary, setup.options))
+        stage.commit(remove=[rel for rel in stale if rel not in result.kept],
+                     last=[FIT_JSON])
+    return result
+
+
+def _compare(tables: ResultTables, stage: Staging, setup: _Setup, figures: Figures, *,
+             scheduler: Any = None, progress: Callable[[str], None],
              exclude: tuple[dict[str, str], list[str]] = ({}, [])) -> CompareResult:
     """The fits and figures, written into *stage* (``result.files`` relative to it);
     *exclude*: the study's exclusions from the population and notes on them."""
+    names = setup.names
+    check_notes = emit_checks(figures, tables, setup.checks, setup.cache, progress)
     only_mu = tables.electrostatic.empty  # a study of OFF trials: its friction, no fit
     if not only_mu:
         replicates = ("" if tables.bootstrap is None else
                       ", refitted to each bootstrap replicate for its interval")
         progress(f"fitting {', '.join(names)} to each of {len(tables.subjects)} subjects"
                  f"{replicates}")
-    fits = [] if only_mu else fit_study(tables, base, names, scheduler=scheduler)
-    result = CompareResult(out=tables.out, fits=fits)
+    fits = [] if only_mu else fit_study(tables, setup.base, names, scheduler=scheduler)
+    result = figures.result
+    result.fits = fits
     result.notes += [NOTE] if only_mu else interval_notes(
         fits, has_bootstrap=tables.bootstrap is not None)
     table = fit_table(fits, tables)
@@ -339,25 +311,23 @@ def _compare(tables: ResultTables, stage: Staging, names: tuple[str, ...],
     for name, text in pop.files().items():
         atomic_write(stage.path(name), text)
         result.files.append(Path(name))
-    figures = _Figures(stage.folder / FIGURES, look, result)
     progress("drawing the figures of the fit" if not only_mu else
              "drawing each subject's friction")
-    with journal_style(look.width):
+    with journal_style(setup.look.width):
         if only_mu:
             friction_figures(tables, figures.emit)
         else:
             draw_figures(tables, fits, names, figures)
             draw_population(tables.electrostatic, pop, figures.emit)
-        if models and not only_mu:
-            progress(f"fitting and ranking the models {', '.join(models)}")
-            files, notes = write_models(tables, stage, models, base, figures.emit)
+        if setup.models and not only_mu:
+            progress(f"fitting and ranking the models {', '.join(setup.models)}")
+            files, notes = write_models(tables, stage, setup.models, setup.base,
+                                        figures.emit)
             result.files += files
             result.notes += notes
-        if trial_checks:
-            progress("drawing each trial's check (each trial analysed again, as analyze "
-                     "did; --no-trial-checks leaves them out)")
-            result.notes += write_trial_checks(tables, figures.emit, look.formats,
-                                               progress=progress)
+    figures.finish()
+    result.notes += check_notes
+    result.sha256, result.kept = figures.sha256, figures.kept
     return result
 
 
@@ -375,7 +345,9 @@ def draw_figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str,
         The fitted parameters.
     figures : object
         Has ``emit(ax, kind, title, stem, *, subject, caption)`` (writes or keeps one
-        figure) and ``result`` (a :class:`CompareResult`, for notes).
+        figure) and ``result`` (a :class:`CompareResult`, for notes); with a true ``lazy``
+        attribute, it is given a :class:`~evtribo.report.drawing.Drawing` instead of an
+        Axes (drawn where and when it is needed).
 
     Returns
     -------
@@ -386,10 +358,17 @@ def draw_figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str,
     _study_figures(tables, fits, figures)
 
 
+def _drawn(figures: Any, drawing: Drawing) -> Any:
+    """A figure as *figures* takes it: the drawing itself when *figures* draws where and
+    when needed (``lazy``), else drawn here (its Axes)."""
+    return drawing if getattr(figures, "lazy", False) else drawing.draw()
+
+
 def _all_subjects_figure(tables: ResultTables, fits: list[SubjectFit],
-                         figures: _Figures) -> None:
+                         figures: Any) -> None:
     """``electrostatic_force_all``: every subject's F_el and fitted model."""
-    ax = plot_electrostatic_force_all(tables.electrostatic, {f.subject: f.params for f in fits})
+    ax = _drawn(figures, Drawing(plot_electrostatic_force_all, (
+        tables.electrostatic, {f.subject: f.params for f in fits})))
     waves = set(tables.electrostatic["waveform"].astype(str))
     fill = " (filled markers: square drive; open: sine)" if len(waves) > 1 else ""
     figures.emit(ax, "electrostatic_force_all", "Electrostatic force vs voltage, all subjects",
@@ -402,20 +381,22 @@ def _all_subjects_figure(tables: ResultTables, fits: list[SubjectFit],
 
 
 def _subject_figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...],
-                     figures: _Figures) -> None:
+                     figures: Any) -> None:
     """Per subject: F_el against U, and friction against normal force."""
     mu_how = "fitted." if "mu" in names else "from the measured OFF windows."
     for f in fits:
         s = f.subject
         rows = tables.electrostatic[tables.electrostatic["subject"] == s]
-        ax = plot_electrostatic_force(rows, f.params, subject=s)
+        ax = _drawn(figures, Drawing(plot_electrostatic_force, (rows, f.params),
+                                     {"subject": s}))
         figures.emit(ax, "electrostatic_force", f"Electrostatic force vs voltage, {s}",
                      f"electrostatic_force_{safe_name(s)}", subject=s,
                      caption=f"{s}: inferred electrostatic force (points, 95 % intervals) "
                              "and the fitted model (lines) at the subject's mean normal force "
                              "ON, over the amplitudes measured.")
         win = tables.windows[tables.windows["subject"] == s]
-        ax = plot_friction_normal_force(win, f.params, subject=s)
+        ax = _drawn(figures, Drawing(plot_friction_normal_force, (win, f.params),
+                                     {"subject": s}))
         figures.emit(ax, "friction_normal_force", f"Friction vs normal force, {s}",
                      f"friction_normal_force_{safe_name(s)}", subject=s,
                      caption=f"{s}: steady-sliding windows OFF and ON (points) and the model "
@@ -423,7 +404,7 @@ def _subject_figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[
                              f"each drive's windows span; axes zoomed to the windows; μ {mu_how}")
 
 
-def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: _Figures) -> None:
+def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: Any) -> None:
     """Friction against time (a measured sine trial, or the model alone) and the predicted
     contact-area increase."""
     by_subject = {f.subject: f for f in fits}
@@ -442,8 +423,8 @@ def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: _Figur
         voltage = ("measured voltage" if "voltage_V" in trace.columns else
                    "drive's amplitude and frequency (its phase, which the rig does not record, "
                    "chosen to match the measured friction)")
-        ax = plot_friction_time(trace, pick.params, amplitude=amp, normal_force=fn_mean,
-                                subject=pick.subject)
+        ax = _drawn(figures, Drawing(plot_friction_time, (trace, pick.params), {
+            "amplitude": amp, "normal_force": fn_mean, "subject": pick.subject}))
         figures.emit(ax, "friction_time", "Friction vs time, sine drive", "friction_time",
                      subject=None,
                      caption=f"Measured sine trial of {pick.subject} and the model evaluated "
@@ -453,9 +434,10 @@ def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: _Figur
                                                     "normal_force_on_N"].to_numpy(float)))
                for f in fits}
     amps = elec["amplitude_V"].to_numpy(float)
-    ax = plot_area_increase(mean_fn, {f.subject: f.params for f in fits},
-                            u_max=max(150.0, float(np.nanmax(amps))),
-                            amplitudes=sorted(set(amps[np.isfinite(amps)].tolist())))
+    ax = _drawn(figures, Drawing(plot_area_increase, (
+        mean_fn, {f.subject: f.params for f in fits}), {
+        "u_max": max(150.0, float(np.nanmax(amps))),
+        "amplitudes": sorted(set(amps[np.isfinite(amps)].tolist()))}))
     figures.emit(ax, "area_increase", "Predicted contact-area increase", "area_increase",
                  subject=None,
                  caption="A prediction of the model, nothing measured: JKR over Hertz "
@@ -465,8 +447,9 @@ def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: _Figur
 
 def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],
                 base: ModelParameters, params_file: str | Path | None, *,
-                run_id: str | None) -> None:
-    """fit.json, into *stage*, naming the analysis fitted and the files written."""
+                run_id: str | None, key: str) -> None:
+    """fit.json, into *stage*, naming the analysis fitted, what the comparison was made
+    from (its key) and the files written."""
     pfile: dict[str, Any] | None = None if params_file is None else {
         "path": str(Path(params_file)), "sha256": sha256_file(Path(params_file))}
     doc = {
@@ -492,8 +475,9 @@ def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],
         "figures": [r.as_dict() for r in result.figures],
         "notes": result.notes,
         "population": None if result.population is None else result.population.as_json(),
-        "output_sha256": {rel.as_posix(): sha256_file(stage.path(rel.as_posix()))
-                          for rel in result.files},
+        "compare_key": key,
+        "output_sha256": {rel.as_posix(): result.sha256.get(rel.as_posix())
+                          or sha256_file(stage.path(rel.as_posix())) for rel in result.files},
     }
     write_fit(stage.path(FIT_JSON), doc)
     result.files.append(Path(FIT_JSON))

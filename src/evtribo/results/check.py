@@ -23,13 +23,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-import numpy.typing as npt
 import pandas as pd
 
-from evtribo.analysis.forces.conditions import EXCLUDED, OFF, ON
-from evtribo.analysis.forces.lifted import EDGE_S
-from evtribo.analysis.friction.windows import true_runs
 from evtribo.analysis.heard import heard_warnings
 from evtribo.analysis.observed import PieceState
 from evtribo.analysis.settings import AnalysisSettings
@@ -39,49 +34,21 @@ from evtribo.canlog.rig import Calibration
 from evtribo.canlog.signals import TrialSignals
 from evtribo.errors import SidecarError, StudyError, UserInputError
 from evtribo.results.pipeline import study_settings
+from evtribo.results.reuse import OutcomeStore, analysis_context
+from evtribo.results.sketch import (
+    MIN_HOLE_S,
+    STRETCH_LABELS,
+    Sketcher,
+    Stretch,
+    TrialSketch,
+)
 from evtribo.results.workers import trial_meta
+from evtribo.store.memo import default_cache_dir
 from evtribo.study import Study, TrialRef, load_study
 
 __all__ = ["MIN_HOLE_S", "STRETCH_LABELS", "Stretch", "TrialCheck", "check_signals", "check_trial",
-           "excluded_stretches", "find_trial", "settings_of", "trial_signals"]
-
-#: Holes in the load cells' data, and stretches of unknown state, shorter than this are not
-#: listed (a frame or two lost; the moment before the amplifier's first status frame), s.
-MIN_HOLE_S = 0.02
-
-#: What each kind of :class:`Stretch` is, in a few words (a figure's legend).
-STRETCH_LABELS = {
-    "lifted": "finger lifted: zero read",
-    "lift-edge": "finger leaving / touching down",
-    "switch": "ON/OFF switch (guard)",
-    "unknown": "ON/OFF unknown (no status)",
-    "hole": "load-cell frames missing",
-    "pause": "pause in the log",
-}
-
-
-@dataclass(frozen=True)
-class Stretch:
-    """A stretch of a trial that the windows do not use, and why.
-
-    Attributes
-    ----------
-    t_start, t_end : float, s
-        From the trial's start.
-    kind : str
-        A key of :data:`STRETCH_LABELS`: ``lifted`` (the zero was read there), ``lift-edge``,
-        ``switch``, ``unknown``, ``hole`` or ``pause``.
-    """
-
-    t_start: float
-    t_end: float
-    kind: str
-
-    @property
-    def label(self) -> str:
-        """What the stretch is, in a few words."""
-        return STRETCH_LABELS[self.kind]
-
+           "excluded_stretches", "find_trial", "kept_sketches", "settings_of", "sketch_of",
+           "trial_signals"]
 
 @dataclass
 class TrialCheck:
@@ -276,40 +243,6 @@ def check_trial(study: Study | str | os.PathLike[str], subject: str, trial: str,
                              calibration=study.rig.calibration)
 
 
-def _runs_of(mask: npt.NDArray[np.bool_], t: npt.NDArray[np.float64], dt: float
-             ) -> list[tuple[int, int, float, float]]:
-    """``(i0, i1, t_start, t_end)`` of the runs of True in *mask*."""
-    return [(a, b, float(t[a]), float(t[b - 1] + dt)) for a, b in true_runs(mask)]
-
-
-def _condition_stretches(piece: PieceState, t: npt.NDArray[np.float64], dt: float
-                         ) -> list[Stretch]:
-    """Guard times around switches, and where no status frame tells the state."""
-    cond = piece.condition
-    out = []
-    for a, b, t_start, t_end in _runs_of(cond == EXCLUDED, t, dt):
-        before = int(cond[a - 1]) if a > 0 else EXCLUDED
-        after = int(cond[b]) if b < cond.size else EXCLUDED
-        kind = "switch" if {before, after} == {ON, OFF} else "unknown"
-        if kind == "switch" or t_end - t_start >= MIN_HOLE_S:
-            out.append(Stretch(t_start, t_end, kind))
-    return out
-
-
-def _lift_stretches(piece: PieceState, t0: float, span: tuple[float, float]) -> list[Stretch]:
-    """The finger-lifted stretches and the margins around them that no window uses."""
-    out = []
-    lo, hi = span
-    for s in piece.lifted:
-        a, b = s.t_start - t0, s.t_end - t0
-        out.append(Stretch(a, b, "lifted"))
-        if a > lo:
-            out.append(Stretch(max(lo, a - 2 * EDGE_S), a, "lift-edge"))
-        if b < hi:
-            out.append(Stretch(b, min(hi, b + 2 * EDGE_S), "lift-edge"))
-    return out
-
-
 def excluded_stretches(check: TrialCheck) -> list[Stretch]:
     """What the windows of a trial could not use, and why, in time order.
 
@@ -326,21 +259,70 @@ def excluded_stretches(check: TrialCheck) -> list[Stretch]:
         in the load cells' data of at least :data:`MIN_HOLE_S`, and pauses between the
         pieces of a trial; times from the trial's start.
     """
-    out: list[Stretch] = []
-    previous_end = None
+    return sketch_of(check).stretches
+
+
+def sketch_of(check: TrialCheck) -> TrialSketch:
+    """What the figure of a trial's check draws, from the check (as analyze keeps it).
+
+    Parameters
+    ----------
+    check : TrialCheck
+        The trial's check.
+
+    Returns
+    -------
+    TrialSketch
+    """
+    sketcher = Sketcher(check.t0)
     for piece in check.pieces:
-        f = piece.forces
-        if f.t.size == 0:
-            continue
-        dt = 1.0 / f.rate_Hz
-        t = f.t - check.t0
-        span = (float(t[0]), float(t[-1] + dt))
-        if previous_end is not None and span[0] > previous_end:
-            out.append(Stretch(previous_end, span[0], "pause"))
-        previous_end = span[1]
-        out += _condition_stretches(piece, t, dt)
-        out += _lift_stretches(piece, check.t0, span)
-        hole = ~(np.isfinite(f.normal) & np.isfinite(f.tangential))
-        out += [Stretch(a, b, "hole") for _, _, a, b in _runs_of(hole, t, dt)
-                if b - a >= MIN_HOLE_S]
-    return sorted(out, key=lambda s: (s.t_start, s.t_end))
+        sketcher(piece)
+    return sketcher.sketch(check.subject, check.trial, check.row)
+
+
+def _relative(path: str | os.PathLike[str], root: Path) -> str:
+    """A file's name as summary.json's inputs give it (relative to the study folder)."""
+    try:
+        return Path(path).resolve().relative_to(root).as_posix()
+    except ValueError:
+        return str(Path(path).resolve())
+
+
+def kept_sketches(study: Study, summary: Mapping[str, Any],
+                  cache_dir: str | os.PathLike[str] | None = None) -> dict[str, TrialSketch]:
+    """The sketches ``evtribo analyze`` kept of a study's trials when it wrote *summary*:
+    those of the trials it analysed with these settings and this rig, each log as it hashed
+    it (``summary.json``'s ``inputs``, ``settings`` and ``strict``).
+
+    Parameters
+    ----------
+    study : Study
+        The study, as loaded now (its trials named and described as when analysed).
+    summary : mapping
+        The analysis's ``summary.json``.
+    cache_dir : path-like, optional
+        The cache folder the analysis used (default: :func:`~evtribo.store.memo.
+        default_cache_dir`).
+
+    Returns
+    -------
+    dict
+        ``{"subject/trial": TrialSketch}``; a trial whose sketch is not kept (another cache
+        folder, a trial or its sidecar changed since, a cache cleared) is left out.
+    """
+    if study.rig is None:
+        return {}
+    settings = settings_of(study, summary.get("settings"))
+    store = OutcomeStore(None, analysis_context(study.rig, settings,
+                                                bool(summary.get("strict", False))),
+                         sketches=default_cache_dir() if cache_dir is None else cache_dir)
+    hashes = {str(r.get("file")): str(r.get("sha256")) for r in summary.get("inputs") or []
+              if isinstance(r, Mapping) and r.get("role") == "log"}
+    root = Path(study.root).resolve()
+    out = {}
+    for ref in study.trials:
+        sha = hashes.get(_relative(ref.log_path, root))
+        sketch = None if sha is None else store.get_sketch(store.ref_key(ref, sha))
+        if sketch is not None and sketch.key == ref.key:
+            out[ref.key] = sketch
+    return out

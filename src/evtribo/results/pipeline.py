@@ -69,7 +69,7 @@ from evtribo.results.outputs import (
     write_analysis,
 )
 from evtribo.results.provenance import changed_since, input_files, provenance
-from evtribo.results.reuse import OutcomeStore, context_text, keep_outcome, kept_outcomes
+from evtribo.results.reuse import OutcomeStore, analysis_context, keep_outcome, kept_outcomes
 from evtribo.results.workers import (
     ProgressCallback,
     TrialOutcome,
@@ -314,9 +314,8 @@ def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | Non
     tasks, not_run, duplicates, warnings = _plan(study, inputs)
     say(warnings)
     assert study.rig is not None
-    store = OutcomeStore(folder if reuse else None, context_text(
-        rig=study.rig.fingerprint(), calibration=study.rig.calibration, settings=settings,
-        strict=strict))
+    store = OutcomeStore(folder if reuse else None,
+                         analysis_context(study.rig, settings, strict), sketches=folder)
     kept, tasks = kept_outcomes(store, tasks)
     jobs = (os.cpu_count() or 1) if jobs is None else max(1, int(jobs))
     jobs = max(1, min(jobs, len(tasks)))

@@ -13,7 +13,11 @@ Two things are kept in the cache folder (:func:`evtribo.canlog.cache.default_cac
   SHA-256 of evtribo's own source files and the versions of Python and the libraries).
   Change any of them and the trial is analysed again. A trial that failed is never kept.
   As for decoded trials, ``<checksum>`` is the start of the SHA-256 of the file's bytes,
-  checked on every read.
+  checked on every read;
+- **each trial's sketch** (``checks/<key>.<checksum>.sketch``, under the same key): what
+  its check's figure draws (:class:`~evtribo.results.sketch.TrialSketch`), which ``evtribo
+  compare`` finds there (:func:`evtribo.results.check.kept_sketches`) instead of analysing
+  the trial again. It is kept with ``--recompute`` too.
 
 A reused outcome is the one an analysis of the same inputs gives (the analysis of a trial
 is deterministic); ``analyze --recompute`` (``reuse=False``) analyses every trial again.
@@ -34,19 +38,24 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from evtribo.results.sketch import TrialSketch
 from evtribo.store.files import read_entry, write_checksummed
 from evtribo.store.memo import software_fingerprint
 
 if TYPE_CHECKING:
+    from evtribo.canlog.rig import Rig
     from evtribo.results.workers import TrialOutcome, TrialTask
+    from evtribo.study import TrialRef
 
 log = logging.getLogger(__name__)
 
-__all__ = ["OutcomeStore", "context_text", "keep_outcome", "kept_outcomes",
-           "source_fingerprint"]
+__all__ = ["SKETCHES", "OutcomeStore", "analysis_context", "context_text", "keep_outcome",
+           "kept_outcomes", "source_fingerprint"]
 
 #: Bumped whenever what an outcome file holds changes.
 OUTCOME_VERSION = 1
+#: The folder of the kept sketches in the cache folder.
+SKETCHES = "checks"
 
 
 @cache
@@ -95,12 +104,19 @@ class OutcomeStore:
     directory : path-like or None
         The cache folder (None: nothing is kept).
     context : str
-        What every trial of this analysis shares (rig, settings, strict), as text.
+        What every trial of this analysis shares (rig, settings, strict), as text
+        (:func:`analysis_context`).
+    sketches : path-like, optional
+        The cache folder the trials' sketches are kept in (default: *directory*; None
+        with it: none kept).
     """
 
-    def __init__(self, directory: str | os.PathLike[str] | None, context: str) -> None:
+    def __init__(self, directory: str | os.PathLike[str] | None, context: str, *,
+                 sketches: str | os.PathLike[str] | None = None) -> None:
         self.directory = None if directory is None else \
             Path(directory).expanduser() / "results"
+        folder = sketches if sketches is not None else directory
+        self.sketches = None if folder is None else Path(folder).expanduser() / SKETCHES
         self._base = hashlib.sha256(f"{source_fingerprint()}\0{context}".encode())
         self._keys: dict[int, str] = {}
 
@@ -114,8 +130,29 @@ class OutcomeStore:
         """The key of a trial of this analysis (worked out once: the outcome is looked for
         before the analysis and kept after it)."""
         if task.index not in self._keys:
-            self._keys[task.index] = self.key(_trial_text(task), task.log[0])
+            self._keys[task.index] = self.ref_key(task.ref, task.log[0])
         return self._keys[task.index]
+
+    def ref_key(self, ref: TrialRef, log_sha256: str) -> str:
+        """The key of a trial as the study names it, whose log has this hash."""
+        return self.key(context_text(trial=ref), log_sha256)
+
+    def get_sketch(self, key: str) -> TrialSketch | None:
+        """The sketch kept under *key*, or None (a damaged one is removed)."""
+        if self.sketches is None:
+            return None
+        return read_entry(self.sketches, key, ".sketch", TrialSketch.from_bytes,
+                          what="kept sketch", then="the trial is analysed again for its check")
+
+    def put_sketch(self, key: str, data: bytes) -> None:
+        """Keep a trial's sketch (its bytes) under *key*; a cache folder that cannot be
+        written is not an error (compare then analyses the trial for its check)."""
+        if self.sketches is None:
+            return
+        try:
+            write_checksummed(self.sketches, key, data, ".sketch")
+        except OSError as err:
+            log.debug("sketch not kept under %s: %s", key, err)
 
     def get(self, key: str) -> dict[str, Any] | None:
         """The outcome kept under *key* (``row``, ``windows``, ``warnings``, ``trace``), or
@@ -185,10 +222,25 @@ def _plain_part(v: Any) -> Any:
     return repr(v)
 
 
-def _trial_text(task: TrialTask) -> str:
-    """What a trial's outcome depends on besides its log's bytes and the analysis' context:
-    the trial as the study names it (names, paths, sidecar)."""
-    return context_text(trial=task.ref)
+def analysis_context(rig: Rig, settings: Any, strict: bool) -> str:
+    """What every trial of an analysis shares, as text: the rig (its DBC's bytes, roles and
+    calibration), the settings and ``strict``.
+
+    Parameters
+    ----------
+    rig : Rig
+        The study's rig.
+    settings : AnalysisSettings
+        The analysis settings.
+    strict : bool
+        Whether a damaged line is an error.
+
+    Returns
+    -------
+    str
+    """
+    return context_text(rig=rig.fingerprint(), calibration=rig.calibration, settings=settings,
+                        strict=strict)
 
 
 def kept_outcomes(store: OutcomeStore, tasks: list[TrialTask]
@@ -240,5 +292,7 @@ def keep_outcome(store: OutcomeStore, task: TrialTask, outcome: TrialOutcome) ->
         Its outcome.
     """
     if outcome.error is None:
-        store.put(store.trial_key(task), outcome.row, outcome.windows, outcome.warnings,
-                  outcome.trace)
+        key = store.trial_key(task)
+        store.put(key, outcome.row, outcome.windows, outcome.warnings, outcome.trace)
+        if outcome.sketch is not None:
+            store.put_sketch(key, outcome.sketch)

@@ -30,19 +30,27 @@ from typing import Any
 import pandas as pd
 
 from evtribo.analysis.heard import heard_warnings, say
+from evtribo.analysis.observed import PieceState
 from evtribo.analysis.settings import AnalysisSettings
-from evtribo.analysis.trial import TrialMeta, analyze_signals, empty_windows, failed_row
+from evtribo.analysis.trial import (
+    TrialMeta,
+    analyze_signals,
+    empty_windows,
+    failed_row,
+    trial_start,
+)
 from evtribo.canlog.cache import default_cache_dir, load_trial
 from evtribo.canlog.rig import Rig
 from evtribo.canlog.signals import TrialSignals
 from evtribo.errors import AnalysisError, SidecarError, UserInputError
 from evtribo.results.exclusions import TrialSeconds
+from evtribo.results.sketch import Sketcher
 from evtribo.store.resultdir import release_inherited_locks
 from evtribo.study import TrialRef
 
 __all__ = ["MAX_WARNINGS_PER_TRIAL", "SINE_WORK", "TrialOutcome", "TrialTask", "WorkerContext",
-           "analyze_in", "analyze_task", "longest_first", "run_tasks", "say_outcome",
-           "trial_meta"]
+           "analyze_in", "analyze_task", "init_worker", "longest_first", "run_tasks",
+           "say_outcome", "stop_workers", "trial_meta"]
 
 log = logging.getLogger(__name__)
 
@@ -102,6 +110,9 @@ class TrialOutcome:
         Why it was not analysed.
     trace : pandas.DataFrame or None
         Its rows of sine_trace.csv.
+    sketch : bytes or None
+        What its check's figure draws (:class:`~evtribo.results.sketch.TrialSketch`'s
+        bytes), kept beside the outcome for ``evtribo compare``.
     """
 
     index: int
@@ -110,6 +121,7 @@ class TrialOutcome:
     warnings: list[str] = field(default_factory=list)
     error: str | None = None
     trace: pd.DataFrame | None = None
+    sketch: bytes | None = None
 
 
 def trial_meta(ref: TrialRef) -> TrialMeta:
@@ -145,14 +157,27 @@ def _watch_parent(parent: int) -> None:
     os._exit(1)  # the analysis was killed (SIGKILL, a crash): nobody wants our results
 
 
-def _init_process(context: WorkerContext) -> None:
-    """A worker process: the parent stops it (Ctrl-C reaches the whole process group, the
-    parent handles it), it ends when the parent is gone, and it does not keep the parent's
-    locks."""
+def init_worker() -> None:
+    """Make this process a worker of its parent's pool: the parent stops it (Ctrl-C reaches
+    the whole process group, the parent handles it; SIGTERM ends it, whatever handler the
+    parent had when it was forked), it ends when the parent is gone, and
+    it does not keep the parent's locks (a pool's initializer: analyze's, and compare's for
+    its figures).
+
+    Returns
+    -------
+    None
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler: stopped, it ends
     threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True,
                      name="evtribo-parent-watch").start()
     release_inherited_locks()
+
+
+def _init_process(context: WorkerContext) -> None:
+    """A worker process of analyze's pool (:func:`init_worker`), with its context."""
+    init_worker()
     _enter(context)
 
 
@@ -171,16 +196,44 @@ def _load(ref: TrialRef, context: WorkerContext, expect: tuple[str, int, int] | 
         raise SidecarError(err.message, path=ref.sidecar_path, key="log_channel") from err
 
 
+class _Observer:
+    """What a worker keeps of each piece of a trial as it is analysed: the seconds of
+    trials.csv, and the check's sketch (whose fault only costs the sketch)."""
+
+    def __init__(self) -> None:
+        self.seconds = TrialSeconds()
+        self.sketcher: Sketcher | None = None
+
+    def __call__(self, piece: PieceState) -> None:
+        self.seconds(piece)
+        if self.sketcher is not None:
+            try:
+                self.sketcher(piece)
+            except Exception:  # the check is drawn from a new analysis instead
+                log.debug("no sketch of this trial", exc_info=True)
+                self.sketcher = None
+
+    def sketch(self, meta: TrialMeta, row: dict[str, Any]) -> bytes | None:
+        """The sketch's bytes, None when it could not be made."""
+        try:
+            return None if self.sketcher is None else \
+                self.sketcher.sketch(meta.subject, meta.trial, row).to_bytes()
+        except Exception:
+            log.debug("no sketch of %s/%s", meta.subject, meta.trial, exc_info=True)
+            return None
+
+
 def _outcome(task: TrialTask, context: WorkerContext) -> TrialOutcome:
     """The trial analysed, or why not: an :class:`AnalysisError` or a user's mistake is the
     trial's error; any other fault too, unless ``strict``."""
     ref = task.ref
     meta = trial_meta(ref)
-    seconds = TrialSeconds()
+    observer = _Observer()
     try:
-        result = analyze_signals(_load(ref, context, task.log), meta,
-                                 settings=context.settings,
-                                 calibration=context.rig.calibration, observe=seconds)
+        signals = _load(ref, context, task.log)
+        observer.sketcher = Sketcher(trial_start(signals))
+        result = analyze_signals(signals, meta, settings=context.settings,
+                                 calibration=context.rig.calibration, observe=observer)
     except AnalysisError as err:
         return TrialOutcome(task.index, failed_row(meta), error=str(err))
     except UserInputError as err:
@@ -194,12 +247,13 @@ def _outcome(task: TrialTask, context: WorkerContext) -> TrialOutcome:
         return TrialOutcome(task.index, failed_row(meta),
                             error=f"{ref.log_path}: {type(err).__name__}: {err} (run with "
                                   "--strict --debug for the traceback)")
-    result.row.update(seconds.columns())
+    result.row.update(observer.seconds.columns())
     warnings = result.warnings
     if result.row.get("skipped_lines"):
         warnings.append(f"{ref.key}: {result.row['skipped_lines']} damaged line(s) skipped "
                         f"in {ref.log_path}")
-    return TrialOutcome(task.index, result.row, result.windows, warnings, None, result.trace)
+    return TrialOutcome(task.index, result.row, result.windows, warnings, None, result.trace,
+                        observer.sketch(meta, result.row))
 
 
 def say_outcome(outcome: TrialOutcome) -> list[str]:
@@ -267,8 +321,18 @@ def analyze_in(task: TrialTask, context: WorkerContext) -> TrialOutcome:
     return outcome
 
 
-def _stop_workers(pool: ProcessPoolExecutor) -> None:
-    """Stop a pool's worker processes now (they would finish their trial otherwise)."""
+def stop_workers(pool: ProcessPoolExecutor) -> None:
+    """Stop a pool's worker processes now (they would finish their task otherwise).
+
+    Parameters
+    ----------
+    pool : ProcessPoolExecutor
+        A pool whose workers run :func:`init_worker`.
+
+    Returns
+    -------
+    None
+    """
     processes = list((getattr(pool, "_processes", None) or {}).values())
     pool.shutdown(wait=False, cancel_futures=True)
     for proc in processes:
@@ -388,7 +452,7 @@ def run_tasks(tasks: list[TrialTask], jobs: int, context: WorkerContext,
         for fut in as_completed(futures):
             arrived(fut.result())
     except BaseException:  # an error, Ctrl-C, SIGTERM: no worker outlives the analysis
-        _stop_workers(pool)
+        stop_workers(pool)
         raise
     finally:
         pool.shutdown(wait=True, cancel_futures=True)

@@ -39,9 +39,20 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         "AIC (paper, hertz, maugis, circuit): writes OUT/models.csv and a "
                         "figure of F_el against the drive frequency per subject")
     p.add_argument("--dpi", type=float, default=None, help="PNG resolution (default 300)")
-    p.add_argument("--no-trial-checks", dest="trial_checks", action="store_false",
-                   help="do not draw the check of every trial (what the analysis did with "
-                        "it: forces, ON phases, windows, lifted and excluded stretches)")
+    p.add_argument("--trial-checks", metavar="WHICH", choices=("auto", "all", "none"),
+                   default=None,
+                   help="which trials' checks to draw (what the analysis did with each: "
+                        "forces, ON phases, windows, lifted and excluded stretches): all, "
+                        "none, or auto (the default): every trial of a study of up to 24 "
+                        "trials, else those the analysis warned about")
+    p.add_argument("--no-trial-checks", dest="trial_checks", action="store_const",
+                   const="none", help="draw no trial's check (--trial-checks none)")
+    p.add_argument("--jobs", metavar="N", type=int, default=None,
+                   help="worker processes drawing the figures (default: the number of CPUs)")
+    p.add_argument("--cache-dir", metavar="DIR", default=None,
+                   help="the cache folder analyze used (what it kept of each trial for its "
+                        "check), where the figures drawn are kept too (default: "
+                        "$EVTRIBO_CACHE_DIR or ~/.cache/evtribo)")
     p.add_argument("--force", action="store_true",
                    help="overwrite the outputs of a previous comparison")
     p.add_argument("--dask", metavar="ADDRESS", default=None,
@@ -57,6 +68,8 @@ def run(args: argparse.Namespace) -> int:
     from contextlib import nullcontext
 
     say = _say_progress()
+    if args.force and _unchanged(args):
+        return 0
     say("loading the fitting and plotting libraries")
 
     from evtribo.cli.setup._signals import EXIT_TERMINATED, Terminated, sigterm_interrupts
@@ -79,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
                              dpi=args.dpi, formats=args.figure_format,
                              width=args.figure_width, models=args.models,
                              trial_checks=args.trial_checks, scheduler=client,
-                             progress=say)
+                             progress=say, jobs=args.jobs, cache_dir=args.cache_dir)
     except Terminated:
         print(f"evtribo compare: terminated; {args.out} holds the fit it held before (or all "
               "of the new one), nothing half-written", file=sys.stderr)
@@ -96,6 +109,57 @@ def run(args: argparse.Namespace) -> int:
     print(f"wrote {result.out / 'fit.csv'} and {len(result.figures)} figures in "
           f"{result.out / 'figures'}")
     return 0
+
+
+def _unchanged(args: argparse.Namespace) -> bool:
+    """Whether OUT holds what this comparison would write (the same analysis, options and
+    software, every file as compare wrote it): then it says so and writes nothing, without
+    loading the fitting and plotting libraries."""
+    from pathlib import Path
+
+    from evtribo.report.kept import options_text, unchanged
+    from evtribo.store.resultdir import locked, recover
+
+    out = Path(args.out)
+    if not (out / "fit.json").is_file():
+        return False
+    options = options_text(fit=args.fit, params=args.params, formats=args.figure_format,
+                           dpi=args.dpi, width=args.figure_width, models=args.models,
+                           trial_checks=args.trial_checks)
+    with locked(out, "evtribo compare"):
+        recover(out)
+        doc = unchanged(out, options, cache_dir=args.cache_dir)
+    if doc is None:
+        return False
+    from evtribo.util.numbers import r_squared, significant
+
+    for subject, fit in (doc.get("subjects") or {}).items():
+        parts = ", ".join(_kept_estimate(name, e)
+                          for name, e in (fit.get("estimates") or {}).items())
+        print(f"{subject}: {parts}; RMSE {significant(1e3 * _num(fit.get('rmse_N')))} mN, "
+              f"R² {r_squared(_num(fit.get('r2')))}")
+    for note in doc.get("notes") or []:
+        print(f"note: {note}", file=sys.stderr)
+    figures = doc.get("figures") or []
+    print(f"{out}: the fit and its {len(figures)} figures are those of this analysis, these "
+          "options and this evtribo already: nothing written")
+    return True
+
+
+def _num(value: Any) -> float:
+    return float(value) if isinstance(value, (int, float)) else float("nan")
+
+
+def _kept_estimate(name: str, e: dict[str, Any]) -> str:
+    """A fitted parameter as fit.json holds it, printed as :func:`_estimate` does."""
+    from evtribo.util.numbers import PREFIXES, auto_prefix, with_interval
+
+    unit = str(e.get("unit") or "")
+    value = _num(e.get("value"))
+    p = auto_prefix(value) if unit else ""
+    k = 10.0 ** -PREFIXES[p]
+    shown = with_interval(k * value, k * _num(e.get("ci_low")), k * _num(e.get("ci_high")))
+    return f"{name} = {shown}" + (f" {p}{unit}" if unit else "")
 
 
 def _say_progress() -> Any:

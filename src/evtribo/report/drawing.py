@@ -1,0 +1,440 @@
+"""compare's figures: each keyed by what it shows, reused while that is unchanged, drawn in
+worker processes.
+
+A figure is emitted as a :class:`Drawing` (a plotting function and its arguments, called
+where the figure is drawn) or drawn already (its Axes). A drawing's key is the SHA-256 of
+what the figure shows and how (:func:`evtribo.report.kept.figure_key`: the function, its
+arguments, the width, the software); a file's key adds its format and resolution. Each
+file of a drawing is then:
+
+- left as it is in the result folder, not written again, when the last comparison wrote it
+  under the same key and it still holds the bytes fit.json records (``output_sha256``);
+- else copied from the cache folder (``figures/<key>.<checksum>.<format>``), which keeps
+  every figure drawn: after ``analyze --force`` (which removes compare's files), or for a
+  trial's check asked again;
+- else drawn: in worker processes (analyze's pool: :func:`evtribo.results.workers.
+  init_worker`), or on the Dask cluster compare was given, while compare goes on.
+
+The same figure gives the same bytes wherever it is drawn (no date, a fixed SVG salt:
+:func:`evtribo.figures.plots.figure_bytes`). A figure emitted drawn has no key: its files
+are written, unless the result folder holds those very bytes (then that file is left as
+it is).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import logging
+import pickle
+from collections.abc import Callable, Mapping
+from concurrent.futures import Future, ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from evtribo.figures.plots import figure_bytes
+from evtribo.figures.style import journal_style
+from evtribo.figures.trial_checks import CHECK_DPI, CheckFigure, trial_checks
+from evtribo.figures.trial_plots import draw_failed, draw_trial_check
+from evtribo.fit.tables import ResultTables
+from evtribo.report.kept import FigureStore, figure_key, file_key
+from evtribo.results.outputs import FIGURES
+from evtribo.results.workers import init_worker, stop_workers
+from evtribo.store.files import atomic_write, sha256_file
+from evtribo.store.resultdir import Staging
+
+log = logging.getLogger(__name__)
+
+__all__ = ["Drawing", "FigureRecord", "Figures", "Look", "Runner", "emit_checks", "render"]
+
+
+@dataclass(frozen=True)
+class Look:
+    """How the figures are written.
+
+    Attributes
+    ----------
+    dpi : float
+        Resolution of the PNGs, dots per inch.
+    formats : tuple of str
+        The formats asked.
+    width : str
+        ``single`` or ``double``.
+    """
+
+    dpi: float
+    formats: tuple[str, ...]
+    width: str
+
+
+@dataclass(frozen=True)
+class FigureRecord:
+    """One figure written by :func:`~evtribo.report.compare.compare`: its kind, subject (or
+    None) and files.
+
+    Parameters
+    ----------
+    kind : str
+        What the figure shows (``electrostatic_force_all``, ``electrostatic_force``...).
+    title : str
+        A short title (the figure itself has none).
+    stem : str
+        The files' name in ``figures/`` without suffix.
+    subject : str or None
+        The subject shown, None for a figure of the whole study.
+    caption : str
+        What a reader needs to read the figure.
+    extra : mapping
+        Further keys of the record in fit.json (``trial`` for a trial's figure; ``key`` and
+        ``dpi``: what the files were drawn from).
+
+    Returns
+    -------
+    FigureRecord
+    """
+
+    kind: str
+    title: str
+    stem: str
+    subject: str | None
+    caption: str
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The record as fit.json lists it.
+
+        Returns
+        -------
+        dict
+            ``kind``, ``title``, ``stem``, ``subject``, ``caption``, then the extra keys.
+        """
+        return {"kind": self.kind, "title": self.title, "stem": self.stem,
+                "subject": self.subject, "caption": self.caption, **self.extra}
+
+
+@dataclass(frozen=True)
+class Drawing:
+    """A figure to draw: ``func(*args, **kwargs)`` draws it and returns its Axes.
+
+    Attributes
+    ----------
+    func : callable
+        A function importable by its name (a worker process imports it).
+    args : tuple
+        Its arguments (what the figure shows).
+    kwargs : dict
+        Its keyword arguments.
+    """
+
+    func: Callable[..., Any]
+    args: tuple[Any, ...] = ()
+    kwargs: Mapping[str, Any] = field(default_factory=dict)
+
+    def draw(self) -> Any:
+        """Draw the figure here.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+        """
+        return self.func(*self.args, **self.kwargs)
+
+
+def render(job: tuple[str, Drawing | bytes, tuple[str, ...], float]) -> dict[str, bytes]:
+    """Draw a figure in the journal style and give its bytes in each format (what a worker
+    does).
+
+    Parameters
+    ----------
+    job : tuple
+        ``(width, what, formats, dpi)``: *what* a :class:`Drawing`, or a drawn figure
+        pickled.
+
+    Returns
+    -------
+    dict
+        The bytes of each format.
+    """
+    width, what, formats, dpi = job
+    with journal_style(width):
+        fig = what.draw().figure if isinstance(what, Drawing) else pickle.loads(what)
+        return figure_bytes(fig, formats, dpi=dpi)
+
+
+class Runner:
+    """Calls run in worker processes (*jobs* > 1, started on first use), on a Dask cluster
+    (*scheduler*), or here.
+
+    Parameters
+    ----------
+    jobs : int
+        Worker processes.
+    scheduler : distributed.Client, optional
+        A Dask cluster to run the calls on instead.
+    """
+
+    def __init__(self, jobs: int, scheduler: Any = None) -> None:
+        self.jobs = max(1, int(jobs))
+        self.scheduler = scheduler
+        self._pool: ProcessPoolExecutor | None = None
+
+    def submit(self, func: Callable[[Any], Any], item: Any) -> Any:
+        """``func(item)``, as a future (its ``result()``).
+
+        Returns
+        -------
+        concurrent.futures.Future or distributed.Future
+        """
+        if self.scheduler is not None:
+            return self.scheduler.submit(func, item, pure=False)
+        if self.jobs > 1:
+            if self._pool is None:
+                self._pool = ProcessPoolExecutor(max_workers=self.jobs,
+                                                 initializer=init_worker)
+            return self._pool.submit(func, item)
+        done: Future[Any] = Future()
+        try:
+            done.set_result(func(item))
+        except Exception as err:
+            done.set_exception(err)
+        return done
+
+    def map(self, func: Callable[[Any], Any], items: list[Any]) -> list[Any]:
+        """``func`` of each item, in order.
+
+        Returns
+        -------
+        list
+        """
+        return [f.result() for f in [self.submit(func, item) for item in items]]
+
+    def close(self, *, failed: bool = False) -> None:
+        """Let the workers go (stopped at once when *failed*)."""
+        if self._pool is not None:
+            if failed:
+                stop_workers(self._pool)
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+
+@dataclass
+class _Pending:
+    """A figure being drawn: what to do with its bytes when they come."""
+
+    stem: str
+    key: str | None
+    dpi: float
+    formats: tuple[str, ...]
+    future: Any
+    tell: str | None
+
+
+class Figures:
+    """Writes compare's figures into a staging folder, each file left as it is, copied from
+    the cache folder or drawn (see the module's text), and records them in a result.
+
+    Parameters
+    ----------
+    stage : Staging
+        Where the files written go (``figures/<stem>.<fmt>``).
+    look : Look
+        Formats, resolution and width asked.
+    result : CompareResult
+        Gets each figure's record (``figures``) and files (``files``, relative).
+    runner : Runner
+        Where figures are drawn.
+    store : FigureStore
+        The figures kept in the cache folder.
+    previous : mapping, optional
+        The result folder's fit.json, as the last comparison wrote it.
+    progress : callable, optional
+        Told ``[k/n] <what>`` as each figure emitted with a ``tell`` is done.
+    """
+
+    #: It takes a :class:`Drawing` (drawn where and when needed), not only an Axes.
+    lazy = True
+
+    def __init__(self, stage: Staging, look: Look, result: Any, runner: Runner,
+                 store: FigureStore, *, previous: Mapping[str, Any] | None = None,
+                 progress: Callable[[str], None] | None = None) -> None:
+        self.stage, self.look, self.result = stage, look, result
+        self.runner, self.store, self.progress = runner, store, progress
+        prev = previous or {}
+        self.previous = {str(f.get("stem")): f for f in prev.get("figures") or []
+                         if isinstance(f, dict)}
+        self.previous_sha = {str(k): str(v) for k, v in
+                             dict(prev.get("output_sha256") or {}).items()}
+        #: Every figure file: its SHA-256; and those left as they were.
+        self.sha256: dict[str, str] = {}
+        self.kept: set[str] = set()
+        self._late: list[FigureRecord] = []
+        self._pending: list[_Pending] = []
+        self._found: dict[str, str | None] = {}
+
+    def emit(self, what: Any, kind: str, title: str, stem: str, *, subject: str | None = None,
+             caption: str = "", extra: Mapping[str, Any] | None = None,
+             formats: tuple[str, ...] | None = None, dpi: float | None = None,
+             late: bool = False, tell: str | None = None) -> None:
+        """Write a figure once per format as ``figures/<stem>.<fmt>`` (or keep it), record it.
+
+        Parameters
+        ----------
+        what : Drawing or Axes
+            The figure, to draw or drawn (its first Axes).
+        kind, title, stem, subject, caption : str
+            The record in fit.json (:class:`FigureRecord`).
+        extra : mapping, optional
+            Further keys of the record (``{"trial": "run-01"}``).
+        formats : tuple of str, optional
+            Formats of this figure (default: those asked for).
+        dpi : float, optional
+            Its resolution (default: the one asked for).
+        late : bool
+            Record it after the figures emitted without it (when :meth:`finish` is called).
+        tell : str, optional
+            What to tell the progress when the figure is done.
+
+        Returns
+        -------
+        None
+        """
+        formats = tuple(formats or self.look.formats)
+        dpi = float(dpi or self.look.dpi)
+        key = (figure_key(what.func, what.args, what.kwargs, self.look.width)
+               if isinstance(what, Drawing) else None)
+        record = FigureRecord(kind, title, stem, subject, caption,
+                              {**(extra or {}), "key": key, "dpi": dpi})
+        (self._late if late else self.result.figures).append(record)
+        todo = []
+        for fmt in formats:
+            rel = f"{FIGURES}/{stem}.{fmt}"
+            self.result.files.append(Path(rel))
+            if key is not None and self._unchanged(rel, stem, key, dpi):
+                continue
+            data = None if key is None else self.store.get(file_key(key, fmt, dpi), fmt)
+            if data is not None:
+                self._place(rel, data)
+            else:
+                todo.append(fmt)
+        if not todo and not tell:
+            return
+        future: Any = None
+        if todo:
+            future = self._draw(what, tuple(todo), dpi)
+        self._pending.append(_Pending(stem, key, dpi, tuple(todo), future, tell))
+
+    def _draw(self, what: Any, formats: tuple[str, ...], dpi: float) -> Any:
+        """The figure's bytes in *formats*, as a future: drawn by the workers, or here
+        when it is an Axes whose figure does not pickle."""
+        job: Any = what
+        if not isinstance(what, Drawing):
+            try:
+                job = pickle.dumps(what.figure)
+            except Exception:  # drawn here, then
+                done: Future[Any] = Future()
+                done.set_result(render((self.look.width, Drawing(lambda: what), formats, dpi)))
+                return done
+        return self.runner.submit(render, (self.look.width, job, formats, dpi))
+
+    def _current(self, rel: str) -> str | None:
+        """The SHA-256 of the result folder's file, as it is now (None: none)."""
+        if rel not in self._found:
+            try:
+                self._found[rel] = sha256_file(self.stage.target / rel)
+            except OSError:
+                self._found[rel] = None
+        return self._found[rel]
+
+    def _holds(self, rel: str, sha: str | None) -> bool:
+        """Whether the result folder's file is compare's, as written, with these bytes."""
+        return sha is not None and self.previous_sha.get(rel) == sha == self._current(rel)
+
+    def _unchanged(self, rel: str, stem: str, key: str, dpi: float) -> bool:
+        """Whether the last comparison drew this file from the same key and it is as it
+        wrote it (then it is left as it is)."""
+        prev = self.previous.get(stem) or {}
+        if prev.get("key") != key or prev.get("dpi") != dpi:
+            return False
+        if not self._holds(rel, self.previous_sha.get(rel)):
+            return False
+        self.kept.add(rel)
+        self.sha256[rel] = self.previous_sha[rel]
+        return True
+
+    def _place(self, rel: str, data: bytes) -> None:
+        """Write a figure's file, unless the result folder holds these very bytes."""
+        sha = hashlib.sha256(data).hexdigest()
+        if self._holds(rel, sha):
+            self.kept.add(rel)
+        else:
+            atomic_write(self.stage.path(rel), data)
+        self.sha256[rel] = sha
+
+    def finish(self) -> None:
+        """Wait for the figures being drawn, write them (and keep them in the cache
+        folder), and record the figures emitted ``late``.
+
+        Returns
+        -------
+        None
+        """
+        told = [p for p in self._pending if p.tell]
+        for p in self._pending:
+            out = p.future.result() if p.future is not None else {}
+            for fmt in p.formats:
+                if p.key is not None:
+                    self.store.put(file_key(p.key, fmt, p.dpi), fmt, out[fmt])
+                self._place(f"{FIGURES}/{p.stem}.{fmt}", out[fmt])
+            if p.tell and self.progress is not None:
+                self.progress(f"[{told.index(p) + 1}/{len(told)}] {p.tell}")
+        self._pending.clear()
+        self.result.figures.extend(self._late)
+        self._late.clear()
+
+
+def _check_drawing(check: CheckFigure) -> Drawing:
+    """What draws a trial's check (or says why the trial was not analysed)."""
+    if check.sketch is None:
+        return Drawing(draw_failed, (check.subject, check.trial, check.error or ""))
+    return Drawing(draw_trial_check, (check.sketch,))
+
+
+def emit_checks(figures: Figures, tables: ResultTables, which: str, cache: Path,
+                progress: Callable[[str], None]) -> list[str]:
+    """Each trial's check (:func:`~evtribo.figures.trial_checks.trial_checks`) handed to
+    the workers, recorded after the other figures; the notes on them. A check is written
+    as PNG (at most :data:`~evtribo.figures.trial_checks.CHECK_DPI`) when PNG is among the
+    formats asked, else in the first: a figure to look at, not to print.
+
+    Parameters
+    ----------
+    figures : Figures
+        Where the figures go.
+    tables : ResultTables
+        The result folder.
+    which : str
+        Which trials (:data:`~evtribo.figures.trial_checks.WHICH`).
+    cache : Path
+        The cache folder of the analysis.
+    progress : callable
+        Told what is being done.
+
+    Returns
+    -------
+    list of str
+        Notes for the user.
+    """
+    if which == "none":
+        return []
+    checks, notes = trial_checks(tables, which, cache_dir=cache, mapper=figures.runner.map)
+    if checks:
+        progress(f"drawing the check of {len(checks)} trial(s) from what analyze kept of "
+                 "each, while the model is fitted (--trial-checks none leaves them out)")
+    formats = figures.look.formats
+    fmt = ("png",) if "png" in formats else formats[:1]  # figures to look at, not to print
+    for c in checks:
+        figures.emit(_check_drawing(c), "trial", f"{c.subject} / {c.trial}", c.stem,
+                     subject=c.subject, caption=c.caption, extra={"trial": c.trial},
+                     formats=fmt, dpi=min(figures.look.dpi, CHECK_DPI), late=True,
+                     tell=f"check of {c.subject}/{c.trial}")
+    return notes
