@@ -183,7 +183,8 @@ def _zoomed(ax: Axes, es: pd.DataFrame, band: np.ndarray, pred: np.ndarray) -> N
     if values.size == 0:
         return
     low, high = float(values.min()) / 2.0, float(values.max()) * 2.0
-    if np.nanmin(pred) >= low and np.nanmax(pred) <= high:
+    edges = pred[np.isfinite(pred)]
+    if edges.size == 0 or (edges.min() >= low and edges.max() <= high):
         return
     ax.set_ylim(low, high)
     ax.text(0.97, 0.03, "prediction band runs beyond the axes", transform=ax.transAxes,

@@ -60,8 +60,7 @@ KINDS: tuple[Kind, ...] = (
     Kind("not-analysed", "number", "trials not analysed", r"^not analysed: "),
     Kind("input-changed", "number", "inputs changed since the analysis",
          r"changed since the analysis|in the study folder but not in the analysis"),
-    Kind("roles", "number", "the normal and tangential roles look swapped",
-         r"roles look swapped"),
+    Kind("roles", "number", "the normal and tangential roles look swapped", r"roles look swapped"),
     Kind("mu-implausible", "number", "friction coefficient outside what fingers give",
          r"outside what fingers give"),
     Kind("negative-force", "number", "electrostatic force below zero beyond its interval",
@@ -81,6 +80,8 @@ KINDS: tuple[Kind, ...] = (
     Kind("no-power-law", "number", "no power law", r"^no power law"),
     Kind("other-off", "number", "ON windows compared with other trials' OFF windows",
          r"alternates but has no OFF window"),
+    Kind("law-untold", "number", "friction law not measured (m = 1)", r"span too little to tell"),
+    Kind("long-phases", "interval", "phases too long to tell a drift", r"phases are too long"),
     Kind("few-windows", "interval", "fewer than 5 ON or OFF windows",
          r"windows \(fewer than \d+\)"),
     Kind("mu-scatter", "interval", "friction scatters between strokes",
@@ -90,8 +91,7 @@ KINDS: tuple[Kind, ...] = (
     Kind("piece-left", "interval", "pieces of a trial not analysed",
          r"^the piece from .* is not analysed"),
     Kind("offset", "information", "zero offsets removed", r"cell's zero offset was"),
-    Kind("zero-drift", "information", "zeros that drifted, followed",
-         r"cell's zero drifted by"),
+    Kind("zero-drift", "information", "zeros that drifted, followed", r"cell's zero drifted by"),
     Kind("drift-followed", "information", "friction changed within trials, followed",
          r"friction coefficient changed within"),
     Kind("pace", "information", "friction follows the strokes' pace",
@@ -106,8 +106,7 @@ KINDS: tuple[Kind, ...] = (
     Kind("frames-lost", "information", "load-cell frames lost",
          r"frames missing|dropped frame|frames on this channel \(DROPCOUNT\)|dropped \d+ "
          r"frames"),
-    Kind("damaged-lines", "information", "damaged log lines skipped",
-         r"damaged line"),
+    Kind("damaged-lines", "information", "damaged log lines skipped", r"damaged line"),
     Kind("pieces", "information", "trials analysed in pieces",
          r"^analysed in \d+ continuous pieces|^the load cells fell silent|^a gap of"),
     Kind("sign-flipped", "information", "negative normal force, sign flipped",
@@ -128,9 +127,7 @@ _COMPILED = tuple((k, re.compile(k.pattern)) for k in KINDS)
 #: A number in a message (not a digit of a name: run-03, 0C1).
 _NUMBER = re.compile(r"(?<![\w.-])[-+]?\d+(?:\.\d+)?(?:[eE][-+]?\d+)?(?![\w.]\d)(?!\w)")
 _TRIAL = re.compile(r"^(?P<subject>[^\s/:]+)/(?P<trial>[^\s/:]+): (?P<rest>.*)$", re.S)
-#: A trial named by its log's path (``.../P01/run-02.log: ...``).
-_LOG = re.compile(r"^(?:[^:]*/)?(?P<subject>[^\s/:]+)/(?P<trial>[^\s/:.]+)\.\w+: (?P<rest>.*)$",
-                  re.S)
+_LOG = re.compile(r"^(?:[^:]*/)?(?P<subject>[^\s/:]+)/(?P<trial>[^\s/:.]+)\.\w+: ", re.S)
 _CELL = re.compile(r"^(?P<subject>[^\s:]+) \((?P<drive>[^()]*)\) at (?P<amp>[-+0-9.eE]+) V: "
                    r"(?P<rest>.*)$", re.S)
 _DRIVE = re.compile(r"^(?P<subject>[^\s:]+) \((?P<drive>[^()]*)\): (?P<rest>.*)$", re.S)
@@ -252,10 +249,12 @@ def _drive(text: str) -> tuple[str | None, float | None]:
 def _scope(line: str, subjects: set[str], trials: set[tuple[str, str]]
            ) -> tuple[str, object, str]:
     """``(kind of scope, where, the rest of the text)`` of one line."""
-    for pattern in (_TRIAL, _LOG):
-        m = pattern.match(line)
-        if m and (m["subject"], m["trial"]) in trials:
-            return "trial", (m["subject"], m["trial"]), m["rest"]
+    m = _TRIAL.match(line)
+    if m and (m["subject"], m["trial"]) in trials:
+        return "trial", (m["subject"], m["trial"]), m["rest"]
+    m = _LOG.match(line)  # a trial named by its file's path: the name stays in the text
+    if m and (m["subject"], m["trial"]) in trials:
+        return "trial", (m["subject"], m["trial"]), line
     m = _CELL.match(line)
     if m and m["subject"] in subjects:
         wave, freq = _drive(m["drive"])
