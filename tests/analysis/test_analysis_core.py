@@ -16,8 +16,8 @@ from evtribo.analysis import (
 )
 from evtribo.analysis.forces.conditions import EXCLUDED, OFF, ON
 from evtribo.analysis.friction.estimate import small_sample_scale
-from evtribo.analysis.friction.windows import moving_average
 from evtribo.errors import AnalysisError
+from evtribo.util.running import moving_average
 
 
 def _analyse(s):

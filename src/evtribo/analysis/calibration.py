@@ -25,13 +25,13 @@ import numpy as np
 from evtribo.analysis.forces.align import align_forces
 from evtribo.analysis.forces.crosstalk import ReversalSums, reversal_sums
 from evtribo.analysis.forces.timebase import sample_times
-from evtribo.analysis.friction.windows import moving_average
 from evtribo.analysis.observed import PieceState
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals
 from evtribo.canlog.rig import Calibration
 from evtribo.canlog.signals import TrialSignals
 from evtribo.errors import AnalysisError
+from evtribo.util.running import moving_average
 
 __all__ = [
     "MAX_SE",

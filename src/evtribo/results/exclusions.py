@@ -24,8 +24,8 @@ import numpy as np
 import numpy.typing as npt
 
 from evtribo.analysis.forces.conditions import EXCLUDED, OFF, ON
-from evtribo.analysis.friction.windows import true_runs
 from evtribo.analysis.observed import PieceState, lift_exclusion
+from evtribo.util.running import true_runs
 
 __all__ = ["SECONDS_COLUMNS", "TrialSeconds"]
 

@@ -26,8 +26,8 @@ import numpy.typing as npt
 
 from evtribo.analysis.forces.conditions import EXCLUDED, OFF, ON
 from evtribo.analysis.forces.lifted import EDGE_S
-from evtribo.analysis.friction.windows import true_runs
 from evtribo.analysis.observed import PieceState
+from evtribo.util.running import true_runs
 
 __all__ = ["MAX_POINTS", "MIN_HOLE_S", "STRETCH_LABELS", "SketchPiece", "Sketcher",
            "Stretch", "TrialSketch", "envelope", "piece_stretches"]

@@ -1,2 +1,2 @@
 """Small tools the other packages share: docstring parts, an exact fast median, running counts,
-numbers printed for people."""
+a moving average and runs, numbers printed for people."""

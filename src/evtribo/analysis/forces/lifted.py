@@ -14,8 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from evtribo.analysis.friction.windows import moving_average, true_runs
 from evtribo.util.median import median
+from evtribo.util.running import moving_average, true_runs
 
 FloatArray = npt.NDArray[np.float64]
 

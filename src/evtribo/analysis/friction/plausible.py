@@ -15,7 +15,7 @@ import numpy.typing as npt
 import pandas as pd
 from scipy import special  # stats.norm.cdf is special.ndtr, its inverse special.ndtri
 
-from evtribo.analysis.friction.windows import moving_average
+from evtribo.util.running import moving_average
 
 __all__ = ["FAMILY_ALPHA", "MAX_MU", "MIN_MU", "below_zero", "implausible_rows",
            "sign_behaviour", "swapped_roles"]

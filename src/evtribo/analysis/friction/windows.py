@@ -39,7 +39,7 @@ import pandas as pd
 
 from evtribo.analysis.forces.conditions import EXCLUDED, ON
 from evtribo.util.median import median
-from evtribo.util.running import running_count
+from evtribo.util.running import moving_average, running_count, true_runs, value_runs
 
 log = logging.getLogger(__name__)
 
@@ -50,72 +50,6 @@ WINDOW_COLUMNS = ("i_start", "i_stop", "t_start", "t_end", "condition", "directi
 DEFAULT_SMOOTH_S = 0.1
 DEFAULT_MIN_WINDOW_S = 0.2
 DEFAULT_MAX_WINDOW_S = 1.0
-
-
-def moving_average(x: npt.ArrayLike, n: int, *, min_fraction: float = 1.0
-                   ) -> npt.NDArray[np.float64]:
-    """Centred moving average over *n* samples (odd), ignoring NaNs.
-
-    Parameters
-    ----------
-    x : array_like of float
-        Samples on a uniform grid.
-    n : int
-        Span in samples (rounded up to odd).
-    min_fraction : float
-        Fraction of the span's samples that must be finite (1: NaN wherever the span holds
-        a NaN); else the average is NaN.
-
-    Returns
-    -------
-    ndarray of float64
-        Same length as *x*; NaN near the ends and around NaNs.
-    """
-    x = np.asarray(x, dtype=np.float64)
-    n = max(1, int(n)) | 1
-    h = n // 2
-    out = np.full(x.shape, np.nan)
-    if x.size < n:
-        return out
-    bad = ~np.isfinite(x)
-    csum = np.empty(x.size + 1)
-    csum[0] = 0.0
-    if not bad.any():  # the common case: no gap, one running sum
-        np.cumsum(x, out=csum[1:])
-        out[h:x.size - h] = (csum[n:] - csum[:-n]) / n
-        return out
-    np.cumsum(np.where(bad, 0.0, x), out=csum[1:])
-    cbad = running_count(bad, initial=True)
-    total = csum[n:] - csum[:-n]
-    nbad = cbad[n:] - cbad[:-n]
-    good = n - nbad
-    with np.errstate(invalid="ignore", divide="ignore"):
-        out[h:x.size - h] = np.where(good >= min_fraction * n - 1e-9, total / good, np.nan)
-    return out
-
-
-def _runs(code: npt.NDArray[np.int64]) -> list[tuple[int, int, int]]:
-    """``(start, stop, value)`` of the runs of equal values of *code*."""
-    if code.size == 0:
-        return []
-    edges = np.flatnonzero(np.diff(code)) + 1
-    starts = np.concatenate(([0], edges))
-    stops = np.concatenate((edges, [code.size]))
-    return [(int(a), int(b), int(code[a])) for a, b in zip(starts, stops, strict=True)]
-
-
-def true_runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
-    """``(start, stop)`` of the runs of True in *mask* (stop exclusive).
-
-    Parameters
-    ----------
-    mask : ndarray of bool
-
-    Returns
-    -------
-    list of (int, int)
-    """
-    return [(a, b) for a, b, v in _runs(mask.astype(np.int64)) if v]
 
 
 def find_windows(
@@ -189,7 +123,7 @@ def find_windows(
     min_len = max(2, round(min_window_s / grid.dt))
     lengths = (min_len, max(min_len, round(max_window_s / grid.dt)),
                max(1, round(quantum_s / grid.dt)) if quantum_s else 1)
-    rows = [row for a, b, v in _runs(code) if v != 0 and b - a >= min_len
+    rows = [row for a, b, v in value_runs(code) if v != 0 and b - a >= min_len
             for row in _piece_windows(t, grid, (a, b, v), lengths, level_fraction=level_fraction,
                                       contact_fraction=contact_fraction)]
     if not rows:
@@ -205,7 +139,7 @@ def _with_strokes(table: pd.DataFrame, sign: npt.NDArray[np.int64], dt: float
     numbered from 0) and that stroke's duration, s."""
     number = np.full(sign.size, -1, dtype=np.int64)
     seconds = np.full(sign.size, np.nan)
-    runs = [(a, b) for a, b, v in _runs(sign) if v != 0]
+    runs = [(a, b) for a, b, v in value_runs(sign) if v != 0]
     for k, (a, b) in enumerate(runs):
         number[a:b] = k
         seconds[a:b] = (b - a) * dt
@@ -370,4 +304,4 @@ def with_means(windows: pd.DataFrame, normal: npt.ArrayLike, tangential: npt.Arr
 
 
 __all__ = ["DEFAULT_MAX_WINDOW_S", "DEFAULT_MIN_WINDOW_S", "DEFAULT_SMOOTH_S", "WINDOW_COLUMNS",
-           "find_windows", "moving_average", "true_runs", "with_means"]
+           "find_windows", "with_means"]
