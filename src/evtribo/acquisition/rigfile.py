@@ -256,9 +256,10 @@ def write_new_study(study: str | Path, dbc: str | Path, *, dbc_rel: str, name: s
         The study's ``name``.
     rig : dict
         The ``[rig]`` table (its ``dbc`` key should be *dbc_rel*).
-    calibration, calibration_note
-        The ``[rig.calibration]`` table, if any, and a comment above it
-        (:func:`~evtribo.study.write_study_toml`).
+    calibration : dict, optional
+        The ``[rig.calibration]`` table.
+    calibration_note : str
+        A comment above it.
 
     Returns
     -------
