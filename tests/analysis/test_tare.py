@@ -1,5 +1,6 @@
-"""Taring (``evtribo.analysis.forces.tare``) and hum removal (``evtribo.analysis.forces.hum``)
-on synthetic load-cell traces made here, independently of the package's simulator."""
+"""Taring (``evtribo.analysis.forces.zero_offsets``) and hum removal
+(``evtribo.analysis.forces.hum``) on synthetic load-cell traces made here, independently of the
+package's simulator."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ from hypothesis import strategies as st
 
 from evtribo.analysis.forces.align import AlignedForces
 from evtribo.analysis.forces.hum import find_hum, modulation_lines, remove_hum
-from evtribo.analysis.forces.tare import (
+from evtribo.analysis.forces.zero_offsets import (
     Tared,
     calibrate,
     find_lifted,

@@ -13,8 +13,8 @@ import pandas as pd
 from hypothesis import given
 from hypothesis import strategies as st
 
-from evtribo.analysis.forces.taring import _like_with_like
 from evtribo.analysis.settings import AnalysisSettings
+from evtribo.analysis.tared_windows import _like_with_like
 from evtribo.results.pipeline import analyze_study
 
 UNTARED = Path(__file__).resolve().parents[2] / "data" / "untared-session"

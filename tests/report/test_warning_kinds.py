@@ -99,7 +99,7 @@ def test_on_windows_left_out_for_their_direction_are_one_kind_of_their_own():
     import numpy as np
     import pandas as pd
 
-    from evtribo.analysis.forces.taring import _like_with_like
+    from evtribo.analysis.tared_windows import _like_with_like
 
     lines = []
     for (s, t), n in zip(TRIALS[:3], (2, 3, 4), strict=True):

@@ -7,9 +7,10 @@ The layers, each a module of plain numpy functions:
 - :mod:`~evtribo.analysis.forces.excitation`, :mod:`~evtribo.analysis.forces.conditions`: what the
   excitation was, and ON/OFF per grid point, with guard times at switches;
 - :mod:`~evtribo.analysis.forces.hum`: mains hum found and notched out;
-- :mod:`~evtribo.analysis.forces.tare`, :mod:`~evtribo.analysis.forces.lifted`: the load cells'
-  calibration, their zero offsets and drift from finger-lifted stretches and the friction
-  loop;
+- :mod:`~evtribo.analysis.forces.zero_offsets`, :mod:`~evtribo.analysis.forces.lifted`: the
+  load cells' calibration, their zero offsets and drift from finger-lifted stretches and the
+  friction loop (a trial's taring and the windows it gives:
+  :mod:`~evtribo.analysis.tared_windows`);
 - :mod:`~evtribo.analysis.friction.windows`: steady-sliding windows found from the friction itself;
 - :mod:`~evtribo.analysis.friction.estimate`: friction coefficient, inferred electrostatic force and
   their bootstrap intervals (calibrated for the few windows a trial gives; the replicates

@@ -74,7 +74,7 @@ class AnalysisSettings:
     Attributes
     ----------
     tare : {"auto", "lifted", "friction-loop", "calibration", "none"}
-        How the load cells' zero offsets are removed (:mod:`evtribo.analysis.forces.tare`).
+        How the load cells' zero offsets are removed (:mod:`evtribo.analysis.forces.zero_offsets`).
     guard_s : float, s
         Excluded on both sides of an ON/OFF switch.
     smooth_s : float, s

@@ -7,9 +7,9 @@ the trial's start, the first decoded frame of the rig's messages.
 
 The steps: the two load cells on one grid (:mod:`.align`), the ON/OFF condition
 (:mod:`.conditions`), mains hum notched out (:mod:`.hum`), the calibration applied and the
-zero offsets removed (:mod:`.tare`), steady-sliding windows (:mod:`.windows`); the friction
-loop's tangential offset is then taken out and the windows' means taken again from the
-corrected forces.
+zero offsets removed (:mod:`.zero_offsets`), steady-sliding windows (:mod:`.windows`); the
+friction loop's tangential offset is then taken out and the windows' means taken again from
+the corrected forces (:mod:`.tared_windows`).
 """
 
 from __future__ import annotations
@@ -30,14 +30,14 @@ from evtribo.analysis.forces.crosstalk import ReversalSums, direction_share, rev
 from evtribo.analysis.forces.excitation import excitation_of
 from evtribo.analysis.forces.hum import find_hum, friction_oscillates, modulation_lines, remove_hum
 from evtribo.analysis.forces.pieces import check_seconds, continuous_pieces, describe_gap, restrict
-from evtribo.analysis.forces.tare import HUM_FREE_S, removed_offsets
-from evtribo.analysis.forces.taring import offset_warnings, tare_and_find_windows
 from evtribo.analysis.forces.timebase import placed_among, sample_times
+from evtribo.analysis.forces.zero_offsets import HUM_FREE_S, removed_offsets
 from evtribo.analysis.friction.plausible import swapped_roles
 from evtribo.analysis.friction.sine import friction_modulation, trace_around_switch
 from evtribo.analysis.friction.trace import TRACE_COLUMNS
 from evtribo.analysis.observed import PieceObserver, PieceState
 from evtribo.analysis.settings import AnalysisSettings
+from evtribo.analysis.tared_windows import offset_warnings, tare_and_find_windows
 from evtribo.canlog.rig import Calibration
 from evtribo.canlog.signals import CellSignals, TrialSignals
 from evtribo.documents.sidecar import Sidecar

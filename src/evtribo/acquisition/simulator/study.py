@@ -183,7 +183,7 @@ def _study_rig(root: Path, rig: Rig | None, name: str, *, exact: bool = False
     when the trial's tangential cell is *exact* (it reads zero at rest), ``[rig.calibration]
     tangential_offset_N = 0.0``: a study of an exact rig without a tare stretch whose OFF
     and ON windows slid opposite ways is then analysed as a calibrated rig's, not left
-    without its force (:mod:`evtribo.analysis.forces.taring`).
+    without its force (:mod:`evtribo.analysis.tared_windows`).
     """
     toml = root / STUDY_FILE
     if toml.exists():

@@ -3,7 +3,8 @@
 With the finger lifted both load cells read their zero. :func:`find_lifted` finds such
 stretches in a trial's forces (the tare stretch an operator records at the start, and any
 lift-off) and measures each cell's zero there; :func:`offset_curve` follows the zero's drift
-through the trial from them. The rest of the taring is in :mod:`evtribo.analysis.forces.tare`.
+through the trial from them. The rest of the taring is in
+:mod:`evtribo.analysis.forces.zero_offsets`.
 """
 
 from __future__ import annotations

@@ -1,5 +1,11 @@
 """A trial's taring step: the calibration, the finger-lifted stretches and the friction loop
-(:mod:`.tare`), with the steady-sliding windows they give, and what they are worth saying.
+(:mod:`.zero_offsets`), with the steady-sliding windows they give, and what they are worth
+saying.
+
+It joins the analysis's two floors, so it sits above both: the load cells' zero offsets
+(:mod:`evtribo.analysis.forces`) and the steady-sliding windows
+(:mod:`evtribo.analysis.friction.windows`), which the friction loop fits and whose means are
+taken again from the forces it corrects.
 """
 
 from __future__ import annotations
@@ -13,7 +19,7 @@ import pandas as pd
 
 from evtribo.analysis.forces.align import AlignedForces
 from evtribo.analysis.forces.excitation import Excitation, window_amplitudes
-from evtribo.analysis.forces.tare import (
+from evtribo.analysis.forces.zero_offsets import (
     Tared,
     calibrate,
     friction_loop_offset,
@@ -42,8 +48,8 @@ def tare_and_find_windows(aligned: AlignedForces, exc: Excitation, *, smooth: fl
                           quantum: float, tare_s: float | None, settings: AnalysisSettings,
                           calibration: Calibration | None, warn: Callable[[str], None]
                           ) -> tuple[Tared, pd.DataFrame, npt.NDArray[np.float64]]:
-    """Calibration and taring (:mod:`.tare`), the steady-sliding windows they give and the
-    windows' amplitudes (the friction loop groups the ON windows by them).
+    """Calibration and taring (:mod:`.zero_offsets`), the steady-sliding windows they give and
+    the windows' amplitudes (the friction loop groups the ON windows by them).
 
     Parameters
     ----------

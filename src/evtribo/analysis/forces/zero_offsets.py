@@ -35,7 +35,7 @@ other. The forces are corrected in three steps (``[analysis] tare``, default ``"
    applied: a finger's friction differs between forward and backward strokes (posture,
    the ridges' direction; Pasumarty et al. 2011), and the loop cannot tell that from an
    offset; the estimate compares each direction with its own (:mod:`evtribo.analysis.
-   reference`). The normal cell's offset cannot come from strokes: without a lifted
+   friction.reference`). The normal cell's offset cannot come from strokes: without a lifted
    stretch or a calibration it is unknown, and the analysis says so.
 
 ``"auto"`` runs the three steps in turn (each on what the previous left); ``"lifted"``,
