@@ -25,10 +25,10 @@ from typing import Any
 
 import pandas as pd
 
-from evtribo.analysis.heard import heard_warnings
 from evtribo.analysis.observed import PieceState
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals, trial_start
+from evtribo.analysis.trial_warnings import heard_warnings
 from evtribo.canlog.cache import load_trial
 from evtribo.canlog.rig import Calibration
 from evtribo.canlog.signals import TrialSignals

@@ -43,7 +43,6 @@ import pandas as pd
 
 from evtribo import __version__
 from evtribo.analysis.friction.estimate import INTERVAL, MU_ESTIMATOR
-from evtribo.analysis.heard import no_force, say
 from evtribo.analysis.settings import AnalysisSettings, study_settings
 from evtribo.analysis.trial import (
     SINE_TRACE_CSV_COLUMNS,
@@ -52,6 +51,7 @@ from evtribo.analysis.trial import (
     empty_windows,
     failed_row,
 )
+from evtribo.analysis.trial_warnings import no_force, say
 from evtribo.errors import StudyError
 from evtribo.guard import refuse_cache_in_study
 from evtribo.results.aggregate import (

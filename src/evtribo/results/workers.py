@@ -29,7 +29,6 @@ from typing import Any
 
 import pandas as pd
 
-from evtribo.analysis.heard import heard_warnings, say
 from evtribo.analysis.observed import PieceState
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import (
@@ -39,6 +38,7 @@ from evtribo.analysis.trial import (
     failed_row,
     trial_start,
 )
+from evtribo.analysis.trial_warnings import heard_warnings, say
 from evtribo.canlog.cache import default_cache_dir, load_trial
 from evtribo.canlog.rig import Rig
 from evtribo.canlog.signals import TrialSignals

@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from evtribo.analysis.heard import heard_warnings
 from evtribo.analysis.trial import TrialMeta, analyze_signals
+from evtribo.analysis.trial_warnings import heard_warnings
 from evtribo.canlog.cache import load_trial
 from evtribo.errors import EvtriboError
 from evtribo.results.pipeline import study_settings
