@@ -4,6 +4,7 @@ short enough to read."""
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 SRC = Path(__file__).parents[1] / "src" / "evtribo"
@@ -173,3 +174,140 @@ def test_no_private_api_of_the_standard_library():
                 used.append(f"{path.relative_to(SRC)}:{node.lineno} "
                             f"{aliases[node.value.id]}.{node.attr}")
     assert not [u for u in used if u.split()[-1] not in DOCUMENTED], used
+
+
+ROOT = SRC.parents[1]
+ARCHITECTURE = ROOT / "docs" / "architecture.md"
+#: A path or a folder as docs/architecture.md names one: ``analysis/trial.py``, ``store/``,
+#: ``tests/_vcanvm.py``, ``docs/models.md``, or a module alone, ``data.py``.
+_PATH = re.compile(r"(?<![\w./<-])([A-Za-z_][\w-]*(?:/[\w-]+)*(?:\.py|\.md|/))(?![\w/<*])")
+
+
+def _named_in_architecture() -> list[list[str]]:
+    """The paths docs/architecture.md names, by the stretch of text they are read in: a table
+    row or a paragraph (what is in backticks), or one top-level entry of a diagram with the
+    lines under it (every name that looks like a path)."""
+    units: list[list[str]] = [[]]
+    fenced = False
+    for line in ARCHITECTURE.read_text(encoding="utf-8").splitlines():
+        if line.startswith("```"):
+            fenced = not fenced
+            units.append([])
+        elif fenced:
+            if len(line) - len(line.lstrip()) <= 2:  # a top-level entry starts a new stretch
+                units.append([])
+            units[-1] += _PATH.findall(line)
+        else:
+            if not line.strip() or line.startswith("|"):
+                units.append([])
+            units[-1] += [m for code in re.findall(r"`([^`]+)`", line)
+                          for m in _PATH.findall(code) if code.startswith(m)]
+    return units
+
+
+def _resolve(name: str, contexts: list[Path]) -> Path | None:
+    """*name* where it is: under a folder named before it in the same stretch, in
+    ``src/evtribo``, or in the repository."""
+    for base in (*reversed(contexts), SRC, ROOT):
+        if (base / name).exists():
+            return base / name
+    return None
+
+
+def test_every_path_architecture_md_names_exists():
+    """docs/architecture.md is where a newcomer looks things up: every module, folder and page
+    it names is there (a bare module name under a folder of the package named before it in
+    the same table row, paragraph or diagram entry, or at the top of the package)."""
+    missing = []
+    for names in _named_in_architecture():
+        contexts: list[Path] = []
+        for name in names:
+            found = _resolve(name, contexts)
+            if found is None:
+                missing.append(name)
+            elif not found.is_relative_to(SRC):  # tests/, docs/: no package's modules
+                continue
+            elif "/" in name.rstrip("/"):
+                contexts.append(found if found.is_dir() else found.parent)
+            elif found.is_dir():
+                contexts.append(found)
+    assert not missing, f"docs/architecture.md names what is not there: {sorted(set(missing))}"
+
+
+def test_every_dotted_name_architecture_md_names_exists():
+    """Each ``evtribo.x.y`` in docs/architecture.md is a module of the package or a name one of
+    its modules defines."""
+    import importlib
+
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    missing = []
+    for dotted in sorted(set(re.findall(r"`(evtribo(?:\.\w+)+)`", text))):
+        where = SRC.joinpath(*dotted.split(".")[1:])
+        if where.with_suffix(".py").is_file() or (where / "__init__.py").is_file():
+            continue
+        parent, _, attr = dotted.rpartition(".")
+        if not hasattr(importlib.import_module(parent), attr):
+            missing.append(dotted)
+    assert not missing, missing
+
+
+def test_the_layers_architecture_md_gives_are_the_ones_checked():
+    """The table of layers in docs/architecture.md gives every top-level module the layer
+    :data:`LAYERS` holds it to."""
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    documented = {name.removesuffix("/").removesuffix(".py"): int(layer)
+                  for layer, cell in re.findall(r"^\| (\d+) \| ([^|]+) \|", text, re.M)
+                  for name in re.findall(r"`([\w.]+/?)`", cell)}
+    expected = {k: v for k, v in LAYERS.items() if k not in ("evtribo", "__main__")}
+    assert documented == expected
+
+
+def test_the_forces_import_nothing_else_of_the_analysis():
+    """``analysis/forces/`` is the floor the rest of the analysis stands on (the friction, the
+    trial's steps): none of its modules imports from ``analysis`` outside ``forces``."""
+    wrong = []
+    for path, tree in _modules():
+        if path.parent != SRC / "analysis" / "forces":
+            continue
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module and \
+                    node.module.startswith("evtribo.analysis") and \
+                    not node.module.startswith("evtribo.analysis.forces"):
+                wrong.append(f"{path.relative_to(SRC)}:{node.lineno} imports {node.module}")
+    assert not wrong, "\n".join(wrong)
+
+
+#: ``module.py`` followed by the names it holds: ``(`a`, `b`)`` or ``'s `a` and `b```.
+_HOLDS = re.compile(r"`([\w/]+\.py)`(?: \(([^)]*)\)|'s ((?:`[\w.]+`(?:, | and |/))*`[\w.]+`))")
+
+
+def test_every_name_architecture_md_places_in_a_module_is_there():
+    """Where docs/architecture.md says a module holds a function, a class or a constant
+    (``results/check.py`` (``check_trial``), ``cli/__init__.py``'s ``GROUPS``), the module
+    has it."""
+    import importlib
+
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    absent = object()
+    missing, checked = [], 0
+    for line in text.splitlines():
+        contexts: list[Path] = []
+        for path, inside, owned in _HOLDS.findall(line):
+            found = _resolve(path, contexts)
+            if found is None or not found.is_relative_to(SRC):
+                continue
+            contexts.append(found.parent)
+            parts = found.relative_to(SRC).with_suffix("").parts
+            module = importlib.import_module(".".join(
+                ("evtribo", *(parts[:-1] if parts[-1] == "__init__" else parts))))
+            for name in re.findall(r"`([A-Za-z_][\w.]*)`", inside or owned):
+                if name.endswith(".py") or (ROOT / name).exists():
+                    continue
+                checked += 1
+                obj: object = module
+                for attr in name.split("."):
+                    obj = getattr(obj, attr, absent)
+                if obj is absent:
+                    missing.append(f"{path}: {name}")
+    assert checked > 20  # the pattern still reads the page
+    assert not missing, missing
