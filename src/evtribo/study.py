@@ -385,7 +385,9 @@ def _toml_value(value: Any) -> str:
     return json.dumps(str(value), ensure_ascii=False)  # a TOML basic string is JSON-compatible
 
 
-def write_study_toml(root: str | os.PathLike[str], *, name: str, rig: Mapping[str, Any]) -> Path:
+def write_study_toml(root: str | os.PathLike[str], *, name: str, rig: Mapping[str, Any],
+                     calibration: Mapping[str, Any] | None = None,
+                     calibration_note: str = "") -> Path:
     """Create ``study.toml`` in *root* with a ``[rig]`` table; refuses to overwrite one.
 
     Parameters
@@ -396,6 +398,10 @@ def write_study_toml(root: str | os.PathLike[str], *, name: str, rig: Mapping[st
         The study's ``name``.
     rig : mapping
         The ``[rig]`` table.
+    calibration : mapping, optional
+        The ``[rig.calibration]`` table.
+    calibration_note : str
+        A comment above it (one line per line of the text).
 
     Returns
     -------
@@ -409,6 +415,10 @@ def write_study_toml(root: str | os.PathLike[str], *, name: str, rig: Mapping[st
         raise OutputExistsError("exists already", path=p)
     lines = [f"name = {_toml_value(name)}", "", "[rig]"]
     lines += [f"{k} = {_toml_value(v)}" for k, v in rig.items()]
+    if calibration:
+        lines += ["", *(f"# {line}" for line in calibration_note.splitlines()),
+                  "[rig.calibration]"]
+        lines += [f"{k} = {_toml_value(v)}" for k, v in calibration.items()]
     atomic_write(p, "\n".join(lines) + "\n", durable=True)
     return p
 

@@ -15,7 +15,7 @@ import pytest
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_trial
 from evtribo.analysis.trial import TrialMeta, analyze_signals
 from evtribo.canlog.decode import decode_trial
-from evtribo.canlog.rig import default_rig, load_rig
+from evtribo.canlog.rig import Calibration, default_rig, load_rig
 
 
 def _float_rig(folder, fz_range="[-100|100]"):
@@ -46,6 +46,10 @@ def _frames():
     return frames, fz
 
 
+#: The simulated tangential cell reads zero at rest, as a calibrated rig's does.
+EXACT = Calibration(tangential_offset_N=0.0)
+
+
 def _spiked(value: float, n: int = 20):
     frames, fz = _frames()
     spiked = frames.take(np.arange(len(frames)))
@@ -62,7 +66,8 @@ def rig(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def clean(rig):
-    return analyze_signals(decode_trial(_frames()[0], rig), TrialMeta("P01", "run-01"))
+    return analyze_signals(decode_trial(_frames()[0], rig), TrialMeta("P01", "run-01"),
+                           calibration=EXACT)
 
 
 @pytest.mark.parametrize("value", [3.4e38, float("nan"), -1e6])
@@ -78,7 +83,7 @@ def test_spikes_outside_the_declared_range_are_bad_samples_and_the_trial_is_anal
     assert said.startswith("20 samples of FzCell.Fz")
     first = frames.timestamp[rows.min()] - frames.timestamp[0]
     assert f"the first at {first:.3f} s" in said
-    result = analyze_signals(signals, TrialMeta("P01", "run-01"))
+    result = analyze_signals(signals, TrialMeta("P01", "run-01"), calibration=EXACT)
     assert len(result.windows) >= len(clean.windows) - 1
     assert any("bad samples" in w for w in result.warnings)
 

@@ -93,3 +93,21 @@ def test_a_trial_s_warning_touches_the_cell_it_measured():
     cell = Cell("P02", "square", 10000.0, 100.0)
     assert g.touches({("P02", "run-03"): cell}) == [cell]
     assert not g.study
+
+
+def test_on_windows_left_out_for_their_direction_are_one_kind_of_their_own():
+    import numpy as np
+    import pandas as pd
+
+    from evtribo.analysis.forces.taring import _like_with_like
+
+    lines = []
+    for (s, t), n in zip(TRIALS[:3], (2, 3, 4), strict=True):
+        said = []
+        w = pd.DataFrame({"condition": ["off"] * 3 + ["on"] * n,
+                          "direction": [1] * 3 + [-1] * n})
+        _like_with_like(w, np.zeros(len(w)), said.append)
+        lines += [f"{s}/{t}: {x}" for x in said]
+    groups = group_warnings(lines, SUBJECTS, TRIALS)
+    assert [g.key for g in groups] == ["directions-confounded"]
+    assert groups[0].effect == "number" and groups[0].count == 3

@@ -102,9 +102,18 @@ def _obeyed_and_analysed(exports: Path) -> None:
             short.append(f"{planned.trial} ({planned.amplitude_V:g} V): {on_s:.1f} s ON, "
                          f"{off_s:.1f} s OFF recorded")
 
-    el = compute_study(study, jobs=1, cache_dir=exports / "cache").electrostatic
+    results = compute_study(study, jobs=1, cache_dir=exports / "cache")
+    el = results.electrostatic
     found = sorted(el.amplitude_V)
-    assert set(whole) <= set(found), (found, short)
+    # a whole trial has its force, unless the analysis said why it cannot: the live rig's
+    # finger is not lifted at each trial's start, and where the tangential cell's zero is
+    # then unknown and the ON windows all slid the other way from the OFF ones, the force
+    # cannot be told from the cell's offset
+    untold = {w.split(":", 1)[0] for w in results.summary["warnings"]
+              if "ON windows are left out" in w}
+    excused = {planned.amplitude_V for planned in read_session(study / "P01" / "session.json")
+               .order if f"P01/{planned.trial}" in untold}
+    assert set(whole) - excused <= set(found), (found, short, untold)
     assert set(found) <= {80.0, 110.0, 140.0} and len(found) == len(set(found))
     assert (el.n_on > 0).all() and (el.n_off > 0).all()
     if len(found) < 2:

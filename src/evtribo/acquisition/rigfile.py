@@ -237,7 +237,8 @@ def _place_dbc(staged: Path, target: Path) -> bool:
 
 
 def write_new_study(study: str | Path, dbc: str | Path, *, dbc_rel: str, name: str,
-                    rig: dict[str, Any]) -> Path:
+                    rig: dict[str, Any], calibration: dict[str, Any] | None = None,
+                    calibration_note: str = "") -> Path:
     """Create the study folder *study*: a copy of *dbc* at *dbc_rel* and ``study.toml``.
 
     Everything is written under temporary names in *study* and renamed into place,
@@ -255,6 +256,10 @@ def write_new_study(study: str | Path, dbc: str | Path, *, dbc_rel: str, name: s
         The study's ``name``.
     rig : dict
         The ``[rig]`` table (its ``dbc`` key should be *dbc_rel*).
+    calibration : dict, optional
+        The ``[rig.calibration]`` table.
+    calibration_note : str
+        A comment above it.
 
     Returns
     -------
@@ -281,7 +286,8 @@ def write_new_study(study: str | Path, dbc: str | Path, *, dbc_rel: str, name: s
     try:
         staged = staging / target.name
         shutil.copyfile(dbc, staged)
-        written = write_study_toml(staging, name=name, rig=rig)
+        written = write_study_toml(staging, name=name, rig=rig, calibration=calibration,
+                                   calibration_note=calibration_note)
         placed_dbc = _place_dbc(staged, target)
         if not _place(written, toml):
             raise OutputExistsError("exists already", path=toml)

@@ -163,11 +163,27 @@ def _rig_table(rig: Rig, dbc_rel: str) -> dict[str, Any]:
     return {"dbc": dbc_rel, **{r: ref.qualified_name for r, ref in rig.roles.items()}}
 
 
-def _study_rig(root: Path, rig: Rig | None, name: str) -> tuple[Rig, str]:
+#: The comment above a new simulated study's ``[rig.calibration]``.
+EXACT_NOTE = ("The simulated tangential cell reads exactly zero at rest (no offset, drift or\n"
+              "cross-talk): its zero is known, as a calibrated rig's is.")
+
+
+def _exact_tangential(config: TrialConfig) -> bool:
+    """Whether the simulated tangential cell reads exactly zero at rest."""
+    return (config.fx_offset_N == 0 and config.fx_drift_N_per_s == 0
+            and config.fx_thermal_N == 0 and config.crosstalk[1][0] == 0)
+
+
+def _study_rig(root: Path, rig: Rig | None, name: str, *, exact: bool = False
+               ) -> tuple[Rig, str]:
     """The rig a trial of the study at *root* speaks, and its DBC relative to the study.
 
     A study with a ``study.toml`` speaks its own rig (*rig*, if given, must be the same); a
-    new one is created for *rig* (default: the default rig), with a copy of its DBC.
+    new one is created for *rig* (default: the default rig), with a copy of its DBC, and,
+    when the trial's tangential cell is *exact* (it reads zero at rest), ``[rig.calibration]
+    tangential_offset_N = 0.0``: a study of an exact rig without a tare stretch whose OFF
+    and ON windows slid opposite ways is then analysed as a calibrated rig's, not left
+    without its force (:mod:`evtribo.analysis.forces.taring`).
     """
     toml = root / STUDY_FILE
     if toml.exists():
@@ -184,9 +200,11 @@ def _study_rig(root: Path, rig: Rig | None, name: str) -> tuple[Rig, str]:
     dbc_rel = RIG_DBC if rig is None else f"rig/{use.dbc.name}"
     try:
         write_new_study(root, use.dbc, dbc_rel=dbc_rel, name=name,
-                        rig=_rig_table(use, dbc_rel))
+                        rig=_rig_table(use, dbc_rel),
+                        calibration={"tangential_offset_N": 0.0} if exact else None,
+                        calibration_note=EXACT_NOTE)
     except OutputExistsError:  # another process created it meanwhile
-        return _study_rig(root, rig, name)
+        return _study_rig(root, rig, name, exact=exact)
     log.info("new study folder %s for the rig %s (%s)", root, use.name, use.dbc)
     return use, dbc_rel
 
@@ -238,7 +256,7 @@ def write_trial(root: str | os.PathLike[str], trial: str, subject: SubjectParams
                      "recorded")
     lock.check()  # --force included: never into a trial another process writes
     _refuse_existing(log_path, force)
-    used, dbc_rel = _study_rig(root, rig, study_name)
+    used, dbc_rel = _study_rig(root, rig, study_name, exact=_exact_tangential(config))
     frames, truth = simulate_trial(subject, config, rig=used)
     log_path.parent.mkdir(parents=True, exist_ok=True)
     entry = rig_entry(dbc_rel, name=used.name, dbc_version=used.database.version)

@@ -106,6 +106,7 @@ def tare_and_find_windows(aligned: AlignedForces, exc: Excitation, *, smooth: fl
                  "[rig.calibration] tangential_offset_N, and too few strokes in both "
                  "directions for the friction loop; an offset adds to the friction one way "
                  "and subtracts the other")
+            w, amps = _like_with_like(w, amps, warn)
     if mode != "none" and not tared.normal_known:
         fn = float(np.nanmean(w.normal_force_N)) if len(w) else float(
             np.nanmedian(tared.forces.normal))
@@ -114,6 +115,39 @@ def tare_and_find_windows(aligned: AlignedForces, exc: Excitation, *, smooth: fl
              f"{1.0 / fn:.1f} % (offset / F_n, at this trial's {fn:.2f} N); record a tare "
              "stretch (evtribo acquire --tare-s) or give [rig.calibration] normal_offset_N")
     return tared, w, amps
+
+
+def _like_with_like(w: pd.DataFrame, amps: npt.NDArray[np.float64],
+                    warn: Callable[[str], None]
+                    ) -> tuple[pd.DataFrame, npt.NDArray[np.float64]]:
+    """The windows without the ON windows that slid in a direction none of the OFF windows
+    did, when the tangential cell's zero is unknown.
+
+    An unknown offset ``o`` of the tangential cell adds to the friction in one direction and
+    subtracts in the other. Where both directions are under one condition the reference
+    model's direction term takes it (:mod:`evtribo.analysis.friction.reference`); where the
+    OFF windows all slid one way, an ON window that slid the other way differs from them by
+    ``2 o`` besides the voltage's effect, and nothing in the trial tells the two apart (with
+    ``o`` of 20 mN and ``mu`` of 0.5, F_el is 80 mN off). Such windows are left out, and
+    said. A trial without OFF windows is compared with other trials' (whose zeros are their
+    own): its windows stay.
+    """
+    on = (w.condition == "on").to_numpy()
+    d = w.direction.to_numpy()
+    if on.all():  # compared with other trials' OFF windows, whose zeros are their own
+        return w, amps
+    alien = on & ~np.isin(d, d[~on])
+    if not alien.any():
+        return w, amps
+    way = "forwards" if int(d[~on][0]) > 0 else "backwards"
+    warn(f"{int(alien.sum())} of {int(on.sum())} ON windows are left out: the OFF windows all "
+         f"slid {way}, and with the "
+         "tangential cell's zero unknown an ON window sliding the other way differs from them "
+         "by twice the cell's offset besides the voltage's effect (the electrostatic force "
+         "cannot be told from the offset); record a tare stretch (evtribo acquire --tare-s), "
+         "give [rig.calibration] tangential_offset_N, or slide both ways in each phase")
+    keep = ~alien
+    return w.loc[keep].reset_index(drop=True), amps[keep]
 
 
 def offset_warnings(tared: Tared, w: pd.DataFrame, offsets: tuple[float | None, float | None],

@@ -16,9 +16,8 @@ kind is a kind of its own, its numbers aside), and gives one :class:`WarningGrou
 3. ``unclassified``: a warning of a kind not listed here, as said;
 4. ``information``: corrected or harmless (offsets removed, drifts followed, frames lost).
 
-Where the lines of a kind differ only in their numbers, the group says it once with each
-number's range (``by 1.6-3.2 %``). The module imports nothing heavy: ``evtribo analyze``
-uses it for its console too.
+Lines of a kind differing only in their numbers are said once with each number's range
+(``by 1.6-3.2 %``). It imports nothing heavy: ``evtribo analyze`` uses it for its console.
 """
 
 from __future__ import annotations
@@ -67,6 +66,8 @@ KINDS: tuple[Kind, ...] = (
          r"electrostatic force is below zero"),
     Kind("normal-zero", "number", "the normal cell's zero is unknown",
          r"the normal cell's zero is unknown"),
+    Kind("directions-confounded", "number", "ON windows left out: slid the other way from "
+         "the OFF windows, the zero unknown", r"ON windows are left out: the OFF windows all"),
     Kind("tangential-zero", "number", "the tangential cell's zero is unknown",
          r"the tangential cell's zero is unknown"),
     Kind("crosstalk-normal", "number", "the normal cell reads part of the tangential force",
