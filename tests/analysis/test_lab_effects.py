@@ -49,19 +49,8 @@ def runs():
 LAW_EFFECTS = ("load", "load+wander")
 
 
-#: Speed-dependent friction (mu ~ v^0.15) where the pad is Amontons' (m = 1): the friction
-#: law's fit takes part of the speed effect for a load effect (m 0.86-0.94 on these studies)
-#: and F_el comes out +5.9 +/- 2.6 % high over cells of 30 mN or more (+0.8 % before the law
-#: was fitted); the held-out generator's speed scenario gives +2.6 +/- 2.2 %.
-SPEED_WITH_THE_LAW = pytest.mark.xfail(
-    strict=True, reason="the friction law's m takes up part of a speed effect: F_el +5.9 % "
-    "on cells of 30 mN or more where m = 1")
-
-
 @pytest.mark.slow
-@pytest.mark.parametrize("effect", [
-    pytest.param(e, marks=SPEED_WITH_THE_LAW) if e == "speed" else e
-    for e in EFFECTS if e not in LAW_EFFECTS])
+@pytest.mark.parametrize("effect", [e for e in EFFECTS if e not in LAW_EFFECTS])
 def test_each_effect_leaves_the_electrostatic_force_unbiased_and_covered(runs, effect):
     studies = runs(effect)
     el = pd.concat([s.electrostatic for s in studies], ignore_index=True)

@@ -115,3 +115,28 @@ def test_a_stroke_rate_that_sets_the_friction_is_taken_into_account():
     # without the rate, one coefficient for all: off by up to 9 %
     flat = fit_mu_model(fn, ft, facts, time_trend=False)
     assert np.max(np.abs(flat.at(facts) / mu - 1)) > 0.07
+
+
+@settings(max_examples=25, deadline=None)
+@given(m=st.sampled_from([0.67, 0.75, 0.9, 1.0, 1.0, 1.0]), seed=st.integers(0, 10_000),
+       noise=st.floats(0.01, 0.06))
+def test_auto_uses_the_fitted_exponent_only_where_its_interval_excludes_one(m, seed, noise):
+    # OFF windows of a press wandering by +/- 20 %, friction c W^m with the scatter of a
+    # person's strokes: "auto" keeps m = 1 wherever the interval holds it, so that a pad
+    # of m = 1 gives Amontons' forces; elsewhere it uses the m it found
+    rng = np.random.default_rng(seed)
+    n = 60
+    fn = 0.5 * np.exp(rng.normal(0, 0.2, n))
+    ft = 0.3 * fn ** m * np.exp(rng.normal(0, noise, n))
+    facts = WindowFacts(np.arange(n, dtype=float), np.where(np.arange(n) % 2, 1.0, -1.0),
+                        np.full(n, np.nan), np.arange(n), np.arange(n) // 20)
+    law = fit_subject_law([(fn, ft, facts, np.full(n, np.nan))])
+    low, high = law.interval
+    assert law.told  # the wandering press tells m
+    assert law.holds_amontons == (low <= 1.0 <= high)
+    if law.holds_amontons:
+        assert law.kind == "amontons" and law.exponent == 1.0
+    else:
+        assert law.kind == "power" and law.exponent == law.estimate
+    if m <= 0.75:  # far from 1: told apart at this scatter
+        assert law.kind == "power" and abs(law.estimate - m) < 0.15  # 4 SE at most

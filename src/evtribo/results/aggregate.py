@@ -234,7 +234,7 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
     est = estimate_electrostatic(*args, seed=_seed(seed, subject), friction_law=friction_law,
                                  **options)
     sensitivity = None
-    if friction_law == "auto" and est.law.kind == "amontons":
+    if friction_law == "auto" and est.law.kind == "amontons" and not est.law.holds_amontons:
         sensitivity = estimate_electrostatic(*args, seed=_seed(seed, subject),
                                              exponent=SENSITIVITY_EXPONENT, **options)
         warnings.append(untold_note(subject, est.law))
@@ -270,12 +270,12 @@ def _law_columns(est: ElectrostaticEstimate, sensitivity: ElectrostaticEstimate 
                  j: int) -> dict[str, object]:
     """A row's columns of :data:`LAW_COLUMNS`."""
     low, high = est.law.interval
+    # the interval of m where the forces use it, or where it holds Amontons' 1
+    shown = est.law.kind == "power" or est.law.holds_amontons
     out: dict[str, object] = {"friction_law": est.law.kind,
                               "friction_exponent": est.law.exponent,
-                              "friction_exponent_ci_low": low if est.law.kind == "power"
-                              else np.nan,
-                              "friction_exponent_ci_high": high if est.law.kind == "power"
-                              else np.nan}
+                              "friction_exponent_ci_low": low if shown else np.nan,
+                              "friction_exponent_ci_high": high if shown else np.nan}
     found = sensitivity is not None and j < sensitivity.force_N.size
     for col, values in (("electrostatic_force_m075_N", "force_N"),
                         ("electrostatic_force_m075_ci_low_N", "ci_low_N"),

@@ -241,7 +241,10 @@ class References:
         rate, m = law.rate_slope, law.exponent
         slope_b = rng.normal(rate, law.rate_se, n_boot) if rate else np.zeros(n_boot)
         m_b = np.full(n_boot, m)
-        if law.kind == "power" and np.isfinite(law.estimate_se):
+        # m's uncertainty is in the interval wherever it was measured: about the fitted m,
+        # or about 1 where its interval holds Amontons' 1 (a pad of m = 0.9 may be taken
+        # for one of m = 1: its forces are then about a tenth low, inside the interval)
+        if (law.kind == "power" or law.holds_amontons) and np.isfinite(law.estimate_se):
             m_b = np.maximum(m + law.estimate_se * rng.standard_t(max(law.dof, 1.0), n_boot),
                              MIN_EXPONENT)
         given = {"rate_slope": rate, "exponent": m, "load_ref_N": law.load_ref_N}
