@@ -22,6 +22,7 @@ from evtribo.acquisition.simulator import (
     simulate_trial,
 )
 from evtribo.acquisition.simulator.encode import pack_signals
+from evtribo.acquisition.simulator.study import write_trial
 from evtribo.canlog.io import read_frames
 from evtribo.cli import main
 from evtribo.errors import ConfigError, OutputExistsError
@@ -501,3 +502,19 @@ def test_simulate_force_never_replaces_a_recording(recording, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "replaces only a trial it simulated" in err and "--force included" in err, err
     assert {p.name: p.read_bytes() for p in (study / "P01").iterdir()} == before
+
+
+@pytest.mark.parametrize("changes", [{}, {"fx_offset_N": 0.01}, {"fx_drift_N_per_s": 1e-4},
+                                     {"crosstalk": ((1.0, 0.0), (0.02, 1.0))}])
+def test_a_new_study_of_an_exact_tangential_cell_says_its_zero_is_known(tmp_path, changes):
+    # an exact cell's zero is known, as a calibrated rig's is; a cell with an offset, a drift
+    # or cross-talk leaves it to the analysis to find
+    cfg = dataclasses.replace(TrialConfig(duration_s=2.0, seed=1), **changes)
+    write_trial(tmp_path / "st", "run-01", SubjectParams(name="P01"), cfg)
+    table = read_study_toml(tmp_path / "st" / "study.toml")["rig"]
+    if changes:
+        assert "calibration" not in table
+    else:
+        assert table["calibration"] == {"tangential_offset_N": 0.0}
+        text = (tmp_path / "st" / "study.toml").read_text()
+        assert "# The simulated tangential cell reads exactly zero at rest" in text
