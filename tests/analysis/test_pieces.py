@@ -79,3 +79,20 @@ def test_pieces_follow_the_frames_whatever_the_jump(shift, seed):
     assert sum(b - a for a, b in pieces) == pytest.approx(12.0, abs=0.05)
     t = np.concatenate([signals.normal.t, signals.tangential.t])
     assert min(a for a, _ in pieces) == t.min() and max(b for _, b in pieces) == t.max()
+
+
+def test_only_the_piece_holding_the_trial_s_start_looks_for_its_tare_stretch():
+    # a trial with a tare stretch at its start and a gap of its load cells' frames in the
+    # middle (a busy machine): the later piece has no stretch of its own to find, and
+    # nothing says one is missing
+    frames, _ = simulate_trial(SubjectParams(), TrialConfig(duration_s=12.0, seed=2,
+                                                            tare_s=1.2))
+    t = frames.timestamp.copy()
+    t[len(t) // 2:] += 2.0
+    frames.timestamp = t
+    result = analyze_signals(decode_trial(frames, RIG), TrialMeta("P01", "run-01",
+                                                                  tare_s=1.2),
+                             settings=SETTINGS)
+    assert any("analysed in 2 continuous pieces" in w for w in result.warnings)
+    assert "lifted" in result.row["tare"]
+    assert not [w for w in result.warnings if "no finger-lifted stretch was found" in w]

@@ -312,9 +312,11 @@ def _pieces(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: Anal
         warn(describe_gap(before, after, t0))
     warn(f"analysed in {len(pieces)} continuous pieces")
     out, failures = [], []
-    for lo, hi in pieces:
+    for k, (lo, hi) in enumerate(pieces):
+        # the tare stretch the sidecar tells of is at the trial's start: the first piece's
+        piece_meta = meta if k == 0 else dataclasses.replace(meta, tare_s=None)
         try:
-            out.append(_analyze_piece(restrict(signals, lo, hi), meta, t0,
+            out.append(_analyze_piece(restrict(signals, lo, hi), piece_meta, t0,
                                       settings=settings, calibration=calibration, warn=warn,
                                       observe=observe))
         except AnalysisError as err:
