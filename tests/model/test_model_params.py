@@ -5,6 +5,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from evtribo.errors import ConfigError
 from evtribo.model import TABLE_1, ModelParameters
@@ -87,3 +89,31 @@ def test_bad_assignments(text, key):
     with pytest.raises(ConfigError) as exc:
         TABLE_1.with_assignments([text])
     assert exc.value.key == key
+
+
+_values = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-5, 5),
+                    st.booleans(), st.text(max_size=3), st.just(np.float32(2.5e-6)))
+
+
+@given(changes=st.dictionaries(st.sampled_from([*ModelParameters.names(), "nope"]), _values,
+                               max_size=4))
+def test_a_copy_with_values_is_the_parameters_made_afresh(changes):
+    """with_values checks only what it changes (the rest was checked when the parameters
+    were made): it gives the parameters ModelParameters(...) gives, or the same error."""
+    def outcome(make):
+        try:
+            return make()
+        except ConfigError as err:
+            return ("error", err.key, str(err))
+
+    base = TABLE_1.with_values(h_sc=0.0, r_g=1e-3)
+    if "nope" in changes:
+        got = outcome(lambda: base.with_values(changes))
+        assert got[:2] == ("error", "nope")
+        return
+    want = outcome(lambda: ModelParameters(**{**base.as_dict(), **changes}))
+    got = outcome(lambda: base.with_values(changes))
+    assert got == want
+    if not isinstance(got, tuple):
+        assert {n: type(getattr(got, n)) for n in got.names()} == dict.fromkeys(got.names(),
+                                                                               float)

@@ -12,6 +12,7 @@ from evtribo.report.lead.warning_kinds import (
     console_lines,
     group_warnings,
     scope_text,
+    trials_to_check,
 )
 
 SUBJECTS = ("P01", "P02", "P03")
@@ -111,3 +112,24 @@ def test_on_windows_left_out_for_their_direction_are_one_kind_of_their_own():
     groups = group_warnings(lines, SUBJECTS, TRIALS)
     assert [g.key for g in groups] == ["directions-confounded"]
     assert groups[0].effect == "number" and groups[0].count == 3
+
+
+def _drift(subject: str, trial: str, mn: float) -> str:
+    return (f"{subject}/{trial}: the normal cell's zero drifted by {mn:+.1f} mN between the "
+            "finger-lifted stretches at 0.8 s and 12.0 s (noise 0.3 mN); interpolated between "
+            "them")
+
+
+@given(zeros=st.lists(st.sampled_from(TRIALS), max_size=6),
+       informed=st.lists(st.tuples(st.sampled_from(TRIALS), st.floats(-9, 9),
+                                   st.booleans()), max_size=12),
+       others=st.lists(LINES, max_size=10))
+def test_the_trials_to_check_are_those_a_warning_not_only_for_information_names(
+        zeros, informed, others):
+    """A trial whose only warnings are for information (an offset removed, a drift followed)
+    is not among those compare looks at by default; one with an unknown zero is, whatever
+    else is said of it."""
+    info = [(_offset if off else _drift)(*t, x) for t, x, off in informed]
+    lines = [*(_zero(*t, 2.0, 5.0) for t in zeros), *info,
+             *(x for x in others if not x.startswith(tuple(f"{s}/" for s in SUBJECTS)))]
+    assert trials_to_check(lines, TRIALS) == {f"{s}/{t}" for s, t in zeros}

@@ -78,3 +78,25 @@ def test_compare_finds_what_analyze_kept_and_it_is_what_an_analysis_gives(analys
     other = {**summary, "settings": {**summary["settings"], "min_window_s": 0.9}}
     assert kept_sketches(study, other, cache) == {}
     assert kept_sketches(study, summary, study_dir.parent / "another") == {}
+
+
+def test_a_study_analysed_by_a_relative_path_has_its_sketches_found(tmp_path, monkeypatch):
+    """compare loads the study from summary.json's absolute path; analyze was given the
+    study as the user typed it (``evtribo analyze study --out out``): the sketches it kept
+    are found all the same, and again after the study folder is moved."""
+    from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
+    from evtribo.results.pipeline import analyze_study
+
+    simulate_study(tmp_path / "study", [SubjectParams(name="P01")], amplitudes=(120.0,),
+                   config=TrialConfig(duration_s=4.0))
+    monkeypatch.chdir(tmp_path)
+    analyze_study("study", "out", jobs=1, cache_dir="cache")
+    summary = json.loads((tmp_path / "out" / "summary.json").read_text(encoding="utf-8"))
+    assert summary["study_dir"] == str(tmp_path / "study")
+    keys = sorted(t.key for t in load_study(tmp_path / "study").trials)
+    assert len(keys) == 2
+    assert sorted(kept_sketches(load_study(summary["study_dir"]), summary,
+                                tmp_path / "cache")) == keys
+    (tmp_path / "study").rename(tmp_path / "moved")
+    assert sorted(kept_sketches(load_study(tmp_path / "moved"), summary,
+                                tmp_path / "cache")) == keys

@@ -9,7 +9,9 @@ there; a trial the analysis could not analyse gets a figure saying why.
 
 Which trials (:data:`WHICH`): ``all``, ``none``, or ``auto`` (the default): every trial of a
 study of at most :data:`AUTO_ALL` trials; of a larger one, those the analysis warned about
-or could not analyse, and a note says how to draw the others.
+(compare: with a warning that may change a number or widens an interval, not one only for
+information, such as a drift followed) or could not analyse, and a note says how to draw
+the others.
 """
 
 from __future__ import annotations
@@ -101,7 +103,8 @@ def _warned(warnings: Iterable[Any], keys: Sequence[str]) -> set[str]:
     return {k for k in keys if k in heads}
 
 
-def chosen_trials(tables: ResultTables, which: str) -> tuple[list[tuple[str, str]], list[str]]:
+def chosen_trials(tables: ResultTables, which: str, *, flagged: Iterable[str] | None = None
+                  ) -> tuple[list[tuple[str, str]], list[str]]:
     """The trials (of ``trials.csv``, in its order) whose checks to draw, and a note on
     those left out.
 
@@ -111,6 +114,10 @@ def chosen_trials(tables: ResultTables, which: str) -> tuple[list[tuple[str, str
         The result folder.
     which : str
         One of :data:`WHICH`.
+    flagged : iterable of str, optional
+        The trials (``subject/trial``) whose warnings call for a look (``auto`` in a large
+        study draws them and the trials not analysed); by default every trial a warning
+        names.
 
     Returns
     -------
@@ -124,11 +131,14 @@ def chosen_trials(tables: ResultTables, which: str) -> tuple[list[tuple[str, str
     if which == "all" or len(trials) <= AUTO_ALL:
         return trials, []
     keys = [f"{s}/{t}" for s, t in trials]
-    flagged = _warned(tables.summary.get("warnings") or [], keys)
-    flagged |= {str(f.get("trial")) for f in tables.summary.failed_trials}
-    chosen = [st for st, k in zip(trials, keys, strict=True) if k in flagged]
-    note = (f"Each trial's check: drawn for the {len(chosen)} of {len(trials)} trials the "
-            f"analysis warned about or could not analyse (a study of more than {AUTO_ALL} "
+    warned = (_warned(tables.summary.get("warnings") or [], keys) if flagged is None
+              else set(flagged))
+    warned |= {str(f.get("trial")) for f in tables.summary.failed_trials}
+    chosen = [st for st, k in zip(trials, keys, strict=True) if k in warned]
+    why = ("the analysis warned about" if flagged is None else
+           "with a warning that may change a number or widens an interval")
+    note = (f"Each trial's check: drawn for the {len(chosen)} of {len(trials)} trials {why} "
+            f"or that could not be analysed (a study of more than {AUTO_ALL} "
             "trials); `evtribo compare OUT --force --trial-checks all` draws every trial's "
             "(from what the analysis kept of each, no trial analysed again; the figures "
             "drawn before are reused), `evtribo plot trial STUDY SUBJECT TRIAL` one.")
@@ -163,7 +173,8 @@ Mapper = Callable[[Callable[[Any], Any], list[Any]], list[Any]]
 
 def trial_checks(tables: ResultTables, which: str = "auto", *,
                  cache_dir: str | os.PathLike[str] | None = None,
-                 mapper: Mapper | None = None) -> tuple[list[CheckFigure], list[str]]:
+                 mapper: Mapper | None = None, flagged: Iterable[str] | None = None
+                 ) -> tuple[list[CheckFigure], list[str]]:
     """The check of each trial chosen (:func:`chosen_trials`), ready to draw.
 
     Parameters
@@ -178,6 +189,8 @@ def trial_checks(tables: ResultTables, which: str = "auto", *,
     mapper : callable, optional
         ``mapper(func, items)``: the results of ``func`` on each item, in order (a pool of
         worker processes); the trials analysed again go through it (default: here).
+    flagged : iterable of str, optional
+        The trials whose warnings call for a look (:func:`chosen_trials`).
 
     Returns
     -------
@@ -187,7 +200,7 @@ def trial_checks(tables: ResultTables, which: str = "auto", *,
     """
     from evtribo.figures.trial_plots import trial_caption
 
-    chosen, notes = chosen_trials(tables, which)
+    chosen, notes = chosen_trials(tables, which, flagged=flagged)
     if not chosen:
         return [], notes
     study_dir = tables.summary.study_dir

@@ -90,25 +90,10 @@ class ModelParameters:
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
-            value = getattr(self, f.name)
-            # real numbers of any kind (int, float, numpy scalars or 0-d arrays), not bool/str
-            if (isinstance(value, (bool, np.bool_, str, bytes, complex))
-                    or np.ndim(value) != 0):
-                raise ConfigError(f"expected a number, got {value!r}", key=f.name)
-            try:
-                number = float(value)
-            except (TypeError, ValueError) as err:
-                raise ConfigError(f"expected a number, got {value!r}", key=f.name) from err
-            rule = f.metadata["rule"]
-            if not math.isfinite(number) and not (rule == "resistance" and number == math.inf):
-                raise ConfigError(f"must be finite, got {number!r}", key=f.name)
-            if rule in ("positive", "resistance") and number <= 0:
-                raise ConfigError(f"must be > 0 ({f.metadata['unit']}), got {number!r}",
-                                  key=f.name)
-            if rule == "nonnegative" and number < 0:
-                raise ConfigError(f"must be >= 0 ({f.metadata['unit']}), got {number!r}",
-                                  key=f.name)
-            object.__setattr__(self, f.name, number)
+            object.__setattr__(self, f.name, _checked(f, getattr(self, f.name)))
+        self._check_gap()
+
+    def _check_gap(self) -> None:
         if self.effective_gap <= 0:
             raise ConfigError("h_sc, h_i and h_L are all zero: the capacitor has no gap",
                               key="h_L")
@@ -168,12 +153,19 @@ class ModelParameters:
             More ``name=value`` pairs.
         """
         changes = {**(values or {}), **kwargs}
-        known = set(self.names())
+        fields = _FIELDS
         for name in changes:
-            if name not in known:
+            if name not in fields:
                 raise ConfigError(
                     f"unknown model parameter; known: {', '.join(self.names())}", key=name)
-        return dataclasses.replace(self, **changes)
+        # the fields not changed were checked when this one was made: only the changed
+        # ones are (a fitter's refits ask for thousands of copies)
+        out = object.__new__(type(self))
+        for name in fields:  # in the order made afresh (the first error the same)
+            object.__setattr__(out, name, _checked(fields[name], changes[name])
+                               if name in changes else getattr(self, name))
+        out._check_gap()
+        return out
 
     replace = with_values
 
@@ -209,6 +201,31 @@ class ParameterInfo(NamedTuple):
     unit: str
     default: float
     description: str
+
+
+def _checked(f: dataclasses.Field[Any], value: Any) -> float:
+    """*value* as parameter *f*'s float, or ConfigError naming it: a real number (int, float,
+    numpy scalars or 0-d arrays, not bool or str), finite (a resistance may be infinite),
+    positive or not negative as its rule says."""
+    if isinstance(value, (bool, np.bool_, str, bytes, complex)) or np.ndim(value) != 0:
+        raise ConfigError(f"expected a number, got {value!r}", key=f.name)
+    try:
+        number = float(value)
+    except (TypeError, ValueError) as err:
+        raise ConfigError(f"expected a number, got {value!r}", key=f.name) from err
+    rule = f.metadata["rule"]
+    if not math.isfinite(number) and not (rule == "resistance" and number == math.inf):
+        raise ConfigError(f"must be finite, got {number!r}", key=f.name)
+    if rule in ("positive", "resistance") and number <= 0:
+        raise ConfigError(f"must be > 0 ({f.metadata['unit']}), got {number!r}", key=f.name)
+    if rule == "nonnegative" and number < 0:
+        raise ConfigError(f"must be >= 0 ({f.metadata['unit']}), got {number!r}", key=f.name)
+    return number
+
+
+#: The parameters' fields by name.
+_FIELDS: dict[str, dataclasses.Field[Any]] = {f.name: f for f in
+                                              dataclasses.fields(ModelParameters)}
 
 
 TABLE_1 = ModelParameters()

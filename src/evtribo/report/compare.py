@@ -303,6 +303,13 @@ def _compare(tables: ResultTables, stage: Staging, setup: _Setup, figures: Figur
     table = fit_table(fits, tables)
     atomic_write(stage.path(FIT_CSV), table.to_csv(index=False))
     result.files.append(Path(FIT_CSV))
+    progress("drawing the figures of the fit" if not only_mu else
+             "drawing each subject's friction")
+    with journal_style(setup.look.width):  # drawn by the workers while the population is
+        if only_mu:                        # estimated here
+            friction_figures(tables, figures.emit)
+        else:
+            draw_figures(tables, fits, names, figures)
     if not only_mu:
         progress("estimating the population (a mixed model per condition, checked with "
                  "several optimisers)")
@@ -311,13 +318,8 @@ def _compare(tables: ResultTables, stage: Staging, setup: _Setup, figures: Figur
     for name, text in pop.files().items():
         atomic_write(stage.path(name), text)
         result.files.append(Path(name))
-    progress("drawing the figures of the fit" if not only_mu else
-             "drawing each subject's friction")
     with journal_style(setup.look.width):
-        if only_mu:
-            friction_figures(tables, figures.emit)
-        else:
-            draw_figures(tables, fits, names, figures)
+        if not only_mu:
             draw_population(tables.electrostatic, pop, figures.emit)
         if setup.models and not only_mu:
             progress(f"fitting and ranking the models {', '.join(setup.models)}")

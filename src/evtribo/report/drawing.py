@@ -38,6 +38,7 @@ from evtribo.figures.trial_checks import CHECK_DPI, CheckFigure, trial_checks
 from evtribo.figures.trial_plots import draw_failed, draw_trial_check
 from evtribo.fit.tables import ResultTables
 from evtribo.report.kept import FigureStore, figure_key, file_key
+from evtribo.report.lead.warning_kinds import trials_to_check
 from evtribo.results.outputs import FIGURES
 from evtribo.results.workers import init_worker, stop_workers
 from evtribo.store.files import atomic_write, sha256_file
@@ -413,7 +414,9 @@ def emit_checks(figures: Figures, tables: ResultTables, which: str, cache: Path,
     tables : ResultTables
         The result folder.
     which : str
-        Which trials (:data:`~evtribo.figures.trial_checks.WHICH`).
+        Which trials (:data:`~evtribo.figures.trial_checks.WHICH`); ``auto`` in a large
+        study: those with a warning not only for information
+        (:func:`~evtribo.report.lead.warning_kinds.trials_to_check`) or not analysed.
     cache : Path
         The cache folder of the analysis.
     progress : callable
@@ -426,7 +429,11 @@ def emit_checks(figures: Figures, tables: ResultTables, which: str, cache: Path,
     """
     if which == "none":
         return []
-    checks, notes = trial_checks(tables, which, cache_dir=cache, mapper=figures.runner.map)
+    trials = list(zip(tables.trials["subject"].astype(str), tables.trials["trial"].astype(str),
+                      strict=True)) if not tables.trials.empty else []
+    checks, notes = trial_checks(tables, which, cache_dir=cache, mapper=figures.runner.map,
+                                 flagged=trials_to_check(tables.summary.get("warnings") or [],
+                                                         trials))
     if checks:
         progress(f"drawing the check of {len(checks)} trial(s) from what analyze kept of "
                  "each, while the model is fitted (--trial-checks none leaves them out)")

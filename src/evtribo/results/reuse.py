@@ -134,8 +134,15 @@ class OutcomeStore:
         return self._keys[task.index]
 
     def ref_key(self, ref: TrialRef, log_sha256: str) -> str:
-        """The key of a trial as the study names it, whose log has this hash."""
-        return self.key(context_text(trial=ref), log_sha256)
+        """The key of a trial as the study names it, whose log has this hash: its files
+        named within the study (``P01/run-01.log``), not by where the study is or how its
+        path was spelt (compare finds what ``analyze study`` kept from ``/abs/study``)."""
+        def within(path: Path | None) -> Path | None:
+            return None if path is None else Path(path.parent.name, path.name)
+
+        return self.key(context_text(trial=dataclasses.replace(
+            ref, log_path=within(ref.log_path), sidecar_path=within(ref.sidecar_path))),
+            log_sha256)
 
     def get_sketch(self, key: str) -> TrialSketch | None:
         """The sketch kept under *key*, or None (a damaged one is removed)."""

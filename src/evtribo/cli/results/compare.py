@@ -44,7 +44,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                    help="which trials' checks to draw (what the analysis did with each: "
                         "forces, ON phases, windows, lifted and excluded stretches): all, "
                         "none, or auto (the default): every trial of a study of up to 24 "
-                        "trials, else those the analysis warned about")
+                        "trials, else those with a warning that may change a number or "
+                        "widens an interval (not one only for information), and those not "
+                        "analysed")
     p.add_argument("--no-trial-checks", dest="trial_checks", action="store_const",
                    const="none", help="draw no trial's check (--trial-checks none)")
     p.add_argument("--jobs", metavar="N", type=int, default=None,
