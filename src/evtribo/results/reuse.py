@@ -137,12 +137,12 @@ class OutcomeStore:
         """The key of a trial as the study names it, whose log has this hash: its files
         named within the study (``P01/run-01.log``), not by where the study is or how its
         path was spelt (compare finds what ``analyze study`` kept from ``/abs/study``)."""
-        def within(path: Path | None) -> Path | None:
-            return None if path is None else Path(path.parent.name, path.name)
+        def within(path: Path) -> Path:
+            return Path(path.parent.name, path.name)
 
+        sidecar = None if ref.sidecar_path is None else within(ref.sidecar_path)
         return self.key(context_text(trial=dataclasses.replace(
-            ref, log_path=within(ref.log_path), sidecar_path=within(ref.sidecar_path))),
-            log_sha256)
+            ref, log_path=within(ref.log_path), sidecar_path=sidecar)), log_sha256)
 
     def get_sketch(self, key: str) -> TrialSketch | None:
         """The sketch kept under *key*, or None (a damaged one is removed)."""
