@@ -389,3 +389,28 @@ def test_a_leaky_fit_draws_the_model_at_each_drive_frequency():
         np.testing.assert_allclose(np.asarray(ln.get_ydata(), float), expected, rtol=1e-12)
     assert np.all(np.asarray(lines[0].get_ydata()) < np.asarray(lines[1].get_ydata()))
     assert len(model_lines(TABLE_1)) == 1  # no leak: one curve, the paper's
+
+
+def test_every_format_of_a_figure_is_drawn_from_one_layout(monkeypatch):
+    """figure_bytes lays a figure out once and draws each format from that layout: the
+    constrained layout runs once however many formats are asked (not again for the second
+    format, which savefig's own handling of the layout engine would bring back)."""
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    from evtribo.figures.plots import figure_bytes
+    from evtribo.figures.style import new_axes
+
+    runs = []
+    execute = ConstrainedLayoutEngine.execute
+    monkeypatch.setattr(ConstrainedLayoutEngine, "execute",
+                        lambda self, fig: (runs.append(fig), execute(self, fig))[1])
+    with journal_style("single"):
+        ax = new_axes()
+        fig = ax.figure
+        ax.plot([1, 2, 3], [2, 1, 3], label="a line")
+        ax.set_xlabel("normal force $F_n$ (mN)")
+        runs.clear()
+        out = figure_bytes(fig, ("svg", "png", "pdf"), dpi=50)
+    assert sorted(out) == ["pdf", "png", "svg"] and all(out.values())
+    assert len(runs) == 1
+    assert fig.get_layout_engine() is None

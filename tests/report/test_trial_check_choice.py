@@ -9,7 +9,8 @@ import json
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
 from evtribo.figures import trial_checks
 from evtribo.report.compare import compare
-from evtribo.report.lead.warning_kinds import group_warnings, trials_to_check
+from evtribo.report.drawing import trials_to_check
+from evtribo.report.lead.warning_kinds import group_warnings
 from evtribo.results.pipeline import analyze_study
 
 

@@ -6,13 +6,13 @@ from __future__ import annotations
 from hypothesis import given
 from hypothesis import strategies as st
 
+from evtribo.report.drawing import trials_to_check
 from evtribo.report.lead.warning_kinds import (
     EFFECTS,
     Cell,
     console_lines,
     group_warnings,
     scope_text,
-    trials_to_check,
 )
 
 SUBJECTS = ("P01", "P02", "P03")

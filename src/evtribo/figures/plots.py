@@ -139,13 +139,15 @@ def figure_bytes(fig: Figure, formats: Sequence[str], *, dpi: float = DEFAULT_DP
         The bytes of each format; the same figure gives the same bytes.
     """
     out = {}
-    with mpl.rc_context(_TEXT_AS_TEXT):
+    # no layout engine comes back while the formats are drawn: savefig sets the figure's
+    # engine to none and back, and "back" from None is a new engine when the style asks
+    # for constrained layout (matplotlib 3.11), which lays the figure out again
+    with mpl.rc_context({**_TEXT_AS_TEXT, "figure.autolayout": False,
+                         "figure.constrained_layout.use": False}):
         engine = fig.get_layout_engine()
         if engine is not None:
             engine.execute(fig)  # the layout, once (the artists are drawn by each format)
-            with mpl.rc_context({"figure.autolayout": False,
-                                 "figure.constrained_layout.use": False}):
-                fig.set_layout_engine(None)
+            fig.set_layout_engine(None)
         for fmt in formats:
             buf = io.BytesIO()
             fig.savefig(buf, dpi=dpi, format=fmt, metadata=_metadata(fmt))

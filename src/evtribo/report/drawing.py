@@ -26,7 +26,7 @@ from __future__ import annotations
 import hashlib
 import logging
 import pickle
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -38,7 +38,7 @@ from evtribo.figures.trial_checks import CHECK_DPI, CheckFigure, trial_checks
 from evtribo.figures.trial_plots import draw_failed, draw_trial_check
 from evtribo.fit.tables import ResultTables
 from evtribo.report.kept import FigureStore, figure_key, file_key
-from evtribo.report.lead.warning_kinds import trials_to_check
+from evtribo.report.lead.warning_kinds import group_warnings
 from evtribo.results.outputs import FIGURES
 from evtribo.results.workers import init_worker, stop_workers
 from evtribo.store.files import atomic_write, sha256_file
@@ -46,7 +46,8 @@ from evtribo.store.resultdir import Staging
 
 log = logging.getLogger(__name__)
 
-__all__ = ["Drawing", "FigureRecord", "Figures", "Look", "Runner", "emit_checks", "render"]
+__all__ = ["Drawing", "FigureRecord", "Figures", "Look", "Runner", "emit_checks", "render",
+           "trials_to_check"]
 
 
 @dataclass(frozen=True)
@@ -400,6 +401,27 @@ def _check_drawing(check: CheckFigure) -> Drawing:
     return Drawing(draw_trial_check, (check.sketch,))
 
 
+def trials_to_check(lines: Iterable[str], trials: Iterable[tuple[str, str]]) -> set[str]:
+    """The trials (``subject/trial``) a warning names that is not only for information: one
+    that may change a number or widens an interval (compare draws their checks by default
+    in a large study; a drift followed or an offset removed is not a reason to look).
+
+    Parameters
+    ----------
+    lines : iterable of str
+        The analysis's warnings.
+    trials : iterable of (str, str)
+        The study's trials, ``(subject, trial)``.
+
+    Returns
+    -------
+    set of str
+    """
+    trial_list = [(str(s), str(t)) for s, t in trials]
+    return {f"{s}/{t}" for g in group_warnings(lines, trials=trial_list)
+            if g.effect != "information" for s, t in g.trials}
+
+
 def emit_checks(figures: Figures, tables: ResultTables, which: str, cache: Path,
                 progress: Callable[[str], None]) -> list[str]:
     """Each trial's check (:func:`~evtribo.figures.trial_checks.trial_checks`) handed to
@@ -416,7 +438,7 @@ def emit_checks(figures: Figures, tables: ResultTables, which: str, cache: Path,
     which : str
         Which trials (:data:`~evtribo.figures.trial_checks.WHICH`); ``auto`` in a large
         study: those with a warning not only for information
-        (:func:`~evtribo.report.lead.warning_kinds.trials_to_check`) or not analysed.
+        (:func:`trials_to_check`) or not analysed.
     cache : Path
         The cache folder of the analysis.
     progress : callable

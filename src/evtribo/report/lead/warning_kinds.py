@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["EFFECTS", "KINDS", "Cell", "Kind", "WarningGroup", "console_lines",
-           "group_warnings", "read_scope", "scope_text", "study_cells", "trials_to_check"]
+           "group_warnings", "read_scope", "scope_text", "study_cells"]
 
 #: What a kind of warning does to the headline numbers, in the order they are said.
 EFFECTS: dict[str, str] = {
@@ -344,27 +344,6 @@ def group_warnings(lines: Iterable[str], subjects: Iterable[str] = (),
         group.subjects = list(dict.fromkeys(group.subjects))
     order = list(EFFECTS)
     return sorted(groups.values(), key=lambda g: (order.index(g.effect), -g.count, g.title))
-
-
-def trials_to_check(lines: Iterable[str], trials: Iterable[tuple[str, str]]) -> set[str]:
-    """The trials (``subject/trial``) a warning names that is not only for information: one
-    that may change a number or widens an interval (compare draws their checks by default
-    in a large study; a drift followed or an offset removed is not a reason to look).
-
-    Parameters
-    ----------
-    lines : iterable of str
-        The analysis's warnings.
-    trials : iterable of (str, str)
-        The study's trials, ``(subject, trial)``.
-
-    Returns
-    -------
-    set of str
-    """
-    trial_list = [(str(s), str(t)) for s, t in trials]
-    return {f"{s}/{t}" for g in group_warnings(lines, trials=trial_list)
-            if g.effect != "information" for s, t in g.trials}
 
 
 def _amps(cells: Sequence[Cell]) -> str:
