@@ -1,13 +1,13 @@
 """``analyze --dask`` and ``compare --dask`` on a LocalCluster of worker processes: the same
 tables as the local run, byte for byte; errors as the local run gives them; a stopped run
-leaves nothing half-written and nothing running; the missing extra and an unreachable
-scheduler are exit 2 with a message that says what to do."""
+leaves nothing half-written and nothing running; the missing extra is exit 2 with a message
+that says what to do (an unreachable scheduler: tests/test_bad_input.py, the errors page's
+row analyze-dask-unreachable)."""
 
 from __future__ import annotations
 
 import json
 import os
-import socket
 import subprocess
 import sys
 import textwrap
@@ -173,22 +173,6 @@ def test_map_unordered_gives_every_item_s_result_with_shared_arguments(cluster):
     _, client = cluster
     got = dict(evdist.map_unordered(client, pow, [2, 3, 4], 3))
     assert got == {0: 8, 1: 27, 2: 64}
-
-
-def _closed_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def test_an_unreachable_scheduler_is_exit_2_naming_it(study, tmp_path, capsys):
-    address = f"tcp://127.0.0.1:{_closed_port()}"
-    code = main(["analyze", str(study), "--out", str(tmp_path / "out"), "--dask", address])
-    err = capsys.readouterr().err
-    assert code == 2
-    assert f"no Dask scheduler answered at {address} within 5 s" in err  # gave up: returned
-    assert "Traceback" not in err
-    assert not (tmp_path / "out").exists()
 
 
 BLOCK_DASK = textwrap.dedent("""
