@@ -49,7 +49,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -64,6 +64,7 @@ from evtribo.fit.params import DEFAULT_FIT, parameter_unit
 from evtribo.fit.problem import LOG_PARAMETERS, Points, Problem, with_friction_law
 from evtribo.fit.tables import MIN_REPLICATES, ResultTables, replicate_matrix
 from evtribo.model.params import TABLE_1, ModelParameters
+from evtribo.util.said import logged, say_again
 
 log = logging.getLogger(__name__)
 
@@ -387,7 +388,8 @@ def _with_frequency(windows: pd.DataFrame, trials: pd.DataFrame) -> pd.DataFrame
 
 
 def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
-              fit: Sequence[str] = DEFAULT_FIT, *, scheduler: Any = None) -> list[SubjectFit]:
+              fit: Sequence[str] = DEFAULT_FIT, *, scheduler: Any = None,
+              mapper: Mapper | None = None) -> list[SubjectFit]:
     """Fit every subject of a result folder (see :func:`fit_subject`).
 
     The intervals come from refits to ``electrostatic_bootstrap.csv``'s replicates when the
@@ -403,13 +405,17 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
         Names of the parameters to fit per subject.
     scheduler : distributed.Client, optional
         A Dask cluster for the bootstrap refits (the same refits as here).
+    mapper : callable, optional
+        ``mapper(func, items)``: the results of ``func`` on each item, in order (compare's
+        worker processes): the subjects fitted side by side, what each fit logged said
+        here, in the subjects' order (without a *scheduler* only).
 
     Returns
     -------
     list of SubjectFit
         One per subject, in the order of ``electrostatic.csv``.
     """
-    fits = []
+    jobs = []
     boot = tables.bootstrap
     for subject in tables.subjects:
         rows = tables.electrostatic[tables.electrostatic["subject"] == subject]
@@ -422,9 +428,25 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
             if reps is None:
                 log.warning("subject %s: electrostatic_bootstrap.csv lacks replicates of "
                             "some of its points; intervals from the Jacobian", subject)
-        fits.append(fit_subject(subject, rows, base, fit, win, replicates=reps,
-                                scheduler=scheduler))
+        jobs.append((subject, rows, base, tuple(fit), win, reps))
+    if mapper is None or scheduler is not None or len(jobs) < 2:
+        return [fit_subject(s, rows, b, names, win, replicates=reps, scheduler=scheduler)
+                for s, rows, b, names, win, reps in jobs]
+    fits = []
+    for done, said in mapper(_fit_logged, jobs):
+        say_again(said)  # what each fit said, here, in the subjects' order
+        fits.append(done)
     return fits
+
+
+#: ``mapper(func, items)``: ``func`` of each item, in order.
+Mapper = Callable[[Callable[[Any], Any], list[Any]], list[Any]]
+
+
+def _fit_logged(job: tuple[Any, ...]) -> tuple[SubjectFit, list[logging.LogRecord]]:
+    """One subject's fit (a worker's job) and what it logged, for the caller to say."""
+    subject, rows, base, names, win, reps = job
+    return logged(fit_subject, subject, rows, base, names, win, replicates=reps)
 
 
 def interval_notes(fits: list[SubjectFit], *, has_bootstrap: bool) -> list[str]:

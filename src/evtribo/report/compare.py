@@ -288,14 +288,18 @@ def _compare(tables: ResultTables, stage: Staging, setup: _Setup, figures: Figur
     """The fits and figures, written into *stage* (``result.files`` relative to it);
     *exclude*: the study's exclusions from the population and notes on them."""
     names = setup.names
-    check_notes = emit_checks(figures, tables, setup.checks, setup.cache, progress)
     only_mu = tables.electrostatic.empty  # a study of OFF trials: its friction, no fit
     if not only_mu:
         replicates = ("" if tables.bootstrap is None else
                       ", refitted to each bootstrap replicate for its interval")
         progress(f"fitting {', '.join(names)} to each of {len(tables.subjects)} subjects"
                  f"{replicates}")
-    fits = [] if only_mu else fit_study(tables, setup.base, names, scheduler=scheduler)
+    fits = [] if only_mu else fit_study(  # the subjects side by side on the workers
+        tables, setup.base, names, scheduler=scheduler,
+        mapper=figures.runner.map if scheduler is None else None)
+    # the trials' checks go to the workers after the fits (which they would hold up there),
+    # drawn while the population is estimated here
+    check_notes = emit_checks(figures, tables, setup.checks, setup.cache, progress)
     result = figures.result
     result.fits = fits
     result.notes += [NOTE] if only_mu else interval_notes(

@@ -458,7 +458,7 @@ def emit_checks(figures: Figures, tables: ResultTables, which: str, cache: Path,
                                                          trials))
     if checks:
         progress(f"drawing the check of {len(checks)} trial(s) from what analyze kept of "
-                 "each, while the model is fitted (--trial-checks none leaves them out)")
+                 "each, beside the figures of the fit (--trial-checks none leaves them out)")
     formats = figures.look.formats
     fmt = ("png",) if "png" in formats else formats[:1]  # figures to look at, not to print
     for c in checks:
