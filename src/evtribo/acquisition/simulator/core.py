@@ -12,6 +12,7 @@ seed.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import logging
 import math
 import os
@@ -95,10 +96,17 @@ class _Node:
         return np.arange(k0, k1, dtype=np.int64)
 
 
+#: The CAN databases parsed, by their file's name and bytes (a study's trials share one).
+_PARSED: dict[tuple[str, bytes], Any] = {}
+
+
 def _load_dbc(dbc: str | os.PathLike[str] | None) -> Any:
     path = Path(dbc) if dbc is not None else DEFAULT_DBC
     try:
-        db = cantools.database.load_file(str(path))
+        key = (path.suffix.lower(), hashlib.sha256(path.read_bytes()).digest())
+        db = _PARSED.get(key)
+        if db is None:  # read-only here: only its messages are looked up
+            db = _PARSED[key] = cantools.database.load_file(str(path))
     except (OSError, cantools.database.UnsupportedDatabaseFormatError) as err:
         raise RigConfigError(f"cannot load the CAN database: {err}", path=path) from err
     if not isinstance(db, cantools.database.can.Database):
