@@ -22,10 +22,11 @@ with the range of the rounds. ``--against SRC`` times another evtribo's source f
 analyze and compare as ratios to this one's analyze cold. Run:
 ``python benchmarks/compare.py [--subjects 8,20] [--repeat N] [--jobs N] [--against SRC]``.
 
-Measured on 2 cores shared with other work (load 4-8), medians of 2 rounds (8 subjects) or
-one (20): compare cold 2.2x analyze cold at 8 subjects (3.6x under a load of 7-8), 4.9x at
-20; nothing changed 0.02x; the figures the same bytes. Its figures of the fit dominate:
-about 0.4 s of CPU each for an SVG and a PNG at 300 dpi, 2 per subject.
+Measured on 2 idle cores, one round each, this tree against the one before (``--against``,
+same rounds): compare cold 2.04x analyze cold at 8 subjects (7.4 s against 3.7 s; the tree
+before: 2.98x) and at 20 (13.7 s against 6.7 s; before: 3.16x); nothing changed 0.02-0.03x;
+the figures the same bytes; every trial's check drawn too: 2.55x and 2.62x. A figure of the
+fit costs about 0.3 s of a worker for an SVG and a PNG at 300 dpi, 2 per subject.
 """
 
 from __future__ import annotations
