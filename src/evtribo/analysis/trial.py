@@ -313,7 +313,7 @@ def _pieces(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: Anal
     warn(f"analysed in {len(pieces)} continuous pieces")
     out, failures = [], []
     for k, (lo, hi) in enumerate(pieces):
-        # the tare stretch the sidecar tells of is at the trial's start: the first piece's
+        # the tare stretch the sidecar tells of is at the trial's start, in the first piece
         piece_meta = meta if k == 0 else dataclasses.replace(meta, tare_s=None)
         try:
             out.append(_analyze_piece(restrict(signals, lo, hi), piece_meta, t0,

@@ -8,17 +8,17 @@ an analysis of an older evtribo) is analysed again from the study folder, which 
 there; a trial the analysis could not analyse gets a figure saying why.
 
 Which trials (:data:`WHICH`): ``all``, ``none``, or ``auto`` (the default): every trial of a
-study of at most :data:`AUTO_ALL` trials; of a larger one, those the analysis warned about
-(compare: with a warning that may change a number or widens an interval, not one only for
-information, such as a drift followed) or could not analyse, and a note says how to draw
-the others.
+study of at most :data:`AUTO_ALL` trials; of a larger one, those with a warning that may
+change a number or widens an interval (not one only for information, such as a drift
+followed; compare says which) or that the analysis could not analyse, and a note says how
+to draw the others.
 """
 
 from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -97,13 +97,7 @@ def parse_which(which: bool | str | None) -> str:
     return str(which)
 
 
-def _warned(warnings: Iterable[Any], keys: Sequence[str]) -> set[str]:
-    """The trials (``subject/trial``) a warning of the analysis begins with."""
-    heads = {str(w).split(": ", 1)[0] for w in warnings}
-    return {k for k in keys if k in heads}
-
-
-def chosen_trials(tables: ResultTables, which: str, *, flagged: Iterable[str] | None = None
+def chosen_trials(tables: ResultTables, which: str, *, flagged: Iterable[str]
                   ) -> tuple[list[tuple[str, str]], list[str]]:
     """The trials (of ``trials.csv``, in its order) whose checks to draw, and a note on
     those left out.
@@ -114,10 +108,10 @@ def chosen_trials(tables: ResultTables, which: str, *, flagged: Iterable[str] | 
         The result folder.
     which : str
         One of :data:`WHICH`.
-    flagged : iterable of str, optional
+    flagged : iterable of str
         The trials (``subject/trial``) whose warnings call for a look (``auto`` in a large
-        study draws them and the trials not analysed); by default every trial a warning
-        names.
+        study draws them and the trials not analysed): compare's
+        :func:`~evtribo.report.drawing.trials_to_check`.
 
     Returns
     -------
@@ -131,14 +125,11 @@ def chosen_trials(tables: ResultTables, which: str, *, flagged: Iterable[str] | 
     if which == "all" or len(trials) <= AUTO_ALL:
         return trials, []
     keys = [f"{s}/{t}" for s, t in trials]
-    warned = (_warned(tables.summary.get("warnings") or [], keys) if flagged is None
-              else set(flagged))
-    warned |= {str(f.get("trial")) for f in tables.summary.failed_trials}
+    warned = set(flagged) | {str(f.get("trial")) for f in tables.summary.failed_trials}
     chosen = [st for st, k in zip(trials, keys, strict=True) if k in warned]
-    why = ("the analysis warned about" if flagged is None else
-           "with a warning that may change a number or widens an interval")
-    note = (f"Each trial's check: drawn for the {len(chosen)} of {len(trials)} trials {why} "
-            f"or that could not be analysed (a study of more than {AUTO_ALL} "
+    note = (f"Each trial's check: drawn for the {len(chosen)} of {len(trials)} trials with a "
+            "warning that may change a number or widens an interval, or that could not be "
+            f"analysed (a study of more than {AUTO_ALL} "
             "trials); `evtribo compare OUT --force --trial-checks all` draws every trial's "
             "(from what the analysis kept of each, no trial analysed again; the figures "
             "drawn before are reused), `evtribo plot trial STUDY SUBJECT TRIAL` one.")
@@ -173,7 +164,7 @@ Mapper = Callable[[Callable[[Any], Any], list[Any]], list[Any]]
 
 def trial_checks(tables: ResultTables, which: str = "auto", *,
                  cache_dir: str | os.PathLike[str] | None = None,
-                 mapper: Mapper | None = None, flagged: Iterable[str] | None = None
+                 mapper: Mapper | None = None, flagged: Iterable[str]
                  ) -> tuple[list[CheckFigure], list[str]]:
     """The check of each trial chosen (:func:`chosen_trials`), ready to draw.
 
@@ -189,7 +180,7 @@ def trial_checks(tables: ResultTables, which: str = "auto", *,
     mapper : callable, optional
         ``mapper(func, items)``: the results of ``func`` on each item, in order (a pool of
         worker processes); the trials analysed again go through it (default: here).
-    flagged : iterable of str, optional
+    flagged : iterable of str
         The trials whose warnings call for a look (:func:`chosen_trials`).
 
     Returns
