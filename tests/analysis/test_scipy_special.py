@@ -1,5 +1,7 @@
-"""The analysis' quantiles come from scipy.special (importing scipy.stats costs 0.5 s): they
-are the numbers scipy.stats gives, bit for bit, over the range the analysis asks for."""
+"""The quantiles of the analysis, the fit and the population come from scipy.special
+(importing scipy.stats costs 0.3-0.5 s): they are the numbers scipy.stats gives, bit for bit,
+over the range they are asked for. ``compare`` starts without scipy.stats, the CAN
+libraries and the trials' analysis (imported when a trial's check needs them)."""
 
 from __future__ import annotations
 
@@ -29,6 +31,19 @@ def test_chi2_upper_quantile(p, k):
     assert special.chdtri(k, p) == stats.chi2.isf(p, k)
 
 
+@given(q=st.floats(min_value=0.5, max_value=1 - 1e-9),
+       dof=st.floats(min_value=0.01, max_value=1e6))
+def test_chi2_quantile_of_any_degrees_of_freedom(q, dof):
+    # the population's variance intervals (Satterthwaite's degrees of freedom, not whole)
+    for p in (q, 1.0 - q):
+        assert 2.0 * special.gammaincinv(dof / 2.0, p) == stats.chi2.ppf(p, dof)
+
+
+@given(z=st.floats(min_value=-40.0, max_value=40.0))
+def test_normal_upper_tail(z):
+    assert special.ndtr(-z) == stats.norm.sf(z)
+
+
 @given(v=st.lists(st.floats(min_value=1e-6, max_value=1.0), min_size=1, max_size=6),
        n=st.lists(st.integers(min_value=2, max_value=40), min_size=6, max_size=6),
        confidence=st.sampled_from([0.9, 0.95, 0.99]))
@@ -53,6 +68,19 @@ def test_the_analysis_does_not_import_scipy_stats():
                          check=True).stdout
     assert out.strip() == "[]"
     np.testing.assert_equal(special.ndtri(0.975), stats.norm.ppf(0.975))
+
+
+def test_compare_starts_without_scipy_stats_the_can_libraries_or_the_analysis():
+    import subprocess
+    import sys
+
+    heavy = ("scipy.stats", "cantools", "can", "asammdf", "evtribo.analysis.trial",
+             "evtribo.results.check", "evtribo.canlog.decode")
+    code = ("import sys, evtribo.cli.results.compare, evtribo.report.compare; "
+            f"print(sorted(m for m in {heavy!r} if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"
 
 
 def test_a_sine_trials_hum_is_removed_by_scipy_signal(tmp_path):

@@ -403,14 +403,18 @@ def test_every_format_of_a_figure_is_drawn_from_one_layout(monkeypatch):
     runs = []
     execute = ConstrainedLayoutEngine.execute
     monkeypatch.setattr(ConstrainedLayoutEngine, "execute",
-                        lambda self, fig: (runs.append(fig), execute(self, fig))[1])
+                        lambda self, fig: (runs.append(fig.dpi), execute(self, fig))[1])
     with journal_style("single"):
         ax = new_axes()
         fig = ax.figure
+        shown = fig.dpi
         ax.plot([1, 2, 3], [2, 1, 3], label="a line")
         ax.set_xlabel("normal force $F_n$ (mN)")
         runs.clear()
         out = figure_bytes(fig, ("svg", "png", "pdf"), dpi=50)
     assert sorted(out) == ["pdf", "png", "svg"] and all(out.values())
-    assert len(runs) == 1
+    # once, at the PNG's resolution (whose drawing then measures no text again), and the
+    # figure keeps the resolution it is shown at
+    assert runs == [50.0]
+    assert fig.dpi == shown != 50.0
     assert fig.get_layout_engine() is None

@@ -11,11 +11,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 sys.path.insert(0, str(Path(__file__).parent))
 
 from evtribo.fit.tables import ResultTables
 from evtribo.population.estimates import CONTRAST_COLUMNS, POPULATION_COLUMNS, population
+from evtribo.population.journal import HOLM_ALPHA, holm
 from population_sim import hierarchical_tables
 
 
@@ -179,6 +182,16 @@ def test_each_subject_s_test_of_a_positive_force_is_holm_corrected():
     row = pop.subjects.iloc[0]
     assert row["friction_increase_pct"] == pytest.approx(
         100 * row["electrostatic_force_N"] / row["normal_force_N"])
+
+
+@given(st.lists(st.one_of(st.floats(min_value=0.0, max_value=1.0), st.just(math.nan),
+                         st.sampled_from([0.0, 1e-300, 0.01, 0.5, 1.0])), max_size=30))
+def test_holm_adjusts_as_statsmodels_does(p):
+    """Holm's adjustment is statsmodels' own, number for number (NaN, ties, 0 and 1 too)."""
+    from statsmodels.stats.multitest import multipletests
+
+    expected = multipletests(np.asarray(p, float), alpha=HOLM_ALPHA, method="holm")[1]
+    np.testing.assert_array_equal(holm(p), expected)
 
 
 def test_contrast_between_drives_every_subject_had():

@@ -56,7 +56,7 @@ log = logging.getLogger(__name__)
 CACHE_VERSION = 13  # 2: dropped frames counted by evtribo.canlog.dropped; 3: Rig.counter guess,
 #                    frames with an unknown multiplexer value ignored; 5: checksummed entries;
 #                    6: channel, logger's DROPCOUNT and decoder warnings kept; 7: waveform
-#                    codes named without a value table (evtribo.canlog.decode.FALLBACK_WAVEFORMS);
+#                    codes named without a value table (evtribo.canlog.signals.FALLBACK_WAVEFORMS);
 #                    8: the reader's damaged lines kept, warned of again from the cache;
 #                    9: Arrow IPC files (were Parquet); 10: the excitation's columns
 #                    run-end encoded, counters in the narrowest ints, times as clock

@@ -53,7 +53,13 @@ from evtribo.canlog.frame_match import kind_mismatches, message_mask
 from evtribo.canlog.io.table import FrameTable, take_rows
 from evtribo.canlog.rig import Rig, SignalRef
 from evtribo.canlog.signal_codec import SignalCodec, bad_samples
-from evtribo.canlog.signals import CellSignals, ExcitationSignals, TrialProvenance, TrialSignals
+from evtribo.canlog.signals import (
+    FALLBACK_WAVEFORMS,
+    CellSignals,
+    ExcitationSignals,
+    TrialProvenance,
+    TrialSignals,
+)
 from evtribo.errors import UserInputError
 
 log = logging.getLogger(__name__)
@@ -245,10 +251,6 @@ def decode_messages(frames: FrameTable, db: Database, *, messages: list[str] | N
     return out
 
 
-#: Names of a waveform signal's codes when the rig's DBC gives it no value table: the default
-#: rig's (``VAL_ ... HvWave 0 "sine" 1 "square" 2 "triangle" 3 "dc"``). Other codes keep
-#: their number as their name; a DBC's own value table always takes precedence.
-FALLBACK_WAVEFORMS: dict[int, str] = {0: "sine", 1: "square", 2: "triangle", 3: "dc"}
 
 
 def _rows(msg: DecodedMessage, sel: npt.NDArray[Any]) -> DecodedMessage:

@@ -18,9 +18,15 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["CellSignals", "ExcitationSignals", "TrialProvenance", "TrialSignals"]
+__all__ = ["FALLBACK_WAVEFORMS", "CellSignals", "ExcitationSignals", "TrialProvenance",
+           "TrialSignals"]
 
 Array = npt.NDArray[np.float64]
+
+#: Names of a waveform signal's codes when the rig's DBC gives it no value table: the default
+#: rig's (``VAL_ ... HvWave 0 "sine" 1 "square" 2 "triangle" 3 "dc"``). Other codes keep
+#: their number as their name; a DBC's own value table always takes precedence.
+FALLBACK_WAVEFORMS: dict[int, str] = {0: "sine", 1: "square", 2: "triangle", 3: "dc"}
 
 
 @dataclass(frozen=True)
@@ -66,7 +72,7 @@ class ExcitationSignals:
     frequency : ndarray of float64, Hz, or None
     waveform : ndarray of str or None (object)
         Names of the waveform codes: the DBC's value table, else
-        :data:`evtribo.canlog.decode.FALLBACK_WAVEFORMS`; None where a multiplexed frame does not
+        :data:`evtribo.canlog.signals.FALLBACK_WAVEFORMS`; None where a multiplexed frame does not
         carry the signal.
     """
 

@@ -144,14 +144,21 @@ def figure_bytes(fig: Figure, formats: Sequence[str], *, dpi: float = DEFAULT_DP
     # for constrained layout (matplotlib 3.11), which lays the figure out again
     with mpl.rc_context({**_TEXT_AS_TEXT, "figure.autolayout": False,
                          "figure.constrained_layout.use": False}):
-        engine = fig.get_layout_engine()
-        if engine is not None:
-            engine.execute(fig)  # the layout, once (the artists are drawn by each format)
-            fig.set_layout_engine(None)
-        for fmt in formats:
-            buf = io.BytesIO()
-            fig.savefig(buf, dpi=dpi, format=fmt, metadata=_metadata(fmt))
-            out[fmt] = buf.getvalue()
+        shown_dpi = fig.dpi
+        # laid out at the resolution of the raster formats: their drawing then measures
+        # no text again (matplotlib keeps text sizes per renderer, one per size and dpi)
+        fig.set_dpi(dpi)
+        try:
+            engine = fig.get_layout_engine()
+            if engine is not None:
+                engine.execute(fig)  # the layout, once (the artists are drawn by each format)
+                fig.set_layout_engine(None)
+            for fmt in formats:
+                buf = io.BytesIO()
+                fig.savefig(buf, dpi=dpi, format=fmt, metadata=_metadata(fmt))
+                out[fmt] = buf.getvalue()
+        finally:
+            fig.set_dpi(shown_dpi)
     return out
 
 

@@ -26,9 +26,10 @@ from typing import Any
 from evtribo.errors import AnalysisError, UserInputError
 from evtribo.figures.trial_plots import trial_stem
 from evtribo.fit.tables import ResultTables
-from evtribo.results.check import check_trial, kept_sketches, sketch_of
 from evtribo.results.sketch import TrialSketch
-from evtribo.study import load_study
+
+# the analysis (results.check) and the rig's DBC (evtribo.study) are imported where a trial's
+# check needs them: compare starts without them, and a large study's may need none
 
 __all__ = ["AUTO_ALL", "CHECK_DPI", "WHICH", "CheckFigure", "chosen_trials", "parse_which",
            "sketch_again", "trial_checks"]
@@ -150,6 +151,8 @@ def sketch_again(job: tuple[str, str, str, Mapping[str, Any], str | None]) -> by
     bytes or str
         The sketch (:meth:`~evtribo.results.sketch.TrialSketch.to_bytes`), or the error.
     """
+    from evtribo.results.check import check_trial, sketch_of
+
     study, subject, trial, settings, cache_dir = job
     try:
         return sketch_of(check_trial(study, subject, trial, settings=settings,
@@ -189,11 +192,13 @@ def trial_checks(tables: ResultTables, which: str = "auto", *,
         The checks in ``trials.csv``'s order; notes for the user (the study is gone, a
         trial the analysis analysed could not be checked, the trials left out).
     """
-    from evtribo.figures.trial_plots import trial_caption
-
     chosen, notes = chosen_trials(tables, which, flagged=flagged)
     if not chosen:
         return [], notes
+    from evtribo.figures.trial_plots import trial_caption
+    from evtribo.results.check import kept_sketches
+    from evtribo.study import load_study
+
     study_dir = tables.summary.study_dir
     if not study_dir or not Path(study_dir).is_dir():
         return [], [*notes, f"The study folder {study_dir or '(not recorded)'} is not there: "

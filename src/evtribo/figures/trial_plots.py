@@ -26,7 +26,7 @@ import logging
 import os
 import re
 from collections.abc import Iterator, Mapping, Sequence
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 from matplotlib.axes import Axes
@@ -35,18 +35,13 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from evtribo.analysis.settings import AnalysisSettings
 from evtribo.errors import AnalysisError, UserInputError
-from evtribo.results.check import (
-    STRETCH_LABELS,
-    Stretch,
-    TrialCheck,
-    check_trial,
-    settings_of,
-    sketch_of,
-)
-from evtribo.results.sketch import MAX_POINTS, TrialSketch, envelope
-from evtribo.study import Study, load_study
+from evtribo.results.sketch import MAX_POINTS, STRETCH_LABELS, Stretch, TrialSketch, envelope
+
+if TYPE_CHECKING:
+    from evtribo.analysis.settings import AnalysisSettings
+    from evtribo.results.check import TrialCheck
+    from evtribo.study import Study
 
 log = logging.getLogger(__name__)
 
@@ -97,7 +92,11 @@ def _new_axes() -> Axes:
 
 
 def _as_sketch(check: TrialCheck | TrialSketch) -> TrialSketch:
-    return check if isinstance(check, TrialSketch) else sketch_of(check)
+    if isinstance(check, TrialSketch):
+        return check
+    from evtribo.results.check import sketch_of  # the analysis, imported when needed
+
+    return sketch_of(check)
 
 
 def _spans(ax: Axes, sketch: TrialSketch, stretches: list[Stretch]) -> set[str]:
@@ -300,6 +299,8 @@ def plot_trial(study: Study | str | os.PathLike[str], subject: str, trial: str, 
     AnalysisError
         The trial cannot be analysed.
     """
+    from evtribo.results.check import check_trial
+
     return draw_trial_check(check_trial(study, subject, trial, settings=settings,
                                         cache_dir=cache_dir), ax)
 
@@ -353,6 +354,9 @@ def trial_check_figures(study_root: Study | str | os.PathLike[str],
         trial that cannot be analysed (or read) gets a figure saying why. Each figure is
         its own (no pyplot state): save it, then let it go.
     """
+    from evtribo.results.check import check_trial, settings_of, sketch_of
+    from evtribo.study import Study, load_study
+
     study = study_root if isinstance(study_root, Study) else load_study(study_root)
     chosen = settings_of(study, settings)
     for ref in study.trials:

@@ -56,7 +56,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
-from scipy import optimize, stats
+
+# scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
+from scipy import optimize, special
 
 from evtribo.fit.intervals import covariance, refit_replicates
 from evtribo.fit.model_points import mean_electrostatic_force, mean_friction_force, model_exponent
@@ -72,7 +74,7 @@ __all__ = ["N_REFITS", "ParameterEstimate", "SubjectFit", "fit_study", "fit_subj
            "interval_notes", "mean_electrostatic_force", "mean_friction_force",
            "model_exponent"]
 
-_Z95 = float(stats.norm.ppf(0.975))
+_Z95 = float(special.ndtri(0.975))
 #: Bootstrap replicates refitted per subject (the first ones of electrostatic_bootstrap.csv).
 N_REFITS = 200
 #: Replicates per call of a Dask worker when the refits run on a cluster.
@@ -346,7 +348,7 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
     chi2_red = float(np.sum(res.fun**2)) / dof if dof > 0 else math.nan
     cov_x = covariance(res.jac, problem.magnitudes(res.x))
     scale = max(1.0, chi2_red) if math.isfinite(chi2_red) else 1.0
-    quantile = float(stats.t.ppf(0.975, dof)) if scale > 1.0 else _Z95
+    quantile = float(special.stdtrit(dof, 0.975)) if scale > 1.0 else _Z95
     cov_x = cov_x * scale
     boot, note = None, ""
     if replicates is not None:

@@ -23,7 +23,9 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
-from scipy import optimize, stats
+
+# scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
+from scipy import optimize, special
 
 from evtribo.errors import AnalysisError, ConfigError
 from evtribo.fit.model_points import ForceFunction, mean_electrostatic_force, mean_friction_force
@@ -34,7 +36,7 @@ log = logging.getLogger(__name__)
 
 __all__ = ["LOG_PARAMETERS", "Points", "Problem", "fit_points", "with_friction_law"]
 
-_Z95 = float(stats.norm.ppf(0.975))
+_Z95 = float(special.ndtri(0.975))
 #: Parameters fitted in log space (they span decades).
 LOG_PARAMETERS: tuple[str, ...] = ("r_sc", "r_g")
 #: How far beyond the measured frequencies a resistance's corner may go (a factor).

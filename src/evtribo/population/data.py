@@ -19,7 +19,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
-from scipy import stats
+
+# scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
+from scipy import special
 
 from evtribo.fit.tables import MIN_REPLICATES, ResultTables
 from evtribo.population.nonlinear_fit import NonlinearFit
@@ -50,7 +52,7 @@ CONTRAST_COLUMNS = ("condition_a", "condition_b", "quantity", "ratio", "differen
                     "ci_low", "ci_high", "n_subjects")
 #: Bootstrap replicates read per subject for its cells' correlation.
 REPLICATES = 200
-_Z95 = float(stats.norm.ppf(0.975))
+_Z95 = float(special.ndtri(0.975))
 
 Condition = tuple[str, float]
 

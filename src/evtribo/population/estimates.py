@@ -41,7 +41,9 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy import stats
+
+# scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
+from scipy import special
 
 from evtribo.fit.fit import SubjectFit
 from evtribo.fit.tables import ResultTables
@@ -72,7 +74,7 @@ log = logging.getLogger(__name__)
 __all__ = ["CONTRAST_COLUMNS", "POPULATION_COLUMNS", "SUBJECT_COLUMNS", "Condition",
            "Population", "PopulationOutlier", "condition_label", "population"]
 
-_Z95 = float(stats.norm.ppf(0.975))
+_Z95 = float(special.ndtri(0.975))
 
 
 @dataclass

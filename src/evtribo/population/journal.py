@@ -25,13 +25,15 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy import stats
+
+# scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
+from scipy import special
 
 from evtribo.population.data import PRIMARY, Collector, Condition, SubjectData, condition_label
 from evtribo.population.stats import MIN_SUBJECTS
 from evtribo.util.numbers import frequency, significant, voltage, with_interval
 
-__all__ = ["HOLM_ALPHA", "INCREASE_METHOD", "SUBJECT_COLUMNS", "friction_increase",
+__all__ = ["HOLM_ALPHA", "INCREASE_METHOD", "SUBJECT_COLUMNS", "friction_increase", "holm",
            "subject_table", "subjects_view"]
 
 #: Columns of population_subjects.csv.
@@ -44,7 +46,7 @@ HOLM_ALPHA = 0.05
 INCREASE_METHOD = ("random-effects meta-analysis on the linear scale (Paule-Mandel, "
                    "Hartung-Knapp) of each subject's F_el / F_n,ON in %: the mean over "
                    "subjects")
-_Z95 = float(stats.norm.ppf(0.975))
+_Z95 = float(special.ndtri(0.975))
 
 
 def _test(cells: pd.DataFrame, cov: np.ndarray) -> tuple[float, float]:
@@ -53,14 +55,35 @@ def _test(cells: pd.DataFrame, cov: np.ndarray) -> tuple[float, float]:
     g = (u / u.max()) ** 2
     w = np.linalg.solve(cov, g)
     z = float(w @ cells["force_N"].to_numpy(float)) / math.sqrt(float(w @ g))
-    return z, float(stats.norm.sf(z))
+    return z, float(special.ndtr(-z))
 
 
-def _holm(p: Sequence[float]) -> np.ndarray:
-    from statsmodels.stats.multitest import multipletests
+def holm(p: Sequence[float]) -> np.ndarray:
+    """Holm's step-down adjusted p-values (Holm 1979), in the order given.
 
-    return np.asarray(multipletests(np.asarray(p, float), alpha=HOLM_ALPHA,
-                                    method="holm")[1], dtype=float)
+    The adjustment of ``statsmodels.stats.multitest.multipletests(p, method="holm")``, the
+    same numbers (``tests/population/test_population.py`` holds them to it): the sorted
+    p-values times m, m - 1, ... 1, each at least the one before, at most 1. Not the
+    library's call, which collects the garbage of the whole process on each call (0.03-0.1 s
+    in a process holding a study's tables, once per population estimated).
+
+    Parameters
+    ----------
+    p : sequence of float
+        One-sided p-values, NaN where a subject has none.
+
+    Returns
+    -------
+    ndarray
+        The adjusted p-values (NaN from the first NaN in sorted order on).
+    """
+    values = np.asarray(p, dtype=float)
+    order = np.argsort(values)
+    adjusted = np.maximum.accumulate(values[order] * np.arange(values.size, 0, -1))
+    adjusted[adjusted > 1] = 1.0
+    out = np.empty_like(adjusted)
+    out[order] = adjusted
+    return out
 
 
 def subject_table(subjects: Sequence[SubjectData], conditions: Sequence[Condition]
@@ -99,7 +122,7 @@ def subject_table(subjects: Sequence[SubjectData], conditions: Sequence[Conditio
                              "friction_increase_pct": pct * float(c["force_N"]),
                              "increase_ci_low_pct": pct * float(c["ci_low_N"]),
                              "increase_ci_high_pct": pct * float(c["ci_high_N"])})
-    adjusted = _holm([t[3] for t in tests]) if tests else np.zeros(0)
+    adjusted = holm([t[3] for t in tests]) if tests else np.zeros(0)
     for (first, n, z, p), p_adj in zip(tests, adjusted, strict=True):
         for r in rows[first:first + n]:
             r.update(z_positive=z, p_one_sided=p, p_holm=float(p_adj),

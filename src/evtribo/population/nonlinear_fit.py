@@ -24,7 +24,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import optimize, stats
+
+# scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
+from scipy import optimize, special
 
 from evtribo.population.convergence import (
     OPTIMISERS,
@@ -67,7 +69,7 @@ class Estimate:
         -------
         (float, float)
         """
-        half = float(stats.t.ppf(_Q95, self.df)) * self.se
+        half = float(special.stdtrit(self.df, _Q95)) * self.se
         return self.value - half, self.value + half
 
 
@@ -206,7 +208,8 @@ class NonlinearFit:
         if not (math.isfinite(var) and var > 0):
             return math.nan, math.nan
         nu = 2.0 * tau2 * tau2 / var
-        q_hi, q_lo = float(stats.chi2.ppf(_Q95, nu)), float(stats.chi2.ppf(1.0 - _Q95, nu))
+        q_hi = 2.0 * float(special.gammaincinv(nu / 2.0, _Q95))  # chi2.ppf
+        q_lo = 2.0 * float(special.gammaincinv(nu / 2.0, 1.0 - _Q95))
         lo = nu * tau2 / q_hi if q_hi > 0 else 0.0
         hi = nu * tau2 / q_lo if q_lo > 0 else math.inf  # next to no degrees of freedom
         return math.sqrt(lo), math.sqrt(hi)
@@ -229,7 +232,7 @@ class NonlinearFit:
         est = self.estimate(cv)
         if not math.isfinite(tau) or len(self.subjects) < 3:
             return math.nan, math.nan
-        half = float(stats.t.ppf(_Q95, len(self.subjects) - 2)) * math.sqrt(
+        half = float(special.stdtrit(len(self.subjects) - 2, _Q95)) * math.sqrt(
             tau * tau + est.se * est.se)
         return est.value - half, est.value + half
 

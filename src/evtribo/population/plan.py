@@ -39,7 +39,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 from numpy.typing import NDArray
-from scipy import optimize, stats
+
+# scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
+from scipy import optimize, special
 
 from evtribo.errors import ConfigError
 from evtribo.fit.model_points import mean_electrostatic_force
@@ -54,7 +56,7 @@ log = logging.getLogger(__name__)
 
 __all__ = ["Design", "Expected", "Pilot", "Plan", "pilot_errors", "plan_study"]
 
-_Z95 = float(stats.norm.ppf(0.975))
+_Z95 = float(special.ndtri(0.975))
 #: The ratio of the fastest to the slowest stroke's speed of the pilots (a person's).
 SPEED_SPREAD = 3.0
 

@@ -34,7 +34,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy import optimize, stats
+
+# scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
+from scipy import optimize, special
 
 log = logging.getLogger(__name__)
 
@@ -130,7 +132,7 @@ def tau_interval(values: ArrayLike, variances: ArrayLike) -> tuple[float, float]
     k = y.size
     ends = []
     for p in (_Q95, 1.0 - _Q95):
-        target = float(stats.chi2.ppf(p, k - 1))
+        target = 2.0 * float(special.gammaincinv((k - 1) / 2.0, p))  # chi2.ppf
         if _q_generalised(0.0, y, v) <= target:
             ends.append(0.0)
             continue
@@ -211,8 +213,8 @@ def pool(values: ArrayLike, variances: ArrayLike) -> Pooled:
         raise ValueError("values and variances must be finite, variances > 0")
     mean, var, tau2 = _pm(y, v)
     k = y.size
-    half = float(stats.t.ppf(_Q95, k - 1)) * math.sqrt(var)
-    pi = float(stats.t.ppf(_Q95, k - 2)) * math.sqrt(tau2 + var)
+    half = float(special.stdtrit(k - 1, _Q95)) * math.sqrt(var)
+    pi = float(special.stdtrit(k - 2, _Q95)) * math.sqrt(tau2 + var)
     t_lo, t_hi = tau_interval(y, v)
     s2 = typical_variance(v)
     return Pooled(mean, mean - half, mean + half, math.sqrt(tau2), int(k),
@@ -263,7 +265,7 @@ def find_outliers(values: ArrayLike, variances: ArrayLike, subjects: Sequence[st
     k = y.size
     if k < MIN_SUBJECTS_OUTLIERS:
         return []
-    q = float(stats.t.ppf(1.0 - alpha / (2 * k), k - 3))
+    q = float(special.stdtrit(k - 3, 1.0 - alpha / (2 * k)))
     found = []
     for i in range(k):
         others = np.arange(k) != i

@@ -12,7 +12,7 @@ file of a drawing is then:
 - else copied from the cache folder (``figures/<key>.<checksum>.<format>``), which keeps
   every figure drawn: after ``analyze --force`` (which removes compare's files), or for a
   trial's check asked again;
-- else drawn: in worker processes (analyze's pool: :func:`evtribo.results.workers.
+- else drawn: in worker processes (started as analyze's are: :func:`evtribo.store.pool.
   init_worker`), or on the Dask cluster compare was given, while compare goes on.
 
 The same figure gives the same bytes wherever it is drawn (no date, a fixed SVG salt:
@@ -40,8 +40,8 @@ from evtribo.fit.tables import ResultTables
 from evtribo.report.kept import FigureStore, figure_key, file_key
 from evtribo.report.lead.warning_kinds import group_warnings
 from evtribo.results.outputs import FIGURES
-from evtribo.results.workers import init_worker, stop_workers
 from evtribo.store.files import atomic_write, sha256_file
+from evtribo.store.pool import init_worker, stop_workers
 from evtribo.store.resultdir import Staging
 
 log = logging.getLogger(__name__)

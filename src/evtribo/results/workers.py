@@ -19,9 +19,6 @@ from __future__ import annotations
 
 import logging
 import os
-import signal
-import threading
-import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field, replace
@@ -45,7 +42,7 @@ from evtribo.canlog.signals import TrialSignals
 from evtribo.errors import AnalysisError, SidecarError, UserInputError
 from evtribo.results.exclusions import TrialSeconds
 from evtribo.results.sketch import Sketcher
-from evtribo.store.resultdir import release_inherited_locks
+from evtribo.store.pool import init_worker, stop_workers
 from evtribo.study import TrialRef
 
 __all__ = ["MAX_WARNINGS_PER_TRIAL", "SINE_WORK", "TrialOutcome", "TrialTask", "WorkerContext",
@@ -148,31 +145,6 @@ def _enter(context: WorkerContext) -> None:
     """Make *context* the one :func:`analyze_task` uses in this process."""
     global _context  # noqa: PLW0603 - a process pool's initializer has no other way
     _context = context
-
-
-def _watch_parent(parent: int) -> None:
-    """End this worker when its parent is gone."""
-    while os.getppid() == parent:
-        time.sleep(0.5)
-    os._exit(1)  # the analysis was killed (SIGKILL, a crash): nobody wants our results
-
-
-def init_worker() -> None:
-    """Make this process a worker of its parent's pool: the parent stops it (Ctrl-C reaches
-    the whole process group, the parent handles it; SIGTERM ends it, whatever handler the
-    parent had when it was forked), it ends when the parent is gone, and
-    it does not keep the parent's locks (a pool's initializer: analyze's, and compare's for
-    its figures).
-
-    Returns
-    -------
-    None
-    """
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler: stopped, it ends
-    threading.Thread(target=_watch_parent, args=(os.getppid(),), daemon=True,
-                     name="evtribo-parent-watch").start()
-    release_inherited_locks()
 
 
 def _init_process(context: WorkerContext) -> None:
@@ -319,26 +291,6 @@ def analyze_in(task: TrialTask, context: WorkerContext) -> TrialOutcome:
         details = [*details[:MAX_WARNINGS_PER_TRIAL], f"{key}: ... and {extra} more"]
     outcome.warnings = details + outcome.warnings
     return outcome
-
-
-def stop_workers(pool: ProcessPoolExecutor) -> None:
-    """Stop a pool's worker processes now (they would finish their task otherwise).
-
-    Parameters
-    ----------
-    pool : ProcessPoolExecutor
-        A pool whose workers run :func:`init_worker`.
-
-    Returns
-    -------
-    None
-    """
-    processes = list((getattr(pool, "_processes", None) or {}).values())
-    pool.shutdown(wait=False, cancel_futures=True)
-    for proc in processes:
-        proc.terminate()
-    for proc in processes:
-        proc.join(10)
 
 
 def _on_cluster(tasks: list[TrialTask], context: WorkerContext,

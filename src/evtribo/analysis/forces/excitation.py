@@ -13,8 +13,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from evtribo.analysis.forces.conditions import condition_from_excitation, constant_condition
-from evtribo.canlog.decode import FALLBACK_WAVEFORMS
-from evtribo.canlog.signals import ExcitationSignals, TrialSignals
+from evtribo.canlog.signals import FALLBACK_WAVEFORMS, ExcitationSignals, TrialSignals
 from evtribo.errors import AnalysisError
 from evtribo.util.docstrings import fill_doc
 from evtribo.util.median import median
@@ -27,7 +26,7 @@ def waveform_names(values: npt.ArrayLike) -> list[str]:
     ----------
     values : array-like
         Names (as the decoder gives them: the DBC's value table), or codes, read through
-        :data:`evtribo.canlog.decode.FALLBACK_WAVEFORMS`; None and NaN (a frame without the signal)
+        :data:`evtribo.canlog.signals.FALLBACK_WAVEFORMS`; None and NaN (a frame without the signal)
         are left out.
 
     Returns

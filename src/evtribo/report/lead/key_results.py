@@ -20,7 +20,9 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy import stats
+
+# scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
+from scipy import special
 
 from evtribo.fit.models import INDISTINGUISHABLE, study_ranking, verdict
 from evtribo.fit.tables import ResultTables
@@ -78,7 +80,7 @@ def _mean_ci(values: np.ndarray, confidence: float = 0.95) -> str:
     if v.size == 1:
         return significant(v[0])
     mean, se = float(np.mean(v)), float(np.std(v, ddof=1) / math.sqrt(v.size))
-    half = float(stats.t.ppf(0.5 + confidence / 2, v.size - 1)) * se
+    half = float(special.stdtrit(v.size - 1, 0.5 + confidence / 2)) * se
     return _nb(with_interval(mean, mean - half, mean + half))
 
 
