@@ -9,7 +9,7 @@ stand-ins are one unit, first (``tests/socketcan/conftest.py``). The modules go 
 longest first, by the seconds each took when last measured (``tests/module_seconds.json``,
 a busy machine's figures: only their order counts), so that no long module starts last
 while the other workers idle; a module not listed goes after the listed ones, first if it
-has slow tests. ``EVTRIBO_MODULE_SECONDS=write pytest -n 2`` writes the file again.
+has slow tests. ``EVTRIBO_MODULE_SECONDS=write pytest -n 3`` writes the file again.
 """
 
 import json

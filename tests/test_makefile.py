@@ -33,4 +33,4 @@ def test_make_demo_installs_what_the_demo_needs_only(tmp_path):
 def test_make_test_installs_the_test_extras_then_runs_the_suite(tmp_path):
     commands = _would_run(tmp_path, "test")
     assert "-e '.[test,mf4,dask]'" in commands
-    assert "-m pytest -n 2 -q" in commands
+    assert "-m pytest -n 3 -q" in commands
