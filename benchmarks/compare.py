@@ -23,10 +23,11 @@ analyze and compare as ratios to this one's analyze cold. Run:
 ``python benchmarks/compare.py [--subjects 8,20] [--repeat N] [--jobs N] [--against SRC]``.
 
 Measured on 2 idle cores, one round each, this tree against the one before (``--against``,
-same rounds): compare cold 2.04x analyze cold at 8 subjects (7.4 s against 3.7 s; the tree
-before: 2.98x) and at 20 (13.7 s against 6.7 s; before: 3.16x); nothing changed 0.02-0.03x;
-the figures the same bytes; every trial's check drawn too: 2.55x and 2.62x. A figure of the
-fit costs about 0.3 s of a worker for an SVG and a PNG at 300 dpi, 2 per subject.
+same rounds): compare cold 1.76x analyze cold at 8 subjects (6.5 s against 3.7 s; the tree
+before: 2.01x) and 1.85x at 20 (12.6 s against 6.8 s; before: 2.01x); nothing changed
+0.02-0.04x; the figures the same bytes; every trial's check drawn too: 2.34x and 2.58x. A
+figure of the fit costs 0.26-0.35 s of a worker for an SVG and a PNG at 300 dpi, 2 per
+subject (every subject's in one: 0.54 s).
 """
 
 from __future__ import annotations

@@ -45,9 +45,10 @@ REPORT_FILE = "socketcan-report.jsonl"
 #: Longest time the VM may take for the whole folder, s.
 VM_TIMEOUT_S = float(os.environ.get("EVTRIBO_VCAN_VM_TIMEOUT", "1800"))
 #: The VM's processors: one, so that it takes at most one of the machine's cores from the
-#: rest of the suite (``make test``: three workers on two cores), and a vcan interface delivers a sender's frames in
-#: the order sent (with two, a sender moved from one to the other can see two of its frames
-#: delivered swapped: each processor has its own backlog queue).
+#: rest of the suite (``make test``: three workers on two cores), and a vcan interface
+#: delivers a sender's frames in the order sent (with two, a sender moved from one to the
+#: other can see two of its frames delivered swapped: each processor has its own backlog
+#: queue).
 VM_CPUS = 1
 #: Environment variables the guest's tests see as the host's.
 PASSED_ON = ("HYPOTHESIS_PROFILE", "EVTRIBO_REPLAY_STUDIES")
