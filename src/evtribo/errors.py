@@ -76,8 +76,10 @@ class EvtriboError(Exception):
         """The message as the command line prints it."""
         return self._text("--force")
 
-    def __reduce__(self) -> tuple[Any, ...]:  # picklable across worker processes
-        return (_rebuild, (type(self), self.message, self.path, self.line, self.key))
+    def __reduce__(self) -> tuple[Any, ...]:  # picklable across worker processes, with
+        # whatever was added to it (its notes: where a worker raised it)
+        return (_rebuild, (type(self), self.message, self.path, self.line, self.key),
+                dict(self.__dict__))
 
 
 def _rebuild(cls: type[EvtriboError], message: str, path: str | None, line: int | None,

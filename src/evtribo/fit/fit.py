@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import logging
 import math
+import traceback
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -437,6 +438,8 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
     fits = []
     for done, said in mapper(_fit_logged, jobs):
         say_again(said)  # what each fit said, here, in the subjects' order
+        if isinstance(done, Exception):
+            raise done  # after what it and the subjects before it said
         fits.append(done)
     return fits
 
@@ -445,10 +448,17 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
 Mapper = Callable[[Callable[[Any], Any], list[Any]], list[Any]]
 
 
-def _fit_logged(job: tuple[Any, ...]) -> tuple[SubjectFit, list[logging.LogRecord]]:
-    """One subject's fit (a worker's job) and what it logged, for the caller to say."""
+def _fit_logged(job: tuple[Any, ...]
+                ) -> tuple[SubjectFit | Exception, list[logging.LogRecord]]:
+    """One subject's fit (a worker's job), or the error that stopped it, and what it logged,
+    for the caller to say in the subjects' order before it raises the first error."""
     subject, rows, base, names, win, reps = job
-    return logged(fit_subject, subject, rows, base, names, win, replicates=reps)
+    try:
+        return logged(fit_subject, subject, rows, base, names, win, replicates=reps)
+    except Exception as err:  # returned: the subjects fitted before it are said first
+        where = "".join(traceback.format_tb(err.__traceback__))
+        err.add_note(f"(raised in the fit of subject {subject}, at:\n{where})")
+        return err, err.__dict__.pop("said", [])
 
 
 def interval_notes(fits: list[SubjectFit], *, has_bootstrap: bool) -> list[str]:

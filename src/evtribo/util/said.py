@@ -40,7 +40,9 @@ def logged(func: Callable[..., T], *args: Any, **kwargs: Any
     Returns
     -------
     (object, list of logging.LogRecord)
-        Its result; the records, for :func:`say_again`.
+        Its result; the records, for :func:`say_again`. When *func* raises, its exception
+        is raised with the records logged before it as its ``said`` attribute (they cross
+        processes with it).
     """
     keep, top = _Keep(), logging.getLogger("evtribo")
     propagate = top.propagate
@@ -48,6 +50,9 @@ def logged(func: Callable[..., T], *args: Any, **kwargs: Any
     top.propagate = False
     try:
         return func(*args, **kwargs), keep.records
+    except Exception as err:
+        err.said = keep.records  # type: ignore[attr-defined]
+        raise
     finally:
         top.removeHandler(keep)
         top.propagate = propagate
