@@ -64,8 +64,8 @@ def holm(p: Sequence[float]) -> np.ndarray:
     The adjustment of ``statsmodels.stats.multitest.multipletests(p, method="holm")``, the
     same numbers (``tests/population/test_population.py`` holds them to it): the sorted
     p-values times m, m - 1, ... 1, each at least the one before, at most 1. Not the
-    library's call, which collects the garbage of the whole process on each call (0.03-0.1 s
-    in a process holding a study's tables, once per population estimated).
+    library's call, which collects the garbage of the whole process on each call (0.04 s in
+    a fresh process, more in one holding many objects; once per population estimated).
 
     Parameters
     ----------
