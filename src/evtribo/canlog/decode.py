@@ -251,8 +251,6 @@ def decode_messages(frames: FrameTable, db: Database, *, messages: list[str] | N
     return out
 
 
-
-
 def _rows(msg: DecodedMessage, sel: npt.NDArray[Any]) -> DecodedMessage:
     """*msg*'s frames selected by *sel* (a mask or an order)."""
     return DecodedMessage(msg.name, msg.frame_id, msg.is_extended, msg.timestamp[sel],

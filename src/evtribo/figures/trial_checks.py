@@ -27,6 +27,7 @@ from evtribo.errors import AnalysisError, UserInputError
 from evtribo.figures.trial_plots import trial_stem
 from evtribo.fit.tables import ResultTables
 from evtribo.results.sketch import TrialSketch
+from evtribo.store.pool import Mapper
 
 # the analysis (results.check) and the rig's DBC (evtribo.study) are imported where a trial's
 # check needs them: compare starts without them, and a large study's may need none
@@ -160,9 +161,6 @@ def sketch_again(job: tuple[str, str, str, Mapping[str, Any], str | None]) -> by
     except (AnalysisError, UserInputError) as err:
         log.info("%s/%s: no check figure: %s", subject, trial, err)  # its figure says why
         return str(err)
-
-
-Mapper = Callable[[Callable[[Any], Any], list[Any]], list[Any]]
 
 
 def trial_checks(tables: ResultTables, which: str = "auto", *,

@@ -50,7 +50,7 @@ from __future__ import annotations
 import logging
 import math
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -67,6 +67,7 @@ from evtribo.fit.params import DEFAULT_FIT, parameter_unit
 from evtribo.fit.problem import LOG_PARAMETERS, Points, Problem, with_friction_law
 from evtribo.fit.tables import MIN_REPLICATES, ResultTables, replicate_matrix
 from evtribo.model.params import TABLE_1, ModelParameters
+from evtribo.store.pool import Mapper
 from evtribo.util.said import logged, say_again
 
 log = logging.getLogger(__name__)
@@ -442,10 +443,6 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
             raise done  # after what it and the subjects before it said
         fits.append(done)
     return fits
-
-
-#: ``mapper(func, items)``: ``func`` of each item, in order.
-Mapper = Callable[[Callable[[Any], Any], list[Any]], list[Any]]
 
 
 def _fit_logged(job: tuple[Any, ...]

@@ -12,11 +12,16 @@ import os
 import signal
 import threading
 import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
+from typing import Any
 
 from evtribo.store.resultdir import release_inherited_locks
 
-__all__ = ["init_worker", "stop_workers"]
+__all__ = ["Mapper", "init_worker", "stop_workers"]
+
+#: ``mapper(func, items)``: ``func`` of each item, in order (a pool's workers, or here).
+Mapper = Callable[[Callable[[Any], Any], list[Any]], list[Any]]
 
 
 def _watch_parent(parent: int) -> None:
