@@ -17,8 +17,9 @@ commands the way a USB-CAN adapter does and writes frames as ``tIIILDD..\\r`` li
 
 When the adapter vanishes (the pty closes: ``evtribo simulate`` ended or was killed, or a USB
 adapter was unplugged), ``recv()`` of both ``slcan`` and ``slcan_bulk`` raises
-:class:`can.CanOperationError` ("Could not read from serial device", caused by
-:class:`serial.SerialException`) once every byte received before has been returned; the bus's
+:class:`can.CanOperationError` ("Could not read from serial device", caused by the pty's
+:class:`OSError`: a :class:`serial.SerialException` from a read, a bare ``EIO`` from python-can's
+``in_waiting``) once every byte received before has been returned; the bus's
 ``shutdown()`` then raises :class:`can.CanOperationError` too (it cannot send ``C``).
 """
 
