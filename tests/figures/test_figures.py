@@ -14,6 +14,8 @@ import matplotlib as mpl
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from matplotlib.image import imread
 
 from evtribo.cli import main
@@ -418,3 +420,58 @@ def test_every_format_of_a_figure_is_drawn_from_one_layout(monkeypatch):
     assert runs == [50.0]
     assert fig.dpi == shown != 50.0
     assert fig.get_layout_engine() is None
+
+
+@settings(max_examples=25)
+@given(entries=st.integers(1, 12), chars=st.integers(1, 30), ncol=st.integers(1, 4),
+       height=st.floats(1.5, 4.0))
+def test_a_legend_above_keeps_the_axes_and_fits_the_figure(entries, chars, ncol, height):
+    """place_legend puts a legend above the Axes of a figure of new_axes and grows the
+    figure by what the legend needs: the Axes keep their size and their place from the
+    bottom, in inches, as the layout left them, and the legend lies inside the figure. That
+    layout is then fixed (nothing to lay out again when the formats are drawn); a legend
+    wider than the figure leaves the layout engine, which narrows the Axes to make room."""
+    from matplotlib.layout_engine import ConstrainedLayoutEngine
+
+    from evtribo.figures.layout import place_legend
+    from evtribo.figures.plots import figure_bytes
+    from evtribo.figures.style import new_axes
+
+    runs = []
+    execute = ConstrainedLayoutEngine.execute
+
+    def counted(self, fig):
+        runs.append(fig)
+        return execute(self, fig)
+
+    with journal_style("single"), pytest.MonkeyPatch.context() as mp:
+        mp.setattr(ConstrainedLayoutEngine, "execute", counted)
+        ax = new_axes((3.35, height))
+        fig = ax.figure
+        for k in range(entries):
+            ax.plot([0, 1], [k, k + 1], label=f"{k} " + "m" * chars)
+        ax.set_ylabel("friction force $F_t$ (mN)")
+        engine = fig.get_layout_engine()
+        engine.execute(fig)
+        before = [(a.get_position().bounds, fig.get_figheight()) for a in fig.axes]
+        legend = place_legend(ax, ncol_outside=ncol)
+        assert legend is not None
+        grown = fig.get_figheight()
+        assert grown > height
+        fixed = not isinstance(fig.get_layout_engine(), ConstrainedLayoutEngine)
+        box = legend.get_window_extent()
+        pad = engine.get()["w_pad"] * fig.dpi
+        # only a legend that would run past the figure's side keeps the engine
+        assert fixed == (box.x0 >= pad and box.x1 <= fig.get_figwidth() * fig.dpi - pad)
+        if fixed:
+            for a, ((x0, y0, w, h), old) in zip(fig.axes, before, strict=True):
+                p = a.get_position()
+                np.testing.assert_allclose(
+                    [p.x0, p.y0 * grown, p.width, p.height * grown],
+                    [x0, y0 * old, w, h * old], rtol=1e-9, atol=1e-12)
+        runs.clear()
+        figure_bytes(fig, ("png",), dpi=72)
+        assert len(runs) == (0 if fixed else 1)
+    box = legend.get_window_extent()
+    assert box.y0 >= ax.get_window_extent().y1  # above the Axes, covering none of them
+    assert box.y1 <= fig.get_figheight() * fig.dpi + 0.5  # and below the figure's top

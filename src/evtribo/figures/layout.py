@@ -20,6 +20,7 @@ from matplotlib.axes import Axes
 from matplotlib.axis import Axis, XAxis
 from matplotlib.collections import Collection
 from matplotlib.figure import Figure
+from matplotlib.layout_engine import ConstrainedLayoutEngine
 from matplotlib.legend import Legend
 from matplotlib.ticker import (
     FixedLocator,
@@ -322,5 +323,32 @@ def _legend_above(ax: Axes, make: Any, handles: Sequence[Any], labels: Sequence[
                           bbox_to_anchor=(0.5, 1.02), ncol=best, borderaxespad=0.0, **kwargs)
     fig = ax.figure.figure
     if owns(fig):  # the figure grows by the legend: the data keep the height they had
-        fig.set_figheight(fig.get_figheight() + legend.get_window_extent().height / fig.dpi)
+        if not _grow_to_hold(fig, legend):
+            fig.set_figheight(fig.get_figheight()
+                              + legend.get_window_extent().height / fig.dpi)
     return legend
+
+
+def _grow_to_hold(fig: Figure, legend: Legend) -> bool:
+    """Make *fig*, laid out, taller by what *legend* above its Axes needs, every Axes
+    keeping its size and its place from the bottom, and fix that layout (no layout engine
+    left to run again: its result is known). False, with nothing changed, when the legend
+    is wider than the figure holds (the layout engine, still there, then narrows the Axes).
+    """
+    engine = fig.get_layout_engine()
+    if not isinstance(engine, ConstrainedLayoutEngine):
+        return False
+    pads = engine.get()
+    box = legend.get_window_extent()
+    dpi, width, height = fig.dpi, fig.get_figwidth(), fig.get_figheight()
+    if box.x0 < pads["w_pad"] * dpi or box.x1 > (width - pads["w_pad"]) * dpi:
+        return False
+    grown = max(height, box.y1 / dpi + pads["h_pad"])
+    places = [(a, a.get_position()) for a in fig.axes]  # as the layout left them
+    fig.set_layout_engine("none")  # not None: a style asking for constrained layout
+    #                                would bring a new engine back
+    fig.set_figheight(grown)
+    for a, p in places:  # the same inches from the bottom, the same height in inches
+        a.set_position(Bbox.from_bounds(p.x0, p.y0 * height / grown, p.width,
+                                        p.height * height / grown))
+    return True
