@@ -5,8 +5,9 @@ not a power of ten), leaving out labels that would run into a neighbour's
 (:class:`SpacedPlainFormatter`); :func:`plain_log_axis` labels a log axis with plain
 numbers. :func:`place_legend` puts a legend above the Axes, where it covers no data, in
 every figure alike (a figure of :func:`~evtribo.figures.style.new_axes` then grows by the
-legend's height, so that the data keep theirs); asked to, it tries the corners of the Axes
-first, each checked against the drawn data (:func:`legend_overlap`).
+legend's height, so that the data keep theirs, and its layout is then fixed); asked to,
+it tries the corners of the Axes first, each checked against the drawn data
+(:func:`legend_overlap`).
 """
 
 from __future__ import annotations
@@ -232,7 +233,12 @@ def place_legend(ax: Axes, handles: Sequence[Any] | None = None,
     entries read in their order, row by row.
 
     The figure is laid out first (so the Axes have their final size), then each corner is
-    tried and checked with :func:`legend_overlap`.
+    tried and checked with :func:`legend_overlap`. Above the Axes of a figure of
+    :func:`~evtribo.figures.style.new_axes`, the figure grows by what the legend needs and
+    that layout is fixed: every Axes keeps its size and its place from the bottom, and
+    nothing is laid out again when the figure is saved (a legend wider than the figure
+    leaves the layout engine to narrow the Axes instead). Draw nothing on the figure after
+    its legend.
 
     Parameters
     ----------
