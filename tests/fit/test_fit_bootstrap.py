@@ -7,6 +7,8 @@ import logging
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from evtribo.analysis.friction.estimate import estimate_electrostatic
 from evtribo.fit.fit import fit_subject
@@ -86,3 +88,82 @@ def test_replicate_matrix_aligns_replicates_with_rows():
     assert replicate_matrix(rows, boot[boot.amplitude_V != 60.0]) is None
     assert replicate_matrix(rows, boot[boot.replicate < 5]) is None
     assert replicate_matrix(rows, None) is None
+
+
+_NAMES = (("h_L",), ("h_L", "E_star"), ("R", "eps_L"), ("h_L", "h_sc", "E_star"))
+
+
+@settings(max_examples=40)
+@given(names=st.sampled_from(_NAMES), n_sine=st.integers(0, 3),
+       spread=st.sampled_from([1e-4, 0.02, 0.3, 3.0]), seed=st.integers(0, 2**16),
+       gone=st.booleans())
+def test_refits_side_by_side_are_the_refits_one_by_one(names, n_sine, spread, seed, gone):
+    """The replicates refitted side by side (the model evaluated for all at once) give each
+    refit's numbers as refitting them one after the other does, bit for bit: converged,
+    run off to infinity (a replicate whose force is gone), failed, or skipped (NaN)."""
+    from evtribo.fit.intervals import refit_replicates
+    from evtribo.fit.problem import Points, Problem
+
+    rng = np.random.default_rng(seed)
+    n = AMPS.size + n_sine
+    p = TABLE_1.with_values(h_L=H_L, mu=MU)
+    rows = pd.DataFrame({"subject": "S", "amplitude_V": np.r_[AMPS, AMPS[-n_sine:]][:n]
+                         if n_sine else AMPS,
+                         "waveform": ["square"] * AMPS.size + ["sine"] * n_sine,
+                         "normal_force_on_N": rng.uniform(0.3, 0.7, n), "mu": MU})
+    rows["electrostatic_force_N"] = 0.0
+    pts = Points.of("S", rows.assign(electrostatic_force_N=1.0,
+                                     electrostatic_force_ci_low_N=0.9,
+                                     electrostatic_force_ci_high_N=1.1))
+    problem = Problem("S", names, p, pts)
+    x0 = problem.x0
+    clean = problem.model_at(x0)
+    reps = clean * (1 + spread * rng.standard_normal((30, n)))
+    reps[rng.random(30) < 0.1] = np.nan  # a replicate with a point missing: skipped
+    if gone:
+        reps[:5] = 1e-12 * rng.random((5, n))  # no force left: the air gap runs off
+    sigma = pts.sigma
+    kwargs = {"upper": problem.upper}
+    tried = []
+
+    def many(xs):
+        tried.append(len(xs))
+        return problem.model_many(xs)
+
+    side = refit_replicates(problem.model_at, x0, reps, sigma, problem.lower, many=many,
+                            **kwargs)
+    each = refit_replicates(problem.model_at, x0, reps, sigma, problem.lower, **kwargs)
+    assert tried[0] == 1  # asked at the solution first
+    if names == ("h_L",):  # and used: every refit of h_L takes a step at least
+        assert len(tried) > 1
+    np.testing.assert_array_equal(side, each)
+
+
+def test_a_model_that_takes_one_value_at_a_time_is_refitted_one_by_one():
+    """A force function that cannot take the parameters side by side (a scalar's math):
+    the refits are made one by one, the same as without the side-by-side model."""
+    import math
+
+    from evtribo.fit.intervals import refit_replicates
+    from evtribo.fit.problem import Points, Problem
+
+    def scalar_force(fn, u, params):
+        return electrostatic_force(fn, u, params) * math.sqrt(params.h_L / H_L)
+
+    rows, reps = _shared_reference_points(5, n_boot=20)
+    pts = Points.of("S", rows)
+    problem = Problem("S", ("h_L",), TABLE_1, pts, force=scalar_force)
+    with pytest.raises(TypeError):
+        problem.model_many(np.array([[1.0], [1.1]]))
+    tried = []
+
+    def many(xs):
+        tried.append(len(xs))
+        return problem.model_many(xs)
+
+    got = refit_replicates(problem.model_at, problem.x0, reps, pts.sigma, problem.lower,
+                           many=many)
+    assert tried == [1]  # asked once, at the solution, and not used
+    np.testing.assert_array_equal(got, refit_replicates(
+        problem.model_at, problem.x0, reps, pts.sigma, problem.lower))
+    assert len(got) == len(reps)

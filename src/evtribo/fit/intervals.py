@@ -97,7 +97,9 @@ def refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]]
                       x0: NDArray[np.float64], targets: NDArray[np.float64],
                       sigma: NDArray[np.float64], lower: NDArray[np.float64],
                       *, upper: NDArray[np.float64] | None = None, max_iter: int = 30,
-                      tol: float = 1e-6) -> NDArray[np.float64]:
+                      tol: float = 1e-6,
+                      many: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None = None
+                      ) -> NDArray[np.float64]:
     """Weighted least-squares solution for each row of *targets*, by Gauss-Newton from *x0*.
 
     Parameters
@@ -119,6 +121,11 @@ def refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]]
     tol : float
         Convergence: the size of the next Gauss-Newton step relative to the parameters
         (which are scaled so that 1 is the solution for the measured forces).
+    many : callable, optional
+        *model* at each row of a (K, n_parameters) array at once, shape (K, n_points), NaN
+        where the parameters are not valid: the replicates are then refitted side by side,
+        each step of each the same numbers as one by one. Used where it gives *model*'s
+        numbers at *x0*.
 
     Returns
     -------
@@ -126,8 +133,126 @@ def refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]]
         The refitted (scaled) parameters of the replicates whose refit converged; a
         parameter that ran off (:data:`RUNAWAY`) is infinite there.
     """
-    weighted = _Weighted(model, sigma)
     high = np.full(x0.size, np.inf) if upper is None else upper
+    bounds = (lower, high, max_iter, tol)
+    if many is not None and _gives_the_same(model, many, x0):
+        return _SideBySide(model, many, sigma, bounds).refit(x0, targets)
+    return _refit_each(model, x0, targets, sigma, bounds)
+
+
+def _gives_the_same(model: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                    many: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                    x0: NDArray[np.float64]) -> bool:
+    """Whether *many* gives *model*'s numbers at *x0* (a model whose parameters cannot be
+    evaluated side by side, a resistance with the drive's frequency, say, does not)."""
+    try:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            return bool(np.array_equal(many(x0[None, :])[0], model(x0), equal_nan=True))
+    except (ConfigError, FloatingPointError, ValueError, TypeError, np.linalg.LinAlgError):
+        return False
+
+
+def _step(g: NDArray[np.float64], r: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The Gauss-Newton step of weighted Jacobian *g* and weighted residuals *r*."""
+    return np.asarray(np.linalg.lstsq(g, r, rcond=None)[0], dtype=float)
+
+
+class _SideBySide:
+    """:func:`_refit_each`'s refits, the model evaluated for every replicate at once.
+
+    *bounds*: the lower and upper bounds, the iterations allowed and the tolerance.
+    """
+
+    def __init__(self, model: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                 many: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                 sigma: NDArray[np.float64], bounds: _Bounds) -> None:
+        self.weighted, self.many, self.sigma = _Weighted(model, sigma), many, sigma
+        self.lower, self.high, self.max_iter, self.tol = bounds
+
+    def misfits(self, t: NDArray[np.float64], xs: NDArray[np.float64]
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """:meth:`_Weighted.misfit` of each row of *xs* against the same row of *t*."""
+        k, p = xs.shape
+        h = 1e-7 * np.maximum(np.abs(xs), 1.0)
+        shifted = [xs] + [xs + np.eye(p)[i] * h[:, i:i + 1] for i in range(p)]
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            values = self.many(np.concatenate(shifted))
+            m = values[:k]
+            g = np.empty((k, m.shape[1], p))
+            for i in range(p):
+                g[:, :, i] = (values[(i + 1) * k:(i + 2) * k] - m) / h[:, i:i + 1] / self.sigma
+        finite = np.all(np.isfinite(xs), axis=1)
+        costs = np.full(k, math.inf)
+        for j in range(k):
+            if finite[j] and np.all(np.isfinite(m[j])) and np.all(np.isfinite(g[j])):
+                costs[j] = float(np.sum(((t[j] - m[j]) / self.sigma) ** 2))
+        return costs, m, g
+
+    def refit(self, x0: NDArray[np.float64], targets: NDArray[np.float64]
+              ) -> NDArray[np.float64]:
+        """The refits, as :func:`_refit_each` gives them."""
+        sigma, lower, high, tol = self.sigma, self.lower, self.high, self.tol
+        m0, g0 = self.weighted(x0)
+        self.t = t = np.asarray([r for r in targets if np.all(np.isfinite(r))], dtype=float)
+        k = len(t)
+        self.x, self.m = np.tile(x0, (k, 1)), np.tile(m0, (k, 1))
+        self.g = np.tile(g0, (k, 1, 1))
+        self.cost = np.array([float(np.sum(((t[j] - m0) / sigma) ** 2)) for j in range(k)])
+        self.out: list[NDArray[np.float64] | None] = [None] * k
+        x, m, g, out = self.x, self.m, self.g, self.out
+        active = list(range(k))
+        for _ in range(self.max_iter):
+            if not active:
+                break
+            moving: dict[int, NDArray[np.float64]] = {}
+            for j in active:
+                step = _step(g[j], (t[j] - m[j]) / sigma)
+                if not np.all(np.isfinite(step)):
+                    continue  # the data do not determine the step: this refit failed
+                if np.all(np.abs(step) <= tol * np.maximum(np.abs(x[j]), 1.0)):
+                    out[j] = np.clip(x[j] + step, lower, high)
+                elif np.any(np.abs(x[j] + step) > RUNAWAY * np.maximum(np.abs(x0), 1.0)):
+                    out[j] = np.where(np.abs(x[j] + step) > RUNAWAY, np.inf * np.sign(step),
+                                      x[j])
+                else:
+                    moving[j] = step
+            active = self._descend(moving)
+        return np.asarray([r for r in out if r is not None], dtype=float).reshape(-1, x0.size)
+
+    def _descend(self, moving: dict[int, NDArray[np.float64]]) -> list[int]:
+        """Each moving refit's step (by replicate), halved while it raises the misfit (up
+        to 10 tries), taken; the refits still moving."""
+        x, m, g, cost = self.x, self.m, self.g, self.cost
+        taken = []
+        for _ in range(10):
+            if not moving:
+                break
+            rows = list(moving)
+            trial = np.clip(x[rows] + np.asarray(list(moving.values())), self.lower,
+                            self.high)
+            costs, ms, gs = self.misfits(self.t[rows], trial)
+            for n, j in enumerate(rows):
+                if costs[n] <= cost[j]:
+                    x[j], m[j], g[j], cost[j] = trial[n], ms[n], gs[n], costs[n]
+                    taken.append(j)
+                    del moving[j]
+                else:
+                    moving[j] = moving[j] / 2.0
+        for j in moving:  # no descent left: a minimum to the model's precision
+            self.out[j] = x[j].copy()
+        return sorted(taken)
+
+
+#: A refit's lower and upper bounds, the iterations allowed and the tolerance.
+_Bounds = tuple[NDArray[np.float64], NDArray[np.float64], int, float]
+
+
+def _refit_each(model: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                x0: NDArray[np.float64], targets: NDArray[np.float64],
+                sigma: NDArray[np.float64], bounds: _Bounds) -> NDArray[np.float64]:
+    """:func:`refit_replicates`, one replicate after the other."""
+    lower, high, max_iter, tol = bounds
+    weighted = _Weighted(model, sigma)
     m0, g0 = weighted(x0)
     misfit = weighted.misfit
     out = []

@@ -9,8 +9,9 @@ the effective amplitude the gap sees at that frequency and waveform
 
 from __future__ import annotations
 
+import copy
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -21,7 +22,7 @@ from evtribo.model.params import TABLE_1, ModelParameters
 from evtribo.util.docstrings import fill_doc
 
 __all__ = ["ForceFunction", "gap_amplitude", "mean_electrostatic_force",
-           "mean_friction_force", "model_exponent"]
+           "mean_electrostatic_force_many", "mean_friction_force", "model_exponent"]
 
 _PHASES = np.linspace(0.0, 2.0 * np.pi, 64, endpoint=False)
 
@@ -108,6 +109,61 @@ def mean_electrostatic_force(normal_force: ArrayLike, amplitude: ArrayLike,
         u = amp[sine][:, None] * np.sin(_PHASES)[None, :]
         out[sine] = np.asarray(func(fn[sine][:, None], u, params),
                                dtype=float).mean(axis=1)
+    return out
+
+
+def mean_electrostatic_force_many(normal_force: ArrayLike, amplitude: ArrayLike,
+                                  waveform: ArrayLike, params: ModelParameters,
+                                  values: Mapping[str, ArrayLike], *,
+                                  frequency: ArrayLike | None = None,
+                                  force: ForceFunction | None = None) -> NDArray[np.float64]:
+    """:func:`mean_electrostatic_force` at many values of some parameters at once (a fit's
+    refits): row k is the force at the points with ``values[name][k]`` for each name.
+
+    The model's functions are evaluated once, on arrays with a leading axis of the values,
+    which gives each row the numbers of :func:`mean_electrostatic_force` (the same
+    operations, element by element). The values are not checked: check each row (with
+    :meth:`ModelParameters.with_values`) first.
+
+    Parameters
+    ----------
+    normal_force, amplitude, waveform :
+        The points, as for :func:`mean_electrostatic_force`.
+    params : ModelParameters
+        The parameters not in *values*.
+    values : mapping of str to array_like
+        K values of each parameter that varies, SI units.
+    frequency : float or ndarray, optional
+        As for :func:`mean_electrostatic_force` (only with resistances that do not vary).
+    force : callable, optional
+        As for :func:`mean_electrostatic_force`.
+
+    Returns
+    -------
+    ndarray, shape (K, n_points)
+    """
+    func = electrostatic_force if force is None else force
+    columns = {name: np.asarray(v, dtype=float).ravel() for name, v in values.items()}
+    k = len(next(iter(columns.values()))) if columns else 1
+    amp = gap_amplitude(amplitude, frequency, waveform, params)
+    fn, amp = np.broadcast_arrays(np.asarray(normal_force, float), amp)
+    sine = np.broadcast_to(_is_sine(waveform), fn.shape)
+    out = np.broadcast_to(np.asarray(func(fn, amp, _stacked(params, columns, 1)), float),
+                          (k, *fn.shape)).copy()
+    if np.any(sine):
+        u = amp[sine][:, None] * np.sin(_PHASES)[None, :]
+        each = np.asarray(func(fn[sine][:, None], u, _stacked(params, columns, 2)), float)
+        out[:, sine] = np.broadcast_to(each, (k, *u.shape)).mean(axis=-1)
+    return out
+
+
+def _stacked(params: ModelParameters, columns: Mapping[str, NDArray[np.float64]],
+             trailing: int) -> ModelParameters:
+    """*params* with each parameter of *columns* an array of its values along a leading
+    axis (and *trailing* axes of length 1, to broadcast against the points)."""
+    out = copy.copy(params)
+    for name, column in columns.items():
+        object.__setattr__(out, name, column.reshape(-1, *([1] * trailing)))
     return out
 
 

@@ -28,7 +28,12 @@ from numpy.typing import NDArray
 from scipy import optimize, special
 
 from evtribo.errors import AnalysisError, ConfigError
-from evtribo.fit.model_points import ForceFunction, mean_electrostatic_force, mean_friction_force
+from evtribo.fit.model_points import (
+    ForceFunction,
+    mean_electrostatic_force,
+    mean_electrostatic_force_many,
+    mean_friction_force,
+)
 from evtribo.model.circuit import layer_elastances
 from evtribo.model.params import TABLE_1, ModelParameters
 
@@ -311,6 +316,37 @@ class Problem:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             return mean_electrostatic_force(p.fn, p.amp, p.wave, self.params_at(x),
                                             frequency=p.freq, force=self.force)
+
+    def model_many(self, xs: NDArray[np.float64]) -> NDArray[np.float64]:
+        """:meth:`model_at` of each row of *xs*, evaluated at once.
+
+        Parameters
+        ----------
+        xs : ndarray, shape (K, n_parameters)
+            Scaled values.
+
+        Returns
+        -------
+        ndarray, shape (K, n_points)
+            The forces, N; NaN in the rows whose parameters are not valid (where
+            :meth:`model_at` raises :class:`~evtribo.errors.ConfigError`).
+        """
+        p = self.pts
+        values = self.to_values(np.atleast_2d(np.asarray(xs, dtype=float)))
+        valid = np.ones(len(values), dtype=bool)
+        for k, row in enumerate(values):  # each row checked as model_at checks it
+            try:
+                self.base.with_values(dict(zip(self.names, row.tolist(), strict=True)))
+            except ConfigError:
+                valid[k] = False
+        out = np.full((len(values), len(p.measured)), np.nan)
+        if valid.any():
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+                out[valid] = mean_electrostatic_force_many(
+                    p.fn, p.amp, p.wave, self.base,
+                    {n: values[valid, i] for i, n in enumerate(self.names)},
+                    frequency=p.freq, force=self.force)
+        return out
 
     def residuals(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """Weighted residuals of the points (and of the windows when they are fitted).
