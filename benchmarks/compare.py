@@ -23,11 +23,12 @@ analyze and compare as ratios to this one's analyze cold. Run:
 ``python benchmarks/compare.py [--subjects 8,20] [--repeat N] [--jobs N] [--against SRC]``.
 
 Measured on 2 idle cores, one round each, this tree against the one before (``--against``,
-same rounds): compare cold 1.76x analyze cold at 8 subjects (6.5 s against 3.7 s; the tree
-before: 2.01x) and 1.85x at 20 (12.6 s against 6.8 s; before: 2.01x); nothing changed
-0.02-0.04x; the figures the same bytes; every trial's check drawn too: 2.34x and 2.58x. A
-figure of the fit costs 0.26-0.35 s of a worker for an SVG and a PNG at 300 dpi, 2 per
-subject (every subject's in one: 0.54 s).
+same rounds): compare cold 1.56x analyze cold at 8 subjects (5.8 s against 3.7 s; the tree
+before: 1.79x) and 1.63x at 20 (11.0 s against 6.8 s; before: 1.93x); nothing changed
+0.02-0.03x; the figures the same bytes; every trial's check drawn too: 2.19x and 2.50x.
+Where compare cold's 5.8 s go (8 subjects): 1.2 s of start-up, one core idle; the fits,
+0.4 s on the workers; then 19 figures on the workers (about 0.27 s each for an SVG and a
+PNG at 300 dpi) while the population is estimated (1.1 s) and its figure drawn here.
 """
 
 from __future__ import annotations
