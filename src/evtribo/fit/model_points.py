@@ -127,8 +127,12 @@ def mean_electrostatic_force_many(normal_force: ArrayLike, amplitude: ArrayLike,
 
     Parameters
     ----------
-    normal_force, amplitude, waveform :
-        The points, as for :func:`mean_electrostatic_force`.
+    normal_force : float or ndarray
+        External normal force at each point, N.
+    amplitude : float or ndarray
+        Voltage amplitude A at each point, V.
+    waveform : str or ndarray of str
+        ``"sine"`` or anything else (square), at each point.
     params : ModelParameters
         The parameters not in *values*.
     values : mapping of str to array_like
