@@ -11,6 +11,7 @@ stops the build.
 from __future__ import annotations
 
 import json
+import logging
 import os
 import re
 import sys
@@ -21,6 +22,11 @@ import evtribo
 
 DOCS = Path(__file__).resolve().parent
 ROOT = DOCS.parent
+
+# the build says only what needs saying: a module the theme imports (a11y_pygments, through
+# pygments' styles) sets the root logger up at INFO when nothing has, which printed every
+# library's INFO (NumExpr's threads, the notebook client's kernel)
+logging.basicConfig(level=logging.WARNING)
 
 project = "evtribo"
 author = "The evtribo developers"
@@ -97,12 +103,14 @@ def setup(app: Any) -> dict[str, Any]:
 def _kernel() -> None:
     """A Jupyter kernel named as the notebook asks (python3) that runs this interpreter,
     found before any other (the user's may run another Python, without evtribo), with
-    inline figures and evtribo's cache under build/docs."""
+    inline figures and evtribo's cache under build/docs; its own log at errors only (it
+    warned that it talks to the build over local TCP, which is how a notebook is run)."""
     folder = ROOT / "build" / "docs" / "jupyter"
     spec = folder / "kernels" / "python3"
     spec.mkdir(parents=True, exist_ok=True)
     (spec / "kernel.json").write_text(json.dumps({
-        "argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}"],
+        "argv": [sys.executable, "-m", "ipykernel_launcher", "-f", "{connection_file}",
+                 "--IPKernelApp.log_level=ERROR"],
         "display_name": "Python 3 (evtribo docs)", "language": "python",
         "env": {"MPLBACKEND": "module://matplotlib_inline.backend_inline",
                 # decoded trials kept with the build, not in the user's cache
