@@ -167,3 +167,55 @@ def test_a_model_that_takes_one_value_at_a_time_is_refitted_one_by_one():
     np.testing.assert_array_equal(got, refit_replicates(
         problem.model_at, problem.x0, reps, pts.sigma, problem.lower))
     assert len(got) == len(reps)
+
+
+def test_a_leaky_gap_with_the_drive_s_frequency_is_refitted_one_by_one():
+    """With a finite resistance and the points' drive frequencies, the amplitude the gap sees
+    depends on the fitted parameters: the refits are made one by one (side by side they
+    took the start's amplitude for every replicate), and the side-by-side model refuses."""
+    from evtribo.fit.fit import fit_subject
+    from evtribo.fit.intervals import refit_replicates
+    from evtribo.fit.model_points import (
+        mean_electrostatic_force,
+        mean_electrostatic_force_many,
+    )
+    from evtribo.fit.problem import Points, Problem
+
+    rng = np.random.default_rng(3)
+    fn, freq = rng.uniform(0.4, 0.6, 5), np.array([2.0, 5.0, 10.0, 20.0, 50.0])
+    base = TABLE_1.with_values(r_g=2e3, mu=MU)
+    force = mean_electrostatic_force(fn, AMPS, "square", base, frequency=freq)
+    rows = pd.DataFrame({"subject": "S", "waveform": "square", "amplitude_V": AMPS,
+                         "frequency_Hz": freq, "normal_force_on_N": fn, "mu": MU,
+                         "electrostatic_force_N": force,  # the start fits them exactly
+                         "electrostatic_force_ci_low_N": force * 0.9,
+                         "electrostatic_force_ci_high_N": force * 1.1})
+    reps = force * (1 + 0.1 * rng.standard_normal((100, 5)))
+    problem = Problem("S", ("h_L",), base, Points.of("S", rows))
+    assert not problem.side_by_side
+    with pytest.raises(ValueError, match="one row at a time"):
+        mean_electrostatic_force_many(fn, AMPS, "square", base, {"h_L": [5e-6, 6e-6]},
+                                      frequency=freq)
+    got = fit_subject("S", rows, base, ("h_L",), replicates=reps)["h_L"]
+    refits = refit_replicates(problem.model_at, problem.x0, reps, problem.pts.sigma,
+                              problem.lower, upper=problem.upper)  # one by one, by hand
+    lo, hi = np.quantile(problem.to_values(refits)[:, 0], [0.025, 0.975])
+    assert (got.ci_low, got.ci_high) == pytest.approx((lo, hi), rel=1e-9)
+
+
+def test_only_eq_11_without_a_leak_is_refitted_side_by_side():
+    """Side by side only where the model takes arrays of parameter values and the gap's
+    amplitude does not vary with them: not with a caller's force function (which may
+    test a value with ``if``), a finite resistance, or a fitted one."""
+    from evtribo.fit.model_points import mean_electrostatic_force_many
+    from evtribo.fit.problem import Points, Problem
+
+    rows, _ = _shared_reference_points(1, n_boot=5)
+    pts = Points.of("S", rows)
+    assert Problem("S", ("h_L",), TABLE_1, pts).side_by_side
+    assert Problem("S", ("h_L", "E_star"), TABLE_1, pts).side_by_side
+    assert not Problem("S", ("h_L",), TABLE_1, pts, force=electrostatic_force).side_by_side
+    assert not Problem("S", ("h_L",), TABLE_1.with_values(r_sc=1e3), pts).side_by_side
+    with pytest.raises(ValueError, match="one-dimensional"):
+        mean_electrostatic_force_many(np.ones((2, 2)), np.full((2, 2), 100.0), "square",
+                                      TABLE_1, {"h_L": [5e-6]})

@@ -156,7 +156,8 @@ def _refit_chunk(targets: NDArray[np.float64], problem: Problem,
                  x0: NDArray[np.float64]) -> NDArray[np.float64]:
     """The converged refits of some replicates (one call of a Dask worker)."""
     return refit_replicates(problem.model_at, x0, targets, problem.pts.sigma, problem.lower,
-                            upper=problem.upper, many=problem.model_many)
+                            upper=problem.upper,
+                            many=problem.model_many if problem.side_by_side else None)
 
 
 def _refits(problem: Problem, x0: NDArray[np.float64], targets: NDArray[np.float64],

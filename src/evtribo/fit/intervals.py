@@ -124,8 +124,10 @@ def refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]]
     many : callable, optional
         *model* at each row of a (K, n_parameters) array at once, shape (K, n_points), NaN
         where the parameters are not valid: the replicates are then refitted side by side,
-        each step of each the same numbers as one by one. Used where it gives *model*'s
-        numbers at *x0*.
+        each step of each the same numbers as one by one. It must give *model*'s numbers
+        at every row (:attr:`evtribo.fit.problem.Problem.side_by_side` says where
+        :meth:`~evtribo.fit.problem.Problem.model_many` does); as a check, it is used only
+        where it gives them at *x0*.
 
     Returns
     -------
@@ -143,8 +145,8 @@ def refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]]
 def _gives_the_same(model: Callable[[NDArray[np.float64]], NDArray[np.float64]],
                     many: Callable[[NDArray[np.float64]], NDArray[np.float64]],
                     x0: NDArray[np.float64]) -> bool:
-    """Whether *many* gives *model*'s numbers at *x0* (a model whose parameters cannot be
-    evaluated side by side, a resistance with the drive's frequency, say, does not)."""
+    """Whether *many* gives *model*'s numbers at *x0* (a model that cannot take its
+    parameters side by side fails this, or raises)."""
     try:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             return bool(np.array_equal(many(x0[None, :])[0], model(x0), equal_nan=True))

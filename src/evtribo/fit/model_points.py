@@ -127,9 +127,9 @@ def mean_electrostatic_force_many(normal_force: ArrayLike, amplitude: ArrayLike,
 
     Parameters
     ----------
-    normal_force : float or ndarray
+    normal_force : ndarray, shape (n_points,)
         External normal force at each point, N.
-    amplitude : float or ndarray
+    amplitude : ndarray, shape (n_points,)
         Voltage amplitude A at each point, V.
     waveform : str or ndarray of str
         ``"sine"`` or anything else (square), at each point.
@@ -138,19 +138,34 @@ def mean_electrostatic_force_many(normal_force: ArrayLike, amplitude: ArrayLike,
     values : mapping of str to array_like
         K values of each parameter that varies, SI units.
     frequency : float or ndarray, optional
-        As for :func:`mean_electrostatic_force` (only with resistances that do not vary).
+        As for :func:`mean_electrostatic_force`, with the layers' resistances both
+        infinite (the amplitude the gap sees then does not depend on the parameters).
     force : callable, optional
-        As for :func:`mean_electrostatic_force`.
+        As for :func:`mean_electrostatic_force`; it must take arrays of parameter values
+        (eq. 11's :func:`evtribo.model.electrostatic_force`, the default, does).
 
     Returns
     -------
     ndarray, shape (K, n_points)
+
+    Raises
+    ------
+    ValueError
+        For points that are not one-dimensional, or a finite resistance with frequencies
+        given (the gap's amplitude would then vary with the parameters: use
+        :func:`mean_electrostatic_force` for each row).
     """
     func = electrostatic_force if force is None else force
     columns = {name: np.asarray(v, dtype=float).ravel() for name, v in values.items()}
     k = len(next(iter(columns.values()))) if columns else 1
-    amp = gap_amplitude(amplitude, frequency, waveform, params)
-    fn, amp = np.broadcast_arrays(np.asarray(normal_force, float), amp)
+    if frequency is not None and not (math.isinf(params.r_sc) and math.isinf(params.r_g)
+                                      and not {"r_sc", "r_g"} & set(columns)):
+        raise ValueError("the gap's amplitude varies with the parameters (a finite "
+                         "resistance with the drive's frequency): one row at a time")
+    fn, amp = np.broadcast_arrays(np.asarray(normal_force, float),
+                                  np.asarray(amplitude, float))
+    if fn.ndim != 1:
+        raise ValueError(f"the points must be one-dimensional, not of shape {fn.shape}")
     sine = np.broadcast_to(_is_sine(waveform), fn.shape)
     out = np.broadcast_to(np.asarray(func(fn, amp, _stacked(params, columns, 1)), float),
                           (k, *fn.shape)).copy()

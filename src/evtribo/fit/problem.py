@@ -317,8 +317,17 @@ class Problem:
             return mean_electrostatic_force(p.fn, p.amp, p.wave, self.params_at(x),
                                             frequency=p.freq, force=self.force)
 
+    @property
+    def side_by_side(self) -> bool:
+        """Whether :meth:`model_many` gives :meth:`model_at`'s numbers: eq. (11)'s force
+        (not a caller's, which may take one value at a time), and a gap whose amplitude
+        does not depend on the parameters (no finite resistance, none fitted)."""
+        return (self.force is None and math.isinf(self.base.r_sc)
+                and math.isinf(self.base.r_g) and not {"r_sc", "r_g"} & set(self.names))
+
     def model_many(self, xs: NDArray[np.float64]) -> NDArray[np.float64]:
-        """:meth:`model_at` of each row of *xs*, evaluated at once.
+        """:meth:`model_at` of each row of *xs*, evaluated at once (where
+        :attr:`side_by_side`).
 
         Parameters
         ----------
