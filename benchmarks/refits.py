@@ -68,7 +68,7 @@ def refits(problems: list[tuple[Problem, np.ndarray]], side_by_side: bool
     """Seconds to refit every subject's replicates, and the refits."""
     t = time.perf_counter()
     out = [refit_replicates(p.model_at, p.x0, reps, p.pts.sigma, p.lower, upper=p.upper,
-                            many=p.model_many if side_by_side else None)
+                            many=p.model_many if side_by_side and p.side_by_side else None)
            for p, reps in problems]
     return time.perf_counter() - t, out
 
