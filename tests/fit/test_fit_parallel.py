@@ -38,7 +38,6 @@ def test_fits_in_worker_processes_are_the_fits_made_here(tmp_path, caplog):
     assert len(said_here) >= len(tables.subjects)  # each subject's fit says its estimate
 
 
-
 @pytest.mark.parametrize("failing", [0, 1])
 def test_a_fit_that_fails_in_a_worker_says_what_it_logged_then_its_error(tmp_path, caplog,
                                                                          monkeypatch, failing):

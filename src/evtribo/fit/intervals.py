@@ -59,8 +59,8 @@ def covariance(jac: NDArray[np.float64],
 
 
 class _Weighted:
-    """The model's forces at the scaled parameters and their weighted Jacobian, and the
-    misfit of a replicate (:func:`refit_replicates`)."""
+    """The model's forces at the scaled parameters and their weighted Jacobian (at the
+    solution, the start of every refit: :func:`refit_replicates`)."""
 
     def __init__(self, model: Callable[[NDArray[np.float64]], NDArray[np.float64]],
                  sigma: NDArray[np.float64]) -> None:
@@ -77,20 +77,6 @@ class _Weighted:
                 xi[i] += h
                 jac[:, i] = (self.model(xi) - m) / h / self.sigma
         return m, jac
-
-    def misfit(self, t: NDArray[np.float64], x: NDArray[np.float64]
-               ) -> tuple[float, NDArray[np.float64], NDArray[np.float64]]:
-        """The cost at *x* (infinite where the model has no finite value there: a
-        parameter run off to where the data no longer determine it)."""
-        if not np.all(np.isfinite(x)):
-            return math.inf, x, x
-        try:
-            m, g = self(x)
-        except (ConfigError, FloatingPointError, ValueError, np.linalg.LinAlgError):
-            return math.inf, x, x
-        if not (np.all(np.isfinite(m)) and np.all(np.isfinite(g))):
-            return math.inf, m, g
-        return float(np.sum(((t - m) / self.sigma) ** 2)), m, g
 
 
 def refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]],
@@ -136,10 +122,9 @@ def refit_replicates(model: Callable[[NDArray[np.float64]], NDArray[np.float64]]
         parameter that ran off (:data:`RUNAWAY`) is infinite there.
     """
     high = np.full(x0.size, np.inf) if upper is None else upper
-    bounds = (lower, high, max_iter, tol)
-    if many is not None and _gives_the_same(model, many, x0):
-        return _SideBySide(model, many, sigma, bounds).refit(x0, targets)
-    return _refit_each(model, x0, targets, sigma, bounds)
+    side_by_side = many is not None and _gives_the_same(model, many, x0)
+    return _Refits(model, many if side_by_side else None, sigma,
+                   (lower, high, max_iter, tol)).refit(x0, targets)
 
 
 def _gives_the_same(model: Callable[[NDArray[np.float64]], NDArray[np.float64]],
@@ -159,21 +144,38 @@ def _step(g: NDArray[np.float64], r: NDArray[np.float64]) -> NDArray[np.float64]
     return np.asarray(np.linalg.lstsq(g, r, rcond=None)[0], dtype=float)
 
 
-class _SideBySide:
-    """:func:`_refit_each`'s refits, the model evaluated for every replicate at once.
+class _Refits:
+    """The replicates' refits, every replicate still moving taking its Gauss-Newton step at
+    once: the model evaluated for all of them by *many*, or one after the other by *model*
+    (*many* None). Each refit's numbers are the same either way.
 
     *bounds*: the lower and upper bounds, the iterations allowed and the tolerance.
     """
 
     def __init__(self, model: Callable[[NDArray[np.float64]], NDArray[np.float64]],
-                 many: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                 many: Callable[[NDArray[np.float64]], NDArray[np.float64]] | None,
                  sigma: NDArray[np.float64], bounds: _Bounds) -> None:
-        self.weighted, self.many, self.sigma = _Weighted(model, sigma), many, sigma
+        self.model, self.weighted, self.sigma = model, _Weighted(model, sigma), sigma
+        self.many = many if many is not None else self._each
         self.lower, self.high, self.max_iter, self.tol = bounds
+
+    def _each(self, xs: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The model at each row of *xs*, one after the other: NaN where it has no value
+        (parameters not finite, or not valid: the model raises)."""
+        out = np.full((len(xs), self.sigma.size), np.nan)
+        for k, x in enumerate(xs):
+            if np.all(np.isfinite(x)):
+                try:
+                    out[k] = self.model(x)
+                except (ConfigError, FloatingPointError, ValueError, np.linalg.LinAlgError):
+                    pass
+        return out
 
     def misfits(self, t: NDArray[np.float64], xs: NDArray[np.float64]
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """:meth:`_Weighted.misfit` of each row of *xs* against the same row of *t*."""
+        """The weighted misfit of each row of *xs* against the same row of *t* (infinite
+        where the model or its Jacobian has no finite value), the forces and the weighted
+        Jacobians there."""
         k, p = xs.shape
         h = 1e-7 * np.maximum(np.abs(xs), 1.0)
         shifted = [xs] + [xs + np.eye(p)[i] * h[:, i:i + 1] for i in range(p)]
@@ -192,7 +194,7 @@ class _SideBySide:
 
     def refit(self, x0: NDArray[np.float64], targets: NDArray[np.float64]
               ) -> NDArray[np.float64]:
-        """The refits, as :func:`_refit_each` gives them."""
+        """The converged refits, in the order of *targets*' finite rows."""
         sigma, lower, high, tol = self.sigma, self.lower, self.high, self.tol
         m0, g0 = self.weighted(x0)
         self.t = t = np.asarray([r for r in targets if np.all(np.isfinite(r))], dtype=float)
@@ -247,42 +249,3 @@ class _SideBySide:
 
 #: A refit's lower and upper bounds, the iterations allowed and the tolerance.
 _Bounds = tuple[NDArray[np.float64], NDArray[np.float64], int, float]
-
-
-def _refit_each(model: Callable[[NDArray[np.float64]], NDArray[np.float64]],
-                x0: NDArray[np.float64], targets: NDArray[np.float64],
-                sigma: NDArray[np.float64], bounds: _Bounds) -> NDArray[np.float64]:
-    """:func:`refit_replicates`, one replicate after the other."""
-    lower, high, max_iter, tol = bounds
-    weighted = _Weighted(model, sigma)
-    m0, g0 = weighted(x0)
-    misfit = weighted.misfit
-    out = []
-    for t in targets:
-        if not np.all(np.isfinite(t)):
-            continue
-        x, m, g = x0, m0, g0
-        cost = float(np.sum(((t - m) / sigma) ** 2))
-        for _ in range(max_iter):
-            step = np.linalg.lstsq(g, (t - m) / sigma, rcond=None)[0]
-            if not np.all(np.isfinite(step)):
-                break  # the data do not determine the step: this refit failed
-            if np.all(np.abs(step) <= tol * np.maximum(np.abs(x), 1.0)):
-                out.append(np.clip(x + step, lower, high))  # Gauss-Newton's last step is tiny
-                break
-            if np.any(np.abs(x + step) > RUNAWAY * np.maximum(np.abs(x0), 1.0)):
-                # a parameter the replicate no longer holds (its force gone: an air gap
-                # off to infinity): infinite in this refit, as the data leave it
-                out.append(np.where(np.abs(x + step) > RUNAWAY, np.inf * np.sign(step), x))
-                break
-            for _ in range(10):  # backtrack while the step raises the misfit
-                x_new = np.clip(x + step, lower, high)
-                cost_new, m_new, g_new = misfit(t, x_new)
-                if cost_new <= cost:
-                    break
-                step = step / 2.0
-            else:
-                out.append(x)  # no descent left: a minimum to the model's precision
-                break
-            x, m, g, cost = x_new, m_new, g_new, cost_new
-    return np.asarray(out, dtype=float).reshape(-1, x0.size)
