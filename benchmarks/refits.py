@@ -4,13 +4,16 @@ Each subject: five square-wave amplitudes and one sine, six ON windows each agai
 reference, through the real estimator with 200 bootstrap replicates (what ``analyze``
 writes to ``electrostatic_bootstrap.csv``); the model's parameters fitted as ``compare
 --fit NAMES`` fits them. The baseline is :func:`evtribo.fit.intervals.refit_replicates`
-refitting one replicate after the other (no ``many``), in the same run, on the same
+refitting the replicates with the model evaluated one row after the other (no ``many``),
+in the same run, on the same
 replicates; the figure is the same call with the model evaluated for every replicate at
 once (``many=Problem.model_many``), and the refits are checked to be the same numbers.
 
 Measured on 2 idle cores, 8 subjects of 200 replicates (best of 3): h_L, 0.44 s side by
-side against 1.67 s one by one (3.8x); h_L and E_star, whose refits take many more steps,
-6.87 s against 47.5 s (6.9x); the same refits, bit for bit, both times.
+side against 1.67 s one by one (3.8x; 0.48 s against 1.67 s, 3.5x, once the one-by-one
+refits ran in the same loop, evaluating the model a row at a time); h_L and E_star, whose
+refits take many more steps, 6.87 s against 47.5 s (6.9x, before that); the same refits,
+bit for bit, each time.
 
 Run: ``python benchmarks/refits.py [--subjects N] [--fit NAMES] [--repeat N]``.
 """
