@@ -5,8 +5,9 @@ reference, through the real estimator with 200 bootstrap replicates (what ``anal
 writes to ``electrostatic_bootstrap.csv``); the model's parameters fitted as ``compare
 --fit NAMES`` fits them. The baseline is :func:`evtribo.fit.intervals.refit_replicates`
 refitting the replicates with the model evaluated one row after the other (no ``many``),
-in the same run, on the same replicates; the figure is the same call with the model evaluated for every replicate at
-once (``many=Problem.model_many``), and the refits are checked to be the same numbers.
+in the same run, on the same replicates; the figure is the same call with the model
+evaluated for every replicate at once (``many=Problem.model_many``), and the refits are
+checked to be the same numbers.
 
 Measured on 2 idle cores, 8 subjects of 200 replicates (best of 3): h_L, 0.44 s side by
 side against 1.67 s one by one (3.8x; 0.48 s against 1.67 s, 3.5x, once the one-by-one
