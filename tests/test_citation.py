@@ -5,11 +5,14 @@ from __future__ import annotations
 
 import copy
 import datetime
+import functools
+import io
 import json
 import re
 import subprocess
 import tomllib
 from pathlib import Path
+from typing import Any
 
 import jsonschema
 import pybtex
@@ -47,9 +50,30 @@ def _errors(document: dict) -> list[str]:
             for e in validator.iter_errors(document)]
 
 
+@functools.cache
+def _plugins() -> tuple[Any, Any, Any]:
+    """pybtex's BibTeX parser, plain style and text backend, found once (pybtex looks its
+    plugins up among every installed package's entry points each time it formats)."""
+    from pybtex.plugin import find_plugin
+
+    return (find_plugin("pybtex.database.input", "bibtex"),
+            find_plugin("pybtex.style.formatting", "plain")(),
+            find_plugin("pybtex.backends", "text")())
+
+
 def _formatted(source: str) -> str:
-    """BibTeX entries as BibTeX's plain style prints them (pybtex's implementation)."""
-    return pybtex.format_from_string(source, "plain", output_backend="text")
+    """BibTeX entries as BibTeX's plain style prints them (pybtex's implementation: what
+    ``pybtex.format_from_string(source, "plain", output_backend="text")`` prints)."""
+    parser, style, backend = _plugins()
+    out = io.StringIO()
+    backend.write_to_stream(style.format_bibliography(parser().parse_string(source)), out)
+    return out.getvalue()
+
+
+def test_the_entries_are_formatted_as_pybtex_formats_them():
+    source = "\n".join(bibtex(w) for w in (PAPER, SOFTWARE))
+    assert _formatted(source) == pybtex.format_from_string(source, "plain",
+                                                           output_backend="text")
 
 
 def test_citation_cff_is_valid_cff_1_2_0():
