@@ -9,6 +9,11 @@ TEST_STAMP := $(VENV)/.test-installed
 # simulated rig's trials, a recording, a session) or on the SocketCAN VM leave no core idle
 # (9 min 22 s on two idle cores against 10 min 19 s with two workers, the same CPU time)
 JOBS   ?= 3
+# the tests' Python processes (pytest's workers, the hundreds of evtribo commands the tests
+# start, the SocketCAN VM's) keep their compiled modules in __pycache__ (git ignores it)
+# even where PYTHONDONTWRITEBYTECODE is set: each would otherwise compile evtribo and
+# rewrite the test modules' asserts again
+TEST_ENV := PYTHONDONTWRITEBYTECODE=
 
 .PHONY: demo test test-quick bench lint docs dist clean chromium vcan-vm
 
@@ -33,7 +38,7 @@ demo: $(STAMP)
 	$(VENV)/bin/evtribo demo --out demo-output --force
 
 test: $(TEST_STAMP) chromium vcan-vm
-	$(PY) -m pytest -n $(JOBS) -q
+	$(TEST_ENV) $(PY) -m pytest -n $(JOBS) -q
 
 # headless Chromium (Debian's package) looks at the live view and the report in the tests;
 # without it (not root, no apt) those tests are skipped and say why
@@ -61,7 +66,7 @@ vcan-vm: $(TEST_STAMP)
 # the suite without the tests marked slow (real-time recordings across processes, coverage
 # over many seeds, kill-at-every-step): for the edit-and-test loop; `make test` runs them all
 test-quick: $(TEST_STAMP) chromium
-	$(PY) -m pytest -n $(JOBS) -q -m "not slow"
+	$(TEST_ENV) $(PY) -m pytest -n $(JOBS) -q -m "not slow"
 
 bench: $(TEST_STAMP)
 	for b in benchmarks/[!_]*.py; do $(PY) $$b || exit 1; done
