@@ -9,10 +9,10 @@ TEST_STAMP := $(VENV)/.test-installed
 # simulated rig's trials, a recording, a session) or on the SocketCAN VM leave no core idle
 # (9 min 22 s on two idle cores against 10 min 19 s with two workers, the same CPU time)
 JOBS   ?= 3
-# the tests' Python processes (pytest's workers, the hundreds of evtribo commands the tests
-# start, the SocketCAN VM's) keep their compiled modules in __pycache__ (git ignores it)
-# even where PYTHONDONTWRITEBYTECODE is set: each would otherwise compile evtribo and
-# rewrite the test modules' asserts again
+# the tests' Python processes (pytest's workers, the evtribo commands the tests start, the
+# SocketCAN VM's) keep their compiled modules in __pycache__ (git ignores it) even where
+# PYTHONDONTWRITEBYTECODE is set: each would otherwise compile evtribo and rewrite the test
+# modules' asserts again; evtribo is compiled once before the workers and the VM start
 TEST_ENV := PYTHONDONTWRITEBYTECODE=
 
 .PHONY: demo test test-quick bench lint docs dist clean chromium vcan-vm
@@ -38,6 +38,7 @@ demo: $(STAMP)
 	$(VENV)/bin/evtribo demo --out demo-output --force
 
 test: $(TEST_STAMP) chromium vcan-vm
+	@$(PY) -m compileall -q src
 	$(TEST_ENV) $(PY) -m pytest -n $(JOBS) -q
 
 # headless Chromium (Debian's package) looks at the live view and the report in the tests;
