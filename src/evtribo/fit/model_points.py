@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import copy
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -21,7 +21,7 @@ from evtribo.model.circuit import effective_voltage
 from evtribo.model.params import TABLE_1, ModelParameters
 from evtribo.util.docstrings import fill_doc
 
-__all__ = ["ForceFunction", "gap_amplitude", "mean_electrostatic_force",
+__all__ = ["ForceFunction", "gap_amplitude", "gap_amplitude_fixed", "mean_electrostatic_force",
            "mean_electrostatic_force_many", "mean_friction_force", "model_exponent"]
 
 _PHASES = np.linspace(0.0, 2.0 * np.pi, 64, endpoint=False)
@@ -57,7 +57,7 @@ def gap_amplitude(amplitude: ArrayLike, frequency: ArrayLike | None, waveform: A
         A's effective value (NaN where the frequency is needed but not finite and > 0).
     """
     amp = np.asarray(amplitude, dtype=float)
-    if frequency is None or (math.isinf(params.r_sc) and math.isinf(params.r_g)):
+    if frequency is None or gap_amplitude_fixed(params):
         return amp
     amp, f = np.broadcast_arrays(amp, np.asarray(frequency, dtype=float))
     sine = np.broadcast_to(_is_sine(waveform), amp.shape)
@@ -69,6 +69,26 @@ def gap_amplitude(amplitude: ArrayLike, frequency: ArrayLike | None, waveform: A
             gain = np.atleast_1d(effective_voltage(1.0, freqs, wave, params))
             out[pick] = np.abs(amp[pick]) * gain[where]
     return out
+
+
+def gap_amplitude_fixed(params: ModelParameters, varying: Iterable[str] = ()) -> bool:
+    """Whether :func:`gap_amplitude` is the drive's amplitude itself at any frequency, for
+    every value of the parameters named in *varying*.
+
+    Parameters
+    ----------
+    params : ModelParameters
+        The layers' resistances ``r_sc`` and ``r_g``.
+    varying : iterable of str
+        Names of the parameters that take other values (fitted ones, say).
+
+    Returns
+    -------
+    bool
+        Both resistances infinite in *params*, and neither among *varying*.
+    """
+    return (math.isinf(params.r_sc) and math.isinf(params.r_g)
+            and not {"r_sc", "r_g"} & set(varying))
 
 
 def mean_electrostatic_force(normal_force: ArrayLike, amplitude: ArrayLike,
@@ -158,8 +178,7 @@ def mean_electrostatic_force_many(normal_force: ArrayLike, amplitude: ArrayLike,
     func = electrostatic_force if force is None else force
     columns = {name: np.asarray(v, dtype=float).ravel() for name, v in values.items()}
     k = len(next(iter(columns.values()))) if columns else 1
-    if frequency is not None and not (math.isinf(params.r_sc) and math.isinf(params.r_g)
-                                      and not {"r_sc", "r_g"} & set(columns)):
+    if frequency is not None and not gap_amplitude_fixed(params, columns):
         raise ValueError("the gap's amplitude varies with the parameters (a finite "
                          "resistance with the drive's frequency): one row at a time")
     fn, amp = np.broadcast_arrays(np.asarray(normal_force, float),

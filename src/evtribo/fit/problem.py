@@ -30,6 +30,7 @@ from scipy import optimize, special
 from evtribo.errors import AnalysisError, ConfigError
 from evtribo.fit.model_points import (
     ForceFunction,
+    gap_amplitude_fixed,
     mean_electrostatic_force,
     mean_electrostatic_force_many,
     mean_friction_force,
@@ -322,8 +323,7 @@ class Problem:
         """Whether :meth:`model_many` gives :meth:`model_at`'s numbers: eq. (11)'s force
         (not a caller's, which may take one value at a time), and a gap whose amplitude
         does not depend on the parameters (no finite resistance, none fitted)."""
-        return (self.force is None and math.isinf(self.base.r_sc)
-                and math.isinf(self.base.r_g) and not {"r_sc", "r_g"} & set(self.names))
+        return self.force is None and gap_amplitude_fixed(self.base, self.names)
 
     def model_many(self, xs: NDArray[np.float64]) -> NDArray[np.float64]:
         """:meth:`model_at` of each row of *xs*, evaluated at once (where
