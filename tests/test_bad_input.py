@@ -423,6 +423,9 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "report-new-sidecar-linked-subject": lambda t: (
         shutil.copytree(t / "study" / "P01", t / "elsewhere"),
         _link(t / "study" / "P02", t / "elsewhere"), (t / "out").mkdir()),
+    "decode-csv-in-trials-folder-by-its-path": lambda t: (
+        shutil.copytree(t / "study" / "P01", t / "elsewhere"),
+        _link(t / "study" / "P02", t / "elsewhere")),
     "report-tables-over-log": lambda t: (_link(t / "tables" / "fit.md",
                                                t / "study" / "P01" / "run-01.log"),
                                          (t / "out").mkdir()),

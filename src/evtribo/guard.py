@@ -15,18 +15,22 @@ resolves: what the study holds through the link is protected as the study's.
 
 A new file is refused where a study would read it as one of its inputs: a log or a ``.json``
 in a subject folder (``evtribo analyze`` would take it for a trial), ``study.toml`` at a
-study's root.
+study's root. A folder that holds a trial (a sidecar ``NAME.json`` that describes a trial
+and a log ``NAME.*``, or a sidecar and a file that reads as a CAN log) is a subject folder
+however it is reached (by its own path, not the study's): a log or a ``.json`` written there
+is refused the same way.
 """
 
 from __future__ import annotations
 
+import json
 import os
 import tomllib
 from pathlib import Path
 
 from evtribo.documents.session import SESSION_FILE
 from evtribo.errors import FORCE, OutputExistsError, UserInputError
-from evtribo.store.files import MF4_PROGRAM_ID
+from evtribo.store.files import MF4_PROGRAM_ID, read_limited
 from evtribo.study import NOT_SUBJECTS, STUDY_FILE, log_stem
 
 __all__ = ["LOG_KINDS", "refuse_cache_in_study", "refuse_in_study", "refuse_input", "study_root",
@@ -37,6 +41,10 @@ LOG_KINDS = frozenset({"candump-L", "candump-text", "candump-plain", "asc", "trc
                        "python-can-csv", "savvycan", "blf", "mf4", "mdf", "sqlite"})
 #: Bytes of a file looked at for a DBC's first keyword.
 _DBC_HEAD = 4096
+#: The keys of a sidecar that describe its trial (one of them makes a JSON a sidecar).
+_DESCRIBES = frozenset({"subject", "waveform", "frequency_Hz", "amplitude_V", "condition"})
+#: Pairs of a JSON and a log of the same name looked at for a trial, in a folder.
+_PAIRS_LOOKED_AT = 32
 
 
 def _written_by_evtribo(path: Path) -> bool:
@@ -124,6 +132,56 @@ def _in_study(path: Path) -> str | None:
             else f"a trial's sidecar {where}" if path.suffix.lower() == ".json" else None)
 
 
+def _is_trial(folder: Path, sidecar: str, log: str) -> bool:
+    """Whether *sidecar* and *log* in *folder* are a trial's: the sidecar describes a trial
+    (a JSON object with a key of the trial's description) or the log reads as a CAN log (a
+    result folder's ``fit.json`` and ``fit.csv`` are neither)."""
+    from evtribo.canlog.io.sniff import sniff  # python-can: imported on use
+
+    try:
+        doc = json.loads(read_limited(folder / sidecar, UserInputError, what="sidecar"))
+    except (OSError, UserInputError, ValueError, UnicodeDecodeError, RecursionError):
+        doc = None
+    if isinstance(doc, dict) and not _DESCRIBES.isdisjoint(doc):
+        return True
+    try:
+        found = sniff(folder / log)
+    except OSError:
+        return False
+    return found is not None and found.kind.removeprefix("gzip:") in LOG_KINDS
+
+
+def _trial_beside(path: Path) -> str | None:
+    """The name of a trial whose sidecar and log are in the folder of *path* (absolute,
+    there or not), if any: that folder is a trial's folder however it is reached (through a
+    study's subject folder, by its own path, through another link)."""
+    try:
+        names = sorted(os.listdir(path.parent))
+    except OSError:
+        return None
+    sidecars = {n[: -len(".json")] for n in names if n.endswith(".json") and n != SESSION_FILE}
+    pairs = [(f"{split[0]}.json", name) for name in names
+             if (split := log_stem(Path(name))) is not None and split[0] in sidecars]
+    for sidecar, log in pairs[:_PAIRS_LOOKED_AT]:
+        if _is_trial(path.parent, sidecar, log):
+            return sidecar[: -len(".json")]
+    return None
+
+
+def _in_trials_folder(path: Path) -> str | None:
+    """What *path* would be read as in a folder that holds a trial (its sidecar and its
+    log), wherever that folder is, if anything."""
+    if path.name != SESSION_FILE and log_stem(path) is None and path.suffix.lower() != ".json":
+        return None
+    trial = _trial_beside(path)
+    if trial is None:
+        return None
+    where = f"({path.name} beside the trial {trial}'s sidecar and log)"
+    return ("a subject's session record" if path.name == SESSION_FILE
+            else f"a trial's log {where}" if log_stem(path) is not None
+            else f"a trial's sidecar {where}")
+
+
 def what_input(path: str | os.PathLike[str]) -> str | None:
     """What study input or raw CAN log *path* is (or, for a file not yet there, would be
     read as), in words; None for a file a command may write.
@@ -141,7 +199,9 @@ def what_input(path: str | os.PathLike[str]) -> str | None:
     from evtribo.canlog.io.sniff import frame_line, sniff  # python-can: imported on use
 
     real = Path(os.path.realpath(path))
-    inside = next((w for w in map(_in_study, _spellings(path)) if w is not None), None)
+    inside = next((w for w in (*map(_in_study, _spellings(path)),
+                               *map(_in_trials_folder, _spellings(path))) if w is not None),
+                  None)
     if inside is not None or not real.is_file():
         return inside
     found = sniff(real)
@@ -198,8 +258,9 @@ def refuse_input(path: str | os.PathLike[str], *, command: str,
         return
     if os.path.exists(path):
         raise OutputExistsError(f"is {what}: {never}", path=path, key=key)
+    folder = "study folder" if study_root(path) is not None else "trial's folder"
     raise OutputExistsError(f"would be read as {what} by evtribo analyze: write it outside the "
-                            "study folder", path=path, key=key)
+                            f"{folder}", path=path, key=key)
 
 
 def refuse_in_study(folder: str | os.PathLike[str], *, command: str) -> None:
