@@ -436,6 +436,10 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "report-over-result-table": lambda t: (_results(t, fit_of="aaaa"),
                                            claim(t / "out" / "trials.csv", "analyze")),
     "decode-output-not-evtribo-s": _text(Path("run-01.csv"), "timestamp\n"),
+    "decode-output-name-tab": lambda t: None,
+    "decode-output-name-evtribo-s": lambda t: None,
+    "analyze-out-name-evtribo-s": lambda t: None,
+    "report-output-name-too-long": lambda t: (t / "out").mkdir(),
     "compare-planted-record": _planted_record,
     "compare-lock-not-a-lock": lambda t: (_results(t), _link(
         t / ".out.evtribo-lock", t / "study" / "P01" / "run-01.log")),
@@ -515,10 +519,10 @@ def places(tmp: Path) -> dict[str, str]:
 
 
 def substitute(text: str, tmp: Path) -> str:
-    """*text* with STUDY, OUT and TMP replaced by the folders under *tmp*, and ``r*300``
-    by 300 r's (a name too long to show)."""
+    """*text* with STUDY, OUT and TMP replaced by the folders under *tmp*, ``r*300`` by 300
+    r's (a name too long to show) and ``<TAB>`` by a tab."""
     where = places(tmp)
-    text = text.replace("r*300", "r" * 300)
+    text = text.replace("r*300", "r" * 300).replace("<TAB>", "\t")
     return re.sub(r"\b(STUDY|OUT|TMP)\b", lambda m: where[m.group(1)], text)
 
 

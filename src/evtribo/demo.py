@@ -32,6 +32,7 @@ from evtribo.acquisition.simulator.realism import human, realistic_rig
 from evtribo.acquisition.trial import TrialInfo, record_trial
 from evtribo.errors import AcquisitionError, OutputExistsError
 from evtribo.store.files import atomic_write
+from evtribo.store.names import check_new_path
 
 log = logging.getLogger(__name__)
 
@@ -153,6 +154,7 @@ MARKER = ".evtribo-demo"
 
 
 def _check_out(out: Path, force: bool) -> None:
+    check_new_path(out, key="--out", folder=True)  # a name evtribo writes
     taken = [out / name for name in (STUDY, RESULTS, REPORT, TRUTH) if (out / name).exists()]
     if not taken:
         return

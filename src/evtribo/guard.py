@@ -31,6 +31,7 @@ from pathlib import Path
 from evtribo.documents.session import SESSION_FILE
 from evtribo.errors import FORCE, OutputExistsError, UserInputError
 from evtribo.store.files import MF4_PROGRAM_ID, read_limited
+from evtribo.store.names import check_new_path
 from evtribo.study import NOT_SUBJECTS, STUDY_FILE, log_stem
 
 __all__ = ["LOG_KINDS", "refuse_cache_in_study", "refuse_in_study", "refuse_input", "study_root",
@@ -244,8 +245,10 @@ def refuse_input(path: str | os.PathLike[str], *, command: str,
     OutputExistsError
         *path* is an input or a raw log (exit code 2).
     UserInputError
-        *path* is a folder where a file is to be written.
+        *path* is a folder where a file is to be written, or a name evtribo does not write
+        (:func:`~evtribo.store.names.check_new_path`).
     """
+    check_new_path(path, key=key)  # a name evtribo writes and records, or refused first
     never = (f"{command} never writes over a study's input or a raw CAN log, {FORCE} "
              "included; choose another output")
     if os.path.isdir(path):

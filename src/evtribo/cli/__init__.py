@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import io
 import logging
 import os
 import select
@@ -166,6 +167,18 @@ def _configure_logging(verbose: int, debug: bool) -> None:
     logging.captureWarnings(True)
 
 
+def _any_name_printable() -> None:
+    """A file name that is not UTF-8 text (bytes the system decodes as surrogates) printed as
+    the system holds it on standard output, escaped on standard error: never what stops a
+    command after its work is done."""
+    for stream, errors in ((sys.stdout, "surrogateescape"), (sys.stderr, "backslashreplace")):
+        if getattr(stream, "errors", None) == "strict" and hasattr(stream, "reconfigure"):
+            try:
+                stream.reconfigure(errors=errors)
+            except (OSError, ValueError, io.UnsupportedOperation):  # a stream of its own
+                pass
+
+
 def _stdout_closed() -> bool:
     """Whether the reader of standard output has gone (a pipe whose other end is closed)."""
     try:
@@ -212,6 +225,7 @@ def _main(argv: Sequence[str] | None) -> int:
     if unknown is not None:
         parser.error(unknown)  # usage and the error on stderr, exit 2
     args = parser.parse_args(argv)
+    _any_name_printable()
     debug = bool(getattr(args, "debug", False))
     _configure_logging(int(getattr(args, "verbose", 0) or 0), debug)
     try:

@@ -44,6 +44,7 @@ from evtribo.model.friction import (
 )
 from evtribo.model.maugis import contact_area_md, maugis_parameter, md_jkr_departure
 from evtribo.model.params import TABLE_1, ModelParameters
+from evtribo.store.names import check_new_path
 from evtribo.store.owned import claim, refuse_foreign
 
 __all__ = [
@@ -312,6 +313,7 @@ def save_model_figures(directory: str | os.PathLike[str], *, force: bool = False
         If a file exists and *force* is false, or is a study's input or a raw CAN log
         (*force* or not).
     """
+    check_new_path(directory, key="--figures", folder=True)  # a name evtribo writes
     out = Path(directory)
     paths = [out / f"{name}.{fmt}" for name in MODEL_FIGURES for fmt in formats]
     for path in paths:  # a study's input or a raw log is never written over

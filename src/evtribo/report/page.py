@@ -37,6 +37,7 @@ from markupsafe import Markup
 
 from evtribo import __version__
 from evtribo.errors import OutputExistsError, UserInputError
+from evtribo.store.names import companion
 from evtribo.store.owned import refuse_foreign
 from evtribo.store.resultdir import Staging, locked, recover
 from evtribo.util.numbers import frequency, significant
@@ -51,7 +52,9 @@ _env = jinja2.Environment(
 
 
 def files_dir_for(path: str | Path) -> Path:
-    """The folder beside a report for its figure files: ``report.html`` -> ``report_files``.
+    """The folder beside a report for its figure files: ``report.html`` -> ``report_files``
+    (for a name so long that this one would pass 255 bytes, its start and a hash of it:
+    :func:`~evtribo.store.names.companion`).
 
     Parameters
     ----------
@@ -64,7 +67,7 @@ def files_dir_for(path: str | Path) -> Path:
         The folder.
     """
     p = Path(path)
-    return p.with_name(f"{p.stem}_files")
+    return p.with_name(companion(p.stem, "_files"))
 
 
 _HZ = re.compile(r"(?<![\w.])(\d+(?:\.\d+)?) Hz\b")

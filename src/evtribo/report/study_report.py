@@ -53,6 +53,7 @@ from evtribo.report.study_files import (
 from evtribo.report.table_export import TABLE_FORMATS, parse_table_formats, table_files
 from evtribo.results.outputs import FIGURES, FIT_CSV, FIT_JSON, REPORT_TABLES, TABLES
 from evtribo.store.files import sha256_file
+from evtribo.store.names import check_new_path
 from evtribo.store.owned import refuse_foreign
 from evtribo.store.resultdir import inside, locked, recover
 
@@ -120,6 +121,23 @@ def _fit_doc(folder: Path, summary: Summary | Mapping[str, Any]) -> FitDocument:
     return doc
 
 
+def _check_output(folder: Path, output: Path, formats: Iterable[str], force: bool) -> None:
+    """Before anything is written: the page's name and its tables' are ones evtribo writes
+    and records, over nothing it may not replace."""
+    check_new_path(output, key="-o")  # a name evtribo writes and records, before the work
+    refuse_in_study(folder, command="evtribo report")
+    refuse_input(output, command="evtribo report", key="-o")  # --force or not
+    tables_out = [f"{TABLES}/{stem}.{fmt}" for stem in REPORT_TABLES for fmt in formats]
+    for rel in tables_out:
+        refuse_input(output.parent / rel, command="evtribo report", key="--tables")
+    # what the report writes replaces only a report's own files, --force or not
+    refuse_foreign(output.parent, [output.name], {"report"}, key="-o")
+    refuse_foreign(output.parent, tables_out, {"report"}, key="--tables")
+    if output.exists() and not force:  # before the lock: a refusal writes nothing
+        raise OutputExistsError("the report already exists; use {force} to overwrite it",
+                                path=output)
+
+
 def build_report(out: str | Path, output: str | Path, *, force: bool = False,
                  run_compare: bool = True, dpi: float | None = None,
                  tables: str | Iterable[str] | None = None) -> Path:
@@ -165,17 +183,7 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
     """
     formats = parse_table_formats(tables)
     folder = check_out_folder(out)
-    refuse_in_study(folder, command="evtribo report")
-    refuse_input(output, command="evtribo report", key="-o")  # --force or not
-    tables_out = [f"{TABLES}/{stem}.{fmt}" for stem in REPORT_TABLES for fmt in formats]
-    for rel in tables_out:
-        refuse_input(Path(output).parent / rel, command="evtribo report", key="--tables")
-    # what the report writes replaces only a report's own files, --force or not
-    refuse_foreign(Path(output).parent, [Path(output).name], {"report"}, key="-o")
-    refuse_foreign(Path(output).parent, tables_out, {"report"}, key="--tables")
-    if Path(output).exists() and not force:  # before the lock: a refusal writes nothing
-        raise OutputExistsError("the report already exists; use {force} to overwrite it",
-                                path=output)
+    _check_output(folder, Path(output), formats, force)
     with locked(folder, "evtribo report"):
         recover(folder)
         results = read_results(folder)
@@ -193,7 +201,10 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
         fit = pd.read_csv(folder / FIT_CSV, dtype={"subject": str})
         report, headlines = _page(results, fit, fit_doc, Path(output))
         html = Path(os.path.realpath(output))
-        in_folder = html.is_relative_to(Path(os.path.realpath(folder)))
+        # a page inside the result folder is written as one unit with it; one of a hidden
+        # name, as a unit of its own (a hidden name is only ever an output's own)
+        in_folder = html.is_relative_to(Path(os.path.realpath(folder))) \
+            and not html.name.startswith(".")
         stale = [f"{TABLES}/{stem}.{fmt}" for stem in REPORT_TABLES for fmt in TABLE_FORMATS]
         return report.save(output, overwrite=force, unit=folder if in_folder else None,
                            figure_files=False, extra_files=table_files(headlines, formats),

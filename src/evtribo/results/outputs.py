@@ -23,6 +23,7 @@ from evtribo.documents.fit import FIT_JSON
 from evtribo.documents.summary import SUMMARY_FILE, write_summary
 from evtribo.errors import OutputExistsError, UserInputError
 from evtribo.store.files import read_limited
+from evtribo.store.names import check_new_path, companion
 from evtribo.store.owned import (
     MANIFEST,
     Entry,
@@ -143,7 +144,7 @@ def report_files(out: Path) -> list[str]:
     for page in sorted(out.glob("*.html")):
         if page.is_file() and _is_report(page):
             found.append(page.name)
-            figures = out / f"{page.stem}_files"
+            figures = out / companion(page.stem, "_files")
             if figures.is_dir():
                 found += sorted(f"{figures.name}/{p.name}" for p in figures.iterdir()
                                 if p.is_file() and p.suffix.lower() in (".png", ".svg"))
@@ -218,10 +219,13 @@ def check_overwrite(out: Path, force: bool) -> None:
 
     Raises
     ------
+    UserInputError
+        A name evtribo does not write (:func:`~evtribo.store.names.check_new_path`).
     OutputExistsError
         Naming the first such file; or, *force* or not, a file of analyze's names that
         evtribo did not write (:func:`~evtribo.store.owned.refuse_foreign`).
     """
+    check_new_path(out, key="--out", folder=True)  # first: a name evtribo writes
     if out.is_dir():
         refuse_foreign(out, ANALYSIS_FILES, WRITERS, key="--out", also=earlier_results(out))
     if force:

@@ -11,7 +11,8 @@ A record found beside an output is replayed only when it passes every check
 new-folder name, of this version, naming this output, with a target that is the output
 itself, a folder inside it, or (for an output that is a single file, a report page) the
 folder the output is in, and only names evtribo writes (:func:`~evtribo.store.owned.
-output_name`). Anything else is refused by name (exit 2), and nothing of it is done.
+output_name`; a hidden one only for an output that is a single file, its own name).
+Anything else is refused by name (exit 2), and nothing of it is done.
 
 Even a record that passes replaces or removes only what evtribo can show it wrote: a file
 is removed only if the target's manifest lists it with the bytes the record names and it
@@ -86,12 +87,17 @@ def _files_wrong(doc: Mapping[str, Any]) -> str | None:
     install, remove = doc.get("install"), doc.get("remove")
     if not isinstance(install, list) or not isinstance(remove, list):
         return "no list of files"
+    own = doc.get("unit") if doc.get("target") == "." else None  # a file: its own name
+
+    def named(rel: Any) -> bool:
+        return output_name(rel, hidden=rel == own)
+
     for item in install:
-        if not (isinstance(item, list) and len(item) == 3 and output_name(item[0])
+        if not (isinstance(item, list) and len(item) == 3 and named(item[0])
                 and _digest(item[1]) and _digest(item[2], optional=True)):
             return f"a file to install that evtribo does not write ({item!r:.80})"
     for item in remove:
-        if not (isinstance(item, list) and len(item) == 2 and output_name(item[0])
+        if not (isinstance(item, list) and len(item) == 2 and named(item[0])
                 and _digest(item[1])):
             return f"a file to remove that evtribo does not write ({item!r:.80})"
     return None

@@ -13,8 +13,12 @@ symbolic link, a FIFO) is left as it is, ``--force`` or not, and the command say
 it writes anything (:func:`refuse_foreign`, exit 2).
 
 Names are taken as they are written, never through a symbolic link: a name whose folders
-include a link (:func:`plain_path` gives None) names nothing of evtribo's. A manifest that
-is not a regular file, or that cannot be read as one, lists nothing (a warning names it).
+include a link (:func:`plain_path` gives None) names nothing of evtribo's. Any name a user
+may give an output is recorded as given (:mod:`evtribo.store.names`: bytes that are not UTF-8
+text, a backslash, a leading ``.``), in JSON that escapes what is not ASCII, and read back
+as it was written; a record of a name no evtribo command writes (an older evtribo's) counts
+for nothing, and the others are read. A manifest that is not a regular file, or that cannot
+be read as one, lists nothing (a warning names it).
 Changes to a manifest are made under an exclusive ``flock`` of its folder, so that two
 commands writing into the same folder keep each other's records.
 """
@@ -33,6 +37,7 @@ from pathlib import Path
 
 from evtribo.errors import FORCE, OutputExistsError, UserInputError
 from evtribo.store.files import atomic_write, read_limited
+from evtribo.store.names import check_new_path, name_problem
 
 try:
     import fcntl
@@ -79,8 +84,9 @@ class Entry:
 
 def output_name(rel: str, *, hidden: bool = False) -> bool:
     """Whether *rel* is a name evtribo writes inside a folder: relative, at most three parts
-    deep, none of them empty, ``.`` or ``..``, hidden (unless *hidden*; never evtribo's own
-    ``.evtribo-*`` files), or holding a control character or a backslash.
+    deep, none of them empty, ``.`` or ``..``, hidden (unless *hidden*), or one that
+    :func:`~evtribo.store.names.name_problem` refuses (a control character, evtribo's own
+    ``.evtribo-*`` working files, more than 255 bytes).
 
     Parameters
     ----------
@@ -98,8 +104,7 @@ def output_name(rel: str, *, hidden: bool = False) -> bool:
     parts = rel.split("/")
     return len(parts) <= 3 and all(
         p not in ("", ".", "..") and (hidden or not p.startswith("."))
-        and not p.startswith(".evtribo-") and "\\" not in p and p.isprintable()
-        for p in parts)
+        and name_problem(p) is None for p in parts)
 
 
 def plain_path(root: str | os.PathLike[str], rel: str) -> Path | None:
@@ -161,12 +166,14 @@ def _entries(doc: object) -> dict[str, Entry]:
     out = {}
     for rel, rec in doc["files"].items():
         hashes = rec.get("sha256") if isinstance(rec, dict) else None
-        if not (output_name(rel, hidden=True) and isinstance(hashes, list) and hashes
-                and isinstance(rec.get("by"), str)
+        if not (isinstance(hashes, list) and hashes and isinstance(rec.get("by"), str)
                 and all(isinstance(h, str) and len(h) == 64 and set(h) <= _HEX
                         for h in hashes)):
             raise ValueError(f"a record that is not one of evtribo's ({rel!r})")
-        out[rel] = Entry(hashes[-1], rec["by"], tuple(hashes))
+        if output_name(rel, hidden=True):
+            out[rel] = Entry(hashes[-1], rec["by"], tuple(hashes))
+        else:  # a name no evtribo command writes now (an older one's): it counts for nothing
+            log.info("%r: a name evtribo does not write; its record left out", rel)
     return out
 
 
@@ -366,9 +373,12 @@ def check_output(path: str | os.PathLike[str], by: str, *, force: bool,
 
     Raises
     ------
+    UserInputError
+        A name evtribo does not write (:func:`~evtribo.store.names.check_new_path`).
     OutputExistsError
         Naming *path* (exit code 2).
     """
+    check_new_path(path, key=key)
     path = Path(path)
     refuse_foreign(path.parent, [path.name], {by}, key=key)
     if os.path.lexists(path) and not force:

@@ -49,6 +49,7 @@ from evtribo.errors import EvtriboError, LockedError, OutputBusyError, OutputWri
 from evtribo.store.files import atomic_write, fsync_path
 from evtribo.store.journal import JOURNAL, STAGE_MARK, VERSION, apply, discard, read_record
 from evtribo.store.lock import WriteLock, lock_holder
+from evtribo.store.names import check_new_path, working_prefix
 from evtribo.store.owned import (
     Entry,
     file_sha256,
@@ -67,6 +68,8 @@ __all__ = ["JOURNAL", "STAGE_MARK", "Staging", "holder", "inside", "lock_path", 
 
 LOCK_SUFFIX = ".evtribo-lock"
 STAGE_INFIX = ".evtribo-new-"
+#: Bytes the longest working name adds to its prefix: a new folder's infix and 32 hex digits.
+_SUFFIX_ROOM = max(len(LOCK_SUFFIX), len(STAGE_INFIX) + 32)
 #: Errors of writing, whichever file they name.
 _WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EIO}
 
@@ -104,12 +107,13 @@ def _real(unit: str | os.PathLike[str]) -> Path:
 
 def _home(unit: Path) -> tuple[Path, str]:
     """Where an output's lock file and new folders go, and the prefix of their names:
-    beside it (``.NAME``), or inside it when it is a folder on its own file system (a mount
-    point: a rename from beside it would cross file systems) or in a folder this process
-    cannot write."""
+    beside it (``.NAME``; for a name too long to take their suffixes within 255 bytes, its
+    start and a hash of it: :func:`~evtribo.store.names.working_prefix`), or inside it when
+    it is a folder on its own file system (a mount point: a rename from beside it would
+    cross file systems) or in a folder this process cannot write."""
     if unit.is_dir() and (os.path.ismount(unit) or not os.access(unit.parent, os.W_OK)):
         return unit, ""
-    return unit.parent, f".{unit.name}"
+    return unit.parent, working_prefix(unit.name, _SUFFIX_ROOM)
 
 
 def lock_path(unit: str | os.PathLike[str]) -> Path:
@@ -167,6 +171,7 @@ def _busy(unit: Path, shown: str | os.PathLike[str]) -> OutputBusyError:
 
 
 def _acquire(unit: Path, command: str, shown: str | os.PathLike[str]) -> WriteLock:
+    check_new_path(shown, folder=True)  # a name evtribo writes, before its lock is made
     path = lock_path(unit)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -360,8 +365,11 @@ class Staging:
         return self
 
     def path(self, rel: str) -> Path:
-        """Where to write the file that will be ``target / rel`` (its folder created)."""
-        if not output_name(rel):
+        """Where to write the file that will be ``target / rel`` (its folder created): a
+        name evtribo writes, or the output's own name (a report the user named
+        ``.report.html``)."""
+        own = rel == self.unit.name and self.target == self.unit.parent
+        if not output_name(rel, hidden=own):
             raise ValueError(f"not a name evtribo writes inside the output: {rel!r}")
         p = self.folder / rel
         p.parent.mkdir(parents=True, exist_ok=True)

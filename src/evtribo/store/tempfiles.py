@@ -27,6 +27,8 @@ import stat
 import time
 from pathlib import Path
 
+from evtribo.store.names import leading_bytes
+
 try:
     import fcntl
 except ImportError:  # pragma: no cover - not POSIX
@@ -38,8 +40,8 @@ __all__ = ["TEMP_INFIX", "TEMP_SUFFIX", "Temporary", "sweep"]
 
 #: What a named temporary file's name holds after ``.NAME``, and how it ends.
 TEMP_INFIX, TEMP_SUFFIX = ".evtribo-", ".tmp"
-#: Characters of the target's name kept in a temporary file's name (names are at most 255).
-_NAME_CHARS = 200
+#: Bytes of the target's name kept in a temporary file's name (names are at most 255).
+_NAME_BYTES = 200
 #: A temporary file without permissions younger than this is being created, s.
 _BEING_MADE_S = 60.0
 _TOKEN = re.compile(r"[0-9a-f]{16}")
@@ -48,7 +50,7 @@ _NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
 
 
 def _prefix(target: Path) -> str:
-    return f".{target.name[:_NAME_CHARS]}{TEMP_INFIX}"
+    return f".{leading_bytes(target.name, _NAME_BYTES)}{TEMP_INFIX}"
 
 
 def _fresh(target: Path) -> Path:
