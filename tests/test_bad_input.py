@@ -437,6 +437,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
                                            claim(t / "out" / "trials.csv", "analyze")),
     "decode-output-not-evtribo-s": _text(Path("run-01.csv"), "timestamp\n"),
     "decode-output-name-tab": lambda t: None,
+    "decode-manifest-is-a-folder": lambda t: (t / "d" / ".evtribo-manifest.json").mkdir(
+        parents=True),
     "decode-output-name-evtribo-s": lambda t: None,
     "analyze-out-name-evtribo-s": lambda t: None,
     "report-output-name-too-long": lambda t: (t / "out").mkdir(),

@@ -20,17 +20,17 @@ import json
 import os
 import shutil
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from evtribo.acquisition.simulator import SubjectParams, TrialConfig, write_trial
-from evtribo.cli import main
-from evtribo.report.compare import compare
-from evtribo.results.pipeline import analyze_study
+from _outputs import World, make_template
+from _outputs import run as _run
+from _outputs import tree as _tree
+from _outputs import working_files as _working_files
+from _outputs import world as _world
 from evtribo.store.owned import MANIFEST, owned, read_manifest
 
 #: Pieces of a name a file system holds and evtribo writes: a leading dot or dash, white
@@ -54,67 +54,9 @@ NAMES = st.one_of(st.lists(_WRITTEN, min_size=1, max_size=3),
                   st.lists(_ANY, min_size=1, max_size=3)).map(b"".join)
 
 
-@dataclass(frozen=True)
-class World:
-    """A copy of the study and its result folder, and the user's folder ``work``."""
-
-    root: Path
-    cache: Path
-
-    @property
-    def study(self) -> Path:
-        return self.root / "study"
-
-    @property
-    def out(self) -> Path:
-        return self.root / "out"
-
-    @property
-    def work(self) -> Path:
-        return self.root / "work"
-
-
 @pytest.fixture(scope="module")
 def template(tmp_path_factory):
-    """A study of one subject (a square and a sine trial), its analysis and its fit."""
-    base = tmp_path_factory.mktemp("names")
-    study = base / "study"
-    for name, wave in (("run-01", "square"), ("run-02", "sine")):
-        write_trial(study, name, SubjectParams(name="P01"),
-                    TrialConfig(duration_s=3.0, waveform=wave, seed=len(name) + len(wave)))
-    analyze_study(study, base / "out", jobs=1, cache_dir=base / "cache")
-    compare(base / "out", dpi=20, formats=("png",), trial_checks=False)
-    return base
-
-
-def _world(template: Path, into: Path) -> World:
-    shutil.copytree(template / "study", into / "study", symlinks=True)
-    shutil.copytree(template / "out", into / "out", symlinks=True)
-    (into / "work").mkdir()
-    return World(into, template / "cache")
-
-
-def _tree(root: Path) -> dict[bytes, tuple[int, int, int]]:
-    """Every name under *root* (as bytes), with its kind, size and modification time."""
-    found = {}
-    for folder, dirs, files in os.walk(os.fsencode(root)):
-        for name in (*dirs, *files):
-            st_ = os.lstat(os.path.join(folder, name))
-            found[os.path.join(folder, name)] = (st_.st_mode, st_.st_size, st_.st_mtime_ns)
-    return found
-
-
-def _run(argv: list[str]) -> int:
-    try:
-        return main(argv)
-    except SystemExit as exc:  # argparse's own usage errors
-        return int(exc.code or 0)
-
-
-def _working_files(folder: Path) -> list[str]:
-    """evtribo's working files left in *folder* (a lock, a new folder, a temporary file)."""
-    return [n for n in os.listdir(folder) if n.startswith(".") and ".evtribo-" in n
-            and n != MANIFEST]
+    return make_template(tmp_path_factory.mktemp("names"))
 
 
 def _manifest_reads_back(folder: Path) -> None:

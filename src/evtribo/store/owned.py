@@ -46,7 +46,7 @@ except ImportError:  # pragma: no cover - not POSIX
 
 log = logging.getLogger(__name__)
 
-__all__ = ["HISTORY", "MANIFEST", "Entry", "check_output", "claim", "file_sha256",
+__all__ = ["HISTORY", "MANIFEST", "Entry", "check_manifest", "check_output", "claim", "file_sha256",
            "folder_lock", "foreign", "output_name", "owned", "plain_path", "read_manifest",
            "record", "refuse_foreign"]
 
@@ -261,6 +261,40 @@ def foreign(folder: str | os.PathLike[str], rels: Iterable[str],
     return out
 
 
+def _not_a_file(mode: int) -> str:
+    return ("a folder" if stat.S_ISDIR(mode) else "a symbolic link" if stat.S_ISLNK(mode)
+            else "a FIFO (named pipe)" if stat.S_ISFIFO(mode) else "not a regular file")
+
+
+def check_manifest(folder: str | os.PathLike[str]) -> None:
+    """Refuse to write into *folder* when its manifest's name is taken by something that is
+    not a regular file (a folder, a link, a FIFO): evtribo could not record what it writes,
+    and replaces nothing it did not write.
+
+    Parameters
+    ----------
+    folder : path-like
+
+    Raises
+    ------
+    UserInputError
+        Naming the manifest (exit code 2).
+    """
+    path = Path(folder) / MANIFEST
+    try:
+        mode = os.lstat(path).st_mode
+    except FileNotFoundError:
+        return
+    except OSError as err:
+        raise UserInputError(f"cannot be looked at ({err.strerror}): evtribo records there "
+                             f"which files it wrote into {folder}", path=path) from None
+    if not stat.S_ISREG(mode):
+        raise UserInputError(
+            f"is {_not_a_file(mode)}, not evtribo's manifest (the record of the files it "
+            f"writes into {folder}, the only ones it replaces): nothing is written there until "
+            "it is moved away", path=path)
+
+
 def refuse_foreign(folder: str | os.PathLike[str], rels: Iterable[str],
                    by: Collection[str] | None = None, *, key: str | None = None,
                    also: Mapping[str, Entry] | None = None) -> None:
@@ -284,7 +318,10 @@ def refuse_foreign(folder: str | os.PathLike[str], rels: Iterable[str],
     ------
     OutputExistsError
         Naming the first such file (exit code 2).
+    UserInputError
+        The folder's manifest is not a file (:func:`check_manifest`).
     """
+    check_manifest(folder)
     found = foreign(folder, rels, by, also=also)
     if not found:
         return
@@ -341,6 +378,7 @@ def record(folder: str | os.PathLike[str], add: Mapping[str, Entry], *,
         The caller holds :func:`folder_lock` of *folder* already.
     """
     with contextlib.nullcontext() if locked else folder_lock(folder):
+        check_manifest(folder)
         files = read_manifest(folder)
         for rel, new in add.items():
             old = files.get(rel)
