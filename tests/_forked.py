@@ -59,6 +59,37 @@ def file_size_limit(limit: int) -> Callable[[], None]:
     return setup
 
 
+#: The capabilities through which root ignores a file's mode (CAP_DAC_OVERRIDE,
+#: CAP_DAC_READ_SEARCH, CAP_FOWNER).
+_MODE_OVERRIDES = (1, 2, 3)
+
+
+def modes_apply() -> None:
+    """A setup under which a file's mode applies to the process even if it runs as root
+    (the tests' machines do; root ignores a folder's mode 555): root's capabilities to
+    override it are dropped, for good (``capset``). Nothing to do for another user."""
+    if os.geteuid() != 0:
+        return
+    import ctypes
+
+    class Header(ctypes.Structure):
+        _fields_ = [("version", ctypes.c_uint32), ("pid", ctypes.c_int)]
+
+    class Data(ctypes.Structure):
+        _fields_ = [("effective", ctypes.c_uint32), ("permitted", ctypes.c_uint32),
+                    ("inheritable", ctypes.c_uint32)]
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    header, data = Header(0x20080522, 0), (Data * 2)()  # _LINUX_CAPABILITY_VERSION_3
+    if libc.capget(ctypes.byref(header), data) != 0:
+        raise OSError(ctypes.get_errno(), "capget")
+    for bit in _MODE_OVERRIDES:
+        data[bit // 32].effective &= ~(1 << bit % 32)
+        data[bit // 32].permitted &= ~(1 << bit % 32)
+    if libc.capset(ctypes.byref(header), data) != 0:
+        raise OSError(ctypes.get_errno(), "capset")
+
+
 def children(pid: int) -> list[int]:
     """The processes whose parent is *pid* (from /proc)."""
     out = []

@@ -1,17 +1,20 @@
-"""A folder evtribo writes into whose own parts are not what evtribo made: its manifest's
-name taken by a folder, a link or a FIFO. Every command that would write there refuses
-(exit 2, naming what is wrong) before anything is written, and nothing changes."""
+"""A folder evtribo writes into that is not what evtribo made of it: its manifest's name
+taken by a folder, a link or a FIFO (exit 2, naming it), or a folder this process cannot
+write (exit 1, naming it). Every command that would write there refuses before anything is
+written, and nothing changes: nothing is left half-installed, to be finished later."""
 
 from __future__ import annotations
 
 import os
 
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from _outputs import World, make_template, run, tree, world
+import _forked
+from _outputs import World, make_template, run, tree, working_files, world
 from evtribo.store.owned import MANIFEST
+from evtribo.store.resultdir import pending
 
 
 @pytest.fixture(scope="module")
@@ -71,3 +74,52 @@ def test_a_manifest_that_is_not_a_file_stops_the_command_before_it_writes(
     err = capsys.readouterr().err
     assert f"{MANIFEST}: is a " in err and "not evtribo's manifest" in err, err
     assert tree(w.root) == before
+
+
+#: Folders a command may find it cannot write.
+READ_ONLY = ("out", "out/figures", "work")
+#: Commands that write into them, with --force (each has something there to replace).
+WRITING = {
+    "analyze": lambda w: ["analyze", str(w.study), "--out", str(w.out), "--force", "--jobs",
+                          "1", "--cache-dir", str(w.cache)],
+    "compare": lambda w: ["compare", str(w.out), "--force", "--dpi", "21", "--figure-format",
+                          "png", "--no-trial-checks", "--cache-dir", str(w.cache)],
+    "report-in-out": lambda w: ["report", str(w.out), "--force"],
+    "report": lambda w: ["report", str(w.out), "-o", str(w.work / "report.html"), "--force"],
+    "decode": lambda w: ["decode", str(w.log), "--dbc", str(w.dbc), "-o",
+                         str(w.work / "run-01.csv"), "--force"],
+}
+
+
+@settings(max_examples=10, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(command=st.sampled_from(sorted(WRITING)),
+       read_only=st.sets(st.sampled_from(READ_ONLY), min_size=1))
+def test_a_folder_that_cannot_be_written_is_refused_before_anything_is_written(
+        template, tmp_path_factory, command, read_only):
+    """Folders of mode 555 (root's overrides dropped, as a user's process has none): the
+    command exits 0 (none of them was its to write) or 1 naming the folder, with nothing
+    written; nothing is left to be finished later, and once the folders can be written
+    again the result folder is whole (a report of it is written)."""
+    w = world(template, tmp_path_factory.mktemp(command))
+    assert run(["report", str(w.out), "-o", str(w.work / "report.html")]) == 0
+    assert run(["decode", str(w.log), "--dbc", str(w.dbc), "-o",
+                str(w.work / "run-01.csv")]) == 0
+    folders = [w.root / rel for rel in sorted(read_only)]
+    log = tmp_path_factory.mktemp("log") / "out.txt"
+    try:
+        for folder in folders:
+            folder.chmod(0o555)
+        before = tree(w.root)
+        code, text = _forked.run(WRITING[command](w), log, _forked.modes_apply)
+        after = tree(w.root)
+    finally:
+        for folder in folders:
+            folder.chmod(0o755)
+    assert code in (0, 1), text
+    event(f"{command}: exit {code}")
+    if code == 1:
+        assert "cannot be written" in text and "nothing was written" in text, text
+        assert after == before
+    assert pending(w.out) == [] and working_files(w.root) == [], text
+    assert run(["report", str(w.out), "-o", str(w.work / "after.html")]) == 0

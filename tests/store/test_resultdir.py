@@ -132,6 +132,70 @@ def test_a_write_error_becomes_output_write_error_and_changes_nothing(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
 
 
+def _commit_into_read_only(out: Path) -> None:  # in a forked process, root's overrides dropped
+    import _forked
+
+    _forked.modes_apply()
+    code = 0
+    try:
+        with locked(out, "t"), Staging(out, by="t") as stage:
+            stage.path("a.csv").write_bytes(b"new")
+            (out / "figures").chmod(0o555)  # made read-only while the work went on
+            stage.commit(remove=["figures/a.png"])
+    except OutputWriteError as err:
+        code = 3 if "figures: cannot be written" in str(err) else 4
+    os._exit(code)
+
+
+def test_a_folder_that_cannot_be_written_is_refused_before_the_commit(tmp_path):
+    """The check made before the work passed; the commit checks again, before its record is
+    written: nothing is left to be installed later."""
+    out = tmp_path / "out"
+    committed(out, {"a.csv": b"old", "figures/a.png": b"old figure"})
+    proc = FORK.Process(target=_commit_into_read_only, args=(out,))
+    proc.start()
+    proc.join(60)
+    (out / "figures").chmod(0o755)
+    assert proc.exitcode == 3
+    assert pending(out) == [] and sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+    assert tree(out) == {"a.csv": b"old", "figures/a.png": b"old figure"}
+
+
+@pytest.mark.parametrize("moved", [0, 1])
+def test_a_commit_that_fails_is_taken_back_unless_part_of_it_is_done(tmp_path, monkeypatch,
+                                                                     moved):
+    """Its carrying out fails (EACCES, EIO) after *moved* files were put in place: with none,
+    the record is taken back (the output as it was, nothing installed later); with some, it
+    stays, and the next command on the output finishes it."""
+    out = tmp_path / "out"
+    committed(out, {"a.csv": b"old", "b.csv": b"old"})
+    real_replace = os.replace
+
+    def replace(src, dst, *args, **kwargs):
+        if Path(src).parent.name.startswith(".out.evtribo-new-") and Path(dst).parent == out:
+            if len([p for p in out.iterdir() if p.read_bytes() == b"new"]) >= moved:
+                raise PermissionError(13, "Permission denied", os.fspath(dst))
+        return real_replace(src, dst, *args, **kwargs)
+
+    monkeypatch.setattr(journal.os, "replace", replace)
+    with pytest.raises(OutputWriteError) as info, locked(out, "t"), \
+            Staging(out, by="t") as stage:
+        stage.path("a.csv").write_bytes(b"new")
+        stage.path("b.csv").write_bytes(b"new")
+        stage.commit()
+    monkeypatch.undo()
+    if moved == 0:
+        assert "is left as it was" in str(info.value)
+        assert pending(out) == [] and sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+        assert tree(out) == {"a.csv": b"old", "b.csv": b"old"}
+    else:
+        assert "the next evtribo command on it finishes" in str(info.value)
+        assert len(pending(out)) == 1
+        with locked(out, "t"):
+            recover(out)
+        assert tree(out) == {"a.csv": b"new", "b.csv": b"new"}
+
+
 def test_recover_needs_the_lock(tmp_path):
     with pytest.raises(RuntimeError):
         recover(tmp_path / "out")

@@ -27,6 +27,7 @@ from evtribo.store.names import check_new_path, companion
 from evtribo.store.owned import (
     MANIFEST,
     Entry,
+    check_writable,
     file_sha256,
     output_name,
     plain_path,
@@ -228,7 +229,8 @@ def check_overwrite(out: Path, force: bool) -> None:
     check_new_path(out, key="--out", folder=True)  # first: a name evtribo writes
     if out.is_dir():
         refuse_foreign(out, ANALYSIS_FILES, WRITERS, key="--out", also=earlier_results(out))
-    if force:
+    if force:  # the stale files it removes: in folders it can write (before the analysis)
+        check_writable(out, [*compare_files(out), *report_files(out)] if out.is_dir() else [])
         return
     taken = [out / n for n in ANALYSIS_FILES if os.path.lexists(out / n)]
     if out.is_dir():

@@ -47,7 +47,7 @@ from evtribo.store.owned import (
 
 log = logging.getLogger(__name__)
 
-__all__ = ["JOURNAL", "STAGE_MARK", "VERSION", "apply", "discard", "read_record"]
+__all__ = ["JOURNAL", "STAGE_MARK", "VERSION", "apply", "discard", "read_record", "withdraw"]
 
 #: The commit record in a new folder: its presence is the commit.
 JOURNAL = ".evtribo-commit.json"
@@ -238,6 +238,37 @@ def apply(stage: Path, doc: Mapping[str, Any]) -> None:
         record(target, installed, locked=True)
     (stage / JOURNAL).unlink()
     discard(stage)
+
+
+def withdraw(stage: Path, doc: Mapping[str, Any]) -> bool:
+    """Take back a commit record none of which was carried out (its carrying out failed
+    before it changed anything: a folder that cannot be written): every file to install is
+    still in the new folder, every file to remove still there with its bytes. The record is
+    removed for good, so that the failed write is never finished later.
+
+    Parameters
+    ----------
+    stage : Path
+        The new folder holding the record.
+    doc : mapping
+        The record.
+
+    Returns
+    -------
+    bool
+        Whether it was taken back (False: part of it was carried out; it stays, for the next
+        command on the output to finish).
+    """
+    target = stage.parent / doc["target"]
+    if not all(os.path.lexists(stage / item[0]) for item in doc["install"]):
+        return False
+    for rel, digest in doc["remove"]:
+        path = plain_path(target, rel)
+        if path is None or file_sha256(path) != digest:
+            return False
+    (stage / JOURNAL).unlink(missing_ok=True)
+    fsync_path(stage, directory=True)
+    return True
 
 
 def discard(stage: Path) -> None:

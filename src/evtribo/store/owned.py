@@ -35,7 +35,7 @@ from collections.abc import Collection, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from evtribo.errors import FORCE, OutputExistsError, UserInputError
+from evtribo.errors import FORCE, OutputExistsError, OutputWriteError, UserInputError
 from evtribo.store.files import atomic_write, read_limited
 from evtribo.store.names import check_new_path, name_problem
 
@@ -46,9 +46,9 @@ except ImportError:  # pragma: no cover - not POSIX
 
 log = logging.getLogger(__name__)
 
-__all__ = ["HISTORY", "MANIFEST", "Entry", "check_manifest", "check_output", "claim", "file_sha256",
-           "folder_lock", "foreign", "output_name", "owned", "plain_path", "read_manifest",
-           "record", "refuse_foreign"]
+__all__ = ["HISTORY", "MANIFEST", "Entry", "check_manifest", "check_output", "check_writable",
+           "claim", "file_sha256", "folder_lock", "foreign", "output_name", "owned", "plain_path",
+           "read_manifest", "record", "refuse_foreign"]
 
 #: The manifest of a folder evtribo writes into.
 MANIFEST = ".evtribo-manifest.json"
@@ -295,6 +295,41 @@ def check_manifest(folder: str | os.PathLike[str]) -> None:
             "it is moved away", path=path)
 
 
+def _existing(path: Path) -> Path:
+    """*path*, or the nearest folder above it that exists (where it would be made)."""
+    while not os.path.lexists(path) and path != path.parent:
+        path = path.parent
+    return path
+
+
+def check_writable(folder: str | os.PathLike[str], rels: Iterable[str] = ()) -> None:
+    """Refuse, before anything is written, to write into *folder* (its manifest, and the
+    files *rels* in it) when this process cannot write there: *folder* and each folder of
+    *rels* (or the nearest one above that exists, where it would be made).
+
+    Parameters
+    ----------
+    folder : path-like
+    rels : iterable of str
+        Names relative to *folder* that are to be written, replaced or removed.
+
+    Raises
+    ------
+    OutputWriteError
+        Naming the first folder that cannot be written (exit code 1): nothing was written.
+    """
+    root = Path(folder)
+    folders = dict.fromkeys([_existing(root), *(_existing((root / rel).parent)
+                                                for rel in rels)])
+    ids = os.access in os.supports_effective_ids
+    for path in folders:
+        if os.path.isdir(path) and not os.access(path, os.W_OK | os.X_OK, effective_ids=ids):
+            raise OutputWriteError(
+                "cannot be written (permission denied, or a read-only file system): evtribo "
+                "writes its outputs there; make it writable, then run this again (nothing "
+                "was written)", path=path)
+
+
 def refuse_foreign(folder: str | os.PathLike[str], rels: Iterable[str],
                    by: Collection[str] | None = None, *, key: str | None = None,
                    also: Mapping[str, Entry] | None = None) -> None:
@@ -320,8 +355,12 @@ def refuse_foreign(folder: str | os.PathLike[str], rels: Iterable[str],
         Naming the first such file (exit code 2).
     UserInputError
         The folder's manifest is not a file (:func:`check_manifest`).
+    OutputWriteError
+        The folder cannot be written (:func:`check_writable`).
     """
     check_manifest(folder)
+    rels = list(rels)
+    check_writable(folder, rels)
     found = foreign(folder, rels, by, also=also)
     if not found:
         return

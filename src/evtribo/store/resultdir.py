@@ -47,11 +47,20 @@ from typing import Any
 
 from evtribo.errors import EvtriboError, LockedError, OutputBusyError, OutputWriteError
 from evtribo.store.files import atomic_write, fsync_path
-from evtribo.store.journal import JOURNAL, STAGE_MARK, VERSION, apply, discard, read_record
+from evtribo.store.journal import (
+    JOURNAL,
+    STAGE_MARK,
+    VERSION,
+    apply,
+    discard,
+    read_record,
+    withdraw,
+)
 from evtribo.store.lock import WriteLock, lock_holder
 from evtribo.store.names import check_new_path, working_prefix
 from evtribo.store.owned import (
     Entry,
+    check_writable,
     file_sha256,
     output_name,
     owned,
@@ -412,6 +421,7 @@ class Staging:
             elif (p := plain_path(self.target, rel)) is not None and os.path.lexists(p):
                 log.info("%s: left as it is: not a file evtribo %s wrote", p,
                          " or ".join(sorted(self.replaces)))
+        check_writable(self.target, [*install, *(rel for rel, _ in stale)])
         return {"evtribo": "commit", "version": VERSION, "unit": self.unit.name,
                 "target": os.path.relpath(self.target, self.folder.parent), "by": self.by,
                 "install": todo, "remove": stale}
@@ -436,6 +446,7 @@ class Staging:
         install.sort(key=lambda rel: (rel in last, last.index(rel) if rel in last else 0))
         try:
             self.target.mkdir(parents=True, exist_ok=True)
+            check_writable(self.target)  # its manifest first
             adopt = {rel: e for rel, e in self.also.items()
                      if (p := plain_path(self.target, rel)) is not None
                      and file_sha256(p) == e.sha256}
@@ -450,6 +461,11 @@ class Staging:
         self.committed = True  # from here on, the new files are the output
         try:
             apply(self.folder, doc)
+        except Exception as err:  # failed (not interrupted): taken back if nothing was done
+            self.committed = not withdraw(self.folder, doc)
+            if isinstance(err, OSError) and not isinstance(err, EvtriboError):
+                raise self._write_error(err) from err
+            raise
         except BaseException:
             apply(self.folder, doc)  # interrupted (Ctrl-C, SIGTERM) mid-swap: finish it first
             raise
@@ -462,6 +478,11 @@ class Staging:
         why = err.strerror or str(err)
         if err.errno in (errno.ENOSPC, errno.EDQUOT):
             why = "the disk is full"
+        if self.committed:  # part of the new files are in place: the next command ends it
+            return OutputWriteError(
+                f"cannot finish writing the results ({why}); {self.target} holds part of the "
+                "new ones: the next evtribo command on it finishes writing them",
+                path=err.filename or self.folder)
         return OutputWriteError(f"cannot write the results ({why}); {self.target} is left "
                                 "as it was", path=err.filename or self.folder)
 
