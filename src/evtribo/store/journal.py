@@ -35,7 +35,7 @@ from typing import Any
 
 from evtribo.errors import ResultFolderError
 from evtribo.store.files import fsync_path, read_limited
-from evtribo.store.owned import (
+from evtribo.store.manifest import (
     Entry,
     file_sha256,
     folder_lock,
