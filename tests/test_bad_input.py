@@ -443,6 +443,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "analyze-out-name-evtribo-s": lambda t: None,
     "report-output-name-too-long": lambda t: (t / "out").mkdir(),
     "compare-planted-record": _planted_record,
+    "compare-figures-a-link": lambda t: (_results(t), (t / "paper").mkdir(),
+                                         _link(t / "out" / "figures", t / "paper")),
     "compare-lock-not-a-lock": lambda t: (_results(t), _link(
         t / ".out.evtribo-lock", t / "study" / "P01" / "run-01.log")),
     "plot-over-log": lambda t: _link(t / "check.png", t / "study" / "P01" / "run-01.log"),

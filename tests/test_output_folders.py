@@ -1,11 +1,13 @@
 """A folder evtribo writes into that is not what evtribo made of it: its manifest's name
-taken by a folder, a link or a FIFO (exit 2, naming it), or a folder this process cannot
-write (exit 1, naming it). Every command that would write there refuses before anything is
+taken by a folder, a link or a FIFO (exit 2, naming it), a part of it that is a link to the
+user's own files (exit 2, naming the link and where it leads), or a folder this process
+cannot write (exit 1, naming it). Every command that would write there refuses before anything is
 written, and nothing changes: nothing is left half-installed, to be finished later."""
 
 from __future__ import annotations
 
 import os
+import shutil
 
 import pytest
 from hypothesis import HealthCheck, event, given, settings
@@ -123,3 +125,45 @@ def test_a_folder_that_cannot_be_written_is_refused_before_anything_is_written(
         assert after == before
     assert pending(w.out) == [] and working_files(w.root) == [], text
     assert run(["report", str(w.out), "-o", str(w.work / "after.html")]) == 0
+
+
+#: Where a link may stand on the way to an output: the command, and the link's path.
+LINKED = {
+    "compare": (COMMANDS["compare"][1], lambda w: w.out / "figures"),
+    "compare-fit": (COMMANDS["compare"][1], lambda w: w.out / "fit.csv"),
+    "report-tables-in-out": (
+        lambda w: ["report", str(w.out), "--tables", "md", "--force"], lambda w: w.out / "tables"),
+    "report-tables": (
+        lambda w: ["report", str(w.out), "-o", str(w.work / "report.html"), "--tables", "md"],
+        lambda w: w.work / "tables"),
+}
+
+
+@settings(max_examples=12, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(case=st.sampled_from(sorted(LINKED)), filled=st.booleans())
+def test_a_link_on_the_way_to_an_output_is_named_with_where_it_leads(
+        template, tmp_path_factory, capsys, case, filled):
+    """A folder (or file) of an output that is a link to the user's own (their paper's
+    figures, filled or empty): refused (exit 2) in so many words, the link named with where it
+    leads, and nothing written, through the link or beside it."""
+    w = world(template, tmp_path_factory.mktemp(case))
+    argv, where = LINKED[case]
+    link = where(w)
+    mine = w.root / "paper" / link.name
+    if link.is_dir():
+        shutil.copytree(link, mine) if filled else mine.mkdir(parents=True)
+        shutil.rmtree(link)
+    else:
+        mine.parent.mkdir()
+        if link.exists():
+            link.rename(mine)
+        else:
+            mine.write_text("the user's own\n") if filled else mine.mkdir()
+    link.symlink_to(mine)
+    before = tree(w.root)
+    capsys.readouterr()
+    assert run(argv(w)) == 2
+    err = capsys.readouterr().err
+    assert f"error: {link}: " in err and f"is a symbolic link (to {mine})" in err, err
+    assert tree(w.root) == before

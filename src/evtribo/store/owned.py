@@ -12,6 +12,7 @@ is not a file, or the folder cannot be written (:func:`check_writable`, exit 1).
 from __future__ import annotations
 
 import os
+import stat
 from collections.abc import Collection, Iterable, Mapping
 from pathlib import Path
 
@@ -92,12 +93,48 @@ def check_writable(folder: str | os.PathLike[str], rels: Iterable[str] = ()) -> 
     folders = dict.fromkeys([_existing(root), *(_existing((root / rel).parent)
                                                 for rel in rels)])
     ids = os.access in os.supports_effective_ids
-    for path in folders:
+    for path in folders:  # a link below the folder: nothing is written through it
+        if path != _existing(root) and os.path.islink(path):
+            continue
         if os.path.isdir(path) and not os.access(path, os.W_OK | os.X_OK, effective_ids=ids):
             raise OutputWriteError(
                 "cannot be written (permission denied, or a read-only file system): evtribo "
                 "writes its outputs there; make it writable, then run this again (nothing "
                 "was written)", path=path)
+
+
+def _link_on_the_way(folder: str | os.PathLike[str], rel: str) -> Path | None:
+    """The first part of ``folder / rel`` below *folder* that is a symbolic link (the last
+    one included), if any."""
+    path = Path(folder)
+    for part in rel.split("/"):
+        path = path / part
+        try:
+            if stat.S_ISLNK(os.lstat(path).st_mode):
+                return path
+        except OSError:
+            return None
+    return None
+
+
+def _refuse_link(folder: str | os.PathLike[str], rel: str, by: Collection[str] | None,
+                 key: str | None) -> None:
+    """Refuse, naming it and where it leads, a link on the way to ``folder / rel``."""
+    link = _link_on_the_way(folder, rel)
+    if link is None:
+        return
+    try:
+        to = os.readlink(link)
+    except OSError:
+        to = "?"
+    who = "evtribo" if by is None else f"evtribo {' or '.join(sorted(by))}"
+    if link == Path(folder) / rel:
+        todo = "move it away or choose another output"
+    else:
+        todo = f"remove the link ({who} makes a folder of its own there) or choose another output"
+    raise OutputExistsError(
+        f"is a symbolic link (to {to}): {who} writes, replaces and removes nothing through a "
+        f"link, {FORCE} included; {todo}", path=link, key=key)
 
 
 def refuse_foreign(folder: str | os.PathLike[str], rels: Iterable[str],
@@ -130,9 +167,11 @@ def refuse_foreign(folder: str | os.PathLike[str], rels: Iterable[str],
     """
     check_manifest(folder)
     rels = list(rels)
-    check_writable(folder, rels)
+    for rel in rels:  # there or not: nothing is written through a link
+        _refuse_link(folder, rel, by, key)
     found = foreign(folder, rels, by, also=also)
     if not found:
+        check_writable(folder, rels)
         return
     path = Path(folder) / found[0]
     entry = {**(also or {}), **read_manifest(folder)}.get(found[0])
@@ -140,8 +179,7 @@ def refuse_foreign(folder: str | os.PathLike[str], rels: Iterable[str],
         raise OutputExistsError(
             f"is an output of evtribo {entry.by}, which evtribo {' or '.join(sorted(by))} "
             f"never replaces, {FORCE} included; choose another output", path=path, key=key)
-    what = ("a symbolic link" if path.is_symlink() else "not a regular file"
-            if not path.is_file() else "not a file evtribo wrote")
+    what = "not a regular file" if not path.is_file() else "not a file evtribo wrote"
     whose = "" if by is None else f" as evtribo {' or '.join(sorted(by))}'s"
     raise OutputExistsError(
         f"is {what} ({Path(folder) / MANIFEST} does not list it with these bytes{whose}): "
