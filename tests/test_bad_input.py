@@ -240,6 +240,20 @@ def _planted_record(tmp: Path) -> None:
         "by": "analyze", "install": [["run-01.log", digest, None]], "remove": []}))
 
 
+def _compare_figure(tmp: Path) -> None:
+    """A result folder with a figure compare wrote in its figures/ (its manifest lists it)."""
+    import hashlib
+
+    from evtribo.store.manifest import Entry, record
+
+    _results(tmp, fit_of="aaaa")
+    figure = tmp / "out" / "figures" / "area_increase.png"
+    figure.parent.mkdir()
+    figure.write_bytes(b"a figure\n")
+    record(tmp / "out", {"figures/area_increase.png": Entry(
+        hashlib.sha256(b"a figure\n").hexdigest(), "compare")})
+
+
 #: Locks the builders hold while their case runs (released after it).
 HELD: list[WriteLock] = []
 
@@ -455,6 +469,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "plot-subject-missing": lambda t: None,
     "plot-trial-missing": lambda t: None,
     "plot-figure-suffix": lambda t: None,
+    "plot-into-compare-figures": _compare_figure,
     "plot-figure-exists": lambda t: (_text(Path("check.png"), "a figure kept\n")(t),
                                      claim(t / "check.png", "plot")),
     "plot-signal-unknown": lambda t: None,

@@ -1,11 +1,13 @@
 """A folder evtribo writes into that is not what evtribo made of it: its manifest's name
 taken by a folder, a link or a FIFO (exit 2, naming it), a part of it that is a link to the
-user's own files (exit 2, naming the link and where it leads), or a folder this process
-cannot write (exit 1, naming it). Every command that would write there refuses before anything is
+user's own files (exit 2, naming the link and where it leads), a folder whose files another
+command writes (compare's figures/: exit 2, naming it), or a folder this process cannot
+write (exit 1, naming it). Every command that would write there refuses before anything is
 written, and nothing changes: nothing is left half-installed, to be finished later."""
 
 from __future__ import annotations
 
+import base64
 import os
 import shutil
 
@@ -167,3 +169,58 @@ def test_a_link_on_the_way_to_an_output_is_named_with_where_it_leads(
     err = capsys.readouterr().err
     assert f"error: {link}: " in err and f"is a symbolic link (to {mine})" in err, err
     assert tree(w.root) == before
+
+
+#: Commands that write one file where the user says.
+ONE_FILE = {
+    "decode": (".csv", lambda w, path: ["decode", str(w.log), "--dbc", str(w.dbc), "-o",
+                                        str(path), "--force"]),
+    "plot": (".png", lambda w, path: ["plot", "trial", str(w.study), "P01", "run-01", "-o",
+                                      str(path), "--force", "--cache-dir", str(w.cache)]),
+    "report": (".html", lambda w, path: ["report", str(w.out), "-o", str(path), "--force"]),
+}
+
+
+@settings(max_examples=12, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(command=st.sampled_from(sorted(ONE_FILE)),
+       where=st.tuples(st.sampled_from(["figures", "tables"]), st.booleans()))
+def test_a_file_is_not_written_into_a_folder_of_another_commands_files(
+        template, tmp_path_factory, capsys, command, where):
+    """``plot -o OUT/figures/x.png`` (or decode, or report -o, into compare's figures/ or
+    report's tables/ of a result folder), over a file of the folder's or beside them: refused
+    (exit 2) naming the folder and whose files it holds, nothing written, and the result
+    folder's report is still written."""
+    folder, existing = where
+    w = world(template, tmp_path_factory.mktemp(command))
+    if folder == "tables":
+        assert run(["report", str(w.out), "--tables", "md"]) == 0
+    suffix, argv = ONE_FILE[command]
+    theirs = sorted((w.out / folder).iterdir())
+    path = theirs[0].with_suffix(suffix) if existing else w.out / folder / f"mine{suffix}"
+    if existing:
+        theirs[0].rename(path)  # a file of the folder's of the name given
+    before = tree(w.root)
+    capsys.readouterr()
+    assert run(argv(w, path)) == 2
+    err = capsys.readouterr().err
+    assert f"is inside {w.out / folder}, a folder of {w.out}" in err, err
+    assert tree(w.root) == before
+    if not existing:
+        assert run(["report", str(w.out), "--force"]) == 0
+
+
+def test_the_report_shows_the_figure_compare_wrote_not_another_file_of_its_name(template,
+                                                                                tmp_path):
+    """compare wrote its figures as SVG; a PNG of a figure's name put beside them (by hand)
+    is not what the report shows: the SVG compare wrote is."""
+    w = world(template, tmp_path)
+    other = (w.out / "figures" / "area_increase.png").read_bytes()
+    assert run(["compare", str(w.out), "--force", "--dpi", "20", "--figure-format", "svg",
+                "--no-trial-checks", "--cache-dir", str(w.cache)]) == 0
+    (w.out / "figures" / "friction_time.png").write_bytes(other)
+    assert run(["report", str(w.out), "--force"]) == 0
+    page = (w.out / "report.html").read_text(encoding="utf-8")
+    assert base64.b64encode(other).decode()[:200] not in page
+    svg = (w.out / "figures" / "friction_time.svg").read_bytes()
+    assert base64.b64encode(svg).decode() in page

@@ -211,11 +211,15 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
                            stale=stale)
 
 
-def _figure_file(folder: Path, stem: str) -> Path | None:
-    """A figure's file in figures/: its PNG, else its SVG, else its PDF."""
+def _figure_file(folder: Path, stem: str, written: Mapping[str, str]) -> Path | None:
+    """A figure's file in figures/: its PNG, else its SVG, else its PDF, among those compare
+    wrote (*written*, fit.json's ``output_sha256``: another file of the figure's name, a
+    user's or another command's, is never shown as the figure; any, for an older fit.json
+    that lists none)."""
     for suffix in _FIGURE_SUFFIXES:
-        path = inside(folder, f"{FIGURES}/{stem}{suffix}")
-        if path is not None and path.is_file():
+        rel = f"{FIGURES}/{stem}{suffix}"
+        path = inside(folder, rel)
+        if path is not None and path.is_file() and (not written or rel in written):
             return path
     return None
 
@@ -237,7 +241,7 @@ def _figures(tables: ResultTables, fit_doc: FitDocument) -> list[dict[str, Any]]
                     "subject": next((x for x in tables.subjects if s.endswith(f"_{x}")),
                                     None)} for s in stems]
     for f in figures:
-        path = _figure_file(folder, str(f.get("stem")))
+        path = _figure_file(folder, str(f.get("stem")), fit_doc.output_sha256)
         if path is None:
             raise ResultFolderError(f"figure missing: run `evtribo compare {folder} {FORCE}`",
                                     path=folder / FIGURES / f"{f.get('stem')}.png")

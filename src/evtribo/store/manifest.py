@@ -174,13 +174,16 @@ def _entries(doc: object) -> dict[str, Entry]:
     return out
 
 
-def read_manifest(folder: str | os.PathLike[str]) -> dict[str, Entry]:
+def read_manifest(folder: str | os.PathLike[str], *, quiet: bool = False
+                  ) -> dict[str, Entry]:
     """The files the manifest of *folder* lists (none when there is no manifest, or when
     it is not a regular file evtribo wrote: a warning names it).
 
     Parameters
     ----------
     folder : path-like
+    quiet : bool
+        Say nothing of a manifest that cannot be read (one looked at in passing).
 
     Returns
     -------
@@ -195,8 +198,9 @@ def read_manifest(folder: str | os.PathLike[str]) -> dict[str, Entry]:
     except FileNotFoundError:
         return {}
     except (OSError, UserInputError, ValueError, UnicodeDecodeError) as err:
-        log.warning("%s: not read, so none of the files beside it counts as evtribo's (%s)",
-                    path, getattr(err, "message", err))
+        log.log(logging.DEBUG if quiet else logging.WARNING,
+                "%s: not read, so none of the files beside it counts as evtribo's (%s)",
+                path, getattr(err, "message", err))
         return {}
 
 

@@ -137,6 +137,30 @@ def _refuse_link(folder: str | os.PathLike[str], rel: str, by: Collection[str] |
         f"link, {FORCE} included; {todo}", path=link, key=key)
 
 
+def _refuse_governed(folder: str | os.PathLike[str], rel: str, by: Collection[str] | None,
+                     key: str | None) -> None:
+    """Refuse to write into a folder whose files another command writes, as the manifest
+    of a folder above it lists them (a result folder's ``figures/``: compare's)."""
+    here = Path(os.path.abspath(folder))
+    for depth in (1, 2):
+        if len(here.parts) <= depth:
+            return
+        above = here.parents[depth - 1]
+        inner = "/".join(here.parts[-depth:])
+        theirs = sorted({e.by for name, e in read_manifest(above, quiet=True).items()
+                         if name.startswith(f"{inner}/")})
+        if theirs:
+            who = "evtribo" if by is None else f"evtribo {' or '.join(sorted(by))}"
+            spelt = Path(folder)  # as the user gave it, where it names the folder above
+            if len(spelt.parts) > depth:
+                above = spelt.parents[depth - 1]
+            raise OutputExistsError(
+                f"is inside {Path(folder)}, a folder of {above} whose files evtribo "
+                f"{' and '.join(theirs)} writes and replaces ({above / MANIFEST} lists them): "
+                f"{who} writes nothing else there, {FORCE} included; write it outside "
+                f"{Path(folder)}", path=Path(folder) / rel, key=key)
+
+
 def refuse_foreign(folder: str | os.PathLike[str], rels: Iterable[str],
                    by: Collection[str] | None = None, *, key: str | None = None,
                    also: Mapping[str, Entry] | None = None) -> None:
@@ -169,6 +193,8 @@ def refuse_foreign(folder: str | os.PathLike[str], rels: Iterable[str],
     rels = list(rels)
     for rel in rels:  # there or not: nothing is written through a link
         _refuse_link(folder, rel, by, key)
+    if rels:  # nor into a folder of another output's files
+        _refuse_governed(folder, rels[0], by, key)
     found = foreign(folder, rels, by, also=also)
     if not found:
         check_writable(folder, rels)
