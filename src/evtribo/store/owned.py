@@ -5,8 +5,11 @@ Only a file evtribo wrote (:func:`~evtribo.store.manifest.owned`) is ever replac
 ``--force``) or removed (an output of the same command that the new run does not write).
 Anything else (a user's file, a file evtribo wrote that someone has edited since, a
 symbolic link, a FIFO) is left as it is, ``--force`` or not, and the command says so before
-it writes anything (:func:`refuse_foreign`, exit 2), as it does when the folder's manifest
-is not a file, or the folder cannot be written (:func:`check_writable`, exit 1).
+it writes anything (:func:`refuse_foreign`, exit 2). So it does, before anything is
+written, when the folder's manifest is not a file, when a link stands on the way to an
+output (named with where it leads: nothing is written through a link), when the folder is
+one whose files another output's manifest lists (a result folder's ``figures/``, compare's),
+and when the folder cannot be written (:func:`check_writable`, exit 1).
 """
 
 from __future__ import annotations
