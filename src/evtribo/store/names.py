@@ -33,8 +33,8 @@ from pathlib import Path
 
 from evtribo.errors import UserInputError
 
-__all__ = ["NAME_MAX", "RESERVED", "check_new_path", "companion", "leading_bytes", "name_problem",
-           "shown", "working_prefix"]
+__all__ = ["LOCK_SUFFIX", "NAME_MAX", "RESERVED", "STAGE_INFIX", "check_new_path", "companion",
+           "leading_bytes", "name_problem", "shown", "working_home", "working_prefix"]
 
 #: The longest file name Linux file systems hold, bytes.
 NAME_MAX = 255
@@ -48,6 +48,10 @@ _PATH_MAX = 4095
 _UNSHOWN = frozenset({"Cc", "Zl", "Zp"})
 #: Hex digits of a long name's SHA-256 in its working names.
 _HASH_DIGITS = 16
+#: What an output's lock file's name ends with, and what its new folders' names hold.
+LOCK_SUFFIX, STAGE_INFIX = ".evtribo-lock", ".evtribo-new-"
+#: Bytes the longest working name adds to its prefix: a new folder's infix and 32 hex digits.
+_SUFFIX_ROOM = max(len(LOCK_SUFFIX), len(STAGE_INFIX) + 32)
 
 
 def _bytes(name: str) -> bytes | None:
@@ -211,3 +215,25 @@ def working_prefix(name: str, room: int) -> str:
         ``.NAME``, or ``.START~HASH`` for a long NAME.
     """
     return companion(f".{name}", "\0" * room)[: -room or None]
+
+
+def working_home(unit: Path) -> tuple[Path, str]:
+    """Where the lock file and the new folders of an output written as one unit go
+    (:mod:`evtribo.store.resultdir`), and the prefix of their names: beside it (``.NAME``, or
+    :func:`working_prefix`'s for a long name), or inside it when it is a folder on its own
+    file system (a mount point: a rename from beside it would cross file systems) or in a
+    folder this process cannot write.
+
+    Parameters
+    ----------
+    unit : Path
+        The output, its links resolved.
+
+    Returns
+    -------
+    folder : Path
+    prefix : str
+    """
+    if unit.is_dir() and (os.path.ismount(unit) or not os.access(unit.parent, os.W_OK)):
+        return unit, ""
+    return unit.parent, working_prefix(unit.name, _SUFFIX_ROOM)

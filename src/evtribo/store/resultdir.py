@@ -57,7 +57,7 @@ from evtribo.store.journal import (
     withdraw,
 )
 from evtribo.store.lock import WriteLock, lock_holder
-from evtribo.store.names import check_new_path, working_prefix
+from evtribo.store.names import LOCK_SUFFIX, STAGE_INFIX, check_new_path, working_home
 from evtribo.store.owned import (
     Entry,
     check_writable,
@@ -75,10 +75,8 @@ log = logging.getLogger(__name__)
 __all__ = ["JOURNAL", "STAGE_MARK", "Staging", "holder", "inside", "lock_path", "locked",
            "pending", "recover", "release_inherited_locks"]
 
-LOCK_SUFFIX = ".evtribo-lock"
-STAGE_INFIX = ".evtribo-new-"
-#: Bytes the longest working name adds to its prefix: a new folder's infix and 32 hex digits.
-_SUFFIX_ROOM = max(len(LOCK_SUFFIX), len(STAGE_INFIX) + 32)
+#: Errors of a folder that cannot be written.
+_DENIED = {errno.EACCES, errno.EPERM, errno.EROFS}
 #: Errors of writing, whichever file they name.
 _WRITE_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EROFS, errno.EIO}
 
@@ -114,19 +112,9 @@ def _real(unit: str | os.PathLike[str]) -> Path:
     return Path(os.path.realpath(unit))
 
 
-def _home(unit: Path) -> tuple[Path, str]:
-    """Where an output's lock file and new folders go, and the prefix of their names:
-    beside it (``.NAME``; for a name too long to take their suffixes within 255 bytes, its
-    start and a hash of it: :func:`~evtribo.store.names.working_prefix`), or inside it when
-    it is a folder on its own file system (a mount point: a rename from beside it would
-    cross file systems) or in a folder this process cannot write."""
-    if unit.is_dir() and (os.path.ismount(unit) or not os.access(unit.parent, os.W_OK)):
-        return unit, ""
-    return unit.parent, working_prefix(unit.name, _SUFFIX_ROOM)
-
-
 def lock_path(unit: str | os.PathLike[str]) -> Path:
-    """The lock file of an output: ``.NAME.evtribo-lock`` beside it (see :func:`_home`).
+    """The lock file of an output: ``.NAME.evtribo-lock`` beside it (see
+    :func:`~evtribo.store.names.working_home`).
 
     Parameters
     ----------
@@ -137,7 +125,7 @@ def lock_path(unit: str | os.PathLike[str]) -> Path:
     -------
     Path
     """
-    folder, prefix = _home(_real(unit))
+    folder, prefix = working_home(_real(unit))
     return folder / f"{prefix}{LOCK_SUFFIX}"
 
 
@@ -190,10 +178,10 @@ def _acquire(unit: Path, command: str, shown: str | os.PathLike[str]) -> WriteLo
     except EvtriboError:  # not a lock file: refused by name
         raise
     except OSError as err:
-        raise OutputWriteError(
-            f"cannot create the lock file beside {unit.name} ({err.strerror}): its "
-            "folder must be writable (results are written into a new folder beside "
-            f"{unit.name}, then swapped in)", path=path) from err
+        why = ("its folder must be writable (results are written into a new folder beside "
+               f"{unit.name}, then swapped in)" if err.errno in _DENIED else "nothing was written")
+        raise OutputWriteError(f"cannot create the lock file beside {unit.name} "
+                               f"({err.strerror}): {why}", path=path) from err
 
 
 @contextlib.contextmanager
@@ -256,7 +244,7 @@ def _holds(unit: Path) -> bool:
 # -------------------------------------------------------------------- staging and commit
 
 def _stages(unit: Path) -> list[Path]:
-    folder, prefix = _home(unit)
+    folder, prefix = working_home(unit)
     try:
         names = os.listdir(folder)
     except FileNotFoundError:
@@ -361,7 +349,7 @@ class Staging:
         self.by = by
         self.replaces = frozenset(replaces if replaces is not None else (by,))
         self.also = dict(also or {})
-        home, prefix = _home(self.unit)
+        home, prefix = working_home(self.unit)
         self.folder = home / f"{prefix}{STAGE_INFIX}{uuid.uuid4().hex}"
         self.committed = False
 
