@@ -311,15 +311,34 @@ class Lead:
 
 def _stretches(t: FloatArray) -> IntArray:
     """The bounds of the stretches between steps of the clock left as they are: ahead by
-    more than :data:`LARGEST_STEP_S`, or back so far that no frame after it reaches the
-    frames before it."""
+    more than :data:`LARGEST_STEP_S`; back so far that no frame after it reaches the
+    frames before it; or back by as much from frames stamped far ahead of those around
+    them (a line or a few stamped hours ahead: the frames after them go on from those
+    before them, and the stamps far ahead are a stretch of their own, not a clock that
+    stepped back)."""
     dt = np.diff(t)
     big = np.flatnonzero(np.abs(dt) > LARGEST_STEP_S)
     if big.size:
         first = np.minimum.accumulate(t)
         later = np.maximum.accumulate(t[::-1])[::-1]  # the latest frame from each on
-        big = big[(dt[big] > 0) | (later[big + 1] < first[big])]
+        big = big[(dt[big] > 0) | (later[big + 1] < first[big]) | _back_home(t, big)]
     return np.concatenate([[0], big + 1, [t.size]]).astype(np.int64)
+
+
+def _back_home(t: FloatArray, big: IntArray) -> npt.NDArray[np.bool_]:
+    """Which of the large steps *big* go back to where the clock was before the last large
+    step ahead: the frames after them go on from the frames before it (by the frames in
+    between, at the stream's usual step, and :data:`LARGEST_STEP_S`)."""
+    dt = np.diff(t)
+    ahead = big[dt[big] > 0]
+    if not ahead.size:
+        return np.zeros(big.size, dtype=bool)
+    last = np.searchsorted(ahead, big, side="left") - 1  # the last step ahead before each
+    k = ahead[np.maximum(last, 0)]
+    usual = median(np.abs(dt))
+    since = t[big + 1] - t[k]
+    return ((last >= 0) & (dt[big] < 0) & (since >= -LARGEST_STEP_S)
+            & (since <= (big + 1 - k) * usual + LARGEST_STEP_S))
 
 
 def _monotone(t: FloatArray, bounds: IntArray) -> FloatArray:
