@@ -320,6 +320,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "acquire-name-too-long": lambda t: None,
     "strict-damaged-line": lambda t: (t / "study" / "P01" / "run-01.log").write_text(
         LOG + "(1763700000.002000) vcan0 0C1#000000000000000\n"),
+    "strict-impossible-timestamp": lambda t: (t / "study" / "P01" / "run-01.log").write_text(
+        LOG + "(9223372036854775808.000000) vcan0 0C1#0000000000000000\n"),
     "jobs-zero": lambda t: None,
     "analyze-dask-missing": lambda t: _without_dask(),
     "compare-dask-missing": lambda t: _results(t) or _without_dask(),

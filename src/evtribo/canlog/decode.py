@@ -50,7 +50,7 @@ from cantools.database.can import Database, Message
 from evtribo.canlog import sequence
 from evtribo.canlog.dropped import missing_frames_received
 from evtribo.canlog.frame_match import kind_mismatches, message_mask
-from evtribo.canlog.io.table import FrameTable, take_rows
+from evtribo.canlog.io.table import IMPOSSIBLE_TIMESTAMP, FrameTable, take_rows
 from evtribo.canlog.rig import Rig, SignalRef
 from evtribo.canlog.signal_codec import SignalCodec, bad_samples
 from evtribo.canlog.signals import (
@@ -472,10 +472,11 @@ def decode_trial(frames: FrameTable, rig: Rig, *, channel: str | None = None) ->
     drops = frames.reported_drops
     logger_dropped = (sum(drops.values()) if chosen is None or len(frames.channel_names) <= 1
                       else drops.get(chosen, 0))
-    finite = np.isfinite(frames.timestamp)
+    with np.errstate(invalid="ignore"):
+        finite = np.abs(frames.timestamp) < IMPOSSIBLE_TIMESTAMP  # NaN too: no clock's time
     if not finite.all():
-        log.warning("%d frames with a timestamp that is not a finite number: not decoded",
-                    len(frames) - int(np.count_nonzero(finite)))
+        log.warning("%d frames with a timestamp that is not a finite number or is 2^63 or "
+                    "more (no clock's): not decoded", len(frames) - int(np.count_nonzero(finite)))
         frames = frames.take(finite)
     # logs merged or written out of order, clocks that stepped: each cell is put in the
     # order sent on its own, its lost frames counted in that order, the log's clock steps
