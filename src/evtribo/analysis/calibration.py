@@ -171,8 +171,9 @@ def _tenths(signals: TrialSignals) -> tuple[np.ndarray, np.ndarray, int, float]:
         piece = restrict(signals, lo, hi)
         if min(len(piece.normal.t), len(piece.tangential.t)) < 2:
             continue
-        tn = sample_times(piece.normal.t, piece.normal.counter)
-        tt = sample_times(piece.tangential.t, piece.tangential.counter)
+        tn = sample_times(piece.normal.t, piece.normal.counter, piece.normal.counter_period)
+        tt = sample_times(piece.tangential.t, piece.tangential.counter,
+                          piece.tangential.counter_period)
         try:
             f = align_forces(tn, np.asarray(piece.normal.value, float), tt,
                              np.asarray(piece.tangential.value, float))

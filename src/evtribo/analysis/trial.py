@@ -141,7 +141,8 @@ def empty_windows() -> pd.DataFrame:
 def _channel(cell: CellSignals) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """A load cell's sample times (s: its frames' timestamps without the logger's jitter,
     :func:`~evtribo.analysis.forces.timebase.sample_times`) and forces (N) as float arrays."""
-    return sample_times(cell.t, cell.counter), np.asarray(cell.value, dtype=np.float64)
+    return (sample_times(cell.t, cell.counter, cell.counter_period),
+            np.asarray(cell.value, dtype=np.float64))
 
 
 def _excitation_placed(signals: TrialSignals, tn: npt.NDArray[np.float64],

@@ -74,11 +74,11 @@ MAX_OUTAGES = 20
 PAUSE_STEPS = 1000
 
 
-def _counter_index(counter: IntArray) -> tuple[IntArray, int]:
-    """The samples' indices from a rolling counter: its steps modulo its period (a power of
-    two above its largest value; a repeated value, a frame sent twice, keeps its index),
-    and that period."""
-    modulus = 1 << max(1, int(counter.max()).bit_length())
+def _counter_index(counter: IntArray, period: int | None = None) -> tuple[IntArray, int]:
+    """The samples' indices from a rolling counter: its steps modulo its period (*period*,
+    else a power of two above its largest value; a repeated value, a frame sent twice,
+    keeps its index), and that period."""
+    modulus = period or 1 << max(1, int(counter.max()).bit_length())
     step = np.mod(np.diff(counter), modulus)
     return np.concatenate(([0], np.cumsum(step))).astype(np.int64), modulus
 
@@ -215,7 +215,8 @@ def _fit_line(index: IntArray, t: FloatArray, period: float) -> tuple[FloatArray
     return t[0] + basis(coef), spread
 
 
-def sample_times(t: npt.ArrayLike, counter: npt.ArrayLike | None = None) -> FloatArray:
+def sample_times(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
+                 period: int | None = None) -> FloatArray:
     """A periodic stream's sample times, from its frames' timestamps (and counter).
 
     A stream whose clock jumps ahead by more than
@@ -230,6 +231,9 @@ def sample_times(t: npt.ArrayLike, counter: npt.ArrayLike | None = None) -> Floa
         The frames' timestamps as logged, in the order logged.
     counter : array_like of int, optional
         The stream's rolling frame counter, one value per frame.
+    period : int, optional
+        Frames after which the counter repeats (default: the next power of two above its
+        largest value; :attr:`evtribo.canlog.signals.CellSignals.counter_period`).
 
     Returns
     -------
@@ -246,13 +250,14 @@ def sample_times(t: npt.ArrayLike, counter: npt.ArrayLike | None = None) -> Floa
     steps = np.diff(np.maximum.accumulate(t))
     cuts = np.flatnonzero(steps > max(MAX_PAUSE_S, PAUSE_STEPS * median(steps))) + 1
     if not cuts.size:
-        return _stretch_times(t, c)
+        return _stretch_times(t, c, period)
     bounds = np.concatenate([[0], cuts, [t.size]])
-    return np.concatenate([_stretch_times(t[a:b], None if c is None else c[a:b])
+    return np.concatenate([_stretch_times(t[a:b], None if c is None else c[a:b], period)
                            for a, b in itertools.pairwise(bounds)])
 
 
-def _stretch_times(t: FloatArray, c: IntArray | None) -> FloatArray:
+def _stretch_times(t: FloatArray, c: IntArray | None, counter_period: int | None
+                   ) -> FloatArray:
     """:func:`sample_times` of a stretch of a stream without a long pause."""
     if t.size < MIN_SAMPLES:
         return t
@@ -261,10 +266,10 @@ def _stretch_times(t: FloatArray, c: IntArray | None) -> FloatArray:
     steps = np.diff(ts)
     if not np.any(steps > 0):
         return t
-    counted = c is not None and c.max() > 0
+    counted = c is not None and (c.max() > 0 or bool(counter_period))
     if counted:
         assert c is not None
-        index, modulus = _counter_index(c)
+        index, modulus = _counter_index(c, counter_period)
     else:
         index = np.arange(t.size, dtype=np.int64)
     if index[-1] <= index[0]:

@@ -103,7 +103,9 @@ KINDS: tuple[Kind, ...] = (
          r"^the sidecar says .* but the excitation signals say"),
     Kind("frames-lost", "information", "load-cell frames lost",
          r"frames missing|dropped frame|frames on this channel \(DROPCOUNT\)|dropped \d+ "
-         r"frames"),
+         r"frames|frames lost where the stream's|to see single lost frames"),
+    Kind("counter-law", "information", "a load cell's counter as its firmware counts",
+         r"^the counter \S+ (?:counts from|does not count|never counted)"),
     Kind("damaged-lines", "information", "damaged log lines skipped", r"damaged line"),
     Kind("pieces", "information", "trials analysed in pieces",
          r"^analysed in \d+ continuous pieces|^the load cells fell silent|^a gap of|"
