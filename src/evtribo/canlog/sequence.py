@@ -219,8 +219,10 @@ def _events(s: Lead, c: IntArray | None) -> tuple[list[tuple[int, float]],
         pick = near[int(np.argmax(np.abs(dt)))]
         j, h = int(cand[pick]), float(shifts[pick])
         done.add(j)
-        held = float(dt[near == pick][0])  # the step's own disagreement, frames
-        if s.t[j + 1] < s.t[j] and held <= h / 2:  # the clock went back, by about h
+        # the step's own disagreement, frames; a logger that stamps its polls shows a step
+        # of the clock up to a poll's frames short
+        held = float(dt[near == pick][0])
+        if s.t[j + 1] < s.t[j] and held <= h / 2 + s.poll:  # the clock went back, by about h
             steps.append((j, h * s.period))
             s.t[j + 1:s.bounds[np.searchsorted(s.bounds, j, side="right")]] -= h * s.period
         elif c is None or s.modulus is None:
@@ -233,7 +235,7 @@ def _events(s: Lead, c: IntArray | None) -> tuple[list[tuple[int, float]],
             s.index[j + 1:] -= k
         else:
             whole = round(h / s.modulus)
-            if (whole >= 1 and abs(h - whole * s.modulus) <= s.tol) or held < h / 2:
+            if (whole >= 1 and abs(h - whole * s.modulus) <= s.tol) or held + s.poll < h / 2:
                 continue  # whole counter periods lost (counted by dropped.missing_frames),
                 # or a shift no step of the clock holds: no step of the clock
             steps.append((j, h * s.period))
