@@ -280,6 +280,12 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "rig-unknown-key": lambda t: _toml(t / "study", "normal_force =", "normal_forse ="),
     "rig-missing-key": lambda t: _toml(t / "study", 'tangential_force = "FxCell.Fx"\n', ""),
     "rig-not-a-string": lambda t: _toml(t / "study", '"FzCell.Fz"', "3"),
+    "rig-counter-period-too-large": lambda t: _toml(
+        t / "study", 'normal_force = "FzCell.Fz"\n',
+        'normal_force = "FzCell.Fz"\nnormal_force_counter_period = 300\n'),
+    "rig-counter-period-text": lambda t: _toml(
+        t / "study", 'normal_force = "FzCell.Fz"\n',
+        'normal_force = "FzCell.Fz"\ntangential_force_counter_period = "100"\n'),
     "dbc-missing": lambda t: _toml(t / "study", "rig/default.dbc", "rig/loadcells.dbc"),
     "dbc-not-parsing": lambda t: (t / "study" / "rig" / "default.dbc").write_text(
         'VERSION ""\n\nBO_ 193 FzCell: 8 Vector__XXX\n SG_ Fz : 0|16@1+ (0.001,0) [0|65] "N"\n'
@@ -334,6 +340,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "acquire-name-too-long": lambda t: None,
     "strict-damaged-line": lambda t: (t / "study" / "P01" / "run-01.log").write_text(
         LOG + "(1763700000.002000) vcan0 0C1#000000000000000\n"),
+    "strict-impossible-timestamp": lambda t: (t / "study" / "P01" / "run-01.log").write_text(
+        LOG + "(9223372036854775808.000000) vcan0 0C1#0000000000000000\n"),
     "jobs-zero": lambda t: None,
     "analyze-dask-missing": lambda t: _without_dask(),
     "compare-dask-missing": lambda t: _results(t) or _without_dask(),

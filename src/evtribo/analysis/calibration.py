@@ -24,6 +24,7 @@ import numpy as np
 
 from evtribo.analysis.forces.align import align_forces
 from evtribo.analysis.forces.crosstalk import ReversalSums, reversal_sums
+from evtribo.analysis.forces.pieces import continuous_pieces, restrict
 from evtribo.analysis.forces.timebase import sample_times
 from evtribo.analysis.observed import PieceState
 from evtribo.analysis.settings import AnalysisSettings
@@ -136,15 +137,7 @@ def pressing_slope(signals: TrialSignals) -> tuple[float, float, float]:
         No pressing found, a force that hardly varied, or a finger that slid (the
         tangential reading a friction coefficient's worth of the normal one).
     """
-    tn = sample_times(signals.normal.t, signals.normal.counter)
-    tt = sample_times(signals.tangential.t, signals.tangential.counter)
-    f = align_forces(tn, np.asarray(signals.normal.value, float), tt,
-                     np.asarray(signals.tangential.value, float))
-    m = max(1, round(0.1 * f.rate_Hz))
-    fn = moving_average(f.normal, m, min_fraction=0.9)[::m]
-    ft = moving_average(f.tangential, m, min_fraction=0.9)[::m]
-    ok = np.isfinite(fn) & np.isfinite(ft)
-    fn, ft = fn[ok], ft[ok]
+    fn, ft, m, rate_Hz = _tenths(signals)
     if fn.size < 10:
         raise AnalysisError("the recording is too short to calibrate from")
     floor = float(np.percentile(fn, 2))
@@ -166,7 +159,35 @@ def pressing_slope(signals: TrialSignals) -> tuple[float, float, float]:
     n_eff = max(3.0, pressing.sum() / 10.0)
     se = float(np.sqrt(np.sum(resid**2) / (x.size - 2) / np.sum((x - x.mean()) ** 2)
                        * x.size / n_eff))
-    return float(slope), se, float(pressing.sum() * m / f.rate_Hz)
+    return float(slope), se, float(pressing.sum() * m / rate_Hz)
+
+
+def _tenths(signals: TrialSignals) -> tuple[np.ndarray, np.ndarray, int, float]:
+    """The forces' means over 0.1 s (the finite ones, N), piece by piece (a jump of the
+    log's clock or a pause is no time to align over), the samples in each mean and the
+    rate."""
+    fn, ft, m, rate = [], [], 1, 0.0
+    for lo, hi in continuous_pieces(signals):
+        piece = restrict(signals, lo, hi)
+        if min(len(piece.normal.t), len(piece.tangential.t)) < 2:
+            continue
+        tn = sample_times(piece.normal.t, piece.normal.counter, piece.normal.counter_period)
+        tt = sample_times(piece.tangential.t, piece.tangential.counter,
+                          piece.tangential.counter_period)
+        try:
+            f = align_forces(tn, np.asarray(piece.normal.value, float), tt,
+                             np.asarray(piece.tangential.value, float))
+        except AnalysisError:
+            continue  # a piece the cells do not share
+        rate = rate or f.rate_Hz
+        m = max(1, round(0.1 * rate))
+        fn.append(moving_average(f.normal, m, min_fraction=0.9)[::m])
+        ft.append(moving_average(f.tangential, m, min_fraction=0.9)[::m])
+    if not fn:
+        raise AnalysisError("the recording is too short to calibrate from")
+    n, t = np.concatenate(fn), np.concatenate(ft)
+    ok = np.isfinite(n) & np.isfinite(t)
+    return n[ok], t[ok], m, rate
 
 
 def _refuse_sliding(ratio: np.ndarray) -> None:

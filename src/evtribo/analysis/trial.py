@@ -141,7 +141,8 @@ def empty_windows() -> pd.DataFrame:
 def _channel(cell: CellSignals) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """A load cell's sample times (s: its frames' timestamps without the logger's jitter,
     :func:`~evtribo.analysis.forces.timebase.sample_times`) and forces (N) as float arrays."""
-    return sample_times(cell.t, cell.counter), np.asarray(cell.value, dtype=np.float64)
+    return (sample_times(cell.t, cell.counter, cell.counter_period),
+            np.asarray(cell.value, dtype=np.float64))
 
 
 def _excitation_placed(signals: TrialSignals, tn: npt.NDArray[np.float64],
@@ -301,13 +302,14 @@ def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, setting
 
 def _pieces(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: AnalysisSettings,
             calibration: Calibration | None, warn: Callable[[str], None],
-            observe: PieceObserver | None = None) -> list[_PieceResult]:
-    """Each continuous piece of the trial analysed (one for a trial without long pauses)."""
+            observe: PieceObserver | None = None) -> tuple[list[_PieceResult], bool]:
+    """Each continuous piece of the trial analysed (one for a trial without long pauses),
+    and whether the trial was cut in pieces."""
     check_seconds(signals)
     pieces = continuous_pieces(signals)
     if len(pieces) <= 1:
         return [_analyze_piece(signals, meta, t0, settings=settings, calibration=calibration,
-                               warn=warn, observe=observe)]
+                               warn=warn, observe=observe)], False
     for before, after in itertools.pairwise(pieces):
         warn(describe_gap(before, after, t0))
     warn(f"analysed in {len(pieces)} continuous pieces")
@@ -324,7 +326,7 @@ def _pieces(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: Anal
             warn(f"the piece from {lo - t0:.3f} s to {hi - t0:.3f} s is not analysed: {err}")
     if not out:
         raise failures[0]
-    return out
+    return out, True
 
 
 @fill_doc
@@ -373,8 +375,8 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
     for msg in signals.warnings:
         warn(msg)
     t0 = trial_start(signals)
-    parts = _pieces(signals, meta, t0, settings=settings, calibration=calibration, warn=warn,
-                    observe=observe)
+    parts, cut = _pieces(signals, meta, t0, settings=settings, calibration=calibration,
+                         warn=warn, observe=observe)
     longest = max(parts, key=lambda p: p.span_s)
     info = longest.info
     frames, strokes = [], 0  # stroke numbers run on from one piece to the next
@@ -385,8 +387,8 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
     windows = pd.concat(frames, ignore_index=True) if frames else empty_windows()
     if windows.empty:
         warn("no steady-sliding window found")
-    duration = (_trial_end(signals) - t0 if len(parts) == 1
-                else sum(p.span_s for p in parts))
+    # a trial cut in pieces lasted the pieces analysed: a jump of its log's clock is no time
+    duration = sum(p.span_s for p in parts) if cut else _trial_end(signals) - t0
     offsets = tuple(_span_mean([(p.offsets[k], p.span_s) for p in parts]) for k in (0, 1))
     methods = list(dict.fromkeys(m for p in parts for m in p.methods))
     modulation = next((p.modulation for p in sorted(parts, key=lambda p: -p.span_s)

@@ -53,7 +53,7 @@ from evtribo.util.docstrings import fill_doc
 log = logging.getLogger(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
-CACHE_VERSION = 13  # 2: dropped frames counted by evtribo.canlog.dropped; 3: Rig.counter guess,
+CACHE_VERSION = 14  # 2: dropped frames counted by evtribo.canlog.dropped; 3: Rig.counter guess,
 #                    frames with an unknown multiplexer value ignored; 5: checksummed entries;
 #                    6: channel, logger's DROPCOUNT and decoder warnings kept; 7: waveform
 #                    codes named without a value table (evtribo.canlog.signals.FALLBACK_WAVEFORMS);
@@ -65,7 +65,9 @@ CACHE_VERSION = 13  # 2: dropped frames counted by evtribo.canlog.dropped; 3: Ri
 #                    timestamps (evtribo.canlog.outages); CAN FD frames only as FD messages;
 #                    12: the cells' frames in the order sent, duplicates counted, counter
 #                    jumps and the log's clock steps taken out (evtribo.canlog.sequence);
-#                    13: a force's samples outside its DBC range left out (bad samples)
+#                    13: a force's samples outside its DBC range left out (bad samples);
+#                    14: lines stamped 2**63 s or more skipped, lines stamped far ahead a
+#                    stretch of their own, the counters' law (evtribo.canlog.counters)
 _META = b"evtribo.trial"
 #: An entry's file name ends so.
 SUFFIX = ".arrow"
@@ -280,6 +282,7 @@ def _to_table(trial: TrialSignals,
         "dropped_note": [trial.normal.dropped_note, trial.tangential.dropped_note],
         "duplicates": [trial.normal.duplicates, trial.tangential.duplicates],
         "counter": [trial.normal.counter is not None, trial.tangential.counter is not None],
+        "counter_period": [trial.normal.counter_period, trial.tangential.counter_period],
         "excitation": None if ex is None else
         [k for k in _EXCITATION_TYPES if getattr(ex, k) is not None],
         "t_encoding": t_encoding, "value_encoding": value_encoding,
@@ -301,7 +304,7 @@ def _from_table(table: pa.Table) -> TrialSignals:
         cnt = counter[sel].astype(np.int64) if meta["counter"][k] else None
         cells.append(CellSignals(t[sel].copy(), value[sel].copy(), cnt, int(meta["dropped"][k]),
                                  meta["dropped_method"][k], meta["dropped_note"][k],
-                                 int(meta["duplicates"][k])))
+                                 int(meta["duplicates"][k]), meta["counter_period"][k]))
     ex = None
     if meta["excitation"] is not None:
         sel = np.flatnonzero(stream == 2)

@@ -48,9 +48,10 @@ from cantools.database import DecodeError
 from cantools.database.can import Database, Message
 
 from evtribo.canlog import sequence
+from evtribo.canlog.counters.law import counter_law
 from evtribo.canlog.dropped import missing_frames_received
-from evtribo.canlog.frame_match import kind_mismatches, message_mask
-from evtribo.canlog.io.table import FrameTable, take_rows
+from evtribo.canlog.frame_match import kind_mismatches, message_mask, rig_channel, rig_messages
+from evtribo.canlog.io.table import IMPOSSIBLE_TIMESTAMP, FrameTable, take_rows
 from evtribo.canlog.rig import Rig, SignalRef
 from evtribo.canlog.signal_codec import SignalCodec, bad_samples
 from evtribo.canlog.signals import (
@@ -60,7 +61,6 @@ from evtribo.canlog.signals import (
     TrialProvenance,
     TrialSignals,
 )
-from evtribo.errors import UserInputError
 
 log = logging.getLogger(__name__)
 
@@ -274,22 +274,28 @@ def _in_time_order(msg: DecodedMessage) -> DecodedMessage:
 
 
 def _sequenced(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
-               undecoded: list[npt.NDArray[np.int64]]
-               ) -> tuple[DecodedMessage, sequence.Sequenced, int | None]:
+               undecoded: list[npt.NDArray[np.int64]], *, cell: str, declared: int | None
+               ) -> tuple[DecodedMessage, sequence.Sequenced, int | None, str | None]:
     """One load cell's frames decoded and put in the order sent
-    (:func:`~evtribo.canlog.sequence.sending_order`), and its counter's period."""
+    (:func:`~evtribo.canlog.sequence.sending_order`), its counter's period (its places,
+    ``+1`` a frame, are the counter the stream keeps: :mod:`evtribo.canlog.counters.law`) and
+    what the counter does, where worth saying."""
     names = [force.signal.name] + ([counter.signal.name] if counter is not None
                                    and counter.message is force.message else [])
     msg = _decoded_only(decode_message(frames, force.message, names), undecoded)
-    received = modulus = None
+    received = modulus = note = None
     if counter is not None and counter.message is force.message:
-        received = msg.raw[counter.signal.name].astype(np.int64)
-        modulus = 1 << counter.signal.length
+        raw = msg.raw[counter.signal.name].astype(np.int64)
+        law = counter_law(msg.timestamp, raw, counter.signal.length, declared=declared,
+                          name=counter.qualified_name, key=f"{cell}_force_counter_period")
+        note = law.note
+        if law.counts:
+            received, modulus = law.place(raw), law.period
     elif counter is not None:
         log.warning("counter %s is not in the force's message %s: timing gaps only",
                     counter.qualified_name, force.message.name)
     return msg, sequence.sending_order(msg.timestamp, received, modulus,
-                                       take_rows(frames.data, msg.index)), modulus
+                                       take_rows(frames.data, msg.index)), modulus, note
 
 
 def _cells(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]],
@@ -298,27 +304,35 @@ def _cells(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]],
     order sent, duplicates left out), once the logger's clock steps are taken out of the
     whole log (the amplifier's frames with them); what was put right is said in
     *warnings*."""
-    roles = ((rig.normal_force, rig.counter("normal")),
-             (rig.tangential_force, rig.counter("tangential")))
-    cells = [_sequenced(frames, force, counter, undecoded) for force, counter in roles]
-    steps = sequence.log_clock_steps([(m.index, s) for m, s, _ in cells])
+    roles = [(rig.normal_force, rig.counter("normal"), "normal"),
+             (rig.tangential_force, rig.counter("tangential"), "tangential")]
+
+    def each() -> list[tuple[DecodedMessage, sequence.Sequenced, int | None, str | None]]:
+        return [_sequenced(frames, force, counter, undecoded, cell=cell,
+                           declared=rig.counter_period(cell)) for force, counter, cell in roles]
+
+    cells = each()
+    steps = sequence.log_clock_steps([(m.index, s) for m, s, _, _ in cells])
     if steps:
         frames = dataclasses.replace(frames, timestamp=sequence.clock_corrected(
             frames.timestamp, [(b, a, step) for b, a, step, _ in steps]))
-        cells = [_sequenced(frames, force, counter, undecoded) for force, counter in roles]
-    t0 = min((float(m.timestamp.min()) for m, _, _ in cells if len(m)), default=0.0)
+        cells = each()
+    warnings += [note for _, _, _, note in cells if note]
+    t0 = min((float(m.timestamp.min()) for m, _, _, _ in cells if len(m)), default=0.0)
     named = [(f.message.name, None if c is None else c.qualified_name, s)
-             for (f, c), (_, s, _) in zip(roles, cells, strict=True)]
+             for (f, c, _), (_, s, _, _) in zip(roles, cells, strict=True)]
     warnings += sequence.said(steps, named, t0)
     out = []
-    for (msg, seq, modulus), (force, _) in zip(cells, roles, strict=True):
+    for (msg, seq, modulus, _), (force, _, _) in zip(cells, roles, strict=True):
         found = missing_frames_received(seq.t, seq.counter, modulus)  # bad samples too
         t, value = seq.t[seq.by_time], msg.scaled(force.signal.name)[seq.rows[seq.by_time]]
         bad, text = bad_samples(t, value, force.signal, t0, force.qualified_name)
         warnings += [text] if text else []
-        out.append(CellSignals(t[~bad], value[~bad], None if seq.counter is None else
-                               seq.counter[seq.by_time][~bad], found.count, found.method,
-                               found.note, seq.duplicates))
+        counted = seq.counter is not None and modulus is not None and not found.counter_ignored
+        out.append(CellSignals(t[~bad], value[~bad], seq.counter[seq.by_time][~bad]
+                               if counted and seq.counter is not None else None,
+                               found.count, found.method, found.note, seq.duplicates,
+                               counter_period=modulus if counted else None))
     return frames, out
 
 
@@ -393,44 +407,6 @@ def _excitation(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int
                              waveform=role("waveform"))
 
 
-def _rig_messages(rig: Rig) -> list[Message]:
-    """The messages of the rig's roles, each once."""
-    return list({id(r.message): r.message for r in rig.measured_roles.values()}.values())
-
-
-def _rig_mask(frames: FrameTable, rig: Rig) -> npt.NDArray[np.bool_]:
-    mask = np.zeros(len(frames), dtype=bool)
-    for m in _rig_messages(rig):
-        mask |= message_mask(frames, m)
-    return mask
-
-
-def _rig_channel(frames: FrameTable, rig: Rig, channel: str | None, warnings: list[str]
-                 ) -> tuple[FrameTable, str | None]:
-    """The frames of the channel the rig is decoded from, and its name."""
-    if channel is not None and channel not in frames.channel_names:
-        have = ", ".join(frames.channel_names) or "none (its format names no channel)"
-        raise UserInputError(f"the log has no channel {channel!r}; its channels: {have}",
-                             key="channel")
-    if len(frames.channel_names) <= 1 and channel is None:
-        return frames, frames.channel
-    counts = frames.channel_counts(_rig_mask(frames, rig))
-    chosen = channel if channel is not None else (
-        max(counts, key=lambda k: counts[k]) if counts else frames.channel)
-    if len(counts) > 1:
-        shared = [m.name for m in _rig_messages(rig)
-                  if len(frames.channel_counts(message_mask(frames, m))) > 1]
-        text = ("the rig's messages arrive on several channels ("
-                + ", ".join(f"{k}: {v} frames" for k, v in counts.items()) + ")"
-                + (f", {', '.join(shared)} on more than one" if shared else "")
-                + f": decoded from {chosen}"
-                + (" (the channel carrying most of them)" if channel is None else "")
-                + "; the others are ignored, never merged (choose with channel=...)")
-        log.warning("%s", text)
-        warnings.append(text)
-    return frames.take(frames.on_channel(chosen)), chosen
-
-
 def _decoded_count(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]]
                    ) -> int:
     """Frames of the rig's messages decoded: long enough, and not refused by cantools."""
@@ -465,17 +441,18 @@ def decode_trial(frames: FrameTable, rig: Rig, *, channel: str | None = None) ->
     """
     total = len(frames) + frames.xl_frames
     warnings: list[str] = []
-    frames, chosen = _rig_channel(frames, rig, channel, warnings)
-    for text in kind_mismatches(frames, _rig_messages(rig), rig.database):
+    frames, chosen = rig_channel(frames, rig, channel, warnings)
+    for text in kind_mismatches(frames, rig_messages(rig), rig.database):
         log.warning("%s", text)
         warnings.append(text)
     drops = frames.reported_drops
     logger_dropped = (sum(drops.values()) if chosen is None or len(frames.channel_names) <= 1
                       else drops.get(chosen, 0))
-    finite = np.isfinite(frames.timestamp)
+    with np.errstate(invalid="ignore"):
+        finite = np.abs(frames.timestamp) < IMPOSSIBLE_TIMESTAMP  # NaN too: no clock's time
     if not finite.all():
-        log.warning("%d frames with a timestamp that is not a finite number: not decoded",
-                    len(frames) - int(np.count_nonzero(finite)))
+        log.warning("%d frames with a timestamp that is not a finite number or is 2^63 or "
+                    "more (no clock's): not decoded", len(frames) - int(np.count_nonzero(finite)))
         frames = frames.take(finite)
     # logs merged or written out of order, clocks that stepped: each cell is put in the
     # order sent on its own, its lost frames counted in that order, the log's clock steps

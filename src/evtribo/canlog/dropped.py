@@ -72,6 +72,9 @@ _EDGE_FRAMES = 32
 _CHUNK = 1 << 20
 #: Largest number of timestamps used per stage (evenly thinned beyond that).
 _MAX_POINTS = 8_000
+#: Share of a stream's frames by which a counter's count of lost frames may exceed what the
+#: stream's time holds at its rate before the count is taken for one that cannot be.
+SLACK_SHARE = 0.02
 #: Share of a stream's steps shorter than a tenth of its period beyond which its frames are
 #: taken to arrive in bursts (a USB or serial adapter's): their timestamps then say nothing
 #: of single frames.
@@ -213,6 +216,9 @@ class DropCount:
         Regularity of the timestamps at that period (0 to 1, see :func:`coherence`).
     note : str or None
         Why the count may be unreliable.
+    counter_ignored : bool
+        The counter counted more frames lost than the stream's time holds: the count is the
+        timing's, and the counter says nothing of the frames.
     """
 
     count: int
@@ -220,6 +226,7 @@ class DropCount:
     period_s: float = float("nan")
     coherence: float = float("nan")
     note: str | None = None
+    counter_ignored: bool = False
 
 
 def _regular(coh: float, n: int) -> bool:
@@ -286,9 +293,40 @@ def missing_frames(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
         times = times[finite]
         c = None if c is None else c[finite]
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-        found = _by_timing(times) if c is None else _with_counter(times, c, modulus)
+        found = _by_timing(times) if c is None else _within_time(
+            times, c, _with_counter(times, c, modulus), modulus)
     found.count = int(min(max(found.count, 0), MAX_COUNT))
     return found
+
+
+def _within_time(t: npt.NDArray[np.float64], c: npt.NDArray[np.int64], found: DropCount,
+                 modulus: int | None) -> DropCount:
+    """*found* (the counter's count), or the timing's where the counter counts more frames
+    lost than the stream's time holds at its rate (its frames one step of the counter apart
+    give the rate, else its timestamps' period): a counter that does not count as its law
+    says (:data:`SLACK_SHARE` of the frames, and the frames a timestamp may be late by,
+    allowed)."""
+    if t.size < MIN_FRAMES or not found.count or not t[-1] > t[0]:
+        return found
+    modulus = modulus or 1 << max(int(c.max(initial=0)).bit_length(), 1)
+    dt = np.diff(t)
+    one = (np.mod(np.diff(c), modulus) == 1) & (dt >= 0) & (dt < CLOCK_JUMP_S)
+    frame_s = (float(np.mean(dt[one])) if np.count_nonzero(one) >= MIN_FRAMES
+               else estimate_period(t))
+    if not frame_s > 0:
+        return found
+    late = float(np.quantile(dt, 0.99)) / frame_s  # frames a timestamp may be late by
+    held = (t[-1] - t[0]) / frame_s - (t.size - 1)
+    if found.count <= held + SLACK_SHARE * t.size + 2 * late + 4:
+        return found
+    timed = _by_timing(t)
+    said = (f"the counter counts {found.count} frames lost where the stream's "
+            f"{t[-1] - t[0]:.3f} s hold {max(round(held), 0)} at most at its rate "
+            f"({1 / frame_s:.0f} Hz): it does not count every frame; counted from the "
+            "timestamps, and the counter ignored")
+    return DropCount(timed.count, timed.method, timed.period_s, timed.coherence,
+                     "; ".join([said, *([timed.note] if timed.note else [])]),
+                     counter_ignored=True)
 
 
 def _by_timing(t: npt.NDArray[np.float64]) -> DropCount:
@@ -406,4 +444,4 @@ def missing_frames_received(t: npt.ArrayLike, counter: npt.ArrayLike | None = No
                  + ("it counted by the counter alone (whole counter periods lost there cannot "
                     "be seen)" if c is not None else "it cannot be counted"))
     return DropCount(int(min(count, MAX_COUNT)), "+".join(methods), note="; ".join(
-        dict.fromkeys(notes)))
+        dict.fromkeys(notes)), counter_ignored=any(f.counter_ignored for f in found))

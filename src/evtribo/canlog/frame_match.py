@@ -12,9 +12,14 @@ named in a warning.
 A message longer than 8 bytes is a CAN FD message whatever its frame format attribute says
 (``VFrameFormat``: many DBCs give none, and J1939 ones give 3, which cantools reads as
 classic): no classic frame carries more than 8 bytes (:func:`is_fd_message`).
+
+A rig's frames come from one channel (bus): the one named, else the one carrying most of
+them, with a warning when its messages arrive on several (:func:`rig_channel`).
 """
 
 from __future__ import annotations
+
+import logging
 
 import numpy as np
 import numpy.typing as npt
@@ -22,8 +27,12 @@ from cantools.database.can import Database, Message
 
 from evtribo.canlog.io.ids import id_text
 from evtribo.canlog.io.table import FrameTable
+from evtribo.canlog.rig import Rig
+from evtribo.errors import UserInputError
 
-__all__ = ["is_fd_message", "kind_mismatches", "message_mask"]
+log = logging.getLogger(__name__)
+
+__all__ = ["is_fd_message", "kind_mismatches", "message_mask", "rig_channel", "rig_messages"]
 
 
 def is_fd_message(message: Message) -> bool:
@@ -110,3 +119,71 @@ def kind_mismatches(frames: FrameTable, messages: list[Message], db: Database) -
                        f"counted with the frames the DBC does not describe (a CAN FD frame "
                        f"is only an FD message, a classic frame only a classic one)")
     return out
+
+
+def rig_messages(rig: Rig) -> list[Message]:
+    """The messages of the rig's roles, each once.
+
+    Parameters
+    ----------
+    rig : Rig
+
+    Returns
+    -------
+    list of cantools.database.can.Message
+    """
+    return list({id(r.message): r.message for r in rig.measured_roles.values()}.values())
+
+
+def _rig_mask(frames: FrameTable, rig: Rig) -> npt.NDArray[np.bool_]:
+    mask = np.zeros(len(frames), dtype=bool)
+    for m in rig_messages(rig):
+        mask |= message_mask(frames, m)
+    return mask
+
+
+def rig_channel(frames: FrameTable, rig: Rig, channel: str | None, warnings: list[str]
+                ) -> tuple[FrameTable, str | None]:
+    """The frames of the channel the rig is decoded from, and its name.
+
+    Parameters
+    ----------
+    frames : FrameTable
+        The log's frames.
+    rig : Rig
+    channel : str or None
+        The channel asked for (None: the one carrying most of the rig's frames).
+    warnings : list of str
+        Where a warning is added when the rig's frames arrive on several channels.
+
+    Returns
+    -------
+    (FrameTable, str or None)
+        The channel's frames and its name.
+
+    Raises
+    ------
+    UserInputError
+        *channel* is not one of the log's channels.
+    """
+    if channel is not None and channel not in frames.channel_names:
+        have = ", ".join(frames.channel_names) or "none (its format names no channel)"
+        raise UserInputError(f"the log has no channel {channel!r}; its channels: {have}",
+                             key="channel")
+    if len(frames.channel_names) <= 1 and channel is None:
+        return frames, frames.channel
+    counts = frames.channel_counts(_rig_mask(frames, rig))
+    chosen = channel if channel is not None else (
+        max(counts, key=lambda k: counts[k]) if counts else frames.channel)
+    if len(counts) > 1:
+        shared = [m.name for m in rig_messages(rig)
+                  if len(frames.channel_counts(message_mask(frames, m))) > 1]
+        text = ("the rig's messages arrive on several channels ("
+                + ", ".join(f"{k}: {v} frames" for k, v in counts.items()) + ")"
+                + (f", {', '.join(shared)} on more than one" if shared else "")
+                + f": decoded from {chosen}"
+                + (" (the channel carrying most of them)" if channel is None else "")
+                + "; the others are ignored, never merged (choose with channel=...)")
+        log.warning("%s", text)
+        warnings.append(text)
+    return frames.take(frames.on_channel(chosen)), chosen

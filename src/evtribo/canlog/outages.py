@@ -272,6 +272,10 @@ class Lead:
         The steps where the counter or the clock does something out of the ordinary (at
         most :data:`MAX_CANDIDATES`, the most out of it); when there is none, *t* and *index*
         are the arrays given (not copies) and *width_s* 0.
+    poll : float
+        The longest usual step (99 in 100 are shorter) of a stream whose envelope is quiet
+        (*tol* 2), frames: a logger that stamps its polls shows a step of the clock up to
+        this much short (0 for a stream whose latency wanders).
     """
 
     t: FloatArray
@@ -282,6 +286,7 @@ class Lead:
     tol: float
     bounds: IntArray
     odd: IntArray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    poll: float = 0.0
 
     def lead(self) -> FloatArray:
         """Each frame's place less the periods elapsed since the first frame, frames."""
@@ -311,15 +316,34 @@ class Lead:
 
 def _stretches(t: FloatArray) -> IntArray:
     """The bounds of the stretches between steps of the clock left as they are: ahead by
-    more than :data:`LARGEST_STEP_S`, or back so far that no frame after it reaches the
-    frames before it."""
+    more than :data:`LARGEST_STEP_S`; back so far that no frame after it reaches the
+    frames before it; or back by as much from frames stamped far ahead of those around
+    them (a line or a few stamped hours ahead: the frames after them go on from those
+    before them, and the stamps far ahead are a stretch of their own, not a clock that
+    stepped back)."""
     dt = np.diff(t)
     big = np.flatnonzero(np.abs(dt) > LARGEST_STEP_S)
     if big.size:
         first = np.minimum.accumulate(t)
         later = np.maximum.accumulate(t[::-1])[::-1]  # the latest frame from each on
-        big = big[(dt[big] > 0) | (later[big + 1] < first[big])]
+        big = big[(dt[big] > 0) | (later[big + 1] < first[big]) | _back_home(t, big)]
     return np.concatenate([[0], big + 1, [t.size]]).astype(np.int64)
+
+
+def _back_home(t: FloatArray, big: IntArray) -> npt.NDArray[np.bool_]:
+    """Which of the large steps *big* go back to where the clock was before the last large
+    step ahead: the frames after them go on from the frames before it (by the frames in
+    between, at the stream's usual step, and :data:`LARGEST_STEP_S`)."""
+    dt = np.diff(t)
+    ahead = big[dt[big] > 0]
+    if not ahead.size:
+        return np.zeros(big.size, dtype=bool)
+    last = np.searchsorted(ahead, big, side="left") - 1  # the last step ahead before each
+    k = ahead[np.maximum(last, 0)]
+    usual = median(np.abs(dt))
+    since = t[big + 1] - t[k]
+    return ((last >= 0) & (dt[big] < 0) & (since >= -LARGEST_STEP_S)
+            & (since <= (big + 1 - k) * usual + LARGEST_STEP_S))
 
 
 def _monotone(t: FloatArray, bounds: IntArray) -> FloatArray:
@@ -368,7 +392,8 @@ def _candidates(t: FloatArray, index: IntArray, period: float, bounds: IntArray,
                 counted: bool) -> IntArray:
     """The steps where the counter or the clock does something out of the ordinary: the
     clock going back, the counter standing or skipping two or more, the clock going on far
-    longer than the counter (beyond three times the most that 999 steps in 1000 show)."""
+    longer than the counter (beyond three times the most that 999 steps in 1000 show), or
+    the longest step where the upper envelope drops for good (:func:`_lasting_drops_at`)."""
     dt = np.diff(t)
     d = np.diff(index)
     odd = dt < -period
@@ -377,12 +402,57 @@ def _candidates(t: FloatArray, index: IntArray, period: float, bounds: IntArray,
         if dt.size and dt.max() > 4 * period:  # else no step goes on long enough
             off = dt - d * period
             odd |= off > max(3 * _quantile(np.abs(off), 0.999), 4 * period)
+        odd[_lasting_drops_at(t, index, period, bounds)] = True
     odd[bounds[1:-1] - 1] = False
     found = np.flatnonzero(odd)
     if found.size > MAX_CANDIDATES:
         score = np.abs(dt[found] / period - d[found])
         found = np.sort(found[np.argsort(score)[::-1][:MAX_CANDIDATES]])
     return found
+
+
+def _lasting_drops_at(t: FloatArray, index: IntArray, period: float, bounds: IntArray
+                      ) -> IntArray:
+    """The step, in each stretch of a quiet upper envelope (levelled by its median slope:
+    a period a little off) that drops for good and at once by two frames or more, where
+    the clock goes on longest beyond the counter: a clock stepping ahead by less than a few
+    of a logger's polls shows in no single step, but in the envelope it does (frames whose
+    counter says they follow one another, a few polls later than their places say). An
+    envelope that scatters by half a frame or more from window to window (a latency that
+    wanders: a replay, a starved machine) is left alone: there a lag a sender never made
+    up looks the same, and only a step standing out of the jitter is taken for the
+    clock's."""
+    found = []
+    for a, b in itertools.pairwise(bounds):
+        if b - a < 8 * _GAP_FRAMES or not t[b - 1] > t[a]:
+            continue
+        ts = np.maximum.accumulate(t[a:b])
+        x = index[a:b].astype(np.float64)
+        starts, level = _envelope(ts, x, period)
+        k = _ENVELOPE_K
+        if level.size < 2 * k + 2:
+            continue
+        level = level - float(np.median(np.diff(level) / np.diff(starts))) * starts
+        top = np.lib.stride_tricks.sliding_window_view(level, k).max(axis=1)
+        threshold = 4 * _noise(level)
+        if threshold > 2.0:
+            continue  # a latency that wanders: a lag never made up is no step of the clock
+        threshold = 2.0
+        # for good across the windows compared, and at once between two of them (a clock
+        # steps; a latency that grows over seconds does not)
+        sudden = np.r_[level[:-1] - level[1:] >= threshold, False]
+        at_once = np.lib.stride_tricks.sliding_window_view(sudden[:-1], 2 * k - 1).any(axis=1)
+        dropped = (top[:-k] - top[k:] >= threshold) & at_once
+        edges = np.flatnonzero(np.diff(np.r_[0, dropped.astype(np.int8), 0]))
+        width = max(_ENVELOPE_PERIODS * period, 4 * float(np.quantile(np.diff(ts), 0.99)))
+        off = np.diff(ts) - np.diff(x) * period
+        for lo, hi in zip(edges[::2], edges[1::2], strict=True):
+            t_lo = ts[0] + starts[lo]  # the windows either side of the change
+            t_hi = ts[0] + starts[min(hi + 2 * k - 1, starts.size - 1)] + width
+            j0, j1 = np.searchsorted(ts, [t_lo, t_hi])
+            if j1 - 1 > j0:
+                found.append(a + j0 + int(np.argmax(off[j0:j1 - 1])))
+    return np.asarray(found, dtype=np.int64)
 
 
 def _lead(cls: type[Lead], t: FloatArray, index: IntArray, modulus: int | None
@@ -395,10 +465,14 @@ def _lead(cls: type[Lead], t: FloatArray, index: IntArray, modulus: int | None
     if not found.size:  # nothing out of the ordinary: nothing more to know
         return cls(t, index, modulus, period, 0.0, 2.0, bounds, found)
     mono = _monotone(t, bounds)
-    width = max(max(2 * (modulus or 32), 64) * period, 4 * _quantile(np.diff(mono), 0.99))
+    usual = _quantile(np.diff(mono), 0.99)
+    width = max(max(2 * (modulus or 32), 64) * period, 4 * usual)
     # the period again by least squares between the steps that may hide a jump or a step (a
     # median of spans of a stream stamped in bursts is off by up to a burst per span)
     cut = np.unique(np.concatenate([[0], found + 1, bounds[1:-1], [t.size]]))
     period = _pooled_slope(t, index.astype(np.float64), cut) or period
     tol = max(2.0, 4 * envelope_noise(mono, index.astype(np.float64), period))
-    return cls(t.copy(), index.copy(), modulus, period, width, tol, bounds, found)
+    # a quiet envelope (frames stamped in regular polls, not a wandering latency) may show
+    # a step of the clock up to a poll short in its own step
+    return cls(t.copy(), index.copy(), modulus, period, width, tol, bounds, found,
+               usual / period if tol <= 2.0 else 0.0)

@@ -13,14 +13,17 @@ names the DBC has.
 Keys of the table (docs/rig-file.md): ``dbc`` (path, relative to the TOML file),
 ``normal_force`` and ``tangential_force`` (required), the optional :data:`OPTIONAL_ROLES`
 (counters, the amplifier's status and the command it obeys), each ``"Message.Signal"``;
-``name`` (free text); and the optional sub-table ``calibration`` (``[rig.calibration]`` in
-study.toml, :class:`Calibration`): the load cells' known zero offsets and cross-talk matrix.
-An unknown key is an error (a misspelt optional role would otherwise be silently ignored); so
-is a value that is not a string.
+``name`` (free text); the optional :data:`PERIOD_KEYS` (whole numbers: the frames after
+which a cell's counter repeats, where its firmware does not count to its bit width's top);
+and the optional sub-table ``calibration`` (``[rig.calibration]`` in study.toml,
+:class:`Calibration`): the load cells' known zero offsets and cross-talk matrix. An unknown
+key is an error (a misspelt optional role would otherwise be silently ignored); so is a
+role that is not a string, or a period that is no whole number its counter's bits hold.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
 import hashlib
 import json
@@ -60,8 +63,11 @@ OPTIONAL_ROLES = (
     "excitation_command_waveform",
 )
 ROLES = REQUIRED_ROLES + OPTIONAL_ROLES
+#: The periods of the cells' counters, when the firmware's is not the bit width's (frames
+#: after which the counter's value repeats: 100 for one counting 0 to 99 in 8 bits).
+PERIOD_KEYS = ("normal_force_counter_period", "tangential_force_counter_period")
 #: Keys of a rig table besides the roles.
-OTHER_KEYS = ("name", "dbc", "calibration")
+OTHER_KEYS = ("name", "dbc", "calibration", *PERIOD_KEYS)
 
 #: A signal named like a rolling frame counter (see :meth:`Rig.counter`).
 COUNTER_NAME = re.compile(r"(counter|cnt)$", re.IGNORECASE)
@@ -110,6 +116,9 @@ class Rig:
         The file the rig was read from (for messages).
     calibration : Calibration
         The load cells' known offsets and cross-talk matrix (empty when not given).
+    normal_force_counter_period, tangential_force_counter_period : int or None
+        Frames after which a cell's counter repeats, when the rig file declares it (None:
+        its bit width's, or what its values show: :mod:`evtribo.canlog.counters.law`).
     """
 
     name: str
@@ -129,6 +138,8 @@ class Rig:
     excitation_command_waveform: SignalRef | None = None
     source: str | None = None
     calibration: Calibration = field(default_factory=Calibration)
+    normal_force_counter_period: int | None = None
+    tangential_force_counter_period: int | None = None
 
     @property
     def roles(self) -> dict[str, SignalRef]:
@@ -169,11 +180,21 @@ class Rig:
                 return SignalRef(message=force.message, signal=sig)
         return None
 
+    def counter_period(self, cell: str) -> int | None:
+        """The period the rig file declares for a load cell's counter (``"normal"`` or
+        ``"tangential"``), frames; None when it declares none."""
+        period: int | None = getattr(self, f"{cell}_force_counter_period")
+        return period
+
     def fingerprint(self) -> str:
-        """Hash of the DBC's bytes and the role mapping (a cache key part)."""
+        """Hash of the DBC's bytes, the role mapping and the counters' periods (a cache key
+        part)."""
         h = hashlib.sha256(sha256_file(self.dbc).encode())
         h.update(json.dumps({r: ref.qualified_name for r, ref in self.roles.items()},
                             sort_keys=True).encode())
+        periods = {k: getattr(self, k) for k in PERIOD_KEYS if getattr(self, k) is not None}
+        if periods:  # a rig without them keeps its fingerprint
+            h.update(json.dumps(periods, sort_keys=True).encode())
         return h.hexdigest()
 
     @classmethod
@@ -218,7 +239,7 @@ class Rig:
             if k not in mapping:
                 raise RigConfigError("missing (required)", path=src, key=key(k))
         for k, v in mapping.items():
-            if not isinstance(v, str) and k != "calibration":
+            if not isinstance(v, str) and k not in ("calibration", *PERIOD_KEYS):
                 raise RigConfigError(f"must be a string, got {type(v).__name__} {v!r}",
                                      path=src, key=key(k))
         dbc = Path(base_dir) / mapping["dbc"]
@@ -237,8 +258,32 @@ class Rig:
         if "calibration" in mapping:
             calibration = Calibration.from_mapping(mapping["calibration"], source=src,
                                                    key=key("calibration"))
-        return cls(name=str(mapping.get("name", dbc.stem)), dbc=dbc.resolve(), database=db,
-                   source=src, calibration=calibration, **refs)
+        rig = cls(name=str(mapping.get("name", dbc.stem)), dbc=dbc.resolve(), database=db,
+                  source=src, calibration=calibration, **refs)  # type: ignore[arg-type]
+        normal, tangential = (_period(rig, k, mapping[k], source=src, key=key(k))
+                              if k in mapping else None for k in PERIOD_KEYS)
+        if normal is None and tangential is None:
+            return rig
+        return dataclasses.replace(rig, normal_force_counter_period=normal,
+                                   tangential_force_counter_period=tangential)
+
+
+def _period(rig: Rig, name: str, value: object, *, source: str | None, key: str) -> int:
+    """A declared counter period: a whole number of frames, 2 up to the values its counter's
+    bits hold."""
+    cell = name.removesuffix("_force_counter_period")
+    counter = rig.counter(cell)
+    if counter is None:
+        message = getattr(rig, f"{cell}_force").message.name
+        raise RigConfigError(f"the {cell} force's message {message} has no counter: name one "
+                             f"({cell}_force_counter) or leave the key out", path=source, key=key)
+    most = 1 << counter.signal.length
+    if isinstance(value, bool) or not isinstance(value, int) or not 2 <= value <= most:
+        raise RigConfigError(
+            f"expected the frames after which {counter.qualified_name} repeats, a whole "
+            f"number from 2 to {most} (its {counter.signal.length} bits), got {value!r}",
+            path=source, key=key)
+    return value
 
 
 def _check_distinct(refs: Mapping[str, SignalRef], *, source: str | None,
@@ -397,5 +442,5 @@ def default_rig() -> Rig:
     return load_rig(default_rig_path())
 
 
-__all__ = ["CALIBRATION_KEYS", "ROLES", "Calibration", "Rig", "SignalRef", "default_rig",
-           "default_rig_path", "load_dbc", "load_rig", "resolve_signal"]
+__all__ = ["CALIBRATION_KEYS", "PERIOD_KEYS", "ROLES", "Calibration", "Rig", "SignalRef",
+           "default_rig", "default_rig_path", "load_dbc", "load_rig", "resolve_signal"]

@@ -60,6 +60,10 @@ REORDER_REACH = 8
 MAX_EVENTS = 20
 #: Fewest frames for jumps and steps to be looked for.
 MIN_FRAMES = 64
+#: Shortest counter period for which a counter stepping by 0 is taken to stand still (a frame
+#: the firmware stamped with the value before): in a shorter one it is a whole period of
+#: frames lost, as likely as not (one frame lost of a counter counting 0, 1, 0, 1).
+MIN_STANDING_PERIOD = 8
 
 
 @dataclass(frozen=True)
@@ -150,8 +154,8 @@ class Sequenced:
 
 
 def _steps(c: IntArray, modulus: int) -> IntArray:
-    """The counter's steps modulo its period (a power of two)."""
-    return np.bitwise_and(np.diff(c), modulus - 1)
+    """The counter's steps modulo its period."""
+    return np.mod(np.diff(c), modulus)
 
 
 def _duplicates(c: IntArray, payload: npt.NDArray[np.uint8], modulus: int
@@ -215,8 +219,10 @@ def _events(s: Lead, c: IntArray | None) -> tuple[list[tuple[int, float]],
         pick = near[int(np.argmax(np.abs(dt)))]
         j, h = int(cand[pick]), float(shifts[pick])
         done.add(j)
-        held = float(dt[near == pick][0])  # the step's own disagreement, frames
-        if s.t[j + 1] < s.t[j] and held <= h / 2:  # the clock went back, by about h
+        # the step's own disagreement, frames; a logger that stamps its polls shows a step
+        # of the clock up to a poll's frames short
+        held = float(dt[near == pick][0])
+        if s.t[j + 1] < s.t[j] and held <= h / 2 + s.poll:  # the clock went back, by about h
             steps.append((j, h * s.period))
             s.t[j + 1:s.bounds[np.searchsorted(s.bounds, j, side="right")]] -= h * s.period
         elif c is None or s.modulus is None:
@@ -229,7 +235,7 @@ def _events(s: Lead, c: IntArray | None) -> tuple[list[tuple[int, float]],
             s.index[j + 1:] -= k
         else:
             whole = round(h / s.modulus)
-            if (whole >= 1 and abs(h - whole * s.modulus) <= s.tol) or held < h / 2:
+            if (whole >= 1 and abs(h - whole * s.modulus) <= s.tol) or held + s.poll < h / 2:
                 continue  # whole counter periods lost (counted by dropped.missing_frames),
                 # or a shift no step of the clock holds: no step of the clock
             steps.append((j, h * s.period))
@@ -259,9 +265,10 @@ def _counted(out: Sequenced, times: FloatArray, c: IntArray | None, rows: IntArr
             d = _steps(c[rows], modulus)
     elif c is not None:
         modulus = None  # no counter to trust: its values are kept as they are
-    if d is not None and modulus and np.any(d == 0):
+    if d is not None and modulus and modulus >= MIN_STANDING_PERIOD and np.any(d == 0):
         # the counter stood still (not a duplicate: the payload differs): the frame is the
-        # next one all the same, its counter put right
+        # next one all the same, its counter put right (a counter of a short period that
+        # steps by 0 lost a whole period: counted as such)
         out.stood = int(np.count_nonzero(d == 0))
         out.first_stood = float(times[rows[int(np.argmax(d == 0)) + 1]])
         d = np.where(d == 0, 1, d)

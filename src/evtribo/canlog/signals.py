@@ -39,7 +39,7 @@ class CellSignals:
         Frame timestamps as logged, in increasing order.
     value : ndarray of float64, N
     counter : ndarray of int64 or None
-        The cell's rolling frame counter, when the rig names one.
+        The cell's rolling frame counter, when the rig names one and it counts.
     dropped : int
         Frames missing, by the counter (wrap-around aware) and by timing gaps.
     dropped_method : str
@@ -49,6 +49,10 @@ class CellSignals:
     duplicates : int
         Frames received twice (the counter and the payload of a frame just before), left
         out of the samples (:mod:`evtribo.canlog.sequence`).
+    counter_period : int or None
+        Frames after which *counter* repeats: its values are its places, 0 to
+        ``counter_period - 1``, ``+1`` a frame (:mod:`evtribo.canlog.counters.law`). None:
+        the next power of two above its largest value.
     """
 
     t: Array
@@ -58,6 +62,7 @@ class CellSignals:
     dropped_method: str = "counter"
     dropped_note: str | None = None
     duplicates: int = 0
+    counter_period: int | None = None
 
 
 @dataclass(frozen=True)

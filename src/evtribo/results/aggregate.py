@@ -157,12 +157,14 @@ def _references(subject: str, on: pd.DataFrame, off: pd.DataFrame, whole_off: pd
 @dataclass(frozen=True)
 class _TrialFacts:
     """What the trials table tells the aggregation: each trial's condition and drive
-    frequency key, and each frequency key's reported frequency (the median of its
-    trials')."""
+    frequency key, each frequency key's reported frequency (the median of its trials'),
+    and each trial's duration (s: the time analysed, its pieces' total when its log's clock
+    jumped or its recording paused)."""
 
     condition_of: dict[TrialKey, object]
     frequency_of: dict[TrialKey, float]
     shown: dict[float, float]
+    duration_of: dict[TrialKey, float]
 
 
 def _trial_facts(trials: pd.DataFrame) -> _TrialFacts:
@@ -176,8 +178,12 @@ def _trial_facts(trials: pd.DataFrame) -> _TrialFacts:
     for k, f in zip(keys, reported_Hz, strict=True):
         if frequency_of[k] != _NO_FREQUENCY:
             reported.setdefault(frequency_of[k], []).append(float(f))
+    durations = (pd.to_numeric(trials.duration_s, errors="coerce").tolist()
+                 if "duration_s" in trials.columns else [None] * len(keys))
     return _TrialFacts(condition_of, frequency_of,
-                       {k: float(np.median(v)) for k, v in reported.items()})
+                       {k: float(np.median(v)) for k, v in reported.items()},
+                       {k: float(d) for k, d in zip(keys, durations, strict=True)
+                        if d is not None and np.isfinite(d) and d > 0})
 
 
 @dataclass
@@ -261,7 +267,10 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
     warnings += stroke_notes(subject, est.models, relative_scatter(est.models, ratios), gap)
     alternating = [t for t in sub.trial.unique()
                    if facts.condition_of.get((subject, t)) == "alternating"]
-    warnings += phase_notes(subject, trial_confounding(sub[sub.trial.isin(alternating)]))
+    # a trial's span as analysed: a jump of its log's clock between pieces is no time
+    confounded = {t: (f, min(span, facts.duration_of.get((subject, t), span)))
+                  for t, (f, span) in trial_confounding(sub[sub.trial.isin(alternating)]).items()}
+    warnings += phase_notes(subject, confounded)
     return _SubjectEstimate(est, [points[int(g)] for g in est.groups], window_mu, drifts,
                             sensitivity)
 

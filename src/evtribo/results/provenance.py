@@ -104,7 +104,8 @@ def input_files(study: Study, memo: HashMemo | None = None) -> list[dict[str, An
 
 
 def rig_roles(study: Study) -> dict[str, Any]:
-    """The rig as a flat mapping: name, DBC (relative to the study) and each role's signal."""
+    """The rig as a flat mapping: name, DBC (relative to the study), each role's signal and
+    the counters' periods the rig file declares."""
     rig = study.rig
     if rig is None:
         return {}
@@ -117,6 +118,8 @@ def rig_roles(study: Study) -> dict[str, Any]:
     out: dict[str, Any] = {"name": rig.name, "dbc": dbc_name,
                            "dbc_version": getattr(rig.database, "version", None)}
     out.update({role: ref.qualified_name for role, ref in rig.roles.items()})
+    out.update({cell + "_force_counter_period": rig.counter_period(cell)
+                for cell in ("normal", "tangential") if rig.counter_period(cell) is not None})
     return out
 
 

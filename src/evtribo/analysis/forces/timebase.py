@@ -34,12 +34,14 @@ all three were stamped.
 
 from __future__ import annotations
 
+import itertools
 import logging
 from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
 
+from evtribo.analysis.forces.pieces import MAX_PAUSE_S
 from evtribo.util.median import median
 
 log = logging.getLogger(__name__)
@@ -67,13 +69,16 @@ SHIFT_FRAMES = 200
 MAX_LOST_SHARE = 0.25
 #: Most outages longer than a counter's period looked for in one stream.
 MAX_OUTAGES = 20
+#: A stream is taken back to its clock stretch by stretch where it pauses for longer than
+#: this many of its usual (median) steps (and than the analysis's pieces allow).
+PAUSE_STEPS = 1000
 
 
-def _counter_index(counter: IntArray) -> tuple[IntArray, int]:
-    """The samples' indices from a rolling counter: its steps modulo its period (a power of
-    two above its largest value; a repeated value, a frame sent twice, keeps its index),
-    and that period."""
-    modulus = 1 << max(1, int(counter.max()).bit_length())
+def _counter_index(counter: IntArray, period: int | None = None) -> tuple[IntArray, int]:
+    """The samples' indices from a rolling counter: its steps modulo its period (*period*,
+    else a power of two above its largest value; a repeated value, a frame sent twice,
+    keeps its index), and that period."""
+    modulus = period or 1 << max(1, int(counter.max()).bit_length())
     step = np.mod(np.diff(counter), modulus)
     return np.concatenate(([0], np.cumsum(step))).astype(np.int64), modulus
 
@@ -91,14 +96,17 @@ def _counter_periods_lost(t: FloatArray, index: IntArray, period: float, modulus
     """*index* with whole counter periods added where an outage was longer than the
     counter's period: at each step of the timestamps longer than half a counter period, the
     number of periods whose adding makes the timestamps straightest in the index (a stalled
-    logger that delivers its backlog late is no outage: adding periods there bends them)."""
+    logger that delivers its backlog late is no outage: adding periods there bends them).
+    The numbers tried are those next to the step's own length in counter periods, so that a
+    counter of a short period costs no more than one of a long period."""
     steps = np.diff(t) - period * np.diff(index)
     out = index.copy()
     for j in np.argsort(steps)[::-1][:MAX_OUTAGES]:
         if steps[j] <= 0.5 * modulus * period:
             break
         best, spread = 0, _line_spread(out, t)
-        for k in range(1, round(steps[j] / (modulus * period)) + 1):
+        whole = round(steps[j] / (modulus * period))
+        for k in range(max(1, whole - 1), whole + 2):
             trial = out.copy()
             trial[j + 1:] += k * modulus
             value = _line_spread(trial, t)
@@ -207,8 +215,15 @@ def _fit_line(index: IntArray, t: FloatArray, period: float) -> tuple[FloatArray
     return t[0] + basis(coef), spread
 
 
-def sample_times(t: npt.ArrayLike, counter: npt.ArrayLike | None = None) -> FloatArray:
+def sample_times(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
+                 period: int | None = None) -> FloatArray:
     """A periodic stream's sample times, from its frames' timestamps (and counter).
+
+    A stream whose clock jumps ahead by more than
+    :data:`~evtribo.analysis.forces.pieces.MAX_PAUSE_S` and :data:`PAUSE_STEPS` of its
+    usual steps (or pauses that long) is taken back to its clock stretch by stretch, as the
+    analysis takes its pieces: what it costs grows with the frames, not with the time the
+    clock's jump spans.
 
     Parameters
     ----------
@@ -216,6 +231,9 @@ def sample_times(t: npt.ArrayLike, counter: npt.ArrayLike | None = None) -> Floa
         The frames' timestamps as logged, in the order logged.
     counter : array_like of int, optional
         The stream's rolling frame counter, one value per frame.
+    period : int, optional
+        Frames after which the counter repeats (default: the next power of two above its
+        largest value; :attr:`evtribo.canlog.signals.CellSignals.counter_period`).
 
     Returns
     -------
@@ -226,16 +244,32 @@ def sample_times(t: npt.ArrayLike, counter: npt.ArrayLike | None = None) -> Floa
     t = np.asarray(t, dtype=np.float64)
     if t.size < MIN_SAMPLES or not np.isfinite(t).all():
         return t
+    c = None if counter is None else np.asarray(counter, dtype=np.int64)
+    if c is not None and c.size != t.size:
+        c = None
+    steps = np.diff(np.maximum.accumulate(t))
+    cuts = np.flatnonzero(steps > max(MAX_PAUSE_S, PAUSE_STEPS * median(steps))) + 1
+    if not cuts.size:
+        return _stretch_times(t, c, period)
+    bounds = np.concatenate([[0], cuts, [t.size]])
+    return np.concatenate([_stretch_times(t[a:b], None if c is None else c[a:b], period)
+                           for a, b in itertools.pairwise(bounds)])
+
+
+def _stretch_times(t: FloatArray, c: IntArray | None, counter_period: int | None
+                   ) -> FloatArray:
+    """:func:`sample_times` of a stretch of a stream without a long pause."""
+    if t.size < MIN_SAMPLES:
+        return t
     order_ok = bool(np.all(np.diff(t) >= 0))
     ts = t if order_ok else np.maximum.accumulate(t)
     steps = np.diff(ts)
     if not np.any(steps > 0):
         return t
-    c = None if counter is None else np.asarray(counter, dtype=np.int64)
-    counted = c is not None and c.size == t.size and c.max() > 0
+    counted = c is not None and (c.max() > 0 or bool(counter_period))
     if counted:
         assert c is not None
-        index, modulus = _counter_index(c)
+        index, modulus = _counter_index(c, counter_period)
     else:
         index = np.arange(t.size, dtype=np.int64)
     if index[-1] <= index[0]:

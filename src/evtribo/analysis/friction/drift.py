@@ -28,6 +28,8 @@ from evtribo.errors import AnalysisError
 
 __all__ = [
     "CONFOUNDED",
+    "MAX_PHASE_LENGTHS",
+    "MAX_PHASE_SAMPLES",
     "MIN_OFF_WINDOWS",
     "NOTABLE_CHANGE",
     "NOTABLE_SE",
@@ -320,10 +322,22 @@ def phase_confounding(t_s: npt.ArrayLike, group: npt.ArrayLike,
     return float(np.max(ratio))
 
 
+#: Most times sampled, and most phase lengths tried, by :func:`clear_phase_s`: a trial's
+#: span is the clock's, which a jump of the logger's clock can make a day long, and the
+#: search costs no more for it than for a trial of 400 s.
+MAX_PHASE_SAMPLES = 4000
+MAX_PHASE_LENGTHS = 400
+
+
 def clear_phase_s(span_s: float, guard_s: float = 0.15) -> float:
     """The longest ON/OFF phase (a grid of 0.5-s steps) with which a trial of *span_s*
     seconds keeps the drift apart from the ON effect (:func:`phase_confounding` within
     :data:`CLEAR`), sampled every 0.1 s outside the guards about each switch.
+
+    A trial longer than 400 s is sampled and searched on grids coarser in proportion
+    (:data:`MAX_PHASE_SAMPLES` times, :data:`MAX_PHASE_LENGTHS` lengths, each a multiple
+    of 0.5 s): the confounding depends on the phases' share of the span, and the search's
+    cost stays that of a 400-s trial however long the span.
 
     Parameters
     ----------
@@ -334,9 +348,13 @@ def clear_phase_s(span_s: float, guard_s: float = 0.15) -> float:
     -------
     float, s
     """
-    t = np.arange(0.05, span_s, 0.1)
+    if not np.isfinite(span_s) or span_s <= 0:
+        return 0.5
+    dt = max(0.1, span_s / MAX_PHASE_SAMPLES)
+    t = np.arange(0.5 * dt, span_s, dt)
+    step = 0.5 * max(1.0, np.ceil(span_s / (2 * MAX_PHASE_LENGTHS) / 0.5))
     best = 0.5
-    for length in np.arange(0.5, span_s / 2 + 1e-9, 0.5):
+    for length in np.arange(step, span_s / 2 + 1e-9, step):
         phase = np.floor(t / length)
         edge = np.minimum(t - phase * length, (phase + 1) * length - t)
         keep = edge > guard_s

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from evtribo.canlog.io.candump_writer import CAN_EFF_MASK, CAN_ERR_FLAG
+from evtribo.canlog.io.table import impossible_time
 
 #: Payload sizes a CAN FD frame can have, bytes.
 FD_SIZES = (0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64)
@@ -172,6 +173,9 @@ def parse_line(text: str) -> tuple[Any, ...] | Notice | str:  # noqa: PLR0911 - 
     ts = float(m["ts"])
     if not math.isfinite(ts):
         return f"timestamp {m['ts'][:20]}... is too large"
+    impossible = impossible_time(ts, m["ts"])
+    if impossible is not None:
+        return impossible
     id_text, data = m["id"], m["data"]
     can_id = int(id_text, 16)
     extended = len(id_text) > 3

@@ -30,7 +30,13 @@ from can.io.player import MESSAGE_READERS
 from can.io.sqlite import SqliteReader
 
 from evtribo.canlog.io.candump_line import bounded_readline, too_long
-from evtribo.canlog.io.table import CLASSIC_WIDTH, FD_WIDTH, NO_CHANNEL, FrameTable
+from evtribo.canlog.io.table import (
+    CLASSIC_WIDTH,
+    FD_WIDTH,
+    NO_CHANNEL,
+    FrameTable,
+    impossible_time,
+)
 from evtribo.errors import LogFormatError
 from evtribo.store.files import PARTIAL_SUFFIX
 
@@ -210,6 +216,9 @@ def _implausible(msg: can.Message) -> str | None:
         return f"timestamp {msg.timestamp!r} is not a number"
     if not math.isfinite(ts):
         return f"timestamp {msg.timestamp!r} is not a finite number"
+    impossible = impossible_time(ts)
+    if impossible is not None:
+        return impossible
     if not 0 <= msg.arbitration_id <= 0x1FFFFFFF:
         return f"identifier {msg.arbitration_id:#x} is out of range"
     size = msg.dlc if msg.is_remote_frame else len(msg.data or b"")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -15,6 +16,36 @@ CLASSIC_WIDTH = 8
 FD_WIDTH = 64
 #: ``channel_index`` of a frame whose log names no channel.
 NO_CHANNEL = -1
+#: The least timestamp no clock gives, in any unit: 2**63, the end of a signed 64-bit clock's
+#: range (in nanoseconds since 1970, the year 2262; in seconds, milliseconds or microseconds
+#: far beyond). A line stamped so (a logger's clock read before it was set, an overflow) is
+#: damaged: beside it no other frame's time can be told to the second (a float's precision).
+IMPOSSIBLE_TIMESTAMP = 2.0**63
+
+
+def impossible_time(timestamp: float, text: str | None = None) -> str | None:
+    """Why a frame's timestamp can be no clock's, or None when it can be.
+
+    Parameters
+    ----------
+    timestamp : float, s
+        The frame's timestamp.
+    text : str, optional
+        The timestamp as the log writes it (for the reason).
+
+    Returns
+    -------
+    str or None
+        The reason, naming the timestamp; None for a finite timestamp nearer 0 than
+        :data:`IMPOSSIBLE_TIMESTAMP`.
+    """
+    shown = (text if text is not None else repr(timestamp))[:32]
+    if not math.isfinite(timestamp):
+        return f"timestamp {shown} is not a finite number"
+    if abs(timestamp) >= IMPOSSIBLE_TIMESTAMP:
+        return (f"timestamp {shown} is 2^63 or more, beyond any clock's range (a 64-bit "
+                "clock's, in nanoseconds or in seconds): no clock gives it")
+    return None
 
 
 def take_rows(matrix: npt.NDArray[Any], index: npt.NDArray[np.intp]) -> npt.NDArray[Any]:

@@ -22,14 +22,11 @@ Lines of a kind differing only in their numbers are said once with each number's
 
 from __future__ import annotations
 
-import csv
-import math
-import os
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any
+
+from evtribo.report.lead.scope import Cell, read_scope, study_cells
 
 __all__ = ["EFFECTS", "KINDS", "Cell", "Kind", "WarningGroup", "console_lines",
            "group_warnings", "read_scope", "scope_text", "study_cells"]
@@ -106,10 +103,16 @@ KINDS: tuple[Kind, ...] = (
          r"^the sidecar says .* but the excitation signals say"),
     Kind("frames-lost", "information", "load-cell frames lost",
          r"frames missing|dropped frame|frames on this channel \(DROPCOUNT\)|dropped \d+ "
-         r"frames"),
+         r"frames|frames lost where the stream's|to see single lost frames"),
+    Kind("counter-law", "information", "a load cell's counter as its firmware counts",
+         r"^the counter \S+ (?:counts from|does not count|never counted)"),
     Kind("damaged-lines", "information", "damaged log lines skipped", r"damaged line"),
     Kind("pieces", "information", "trials analysed in pieces",
-         r"^analysed in \d+ continuous pieces|^the load cells fell silent|^a gap of"),
+         r"^analysed in \d+ continuous pieces|^the load cells fell silent|^a gap of|"
+         r"^no frame of the load cells for"),
+    Kind("sequence", "information", "the logger's clock or a cell's frames put in order",
+         r"^the logger's clock stepped|^the counter \S+ (?:restarted|jumped from|stood still)"
+         r"|received twice, the first at"),
     Kind("sign-flipped", "information", "negative normal force, sign flipped",
          r"normal force is negative"),
     Kind("modulation", "information", "friction modulation not measured",
@@ -133,39 +136,6 @@ _CELL = re.compile(r"^(?P<subject>[^\s:]+) \((?P<drive>[^()]*)\) at (?P<amp>[-+0
                    r"(?P<rest>.*)$", re.S)
 _DRIVE = re.compile(r"^(?P<subject>[^\s:]+) \((?P<drive>[^()]*)\): (?P<rest>.*)$", re.S)
 _SUBJECT = re.compile(r"^(?P<subject>[^\s:/]+): (?P<rest>.*)$", re.S)
-
-
-@dataclass(frozen=True)
-class Cell:
-    """A cell of the headline tables: a subject's drive at one amplitude (None: any)."""
-
-    subject: str
-    waveform: str | None = None
-    frequency_Hz: float | None = None
-    amplitude_V: float | None = None
-
-    def holds(self, subject: str, waveform: str, frequency_Hz: float,
-              amplitude_V: float) -> bool:
-        """Whether the cell (with None for any) is this subject's drive at this amplitude.
-
-        Parameters
-        ----------
-        subject, waveform : str
-        frequency_Hz : float, Hz
-        amplitude_V : float, V
-
-        Returns
-        -------
-        bool
-        """
-        return (self.subject == subject
-                and (self.waveform is None or self.waveform == waveform)
-                and (self.frequency_Hz is None or _same(self.frequency_Hz, frequency_Hz))
-                and (self.amplitude_V is None or _same(self.amplitude_V, amplitude_V)))
-
-
-def _same(a: float, b: float) -> bool:
-    return abs(float(a) - float(b)) <= 1e-6 * max(1.0, abs(float(a)))
 
 
 @dataclass
@@ -444,57 +414,3 @@ def console_lines(groups: Sequence[WarningGroup], all_trials: Sequence[tuple[str
         out.append(f"  [W{k}] {g.title}: {scope_text(g, all_trials, all_cells)}")
         out.append(f"       {g.text}")
     return out
-
-
-def study_cells(rows: Iterable[Mapping[Any, Any]]) -> list[Cell]:
-    """The cells of electrostatic.csv's rows.
-
-    Parameters
-    ----------
-    rows : iterable of mapping
-        Rows with ``subject``, ``waveform``, ``frequency_Hz`` and ``amplitude_V``.
-
-    Returns
-    -------
-    list of Cell
-    """
-    out = []
-    for r in rows:
-        wave = r.get("waveform")
-        freq, amp = _number(r.get("frequency_Hz")), _number(r.get("amplitude_V"))
-        out.append(Cell(str(r.get("subject")), None if wave in (None, "") else str(wave),
-                        freq, amp))
-    return out
-
-
-def _number(value: object) -> float | None:
-    try:
-        x = float(value)  # type: ignore[arg-type]
-    except (TypeError, ValueError):
-        return None
-    return x if math.isfinite(x) else None
-
-
-def read_scope(folder: str | os.PathLike[str]) -> tuple[list[tuple[str, str]], list[Cell]]:
-    """A result folder's trials (trials.csv) and cells (electrostatic.csv), read with the
-    standard library (the console of ``evtribo analyze`` imports nothing heavy for it).
-
-    Parameters
-    ----------
-    folder : path-like
-        The result folder.
-
-    Returns
-    -------
-    (list of (str, str), list of Cell)
-        Empty where a table is missing or unreadable.
-    """
-    def rows(name: str) -> list[dict[str, str]]:
-        try:
-            with open(Path(folder) / name, newline="", encoding="utf-8") as fh:
-                return list(csv.DictReader(fh))
-        except (OSError, UnicodeDecodeError, csv.Error):
-            return []
-
-    trials = [(r.get("subject", ""), r.get("trial", "")) for r in rows("trials.csv")]
-    return trials, study_cells(rows("electrostatic.csv"))

@@ -1,0 +1,60 @@
+"""A counter's law from its values and timing (:mod:`evtribo.canlog.counters.law`), and a
+count of lost frames that the trial's time bounds (:mod:`evtribo.canlog.dropped`)."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from evtribo.canlog.counters.law import counter_law
+from evtribo.canlog.dropped import SLACK_SHARE, missing_frames
+
+
+def _width_period(step: int, start: int) -> int | None:
+    """The period of an 8-bit counter counting to its top by *step* from *start* (None: it
+    starts where no such counter does)."""
+    return (256 - start + step - 1) // step if start < step else None
+
+
+@settings(max_examples=60, deadline=None)
+@given(period=st.integers(2, 256), step=st.sampled_from([1, 2]), start=st.sampled_from([0, 1]),
+       batch_s=st.sampled_from([0.0, 1e-3]), ppm=st.floats(-300, 300),
+       rate=st.sampled_from([333.0, 1000.0, 2000.0]), seed=st.integers(0, 10))
+def test_a_counter_s_period_is_read_from_its_timing(period, step, start, batch_s, ppm, rate,  # noqa: PLR0917
+                                                    seed):
+    """Any period from 2 to the bit width's, from 0 or 1, by 1 or 2, through a logger that
+    stamps frames one by one or in 1-ms batches, on its own clock: the law is the
+    firmware's."""
+    assume(start + step * (period - 1) <= 255)
+    rng = np.random.default_rng(seed)
+    n = int(12 * rate)
+    t = np.arange(n) / rate * (1 + 1e-6 * ppm) + 2e-4 + rng.exponential(1e-4, n)
+    if batch_s:
+        t = np.ceil(t / batch_s) * batch_s
+    t = np.maximum.accumulate(t)
+    law = counter_law(t, start + step * (np.arange(n) % period), 8)
+    assert law.counts and law.step == step
+    if period == _width_period(step, start):  # to the width's top
+        assert law.period == period and law.note is None and not law.learnt
+    else:
+        assert (law.start, law.period, law.learnt) == (start, period, True), law
+
+
+@settings(max_examples=100, deadline=None)
+@given(values=st.lists(st.integers(0, 255), min_size=400, max_size=400),
+       counting=st.floats(0.0, 1.0), modulus=st.sampled_from([None, 16, 100, 256]),
+       seed=st.integers(0, 5))
+def test_no_counter_counts_more_frames_lost_than_the_time_holds(values, counting, modulus,
+                                                                seed):
+    """Whatever a counter's values (counting by one for a share of the frames, anything
+    elsewhere) and the period it is read with, the frames counted lost are at most those
+    the stream's time holds at its rate, beyond the slack allowed."""
+    rng = np.random.default_rng(seed)
+    n = len(values)
+    t = 1.76e9 + np.arange(n) * 1e-3 + rng.exponential(5e-5, n)
+    c = np.where(rng.uniform(size=n) < counting, np.arange(n) % (modulus or 256),
+                 np.asarray(values))
+    found = missing_frames(np.sort(t), c, modulus)
+    held = (t.max() - t.min()) / 1e-3 - (n - 1)
+    assert found.count <= held + SLACK_SHARE * n + 12, found
