@@ -136,10 +136,9 @@ def test_counter_tracker_counts_gaps_and_wraps():
     def frame(c):
         return bytes(7) + bytes([c % 256])
 
-    t = 0.0
     sent = [c for c in range(600) if c not in (10, 11, 12, 300)]   # 4 lost, across a wrap
-    for c in sent:
-        t += 0.001
+    for c in sent:  # each at the time it was sent (a lost frame takes its period too)
+        t = 0.001 * (c + 1)
         tracker.update(1, frame(c), t)
     assert tracker.dropped == 4
     assert tracker.dropped_by_message() == {"M": 4}
@@ -238,6 +237,30 @@ def test_counters_of_extended_id_load_cells_are_checked(tmp_path):
     fh.close()
     assert writer.stats.dropped == 4
     assert writer.stats.dropped_by_message == {"NormalCell": 4, "TangentialCell": 0}
+
+
+def test_a_restart_at_the_trials_end_is_judged_when_the_log_closes(tmp_path):
+    """A load cell's firmware restarts 0.2 s before the trial ends (its counter from 231 back
+    to 3): counted as 27 frames lost while too few frames after it can say otherwise, and as
+    none once the writer is closed (the sidecar's count)."""
+    writer = LogWriter((tmp_path / "run.log.part").open("wb", buffering=0), "vcan0",
+                       CounterTracker([CounterSpec("M", 0x0C1, SignalCodec(
+                           "C", start=56, length=8, byte_order="little_endian",
+                           is_signed=False, is_float=False, scale=1, offset=0))])).start()
+    counters = [k % 256 for k in range(1000)] + [3 + k for k in range(200)]
+    for a in range(0, len(counters), 50):
+        writer.put([can.Message(timestamp=1.76e9 + (a + i) * 1e-3, arbitration_id=0x0C1,
+                                is_extended_id=False, data=bytes(7) + bytes([c]))
+                    for i, c in enumerate(counters[a:a + 50])])
+    deadline = time.monotonic() + 60
+    while writer.stats.frames < len(counters):  # written, not yet closed
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    assert writer.stats.dropped == (3 - 999) % 256 - 1 == 27
+    writer.close()
+    writer.file.close()
+    assert writer.stats.dropped == 0 and writer.stats.dropped_by_message == {"M": 0}
+    assert writer.counters.restarts_by_message(1.76e9) == {"M": [1.0]}
 
 
 class FailingBus(can.BusABC):

@@ -46,8 +46,8 @@ dropped_frames              frames lost before the log, at least: the larger of 
                             cells' counters' count and ``queue_dropped_frames``
 dropped_frames_by_message   frames missing by the load cells' rolling counters
 duplicate_frames            frames of the load cells received twice: no loss
-counter_restarts_s          by message, when its counter restarted at 0 (s from the first
-                            frame): no frame is counted lost there
+counter_restarts_s          by message, when its counter restarted (back to 0 or a low
+                            value; s from the first frame): no wrap of frames lost there
 queue_dropped_frames        frames the receiving side dropped from its full receive queue
                             (SocketCAN: the kernel's count, ``SO_RXQ_OVFL``); null when the
                             bus does not count them
