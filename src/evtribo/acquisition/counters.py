@@ -147,8 +147,9 @@ class _CounterState:
     missing: dict[int, int] = field(default_factory=dict)  # counter value: its place
     held: tuple[int, float, int] | None = None  # a frame that may have arrived late
     skips: list[_Skip] = field(default_factory=list)  # steps not yet judged
-    seen_t: npt.NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
-    seen_place: npt.NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    # the times and places of the frames received lately, a batch a piece
+    seen: list[tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]] = field(
+        default_factory=list)
 
 
 class _Seen:
@@ -386,27 +387,31 @@ def _seen(st: _CounterState, t: npt.NDArray[np.float64],
           place: npt.NDArray[np.float64]) -> None:
     """Keep the times and places of frames received, for judging the steps that skipped."""
     if t.size:
-        st.seen_t = np.concatenate([st.seen_t, t])
-        st.seen_place = np.concatenate([st.seen_place, place])
+        st.seen.append((t, place))
+
+
+def _all_seen(st: _CounterState) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+    """The times and places kept, in one piece."""
+    if len(st.seen) != 1:
+        st.seen = [(np.concatenate([np.zeros(0), *(t for t, _ in st.seen)]),
+                    np.concatenate([np.zeros(0), *(p for _, p in st.seen)]))]
+    return st.seen[0]
 
 
 def _forget(st: _CounterState, modulus: int) -> None:
-    """Drop the frames no step left to judge will look at (a window's worth kept)."""
+    """Drop the pieces of frames no step left to judge will look at (a window's worth
+    kept)."""
     keep = 4 * _window_periods(modulus)
-    if st.seen_t.size <= 2 * keep:
-        return
     edge = st.skips[0].at - keep if st.skips else st.places - keep
-    past = st.seen_place >= edge
-    cut = min(int(np.argmax(past)) if past.any() else st.seen_t.size,
-              st.seen_t.size - keep)
-    if cut > 0:
-        st.seen_t, st.seen_place = st.seen_t[cut:], st.seen_place[cut:]
+    while len(st.seen) > 1 and st.seen[0][1].max() < edge \
+            and sum(t.size for t, _ in st.seen[1:]) >= keep:
+        st.seen.pop(0)
 
 
 def _shift(st: _CounterState, at: float, by: int) -> None:
     """The places after *at* less *by*: the counter jumped ahead by that much there."""
     st.places -= by
-    st.seen_place = np.where(st.seen_place > at, st.seen_place - by, st.seen_place)
+    st.seen = [(t, np.where(p > at, p - by, p)) for t, p in st.seen]
     st.missing = {v: p - by if p > at else p for v, p in st.missing.items()}
     for later in st.skips:
         later.at -= by
@@ -425,7 +430,7 @@ def _ahead(st: _CounterState, skip: _Skip, modulus: int) -> int:
     """By how many frames the counter ran ahead of the clock at *skip* (a jump), or 0: the
     upper envelope of the frames' lead over the periods elapsed, over a window either side
     (:class:`evtribo.canlog.outages.Lead`'s comparison)."""
-    t, place = st.seen_t, st.seen_place
+    t, place = _all_seen(st)
     rough = _rough_period(st, skip)
     if not rough > 0:
         return 0
