@@ -1,5 +1,6 @@
 """``record_trial``: every frame of a python-can bus into a study folder, nothing lost."""
 
+import copy
 import errno
 import json
 import os
@@ -31,7 +32,8 @@ DBC = cantools.database.load_file(str(default_rig_path().with_name("default.dbc"
 def rig_frames(n, *, skip=(), extra=True):
     """*n* rig-like frames: FzCell and FxCell alternating with counters, HvStatus every 100,
     plus (with *extra*) a foreign extended frame and an error frame. Counter values in *skip*
-    (for FzCell) are left out, as if lost on the bus."""
+    (for FzCell) are left out, as if lost on the bus: their time passes all the same. Each
+    frame's timestamp is its time on a saturated bus (8,400 frames/s) from the first."""
     fz, fx, hv = (DBC.get_message_by_name(m) for m in ("FzCell", "FxCell", "HvStatus"))
     frames = []
     count = {"fz": 0, "fx": 0, "hv": 0}
@@ -53,31 +55,38 @@ def rig_frames(n, *, skip=(), extra=True):
             count["fx"] += 1
             msg, data = fx, fx.encode({"Fx": 0.25, "FxStatus": 0, "FxTemp": 25,
                                        "FxCounter": c % 256})
-        frames.append(can.Message(arbitration_id=msg.frame_id, is_extended_id=False, data=data))
+        frames.append(can.Message(timestamp=i / 8400, arbitration_id=msg.frame_id,
+                                  is_extended_id=False, data=data))
     if extra:
-        frames.insert(n // 3, can.Message(arbitration_id=0x18FF0001, is_extended_id=True,
+        frames.insert(n // 3, can.Message(timestamp=frames[n // 3].timestamp,
+                                          arbitration_id=0x18FF0001, is_extended_id=True,
                                           data=b"\x01\x02\x03"))
-        frames.insert(n // 2, can.Message(is_error_frame=True, data=bytes(8)))
+        frames.insert(n // 2, can.Message(timestamp=frames[n // 2].timestamp,
+                                          is_error_frame=True, data=bytes(8)))
     return frames
 
 
 class Sender(threading.Thread):
-    """Sends *frames* on a virtual channel at *rate* frames/s, in 5 ms bursts."""
+    """Sends *frames* on a virtual channel at *rate* frames/s, in 5 ms bursts, each stamped
+    with its time on the bus (its timestamp from the start): what the receiver is given does
+    not depend on how busy the machine is."""
 
     def __init__(self, channel, frames, rate=8400.0):
         super().__init__(daemon=True)
-        self.bus = can.Bus(interface="virtual", channel=channel)
+        self.bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
         self.frames = frames
         self.rate = rate
         self.done = threading.Event()
 
     def run(self):
-        t0 = time.perf_counter()
+        t0, start = time.perf_counter(), time.time()
         n = 0
         while n < len(self.frames):
             due = min(int((time.perf_counter() - t0) * self.rate) + 1, len(self.frames))
             while n < due:
-                self.bus.send(self.frames[n])
+                frame = copy.copy(self.frames[n])
+                frame.timestamp = start + frame.timestamp
+                self.bus.send(frame)
                 n += 1
             time.sleep(0.005)
         self.bus.shutdown()
