@@ -17,6 +17,7 @@ from evtribo.acquisition.buses.bus import BusSettings
 from evtribo.acquisition.rigfile import default_rig_path
 from evtribo.acquisition.simulator import Simulator, TrialConfig
 from evtribo.acquisition.trial import TrialInfo, TrialOptions, TrialPaths, record_trial
+from evtribo.documents.replacing import stages
 from evtribo.errors import (
     AcquisitionError,
     ConfigError,
@@ -322,12 +323,14 @@ def test_forced_trial_keeps_the_previous_one_until_it_ends(tmp_path):
 
         def started(p):
             old.update({q.name: q.read_bytes() for q in (p.log, p.sidecar) if q.exists()})
-            old["part"] = p.part.exists()
+            old["new"] = [sorted(f.name for f in s.iterdir())
+                          for s in stages(p.folder).get("run-01", [])]
 
         result = record_trial(bus, study, "P01", "run-01", duration=0.1, force=True,
                               info=TrialInfo(notes="second"),
                               started=rig_heard("acq_force_keep", started))
-    assert old == {**before, "part": True}       # while recording: old trial intact
+    # while recording: the old trial intact, the new one beside it in a folder of its own
+    assert old == {**before, "new": [["run-01.json", "run-01.log.part"]]}
     assert result.ended == "completed" and not result.kept_previous
     assert json.loads(paths.sidecar.read_text())["notes"] == "second"
     assert sorted(p.name for p in paths.folder.iterdir()) == ["run-01.json", "run-01.log"]
