@@ -113,6 +113,11 @@ ENVELOPE_PERIODS = 32
 #: Fewest frames of a message before a jump of its counter is looked for (as
 #: :data:`evtribo.canlog.sequence.MIN_FRAMES`).
 MIN_JUMP_FRAMES = 64
+#: A restart puts the counter back to 0 or a low value: in the first this share of its
+#: range (frames lost just after it included). A step to a higher value is frames lost,
+#: whatever the timing says (a logger that stamps frames late for a while, then catches
+#: up, makes a loss look like the counter running ahead).
+RESTART_SHARE = 1 / 8
 
 
 @dataclass
@@ -187,16 +192,18 @@ class CounterTracker:
       arrived late: its loss is counted back (two frames received swapped are no 256 lost);
     - a frame whose counter stood still (the value of the frame before, another payload) is
       the next frame, no 255 frames lost, and holds a place the counter steps over later;
-    - a counter that jumps (the cell's firmware restarted: back to 0 or to a low value,
-      then on by one) runs ahead of the clock: a step that skips two or more values is
-      counted as frames lost at once, and judged once the frames of
+    - a counter that restarts (the cell's firmware rebooted: back to 0 or to a low value,
+      in the first :data:`RESTART_SHARE` of its range, then on by one) runs ahead of the
+      clock: a step to such a value that skips two or more is counted as frames lost at
+      once, and judged once the frames of
       :data:`JUMP_WINDOW_PERIODS` periods (twice the counter's period, if more) after it
       have arrived (or the trial has ended: :meth:`settle`). Where the frames after it lead
       the periods elapsed by more than those before it (their upper envelopes: the frames
       that arrived earliest), by more than the timing's noise, the counter jumped: the
       frames lost there are the timing's count, and the time is kept
-      (:meth:`restarts_by_message`). The analysis counts the same way; a jump that skips
-      fewer values than the timing's noise is counted as frames lost.
+      (:meth:`restarts_by_message`). The analysis counts a restart the same way (it
+      takes a jump to any value for one); a restart that skips fewer values than the
+      timing's noise is counted as frames lost.
 
     A run of ``2**length`` or more consecutive lost frames of one message is counted modulo
     ``2**length``; the longest silence between two frames of each message
@@ -305,7 +312,8 @@ class CounterTracker:
             st.dropped += lost
             st.missing.update({(value - step + k) % modulus: st.places + k
                                for k in range(max(1, step - REORDER_REACH), step)})
-            if lost >= 2:  # a loss, or the counter jumping: the frames after it will say
+            if lost >= 2 and value < max(modulus * RESTART_SHARE, 2):
+                # a loss, or the counter restarting: the frames after it will say
                 st.skips.append(_Skip(at=st.places, after=st.places + max(step - st.stood, 1),
                                       t_before=st.last_time, t_after=t, counted=lost,
                                       old=(value - step) % modulus, new=value))
