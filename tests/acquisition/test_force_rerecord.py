@@ -263,3 +263,25 @@ def test_killed_at_any_step_the_trial_is_the_old_one_or_the_new_one(tmp_path, ki
                 ("run-01.", ".run-01.evtribo-new-")) and p != paths.lock) == \
                 ["run-01.json", "run-01.log"]
     assert outcomes == {"old", "new"}
+
+
+def test_a_session_finishes_a_replacement_cut_short_before_it_looks_at_the_trial(tmp_path):
+    """A re-recording made the trial, killed before its files were moved: the session's
+    look at the trial's files (to set a leftover aside) sees the new trial, whole, in the
+    subject's folder, and nothing of the old one."""
+    from evtribo.session.trialfiles import trial_files
+
+    study = tmp_path / "ST"
+    old_trial(study, "killed")
+    folder = study / "P01"
+    stage = folder / ".run-01.evtribo-new-abcd1234"
+    stage.mkdir()
+    (stage / "run-01.log").write_text("(1.000000) vcan0 0C1#00\n")
+    (stage / "run-01.json").write_text(json.dumps(
+        {"subject": "P01", "notes": "new", "ended": "completed", "frames": 1,
+         "log": "run-01.log"}))
+    (stage / ".evtribo-commit").touch()
+    assert is_new_and_whole(study)                  # what the study reads meanwhile
+    assert [p.name for p in trial_files(folder, "run-01")] == ["run-01.json", "run-01.log"]
+    assert is_new_and_whole(study) and not stages(folder)
+    assert not (folder / "run-01.log.part").exists()
