@@ -21,10 +21,17 @@ DATA = ROOT / "data"
 QUEUE_BYTES = 32 * 1024 * 1024
 
 
-def evtribo(args: Sequence[str], out: Path) -> Forked:
-    """``evtribo ARGS`` as a process (forked: nothing to import again)."""
+#: The longest a test waits for what runs in real time in the VM: a guard against a hang
+#: only, far beyond a busy machine's pace, s.
+HANG_S = 600.0
+
+
+def evtribo(args: Sequence[str], out: Path, setup: Callable[[], None] | None = None
+            ) -> Forked:
+    """``evtribo ARGS`` as a process (forked: nothing to import again); *setup* runs in it
+    first."""
     preload()
-    return Forked(list(args), out)
+    return Forked(list(args), out, setup)
 
 
 def wait_for(proc: Forked, text: str, timeout: float = 120.0) -> None:
@@ -38,46 +45,99 @@ def wait_for(proc: Forked, text: str, timeout: float = 120.0) -> None:
 
 class Candump:
     """``candump -L`` of an interface (data and error frames) into a file, with a receive
-    queue as large as evtribo's."""
+    queue as large as evtribo's; with *count*, it ends by itself once it has received that
+    many frames (:meth:`stop` waits for that: every frame sent has then reached every socket
+    on the interface, the recorder's too)."""
 
-    def __init__(self, interface: str, log: Path) -> None:
+    def __init__(self, interface: str, log: Path, count: int | None = None) -> None:
         self.log = log
+        self.count = count
         self._fh = log.open("wb")
         self.proc = subprocess.Popen(["candump", "-L", "-r", str(QUEUE_BYTES),
+                                      *(["-n", str(count)] if count else []),
                                       f"{interface},0:0,#FFFFFFFF"], stdout=self._fh)
 
+    def wait(self, recording: Forked | None = None) -> None:
+        """Wait until it has received its *count* frames (and ended); *recording* must not
+        end first."""
+        deadline = time.monotonic() + HANG_S
+        while self.proc.poll() is None:
+            assert recording is None or recording.poll() is None, \
+                f"the recording ended before the trace: {recording.output()}"
+            assert time.monotonic() < deadline, f"candump got fewer than {self.count} frames"
+            time.sleep(0.05)
+
     def stop(self) -> list[str]:
-        """Stop it; its lines."""
-        time.sleep(0.2)
-        self.proc.send_signal(2)
-        self.proc.wait(10)
+        """Its lines, once it has received its *count* frames (without one: stopped now)."""
+        if self.count:
+            self.wait()
+        else:
+            self.proc.send_signal(signal.SIGINT)
+        self.proc.wait(HANG_S)
         self._fh.close()
         return self.log.read_text().splitlines()
 
 
-def play(log: Path, interface: str, *, from_channel: str = "vcan0",
-         ignore_times: bool = False) -> None:
-    """``canplayer`` the candump -L *log* into *interface* (at its frames' times, or as fast
-    as it can with *ignore_times*), on one processor (a vcan interface delivers a sender's
-    frames through the backlog queue of the processor it sends from: one moved between two
-    can see two of its frames delivered swapped) and at a real-time priority (the recorder
-    beside it does not delay its frames)."""
+def player(log: Path, interface: str, *, from_channel: str = "vcan0",
+           ignore_times: bool = False) -> list[str]:
+    """``canplayer`` playing the candump -L *log* into *interface* (at its frames' times, or
+    as fast as it can with *ignore_times*), on one processor (a vcan interface delivers a
+    sender's frames through the backlog queue of the processor it sends from: one moved
+    between two can see two of its frames delivered swapped) and at a real-time priority
+    (the recorder beside it does not delay its frames)."""
     args = ["taskset", "-c", "0", "chrt", "-f", "10", "canplayer", "-I", str(log)]
     if ignore_times:
         args.append("-t")
-    subprocess.run([*args, f"{interface}={from_channel}"], check=True, timeout=600)
+    return [*args, f"{interface}={from_channel}"]
 
 
-def play_then_stop(log: Path, interface: str, proc: Forked, *, from_channel: str = "vcan0"
-                   ) -> None:
-    """:func:`play` *log*, then end the recording *proc* with Ctrl-C once what was sent
-    has had a second to arrive (it reads what its queue still holds): canplayer takes as
-    long as the machine lets it (twice a trace's span on a busy one), which no duration
-    given in advance fits."""
-    play(log, interface, from_channel=from_channel)
-    assert proc.poll() is None, f"the recording ended before the trace: {proc.output()}"
-    time.sleep(1.0)
-    proc.send_signal(signal.SIGINT)
+def playing(log: Path, interface: str, *, from_channel: str = "vcan0",
+            ignore_times: bool = False, slow_start_s: float = 0.0) -> Callable[[], None]:
+    """A *setup* for :func:`evtribo` ``acquire``: canplayer plays *log* (:func:`player`)
+    once the trial has started (what the bus held before read away, the trial's clock
+    going), and the trial receives once canplayer's first frame is on the interface. The
+    trace never races the recording's wait for the rig's frames (3 s), however long a busy
+    machine takes to start canplayer (*slow_start_s* makes it take that much longer); a
+    frame sent before the recording listens is none."""
+    def setup() -> None:
+        import evtribo.cli.recording.acquire as cli
+
+        real = cli.record_trial
+        args = player(log, interface, from_channel=from_channel, ignore_times=ignore_times)
+        if slow_start_s:
+            args = ["sh", "-c", f'sleep {slow_start_s:g}; exec "$@"', "sh", *args]
+
+        def record(bus: Any, *a: Any, **kwargs: Any) -> Any:
+            kwargs["started"] = lambda _paths: _play_now(args, interface)
+            return real(bus, *a, **kwargs)
+
+        cli.record_trial = record
+    return setup
+
+
+_PLAYERS: list[subprocess.Popen[bytes]] = []
+
+
+def _play_now(args: list[str], interface: str) -> None:
+    """Start canplayer (*args*); return once its first frame is on *interface*."""
+    import can
+
+    with can.Bus(interface="socketcan", channel=interface) as seen:
+        proc = subprocess.Popen(args)
+        _PLAYERS.append(proc)  # it ends by itself, once the trace is played
+        deadline = time.monotonic() + HANG_S
+        while seen.recv(1.0) is None:
+            assert proc.poll() in (None, 0) and time.monotonic() < deadline, \
+                "canplayer sent nothing"
+
+
+def stop_when_dumped(candump: Candump, recording: Forked) -> None:
+    """End *recording* with Ctrl-C once *candump* has received every frame of the trace
+    (they are in the recording's socket too: it reads what its queue still holds):
+    canplayer takes as long as the machine lets it (twice a trace's span on a busy one),
+    which no duration given in advance fits."""
+    candump.wait(recording)
+    recording.send_signal(signal.SIGINT)
 
 
 def kernel_drops(interface: str) -> dict[str, int]:

@@ -35,7 +35,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -479,11 +479,15 @@ class Forked:
         The command line after ``evtribo``.
     out : path
         Standard output goes to this file, standard error to ``<out>.err``.
+    setup : callable, optional
+        Run in the child before the command (to hook into it, as a test's fixture would).
 
     Fork it from a process without other threads (a test's, under ``pytest -n 0``).
     """
 
-    def __init__(self, args: Sequence[str], out: str | os.PathLike[str]) -> None:
+    def __init__(self, args: Sequence[str], out: str | os.PathLike[str],
+                 setup: Callable[[], None] | None = None) -> None:
+        self.setup = setup
         self.out = Path(out)
         self.err = self.out.with_name(self.out.name + ".err")
         self.returncode: int | None = None
@@ -512,6 +516,8 @@ class Forked:
             signal.signal(signal.SIGTERM, signal.SIG_DFL)
             logging.root.handlers.clear()  # the test's capture: the command sets its own
             warnings.resetwarnings()
+            if self.setup is not None:
+                self.setup()
             from evtribo.cli import main
 
             code = main(args)

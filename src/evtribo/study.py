@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from evtribo.documents.names import MAX_NAME_BYTES, NAME_PATTERN, validate_name
+from evtribo.documents.replacing import replacing, stages, unfinished
 from evtribo.documents.session import SESSION_FILE
 from evtribo.documents.sidecar import (
     CONDITIONS,
@@ -184,8 +185,66 @@ def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
     return config
 
 
+def _logs_of(folder: Path, warnings: list[str]
+             ) -> tuple[dict[str, tuple[Path, bool]], dict[str, list[str]]]:
+    """The logs in a subject's *folder* by trial (each with whether it is a partial log)
+    and the files that are no log, by stem; a trial with a complete log and a partial one
+    is its complete one (said in *warnings*)."""
+    logs: dict[str, tuple[Path, bool]] = {}
+    others: dict[str, list[str]] = {}   # files that are no log, by stem
+    for f in sorted(folder.iterdir()):
+        if f.name.startswith((".", "~$")) or f.name.lower() in OS_CLUTTER \
+                or f.name == SESSION_FILE:
+            continue
+        split = log_stem(f) if f.is_file() else None
+        if split is None:
+            if f.is_file():
+                others.setdefault(f.name.split(".", 1)[0], []).append(f.name)
+            continue
+        trial, suffix = split
+        partial = suffix.endswith(PARTIAL_SUFFIX)
+        if trial in logs:
+            kept, kept_partial = logs[trial]
+            if partial == kept_partial:
+                raise StudyError(f"two logs for trial {trial!r}: {kept.name} and {f.name}",
+                                 path=folder)
+            complete, part = (f, kept) if kept_partial else (kept, f)
+            logs[trial] = (complete, False)
+            warnings.append(f"{part}: not analysed, {complete.name} is the trial's complete "
+                            "log (the .part is a recording that did not finish, e.g. a "
+                            "--force re-recording that was killed); nothing was deleted")
+            continue
+        logs[trial] = (f, partial)
+    return logs, others
+
+
+def _rerecorded(folder: Path, logs: dict[str, tuple[Path, bool]], warnings: list[str]
+                ) -> dict[str, Path | None]:
+    """The trials of *folder* that a forced re-recording is replacing (its log put in
+    *logs*), with their sidecars; the re-recordings that did not finish, said in
+    *warnings* (:mod:`evtribo.documents.replacing`)."""
+    sidecars: dict[str, Path | None] = {}
+    for trial in stages(folder):
+        for stage in unfinished(folder, trial):
+            warnings.append(f"{stage}: a re-recording of trial {trial} (--force) that did "
+                                "not finish; not analysed (the trial is the one recorded "
+                                "before it); what it received is kept there")
+        now = replacing(folder, trial)
+        if now is None or now.log is None:
+            continue
+        logs[trial] = (now.log, False)
+        sidecars[trial] = now.sidecar
+        warnings += [f"{p}: not analysed, left of the recording {trial} was recorded again "
+                     "over (--force)" for p in now.leftover]
+    return sidecars
+
+
 def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[str]]:
     """Find every trial under *root*'s subject folders; returns ``(trials, warnings)``.
+
+    A trial being recorded again over itself (``acquire --force``) is the recording the
+    moment's files make whole: the one recorded before, until the new one is complete
+    (:mod:`evtribo.documents.replacing`).
 
     Parameters
     ----------
@@ -204,31 +263,8 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
     for folder in sorted(p for p in root.iterdir() if p.is_dir()):
         if folder.name.startswith(".") or folder.name in NOT_SUBJECTS:
             continue
-        logs: dict[str, tuple[Path, bool]] = {}
-        others: dict[str, list[str]] = {}   # files that are no log, by stem
-        for f in sorted(folder.iterdir()):
-            if f.name.startswith((".", "~$")) or f.name.lower() in OS_CLUTTER \
-                    or f.name == SESSION_FILE:
-                continue
-            split = log_stem(f) if f.is_file() else None
-            if split is None:
-                if f.is_file():
-                    others.setdefault(f.name.split(".", 1)[0], []).append(f.name)
-                continue
-            trial, suffix = split
-            partial = suffix.endswith(PARTIAL_SUFFIX)
-            if trial in logs:
-                kept, kept_partial = logs[trial]
-                if partial == kept_partial:
-                    raise StudyError(f"two logs for trial {trial!r}: {kept.name} and {f.name}",
-                                     path=folder)
-                complete, part = (f, kept) if kept_partial else (kept, f)
-                logs[trial] = (complete, False)
-                warnings.append(f"{part}: not analysed, {complete.name} is the trial's complete "
-                                "log (the .part is a recording that did not finish, e.g. a "
-                                "--force re-recording that was killed); nothing was deleted")
-                continue
-            logs[trial] = (f, partial)
+        logs, others = _logs_of(folder, warnings)
+        sidecars = _rerecorded(folder, logs, warnings)
         warnings += _sidecars_without_logs(folder, others, logs)
         if not logs:
             continue
@@ -236,7 +272,7 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
         _outside(folder, root, warnings)
         for trial, (log_path, partial) in logs.items():
             validate_name(trial, what="trial", path=log_path)
-            sidecar_path: Path | None = folder / f"{trial}.json"
+            sidecar_path = sidecars.get(trial, folder / f"{trial}.json")
             if sidecar_path is not None and sidecar_path.exists():
                 sidecar = read_sidecar(sidecar_path, default_subject=folder.name)
                 for key, close in unknown_sidecar_keys(sidecar):

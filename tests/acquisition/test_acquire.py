@@ -1,5 +1,6 @@
 """``record_trial``: every frame of a python-can bus into a study folder, nothing lost."""
 
+import copy
 import errno
 import json
 import os
@@ -16,6 +17,7 @@ from evtribo.acquisition.buses.bus import BusSettings
 from evtribo.acquisition.rigfile import default_rig_path
 from evtribo.acquisition.simulator import Simulator, TrialConfig
 from evtribo.acquisition.trial import TrialInfo, TrialOptions, TrialPaths, record_trial
+from evtribo.documents.replacing import stages
 from evtribo.errors import (
     AcquisitionError,
     ConfigError,
@@ -31,7 +33,8 @@ DBC = cantools.database.load_file(str(default_rig_path().with_name("default.dbc"
 def rig_frames(n, *, skip=(), extra=True):
     """*n* rig-like frames: FzCell and FxCell alternating with counters, HvStatus every 100,
     plus (with *extra*) a foreign extended frame and an error frame. Counter values in *skip*
-    (for FzCell) are left out, as if lost on the bus."""
+    (for FzCell) are left out, as if lost on the bus: their time passes all the same. Each
+    frame's timestamp is its time on a saturated bus (8,400 frames/s) from the first."""
     fz, fx, hv = (DBC.get_message_by_name(m) for m in ("FzCell", "FxCell", "HvStatus"))
     frames = []
     count = {"fz": 0, "fx": 0, "hv": 0}
@@ -53,31 +56,38 @@ def rig_frames(n, *, skip=(), extra=True):
             count["fx"] += 1
             msg, data = fx, fx.encode({"Fx": 0.25, "FxStatus": 0, "FxTemp": 25,
                                        "FxCounter": c % 256})
-        frames.append(can.Message(arbitration_id=msg.frame_id, is_extended_id=False, data=data))
+        frames.append(can.Message(timestamp=i / 8400, arbitration_id=msg.frame_id,
+                                  is_extended_id=False, data=data))
     if extra:
-        frames.insert(n // 3, can.Message(arbitration_id=0x18FF0001, is_extended_id=True,
+        frames.insert(n // 3, can.Message(timestamp=frames[n // 3].timestamp,
+                                          arbitration_id=0x18FF0001, is_extended_id=True,
                                           data=b"\x01\x02\x03"))
-        frames.insert(n // 2, can.Message(is_error_frame=True, data=bytes(8)))
+        frames.insert(n // 2, can.Message(timestamp=frames[n // 2].timestamp,
+                                          is_error_frame=True, data=bytes(8)))
     return frames
 
 
 class Sender(threading.Thread):
-    """Sends *frames* on a virtual channel at *rate* frames/s, in 5 ms bursts."""
+    """Sends *frames* on a virtual channel at *rate* frames/s, in 5 ms bursts, each stamped
+    with its time on the bus (its timestamp from the start): what the receiver is given does
+    not depend on how busy the machine is."""
 
     def __init__(self, channel, frames, rate=8400.0):
         super().__init__(daemon=True)
-        self.bus = can.Bus(interface="virtual", channel=channel)
+        self.bus = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
         self.frames = frames
         self.rate = rate
         self.done = threading.Event()
 
     def run(self):
-        t0 = time.perf_counter()
+        t0, start = time.perf_counter(), time.time()
         n = 0
         while n < len(self.frames):
             due = min(int((time.perf_counter() - t0) * self.rate) + 1, len(self.frames))
             while n < due:
-                self.bus.send(self.frames[n])
+                frame = copy.copy(self.frames[n])
+                frame.timestamp = start + frame.timestamp
+                self.bus.send(frame)
                 n += 1
             time.sleep(0.005)
         self.bus.shutdown()
@@ -180,11 +190,10 @@ def test_a_frame_received_twice_or_late_is_no_frame_lost(tmp_path):
 
 
 def test_stop_request_ends_as_interrupted(tmp_path):
-    stop = threading.Event()
-    threading.Timer(0.3, stop.set).start()
+    stop = threading.Event()  # asked for once the trial has begun, whatever the machine's pace
     with can.Bus(interface="virtual", channel="acq_stop") as bus:
         result = record_trial(bus, tmp_path / "s", "P02", "run-02", duration=20.0,
-                              should_stop=stop.is_set)
+                              should_stop=stop.is_set, started=lambda _paths: stop.set())
     assert result.ended == "interrupted"  # by the request, not after its 20 s
     assert result.exit_code == 0
     assert (tmp_path / "s" / "P02" / "run-02.log").read_text() == ""
@@ -313,12 +322,14 @@ def test_forced_trial_keeps_the_previous_one_until_it_ends(tmp_path):
 
         def started(p):
             old.update({q.name: q.read_bytes() for q in (p.log, p.sidecar) if q.exists()})
-            old["part"] = p.part.exists()
+            old["new"] = [sorted(f.name for f in s.iterdir())
+                          for s in stages(p.folder).get("run-01", [])]
 
         result = record_trial(bus, study, "P01", "run-01", duration=0.1, force=True,
                               info=TrialInfo(notes="second"),
                               started=rig_heard("acq_force_keep", started))
-    assert old == {**before, "part": True}       # while recording: old trial intact
+    # while recording: the old trial intact, the new one beside it in a folder of its own
+    assert old == {**before, "new": [["run-01.json", "run-01.log.part"]]}
     assert result.ended == "completed" and not result.kept_previous
     assert json.loads(paths.sidecar.read_text())["notes"] == "second"
     assert sorted(p.name for p in paths.folder.iterdir()) == ["run-01.json", "run-01.log"]
@@ -399,7 +410,9 @@ def test_records_the_simulated_rig_at_a_saturated_rate(tmp_path):
     sim = Simulator(config=cfg)
     out = {}
     channel = "acq_simulated_rig"
-    tx = can.Bus(interface="virtual", channel=channel)
+    # each frame stamped by the rig's clock, as a logger with hardware timestamps gives them
+    # (the frames this test hands the recorder do not depend on how busy the machine is)
+    tx = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)
     done = threading.Event()
     sender = threading.Thread(target=lambda: (out.update(stats=sim.run(tx, duration=1.0)),
                                               done.set()))

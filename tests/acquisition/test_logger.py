@@ -3,7 +3,6 @@
 import io
 import os
 import random
-import threading
 import time
 from pathlib import Path
 
@@ -136,10 +135,9 @@ def test_counter_tracker_counts_gaps_and_wraps():
     def frame(c):
         return bytes(7) + bytes([c % 256])
 
-    t = 0.0
     sent = [c for c in range(600) if c not in (10, 11, 12, 300)]   # 4 lost, across a wrap
-    for c in sent:
-        t += 0.001
+    for c in sent:  # each at the time it was sent (a lost frame takes its period too)
+        t = 0.001 * (c + 1)
         tracker.update(1, frame(c), t)
     assert tracker.dropped == 4
     assert tracker.dropped_by_message() == {"M": 4}
@@ -240,6 +238,30 @@ def test_counters_of_extended_id_load_cells_are_checked(tmp_path):
     assert writer.stats.dropped_by_message == {"NormalCell": 4, "TangentialCell": 0}
 
 
+def test_a_restart_at_the_trials_end_is_judged_when_the_log_closes(tmp_path):
+    """A load cell's firmware restarts 0.2 s before the trial ends (its counter from 231 back
+    to 3): counted as 27 frames lost while too few frames after it can say otherwise, and as
+    none once the writer is closed (the sidecar's count)."""
+    writer = LogWriter((tmp_path / "run.log.part").open("wb", buffering=0), "vcan0",
+                       CounterTracker([CounterSpec("M", 0x0C1, SignalCodec(
+                           "C", start=56, length=8, byte_order="little_endian",
+                           is_signed=False, is_float=False, scale=1, offset=0))])).start()
+    counters = [k % 256 for k in range(1000)] + [3 + k for k in range(200)]
+    for a in range(0, len(counters), 50):
+        writer.put([can.Message(timestamp=1.76e9 + (a + i) * 1e-3, arbitration_id=0x0C1,
+                                is_extended_id=False, data=bytes(7) + bytes([c]))
+                    for i, c in enumerate(counters[a:a + 50])])
+    deadline = time.monotonic() + 60
+    while writer.stats.frames < len(counters):  # written, not yet closed
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    assert writer.stats.dropped == (3 - 999) % 256 - 1 == 27
+    writer.close()
+    writer.file.close()
+    assert writer.stats.dropped == 0 and writer.stats.dropped_by_message == {"M": 0}
+    assert writer.counters.restarts_by_message(1.76e9) == {"M": [1.0]}
+
+
 class FailingBus(can.BusABC):
     """A bus that delivers *n* frames, then fails the way a vanished adapter does."""
 
@@ -299,13 +321,17 @@ def test_an_adapter_sending_only_damaged_lines_is_taken_for_dead(tmp_path):
 def test_receive_stops_when_asked(tmp_path):
     fh = (tmp_path / "x.log").open("wb", buffering=0)
     writer = LogWriter(fh, "can0").start()
-    stop = threading.Event()
-    threading.Timer(0.2, stop.set).start()
+    polls = []
+
+    def stop():  # asked for once the loop has gone round twice, whatever the machine's pace
+        polls.append(None)
+        return len(polls) > 2
+
     with can.Bus(interface="virtual", channel="test_receive_stops_when_asked") as bus:
-        result = receive(bus, writer, duration=10.0, should_stop=stop.is_set)
+        result = receive(bus, writer, duration=600.0, should_stop=stop)
     writer.close()
     fh.close()
-    assert result.reason == "interrupted"           # stopped when asked, not after its 10 s
+    assert result.reason == "interrupted"           # stopped when asked, not after its 600 s
 
 
 @pytest.mark.parametrize("message,signal", [("Intel", "Cnt"), ("Moto", "Cnt")])

@@ -24,24 +24,29 @@ MOTOROLA = Path(__file__).parents[1] / "data" / "rigs" / "motorola.toml"
 
 
 class Sender(threading.Thread):
-    """Sends frames with identifiers *ids* on a virtual channel (FzCell's data, counting)
-    until stopped, after *delay* s."""
+    """Sends frames with identifiers *ids* on a virtual channel (FzCell's data, counting),
+    after *lead* frames of another device (0x123), until stopped or, with *rounds*, that
+    many rounds of *ids* (then :attr:`sent` is set)."""
 
-    def __init__(self, channel, ids, delay=0.0):
+    def __init__(self, channel, ids, lead=0, rounds=None):
         super().__init__(daemon=True)
-        self.channel, self.ids, self.delay = channel, ids, delay
+        self.channel, self.ids, self.lead, self.rounds = channel, ids, lead, rounds
         self.done = threading.Event()
+        self.sent = threading.Event()
         self.bus = can.Bus(interface="virtual", channel=channel)
 
     def run(self):
-        time.sleep(self.delay)
+        for k in range(self.lead):
+            self.bus.send(can.Message(arbitration_id=0x123, is_extended_id=False,
+                                      data=bytes([k % 256])))
         k = 0
-        while not self.done.is_set():
+        while not self.done.is_set() and (self.rounds is None or k < self.rounds):
             for ident in self.ids:
                 self.bus.send(can.Message(arbitration_id=ident, is_extended_id=ident > 0x7FF,
                                           data=bytes(7) + bytes([k % 256])))
             k += 1
             time.sleep(0.002)
+        self.sent.set()
 
     def __enter__(self):
         self.start()
@@ -57,28 +62,38 @@ def test_the_timeout_is_a_named_constant_of_a_few_seconds():
     assert 1.0 <= RIG_DATA_TIMEOUT_S <= 5.0
 
 
-@pytest.mark.parametrize(("ids", "delay", "ended"), [
-    ((0x123, 0x18FF0001), 0.0, "no-rig-data"),   # traffic, none of it the rig's
-    ((0x0C2,), 0.0, "completed"),                # the tangential cell alone will do
-    ((0x0C1, 0x123), 0.3, "completed"),          # the rig, a little late
+@pytest.mark.parametrize(("ids", "lead", "ended"), [
+    ((0x123, 0x18FF0001), 0, "no-rig-data"),   # traffic, none of it the rig's
+    ((0x0C2,), 0, "completed"),                # the tangential cell alone will do
+    ((0x0C1, 0x123), 300, "completed"),        # the rig, after another device's frames
 ])
-def test_a_trial_without_the_rigs_frames_ends_as_no_rig_data(tmp_path, ids, delay, ended):
+def test_a_trial_without_the_rigs_frames_ends_as_no_rig_data(tmp_path, ids, lead, ended):
     """The trial lasts longer than the time allowed for the rig's frames: one without them
     ends as no-rig-data when that time is up (not as completed at its end, however late a
-    busy machine checks), one with them runs its duration."""
-    channel = f"no-rig-{ids[0]}-{delay}"
-    timeout = 0.8 if ended == "no-rig-data" else 2.0
-    duration = 60.0 if ended == "no-rig-data" else 2.5  # 60 s: a hang guard
-    with Sender(channel, ids, delay), can.Bus(interface="virtual", channel=channel) as bus:
-        result = record_trial(bus, tmp_path / "s", "P01", "run-01", duration=duration,
-                              rig_data_timeout=timeout)
+    busy machine checks), one with them runs until its source is done (the senders begin as
+    the trial does; the times allowed that are not the subject, 60 s, guard against a hang
+    only)."""
+    channel = f"no-rig-{ids[0]}-{lead}"
+    rig = ended != "no-rig-data"
+    sender = Sender(channel, ids, lead, rounds=500 if rig else None)
+    try:
+        with can.Bus(interface="virtual", channel=channel) as bus:
+            result = record_trial(bus, tmp_path / "s", "P01", "run-01",
+                                  duration=None if rig else 60.0,
+                                  rig_data_timeout=60.0 if rig else 0.8,
+                                  until=sender.sent.is_set if rig else None,
+                                  started=lambda _paths: sender.start())
+    finally:
+        sender.done.set()
+        sender.join(60)
+        sender.bus.shutdown()
     side = json.loads((tmp_path / "s" / "P01" / "run-01.json").read_text())
     assert (result.ended, side["ended"]) == (ended, ended)
     assert result.exit_code == (1 if ended == "no-rig-data" else 0)
     log = tmp_path / "s" / "P01" / "run-01.log"
     assert len(list(can.LogReader(log))) == side["frames"] > 0   # the log is kept
     if ended == "no-rig-data":
-        assert side["duration_s"] < duration                    # it did not run its 60 s
+        assert side["duration_s"] < 60.0                        # it did not run its 60 s
         assert "FzCell (0x0C1), FxCell (0x0C2)" in side["end_detail"]
         assert "0.8 s" in side["end_detail"]
 

@@ -130,11 +130,11 @@ def test_a_session_stopped_mid_trial_goes_on_and_records_each_trial_once(
     proc = _session(tmp_path, pty, "P02", trial_s=3.0, wait=False)
     try:
         deadline = time.monotonic() + HANG_S
-        while not (subject / "run-02.log.part").exists():
+        part = subject / "run-02.log.part"
+        while not (part.exists() and part.stat().st_size > 1000):  # mid-trial: frames in
             assert proc.poll() is None, proc.communicate()
             assert time.monotonic() < deadline, "run-02 never began"
             time.sleep(0.05)
-        time.sleep(0.5)  # mid-trial
         proc.send_signal(signal.SIGINT)
         out, err = proc.communicate(timeout=HANG_S)
     finally:

@@ -346,14 +346,23 @@ def test_streaming_on_a_virtual_bus_delivers_every_frame():
 
 
 def test_stop_event_ends_a_stream_early():
-    bus = can.Bus(interface="virtual", channel=f"sim-stop-{time.monotonic_ns()}")
+    channel = f"sim-stop-{time.monotonic_ns()}"
+    bus = can.Bus(interface="virtual", channel=channel)
+    rx = can.Bus(interface="virtual", channel=channel)
     stop = threading.Event()
-    timer = threading.Timer(0.3, stop.set)
-    timer.start()
+
+    def stop_once_sending():  # once the rig's first frame is out, however late that is
+        rx.recv(timeout=600)
+        stop.set()
+
+    listener = threading.Thread(target=stop_once_sending, daemon=True)
+    listener.start()
     try:
         stats = Simulator().run(bus, stop_event=stop)  # returns: stopped, not run for 24 h
     finally:
+        listener.join(600)
         bus.shutdown()
+        rx.shutdown()
     assert stats.sent > 0 and stats.not_sent == 0
     assert stats.generated == stats.sent  # what was made but not yet due is not counted
 

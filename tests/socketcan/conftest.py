@@ -50,8 +50,9 @@ VM_TIMEOUT_S = float(os.environ.get("EVTRIBO_VCAN_VM_TIMEOUT", "1800"))
 #: other can see two of its frames delivered swapped: each processor has its own backlog
 #: queue).
 VM_CPUS = 1
-#: Environment variables the guest's tests see as the host's.
-PASSED_ON = ("HYPOTHESIS_PROFILE", "EVTRIBO_REPLAY_STUDIES")
+#: Environment variables the guest's tests see as the host's (PYTHONPATH: the sources a
+#: checkout runs with, when they are not the ones installed in its environment).
+PASSED_ON = ("HYPOTHESIS_PROFILE", "EVTRIBO_REPLAY_STUDIES", "PYTHONPATH")
 #: Set to 1 to keep the tests' exports folder (what each test recorded) after the run.
 KEEP_ENV = "EVTRIBO_SOCKETCAN_KEEP"
 GROUP = "socketcan-vm"

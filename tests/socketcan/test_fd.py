@@ -12,15 +12,16 @@ from pathlib import Path
 import pytest
 
 from _socketcan import (
+    HANG_S,
     ROOT,
     Candump,
     evtribo,
     frames_of,
     kernel_drops,
     on_host,
-    play_then_stop,
+    playing,
+    stop_when_dumped,
     times_of,
-    wait_for,
     without_fdf,
 )
 
@@ -73,16 +74,16 @@ def test_a_rig_on_can_fd_is_recorded_decoded_and_analysed(tmp_path, vcan, export
     assert sum("##" in line for line in lines) > 10_000  # the cells' 64-byte FD frames
 
     recorded = exports / "recorded"
-    candump = Candump(vcan, tmp_path / "candump.log")
+    candump = Candump(vcan, tmp_path / "candump.log", count=len(lines))
     before = kernel_drops(vcan)
     proc = evtribo(["acquire", "--study", str(recorded), "--rig", str(RIG), "--subject", "P01",
                     "--trial", "run-01", "--interface", "socketcan", "--channel", vcan,
                     "--log-channel", "vcan0", "--tare-s", "0", "--duration", "600",
                     "--waveform", "square", "--frequency", "10000", "--amplitude", "140",
-                    "--condition", "alternating"], tmp_path / "acquire.out")
-    wait_for(proc, "recording P01/run-01")
-    play_then_stop(trace, vcan, proc)  # Ctrl-C once canplayer is done
-    assert proc.wait(600) == 0, proc.output()
+                    "--condition", "alternating"], tmp_path / "acquire.out",
+                   setup=playing(trace, vcan))  # the trace starts as the recording does
+    stop_when_dumped(candump, proc)  # Ctrl-C once every frame of the trace is on the bus
+    assert proc.wait(HANG_S) == 0, proc.output()
     dumped = candump.stop()
     assert kernel_drops(vcan) == before  # none lost before a socket
     got = (recorded / "P01" / "run-01.log").read_text().splitlines()

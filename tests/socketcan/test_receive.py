@@ -7,12 +7,11 @@ import datetime as dt
 import json
 import struct
 import threading
-import time
 
 import can
 import pytest
 
-from _socketcan import Candump, evtribo, frames_of, play, wait_for
+from _socketcan import HANG_S, Candump, evtribo, frames_of, playing, stop_when_dumped
 from evtribo.acquisition.buses.bus import BusSettings, open_bus
 from evtribo.acquisition.trial import record_trial
 from evtribo.canlog.io import read_frames
@@ -23,28 +22,42 @@ pytestmark = pytest.mark.slow
 FZ_LINE = "(1700000000.000000) vcan0 0C1#F401000000190000"
 
 
-def _acquire(tmp_path, vcan, *extra):
+def _acquire(tmp_path, vcan, *extra, setup=None):
     return evtribo(["acquire", "--study", str(tmp_path / "study"), "--subject", "P01",
                     "--trial", "run-01", "--interface", "socketcan", "--channel", vcan,
-                    "--tare-s", "0", *extra], tmp_path / "acquire.out")
+                    "--tare-s", "0", *extra], tmp_path / "acquire.out", setup)
 
 
 def _sidecar(tmp_path):
     return json.loads((tmp_path / "study" / "P01" / "run-01.json").read_text())
 
 
-def test_a_burst_into_a_tiny_receive_queue_is_counted_by_the_kernel(tmp_path, vcan):
-    n = 5_000  # frames 0x123, each with its number: the log says which arrived
+def _burst(tmp_path, n):
+    """FzCell's frame, then *n* frames 0x123, each with its number: the log says which
+    arrived."""
     burst = tmp_path / "burst.log"
     burst.write_text("\n".join([FZ_LINE] + [
         f"(1700000000.{k:06d}) vcan0 123#{struct.pack('>I', k).hex().upper()}"
         for k in range(n)]) + "\n")
-    proc = _acquire(tmp_path, vcan, "--duration", "600", "--bus-option", "receive_buffer=1")
-    wait_for(proc, "recording P01/run-01")
-    play(burst, vcan, ignore_times=True)
-    time.sleep(1.0)
-    proc.send_signal(2)
-    assert proc.wait(120) == 0, proc.output()
+    return burst
+
+
+def _record_played(tmp_path, vcan, lines, *extra):
+    """``acquire`` recording *lines* played as fast as canplayer can from the trial's start,
+    stopped by Ctrl-C once candump beside it has them all; candump's lines."""
+    candump = Candump(vcan, tmp_path / "candump.log",
+                      count=len(lines.read_text().splitlines()))
+    proc = _acquire(tmp_path, vcan, "--duration", "600", *extra,
+                    setup=playing(lines, vcan, ignore_times=True))
+    stop_when_dumped(candump, proc)
+    assert proc.wait(HANG_S) == 0, proc.output()
+    return proc, candump.stop()
+
+
+def test_a_burst_into_a_tiny_receive_queue_is_counted_by_the_kernel(tmp_path, vcan):
+    n = 5_000
+    proc, _ = _record_played(tmp_path, vcan, _burst(tmp_path, n),
+                             "--bus-option", "receive_buffer=1")
     side = _sidecar(tmp_path)
     assert side["receive"]["queue"]["requested_bytes"] == 1
     assert side["receive"]["queue"]["bytes"] < 10_000  # the kernel's least
@@ -62,16 +75,7 @@ def test_a_burst_into_a_tiny_receive_queue_is_counted_by_the_kernel(tmp_path, vc
 
 def test_the_default_queue_holds_a_burst_whole(tmp_path, vcan):
     n = 5_000
-    burst = tmp_path / "burst.log"
-    burst.write_text("\n".join([FZ_LINE] + [
-        f"(1700000000.{k:06d}) vcan0 123#{struct.pack('>I', k).hex().upper()}"
-        for k in range(n)]) + "\n")
-    proc = _acquire(tmp_path, vcan, "--duration", "600")
-    wait_for(proc, "recording P01/run-01")
-    play(burst, vcan, ignore_times=True)
-    time.sleep(1.0)
-    proc.send_signal(2)
-    assert proc.wait(300) == 0, proc.output()
+    _record_played(tmp_path, vcan, _burst(tmp_path, n))
     side = _sidecar(tmp_path)
     queue = side["receive"]["queue"]
     assert queue["requested_bytes"] == 32 * 1024 * 1024 and queue["bytes"] >= 2 * 32 * 1024 * 1024
@@ -86,14 +90,7 @@ def test_error_frames_are_logged_and_the_controller_state_said(tmp_path, vcan):
     lines = tmp_path / "errors.log"
     lines.write_text("\n".join([FZ_LINE] + [f"(1700000000.{k + 1:06d}) vcan0 {e}"
                                             for k, e in enumerate(errors)]) + "\n")
-    candump = Candump(vcan, tmp_path / "candump.log")
-    proc = _acquire(tmp_path, vcan, "--duration", "600")
-    wait_for(proc, "recording P01/run-01")
-    play(lines, vcan, ignore_times=True)
-    time.sleep(1.0)
-    proc.send_signal(2)
-    assert proc.wait(120) == 0, proc.output()
-    dumped = candump.stop()
+    proc, dumped = _record_played(tmp_path, vcan, lines)
     side = _sidecar(tmp_path)
     assert side["error_frames"] == 2
     assert side["error_frames_by_kind"] == {"bus-off": 1, "controller rx-error-passive": 1}
@@ -109,18 +106,22 @@ def test_frames_stamped_before_the_trial_never_enter_its_log(tmp_path, vcan):
     bus = open_bus(BusSettings("socketcan", vcan))
     done = threading.Event()
 
-    def send(ident: int, n: int) -> None:
+    def send(ident: int, n: int, first: int = 0) -> None:
         with can.Bus(interface="socketcan", channel=vcan) as tx:
-            for k in range(n):
+            for k in range(first, first + n):
                 tx.send(can.Message(arbitration_id=ident, is_extended_id=False,
                                     data=struct.pack(">Q", k)))
 
+    def started(_paths):  # the rig heard as the trial starts, the rest from a thread
+        send(0x0C1, 1)
+        sender.start()
+
     try:
         send(0x7AB, 300)  # queued in the bus's socket: nobody reads yet
-        sender = threading.Thread(target=lambda: (send(0x0C1, 500), done.set()))
+        # each frame is in the recorder's socket once its send has returned
+        sender = threading.Thread(target=lambda: (send(0x0C1, 499, first=1), done.set()))
         result = record_trial(bus, tmp_path / "study", "P01", "run-01", duration=None,
-                              settings=BusSettings("socketcan", vcan),
-                              started=lambda _paths: sender.start(),
+                              settings=BusSettings("socketcan", vcan), started=started,
                               should_stop=done.is_set)
         sender.join(10)
     finally:

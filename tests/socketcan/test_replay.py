@@ -1,6 +1,6 @@
 """Recorded traces replayed through a kernel's CAN stack: can-utils' ``canplayer`` plays a
 trial's log into a vcan interface at its frames' times, ``evtribo acquire --interface
-socketcan`` records it (and ``candump -L`` beside it) until Ctrl-C once canplayer is done.
+socketcan`` records it (and ``candump -L`` beside it) until Ctrl-C once the trace is played.
 Every frame must be in the log, in order, with the kernel's times (candump's, to the
 microsecond), none dropped (by the socket's queue or before it); and the recorded trial must
 be analysed like the trace (F_el within 2 %: the kernel's times carry this busy machine's
@@ -22,22 +22,23 @@ import pytest
 
 from _socketcan import (
     DATA,
+    HANG_S,
     Candump,
     evtribo,
     frames_of,
     kernel_drops,
     on_host,
-    play_then_stop,
+    playing,
+    stop_when_dumped,
     times_of,
     unzip,
-    wait_for,
 )
 from evtribo.study import load_study
 
 pytestmark = pytest.mark.slow
 
 #: Seconds the recording may go on beyond LONGEST_S times the trace's span; it is ended by
-#: Ctrl-C once canplayer is done.
+#: Ctrl-C once every frame of the trace is on the bus.
 SPARE_S = 60.0
 #: The longest canplayer may take, in multiples of the trace's span (in a busy machine's VM,
 #: a 10-12 s trace took 44-70 s from the recording's start to canplayer's end).
@@ -117,16 +118,16 @@ def test_a_trace_replayed_into_vcan_is_logged_whole_in_order_with_kernel_times(
     side = json.loads(ref.sidecar_path.read_text()) if ref.sidecar_path else {}
 
     recorded = _study_like(source, exports / "recorded")
-    candump = Candump(vcan, tmp_path / "candump.log")
+    candump = Candump(vcan, tmp_path / "candump.log", count=len(lines))
     before = kernel_drops(vcan)
     proc = evtribo(["acquire", "--study", str(recorded), "--subject", subject, "--trial",
                     trial, "--interface", "socketcan", "--channel", vcan, "--log-channel",
                     channel, "--tare-s", "0", "--duration",
-                    f"{LONGEST_S * (times[-1] - times[0]) + SPARE_S:.1f}", *_metadata(side)],
-                   tmp_path / "acquire.out")
-    wait_for(proc, f"recording {subject}/{trial}")
-    play_then_stop(log, vcan, proc, from_channel=channel)
-    assert proc.wait(SPARE_S + 600) == 0, proc.output()
+                    f"{max(LONGEST_S * (times[-1] - times[0]) + SPARE_S, HANG_S):.1f}",
+                    *_metadata(side)],
+                   tmp_path / "acquire.out", setup=playing(log, vcan, from_channel=channel))
+    stop_when_dumped(candump, proc)  # Ctrl-C once every frame of the trace is on the bus
+    assert proc.wait(SPARE_S + HANG_S) == 0, proc.output()
     dumped = candump.stop()
     assert kernel_drops(vcan) == before  # none lost before a socket
     (exports / "replay.json").write_text(json.dumps(

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from _socketcan import evtribo, on_host, wait_for
+from _socketcan import HANG_S, evtribo, on_host, wait_for
 from evtribo.documents.session import read_session
 
 pytestmark = pytest.mark.slow
@@ -43,7 +43,29 @@ condition = "alternating"
 """
 
 
-def _view_state(output: str, timeout: float = 60.0) -> dict:
+def _rig_on_the_bus(vcan: str, sim) -> None:
+    """Wait until the simulated rig's frames are on *vcan*: it sends, and hears the
+    amplifier's commands on the bus it sends on (a rig that came up in the middle of a
+    trial would obey only its last commands)."""
+    import can
+
+    deadline = time.monotonic() + HANG_S
+    with can.Bus(interface="socketcan", channel=vcan) as bus:
+        while bus.recv(1.0) is None:
+            assert sim.poll() is None, sim.output()
+            assert time.monotonic() < deadline, "the simulated rig sent nothing"
+
+
+def _frames_in(part: Path, proc) -> None:
+    """Wait until the trial being recorded into *part* holds frames (whole lines)."""
+    deadline = time.monotonic() + HANG_S
+    while not (part.exists() and part.stat().st_size > 1000):
+        assert proc.poll() is None, proc.output()
+        assert time.monotonic() < deadline, f"no frames in {part}"
+        time.sleep(0.05)
+
+
+def _view_state(output: str, timeout: float = HANG_S) -> dict:
     """The live view's state once it shows frames (its address is in *output*)."""
     url = next(w for w in output.split() if w.startswith("http://127.0.0.1:"))
     deadline = time.monotonic() + timeout
@@ -134,12 +156,12 @@ def test_a_session_over_vcan_against_the_simulated_rig_stopped_and_resumed(
     session = ["session", str(protocol), "--study", str(study), "--subject", "P01", "--yes",
                "--no-check", "--interface", "socketcan", "--channel", vcan]
     try:
+        _rig_on_the_bus(vcan, sim)  # the session begins once the rig sends and listens
         first = evtribo([*session, "--view", "0"], tmp_path / "first.out")
-        wait_for(first, "recording P01/run-01", timeout=300)
+        wait_for(first, "recording P01/run-01", timeout=HANG_S)
         state = _view_state(first.output())
         assert state["frames"] > 0 and state["queue_dropped"] == 0  # the kernel's count
-        wait_for(first, "recording P01/run-02", timeout=300)
-        time.sleep(1.5)
+        _frames_in(study / "P01" / "run-02.log.part", first)
         first.send_signal(signal.SIGINT)  # Ctrl-C mid-trial
         assert first.wait(300) == 0, first.output()
         assert list(read_session(study / "P01" / "session.json").done) == ["run-01"]

@@ -198,6 +198,7 @@ class LogWriter:
                 if self.error is None and time.monotonic() - self._last_flush >= \
                         self.flush_interval:
                     self._flush()
+            self._settle()
             if self.error is None:
                 self._flush()
         except BaseException as err:  # disk full, closed file...: kept for the caller
@@ -206,6 +207,12 @@ class LogWriter:
             # keep draining so the receive side never blocks on a dead writer
             while self._queue.get() is not None:
                 pass
+
+    def _settle(self) -> None:
+        """The trial has ended: the counters' steps still waiting for frames after them are
+        judged (:meth:`CounterTracker.settle`)."""
+        self.stats.dropped += self.counters.settle()
+        self.stats.dropped_by_message = self.counters.dropped_by_message()
 
     def _flush(self) -> None:
         self.file.flush()

@@ -4,7 +4,9 @@
 ``TRIAL.log.part`` and renamed when the trial ends; ``STUDY/SUBJECT/TRIAL.json`` is the
 sidecar (spec §1 plus the recording's facts). The sidecar is first written when recording
 starts, with ``"ended": "recording"``, so a trial whose process was killed still says what it
-is; it is rewritten, atomically, when the trial ends. While it records, the trial is locked
+is; it is rewritten, atomically, when the trial ends (:mod:`.ending`). A trial recorded
+again over itself (``force``) is recorded beside the old one, which it replaces once whole
+(:mod:`.replace`). While it records, the trial is locked
 (``TRIAL.lock``: PID, host, command; :mod:`evtribo.store.lock`), and ``.TRIAL.reserve`` holds a
 little disk space, freed to write the last sidecar even when the disk has filled up.
 
@@ -46,8 +48,8 @@ dropped_frames              frames lost before the log, at least: the larger of 
                             cells' counters' count and ``queue_dropped_frames``
 dropped_frames_by_message   frames missing by the load cells' rolling counters
 duplicate_frames            frames of the load cells received twice: no loss
-counter_restarts_s          by message, when its counter restarted at 0 (s from the first
-                            frame): no frame is counted lost there
+counter_restarts_s          by message, when its counter restarted (back to 0 or a low
+                            value; s from the first frame): no wrap of frames lost there
 queue_dropped_frames        frames the receiving side dropped from its full receive queue
                             (SocketCAN: the kernel's count, ``SO_RXQ_OVFL``); null when the
                             bus does not count them
@@ -64,23 +66,36 @@ ended, end_detail           how the trial ended (above), and why
 from __future__ import annotations
 
 import dataclasses
-import datetime as dt
 import logging
 import os
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
-from typing import Any, BinaryIO
+from typing import Any
 
 import can
 
 import evtribo
-from evtribo.acquisition.buses.bus import BusSettings, ReceiveCare, receive_care
+from evtribo.acquisition.buses.bus import BusSettings, receive_care
+from evtribo.acquisition.ending import (
+    EXIT_CODES,
+    _commit,
+    _how_it_ended,
+    _iso,
+    _keep_previous,
+    _last_sidecar,
+    _no_rig_data,
+    _Received,
+    _Recording,
+    _rig_frames,
+    _save_sidecar,
+    _write_json,
+)
 from evtribo.acquisition.logger import CounterTracker, LogWriter
 from evtribo.acquisition.receive import ReceiveResult, receive
+from evtribo.acquisition.replace import discard, finish, new_stage
 from evtribo.acquisition.rigfile import AcquisitionRig, check_name, open_study
 from evtribo.acquisition.trialdata import (
     RESERVE_BYTES,
@@ -94,8 +109,7 @@ from evtribo.acquisition.trialdata import (
     refuse_existing,
     trial_lock,
 )
-from evtribo.canlog.io.ids import key_id
-from evtribo.documents.sidecar import CONDITIONS, WAVEFORMS, rig_entry, write_sidecar
+from evtribo.documents.sidecar import CONDITIONS, WAVEFORMS, rig_entry
 from evtribo.errors import (
     AcquisitionError,
     EvtriboError,
@@ -104,20 +118,6 @@ from evtribo.errors import (
 from evtribo.store.lock import WriteLock
 
 log = logging.getLogger(__name__)
-
-#: Exit code of the command line for each way a trial ends.
-EXIT_CODES = {"completed": 0, "interrupted": 0, "bus-error": 1, "disk-error": 1,
-              "no-rig-data": 1}
-
-
-def _iso(t: float) -> str:
-    return dt.datetime.fromtimestamp(t, dt.UTC).isoformat(timespec="microseconds") \
-        .replace("+00:00", "Z")
-
-
-def _write_json(path: Path, data: dict[str, Any]) -> None:
-    write_sidecar(path, data, force=True)  # atomic: temporary file, fsync, rename
-
 
 def _log_channel(name: str | None, bus: can.BusABC) -> str:
     name = name or str(getattr(bus, "channel", None) or "can0")
@@ -190,11 +190,24 @@ def record_trial(bus: can.BusABC, study: str | Path, subject: str, trial: str,
     acq_rig = open_study(Path(study), opts.rig)
     _lock(paths, lock)
     try:
+        _finish_replacing(paths)
         refuse_existing(paths, opts.force)  # again: now nobody else can record it
         return _run(_start(bus, paths, acq_rig, opts), bus, acq_rig, opts)
     finally:
         paths.reserve.unlink(missing_ok=True)
         lock.release()
+
+
+def _finish_replacing(paths: TrialPaths) -> None:
+    """Finish what a killed process left of a re-recording it had made the trial."""
+    try:
+        if finish(paths.folder, paths.log.stem):
+            log.warning("%s/%s: finished replacing the trial recorded before (its "
+                        "re-recording had been cut short while it took its place)",
+                        paths.folder.name, paths.log.stem)
+    except OSError as err:
+        raise AcquisitionError(f"cannot finish replacing the trial: {err}",
+                               path=paths.folder) from err
 
 
 def _lock(paths: TrialPaths, lock: WriteLock) -> None:
@@ -209,20 +222,6 @@ def _lock(paths: TrialPaths, lock: WriteLock) -> None:
                                path=paths.lock) from err
 
 
-@dataclass
-class _Recording:
-    """A trial whose log is open: what :func:`_run` needs to record and end it."""
-
-    paths: TrialPaths
-    fh: BinaryIO
-    sidecar: dict[str, Any]
-    previous: list[Path]
-    channel: str
-    care: ReceiveCare = dataclasses.field(default_factory=ReceiveCare)
-    t_start: float = 0.0
-    discarded: int | None = None
-
-
 def _start(bus: can.BusABC, paths: TrialPaths, acq_rig: AcquisitionRig,
            opts: TrialOptions) -> _Recording:
     """Open the log, write the first sidecar, keep disk space for the last one."""
@@ -230,27 +229,34 @@ def _start(bus: can.BusABC, paths: TrialPaths, acq_rig: AcquisitionRig,
         channel=str(getattr(bus, "channel", None) or "") or None)
     settings.interface = settings.interface or type(bus).__name__
     channel = _log_channel(opts.log_channel or settings.channel, bus)
-    # with force, the previous trial's log and sidecar stay until this one has ended
-    previous = [p for p in (paths.log, paths.sidecar) if p.exists()]
+    stage = None
+    if opts.force and paths.existing():  # the old trial stays until this one is whole
+        try:
+            stage = new_stage(paths.folder, paths.log.stem)
+        except OSError as err:
+            raise AcquisitionError(f"cannot create the new recording's folder: {err}",
+                                   path=paths.folder) from err
+    where = paths if stage is None else paths.staged(stage)
     try:  # never through a link planted at the partial log's name
-        flags = os.O_WRONLY | os.O_CREAT | (os.O_TRUNC if opts.force else os.O_EXCL)
-        fh = os.fdopen(os.open(paths.part, flags | getattr(os, "O_NOFOLLOW", 0), 0o644), "wb",
-                       buffering=0)
-    except FileExistsError as err:
-        raise OutputExistsError("another recording of this trial is in progress",
-                                path=paths.part) from err
+        fh = os.fdopen(os.open(where.part, os.O_WRONLY | os.O_CREAT | os.O_EXCL
+                               | getattr(os, "O_NOFOLLOW", 0), 0o644), "wb", buffering=0)
     except OSError as err:
-        raise AcquisitionError(f"cannot create the log: {err}", path=paths.part) from err
-    rec = _Recording(paths=paths, fh=fh, previous=previous, channel=channel,
-                     sidecar=_first_sidecar(paths, acq_rig, opts, settings, channel))
+        if stage is not None:
+            discard(stage, paths.log.stem)
+        if isinstance(err, FileExistsError):
+            raise OutputExistsError("another recording of this trial is in progress",
+                                    path=where.part) from err
+        raise AcquisitionError(f"cannot create the log: {err}", path=where.part) from err
+    rec = _Recording(paths=where, final=paths, stage=stage, fh=fh, channel=channel,
+                     sidecar=_first_sidecar(where, acq_rig, opts, settings, channel))
     try:
         _prepare(rec, bus, opts.started)
     except BaseException:  # nothing of this trial may stay behind to block the next attempt
         fh.close()
-        paths.part.unlink(missing_ok=True)
-        paths.reserve.unlink(missing_ok=True)
-        if paths.sidecar not in previous:
-            paths.sidecar.unlink(missing_ok=True)
+        for path in (where.part, paths.reserve, where.sidecar):  # its own: none was there
+            path.unlink(missing_ok=True)
+        if stage is not None:
+            discard(stage, paths.log.stem)
         raise
     return rec
 
@@ -279,17 +285,14 @@ def _first_sidecar(paths: TrialPaths, acq_rig: AcquisitionRig, opts: TrialOption
 
 def _prepare(rec: _Recording, bus: can.BusABC,
              started: Callable[[TrialPaths], None] | None) -> None:
-    """Write the first sidecar (unless a previous trial's stays until this one ends), hold
-    the disk space for the last one, start the trial (what the bus held before is discarded:
-    :func:`_begin`) and tell the caller."""
+    """Write the first sidecar, hold the disk space for the last one, start the trial (what
+    the bus held before is discarded: :func:`_begin`) and tell the caller (with the trial's
+    paths)."""
     paths = rec.paths
-    if paths.sidecar in rec.previous:
-        log.info("%s is kept until the new trial has ended", paths.sidecar)
-    else:
-        try:
-            _write_json(paths.sidecar, rec.sidecar)
-        except OSError as err:
-            raise AcquisitionError(f"cannot write the sidecar: {err}", path=paths.sidecar) from err
+    try:
+        _write_json(paths.sidecar, rec.sidecar)
+    except OSError as err:
+        raise AcquisitionError(f"cannot write the sidecar: {err}", path=paths.sidecar) from err
     try:
         keep_reserve(paths.reserve)
     except OSError as err:
@@ -299,7 +302,7 @@ def _prepare(rec: _Recording, bus: can.BusABC,
             path=paths.reserve) from err
     _begin(rec, bus)
     if started is not None:
-        started(paths)
+        started(rec.final)
 
 
 def _begin(rec: _Recording, bus: can.BusABC) -> None:
@@ -312,18 +315,6 @@ def _begin(rec: _Recording, bus: can.BusABC) -> None:
     rec.t_start = time.time()
 
 
-@dataclass
-class _Received:
-    """What the receive loop left: how it ended, the writer and the time it took."""
-
-    result: ReceiveResult
-    writer: LogWriter
-    elapsed: float
-    t_end: float
-    t_start: float
-    care: ReceiveCare
-
-
 def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
          opts: TrialOptions) -> TrialResult:
     """Record into the open log until the trial ends; save the log and the sidecar."""
@@ -332,12 +323,17 @@ def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
     if ended == "no-rig-data":
         error = AcquisitionError(_no_rig_data(acq_rig, min(opts.rig_data_timeout or 0.0,
                                                            round(got.elapsed, 1))))
-    if rec.previous and error is not None and got.writer.stats.frames == 0:
-        return _keep_previous(rec, ended, error, got.elapsed)
+    if rec.stage is not None and not _rig_frames(got.writer.stats, acq_rig):
+        return _keep_previous(rec, ended, error, got)
     paths = rec.paths
     paths.part.replace(paths.log)
     sidecar = _last_sidecar(rec, got, ended, error, opts.should_stop)
-    _save_sidecar(rec, sidecar)
+    try:
+        _save_sidecar(rec, sidecar)
+    finally:  # a whole log with its first sidecar replaces the old trial too
+        if rec.stage is not None:
+            _commit(rec)
+    paths = rec.final
     stats = got.writer.stats
     log.info("%s/%s %s: %d frames in %.1f s, %d dropped, %d bus errors", paths.folder.name,
              paths.log.stem, ended, stats.frames, got.elapsed, stats.dropped,
@@ -391,109 +387,6 @@ def _receive(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
         result.stale = None
     return _Received(result=result, writer=writer, elapsed=elapsed, t_end=t_end,
                      t_start=rec.t_start, care=care)
-
-
-def _how_it_ended(rec: _Recording, got: _Received) -> tuple[str, BaseException | None]:
-    """How the trial ended and the error that ended it: the receive loop's word, unless
-    the log could not be written or closed (``disk-error``)."""
-    ended, error = got.result.reason, got.result.error
-    if got.writer.error is not None and ended != "bus-error":
-        ended, error = "disk-error", got.writer.error
-    try:
-        rec.fh.close()
-    except OSError as err:  # the final flush failed (disk full)
-        log.error("closing the log failed: %s", err)
-        ended, error = "disk-error", err
-    return ended, error
-
-
-def _last_sidecar(rec: _Recording, got: _Received, ended: str, error: BaseException | None,
-                  should_stop: Callable[[], bool] | None) -> dict[str, Any]:
-    """The sidecar as the trial ends: the first one, plus the recording's facts."""
-    stats = got.writer.stats
-    exceptions = [*got.result.damaged_examples]
-    if ended == "bus-error":
-        exceptions.append(f"{type(error).__name__}: {error}")
-    sidecar = rec.sidecar
-    sidecar.update({
-        "start_time": _iso(got.t_start),
-        "end_time": _iso(got.t_end),
-        "duration_s": round(got.elapsed, 6),
-        "log": rec.paths.log.name,
-        "frames": stats.frames,
-        "frames_by_id": dict(sorted(stats.frames_by_id.items())),
-        "first_frame_time": None if stats.first_timestamp is None
-        else _iso(stats.first_timestamp),
-        "discarded_before_start": got.result.stale,
-        "error_frames": stats.error_frames,
-        "error_frames_by_kind": dict(sorted(stats.errors.by_kind.items())),
-        "controller_state": stats.errors.state,
-        "worst_controller_state": stats.errors.worst,
-        "damaged_lines": stats.damaged_lines,
-        "dropped_frames": max(stats.dropped, stats.queue_dropped or 0),
-        "queue_dropped_frames": stats.queue_dropped,
-        "receive": got.care.as_dict(),
-        "dropped_frames_by_message": stats.dropped_by_message,
-        "duplicate_frames": stats.duplicates,
-        "counter_restarts_s": got.writer.counters.restarts_by_message(stats.first_timestamp),
-        "longest_gap_s_by_message": got.writer.counters.longest_gap_by_message(),
-        "bus_errors": stats.error_frames + stats.damaged_lines + int(ended == "bus-error"),
-        "bus_exceptions": exceptions,
-        "ended": ended,
-    })
-    if error is not None:
-        sidecar["end_detail"] = _detail(error, ended,
-                                        max(got.result.frames - stats.frames, 0))
-    elif ended == "interrupted":
-        sidecar["end_detail"] = getattr(should_stop, "reason", None) or "stop requested"
-    return sidecar
-
-
-def _no_rig_data(acq_rig: AcquisitionRig, within: float | None) -> str:
-    names = ", ".join(f"{n} (0x{key_id(k)[0]:03X})"
-                      for n, k in acq_rig.role_messages().items())
-    return (f"none of the rig's load-cell messages ({names}) arrived within {within:g} s "
-            f"(the wrong bus, or the study's DBC {acq_rig.dbc_path.name} is not this rig's)")
-
-
-def _detail(error: BaseException, ended: str, unwritten: int) -> str:
-    if ended == "no-rig-data":
-        return str(error)
-    text = f"{type(error).__name__}: {error}"
-    if ended == "disk-error":
-        text += (f"; the log ends with the last whole line written ({unwritten} frames "
-                 "received after it are not in it)")
-    return text
-
-
-def _keep_previous(rec: _Recording, ended: str, error: BaseException,
-                   elapsed: float) -> TrialResult:
-    """The forced trial failed before any frame arrived: the one recorded before stays."""
-    paths = rec.paths
-    paths.part.unlink(missing_ok=True)
-    paths.reserve.unlink(missing_ok=True)
-    log.error("%s/%s: %s before any frame arrived; the trial recorded before is kept",
-              paths.folder.name, paths.log.stem, ended)
-    sidecar = rec.sidecar
-    sidecar.update({"ended": ended, "frames": 0, "duration_s": round(elapsed, 6),
-                    "dropped_frames": 0, "damaged_lines": 0,
-                    "bus_errors": int(ended == "bus-error"),
-                    "end_detail": _detail(error, ended, 0), "log": None})
-    return TrialResult(ended=ended, exit_code=EXIT_CODES[ended], paths=paths,
-                       sidecar=sidecar, error=error, kept_previous=True)
-
-
-def _save_sidecar(rec: _Recording, sidecar: dict[str, Any]) -> None:
-    """Write the last sidecar, with the reserved disk space freed for it."""
-    paths = rec.paths
-    paths.reserve.unlink(missing_ok=True)
-    try:
-        _write_json(paths.sidecar, sidecar)
-    except OSError as err:
-        raise AcquisitionError(
-            f"the log is saved in {paths.log} ({sidecar['frames']} frames, whole lines), but "
-            f"its sidecar could not be updated ({err}): it says how the trial started, "
-            f"and the trial ended as {sidecar['ended']!r}", path=paths.sidecar) from err
 
 
 __all__ = ["CONDITIONS", "EXIT_CODES", "RIG_DATA_TIMEOUT_S", "WAVEFORMS", "StopFlag",

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import errno
 import logging
 import math
@@ -89,11 +90,12 @@ class TrialOptions:
     rig : path, optional
         Rig TOML for a new study (default: the simulator's rig).
     force : bool
-        Replace an existing trial of that name. Its ``.log`` and ``.json`` are replaced only
-        when the new trial ends (the new one is recorded to ``.log.part`` meanwhile, and the
-        old ones stay if it ends in a fault before any frame arrived); a leftover
-        ``.log.part`` of a killed recording is replaced at once. It never replaces a trial
-        that another process is recording.
+        Replace an existing trial of that name (its ``.log`` or the ``.log.part`` of a
+        killed recording, and its ``.json``). The new trial is recorded in a folder of its
+        own beside the old one, and replaces it only once it has ended holding frames of the
+        rig's load cells: until then, and if it ends without any (a wrong bus, a fault, a
+        stop), the old trial stays as it was (:mod:`evtribo.acquisition.replace`). It never
+        replaces a trial that another process is recording.
     settings : BusSettings, optional
         How the bus was opened (recorded in the sidecar).
     log_channel : str, optional
@@ -156,6 +158,22 @@ class TrialPaths:
                    part=partial_path(folder / f"{trial}.log"), sidecar=folder / f"{trial}.json",
                    lock=folder / f"{trial}.lock", reserve=folder / f".{trial}.reserve")
 
+    def staged(self, stage: Path) -> TrialPaths:
+        """These paths with the log, its partial name and the sidecar in *stage* (a forced
+        re-recording's folder: :mod:`evtribo.acquisition.replace`); the folder, the lock and
+        the reserve stay the trial's.
+
+        Parameters
+        ----------
+        stage : Path
+
+        Returns
+        -------
+        TrialPaths
+        """
+        return dataclasses.replace(self, log=stage / self.log.name, part=stage / self.part.name,
+                                   sidecar=stage / self.sidecar.name)
+
     def existing(self) -> list[Path]:
         """The files of this trial already on disk."""
         return [p for p in (self.log, self.part, self.sidecar) if p.exists()]
@@ -176,8 +194,8 @@ class TrialResult:
         The sidecar as written (or, with *kept_previous*, as it would have been).
     error : BaseException or None
     kept_previous : bool
-        With ``force``, the new trial failed before receiving any frame: nothing of it was
-        kept, and the trial recorded before stays as it was.
+        With ``force``, the new trial ended without any frame of the rig's load cells:
+        nothing of it was kept, and the trial recorded before stays as it was.
     """
 
     ended: str

@@ -21,7 +21,6 @@ nothing recorded is ever recorded again, nor lost.
 from __future__ import annotations
 
 import logging
-import os
 import sys
 import threading
 import time
@@ -56,14 +55,14 @@ from evtribo.documents.session import (
 )
 from evtribo.errors import ConfigError
 from evtribo.session.check import TrialCheck, check_trial
-from evtribo.study import load_study, log_stem
+from evtribo.session.trialfiles import REJECTED, first_free, trial_files
+from evtribo.session.trialfiles import reject as set_aside
+from evtribo.study import load_study
 
 log = logging.getLogger(__name__)
 
 __all__ = ["REJECTED", "SessionConfig", "SessionOutcome", "run_session"]
 
-#: Folder of a subject where recordings the operator chose to redo are kept.
-REJECTED = "rejected"
 #: Longest wait for the amplifier's status to confirm a command before a trial, s.
 SETTLE_S = 2.0
 #: Ways a trial ends that stop the session (the bus or the disk failed).
@@ -156,21 +155,10 @@ class SessionOutcome:
     stopped: str | None = None
 
 
-def _first_free(subject_dir: Path) -> int:
-    """The number after the highest ``run-NN`` trial of the subject."""
-    numbers = [0]
-    for f in subject_dir.iterdir() if subject_dir.is_dir() else ():
-        split = log_stem(f) if f.is_file() else None
-        name = split[0] if split else f.name.split(".", 1)[0]
-        if name.startswith("run-") and name[4:].isdigit():
-            numbers.append(int(name[4:]))
-    return max(numbers) + 1
-
-
 def _plan(cfg: SessionConfig, protocol: Protocol, subject_dir: Path) -> Session:
     """A new session: the plan, with the trials' names."""
     seed = session_seed(protocol)
-    first = _first_free(subject_dir)
+    first = first_free(subject_dir)
     order = tuple(PlannedTrial(trial=f"run-{first + i:02d}", waveform=p.waveform,
                                frequency_Hz=p.frequency_Hz, amplitude_V=p.amplitude_V,
                                condition=p.condition)
@@ -198,33 +186,6 @@ def _load_or_plan(cfg: SessionConfig, protocol: Protocol, subject_dir: Path
     subject_dir.mkdir(parents=True, exist_ok=True)
     write_session(path, doc)
     return doc, False
-
-
-def _trial_files(subject_dir: Path, trial: str) -> list[Path]:
-    """The files of *trial* in the subject's folder (log, partial log, sidecar)."""
-    out = []
-    for f in sorted(subject_dir.glob(f"{trial}.*")):
-        split = log_stem(f)
-        if (split and split[0] == trial) or f.name == f"{trial}.json":
-            out.append(f)
-    return out
-
-
-def _reject(subject_dir: Path, trial: str) -> str | None:
-    """Move *trial*'s files to ``rejected/`` under a free name; return it (None: nothing to
-    move)."""
-    files = _trial_files(subject_dir, trial)
-    if not files:
-        return None
-    folder = subject_dir / REJECTED
-    folder.mkdir(exist_ok=True)
-    k = 1
-    while any(folder.glob(f"{trial}-{k}.*")):
-        k += 1
-    name = f"{trial}-{k}"
-    for f in files:
-        os.replace(f, folder / (name + f.name[len(trial):]))
-    return name
 
 
 class _IdleReader:
@@ -411,7 +372,7 @@ class _Session:
         return result
 
     def reject(self, entry: PlannedTrial, why: str) -> None:
-        name = _reject(self.subject_dir, entry.trial)
+        name = set_aside(self.subject_dir, entry.trial)
         if name is not None:
             self.out.rejected.append(name)
             self.say(f"{entry.trial} {why}: kept as {self.subject_dir / REJECTED / name}.*")
@@ -420,7 +381,7 @@ class _Session:
     def one(self, entry: PlannedTrial, number: int) -> str | None:
         """Record *entry* until kept; the reason to stop the session, or None."""
         while True:
-            if _trial_files(self.subject_dir, entry.trial):
+            if trial_files(self.subject_dir, entry.trial):
                 self.reject(entry, "was left unfinished by an earlier run")
             result = self.record(entry, number)
             if result.ended == "interrupted":

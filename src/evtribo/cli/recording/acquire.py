@@ -73,7 +73,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     meta.add_argument("--notes", help="free text")
     p.add_argument("--rig", metavar="RIG.toml",
                    help="rig description for a new study (default: the simulator's rig)")
-    p.add_argument("--force", action="store_true", help="replace an existing trial")
+    p.add_argument("--force", action="store_true",
+                   help="replace an existing trial, once the new one holds frames of the "
+                        "rig's load cells (until then, and if it ends without any, the old "
+                        "one stays as it was)")
     disp = p.add_argument_group("display")
     disp.add_argument("--target-force", type=float, metavar="N",
                       help="target normal force shown as a band, N")
@@ -191,8 +194,11 @@ def run(args: argparse.Namespace) -> int:
             log.warning("closing the bus failed: %s", err)
     side = result.sidecar
     if result.kept_previous:
-        print(f"evtribo acquire: error: no frame arrived ({side['end_detail']}); "
-              f"the trial recorded before is kept: {result.paths.log}", file=sys.stderr)
+        kept = ", ".join(str(p) for p in result.paths.existing())
+        print(f"evtribo acquire: {'error: ' if result.exit_code else ''}no frame of the rig's "
+              f"load cells arrived ({side['end_detail']}; {side['frames']} other frames): "
+              f"nothing of this recording was kept; the trial recorded before is, as it was: "
+              f"{kept}", file=sys.stderr)
         return result.exit_code
     summary = f"{args.subject}/{args.trial}: {result.ended}, " + summary_counts(side) \
         + f" -> {result.paths.log}"
