@@ -59,6 +59,38 @@ def file_size_limit(limit: int) -> Callable[[], None]:
     return setup
 
 
+#: Linux capabilities that let root read, write and enter whatever the files' modes say:
+#: CAP_DAC_OVERRIDE (1) and CAP_DAC_READ_SEARCH (2).
+_DAC_CAPABILITIES = (1 << 1) | (1 << 2)
+
+
+def as_a_user() -> None:
+    """A setup in which the process obeys the files' modes as a user does: a file of mode
+    000 cannot be read, a folder of mode 000 neither listed nor entered.
+
+    The tests run as root, whom modes do not stop; root without the two capabilities above
+    is held to them as the files' owner (the tests' folders stay its own). Nothing changes
+    for a process that does not hold them (a user's)."""
+    import ctypes
+
+    class Header(ctypes.Structure):
+        _fields_ = [("version", ctypes.c_uint32), ("pid", ctypes.c_int)]
+
+    class Data(ctypes.Structure):
+        _fields_ = [("effective", ctypes.c_uint32), ("permitted", ctypes.c_uint32),
+                    ("inheritable", ctypes.c_uint32)]
+
+    libc = ctypes.CDLL(None, use_errno=True)
+    header, data = Header(0x20080522, 0), (Data * 2)()  # _LINUX_CAPABILITY_VERSION_3
+    if libc.capget(ctypes.byref(header), data) != 0:
+        raise OSError(ctypes.get_errno(), "capget")
+    data[0].effective &= ~_DAC_CAPABILITIES
+    data[0].permitted &= ~_DAC_CAPABILITIES
+    data[0].inheritable &= ~_DAC_CAPABILITIES
+    if libc.capset(ctypes.byref(header), data) != 0:
+        raise OSError(ctypes.get_errno(), "capset")
+
+
 def children(pid: int) -> list[int]:
     """The processes whose parent is *pid* (from /proc)."""
     out = []

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import pytest
 
+import _forked
 import _studies
 from evtribo.canlog.rig import default_rig_path
 from evtribo.cli import main
@@ -238,6 +239,24 @@ def _planted_record(tmp: Path) -> None:
     (stage / ".evtribo-commit.json").write_text(json.dumps({
         "evtribo": "commit", "version": 2, "unit": "out", "target": "study/P01",
         "by": "analyze", "install": [["run-01.log", digest, None]], "remove": []}))
+
+
+def _unreadable(*paths: str) -> Callable[[Path], None]:
+    """Each of *paths* (under TMP) of mode 000: a user may not read it (nor list or enter a
+    folder). The case runs in a process that obeys the modes (:data:`AS_A_USER`)."""
+    def build(tmp: Path) -> None:
+        for path in paths:
+            (tmp / path).chmod(0)
+    return build
+
+
+#: The cases run in a forked process held to the files' modes (:func:`_forked.as_a_user`).
+AS_A_USER = {"log-unreadable", "sidecar-unreadable", "study-toml-unreadable",
+             "dbc-unreadable", "subject-folder-unreadable", "inspect-log-unreadable",
+             "decode-dbc-unreadable", "export-log-unreadable", "plot-log-unreadable",
+             "calibrate-log-unreadable", "session-protocol-unreadable",
+             "acquire-rig-unreadable", "compare-params-unreadable",
+             "compare-summary-unreadable"}
 
 
 #: Locks the builders hold while their case runs (released after it).
@@ -472,6 +491,26 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "simulate-study-misspelt": lambda t: None,
     "init-dbc-missing": lambda t: None,
     "init-log-of-another-rig": _text(Path("other.dbc"), OTHER_DBC),
+    "log-unreadable": _unreadable("study/P01/run-01.log"),
+    "sidecar-unreadable": _unreadable("study/P01/run-01.json"),
+    "study-toml-unreadable": _unreadable("study/study.toml"),
+    "dbc-unreadable": _unreadable("study/rig/default.dbc"),
+    "subject-folder-unreadable": _unreadable("study/P01"),
+    "inspect-log-unreadable": _unreadable("study/P01/run-01.log"),
+    "decode-dbc-unreadable": _unreadable("study/rig"),
+    "export-log-unreadable": _unreadable("study/P01/run-01.log"),
+    "plot-log-unreadable": _unreadable("study/P01/run-01.log"),
+    "calibrate-log-unreadable": lambda t: (_sliding_trial(t),
+                                           _unreadable("study/P01/run-02.log")(t)),
+    "session-protocol-unreadable": lambda t: (
+        _text(Path("protocol.toml"), "[[trial]]\namplitude_V = 100\n")(t),
+        _unreadable("protocol.toml")(t)),
+    "acquire-rig-unreadable": lambda t: (shutil.copy(default_rig_path(), t / "rig.toml"),
+                                         _unreadable("rig.toml")(t)),
+    "compare-params-unreadable": lambda t: (_results(t), _text(Path("params.toml"),
+                                                               "h_L = 5e-6\n")(t),
+                                            _unreadable("params.toml")(t)),
+    "compare-summary-unreadable": lambda t: (_results(t), _unreadable("out/summary.json")(t)),
 }
 
 
@@ -531,6 +570,9 @@ def run_case(case: dict[str, str], tmp: Path, capsys: pytest.CaptureFixture[str]
     argv = [substitute(a, tmp) for a in shlex.split(_code(case["command"]))]
     assert argv[0] == "evtribo"
     before = _tree(tmp)
+    if case["id"] in AS_A_USER:
+        code, err = _forked.run(argv[1:], tmp.parent / f"{tmp.name}.err", _forked.as_a_user)
+        return code, err, before
     try:
         code = main(argv[1:])
     except SystemExit as exc:  # argparse's own usage errors
