@@ -363,6 +363,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "model-set-syntax": lambda t: None,
     "model-set-negative": lambda t: None,
     "model-normal-force-huge": lambda t: None,
+    "model-set-huge": lambda t: None,
     "compare-no-results": lambda t: None,
     "compare-fit-unknown": _text(Path("out/electrostatic.csv"), "subject\n"),
     "compare-fit-friction-law": _text(Path("out/electrostatic.csv"), "subject\n"),
