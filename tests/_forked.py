@@ -91,6 +91,35 @@ def as_a_user() -> None:
         raise OSError(ctypes.get_errno(), "capset")
 
 
+def _call_child(conn: Any, setup: Callable[[], None] | None, func: Callable[..., Any],
+                args: tuple[Any, ...]) -> None:
+    try:
+        if setup is not None:
+            setup()
+        conn.send(("returned", func(*args)))
+    except BaseException as err:  # sent back whole: the test asserts on it
+        conn.send(("raised", err))
+    finally:
+        conn.close()
+
+
+def call(func: Callable[..., Any], *args: Any, setup: Callable[[], None] | None = None
+         ) -> tuple[str, Any]:
+    """``func(*args)`` in a forked process (``setup()`` run in it first): ``("returned",
+    value)`` or ``("raised", error)``, both sent back pickled."""
+    parent, child = FORK.Pipe(duplex=False)
+    proc = FORK.Process(target=_call_child, args=(child, setup, func, args))
+    proc.start()
+    child.close()
+    try:
+        if not parent.poll(120):
+            raise TimeoutError(f"{func.__name__} did not return within 120 s")
+        return parent.recv()
+    finally:
+        parent.close()
+        proc.join(30)
+
+
 def children(pid: int) -> list[int]:
     """The processes whose parent is *pid* (from /proc)."""
     out = []
