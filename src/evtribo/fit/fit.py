@@ -211,10 +211,10 @@ def _intervals(problem: Problem, res: optimize.OptimizeResult, chi2_red: float,
         if sees_no_force(problem, res.x) else []
     boot, note = None, ""
     if absent:
-        note = (f"its forces do not differ from zero (every point within its error of it): "
-                f"{', '.join(problem.names[i] for i in absent)} not determined, no value; "
-                "the interval holds the values whose forces the points would have seen "
-                "excluded (profile)")
+        note = (f"{', '.join(problem.names[i] for i in absent)} is not determined by these "
+                "data: its forces do not differ from zero (every point within its error of "
+                "it); no value, the interval holds the values whose forces the points would "
+                "have seen excluded (profile)")
         log.warning("subject %s: %s", problem.subject, note)
     elif replicates is not None:
         # replicate spread, inflated like the Jacobian's when the model misfits
