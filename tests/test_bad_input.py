@@ -507,6 +507,9 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "simulate-offline-too-long": lambda t: None,
     "session-protocol-amplitude-huge": _text(Path("protocol.toml"),
                                              "[[trial]]\namplitude_V = [100, 1e6]\n"),
+    "session-protocol-repetitions-huge": _text(
+        Path("protocol.toml"), "[session]\nrepetitions = 1000000000\n[[trial]]\n"
+        "amplitude_V = 100\n"),
     "log-unreadable": _unreadable("study/P01/run-01.log"),
     "sidecar-unreadable": _unreadable("study/P01/run-01.json"),
     "study-toml-unreadable": _unreadable("study/study.toml"),

@@ -66,6 +66,8 @@ def _stop_on_signals() -> Iterator[Callable[[], bool] | None]:
         yield flag
 
 
+#: Most trials a protocol may plan for a subject.
+MAX_TRIALS = 10_000
 #: The protocol's numbers and the option whose bounds they keep to.
 _PROTOCOL_BOUNDS = {"trial_s": "--duration", "tare_s": "--tare-s", "on_s": "--on-time",
                     "off_s": "--off-time", "pause_s": "--dwell", "step_s": "--on-time",
@@ -87,6 +89,12 @@ def _check_numbers(protocol: Any, path: str) -> None:
     for i, spec in enumerate(protocol.trials):
         check(spec.amplitude_V, f"trial[{i}].amplitude_V", "--amplitude")
         check(spec.frequency_Hz, f"trial[{i}].frequency_Hz", "--frequency")
+    planned = protocol.session.repetitions * sum(
+        len(t.amplitude_V) * len(t.frequency_Hz) for t in protocol.trials)
+    if planned > MAX_TRIALS:
+        raise ConfigError(f"{protocol.session.repetitions!r} is not allowed: the protocol would "
+                          f"plan {planned:,} trials, at most {MAX_TRIALS:,} (no subject sits "
+                          "through more)", path=path, key="session.repetitions")
 
 
 def run(args: argparse.Namespace) -> int:
