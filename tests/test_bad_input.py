@@ -510,6 +510,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "session-protocol-repetitions-huge": _text(
         Path("protocol.toml"), "[session]\nrepetitions = 1000000000\n[[trial]]\n"
         "amplitude_V = 100\n"),
+    "demo-speed-zero": lambda t: None,
     "log-unreadable": _unreadable("study/P01/run-01.log"),
     "sidecar-unreadable": _unreadable("study/P01/run-01.json"),
     "study-toml-unreadable": _unreadable("study/study.toml"),
