@@ -5,7 +5,6 @@ what the points exclude."""
 
 from __future__ import annotations
 
-import logging
 import math
 
 import numpy as np
@@ -47,7 +46,6 @@ def _points(amps: np.ndarray, seed: int, rel: float, n: int = 6
                              (1.0, 2.0, 3.0)]),
        seed=st.integers(0, 2**32 - 1), rel=st.sampled_from([0.005, 0.02, 0.05]))
 def test_the_air_gap_is_a_length_or_absent(amps, seed, rel):
-    logging.getLogger("evtribo").setLevel(logging.ERROR)
     rows, reps = _points(np.array(amps), seed, rel)
     fit = fit_subject("S", rows, TABLE_1, ("h_L",), replicates=reps)
     e = fit["h_L"]

@@ -101,7 +101,7 @@ class ModelParameters:
     m: float = _p(1.0, "1", "exponent of the friction law F_t = mu W0 (W/W0)^m of the load "
                   "W = F_ext + F_el (1: Coulomb)", "positive", (0.0, 2.0))
     W0: float = _p(0.5, "N", "load at which mu is the friction coefficient (m != 1)",
-                   "positive", (0.0, 1e6))
+                   "positive", (1e-6, 1e6))
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
