@@ -66,8 +66,11 @@ _MODE_OVERRIDES = (1, 2, 3)
 
 def modes_apply() -> None:
     """A setup under which a file's mode applies to the process even if it runs as root
-    (the tests' machines do; root ignores a folder's mode 555): root's capabilities to
-    override it are dropped, for good (``capset``). Nothing to do for another user."""
+    (the tests' machines do; root ignores a folder's mode 555 and a file's mode 000):
+    root's capabilities to override it are dropped, for good (``capset``), and the process
+    is held to the modes as the files' owner (the tests' folders stay its own): a file of
+    mode 000 cannot be read, a folder of mode 000 neither listed nor entered. Nothing to do
+    for another user."""
     if os.geteuid() != 0:
         return
     import ctypes
@@ -86,8 +89,38 @@ def modes_apply() -> None:
     for bit in _MODE_OVERRIDES:
         data[bit // 32].effective &= ~(1 << bit % 32)
         data[bit // 32].permitted &= ~(1 << bit % 32)
+        data[bit // 32].inheritable &= ~(1 << bit % 32)
     if libc.capset(ctypes.byref(header), data) != 0:
         raise OSError(ctypes.get_errno(), "capset")
+
+
+def _call_child(conn: Any, setup: Callable[[], None] | None, func: Callable[..., Any],
+                args: tuple[Any, ...]) -> None:
+    try:
+        if setup is not None:
+            setup()
+        conn.send(("returned", func(*args)))
+    except BaseException as err:  # sent back whole: the test asserts on it
+        conn.send(("raised", err))
+    finally:
+        conn.close()
+
+
+def call(func: Callable[..., Any], *args: Any, setup: Callable[[], None] | None = None
+         ) -> tuple[str, Any]:
+    """``func(*args)`` in a forked process (``setup()`` run in it first): ``("returned",
+    value)`` or ``("raised", error)``, both sent back pickled."""
+    parent, child = FORK.Pipe(duplex=False)
+    proc = FORK.Process(target=_call_child, args=(child, setup, func, args))
+    proc.start()
+    child.close()
+    try:
+        if not parent.poll(120):
+            raise TimeoutError(f"{func.__name__} did not return within 120 s")
+        return parent.recv()
+    finally:
+        parent.close()
+        proc.join(30)
 
 
 def children(pid: int) -> list[int]:

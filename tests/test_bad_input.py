@@ -22,6 +22,7 @@ from pathlib import Path
 
 import pytest
 
+import _forked
 import _studies
 from evtribo.canlog.rig import default_rig_path
 from evtribo.cli import main
@@ -254,6 +255,24 @@ def _compare_figure(tmp: Path) -> None:
         hashlib.sha256(b"a figure\n").hexdigest(), "compare")})
 
 
+def _unreadable(*paths: str) -> Callable[[Path], None]:
+    """Each of *paths* (under TMP) of mode 000: a user may not read it (nor list or enter a
+    folder). The case runs in a process that obeys the modes (:data:`AS_A_USER`)."""
+    def build(tmp: Path) -> None:
+        for path in paths:
+            (tmp / path).chmod(0)
+    return build
+
+
+#: The cases run in a forked process held to the files' modes (:func:`_forked.modes_apply`).
+AS_A_USER = {"log-unreadable", "sidecar-unreadable", "study-toml-unreadable",
+             "dbc-unreadable", "subject-folder-unreadable", "inspect-log-unreadable",
+             "decode-dbc-unreadable", "export-log-unreadable", "plot-log-unreadable",
+             "calibrate-log-unreadable", "session-protocol-unreadable",
+             "acquire-rig-unreadable", "compare-params-unreadable",
+             "compare-summary-unreadable"}
+
+
 #: Locks the builders hold while their case runs (released after it).
 HELD: list[WriteLock] = []
 
@@ -366,6 +385,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "model-set-syntax": lambda t: None,
     "model-set-negative": lambda t: None,
     "model-normal-force-huge": lambda t: None,
+    "model-set-huge": lambda t: None,
     "compare-no-results": lambda t: None,
     "compare-fit-unknown": _text(Path("out/electrostatic.csv"), "subject\n"),
     "compare-fit-friction-law": _text(Path("out/electrostatic.csv"), "subject\n"),
@@ -506,6 +526,45 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "simulate-study-misspelt": lambda t: None,
     "init-dbc-missing": lambda t: None,
     "init-log-of-another-rig": _text(Path("other.dbc"), OTHER_DBC),
+    "calibration-matrix-huge": lambda t: _append(
+        t / "study", "[rig.calibration]\nmatrix = [[1e300, 0.0], [0.0, 1.0]]\n"),
+    "calibration-offset-huge": lambda t: _append(
+        t / "study", "[rig.calibration]\nnormal_offset_N = 1e6\n"),
+    "analysis-guard-huge": lambda t: _append(t / "study", "[analysis]\nguard_s = 1e6\n"),
+    "analysis-confidence-low": lambda t: _append(t / "study",
+                                                 "[analysis]\nconfidence = 1e-300\n"),
+    "sidecar-amplitude-huge": lambda t: _sidecar(t / "study", amplitude_V=1e6),
+    "sidecar-tare-huge": lambda t: _sidecar(t / "study", tare_s=1e6),
+    "acquire-amplitude-huge": lambda t: None,
+    "simulate-rate-huge": lambda t: None,
+    "simulate-seed-negative": lambda t: None,
+    "simulate-offline-too-long": lambda t: None,
+    "session-protocol-amplitude-huge": _text(Path("protocol.toml"),
+                                             "[[trial]]\namplitude_V = [100, 1e6]\n"),
+    "session-protocol-repetitions-huge": _text(
+        Path("protocol.toml"), "[session]\nrepetitions = 1000000000\n[[trial]]\n"
+        "amplitude_V = 100\n"),
+    "demo-speed-zero": lambda t: None,
+    "log-unreadable": _unreadable("study/P01/run-01.log"),
+    "sidecar-unreadable": _unreadable("study/P01/run-01.json"),
+    "study-toml-unreadable": _unreadable("study/study.toml"),
+    "dbc-unreadable": _unreadable("study/rig/default.dbc"),
+    "subject-folder-unreadable": _unreadable("study/P01"),
+    "inspect-log-unreadable": _unreadable("study/P01/run-01.log"),
+    "decode-dbc-unreadable": _unreadable("study/rig"),
+    "export-log-unreadable": _unreadable("study/P01/run-01.log"),
+    "plot-log-unreadable": _unreadable("study/P01/run-01.log"),
+    "calibrate-log-unreadable": lambda t: (_sliding_trial(t),
+                                           _unreadable("study/P01/run-02.log")(t)),
+    "session-protocol-unreadable": lambda t: (
+        _text(Path("protocol.toml"), "[[trial]]\namplitude_V = 100\n")(t),
+        _unreadable("protocol.toml")(t)),
+    "acquire-rig-unreadable": lambda t: (shutil.copy(default_rig_path(), t / "rig.toml"),
+                                         _unreadable("rig.toml")(t)),
+    "compare-params-unreadable": lambda t: (_results(t), _text(Path("params.toml"),
+                                                               "h_L = 5e-6\n")(t),
+                                            _unreadable("params.toml")(t)),
+    "compare-summary-unreadable": lambda t: (_results(t), _unreadable("out/summary.json")(t)),
 }
 
 
@@ -565,6 +624,9 @@ def run_case(case: dict[str, str], tmp: Path, capsys: pytest.CaptureFixture[str]
     argv = [substitute(a, tmp) for a in shlex.split(_code(case["command"]))]
     assert argv[0] == "evtribo"
     before = _tree(tmp)
+    if case["id"] in AS_A_USER:
+        code, err = _forked.run(argv[1:], tmp.parent / f"{tmp.name}.err", _forked.modes_apply)
+        return code, err, before
     try:
         code = main(argv[1:])
     except SystemExit as exc:  # argparse's own usage errors

@@ -37,7 +37,7 @@ from evtribo.documents.sidecar import (
     unknown_sidecar_keys,
     write_sidecar,
 )
-from evtribo.errors import OutputExistsError, StudyError, toml_problem
+from evtribo.errors import LogFormatError, OutputExistsError, StudyError, toml_problem
 from evtribo.store.files import PARTIAL_SUFFIX, atomic_write, read_limited
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -192,13 +192,13 @@ def _logs_of(folder: Path, warnings: list[str]
     is its complete one (said in *warnings*)."""
     logs: dict[str, tuple[Path, bool]] = {}
     others: dict[str, list[str]] = {}   # files that are no log, by stem
-    for f in sorted(folder.iterdir()):
+    for f, _, is_file in _listing(folder):
         if f.name.startswith((".", "~$")) or f.name.lower() in OS_CLUTTER \
                 or f.name == SESSION_FILE:
             continue
-        split = log_stem(f) if f.is_file() else None
+        split = log_stem(f) if is_file else None
         if split is None:
-            if f.is_file():
+            if is_file:
                 others.setdefault(f.name.split(".", 1)[0], []).append(f.name)
             continue
         trial, suffix = split
@@ -260,7 +260,7 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
     root = Path(root)
     trials: list[TrialRef] = []
     warnings: list[str] = []
-    for folder in sorted(p for p in root.iterdir() if p.is_dir()):
+    for folder in (p for p, is_dir, _ in _listing(root) if is_dir):
         if folder.name.startswith(".") or folder.name in NOT_SUBJECTS:
             continue
         logs, others = _logs_of(folder, warnings)
@@ -272,6 +272,7 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
         _outside(folder, root, warnings)
         for trial, (log_path, partial) in logs.items():
             validate_name(trial, what="trial", path=log_path)
+            _readable(log_path)
             sidecar_path = sidecars.get(trial, folder / f"{trial}.json")
             if sidecar_path is not None and sidecar_path.exists():
                 sidecar = read_sidecar(sidecar_path, default_subject=folder.name)
@@ -297,6 +298,26 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
                              path=t.sidecar_path or t.log_path, key="subject")
         seen[t.key] = t.log_path
     return trials, warnings
+
+
+def _listing(folder: Path) -> list[tuple[Path, bool, bool]]:
+    """The entries of *folder* in order, each with whether it is a folder and a regular
+    file (links followed); a folder the user may not list or enter is refused by name
+    (rather than its trials left out without a word)."""
+    try:
+        return [(p, p.is_dir(), p.is_file()) for p in sorted(folder.iterdir())]
+    except PermissionError as err:
+        raise StudyError(f"cannot read the folder: {err.strerror}", path=folder) from err
+
+
+def _readable(log_path: Path) -> None:
+    """Refuse a log the user may not read (mode 000, another user's), by name, before any
+    trial is analysed; nothing of it is read here."""
+    try:
+        fd = os.open(log_path, os.O_RDONLY | os.O_NONBLOCK | os.O_NOCTTY | os.O_CLOEXEC)
+    except PermissionError as err:
+        raise LogFormatError(f"cannot read: {err.strerror}", path=log_path) from err
+    os.close(fd)
 
 
 #: How a recording can end before its time, in words (``ended`` of the sidecar).

@@ -78,7 +78,7 @@ def test_each_input_is_hashed_once(study, tmp_path, monkeypatch):
 
     monkeypatch.setattr(provenance, "sha256_file", counting(provenance.sha256_file))
     monkeypatch.setattr(memo, "sha256_file", counting(memo.sha256_file))
-    monkeypatch.setattr(cache, "sha256_file", counting(cache.sha256_file))
+    monkeypatch.setattr(cache, "sha256_log", counting(cache.sha256_log))
     for k in range(2):  # decoded, then from the cache (where an input unchanged since it
         hashed.clear()  # was hashed, a few seconds before, is not hashed again)
         res = pipeline.analyze_study(study, tmp_path / f"out{k}", jobs=1,

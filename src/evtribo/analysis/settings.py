@@ -32,7 +32,7 @@ from evtribo.errors import ConfigError, toml_key_line
 from evtribo.study import STUDY_FILE, Study
 
 __all__ = ["HUM_MODES", "SETTING_HELP", "TARE_MODES", "AnalysisSettings", "parse_setting",
-           "study_settings"]
+           "setting_bounds", "study_settings"]
 
 #: The allowed values of each setting that is a word.
 CHOICES = {"tare": TARE_MODES, "hum": HUM_MODES, "friction_law": LAWS}
@@ -201,19 +201,42 @@ def _checked(name: str, value: Any) -> Any:
     high, why = _HIGHEST.get(name, (math.inf, ""))
     if value > high:
         raise ConfigError(f"{given!r} is not allowed: at most {high:,} ({why})", key=name)
-    if name == "confidence" and value >= 1:
-        raise ConfigError(f"{value!r} is not allowed: must be between 0 and 1", key=name)
     return value
 
 
 #: Lowest value of each numeric setting, and whether it is excluded (default: > 0).
-_RANGES = {"guard_s": (0.0, False), "seed": (0.0, False), "n_boot": (10.0, False)}
-#: Highest value of the settings that have one, and why.
-_HIGHEST = {
+_RANGES = {"guard_s": (0.0, False), "seed": (0.0, False), "n_boot": (10.0, False),
+           "confidence": (0.5, False), "max_gap_periods": (1.0, False),
+           "trace_rate_Hz": (1.0, False)}
+_HOUR = (3600, "an hour: longer than any phase, stroke or pause of a trial")
+#: Highest value of each numeric setting, and why (the bounds no rig or protocol reaches).
+_HIGHEST: dict[str, tuple[float, str]] = {
     "n_boot": (100_000, "the bootstrap's own error on a 95 % interval's ends is then below "
                         "1 % of its width; more replicates cost memory and time for nothing"),
     "seed": (2**64 - 1, "a seed is a 64-bit number"),
+    "confidence": (0.9999, "an interval's ends beyond it rest on a handful of replicates"),
+    "max_gap_periods": (1_000_000, "a pause of a million samples is a gap in any stream"),
+    "trace_rate_Hz": (1_000_000, "no load cell's stream is faster than a megahertz"),
+    **dict.fromkeys(("guard_s", "smooth_s", "min_window_s", "max_window_s", "min_lift_s",
+                     "trace_off_s", "trace_on_s"), _HOUR),
 }
+
+
+def setting_bounds(name: str) -> str:
+    """What numeric setting *name* may be, in words (``from 0 to 3,600``), for the docs.
+
+    Parameters
+    ----------
+    name : str
+        A numeric setting of :class:`AnalysisSettings`.
+
+    Returns
+    -------
+    str
+    """
+    low, strict = _RANGES.get(name, (0.0, True))
+    high, _ = _HIGHEST[name]
+    return f"{'>' if strict else '>='} {low:g} and <= {high:,}"
 
 
 def parse_setting(text: str) -> tuple[str, Any]:

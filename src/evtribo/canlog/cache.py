@@ -40,13 +40,13 @@ import pyarrow.compute as pc
 from pyarrow import feather
 
 from evtribo.canlog.decode import decode_trial
-from evtribo.canlog.io import FrameStream, FrameTable
+from evtribo.canlog.io import FrameStream, FrameTable, sha256_log
 from evtribo.canlog.io.registry import MAX_WARNINGS
 from evtribo.canlog.rig import Rig
 from evtribo.canlog.signal_codec import SignalCodec, scaled
 from evtribo.canlog.signals import CellSignals, ExcitationSignals, TrialProvenance, TrialSignals
 from evtribo.errors import AnalysisError
-from evtribo.store.files import read_entry, sha256_file, write_checksummed
+from evtribo.store.files import read_entry, write_checksummed
 from evtribo.store.memo import default_cache_dir
 from evtribo.util.docstrings import fill_doc
 
@@ -93,7 +93,7 @@ def cache_key(log_path: str | os.PathLike[str], rig: Rig, *,
     str
         40 hex digits.
     """
-    return _key(log_sha256 or sha256_file(log_path), rig.fingerprint(), channel)
+    return _key(log_sha256 or sha256_log(log_path), rig.fingerprint(), channel)
 
 
 def _key(log_sha256: str, rig_fingerprint: str, channel: str | None) -> str:
@@ -397,7 +397,7 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
     if cache:
         directory = Path(cache_dir).expanduser() if cache_dir is not None \
             else default_cache_dir()
-        log_sha256 = log_sha256 or sha256_file(log_path)
+        log_sha256 = log_sha256 or sha256_log(log_path)
         key = _key(log_sha256, fingerprint, channel)
     source = TrialProvenance(os.fspath(log_path), log_sha256, fingerprint)
     if directory is not None and key is not None:

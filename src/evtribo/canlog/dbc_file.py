@@ -54,8 +54,12 @@ def _text(path: str | os.PathLike[str], source: str | None, key: str | None) -> 
     if size > MAX_DBC_BYTES:
         raise RigConfigError(f"{name}is {size:,} bytes, too large for a DBC file (at most "
                              f"{MAX_DBC_BYTES:,})", path=source, key=key)
-    with open(path, "rb") as fh:
-        data = fh.read(MAX_DBC_BYTES + 1)
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read(MAX_DBC_BYTES + 1)
+    except OSError as err:  # a regular file the user may not read (mode 000)
+        raise RigConfigError(f"cannot read {name.strip()}".rstrip() + f": {err.strerror}",
+                             path=source, key=key) from err
     head = data[:4096].removeprefix(b"\xef\xbb\xbf")
     while (head := head.lstrip()).startswith(b"//"):  # comment lines before the first word
         head = head.partition(b"\n")[2]

@@ -57,8 +57,12 @@ def load_dbc_file(path: str) -> Database:
     RigConfigError
         The file is missing or does not parse, naming it.
     """
-    if not os.path.isfile(path):
-        raise RigConfigError("DBC file not found", path=path)
+    try:
+        os.stat(path)
+    except FileNotFoundError:
+        raise RigConfigError("DBC file not found", path=path) from None
+    except OSError as err:  # in a folder the user may not enter
+        raise RigConfigError(f"cannot read: {err.strerror}", path=path) from None
     return load_dbc(path, source=path)
 
 

@@ -202,6 +202,14 @@ def _quiet_exit() -> int:
     return EXIT_BROKEN_PIPE
 
 
+def _denied(err: PermissionError) -> str:
+    """What a file the user may not open, and that no check before named, is said as (exit
+    2, as a study's unreadable files are): ``FILE: cannot read: Permission denied``."""
+    name = os.fsdecode(err.filename)
+    how = "read" if os.path.lexists(name) and not os.access(name, os.R_OK) else "write"
+    return f"{name}: cannot {how}: {err.strerror}"
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``evtribo`` with *argv*; return the exit code (0 done, 1 failed, 2 bad input,
     141 standard output closed early)."""
@@ -243,6 +251,9 @@ def _main(argv: Sequence[str] | None) -> int:
             return _quiet_exit()
         if debug:
             raise
+        if isinstance(err, PermissionError) and err.filename is not None:
+            print(f"evtribo {args.command}: error: {_denied(err)}", file=sys.stderr)
+            return 2
         print(f"evtribo {args.command}: failed: {type(err).__name__}: {err}\n"
               "(run again with --debug for the traceback)", file=sys.stderr)
         return 1

@@ -12,12 +12,17 @@ from typing import Any
 
 from evtribo.errors import RigConfigError, toml_key_line
 
-__all__ = ["CALIBRATION_KEYS", "Calibration"]
+__all__ = ["CALIBRATION_KEYS", "MAX_ENTRY", "MAX_OFFSET_N", "Calibration"]
 
 #: Keys of the rig's ``calibration`` table.
 CALIBRATION_KEYS = ("normal_offset_N", "tangential_offset_N", "matrix")
 
 Matrix2 = tuple[tuple[float, float], tuple[float, float]]
+
+#: Largest magnitude of a zero offset, N.
+MAX_OFFSET_N = 1000.0
+#: Largest magnitude of an entry of the cross-talk matrix.
+MAX_ENTRY = 100.0
 
 
 @dataclass(frozen=True)
@@ -85,6 +90,10 @@ class Calibration:
                 if isinstance(v, bool) or not isinstance(v, int | float) \
                         or not math.isfinite(v):
                     raise fail(f"expected a finite number (N), got {v!r}", k)
+                if abs(v) > MAX_OFFSET_N:
+                    raise fail(f"{v!r} N is not allowed: a load cell's zero offset lies within "
+                               f"±{MAX_OFFSET_N:g} N (beyond the range of any cell a finger "
+                               "presses)", k)
                 values[k] = float(v)
         if "matrix" in mapping:
             m = mapping["matrix"]
@@ -95,6 +104,11 @@ class Calibration:
             if not ok:
                 raise fail(f"expected a 2x2 matrix of finite numbers such as "
                            f"[[1.0, 0.0], [0.0, 1.0]], got {m!r}", "matrix")
+            big = [x for r in m for x in r if abs(x) > MAX_ENTRY]
+            if big:
+                raise fail(f"the entry {big[0]!r} is not allowed: a cross-talk correction's "
+                           f"entries lie within ±{MAX_ENTRY:g} (a load cell its DBC scales to "
+                           "newtons needs gains near 1)", "matrix")
             det = m[0][0] * m[1][1] - m[0][1] * m[1][0]
             if abs(det) < 1e-6:
                 raise fail(f"the matrix {m!r} is singular (determinant {det:g})", "matrix")

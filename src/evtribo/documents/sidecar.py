@@ -28,8 +28,9 @@ from evtribo.documents.names import validate_name
 from evtribo.errors import OutputExistsError, SidecarError
 from evtribo.store.files import DuplicateKeyError, atomic_write, loads_json_unique, read_limited
 
-__all__ = ["CONDITIONS", "SIDECAR_KEYS", "VERSION", "WAVEFORMS", "Sidecar", "parse_sidecar",
-           "read_sidecar", "rig_entry", "unknown_sidecar_keys", "write_sidecar"]
+__all__ = ["CONDITIONS", "SIDECAR_BOUNDS", "SIDECAR_KEYS", "VERSION", "WAVEFORMS", "Sidecar",
+           "parse_sidecar", "read_sidecar", "rig_entry", "unknown_sidecar_keys",
+           "write_sidecar"]
 
 #: Version of the sidecar's format. Sidecars carry no version key (spec §1 defines a plain
 #: JSON object); a change of a key's meaning raises this number and is read by both shapes.
@@ -130,6 +131,15 @@ def _rig_shape(value: object) -> dict[str, Any] | None:
     return None
 
 
+#: The largest value of each number of a sidecar evtribo reads, its unit, and why: bounds no
+#: electrovibration rig or protocol reaches (beyond them the model's numbers would overflow).
+SIDECAR_BOUNDS: dict[str, tuple[float, str, str]] = {
+    "amplitude_V": (1e5, "V", "no amplifier drives a finger's screen beyond 100 kV"),
+    "frequency_Hz": (1e8, "Hz", "no drive of a screen is faster than 100 MHz"),
+    "tare_s": (3600.0, "s", "no trial begins with an hour of the finger lifted"),
+}
+
+
 def _number(value: object, key: str, path: Path) -> float | None:
     if value is None:
         return None
@@ -144,6 +154,10 @@ def _number(value: object, key: str, path: Path) -> float | None:
         shown = f"{value!r}" if math.isfinite(number) or isinstance(value, float) else \
             f"an integer of {len(str(abs(value)))} digits"
         raise SidecarError(f"expected a finite number >= 0, got {shown}", path=path, key=key)
+    high, unit, why = SIDECAR_BOUNDS[key]
+    if number > high:
+        raise SidecarError(f"{value!r} {unit} is not allowed: at most {high:g} {unit} ({why})",
+                           path=path, key=key)
     return number
 
 
@@ -187,6 +201,7 @@ def parse_sidecar(data: object, *, path: str | os.PathLike[str], default_subject
         raise SidecarError(f"says subject {subject!r}, but the trial is in the folder "
                            f"{default_subject!r}: a subject's trials are in the folder of "
                            "its name (rename one of them)", path=p, key="subject")
+    _number(data.get("tare_s"), "tare_s", p)  # checked; kept with the other keys
     notes = data.pop("notes", "")
     if notes is None:
         notes = ""

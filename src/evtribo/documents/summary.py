@@ -231,6 +231,8 @@ def read_summary(path: str | os.PathLike[str], *, again: str = "") -> Summary:
         text = file.read_text(encoding="utf-8")
     except FileNotFoundError as err:
         raise ResultFolderError(f"missing{again}", path=file) from err
+    except PermissionError as err:
+        raise ResultFolderError(f"cannot read: {err.strerror}", path=file) from None
     except UnicodeDecodeError as err:
         raise ResultFolderError(f"not valid JSON ({err}): half-written?{again}",
                                 path=file) from err

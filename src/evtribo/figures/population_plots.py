@@ -19,6 +19,7 @@ The bands lie under the subjects, whose lines stay readable across them.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -29,6 +30,7 @@ from matplotlib.axes import Axes
 from matplotlib.colors import to_rgb
 from matplotlib.legend_handler import HandlerTuple
 from matplotlib.patches import Patch
+from numpy.typing import NDArray
 
 from evtribo.figures.electrostatic_plots import _errors_mN, _force_axes, _nonpositive_note
 from evtribo.figures.layout import place_legend
@@ -39,6 +41,8 @@ __all__ = ["draw_population", "plot_population", "population_stem"]
 
 #: A thin white edge around each subject's line and markers: they stay apart from the grey
 #: bands under them in greyscale.
+#: The largest logarithm whose exp is a float.
+_LOG_MAX = math.log(sys.float_info.max)
 HALO = [patheffects.withStroke(linewidth=1.8, foreground="white"), patheffects.Normal()]
 #: The grey of the confidence band of the population's mean, and of the prediction band.
 CI_GREY, PI_GREY = "0.7", "0.9"
@@ -81,6 +85,13 @@ def _legible(color: str) -> tuple[float, float, float]:
         rgb = np.where(lin <= 0.0031308, 12.92 * lin, 1.055 * lin ** (1 / 2.4) - 0.055)
     r, g, b = (float(x) for x in np.clip(rgb, 0.0, 1.0))
     return r, g, b
+
+
+def _exp_or_nan(x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``exp`` of each of *x*, NaN where it is beyond any float (an end the data do not
+    bound: not drawn)."""
+    x = np.asarray(x, dtype=float)
+    return np.exp(np.where(x <= _LOG_MAX, x, np.nan))
 
 
 def _subject(ax: Axes, sel: pd.DataFrame, k: int, line: tuple[float, float] | None,
@@ -148,9 +159,11 @@ def plot_population(electrostatic: pd.DataFrame, pop: Population, condition: Con
         handles.append(entry)
         labels.append(f"{s} (far from the others)" if s in far else s)
     est = [fit.at(float(x)) for x in np.log(grid)]
-    band = np.exp(np.array([e.interval() for e in est]))
-    pred = np.exp(np.array([fit.prediction_interval([1.0, float(x) - fit.log_u0])
-                            for x in np.log(grid)]))
+    # an end the data do not bound (exp beyond any float) is not drawn: NaN, not a band to
+    # infinity (the fit's checks say the exponent is not determined)
+    band = _exp_or_nan(np.array([e.interval() for e in est]))
+    pred = _exp_or_nan(np.array([fit.prediction_interval([1.0, float(x) - fit.log_u0])
+                                 for x in np.log(grid)]))
     _band(ax, grid, 1e3 * pred, PI_GREY, zorder=1)
     for edge in (pred[:, 0], pred[:, 1]):
         ax.plot(grid, 1e3 * edge, color="0.35", lw=0.6, linestyle=(0, (4, 2)), zorder=1.5)

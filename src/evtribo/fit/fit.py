@@ -27,8 +27,10 @@ from the Jacobian at the solution (``cov = (J^T J)^-1``, as in
 model misfits by more than the weights allow (reduced chi-square > 1) the spread is
 inflated by the reduced chi-square and the interval uses Student's t, never shrunk. A
 parameter the data cannot determine (a zero singular value, e.g. ``h_L`` and ``E_star``
-together, which enter eq. 11 almost only through the same combination) gets an infinite
-interval and a warning.
+together, which enter eq. 11 almost only through the same combination) gets an interval
+open above and a warning. A subject whose forces do not differ from zero (every point
+within its error of it: the fit runs to where the model gives no force) has no value, only
+the interval of the values its points exclude (:mod:`evtribo.fit.estimates`).
 
 Sine-wave points are compared with the model averaged over one period of U(t) = A sin(wt),
 square-wave points with the model at U = A (U^2 is constant for a square wave).
@@ -61,9 +63,15 @@ from numpy.typing import ArrayLike, NDArray
 # scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
 from scipy import optimize, special
 
+from evtribo.fit.estimates import (
+    ParameterEstimate,
+    parameter_estimates,
+    profile_intervals,
+    sees_no_force,
+)
 from evtribo.fit.intervals import covariance, refit_replicates
 from evtribo.fit.model_points import mean_electrostatic_force, mean_friction_force, model_exponent
-from evtribo.fit.params import DEFAULT_FIT, parameter_unit
+from evtribo.fit.params import DEFAULT_FIT
 from evtribo.fit.problem import LOG_PARAMETERS, Points, Problem, with_friction_law
 from evtribo.fit.tables import MIN_REPLICATES, ResultTables, replicate_matrix
 from evtribo.model.params import TABLE_1, ModelParameters
@@ -83,22 +91,6 @@ N_REFITS = 200
 REFIT_CHUNK = 25
 #: Fewest converged refits for a bootstrap interval (else the Jacobian's).
 MIN_REFITS = MIN_REPLICATES
-
-
-@dataclass(frozen=True)
-class ParameterEstimate:
-    """One fitted parameter: value, standard error and 95 % interval, SI units."""
-
-    name: str
-    value: float
-    stderr: float
-    ci_low: float
-    ci_high: float
-    unit: str
-
-    def contains(self, value: float) -> bool:
-        """Whether *value* lies inside the 95 % interval."""
-        return self.ci_low <= value <= self.ci_high
 
 
 @dataclass(frozen=True)
@@ -125,7 +117,8 @@ class SubjectFit:
     mu_measured : float
         Friction coefficient from the OFF windows (``electrostatic.csv``'s ``mu``).
     interval_method : str
-        ``"bootstrap"`` (refits to the force replicates) or ``"jacobian"``.
+        ``"bootstrap"`` (refits to the force replicates), ``"jacobian"``, or ``"profile"``
+        (forces that do not differ from zero: no value, the interval the profile's).
     n_replicates : int
         Replicates refitted (0 for the Jacobian).
     interval_note : str
@@ -202,85 +195,41 @@ def _bootstrap(problem: Problem, res: optimize.OptimizeResult, cov_x: NDArray[np
     return boot, note
 
 
-def _estimates(problem: Problem, x: NDArray[np.float64], cov_x: NDArray[np.float64],
-               boot: NDArray[np.float64] | None, quantile: float, *,
-               profile: dict[int, tuple[float, float]]) -> list[ParameterEstimate]:
-    """Each parameter's value, standard error and 95 % interval: the replicates'
-    percentiles, else *quantile* standard errors either side, or for a resistance (fitted
-    in log space) its *profile* interval; an end the profile cannot close is open (0 or
-    infinity) with either method."""
-    values = problem.to_values(x)
-    deriv = problem.derivative(x)
-    if boot is not None:  # percentiles of the scaled values (a monotone map of the values)
-        with np.errstate(over="ignore", invalid="ignore"):
-            q = np.quantile(boot, [0.025, 0.975], axis=0)
-            # refits run off to infinity: the percentile there is infinite, not NaN
-            lo_b, hi_b = np.where(np.isnan(q), np.quantile(boot, [0.025, 0.975], axis=0,
-                                                           method="higher"), q)
-            spread = np.std(problem.to_values(boot), axis=0, ddof=1)
-    estimates = []
-    for i, name in enumerate(problem.names):
-        se_x = float(np.sqrt(cov_x[i, i])) if np.isfinite(cov_x[i, i]) else math.inf
-        se = float(deriv[i]) * se_x if math.isfinite(se_x) else math.inf
-        p_lo, p_hi = profile.get(i, (math.nan, math.nan))
-        if boot is not None:
-            se = float(spread[i]) if not problem.is_log[i] else se
-            lo = _scaled_value(problem, i, float(lo_b[i]), float(lo_b[i]))
-            hi = _scaled_value(problem, i, float(hi_b[i]), float(hi_b[i]))
-            lo, hi = 0.0 if p_lo == 0.0 else lo, math.inf if p_hi == math.inf else hi
-        elif problem.is_log[i]:
-            lo, hi = p_lo, p_hi
-        elif math.isfinite(se_x):
-            lo = float(values[i] - quantile * se) if x[i] - quantile * se_x > problem.lower[i] \
-                else float(problem.start[i] * problem.lower[i])
-            hi = float(values[i] + quantile * se)
-        else:
-            lo, hi = -math.inf, math.inf
-        if not math.isfinite(se_x) and not (problem.is_log[i] and (p_lo > 0 or p_hi < math.inf)):
-            log.warning("subject %s: %s is not determined by these data (the forces "
-                        "hardly depend on it, or its effect cannot be told apart from the "
-                        "other fitted parameters'); interval is infinite", problem.subject,
-                        name)
-        estimates.append(ParameterEstimate(name, float(values[i]), se, float(lo), float(hi),
-                                           parameter_unit(name)))
-    return estimates
-
-
-def _profile_intervals(problem: Problem, res: optimize.OptimizeResult, scale: float,
-                       quantile: float) -> dict[int, tuple[float, float]]:
-    """The likelihood-ratio interval of each log-space parameter: where the least sum of
-    squares with it held (the others refitted) exceeds the minimum by the interval's
-    quantile squared, in units of the inflated variance. An end of the range the data cannot
-    exclude is open (0 or infinity): the Jacobian's quadratic cannot say so where the
-    model flattens out (no leak at all: r_g bounded below only)."""
-    best = float(np.sum(res.fun**2))
-    threshold = scale * quantile**2
-    out = {}
-    for i in (int(k) for k in np.flatnonzero(problem.is_log)):
-        def excess(xi: float, i: int = i) -> float:
-            return problem.profile_cost(i, xi, res.x) - best - threshold
-
-        ends = []
-        for bound in (problem.lower[i], problem.upper[i]):
-            if excess(float(bound)) < 0:
-                ends.append(0.0 if bound < res.x[i] else math.inf)
-            else:
-                root = optimize.brentq(excess, float(bound), float(res.x[i]), xtol=1e-4)
-                ends.append(float(problem.to_values(np.where(
-                    np.arange(len(res.x)) == i, root, res.x))[i]))
-        out[i] = (ends[0], ends[1])
-    return out
-
-
-def _scaled_value(problem: Problem, i: int, x: float, raw: float) -> float:
-    """The value of parameter *i* at scaled *x*: 0 or infinity beyond a log parameter's
-    range (the data cannot tell it from them there)."""
-    if problem.is_log[i]:
-        if raw <= problem.lower[i]:
-            return 0.0
-        if raw >= problem.upper[i]:
-            return math.inf
-    return float(problem.start[i] * (math.exp(x) if problem.is_log[i] else x))
+def _intervals(problem: Problem, res: optimize.OptimizeResult, chi2_red: float,
+               replicates: ArrayLike | None, *, n_rows: int, scheduler: Any
+               ) -> tuple[list[ParameterEstimate], NDArray[np.float64],
+                          NDArray[np.float64] | None, str, str]:
+    """The estimates, the covariance their correlation is read from, the refits (None:
+    the Jacobian's or the profile's intervals), why the replicates were not used and the
+    intervals' method (SubjectFit's ``interval_method``)."""
+    dof = problem.n_res - len(problem.names)
+    cov_x = covariance(res.jac, problem.magnitudes(res.x))
+    scale = max(1.0, chi2_red) if math.isfinite(chi2_red) else 1.0
+    quantile = float(special.stdtrit(dof, 0.975)) if scale > 1.0 else _Z95
+    cov_x = cov_x * scale
+    absent = [i for i, n in enumerate(problem.names) if n != "mu"] \
+        if sees_no_force(problem, res.x) else []
+    boot, note = None, ""
+    if absent:
+        note = (f"{', '.join(problem.names[i] for i in absent)} is not determined by these "
+                "data: its forces do not differ from zero (every point within its error of "
+                "it); no value, the interval holds the values whose forces the points would "
+                "have seen excluded (profile)")
+        log.warning("subject %s: %s", problem.subject, note)
+    elif replicates is not None:
+        # replicate spread, inflated like the Jacobian's when the model misfits
+        boot, note = _bootstrap(problem, res, cov_x, replicates, n_rows=n_rows,
+                                stretch=math.sqrt(scale) * quantile / _Z95,
+                                scheduler=scheduler)
+    with np.errstate(invalid="ignore", over="ignore"):  # an infinite refit: no correlation
+        cov_corr = cov_x if boot is None else np.atleast_2d(np.cov(boot, rowvar=False))
+    which = sorted({*np.flatnonzero(problem.is_log).tolist(), *absent})
+    profile = profile_intervals(problem, res.x, float(np.sum(res.fun**2)),
+                                scale * quantile**2, which)
+    estimates = parameter_estimates(problem, res.x, cov_x if boot is None else cov_corr,
+                                    boot, quantile, profile=profile, absent=absent)
+    method = "profile" if absent else "jacobian" if boot is None else "bootstrap"
+    return estimates, cov_corr, boot, note, method
 
 
 def _correlation(subject: str, names: Sequence[str],
@@ -346,24 +295,10 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
     base = with_friction_law(base, rows)
     problem = Problem(subject, names, base, pts, use_windows)
     res = problem.solve()
-
     dof = problem.n_res - len(names)
     chi2_red = float(np.sum(res.fun**2)) / dof if dof > 0 else math.nan
-    cov_x = covariance(res.jac, problem.magnitudes(res.x))
-    scale = max(1.0, chi2_red) if math.isfinite(chi2_red) else 1.0
-    quantile = float(special.stdtrit(dof, 0.975)) if scale > 1.0 else _Z95
-    cov_x = cov_x * scale
-    boot, note = None, ""
-    if replicates is not None:
-        # replicate spread, inflated like the Jacobian's when the model misfits
-        boot, note = _bootstrap(problem, res, cov_x, replicates, n_rows=len(rows),
-                                stretch=math.sqrt(scale) * quantile / _Z95,
-                                scheduler=scheduler)
-    with np.errstate(invalid="ignore", over="ignore"):  # an infinite refit: no correlation
-        cov_corr = cov_x if boot is None else np.atleast_2d(np.cov(boot, rowvar=False))
-    estimates = _estimates(problem, res.x, cov_x if boot is None else cov_corr, boot,
-                           quantile, profile=_profile_intervals(problem, res, scale,
-                                                                 quantile))
+    estimates, cov_corr, boot, note, method = _intervals(
+        problem, res, chi2_red, replicates, n_rows=len(rows), scheduler=scheduler)
     corr = _correlation(subject, names, cov_corr)
     fitted = problem.params_at(res.x)
     resid = pts.measured - problem.model_at(res.x)
@@ -376,7 +311,7 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
                       correlation=corr, rmse_N=float(np.sqrt(np.mean(resid**2))), r2=r2,
                       chi2_reduced=chi2_red, n_points=len(pts.measured),
                       mu_measured=pts.mu_measured,
-                      interval_method="jacobian" if boot is None else "bootstrap",
+                      interval_method=method,
                       n_replicates=0 if boot is None else int(boot.shape[0]),
                       interval_note=note)
 
@@ -473,7 +408,7 @@ def interval_notes(fits: list[SubjectFit], *, has_bootstrap: bool) -> list[str]:
     -------
     list of str
     """
-    jac = [f for f in fits if f.interval_method != "bootstrap"]
+    jac = [f for f in fits if f.interval_method == "jacobian"]
     boot = [f for f in fits if f.interval_method == "bootstrap"]
     notes = []
     if boot:
@@ -493,4 +428,6 @@ def interval_notes(fits: list[SubjectFit], *, has_bootstrap: bool) -> list[str]:
             why = f.interval_note or "no replicates for some of its points"
             notes.append(f"Intervals of {f.subject} from the Jacobian (each point's error "
                          f"taken as independent): {why}.")
+    notes += [f"{f.subject}: {f.interval_note}." for f in fits
+              if f.interval_method == "profile"]
     return notes

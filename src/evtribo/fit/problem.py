@@ -36,7 +36,7 @@ from evtribo.fit.model_points import (
     mean_friction_force,
 )
 from evtribo.model.circuit import layer_elastances
-from evtribo.model.params import TABLE_1, ModelParameters
+from evtribo.model.params import PARAMETER_BOUNDS, TABLE_1, ModelParameters
 
 log = logging.getLogger(__name__)
 
@@ -242,8 +242,13 @@ class Problem:
         start = np.array([getattr(base, n) for n in names], dtype=float)
         fallback = [getattr(TABLE_1, n) or 1e-6 for n in names]
         self.start = np.where((start > 0) & np.isfinite(start), start, fallback)
-        self.lower = np.array([0.0 if n.startswith("h_") else 1e-6 for n in names])
-        self.upper = np.full(len(names), np.inf)
+        # within the values the model takes (ModelParameters' bounds), scaled
+        # (a resistance's, in log space, are set by _log_start)
+        low, high = (np.array([PARAMETER_BOUNDS[n][k] for n in names]) for k in (0, 1))
+        with np.errstate(invalid="ignore"):
+            self.lower = np.maximum(np.array([0.0 if n.startswith("h_") else 1e-6
+                                              for n in names]), low / self.start)
+            self.upper = high / self.start
         self.x0 = np.where(self.is_log, 0.0, 1.0)
         self.w_sigma = 1.0
         if self.is_log.any():

@@ -135,12 +135,22 @@ def _read_csv(path: Path, required: tuple[str, ...]) -> pd.DataFrame:
         table = pd.read_csv(path, dtype={"subject": str, "trial": str})
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
         raise UserInputError(f"cannot read this CSV table: {err}", path=path) from err
+    except PermissionError as err:
+        raise ResultFolderError(f"cannot read: {err.strerror}", path=path) from None
     missing = [c for c in required if c not in table.columns]
     if missing:
         raise UserInputError(
             f"missing column(s) {', '.join(missing)}; the file has: "
             f"{', '.join(map(str, table.columns))}", path=path, key=missing[0])
     return table
+
+
+def _sha256(path: Path) -> str:
+    """A result file's SHA-256; one the user may not read is refused by name."""
+    try:
+        return sha256_file(path, ResultFolderError, what="result file")
+    except PermissionError as err:
+        raise ResultFolderError(f"cannot read: {err.strerror}", path=path) from None
 
 
 def check_out_folder(out: str | Path) -> Path:
@@ -217,7 +227,7 @@ def check_analysis(folder: Path, summary: Summary | Mapping[str, Any]) -> None:
                 raise ResultFolderError(
                     f"missing: the folder holds part of analysis {run_id}'s results only; "
                     f"{_again(folder, summary)}", path=path)
-            if sha256_file(path) != hashes[name]:
+            if _sha256(path) != hashes[name]:
                 raise ResultFolderError(
                     f"not the file analysis {run_id} wrote (its SHA-256 differs from the one "
                     "in summary.json: changed since, half-written, or of another analysis); "

@@ -126,7 +126,8 @@ def adhesion_load_ratio(normal_force: ArrayLike, voltage: ArrayLike,
         (F_el ~ U^2). 0.0015 at 0.5 N and 140 V for Table 1.
     """
     dg = _f(surface_energy(voltage, params))
-    with np.errstate(divide="ignore"):
+    # no load and no voltage: NaN; no load (or next to none, 1e-300 N): beyond any float
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         return _out(3.0 * np.pi * params.R * dg / (2.0 * _f(normal_force)))
 
 

@@ -340,13 +340,16 @@ def maugis_dugdale(normal_force: ArrayLike, voltage: ArrayLike,
     dg = np.asarray(surface_energy(u, params), dtype=float)
     lam = np.asarray(maugis_parameter(u, params), dtype=float)
     k = 4.0 * params.E_star / 3.0
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         load = f / (np.pi * dg * params.R)
-        big_a, m = md_dimensionless(np.where(dg > 0, load, np.nan), lam)
+        # an adhesion too weak to be a float's share of the load (a voltage of 1e-149 V):
+        # the contact is Hertz's
+        adhesive = (dg > 0) & np.isfinite(load)
+        big_a, m = md_dimensionless(np.where(adhesive, load, np.nan), lam)
         a = np.asarray(big_a) * np.cbrt(np.pi * dg * params.R**2 / k)
     hertz = np.asarray(hertz_radius(f, params.R, params.E_star), dtype=float)
-    a = np.where(dg > 0, a, hertz)
-    c = np.where(dg > 0, a * np.asarray(m), hertz)
+    a = np.where(adhesive, a, hertz)
+    c = np.where(adhesive, a * np.asarray(m), hertz)
     return MaugisDugdale(_out(a), _out(c), _out(lam), _out(load))
 
 

@@ -22,12 +22,19 @@ from numpy.typing import ArrayLike, NDArray
 
 from evtribo.errors import ConfigError
 
-__all__ = ["TABLE_1", "ModelParameters", "ParameterInfo"]
+__all__ = ["MIN_GAP", "PARAMETER_BOUNDS", "TABLE_1", "ModelParameters", "ParameterInfo",
+           "bounds_text"]
 
 
-def _p(default: float, unit: str, description: str, rule: str) -> Any:
+def _p(default: float, unit: str, description: str, rule: str,
+       bounds: tuple[float, float]) -> Any:
     return field(default=default, metadata={"unit": unit, "description": description,
-                                            "rule": rule})
+                                            "rule": rule, "bounds": bounds})
+
+
+#: The narrowest air-equivalent gap the model takes, m: an atom's size (a thinner gap is no
+#: capacitor's, and its stress would overflow).
+MIN_GAP = 1e-10
 
 
 # rule: "positive" (> 0), "nonnegative" (>= 0) or "resistance" (> 0, and inf for none)
@@ -66,27 +73,35 @@ class ModelParameters:
         The load at which ``mu`` is the friction coefficient, N (no effect when ``m = 1``).
     """
 
-    mu: float = _p(0.5, "1", "Coulomb friction coefficient", "positive")
-    R: float = _p(0.01, "m", "radius of the parabolic fingertip profile", "positive")
-    E_star: float = _p(40e3, "Pa", "equivalent effective elastic modulus E*", "positive")
-    eps_sc: float = _p(1650.0, "1", "relative permittivity of the stratum corneum", "positive")
+    mu: float = _p(0.5, "1", "Coulomb friction coefficient", "positive", (0.0, 100.0))
+    R: float = _p(0.01, "m", "radius of the parabolic fingertip profile", "positive",
+                  (1e-9, 10.0))
+    E_star: float = _p(40e3, "Pa", "equivalent effective elastic modulus E*", "positive",
+                       (1.0, 1e12))
+    eps_sc: float = _p(1650.0, "1", "relative permittivity of the stratum corneum", "positive",
+                       (1.0, 1e6))
     eps_i: float = _p(3.35, "1", "relative permittivity of the screen's insulating layer",
-                      "positive")
-    eps_L: float = _p(1.0, "1", "relative permittivity of the equivalent air gap", "positive")
-    h_sc: float = _p(300e-6, "m", "thickness of the stratum corneum", "nonnegative")
-    h_i: float = _p(1e-6, "m", "thickness of the screen's insulating layer", "nonnegative")
-    h_L: float = _p(5e-6, "m", "thickness of the equivalent air gap", "nonnegative")
-    eps_0: float = _p(8.854e-12, "F/m", "permittivity of free space", "positive")
+                      "positive", (1.0, 1e6))
+    eps_L: float = _p(1.0, "1", "relative permittivity of the equivalent air gap", "positive",
+                      (1.0, 1e6))
+    h_sc: float = _p(300e-6, "m", "thickness of the stratum corneum", "nonnegative",
+                     (0.0, 0.1))
+    h_i: float = _p(1e-6, "m", "thickness of the screen's insulating layer", "nonnegative",
+                    (0.0, 0.1))
+    h_L: float = _p(5e-6, "m", "thickness of the equivalent air gap", "nonnegative",
+                    (0.0, 0.1))
+    eps_0: float = _p(8.854e-12, "F/m", "permittivity of free space", "positive",
+                      (8.854e-13, 8.854e-11))
     r_sc: float = _p(float("inf"), "Ohm m^2",
                      "area-specific resistance of the stratum corneum (inf: insulator)",
-                     "resistance")
+                     "resistance", (0.0, math.inf))
     r_g: float = _p(float("inf"), "Ohm m^2",
                     "area-specific leakage resistance of the air gap (inf: none)",
-                    "resistance")
+                    "resistance", (0.0, math.inf))
     m: float = _p(1.0, "1", "exponent of the friction law F_t = mu W0 (W/W0)^m of the load "
-                  "W = F_ext + F_el (1: Coulomb)", "positive")
+                  "W = F_ext + F_el (1: Coulomb)", "positive", (0.0, 2.0))
     W0: float = _p(0.5, "N", "load at which mu is the friction coefficient (m != 1)",
-                   "positive")
+                   "positive", (1e-6, 1e6))
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
@@ -97,6 +112,10 @@ class ModelParameters:
         if self.effective_gap <= 0:
             raise ConfigError("h_sc, h_i and h_L are all zero: the capacitor has no gap",
                               key="h_L")
+        if self.effective_gap < MIN_GAP:
+            raise ConfigError(f"the air-equivalent gap h_sc/eps_sc + h_L/eps_L + h_i/eps_i "
+                              f"is {self.effective_gap:.3g} m, below an atom's size "
+                              f"({MIN_GAP:g} m): no capacitor is that thin", key="h_L")
 
     # ------------------------------------------------------------------ derived values
     def friction(self, load: ArrayLike) -> NDArray[np.float64]:
@@ -134,7 +153,7 @@ class ModelParameters:
         """Name, unit, Table 1 default and description of every parameter."""
         defaults = cls()
         return tuple(ParameterInfo(f.name, f.metadata["unit"], float(getattr(defaults, f.name)),
-                                   f.metadata["description"])
+                                   f.metadata["description"], bounds_text(f.name))
                      for f in dataclasses.fields(cls))
 
     def as_dict(self) -> dict[str, float]:
@@ -195,12 +214,14 @@ class ModelParameters:
 
 
 class ParameterInfo(NamedTuple):
-    """One row of ``evtribo model --list``."""
+    """One row of ``evtribo model --list``: its name, unit, default, description and the
+    values it may take (:func:`bounds_text`)."""
 
     name: str
     unit: str
     default: float
     description: str
+    allowed: str = ""
 
 
 def _checked(f: dataclasses.Field[Any], value: Any) -> float:
@@ -220,12 +241,43 @@ def _checked(f: dataclasses.Field[Any], value: Any) -> float:
         raise ConfigError(f"must be > 0 ({f.metadata['unit']}), got {number!r}", key=f.name)
     if rule == "nonnegative" and number < 0:
         raise ConfigError(f"must be >= 0 ({f.metadata['unit']}), got {number!r}", key=f.name)
+    low, high = f.metadata["bounds"]
+    if (low > 0 and number < low) or number > high:
+        raise ConfigError(f"must be {bounds_text(f.name)}, got {number!r}", key=f.name)
     return number
+
+
+def bounds_text(name: str) -> str:
+    """What parameter *name* may be, in words: ``from 1e-09 to 10 m`` (the bounds no
+    fingertip, screen or rig reaches; beyond them the model's numbers would overflow).
+
+    Parameters
+    ----------
+    name : str
+        A parameter of :class:`ModelParameters`.
+
+    Returns
+    -------
+    str
+    """
+    f = _FIELDS[name]
+    unit = "" if f.metadata["unit"] == "1" else f" {f.metadata['unit']}"
+    low, high = f.metadata["bounds"]
+    if f.metadata["rule"] == "resistance":
+        return f"> 0{unit}, or inf"
+    first = f"from {low:g}" if low > 0 else "> 0" if f.metadata["rule"] == "positive" \
+        else "from 0"
+    return f"{first} to {high:g}{unit}" if low > 0 or first == "from 0" else \
+        f"{first} and at most {high:g}{unit}"
 
 
 #: The parameters' fields by name.
 _FIELDS: dict[str, dataclasses.Field[Any]] = {f.name: f for f in
                                               dataclasses.fields(ModelParameters)}
+#: Each parameter's bounds ``(low, high)`` in SI units: the values the model takes lie
+#: within them (0 low: > 0 or >= 0 as the parameter's rule says; see :func:`bounds_text`).
+PARAMETER_BOUNDS: dict[str, tuple[float, float]] = {
+    name: f.metadata["bounds"] for name, f in _FIELDS.items()}
 
 
 TABLE_1 = ModelParameters()

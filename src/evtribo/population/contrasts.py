@@ -16,7 +16,13 @@ from collections.abc import Iterator, Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from evtribo.population.data import Collector, Condition, SubjectData, condition_label
+from evtribo.population.data import (
+    Collector,
+    Condition,
+    SubjectData,
+    condition_label,
+    exp_or_nan,
+)
 
 __all__ = ["contrast"]
 
@@ -74,7 +80,7 @@ def contrast(rows: Collector, subjects: Sequence[SubjectData], a: Condition, b: 
         if got is None:
             continue
         p = got[0]
-        f = math.exp if exp else float
+        f = exp_or_nan if exp else float
         rows.contrasts.append({"condition_a": la, "condition_b": lb, "quantity": name,
                                "ratio": f(p.estimate) if exp else math.nan,
                                "difference": math.nan if exp else p.estimate,

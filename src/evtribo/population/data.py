@@ -12,6 +12,7 @@ logarithm is left out, and named in the notes.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -37,7 +38,7 @@ from evtribo.util.numbers import quantity
 
 __all__ = ["CONTRAST_COLUMNS", "LINEAR_COLUMNS", "META", "POPULATION_COLUMNS", "PRIMARY",
            "Collector", "Condition", "PopulationOutlier", "SubjectData", "condition_label",
-           "conditions_of", "subject_data"]
+           "conditions_of", "exp_or_nan", "subject_data"]
 
 POPULATION_COLUMNS = ("quantity", "waveform", "frequency_Hz", "amplitude_V", "estimate",
                       "ci_low", "ci_high", "between_subject_sd", "n_subjects", "method",
@@ -53,8 +54,28 @@ CONTRAST_COLUMNS = ("condition_a", "condition_b", "quantity", "ratio", "differen
 #: Bootstrap replicates read per subject for its cells' correlation.
 REPLICATES = 200
 _Z95 = float(special.ndtri(0.975))
+#: The largest logarithm whose exp is a float.
+_LOG_MAX = math.log(sys.float_info.max)
 
 Condition = tuple[str, float]
+
+
+def exp_or_nan(x: float) -> float:
+    """``exp(x)``, or NaN (absent) where it is beyond any float: the end of an interval on
+    the log scale that the data do not bound (an exponent read as unknown, ``exp`` of
+    millions), said by the fit's checks rather than written as a number.
+
+    Parameters
+    ----------
+    x : float
+        A logarithm (of a force in N, of a length in m...).
+
+    Returns
+    -------
+    float
+        ``exp(x)`` in the same unit; NaN for a NaN or for x above about 709.78.
+    """
+    return math.exp(x) if x <= _LOG_MAX else math.nan
 
 
 def condition_label(waveform: str, frequency_Hz: float) -> str:
@@ -332,7 +353,7 @@ class Collector:
     def flag(self, what: str, found: Sequence[Outlier], unit: str | None) -> None:
         """Record subjects far from the others; *unit*: their values are logs of a
         quantity in that unit."""
-        f = math.exp if unit is not None else float
+        f = exp_or_nan if unit is not None else float
         self.outliers += [PopulationOutlier(o.subject, what, f(o.value), f(o.low),
                                             f(o.high), unit or "") for o in found]
 
@@ -370,7 +391,7 @@ class Collector:
                    p: Pooled, *, method: str, analysis: str = PRIMARY,
                    log: bool = False) -> None:
         """A row from a meta-analysis (*log*: of the quantity's logarithm)."""
-        f = math.exp if log else float
+        f = exp_or_nan if log else float
         self.add(quantity, condition, amplitude, (f(p.estimate), f(p.ci_low), f(p.ci_high)),
                  between_sd=p.between_sd, n=p.n_subjects, method=method, analysis=analysis,
                  extra={"pi_low": f(p.pi_low), "pi_high": f(p.pi_high),

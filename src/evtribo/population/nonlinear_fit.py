@@ -139,7 +139,9 @@ class NonlinearFit:
         cv = np.asarray(c, dtype=float)
         if not self.random_slopes and cv[1] != 0.0:
             return math.nan
-        return math.sqrt(max(float(cv @ self.cov_re @ cv), 0.0))
+        with np.errstate(invalid="ignore", over="ignore"):
+            var = float(cv @ self.cov_re @ cv)
+        return math.sqrt(var) if var >= 0 else math.nan if math.isnan(var) else 0.0
 
     def estimate(self, c: ArrayLike) -> Estimate:
         """``c @ beta`` with its standard error and Satterthwaite's degrees of freedom.
@@ -153,9 +155,11 @@ class NonlinearFit:
         Estimate
         """
         cv = np.asarray(c, dtype=float)
-        var = float(cv @ self.cov_beta @ cv)
-        return Estimate(float(cv @ self.beta), math.sqrt(max(var, 0.0)),
-                        self._satterthwaite(cv, float(cv @ self._cov_lin @ cv)))
+        with np.errstate(invalid="ignore", over="ignore"):  # a covariance not determined
+            var = float(cv @ self.cov_beta @ cv)            # (infinite): NaN, said by the
+            lin = float(cv @ self._cov_lin @ cv)            # fit's checks
+        se = math.sqrt(var) if var >= 0 else math.nan if math.isnan(var) else 0.0
+        return Estimate(float(cv @ self.beta), se, self._satterthwaite(cv, lin))
 
     def at(self, log_u: float) -> Estimate:
         """The population's log force (ln N) at one log amplitude (ln V).
@@ -176,8 +180,9 @@ class NonlinearFit:
         fallback = float(max(len(self.subjects) - 1, 1))
         if self._theta_cov is None or self._dcov.size == 0:
             return fallback
-        grad = np.einsum("i,tij,j->t", c, self._dcov, c)
-        denom = float(grad @ self._theta_cov @ grad)
+        with np.errstate(invalid="ignore", over="ignore"):
+            grad = np.einsum("i,tij,j->t", c, self._dcov, c)
+            denom = float(grad @ self._theta_cov @ grad)
         if not (math.isfinite(denom) and denom > 0 and math.isfinite(var)):
             return fallback
         return float(min(max(2.0 * var * var / denom, 1.0), 1e6))
@@ -203,8 +208,9 @@ class NonlinearFit:
             return 0.0, math.nan
         if self._theta_cov is None or self._dre.size == 0:
             return math.nan, math.nan
-        grad = np.einsum("i,tij,j->t", cv, self._dre, cv)
-        var = float(grad @ self._theta_cov @ grad)
+        with np.errstate(invalid="ignore", over="ignore"):
+            grad = np.einsum("i,tij,j->t", cv, self._dre, cv)
+            var = float(grad @ self._theta_cov @ grad)
         if not (math.isfinite(var) and var > 0):
             return math.nan, math.nan
         nu = 2.0 * tau2 * tau2 / var

@@ -38,6 +38,7 @@ from evtribo.population.data import (
     Condition,
     SubjectData,
     condition_label,
+    exp_or_nan,
 )
 from evtribo.population.nonlinear import NonlinearData, nonlinear_data, subject_fits
 from evtribo.population.nonlinear_fit import NonlinearFit, fit_nonlinear
@@ -86,7 +87,7 @@ def _extra(fit: NonlinearFit, c: np.ndarray, own: np.ndarray, *, log_scale: bool
            ) -> dict[str, float | str]:
     """Prediction interval, the between-subject SD's interval, I^2 (against the typical
     variance of the subjects' own estimates, *own*: their covariances) and the checks."""
-    f = math.exp if log_scale else float
+    f = exp_or_nan if log_scale else float
     lo, hi = fit.prediction_interval(c)
     tau = fit.between_sd_of(c)
     t_lo, t_hi = fit.between_sd_interval(c)
@@ -109,7 +110,7 @@ def _rows_of(rows: Collector, data: NonlinearData, fit: NonlinearFit, condition:
         e = fit.estimate(c)
         lo, hi = e.interval()
         rows.add("electrostatic_force_N", condition, amp,
-                 (math.exp(e.value), math.exp(lo), math.exp(hi)),
+                 (exp_or_nan(e.value), exp_or_nan(lo), exp_or_nan(hi)),
                  between_sd=fit.between_sd_of(c), n=n, method=fit.method + ", of F_el",
                  analysis=analysis, extra=_extra(fit, c, own, log_scale=True))
     c = np.array([0.0, 1.0])
@@ -120,8 +121,8 @@ def _rows_of(rows: Collector, data: NonlinearData, fit: NonlinearFit, condition:
     c = np.array([1.0, -fit.log_u0])
     e = fit.estimate(c)
     lo, hi = e.interval()
-    rows.add("prefactor_N", condition, math.nan, (math.exp(e.value), math.exp(lo),
-                                                  math.exp(hi)),
+    rows.add("prefactor_N", condition, math.nan, (exp_or_nan(e.value), exp_or_nan(lo),
+                                                  exp_or_nan(hi)),
              between_sd=fit.between_sd_of(c), n=n, method=fit.method + ", at 1 V, of log k",
              analysis=analysis, extra=_extra(fit, c, own, log_scale=True))
 

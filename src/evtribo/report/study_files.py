@@ -165,7 +165,14 @@ def input_table(summary: Summary, study_dir: Path | None
             continue
         row: dict[str, Any] = {"file": rec.file, "bytes": rec.bytes, "sha256": rec.sha256}
         if isinstance(where, Path):
-            now = sha256_file(where) if where.is_file() else None
+            try:
+                now = sha256_file(where) if where.is_file() else None
+            except OSError as err:  # made unreadable since (mode 000): not known, said
+                row["now"] = "unreadable"
+                warnings.append(f"{rec.file}: cannot read it now ({err.strerror}): whether it "
+                                "changed since the analysis is not known")
+                rows.append(row)
+                continue
             row["now"] = "unchanged" if now == rec.sha256 else \
                 "missing" if now is None else "changed"
             if now is None:

@@ -326,12 +326,27 @@ def _add_power_laws(tables: _Tables, subject: str, est: ElectrostaticEstimate, *
                     points: list[PointKey], shown: Mapping[float, float], confidence: float,
                     warnings: list[str]) -> None:
     """A subject's rows of exponents.csv: a power law per drive (waveform, frequency) with
-    two positive amplitudes or more."""
+    two positive amplitudes or more, fitted on the log scale to the cells whose force's
+    interval lies above zero: a cell whose interval reaches zero has no logarithm the data
+    determine (its force is below its error), and is left out, said."""
     for waveform, freq in dict.fromkeys((w, f) for w, f, _ in points):
         in_drive = np.array([w == waveform and f == freq and a > 0 for w, f, a in points])
         if np.count_nonzero(in_drive) < 2:
             continue
-        amplitudes_V = np.array([a for _, _, a in points])[in_drive]
+        amps = np.array([a for _, _, a in points])
+        near_zero = in_drive & ~(est.ci_low_N > 0)
+        for j in np.flatnonzero(near_zero):
+            warnings.append(f"{_where(subject, waveform, freq)} at {amps[j]:g} V: left out "
+                            f"of the power law: F_el's interval reaches zero or below "
+                            f"({1e3 * est.ci_low_N[j]:.3g} to {1e3 * est.ci_high_N[j]:.3g} mN), "
+                            "so the data do not determine its logarithm")
+        in_drive &= ~near_zero
+        if np.count_nonzero(in_drive) < 2:
+            if near_zero.any():
+                warnings.append(f"{_where(subject, waveform, freq)}: no power law: fewer "
+                                "than two amplitudes whose F_el's interval lies above zero")
+            continue
+        amplitudes_V = amps[in_drive]
         try:
             fit = fit_power_law(amplitudes_V, est.force_N[in_drive],
                                 replicates_N=est.replicates_N[:, in_drive],

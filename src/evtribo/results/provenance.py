@@ -20,11 +20,22 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
+from evtribo.errors import (
+    LogFormatError,
+    RigConfigError,
+    SidecarError,
+    StudyError,
+    UserInputError,
+)
 from evtribo.store.files import sha256_file
 from evtribo.store.memo import HashMemo, software_versions
 from evtribo.study import Study
 
 __all__ = ["changed_since", "file_record", "input_files", "provenance", "software_versions"]
+
+#: The error that names an input of each role the user may not read.
+_UNREADABLE: dict[str, type[UserInputError]] = {
+    "log": LogFormatError, "sidecar": SidecarError, "dbc": RigConfigError}
 
 #: Threads hashing the inputs (at most the machine's cores).
 HASH_THREADS = min(4, os.cpu_count() or 1)
@@ -57,11 +68,15 @@ def file_record(path: Path, root: Path, role: str, memo: HashMemo | None = None
         name = path.resolve().relative_to(root.resolve()).as_posix()
     except ValueError:
         name = str(path.resolve())
-    if memo is None:
-        before = path.stat()
-        digest = sha256_file(path)
-    else:
-        digest, before = memo.sha256(path)
+    try:
+        if memo is None:
+            before = path.stat()
+            digest = sha256_file(path)
+        else:
+            digest, before = memo.sha256(path)
+    except PermissionError as err:  # made unreadable since the study was loaded
+        raise _UNREADABLE.get(role, StudyError)(f"cannot read: {err.strerror}",
+                                                path=path) from None
     after = path.stat()
     stamp = after.st_mtime_ns if (before.st_size, before.st_mtime_ns) == (
         after.st_size, after.st_mtime_ns) else -1  # written to while hashed

@@ -200,8 +200,12 @@ def init_study(study: str | os.PathLike[str], dbc: str | os.PathLike[str], *,
     # --force replaces a study.toml init wrote, never one a user wrote or edited
     refuse_foreign(folder, ["study.toml"], {"init"})
     src = Path(dbc)
-    if not src.is_file():
-        raise RigConfigError("DBC file not found", path=os.fspath(src))
+    try:
+        src.stat()
+    except FileNotFoundError:
+        raise RigConfigError("DBC file not found", path=os.fspath(src)) from None
+    except OSError as err:  # in a folder the user may not enter
+        raise RigConfigError(f"cannot read: {err.strerror}", path=os.fspath(src)) from None
     copy = folder / "rig" / src.name
     if copy.exists() and copy.resolve() != src.resolve() and \
             copy.read_bytes() != src.read_bytes():

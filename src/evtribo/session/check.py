@@ -8,17 +8,21 @@ frames the bus lost.
 
 from __future__ import annotations
 
+import logging
 import math
+import os
 from dataclasses import dataclass, field
 
 from evtribo.analysis.trial import TrialMeta, analyze_signals
 from evtribo.analysis.trial_warnings import heard_warnings
 from evtribo.canlog.cache import load_trial
-from evtribo.errors import EvtriboError
+from evtribo.errors import EvtriboError, UserInputError
 from evtribo.results.pipeline import study_settings
-from evtribo.study import Study
+from evtribo.study import Study, load_study
 
-__all__ = ["DROPPED_SHARE_WARN", "TrialCheck", "check_trial"]
+log = logging.getLogger(__name__)
+
+__all__ = ["DROPPED_SHARE_WARN", "TrialCheck", "check_recorded", "check_trial"]
 
 #: Frames lost above this share of a cell's frames are a problem.
 DROPPED_SHARE_WARN = 0.01
@@ -133,3 +137,32 @@ def check_trial(study: Study, subject: str, trial: str, condition: str | None) -
     if total and out.dropped > DROPPED_SHARE_WARN * total:
         out.problems.append(f"{out.dropped} frames dropped ({100 * out.dropped / total:.1f} %)")
     return out
+
+
+def check_recorded(study_dir: str | os.PathLike[str], subject: str, trial: str,
+                   condition: str | None) -> TrialCheck | None:
+    """:func:`check_trial` of a trial just recorded into the study folder *study_dir*; None
+    when the study cannot be read as a whole (another trial's file the user may not read, a
+    sidecar edited wrong), with a warning saying so: the trial just recorded is kept, and
+    what stops the study's analysis is named now rather than ending the session.
+
+    Parameters
+    ----------
+    study_dir : path-like
+        The study folder.
+    subject, trial : str
+    condition : str or None
+        What the trial was meant to be.
+
+    Returns
+    -------
+    TrialCheck or None
+    """
+    try:
+        study = load_study(study_dir)
+    except UserInputError as err:
+        log.warning("%s/%s: not checked: the study cannot be read as a whole (%s); the "
+                    "trial is kept as recorded, and evtribo analyze will stop there until "
+                    "that is fixed", subject, trial, err)
+        return None
+    return check_trial(study, subject, trial, condition)

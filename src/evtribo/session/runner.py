@@ -54,10 +54,9 @@ from evtribo.documents.session import (
     write_session,
 )
 from evtribo.errors import ConfigError
-from evtribo.session.check import TrialCheck, check_trial
+from evtribo.session.check import TrialCheck, check_recorded
 from evtribo.session.trialfiles import REJECTED, first_free, trial_files
 from evtribo.session.trialfiles import reject as set_aside
-from evtribo.study import load_study
 
 log = logging.getLogger(__name__)
 
@@ -363,8 +362,10 @@ class _Session:
     def check(self, entry: PlannedTrial) -> TrialCheck | None:
         if not self.cfg.check:
             return None
-        result = check_trial(load_study(self.cfg.study), self.cfg.subject, entry.trial,
-                             entry.condition)
+        result = check_recorded(self.cfg.study, self.cfg.subject, entry.trial,
+                                entry.condition)
+        if result is None:  # the study cannot be read as a whole: said, the trial kept
+            return None
         first, *rest = result.lines()
         self.say(f"check: {first}")
         for line in rest:  # each reason, before the operator decides

@@ -20,6 +20,7 @@ from evtribo.canlog.io.registry import (
     ReadReport,
     log_suffix,
     read_frames,
+    sha256_log,
     supported_suffixes,
 )
 from evtribo.canlog.io.table import FrameTable
@@ -32,6 +33,7 @@ __all__ = [
     "frames_from_messages",
     "log_suffix",
     "read_frames",
+    "sha256_log",
     "supported_suffixes",
     "write_candump",
 ]

@@ -35,7 +35,7 @@ from evtribo.canlog.io.pycan import read_with_python_can
 from evtribo.canlog.io.sniff import Sniffed, sniff
 from evtribo.canlog.io.table import FrameTable
 from evtribo.errors import LogFormatError
-from evtribo.store.files import PARTIAL_SUFFIX, check_regular_file
+from evtribo.store.files import PARTIAL_SUFFIX, check_regular_file, sha256_file
 
 log = logging.getLogger(__name__)
 
@@ -158,9 +158,38 @@ def _checked_reader(path: str | os.PathLike[str]) -> tuple[str, Reader]:
             + ", ".join(supported_suffixes()) + f" (each also gzipped, .gz).{looks}", path=path)
     try:  # a FIFO or a device is refused by name, never read
         check_regular_file(path, LogFormatError, what="CAN log")
+        os.close(os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_NOCTTY | os.O_CLOEXEC))
     except FileNotFoundError:
         raise LogFormatError("no such file", path=path) from None
+    except PermissionError as err:  # mode 000, another user's log, a folder not to enter
+        raise LogFormatError(f"cannot read: {err.strerror}", path=path) from None
     return fmt, _reader(path, fmt, base)
+
+
+def sha256_log(path: str | os.PathLike[str]) -> str:
+    """The SHA-256 of a log's bytes; a log that is no regular file, or that the user may not
+    read, is refused by name.
+
+    Parameters
+    ----------
+    path : path-like
+        The log.
+
+    Returns
+    -------
+    str
+        64 hexadecimal digits.
+
+    Raises
+    ------
+    LogFormatError
+        A FIFO, a device or a folder; a log the user may not read (``cannot read:
+        Permission denied``).
+    """
+    try:
+        return sha256_file(path, LogFormatError, what="CAN log")
+    except PermissionError as err:
+        raise LogFormatError(f"cannot read: {err.strerror}", path=path) from None
 
 
 class FrameStream:

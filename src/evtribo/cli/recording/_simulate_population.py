@@ -18,6 +18,7 @@ import argparse
 import math
 from typing import Any
 
+from evtribo.documents.sidecar import SIDECAR_BOUNDS
 from evtribo.errors import ConfigError
 
 __all__ = ["add_population_options", "simulate_population"]
@@ -33,6 +34,10 @@ _PER_TRIAL = (("offsets", "--offsets"), ("drift", "--drift"), ("hum", "--hum"),
 _POPULATION_OPTIONS = {"mu": "--mu", "mu_sd": "--mu-spread", "h_L": "--air-gap",
                        "h_L_log_sd": "--air-gap-spread", "normal_force_N": "--target-force",
                        "force_log_sd": "--force-spread"}
+
+
+#: Most subjects of a simulated population.
+MAX_SUBJECTS = 1000
 
 
 def add_population_options(p: argparse.ArgumentParser) -> None:
@@ -51,7 +56,8 @@ def add_population_options(p: argparse.ArgumentParser) -> None:
         "a study of subjects drawn from a population (with --study; medians from --mu, "
         "--air-gap and --target-force)")
     pop.add_argument("--subjects", type=int, metavar="N",
-                     help="write a whole study of N subjects P01, P02... into --study")
+                     help="write a whole study of N subjects P01, P02... into --study "
+                          f"(1 to {MAX_SUBJECTS:,})")
     pop.add_argument("--amplitudes", default="60,80,100,120,140", metavar="V,V,...",
                      help="one trial per amplitude for each subject, V (60,80,100,120,140)")
     pop.add_argument("--mu-spread", type=float, default=0.1, metavar="SD",
@@ -73,6 +79,10 @@ def _amplitudes(text: str) -> list[float]:
     if not values or any(not (math.isfinite(v) and v > 0) for v in values):
         raise ConfigError(f"{text!r} is not allowed: one amplitude or more, each a finite "
                           "number > 0", key="--amplitudes")
+    high, _, why = SIDECAR_BOUNDS["amplitude_V"]
+    if max(values) > high:
+        raise ConfigError(f"{text!r} is not allowed: each amplitude at most {high:g} V "
+                          f"({why})", key="--amplitudes")
     return sorted(set(values))
 
 
@@ -135,6 +145,9 @@ def simulate_population(args: argparse.Namespace) -> int:
     if args.subjects < 1:
         raise ConfigError(f"{args.subjects!r} is not allowed: at least 1 subject",
                           key="--subjects")
+    if args.subjects > MAX_SUBJECTS:
+        raise ConfigError(f"{args.subjects!r} is not allowed: at most {MAX_SUBJECTS:,} "
+                          "subjects (no study records more)", key="--subjects")
     for name, option in _PER_TRIAL:
         if getattr(args, name, None) is not None:
             raise ConfigError("not with --subjects: each subject's and trial's are drawn "

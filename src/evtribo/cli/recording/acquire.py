@@ -29,6 +29,7 @@ from evtribo.acquisition.trial import (
     trial_lock,
 )
 from evtribo.acquisition.trialdata import StopOnSignals
+from evtribo.cli.recording._bounds import check_bounds, say_bounds
 from evtribo.cli.recording._bus import add_bus_arguments, bus_settings, start_view
 from evtribo.errors import ConfigError, OutputExistsError
 
@@ -83,8 +84,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     disp.add_argument("--band", type=float, default=0.1, metavar="N",
                       help="half-width of the target band, N (default 0.1)")
     disp.add_argument("--quiet", action="store_true", help="no display, no summary")
+    say_bounds(p, _BOUNDED)
     p.set_defaults(func=run)
     return p
+
+
+#: The options of acquire whose numbers are bounded (:mod:`evtribo.cli.recording._bounds`).
+_BOUNDED = ("--duration", "--frequency", "--amplitude", "--target-force", "--band", "--tare-s")
 
 
 def _check_finite(args: argparse.Namespace) -> None:
@@ -146,6 +152,7 @@ def run(args: argparse.Namespace) -> int:
     elif args.tare_s < 0 or (args.duration is not None and args.tare_s >= args.duration):
         raise ConfigError(f"expected a tare stretch >= 0 s and shorter than the trial, got "
                           f"{args.tare_s}", key="--tare-s")
+    check_bounds(args, _BOUNDED)
     info = TrialInfo(waveform=args.waveform, frequency_Hz=args.frequency,
                      amplitude_V=args.amplitude, condition=args.condition, notes=args.notes,
                      tare_s=args.tare_s)

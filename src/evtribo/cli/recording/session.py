@@ -19,7 +19,9 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from evtribo.cli.recording._bounds import BOUNDS, check_bounds
 from evtribo.cli.recording._bus import add_bus_arguments, bus_settings, start_view
+from evtribo.errors import ConfigError
 
 log = logging.getLogger(__name__)
 
@@ -64,6 +66,37 @@ def _stop_on_signals() -> Iterator[Callable[[], bool] | None]:
         yield flag
 
 
+#: Most trials a protocol may plan for a subject.
+MAX_TRIALS = 10_000
+#: The protocol's numbers and the option whose bounds they keep to.
+_PROTOCOL_BOUNDS = {"trial_s": "--duration", "tare_s": "--tare-s", "on_s": "--on-time",
+                    "off_s": "--off-time", "pause_s": "--dwell", "step_s": "--on-time",
+                    "target_force_N": "--target-force", "band_N": "--band",
+                    "target_steps_N": "--target-force"}
+
+
+def _check_numbers(protocol: Any, path: str) -> None:
+    """The protocol's numbers within the bounds acquire keeps to (a trial it records is one
+    analyze reads): naming the protocol and the key."""
+    def check(value: Any, key: str, flag: str) -> None:
+        try:
+            check_bounds(argparse.Namespace(value=value), ["--value"], bound=BOUNDS[flag])
+        except ConfigError as err:
+            raise ConfigError(err.message, path=path, key=key) from None
+
+    for name, flag in _PROTOCOL_BOUNDS.items():
+        check(getattr(protocol.session, name), f"session.{name}", flag)
+    for i, spec in enumerate(protocol.trials):
+        check(spec.amplitude_V, f"trial[{i}].amplitude_V", "--amplitude")
+        check(spec.frequency_Hz, f"trial[{i}].frequency_Hz", "--frequency")
+    planned = protocol.session.repetitions * sum(
+        len(t.amplitude_V) * len(t.frequency_Hz) for t in protocol.trials)
+    if planned > MAX_TRIALS:
+        raise ConfigError(f"{protocol.session.repetitions!r} is not allowed: the protocol would "
+                          f"plan {planned:,} trials, at most {MAX_TRIALS:,} (no subject sits "
+                          "through more)", path=path, key="session.repetitions")
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the session; return the exit code."""
     from evtribo.acquisition.buses.bus import open_bus
@@ -71,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
     from evtribo.acquisition.rigfile import refuse_misspelt_study
     from evtribo.session import SessionConfig, run_session
 
-    read_protocol(args.protocol)  # a bad protocol fails before the bus opens
+    _check_numbers(read_protocol(args.protocol), args.protocol)  # before the bus opens
     refuse_misspelt_study(args.study, new=args.new_study)
     settings = bus_settings(args)
     view = start_view(args)

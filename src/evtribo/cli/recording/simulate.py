@@ -27,6 +27,7 @@ import threading
 from collections.abc import Iterator
 from typing import Any
 
+from evtribo.cli.recording._bounds import BOUNDS, MAX_OFFLINE_FRAMES, check_bounds, say_bounds
 from evtribo.cli.recording._simulate_population import add_population_options, simulate_population
 from evtribo.errors import ConfigError
 
@@ -185,8 +186,23 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     _add_rig_options(p)
     _add_real_rig_options(p)
     add_population_options(p)
+    say_bounds(p, [f for f in BOUNDS if f != "--band"])
     p.set_defaults(func=run)
     return p
+
+
+def _check_numbers(args: argparse.Namespace) -> None:
+    """Every number within its bounds (:mod:`evtribo.cli.recording._bounds`), and a trial
+    written offline within :data:`MAX_OFFLINE_FRAMES`."""
+    check_bounds(args, [f for f in BOUNDS if f != "--band"])
+    if args.study is not None:
+        seconds = args.duration or 30.0
+        frames = seconds * (args.fz_rate + args.fx_rate + args.hv_rate + args.foreign_rate)
+        if frames > MAX_OFFLINE_FRAMES:
+            raise ConfigError(f"{seconds:g} s at {frames / seconds:g} frames/s is not "
+                              f"allowed with --study: a trial written offline holds at most "
+                              f"{MAX_OFFLINE_FRAMES:,} frames (it is made in memory); "
+                              "record a longer one on a bus", key="--duration")
 
 
 def _build(args: argparse.Namespace, duration: float, trial_s: float) -> tuple[Any, Any]:
@@ -292,8 +308,7 @@ def run(args: argparse.Namespace) -> int:
         raise ConfigError("choose one of --interface, --pty and --study", key="--pty")
     if args.bus_option and (args.pty or args.study is not None):
         raise ConfigError("only for a python-can bus (--interface)", key="--bus-option")
-    if args.duration is not None and args.duration <= 0:
-        raise ConfigError(f"{args.duration!r} is not allowed: must be > 0", key="--duration")
+    _check_numbers(args)
     if args.press_only and args.condition != "alternating":
         raise ConfigError("a press-only recording is made with the amplifier off: leave "
                           "--condition out", key="--condition")

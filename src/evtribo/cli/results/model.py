@@ -73,7 +73,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                              "sine, F_el and the friction are means over a period)")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         dest="assignments",
-                        help="set a model parameter, SI units (repeatable; see --list)")
+                        help="set a model parameter, SI units (repeatable; --list gives "
+                             "each one's unit and the values it may take: a value no "
+                             "fingertip, screen or rig has is refused)")
     parser.add_argument("--json", action="store_true", help="print one JSON object")
     parser.add_argument("--list", action="store_true",
                         help="list the parameters: names, units, defaults, descriptions")
@@ -115,9 +117,10 @@ def _print_list(as_json: bool) -> None:
         print(json.dumps([{**row._asdict(), "default": _json_number(row.default)}
                           for row in info], indent=2))
         return
-    print(f"{'name':<8} {'unit':<7} {'default':>10}  description")
+    print(f"{'name':<8} {'unit':<7} {'default':>10}  description (allowed)")
     for row in info:
-        print(f"{row.name:<8} {row.unit:<7} {row.default:>10.4g}  {row.description}")
+        print(f"{row.name:<8} {row.unit:<7} {row.default:>10.4g}  {row.description} "
+              f"({row.allowed})")
 
 
 def _print_table(values: dict[str, float | None], params: ModelParameters) -> None:

@@ -18,6 +18,8 @@ from typing import Any
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Register ``plan``."""
+    from evtribo.cli.recording._bounds import say_bounds
+
     p = subparsers.add_parser(
         "plan", help="size a study before recording: expected intervals and power",
         description=__doc__.split("\n\n")[1].replace("\n", " "))
@@ -53,6 +55,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     s.add_argument("--pilots", type=int, default=2,
                    help="pilot subjects recorded on the simulated rig (2)")
     s.add_argument("--seed", type=int, default=0)
+    say_bounds(p, ["--seed"])
     p.set_defaults(func=run)
     return p
 
@@ -115,8 +118,10 @@ def _print(plan: Any, expected: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``evtribo plan``; return the exit code."""
+    from evtribo.cli.recording._bounds import check_bounds
     from evtribo.population.plan import Design, Expected, plan_study
 
+    check_bounds(args, ["--seed"])
     design = Design(subjects=_numbers(args.subjects, "--subjects", int),
                     trials=args.trials, trial_s=args.trial_length, on_s=args.on_time,
                     off_s=args.off_time, stroke_scatter=args.stroke_scatter,
