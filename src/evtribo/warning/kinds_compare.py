@@ -25,6 +25,11 @@ _FIT = (
          "points; intervals from the Jacobian",
          "Analyse the study again (evtribo analyze) to have every point's replicates.",
          "subject", prefixed=False),
+    Kind("refits-failed", "interval", "intervals from the Jacobian: refits failed",
+         "subject {subject}: intervals from the Jacobian (points taken as independent): only "
+         "{converged} of {refits} refits converged",
+         "Look at the subject's fit: the parameters may be near their bounds, or not "
+         "determined.", "subject", prefixed=False),
     Kind("points-unweighted", "interval", "points without a usable interval",
          "subject {subject}: {points} point(s) without a usable interval; weighted like the "
          "median point ({sigma_N:.3g} N)",

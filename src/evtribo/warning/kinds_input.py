@@ -56,7 +56,8 @@ _FOLDER = (
          "{file}: changed since the analysis (sha256 {then}... then, {now}... now): these "
          "results are not of the study as it is now; analyse it again",
          "Analyse the study again (evtribo analyze) so that the results are of its files as "
-         "they are.", "trial", prefixed=False),
+         "they are.", "trial", prefixed=False,
+         stands_for=("input-added",)),
     Kind("input-added", "number", "trials added since the analysis",
          "{file}: in the study folder but not in the analysis (added since?)",
          "Analyse the study again (evtribo analyze) to include the trial.", "trial",
@@ -91,7 +92,8 @@ _LINES = (
     Kind("damaged-lines", "information", "damaged log lines skipped",
          "{lines} damaged line(s) skipped in {log}",
          "Nothing to do if few lines are damaged; otherwise look at how the log was "
-         "written.", "trial"),
+         "written.", "trial",
+         stands_for=("damaged-line", "damaged-lines-more")),
     Kind("candump-deltas", "information", "times rebuilt from candump -td's deltas",
          "{log}: candump -td log: times rebuilt by adding up {deltas} deltas, each printed "
          "rounded down to 1 {unit}: the last frames may be early by up to {deltas} "
@@ -198,7 +200,8 @@ _CLOCK = (
          "the counter {counter} counts {counts} and starts again, every {period} frames, "
          "not {width} as its {bits} bits allow: its period is taken from the timing "
          "(declare it in the rig file, [rig] {key} = {period}, to make it certain)",
-         "Declare the counter's period in the rig file (the key and value named).", "trial"),
+         "Declare the counter's period in the rig file (the key and value named).", "trial",
+         stands_for=("counter-idle", "counter-law-rate", "counter-period-unsure")),
     Kind("counter-law-rate", "information", "a counter's period learnt from the bus's rate",
          "the counter {counter} counts {counts} and starts again, every {period} frames, "
          "not {width} as its {bits} bits allow (counting to its top, the cell would send "
@@ -218,7 +221,9 @@ _LOST = (
     Kind("frames-lost", "information", "load-cell frames lost",
          "{frames} dropped frame(s)",
          "Nothing to do if they are few; otherwise lower the bus's load or use a logger that "
-         "keeps up.", "trial"),
+         "keeps up.", "trial",
+         stands_for=("frames-lost-periods", "frames-dropcount", "counter-overcounts",
+                     "frames-lost-outages", "frames-lost-clock")),
     Kind("frames-lost-periods", "information", "whole counter periods lost at once",
          "{cell} force: {frames} frames missing, including whole counter periods lost at "
          "once (found from the timing)",
@@ -251,6 +256,12 @@ _LOST = (
          "counted by the counter alone",
          "Nothing to do if the pauses are few; a counter of a longer period tells more.",
          "trial"),
+    Kind("periods-unsure-still", "information",
+         "whole counter periods perhaps lost where the timestamps stand still",
+         "{cell} force: whole counter periods may have been lost in the pauses (the "
+         "timestamps stand still between them; the timing cannot tell): counted by the "
+         "counter alone",
+         "Look at how the logger stamps the frames: its timestamps stand still.", "trial"),
 )
 
 #: The inputs' kinds, in the order the documentation lists them.

@@ -18,7 +18,8 @@ _FORCE = (
          "Record OFF phases (or whole-OFF trials) for the subject.", "subject"),
     Kind("no-force", "number", "no electrostatic force",
          "no electrostatic force: {error}",
-         "Put right what the message names and analyse the study again.", "subject"),
+         "Put right what the message names and analyse the study again.", "subject",
+         stands_for=("no-on-window", "no-force-anywhere")),
     Kind("no-on-window", "number", "no ON window in the study",
          "no electrostatic force: no trial has an ON window ({windows} OFF windows: the "
          "trials' condition is off, or the amplifier's status never said ON); evtribo report "

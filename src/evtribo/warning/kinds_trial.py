@@ -88,7 +88,8 @@ _EXCITATION = (
          "friction modulation at 2 x {frequency_Hz:g} Hz is beyond what the load cells' "
          "{rate_Hz:.0f} Hz sampling can resolve",
          "Nothing to do for F_el; sample the load cells faster to measure the modulation.",
-         "trial"),
+         "trial",
+         stands_for=("modulation-none",)),
     Kind("modulation-none", "information", "no friction modulation stands out",
          "no oscillation of the friction stands out in the ON windows' spectrum (too short, "
          "or too weak against the noise and the pressing force's wander): no "
@@ -104,7 +105,8 @@ _PIECES = (
          "Nothing to do; the trial is analysed in its continuous pieces.", "trial"),
     Kind("pieces", "information", "trials analysed in pieces",
          "analysed in {pieces} continuous pieces",
-         "Nothing to do; each piece is analysed on its own.", "trial"),
+         "Nothing to do; each piece is analysed on its own.", "trial",
+         stands_for=("pause",)),
     Kind("piece-left", "interval", "pieces of a trial not analysed",
          "the piece from {start_s:.3f} s to {end_s:.3f} s is not analysed: {error}",
          "Nothing to do if the piece is short; the rest of the trial is analysed.",

@@ -39,7 +39,14 @@ EARLIER_KINDS: tuple[Kind, ...] = (
     Kind("earlier-unclassified", "number", "warnings of no known kind (earlier results)",
          "{text}", "Analyse the study again with this evtribo: each warning then has its "
          "kind, and says what it does to the results.", "study", prefixed=False,
-         earlier=True),
+         earlier=True,
+         stands_for=("rerecording-unfinished", "rerecording-leftover", "sidecar-without-log",
+                     "trials-unlisted", "input-changed-during", "candump-deltas",
+                     "cache-unwritable", "dbc-lenient", "frames-short", "frames-undecoded",
+                     "frames-decode-failed", "frames-id-kind", "frames-fd-kind",
+                     "timestamps-nonfinite", "channels-several", "counter-elsewhere",
+                     "waveform-codes", "samples-range-wrong", "samples-bad",
+                     "periods-unsure", "periods-unsure-still", "more-warnings")),
 )
 
 #: The patterns earlier versions told a line's kind by, after its scope (the first found
