@@ -49,7 +49,8 @@ FIELDS: dict[str, Any] = {
     "mu_low": 0.1, "mu_high": 1.5, "amplitudes": "60 V, 80 V", "cells": 40,
     "alpha_pct": 5.0, "share_se_pct": 0.4, "matrix_b": -0.0123, "same_log":
     "study/P01/run-02.log", "differ": "", "parameter": "h_L", "second": "r_g",
-    "r": 0.998, "points": 2, "sigma_N": 0.0123, "model": "hertz", "text": "something said",
+    "r": 0.998, "points": 2, "low_mN": -12.3, "high_mN": 48.1, "parameters": "h_L",
+    "sigma_N": 0.0123, "model": "hertz", "text": "something said",
 }
 # fields whose name two wordings use for different things
 FIELDS_OF: dict[str, dict[str, Any]] = {

@@ -14,6 +14,12 @@ _FIT = (
          "parameters'); interval is infinite",
          "Leave it out of compare --fit (its value then from --params), or record amplitudes "
          "or frequencies where it changes the forces.", "subject", prefixed=False),
+    Kind("forces-zero", "interval", "model parameters of forces that do not differ from zero",
+         "subject {subject}: {parameters} is not determined by these data: its forces do not "
+         "differ from zero (every point within its error of it); no value, the interval holds "
+         "the values whose forces the points would have seen excluded (profile)",
+         "Nothing to fit there: record higher voltages, or longer, for forces that differ "
+         "from zero.", "subject", prefixed=False),
     Kind("parameters-correlated", "interval", "model parameters the data hardly tell apart",
          "subject {subject}: {first} and {second} are strongly correlated (r = {r:.3f}): the "
          "data hardly tell them apart",

@@ -57,11 +57,16 @@ _FOLDER = (
          "results are not of the study as it is now; analyse it again",
          "Analyse the study again (evtribo analyze) so that the results are of its files as "
          "they are.", "trial", prefixed=False,
-         stands_for=("input-added",)),
+         stands_for=("input-added", "input-unreadable")),
     Kind("input-added", "number", "trials added since the analysis",
          "{file}: in the study folder but not in the analysis (added since?)",
          "Analyse the study again (evtribo analyze) to include the trial.", "trial",
          prefixed=False),
+    Kind("input-unreadable", "number", "inputs that cannot be read now",
+         "{file}: cannot read it now ({error}): whether it changed since the analysis is not "
+         "known",
+         "Make the file readable again to know whether these results are of the study as it "
+         "is.", "trial", prefixed=False),
     Kind("input-gone", "information", "inputs no longer in the study folder",
          "{file}: no longer in the study folder {study_dir} (it was an input of the "
          "analysis)",

@@ -43,6 +43,12 @@ _FORCE = (
          "only {on} ON and {off} OFF windows (fewer than {min_windows}); the interval is "
          "calibrated for small counts but rests on few windows",
          "Record longer or more trials at this amplitude for a narrower interval.", "cell"),
+    Kind("power-law-near-zero", "number",
+         "cells left out of the power law (F_el within its error of zero)",
+         "left out of the power law: F_el's interval reaches zero or below ({low_mN:.3g} to "
+         "{high_mN:.3g} mN), so the data do not determine its logarithm",
+         "Nothing to do if the force is small there; record longer at this amplitude to tell "
+         "it from zero.", "cell"),
     Kind("no-power-law", "number", "no power law", "no power law: {error}",
          "Record the drive at two amplitudes or more (with a force at each) for its power "
          "law.", "drive"),

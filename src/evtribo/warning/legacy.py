@@ -67,6 +67,7 @@ PATTERNS: tuple[tuple[str, str, str], ...] = (
     ("no-force", "number", r"^no electrostatic force"),
     ("no-mu", "number", r"no OFF windows to estimate"),
     ("no-power-law", "number", r"^no power law"),
+    ("power-law-near-zero", "number", r"^left out of the power law"),
     ("other-off", "number", r"alternates but has no OFF window"),
     ("law-untold", "number", r"span too little to tell"),
     ("long-phases", "interval", r"phases are too long"),

@@ -94,11 +94,12 @@ class WarningGroup:
 
 def _level(record: WarningRecord, kind: Kind | None) -> str:
     """What a record was said of (its kind's level, where its scope names it; for a kind
-    the catalogue lacks, the finest level its scope names): trial, cell, subject, study."""
+    the catalogue lacks or a kind of earlier results, the finest level its scope names):
+    trial, cell, subject, study."""
     s = record.scope
     if s.subject is None:
         return "study"
-    level = kind.scope if kind is not None else (
+    level = kind.scope if kind is not None and not kind.earlier else (
         "trial" if s.trial is not None else "subject" if (
             s.waveform, s.frequency_Hz, s.amplitude_V) == (None, None, None) else "cell")
     if level == "trial":
@@ -107,12 +108,14 @@ def _level(record: WarningRecord, kind: Kind | None) -> str:
 
 
 def _body(record: WarningRecord, kind: Kind | None) -> str:
-    """A record's text after its scope's prefix."""
-    if kind is not None and kind.prefixed:
-        prefix = record.scope.prefix(kind.scope)
-        if prefix and record.text.startswith(prefix):
-            return record.text[len(prefix):]
-    return record.text
+    """A record's text after its scope's prefix (a kind whose wording names its file has
+    none; a kind the catalogue lacks or of earlier results, the prefix of its scope)."""
+    if kind is not None and not kind.earlier and not kind.prefixed:
+        return record.text
+    level = kind.scope if kind is not None and not kind.earlier else _level(record, None)
+    prefix = record.scope.prefix(level)
+    return record.text[len(prefix):] if prefix and record.text.startswith(prefix) \
+        else record.text
 
 
 def _numeric(value: Any) -> bool:
