@@ -238,8 +238,9 @@ class Checks:
         """
         if not isinstance(obj, Mapping):
             return cls.of_text(obj)
-        return cls(*(obj.get(k) is True for k in ("finite", "hessian_pd", "agree",
-                                                   "determined")), str(obj.get("text") or ""))
+        return cls(finite=obj.get("finite") is True, hessian_pd=obj.get("hessian_pd") is True,
+                   agree=obj.get("agree") is True, determined=obj.get("determined") is True,
+                   text=str(obj.get("text") or ""))
 
 
 @dataclass(frozen=True)
@@ -290,15 +291,18 @@ def _float(value: Any) -> float:
         return math.nan
 
 
-def _row(r: Mapping[str, Any]) -> PopulationRow:
+def _row(r: Mapping[Any, Any]) -> PopulationRow:
     wave, freq = _text(r.get("waveform")), frequency_key(r.get("frequency_Hz"))
     n = _float(r.get("n_subjects"))
     return PopulationRow(
-        str(r.get("quantity")), None if wave is None and freq is None else Drive(wave, freq),
-        amplitude_key(r.get("amplitude_V")), _text(r.get("analysis")) or PRIMARY,
-        *(_float(r.get(k)) for k in ("estimate", "ci_low", "ci_high", "pi_low", "pi_high")),
-        int(n) if math.isfinite(n) else None, _text(r.get("method")) or "",
-        _text(r.get("checks")) or "")
+        quantity=str(r.get("quantity")),
+        drive=None if wave is None and freq is None else Drive(wave, freq),
+        amplitude_V=amplitude_key(r.get("amplitude_V")),
+        analysis=_text(r.get("analysis")) or PRIMARY,
+        estimate=_float(r.get("estimate")), ci_low=_float(r.get("ci_low")),
+        ci_high=_float(r.get("ci_high")), pi_low=_float(r.get("pi_low")),
+        pi_high=_float(r.get("pi_high")), n_subjects=int(n) if math.isfinite(n) else None,
+        method=_text(r.get("method")) or "", checks=_text(r.get("checks")) or "")
 
 
 class PopulationTable:
