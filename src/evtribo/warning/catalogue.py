@@ -19,6 +19,7 @@ that no warning is ever said without its kind.
 from __future__ import annotations
 
 import logging
+import threading
 from collections.abc import Iterable, Iterator, Mapping
 
 from evtribo.util import plugins
@@ -46,6 +47,7 @@ AREAS: dict[str, tuple[Kind, ...]] = {
 
 _KINDS: dict[str, Kind] = {}
 _read: dict[str, bool] = {"plugins": False}
+_reading = threading.RLock()  # a plug-in that looks a kind up while imported: no wait
 
 
 def register(*kinds: Kind) -> None:
@@ -73,10 +75,14 @@ def register(*kinds: Kind) -> None:
 
 
 def _plugins() -> None:
-    """The plug-ins' kinds, registered once per process."""
-    if _read["plugins"]:
-        return
-    _read["plugins"] = True
+    """The plug-ins' kinds, registered once per process (another thread waits for them)."""
+    with _reading:
+        if not _read["plugins"]:
+            _read["plugins"] = True
+            _register_plugins()
+
+
+def _register_plugins() -> None:
     for name, obj in plugins.load(ENTRY_POINTS):
         found = [obj] if isinstance(obj, Kind) else list(obj) if isinstance(
             obj, Iterable) and not isinstance(obj, str | bytes) else None

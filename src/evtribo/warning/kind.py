@@ -107,7 +107,8 @@ class Kind:
     Attributes
     ----------
     id : str
-        Its key, in summary.json's ``kind`` (``normal-zero``): lower case, digits, ``-``.
+        Its key (``normal-zero``): lower-case letters and digits, words joined by ``-`` (a
+        plug-in's may begin with its name and ``.``: ``mylab.humidity``).
     effect : {"number", "interval", "information"}
         What it does to the reported numbers.
     title : str
@@ -142,7 +143,8 @@ class Kind:
 
     def __post_init__(self) -> None:
         if not isinstance(self.id, str) or not _ID.match(self.id):
-            raise ValueError(f"warning kind id {self.id!r}: lower-case letters, digits, '-'")
+            raise ValueError(f"warning kind id {self.id!r}: lower-case letters and digits, "
+                             "words joined by '-' or '.'")
         if self.effect not in EFFECTS:
             raise ValueError(f"warning kind {self.id}: effect {self.effect!r} is not one of "
                              f"{', '.join(EFFECTS)}")

@@ -13,7 +13,8 @@ _OUTCOME = (
          "result until then.", "trial"),
     Kind("more-warnings", "information", "more warnings of a trial, counted",
          "... and {more} more",
-         "Analyse with -vv (evtribo -vv analyze ...) to see every warning as it is said.",
+         "Analyse the study again with -vv to see every one of the trial's warnings as it is "
+         "said.",
          "trial"),
     Kind("roles", "number", "the normal and tangential roles look swapped",
          "the normal and tangential roles look swapped: the signal named normal_force "

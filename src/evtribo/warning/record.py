@@ -199,8 +199,8 @@ class WarningRecord:
         if self.effect not in EFFECTS:
             raise ValueError(f"warning {self.kind!r}: effect {self.effect!r} is not one of "
                              f"{', '.join(EFFECTS)}")
-        object.__setattr__(self, "values", tuple((str(k), plain_value(v))
-                                                 for k, v in self.values))
+        items = self.values.items() if isinstance(self.values, Mapping) else self.values
+        object.__setattr__(self, "values", tuple((str(k), plain_value(v)) for k, v in items))
 
     def value(self, name: str, default: Any = None) -> Any:
         """One of the values the wording was filled with.
