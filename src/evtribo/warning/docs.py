@@ -66,8 +66,9 @@ def _kind(k: Kind) -> list[str]:
         fields = ", ".join(f"`{f}`" for f in k.fields)
         lines += [f"Says{after} `{k.wording}`" + (f" (fields {fields})." if fields else ".")]
     if k.stands_for:
-        lines += ["", "In results of earlier versions it also stands for "
-                  + ", ".join(f"`{s}`" for s in k.stands_for) + "."]
+        named = ", ".join(f"`{s}`" for s in k.stands_for)
+        lines += ["", f"It stands for what evtribo now says as {named}." if k.earlier else
+                  f"In results of earlier versions it also stands for {named}."]
     return [*lines, "", f"What to do: {k.todo}", ""]
 
 
