@@ -57,7 +57,7 @@ GROUPS = {
     "compare": ("evtribo.fit.", "evtribo.population.", "evtribo.figures.", "evtribo.report.",
                 "evtribo.model.", "evtribo.cli.", "evtribo.demo"),
     "base": ("evtribo.errors", "evtribo.store.", "evtribo.util.", "evtribo.documents",
-             "evtribo.citation"),
+             "evtribo.citation", "evtribo.warning."),
     "api": ("evtribo.api.",),
 }
 #: Groups whose public functions are still being documented.

@@ -13,7 +13,7 @@ SRC = Path(__file__).parents[1] / "src" / "evtribo"
 #: lower layers (or its own package).
 LAYERS = {
     "evtribo": 0, "errors": 0, "util": 0,
-    "citation": 1, "store": 1,
+    "citation": 1, "store": 1, "warning": 1,
     "documents": 2, "model": 2,
     "canlog": 3,
     "study": 4,

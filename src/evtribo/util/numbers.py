@@ -23,8 +23,9 @@ import math
 from decimal import Decimal
 from typing import Any
 
-__all__ = ["PREFIXES", "TINY", "UNBOUNDED", "auto_prefix", "decimals_for", "frequency", "plain",
-           "quantity", "r_squared", "significant", "to_float", "voltage", "with_interval"]
+__all__ = ["KEY_DECIMALS", "PREFIXES", "TINY", "UNBOUNDED", "amplitude_key", "auto_prefix",
+           "decimals_for", "frequency", "frequency_key", "plain", "quantity", "r_squared",
+           "significant", "to_float", "voltage", "with_interval"]
 
 #: SI prefixes and their powers of ten.
 PREFIXES: dict[str, int] = {"p": -12, "n": -9, "µ": -6, "m": -3, "": 0, "k": 3, "M": 6,
@@ -297,3 +298,43 @@ def voltage(value: Any) -> str:
     """
     v = to_float(value)
     return MISSING if not math.isfinite(v) else f"{_trim(significant(v, 4))} V"
+
+
+#: Decimals of a drive frequency or an amplitude that tell two apart: frequencies, Hz, and
+#: amplitudes, V, that agree to a millionth are the same.
+KEY_DECIMALS = 6
+
+
+def frequency_key(value: Any) -> float | None:
+    """The one rule for "the same frequency": two drive frequencies are the same when their
+    keys are equal (rounded to a millionth of a hertz; None when missing or not finite).
+
+    Parameters
+    ----------
+    value : Any
+        Hz (None, NaN and text that is no number are missing).
+
+    Returns
+    -------
+    float or None
+        Hz.
+    """
+    v = to_float(value)
+    return round(v, KEY_DECIMALS) + 0.0 if math.isfinite(v) else None
+
+
+def amplitude_key(value: Any) -> float | None:
+    """The same rule for amplitudes: two are the same when their keys are equal (rounded to
+    a millionth of a volt; None when missing or not finite).
+
+    Parameters
+    ----------
+    value : Any
+        V.
+
+    Returns
+    -------
+    float or None
+        V.
+    """
+    return frequency_key(value)
