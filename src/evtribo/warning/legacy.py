@@ -161,7 +161,7 @@ def lift(line: str, subjects: Iterable[str] | None = None,
         The warning, as summary.json kept it.
     subjects : iterable of str, optional
         The study's subjects: a line's scope is a subject's only if it is one of them (none
-        given: any name before ``: ``).
+        given: any name before ``": "``).
     trials : iterable of (str, str), optional
         The study's trials ``(subject, trial)``, likewise.
 

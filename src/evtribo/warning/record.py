@@ -8,8 +8,8 @@ A record is self-contained: its text is rendered when it is made and kept, so th
 :meth:`WarningRecord.as_json` / :meth:`WarningRecord.from_json` carry it through JSON.
 
 The text starts with its scope's prefix, as evtribo has always written it:
-``P01/run-02: `` (a trial), ``P03 (square, 10000 Hz) at 60 V: `` (a cell), ``P03 (square,
-10000 Hz): `` (a drive), ``P01: `` (a subject), nothing for the study
+``"P01/run-02: "`` (a trial), ``"P03 (square, 10000 Hz) at 60 V: "`` (a cell),
+``"P03 (square, 10000 Hz): "`` (a drive), ``"P01: "`` (a subject), nothing for the study
 (:meth:`Scope.prefix`).
 """
 
