@@ -28,8 +28,10 @@ from evtribo.documents.tables import (
     NEWER_COLUMNS,
     SCHEMAS,
     TEXT_COLUMNS,
-    csv_exact,
-    typed_table,
+    Column,
+    Kind,
+    TableSchema,
+    _csv_exact,
 )
 from evtribo.errors import UserInputError
 from evtribo.results.pipeline import StudyResults, compute_study, write_results
@@ -39,8 +41,31 @@ __all__ = ["COUNT_COLUMNS", "CSV_EXACT", "NEWER_COLUMNS", "TEXT_COLUMNS", "FitVi
            "analyze", "read_table", "typed_table"]
 
 #: read_csv's options that read back every float to_csv wrote, bit for bit (the columns'
-#: kinds and the one typing, :func:`typed_table`, are :mod:`evtribo.documents.tables`').
-CSV_EXACT: dict[str, Any] = csv_exact()
+#: kinds and the one typing are :mod:`evtribo.documents.tables`').
+CSV_EXACT: dict[str, Any] = _csv_exact()
+
+
+def typed_table(df: pd.DataFrame, text: tuple[str, ...] = TEXT_COLUMNS) -> pd.DataFrame:
+    """A result table with the one typing (see the module's notes), each column's kind
+    from analyze's tables (:mod:`evtribo.documents.tables`; a column of none: float).
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        A table as computed, or as read from its CSV file.
+    text : tuple of str
+        The columns of names (default :data:`TEXT_COLUMNS`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        A new table: the same columns and rows, names as str (NaN where missing), counts
+        as ``Int64``, the rest as float64.
+    """
+    kinds: dict[str, Kind] = {**dict.fromkeys(COUNT_COLUMNS, "count"),
+                              **dict.fromkeys(text, "text")}
+    columns = tuple(Column(str(c), kinds.get(str(c), "float"), "", "") for c in df.columns)
+    return TableSchema("", columns, key=(), required=()).typed(df)
 
 
 class FitView(Protocol):

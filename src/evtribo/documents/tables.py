@@ -1,28 +1,24 @@
-"""The result tables, each declared once: its file, its columns (kind, unit, meaning), its
-key, the columns a reader needs and those older folders lack; one typing, one reader, one
-writer.
+"""The result tables, each declared once (:class:`TableSchema`: its file, its columns with
+their kind, unit and meaning, its key, the columns a reader needs, those older folders
+lack), with one typing, one reader and one writer; and the result folder's file names.
 
-Every CSV table of a result folder is a :class:`TableSchema` here: analyze's
-(:data:`TRIALS`, :data:`WINDOWS`, :data:`ELECTROSTATIC`, :data:`EXPONENTS`,
-:data:`BOOTSTRAP`, :data:`SINE_TRACE`) and compare's (:data:`FIT`, :data:`MODELS`,
-:data:`POPULATION`, :data:`CONTRASTS`, :data:`POPULATION_SUBJECTS`). The modules that compute
-a table take its column names from here (``TRIAL_COLUMNS = TRIALS.names()``); the result
-folder's file names are here too (:data:`ANALYSIS_FILES`, :data:`COMPARE_TABLES`).
+analyze's tables are :data:`TRIALS`, :data:`WINDOWS`, :data:`ELECTROSTATIC`,
+:data:`EXPONENTS`, :data:`BOOTSTRAP`, :data:`SINE_TRACE`; compare's :data:`FIT`,
+:data:`MODELS`, :data:`POPULATION`, :data:`CONTRASTS`, :data:`POPULATION_SUBJECTS`. The code
+that computes a table takes its columns from here (``TRIAL_COLUMNS = TRIALS.names()``).
 
-The one typing (:meth:`TableSchema.typed`), the same whether a table was computed or read
-back: names (a column of kind ``text``) as Python strings in object columns, NaN where
-missing; counts (``count``) as nullable integers (``Int64``); yes/no columns (``flag``) as
-nullable booleans; every other column as float64, NaN where the CSV cell is empty. A table
-is read (:meth:`TableSchema.read`) with only empty cells missing (a subject named ``NA`` stays
-``NA``) and every float to the last bit; written (:meth:`TableSchema.text`) in its schema's
-column order, without the index.
-
-Light on imports: pandas is imported when a table is read, typed or written, so that the
-command line can name the files without loading it.
+The one typing (:meth:`TableSchema.typed`), whether a table was computed or read back:
+names (``text``) as Python strings in object columns, NaN where missing; counts (``count``)
+as nullable integers (``Int64``); yes/no (``flag``) as nullable booleans; the rest as
+float64. A table is read (:meth:`TableSchema.read`) with only empty cells missing (a subject
+named ``NA`` stays ``NA``) and every float to the last bit; written
+(:meth:`TableSchema.text`) in its schema's column order, without the index. pandas is
+imported only then: the command line names the files without loading it.
 """
 
 from __future__ import annotations
 
+import csv
 import os
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
@@ -40,7 +36,7 @@ __all__ = ["ANALYSIS_FILES", "ANALYSIS_TABLES", "BOOTSTRAP", "BOOTSTRAP_FILE",
            "OUTPUT_FILES", "POPULATION", "POPULATION_CONTRASTS_CSV", "POPULATION_CSV",
            "POPULATION_SUBJECTS", "POPULATION_SUBJECTS_CSV", "SCHEMAS", "SINE_TRACE",
            "SINE_TRACE_FILE", "TEXT_COLUMNS", "TRIALS", "WINDOWS", "Column", "Kind",
-           "TableSchema", "csv_exact", "typed_table"]
+           "TableSchema"]
 
 #: What a column holds: names, counts, yes/no, or numbers.
 Kind = Literal["text", "count", "flag", "float"]
@@ -171,7 +167,7 @@ class TableSchema:
         text = [n for n, k in self._kinds.items() if k == "text"]
         try:
             raw = pd.read_csv(path, dtype=dict.fromkeys(text, str), keep_default_na=False,
-                              na_values=[""], **csv_exact())
+                              na_values=[""], **_csv_exact())
         except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
             raise error(f"cannot read this CSV table: {err}{again}", path=path) from err
         except PermissionError as err:
@@ -188,7 +184,29 @@ class TableSchema:
             raise error(f"missing column(s) {', '.join(missing)}; the file has: "
                         f"{', '.join(map(str, raw.columns))}{again}", path=path,
                         key=missing[0])
-        return self.typed(raw)
+        try:
+            return self.typed(raw)
+        except ValueError as err:
+            raise error(f"{err.args[-1]}{again}", path=path, key=err.args[0]) from None
+
+    def rows(self, folder: str | os.PathLike[str]) -> list[dict[str, str]]:
+        """The table's rows in *folder* as text, read with the standard library (for the
+        console, which loads no pandas); none where the file is missing or unreadable.
+
+        Parameters
+        ----------
+        folder : path-like
+            The result folder.
+
+        Returns
+        -------
+        list of dict of str to str
+        """
+        try:
+            with open(os.path.join(folder, self.file), newline="", encoding="utf-8") as fh:
+                return list(csv.DictReader(fh))
+        except (OSError, UnicodeDecodeError, csv.Error):
+            return []
 
     def text(self, df: pd.DataFrame) -> str:
         """The CSV text of a table: the schema's columns in order (a column *df* lacks
@@ -210,7 +228,10 @@ def _typed(df: pd.DataFrame, kinds: dict[str, Kind]) -> pd.DataFrame:
 
     out = pd.DataFrame(index=pd.RangeIndex(len(df)))
     for c in df.columns:
-        out[c] = _typed_column(df[c].reset_index(drop=True), kinds.get(c, "float"))
+        try:
+            out[c] = _typed_column(df[c].reset_index(drop=True), kinds.get(c, "float"))
+        except ValueError as err:
+            raise ValueError(str(c), str(err)) from None
     return out
 
 
@@ -227,7 +248,10 @@ def _typed_column(col: pd.Series, kind: Kind) -> pd.Series:
         values[na] = np.nan
         return pd.Series(values, dtype=object)
     if kind == "count":
-        return pd.to_numeric(col, errors="coerce").astype("Int64")
+        number = pd.to_numeric(col, errors="coerce")
+        if len(part := number[number.notna() & (number % 1 != 0)]):
+            raise ValueError(f"a count that is not a whole number: {float(part.iloc[0]):g}")
+        return number.astype("Int64")
     if kind == "flag":
         words = {"true": True, "false": False, "1": True, "0": False, "yes": True, "no": False}
         return pd.Series([pd.NA if pd.isna(v) else words.get(str(v).strip().lower(), pd.NA)
@@ -241,34 +265,9 @@ def _typed_column(col: pd.Series, kind: Kind) -> pd.Series:
     return pd.to_numeric(col.astype(object), errors="coerce").astype("float64")
 
 
-def typed_table(df: pd.DataFrame, text: tuple[str, ...] | None = None) -> pd.DataFrame:
-    """A table with the one typing, the kinds of analyze's tables' columns (a column of
-    none of them: float).
-
-    Parameters
-    ----------
-    df : pandas.DataFrame
-        A table as computed, or as read from its CSV file.
-    text : tuple of str, optional
-        The columns of names (default: :data:`TEXT_COLUMNS`).
-
-    Returns
-    -------
-    pandas.DataFrame
-    """
-    kinds: dict[str, Kind] = dict.fromkeys(COUNT_COLUMNS, "count")
-    kinds.update(dict.fromkeys(TEXT_COLUMNS if text is None else text, "text"))
-    return _typed(df, kinds)
-
-
-def csv_exact() -> dict[str, Any]:
+def _csv_exact() -> dict[str, Any]:
     """read_csv's options that read back every float to_csv wrote, bit for bit (pandas 3's
-    default parser does; pandas 2's needs its round-trip parser).
-
-    Returns
-    -------
-    dict
-    """
+    default parser does; pandas 2's needs its round-trip parser)."""
     import pandas as pd
 
     return {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
