@@ -55,8 +55,8 @@ def _fit_of(results: Results) -> Fit | None:
     doc = results.fit_doc
     run_id = results.summary.run_id
     recorded = doc.output_sha256.get(FIT_CSV)
-    if doc.get("run_id") != run_id:
-        why = f"it fitted analysis {doc.get('run_id')}, not these results ({run_id})"
+    if doc.run_id != run_id:
+        why = f"it fitted analysis {doc.run_id}, not these results ({run_id})"
     elif not (folder / FIT_CSV).is_file():
         why = f"{FIT_CSV} is missing"
     elif recorded is not None and sha256_file(folder / FIT_CSV) != recorded:

@@ -381,8 +381,8 @@ class ResultFolder:
         again = self._compare_again().removeprefix("; ")
         if self.out is None or not doc:
             return
-        if run_id is not None and doc.get("run_id") != run_id:
-            fitted = doc.get("run_id") or "one without a run_id"
+        if run_id is not None and doc.run_id != run_id:
+            fitted = doc.run_id or "one without a run_id"
             raise ResultFolderError(
                 f"the model fit is of another analysis ({fitted}) than the results now in the "
                 f"folder ({run_id}): it was fitted to data that are no longer these; {again}",
