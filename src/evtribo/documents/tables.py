@@ -242,9 +242,10 @@ def _typed_column(col: pd.Series, kind: Kind) -> pd.Series:
     if kind == "text":
         values = col.to_numpy(dtype=object, na_value=np.nan, copy=True)
         na = pd.isna(values)
-        for i in np.flatnonzero(~na):
-            if not isinstance(values[i], str):
-                values[i] = str(values[i])
+        if not isinstance(col.dtype, pd.StringDtype):  # read as text: strings already
+            for i in np.flatnonzero(~na):
+                if not isinstance(values[i], str):
+                    values[i] = str(values[i])
         values[na] = np.nan
         return pd.Series(values, dtype=object)
     if kind == "count":
