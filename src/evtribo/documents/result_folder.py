@@ -389,7 +389,7 @@ class ResultFolder:
                 path=self.out / FIT_JSON)
         for rel, digest in doc.output_sha256.items():
             file = inside(self.out, rel)
-            if file is None or not file.is_file() or sha256_file(file) != digest:
+            if file is None or not file.is_file() or _sha256(file) != digest:
                 raise ResultFolderError(f"missing, or not the file compare wrote (fit.json "
                                         f"records its SHA-256); {again}", path=self.out / rel)
 

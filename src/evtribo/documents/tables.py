@@ -226,12 +226,15 @@ class TableSchema:
 def _typed(df: pd.DataFrame, kinds: dict[str, Kind]) -> pd.DataFrame:
     import pandas as pd
 
-    out = pd.DataFrame(index=pd.RangeIndex(len(df)))
-    for c in df.columns:
+    columns = {}
+    for i, c in enumerate(df.columns):
         try:
-            out[c] = _typed_column(df[c].reset_index(drop=True), kinds.get(c, "float"))
+            columns[i] = _typed_column(df.iloc[:, i].reset_index(drop=True),
+                                       kinds.get(c, "float"))
         except ValueError as err:
             raise ValueError(str(c), str(err)) from None
+    out = pd.DataFrame(columns, index=pd.RangeIndex(len(df)))
+    out.columns = pd.Index(list(df.columns), dtype=object)
     return out
 
 
