@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib
 import inspect
 import sys
@@ -57,6 +58,14 @@ What to know:
   must be saved first. A folder read after `evtribo compare` has `results.fit` (its table,
   and its figure files under `fit.files`); a fit of another analysis is left out with a
   warning.
+- **One object for the result folder.** `Results` is a
+  `evtribo.documents.result_folder.ResultFolder`, the one class that reads a result folder
+  for the report, the console and the figures too: compare's documents are read when first
+  asked for (`results.fit_table`, `results.models`, `results.population`, whose rows are
+  found by key: `results.population.row("exponent", Drive("square", 10000.0))`), and a
+  subject's cell by key (`results.cell("P01", Drive("square", 10000.0), 140.0)`; `Drive`
+  from `evtribo.documents.population_table`). The tables' columns, units and keys are
+  declared once, in `evtribo.documents.tables`.
 - **`evtribo.compare` is also a package** (`evtribo.fit.fit.fit_study`,
   `evtribo.figures.plots`...): once the API is imported, the package itself can be called
   as the function below.
@@ -90,13 +99,26 @@ def _signature(func: object, prefix: str) -> str:
     return f"```python\n{prefix}{sig}\n```\n"
 
 
+def _members(cls: type) -> dict[str, object]:
+    """The class's public members, then those it takes from evtribo's classes it is built
+    on (:class:`~evtribo.documents.result_folder.ResultFolder` for ``Results``)."""
+    out: dict[str, object] = {}
+    for klass in cls.__mro__:
+        if klass is cls or klass.__module__.startswith("evtribo."):
+            for member_name, member in vars(klass).items():
+                if not member_name.startswith("_"):
+                    out.setdefault(member_name, member)
+    return out
+
+
 def _class(name: str, cls: type) -> list[str]:
     out = [f"## `evtribo.{name}`\n", _docstring(cls)]
-    for member_name, member in vars(cls).items():
-        if member_name.startswith("_"):
-            continue
-        if isinstance(member, property):
-            out += [f"### `{name}.{member_name}`\n", "A property.\n", _docstring(member)]
+    for member_name, member in _members(cls).items():
+        if isinstance(member, property | functools.cached_property):
+            read = " (read on first use)" if isinstance(member, functools.cached_property) \
+                else ""
+            out += [f"### `{name}.{member_name}`\n", f"A property{read}.\n",
+                    _docstring(member)]
             continue
         func = member.__func__ if isinstance(member, classmethod) else member
         if inspect.isfunction(func):

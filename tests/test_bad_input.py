@@ -135,10 +135,11 @@ def _hold_out(tmp: Path) -> None:
 
 def _results(tmp: Path, *, summary: bool = True, fit_of: str | None = None,
              changed: bool = False, cut: str | None = None,
-             edit: dict[str, object] | None = None) -> None:
-    """A small result folder of analysis ``aaaa``: its tables, summary.json (optional, with
-    the keys *edit* sets), a model fit of analysis *fit_of*, a table *changed* after the
-    analysis, a file *cut* to half its length."""
+             edit: dict[str, object] | None = None, n_on: str | None = None) -> None:
+    """A small result folder of analysis ``aaaa``: its tables (electrostatic.csv with a
+    column of ON windows *n_on* when given), summary.json (optional, with the keys *edit*
+    sets), a model fit of analysis *fit_of*, a table *changed* after the analysis, a file
+    *cut* to half its length."""
     import hashlib
 
     out = tmp / "out"
@@ -151,6 +152,9 @@ def _results(tmp: Path, *, summary: bool = True, fit_of: str | None = None,
                              "electrostatic_force_N,electrostatic_force_ci_low_N,"
                              "electrostatic_force_ci_high_N\nP01,square,140,0.5,0.5,0.1,"
                              "0.09,0.11\n"}
+    if n_on is not None:
+        head, row = tables["electrostatic.csv"].splitlines()
+        tables["electrostatic.csv"] = f"{head},n_on\n{row},{n_on}\n"
     for name, text in tables.items():
         (out / name).write_text(text, encoding="utf-8")
     if summary:
@@ -426,6 +430,7 @@ BUILD: dict[str, Callable[[Path], None]] = {
     "analyze-out-busy": _hold_out,
     "compare-results-mixed": lambda t: _results(t, changed=True),
     "compare-results-partial": lambda t: _results(t, summary=False),
+    "compare-count-not-whole": lambda t: _results(t, n_on="2.5"),
     "report-fit-of-another-analysis": lambda t: _results(t, fit_of="bbbb"),
     "report-fit-half-written": lambda t: _results(t, fit_of="aaaa", cut="fit.csv"),
     "compare-summary-half-written": lambda t: _results(t, cut="summary.json"),

@@ -311,3 +311,79 @@ def test_every_name_architecture_md_places_in_a_module_is_there():
                     missing.append(f"{path}: {name}")
     assert checked > 20  # the pattern still reads the page
     assert not missing, missing
+
+
+#: Calls that read a file's bytes or text as they are (a document module's reader is not one).
+_RAW_READS = {"read_csv", "read_json", "read_text", "read_bytes", "loads", "load", "open",
+              "DictReader", "reader", "read_limited", "read_regular", "open_regular"}
+
+
+def _result_file_names() -> tuple[set[str], set[str]]:
+    """The files of a result folder, and the names of the constants that name them."""
+    import evtribo.documents.fit
+    import evtribo.documents.summary
+    import evtribo.documents.tables
+    import evtribo.results.outputs
+
+    files = {*evtribo.documents.tables.SCHEMAS, evtribo.documents.fit.FIT_JSON,
+             evtribo.documents.summary.SUMMARY_FILE}
+    constants = {name for module in (evtribo.documents.tables, evtribo.documents.fit,
+                                     evtribo.documents.summary, evtribo.results.outputs)
+                 for name, value in vars(module).items()
+                 if isinstance(value, str) and value in files}
+    schemas = {name for name, value in vars(evtribo.documents.tables).items()
+               if isinstance(value, evtribo.documents.tables.TableSchema)}
+    return files, constants | {f"{s}.file" for s in schemas}
+
+
+def _docstrings(tree: ast.AST) -> set[int]:
+    """The ids of the docstring nodes of a module, its classes and functions."""
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef |
+                      ast.AsyncFunctionDef) and node.body:
+            first = node.body[0]
+            if isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant):
+                out.add(id(first.value))
+    return out
+
+
+def _named(node: ast.AST) -> str | None:
+    if isinstance(node, ast.Name):
+        return node.id
+    if isinstance(node, ast.Attribute):
+        return f"{node.value.id}.{node.attr}" if isinstance(node.value, ast.Name) \
+            else node.attr
+    return None
+
+
+def test_only_documents_read_a_result_folders_files():
+    """No module outside ``documents/`` spells a result file's name (the tables, fit.json,
+    summary.json: their names are :mod:`evtribo.documents.tables`'), calls ``read_csv``, or
+    reads a result file's bytes itself: every read goes through the document modules and
+    :class:`~evtribo.documents.result_folder.ResultFolder`."""
+    files, constants = _result_file_names()
+    wrong = []
+    for path, tree in _modules():
+        rel = path.relative_to(SRC).as_posix()
+        if rel.startswith("documents/"):
+            continue
+        skip = _docstrings(tree)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Constant) and isinstance(node.value, str) and \
+                    id(node) not in skip and node.value.rsplit("/", 1)[-1] in files:
+                wrong.append(f"{rel}:{node.lineno} names {node.value!r}")
+            elif isinstance(node, ast.Call) and _named(node.func) in ("read_csv",
+                                                                     "pd.read_csv"):
+                wrong.append(f"{rel}:{node.lineno} calls read_csv")
+        for func in ast.walk(tree):
+            if not isinstance(func, ast.FunctionDef | ast.AsyncFunctionDef):
+                continue
+            inner = list(ast.walk(func))
+            names = {_named(n) for n in inner} & constants
+            reads = {str(_named(n.func)).rsplit(".", 1)[-1] for n in inner
+                     if isinstance(n, ast.Call)} & _RAW_READS
+            if names and reads:
+                wrong.append(f"{rel}:{func.lineno} {func.name} reads {sorted(reads)} "
+                             f"beside {sorted(names)}")
+    assert not wrong, "\n".join(sorted(set(wrong)))

@@ -17,7 +17,8 @@ import pytest
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
 from evtribo.cli import main
-from evtribo.report import study_report
+from evtribo.documents import result_folder
+from evtribo.report import study_files
 from evtribo.report.compare import compare
 from evtribo.results.pipeline import analyze_study
 
@@ -126,13 +127,14 @@ def test_a_doctored_summary_does_not_make_the_report_read_files_outside_the_stud
          "sha256": real_hash}]
     (out / "summary.json").write_text(json.dumps(summary))
     read = []
-    real_sha = study_report.sha256_file
+    real_sha = study_files.sha256_file
 
-    def recording(path):
+    def recording(path, *args, **kwargs):
         read.append(Path(path).resolve())
-        return real_sha(path)
+        return real_sha(path, *args, **kwargs)
 
-    monkeypatch.setattr(study_report, "sha256_file", recording)
+    for module in (study_files, result_folder):  # the inputs, compare's files
+        monkeypatch.setattr(module, "sha256_file", recording)
     report = tmp_path / "r.html"
     assert main(["report", str(out), "-o", str(report)]) == 0
     html = report.read_text()

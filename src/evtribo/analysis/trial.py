@@ -41,25 +41,14 @@ from evtribo.analysis.tared_windows import offset_warnings, tare_and_find_window
 from evtribo.canlog.rig import Calibration
 from evtribo.canlog.signals import CellSignals, TrialSignals
 from evtribo.documents.sidecar import Sidecar
+from evtribo.documents.tables import TRIALS, WINDOWS
 from evtribo.errors import AnalysisError
 from evtribo.util.docstrings import fill_doc
 
 log = logging.getLogger(__name__)
 
-#: Columns of trials.csv (study format, section 2).
-TRIAL_COLUMNS = ("subject", "trial", "waveform", "frequency_Hz", "amplitude_V", "condition",
-                 "duration_s", "frames", "dropped_frames", "skipped_lines",
-                 "friction_modulation_Hz", "normal_offset_N", "tangential_offset_N", "tare",
-                 "mu_change_per_10s", "crosstalk_normal", "crosstalk_normal_se",
-                 "tangential_direction_share", "analysed_s", "excluded_switch_s",
-                 "excluded_lift_s", "excluded_unsteady_s", "excluded_other_s",
-                 "duplicate_frames")
-#: Columns of windows.csv (study format, section 2).
-WINDOW_CSV_COLUMNS = ("subject", "trial", "condition", "amplitude_V", "waveform", "t_start_s",
-                      "t_end_s", "normal_force_N", "friction_force_N", "direction", "stroke",
-                      "stroke_s", "mu_reference")
-
-#: Columns of sine_trace.csv (read by :mod:`evtribo.fit.tables`).
+#: Columns of trials.csv, windows.csv and sine_trace.csv (:mod:`evtribo.documents.tables`).
+TRIAL_COLUMNS, WINDOW_CSV_COLUMNS = TRIALS.names(), WINDOWS.names()
 SINE_TRACE_CSV_COLUMNS = TRACE_COLUMNS
 
 

@@ -20,10 +20,11 @@ import pandas as pd
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from evtribo.api.results import CSV_EXACT, Results, typed_table
-from evtribo.documents.fit import FitDocument, read_fit
-from evtribo.documents.summary import Summary
-from evtribo.errors import UserInputError
+from evtribo.api.results import Results
+from evtribo.documents.fit import FitDocument
+from evtribo.documents.result_folder import ResultFolder
+from evtribo.documents.tables import FIT, FIT_CSV, WINDOWS
+from evtribo.errors import FORCE, UserInputError
 from evtribo.figures.friction_only import friction_figures
 from evtribo.figures.population_plots import draw_population
 from evtribo.figures.style import journal_style
@@ -42,12 +43,12 @@ from evtribo.population.exclusions import study_exclusions
 from evtribo.report.compare import CompareResult, draw_figures
 from evtribo.report.compare import compare as compare_folder
 from evtribo.report.population import read_population
-from evtribo.results.outputs import FIGURES, FIT_CSV
+from evtribo.results.outputs import FIGURES
 
 __all__ = ["FIT_TEXT_COLUMNS", "Fit", "compare"]
 
-#: The text columns of ``fit.csv`` (the others are numbers).
-FIT_TEXT_COLUMNS = ("subject", "parameter", "unit", "waveform")
+#: The text columns of ``fit.csv`` (the others are numbers: :data:`evtribo.documents.tables.FIT`).
+FIT_TEXT_COLUMNS = tuple(c.name for c in FIT.columns if c.kind == "text")
 
 
 @dataclass(eq=False)
@@ -126,25 +127,23 @@ class Fit:
         Raises
         ------
         ResultFolderError
-            ``fit.json`` is damaged.
+            ``fit.json`` is damaged, or ``fit.csv`` or a population table cannot be read.
         UserInputError
-            ``fit.csv`` cannot be read.
+            ``fit.csv`` is missing.
         """
         folder = Path(folder)
-        doc = read_fit(folder / "fit.json") if doc is None else doc
-        try:
-            table = pd.read_csv(folder / FIT_CSV, dtype=dict.fromkeys(FIT_TEXT_COLUMNS, str),
-                                keep_default_na=False, na_values=[""], **CSV_EXACT)
-        except (OSError, pd.errors.ParserError, pd.errors.EmptyDataError) as err:
-            raise UserInputError(f"cannot read this CSV table: {err}",
-                                 path=folder / FIT_CSV) from err
-        records = [dict(r) for r in doc.get("figures") or [] if isinstance(r, dict)]
-        pfile = doc.get("parameters_file")
-        pop, contrasts = read_population(folder)
-        return cls(table=typed_table(table, text=FIT_TEXT_COLUMNS), figures={},
-                   records=records, fits=[], fitted=tuple(doc.get("fit") or ()),
-                   params_file=Path(pfile["path"]) if isinstance(pfile, dict) else None,
-                   out=folder, files=_files(folder, records),
+        source = ResultFolder.compare_documents(folder) if results is None or \
+            results.out != folder else results
+        doc = source.fit_doc if doc is None else doc
+        table = source.fit_table
+        if table is None:
+            raise UserInputError(f"missing beside fit.json; run `evtribo compare {folder} "
+                                 f"{FORCE}`", path=folder / FIT_CSV)
+        pfile = doc.parameters_file
+        pop, contrasts = read_population(source)
+        return cls(table=table, figures={}, records=doc.figures, fits=[],
+                   fitted=tuple(doc.fit), params_file=None if pfile is None
+                   else Path(pfile["path"]), out=folder, files=_files(folder, doc.figures),
                    population=_or_empty(pop, POPULATION_COLUMNS),
                    population_contrasts=_or_empty(contrasts, CONTRAST_COLUMNS),
                    population_notes=_population_notes(doc.population), _results=results)
@@ -183,6 +182,7 @@ class Fit:
             raise UserInputError("the results of this fit are in memory only; save them "
                                  "first (results.save(OUT)), then fit.save()")
         compare_folder(results.out, fit=self.fitted, params=self.params_file, force=force)
+        results.forget()  # compare's documents are new
         written = Fit.from_folder(results.out, results=results)
         self.out, self.files, self.records = written.out, written.files, written.records
         results.fit = self
@@ -216,16 +216,13 @@ def _files(folder: Path, records: list[dict[str, Any]]) -> dict[str, list[Path]]
     return out
 
 
-def _tables(results: Results) -> ResultTables:
-    """The results as compare reads a result folder."""
+def _comparable(results: Results) -> Results:
+    """The results, refused when they hold no window at all."""
     if results.electrostatic.empty and results.windows.empty:
         raise UserInputError("no steady-sliding window in any trial (its summary says why): "
                              "nothing to compare", path=None if results.out is None
-                             else results.out / "windows.csv")
-    return ResultTables(out=results.out or Path(), electrostatic=results.electrostatic,
-                        windows=results.windows, exponents=results.exponents,
-                        trials=results.trials, summary=Summary(dict(results.summary)),
-                        sine_trace=results.sine_trace, bootstrap=results.bootstrap)
+                             else results.out / WINDOWS.file)
+    return results
 
 
 class _Kept:
@@ -233,7 +230,7 @@ class _Kept:
     :func:`~evtribo.report.compare.draw_figures`)."""
 
     def __init__(self, tables: ResultTables, fits: list[SubjectFit]) -> None:
-        self.result = CompareResult(out=tables.out, fits=fits)
+        self.result = CompareResult(out=tables.out or Path(), fits=fits)
         self.drawn: list[tuple[dict[str, Any], Axes]] = []
 
     def emit(self, ax: Axes, kind: str, title: str, stem: str, *, subject: str | None = None,
@@ -292,12 +289,12 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
     """
     names = resolve_fit_names(fit)
     base = load_parameters(None if params is None else Path(params))
-    tables = _tables(results)
+    tables = _comparable(results)
     exclude, notes = study_exclusions(tables)
     fits = fit_study(tables, base, names)
     pop = population(tables, fits, exclude=exclude, rule_notes=notes)
     figures = _figures(tables, fits, names, pop)
-    out = Fit(table=typed_table(fit_table(fits, tables), text=FIT_TEXT_COLUMNS),
+    out = Fit(table=FIT.typed(fit_table(fits, tables)),
               figures={r["stem"]: ax.figure for r, ax in figures if isinstance(ax.figure,
                                                                                 Figure)},
               records=[r for r, _ in figures], fits=fits, fitted=names,

@@ -19,55 +19,35 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
-import numpy as np
 import pandas as pd
 
-from evtribo.analysis.trial import SINE_TRACE_CSV_COLUMNS, TRIAL_COLUMNS, WINDOW_CSV_COLUMNS
 from evtribo.api.study import Study
-from evtribo.errors import UserInputError
-from evtribo.fit.tables import read_summary
-from evtribo.results.aggregate import BOOTSTRAP_COLUMNS, ELECTROSTATIC_COLUMNS, EXPONENT_COLUMNS
-from evtribo.results.outputs import (
-    BOOTSTRAP_FILE,
-    SINE_TRACE_FILE,
+from evtribo.documents.result_folder import ResultFolder, folder_summary
+from evtribo.documents.tables import (
+    COUNT_COLUMNS,
+    NEWER_COLUMNS,
+    SCHEMAS,
+    TEXT_COLUMNS,
+    Column,
+    Kind,
+    TableSchema,
+    _csv_exact,
 )
+from evtribo.errors import UserInputError
 from evtribo.results.pipeline import StudyResults, compute_study, write_results
 from evtribo.results.workers import ProgressCallback
 
-__all__ = ["COUNT_COLUMNS", "CSV_EXACT", "TEXT_COLUMNS", "FitView", "Results", "analyze",
-           "read_table", "typed_table"]
+__all__ = ["COUNT_COLUMNS", "CSV_EXACT", "NEWER_COLUMNS", "TEXT_COLUMNS", "FitView", "Results",
+           "analyze", "read_table", "typed_table"]
 
-#: Columns of names (strings), and of counts (nullable integers); the others are floats.
-TEXT_COLUMNS = ("subject", "trial", "waveform", "condition", "tare", "friction_law")
-COUNT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off", "replicate",
-                 "duplicate_frames")
-
-#: Columns a result folder written by an earlier version lacks: read as empty.
-NEWER_COLUMNS = frozenset({"duplicate_frames", "analysed_s", "excluded_switch_s",
-                           "excluded_lift_s", "excluded_unsteady_s", "excluded_other_s",
-                           "friction_law", "friction_exponent", "friction_exponent_ci_low",
-                           "friction_exponent_ci_high", "electrostatic_force_m075_N",
-                           "electrostatic_force_m075_ci_low_N",
-                           "electrostatic_force_m075_ci_high_N"})
-
-#: read_csv's options that read back every float to_csv wrote, bit for bit (pandas 3's
-#: default parser does; pandas 2's needs its round-trip parser).
-CSV_EXACT: dict[str, Any] = ({} if int(pd.__version__.split(".")[0]) >= 3
-                             else {"float_precision": "round_trip"})
-
-#: Each table: its file and its columns.
-_TABLES: dict[str, tuple[str, tuple[str, ...]]] = {
-    "trials": ("trials.csv", TRIAL_COLUMNS),
-    "windows": ("windows.csv", WINDOW_CSV_COLUMNS),
-    "electrostatic": ("electrostatic.csv", ELECTROSTATIC_COLUMNS),
-    "exponents": ("exponents.csv", EXPONENT_COLUMNS),
-    "bootstrap": (BOOTSTRAP_FILE, BOOTSTRAP_COLUMNS),
-    "sine_trace": (SINE_TRACE_FILE, SINE_TRACE_CSV_COLUMNS),
-}
+#: read_csv's options that read back every float to_csv wrote, bit for bit (the columns'
+#: kinds and the one typing are :mod:`evtribo.documents.tables`').
+CSV_EXACT: dict[str, Any] = _csv_exact()
 
 
 def typed_table(df: pd.DataFrame, text: tuple[str, ...] = TEXT_COLUMNS) -> pd.DataFrame:
-    """A result table with the types of this module's tables (see the module's notes).
+    """A result table with the one typing (see the module's notes), each column's kind
+    from analyze's tables (:mod:`evtribo.documents.tables`; a column of none: float).
 
     Parameters
     ----------
@@ -82,17 +62,10 @@ def typed_table(df: pd.DataFrame, text: tuple[str, ...] = TEXT_COLUMNS) -> pd.Da
         A new table: the same columns and rows, names as str (NaN where missing), counts
         as ``Int64``, the rest as float64.
     """
-    out = pd.DataFrame(index=pd.RangeIndex(len(df)))
-    for c in df.columns:
-        col = df[c].reset_index(drop=True)
-        if c in text:
-            values = [np.nan if pd.isna(v) else str(v) for v in col.astype(object)]
-            out[c] = pd.Series(values, dtype=object)
-        elif c in COUNT_COLUMNS:
-            out[c] = pd.to_numeric(col, errors="coerce").astype("Int64")
-        else:
-            out[c] = pd.to_numeric(col.astype(object), errors="coerce").astype("float64")
-    return out
+    kinds: dict[str, Kind] = {**dict.fromkeys(COUNT_COLUMNS, "count"),
+                              **dict.fromkeys(text, "text")}
+    columns = tuple(Column(str(c), kinds.get(str(c), "float"), "", "") for c in df.columns)
+    return TableSchema("", columns, key=(), required=()).typed(df)
 
 
 class FitView(Protocol):
@@ -106,16 +79,19 @@ class FitView(Protocol):
 
 
 @dataclass(eq=False)
-class Results:
-    """A study's results: the tables of study format §2 and ``summary.json``.
+class Results(ResultFolder):
+    """A study's results: the tables of study format §2 and ``summary.json``
+    (:class:`~evtribo.documents.result_folder.ResultFolder`), which :meth:`save` writes,
+    and the model fit.
 
     Attributes
     ----------
     trials, windows, electrostatic, exponents : pandas.DataFrame
         The tables of ``trials.csv``, ``windows.csv``, ``electrostatic.csv`` and
         ``exponents.csv`` (types in the module's notes).
-    summary : dict
-        The content of ``summary.json``: provenance, settings, warnings, counts.
+    summary : Summary
+        The content of ``summary.json`` (provenance, settings, warnings, counts), a
+        read-only mapping (``dict(results.summary)`` for a dict).
     bootstrap : pandas.DataFrame or None
         ``electrostatic_bootstrap.csv``: bootstrap replicates of every electrostatic row.
     sine_trace : pandas.DataFrame or None
@@ -127,26 +103,13 @@ class Results:
         folder's ``fit.csv`` when it was loaded after ``evtribo compare``.
     """
 
-    trials: pd.DataFrame
-    windows: pd.DataFrame
-    electrostatic: pd.DataFrame
-    exponents: pd.DataFrame
-    summary: dict[str, Any]
-    bootstrap: pd.DataFrame | None = None
-    sine_trace: pd.DataFrame | None = None
-    out: Path | None = None
     fit: FitView | None = None
     _computed: StudyResults | None = field(default=None, repr=False)
 
     @property
-    def subjects(self) -> list[str]:
-        """The subjects with electrostatic results, in the table's order."""
-        return list(dict.fromkeys(self.electrostatic["subject"]))
-
-    @property
     def warnings(self) -> list[str]:
         """What the analysis found worth saying (``summary.json``'s ``warnings``)."""
-        return list(self.summary.get("warnings") or [])
+        return self.summary.warnings
 
     def __repr__(self) -> str:
         where = "in memory" if self.out is None else f"in {str(self.out)!r}"
@@ -196,20 +159,18 @@ class Results:
         written = write_results(self._computed, out, force=force)
         folder = Path(out)
         self._computed = written
-        self.summary = read_summary(folder).data
+        self.summary = folder_summary(folder)
         self.out = folder
+        self.forget()
         if self.fit is not None and self.fit.out is not None:
             self.fit = None  # its files were another folder's (or removed, as analyze does)
         return folder
 
 
 def _from_computed(res: StudyResults) -> Results:
-    return Results(trials=typed_table(res.trials), windows=typed_table(res.windows),
-                   electrostatic=typed_table(res.electrostatic),
-                   exponents=typed_table(res.exponents), summary=res.summary,
-                   bootstrap=None if res.bootstrap is None else typed_table(res.bootstrap),
-                   sine_trace=None if res.sine_trace is None else typed_table(res.sine_trace),
-                   _computed=res)
+    results = Results.in_memory(res.tables, res.summary)
+    results._computed = res
+    return results
 
 
 def analyze(study: Study | str | os.PathLike[str], *, jobs: int | None = None,
@@ -269,7 +230,8 @@ def read_table(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
     path : Path
         The CSV table.
     columns : tuple of str
-        The columns it must have.
+        The columns it must have: a table's of :mod:`evtribo.documents.tables` (else the
+        table *path* names).
 
     Returns
     -------
@@ -281,15 +243,6 @@ def read_table(path: Path, columns: tuple[str, ...]) -> pd.DataFrame:
     UserInputError
         It cannot be read, or a column is missing.
     """
-    try:
-        raw = pd.read_csv(path, dtype=dict.fromkeys(TEXT_COLUMNS, str), keep_default_na=False,
-                          na_values=[""], **CSV_EXACT)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
-        raise UserInputError(f"cannot read this CSV table: {err}", path=path) from err
-    for c in NEWER_COLUMNS & set(columns) - set(raw.columns):  # a folder written before
-        raw[c] = pd.NA
-    missing = [c for c in columns if c not in raw.columns]
-    if missing:
-        raise UserInputError(f"missing column(s) {', '.join(missing)}: not a table evtribo "
-                             "analyze wrote", path=path, key=missing[0])
-    return typed_table(raw)
+    schema = next((s for s in SCHEMAS.values() if s.names() == tuple(columns)),
+                  SCHEMAS[Path(path).name])
+    return schema.read(path, complete=True)

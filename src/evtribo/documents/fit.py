@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from evtribo.errors import ResultFolderError
-from evtribo.store.files import atomic_write
+from evtribo.store.files import atomic_write, read_regular
 
 __all__ = ["FIT_JSON", "FIT_KEYS", "FIT_VERSION", "FitDocument", "fit_text", "read_fit",
            "write_fit"]
@@ -176,7 +176,8 @@ def write_fit(path: str | os.PathLike[str], doc: Mapping[str, Any]) -> Path:
     return atomic_write(path, fit_text(doc))
 
 
-def read_fit(path: str | os.PathLike[str], *, again: str = "") -> FitDocument:
+def read_fit(path: str | os.PathLike[str], *, again: str = "", missing_ok: bool = False,
+             follow: bool = True) -> FitDocument:
     """Read ``fit.json``.
 
     Parameters
@@ -185,6 +186,10 @@ def read_fit(path: str | os.PathLike[str], *, again: str = "") -> FitDocument:
         The file.
     again : str
         What mends a damaged file, appended to the message (``"; run ..."``).
+    missing_ok : bool
+        An absent file is an empty document (no comparison yet), not an error.
+    follow : bool
+        Follow a symbolic link (False: a link is refused).
 
     Returns
     -------
@@ -193,13 +198,19 @@ def read_fit(path: str | os.PathLike[str], *, again: str = "") -> FitDocument:
     Raises
     ------
     ResultFolderError
-        The file is missing, not valid JSON, or not a JSON object.
+        The file is missing (unless *missing_ok*), cannot be read, is not a regular file,
+        not valid JSON, or not a JSON object.
     """
     file = Path(path)
     try:
-        doc = json.loads(file.read_text(encoding="utf-8"))
+        doc = json.loads(read_regular(file, ResultFolderError, what="fit.json",
+                                      follow=follow).decode("utf-8"))
     except FileNotFoundError as err:
+        if missing_ok:
+            return FitDocument()
         raise ResultFolderError(f"missing{again}", path=file) from err
+    except PermissionError as err:
+        raise ResultFolderError(f"cannot read: {err.strerror}", path=file) from None
     except (ValueError, UnicodeDecodeError) as err:
         raise ResultFolderError(f"not valid JSON ({err}){again}", path=file) from err
     if not isinstance(doc, dict):

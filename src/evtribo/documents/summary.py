@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from evtribo.errors import ResultFolderError
-from evtribo.store.files import atomic_write
+from evtribo.store.files import atomic_write, read_regular
 
 __all__ = ["SUMMARY_FILE", "SUMMARY_KEYS", "SUMMARY_VERSION", "InputRecord", "Summary",
            "read_summary", "summary_text", "write_summary"]
@@ -205,7 +205,8 @@ def write_summary(path: str | os.PathLike[str], summary: Mapping[str, Any]) -> P
     return atomic_write(path, summary_text(summary))
 
 
-def read_summary(path: str | os.PathLike[str], *, again: str = "") -> Summary:
+def read_summary(path: str | os.PathLike[str], *, again: str = "",
+                 follow: bool = True) -> Summary:
     """Read ``summary.json``.
 
     Parameters
@@ -214,6 +215,8 @@ def read_summary(path: str | os.PathLike[str], *, again: str = "") -> Summary:
         The file.
     again : str
         What mends a damaged file, appended to the message (``"; run ..."``).
+    follow : bool
+        Follow a symbolic link (False: a link is refused).
 
     Returns
     -------
@@ -223,12 +226,13 @@ def read_summary(path: str | os.PathLike[str], *, again: str = "") -> Summary:
     Raises
     ------
     ResultFolderError
-        The file is missing or not valid JSON, or a key evtribo reads is of the wrong kind
-        (naming the key).
+        The file is missing, not a regular file, or not valid JSON, or a key evtribo reads
+        is of the wrong kind (naming the key).
     """
     file = Path(path)
     try:
-        text = file.read_text(encoding="utf-8")
+        text = read_regular(file, ResultFolderError, what="summary.json",
+                            follow=follow).decode("utf-8")
     except FileNotFoundError as err:
         raise ResultFolderError(f"missing{again}", path=file) from err
     except PermissionError as err:

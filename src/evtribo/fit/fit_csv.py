@@ -9,17 +9,16 @@ from collections.abc import Sequence
 import numpy as np
 import pandas as pd
 
+from evtribo.documents.tables import FIT
 from evtribo.fit.fit import SubjectFit
 from evtribo.fit.model_points import model_exponent
 from evtribo.fit.tables import ResultTables
 
 __all__ = ["FIT_COLUMNS", "fit_table"]
 
-#: Columns of ``fit.csv``, one row per subject and fitted parameter.
-FIT_COLUMNS: tuple[str, ...] = (
-    "subject", "parameter", "value", "ci_low", "ci_high", "stderr", "unit", "rmse_N", "r2",
-    "chi2_reduced", "n_points", "waveform", "exponent", "exponent_ci_low", "exponent_ci_high",
-    "exponent_model", "mu_measured")
+#: Columns of ``fit.csv``, one row per subject and fitted parameter
+#: (:data:`evtribo.documents.tables.FIT`).
+FIT_COLUMNS: tuple[str, ...] = FIT.names()
 
 
 def _exponent_row(tables: ResultTables, subject: str) -> pd.Series | None:

@@ -40,6 +40,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
+from evtribo.documents.tables import MODELS, MODELS_CSV
 from evtribo.errors import AnalysisError, ConfigError
 from evtribo.fit.model_points import ForceFunction, mean_electrostatic_force
 from evtribo.fit.params import name_list
@@ -50,7 +51,6 @@ from evtribo.model.electrostatics import adhesion_stress
 from evtribo.model.friction import electrostatic_force
 from evtribo.model.maugis import electrostatic_force_md
 from evtribo.model.params import TABLE_1, ModelParameters
-from evtribo.results.outputs import MODELS_CSV
 
 log = logging.getLogger(__name__)
 
@@ -58,9 +58,8 @@ __all__ = ["CANDIDATES", "INDISTINGUISHABLE", "MODELS_COLUMNS", "MODELS_CSV", "R
            "Candidate", "ModelFit", "electrostatic_force_hertz", "fit_models", "models_table",
            "resolve_models", "study_ranking", "verdict"]
 
-#: Its columns.
-MODELS_COLUMNS = ("subject", "model", "fitted", "n_params", "n_points", "rss_N2", "aic",
-                  "bic", "delta_aic", "akaike_weight", "criterion", "at_bound")
+#: Its columns (:data:`evtribo.documents.tables.MODELS`).
+MODELS_COLUMNS = MODELS.names()
 #: Fewer points than this per parameter: AICc instead of AIC.
 AICC_RATIO = 40
 #: Models whose criterion is within this of the lowest are indistinguishable from the best.

@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 # scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
 from scipy import special
 
+from evtribo.documents.tables import CONTRASTS, POPULATION
 from evtribo.fit.tables import MIN_REPLICATES, ResultTables
 from evtribo.population.nonlinear_fit import NonlinearFit
 from evtribo.population.stats import (
@@ -40,17 +41,13 @@ __all__ = ["CONTRAST_COLUMNS", "LINEAR_COLUMNS", "META", "POPULATION_COLUMNS", "
            "Collector", "Condition", "PopulationOutlier", "SubjectData", "condition_label",
            "conditions_of", "exp_or_nan", "subject_data"]
 
-POPULATION_COLUMNS = ("quantity", "waveform", "frequency_Hz", "amplitude_V", "estimate",
-                      "ci_low", "ci_high", "between_subject_sd", "n_subjects", "method",
-                      "analysis", "pi_low", "pi_high", "between_sd_low", "between_sd_high",
-                      "i2", "i2_low", "i2_high", "checks")
+#: Columns of population.csv and population_contrasts.csv (study format §10;
+#: :mod:`evtribo.documents.tables`).
+POPULATION_COLUMNS, CONTRAST_COLUMNS = POPULATION.names(), CONTRASTS.names()
 #: ``analysis`` of the rows every subject is in (but those the study excluded beforehand).
 PRIMARY = "primary"
 #: ``analysis`` of the rows of a meta-analysis of log F_el at each amplitude.
 META = "meta-analysis"
-#: Columns of population_contrasts.csv (study format §10).
-CONTRAST_COLUMNS = ("condition_a", "condition_b", "quantity", "ratio", "difference",
-                    "ci_low", "ci_high", "n_subjects")
 #: Bootstrap replicates read per subject for its cells' correlation.
 REPLICATES = 200
 _Z95 = float(special.ndtri(0.975))

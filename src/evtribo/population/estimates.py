@@ -45,6 +45,7 @@ import pandas as pd
 # scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
 from scipy import special
 
+from evtribo.documents.tables import CONTRASTS, POPULATION, POPULATION_SUBJECTS
 from evtribo.fit.fit import SubjectFit
 from evtribo.fit.tables import ResultTables
 from evtribo.population.contrasts import contrast
@@ -63,11 +64,6 @@ from evtribo.population.journal import SUBJECT_COLUMNS, friction_increase, subje
 from evtribo.population.nonlinear_fit import NonlinearFit
 from evtribo.population.power_law import condition_estimates
 from evtribo.population.stats import MIN_SUBJECTS, OUTLIER_ALPHA, POOL_METHOD, Pooled
-from evtribo.results.outputs import (
-    POPULATION_CONTRASTS_CSV,
-    POPULATION_CSV,
-    POPULATION_SUBJECTS_CSV,
-)
 
 log = logging.getLogger(__name__)
 
@@ -146,10 +142,10 @@ class Population:
         """
         if self.table.empty:
             return {}
-        out = {POPULATION_CSV: self.table.to_csv(index=False),
-               POPULATION_CONTRASTS_CSV: self.contrasts.to_csv(index=False)}
+        out = {POPULATION.file: POPULATION.text(self.table),
+               CONTRASTS.file: CONTRASTS.text(self.contrasts)}
         if not self.subjects.empty:
-            out[POPULATION_SUBJECTS_CSV] = self.subjects.to_csv(index=False)
+            out[POPULATION_SUBJECTS.file] = POPULATION_SUBJECTS.text(self.subjects)
         return out
 
     def as_json(self) -> dict[str, Any]:

@@ -29,6 +29,7 @@ import pandas as pd
 # scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
 from scipy import special
 
+from evtribo.documents.tables import POPULATION_SUBJECTS
 from evtribo.population.data import PRIMARY, Collector, Condition, SubjectData, condition_label
 from evtribo.population.stats import MIN_SUBJECTS
 from evtribo.util.numbers import frequency, significant, voltage, with_interval
@@ -36,11 +37,8 @@ from evtribo.util.numbers import frequency, significant, voltage, with_interval
 __all__ = ["HOLM_ALPHA", "INCREASE_METHOD", "SUBJECT_COLUMNS", "friction_increase", "holm",
            "subject_table", "subjects_view"]
 
-#: Columns of population_subjects.csv.
-SUBJECT_COLUMNS = ("subject", "waveform", "frequency_Hz", "amplitude_V",
-                   "electrostatic_force_N", "ci_low_N", "ci_high_N", "normal_force_N",
-                   "friction_increase_pct", "increase_ci_low_pct", "increase_ci_high_pct",
-                   "z_positive", "p_one_sided", "p_holm", "responds")
+#: Columns of population_subjects.csv (:data:`evtribo.documents.tables.POPULATION_SUBJECTS`).
+SUBJECT_COLUMNS = POPULATION_SUBJECTS.names()
 #: The family-wise level of the subjects' tests.
 HOLM_ALPHA = 0.05
 INCREASE_METHOD = ("random-effects meta-analysis on the linear scale (Paule-Mandel, "

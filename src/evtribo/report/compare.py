@@ -38,6 +38,7 @@ import pandas as pd
 
 from evtribo import __version__
 from evtribo.documents.fit import write_fit
+from evtribo.documents.tables import FIT
 from evtribo.figures.frequency_plots import write_models
 from evtribo.figures.friction_only import NOTE, friction_figures
 from evtribo.figures.plots import (
@@ -270,7 +271,7 @@ def _run(folder: Path, tables: ResultTables, setup: _Setup, params: str | Path |
     stale = compare_files(folder)
     previous = last_fit(folder)
     with Staging(folder, by="compare", also=earlier_results(folder)) as stage:
-        figures = Figures(stage, setup.look, CompareResult(out=tables.out, fits=[]), runner,
+        figures = Figures(stage, setup.look, CompareResult(out=folder, fits=[]), runner,
                           FigureStore(setup.cache), previous=previous, progress=progress)
         result = _compare(tables, stage, setup, figures, scheduler=scheduler,
                           progress=progress, exclude=exclude)
@@ -305,7 +306,7 @@ def _compare(tables: ResultTables, stage: Staging, setup: _Setup, figures: Figur
     result.notes += [NOTE] if only_mu else interval_notes(
         fits, has_bootstrap=tables.bootstrap is not None)
     table = fit_table(fits, tables)
-    atomic_write(stage.path(FIT_CSV), table.to_csv(index=False))
+    atomic_write(stage.path(FIT_CSV), FIT.text(table))
     result.files.append(Path(FIT_CSV))
     progress("drawing the figures of the fit" if not only_mu else
              "drawing each subject's friction")

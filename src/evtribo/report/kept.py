@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import json
 import logging
 import os
 import struct
@@ -26,8 +25,9 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-from evtribo.documents.fit import FIT_JSON
-from evtribo.documents.summary import SUMMARY_FILE
+from evtribo.documents.fit import FIT_JSON, FitDocument, read_fit
+from evtribo.documents.summary import SUMMARY_FILE, read_summary
+from evtribo.errors import ResultFolderError
 from evtribo.results.outputs import FIGURES
 from evtribo.store.files import read_entry, sha256_file, write_checksummed
 from evtribo.store.memo import (
@@ -258,8 +258,8 @@ def compare_key(summary: Mapping[str, Any], options: Mapping[str, Any]) -> str:
                    summary.get("strict"), summary.get("study_dir"), dict(options)))
 
 
-def last_fit(folder: str | os.PathLike[str]) -> dict[str, Any]:
-    """The fit.json the last comparison of *folder* wrote ({} when none, or unreadable).
+def last_fit(folder: str | os.PathLike[str]) -> FitDocument:
+    """The fit.json the last comparison of *folder* wrote (empty when none, or unreadable).
 
     Parameters
     ----------
@@ -268,13 +268,12 @@ def last_fit(folder: str | os.PathLike[str]) -> dict[str, Any]:
 
     Returns
     -------
-    dict
+    FitDocument
     """
     try:
-        doc = json.loads((Path(folder) / FIT_JSON).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
-    return doc if isinstance(doc, dict) else {}
+        return read_fit(Path(folder) / FIT_JSON, missing_ok=True)
+    except (OSError, ResultFolderError):
+        return FitDocument()
 
 
 def _same_bytes(folder: Path, hashes: Mapping[str, Any]) -> bool:
@@ -309,7 +308,7 @@ def _inputs_as_analysed(summary: Mapping[str, Any], cache_dir: Path | None) -> b
 
 
 def unchanged(folder: str | os.PathLike[str], options: Mapping[str, Any], *,
-              cache_dir: str | os.PathLike[str] | None = None) -> dict[str, Any] | None:
+              cache_dir: str | os.PathLike[str] | None = None) -> FitDocument | None:
     """The fit.json of the last comparison of *folder*, when a comparison with these
     options would write what it wrote: the same key (:func:`compare_key`), the same
     analysis (``run_id``), every file compare wrote holding the bytes fit.json records, the
@@ -327,22 +326,20 @@ def unchanged(folder: str | os.PathLike[str], options: Mapping[str, Any], *,
 
     Returns
     -------
-    dict or None
-        fit.json's content; None when anything differs (the comparison is then run).
+    FitDocument or None
+        fit.json; None when anything differs (the comparison is then run).
     """
     root = Path(folder)
     try:
-        summary = json.loads((root / SUMMARY_FILE).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        summary = read_summary(root / SUMMARY_FILE)
+        fit = last_fit(root)
+        if not fit or fit.get("compare_key") != compare_key(summary, options) or \
+                fit.get("run_id") != summary.get("run_id"):
+            return None
+        written = fit.output_sha256, summary.output_sha256 or {}
+    except (OSError, ResultFolderError):
         return None
-    fit = last_fit(root)
-    if not isinstance(summary, dict) or not fit:
-        return None
-    if fit.get("compare_key") != compare_key(summary, options) or \
-            fit.get("run_id") != summary.get("run_id"):
-        return None
-    if not (_same_bytes(root, fit.get("output_sha256") or {})
-            and _same_bytes(root, summary.get("output_sha256") or {})
+    if not (_same_bytes(root, written[0]) and _same_bytes(root, written[1])
             and _inputs_as_analysed(summary, None if cache_dir is None else Path(cache_dir))):
         return None
     return fit

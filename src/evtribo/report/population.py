@@ -25,17 +25,13 @@ import pandas as pd
 
 from evtribo import __version__
 from evtribo.documents.fit import FitDocument
-from evtribo.errors import FORCE, ResultFolderError
-from evtribo.population.data import CONTRAST_COLUMNS, POPULATION_COLUMNS, PopulationOutlier
-from evtribo.population.journal import SUBJECT_COLUMNS, subjects_view
+from evtribo.documents.result_folder import ResultFolder
+from evtribo.errors import FORCE
+from evtribo.population.data import PopulationOutlier
+from evtribo.population.journal import subjects_view
 from evtribo.population.stats import MIN_SUBJECTS
 from evtribo.report.headline import Headline
 from evtribo.report.page import Report
-from evtribo.results.outputs import (
-    POPULATION_CONTRASTS_CSV,
-    POPULATION_CSV,
-    POPULATION_SUBJECTS_CSV,
-)
 from evtribo.util.numbers import frequency, quantity, significant, to_float, voltage, with_interval
 
 __all__ = ["SECTION", "add_population", "exponent_verdict", "population_headline",
@@ -51,34 +47,26 @@ LIMITS = ((Fraction(2), "the square law of a contact set by the normal force (eq
 _PRIMARY = "primary"
 
 
-def _read(path: Path, columns: Sequence[str], folder: Path) -> pd.DataFrame | None:
-    if not path.is_file():
+def _as_read(frame: pd.DataFrame | None) -> pd.DataFrame | None:
+    """A population table as the section reads it: "" where a waveform, the checks or the
+    analysis is missing (mu's and h_L's rows), as in memory."""
+    if frame is None:
         return None
-    try:
-        frame = pd.read_csv(path, dtype={"waveform": str, "method": str, "analysis": str,
-                                         "checks": str, "condition_a": str,
-                                         "condition_b": str, "subject": str},
-                            keep_default_na=False, na_values=[""])
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
-        raise ResultFolderError(f"cannot read this table: {err}; run `evtribo compare "
-                                f"{folder} {FORCE}`", path=path) from err
-    missing = [c for c in columns if c not in frame.columns]
-    if missing:
-        raise ResultFolderError(f"missing column(s) {', '.join(missing)}; run `evtribo "
-                                f"compare {folder} {FORCE}`", path=path, key=missing[0])
-    for col in ("waveform", "checks", "analysis"):  # "" for mu and h_L, as in memory
+    frame = frame.copy()
+    for col in ("waveform", "checks", "analysis"):
         if col in frame.columns:
             frame[col] = frame[col].fillna("").astype(str)
     return frame
 
 
-def read_population(folder: Path) -> tuple[pd.DataFrame | None, pd.DataFrame | None]:
+def read_population(folder: Path | ResultFolder
+                    ) -> tuple[pd.DataFrame | None, pd.DataFrame | None]:
     """population.csv and population_contrasts.csv of a result folder (None when absent).
 
     Parameters
     ----------
-    folder : Path
-        The result folder.
+    folder : Path or ResultFolder
+        The result folder (read through :class:`~evtribo.documents.result_folder.ResultFolder`).
 
     Returns
     -------
@@ -89,16 +77,18 @@ def read_population(folder: Path) -> tuple[pd.DataFrame | None, pd.DataFrame | N
     ResultFolderError
         A file that cannot be read or lacks a column.
     """
-    return (_read(folder / POPULATION_CSV, POPULATION_COLUMNS, folder),
-            _read(folder / POPULATION_CONTRASTS_CSV, CONTRAST_COLUMNS, folder))
+    results = folder if isinstance(folder, ResultFolder) \
+        else ResultFolder.compare_documents(folder)
+    table = results.population
+    return _as_read(None if table is None else table.frame), _as_read(results.contrasts)
 
 
-def read_subjects(folder: Path) -> pd.DataFrame | None:
+def read_subjects(folder: Path | ResultFolder) -> pd.DataFrame | None:
     """population_subjects.csv of a result folder (None when absent).
 
     Parameters
     ----------
-    folder : Path
+    folder : Path or ResultFolder
         The result folder.
 
     Returns
@@ -106,7 +96,9 @@ def read_subjects(folder: Path) -> pd.DataFrame | None:
     DataFrame or None
         Raises ResultFolderError as :func:`read_population` does.
     """
-    return _read(folder / POPULATION_SUBJECTS_CSV, SUBJECT_COLUMNS, folder)
+    results = folder if isinstance(folder, ResultFolder) \
+        else ResultFolder.compare_documents(folder)
+    return _as_read(results.population_subjects)
 
 
 def _conditions(table: pd.DataFrame) -> list[tuple[str, float]]:

@@ -142,6 +142,7 @@ def add_provenance(report: Report, tables: ResultTables, fit_doc: FitDocument, *
     else:
         report.add_text("summary.json records no input files inside the study folder.",
                         section=sec)
+    assert tables.out is not None  # a folder read from disk
     files = _result_files(tables.out, output)
     report.add_table(files, "Result files", section=sec, wrap="anywhere",
                      caption="Each file of the result folder (every table and figure "

@@ -27,8 +27,9 @@ from typing import Any
 
 import pandas as pd
 
-from evtribo.documents.fit import FitDocument, read_fit
-from evtribo.documents.summary import Summary
+from evtribo.documents.fit import FitDocument
+from evtribo.documents.result_folder import ResultFolder
+from evtribo.documents.tables import FIT_CSV, MODELS_CSV
 from evtribo.errors import FORCE, OutputExistsError, ResultFolderError, UserInputError
 from evtribo.fit.tables import ResultTables, check_out_folder, read_results
 from evtribo.guard import refuse_in_study, refuse_input
@@ -51,8 +52,7 @@ from evtribo.report.study_files import (
     trials_with_notes,
 )
 from evtribo.report.table_export import TABLE_FORMATS, parse_table_formats, table_files
-from evtribo.results.outputs import FIGURES, FIT_CSV, FIT_JSON, REPORT_TABLES, TABLES
-from evtribo.store.files import sha256_file
+from evtribo.results.outputs import FIGURES, FIT_JSON, REPORT_TABLES, TABLES
 from evtribo.store.names import check_new_path
 from evtribo.store.owned import refuse_foreign
 from evtribo.store.resultdir import inside, locked, recover
@@ -61,11 +61,6 @@ log = logging.getLogger(__name__)
 
 __all__ = ["MODELS_CSV", "build_report", "file_hashes"]
 
-#: The table of compared models ``evtribo compare --models`` writes.
-MODELS_CSV = "models.csv"
-#: Its columns the report reads.
-_MODELS_COLUMNS = ("subject", "model", "fitted", "n_params", "aic", "delta_aic",
-                   "akaike_weight")
 #: Figure files, in the order the page prefers them.
 _FIGURE_SUFFIXES = (".png", ".svg", ".pdf")
 
@@ -87,38 +82,23 @@ def _warnings(tables: ResultTables) -> list[str]:
     return list(dict.fromkeys(items))
 
 
-def _fit_doc(folder: Path, summary: Summary | Mapping[str, Any]) -> FitDocument:
-    """fit.json, checked: a fit of the analysis now in *folder*, its files as compare wrote
-    them.
+def _fit_doc(results: ResultFolder) -> FitDocument:
+    """fit.json, checked: a fit of the analysis now in the folder, its files as compare wrote
+    them (:meth:`~evtribo.documents.result_folder.ResultFolder.check_fit`).
 
     Raises
     ------
     ResultFolderError
         Naming ``evtribo compare OUT --force``.
     """
-    if not isinstance(summary, Summary):
-        summary = Summary(dict(summary))
-    again = f"run `evtribo compare {folder} {FORCE}`"
-    path = folder / FIT_JSON
-    if not path.is_file():
-        if summary.run_id is None:  # results of an older evtribo: a fit.csv alone
-            return FitDocument()
+    folder = results.out
+    assert folder is not None
+    if not (folder / FIT_JSON).is_file() and results.summary.run_id is not None:
         raise ResultFolderError(f"missing beside fit.csv (a comparison that did not finish?); "
-                                f"{again}", path=path)
-    doc = read_fit(path, again=f"; {again}")
-    run_id = summary.run_id
-    if run_id is not None and doc.get("run_id") != run_id:
-        fitted = doc.get("run_id") or "one without a run_id"
-        raise ResultFolderError(
-            f"the model fit is of another analysis ({fitted}) than the results now in the "
-            f"folder ({run_id}): it was fitted to data that are no longer these; {again}",
-            path=path)
-    for rel, digest in doc.output_sha256.items():
-        file = inside(folder, rel)
-        if file is None or not file.is_file() or sha256_file(file) != digest:
-            raise ResultFolderError(f"missing, or not the file compare wrote (fit.json "
-                                    f"records its SHA-256); {again}", path=folder / rel)
-    return doc
+                                f"run `evtribo compare {folder} {FORCE}`",
+                                path=folder / FIT_JSON)
+    results.check_fit()  # an older evtribo's results without fit.json: a fit.csv alone
+    return results.fit_doc
 
 
 def _check_output(folder: Path, output: Path, formats: Iterable[str], force: bool) -> None:
@@ -194,11 +174,12 @@ def build_report(out: str | Path, output: str | Path, *, force: bool = False,
             log.warning("report: %s has no fit.csv; running `evtribo compare` with its "
                         "defaults", folder)
             compare(folder, dpi=dpi)
-        fit_doc = _fit_doc(folder, results.summary)
-        if not (folder / FIT_CSV).is_file():
+        results.forget()  # compare may have run since it was read
+        fit_doc = _fit_doc(results)
+        fit = results.fit_table
+        if fit is None:
             raise ResultFolderError(f"missing beside fit.json; run `evtribo compare {folder} "
                                     f"{FORCE}`", path=folder / FIT_CSV)
-        fit = pd.read_csv(folder / FIT_CSV, dtype={"subject": str})
         report, headlines = _page(results, fit, fit_doc, Path(output))
         html = Path(os.path.realpath(output))
         # a page inside the result folder is written as one unit with it; one of a hidden
@@ -233,6 +214,7 @@ def _figures(tables: ResultTables, fit_doc: FitDocument) -> list[dict[str, Any]]
         A figure fit.json lists has no file in figures/.
     """
     folder = tables.out
+    assert folder is not None  # a folder read from disk
     figures = fit_doc.figures
     if not figures and (folder / FIGURES).is_dir():  # results of an older evtribo compare
         stems = dict.fromkeys(p.stem for p in sorted((folder / FIGURES).iterdir())
@@ -249,33 +231,11 @@ def _figures(tables: ResultTables, fit_doc: FitDocument) -> list[dict[str, Any]]
     return figures
 
 
-def _models(folder: Path) -> pd.DataFrame | None:
-    """models.csv when compare wrote one (None otherwise).
-
-    Raises
-    ------
-    ResultFolderError
-        It lacks a column the report shows.
-    """
-    path = folder / MODELS_CSV
-    if not path.is_file():
-        return None
-    try:
-        models = pd.read_csv(path, dtype={"subject": str, "model": str, "fitted": str})
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as err:
-        raise ResultFolderError(f"cannot read this table: {err}; run `evtribo compare "
-                                f"{folder} {FORCE}`", path=path) from err
-    missing = [c for c in _MODELS_COLUMNS if c not in models.columns]
-    if missing:
-        raise ResultFolderError(f"missing column(s) {', '.join(missing)}; run `evtribo "
-                                f"compare {folder} {FORCE}`", path=path, key=missing[0])
-    return models
-
-
 def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
           output: Path) -> tuple[Report, list[Headline]]:
     """The report's page (figures from the folder's figures/) and its headline tables."""
     figures = _figures(tables, fit_doc)
+    assert tables.out is not None  # a folder read from disk
     study_dir = study_dir_of(tables.summary, tables.out)
     inputs, input_warnings = input_table(tables.summary, study_dir)
     trials = trials_with_notes(tables, study_dir)
@@ -287,8 +247,8 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
                     strict=True))
     groups = group_warnings([*input_warnings, *_warnings(tables)], tables.all_subjects, keys)
     cells = study_cells(tables.electrostatic.to_dict("records"))
-    models = _models(tables.out)
-    population, contrasts = read_population(tables.out)
+    models = tables.models
+    population, contrasts = read_population(tables)
     if tables.electrostatic.empty:  # a study of OFF trials: its friction, no fit
         headlines = add_friction(report, tables.windows, fit_doc.notes)
         add_warnings(report, groups, keys, cells)

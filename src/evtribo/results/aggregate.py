@@ -51,31 +51,18 @@ from evtribo.analysis.friction.estimate import (
 from evtribo.analysis.friction.law import SENSITIVITY_EXPONENT, untold_note
 from evtribo.analysis.friction.plausible import implausible_rows
 from evtribo.analysis.friction.powerlaw import fit_power_law
+from evtribo.documents.tables import BOOTSTRAP, ELECTROSTATIC, EXPONENTS
 from evtribo.errors import AnalysisError
 
 log = logging.getLogger(__name__)
 
-#: Columns of electrostatic.csv beyond the study format's: the subject's friction law
-#: (:mod:`evtribo.analysis.friction.law`), and the force at ``m = 0.75`` where the presses
-#: do not tell ``m`` (``friction_law = "auto"``; empty elsewhere).
-LAW_COLUMNS = ("friction_law", "friction_exponent", "friction_exponent_ci_low",
-               "friction_exponent_ci_high", "electrostatic_force_m075_N",
-               "electrostatic_force_m075_ci_low_N", "electrostatic_force_m075_ci_high_N")
-#: Columns of electrostatic.csv (study format, section 2).
-ELECTROSTATIC_COLUMNS = ("subject", "waveform", "frequency_Hz", "amplitude_V", "mu",
-                         "normal_force_on_N",
-                         "normal_force_off_N", "friction_on_N", "friction_off_N",
-                         "electrostatic_force_N", "electrostatic_force_ci_low_N",
-                         "electrostatic_force_ci_high_N", "n_on", "n_off",
-                         *LAW_COLUMNS)
-#: Columns of exponents.csv (study format, section 2).
-EXPONENT_COLUMNS = ("subject", "waveform", "frequency_Hz", "exponent", "exponent_ci_low",
-                    "exponent_ci_high",
-                    "prefactor_N")
-#: Columns of electrostatic_bootstrap.csv (not in the study format: an addition for
-#: ``evtribo compare``): one row per electrostatic.csv row and bootstrap replicate.
-BOOTSTRAP_COLUMNS = ("subject", "waveform", "frequency_Hz", "amplitude_V", "replicate",
-                     "electrostatic_force_N")
+#: Columns of electrostatic.csv, exponents.csv and electrostatic_bootstrap.csv
+#: (:mod:`evtribo.documents.tables`); of electrostatic.csv beyond the study format's, the
+#: subject's friction law (:mod:`evtribo.analysis.friction.law`) and the force at
+#: ``m = 0.75`` where the presses do not tell ``m`` (``friction_law = "auto"``).
+ELECTROSTATIC_COLUMNS, EXPONENT_COLUMNS = ELECTROSTATIC.names(), EXPONENTS.names()
+BOOTSTRAP_COLUMNS = BOOTSTRAP.names()
+LAW_COLUMNS = ELECTROSTATIC_COLUMNS[ELECTROSTATIC_COLUMNS.index("friction_law"):]
 #: Bootstrap replicates written to electrostatic_bootstrap.csv per row of electrostatic.csv.
 N_BOOTSTRAP_SAVED = 200
 #: Below this many ON or OFF windows behind an amplitude, summary.json says so. The

@@ -11,7 +11,6 @@ writes the folder as one unit; :func:`check_out_dir` keeps it out of the study.
 
 from __future__ import annotations
 
-import json
 import os
 import re
 import time
@@ -19,10 +18,21 @@ from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
-from evtribo.documents.fit import FIT_JSON
-from evtribo.documents.summary import SUMMARY_FILE, write_summary
-from evtribo.errors import OutputExistsError, UserInputError
-from evtribo.store.files import read_limited
+from evtribo.documents.fit import FIT_JSON, read_fit
+from evtribo.documents.summary import SUMMARY_FILE, read_summary, write_summary
+from evtribo.documents.tables import (
+    ANALYSIS_FILES,
+    BOOTSTRAP_FILE,
+    COMPARE_TABLES,
+    FIT_CSV,
+    MODELS_CSV,
+    OUTPUT_FILES,
+    POPULATION_CONTRASTS_CSV,
+    POPULATION_CSV,
+    POPULATION_SUBJECTS_CSV,
+    SINE_TRACE_FILE,
+)
+from evtribo.errors import OutputExistsError, ResultFolderError, UserInputError
 from evtribo.store.names import check_new_path, companion
 from evtribo.store.owned import (
     MANIFEST,
@@ -42,27 +52,9 @@ __all__ = ["ANALYSIS_FILES", "BOOTSTRAP_FILE", "COMPARE_TABLES", "FIGURES", "FIT
            "WRITERS", "check_compare", "check_out_dir", "check_overwrite", "compare_files",
            "earlier_results", "report_files", "write_analysis"]
 
-#: The files ``analyze_study`` writes into its output folder.
-OUTPUT_FILES = ("trials.csv", "windows.csv", "electrostatic.csv", "exponents.csv",
-                SUMMARY_FILE, "electrostatic_bootstrap.csv")
-#: The bootstrap replicates of electrostatic.csv (an addition to the study format).
-BOOTSTRAP_FILE = "electrostatic_bootstrap.csv"
-#: Written too when the study has sine trials: a stretch of each one's forces around a
-#: switch from OFF to ON, for the model comparison (columns in evtribo.fit.tables).
-SINE_TRACE_FILE = "sine_trace.csv"
-#: Every file of analyze's.
-ANALYSIS_FILES = (*OUTPUT_FILES, SINE_TRACE_FILE)
-#: compare's files, and the folder of its figures.
-FIT_CSV, FIGURES = "fit.csv", "figures"
-#: compare's comparison of the candidate models (``compare --models``).
-MODELS_CSV = "models.csv"
-#: compare's estimates of the population (study format §10).
-POPULATION_CSV, POPULATION_CONTRASTS_CSV = "population.csv", "population_contrasts.csv"
-#: Each subject's relative friction increase and test of F_el > 0 (compare's population).
-POPULATION_SUBJECTS_CSV = "population_subjects.csv"
-#: compare's tables (and fit.json).
-COMPARE_TABLES = (FIT_CSV, FIT_JSON, MODELS_CSV, POPULATION_CSV, POPULATION_CONTRASTS_CSV,
-                  POPULATION_SUBJECTS_CSV)
+#: The folder of compare's figures. (The result tables' file names are
+#: :mod:`evtribo.documents.tables`'.)
+FIGURES = "figures"
 #: The formats of compare's figures.
 _FIGURE_FORMATS = ("png", "svg", "pdf")
 #: The stems of compare's figures (``electrostatic_force_all.png``,
@@ -99,14 +91,14 @@ def compare_files(out: Path) -> list[str]:
     found = [name for name in COMPARE_TABLES if (out / name).is_file()]
     listed: set[str] = set()
     try:
-        doc = json.loads((out / FIT_JSON).read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        doc = {}
-    if isinstance(doc, dict):
-        listed.update(str(k) for k in (doc.get("output_sha256") or {}))
-        for fig in doc.get("figures") or []:
-            if isinstance(fig, dict) and isinstance(fig.get("stem"), str):
-                listed.update(f"{FIGURES}/{fig['stem']}.{ext}" for ext in _FIGURE_FORMATS)
+        doc = read_fit(out / FIT_JSON, missing_ok=True)
+        listed.update(doc.output_sha256)
+        figures = doc.figures
+    except (OSError, ResultFolderError):
+        figures = []
+    for fig in figures:
+        if isinstance(fig.get("stem"), str):
+            listed.update(f"{FIGURES}/{fig['stem']}.{ext}" for ext in _FIGURE_FORMATS)
     if (out / FIGURES).is_dir():
         listed.update(f"{FIGURES}/{p.name}" for p in (out / FIGURES).iterdir()
                       if _FIGURE.match(p.name))
@@ -168,10 +160,10 @@ def _vouched(out: Path, document: str, by: str,
     their SHA-256 (``output_sha256``) and that still have those bytes, and the document
     itself when all of them do."""
     try:
-        doc = json.loads(read_limited(out / document, UserInputError, what=document,
-                                      follow=False))
-        listed = dict(doc.get("output_sha256") or {})
-    except (OSError, ValueError, TypeError, AttributeError, UserInputError):
+        doc = (read_fit(out / document, follow=False) if document == FIT_JSON
+               else read_summary(out / document, follow=False))
+        listed = dict(doc.output_sha256 or {})
+    except (OSError, UserInputError):
         return {}
     found = {rel: Entry(digest, by) for rel, digest in listed.items()
              if isinstance(rel, str) and output_name(rel) and names(rel)

@@ -44,30 +44,26 @@ import pandas as pd
 from evtribo import __version__
 from evtribo.analysis.friction.estimate import INTERVAL, MU_ESTIMATOR
 from evtribo.analysis.settings import AnalysisSettings, study_settings
-from evtribo.analysis.trial import (
-    SINE_TRACE_CSV_COLUMNS,
-    TRIAL_COLUMNS,
-    WINDOW_CSV_COLUMNS,
-    empty_windows,
-    failed_row,
-)
+from evtribo.analysis.trial import empty_windows, failed_row
 from evtribo.analysis.trial_warnings import no_force, say
+from evtribo.documents.result_folder import ResultFolder
+from evtribo.documents.summary import Summary
+from evtribo.documents.tables import (
+    BOOTSTRAP,
+    BOOTSTRAP_FILE,
+    ELECTROSTATIC,
+    EXPONENTS,
+    OUTPUT_FILES,
+    SINE_TRACE,
+    SINE_TRACE_FILE,
+    TRIALS,
+    WINDOWS,
+    TableSchema,
+)
 from evtribo.errors import StudyError
 from evtribo.guard import refuse_cache_in_study
-from evtribo.results.aggregate import (
-    BOOTSTRAP_COLUMNS,
-    ELECTROSTATIC_COLUMNS,
-    EXPONENT_COLUMNS,
-    summarize_study,
-)
-from evtribo.results.outputs import (
-    BOOTSTRAP_FILE,
-    OUTPUT_FILES,
-    SINE_TRACE_FILE,
-    check_out_dir,
-    check_overwrite,
-    write_analysis,
-)
+from evtribo.results.aggregate import summarize_study
+from evtribo.results.outputs import check_out_dir, check_overwrite, write_analysis
 from evtribo.results.provenance import changed_since, input_files, provenance
 from evtribo.results.reuse import OutcomeStore, analysis_context, keep_outcome, kept_outcomes
 from evtribo.results.workers import (
@@ -86,38 +82,27 @@ from evtribo.util.docstrings import fill_doc
 
 log = logging.getLogger(__name__)
 
-_INT_COLUMNS = ("frames", "dropped_frames", "skipped_lines", "n_on", "n_off",
-                "duplicate_frames")
 
 
-@dataclass
-class StudyResults:
-    """A study's results: computed by :func:`compute_study`, written by
+@dataclass(eq=False)
+class StudyResults(ResultFolder):
+    """A study's results (:class:`~evtribo.documents.result_folder.ResultFolder`: the
+    tables as computed, what :func:`write_results` writes, and summary.json, its
+    ``output_sha256`` filled in when written): computed by :func:`compute_study`, written by
     :func:`write_results` (:func:`analyze_study` does both).
 
     Attributes
     ----------
-    out_dir : Path or None
-        The folder they were written to (None: in memory only).
-    trials, windows, electrostatic, exponents : pandas.DataFrame
-        The tables of the CSV files.
-    summary : dict
-        The content of summary.json (``output_sha256`` filled in when written).
-    bootstrap, sine_trace : pandas.DataFrame or None
-        ``electrostatic_bootstrap.csv`` and ``sine_trace.csv`` (None: not written).
     compute_s : float
         Seconds the computation took (``elapsed_s`` adds the writing's).
     """
 
-    out_dir: Path | None
-    trials: pd.DataFrame
-    windows: pd.DataFrame
-    electrostatic: pd.DataFrame
-    exponents: pd.DataFrame
-    summary: dict[str, Any]
-    bootstrap: pd.DataFrame | None = None
-    sine_trace: pd.DataFrame | None = None
     compute_s: float = 0.0
+
+    @property
+    def out_dir(self) -> Path | None:
+        """The folder the results were written to (None: in memory only)."""
+        return self.out
 
 
 def _plan(study: Study, inputs: list[dict[str, Any]]
@@ -156,19 +141,20 @@ def _plan(study: Study, inputs: list[dict[str, Any]]
     return tasks, failed, duplicates, warnings
 
 
-def _write_csv(df: pd.DataFrame, path: Path) -> str:
+def _write_csv(schema: TableSchema, df: pd.DataFrame, path: Path) -> str:
     """Write a table; return the SHA-256 of the bytes written."""
-    data = df.to_csv(index=False).encode("utf-8")
+    data = schema.text(df).encode("utf-8")
     path.write_bytes(data)
     return hashlib.sha256(data).hexdigest()
 
 
-def _typed(df: pd.DataFrame, columns: tuple[str, ...]) -> pd.DataFrame:
-    """*df* with *columns* in order, the counts as nullable integers."""
-    df = df.reindex(columns=list(columns))
-    for c in _INT_COLUMNS:
-        if c in df.columns:
-            df[c] = pd.to_numeric(df[c], errors="coerce").astype("Int64")
+def _typed(df: pd.DataFrame, schema: TableSchema) -> pd.DataFrame:
+    """*df* with the table's columns in order, the counts as nullable integers (what is
+    written: the rest as computed)."""
+    df = df.reindex(columns=list(schema.names()))
+    for c in schema.columns:
+        if c.kind == "count":
+            df[c.name] = pd.to_numeric(df[c.name], errors="coerce").astype("Int64")
     return df
 
 
@@ -335,10 +321,10 @@ def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | Non
                        duplicates=duplicates, warnings=warnings, strict=strict, jobs=jobs)
     log.info("analysed %d of %d trials of %s", summary["trials_analysed"],
              len(study.trials), study.root)
-    return StudyResults(out_dir=None, trials=tables.trials, windows=tables.windows,
+    return StudyResults(out=None, trials=tables.trials, windows=tables.windows,
                         electrostatic=tables.electrostatic, exponents=tables.exponents,
-                        summary=summary, bootstrap=tables.bootstrap, sine_trace=tables.trace,
-                        compute_s=time.perf_counter() - started)
+                        summary=Summary(summary), bootstrap=tables.bootstrap,
+                        sine_trace=tables.trace, compute_s=time.perf_counter() - started)
 
 
 def write_results(results: StudyResults, out_dir: str | os.PathLike[str], *,
@@ -368,23 +354,26 @@ def write_results(results: StudyResults, out_dir: str | os.PathLike[str], *,
     out = Path(out_dir)
     check_overwrite(out, force)
     check_out_dir(out, Path(results.summary["study_dir"]))
-    summary = copy.deepcopy(results.summary)
+    summary = copy.deepcopy(results.summary.data)
     summary["output_sha256"] = {}
     with locked(out, "evtribo analyze"):
         recover(out)
         check_overwrite(out, force)
         _write(out, _files(results), summary,
                results.compute_s + time.perf_counter() - started)
-    return dataclasses.replace(results, out_dir=out, summary=summary)
+    return dataclasses.replace(results, out=out, summary=Summary(summary))
 
 
-def _files(results: StudyResults) -> dict[str, pd.DataFrame]:
-    """The CSV files to write, by name."""
-    out = {"trials.csv": results.trials, "windows.csv": results.windows,
-           "electrostatic.csv": results.electrostatic, "exponents.csv": results.exponents,
-           BOOTSTRAP_FILE: pd.DataFrame(columns=list(BOOTSTRAP_COLUMNS))
-           if results.bootstrap is None else results.bootstrap}
-    return out if results.sine_trace is None else {**out, SINE_TRACE_FILE: results.sine_trace}
+def _files(results: StudyResults) -> dict[str, tuple[TableSchema, pd.DataFrame]]:
+    """The CSV files to write, by name, each with its schema."""
+    files = {TRIALS.file: (TRIALS, results.trials), WINDOWS.file: (WINDOWS, results.windows),
+             ELECTROSTATIC.file: (ELECTROSTATIC, results.electrostatic),
+             EXPONENTS.file: (EXPONENTS, results.exponents),
+             BOOTSTRAP.file: (BOOTSTRAP, BOOTSTRAP.empty() if results.bootstrap is None
+                              else results.bootstrap)}
+    if results.sine_trace is not None:
+        files[SINE_TRACE.file] = (SINE_TRACE, results.sine_trace)
+    return files
 
 
 @dataclass
@@ -412,10 +401,10 @@ class _Tables:
             if o.error is not None:
                 failed.append({"trial": f"{o.row['subject']}/{o.row['trial']}",
                                "error": o.error})
-        trials = _typed(pd.DataFrame([o.row for o in outcomes]), TRIAL_COLUMNS)
+        trials = _typed(pd.DataFrame([o.row for o in outcomes]), TRIALS)
         frames = [o.windows for o in outcomes if not o.windows.empty]
         windows = (pd.concat(frames, ignore_index=True) if frames else empty_windows())
-        windows = windows.reindex(columns=list(WINDOW_CSV_COLUMNS))
+        windows = windows.reindex(columns=list(WINDOWS.names()))
         found = summarize_study(windows, trials, n_boot=settings.n_boot, seed=settings.seed,
                                 confidence=settings.confidence,
                                 friction_law=settings.friction_law)
@@ -431,10 +420,10 @@ class _Tables:
             index=trials.index, dtype=float))
         traces = [o.trace for o in outcomes if o.trace is not None and not o.trace.empty]
         trace = (pd.concat(traces, ignore_index=True)
-                 .reindex(columns=list(SINE_TRACE_CSV_COLUMNS)) if traces else None)
-        return cls(trials, windows, _typed(electrostatic, ELECTROSTATIC_COLUMNS),
-                   _typed(exponents, EXPONENT_COLUMNS),
-                   bootstrap.reindex(columns=list(BOOTSTRAP_COLUMNS)), trace, failed,
+                 .reindex(columns=list(SINE_TRACE.names())) if traces else None)
+        return cls(trials, windows, _typed(electrostatic, ELECTROSTATIC),
+                   _typed(exponents, EXPONENTS),
+                   bootstrap.reindex(columns=list(BOOTSTRAP.names())), trace, failed,
                    warnings)
 
 
@@ -481,12 +470,12 @@ def _summary(study: Study, tables: _Tables, settings: AnalysisSettings, *, start
     }
 
 
-def _write(out: Path, files: dict[str, pd.DataFrame], summary: dict[str, Any],
-           elapsed: float) -> None:
+def _write(out: Path, files: dict[str, tuple[TableSchema, pd.DataFrame]],
+           summary: dict[str, Any], elapsed: float) -> None:
     """The tables and summary.json written into *out* as one unit
     (:func:`~evtribo.results.outputs.write_analysis`)."""
-    write_analysis(out, {name: functools.partial(_write_csv, table)
-                         for name, table in files.items()}, summary, elapsed)
+    write_analysis(out, {name: functools.partial(_write_csv, schema, table)
+                         for name, (schema, table) in files.items()}, summary, elapsed)
 
 
 __all__ = ["BOOTSTRAP_FILE", "OUTPUT_FILES", "SINE_TRACE_FILE", "StudyResults", "analyze_study",

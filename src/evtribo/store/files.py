@@ -40,7 +40,7 @@ __all__ = ["CHECKSUM_DIGITS", "MAX_CONFIG_BYTES", "MF4_PROGRAM_ID", "PARTIAL_SUF
            "DuplicateKeyError",
            "atomic_open", "atomic_write", "check_regular_file", "checksummed_entries",
            "fsync_path", "loads_json_unique", "open_regular", "partial_path", "read_checksummed",
-           "read_entry", "read_limited", "sha256_file", "write_checksummed"]
+           "read_entry", "read_limited", "read_regular", "sha256_file", "write_checksummed"]
 
 #: The program identification of the MF4 files evtribo writes (bytes 16-24 of the file):
 #: such a file holds decoded signals, not a raw CAN log, and ``--force`` may replace it.
@@ -146,6 +146,36 @@ def open_regular(path: str | os.PathLike[str], error: type[UserInputError] = Use
         os.close(fd)
         raise
     return fd
+
+
+def read_regular(path: str | os.PathLike[str], error: type[UserInputError] = UserInputError,
+                 *, what: str = "file", follow: bool = True) -> bytes:
+    """The bytes of a regular file (:func:`open_regular`: anything else refused by name,
+    never waited on).
+
+    Parameters
+    ----------
+    path : path-like
+    error : type
+        The error raised (a :class:`~evtribo.errors.UserInputError`), naming *path*.
+    what : str
+        What the file is, for the message.
+    follow : bool
+        Follow a symbolic link (False: a link is refused).
+
+    Returns
+    -------
+    bytes
+
+    Raises
+    ------
+    FileNotFoundError
+        *path* does not exist.
+    error
+        Not a regular file (or, without *follow*, a symbolic link).
+    """
+    with os.fdopen(open_regular(path, error, what=what, follow=follow), "rb") as fh:
+        return fh.read()
 
 
 def read_limited(path: str | os.PathLike[str], error: type[UserInputError], *,

@@ -17,11 +17,12 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from evtribo.documents.tables import SINE_TRACE
+
 __all__ = ["TRACE_COLUMNS", "sine_trace"]
 
-#: Columns of sine_trace.csv.
-TRACE_COLUMNS = ("subject", "trial", "time_s", "normal_force_N", "friction_force_N",
-                 "amplitude_V", "frequency_Hz")
+#: Columns of sine_trace.csv (:data:`evtribo.documents.tables.SINE_TRACE`).
+TRACE_COLUMNS = SINE_TRACE.names()
 
 
 def _block_mean(x: npt.NDArray[np.float64], k: int) -> npt.NDArray[np.float64]:

@@ -18,6 +18,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from evtribo.documents.summary import SUMMARY_FILE
 from evtribo.report.lead.warning_kinds import EFFECTS, console_lines, group_warnings, read_scope
 
 #: The loggers whose warnings the analysis keeps in summary.json.
@@ -80,4 +81,4 @@ def say_grouped(summary: dict[str, Any], out_dir: Path | None, out: str,
     counts = {e: sum(g.effect == e for g in groups) for e in EFFECTS}
     said = ", ".join(f"{n} {EFFECTS[e].split(' (')[0]}" for e, n in counts.items() if n)
     print(f"{len(kept)} warning(s) of {len(groups)} kind(s) ({said}); each as the analysis "
-          f"said it in {Path(out) / 'summary.json'}", file=sys.stderr)
+          f"said it in {Path(out) / SUMMARY_FILE}", file=sys.stderr)

@@ -173,11 +173,11 @@ def _run(args: argparse.Namespace, address: str | None, hold: Any) -> int:
                                 overrides=overrides, progress=progress, scheduler=client,
                                 reuse=not args.recompute)
             if study_now is not None:
-                remember(args.study, _options(args), res.summary, args.out, args.cache_dir,
-                         key=study_now)
+                remember(args.study, _options(args), res.summary.data, args.out,
+                         args.cache_dir, key=study_now)
     except Terminated:
         return _terminated(args.out)
-    return _report(res.summary, res.out_dir, args.out, hold)
+    return _report(res.summary.data, res.out_dir, args.out, hold)
 
 
 def _terminated(out: str) -> int:

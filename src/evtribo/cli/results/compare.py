@@ -108,8 +108,11 @@ def run(args: argparse.Namespace) -> int:
     for note in result.notes:
         print(f"note: {note}", file=sys.stderr)
     _print_population(result)
-    print(f"wrote {result.out / 'fit.csv'} and {len(result.figures)} figures in "
-          f"{result.out / 'figures'}")
+    from evtribo.documents.tables import FIT_CSV
+    from evtribo.results.outputs import FIGURES
+
+    print(f"wrote {result.out / FIT_CSV} and {len(result.figures)} figures in "
+          f"{result.out / FIGURES}")
     return 0
 
 
@@ -119,11 +122,12 @@ def _unchanged(args: argparse.Namespace) -> bool:
     loading the fitting and plotting libraries."""
     from pathlib import Path
 
+    from evtribo.documents.fit import FIT_JSON
     from evtribo.report.kept import options_text, unchanged
     from evtribo.store.resultdir import locked, recover
 
     out = Path(args.out)
-    if not (out / "fit.json").is_file():
+    if not (out / FIT_JSON).is_file():
         return False
     options = options_text(fit=args.fit, params=args.params, formats=args.figure_format,
                            dpi=args.dpi, width=args.figure_width, models=args.models,
@@ -135,16 +139,15 @@ def _unchanged(args: argparse.Namespace) -> bool:
         return False
     from evtribo.util.numbers import r_squared, significant
 
-    for subject, fit in (doc.get("subjects") or {}).items():
+    for subject, fit in doc.subjects.items():
         parts = ", ".join(_kept_estimate(name, e)
                           for name, e in (fit.get("estimates") or {}).items())
         print(f"{subject}: {parts}; RMSE {significant(1e3 * _num(fit.get('rmse_N')))} mN, "
               f"R² {r_squared(_num(fit.get('r2')))}")
-    for note in doc.get("notes") or []:
+    for note in doc.notes:
         print(f"note: {note}", file=sys.stderr)
-    figures = doc.get("figures") or []
-    print(f"{out}: the fit and its {len(figures)} figures are those of this analysis, these "
-          "options and this evtribo already: nothing written")
+    print(f"{out}: the fit and its {len(doc.figures)} figures are those of this analysis, "
+          "these options and this evtribo already: nothing written")
     return True
 
 

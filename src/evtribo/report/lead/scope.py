@@ -5,13 +5,13 @@ warnings by them)."""
 
 from __future__ import annotations
 
-import csv
 import math
 import os
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
+
+from evtribo.documents.tables import ELECTROSTATIC, TRIALS
 
 __all__ = ["Cell", "read_scope", "study_cells"]
 
@@ -92,12 +92,5 @@ def read_scope(folder: str | os.PathLike[str]) -> tuple[list[tuple[str, str]], l
     (list of (str, str), list of Cell)
         Empty where a table is missing or unreadable.
     """
-    def rows(name: str) -> list[dict[str, str]]:
-        try:
-            with open(Path(folder) / name, newline="", encoding="utf-8") as fh:
-                return list(csv.DictReader(fh))
-        except (OSError, UnicodeDecodeError, csv.Error):
-            return []
-
-    trials = [(r.get("subject", ""), r.get("trial", "")) for r in rows("trials.csv")]
-    return trials, study_cells(rows("electrostatic.csv"))
+    trials = [(r.get("subject", ""), r.get("trial", "")) for r in TRIALS.rows(folder)]
+    return trials, study_cells(ELECTROSTATIC.rows(folder))
