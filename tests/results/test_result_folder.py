@@ -259,6 +259,7 @@ def test_analyze_killed_at_random_moments_leaves_the_old_or_the_new_results(
 
 
 def _compare_outcome(out: Path, old: dict[str, bytes]) -> str:
+    from evtribo.documents.result_folder import ResultFolder
     from evtribo.report.study_report import _fit_doc
 
     if pending(out):
@@ -267,11 +268,10 @@ def _compare_outcome(out: Path, old: dict[str, bytes]) -> str:
     now = tree(out)
     if now == old:
         return "old"
-    summary = json.loads(now["summary.json"])
-    doc = _fit_doc(out, summary)  # fit.json of this analysis, its files as written
+    doc = _fit_doc(ResultFolder.open(out))  # fit.json of this analysis, its files as written
     fit_files = {f for f in now if f in ("fit.csv", "fit.json") or (
         f.startswith("figures/") and f not in USER_FILES)}
-    assert fit_files == {*doc["output_sha256"], "fit.json"}
+    assert fit_files == {*doc.output_sha256, "fit.json"}
     ours = {*fit_files, ".evtribo-manifest.json"}  # the manifest lists the new files
     assert {k: v for k, v in now.items() if k not in ours} == \
         {k: v for k, v in old.items() if k not in ours}  # nothing else touched

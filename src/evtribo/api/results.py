@@ -23,6 +23,7 @@ import pandas as pd
 
 from evtribo.api.study import Study
 from evtribo.documents.result_folder import ResultFolder, folder_summary
+from evtribo.documents.schema import csv_exact
 from evtribo.documents.tables import (
     COUNT_COLUMNS,
     NEWER_COLUMNS,
@@ -31,7 +32,6 @@ from evtribo.documents.tables import (
     Column,
     Kind,
     TableSchema,
-    _csv_exact,
 )
 from evtribo.errors import UserInputError
 from evtribo.results.pipeline import StudyResults, compute_study, write_results
@@ -42,7 +42,7 @@ __all__ = ["COUNT_COLUMNS", "CSV_EXACT", "NEWER_COLUMNS", "TEXT_COLUMNS", "FitVi
 
 #: read_csv's options that read back every float to_csv wrote, bit for bit (the columns'
 #: kinds and the one typing are :mod:`evtribo.documents.tables`').
-CSV_EXACT: dict[str, Any] = _csv_exact()
+CSV_EXACT: dict[str, Any] = csv_exact()
 
 
 def typed_table(df: pd.DataFrame, text: tuple[str, ...] = TEXT_COLUMNS) -> pd.DataFrame:
