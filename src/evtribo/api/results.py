@@ -24,6 +24,7 @@ import pandas as pd
 
 from evtribo.analysis.trial import SINE_TRACE_CSV_COLUMNS, TRIAL_COLUMNS, WINDOW_CSV_COLUMNS
 from evtribo.api.study import Study
+from evtribo.documents.summary import Summary
 from evtribo.errors import UserInputError
 from evtribo.fit.tables import read_summary
 from evtribo.results.aggregate import BOOTSTRAP_COLUMNS, ELECTROSTATIC_COLUMNS, EXPONENT_COLUMNS
@@ -33,6 +34,7 @@ from evtribo.results.outputs import (
 )
 from evtribo.results.pipeline import StudyResults, compute_study, write_results
 from evtribo.results.workers import ProgressCallback
+from evtribo.warning.record import WarningRecord
 
 __all__ = ["COUNT_COLUMNS", "CSV_EXACT", "TEXT_COLUMNS", "FitView", "Results", "analyze",
            "read_table", "typed_table"]
@@ -144,9 +146,11 @@ class Results:
         return list(dict.fromkeys(self.electrostatic["subject"]))
 
     @property
-    def warnings(self) -> list[str]:
-        """What the analysis found worth saying (``summary.json``'s ``warnings``)."""
-        return list(self.summary.get("warnings") or [])
+    def warnings(self) -> list[WarningRecord]:
+        """What the analysis found worth saying (``summary.json``'s ``warnings``), as
+        records: each with its ``kind``, its ``effect`` on the numbers, its ``text`` and
+        where it was said (``scope``); an older result folder's lines lifted into records."""
+        return Summary(dict(self.summary)).warnings
 
     def __repr__(self) -> str:
         where = "in memory" if self.out is None else f"in {str(self.out)!r}"
