@@ -306,9 +306,6 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
     resid = pts.measured - problem.model_at(res.x)
     ss_tot = float(np.sum((pts.measured - pts.measured.mean()) ** 2))
     r2 = 1.0 - float(np.sum(resid**2)) / ss_tot if ss_tot > 0 else math.nan
-    log.info("subject %s: %s (chi2_red %.3g, %d points)", subject,
-             ", ".join(f"{e.name} = {e.value:.4g} {e.unit}" for e in estimates), chi2_red,
-             len(pts.measured))
     return SubjectFit(subject=subject, params=fitted, estimates=tuple(estimates),
                       correlation=corr, rmse_N=float(np.sqrt(np.mean(resid**2))), r2=r2,
                       chi2_reduced=chi2_red, n_points=len(pts.measured),
@@ -371,15 +368,23 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
                 emit("replicates-missing", subject=subject)
         jobs.append((subject, rows, base, tuple(fit), win, reps))
     if mapper is None or scheduler is not None or len(jobs) < 2:
-        return [fit_subject(s, rows, b, names, win, replicates=reps, scheduler=scheduler)
-                for s, rows, b, names, win, reps in jobs]
+        return [_said(fit_subject(s, rows, b, names, win, replicates=reps,
+                                  scheduler=scheduler)) for s, rows, b, names, win, reps in jobs]
     fits = []
     for done, said in mapper(_fit_logged, jobs):
         replay(said)  # what each fit said, here, in the subjects' order
         if isinstance(done, Exception):
             raise done  # after what it and the subjects before it said
-        fits.append(done)
+        fits.append(_said(done))
     return fits
+
+
+def _said(fit: SubjectFit) -> SubjectFit:
+    """*fit*, its estimates said (logged: ``-v``) where the subjects' fits are gathered."""
+    log.info("subject %s: %s (chi2_red %.3g, %d points)", fit.subject,
+             ", ".join(f"{e.name} = {e.value:.4g} {e.unit}" for e in fit.estimates),
+             fit.chi2_reduced, fit.n_points)
+    return fit
 
 
 def _fit_logged(job: tuple[Any, ...]
