@@ -218,3 +218,22 @@ def test_the_sentences_the_report_s_tests_hold_are_the_catalogue_s():
              "between them")  # the demo's summary.json
     assert said("zero-drift", Scope("P01", "run-01"), cell="tangential", drift_mN=-7.26,
                 first_s=0.81, last_s=13.93, noise_mN=0.291) == drift
+
+
+def test_each_note_of_a_cell_s_lost_frames_is_a_warning_of_its_own_each_sentence_once():
+    """A stream whose timestamps cannot show single lost frames, with a jump of its clock:
+    it was one warning, its notes joined by '; ', now one per note (the two pieces' notes
+    that say the same, once)."""
+    from evtribo.canlog.decode import say_lost
+
+    rng = np.random.default_rng(1)
+    t = np.sort(np.arange(0, 5, 0.01) + rng.uniform(0, 0.03, 500))
+    notes = missing_frames_received(np.r_[t, t + 10]).notes
+    assert [n.kind for n in notes] == ["frames-lost-outages", "frames-lost-outages",
+                                       "frames-lost-clock"]
+    assert texts(say_lost, "normal", notes) == [
+        "normal force: timestamps too irregular (coherence 0.11) to see single lost frames "
+        "without a counter: only outages of 2 or more frames in a row, away from the trial's "
+        "ends, are counted",
+        "normal force: the clock jumped ahead or paused by more than 1 s; frames missing "
+        "across it cannot be counted"]

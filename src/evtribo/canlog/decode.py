@@ -38,6 +38,7 @@ values, and multiplexed messages are decoded by cantools itself.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -60,8 +61,9 @@ from evtribo.canlog.signals import (
     TrialProvenance,
     TrialSignals,
 )
+from evtribo.warning.catalogue import kind
 from evtribo.warning.collect import collecting, emitter
-from evtribo.warning.record import Note
+from evtribo.warning.record import Note, WarningRecord
 
 emit = emitter(__name__)
 
@@ -327,15 +329,39 @@ def _cells(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]]
         found = missing_frames_received(seq.t, seq.counter, modulus)  # bad samples too
         t, value = seq.t[seq.by_time], msg.scaled(force.signal.name)[seq.rows[seq.by_time]]
         bad = bad_samples(t, value, force.signal, t0, force.qualified_name)
-        lost += [(cell, note) for note in found.notes]
+        lost.append((cell, found.notes))
         counted = seq.counter is not None and modulus is not None and not found.counter_ignored
         out.append(CellSignals(t[~bad], value[~bad], seq.counter[seq.by_time][~bad]
                                if counted and seq.counter is not None else None,
                                found.count, found.method, seq.duplicates,
                                counter_period=modulus if counted else None))
-    for cell, note in lost:  # how the frames lost were counted, as the analysis says it
-        emit(note.kind, **note.mapping, cell=cell)
+    for cell, notes in lost:
+        say_lost(cell, notes)
     return frames, out
+
+
+def say_lost(cell: str, notes: Iterable[Note]) -> list[WarningRecord]:
+    """Say how a load cell's lost frames were counted where the count may be unreliable:
+    each note of its :class:`~evtribo.canlog.dropped.DropCount` a warning of its own, each
+    sentence once (two pieces of a trial may say the same).
+
+    Parameters
+    ----------
+    cell : {"normal", "tangential"}
+    notes : iterable of Note
+        ``DropCount.notes``.
+
+    Returns
+    -------
+    list of WarningRecord
+    """
+    said: dict[str, WarningRecord] = {}
+    for note in notes:
+        values = {**note.mapping, "cell": cell}
+        text = kind(note.kind).text(values)
+        if text not in said:
+            said[text] = emit(note.kind, **values)
+    return list(said.values())
 
 
 def _hold(t_src: Array, values: npt.NDArray[Any], t: Array) -> npt.NDArray[Any]:
@@ -470,5 +496,5 @@ def _decode_trial(frames: FrameTable, rig: Rig, channel: str | None) -> TrialSig
 
 __all__ = ["FALLBACK_WAVEFORMS", "CellSignals", "DecodedMessage", "ExcitationSignals",
            "SignalCodec", "TrialProvenance", "TrialSignals", "beyond_length", "decode_message",
-           "decode_messages",
-           "decode_trial", "kind_mismatches", "message_mask", "waveform_names"]
+           "decode_messages", "decode_trial", "kind_mismatches", "message_mask", "say_lost",
+           "waveform_names"]
