@@ -105,7 +105,7 @@ class Summary(Mapping[str, Any]):
     def check(self) -> Summary:
         """Raise :class:`ResultFolderError` naming the first key of the wrong kind; return
         self."""
-        for name in ("study", "run_id", "study_dir", "evtribo_version", "inputs", "rig",
+        for name in ("study", "run_id", "study_dir", "evtribo_version", "version", "inputs", "rig",
                      "software", "settings", "warnings", "failed_trials", "output_sha256"):
             getattr(self, name)
         return self
@@ -172,7 +172,7 @@ class Summary(Mapping[str, Any]):
         lines lifted: :func:`evtribo.warning.legacy.lift_all`, their scopes read against
         the study's subjects)."""
         items = self._typed("warnings", list, [])
-        if self.version < 2 or all(isinstance(w, str) for w in items):
+        if all(isinstance(w, str) for w in items):  # version 1's lines
             subjects = self.data.get("subjects")
             return lift_all(items, [str(s) for s in subjects]
                             if isinstance(subjects, list) else None)
