@@ -141,10 +141,12 @@ def _input_path(name: str, role: str, study_dir: Path | None,
     return False
 
 
-def _of_trial(rel: str) -> Scope:
-    """The trial an input is of (``P01/run-03.log``: P01's run-03), else the study."""
+def _of_trial(rel: str, role: str = "log") -> Scope:
+    """The trial a log or sidecar is of (``P01/run-03.log``: P01's run-03), else (study.toml,
+    the DBC) the study."""
     parts = Path(rel).parts
-    return Scope(parts[0], parts[1].split(".", 1)[0]) if len(parts) == 2 else Scope()
+    return Scope(parts[0], parts[1].split(".", 1)[0]) \
+        if role in ("log", "sidecar") and len(parts) == 2 else Scope()
 
 
 def input_table(summary: Summary, study_dir: Path | None
@@ -186,17 +188,17 @@ def _inputs(summary: Summary, study_dir: Path | None) -> pd.DataFrame:
                 now = sha256_file(where) if where.is_file() else None
             except OSError as err:  # made unreadable since (mode 000): not known, said
                 row["now"] = "unreadable"
-                emit("input-unreadable", _of_trial(rec.file), file=rec.file,
+                emit("input-unreadable", _of_trial(rec.file, rec.role), file=rec.file,
                      error=str(err.strerror))
                 rows.append(row)
                 continue
             row["now"] = "unchanged" if now == rec.sha256 else \
                 "missing" if now is None else "changed"
             if now is None:
-                emit("input-gone", _of_trial(rec.file), file=rec.file,
+                emit("input-gone", _of_trial(rec.file, rec.role), file=rec.file,
                      study_dir=str(study_dir))
             elif now != rec.sha256:
-                emit("input-changed", _of_trial(rec.file), file=rec.file,
+                emit("input-changed", _of_trial(rec.file, rec.role), file=rec.file,
                      then=rec.sha256[:12], now=now[:12])
         rows.append(row)
     if outside:
