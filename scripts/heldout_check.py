@@ -28,7 +28,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import re
 import shutil
 import subprocess
 import sys
@@ -42,6 +41,7 @@ import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
+from evtribo.documents.summary import read_summary
 from heldout import population_cells
 from heldout.generator import generate
 from heldout.scenarios import SCENARIOS
@@ -169,17 +169,6 @@ def population_table(run: dict, seed: int) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-_PREFIX = re.compile(r"^(?:[\w-]+/[\w-]+|[\w-]+ \([^)]*\)(?: at [\d.]+ V)?|[\w-]+): ")
-
-
-def warning_kind(text: str) -> str:
-    """A warning's kind: its first words after the trial or cell it names, digits as #."""
-    body = _PREFIX.sub("", text, count=1)
-    body = re.sub(r"[-+]?\d[\d.,]*", "#", body)
-    body = re.split(r"[;(]", body)[0]
-    return " ".join(body.split()[:9])
-
-
 def clustered_mean(values: np.ndarray, groups: np.ndarray) -> tuple[float, float]:
     """Mean and its standard error clustered by group (cells sharing a reference)."""
     if values.size == 0:
@@ -288,10 +277,9 @@ def check_scenario(scenario: str, seeds: list[int], work: Path, jobs: int,
         exps.append(exponent_table(run, seed))
         if compare:
             pops.append(population_table(run, seed))
-        summary = json.loads((run["out"] / "summary.json").read_text())
-        for text in summary.get("warnings", []):
-            kinds[warning_kind(text)] += 1
-            examples.setdefault(warning_kind(text), text)
+        for record in read_summary(run["out"] / "summary.json").warnings:
+            kinds[record.kind] += 1
+            examples.setdefault(record.kind, record.text)
     result: dict = {"scenario": scenario, "seeds": seeds, "failures": failures,
                     "time_s": {k: float(np.mean(v)) if v else None for k, v in times.items()}}
     if cells:

@@ -44,7 +44,7 @@ def evaluate(effect: str, seeds: list[int], n_boot: int) -> dict[str, object]:
                         n_boot=n_boot, duration_s=20.0)
         cells.append(run.electrostatic)
         expo.append(run.exponents)
-        warned.update(" ".join(w.split(": ", 1)[-1].split()[:4]) for w in run.warnings)
+        warned.update(w.kind for w in run.records)
     el = pd.concat(cells, ignore_index=True)
     ex = pd.concat(expo, ignore_index=True)
     rel = el.electrostatic_force_N / el.fel_true_N - 1

@@ -14,6 +14,7 @@ import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -39,9 +40,10 @@ class StudyRun:
     windows: pd.DataFrame  # windows.csv plus fel_true_N and steady (fraction)
     electrostatic: pd.DataFrame  # electrostatic.csv plus fel_true_N and mu_true
     exponents: pd.DataFrame  # exponents.csv plus exponent_true
-    warnings: list[str]
+    warnings: list[str]  # texts
     truths: dict[tuple[str, str], TrialTruth]
     study_warnings: list[str] = dataclasses.field(default_factory=list)  # the aggregation's
+    records: list[Any] = dataclasses.field(default_factory=list)  # every warning, as said
 
 
 def window_truth(windows: pd.DataFrame, truth: TrialTruth) -> pd.DataFrame:
@@ -107,7 +109,7 @@ def run_study(seed: int, *, n_subjects: int = 4, amplitudes=AMPLITUDES,
     """
     rig = default_rig()
     settings = settings or AnalysisSettings(n_boot=n_boot)
-    rows, wins, warnings = [], [], []
+    rows, wins, warnings, records = [], [], [], []
     truths: dict[tuple[str, str], TrialTruth] = {}
     mu_of = {}
     for si, drawn in enumerate(default_subjects(n_subjects, seed=seed)):
@@ -128,7 +130,8 @@ def run_study(seed: int, *, n_subjects: int = 4, amplitudes=AMPLITUDES,
                                      settings=settings, calibration=calibration)
             rows.append(result.row)
             wins.append(window_truth(result.windows, truth))
-            warnings += result.warnings
+            warnings += [w.text for w in result.warnings]
+            records += result.warnings
             truths[(subject.name, name)] = truth
     trials = pd.DataFrame(rows)
     windows = pd.concat(wins, ignore_index=True)
@@ -137,7 +140,9 @@ def run_study(seed: int, *, n_subjects: int = 4, amplitudes=AMPLITUDES,
                                         n_boot=settings.n_boot, seed=settings.seed,
                                         confidence=settings.confidence)
     el, ex = attach_truth(el, ex, windows, mu_of)
-    return StudyRun(trials, windows, el, ex, warnings + agg_warnings, truths, agg_warnings)
+    agg_texts = [w.text for w in agg_warnings]
+    return StudyRun(trials, windows, el, ex, warnings + agg_texts, truths, agg_texts,
+                    records + agg_warnings)
 
 
 def fel_within(measured: pd.Series, true: pd.Series, rel: float = 0.03,

@@ -92,7 +92,8 @@ def test_sigkill_mid_trial_then_analyze_uses_the_partial_trial(tmp_path):
     assert main(["analyze", str(study), "--out", str(out), "--jobs", "1"]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["trials_analysed"] == 1 and summary["failed_trials"] == []
-    assert any("run-01.log.part" in w and "partial trial" in w for w in summary["warnings"])
+    assert any("run-01.log.part" in w["text"] and w["kind"] == "log-partial"
+               for w in summary["warnings"])
     trials = pd.read_csv(out / "trials.csv")
     assert trials.frames[0] == len(frames) and trials.skipped_lines[0] == 0
     assert trials.duration_s[0] > 5.0

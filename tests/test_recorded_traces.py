@@ -191,4 +191,4 @@ def test_without_counters_the_timing_of_the_recorded_logs_counts_the_lost_frames
             t = frames.timestamp[frames.arbitration_id == frame_id]
             lost = TRUTH["trials"][key]["dropped_by_simulator"][name]
             got = missing_frames(t)
-            assert got.note is None and abs(got.count - lost) <= 2, (key, name, got, lost)
+            assert not got.notes and abs(got.count - lost) <= 2, (key, name, got, lost)

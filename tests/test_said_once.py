@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
-from evtribo.report.lead.warning_kinds import group_warnings, read_scope
+from evtribo.documents.summary import read_summary
+from evtribo.warning.render import group
 
 
 def _evtribo(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
@@ -47,12 +48,12 @@ def test_analyze_says_every_kind_of_warning_once_a_failed_trial_s_reason_include
     out, run = analysed
     assert run.returncode == 0, run.stderr
     summary = json.loads((out / "summary.json").read_text())
-    warnings = summary["warnings"]
-    failed = [w for w in warnings if w.startswith("P02/run-02: not analysed: ")]
+    warnings = read_summary(out / "summary.json").warnings
+    failed = [w for w in warnings if w.kind == "not-analysed"]
     assert len(failed) == 1 and summary["failed_trials"][0]["trial"] == "P02/run-02"
+    assert failed[0].text.startswith("P02/run-02: not analysed: ")
     assert len(warnings) >= 2  # the failed trial, and the real rig's large offsets
-    trials, _ = read_scope(out)
-    groups = group_warnings(warnings, (), trials)
+    groups = group(warnings)
     assert len(groups) < len(warnings)  # the offsets of several trials said as one kind
     for g in groups:  # each kind once, with the trials it concerns
         assert run.stderr.count(f"] {g.title}: ") == 1, (g.title, run.stderr)
@@ -68,7 +69,7 @@ def test_analyze_says_every_kind_of_warning_once_a_failed_trial_s_reason_include
 def test_compare_and_plot_trial_say_none_of_them_again(analysed, study):
     out, _ = analysed
     summary = json.loads((out / "summary.json").read_text())
-    warnings = summary["warnings"]
+    warnings = [w["text"] for w in summary["warnings"]]
     why = summary["failed_trials"][0]["error"]  # the failed trial's reason, said by analyze
     run = _evtribo("compare", str(out), cwd=study.parent)
     assert run.returncode == 0, run.stderr

@@ -98,4 +98,4 @@ def test_a_session_file_is_not_taken_for_a_sidecar_without_a_log(tmp_path):
         subject="P01", seed=1, order=(PlannedTrial("run-01"),), done=("run-01",)))
     trials, warnings = discover_trials(root)
     assert [t.key for t in trials] == ["P01/run-01"]
-    assert not any(SESSION_FILE in w for w in warnings)
+    assert not any(SESSION_FILE in w.text for w in warnings)

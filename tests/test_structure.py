@@ -387,3 +387,94 @@ def test_only_documents_read_a_result_folders_files():
                 wrong.append(f"{rel}:{func.lineno} {func.name} reads {sorted(reads)} "
                              f"beside {sorted(names)}")
     assert not wrong, "\n".join(sorted(set(wrong)))
+
+
+#: Where the analysis's warnings are said: each as a record of the catalogue (``emit``).
+WARNING_SITES = ("study.py", "canlog", "analysis", "results", "session/check.py", "fit",
+                 "report/study_report.py", "report/study_files.py", "report/drawing.py",
+                 "report/lead", "cli/results/_warnings.py")
+#: The ``log.warning`` calls left in them, each with why it is no result's warning.
+OPERATIONAL_WARNINGS = {
+    "canlog/decode_table.py": "evtribo decode's console: a log's decoder warnings, once for "
+                              "the whole log, in no result",
+    "session/check.py": "a session's check that could not be made: said to the operator, "
+                        "about no result",
+    "report/study_report.py": "the report running compare for a folder without a fit",
+    "report/study_files.py": "what the report could not read of the study folder (its rig, "
+                             "the sidecars' notes) for its own page",
+}
+#: The callables whose first argument is a warning kind's id.
+_SAYS = {"emit", "Note", "_kept"}
+
+
+def _kind_ids(node: ast.expr) -> list[str]:
+    """The literal ids an argument can be (``"a" if x else "b"``: both)."""
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return [node.value]
+    if isinstance(node, ast.IfExp):
+        return _kind_ids(node.body) + _kind_ids(node.orelse)
+    return []
+
+
+def _warning_site_files() -> list[Path]:
+    out = []
+    for part in WARNING_SITES:
+        path = SRC / part
+        out += sorted(path.rglob("*.py")) if path.is_dir() else [path]
+    return out
+
+
+def _text(node: ast.expr) -> bool:
+    """Whether an expression is a sentence made here (a string, an f-string, strings added)."""
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return True
+    if isinstance(node, ast.JoinedStr):
+        return True
+    if isinstance(node, ast.BinOp):
+        return _text(node.left) or _text(node.right)
+    if isinstance(node, ast.List | ast.ListComp):
+        elts = node.elts if isinstance(node, ast.List) else [node.elt]
+        return any(_text(e) for e in elts)
+    return False
+
+
+def test_every_warning_is_a_record_of_a_kind_the_catalogue_holds():
+    """Every literal id handed to ``emit`` (or kept as a ``Note``) is a kind of the
+    catalogue; no ``log.warning`` (but the operational ones listed, each with its reason),
+    and no sentence appended to a list of warnings or notes, is left where the analysis's
+    warnings are said."""
+    from evtribo.warning.catalogue import KINDS
+
+    unknown, logged, appended = [], [], []
+    for path in _warning_site_files():
+        rel = path.relative_to(SRC).as_posix()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Call):
+                func = node.func
+                name = func.id if isinstance(func, ast.Name) else \
+                    func.attr if isinstance(func, ast.Attribute) else ""
+                if name in _SAYS and node.args:
+                    unknown += [f"{rel}:{node.lineno}: {k}" for k in _kind_ids(node.args[0])
+                                if k not in KINDS]
+                if name == "warning" and isinstance(func, ast.Attribute) \
+                        and rel not in OPERATIONAL_WARNINGS:
+                    logged.append(f"{rel}:{node.lineno}")
+                if name in ("append", "extend") and isinstance(func, ast.Attribute) \
+                        and isinstance(func.value, ast.Name) \
+                        and func.value.id in ("warnings", "notes") and rel != "fit/fit.py" \
+                        and node.args and _text(node.args[0]):
+                    appended.append(f"{rel}:{node.lineno}")
+            if isinstance(node, ast.AugAssign) and isinstance(node.target, ast.Name) \
+                    and node.target.id in ("warnings", "notes") and rel != "fit/fit.py" \
+                    and _text(node.value):
+                appended.append(f"{rel}:{node.lineno}")
+    assert not unknown, f"ids no kind of the catalogue has: {unknown}"
+    assert not logged, f"warnings logged, not emitted: {logged}"
+    assert not appended, f"sentences kept as warnings, not emitted: {appended}"
+
+
+def test_the_structure_check_of_warnings_finds_what_it_looks_for():
+    """The check above looks where the warnings are said (it finds the emitters)."""
+    said = sum(path.read_text(encoding="utf-8").count("emit(")
+               for path in _warning_site_files())
+    assert said >= 80

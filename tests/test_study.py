@@ -115,6 +115,8 @@ def test_discovery(tmp_path):
     assert s.trials[3].partial and not s.trials[0].partial
     assert s.trials[2].sidecar_path is None
     assert len(s.warnings) == 3  # two without a sidecar, one partial
+    assert sorted(w.kind for w in s.warnings) == ["log-partial", "sidecar-missing",
+                                                   "sidecar-missing"]
     assert s.subjects == ["P01", "P02"]
 
 
@@ -124,7 +126,7 @@ def test_partial_log_superseded_by_complete_one(tmp_path):
     s = study.load_study(root, with_rig=False)
     assert len(s.trials) == 1 and not s.trials[0].partial
     assert s.trials[0].log_path.name == "run-01.log"
-    assert any("run-01.log.part: not analysed" in w for w in s.warnings)
+    assert any("run-01.log.part: not analysed" in w.text for w in s.warnings)
 
 
 def test_a_sidecar_subject_other_than_its_folder_is_refused(tmp_path):
@@ -142,7 +144,7 @@ def test_a_misspelt_sidecar_key_is_a_warning_with_the_closest_key(tmp_path):
     root = make_study(tmp_path / "s", {"P01/run-01": {"amplitde_V": 140, "frames": 3,
                                                       "operator": "JD"}})
     loaded = study.load_study(root, with_rig=False)
-    warned = [w for w in loaded.warnings if "run-01.json" in w]
+    warned = [w.text for w in loaded.warnings if "run-01.json" in w.text]
     assert any("unknown key 'amplitde_V' ignored (did you mean 'amplitude_V'?)" in w
                for w in warned)
     assert any("unknown key 'operator' ignored" in w for w in warned)
@@ -236,11 +238,11 @@ def test_sidecar_without_a_log_is_reported(tmp_path):
     (root / "P02" / "run-01.json").write_text(json.dumps({"condition": "off"}))
     s = study.load_study(root, with_rig=False)
     assert [t.key for t in s.trials] == ["P01/run-01"]
-    assert sorted(w.split(": ", 1)[1] for w in s.warnings) == [
+    assert sorted(w.text.split(": ", 1)[1] for w in s.warnings) == [
         "sidecar without a log (run-03.lgo: not a log format); not analysed",
         "sidecar without a log; not analysed",
         "sidecar without a log; not analysed"]
-    assert sorted(w.split(": ", 1)[0] for w in s.warnings) == sorted(
+    assert sorted(w.text.split(": ", 1)[0] for w in s.warnings) == sorted(
         str(root / p) for p in ("P01/run-02.json", "P01/run-03.json", "P02/run-01.json"))
 
 
@@ -270,7 +272,7 @@ def test_a_subject_folder_linked_from_elsewhere_is_said_so(tmp_path):
     (root / "P03").symlink_to(elsewhere / "P07", target_is_directory=True)
     s = study.load_study(root, with_rig=False)
     assert [t.key for t in s.trials] == ["P01/run-01", "P03/run-01"]
-    said = [w for w in s.warnings if "outside the study folder" in w]
+    said = [w.text for w in s.warnings if w.kind == "subject-outside"]
     assert said == [f"{root / 'P03'}: a link to {(elsewhere / 'P07').resolve()}, outside the "
                     "study folder: its trials are analysed as subject P03's; copy them into "
                     "the study if they belong to it (or remove the link)"]
@@ -278,4 +280,4 @@ def test_a_subject_folder_linked_from_elsewhere_is_said_so(tmp_path):
     (root / "P03").symlink_to(root / "P01", target_is_directory=True)  # inside: no warning
     s = study.load_study(root, with_rig=False)
     assert [t.key for t in s.trials] == ["P01/run-01", "P03/run-01"]
-    assert not [w for w in s.warnings if "outside the study folder" in w]
+    assert not [w for w in s.warnings if w.kind == "subject-outside"]

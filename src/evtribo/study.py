@@ -39,11 +39,14 @@ from evtribo.documents.sidecar import (
 )
 from evtribo.errors import LogFormatError, OutputExistsError, StudyError, toml_problem
 from evtribo.store.files import PARTIAL_SUFFIX, atomic_write, read_limited
+from evtribo.warning.collect import collecting, emitter, replay
+from evtribo.warning.record import Scope, WarningRecord
 
 if TYPE_CHECKING:  # pragma: no cover
     from evtribo.canlog.rig import Rig
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 STUDY_FILE = "study.toml"
 
@@ -129,7 +132,7 @@ class Study:
     config: dict[str, Any]
     rig: Rig | None
     trials: list[TrialRef]
-    warnings: list[str] = field(default_factory=list)
+    warnings: list[WarningRecord] = field(default_factory=list)
 
     @property
     def subjects(self) -> list[str]:
@@ -185,11 +188,10 @@ def read_study_toml(path: str | os.PathLike[str]) -> dict[str, Any]:
     return config
 
 
-def _logs_of(folder: Path, warnings: list[str]
-             ) -> tuple[dict[str, tuple[Path, bool]], dict[str, list[str]]]:
+def _logs_of(folder: Path) -> tuple[dict[str, tuple[Path, bool]], dict[str, list[str]]]:
     """The logs in a subject's *folder* by trial (each with whether it is a partial log)
     and the files that are no log, by stem; a trial with a complete log and a partial one
-    is its complete one (said in *warnings*)."""
+    is its complete one (said: ``log-part-superseded``)."""
     logs: dict[str, tuple[Path, bool]] = {}
     others: dict[str, list[str]] = {}   # files that are no log, by stem
     for f, _, is_file in _listing(folder):
@@ -210,37 +212,36 @@ def _logs_of(folder: Path, warnings: list[str]
                                  path=folder)
             complete, part = (f, kept) if kept_partial else (kept, f)
             logs[trial] = (complete, False)
-            warnings.append(f"{part}: not analysed, {complete.name} is the trial's complete "
-                            "log (the .part is a recording that did not finish, e.g. a "
-                            "--force re-recording that was killed); nothing was deleted")
+            emit("log-part-superseded", Scope(folder.name, trial), part=str(part),
+                 complete=complete.name)
             continue
         logs[trial] = (f, partial)
     return logs, others
 
 
-def _rerecorded(folder: Path, logs: dict[str, tuple[Path, bool]], warnings: list[str]
-                ) -> dict[str, Path | None]:
+def _rerecorded(folder: Path, logs: dict[str, tuple[Path, bool]]) -> dict[str, Path | None]:
     """The trials of *folder* that a forced re-recording is replacing (its log put in
-    *logs*), with their sidecars; the re-recordings that did not finish, said in
-    *warnings* (:mod:`evtribo.documents.replacing`)."""
+    *logs*), with their sidecars; the re-recordings that did not finish, said
+    (:mod:`evtribo.documents.replacing`)."""
     sidecars: dict[str, Path | None] = {}
     for trial in stages(folder):
         for stage in unfinished(folder, trial):
-            warnings.append(f"{stage}: a re-recording of trial {trial} (--force) that did "
-                                "not finish; not analysed (the trial is the one recorded "
-                                "before it); what it received is kept there")
+            emit("rerecording-unfinished", Scope(folder.name, trial), stage=str(stage),
+                 trial=trial)
         now = replacing(folder, trial)
         if now is None or now.log is None:
             continue
         logs[trial] = (now.log, False)
         sidecars[trial] = now.sidecar
-        warnings += [f"{p}: not analysed, left of the recording {trial} was recorded again "
-                     "over (--force)" for p in now.leftover]
+        for p in now.leftover:
+            emit("rerecording-leftover", Scope(folder.name, trial), path=str(p), trial=trial)
     return sidecars
 
 
-def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[str]]:
-    """Find every trial under *root*'s subject folders; returns ``(trials, warnings)``.
+def discover_trials(root: str | os.PathLike[str]
+                    ) -> tuple[list[TrialRef], list[WarningRecord]]:
+    """Find every trial under *root*'s subject folders; returns ``(trials, warnings)``
+    (the warnings not said: :func:`load_study` says them).
 
     A trial being recorded again over itself (``acquire --force``) is the recording the
     moment's files make whole: the one recorded before, until the new one is complete
@@ -254,41 +255,44 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
     Returns
     -------
     trials : list of TrialRef
-    warnings : list of str
-        Logs without sidecars, unknown sidecar keys, partial logs... one line each.
+    warnings : list of WarningRecord
+        Logs without sidecars, unknown sidecar keys, partial logs... one each.
     """
-    root = Path(root)
+    with collecting(quiet=True) as warnings:
+        return _discover(Path(root)), warnings
+
+
+def _discover(root: Path) -> list[TrialRef]:
+    """:func:`discover_trials`' trials, its warnings said."""
     trials: list[TrialRef] = []
-    warnings: list[str] = []
     for folder in (p for p, is_dir, _ in _listing(root) if is_dir):
         if folder.name.startswith(".") or folder.name in NOT_SUBJECTS:
             continue
-        logs, others = _logs_of(folder, warnings)
-        sidecars = _rerecorded(folder, logs, warnings)
-        warnings += _sidecars_without_logs(folder, others, logs)
+        logs, others = _logs_of(folder)
+        sidecars = _rerecorded(folder, logs)
+        _sidecars_without_logs(folder, others, logs)
         if not logs:
             continue
         validate_name(folder.name, what="subject folder", path=folder)
-        _outside(folder, root, warnings)
+        _outside(folder, root)
         for trial, (log_path, partial) in logs.items():
             validate_name(trial, what="trial", path=log_path)
             _readable(log_path)
+            where = Scope(folder.name, trial)
             sidecar_path = sidecars.get(trial, folder / f"{trial}.json")
             if sidecar_path is not None and sidecar_path.exists():
                 sidecar = read_sidecar(sidecar_path, default_subject=folder.name)
                 for key, close in unknown_sidecar_keys(sidecar):
-                    warnings.append(f"{sidecar_path}: unknown key {key!r} ignored"
-                                    + (f" (did you mean {close!r}?)" if close else ""))
+                    emit("sidecar-unknown-key", where, sidecar=str(sidecar_path), key=key,
+                         suggestion=f" (did you mean {close!r}?)" if close else "")
             else:
                 sidecar_path = None
                 sidecar = Sidecar(subject=folder.name)
-                warnings.append(f"{log_path}: no sidecar {trial}.json; condition and amplitude "
-                                "must come from the excitation signals")
+                emit("sidecar-missing", where, log=str(log_path), trial=trial)
             if partial:
-                warnings.append(f"{log_path}: partial trial (acquisition did not finish); "
-                                "analysing what was recorded")
+                emit("log-partial", where, log=str(log_path))
             elif (cut := _cut_short(sidecar.extra)) is not None:
-                warnings.append(f"{log_path}: {cut}; analysing what was recorded")
+                emit("cut-short", where, log=str(log_path), **cut)
             trials.append(TrialRef(subject=sidecar.subject, name=trial, log_path=log_path,
                                    sidecar_path=sidecar_path, sidecar=sidecar, partial=partial))
     seen: dict[str, Path] = {}
@@ -297,7 +301,7 @@ def discover_trials(root: str | os.PathLike[str]) -> tuple[list[TrialRef], list[
             raise StudyError(f"trial {t.key} appears twice: {seen[t.key]} and {t.log_path}",
                              path=t.sidecar_path or t.log_path, key="subject")
         seen[t.key] = t.log_path
-    return trials, warnings
+    return trials
 
 
 def _listing(folder: Path) -> list[tuple[Path, bool, bool]]:
@@ -326,45 +330,42 @@ _ENDED_EARLY = {"interrupted": "interrupted (Ctrl-C or SIGTERM)",
                 "no-rig-data": "ended with no frame of the rig's load cells"}
 
 
-def _cut_short(extra: Mapping[str, Any]) -> str | None:
+def _cut_short(extra: Mapping[str, Any]) -> dict[str, str] | None:
     """What a sidecar says of a recording that ended before its requested duration (an
-    interrupted or faulted trial), or None (completed; or stopped by hand when no duration
-    was asked, the way such a recording ends)."""
+    interrupted or faulted trial: how it ``ended`` and ``after`` how long, the values of
+    ``cut-short``), or None (completed; or stopped by hand when no duration was asked, the
+    way such a recording ends)."""
     ended = extra.get("ended")
     if ended not in _ENDED_EARLY:
         return None
     asked, lasted = extra.get("requested_duration_s"), extra.get("duration_s")
     if ended == "interrupted" and not isinstance(asked, int | float):
         return None
-    how = f"the recording was {_ENDED_EARLY[ended]}"
-    if isinstance(lasted, int | float) and isinstance(asked, int | float):
-        how += f" after {lasted:.1f} s of the {asked:g} s asked"
-    return how
+    after = (f" after {lasted:.1f} s of the {asked:g} s asked"
+             if isinstance(lasted, int | float) and isinstance(asked, int | float) else "")
+    return {"ended": _ENDED_EARLY[ended], "after": after}
 
 
 def _sidecars_without_logs(folder: Path, others: Mapping[str, list[str]],
-                           logs: Mapping[str, Any]) -> list[str]:
-    """A warning for each sidecar in *folder* whose trial has no log (*others*: the files
-    that are no log, by stem)."""
-    out = []
+                           logs: Mapping[str, Any]) -> None:
+    """Say each sidecar in *folder* whose trial has no log (*others*: the files that are no
+    log, by stem)."""
     for stem, names in others.items():
         if f"{stem}.json" in names and stem not in logs:
             besides = [n for n in names if not n.startswith(f"{stem}.json")]
-            out.append(f"{folder / (stem + '.json')}: sidecar without a log"
-                       + (f" ({', '.join(besides)}: not a log format)" if besides else "")
-                       + "; not analysed")
-    return out
+            emit("sidecar-without-log", Scope(folder.name, stem),
+                 sidecar=str(folder / (stem + ".json")),
+                 besides=f" ({', '.join(besides)}: not a log format)" if besides else "")
 
 
-def _outside(folder: Path, root: Path, warnings: list[str]) -> None:
+def _outside(folder: Path, root: Path) -> None:
     """Warn of a subject folder that is a symbolic link to a folder outside the study."""
     if not folder.is_symlink():
         return
     target = Path(os.path.realpath(folder))
     if not target.is_relative_to(Path(os.path.realpath(root))):
-        warnings.append(f"{folder}: a link to {target}, outside the study folder: its trials "
-                        f"are analysed as subject {folder.name}'s; copy them into the study "
-                        "if they belong to it (or remove the link)")
+        emit("subject-outside", Scope(folder.name), folder=str(folder), target=str(target),
+             subject=folder.name)
 
 
 def load_study(path: str | os.PathLike[str], *, with_rig: bool = True) -> Study:
@@ -399,8 +400,7 @@ def load_study(path: str | os.PathLike[str], *, with_rig: bool = True) -> Study:
 
         rig = Rig.from_mapping(config["rig"], base_dir=root, source=toml_path, key_prefix="rig")
     trials, warnings = discover_trials(root)
-    for w in warnings:
-        log.warning("%s", w)
+    replay(warnings)
     return Study(root=root, name=str(config.get("name", root.name)), config=config, rig=rig,
                  trials=trials, warnings=warnings)
 

@@ -195,7 +195,7 @@ def test_a_re_recording_killed_mid_way_is_kept_beside_the_trial_and_said(tmp_pat
     (stage,) = stages(study / "P01")["run-01"]
     assert json.loads((stage / "run-01.json").read_text())["notes"] == "new"
     _, warnings = discover_trials(study)
-    assert any(str(stage) in w and "did not finish" in w for w in warnings)
+    assert any(str(stage) in w.text and w.kind == "rerecording-unfinished" for w in warnings)
     assert record(study, "force_after_killed", 1000, "new", force=True).ended == "completed"
     assert is_new_and_whole(study) and not stages(study / "P01")
 

@@ -182,7 +182,7 @@ def test_a_study_whose_clock_jumped_a_day_is_analysed_compared_and_reported(stud
                 <= clean.electrostatic_force_ci_high_N[subject]), (subject, fel)
     trials = pd.read_csv(out / "trials.csv")
     assert trials.duration_s.between(11.0, 12.1).all(), trials.duration_s  # the frames' time
-    warnings = json.loads((out / "summary.json").read_text())["warnings"]
+    warnings = [w["text"] for w in json.loads((out / "summary.json").read_text())["warnings"]]
     jumps = [w for w in warnings if "no frame of the load cells for 24.0 h" in w]
     assert len(jumps) == 4 and all(re.search(r"after 6\.0\d\d s", w) for w in jumps), jumps
     gaps = [w for w in warnings if w.startswith("P01/run-01: no frame of the load cells")]

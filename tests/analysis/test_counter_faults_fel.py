@@ -61,7 +61,7 @@ def test_f_el_stays_within_the_undisturbed_interval_and_the_fault_is_said(seed, 
     said = {"duplicate": "received twice", "swap": None, "restart": "restarted",
             "clock": "clock stepped back"}[fault]
     if said is not None:
-        hits = [w for w in result.warnings if said in w]
+        hits = [w.text for w in result.warnings if said in w.text]
         assert hits and all(w.startswith("P01/run-01: ") for w in hits), result.warnings
         at = float(re.search(r"at (\d+\.\d+) s", hits[0]).group(1))
         happened = (faulted.restarts[0][1] if fault == "restart"

@@ -25,8 +25,8 @@ from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals
 from evtribo.canlog.decode import decode_trial
 from evtribo.canlog.rig import Rig, default_rig, default_rig_path
-from evtribo.report.lead.warning_kinds import group_warnings
 from evtribo.results.aggregate import summarize
+from evtribo.warning.catalogue import KINDS
 
 RIG = default_rig()
 SETTINGS = AnalysisSettings(n_boot=100)
@@ -84,9 +84,8 @@ def test_any_counter_s_period_or_a_stuck_one_gives_the_undisturbed_f_el(law, dro
     frames, lost, clean = _trial(drop)
     result, fel = _fel(_counting(frames, *(law or (None,))))
     assert fel == pytest.approx(clean, rel=0.05)
-    said = [w for w in result.warnings if "counter" in w]
-    groups = group_warnings(result.warnings, ["P01"], [("P01", "run-01")])
-    assert "unclassified" not in {g.effect for g in groups}, [g.text for g in groups]
+    said = [w.text for w in result.warnings if "counter" in w.text]
+    assert all(w.kind in KINDS and not KINDS[w.kind].earlier for w in result.warnings)
     dropped = result.row["dropped_frames"]
     assert dropped <= lost  # never more than were lost
     if law is None:
@@ -120,7 +119,7 @@ def test_a_lossy_8_bit_counter_whose_top_values_are_lost_keeps_its_width():
         keep[rows[frames.data[rows, COUNTER_BYTE] >= 250]] = False
     signals = decode_trial(frames.take(keep), RIG)
     assert signals.dropped_frames == int(np.count_nonzero(~keep))
-    assert not [w for w in signals.warnings if "counter" in w], signals.warnings
+    assert not [w for w in signals.warnings if "counter" in w.text], signals.warnings
 
 
 def _declared(**periods: int):
@@ -136,7 +135,7 @@ def test_a_period_declared_in_the_rig_file_is_used_as_it_is():
     signals = decode_trial(_counting(frames, 100), rig)
     assert signals.dropped_frames == 0
     assert (signals.normal.counter_period, signals.tangential.counter_period) == (100, 100)
-    assert not [w for w in signals.warnings if "counter" in w], signals.warnings
+    assert not [w for w in signals.warnings if "counter" in w.text], signals.warnings
 
 
 def test_a_period_the_counter_belies_counts_no_more_frames_lost_than_the_time_holds():
@@ -147,5 +146,6 @@ def test_a_period_the_counter_belies_counts_no_more_frames_lost_than_the_time_ho
     rig = _declared(normal_force_counter_period=200, tangential_force_counter_period=200)
     signals = decode_trial(_counting(frames, 100), rig)
     assert signals.dropped_frames <= lost
-    notes = [signals.normal.dropped_note, signals.tangential.dropped_note]
-    assert all("it does not count every frame" in (n or "") for n in notes), notes
+    notes = [w for w in signals.warnings if w.kind == "counter-overcounts"]
+    assert {w.value("cell") for w in notes} == {"normal", "tangential"}, signals.warnings
+    assert all("it does not count every frame" in w.text for w in notes)

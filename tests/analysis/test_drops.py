@@ -6,6 +6,7 @@ import pytest
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_trial
 from evtribo.canlog.dropped import coherence, count_dropped, estimate_period, missing_frames
 from evtribo.canlog.dropped import count_by_steps as step_heuristic
+from evtribo.warning.collect import collecting
 
 
 def _stream(*, rate_hz=2000.0, duration_s=10.0, drop=0.03, jitter_s=2e-4, seed=0, ppm=-25.0):
@@ -25,7 +26,7 @@ def test_jitter_does_not_inflate_the_count_without_a_counter(jitter_s):
     t, _, lost, period = _stream(rate_hz=1000.0, jitter_s=jitter_s)
     assert estimate_period(t) == pytest.approx(period, rel=1e-5)
     got = missing_frames(t)
-    assert got.method == "timing" and got.note is None
+    assert got.method == "timing" and not got.notes
     assert abs(got.count - lost) <= 2, (got.count, lost)
 
 
@@ -40,13 +41,13 @@ def test_the_case_that_overcounted_sixfold():
 def test_the_counter_decides_even_when_timing_is_hopeless():
     t, counter, lost, _ = _stream(rate_hz=1000.0, jitter_s=1e-3, drop=0.03)
     got = missing_frames(t, counter, 256)
-    assert got.count == lost and got.method == "counter" and got.note is None
-    assert missing_frames(t).note is not None  # no counter: said to be unreliable
+    assert got.count == lost and got.method == "counter" and not got.notes
+    assert missing_frames(t).notes  # no counter: said to be unreliable
     # a long pause in such a stream where the counter steps by one: nothing hides in it
     assert counter[5001] == (counter[5000] + 1) % 256
     paused = t + np.where(t > t[5000], 0.2, 0.0)
     got = missing_frames(paused, counter, 256)
-    assert (got.count, got.method, got.note) == (lost, "counter", None)
+    assert (got.count, got.method, got.notes) == (lost, "counter", ())
 
 
 def test_an_outage_longer_than_the_counter_period_is_added_from_the_timing():
@@ -112,13 +113,13 @@ def test_the_decoders_count_is_carried_into_the_analysis_not_recounted(monkeypat
     t = np.arange(10.0)
     signals = TrialSignals(
         normal=CellSignals(t, np.zeros(10), None, 600, "counter+timing"),
-        tangential=CellSignals(t, np.zeros(10), None, 3, "timing",
-                               "timestamps too irregular to count missing frames reliably"),
+        tangential=CellSignals(t, np.zeros(10), None, 3, "timing"),
         excitation=None, frames=20, ignored_frames=0)
-    warnings = []
-    assert trial._dropped(signals, warnings.append) == 603
-    assert any("whole counter periods" in w for w in warnings)
-    assert any("too irregular" in w for w in warnings)
+    with collecting(quiet=True) as warnings:
+        assert trial._dropped(signals) == 603
+    assert [(w.kind, w.value("cell"), w.value("frames")) for w in warnings] == [
+        ("frames-lost-periods", "normal", 600)]
+    assert "whole counter periods" in warnings[0].text
 
 
 def test_the_logger_s_dropcount_and_decoder_warnings_reach_trials_csv_cold_and_warm(tmp_path):
@@ -166,9 +167,9 @@ def test_a_clock_jump_inside_a_trial_invents_no_lost_frames(jump_s):
     got = missing_frames_received(jumped, counter, 256)
     assert got.count == lost
     if jump_s < 0:
-        assert "clock jumped back" in got.note
+        assert got.notes[-1].mapping["jumped"] == "jumped back"
     else:
-        assert "jumped ahead or paused" in got.note
+        assert got.notes[-1].mapping["jumped"] == "jumped ahead or paused"
     # a frame lost right at the jump is counted too
     cut = np.delete(np.arange(t.size), half)
     assert missing_frames_received(jumped[cut], counter[cut], 256).count == lost + 1

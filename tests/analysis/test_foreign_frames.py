@@ -42,7 +42,7 @@ def test_fd_frames_on_a_cells_id_change_no_result_and_are_named(tmp_path):
     pd.testing.assert_series_equal(a.frames, b.frames)  # the frames decoded
     pd.testing.assert_frame_equal(clean.electrostatic, fd.electrostatic)
     summary = json.loads((tmp_path / "fd" / "summary.json").read_text(encoding="utf-8"))
-    said = " ".join(json.dumps(summary["warnings"]).split())
+    said = " ".join(" ".join(w["text"] for w in summary["warnings"]).split())
     for stem, n in added.items():
         assert f"{n} CAN FD frames have the standard (11-bit) ID 0x0C1 of the DBC's classic " \
                "CAN message FzCell" in said, stem

@@ -65,7 +65,7 @@ def test_each_effect_leaves_the_electrostatic_force_unbiased_and_covered(runs, e
     ex_covered = (ex.exponent_ci_low <= ex.exponent_true) & (
         ex.exponent_true <= ex.exponent_ci_high)
     assert ex_covered.mean() >= 0.85, ex
-    warnings = [w for s in studies for w in s.warnings]
+    warnings = [w.text if hasattr(w, "text") else w for s in studies for w in s.warnings]
     if effect in SAID:
         assert any(SAID[effect] in w for w in warnings), effect
     # no warning states that a finger-lifted stretch is missing: every trial has one
@@ -185,7 +185,7 @@ def test_swapped_roles_are_named_with_their_evidence(tmp_path):
     toml.write_text(text)
     analyze_study(root, tmp_path / "out", jobs=1, settings=AnalysisSettings(n_boot=100))
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())
-    swapped = [w for w in summary["warnings"] if "roles look swapped" in w]
+    swapped = [w["text"] for w in summary["warnings"] if w["kind"] == "roles"]
     assert swapped and swapped[0].startswith("P01/run-01: ")
     assert "normal_force" in swapped[0] and "tangential_force" in swapped[0]
     assert "changes sign with the strokes" in swapped[0]

@@ -155,9 +155,10 @@ def test_a_normal_offset_without_lifted_stretch_or_calibration_is_a_warning(tmp_
     res = analyze_study(tmp_path / "st", tmp_path / "out", jobs=1,
                         settings=AnalysisSettings(n_boot=200))
     summary = json.loads((tmp_path / "out" / "summary.json").read_text(encoding="utf-8"))
+    texts = [w["text"] for w in summary["warnings"]]
     for trial in ("run-01", "run-02"):
         assert any(w.startswith(f"P01/{trial}: the normal cell's zero is unknown")
-                   and "evtribo acquire --tare-s" in w for w in summary["warnings"])
+                   and "evtribo acquire --tare-s" in w for w in texts)
     trials = res.trials
     assert trials.normal_offset_N.isna().all()  # nothing removed from the normal cell
     assert (trials.tare == "friction-loop").all()

@@ -112,7 +112,7 @@ def test_a_single_tare_stretch_extends_its_own_drift_rate():
     t, fn, ft, _ = trace(lifts=((-0.1, 2.0),), offsets=(0.01, 0.0), drift=(0.012, 0.0),
                          noise=2e-4, seed=3)
     aligned = AlignedForces(t, fn, ft, RATE)
-    tared = tare_lifted(calibrate(aligned, None, lambda _m: None), min_s=0.2)
+    tared = tare_lifted(calibrate(aligned, None), min_s=0.2)
     assert tared.methods == ["lifted"] and len(tared.lifted) == 1
     removed = tared.residual[0]
     true = 0.01 + 0.012 * t / 12.0
@@ -169,7 +169,7 @@ def test_removed_offsets_are_in_the_cells_own_units():
     ft = np.full(t.size, 0.2)
     cal = Calibration(normal_offset_N=0.01, tangential_offset_N=-0.02,
                       matrix=((1.0, 0.05), (0.02, 1.0)))
-    tared = calibrate(AlignedForces(t, fn, ft, RATE), cal, lambda _m: None)
+    tared = calibrate(AlignedForces(t, fn, ft, RATE), cal)
     np.testing.assert_allclose(tared.forces.normal, 0.49 + 0.05 * 0.22)
     np.testing.assert_allclose(tared.forces.tangential, 0.02 * 0.49 + 0.22)
     tared.residual = np.vstack([np.full(t.size, 0.003), np.full(t.size, -0.001)])
@@ -178,7 +178,7 @@ def test_removed_offsets_are_in_the_cells_own_units():
     assert normal == pytest.approx(0.01 + back[0])
     assert tangential == pytest.approx(-0.02 + back[1])
     # a cell that reads compression negative: flipped, and its offset reported as read
-    flipped = calibrate(AlignedForces(t, -fn, ft, RATE), None, lambda _m: None)
+    flipped = calibrate(AlignedForces(t, -fn, ft, RATE), None)
     assert flipped.flipped and np.all(flipped.forces.normal > 0)
     flipped.residual = np.vstack([np.full(t.size, 0.004), np.zeros(t.size)])
     flipped.methods.append("lifted")

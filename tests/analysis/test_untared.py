@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.tared_windows import _like_with_like
 from evtribo.results.pipeline import analyze_study
+from evtribo.warning.collect import collecting
 
 UNTARED = Path(__file__).resolve().parents[2] / "data" / "untared-session"
 
@@ -24,7 +25,7 @@ def test_a_recorded_trial_with_its_directions_confounded_gives_no_force_and_says
         tmp_path):
     res = analyze_study(UNTARED, tmp_path / "out", jobs=1,
                         settings=AnalysisSettings(n_boot=100))
-    warnings = res.summary["warnings"]
+    warnings = [w["text"] for w in res.summary["warnings"]]
     assert any("P01/run-01: the tangential cell's zero is unknown" in w for w in warnings)
     left_out = [w for w in warnings if "ON windows are left out" in w]
     assert len(left_out) == 1 and left_out[0].startswith("P01/run-01: 3 of 3 ON windows")
@@ -42,8 +43,9 @@ def test_a_recorded_trial_with_its_directions_confounded_gives_no_force_and_says
 def test_only_on_windows_of_a_direction_no_off_window_slid_are_left_out(rows):
     w = pd.DataFrame(rows, columns=["condition", "direction"])
     amps = np.arange(len(w), dtype=np.float64)
-    said = []
-    kept, kept_amps = _like_with_like(w, amps, said.append)
+    with collecting(quiet=True) as records:
+        kept, kept_amps = _like_with_like(w, amps)
+    said = [r.text for r in records]
     off_ways = set(w.direction[w.condition == "off"])
     # a trial without OFF windows is compared with other trials': its windows stay
     expected = [(c == "off" or d in off_ways or not off_ways) for c, d in rows]

@@ -79,13 +79,13 @@ def test_spikes_outside_the_declared_range_are_bad_samples_and_the_trial_is_anal
     assert np.all(np.abs(signals.normal.value) < 100)
     assert len(signals.normal.value) == len(_frames()[1]) - 20
     assert signals.normal.dropped == 0           # a bad sample is no lost frame
-    (said,) = [w for w in signals.warnings if "bad samples" in w]
+    (said,) = [w.text for w in signals.warnings if w.kind == "samples-bad"]
     assert said.startswith("20 samples of FzCell.Fz")
     first = frames.timestamp[rows.min()] - frames.timestamp[0]
     assert f"the first at {first:.3f} s" in said
     result = analyze_signals(signals, TrialMeta("P01", "run-01"), calibration=EXACT)
     assert len(result.windows) >= len(clean.windows) - 1
-    assert any("bad samples" in w for w in result.warnings)
+    assert any(w.kind == "samples-bad" for w in result.warnings)
 
 
 def test_a_declared_range_most_samples_miss_is_said_not_applied(tmp_path):
@@ -94,5 +94,5 @@ def test_a_declared_range_most_samples_miss_is_said_not_applied(tmp_path):
     rig = _float_rig(tmp_path, "[1|100]")
     signals = decode_trial(_frames()[0], rig)
     assert len(signals.normal.value) == len(_frames()[1])
-    (said,) = [w for w in signals.warnings if "declared range" in w]
+    (said,) = [w.text for w in signals.warnings if w.kind == "samples-range-wrong"]
     assert "kept" in said

@@ -16,6 +16,8 @@ from evtribo.canlog import cache
 from evtribo.canlog.rig import Rig, default_rig
 from evtribo.canlog.signal_codec import scaled
 from evtribo.errors import LogFormatError
+from evtribo.warning.catalogue import kind
+from evtribo.warning.record import Scope
 
 
 @pytest.fixture
@@ -42,7 +44,7 @@ def test_second_load_comes_from_cache(trial_files, tmp_path, monkeypatch):
         np.testing.assert_array_equal(a.value, b.value)
         np.testing.assert_array_equal(a.counter, b.counter)
         assert a.dropped == b.dropped
-        assert (a.dropped_method, a.dropped_note) == (b.dropped_method, b.dropped_note)
+        assert a.dropped_method == b.dropped_method
     assert second.excitation.waveform.tolist() == first.excitation.waveform.tolist()
     np.testing.assert_array_equal(second.excitation.enabled, first.excitation.enabled)
     np.testing.assert_array_equal(second.excitation.amplitude, first.excitation.amplitude)
@@ -278,8 +280,7 @@ def _cells(draw, scaling=None):
             value[draw(st.integers(0, n - 1))] = draw(_FLOATS)
     counter = draw(st.one_of(st.none(), st.lists(_COUNTERS, min_size=n, max_size=n)))
     return CellSignals(t, value, None if counter is None else np.array(counter, np.int64),
-                       draw(st.integers(0, 10 ** 6)), draw(st.sampled_from(["counter", "gaps"])),
-                       draw(st.one_of(st.none(), st.text(max_size=8))))
+                       draw(st.integers(0, 10 ** 6)), draw(st.sampled_from(["counter", "gaps"])))
 
 
 @st.composite
@@ -333,7 +334,8 @@ def test_an_entry_reads_back_as_the_trial_it_holds(cells, excitation, counts):
     trial = TrialSignals(normal, tangential, excitation, frames=counts[0],
                          ignored_frames=counts[1], skipped_lines=counts[2],
                          skipped_detail=((3, "bad"), (None, "worse")), channel="can0",
-                         logger_dropped=counts[3], warnings=("w",))
+                         logger_dropped=counts[3],
+                         warnings=(kind("frames-lost").record(Scope(), {"frames": 3}, "t"),))
     table = cache._to_table(trial, scaling)
     with tempfile.TemporaryDirectory() as folder:
         cache._write_atomic(Path(folder), "k" * 40, table)
@@ -359,8 +361,7 @@ def test_an_entry_reads_back_as_the_trial_it_holds(cells, excitation, counts):
         else:
             assert b.counter.dtype == np.int64
             np.testing.assert_array_equal(b.counter, a.counter)
-        assert (b.dropped, b.dropped_method, b.dropped_note) == (
-            a.dropped, a.dropped_method, a.dropped_note)
+        assert (b.dropped, b.dropped_method) == (a.dropped, a.dropped_method)
     if excitation is None:
         assert back.excitation is None
     else:

@@ -57,7 +57,8 @@ def test_the_same_rig_ids_on_two_buses_are_not_merged(tmp_path, caplog):
     assert len(trial.normal.t) == 500 and trial.dropped_frames == 0
     assert trial.frames == 1000 and trial.ignored_frames == 200
     assert len(trial.warnings) == 1
-    warning = trial.warnings[0]
+    assert trial.warnings[0].kind == "channels-several"
+    warning = trial.warnings[0].text
     assert "vcan0: 1000 frames" in warning and "can1: 200 frames" in warning
     assert "FzCell, FxCell on more than one" in warning and warning in caplog.text
     other = decode_trial(frames, rig, channel="can1")
@@ -96,10 +97,10 @@ def test_a_standard_frame_is_not_an_extended_message_of_the_same_number(tmp_path
     np.testing.assert_allclose(trial.normal.value, 0.5, atol=1e-5)
     assert trial.frames == 80 and trial.ignored_frames == 20
     assert ("10 frames have the standard (11-bit) ID 0x0C1, but the DBC's message FzCell has "
-            "the extended (29-bit) ID 0x000000C1") in trial.warnings[0]
+            "the extended (29-bit) ID 0x000000C1") in trial.warnings[0].text
     std = decode_trial(read_frames(path)[0], default_rig())  # and the other way round
     np.testing.assert_allclose(std.normal.value, 3.0, atol=1e-5)
-    assert "40 frames have the extended (29-bit) ID 0x000000C1" in std.warnings[0]
+    assert "40 frames have the extended (29-bit) ID 0x000000C1" in std.warnings[0].text
 
 
 def test_inspect_names_messages_by_number_and_kind(tmp_path, capsys):
@@ -208,7 +209,7 @@ def test_can_fd_frames_are_not_decoded_as_a_classic_message_of_their_id(tmp_path
     np.testing.assert_allclose(trial.normal.value, 0.5, atol=1e-5)
     assert len(trial.normal.t) == 2000 and trial.dropped_frames == 0
     assert trial.frames == 4000 and trial.ignored_frames == 250
-    said = [w for w in trial.warnings if "CAN FD" in w]
+    said = [w.text for w in trial.warnings if w.kind == "frames-fd-kind"]
     assert said == [
         "250 CAN FD frames have the standard (11-bit) ID 0x0C1 of the DBC's classic CAN "
         "message FzCell: not decoded as FzCell, counted with the frames the DBC does not "
@@ -238,7 +239,7 @@ def test_classic_frames_are_not_decoded_as_an_fd_message_of_their_id(tmp_path):
     frames = read_frames(path)[0]
     decoded = decode_messages(frames, db)
     assert len(decoded["FzCell"]) == 30 and len(decoded["FxCell"]) == 40
-    assert kind_mismatches(frames, db.messages, db) == [
+    assert [w.text for w in kind_mismatches(frames, db.messages, db)] == [
         "40 classic CAN frames have the standard (11-bit) ID 0x0C1 of the DBC's CAN FD "
         "message FzCell: not decoded as FzCell, counted with the frames the DBC does not "
         "describe (a CAN FD frame is only an FD message, a classic frame only a classic one)"]

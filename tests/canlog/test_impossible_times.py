@@ -94,5 +94,5 @@ def test_a_trial_with_a_line_stamped_2_63_s_is_analysed_as_without_it(tmp_path, 
     _, clean = _fel(decode_trial(frames, RIG))
     assert fel == pytest.approx(clean, rel=0.01)
     assert result.row["duration_s"] == pytest.approx(12.0, abs=0.05)
-    said = " | ".join(result.warnings)
+    said = " | ".join(w.text for w in result.warnings)
     assert "clock stepped" not in said and "no frame of the load cells" not in said, said

@@ -1,6 +1,7 @@
 """The subjects fitted side by side in worker processes (as compare fits them) give the fits
-made here, and what each fit logged is said here, in the subjects' order; a fit that fails
-has what it logged before failing said, after the subjects before it, then its error."""
+made here, and what each fit said (its warnings, its estimates) is said here, in the
+subjects' order; a fit that fails has the warnings it said before failing said, after the
+subjects before it, then its error."""
 
 from __future__ import annotations
 
@@ -51,8 +52,7 @@ def test_a_fit_that_fails_in_a_worker_says_what_it_logged_then_its_error(tmp_pat
 
     def fails_for_one(subject, *args, **kwargs):
         if subject == bad:
-            logging.getLogger("evtribo.fit.fit").warning("subject %s: its forces say why",
-                                                         subject)
+            fit_module.emit("points-missing", subject=subject, points=2)
             raise ConfigError(f"subject {subject}: cannot be fitted")
         return real(subject, *args, **kwargs)
 
@@ -64,7 +64,7 @@ def test_a_fit_that_fails_in_a_worker_says_what_it_logged_then_its_error(tmp_pat
                       mapper=lambda f, items: list(pool.map(f, items)))
     said = [r.getMessage() for r in caplog.records if r.name == "evtribo.fit.fit"]
     # the subjects before it said, then what it said before failing; none after it
-    assert said[-1] == f"subject {bad}: its forces say why"
+    assert said[-1] == f"subject {bad}: 2 point(s) with missing values left out"
     for before in subjects[:failing]:
         assert any(m.startswith(f"subject {before}:") for m in said[:-1]), said
     assert not any(after in m for m in said for after in subjects[failing + 1:]), said

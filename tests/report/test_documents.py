@@ -30,7 +30,8 @@ def test_summary_writer_reproduces_what_analyze_writes(compared):
     assert tuple(summary) == SUMMARY_KEYS
     assert summary_text(summary.data) == raw
     assert summary.run_id and summary.study_dir and summary.inputs[0].role == "study"
-    assert any("skipped damaged line" in w for w in summary.warnings)
+    assert any(w.kind == "damaged-line" and "skipped damaged line" in w.text
+               for w in summary.warnings)
 
 
 def test_fit_writer_reproduces_what_compare_writes(compared):

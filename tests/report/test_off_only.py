@@ -40,8 +40,9 @@ def reported(tmp_path_factory) -> tuple[Path, dict[str, subprocess.CompletedProc
 def test_analyze_says_no_electrostatic_force_will_result(reported):
     out, runs = reported
     assert runs["analyze"].returncode == 0, runs["analyze"].stderr
-    said = [w for w in json.loads((out / "summary.json").read_text())["warnings"]
-            if w.startswith("no electrostatic force: no trial has an ON window")]
+    said = [w["text"] for w in json.loads((out / "summary.json").read_text())["warnings"]
+            if w["kind"] == "no-on-window"]
+    assert said and said[0].startswith("no electrostatic force: no trial has an ON window")
     assert len(said) == 1 and runs["analyze"].stderr.count(said[0]) == 1
     assert pd.read_csv(out / "electrostatic.csv").empty
 

@@ -7,11 +7,12 @@ from __future__ import annotations
 import json
 
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, simulate_study
+from evtribo.documents.summary import read_summary
 from evtribo.figures import trial_checks
 from evtribo.report.compare import compare
 from evtribo.report.drawing import trials_to_check
-from evtribo.report.lead.warning_kinds import group_warnings
 from evtribo.results.pipeline import analyze_study
+from evtribo.warning.render import group
 
 
 def test_a_large_study_gets_the_checks_of_the_trials_worth_a_look(tmp_path, monkeypatch):
@@ -23,9 +24,9 @@ def test_a_large_study_gets_the_checks_of_the_trials_worth_a_look(tmp_path, monk
     summary = json.loads((out / "summary.json").read_text(encoding="utf-8"))
     trials = [tuple(str(t.get("file", "")).removesuffix(".log").split("/")[-2:])
               for t in summary["inputs"] if t.get("role") == "log"]
-    named = {f"{s}/{t}" for g in group_warnings(summary["warnings"], trials=trials)
-             for s, t in g.trials}
-    worth = trials_to_check(summary["warnings"], trials)
+    records = read_summary(out / "summary.json").warnings
+    named = {f"{s}/{t}" for g in group(records) for s, t in g.trials}
+    worth = trials_to_check(records, trials)
     assert named - worth, "a trial whose warnings are all for information"
     monkeypatch.setattr(trial_checks, "AUTO_ALL", 2)  # a study "larger" than 2 trials
     compare(out, dpi=30, formats="png", jobs=1, cache_dir=tmp_path / "cache")

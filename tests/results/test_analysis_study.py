@@ -89,7 +89,9 @@ def test_outputs_have_the_spec_columns(default_study):
                                       "friction_force_N")
     summary = json.loads((res.out_dir / "summary.json").read_text(encoding="utf-8"))
     assert summary["trials"] == summary["trials_analysed"] == 8
-    assert isinstance(summary["warnings"], list)
+    assert isinstance(summary["warnings"], list) and summary["summary_version"] == 2
+    assert all({"kind", "effect", "text", "subject", "trial"} <= set(w)
+               for w in summary["warnings"])
     # the study has sine trials: their traces are written for the model comparison
     assert sorted(p.name for p in res.out_dir.iterdir()) == sorted(
         [*OUTPUT_FILES, SINE_TRACE_FILE, MANIFEST])
@@ -295,7 +297,8 @@ def test_other_dbc_and_sidecar_conditions(tmp_path):
     trials = res.trials.set_index("trial")
     assert trials.loc["on-80", "skipped_lines"] == 2
     assert (trials.skipped_lines.drop("on-80") == 0).all()
-    assert any("damaged line" in w for w in res.summary["warnings"])
+    assert any(w["kind"] == "damaged-lines" and w["trial"] == "on-80"
+               for w in res.summary["warnings"])
     assert trials.loc["off-1", "dropped_frames"] > 0
     el = res.electrostatic.set_index("amplitude_V")
     assert list(el.index) == [80.0, 120.0]

@@ -72,7 +72,7 @@ def test_analyze_dask_gives_the_local_run_s_tables(cluster, study, tmp_path, cap
     _same_results(tmp_path / "local", tmp_path / "dask")
     summary = json.loads((tmp_path / "dask" / "summary.json").read_text())
     assert summary["jobs"] == 2  # the cluster's worker threads
-    assert any("damaged line" in w for w in summary["warnings"])
+    assert any("damaged line" in w["text"] for w in summary["warnings"])
     # the workers wrote the cache where this process named it
     assert list((tmp_path / "cache-dask").glob("*.arrow"))
 

@@ -113,7 +113,7 @@ def test_a_log_changed_after_it_was_hashed_is_not_analysed_as_another_file(
     assert list(res.electrostatic.amplitude_V) == [80.0]
     recorded = {r["file"]: r["sha256"] for r in res.summary["inputs"]}
     assert recorded["P01/run-02.log"] == original
-    assert any("run-02.log: changed during the analysis" in w
+    assert any("run-02.log: changed during the analysis" in w["text"]
                for w in res.summary["warnings"])
     # with the bytes of that hash in the cache, they are what is analysed
     shutil.copy(study / "P01" / "run-02.log", log)
@@ -144,8 +144,8 @@ def test_the_same_log_under_two_names_is_counted_once(study, baseline, tmp_path,
     summary = json.loads((out / "summary.json").read_text())
     dup = summary["duplicate_trials"]
     assert [(d["trial"], d["same_as"]) for d in dup] == [(f"{folder}/{trial}", "P01/run-02")]
-    assert any(f"{folder}/{trial}" in w and "P01/run-02" in w and "counted once" in w
-               for w in summary["warnings"])
+    assert any(f"{folder}/{trial}" in w["text"] and "P01/run-02" in w["text"]
+               and w["kind"] == "same-log" for w in summary["warnings"])
     # the estimates are those of the study without the copy
     for name in ("windows.csv", "electrostatic.csv", "exponents.csv",
                  "electrostatic_bootstrap.csv"):
@@ -160,6 +160,6 @@ def test_a_duplicate_with_other_sidecar_values_says_which_are_used(study, tmp_pa
     side["amplitude_V"] = 120.0
     (root / "P01" / "run-03.json").write_text(json.dumps(side))
     res = pipeline.analyze_study(root, tmp_path / "out", jobs=1)
-    [warning] = [w for w in res.summary["warnings"] if "counted once" in w]
+    [warning] = [w["text"] for w in res.summary["warnings"] if w["kind"] == "same-log"]
     assert "sidecars differ in amplitude_V (P01/run-02's values are used)" in warning
     assert sorted(res.electrostatic.amplitude_V) == [80.0, 140.0]

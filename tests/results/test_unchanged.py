@@ -85,10 +85,11 @@ def test_an_unchanged_study_is_written_again_without_the_analysis(study, tmp_pat
     assert {k for k in full if full[k] != again[k]} <= VOLATILE
     assert again["run_id"] != full["run_id"] and again["jobs"] == 1
     assert again["output_sha256"] == full["output_sha256"]
-    from evtribo.report.lead.warning_kinds import group_warnings, read_scope
+    from evtribo.documents.summary import Summary
+    from evtribo.warning.render import group
 
-    for group in group_warnings(again["warnings"], (), read_scope(tmp_path / "b")[0]):
-        assert f"] {group.title}: " in err  # each kind said again, once
+    for said in group(Summary(again).warnings):
+        assert f"] {said.title}: " in err  # each kind said again, once
 
 
 def _remembered(study: Path, tmp_path: Path, options=OPTIONS) -> Path:

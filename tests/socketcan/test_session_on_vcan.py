@@ -131,8 +131,8 @@ def _obeyed_and_analysed(exports: Path) -> None:
     # finger is not lifted at each trial's start, and where the tangential cell's zero is
     # then unknown and the ON windows all slid the other way from the OFF ones, the force
     # cannot be told from the cell's offset
-    untold = {w.split(":", 1)[0] for w in results.summary["warnings"]
-              if "ON windows are left out" in w}
+    untold = {f"{w['subject']}/{w['trial']}" for w in results.summary["warnings"]
+              if w["kind"] == "directions-confounded"}
     excused = {planned.amplitude_V for planned in read_session(study / "P01" / "session.json")
                .order if f"P01/{planned.trial}" in untold}
     assert set(whole) - excused <= set(found), (found, short, untold)

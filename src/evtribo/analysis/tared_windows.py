@@ -11,7 +11,6 @@ taken again from the forces it corrects.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
 
 import numpy as np
 import numpy.typing as npt
@@ -30,8 +29,10 @@ from evtribo.analysis.friction.windows import find_windows, with_means
 from evtribo.analysis.observed import lift_exclusion
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.canlog.rig import Calibration
+from evtribo.warning.collect import emitter
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["offset_warnings", "tare_and_find_windows"]
 
@@ -46,7 +47,7 @@ def _windows(tared: Tared, cond: npt.NDArray[np.int8], smooth: float, quantum: f
 
 def tare_and_find_windows(aligned: AlignedForces, exc: Excitation, *, smooth: float,
                           quantum: float, tare_s: float | None, settings: AnalysisSettings,
-                          calibration: Calibration | None, warn: Callable[[str], None]
+                          calibration: Calibration | None
                           ) -> tuple[Tared, pd.DataFrame, npt.NDArray[np.float64]]:
     """Calibration and taring (:mod:`.zero_offsets`), the steady-sliding windows they give and
     the windows' amplitudes (the friction loop groups the ON windows by them).
@@ -65,8 +66,6 @@ def tare_and_find_windows(aligned: AlignedForces, exc: Excitation, *, smooth: fl
     settings : AnalysisSettings
     calibration : Calibration or None
         The rig's ``[rig.calibration]``.
-    warn : callable
-        Told what is worth saying.
 
     Returns
     -------
@@ -79,13 +78,11 @@ def tare_and_find_windows(aligned: AlignedForces, exc: Excitation, *, smooth: fl
     mode = settings.tare
     cal = calibration or Calibration()
     tared = calibrate(aligned, cal if mode != "none" else
-                      Calibration(matrix=cal.matrix), warn)
+                      Calibration(matrix=cal.matrix))
     if mode in ("auto", "lifted"):
         tared = tare_lifted(tared, min_s=settings.min_lift_s)
         if not tared.lifted and tare_s:
-            warn(f"the sidecar says the finger was lifted for the first {tare_s:g} s, "
-                 "but no finger-lifted stretch was found in the forces (was it kept on the "
-                 "screen?)")
+            emit("no-lift", tare_s=tare_s)
     w = _windows(tared, exc.condition, smooth, quantum, settings)
     amps = window_amplitudes(w, exc)
     if mode in ("auto", "friction-loop") and not w.empty:
@@ -108,23 +105,16 @@ def tare_and_find_windows(aligned: AlignedForces, exc: Excitation, *, smooth: fl
                      "with the zero measured with the finger lifted", 2e3 * np.mean(
                          loop.offset_N), 200 * abs(np.mean(loop.offset_N)) / level, level)
         elif not tared.lifted and cal.tangential_offset_N is None:
-            warn("the tangential cell's zero is unknown: no finger-lifted stretch, no "
-                 "[rig.calibration] tangential_offset_N, and too few strokes in both "
-                 "directions for the friction loop; an offset adds to the friction one way "
-                 "and subtracts the other")
-            w, amps = _like_with_like(w, amps, warn)
+            emit("tangential-zero")
+            w, amps = _like_with_like(w, amps)
     if mode != "none" and not tared.normal_known:
         fn = float(np.nanmean(w.normal_force_N)) if len(w) else float(
             np.nanmedian(tared.forces.normal))
-        warn(f"the normal cell's zero is unknown (no finger-lifted stretch and no "
-             f"[rig.calibration] normal_offset_N): an offset of 10 mN would change F_el by "
-             f"{1.0 / fn:.1f} % (offset / F_n, at this trial's {fn:.2f} N); record a tare "
-             "stretch (evtribo acquire --tare-s) or give [rig.calibration] normal_offset_N")
+        emit("normal-zero", change_pct=1.0 / fn, normal_N=fn)
     return tared, w, amps
 
 
-def _like_with_like(w: pd.DataFrame, amps: npt.NDArray[np.float64],
-                    warn: Callable[[str], None]
+def _like_with_like(w: pd.DataFrame, amps: npt.NDArray[np.float64]
                     ) -> tuple[pd.DataFrame, npt.NDArray[np.float64]]:
     """The windows without the ON windows that slid in a direction none of the OFF windows
     did, when the tangential cell's zero is unknown.
@@ -146,19 +136,15 @@ def _like_with_like(w: pd.DataFrame, amps: npt.NDArray[np.float64],
     if not alien.any():
         return w, amps
     way = "forwards" if int(d[~on][0]) > 0 else "backwards"
-    warn(f"{int(alien.sum())} of {int(on.sum())} ON windows are left out: the OFF windows all "
-         f"slid {way}, and with the "
-         "tangential cell's zero unknown an ON window sliding the other way differs from them "
-         "by twice the cell's offset besides the voltage's effect (the electrostatic force "
-         "cannot be told from the offset); record a tare stretch (evtribo acquire --tare-s), "
-         "give [rig.calibration] tangential_offset_N, or slide both ways in each phase")
+    emit("directions-confounded", left=int(alien.sum()), on=int(on.sum()), way=way)
     keep = ~alien
     return w.loc[keep].reset_index(drop=True), amps[keep]
 
 
-def offset_warnings(tared: Tared, w: pd.DataFrame, offsets: tuple[float | None, float | None],
-                    warn: Callable[[str], None]) -> None:
-    """Offsets large against the forces measured, and zeros that drifted beyond the noise.
+def offset_warnings(tared: Tared, w: pd.DataFrame, offsets: tuple[float | None, float | None]
+                    ) -> None:
+    """Say offsets large against the forces measured (``offset``), and zeros that drifted
+    beyond the noise (``zero-drift``).
 
     Parameters
     ----------
@@ -167,7 +153,6 @@ def offset_warnings(tared: Tared, w: pd.DataFrame, offsets: tuple[float | None, 
         The windows.
     offsets : (float or None, float or None), N
         The offsets removed from the normal and the tangential cell.
-    warn : callable
     """
     if w.empty:
         return
@@ -175,9 +160,8 @@ def offset_warnings(tared: Tared, w: pd.DataFrame, offsets: tuple[float | None, 
              "tangential": float(np.mean(w.friction_force_N))}
     for name, value in zip(("normal", "tangential"), offsets, strict=True):
         if value is not None and scale[name] > 0 and abs(value) > 0.1 * scale[name]:
-            warn(f"the {name} cell's zero offset was {1e3 * value:+.1f} mN, "
-                 f"{100 * abs(value) / scale[name]:.0f} % of the {name} force measured "
-                 f"({scale[name]:.3f} N); removed, but tare the load cells before recording")
+            emit("offset", cell=name, offset_mN=1e3 * value,
+                 share_pct=100 * abs(value) / scale[name], force_N=scale[name])
     if len(tared.lifted) < 2:
         return
     first, last = tared.lifted[0], tared.lifted[-1]
@@ -185,9 +169,8 @@ def offset_warnings(tared: Tared, w: pd.DataFrame, offsets: tuple[float | None, 
         moved = getattr(last, f"{name}_N") - getattr(first, f"{name}_N")
         noise = 3 * float(np.hypot(getattr(first, se_name), getattr(last, se_name)))
         if abs(moved) > max(noise, 0.01 * scale["normal"]):
-            warn(f"the {name} cell's zero drifted by {1e3 * moved:+.1f} mN between the "
-                 f"finger-lifted stretches at {first.t_mid - tared.forces.t[0]:.1f} s and "
-                 f"{last.t_mid - tared.forces.t[0]:.1f} s (noise {1e3 * noise / 3:.2f} mN); "
-                 "interpolated between them")
+            emit("zero-drift", cell=name, drift_mN=1e3 * moved,
+                 first_s=first.t_mid - tared.forces.t[0], last_s=last.t_mid - tared.forces.t[0],
+                 noise_mN=1e3 * noise / 3)
 
 

@@ -17,7 +17,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import logging
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -44,8 +44,11 @@ from evtribo.documents.sidecar import Sidecar
 from evtribo.documents.tables import TRIALS, WINDOWS
 from evtribo.errors import AnalysisError
 from evtribo.util.docstrings import fill_doc
+from evtribo.warning.collect import collecting, emitter, replay, rescoped
+from evtribo.warning.record import Scope, WarningRecord
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 #: Columns of trials.csv, windows.csv and sine_trace.csv (:mod:`evtribo.documents.tables`).
 TRIAL_COLUMNS, WINDOW_CSV_COLUMNS = TRIALS.names(), WINDOWS.names()
@@ -102,7 +105,8 @@ class TrialResult:
         Values of :data:`TRIAL_COLUMNS` (None for unknown).
     windows : pandas.DataFrame
         :data:`WINDOW_CSV_COLUMNS`.
-    warnings : list of str
+    warnings : list of WarningRecord
+        What its decoding and analysis said of it, in order.
     trace : pandas.DataFrame or None
         For a sine trial with ON phases: :data:`SINE_TRACE_CSV_COLUMNS` over a stretch
         around a switch from OFF to ON (see :func:`sine_trace`).
@@ -110,7 +114,7 @@ class TrialResult:
 
     row: dict[str, Any]
     windows: pd.DataFrame
-    warnings: list[str] = field(default_factory=list)
+    warnings: list[WarningRecord] = field(default_factory=list)
     trace: pd.DataFrame | None = None
 
 
@@ -185,21 +189,19 @@ def _trial_end(signals: TrialSignals) -> float:
     return max(float(np.max(t)) for t in _sample_times(signals))
 
 
-def _dropped(signals: TrialSignals, warn: Callable[[str], None]) -> int:
+def _dropped(signals: TrialSignals) -> int:
     """Frames missing from both load cells, as the decoder counted them
-    (:func:`evtribo.canlog.dropped.missing_frames`: counters first, else the timing), and what the
-    count's method and notes are worth saying; never counted again here."""
+    (:func:`evtribo.canlog.dropped.missing_frames`: counters first, else the timing), and what
+    the count's method is worth saying (its notes the decoder said); never counted again
+    here."""
     total = 0
     for name, cell in (("normal", signals.normal), ("tangential", signals.tangential)):
-        if cell.dropped_note:
-            warn(f"{name} force: {cell.dropped_note}")
         if cell.dropped_method == "counter+timing":
-            warn(f"{name} force: {cell.dropped} frames missing, including whole counter "
-                 "periods lost at once (found from the timing)")
+            emit("frames-lost-periods", cell=name, frames=int(cell.dropped))
         total += int(cell.dropped)
     logged = int(signals.logger_dropped)
     if logged > total:
-        warn(f"the recording tool dropped {logged} frames on this channel (DROPCOUNT)")
+        emit("frames-dropcount", frames=logged)
     return max(total, logged)
 
 
@@ -235,20 +237,18 @@ class _PieceResult:
 
 
 def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: AnalysisSettings,
-                   calibration: Calibration | None, warn: Callable[[str], None],
+                   calibration: Calibration | None,
                    observe: PieceObserver | None = None) -> _PieceResult:
     """Align, read the excitation, remove hum and offsets, find the windows of a stretch of
     a trial with no long pause; window times from *t0*, the trial's start."""
     tn, fn = _channel(signals.normal)
     tt, ft = _channel(signals.tangential)
     aligned = align_forces(tn, fn, tt, ft, max_gap_periods=settings.max_gap_periods)
-    swapped = swapped_roles(aligned.normal, aligned.tangential, aligned.rate_Hz)
-    if swapped:
-        warn(swapped)
+    swapped_roles(aligned.normal, aligned.tangential, aligned.rate_Hz)  # said, if so
     given = {"waveform": meta.waveform, "frequency_Hz": meta.frequency_Hz,
              "amplitude_V": meta.amplitude_V, "condition": meta.condition}
     exc = excitation_of(_excitation_placed(signals, tn, tt), given, aligned.t,
-                        settings.guard_s, warn)
+                        settings.guard_s)
     info = exc.info
     smooth, quantum = settings.smooth_s, HUM_FREE_S
     oscillates = friction_oscillates(info["waveform"], info.get("frequency_Hz"),
@@ -260,15 +260,14 @@ def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, setting
         aligned = _dehum(aligned, info)
     tared, w, amplitude = tare_and_find_windows(
         aligned, exc, smooth=smooth, quantum=quantum, tare_s=meta.tare_s, settings=settings,
-        calibration=calibration, warn=warn)
+        calibration=calibration)
     aligned = tared.forces
     if observe is not None:
         observe(PieceState(aligned, exc.condition, tared.lifted, w, info))
     offsets = removed_offsets(tared, calibration if settings.tare != "none" else None)
-    offset_warnings(tared, w, offsets, warn)
+    offset_warnings(tared, w, offsets)
     if np.isnan(amplitude).any():
-        warn("the amplitude of the ON windows is unknown (no excitation amplitude "
-             "signal, no 'amplitude_V' in the sidecar)")
+        emit("amplitude-unknown")
     windows = pd.DataFrame({
         "subject": meta.subject, "trial": meta.trial, "condition": w.condition,
         "amplitude_V": np.round(amplitude, 3), "waveform": info["waveform"],
@@ -283,14 +282,14 @@ def _analyze_piece(signals: TrialSignals, meta: TrialMeta, t0: float, *, setting
                           reversals=reversal_sums(aligned.t, aligned.normal,
                                                   aligned.tangential, w))
     if info["waveform"] == "sine":
-        result.modulation = friction_modulation(aligned, w, info, warn)
+        result.modulation = friction_modulation(aligned, w, info)
         result.trace = trace_around_switch(aligned, w, exc, subject=meta.subject,
                                            trial=meta.trial, settings=settings)
     return result
 
 
 def _pieces(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: AnalysisSettings,
-            calibration: Calibration | None, warn: Callable[[str], None],
+            calibration: Calibration | None,
             observe: PieceObserver | None = None) -> tuple[list[_PieceResult], bool]:
     """Each continuous piece of the trial analysed (one for a trial without long pauses),
     and whether the trial was cut in pieces."""
@@ -298,21 +297,21 @@ def _pieces(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: Anal
     pieces = continuous_pieces(signals)
     if len(pieces) <= 1:
         return [_analyze_piece(signals, meta, t0, settings=settings, calibration=calibration,
-                               warn=warn, observe=observe)], False
+                               observe=observe)], False
     for before, after in itertools.pairwise(pieces):
-        warn(describe_gap(before, after, t0))
-    warn(f"analysed in {len(pieces)} continuous pieces")
+        describe_gap(before, after, t0)
+    emit("pieces", pieces=len(pieces))
     out, failures = [], []
     for k, (lo, hi) in enumerate(pieces):
         # the tare stretch the sidecar tells of is at the trial's start, in the first piece
         piece_meta = meta if k == 0 else dataclasses.replace(meta, tare_s=None)
         try:
             out.append(_analyze_piece(restrict(signals, lo, hi), piece_meta, t0,
-                                      settings=settings, calibration=calibration, warn=warn,
+                                      settings=settings, calibration=calibration,
                                       observe=observe))
         except AnalysisError as err:
             failures.append(err)
-            warn(f"the piece from {lo - t0:.3f} s to {hi - t0:.3f} s is not analysed: {err}")
+            emit("piece-left", start_s=lo - t0, end_s=hi - t0, error=str(err))
     if not out:
         raise failures[0]
     return out, True
@@ -353,19 +352,20 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
         The trial cannot be analysed (no overlap of the load cells, timestamps not in
         seconds, an alternating trial without excitation signals, no condition known).
     """
-    settings = settings or AnalysisSettings()
-    warnings: list[str] = []
-    where = f"{meta.subject}/{meta.trial}"
+    scope = Scope(meta.subject, meta.trial)
+    with collecting(scope) as warnings:
+        replay(rescoped(r, scope) for r in signals.warnings)  # its decoding's, of this trial
+        result = _analyze(signals, meta, settings or AnalysisSettings(), calibration, observe)
+    result.warnings = warnings
+    return result
 
-    def warn(msg: str) -> None:
-        log.warning("%s: %s", where, msg)
-        warnings.append(f"{where}: {msg}")
 
-    for msg in signals.warnings:
-        warn(msg)
+def _analyze(signals: TrialSignals, meta: TrialMeta, settings: AnalysisSettings,
+             calibration: Calibration | None, observe: PieceObserver | None) -> TrialResult:
+    """:func:`analyze_signals` within its trial's collector of warnings."""
     t0 = trial_start(signals)
     parts, cut = _pieces(signals, meta, t0, settings=settings, calibration=calibration,
-                         warn=warn, observe=observe)
+                         observe=observe)
     longest = max(parts, key=lambda p: p.span_s)
     info = longest.info
     frames, strokes = [], 0  # stroke numbers run on from one piece to the next
@@ -375,7 +375,7 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
             strokes += int(p.windows.stroke.max()) + 1
     windows = pd.concat(frames, ignore_index=True) if frames else empty_windows()
     if windows.empty:
-        warn("no steady-sliding window found")
+        emit("no-window")
     # a trial cut in pieces lasted the pieces analysed: a jump of its log's clock is no time
     duration = sum(p.span_s for p in parts) if cut else _trial_end(signals) - t0
     offsets = tuple(_span_mean([(p.offsets[k], p.span_s) for p in parts]) for k in (0, 1))
@@ -388,7 +388,7 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
         "frequency_Hz": info["frequency_Hz"], "amplitude_V": info["amplitude_V"],
         "condition": info["condition"], "duration_s": round(duration, 6),
         "frames": signals.frames,
-        "dropped_frames": _dropped(signals, warn),
+        "dropped_frames": _dropped(signals),
         "duplicate_frames": signals.duplicate_frames,
         "skipped_lines": signals.skipped_lines,
         "friction_modulation_Hz": modulation,
@@ -397,7 +397,7 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
         "tare": "+".join(methods) or "none",
         **_crosstalk(parts, windows, methods),
     }
-    return TrialResult(row=row, windows=windows, warnings=warnings, trace=trace)
+    return TrialResult(row=row, windows=windows, trace=trace)
 
 
 def _crosstalk(parts: list[_PieceResult], windows: pd.DataFrame, methods: list[str]

@@ -36,6 +36,7 @@ from evtribo.documents.tables import (
 from evtribo.errors import UserInputError
 from evtribo.results.pipeline import StudyResults, compute_study, write_results
 from evtribo.results.workers import ProgressCallback
+from evtribo.warning.record import WarningRecord
 
 __all__ = ["COUNT_COLUMNS", "CSV_EXACT", "NEWER_COLUMNS", "TEXT_COLUMNS", "FitView", "Results",
            "analyze", "read_table", "typed_table"]
@@ -107,8 +108,10 @@ class Results(ResultFolder):
     _computed: StudyResults | None = field(default=None, repr=False)
 
     @property
-    def warnings(self) -> list[str]:
-        """What the analysis found worth saying (``summary.json``'s ``warnings``)."""
+    def warnings(self) -> list[WarningRecord]:
+        """What the analysis found worth saying (``summary.json``'s ``warnings``), as
+        records: each with its ``kind``, its ``effect`` on the numbers, its ``text`` and
+        where it was said (``scope``); an older result folder's lines lifted into records."""
         return self.summary.warnings
 
     def __repr__(self) -> str:

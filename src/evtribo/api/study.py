@@ -30,6 +30,7 @@ from evtribo.results.pipeline import study_settings
 from evtribo.study import Study as StudyFolder
 from evtribo.study import TrialRef, load_study
 from evtribo.util.docstrings import fill_doc
+from evtribo.warning.record import WarningRecord
 
 __all__ = ["FORCE_COLUMNS", "Study", "Trial", "open_study", "trial_forces"]
 
@@ -117,8 +118,8 @@ class Study:
         In the study's order (by subject, then trial).
     settings : AnalysisSettings
         The analysis settings: the package's defaults and ``study.toml``'s ``[analysis]``.
-    warnings : list of str
-        What loading the folder found worth saying (files it ignored).
+    warnings : list of WarningRecord
+        What loading the folder found worth saying (files it ignored), as records.
     """
 
     root: Path
@@ -126,7 +127,7 @@ class Study:
     rig: Rig
     trials: list[Trial]
     settings: AnalysisSettings
-    warnings: list[str]
+    warnings: list[WarningRecord]
     _folder: StudyFolder = field(repr=False)
 
     @property

@@ -49,11 +49,14 @@ from evtribo.errors import AnalysisError
 from evtribo.store.files import read_entry, write_checksummed
 from evtribo.store.memo import default_cache_dir
 from evtribo.util.docstrings import fill_doc
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import WarningRecord
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
-CACHE_VERSION = 14  # 2: dropped frames counted by evtribo.canlog.dropped; 3: Rig.counter guess,
+CACHE_VERSION = 15  # 2: dropped frames counted by evtribo.canlog.dropped; 3: Rig.counter guess,
 #                    frames with an unknown multiplexer value ignored; 5: checksummed entries;
 #                    6: channel, logger's DROPCOUNT and decoder warnings kept; 7: waveform
 #                    codes named without a value table (evtribo.canlog.signals.FALLBACK_WAVEFORMS);
@@ -67,7 +70,9 @@ CACHE_VERSION = 14  # 2: dropped frames counted by evtribo.canlog.dropped; 3: Ri
 #                    jumps and the log's clock steps taken out (evtribo.canlog.sequence);
 #                    13: a force's samples outside its DBC range left out (bad samples);
 #                    14: lines stamped 2**63 s or more skipped, lines stamped far ahead a
-#                    stretch of their own, the counters' law (evtribo.canlog.counters)
+#                    stretch of their own, the counters' law (evtribo.canlog.counters);
+#                    15: the decoder's warnings as records (evtribo.warning), every one of
+#                    them kept, the frames lost's notes among them
 _META = b"evtribo.trial"
 #: An entry's file name ends so.
 SUFFIX = ".arrow"
@@ -276,10 +281,9 @@ def _to_table(trial: TrialSignals,
         "version": CACHE_VERSION, "frames": trial.frames, "ignored_frames": trial.ignored_frames,
         "skipped_lines": trial.skipped_lines, "channel": trial.channel,
         "skipped_detail": [list(d) for d in trial.skipped_detail],
-        "logger_dropped": trial.logger_dropped, "warnings": list(trial.warnings),
+        "logger_dropped": trial.logger_dropped, "warnings": [w.as_json() for w in trial.warnings],
         "dropped": [trial.normal.dropped, trial.tangential.dropped],
         "dropped_method": [trial.normal.dropped_method, trial.tangential.dropped_method],
-        "dropped_note": [trial.normal.dropped_note, trial.tangential.dropped_note],
         "duplicates": [trial.normal.duplicates, trial.tangential.duplicates],
         "counter": [trial.normal.counter is not None, trial.tangential.counter is not None],
         "counter_period": [trial.normal.counter_period, trial.tangential.counter_period],
@@ -303,8 +307,8 @@ def _from_table(table: pa.Table) -> TrialSignals:
         sel = stream == k
         cnt = counter[sel].astype(np.int64) if meta["counter"][k] else None
         cells.append(CellSignals(t[sel].copy(), value[sel].copy(), cnt, int(meta["dropped"][k]),
-                                 meta["dropped_method"][k], meta["dropped_note"][k],
-                                 int(meta["duplicates"][k]), meta["counter_period"][k]))
+                                 meta["dropped_method"][k], int(meta["duplicates"][k]),
+                                 meta["counter_period"][k]))
     ex = None
     if meta["excitation"] is not None:
         sel = np.flatnonzero(stream == 2)
@@ -318,7 +322,7 @@ def _from_table(table: pa.Table) -> TrialSignals:
                                              for d in meta["skipped_detail"]),
                         channel=meta["channel"],
                         logger_dropped=int(meta["logger_dropped"]),
-                        warnings=tuple(str(w) for w in meta["warnings"]))
+                        warnings=tuple(WarningRecord.from_json(w) for w in meta["warnings"]))
 
 
 def _rows(col: pa.ChunkedArray, sel: np.ndarray[Any, Any]) -> pa.Array:
@@ -406,7 +410,7 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
             log.debug("%s: decoded trial from the cache in %s", log_path, directory)
             for line, reason in trial.skipped_detail:  # as the reader warned of them
                 where = os.fspath(log_path) if line is None else f"{os.fspath(log_path)}:{line}"
-                log.warning("%s: skipped damaged line: %s", where, reason)
+                emit("damaged-line", where=where, reason=reason)
             return dataclasses.replace(
                 trial, provenance=dataclasses.replace(source, from_cache=True))
     trial = _decode(log_path, rig, strict, expect, channel)
@@ -415,8 +419,7 @@ def load_trial(log_path: str | os.PathLike[str], rig: Rig,
         try:
             _write_atomic(directory, key, _to_table(trial, _scaling(rig)))
         except OSError as err:  # read-only, full, or a file in the way: the trial stands
-            log.warning("%s: cannot write the cache entry (%s); the trial is decoded but "
-                        "not cached", directory, err)
+            emit("cache-unwritable", cache=os.fspath(directory), error=str(err))
     return trial
 
 

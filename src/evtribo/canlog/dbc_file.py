@@ -9,7 +9,6 @@ cantools' parse errors, which do, are cut to the line and column.
 
 from __future__ import annotations
 
-import logging
 import os
 import re
 
@@ -19,8 +18,9 @@ from cantools.database.can import Database
 
 from evtribo.errors import RigConfigError
 from evtribo.store.files import check_regular_file
+from evtribo.warning.collect import emitter
 
-log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["DBC_KEYWORDS", "MAX_DBC_BYTES", "parse_dbc"]
 
@@ -124,7 +124,7 @@ def parse_dbc(path: str | os.PathLike[str], *, source: str | None = None,
             raise RigConfigError(f"cannot parse DBC {_named(path, source)}".rstrip()
                                  + f": {_why(err)}", path=source,
                                  key=key) from None
-        log.warning("%s: %s; decoding it anyway", path, _why(strict_err))
+        emit("dbc-lenient", dbc=str(path), why=_why(strict_err))
     if not isinstance(db, Database):
         raise RigConfigError(f"{_named(path, source)}is not a CAN database", path=source,
                              key=key)

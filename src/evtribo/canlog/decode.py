@@ -38,7 +38,7 @@ values, and multiplexed messages are decoded by cantools itself.
 from __future__ import annotations
 
 import dataclasses
-import logging
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -61,8 +61,11 @@ from evtribo.canlog.signals import (
     TrialProvenance,
     TrialSignals,
 )
+from evtribo.warning.catalogue import kind
+from evtribo.warning.collect import collecting, emitter
+from evtribo.warning.record import Note, WarningRecord
 
-log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 Array = npt.NDArray[np.float64]
 
@@ -146,8 +149,8 @@ def decode_message(frames: FrameTable, message: Message, signals: list[str] | No
     full = sel & (frames.dlc >= message.length)
     short = int(np.count_nonzero(sel)) - int(np.count_nonzero(full))
     if short and not quiet:
-        log.warning("%d frames of %s (0x%X) are shorter than its %d bytes: not decoded",
-                    short, message.name, message.frame_id, message.length)
+        emit("frames-short", frames=short, message=message.name, frame_id=message.frame_id,
+             length=message.length)
     index = np.flatnonzero(full)
     data = take_rows(frames.data, index)
     wanted = [s for s in message.signals if signals is None or s.name in signals]
@@ -161,15 +164,15 @@ def decode_message(frames: FrameTable, message: Message, signals: list[str] | No
         out.raw = {name: np.full(index.size, np.nan) for name in out.codecs}
         out.undecoded, out.undecoded_reason = index, beyond
         if index.size and not quiet:
-            log.warning("%d frames of %s (0x%X) not decoded: %s", index.size, message.name,
-                        message.frame_id, beyond)
+            emit("frames-undecoded", frames=int(index.size), message=message.name,
+                 frame_id=message.frame_id, reason=beyond)
     elif message.is_multiplexed():
         failed, out.undecoded_reason = _decode_multiplexed(message, data, frames.dlc[index], out)
         out.undecoded = index[failed]
         if failed.size and not quiet:
-            log.warning("%d frames of %s (0x%X) could not be decoded (first, frame %d: %s): "
-                        "their signals are NaN", failed.size, message.name, message.frame_id,
-                        out.undecoded[0], out.undecoded_reason)
+            emit("frames-decode-failed", frames=int(failed.size), message=message.name,
+                 frame_id=message.frame_id, first=int(out.undecoded[0]),
+                 reason=out.undecoded_reason)
     else:
         for name, codec in out.codecs.items():
             out.raw[name] = codec.raw(data)
@@ -242,8 +245,7 @@ def decode_messages(frames: FrameTable, db: Database, *, messages: list[str] | N
     """
     out = {}
     wanted = [m for m in db.messages if messages is None or m.name in messages]
-    for text in kind_mismatches(frames, wanted, db):
-        log.warning("%s", text)
+    kind_mismatches(frames, wanted, db)
     for message in wanted:
         mask = message_mask(frames, message)
         if mask.any():
@@ -275,7 +277,7 @@ def _in_time_order(msg: DecodedMessage) -> DecodedMessage:
 
 def _sequenced(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
                undecoded: list[npt.NDArray[np.int64]], *, cell: str, declared: int | None
-               ) -> tuple[DecodedMessage, sequence.Sequenced, int | None, str | None]:
+               ) -> tuple[DecodedMessage, sequence.Sequenced, int | None, Note | None]:
     """One load cell's frames decoded and put in the order sent
     (:func:`~evtribo.canlog.sequence.sending_order`), its counter's period (its places,
     ``+1`` a frame, are the counter the stream keeps: :mod:`evtribo.canlog.counters.law`) and
@@ -292,22 +294,20 @@ def _sequenced(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
         if law.counts:
             received, modulus = law.place(raw), law.period
     elif counter is not None:
-        log.warning("counter %s is not in the force's message %s: timing gaps only",
-                    counter.qualified_name, force.message.name)
+        emit("counter-elsewhere", counter=counter.qualified_name, message=force.message.name)
     return msg, sequence.sending_order(msg.timestamp, received, modulus,
                                        take_rows(frames.data, msg.index)), modulus, note
 
 
-def _cells(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]],
-           warnings: list[str]) -> tuple[FrameTable, list[CellSignals]]:
+def _cells(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]]
+           ) -> tuple[FrameTable, list[CellSignals]]:
     """The two load cells in time order and the frames missing from each (counted in the
     order sent, duplicates left out), once the logger's clock steps are taken out of the
-    whole log (the amplifier's frames with them); what was put right is said in
-    *warnings*."""
+    whole log (the amplifier's frames with them); what was put right is said."""
     roles = [(rig.normal_force, rig.counter("normal"), "normal"),
              (rig.tangential_force, rig.counter("tangential"), "tangential")]
 
-    def each() -> list[tuple[DecodedMessage, sequence.Sequenced, int | None, str | None]]:
+    def each() -> list[tuple[DecodedMessage, sequence.Sequenced, int | None, Note | None]]:
         return [_sequenced(frames, force, counter, undecoded, cell=cell,
                            declared=rig.counter_period(cell)) for force, counter, cell in roles]
 
@@ -317,23 +317,51 @@ def _cells(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]],
         frames = dataclasses.replace(frames, timestamp=sequence.clock_corrected(
             frames.timestamp, [(b, a, step) for b, a, step, _ in steps]))
         cells = each()
-    warnings += [note for _, _, _, note in cells if note]
+    for _, _, _, note in cells:
+        if note is not None:
+            emit(note.kind, **note.mapping)
     t0 = min((float(m.timestamp.min()) for m, _, _, _ in cells if len(m)), default=0.0)
     named = [(f.message.name, None if c is None else c.qualified_name, s)
              for (f, c, _), (_, s, _, _) in zip(roles, cells, strict=True)]
-    warnings += sequence.said(steps, named, t0)
-    out = []
-    for (msg, seq, modulus, _), (force, _, _) in zip(cells, roles, strict=True):
+    sequence.say(steps, named, t0)
+    out, lost = [], []
+    for (msg, seq, modulus, _), (force, _, cell) in zip(cells, roles, strict=True):
         found = missing_frames_received(seq.t, seq.counter, modulus)  # bad samples too
         t, value = seq.t[seq.by_time], msg.scaled(force.signal.name)[seq.rows[seq.by_time]]
-        bad, text = bad_samples(t, value, force.signal, t0, force.qualified_name)
-        warnings += [text] if text else []
+        bad = bad_samples(t, value, force.signal, t0, force.qualified_name)
+        lost.append((cell, found.notes))
         counted = seq.counter is not None and modulus is not None and not found.counter_ignored
         out.append(CellSignals(t[~bad], value[~bad], seq.counter[seq.by_time][~bad]
                                if counted and seq.counter is not None else None,
-                               found.count, found.method, found.note, seq.duplicates,
+                               found.count, found.method, seq.duplicates,
                                counter_period=modulus if counted else None))
+    for cell, notes in lost:
+        say_lost(cell, notes)
     return frames, out
+
+
+def say_lost(cell: str, notes: Iterable[Note]) -> list[WarningRecord]:
+    """Say how a load cell's lost frames were counted where the count may be unreliable:
+    each note of its :class:`~evtribo.canlog.dropped.DropCount` a warning of its own, each
+    sentence once (two pieces of a trial may say the same).
+
+    Parameters
+    ----------
+    cell : {"normal", "tangential"}
+    notes : iterable of Note
+        ``DropCount.notes``.
+
+    Returns
+    -------
+    list of WarningRecord
+    """
+    said: dict[str, WarningRecord] = {}
+    for note in notes:
+        values = {**note.mapping, "cell": cell}
+        text = kind(note.kind).text(values)
+        if text not in said:
+            said[text] = emit(note.kind, **values)
+    return list(said.values())
 
 
 def _hold(t_src: Array, values: npt.NDArray[Any], t: Array) -> npt.NDArray[Any]:
@@ -342,10 +370,10 @@ def _hold(t_src: Array, values: npt.NDArray[Any], t: Array) -> npt.NDArray[Any]:
     return values[idx] if len(t_src) else np.zeros(len(t), dtype=values.dtype)
 
 
-def waveform_names(msg: DecodedMessage, ref: SignalRef, warnings: list[str]
-                   ) -> npt.NDArray[np.object_]:
+def waveform_names(msg: DecodedMessage, ref: SignalRef) -> npt.NDArray[np.object_]:
     """Names of a waveform signal's codes: its value table's, else :data:`FALLBACK_WAVEFORMS`
-    (with a warning naming the signal); None where a multiplexed frame does not carry it.
+    (with a warning naming the signal, ``waveform-codes``); None where a multiplexed frame
+    does not carry it.
 
     Parameters
     ----------
@@ -353,8 +381,6 @@ def waveform_names(msg: DecodedMessage, ref: SignalRef, warnings: list[str]
         The decoded frames of the signal's message.
     ref : SignalRef
         The waveform signal.
-    warnings : list of str
-        Where the warning on a missing value table is added.
 
     Returns
     -------
@@ -364,11 +390,8 @@ def waveform_names(msg: DecodedMessage, ref: SignalRef, warnings: list[str]
     codec = msg.codecs[ref.signal.name]
     raw = msg.raw[ref.signal.name]
     if not codec.choices:
-        text = (f"the DBC gives the waveform signal {ref.qualified_name} no value table: its "
-                "codes are read as " + ", ".join(f"{k} {v}" for k, v in
-                                                 FALLBACK_WAVEFORMS.items()))
-        log.warning("%s", text)
-        warnings.append(text)
+        emit("waveform-codes", signal=ref.qualified_name,
+             codes=", ".join(f"{k} {v}" for k, v in FALLBACK_WAVEFORMS.items()))
         codec = dataclasses.replace(codec, choices=FALLBACK_WAVEFORMS)
     names = np.full(raw.shape, None, dtype=object)
     present = np.isfinite(raw) if raw.dtype.kind == "f" else np.ones(raw.shape, dtype=bool)
@@ -376,8 +399,8 @@ def waveform_names(msg: DecodedMessage, ref: SignalRef, warnings: list[str]
     return names
 
 
-def _excitation(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]],
-                warnings: list[str]) -> ExcitationSignals | None:
+def _excitation(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]]
+                ) -> ExcitationSignals | None:
     """The amplifier's status signals, each held at the times of the first role's message."""
     roles = {r.removeprefix("excitation_"): ref for r, ref in rig.measured_roles.items()
              if r.startswith("excitation_")}
@@ -398,7 +421,7 @@ def _excitation(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int
         msg = by_msg[ref.message.name]
         values: npt.NDArray[Any] = (
             msg.raw[ref.signal.name] != 0 if name == "enabled"
-            else waveform_names(msg, ref, warnings) if name == "waveform"
+            else waveform_names(msg, ref) if name == "waveform"
             else msg.scaled(ref.signal.name))
         return values if msg is base else _hold(msg.timestamp, values, base.timestamp)
 
@@ -433,41 +456,45 @@ def decode_trial(frames: FrameTable, rig: Rig, *, channel: str | None = None) ->
     Returns
     -------
     TrialSignals
+        Its ``warnings`` are what decoding it found to say, each also said as it is found
+        (kept by the innermost collector's scope, the trial a worker analyses, when there
+        is one: :mod:`evtribo.warning.collect`).
 
     Raises
     ------
     UserInputError
         *channel* is not one of the log's channels.
     """
+    with collecting() as said:
+        return dataclasses.replace(_decode_trial(frames, rig, channel), warnings=tuple(said))
+
+
+def _decode_trial(frames: FrameTable, rig: Rig, channel: str | None) -> TrialSignals:
+    """:func:`decode_trial` but for its warnings."""
     total = len(frames) + frames.xl_frames
-    warnings: list[str] = []
-    frames, chosen = rig_channel(frames, rig, channel, warnings)
-    for text in kind_mismatches(frames, rig_messages(rig), rig.database):
-        log.warning("%s", text)
-        warnings.append(text)
+    frames, chosen = rig_channel(frames, rig, channel)
+    kind_mismatches(frames, rig_messages(rig), rig.database)
     drops = frames.reported_drops
     logger_dropped = (sum(drops.values()) if chosen is None or len(frames.channel_names) <= 1
                       else drops.get(chosen, 0))
     with np.errstate(invalid="ignore"):
         finite = np.abs(frames.timestamp) < IMPOSSIBLE_TIMESTAMP  # NaN too: no clock's time
     if not finite.all():
-        log.warning("%d frames with a timestamp that is not a finite number or is 2^63 or "
-                    "more (no clock's): not decoded", len(frames) - int(np.count_nonzero(finite)))
+        emit("timestamps-nonfinite", frames=len(frames) - int(np.count_nonzero(finite)))
         frames = frames.take(finite)
     # logs merged or written out of order, clocks that stepped: each cell is put in the
     # order sent on its own, its lost frames counted in that order, the log's clock steps
     # taken out of every frame (the counter the logger checks too: the rig's role, or a
     # *Counter signal of the cell)
     undecoded: list[npt.NDArray[np.int64]] = []
-    frames, (normal, tangential) = _cells(frames, rig, undecoded, warnings)
-    excitation = _excitation(frames, rig, undecoded, warnings)
+    frames, (normal, tangential) = _cells(frames, rig, undecoded)
+    excitation = _excitation(frames, rig, undecoded)
     n = _decoded_count(frames, rig, undecoded)
     return TrialSignals(normal, tangential, excitation, frames=n, ignored_frames=total - n,
-                        channel=chosen, logger_dropped=logger_dropped,
-                        warnings=tuple(warnings))
+                        channel=chosen, logger_dropped=logger_dropped)
 
 
 __all__ = ["FALLBACK_WAVEFORMS", "CellSignals", "DecodedMessage", "ExcitationSignals",
            "SignalCodec", "TrialProvenance", "TrialSignals", "beyond_length", "decode_message",
-           "decode_messages",
-           "decode_trial", "kind_mismatches", "message_mask", "waveform_names"]
+           "decode_messages", "decode_trial", "kind_mismatches", "message_mask", "say_lost",
+           "waveform_names"]

@@ -30,6 +30,8 @@ from evtribo.canlog.rig import load_dbc
 from evtribo.canlog.signal_codec import SignalCodec
 from evtribo.errors import LogFormatError, RigConfigError, UserInputError
 from evtribo.store.files import atomic_open
+from evtribo.warning.collect import collecting
+from evtribo.warning.record import Scope
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -170,8 +172,10 @@ def _block(frames: FrameTable, db: Database, channel: str | None) -> _Block:
     facts = _Facts(channels=dict.fromkeys(frames.channel_names))
     if channel is not None:
         frames = frames.take(frames.on_channel(channel))
-    for text in kind_mismatches(frames, db.messages, db):  # "<n> frames have ..."
-        n, rest = text.split(" ", 1)
+    with collecting(Scope(), quiet=True) as found:  # said once for the log: _warn
+        kind_mismatches(frames, db.messages, db)
+    for record in found:  # "<n> frames have ..."
+        n, rest = record.text.split(" ", 1)
         facts.kinds[rest] += int(n)
     masks = {}
     rows = np.zeros(len(frames), dtype=bool)

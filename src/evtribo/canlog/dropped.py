@@ -48,6 +48,7 @@ import numpy.typing as npt
 
 from evtribo.canlog.outages import lasting_gaps, outage_count, whole_periods
 from evtribo.util.median import median
+from evtribo.warning.record import Note
 
 log = logging.getLogger(__name__)
 
@@ -214,8 +215,10 @@ class DropCount:
         The stream's estimated period (NaN when not estimated).
     coherence : float
         Regularity of the timestamps at that period (0 to 1, see :func:`coherence`).
-    note : str or None
-        Why the count may be unreliable.
+    notes : tuple of Note
+        Why the count may be unreliable (``frames-lost-outages``, ``frames-lost-clock``,
+        ``counter-overcounts``, ``periods-unsure``...), each said of its load cell by the
+        decoder.
     counter_ignored : bool
         The counter counted more frames lost than the stream's time holds: the count is the
         timing's, and the counter says nothing of the frames.
@@ -225,7 +228,7 @@ class DropCount:
     method: str
     period_s: float = float("nan")
     coherence: float = float("nan")
-    note: str | None = None
+    notes: tuple[Note, ...] = ()
     counter_ignored: bool = False
 
 
@@ -261,8 +264,13 @@ def _with_counter(t: npt.NDArray[np.float64], c: npt.NDArray[np.int64],
     if wraps > 0:
         log.info("the timing shows %d whole counter period(s) of %d frames lost at once",
                  wraps, modulus)
-        return DropCount(by_counter + wraps * modulus, "counter+timing", period, note=note)
-    return DropCount(by_counter, "counter", period, note=note)
+        return DropCount(by_counter + wraps * modulus, "counter+timing", period,
+                         notes=_notes(note))
+    return DropCount(by_counter, "counter", period, notes=_notes(note))
+
+
+def _notes(note: Note | None) -> tuple[Note, ...]:
+    return () if note is None else (note,)
 
 
 def missing_frames(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
@@ -320,13 +328,10 @@ def _within_time(t: npt.NDArray[np.float64], c: npt.NDArray[np.int64], found: Dr
     if found.count <= held + SLACK_SHARE * t.size + 2 * late + 4:
         return found
     timed = _by_timing(t)
-    said = (f"the counter counts {found.count} frames lost where the stream's "
-            f"{t[-1] - t[0]:.3f} s hold {max(round(held), 0)} at most at its rate "
-            f"({1 / frame_s:.0f} Hz): it does not count every frame; counted from the "
-            "timestamps, and the counter ignored")
+    said = Note("counter-overcounts", {"counted": found.count, "span_s": float(t[-1] - t[0]),
+                                       "held": max(round(held), 0), "rate_Hz": 1 / frame_s})
     return DropCount(timed.count, timed.method, timed.period_s, timed.coherence,
-                     "; ".join([said, *([timed.note] if timed.note else [])]),
-                     counter_ignored=True)
+                     (said, *timed.notes), counter_ignored=True)
 
 
 def _by_timing(t: npt.NDArray[np.float64]) -> DropCount:
@@ -358,11 +363,9 @@ def _outages_only(t: npt.NDArray[np.float64], period: float, coh: float) -> Drop
     """The outages of a stream whose timestamps cannot show single lost frames, with a note
     saying so."""
     count, seen = outage_count(t)
-    why = ("frames received in bursts, " if _bursty(t, period) else "") + f"coherence {coh:.2f}"
-    return DropCount(count, "outages", period, coh, (
-        f"timestamps too irregular ({why}) to see single lost frames without a counter: only "
-        f"outages of {max(int(np.ceil(seen)), 2)} or more frames in a row, away from the "
-        "trial's ends, are counted"))
+    return DropCount(count, "outages", period, coh, (Note("frames-lost-outages", {
+        "bursts": "frames received in bursts, " if _bursty(t, period) else "",
+        "coherence": coh, "frames": max(int(np.ceil(seen)), 2)}),))
 
 
 def count_dropped(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
@@ -435,13 +438,15 @@ def missing_frames_received(t: npt.ArrayLike, counter: npt.ArrayLike | None = No
     if c is not None and modulus:
         count += int(((c[cuts] - c[cuts - 1] - 1) % modulus).sum())
     methods = list(dict.fromkeys(f.method for f in found))
-    notes = [f.note for f in found if f.note]
+    notes = [n for f in found for n in f.notes]
     steps = np.diff(times)[cuts - 1]
     what = " and ".join(w for w, n in (("jumped back", int((steps < 0).sum())),
                                        ("jumped ahead or paused", int((steps > 0).sum())))
                         if n)
-    notes.append(f"the clock {what} by more than {CLOCK_JUMP_S:g} s; frames missing across "
-                 + ("it counted by the counter alone (whole counter periods lost there cannot "
-                    "be seen)" if c is not None else "it cannot be counted"))
-    return DropCount(int(min(count, MAX_COUNT)), "+".join(methods), note="; ".join(
-        dict.fromkeys(notes)), counter_ignored=any(f.counter_ignored for f in found))
+    notes.append(Note("frames-lost-clock", {
+        "jumped": what, "jump_s": CLOCK_JUMP_S,
+        "counted": "counted by the counter alone (whole counter periods lost there cannot be "
+                   "seen)" if c is not None else "cannot be counted"}))
+    return DropCount(int(min(count, MAX_COUNT)), "+".join(methods),
+                     notes=tuple(dict.fromkeys(notes)),
+                     counter_ignored=any(f.counter_ignored for f in found))

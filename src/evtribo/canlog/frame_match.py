@@ -19,8 +19,6 @@ them, with a warning when its messages arrive on several (:func:`rig_channel`).
 
 from __future__ import annotations
 
-import logging
-
 import numpy as np
 import numpy.typing as npt
 from cantools.database.can import Database, Message
@@ -29,8 +27,10 @@ from evtribo.canlog.io.ids import id_text
 from evtribo.canlog.io.table import FrameTable
 from evtribo.canlog.rig import Rig
 from evtribo.errors import UserInputError
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import WarningRecord
 
-log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["is_fd_message", "kind_mismatches", "message_mask", "rig_channel", "rig_messages"]
 
@@ -78,11 +78,12 @@ def _id_text(frame_id: int, extended: bool) -> str:
         frame_id, extended)
 
 
-def kind_mismatches(frames: FrameTable, messages: list[Message], db: Database) -> list[str]:
-    """Why frames with the ID number of one of *messages* are not decoded as it: the ID is of
-    the other kind (standard or extended), or the frame is CAN FD where the message is a
-    classic CAN one (or the other way round), and *db* has no message of that kind. One
-    sentence per message and reason, beginning with the number of frames.
+def kind_mismatches(frames: FrameTable, messages: list[Message], db: Database
+                    ) -> list[WarningRecord]:
+    """Say why frames with the ID number of one of *messages* are not decoded as it: the ID
+    is of the other kind (standard or extended), or the frame is CAN FD where the message is
+    a classic CAN one (or the other way round), and *db* has no message of that kind. One
+    warning per message and reason (``frames-id-kind``, ``frames-fd-kind``).
 
     Parameters
     ----------
@@ -95,7 +96,8 @@ def kind_mismatches(frames: FrameTable, messages: list[Message], db: Database) -
 
     Returns
     -------
-    list of str
+    list of WarningRecord
+        The warnings said.
     """
     known = {(m.frame_id, bool(m.is_extended_frame), is_fd_message(m)) for m in db.messages}
     data = ~frames.is_error & ~frames.is_remote
@@ -107,17 +109,16 @@ def kind_mismatches(frames: FrameTable, messages: list[Message], db: Database) -
                                             & (frames.is_fd == f)))
                        for f in (False, True) if (m.frame_id, not ext, f) not in known)
         if other_id:
-            out.append(f"{other_id} frames have the {_id_text(m.frame_id, not ext)}, but the "
-                       f"DBC's message {m.name} has the {_id_text(m.frame_id, ext)}: not "
-                       f"decoded as {m.name} (the kind of ID is part of it)")
+            out.append(emit("frames-id-kind", frames=other_id,
+                            id_seen=_id_text(m.frame_id, not ext),
+                            id_declared=_id_text(m.frame_id, ext), message=m.name))
         other_fd = 0 if (m.frame_id, ext, not fd) in known else int(np.count_nonzero(
             same & (frames.is_extended == ext) & (frames.is_fd != fd)))
         if other_fd:
             kinds = ("CAN FD", "classic CAN") if fd else ("classic CAN", "CAN FD")
-            out.append(f"{other_fd} {kinds[1]} frames have the {_id_text(m.frame_id, ext)} "
-                       f"of the DBC's {kinds[0]} message {m.name}: not decoded as {m.name}, "
-                       f"counted with the frames the DBC does not describe (a CAN FD frame "
-                       f"is only an FD message, a classic frame only a classic one)")
+            out.append(emit("frames-fd-kind", frames=other_fd, kind_seen=kinds[1],
+                            id_text=_id_text(m.frame_id, ext), kind_declared=kinds[0],
+                            message=m.name))
     return out
 
 
@@ -142,7 +143,7 @@ def _rig_mask(frames: FrameTable, rig: Rig) -> npt.NDArray[np.bool_]:
     return mask
 
 
-def rig_channel(frames: FrameTable, rig: Rig, channel: str | None, warnings: list[str]
+def rig_channel(frames: FrameTable, rig: Rig, channel: str | None
                 ) -> tuple[FrameTable, str | None]:
     """The frames of the channel the rig is decoded from, and its name.
 
@@ -152,9 +153,8 @@ def rig_channel(frames: FrameTable, rig: Rig, channel: str | None, warnings: lis
         The log's frames.
     rig : Rig
     channel : str or None
-        The channel asked for (None: the one carrying most of the rig's frames).
-    warnings : list of str
-        Where a warning is added when the rig's frames arrive on several channels.
+        The channel asked for (None: the one carrying most of the rig's frames); a warning
+        (``channels-several``) when the rig's frames arrive on several.
 
     Returns
     -------
@@ -178,12 +178,9 @@ def rig_channel(frames: FrameTable, rig: Rig, channel: str | None, warnings: lis
     if len(counts) > 1:
         shared = [m.name for m in rig_messages(rig)
                   if len(frames.channel_counts(message_mask(frames, m))) > 1]
-        text = ("the rig's messages arrive on several channels ("
-                + ", ".join(f"{k}: {v} frames" for k, v in counts.items()) + ")"
-                + (f", {', '.join(shared)} on more than one" if shared else "")
-                + f": decoded from {chosen}"
-                + (" (the channel carrying most of them)" if channel is None else "")
-                + "; the others are ignored, never merged (choose with channel=...)")
-        log.warning("%s", text)
-        warnings.append(text)
+        emit("channels-several",
+             counts=", ".join(f"{k}: {v} frames" for k, v in counts.items()),
+             shared=f", {', '.join(shared)} on more than one" if shared else "",
+             channel=chosen, chosen=" (the channel carrying most of them)"
+             if channel is None else "")
     return frames.take(frames.on_channel(chosen)), chosen

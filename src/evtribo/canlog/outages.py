@@ -20,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from evtribo.util.median import median
+from evtribo.warning.record import Note
 
 __all__ = ["LARGEST_STEP_S", "MAX_CANDIDATES", "MIN_OUTAGE", "Lead", "envelope_noise",
            "lasting_gaps", "outage_count", "whole_periods"]
@@ -154,7 +155,7 @@ def outage_count(t: npt.ArrayLike) -> tuple[int, float]:
 
 
 def whole_periods(t: npt.NDArray[np.float64], index: npt.NDArray[np.float64],
-                   pauses: npt.NDArray[np.intp], modulus: int) -> tuple[int, str | None]:
+                   pauses: npt.NDArray[np.intp], modulus: int) -> tuple[int, Note | None]:
     """Whole counter periods lost in the *pauses* (steps where the counter shows frames lost
     and the stream paused for half a counter period or more), and a note where the timing
     cannot tell.
@@ -178,17 +179,16 @@ def whole_periods(t: npt.NDArray[np.float64], index: npt.NDArray[np.float64],
     -------
     wraps : int
         Whole counter periods lost, in all.
-    note : str or None
-        The pauses where the timing cannot tell (too noisy for the counter's period).
+    note : Note or None
+        The pauses where the timing cannot tell (too noisy for the counter's period):
+        ``periods-unsure``, or ``periods-unsure-still`` where no time passes between them.
     """
     bounds = np.r_[0, pauses + 1, t.size]
     # the period from the stretches between the pauses (what they hide left out)
     first, last = bounds[:-1], bounds[1:] - 1
     period = float(np.sum(t[last] - t[first]) / max(np.sum(index[last] - index[first]), 1.0))
     if not (np.isfinite(period) and period > 0):  # no time passes between the pauses
-        return 0, ("whole counter periods may have been lost in the pauses (the timestamps "
-                   "stand still between them; the timing cannot tell): counted by the counter "
-                   "alone")
+        return 0, Note("periods-unsure-still")
     lead = index - (t - t[0]) / period
     tolerance = max(2.0, 4 * _noise(_envelope(t, index, period)[1]))
     reach = max(2 * modulus, 64)
@@ -202,10 +202,9 @@ def whole_periods(t: npt.NDArray[np.float64], index: npt.NDArray[np.float64],
             unsure.append(f"{t[j + 1] - t[j]:.3g} s at {t[j] - t[0]:.3f} s")
         elif k > 0:
             wraps += k
-    note = None if not unsure else (
-        "whole counter periods may have been lost in the pause(s) of " + ", ".join(unsure[:3])
-        + (" ..." if len(unsure) > 3 else "") + f" (the counter repeats every {modulus} "
-        "frames; the timing cannot tell): counted by the counter alone")
+    note = None if not unsure else Note("periods-unsure", {
+        "pauses": ", ".join(unsure[:3]) + (" ..." if len(unsure) > 3 else ""),
+        "period": modulus})
     return wraps, note
 
 

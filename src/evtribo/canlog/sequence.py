@@ -43,11 +43,14 @@ import numpy as np
 import numpy.typing as npt
 
 from evtribo.canlog.outages import Lead
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import WarningRecord
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["DUPLICATE_REACH", "REORDER_REACH", "ClockStep", "CounterJump", "Sequenced",
-           "clock_corrected", "log_clock_steps", "said", "sending_order"]
+           "clock_corrected", "log_clock_steps", "say", "sending_order"]
 
 FloatArray = npt.NDArray[np.float64]
 IntArray = npt.NDArray[np.int64]
@@ -419,9 +422,11 @@ def log_clock_steps(streams: list[tuple[npt.NDArray[np.int64], Sequenced]]
     return out
 
 
-def said(steps: list[tuple[int, int, float, float]],
-         cells: list[tuple[str, str | None, Sequenced]], t0: float) -> list[str]:
-    """What was put right in a trial's streams, in words, each time from the trial's start.
+def say(steps: list[tuple[int, int, float, float]],
+        cells: list[tuple[str, str | None, Sequenced]], t0: float) -> list[WarningRecord]:
+    """Say what was put right in a trial's streams, each time from the trial's start
+    (``clock-step``, ``counter-restart``, ``counter-jump``, ``frames-twice``,
+    ``counter-stood``).
 
     Parameters
     ----------
@@ -435,31 +440,24 @@ def said(steps: list[tuple[int, int, float, float]],
 
     Returns
     -------
-    list of str
-        One sentence per clock step, counter jump, and cell with duplicates.
+    list of WarningRecord
+        One per clock step, counter jump, and cell with duplicates, in that order.
     """
     out = []
     for _, _, step, t in steps:
-        out.append(f"the logger's clock stepped {'back' if step < 0 else 'ahead'} by "
-                   f"{abs(step):.3f} s at {t - t0:.3f} s into the trial: the frames after it "
-                   "are put back on the clock of those before (the load cells' counters say "
-                   "no time passed there)")
+        out.append(emit("clock-step", direction="back" if step < 0 else "ahead",
+                        step_s=abs(step), at_s=t - t0))
     for name, counter, seq in cells:
         for jump in seq.jumps:
-            how = "restarted at 0" if jump.new == 0 else f"jumped from {jump.old} to {jump.new}"
-            out.append(f"the counter {counter} {how} at {jump.t - t0:.3f} s into the trial: "
-                       f"{jump.lost} frame{'' if jump.lost == 1 else 's'} lost there, by the "
-                       "timing, not the counter's step")
+            out.append(emit("counter-restart" if jump.new == 0 else "counter-jump",
+                            counter=counter, old=jump.old, new=jump.new, at_s=jump.t - t0,
+                            lost=jump.lost))
         if seq.duplicates:
-            out.append(f"{seq.duplicates} frame{'s' if seq.duplicates > 1 else ''} of {name} "
-                       f"received twice, the first at {seq.first_duplicate - t0:.3f} s into "
-                       "the trial (the counter and the payload of a frame just before): "
-                       "dropped, counted in duplicate_frames")
+            out.append(emit("frames-twice", frames=seq.duplicates, message=name,
+                            at_s=seq.first_duplicate - t0))
         if seq.stood:
-            out.append(f"the counter {counter} stood still for {seq.stood} frames, the first at "
-                       f"{seq.first_stood - t0:.3f} s into the trial (the value of the frame "
-                       "before, another payload): each taken for the next frame, not 255 "
-                       "lost")
+            out.append(emit("counter-stood", counter=counter, frames=seq.stood,
+                            at_s=seq.first_stood - t0))
         if seq.reordered:
             log.info("%d frames of %s arrived out of their place: put back in the counter's "
                      "order", seq.reordered, name)

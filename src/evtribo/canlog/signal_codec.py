@@ -16,6 +16,10 @@ import numpy as np
 import numpy.typing as npt
 from cantools.database.can import Signal
 
+from evtribo.warning.collect import emitter
+
+emit = emitter(__name__)
+
 Array = npt.NDArray[np.float64]
 
 
@@ -173,11 +177,12 @@ MAX_OUT_OF_RANGE = 0.01
 
 
 def bad_samples(t: Array, values: Array, signal: Signal, t0: float, name: str
-                ) -> tuple[npt.NDArray[np.bool_], str | None]:
+                ) -> npt.NDArray[np.bool_]:
     """The samples of a signal no sensor gives: no number (infinite, or NaN where every
     frame carries the signal: a multiplexed one's NaN are frames without it), or outside the
     DBC's declared ``[minimum|maximum]`` (by more than half a scale step; a float node's
-    3.4e38 "no reading"), and what to say of them.
+    3.4e38 "no reading"), said (``samples-bad``, or ``samples-range-wrong`` where most miss
+    the range).
 
     Outside the range, the samples are bad only while they are few (at most
     :data:`MAX_OUT_OF_RANGE` of them: spikes); where more miss it, the range is wrong for
@@ -198,10 +203,8 @@ def bad_samples(t: Array, values: Array, signal: Signal, t0: float, name: str
 
     Returns
     -------
-    bad : ndarray of bool
+    ndarray of bool
         The samples to leave out.
-    said : str or None
-        A sentence on them (or on a range most samples miss), or None.
     """
     with np.errstate(invalid="ignore"):
         # NaN where a multiplexed signal is not in a frame: no sample, not a bad one
@@ -214,18 +217,17 @@ def bad_samples(t: Array, values: Array, signal: Signal, t0: float, name: str
         if hi is not None:
             outside |= values > float(hi) + step
     unit = f" {signal.unit}" if signal.unit else ""
-    where = f"the DBC's declared range [{lo}, {hi}]{unit}"
+    declared = f"[{lo}, {hi}]{unit}"
     share = np.count_nonzero(outside) / max(values.size, 1)
     if share > MAX_OUT_OF_RANGE:
-        return bad, (f"{share:.0%} of the samples of {name} are outside {where}: "
-                     "kept, the range is wrong for this sensor (fix the DBC's range)")
+        emit("samples-range-wrong", share=float(share), signal=name, range=declared)
+        return bad
     bad |= outside
-    if not bad.any():
-        return bad, None
-    k = int(np.argmax(bad))
-    return bad, (f"{int(bad.sum())} samples of {name} are no number or outside {where} "
-                 f"(the first at {t[k] - t0:.3f} s into the trial: {values[k]:.3g}): left "
-                 "out as bad samples")
+    if bad.any():
+        k = int(np.argmax(bad))
+        emit("samples-bad", samples=int(bad.sum()), signal=name, range=declared,
+             at_s=float(t[k] - t0), value=float(values[k]))
+    return bad
 
 
 __all__ = ["MAX_OUT_OF_RANGE", "SignalCodec", "bad_samples", "scaled"]

@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import numpy.typing as npt
 
+from evtribo.warning.record import WarningRecord
+
 __all__ = ["FALLBACK_WAVEFORMS", "CellSignals", "ExcitationSignals", "TrialProvenance",
            "TrialSignals"]
 
@@ -43,9 +45,8 @@ class CellSignals:
     dropped : int
         Frames missing, by the counter (wrap-around aware) and by timing gaps.
     dropped_method : str
-        How they were counted (:class:`evtribo.canlog.dropped.DropCount`'s ``method``).
-    dropped_note : str or None
-        Why the count may be unreliable.
+        How they were counted (:class:`evtribo.canlog.dropped.DropCount`'s ``method``; why
+        the count may be unreliable is said as the trial is decoded).
     duplicates : int
         Frames received twice (the counter and the payload of a frame just before), left
         out of the samples (:mod:`evtribo.canlog.sequence`).
@@ -60,7 +61,6 @@ class CellSignals:
     counter: npt.NDArray[np.int64] | None
     dropped: int
     dropped_method: str = "counter"
-    dropped_note: str | None = None
     duplicates: int = 0
     counter_period: int | None = None
 
@@ -136,9 +136,11 @@ class TrialSignals:
     logger_dropped : int
         Frames the recording tool said it dropped on that channel (candump's ``DROPCOUNT``
         notices): frames of any ID, lost before they were logged.
-    warnings : tuple of str
+    warnings : tuple of WarningRecord
         What the decoder found worth saying about this trial (the rig's IDs on several
-        channels, frames whose kind of ID is not the DBC's, a waveform without value table).
+        channels, frames whose kind of ID is not the DBC's, a waveform without value table,
+        the logger's clock steps, frames lost...), as records; the analysis says them of
+        the trial that reads them (:func:`evtribo.warning.collect.rescoped`).
     provenance : TrialProvenance
         Where the trial came from (set by :func:`evtribo.canlog.cache.load_trial`).
     """
@@ -152,7 +154,7 @@ class TrialSignals:
     skipped_detail: tuple[tuple[int | None, str], ...] = ()
     channel: str | None = None
     logger_dropped: int = 0
-    warnings: tuple[str, ...] = ()
+    warnings: tuple[WarningRecord, ...] = ()
     provenance: TrialProvenance = field(default_factory=TrialProvenance)
 
     @property

@@ -3,9 +3,13 @@ software, settings, counts, warnings, the tables written and their hashes, ``run
 
 The document is a JSON object written with two-space indentation, non-ASCII characters as
 they are, and a final newline (:func:`summary_text`); its keys are listed in
-:data:`SUMMARY_KEYS` in the order ``analyze`` writes them. It carries no version key of its
-own: :data:`SUMMARY_VERSION` is the version of the shape this module writes and reads, to be
-written into the document the day the shape changes.
+:data:`SUMMARY_KEYS` in the order ``analyze`` writes them. Its ``summary_version``
+(:data:`SUMMARY_VERSION`) is the version of its shape: 2 keeps each warning as a record
+(:class:`~evtribo.warning.record.WarningRecord`'s object: ``kind``, ``effect``, ``text``, the
+scope's ``subject``, ``trial``, ``waveform``, ``frequency_Hz``, ``amplitude_V``, ``values``,
+``source``); a document without it (version 1, written by an earlier evtribo) keeps each
+warning as a line of text, lifted into a record when read
+(:func:`evtribo.warning.legacy.lift_all`).
 
 :func:`read_summary` gives a :class:`Summary`: the document as a read-only mapping (every key
 as written), with the keys other modules rely on as typed attributes, checked when read.
@@ -22,18 +26,21 @@ from typing import Any
 
 from evtribo.errors import ResultFolderError
 from evtribo.store.files import atomic_write, read_regular
+from evtribo.warning.legacy import lift_all
+from evtribo.warning.record import WarningRecord
 
 __all__ = ["SUMMARY_FILE", "SUMMARY_KEYS", "SUMMARY_VERSION", "InputRecord", "Summary",
            "read_summary", "summary_text", "write_summary"]
 
 #: The file's name in a result folder.
 SUMMARY_FILE = "summary.json"
-#: Version of the shape of the document (not written into it; see the module's text).
-SUMMARY_VERSION = 1
+#: Version of the shape of the document, its ``summary_version`` (none: 1, warnings as
+#: lines of text).
+SUMMARY_VERSION = 2
 #: The keys ``evtribo analyze`` writes, in its order.
 SUMMARY_KEYS: tuple[str, ...] = (
-    "study", "run_id", "evtribo_version", "created", "study_dir", "started", "inputs", "rig",
-    "software", "host", "subjects", "trials", "trials_analysed", "failed_trials",
+    "study", "run_id", "evtribo_version", "summary_version", "created", "study_dir", "started",
+    "inputs", "rig", "software", "host", "subjects", "trials", "trials_analysed", "failed_trials",
     "duplicate_trials", "windows_on", "windows_off", "frames", "dropped_frames",
     "skipped_lines", "strict", "jobs", "calibration", "settings", "warnings", "outputs",
     "output_sha256", "elapsed_s")
@@ -98,10 +105,16 @@ class Summary(Mapping[str, Any]):
     def check(self) -> Summary:
         """Raise :class:`ResultFolderError` naming the first key of the wrong kind; return
         self."""
-        for name in ("study", "run_id", "study_dir", "evtribo_version", "inputs", "rig",
+        for name in ("study", "run_id", "study_dir", "evtribo_version", "version", "inputs", "rig",
                      "software", "settings", "warnings", "failed_trials", "output_sha256"):
             getattr(self, name)
         return self
+
+    @property
+    def version(self) -> int:
+        """The shape's version (``summary_version``; 1 where the document has none)."""
+        value = self._typed("summary_version", int, 1)
+        return int(value)
 
     @property
     def study(self) -> str:
@@ -154,9 +167,23 @@ class Summary(Mapping[str, Any]):
         return dict(self._typed("settings", dict, {}))
 
     @property
-    def warnings(self) -> list[str]:
-        """The analysis's warnings."""
-        return [str(w) for w in self._typed("warnings", list, [])]
+    def warnings(self) -> list[WarningRecord]:
+        """The analysis's warnings as records, in the order said (a version 1 document's
+        lines lifted: :func:`evtribo.warning.legacy.lift_all`, their scopes read against
+        the study's subjects)."""
+        items = self._typed("warnings", list, [])
+        if all(isinstance(w, str) for w in items):  # version 1's lines
+            subjects = self.data.get("subjects")
+            return lift_all(items, [str(s) for s in subjects]
+                            if isinstance(subjects, list) else None)
+        out = []
+        for k, w in enumerate(items):
+            try:
+                out.append(WarningRecord.from_json(w))
+            except ValueError as err:
+                raise ResultFolderError(f"key 'warnings', item {k + 1}: {err} (summary.json "
+                                        "edited?)", path=self.path) from None
+        return out
 
     @property
     def failed_trials(self) -> list[dict[str, Any]]:

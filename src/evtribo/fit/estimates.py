@@ -29,8 +29,10 @@ from scipy import optimize
 
 from evtribo.fit.params import parameter_unit
 from evtribo.fit.problem import Problem
+from evtribo.warning.collect import emitter
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["ParameterEstimate", "parameter_estimates", "profile_intervals", "sees_no_force"]
 
@@ -189,10 +191,7 @@ def parameter_estimates(problem: Problem, x: NDArray[np.float64], cov_x: NDArray
             lo, hi = float(problem.start[i] * problem.lower[i]), math.inf
         if i not in absent and not math.isfinite(se_x) and not (
                 problem.is_log[i] and (p_lo > 0 or p_hi < math.inf)):
-            log.warning("subject %s: %s is not determined by these data (the forces "
-                        "hardly depend on it, or its effect cannot be told apart from the "
-                        "other fitted parameters'); interval is infinite", problem.subject,
-                        name)
+            emit("parameter-undetermined", subject=problem.subject, parameter=name)
         if not math.isnan(value):  # a value at a bound (the percentiles of refits that
             lo, hi = min(lo, value), max(hi, value)  # left it) lies in its interval
         estimates.append(ParameterEstimate(name, value, se, float(lo), float(hi),

@@ -76,9 +76,11 @@ from evtribo.fit.problem import LOG_PARAMETERS, Points, Problem, with_friction_l
 from evtribo.fit.tables import MIN_REPLICATES, ResultTables, replicate_matrix
 from evtribo.model.params import TABLE_1, ModelParameters
 from evtribo.store.pool import Mapper
-from evtribo.util.said import logged, say_again
+from evtribo.warning.collect import collected, emitter, replay
+from evtribo.warning.record import WarningRecord
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["N_REFITS", "ParameterEstimate", "SubjectFit", "fit_study", "fit_subject",
            "interval_notes", "mean_electrostatic_force", "mean_friction_force",
@@ -215,7 +217,8 @@ def _intervals(problem: Problem, res: optimize.OptimizeResult, chi2_red: float,
                 "data: its forces do not differ from zero (every point within its error of "
                 "it); no value, the interval holds the values whose forces the points would "
                 "have seen excluded (profile)")
-        log.warning("subject %s: %s", problem.subject, note)
+        emit("forces-zero", subject=problem.subject,
+             parameters=", ".join(problem.names[i] for i in absent))
     elif replicates is not None:
         # replicate spread, inflated like the Jacobian's when the model misfits
         boot, note = _bootstrap(problem, res, cov_x, replicates, n_rows=n_rows,
@@ -242,9 +245,8 @@ def _correlation(subject: str, names: Sequence[str],
     for i in range(n):
         for j in range(i + 1, n):
             if np.isfinite(corr[i, j]) and abs(corr[i, j]) > 0.99:
-                log.warning("subject %s: %s and %s are strongly correlated (r = %.3f): the "
-                            "data hardly tell them apart", subject, names[i], names[j],
-                            corr[i, j])
+                emit("parameters-correlated", subject=subject, first=names[i],
+                     second=names[j], r=float(corr[i, j]))
     return np.asarray(corr, float)
 
 
@@ -304,9 +306,6 @@ def fit_subject(subject: str, rows: pd.DataFrame, base: ModelParameters = TABLE_
     resid = pts.measured - problem.model_at(res.x)
     ss_tot = float(np.sum((pts.measured - pts.measured.mean()) ** 2))
     r2 = 1.0 - float(np.sum(resid**2)) / ss_tot if ss_tot > 0 else math.nan
-    log.info("subject %s: %s (chi2_red %.3g, %d points)", subject,
-             ", ".join(f"{e.name} = {e.value:.4g} {e.unit}" for e in estimates), chi2_red,
-             len(pts.measured))
     return SubjectFit(subject=subject, params=fitted, estimates=tuple(estimates),
                       correlation=corr, rmse_N=float(np.sqrt(np.mean(resid**2))), r2=r2,
                       chi2_reduced=chi2_red, n_points=len(pts.measured),
@@ -366,32 +365,40 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
             reps = replicate_matrix(rows, boot[boot["subject"].astype(str) == str(subject)],
                                     max_replicates=N_REFITS)
             if reps is None:
-                log.warning("subject %s: electrostatic_bootstrap.csv lacks replicates of "
-                            "some of its points; intervals from the Jacobian", subject)
+                emit("replicates-missing", subject=subject)
         jobs.append((subject, rows, base, tuple(fit), win, reps))
     if mapper is None or scheduler is not None or len(jobs) < 2:
-        return [fit_subject(s, rows, b, names, win, replicates=reps, scheduler=scheduler)
-                for s, rows, b, names, win, reps in jobs]
+        return [_said(fit_subject(s, rows, b, names, win, replicates=reps,
+                                  scheduler=scheduler)) for s, rows, b, names, win, reps in jobs]
     fits = []
     for done, said in mapper(_fit_logged, jobs):
-        say_again(said)  # what each fit said, here, in the subjects' order
+        replay(said)  # what each fit said, here, in the subjects' order
         if isinstance(done, Exception):
             raise done  # after what it and the subjects before it said
-        fits.append(done)
+        fits.append(_said(done))
     return fits
 
 
+def _said(fit: SubjectFit) -> SubjectFit:
+    """*fit*, its estimates said (logged: ``-v``) where the subjects' fits are gathered."""
+    log.info("subject %s: %s (chi2_red %.3g, %d points)", fit.subject,
+             ", ".join(f"{e.name} = {e.value:.4g} {e.unit}" for e in fit.estimates),
+             fit.chi2_reduced, fit.n_points)
+    return fit
+
+
 def _fit_logged(job: tuple[Any, ...]
-                ) -> tuple[SubjectFit | Exception, list[logging.LogRecord]]:
-    """One subject's fit (a worker's job), or the error that stopped it, and what it logged,
-    for the caller to say in the subjects' order before it raises the first error."""
+                ) -> tuple[SubjectFit | Exception, list[WarningRecord]]:
+    """One subject's fit (a worker's job), or the error that stopped it, and the warnings
+    it said, for the caller to say in the subjects' order before it raises the first
+    error."""
     subject, rows, base, names, win, reps = job
     try:
-        return logged(fit_subject, subject, rows, base, names, win, replicates=reps)
+        return collected(fit_subject, subject, rows, base, names, win, replicates=reps)
     except Exception as err:  # returned: the subjects fitted before it are said first
         where = "".join(traceback.format_tb(err.__traceback__))
         err.add_note(f"(raised in the fit of subject {subject}, at:\n{where})")
-        return err, err.__dict__.pop("said", [])
+        return err, err.__dict__.pop("records", [])
 
 
 def interval_notes(fits: list[SubjectFit], *, has_bootstrap: bool) -> list[str]:

@@ -51,8 +51,10 @@ from evtribo.model.electrostatics import adhesion_stress
 from evtribo.model.friction import electrostatic_force
 from evtribo.model.maugis import electrostatic_force_md
 from evtribo.model.params import TABLE_1, ModelParameters
+from evtribo.warning.collect import emitter
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["CANDIDATES", "INDISTINGUISHABLE", "MODELS_COLUMNS", "MODELS_CSV", "RANKING_COLUMNS",
            "Candidate", "ModelFit", "electrostatic_force_hertz", "fit_models", "models_table",
@@ -233,7 +235,7 @@ def _fit_one(subject: str, rows: pd.DataFrame, candidate: Candidate,
         problem, res = fit_points(subject, rows, candidate.fit, _base_for(candidate, base),
                                   force=candidate.force, frequency=candidate.circuit)
     except AnalysisError as err:
-        log.warning("model %s, subject %s: %s", candidate.name, subject, err.message)
+        emit("model-failed", model=candidate.name, subject=subject, error=err.message)
         return ModelFit(subject, candidate.name, None, n_params=len(candidate.fit),
                         note=err.message)
     pts = problem.pts

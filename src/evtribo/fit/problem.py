@@ -37,8 +37,10 @@ from evtribo.fit.model_points import (
 )
 from evtribo.model.circuit import layer_elastances
 from evtribo.model.params import PARAMETER_BOUNDS, TABLE_1, ModelParameters
+from evtribo.warning.collect import emitter
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["LOG_PARAMETERS", "Points", "Problem", "fit_points", "with_friction_law"]
 
@@ -59,12 +61,10 @@ def _sigmas(rows: pd.DataFrame, subject: str) -> NDArray[np.float64]:
     if not ok.all():
         if ok.any():
             fill = float(np.median(sigma[ok]))
-            log.warning("subject %s: %d point(s) without a usable interval; weighted like "
-                        "the median point (%.3g N)", subject, int((~ok).sum()), fill)
+            emit("points-unweighted", subject=subject, points=int((~ok).sum()), sigma_N=fill)
         else:
             fill = 1.0
-            log.warning("subject %s: no usable intervals in electrostatic.csv; fitting "
-                        "unweighted, uncertainty from the scatter", subject)
+            emit("intervals-none", subject=subject)
         sigma = np.where(ok, sigma, fill)
     return sigma
 
@@ -140,8 +140,7 @@ class Points:
                                     "frequency_Hz), which none has")
             good &= np.isfinite(freq) & (freq > 0)
         if not good.all():
-            log.warning("subject %s: %d point(s) with missing values left out", subject,
-                        int((~good).sum()))
+            emit("points-missing", subject=subject, points=int((~good).sum()))
         mus = rows["mu"].to_numpy(float)
         mu_measured = float(np.nanmean(mus)) if np.isfinite(mus).any() else math.nan
         empty = np.empty(0)

@@ -38,11 +38,12 @@ from evtribo.figures.trial_checks import CHECK_DPI, CheckFigure, trial_checks
 from evtribo.figures.trial_plots import draw_failed, draw_trial_check
 from evtribo.fit.tables import ResultTables
 from evtribo.report.kept import FigureStore, figure_key, file_key
-from evtribo.report.lead.warning_kinds import group_warnings
 from evtribo.results.outputs import FIGURES
 from evtribo.store.files import atomic_write, sha256_file
 from evtribo.store.pool import init_worker, stop_workers
 from evtribo.store.resultdir import Staging
+from evtribo.warning.record import WarningRecord
+from evtribo.warning.render import group
 
 log = logging.getLogger(__name__)
 
@@ -401,14 +402,15 @@ def _check_drawing(check: CheckFigure) -> Drawing:
     return Drawing(draw_trial_check, (check.sketch,))
 
 
-def trials_to_check(lines: Iterable[str], trials: Iterable[tuple[str, str]]) -> set[str]:
+def trials_to_check(records: Iterable[WarningRecord], trials: Iterable[tuple[str, str]]
+                    ) -> set[str]:
     """The trials (``subject/trial``) a warning names that is not only for information: one
     that may change a number or widens an interval (compare draws their checks by default
     in a large study; a drift followed or an offset removed is not a reason to look).
 
     Parameters
     ----------
-    lines : iterable of str
+    records : iterable of WarningRecord
         The analysis's warnings.
     trials : iterable of (str, str)
         The study's trials, ``(subject, trial)``.
@@ -417,9 +419,9 @@ def trials_to_check(lines: Iterable[str], trials: Iterable[tuple[str, str]]) -> 
     -------
     set of str
     """
-    trial_list = [(str(s), str(t)) for s, t in trials]
-    return {f"{s}/{t}" for g in group_warnings(lines, trials=trial_list)
-            if g.effect != "information" for s, t in g.trials}
+    trial_set = {(str(s), str(t)) for s, t in trials}
+    return {f"{s}/{t}" for g in group(records) if g.effect != "information"
+            for s, t in g.trials if (s, t) in trial_set}
 
 
 def emit_checks(figures: Figures, tables: ResultTables, which: str, cache: Path,
@@ -454,8 +456,7 @@ def emit_checks(figures: Figures, tables: ResultTables, which: str, cache: Path,
     trials = list(zip(tables.trials["subject"].astype(str), tables.trials["trial"].astype(str),
                       strict=True)) if not tables.trials.empty else []
     checks, notes = trial_checks(tables, which, cache_dir=cache, mapper=figures.runner.map,
-                                 flagged=trials_to_check(tables.summary.get("warnings") or [],
-                                                         trials))
+                                 flagged=trials_to_check(tables.summary.warnings, trials))
     if checks:
         progress(f"drawing the check of {len(checks)} trial(s) from what analyze kept of "
                  "each, beside the figures of the fit (--trial-checks none leaves them out)")

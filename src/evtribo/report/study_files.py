@@ -21,8 +21,11 @@ from evtribo.fit.tables import ResultTables
 from evtribo.store.files import sha256_file
 from evtribo.store.resultdir import inside
 from evtribo.study import STUDY_FILE, discover_trials, read_study_toml
+from evtribo.warning.collect import collecting, emitter
+from evtribo.warning.record import Scope, WarningRecord
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["file_hashes", "input_table", "study_dir_of", "study_name", "study_rig",
            "trials_with_notes"]
@@ -138,8 +141,16 @@ def _input_path(name: str, role: str, study_dir: Path | None,
     return False
 
 
+def _of_trial(rel: str, role: str = "log") -> Scope:
+    """The trial a log or sidecar is of (``P01/run-03.log``: P01's run-03), else (study.toml,
+    the DBC) the study."""
+    parts = Path(rel).parts
+    return Scope(parts[0], parts[1].split(".", 1)[0]) \
+        if role in ("log", "sidecar") and len(parts) == 2 else Scope()
+
+
 def input_table(summary: Summary, study_dir: Path | None
-                ) -> tuple[pd.DataFrame, list[str]]:
+                ) -> tuple[pd.DataFrame, list[WarningRecord]]:
     """The inputs summary.json records, each hashed again when the study is at hand.
 
     Parameters
@@ -151,13 +162,21 @@ def input_table(summary: Summary, study_dir: Path | None
 
     Returns
     -------
-    (DataFrame, list of str)
+    (DataFrame, list of WarningRecord)
         ``file, bytes, sha256[, now]`` of the inputs inside the study, and a warning for
-        each one changed, missing or added since the analysis, or not listed.
+        each one changed, missing or added since the analysis, or not listed (not said:
+        the caller says them).
     """
+    with collecting(quiet=True) as warnings:
+        table = _inputs(summary, study_dir)
+    return table, warnings
+
+
+def _inputs(summary: Summary, study_dir: Path | None) -> pd.DataFrame:
+    """:func:`input_table`'s table, its warnings said."""
     dbc = _study_dbc(study_dir) if study_dir is not None else None
     rows: list[dict[str, Any]] = []
-    warnings, outside = [], 0
+    outside = 0
     for rec in summary.inputs:
         where = _input_path(rec.file, rec.role, study_dir, dbc)
         if where is False:
@@ -169,40 +188,40 @@ def input_table(summary: Summary, study_dir: Path | None
                 now = sha256_file(where) if where.is_file() else None
             except OSError as err:  # made unreadable since (mode 000): not known, said
                 row["now"] = "unreadable"
-                warnings.append(f"{rec.file}: cannot read it now ({err.strerror}): whether it "
-                                "changed since the analysis is not known")
+                emit("input-unreadable", _of_trial(rec.file, rec.role), file=rec.file,
+                     error=str(err.strerror))
                 rows.append(row)
                 continue
             row["now"] = "unchanged" if now == rec.sha256 else \
                 "missing" if now is None else "changed"
             if now is None:
-                warnings.append(f"{rec.file}: no longer in the study folder {study_dir} "
-                                "(it was an input of the analysis)")
+                emit("input-gone", _of_trial(rec.file, rec.role), file=rec.file,
+                     study_dir=str(study_dir))
             elif now != rec.sha256:
-                warnings.append(f"{rec.file}: changed since the analysis (sha256 "
-                                f"{rec.sha256[:12]}... then, {now[:12]}... now): these results "
-                                "are not of the study as it is now; analyse it again")
+                emit("input-changed", _of_trial(rec.file, rec.role), file=rec.file,
+                     then=rec.sha256[:12], now=now[:12])
         rows.append(row)
     if outside:
-        warnings.append(f"summary.json names {outside} input file(s) outside the study "
-                        "folder: not listed, not read (summary.json was edited?)")
+        emit("inputs-outside", files=outside)
     if study_dir is not None:
-        warnings += _added(study_dir, {r["file"] for r in rows})
+        _added(study_dir, {r["file"] for r in rows})
     columns = ["file", "bytes", "sha256", *(["now"] if study_dir is not None else [])]
-    return pd.DataFrame(rows, columns=columns), warnings
+    return pd.DataFrame(rows, columns=columns)
 
 
-def _added(study_dir: Path, recorded: set[str]) -> list[str]:
+def _added(study_dir: Path, recorded: set[str]) -> None:
+    """Say each trial's file in the study folder that the analysis did not read."""
     try:
         trials, _ = discover_trials(study_dir)
     except (EvtriboError, OSError) as err:
-        return [f"cannot list the study's trials now: {err}"]
+        emit("trials-unlisted", error=str(err))
+        return
     names = []
     for t in trials:
         names += [t.log_path] + ([t.sidecar_path] if t.sidecar_path is not None else [])
-    return [f"{rel}: in the study folder but not in the analysis (added since?)"
-            for rel in (p.relative_to(study_dir).as_posix() for p in names)
-            if rel not in recorded]
+    for rel in (p.relative_to(study_dir).as_posix() for p in names):
+        if rel not in recorded:
+            emit("input-added", _of_trial(rel), file=rel)
 
 
 def _notes(study_dir: Path | None) -> dict[str, str]:

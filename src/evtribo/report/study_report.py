@@ -38,8 +38,8 @@ from evtribo.report.compare import compare
 from evtribo.report.friction_report import add_friction
 from evtribo.report.headline import Headline
 from evtribo.report.lead.key_results import key_results
+from evtribo.report.lead.scope import study_cells
 from evtribo.report.lead.sections import add_key_results, add_warnings
-from evtribo.report.lead.warning_kinds import group_warnings, study_cells
 from evtribo.report.page import Report
 from evtribo.report.population import add_population, read_population
 from evtribo.report.provenance import add_provenance
@@ -56,8 +56,12 @@ from evtribo.results.outputs import FIGURES, FIT_JSON, REPORT_TABLES, TABLES
 from evtribo.store.names import check_new_path
 from evtribo.store.owned import refuse_foreign
 from evtribo.store.resultdir import inside, locked, recover
+from evtribo.warning.collect import collecting, emitter, replay
+from evtribo.warning.record import Scope, WarningRecord
+from evtribo.warning.render import group
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["MODELS_CSV", "build_report", "file_hashes"]
 
@@ -65,21 +69,45 @@ __all__ = ["MODELS_CSV", "build_report", "file_hashes"]
 _FIGURE_SUFFIXES = (".png", ".svg", ".pdf")
 
 
-def _warnings(tables: ResultTables) -> list[str]:
-    """The analysis's warnings, its failed trials, the trials' dropped frames and damaged
-    lines, each once (the comparison's notes are the fit's: :func:`sections.add_notes`)."""
-    items = list(tables.summary.warnings)
-    for failed in tables.summary.failed_trials:
-        items.append(f"{failed.get('trial')}: not analysed: {failed.get('error')}")
-    tr = tables.trials
-    for col, what in (("dropped_frames", "dropped frame(s)"),
-                      ("skipped_lines", "damaged line(s) skipped")):
-        if col in tr.columns:
+def _warnings(tables: ResultTables) -> list[WarningRecord]:
+    """The analysis's warnings, and those its tables say besides: a failed trial that
+    summary.json does not say (``not-analysed``), the trials' dropped frames
+    (``frames-lost``) and damaged lines (``damaged-lines``, where summary.json has no
+    record of them), each once (the comparison's notes are the fit's:
+    :func:`sections.add_notes`)."""
+    records = list(tables.summary.warnings)
+    said = {(r.kind, r.scope.subject, r.scope.trial) for r in records}
+    with collecting(quiet=True) as more:
+        for failed in tables.summary.failed_trials:
+            subject, _, trial = str(failed.get("trial")).partition("/")
+            if ("not-analysed", subject, trial) not in said:
+                emit("not-analysed", Scope(subject, trial), error=str(failed.get("error")))
+        tr = tables.trials
+        for col, kind_id in (("dropped_frames", "frames-lost"),
+                             ("skipped_lines", "damaged-lines")):
+            if col not in tr.columns:
+                continue
             counts = pd.to_numeric(tr[col], errors="coerce").fillna(0)
             for (_, row), n in zip(tr.iterrows(), counts, strict=True):
-                if n > 0:
-                    items.append(f"{row['subject']}/{row['trial']}: {int(n)} {what}")
-    return list(dict.fromkeys(items))
+                scope = Scope(str(row["subject"]), str(row["trial"]))
+                if n <= 0 or any((k, scope.subject, scope.trial) in said
+                                 for k in (kind_id, "damaged-line", "damaged-lines-more")):
+                    continue
+                if kind_id == "frames-lost":
+                    emit(kind_id, scope, frames=int(n))
+                else:
+                    emit(kind_id, scope, lines=int(n), log=_log_of(tables, scope))
+    return records + more
+
+
+def _log_of(tables: ResultTables, scope: Scope) -> str:
+    """A trial's log as summary.json names it (else ``subject/trial``)."""
+    for rec in tables.summary.inputs:
+        parts = Path(rec.file).parts
+        if rec.role == "log" and len(parts) == 2 and parts[0] == scope.subject \
+                and parts[1].split(".", 1)[0] == scope.trial:
+            return rec.file
+    return f"{scope.subject}/{scope.trial}"
 
 
 def _fit_doc(results: ResultFolder) -> FitDocument:
@@ -241,11 +269,10 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
     trials = trials_with_notes(tables, study_dir)
     name = study_name(tables.summary, tables.out)
     report = Report(f"evtribo report: {name}")
-    for w in input_warnings:
-        log.warning("report: %s", w)
+    replay(input_warnings)  # the study as it is now: said by the report
     keys = list(zip(tables.trials["subject"].astype(str), tables.trials["trial"].astype(str),
                     strict=True))
-    groups = group_warnings([*input_warnings, *_warnings(tables)], tables.all_subjects, keys)
+    groups = group([*input_warnings, *_warnings(tables)])
     cells = study_cells(tables.electrostatic.to_dict("records"))
     models = tables.models
     population, contrasts = read_population(tables)

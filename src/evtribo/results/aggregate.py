@@ -53,8 +53,11 @@ from evtribo.analysis.friction.plausible import implausible_rows
 from evtribo.analysis.friction.powerlaw import fit_power_law
 from evtribo.documents.tables import BOOTSTRAP, ELECTROSTATIC, EXPONENTS
 from evtribo.errors import AnalysisError
+from evtribo.warning.collect import collecting, emitter
+from evtribo.warning.record import Scope, WarningRecord
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 #: Columns of electrostatic.csv, exponents.csv and electrostatic_bootstrap.csv
 #: (:mod:`evtribo.documents.tables`); of electrostatic.csv beyond the study format's, the
@@ -86,12 +89,12 @@ def _frequency(value: object) -> float:
     return float(f"{f:.3g}") if np.isfinite(f) and f > 0 else _NO_FREQUENCY
 
 
-def _where(subject: object, waveform: str, frequency: float) -> str:
-    """``P01 (square, 10000 Hz)`` for messages."""
-    drive = waveform or "unknown waveform"
-    if frequency != _NO_FREQUENCY:
-        drive += f", {frequency:g} Hz"
-    return f"{subject} ({drive})"
+def _where(subject: object, waveform: str, frequency: float,
+           amplitude_V: float | None = None) -> Scope:
+    """A subject's drive (``P01 (square, 10000 Hz)``), at an amplitude: where a warning is
+    said."""
+    return Scope(str(subject), None, waveform or None,
+                 None if frequency == _NO_FREQUENCY else frequency, amplitude_V)
 
 
 def _seed(base: int, *names: str) -> np.random.SeedSequence:
@@ -106,7 +109,7 @@ PointKey = tuple[str, float, float]
 
 
 def _references(subject: str, on: pd.DataFrame, off: pd.DataFrame, whole_off: pd.DataFrame,
-                *, condition_of: Mapping[TrialKey, object], warnings: list[str]
+                *, condition_of: Mapping[TrialKey, object]
                 ) -> tuple[list[pd.DataFrame], npt.NDArray[np.int64], list[bool]]:
     """The OFF reference of each ON window: the sets of OFF windows, each one's index, and
     whether each set is one trial's (its mu may follow the trial's time)."""
@@ -115,24 +118,19 @@ def _references(subject: str, on: pd.DataFrame, off: pd.DataFrame, whole_off: pd
     ref_index: dict[str, int] = {}
     on_ref = np.empty(len(on), dtype=np.int64)
     owns: dict[object, pd.DataFrame] = {}  # each trial's OFF windows, selected once
+    said: set[tuple[str, object, object]] = set()
     for k, (trial, waveform) in enumerate(zip(on.trial, on.waveform, strict=True)):
-        where = f"{subject} ({waveform or 'unknown waveform'})"
         if trial not in owns:
             owns[trial] = off[off.trial == trial]
         own = owns[trial]
         if condition_of.get((subject, trial)) == "alternating" and len(own):
             key, frame = f"trial:{trial}", own
         else:
-            if condition_of.get((subject, trial)) == "alternating":
-                msg = (f"{where}: trial {trial} alternates but has no OFF window; "
-                       "using the subject's OFF windows")
-            elif not len(whole_off):
-                msg = (f"{where}: no whole-OFF trial; trial {trial} is compared with "
-                       "the OFF phases of alternating trials")
-            else:
-                msg = ""
-            if msg and msg not in warnings:
-                warnings.append(msg)
+            kind = ("other-off" if condition_of.get((subject, trial)) == "alternating"
+                    else "whole-off" if not len(whole_off) else "")
+            if kind and (kind, waveform, trial) not in said:
+                said.add((kind, waveform, trial))
+                emit(kind, Scope(subject, None, waveform or None), trial=str(trial))
             key, frame = "subject", subject_ref
         if key not in ref_index:
             ref_index[key] = len(refs)
@@ -196,7 +194,7 @@ class _SubjectEstimate:
 
 
 def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_boot: int,
-                      seed: int, confidence: float, warnings: list[str],
+                      seed: int, confidence: float,
                       friction_law: str = "auto") -> _SubjectEstimate | None:
     """A subject's electrostatic force per point (waveform, frequency, amplitude), each ON
     window against its OFF reference; None when the subject has no ON window with an
@@ -207,10 +205,9 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
     if on.empty:
         return None
     refs, on_ref, trends = _references(subject, on, off, whole_off,
-                                       condition_of=facts.condition_of, warnings=warnings)
+                                       condition_of=facts.condition_of)
     if any(r.empty for r in refs):
-        warnings.append(f"{subject}: no OFF windows to estimate mu from; no "
-                        "electrostatic force")
+        emit("no-mu", Scope(subject))
         return None
     window_points: list[PointKey] = list(zip(on.waveform, on.frequency_Hz,
                                              on.amplitude_V.to_numpy(float), strict=True))
@@ -230,7 +227,7 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
     if friction_law == "auto" and est.law.kind == "amontons" and not est.law.holds_amontons:
         sensitivity = estimate_electrostatic(*args, seed=_seed(seed, subject),
                                              exponent=SENSITIVITY_EXPONENT, **options)
-        warnings.append(untold_note(subject, est.law))
+        untold_note(subject, est.law)
     window_mu = pd.Series(est.on_mu, index=on.index)
     own = {}
     for r, model in est.models.items():
@@ -244,20 +241,19 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
                           load_ref_N=law.load_ref_N)
     alone = sorted({t for t in on.trial if facts.condition_of.get((subject, t)) == "on"},
                    key=str)
-    warnings += drift_notes(subject, drifts, compared_in_trial=any(trends),
-                            on_trials_alone=alone)
+    drift_notes(subject, drifts, compared_in_trial=any(trends), on_trials_alone=alone)
     ratios = {r: (refs[r].friction_force_N / refs[r].normal_force_N).to_numpy(float)
               for r in est.models}
     rate_on, rate_off = window_facts(on).rate, window_facts(off).rate
     gap = (float(np.exp(np.nanmean(rate_on) - np.nanmean(rate_off))) - 1.0
            if np.isfinite(rate_on).any() and np.isfinite(rate_off).any() else None)
-    warnings += stroke_notes(subject, est.models, relative_scatter(est.models, ratios), gap)
+    stroke_notes(subject, est.models, relative_scatter(est.models, ratios), gap)
     alternating = [t for t in sub.trial.unique()
                    if facts.condition_of.get((subject, t)) == "alternating"]
     # a trial's span as analysed: a jump of its log's clock between pieces is no time
     confounded = {t: (f, min(span, facts.duration_of.get((subject, t), span)))
                   for t, (f, span) in trial_confounding(sub[sub.trial.isin(alternating)]).items()}
-    warnings += phase_notes(subject, confounded)
+    phase_notes(subject, confounded)
     return _SubjectEstimate(est, [points[int(g)] for g in est.groups], window_mu, drifts,
                             sensitivity)
 
@@ -281,7 +277,7 @@ def _law_columns(est: ElectrostaticEstimate, sensitivity: ElectrostaticEstimate 
 
 
 def _add_points(tables: _Tables, subject: str, found: _SubjectEstimate, *,
-                shown: Mapping[float, float], n_saved: int, warnings: list[str]) -> None:
+                shown: Mapping[float, float], n_saved: int) -> None:
     """A subject's rows of electrostatic.csv and of the bootstrap table, with a warning for
     a point resting on few windows."""
     est, points = found.est, found.points
@@ -303,15 +299,13 @@ def _add_points(tables: _Tables, subject: str, found: _SubjectEstimate, *,
             **names, "replicate": np.arange(keep),
             "electrostatic_force_N": est.replicates_N[:keep, j]}))
         if est.n_on[j] < MIN_WINDOWS or est.n_off[j] < MIN_WINDOWS:
-            warnings.append(f"{_where(subject, waveform, freq)} at {amp:g} V: only "
-                            f"{est.n_on[j]} ON and {est.n_off[j]} OFF windows (fewer "
-                            f"than {MIN_WINDOWS}); the interval is calibrated for small "
-                            "counts but rests on few windows")
+            emit("few-windows", _where(subject, waveform, freq, amp), on=int(est.n_on[j]),
+                 off=int(est.n_off[j]), min_windows=MIN_WINDOWS)
 
 
 def _add_power_laws(tables: _Tables, subject: str, est: ElectrostaticEstimate, *,
-                    points: list[PointKey], shown: Mapping[float, float], confidence: float,
-                    warnings: list[str]) -> None:
+                    points: list[PointKey], shown: Mapping[float, float], confidence: float
+                    ) -> None:
     """A subject's rows of exponents.csv: a power law per drive (waveform, frequency) with
     two positive amplitudes or more, fitted on the log scale to the cells whose force's
     interval lies above zero: a cell whose interval reaches zero has no logarithm the data
@@ -323,15 +317,13 @@ def _add_power_laws(tables: _Tables, subject: str, est: ElectrostaticEstimate, *
         amps = np.array([a for _, _, a in points])
         near_zero = in_drive & ~(est.ci_low_N > 0)
         for j in np.flatnonzero(near_zero):
-            warnings.append(f"{_where(subject, waveform, freq)} at {amps[j]:g} V: left out "
-                            f"of the power law: F_el's interval reaches zero or below "
-                            f"({1e3 * est.ci_low_N[j]:.3g} to {1e3 * est.ci_high_N[j]:.3g} mN), "
-                            "so the data do not determine its logarithm")
+            emit("power-law-near-zero", _where(subject, waveform, freq, float(amps[j])),
+                 low_mN=1e3 * est.ci_low_N[j], high_mN=1e3 * est.ci_high_N[j])
         in_drive &= ~near_zero
         if np.count_nonzero(in_drive) < 2:
             if near_zero.any():
-                warnings.append(f"{_where(subject, waveform, freq)}: no power law: fewer "
-                                "than two amplitudes whose F_el's interval lies above zero")
+                emit("no-power-law", _where(subject, waveform, freq),
+                     error="fewer than two amplitudes whose F_el's interval lies above zero")
             continue
         amplitudes_V = amps[in_drive]
         try:
@@ -339,7 +331,7 @@ def _add_power_laws(tables: _Tables, subject: str, est: ElectrostaticEstimate, *
                                 replicates_N=est.replicates_N[:, in_drive],
                                 confidence=confidence)
         except AnalysisError as err:
-            warnings.append(f"{_where(subject, waveform, freq)}: no power law: {err}")
+            emit("no-power-law", _where(subject, waveform, freq), error=str(err))
             continue
         tables.exponents.append({"subject": subject, "waveform": waveform or None,
                                  "frequency_Hz": shown.get(freq),
@@ -360,7 +352,7 @@ class StudySummary:
         (:data:`BOOTSTRAP_COLUMNS`: the calibrated bootstrap replicates of every
         electrostatic.csv row, replicate ``i`` of a subject's rows coming from the same
         resampling).
-    warnings : list of str
+    warnings : list of WarningRecord
         What the aggregation found worth saying (missing references, few windows, no
         power law, friction that changed within trials or between strokes).
     window_mu : pandas.Series
@@ -374,7 +366,7 @@ class StudySummary:
     electrostatic: pd.DataFrame
     exponents: pd.DataFrame
     bootstrap: pd.DataFrame
-    warnings: list[str]
+    warnings: list[WarningRecord]
     window_mu: pd.Series
     mu_change: dict[TrialKey, float]
 
@@ -408,7 +400,15 @@ def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
     -------
     StudySummary
     """
-    warnings: list[str] = []
+    with collecting() as warnings:
+        return _summarize(windows, trials, warnings, n_boot=n_boot, seed=seed,
+                          confidence=confidence, n_saved=n_saved, friction_law=friction_law)
+
+
+def _summarize(windows: pd.DataFrame, trials: pd.DataFrame, warnings: list[WarningRecord], *,
+               n_boot: int, seed: int, confidence: float, n_saved: int, friction_law: str
+               ) -> StudySummary:
+    """:func:`summarize_study` within its collector of warnings (*warnings*)."""
     facts = _trial_facts(trials)
     tables = _Tables()
     window_mu: list[pd.Series] = []
@@ -422,35 +422,33 @@ def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
             try:
                 found = _estimate_subject(str(subject), sub, facts, n_boot=n_boot,
                                           seed=seed, confidence=confidence,
-                                          warnings=warnings, friction_law=friction_law)
+                                          friction_law=friction_law)
             except AnalysisError as err:
-                warnings.append(f"{subject}: no electrostatic force: {err}")
+                emit("no-force", Scope(str(subject)), error=str(err))
                 continue
             if found is None:
                 continue
             window_mu.append(found.window_mu)
             mu_change.update({(subject, t): d.change_per_10s for t, d in found.drifts.items()})
-            _add_points(tables, str(subject), found, shown=facts.shown, n_saved=n_saved,
-                        warnings=warnings)
+            _add_points(tables, str(subject), found, shown=facts.shown, n_saved=n_saved)
             _add_power_laws(tables, str(subject), found.est, points=found.points,
-                            shown=facts.shown, confidence=confidence, warnings=warnings)
+                            shown=facts.shown, confidence=confidence)
     electrostatic = pd.DataFrame(tables.electrostatic, columns=list(ELECTROSTATIC_COLUMNS))
-    warnings += implausible_rows(electrostatic) + crosstalk_notes(trials)
-    for w in warnings:
-        log.warning("%s", w)
+    implausible_rows(electrostatic)
+    crosstalk_notes(trials)
     boot = (pd.concat(tables.bootstrap, ignore_index=True)
             .reindex(columns=list(BOOTSTRAP_COLUMNS)) if tables.bootstrap
             else pd.DataFrame(columns=list(BOOTSTRAP_COLUMNS)))
     return StudySummary(
         electrostatic, pd.DataFrame(tables.exponents, columns=list(EXPONENT_COLUMNS)), boot,
-        warnings,
+        list(warnings),
         pd.concat(window_mu) if window_mu else pd.Series(dtype=float), mu_change)
 
 
 def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFAULT_N_BOOT,
               seed: int = 0, confidence: float = 0.95, n_saved: int = N_BOOTSTRAP_SAVED,
               friction_law: str = "auto"
-              ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame, list[str]]:
+              ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame, list[WarningRecord]]:
     """:func:`summarize_study`'s tables and warnings.
 
     Parameters
@@ -471,7 +469,7 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
     Returns
     -------
     electrostatic, exponents, bootstrap : pandas.DataFrame
-    warnings : list of str
+    warnings : list of WarningRecord
     """
     out = summarize_study(windows, trials, n_boot=n_boot, seed=seed, confidence=confidence,
                           n_saved=n_saved, friction_law=friction_law)

@@ -28,7 +28,6 @@ import pandas as pd
 from evtribo.analysis.observed import PieceState
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals, trial_start
-from evtribo.analysis.trial_warnings import heard_warnings
 from evtribo.canlog.cache import load_trial
 from evtribo.canlog.rig import Calibration
 from evtribo.canlog.signals import TrialSignals
@@ -45,6 +44,8 @@ from evtribo.results.sketch import (
 from evtribo.results.workers import trial_meta
 from evtribo.store.memo import default_cache_dir
 from evtribo.study import Study, TrialRef, load_study
+from evtribo.warning.collect import collecting
+from evtribo.warning.record import Scope, WarningRecord
 
 __all__ = ["MIN_HOLE_S", "STRETCH_LABELS", "Stretch", "TrialCheck", "check_signals", "check_trial",
            "excluded_stretches", "find_trial", "kept_sketches", "settings_of", "sketch_of",
@@ -66,8 +67,8 @@ class TrialCheck:
         The trial's rows of ``windows.csv``.
     row : dict
         Its row of ``trials.csv``.
-    warnings : list of str
-        What its analysis warned of.
+    warnings : list of WarningRecord
+        What its decoding and analysis warned of.
     """
 
     subject: str
@@ -76,7 +77,7 @@ class TrialCheck:
     pieces: list[PieceState]
     windows: pd.DataFrame
     row: dict[str, Any]
-    warnings: list[str] = field(default_factory=list)
+    warnings: list[WarningRecord] = field(default_factory=list)
 
     @property
     def key(self) -> str:
@@ -209,7 +210,7 @@ def check_trial(study: Study | str | os.PathLike[str], subject: str, trial: str,
                 cache_dir: str | os.PathLike[str] | None = None) -> TrialCheck:
     """Check one trial of a study: decode it through the cache, analyse it with the study's
     settings, keep what the analysis worked on. What the analysis warns of is kept in the
-    check's ``warnings`` and logged as debug messages only (``evtribo analyze`` says it).
+    check's ``warnings`` and not said again (``evtribo analyze`` says it).
 
     Parameters
     ----------
@@ -237,7 +238,8 @@ def check_trial(study: Study | str | os.PathLike[str], subject: str, trial: str,
         study = load_study(Path(study))
     ref = find_trial(study, subject, trial)
     assert study.rig is not None
-    with heard_warnings():  # evtribo analyze said them; the check keeps them in .warnings
+    # evtribo analyze said them; the check keeps them in .warnings
+    with collecting(Scope(subject, trial), quiet=True):
         return check_signals(trial_signals(ref, study, cache_dir), trial_meta(ref),
                              settings=settings_of(study, settings),
                              calibration=study.rig.calibration)

@@ -45,9 +45,8 @@ from evtribo import __version__
 from evtribo.analysis.friction.estimate import INTERVAL, MU_ESTIMATOR
 from evtribo.analysis.settings import AnalysisSettings, study_settings
 from evtribo.analysis.trial import empty_windows, failed_row
-from evtribo.analysis.trial_warnings import no_force, say
 from evtribo.documents.result_folder import ResultFolder
-from evtribo.documents.summary import Summary
+from evtribo.documents.summary import SUMMARY_VERSION, Summary
 from evtribo.documents.tables import (
     BOOTSTRAP,
     BOOTSTRAP_FILE,
@@ -79,8 +78,11 @@ from evtribo.store.memo import HashMemo, default_cache_dir
 from evtribo.store.resultdir import locked, recover
 from evtribo.study import Study, TrialRef, load_study
 from evtribo.util.docstrings import fill_doc
+from evtribo.warning.collect import collecting, emitter
+from evtribo.warning.record import Scope, WarningRecord
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 
 
@@ -106,16 +108,16 @@ class StudyResults(ResultFolder):
 
 
 def _plan(study: Study, inputs: list[dict[str, Any]]
-          ) -> tuple[list[TrialTask], list[TrialOutcome], list[dict[str, Any]], list[str]]:
+          ) -> tuple[list[TrialTask], list[TrialOutcome], list[dict[str, Any]]]:
     """The trials to analyse, as hashed; those not analysed: logs being written while
-    hashed (failed) and logs identical to another trial's (counted once, as that trial).
+    hashed (failed) and logs identical to another trial's (counted once, as that trial,
+    said: ``same-log``).
 
-    Returns (tasks, failed outcomes, duplicates, warnings)."""
+    Returns (tasks, failed outcomes, duplicates)."""
     by_path = {r["_path"]: r for r in inputs}
     tasks: list[TrialTask] = []
     failed: list[TrialOutcome] = []
     duplicates: list[dict[str, Any]] = []
-    warnings: list[str] = []
     first: dict[str, TrialRef] = {}
     for index, ref in enumerate(study.trials):
         rec = by_path[os.path.abspath(ref.log_path)]
@@ -132,13 +134,12 @@ def _plan(study: Study, inputs: list[dict[str, Any]]
                     if getattr(same.sidecar, k) != getattr(ref.sidecar, k)]
             differ = (f"; their sidecars differ in {', '.join(diff)} ({same.key}'s values "
                       "are used)") if diff else ""
-            warnings.append(
-                f"{ref.key}: its log {ref.log_path} is identical to {same.key}'s "
-                f"({same.log_path}, sha256 {rec['sha256'][:12]}...): the same recording under "
-                f"two names, counted once, as {same.key}{differ}")
+            emit("same-log", Scope(ref.subject, ref.name), log=str(ref.log_path),
+                 same=same.key, same_log=str(same.log_path), sha256=rec["sha256"][:12],
+                 differ=differ)
             continue
         tasks.append(TrialTask(index, ref, (rec["sha256"], rec["bytes"], rec["_mtime_ns"])))
-    return tasks, failed, duplicates, warnings
+    return tasks, failed, duplicates
 
 
 def _write_csv(schema: TableSchema, df: pd.DataFrame, path: Path) -> str:
@@ -297,8 +298,8 @@ def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | Non
     memo = HashMemo(folder, study.root)
     inputs = input_files(study, memo)  # each input hashed once, here (or when it last changed)
     memo.save()
-    tasks, not_run, duplicates, warnings = _plan(study, inputs)
-    say(warnings)
+    with collecting() as planned:
+        tasks, not_run, duplicates = _plan(study, inputs)
     assert study.rig is not None
     store = OutcomeStore(folder if reuse else None,
                          analysis_context(study.rig, settings, strict), sketches=folder)
@@ -316,7 +317,9 @@ def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | Non
                                                              outcome))
     outcomes = sorted([*kept, *done, *not_run], key=lambda r: r.index)  # the study's order
     tables = _Tables.of(outcomes, settings)
-    warnings = [*study.warnings, *warnings, *tables.warnings, *say(changed_since(inputs))]
+    with collecting() as changed:
+        changed_since(inputs)
+    warnings = [*study.warnings, *planned, *tables.warnings, *changed]
     summary = _summary(study, tables, settings, started_at=started_at, inputs=inputs,
                        duplicates=duplicates, warnings=warnings, strict=strict, jobs=jobs)
     log.info("analysed %d of %d trials of %s", summary["trials_analysed"],
@@ -387,33 +390,31 @@ class _Tables:
     bootstrap: pd.DataFrame
     trace: pd.DataFrame | None
     failed: list[dict[str, str]]
-    warnings: list[str]
+    warnings: list[WarningRecord]
 
     @classmethod
     def of(cls, outcomes: list[TrialOutcome], settings: AnalysisSettings) -> _Tables:
         """The trials' rows, windows and traces gathered (in the study's order), the
         per-subject estimates computed from all windows together, the trials' warnings
         and errors collected."""
-        warnings: list[str] = []
-        failed = []
-        for o in outcomes:  # each trial's warnings said here, once, in the study's order
-            warnings.extend(say_outcome(o))
-            if o.error is not None:
-                failed.append({"trial": f"{o.row['subject']}/{o.row['trial']}",
-                               "error": o.error})
-        trials = _typed(pd.DataFrame([o.row for o in outcomes]), TRIALS)
-        frames = [o.windows for o in outcomes if not o.windows.empty]
-        windows = (pd.concat(frames, ignore_index=True) if frames else empty_windows())
-        windows = windows.reindex(columns=list(WINDOWS.names()))
-        found = summarize_study(windows, trials, n_boot=settings.n_boot, seed=settings.seed,
-                                confidence=settings.confidence,
-                                friction_law=settings.friction_law)
-        electrostatic, exponents, bootstrap = found.electrostatic, found.exponents, \
-            found.bootstrap
-        warnings.extend(found.warnings)
-        if electrostatic.empty and not windows.empty:
-            warnings += say([no_force(int(np.count_nonzero(windows.condition == "on")),
-                                      len(windows))])
+        with collecting() as warnings:
+            for o in outcomes:  # each trial's warnings said here, once, in the study's order
+                say_outcome(o)
+            trials = _typed(pd.DataFrame([o.row for o in outcomes]), TRIALS)
+            frames = [o.windows for o in outcomes if not o.windows.empty]
+            windows = (pd.concat(frames, ignore_index=True) if frames else empty_windows())
+            windows = windows.reindex(columns=list(WINDOWS.names()))
+            found = summarize_study(windows, trials, n_boot=settings.n_boot,
+                                    seed=settings.seed, confidence=settings.confidence,
+                                    friction_law=settings.friction_law)
+            warnings.extend(found.warnings)  # said as they were found
+            if found.electrostatic.empty and not windows.empty:
+                if not (windows.condition == "on").any():
+                    emit("no-on-window", windows=len(windows))
+                else:
+                    emit("no-force-anywhere")
+        failed = [{"trial": f"{o.row['subject']}/{o.row['trial']}", "error": o.error}
+                  for o in outcomes if o.error is not None]
         windows = windows.assign(mu_reference=found.window_mu.reindex(windows.index))
         trials = trials.assign(mu_change_per_10s=pd.Series([
             found.mu_change.get(k) for k in zip(trials.subject, trials.trial, strict=True)],
@@ -421,15 +422,15 @@ class _Tables:
         traces = [o.trace for o in outcomes if o.trace is not None and not o.trace.empty]
         trace = (pd.concat(traces, ignore_index=True)
                  .reindex(columns=list(SINE_TRACE.names())) if traces else None)
-        return cls(trials, windows, _typed(electrostatic, ELECTROSTATIC),
-                   _typed(exponents, EXPONENTS),
-                   bootstrap.reindex(columns=list(BOOTSTRAP.names())), trace, failed,
-                   warnings)
+        return cls(trials, windows, _typed(found.electrostatic, ELECTROSTATIC),
+                   _typed(found.exponents, EXPONENTS),
+                   found.bootstrap.reindex(columns=list(BOOTSTRAP.names())), trace, failed,
+                   list(warnings))
 
 
 def _summary(study: Study, tables: _Tables, settings: AnalysisSettings, *, started_at: float,
              inputs: list[dict[str, Any]], duplicates: list[dict[str, Any]],
-             warnings: list[str], strict: bool, jobs: int) -> dict[str, Any]:
+             warnings: list[WarningRecord], strict: bool, jobs: int) -> dict[str, Any]:
     """The content of summary.json (``output_sha256`` and ``elapsed_s`` filled in when the
     tables are written)."""
     n = len(study.trials)
@@ -443,6 +444,7 @@ def _summary(study: Study, tables: _Tables, settings: AnalysisSettings, *, start
         "study": study.name,
         "run_id": uuid.uuid4().hex,
         "evtribo_version": __version__,
+        "summary_version": SUMMARY_VERSION,
         "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         **provenance(study, started_at, inputs),
         "subjects": study.subjects,
@@ -462,7 +464,7 @@ def _summary(study: Study, tables: _Tables, settings: AnalysisSettings, *, start
                      "interval": INTERVAL,
                      "bootstrap_replicates_saved": int(bootstrap.replicate.nunique())
                      if not bootstrap.empty else 0},
-        "warnings": warnings,
+        "warnings": [w.as_json() for w in warnings],
         "outputs": list(OUTPUT_FILES) + ([SINE_TRACE_FILE] if tables.trace is not None
                                          else []),
         "output_sha256": {},

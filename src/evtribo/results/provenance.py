@@ -30,8 +30,12 @@ from evtribo.errors import (
 from evtribo.store.files import sha256_file
 from evtribo.store.memo import HashMemo, software_versions
 from evtribo.study import Study
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import WarningRecord
 
 __all__ = ["changed_since", "file_record", "input_files", "provenance", "software_versions"]
+
+emit = emitter(__name__)
 
 #: The error that names an input of each role the user may not read.
 _UNREADABLE: dict[str, type[UserInputError]] = {
@@ -171,8 +175,9 @@ def provenance(study: Study, started: float,
     }
 
 
-def changed_since(inputs: list[dict[str, Any]]) -> list[str]:
-    """A warning for each input that changed since :func:`input_files` hashed it.
+def changed_since(inputs: list[dict[str, Any]]) -> list[WarningRecord]:
+    """Say each input that changed since :func:`input_files` hashed it
+    (``input-changed-during``).
 
     Parameters
     ----------
@@ -181,7 +186,8 @@ def changed_since(inputs: list[dict[str, Any]]) -> list[str]:
 
     Returns
     -------
-    list of str
+    list of WarningRecord
+        The warnings said.
     """
     out = []
     for rec in inputs:
@@ -191,7 +197,6 @@ def changed_since(inputs: list[dict[str, Any]]) -> list[str]:
         except OSError:
             now = None
         if now != (rec["bytes"], rec["_mtime_ns"]) and rec["_mtime_ns"] >= 0:
-            out.append(f"{rec['file']}: changed during the analysis; the results are of the "
-                       f"file as it was when the analysis started (sha256 "
-                       f"{rec['sha256'][:12]}...)")
+            out.append(emit("input-changed-during", file=rec["file"],
+                            sha256=rec["sha256"][:12]))
     return out

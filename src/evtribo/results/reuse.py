@@ -41,6 +41,7 @@ import pandas as pd
 from evtribo.results.sketch import TrialSketch
 from evtribo.store.files import read_entry, write_checksummed
 from evtribo.store.memo import software_fingerprint
+from evtribo.warning.record import WarningRecord
 
 if TYPE_CHECKING:
     from evtribo.canlog.rig import Rig
@@ -52,8 +53,8 @@ log = logging.getLogger(__name__)
 __all__ = ["SKETCHES", "OutcomeStore", "analysis_context", "context_text", "keep_outcome",
            "kept_outcomes", "source_fingerprint"]
 
-#: Bumped whenever what an outcome file holds changes.
-OUTCOME_VERSION = 1
+#: Bumped whenever what an outcome file holds changes (2: its warnings as records).
+OUTCOME_VERSION = 2
 #: The folder of the kept sketches in the cache folder.
 SKETCHES = "checks"
 
@@ -169,19 +170,20 @@ class OutcomeStore:
 
         def parse(data: bytes) -> dict[str, Any]:
             obj = json.loads(data)
-            return {"row": dict(obj["row"]), "warnings": list(obj["warnings"]),
+            return {"row": dict(obj["row"]),
+                    "warnings": [WarningRecord.from_json(w) for w in obj["warnings"]],
                     "windows": _frame_from_json(obj["windows"]),
                     "trace": _frame_from_json(obj["trace"])}
         return read_entry(self.directory, key, ".json", parse, what="kept outcome",
                           then="the trial is analysed again")
 
     def put(self, key: str, row: Mapping[str, Any], windows: pd.DataFrame,
-            warnings: Iterable[str], trace: pd.DataFrame | None) -> None:
+            warnings: Iterable[WarningRecord], trace: pd.DataFrame | None) -> None:
         """Keep a trial's outcome under *key* (a cache folder that cannot be written, or an
         value JSON cannot hold, is not an error: the trial is analysed next time)."""
         if self.directory is None:
             return
-        obj = {"row": dict(row), "warnings": list(warnings),
+        obj = {"row": dict(row), "warnings": [w.as_json() for w in warnings],
                "windows": _frame_to_json(windows), "trace": _frame_to_json(trace)}
         try:
             write_checksummed(self.directory, key, json.dumps(obj, default=_plain).encode(),

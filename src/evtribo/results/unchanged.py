@@ -42,17 +42,19 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from evtribo.documents.summary import Summary
 from evtribo.results.outputs import check_out_dir, check_overwrite, write_analysis
 from evtribo.store.files import read_entry, write_checksummed
 from evtribo.store.memo import HashMemo, default_cache_dir, software_fingerprint
 from evtribo.store.resultdir import locked, recover
+from evtribo.warning.collect import replay
 
 log = logging.getLogger(__name__)
 
 __all__ = ["remember", "rerun", "study_key"]
 
-#: Bumped whenever what an entry holds changes.
-ENTRY_VERSION = 1
+#: Bumped whenever what an entry holds changes (2: summary.json's warnings as records).
+ENTRY_VERSION = 2
 ENTRIES = "studies"
 SUFFIX = ".json"
 
@@ -248,6 +250,5 @@ def rerun(study_dir: str | os.PathLike[str], out_dir: str | os.PathLike[str], *,
                        summary, time.perf_counter() - started)
     log.info("%s: unchanged since its analysis of %s; its results written again",
              study_dir, before.get("created"))
-    for text in summary.get("warnings", []):
-        log.warning("%s", text)
+    replay(Summary(summary).warnings)  # said again, each by the module that said it
     return summary

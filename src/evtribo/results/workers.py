@@ -35,7 +35,6 @@ from evtribo.analysis.trial import (
     failed_row,
     trial_start,
 )
-from evtribo.analysis.trial_warnings import heard_warnings, say
 from evtribo.canlog.cache import default_cache_dir, load_trial
 from evtribo.canlog.rig import Rig
 from evtribo.canlog.signals import TrialSignals
@@ -44,14 +43,18 @@ from evtribo.results.exclusions import TrialSeconds
 from evtribo.results.sketch import Sketcher
 from evtribo.store.pool import init_worker, stop_workers
 from evtribo.study import TrialRef
+from evtribo.warning.collect import collected, collecting, emitter, replay
+from evtribo.warning.record import Scope, WarningRecord
 
 __all__ = ["MAX_WARNINGS_PER_TRIAL", "SINE_WORK", "TrialOutcome", "TrialTask", "WorkerContext",
            "analyze_in", "analyze_task", "init_worker", "longest_first", "run_tasks",
            "say_outcome", "stop_workers", "trial_meta"]
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
-#: Most warnings kept per trial in summary.json (the rest are counted).
+#: Most warnings of a trial's reading kept in summary.json (the rest are counted, one
+#: ``more-warnings``); its decoding's and analysis's are all kept.
 MAX_WARNINGS_PER_TRIAL = 20
 
 ProgressCallback = Callable[[int, int], None]
@@ -101,8 +104,8 @@ class TrialOutcome:
         Its row of trials.csv (names and sidecar values only when it failed).
     windows : pandas.DataFrame
         Its windows (none when it failed).
-    warnings : list of str
-        What its analysis and the readers warned of, each starting with the trial's key.
+    warnings : list of WarningRecord
+        What its reading, decoding and analysis said of it, in order.
     error : str or None
         Why it was not analysed.
     trace : pandas.DataFrame or None
@@ -115,7 +118,7 @@ class TrialOutcome:
     index: int
     row: dict[str, Any]
     windows: pd.DataFrame = field(default_factory=empty_windows)
-    warnings: list[str] = field(default_factory=list)
+    warnings: list[WarningRecord] = field(default_factory=list)
     error: str | None = None
     trace: pd.DataFrame | None = None
     sketch: bytes | None = None
@@ -222,15 +225,22 @@ def _outcome(task: TrialTask, context: WorkerContext) -> TrialOutcome:
     result.row.update(observer.seconds.columns())
     warnings = result.warnings
     if result.row.get("skipped_lines"):
-        warnings.append(f"{ref.key}: {result.row['skipped_lines']} damaged line(s) skipped "
-                        f"in {ref.log_path}")
+        warnings.append(_kept("damaged-lines", Scope(ref.subject, ref.name),
+                              lines=int(result.row["skipped_lines"]), log=str(ref.log_path)))
     return TrialOutcome(task.index, result.row, result.windows, warnings, None, result.trace,
                         observer.sketch(meta, result.row))
 
 
-def say_outcome(outcome: TrialOutcome) -> list[str]:
-    """Say a trial's warnings, and why it was not analysed, on the analysis's console (as
-    ``evtribo.analysis.trial`` warnings); return them for ``summary.json``.
+def _kept(kind_id: str, scope: Scope, **values: object) -> WarningRecord:
+    """A warning of a trial's outcome, kept with it (said when the outcome is)."""
+    with collecting(scope, quiet=True):
+        return emit(kind_id, **values)
+
+
+def say_outcome(outcome: TrialOutcome) -> list[WarningRecord]:
+    """Say a trial's warnings, and why it was not analysed (``not-analysed``), here: kept
+    by the innermost collector, on the analysis's console (each under the logger of the
+    module that said it); return them for ``summary.json``.
 
     Parameters
     ----------
@@ -239,14 +249,15 @@ def say_outcome(outcome: TrialOutcome) -> list[str]:
 
     Returns
     -------
-    list of str
+    list of WarningRecord
         Its warnings, then ``<subject>/<trial>: not analysed: <why>`` when it failed.
     """
-    texts = list(outcome.warnings)
+    said = list(outcome.warnings)
+    replay(said)
     if outcome.error is not None:
-        texts.append(f"{outcome.row['subject']}/{outcome.row['trial']}: not analysed: "
-                     f"{outcome.error}")
-    return say(texts, logging.getLogger("evtribo.analysis.trial"))
+        said.append(emit("not-analysed", Scope(outcome.row["subject"], outcome.row["trial"]),
+                         error=outcome.error))
+    return said
 
 
 def analyze_task(task: TrialTask) -> TrialOutcome:
@@ -282,14 +293,13 @@ def analyze_in(task: TrialTask, context: WorkerContext) -> TrialOutcome:
     -------
     TrialOutcome
     """
-    with heard_warnings() as heard:  # said by the analysis gathering the outcomes
-        outcome = _outcome(task, context)
-    key = task.ref.key
-    details = [f"{key}: {m}" for m in heard.messages(besides="evtribo.analysis")]
-    if len(details) > MAX_WARNINGS_PER_TRIAL:
-        extra = len(details) - MAX_WARNINGS_PER_TRIAL
-        details = [*details[:MAX_WARNINGS_PER_TRIAL], f"{key}: ... and {extra} more"]
-    outcome.warnings = details + outcome.warnings
+    scope = Scope(task.ref.subject, task.ref.name)
+    # said by the analysis gathering the outcomes, in the study's order
+    outcome, heard = collected(_outcome, task, context, scope=scope)
+    if len(heard) > MAX_WARNINGS_PER_TRIAL:
+        more = len(heard) - MAX_WARNINGS_PER_TRIAL
+        heard = [*heard[:MAX_WARNINGS_PER_TRIAL], _kept("more-warnings", scope, more=more)]
+    outcome.warnings = heard + outcome.warnings
     return outcome
 
 

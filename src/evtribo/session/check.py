@@ -14,11 +14,12 @@ import os
 from dataclasses import dataclass, field
 
 from evtribo.analysis.trial import TrialMeta, analyze_signals
-from evtribo.analysis.trial_warnings import heard_warnings
 from evtribo.canlog.cache import load_trial
 from evtribo.errors import EvtriboError, UserInputError
 from evtribo.results.pipeline import study_settings
 from evtribo.study import Study, load_study
+from evtribo.warning.collect import collecting
+from evtribo.warning.record import Scope
 
 log = logging.getLogger(__name__)
 
@@ -104,7 +105,8 @@ def check_trial(study: Study, subject: str, trial: str, condition: str | None) -
         out.problems.append("the study has no rig")
         return out
     try:
-        with heard_warnings() as heard:  # shown with the verdict, before keep or redo
+        # shown with the verdict, before keep or redo
+        with collecting(Scope(subject, trial), quiet=True) as heard:
             signals = load_trial(ref.log_path, rig, cache=False)
             result = analyze_signals(signals,
                                      TrialMeta.from_sidecar(subject, trial, ref.sidecar),
@@ -115,8 +117,8 @@ def check_trial(study: Study, subject: str, trial: str, condition: str | None) -
         return out
     where = f"{subject}/{trial}: "
     # the trial's own warnings, then what the readers and the decoder said, each once
-    said = [*result.warnings, *(where + m for m in heard.messages(besides="evtribo.analysis"))]
-    out.warnings = list(dict.fromkeys(w.removeprefix(where) for w in said))
+    said = [*result.warnings, *heard]
+    out.warnings = list(dict.fromkeys(w.text.removeprefix(where) for w in said))
     out.normal_frames = int(signals.normal.t.size)
     out.tangential_frames = int(signals.tangential.t.size)
     w = result.windows

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import logging
 from functools import cache
-from importlib import metadata
 
 __all__ = ["forget", "load"]
 
@@ -28,6 +27,10 @@ log = logging.getLogger(__name__)
 
 @cache
 def _loaded(group: str) -> tuple[tuple[str, object], ...]:
+    # imported here: reading the packages' metadata is not free, and a command that needs
+    # no plug-in (analyze writing an unchanged study's results again) never does
+    from importlib import metadata
+
     out = []
     for entry in sorted(metadata.entry_points(group=group), key=lambda e: (e.name, e.value)):
         try:

@@ -31,13 +31,13 @@ import logging
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, TypeVar
 
 from evtribo.warning.catalogue import kind
 from evtribo.warning.record import Scope, WarningRecord
 
-__all__ = ["Emit", "collected", "collecting", "emitter", "replay"]
+__all__ = ["Emit", "collected", "collecting", "emitter", "replay", "rescoped"]
 
 T = TypeVar("T")
 
@@ -192,3 +192,27 @@ def replay(records: Iterable[WarningRecord]) -> None:
             stack[-1].records.append(record)
         if not quiet:
             logging.getLogger(record.source or "evtribo").warning("%s", record.text)
+
+
+def rescoped(record: WarningRecord, scope: Scope) -> WarningRecord:
+    """*record* as said of *scope*: its kind's wording filled with its values again, the
+    scope's prefix first (a record kept without its trial, a decoded trial's from the
+    cache, said of the trial that reads it).
+
+    Parameters
+    ----------
+    record : WarningRecord
+    scope : Scope
+
+    Returns
+    -------
+    WarningRecord
+        A kind the catalogue lacks, or one of earlier results, keeps its text.
+    """
+    try:
+        found = kind(record.kind)
+    except KeyError:
+        return replace(record, scope=scope)
+    if found.earlier:
+        return replace(record, scope=scope)
+    return found.record(scope, dict(record.values), record.source)

@@ -22,7 +22,8 @@ from typing import Any, Literal, get_args
 
 from evtribo.util.numbers import amplitude_key, frequency_key
 
-__all__ = ["EFFECTS", "LEVELS", "Effect", "Level", "Scope", "WarningRecord", "plain_value"]
+__all__ = ["EFFECTS", "LEVELS", "Effect", "Level", "Note", "Scope", "WarningRecord",
+           "plain_value"]
 
 #: What a warning does to the reported numbers.
 Effect = Literal["number", "interval", "information"]
@@ -261,3 +262,30 @@ class WarningRecord:
                        str(obj.get("source") or ""))
         except (TypeError, ValueError) as err:
             raise ValueError(f"warning {obj['kind']!r}: {err}") from None
+
+
+@dataclass(frozen=True)
+class Note:
+    """A warning found but not said yet: its kind and the values known where it was found;
+    the caller that knows the rest (a load cell's name, the trial) says it
+    (``emit(note.kind, **note.mapping, cell="normal")``).
+
+    Attributes
+    ----------
+    kind : str
+        The kind's id in the catalogue.
+    values : tuple of (str, value)
+        The values found (plain data; a mapping is taken too).
+    """
+
+    kind: str
+    values: tuple[tuple[str, Any], ...] | Mapping[str, Any] = ()
+
+    def __post_init__(self) -> None:
+        items = self.values.items() if isinstance(self.values, Mapping) else self.values
+        object.__setattr__(self, "values", tuple((str(k), plain_value(v)) for k, v in items))
+
+    @property
+    def mapping(self) -> dict[str, Any]:
+        """The values by name."""
+        return dict(self.values)

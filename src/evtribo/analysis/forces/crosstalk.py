@@ -32,8 +32,13 @@ import numpy.typing as npt
 import pandas as pd
 from scipy import special  # stats.t.sf is special.stdtr, stats.norm.cdf special.ndtr
 
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import Scope, WarningRecord
+
 __all__ = ["EDGE_S", "MAX_GAP_S", "NOTE_SIGMA", "ReversalSums", "crosstalk_notes",
            "direction_share", "pooled_over_trials", "reversal_sums"]
+
+emit = emitter(__name__)
 
 #: Length of the stretch at the end of one window and the start of the next that gives the
 #: forces before and after a reversal, s.
@@ -204,9 +209,10 @@ def pooled_over_trials(values: npt.ArrayLike, se: npt.ArrayLike | None = None
     return mean, err, p
 
 
-def crosstalk_notes(trials: pd.DataFrame) -> list[str]:
-    """What the trials' cross-talk columns say of the rig, pooled over the study's trials
-    with their variation between them (:func:`pooled_over_trials`).
+def crosstalk_notes(trials: pd.DataFrame) -> list[WarningRecord]:
+    """Say what the trials' cross-talk columns say of the rig (``crosstalk-normal``,
+    ``crosstalk-tangential``), pooled over the study's trials with their variation between
+    them (:func:`pooled_over_trials`).
 
     Parameters
     ----------
@@ -216,7 +222,8 @@ def crosstalk_notes(trials: pd.DataFrame) -> list[str]:
 
     Returns
     -------
-    list of str
+    list of WarningRecord
+        The warnings said.
     """
     notes = []
     alpha = float(2.0 * special.ndtr(-NOTE_SIGMA))
@@ -227,24 +234,14 @@ def crosstalk_notes(trials: pd.DataFrame) -> list[str]:
         if ok.sum() >= 3:
             pooled, pooled_se, p = pooled_over_trials(a[ok], se[ok])
             if p < alpha and abs(pooled) > 0.005:
-                notes.append(
-                    f"the normal cell reads {100 * pooled:+.1f} % (+/- {100 * pooled_se:.1f}, "
-                    f"over {int(ok.sum())} trials) of the tangential force: its reading jumps "
-                    "with each reversal of the strokes; cross-talk, or a finger pressing "
-                    "harder one way. The electrostatic force weighs both directions alike "
-                    "and is not biased by it, but the normal forces reported are: give "
-                    f"[rig.calibration] matrix = [[1.0, {-pooled:.4f}], [0.0, 1.0]] in "
-                    "study.toml, or measure the whole matrix with evtribo calibrate")
+                notes.append(emit("crosstalk-normal", Scope(), share_pct=100 * pooled,
+                                  share_se_pct=100 * pooled_se, trials=int(ok.sum()),
+                                  matrix_b=-pooled))
     if "tangential_direction_share" in trials.columns:
         b = pd.to_numeric(trials.tangential_direction_share, errors="coerce").dropna()
         if len(b) >= 3:
             mean, _, p = pooled_over_trials(b.to_numpy(float))
             if p < alpha and abs(mean) > 0.01:
-                notes.append(
-                    f"the tangential reading follows the normal force by {100 * mean:+.1f} % "
-                    f"of it in both sliding directions ({len(b)} trials): cross-talk from the "
-                    "normal axis, or friction that differs between the directions; the "
-                    "electrostatic force compares each direction with its own friction. "
-                    "evtribo calibrate on a recording of the finger pressing without "
-                    "sliding tells the two apart")
+                notes.append(emit("crosstalk-tangential", Scope(), share_pct=100 * mean,
+                                  trials=len(b)))
     return notes

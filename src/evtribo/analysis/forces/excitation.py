@@ -4,7 +4,6 @@ the rig broadcasts them (what was applied), else from the sidecar (what was inte
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -17,6 +16,9 @@ from evtribo.canlog.signals import FALLBACK_WAVEFORMS, ExcitationSignals, TrialS
 from evtribo.errors import AnalysisError
 from evtribo.util.docstrings import fill_doc
 from evtribo.util.median import median
+from evtribo.warning.collect import emitter
+
+emit = emitter(__name__)
 
 
 def waveform_names(values: npt.ArrayLike) -> list[str]:
@@ -104,9 +106,9 @@ class Excitation:
 
 @fill_doc
 def excitation_of(signals: TrialSignals, given: dict[str, Any],
-                  grid_t: npt.NDArray[np.float64], guard_s: float,
-                  warn: Callable[[str], None]) -> Excitation:
-    """The condition of every grid point and the trial's waveform, frequency, amplitude.
+                  grid_t: npt.NDArray[np.float64], guard_s: float) -> Excitation:
+    """The condition of every grid point and the trial's waveform, frequency, amplitude; a
+    disagreement between the sidecar and the signals is said (``sidecar-signals``).
 
     Parameters
     ----------
@@ -120,8 +122,6 @@ def excitation_of(signals: TrialSignals, given: dict[str, Any],
         The times of the forces' grid, s.
     guard_s : float
         Time after each switch that belongs to neither condition, s.
-    %(warn)s
-        Here: a disagreement between the sidecar and the signals.
 
     Returns
     -------
@@ -145,8 +145,7 @@ def excitation_of(signals: TrialSignals, given: dict[str, Any],
         for key, value in observed.items():
             said = info.get(key)
             if said is not None and not same_value(said, value):
-                warn(f"the sidecar says {key} = {said!r} but the excitation signals say "
-                     f"{value!r}; using the signals")
+                emit("sidecar-signals", key=key, sidecar=said, signals=value)
             info[key] = value
         return Excitation(info, cond, exc_t, enabled,
                           None if exc.amplitude is None

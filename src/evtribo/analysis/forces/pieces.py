@@ -22,9 +22,13 @@ from evtribo.analysis.forces.align import nominal_period
 from evtribo.canlog.signals import CellSignals, ExcitationSignals, TrialSignals
 from evtribo.errors import AnalysisError
 from evtribo.util.docstrings import fill_doc
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import WarningRecord
 
 __all__ = ["MAX_PAUSE_S", "MIN_RATE_HZ", "check_seconds", "continuous_pieces", "describe_gap",
            "restrict"]
+
+emit = emitter(__name__)
 
 #: Neither load cell silent for longer than this inside a piece, s.
 MAX_PAUSE_S = 1.0
@@ -98,8 +102,9 @@ def continuous_pieces(signals: TrialSignals, max_pause_s: float = MAX_PAUSE_S
     return [(float(t[a]), float(t[b])) for a, b in zip(starts, stops, strict=True)]
 
 
-def describe_gap(before: tuple[float, float], after: tuple[float, float], t0: float) -> str:
-    """A sentence on the pause between two pieces.
+def describe_gap(before: tuple[float, float], after: tuple[float, float], t0: float
+                 ) -> WarningRecord:
+    """Say the pause between two pieces (``pause``).
 
     Parameters
     ----------
@@ -110,13 +115,10 @@ def describe_gap(before: tuple[float, float], after: tuple[float, float], t0: fl
 
     Returns
     -------
-    str
+    WarningRecord
+        The warning said.
     """
-    size = after[0] - before[1]
-    size_text = (f"{size / 3600:.1f} h" if size >= 3600 else f"{size / 60:.1f} min"
-                 if size >= 60 else f"{size:.1f} s")
-    return (f"no frame of the load cells for {size_text} ({size:.3f} s) after "
-            f"{before[1] - t0:.3f} s: a jump of the log's clock or a pause of the recording")
+    return emit("pause", gap_s=after[0] - before[1], at_s=before[1] - t0)
 
 
 def _kept(t: FloatArray, lo: float, hi: float) -> npt.NDArray[np.bool_]:

@@ -47,7 +47,7 @@ calibration's matrix. What was removed is reported in the cells' own units.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -64,8 +64,10 @@ from evtribo.analysis.forces.lifted import (
     offset_curve,
 )
 from evtribo.canlog.rig import Calibration
+from evtribo.warning.collect import emitter
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -220,9 +222,9 @@ class Tared:
     residual: FloatArray | None = None
 
 
-def calibrate(aligned: AlignedForces, calibration: Calibration | None,
-              warn: Callable[[str], None]) -> Tared:
-    """Step 1: the calibration's offsets and matrix (and the normal force's sign).
+def calibrate(aligned: AlignedForces, calibration: Calibration | None) -> Tared:
+    """Step 1: the calibration's offsets and matrix (and the normal force's sign, flipped
+    where it is negative: said, ``sign-flipped``).
 
     Parameters
     ----------
@@ -230,8 +232,6 @@ def calibrate(aligned: AlignedForces, calibration: Calibration | None,
         The forces on their grid, as decoded.
     calibration : Calibration or None
         The rig's ``[rig.calibration]``.
-    warn : callable
-        Told of what the calibration finds worth saying.
 
     Returns
     -------
@@ -249,8 +249,7 @@ def calibrate(aligned: AlignedForces, calibration: Calibration | None,
         fn, ft = a * fn + b * ft, c * fn + d * ft
     flipped = bool(np.nanmedian(fn) < 0)
     if flipped:
-        warn("the normal force is negative: its sign is flipped (compression counted "
-             "positive)")
+        emit("sign-flipped")
         fn = -fn
     n = aligned.t.size
     return Tared(forces=AlignedForces(aligned.t, fn, ft, aligned.rate_Hz), methods=methods,

@@ -25,6 +25,8 @@ from evtribo.analysis.friction.facts import (
 )
 from evtribo.analysis.friction.reference import MuModel, fit_mu_model
 from evtribo.errors import AnalysisError
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import Scope, WarningRecord
 
 __all__ = [
     "CONFOUNDED",
@@ -44,6 +46,8 @@ __all__ = [
     "trial_drifts",
     "window_facts",
 ]
+
+emit = emitter(__name__)
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -171,8 +175,9 @@ def trial_drifts(off: pd.DataFrame, models: dict[object, MuModel] | None = None,
 
 
 def drift_notes(subject: str, drifts: dict[object, TrialDrift], *, compared_in_trial: bool,
-                on_trials_alone: list[object]) -> list[str]:
-    """What a subject's drifts are worth saying.
+                on_trials_alone: list[object]) -> list[WarningRecord]:
+    """Say what a subject's drifts are worth saying (``drift-followed``,
+    ``drift-unseen``).
 
     Parameters
     ----------
@@ -187,33 +192,31 @@ def drift_notes(subject: str, drifts: dict[object, TrialDrift], *, compared_in_t
 
     Returns
     -------
-    list of str
+    list of WarningRecord
+        The warnings said.
     """
     notable = {t: d for t, d in drifts.items() if d.notable}
     if not notable:
         return []
     worst = max(notable, key=lambda t: abs(notable[t].relative))
     rel = np.array([d.relative for d in notable.values()])
-    text = (f"{subject}: the friction coefficient changed within {len(notable)} of "
-            f"{len(drifts)} trials (by {100 * notable[worst].relative:+.0f} % over trial "
-            f"{worst}; {'rising' if np.median(rel) > 0 else 'falling'} in "
-            f"{int(np.sum(np.sign(rel) == np.sign(np.median(rel))))}, at a constant stroke "
-            "pace and press: a fingertip moistening or drying)")
+    said = {"changed": len(notable), "trials": len(drifts),
+            "change_pct": 100 * notable[worst].relative, "worst": str(worst),
+            "direction": "rising" if np.median(rel) > 0 else "falling",
+            "same": int(np.sum(np.sign(rel) == np.sign(np.median(rel))))}
     notes = []
     if compared_in_trial:
-        notes.append(text + "; each ON window was compared with its trial's OFF friction at "
-                     "its own time (mu_change_per_10s in trials.csv)")
+        notes.append(emit("drift-followed", Scope(str(subject)), **said))
     if on_trials_alone:
-        names = ", ".join(str(t) for t in on_trials_alone[:4])
-        notes.append(text + f"; trials {names} are ON throughout and were compared with "
-                     "other trials' OFF windows, so such a change goes into their "
-                     "electrostatic force unseen: alternate ON and OFF within each trial")
+        notes.append(emit("drift-unseen", Scope(str(subject)), **said,
+                          on_trials=", ".join(str(t) for t in on_trials_alone[:4])))
     return notes
 
 
 def stroke_notes(subject: str, models: dict[int, MuModel], off_ratio_sd: float,
-                 rate_gap: float | None) -> list[str]:
-    """What a subject's references say of friction that differs between strokes.
+                 rate_gap: float | None) -> list[WarningRecord]:
+    """Say what a subject's references say of friction that differs between strokes
+    (``pace``, ``mu-scatter``).
 
     Parameters
     ----------
@@ -228,22 +231,17 @@ def stroke_notes(subject: str, models: dict[int, MuModel], off_ratio_sd: float,
 
     Returns
     -------
-    list of str
+    list of WarningRecord
+        The warnings said.
     """
     notes = []
     if any(m.rate for m in models.values()):
         slower = ("" if rate_gap is None or abs(rate_gap) < 0.1 else
                   f"; the ON strokes were {100 * abs(rate_gap):.0f} % "
                   f"{'slower' if rate_gap < 0 else 'faster'} than the OFF ones")
-        notes.append(f"{subject}: the friction follows the strokes' pace (faster strokes, "
-                     f"other friction){slower}; each ON window was compared with the OFF "
-                     "friction at its own stroke's pace (docs/analysis.md, \"Speed and "
-                     "direction\")")
+        notes.append(emit("pace", Scope(str(subject)), slower=slower))
     elif off_ratio_sd > 0.03:
-        notes.append(f"{subject}: the OFF windows' friction coefficient scatters by "
-                     f"{100 * off_ratio_sd:.0f} % between strokes (speed, posture) beyond "
-                     "what the strokes' pace explains; the intervals include it: strokes of "
-                     "an even pace and length narrow them")
+        notes.append(emit("mu-scatter", Scope(str(subject)), scatter_pct=100 * off_ratio_sd))
     return notes
 
 
@@ -364,9 +362,10 @@ def clear_phase_s(span_s: float, guard_s: float = 0.15) -> float:
     return best
 
 
-def phase_notes(subject: str, confounded: dict[object, tuple[float, float]]) -> list[str]:
-    """The note of a subject whose alternating trials' phases are too long to tell a drift
-    of the friction from the voltage's effect.
+def phase_notes(subject: str, confounded: dict[object, tuple[float, float]]
+                ) -> list[WarningRecord]:
+    """Say of a subject whose alternating trials' phases are too long to tell a drift of
+    the friction from the voltage's effect (``long-phases``).
 
     Parameters
     ----------
@@ -376,7 +375,8 @@ def phase_notes(subject: str, confounded: dict[object, tuple[float, float]]) -> 
 
     Returns
     -------
-    list of str
+    list of WarningRecord
+        The warning said, if any.
     """
     bad = {t: v for t, v in confounded.items() if v[0] >= CONFOUNDED}
     if not bad:
@@ -384,12 +384,8 @@ def phase_notes(subject: str, confounded: dict[object, tuple[float, float]]) -> 
     worst = max(v[0] for v in bad.values())
     span = float(np.median([v[1] for v in bad.values()]))
     names = ", ".join(str(t) for t in list(bad)[:4]) + (", ..." if len(bad) > 4 else "")
-    return [f"{subject}: in trials {names} the ON and OFF phases are too long to tell a "
-            "drift of the friction (a moistening finger) from the voltage's effect: fitting "
-            f"the drift widens F_el's interval up to {np.sqrt(worst):.1f}-fold, and a drift "
-            "the data do not show clearly goes into F_el; with trials of "
-            f"{span:.0f} s, phases of {clear_phase_s(span):g} s or shorter keep the two "
-            "apart"]
+    return [emit("long-phases", Scope(str(subject)), trials=names, widening=float(np.sqrt(worst)),
+                 trial_s=span, phase_s=clear_phase_s(span))]
 
 
 def trial_confounding(windows: pd.DataFrame) -> dict[object, tuple[float, float]]:

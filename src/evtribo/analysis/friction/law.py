@@ -51,9 +51,13 @@ from evtribo.analysis.friction.facts import (
     time_basis,
 )
 from evtribo.errors import AnalysisError
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import Scope, WarningRecord
 
 __all__ = ["LAWS", "RATE_SE", "SENSITIVITY_EXPONENT", "TOLD_WIDTH", "FrictionLaw",
            "electrostatic_force", "fit_subject_law", "force_of", "untold_note"]
+
+emit = emitter(__name__)
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -374,9 +378,9 @@ def electrostatic_force(normal_on_N: npt.ArrayLike, friction_on_N: npt.ArrayLike
     return float(np.mean(ft / np.asarray(mu, dtype=np.float64) - fn))
 
 
-def untold_note(subject: str, law: FrictionLaw) -> str:
-    """The note of a subject whose presses do not tell how the friction grows with the
-    load.
+def untold_note(subject: str, law: FrictionLaw) -> WarningRecord:
+    """Say of a subject whose presses do not tell how the friction grows with the load
+    (``law-untold``).
 
     Parameters
     ----------
@@ -386,14 +390,11 @@ def untold_note(subject: str, law: FrictionLaw) -> str:
 
     Returns
     -------
-    str
+    WarningRecord
+        The warning said.
     """
     low, high = law.interval
     found = (f"m = {law.estimate:.2f} [{low:.2f}, {high:.2f}]" if np.isfinite(low)
              else "no spread of the normal force to fit m to")
-    return (f"{subject}: the OFF windows' normal forces span too little to tell how the "
-            f"friction grows with the load ({found}; F_t = c W^m, a finger pad's m is "
-            f"0.67-0.9): electrostatic_force_N is Amontons' (m = 1), and "
-            f"electrostatic_force_m075_N gives F_el at m = {SENSITIVITY_EXPONENT:g}, "
-            "higher by about a third; OFF phases at two or three target presses measure m "
-            "(docs/analysis.md, \"The friction law\")")
+    return emit("law-untold", Scope(str(subject)), found=found,
+                sensitivity=SENSITIVITY_EXPONENT)

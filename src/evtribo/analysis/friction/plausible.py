@@ -16,9 +16,13 @@ import pandas as pd
 from scipy import special  # stats.norm.cdf is special.ndtr, its inverse special.ndtri
 
 from evtribo.util.running import moving_average
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import Scope, WarningRecord
 
 __all__ = ["FAMILY_ALPHA", "MAX_MU", "MIN_MU", "below_zero", "implausible_rows",
            "sign_behaviour", "swapped_roles"]
+
+emit = emitter(__name__)
 
 #: Friction coefficients of a fingertip on glass lie between these (Adams et al. 2013 and
 #: Dzidek et al. 2017 measured 0.1-1.2; moist fingers reach the upper end).
@@ -68,9 +72,10 @@ def _steady(positive: float, crossings: float) -> bool:
 
 
 def swapped_roles(normal: npt.ArrayLike, tangential: npt.ArrayLike, rate_Hz: float
-                  ) -> str | None:
-    """A warning when the two cells' roles look swapped: the signal named the normal force
-    changes sign with the strokes while the one named the tangential force keeps its sign.
+                  ) -> WarningRecord | None:
+    """Say when the two cells' roles look swapped (``roles``): the signal named the normal
+    force changes sign with the strokes while the one named the tangential force keeps its
+    sign.
 
     Parameters
     ----------
@@ -80,18 +85,15 @@ def swapped_roles(normal: npt.ArrayLike, tangential: npt.ArrayLike, rate_Hz: flo
 
     Returns
     -------
-    str or None
+    WarningRecord or None
+        The warning said, if any.
     """
     pn, cn = sign_behaviour(normal, rate_Hz)
     pt, ct = sign_behaviour(tangential, rate_Hz)
     if not (_strokes(pn, cn) and _steady(pt, ct)):
         return None
-    return ("the normal and tangential roles look swapped: the signal named normal_force "
-            f"changes sign with the strokes ({cn:.2f} crossings/s, positive {100 * pn:.0f} % "
-            "of the time) while the one named tangential_force keeps its sign ("
-            f"{ct:.2f} crossings/s, positive {100 * pt:.0f} %); check [rig] normal_force and "
-            "tangential_force in study.toml (evtribo inspect LOG --dbc DBC shows how each "
-            "signal behaves); every number of this trial assumes the roles as named")
+    return emit("roles", normal_crossings=cn, normal_positive_pct=100 * pn,
+                tangential_crossings=ct, tangential_positive_pct=100 * pt)
 
 
 def below_zero(electrostatic: pd.DataFrame, alpha: float = FAMILY_ALPHA
@@ -129,10 +131,10 @@ def below_zero(electrostatic: pd.DataFrame, alpha: float = FAMILY_ALPHA
     return out
 
 
-def implausible_rows(electrostatic: pd.DataFrame) -> list[str]:
-    """Warnings for what no finger gives: a subject's friction coefficient outside
-    [:data:`MIN_MU`, :data:`MAX_MU`], an electrostatic force below zero beyond chance over
-    the study's cells (:func:`below_zero`).
+def implausible_rows(electrostatic: pd.DataFrame) -> list[WarningRecord]:
+    """Say what no finger gives: a subject's friction coefficient outside
+    [:data:`MIN_MU`, :data:`MAX_MU`] (``mu-implausible``), an electrostatic force below zero
+    beyond chance over the study's cells (:func:`below_zero`, ``negative-force``).
 
     Parameters
     ----------
@@ -141,25 +143,21 @@ def implausible_rows(electrostatic: pd.DataFrame) -> list[str]:
 
     Returns
     -------
-    list of str
+    list of WarningRecord
+        The warnings said.
     """
-    out: list[str] = []
+    out: list[WarningRecord] = []
     if electrostatic.empty:
         return out
     flagged = below_zero(electrostatic)
     for subject, rows in electrostatic.groupby("subject", sort=True):
         mu = float(np.nanmedian(rows.mu.to_numpy(float)))
         if not MIN_MU <= mu <= MAX_MU:
-            out.append(f"{subject}: friction coefficient {mu:.2f}, outside what fingers give "
-                       f"on glass ({MIN_MU:g}-{MAX_MU:g}): the roles normal_force and "
-                       "tangential_force in study.toml may be swapped, or a cell's scale "
-                       "in the DBC wrong; the electrostatic forces rest on it")
+            out.append(emit("mu-implausible", Scope(str(subject)), mu=mu, mu_low=MIN_MU,
+                            mu_high=MAX_MU))
         below = rows[flagged[electrostatic.index.get_indexer(rows.index)]]
         if len(below):
             amps = ", ".join(f"{a:g} V" for a in below.amplitude_V)
-            out.append(f"{subject}: the electrostatic force is below zero beyond chance at "
-                       f"{amps} (Holm's test over the study's {len(electrostatic)} cells at "
-                       f"{100 * FAMILY_ALPHA:g} %: the voltage lowered the friction): the "
-                       "roles in study.toml may be swapped, the excitation's ON/OFF signal "
-                       "inverted, or a sidecar's condition wrong")
+            out.append(emit("negative-force", Scope(str(subject)), amplitudes=amps,
+                            cells=len(electrostatic), alpha_pct=100 * FAMILY_ALPHA))
     return out

@@ -4,7 +4,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -17,8 +17,11 @@ from evtribo.analysis.forces.excitation import Excitation
 from evtribo.analysis.forces.spectra import dominant_frequency
 from evtribo.analysis.friction.trace import sine_trace
 from evtribo.analysis.settings import AnalysisSettings
+from evtribo.warning.collect import emitter
 
 __all__ = ["friction_modulation", "trace_around_switch"]
+
+emit = emitter(__name__)
 
 
 def _sine_segments(aligned: AlignedForces, windows: pd.DataFrame
@@ -34,9 +37,10 @@ def _sine_segments(aligned: AlignedForces, windows: pd.DataFrame
     return [np.abs(aligned.tangential[a:b]) for a, b in segs]
 
 
-def friction_modulation(aligned: AlignedForces, w: pd.DataFrame, info: Mapping[str, Any],
-                        warn: Callable[[str], None]) -> float | None:
-    """The friction's dominant frequency over the ON windows of a sine trial.
+def friction_modulation(aligned: AlignedForces, w: pd.DataFrame, info: Mapping[str, Any]
+                        ) -> float | None:
+    """The friction's dominant frequency over the ON windows of a sine trial (why none is
+    found is said: ``modulation``, ``modulation-none``).
 
     Parameters
     ----------
@@ -46,8 +50,6 @@ def friction_modulation(aligned: AlignedForces, w: pd.DataFrame, info: Mapping[s
         Its steady-sliding windows (``condition``, ``i_start``, ``i_stop``).
     info : mapping
         The trial's excitation (``frequency_Hz``: the drive's).
-    warn : callable
-        Told why no frequency is found.
 
     Returns
     -------
@@ -59,14 +61,11 @@ def friction_modulation(aligned: AlignedForces, w: pd.DataFrame, info: Mapping[s
         return None
     drive = info.get("frequency_Hz")
     if drive and 2 * float(drive) >= 0.8 * aligned.rate_Hz / 2:
-        warn(f"friction modulation at 2 x {drive:g} Hz is beyond what the load cells' "
-             f"{aligned.rate_Hz:.0f} Hz sampling can resolve")
+        emit("modulation", frequency_Hz=drive, rate_Hz=aligned.rate_Hz)
         return None
     f = dominant_frequency(_sine_segments(aligned, w), aligned.rate_Hz)
     if not np.isfinite(f):
-        warn("no oscillation of the friction stands out in the ON windows' spectrum (too "
-             "short, or too weak against the noise and the pressing force's wander): no "
-             "friction_modulation_Hz")
+        emit("modulation-none")
         return None
     return float(f)
 

@@ -30,6 +30,7 @@ import numpy as np
 import numpy.typing as npt
 
 from evtribo.util.median import median
+from evtribo.warning.record import Note
 
 log = logging.getLogger(__name__)
 
@@ -74,8 +75,9 @@ class CounterLaw:
         Whether it counts at all (False: its values say nothing of the frames).
     learnt : bool
         Whether the period was taken from the data (not the bit width's, nor declared).
-    note : str or None
-        What it does, in words, where that is worth saying.
+    note : Note or None
+        What it does, where that is worth saying (``counter-idle``, ``counter-law``,
+        ``counter-law-rate``, ``counter-period-unsure``): the decoder says it.
     """
 
     start: int
@@ -83,7 +85,7 @@ class CounterLaw:
     period: int
     counts: bool = True
     learnt: bool = False
-    note: str | None = None
+    note: Note | None = None
 
     @property
     def top(self) -> int:
@@ -160,9 +162,8 @@ def counter_law(t: npt.ArrayLike, raw: npt.ArrayLike, bits: int, *,
                         < MIN_COUNTING_SHARE * d.size):
         why = (f"it stays at {vmin}" if vmin == vmax else
                "its values do not step from frame to frame")
-        return CounterLaw(0, 1, width, counts=False, note=(
-            f"the counter {name} does not count ({why}): it is ignored, and the frames lost "
-            "are counted from the timestamps"))
+        return CounterLaw(0, 1, width, counts=False,
+                          note=Note("counter-idle", {"counter": name, "why": why}))
     if step > 1 and np.mean((c - vmin) % step == 0) < 0.99:
         step = 1  # values off its step: no counter by two
     wide = _width_law(bits, vmin % step, step)
@@ -189,13 +190,11 @@ def _timed(t: FloatArray, c: IntArray, wraps: npt.NDArray[np.bool_], *, seen: Co
     skipped = wide.period - seen.period
     counts = f"from {seen.start} to {seen.top}" + (f" by {seen.step}" if seen.step > 1 else "")
     width = f"from {wide.start} to {wide.top}" + (f" by {wide.step}" if wide.step > 1 else "")
+    said = {"counter": name, "counts": counts, "width": width, "bits": bits, "key": key}
     if np.isfinite(more) and abs(more) < abs(more - skipped) \
             and abs(more - skipped) > MARGIN_SE * se and abs(more) <= max(MARGIN_SE * se, 0.5):
-        return CounterLaw(seen.start, seen.step, seen.period, learnt=True, note=(
-            f"the counter {name} counts {counts} and starts again, every {seen.period} "
-            f"frames, not {width} as its {bits} bits allow: its period is taken from the "
-            f"timing (declare it in the rig file, [rig] {key} = {seen.period}, to make it "
-            "certain)"))
+        return CounterLaw(seen.start, seen.step, seen.period, learnt=True, note=Note(
+            "counter-law", {**said, "period": seen.period}))
     if np.isfinite(more) and abs(more) > MARGIN_SE * se \
             and abs(more - skipped) <= max(MARGIN_SE * se, 0.5):
         return wide  # its top values lost at every wrap: the timing shows them
@@ -204,16 +203,10 @@ def _timed(t: FloatArray, c: IntArray, wraps: npt.NDArray[np.bool_], *, seen: Co
     places = float(np.sum(np.mod(np.diff(seen.place(c)), seen.period)))
     sent = (places + skipped * np.count_nonzero(wraps)) / span if span > 0 else 0.0
     if sent > MAX_FRAME_RATE_HZ:  # the width's law would have the cell send too fast
-        return CounterLaw(seen.start, seen.step, seen.period, learnt=True, note=(
-            f"the counter {name} counts {counts} and starts again, every {seen.period} "
-            f"frames, not {width} as its {bits} bits allow (counting to its top, the cell "
-            f"would send {sent:,.0f} frames a second, more than a CAN bus carries; declare "
-            f"its period in the rig file, [rig] {key} = {seen.period}, to make it certain)"))
-    return CounterLaw(wide.start, wide.step, wide.period, note=(
-        f"the counter {name} never counted {width} in this trial (it counts {counts} and "
-        "starts again), and the timestamps cannot tell whether its firmware starts again "
-        f"there or the frames between were lost each time: counted as lost; if it counts "
-        f"{counts}, declare it in the rig file ([rig] {key} = {seen.period})"))
+        return CounterLaw(seen.start, seen.step, seen.period, learnt=True, note=Note(
+            "counter-law-rate", {**said, "period": seen.period, "rate_Hz": sent}))
+    return CounterLaw(wide.start, wide.step, wide.period,
+                      note=Note("counter-period-unsure", {**said, "period": seen.period}))
 
 
 def _frames_a_wrap(t: FloatArray, place: IntArray, period: int,

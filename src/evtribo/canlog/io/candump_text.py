@@ -42,8 +42,10 @@ from evtribo.canlog.io.candump import _open_binary
 from evtribo.canlog.io.candump_line import FD_SIZES, bounded_readline, notice, too_long
 from evtribo.canlog.io.candump_writer import CAN_EFF_MASK, CAN_ERR_FLAG
 from evtribo.canlog.io.table import CLASSIC_WIDTH, FD_WIDTH, FrameTable
+from evtribo.warning.collect import emitter
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 _ANSI = re.compile(r"\x1b\[[0-9;]*m")
 _FRAME = re.compile(
@@ -168,11 +170,9 @@ def _times(rows: _Rows, path: str | os.PathLike[str]) -> tuple[np.ndarray, str]:
         return ns / 1e9, "-tz"
     total = np.cumsum(ns)
     unit = "µs" if rows.unit >= 1000 else "ns"
-    log.warning("%s: candump -td log: times rebuilt by adding up %d deltas, each printed "
-                "rounded down to 1 %s: the last frames may be early by up to %d %s%s; record "
-                "with candump -L for exact times", os.fspath(path), len(ns) - 1, unit,
-                len(ns) - 1, unit, f" (and {rows.lost_times} deltas of damaged lines are "
-                "missing)" if rows.lost_times else "")
+    emit("candump-deltas", log=os.fspath(path), deltas=len(ns) - 1, unit=unit,
+         lost=f" (and {rows.lost_times} deltas of damaged lines are missing)"
+         if rows.lost_times else "")
     return total / 1e9, "-td"
 
 

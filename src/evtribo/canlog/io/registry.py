@@ -36,8 +36,10 @@ from evtribo.canlog.io.sniff import Sniffed, sniff
 from evtribo.canlog.io.table import FrameTable
 from evtribo.errors import LogFormatError
 from evtribo.store.files import PARTIAL_SUFFIX, check_regular_file, sha256_file
+from evtribo.warning.collect import emitter
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 Reader = Callable[[str | os.PathLike[str], Callable[[int | None, str], None]],
                   tuple[FrameTable, int]]
@@ -243,7 +245,7 @@ class FrameStream:
             report.skipped.append((line, reason))
         if self.warn and report.skipped_lines <= MAX_WARNINGS:
             where = os.fspath(path) if line is None else f"{os.fspath(path)}:{line}"
-            log.warning("%s: skipped damaged line: %s", where, reason)
+            emit("damaged-line", where=where, reason=reason)
 
     def _blocks(self) -> Iterator[tuple[FrameTable, int]]:
         if self._read is read_candump:
@@ -276,8 +278,8 @@ class FrameStream:
                 f"not a {_name(base)} log: no line of it is a frame (line {line}: {reason})."
                 f"{_looks_like(self.path, sniff(self.path))}", path=self.path)
         if self.warn and report.skipped_lines > MAX_WARNINGS:
-            log.warning("%s: %d damaged lines skipped in all (first %d listed)",
-                        os.fspath(self.path), report.skipped_lines, MAX_WARNINGS)
+            emit("damaged-lines-more", log=os.fspath(self.path), lines=report.skipped_lines,
+                 listed=MAX_WARNINGS)
 
 
 def read_frames(path: str | os.PathLike[str], *, strict: bool = False

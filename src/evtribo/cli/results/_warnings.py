@@ -1,6 +1,6 @@
 """``evtribo analyze``'s warnings on its console: each kind once, with the trials or cells it
-concerns, at the end (:mod:`evtribo.report.lead.warning_kinds`), rather than one line per trial as
-the analysis says them.
+concerns, at the end (:mod:`evtribo.warning.render`), rather than one line per trial as the
+analysis says them.
 
 While the analysis runs, :func:`held` holds back the warnings of the analysis's loggers
 (``evtribo.analysis``, ``evtribo.results``, ``evtribo.canlog``); :func:`say_grouped` then
@@ -18,8 +18,10 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from evtribo.documents.summary import SUMMARY_FILE
-from evtribo.report.lead.warning_kinds import EFFECTS, console_lines, group_warnings, read_scope
+from evtribo.documents.summary import SUMMARY_FILE, Summary
+from evtribo.report.lead.scope import read_scope
+from evtribo.warning.record import EFFECTS
+from evtribo.warning.render import console_lines, group
 
 #: The loggers whose warnings the analysis keeps in summary.json.
 _ANALYSIS = ("evtribo.analysis", "evtribo.results", "evtribo.canlog")
@@ -68,14 +70,15 @@ def say_grouped(summary: dict[str, Any], out_dir: Path | None, out: str,
                 hold: _Hold | None) -> None:
     """Say the warnings held and not in summary.json as they were, then summary.json's
     grouped by kind, and where they are kept (on standard error)."""
-    kept = list(summary.get("warnings") or [])
+    kept = Summary(dict(summary)).warnings
     if hold is not None:
         hold.said = True
-        _release([r for r in hold.records if r.getMessage() not in set(kept)])
+        texts = {w.text for w in kept}
+        _release([r for r in hold.records if r.getMessage() not in texts])
     if not kept:
         return
     trials, cells = read_scope(out_dir) if out_dir is not None else ([], [])
-    groups = group_warnings(kept, (), trials)
+    groups = group(kept)
     for line in console_lines(groups, trials, cells):
         print(line, file=sys.stderr)
     counts = {e: sum(g.effect == e for g in groups) for e in EFFECTS}

@@ -10,8 +10,8 @@ from typing import Any
 import pandas as pd
 
 from evtribo.report.headline import F_EL_DEFINITION
-from evtribo.report.lead.warning_kinds import EFFECTS
 from evtribo.util.numbers import significant, to_float
+from evtribo.warning.record import EFFECTS
 
 __all__ = ["analysed_table", "effect_title", "methods_text"]
 
@@ -101,7 +101,7 @@ def effect_title(effect: str) -> str:
     Parameters
     ----------
     effect : str
-        A key of :data:`~evtribo.report.lead.warning_kinds.EFFECTS`.
+        A key of :data:`~evtribo.warning.record.EFFECTS`.
 
     Returns
     -------

@@ -28,7 +28,6 @@ from evtribo.fit.models import INDISTINGUISHABLE, study_ranking, verdict
 from evtribo.fit.tables import ResultTables
 from evtribo.report.headline import Headline
 from evtribo.report.lead.marks import Marks, cell_marks, warning_anchor
-from evtribo.report.lead.warning_kinds import WarningGroup
 from evtribo.util.numbers import (
     frequency,
     quantity,
@@ -38,6 +37,7 @@ from evtribo.util.numbers import (
     voltage,
     with_interval,
 )
+from evtribo.warning.render import WarningGroup
 
 __all__ = ["FRICTION_EXPONENT", "KeyResults", "key_results", "relative_increase"]
 

@@ -10,13 +10,15 @@ from dataclasses import dataclass, field
 
 import pandas as pd
 
-from evtribo.report.lead.warning_kinds import Cell, WarningGroup, study_cells
+from evtribo.report.lead.scope import study_cells
 from evtribo.util.numbers import to_float
+from evtribo.warning.record import Scope
+from evtribo.warning.render import WarningGroup
 
 __all__ = ["FLAGGING", "Marks", "cell_marks", "warning_anchor"]
 
 #: The effects of a warning that flag the cells it touches.
-FLAGGING = ("number", "interval", "unclassified")
+FLAGGING = ("number", "interval")
 
 
 def warning_anchor(k: int) -> str:
@@ -33,7 +35,7 @@ def warning_anchor(k: int) -> str:
     return f"w{k}"
 
 
-def _trial_cells(trials: pd.DataFrame) -> dict[tuple[str, str], Cell]:
+def _trial_cells(trials: pd.DataFrame) -> dict[tuple[str, str], Scope]:
     """The cell each trial measured: its drive at its amplitude (a whole-OFF trial: every
     cell of its subject, whose references it gave)."""
     out = {}
@@ -41,12 +43,12 @@ def _trial_cells(trials: pd.DataFrame) -> dict[tuple[str, str], Cell]:
         subject, trial = str(r.get("subject")), str(r.get("trial"))
         amp = to_float(r.get("amplitude_V"))
         if str(r.get("condition", "")).lower() == "off" or not math.isfinite(amp):
-            out[(subject, trial)] = Cell(subject)
+            out[(subject, trial)] = Scope(subject)
             continue
         wave = r.get("waveform")
         freq = to_float(r.get("frequency_Hz"))
-        out[(subject, trial)] = Cell(subject, None if not isinstance(wave, str) else wave,
-                                     freq if math.isfinite(freq) else None, amp)
+        out[(subject, trial)] = Scope(subject, None, None if not isinstance(wave, str) else wave,
+                                      freq if math.isfinite(freq) else None, amp)
     return out
 
 
@@ -69,7 +71,7 @@ def cell_marks(electrostatic: pd.DataFrame, trials: pd.DataFrame,
     trials : DataFrame
         trials.csv.
     groups : sequence of WarningGroup
-        The warnings, grouped (:func:`~evtribo.report.lead.warning_kinds.group_warnings`); only
+        The warnings, grouped (:func:`~evtribo.warning.render.group`); only
         those whose effect is in :data:`FLAGGING` mark a cell.
 
     Returns
@@ -99,7 +101,7 @@ def cell_marks(electrostatic: pd.DataFrame, trials: pd.DataFrame,
     return Marks(by_row, everywhere)
 
 
-def _any_drive(touch: Cell, cell: Cell) -> bool:
+def _any_drive(touch: Scope, cell: Scope) -> bool:
     """A touch naming no waveform, frequency or amplitude of its own holds every cell of its
     subject; one whose waveform or frequency is unknown holds the cells of that amplitude."""
     if touch.subject != cell.subject:

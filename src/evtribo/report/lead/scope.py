@@ -1,55 +1,22 @@
 """What a result folder's warnings can concern: its trials and its cells (a subject's drive
-at one amplitude), read with the standard library alone (the console of ``evtribo analyze``
-imports nothing heavy for them; :mod:`evtribo.report.lead.warning_kinds` groups the
-warnings by them)."""
+at one amplitude, a :class:`~evtribo.warning.record.Scope`), read with the standard library
+alone (the console of ``evtribo analyze`` imports nothing heavy for them;
+:mod:`evtribo.warning.render` says where each kind of warning was said by them)."""
 
 from __future__ import annotations
 
 import math
 import os
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
 from typing import Any
 
 from evtribo.documents.tables import ELECTROSTATIC, TRIALS
+from evtribo.warning.record import Scope
 
-__all__ = ["Cell", "read_scope", "study_cells"]
-
-
-@dataclass(frozen=True)
-class Cell:
-    """A cell of the headline tables: a subject's drive at one amplitude (None: any)."""
-
-    subject: str
-    waveform: str | None = None
-    frequency_Hz: float | None = None
-    amplitude_V: float | None = None
-
-    def holds(self, subject: str, waveform: str, frequency_Hz: float,
-              amplitude_V: float) -> bool:
-        """Whether the cell (with None for any) is this subject's drive at this amplitude.
-
-        Parameters
-        ----------
-        subject, waveform : str
-        frequency_Hz : float, Hz
-        amplitude_V : float, V
-
-        Returns
-        -------
-        bool
-        """
-        return (self.subject == subject
-                and (self.waveform is None or self.waveform == waveform)
-                and (self.frequency_Hz is None or _same(self.frequency_Hz, frequency_Hz))
-                and (self.amplitude_V is None or _same(self.amplitude_V, amplitude_V)))
+__all__ = ["read_scope", "study_cells"]
 
 
-def _same(a: float, b: float) -> bool:
-    return abs(float(a) - float(b)) <= 1e-6 * max(1.0, abs(float(a)))
-
-
-def study_cells(rows: Iterable[Mapping[Any, Any]]) -> list[Cell]:
+def study_cells(rows: Iterable[Mapping[Any, Any]]) -> list[Scope]:
     """The cells of electrostatic.csv's rows.
 
     Parameters
@@ -59,15 +26,20 @@ def study_cells(rows: Iterable[Mapping[Any, Any]]) -> list[Cell]:
 
     Returns
     -------
-    list of Cell
+    list of Scope
+        Each a subject's drive at one amplitude.
     """
     out = []
     for r in rows:
         wave = r.get("waveform")
         freq, amp = _number(r.get("frequency_Hz")), _number(r.get("amplitude_V"))
-        out.append(Cell(str(r.get("subject")), None if wave in (None, "") else str(wave),
-                        freq, amp))
+        out.append(Scope(str(r.get("subject")), None,
+                         None if wave in (None, "") or _missing(wave) else str(wave), freq, amp))
     return out
+
+
+def _missing(value: object) -> bool:
+    return isinstance(value, float) and math.isnan(value)
 
 
 def _number(value: object) -> float | None:
@@ -78,7 +50,7 @@ def _number(value: object) -> float | None:
     return x if math.isfinite(x) else None
 
 
-def read_scope(folder: str | os.PathLike[str]) -> tuple[list[tuple[str, str]], list[Cell]]:
+def read_scope(folder: str | os.PathLike[str]) -> tuple[list[tuple[str, str]], list[Scope]]:
     """A result folder's trials (trials.csv) and cells (electrostatic.csv), read with the
     standard library (the console of ``evtribo analyze`` imports nothing heavy for it).
 
@@ -89,7 +61,7 @@ def read_scope(folder: str | os.PathLike[str]) -> tuple[list[tuple[str, str]], l
 
     Returns
     -------
-    (list of (str, str), list of Cell)
+    (list of (str, str), list of Scope)
         Empty where a table is missing or unreadable.
     """
     trials = [(r.get("subject", ""), r.get("trial", "")) for r in TRIALS.rows(folder)]

@@ -2,7 +2,7 @@
 the electrostatic force, what was analysed and left out per subject and how.
 
 The warnings are numbered ``W1``, ``W2``... in the order of what they do to the reported
-numbers (:data:`~evtribo.report.lead.warning_kinds.EFFECTS`), each an anchor the flagged
+numbers (:data:`~evtribo.warning.record.EFFECTS`), each an anchor the flagged
 cells of the tables link to (:mod:`evtribo.report.lead.marks`).
 """
 
@@ -16,8 +16,9 @@ from evtribo.fit.tables import ResultTables
 from evtribo.report.lead.analysed import analysed_table, effect_title, methods_text
 from evtribo.report.lead.key_results import KeyResults
 from evtribo.report.lead.marks import warning_anchor
-from evtribo.report.lead.warning_kinds import Cell, WarningGroup, scope_text
 from evtribo.report.page import Report, hertz
+from evtribo.warning.record import Scope
+from evtribo.warning.render import WarningGroup, scope_text
 
 __all__ = ["KEY_SECTION", "WARNINGS_SECTION", "add_analysed", "add_key_results",
            "add_warnings"]
@@ -48,7 +49,7 @@ def add_key_results(report: Report, key: KeyResults) -> None:
 
 
 def add_warnings(report: Report, groups: Sequence[WarningGroup],
-                 trials: Sequence[tuple[str, str]], cells: Sequence[Cell]) -> None:
+                 trials: Sequence[tuple[str, str]], cells: Sequence[Scope]) -> None:
     """The warnings, each kind once with where it was said, under the heading of its effect.
 
     Parameters
@@ -59,7 +60,7 @@ def add_warnings(report: Report, groups: Sequence[WarningGroup],
         In the page's order (``W1`` first).
     trials : sequence of (str, str)
         The study's trials.
-    cells : sequence of Cell
+    cells : sequence of Scope
         The study's cells.
 
     Returns
