@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from evtribo.analysis.forces.crosstalk import crosstalk_notes, pooled_over_trials
 from evtribo.analysis.forces.pieces import describe_gap
 from evtribo.analysis.friction.drift import TrialDrift, drift_notes, phase_notes, stroke_notes
-from evtribo.analysis.friction.law import SENSITIVITY_EXPONENT, FrictionLaw, untold_note
+from evtribo.analysis.friction.laws import SENSITIVITY_EXPONENT, FittedLaw, untold_note
 from evtribo.analysis.friction.plausible import MAX_MU, MIN_MU, implausible_rows
 from evtribo.analysis.tared_windows import _like_with_like
 from evtribo.analysis.trial_warnings import no_force
@@ -56,7 +56,7 @@ def test_the_sequence_s_sentences_are_its_own(step, lost, new):
 
 @pytest.mark.parametrize("se", [0.12, math.nan])
 def test_the_untold_law_is_said_as_the_law_says_it(se):
-    law = FrictionLaw(estimate=math.nan if math.isnan(se) else 0.93, estimate_se=se, dof=12)
+    law = FittedLaw(estimate=math.nan if math.isnan(se) else 0.93, estimate_se=se, dof=12)
     low, high = law.interval
     found = (f"m = {law.estimate:.2f} [{low:.2f}, {high:.2f}]" if np.isfinite(low)
              else "no spread of the normal force to fit m to")

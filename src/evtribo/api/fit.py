@@ -38,7 +38,7 @@ from evtribo.population.estimates import (
     PopulationOutlier,
     population,
 )
-from evtribo.population.exclusions import study_exclusions
+from evtribo.population.exclusions import population_rule
 from evtribo.report.compare import CompareResult, draw_figures
 from evtribo.report.compare import compare as compare_folder
 from evtribo.report.population import read_population
@@ -293,9 +293,10 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
     names = resolve_fit_names(fit)
     base = load_parameters(None if params is None else Path(params))
     tables = _tables(results)
-    exclude, notes = study_exclusions(tables)
+    rule = population_rule(tables)
     fits = fit_study(tables, base, names)
-    pop = population(tables, fits, exclude=exclude, rule_notes=notes)
+    pop = population(tables, fits, exclude=rule.exclude, rule_notes=rule.notes,
+                     model=rule.model)
     figures = _figures(tables, fits, names, pop)
     out = Fit(table=typed_table(fit_table(fits, tables), text=FIT_TEXT_COLUMNS),
               figures={r["stem"]: ax.figure for r, ax in figures if isinstance(ax.figure,

@@ -6,14 +6,15 @@ subjects' fits. Every subject is in the primary rows (``analysis`` ``primary``),
 study excluded beforehand by a rule written in study.toml (``[population] exclude``,
 :mod:`evtribo.population.exclusions`), which are named with their reason:
 
-- per condition (waveform x drive frequency), the power law ``F_el = k U^n`` across subjects
-  on the linear scale, a nonlinear mixed model in which each cell counts with its own error,
-  negative ones too (:mod:`evtribo.population.power_law`): the population's F_el at each
-  measured amplitude (the geometric mean over subjects), its exponent n and prefactor k, with
-  the prediction interval for a new subject, the between-subject SD with its interval, I^2
-  and the convergence checks; a subject far from the others is named, with rows of the same
-  estimates without it (``without S03``); where valid, the meta-analysis of log F_el at each
-  amplitude (``meta-analysis``);
+- per condition (waveform x drive frequency), the model study.toml's ``[population] model``
+  chooses (:mod:`evtribo.population.models`; :mod:`evtribo.population.power_law` runs it):
+  by default the power law ``F_el = k U^n`` across subjects on the linear scale, a nonlinear
+  mixed model in which each cell counts with its own error, negative ones too: the
+  population's F_el at each measured amplitude (the geometric mean over subjects), its
+  exponent n and prefactor k, with the prediction interval for a new subject, the
+  between-subject SD with its interval, I^2 and the convergence checks; a subject far from
+  the others is named, with rows of the same estimates without it (``without S03``); where
+  valid, the meta-analysis of log F_el at each amplitude (``meta-analysis``);
 - the relative friction increase ``dF_t / F_t,OFF`` per amplitude (:mod:`evtribo.population.
   journal`), each subject's in population_subjects.csv with its Holm-adjusted one-sided test
   of ``F_el > 0``;
@@ -60,6 +61,7 @@ from evtribo.population.data import (
     subject_data,
 )
 from evtribo.population.journal import SUBJECT_COLUMNS, friction_increase, subject_table
+from evtribo.population.models import DEFAULT_MODEL, MODELS
 from evtribo.population.nonlinear_fit import NonlinearFit
 from evtribo.population.power_law import condition_estimates
 from evtribo.population.stats import MIN_SUBJECTS, OUTLIER_ALPHA, POOL_METHOD, Pooled
@@ -248,7 +250,7 @@ def _air_gap(rows: Collector, fits: Sequence[SubjectFit], excluded: Mapping[str,
 
 def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
                exclude: Mapping[str, str] | None = None,
-               rule_notes: Sequence[str] = ()) -> Population:
+               rule_notes: Sequence[str] = (), model: str = DEFAULT_MODEL) -> Population:
     """The population's estimates of a study (study format §10).
 
     Parameters
@@ -262,6 +264,9 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
         ``[population] exclude``): left out of every estimate, and named.
     rule_notes : sequence of str
         What was said of that rule (study.toml not read), for fit.json and the methods.
+    model : str
+        The model of each condition's primary rows (study.toml's ``[population] model``: a
+        name of :data:`~evtribo.population.models.MODELS`).
 
     Returns
     -------
@@ -269,7 +274,16 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
         With fewer than three subjects with electrostatic forces: only mu's row (from
         the OFF windows of every subject, a study of OFF trials too), and a note saying
         why there is no other.
+
+    Raises
+    ------
+    ValueError
+        A *model* that is no population model's name.
     """
+    if model not in MODELS:
+        raise ValueError(f"population model must be one of {', '.join(MODELS)}, got "
+                         f"{model!r}")
+    primary = MODELS[model]
     rows = Collector()
     excluded = dict(exclude or {})
     for name, reason in excluded.items():
@@ -301,7 +315,7 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
     rows.alpha = OUTLIER_ALPHA / checked
     per_subject = subject_table(subjects, conditions)
     for condition in conditions:
-        condition_estimates(rows, subjects, condition)
+        condition_estimates(rows, subjects, condition, primary)
         friction_increase(rows, per_subject, condition)
     _mu(rows, tables, everyone)
     _air_gap(rows, fits, excluded)
