@@ -143,8 +143,8 @@ class Registry(Mapping[str, T], Generic[T]):
         """
         self._things.pop(name, None)
 
-    def builtin(self, name: str) -> T | None:
-        """The thing of *name* among those registered so far, plug-ins not read.
+    def is_plugin(self, name: str) -> bool:
+        """Whether the thing of *name* is a plug-in's (read through an entry point).
 
         Parameters
         ----------
@@ -152,9 +152,9 @@ class Registry(Mapping[str, T], Generic[T]):
 
         Returns
         -------
-        object or None
+        bool
         """
-        return self._things.get(name)
+        return name in self and name in self._from_plugins
 
     def _plugins(self) -> None:
         with self._reading:
