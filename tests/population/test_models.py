@@ -5,6 +5,7 @@ small simulated study."""
 
 from __future__ import annotations
 
+import json
 import logging
 import shutil
 from pathlib import Path
@@ -87,10 +88,13 @@ def analysed(tmp_path_factory):
 
 
 def _compared(out: Path, tmp_path: Path) -> pd.DataFrame:
-    """compare of a copy of *out*, its population.csv."""
+    """compare of a copy of *out*, its population.csv (fit.json names the model)."""
     mine = tmp_path / "out"
     shutil.copytree(out, mine)
     assert main(["compare", str(mine), "--dpi", "40", "--no-trial-checks"]) == 0
+    model = json.loads((mine / "fit.json").read_text(encoding="utf-8"))["population"]["model"]
+    assert model == json.loads((out / "summary.json").read_text(encoding="utf-8"))[
+        "study_dir"].rpartition("study-")[2]
     return pd.read_csv(mine / "population.csv")
 
 

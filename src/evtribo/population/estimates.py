@@ -111,6 +111,8 @@ class Population:
         The subjects the study excluded beforehand, with the reason its rule gives.
     rule_notes : list of str
         What was said of that rule (its study.toml not read).
+    model : str
+        The population model of the primary rows (study.toml's ``[population] model``).
     """
 
     table: pd.DataFrame
@@ -126,6 +128,7 @@ class Population:
         default_factory=lambda: pd.DataFrame(columns=list(SUBJECT_COLUMNS)))
     excluded: dict[str, str] = field(default_factory=dict)
     rule_notes: list[str] = field(default_factory=list)
+    model: str = DEFAULT_MODEL
 
     @property
     def primary(self) -> pd.DataFrame:
@@ -155,8 +158,8 @@ class Population:
         return out
 
     def as_json(self) -> dict[str, Any]:
-        """What fit.json records of it: subjects, notes, the subjects far from the others
-        and those excluded beforehand.
+        """What fit.json records of it: subjects, notes, the subjects far from the others,
+        those excluded beforehand and the model of the primary rows.
 
         Returns
         -------
@@ -168,7 +171,7 @@ class Population:
                               "value": o.value, "low": o.low, "high": o.high,
                               "unit": o.unit} for o in self.outliers],
                 "excluded": [{"subject": k, "reason": v} for k, v in self.excluded.items()],
-                "exclusion_rule": list(self.rule_notes),
+                "exclusion_rule": list(self.rule_notes), "model": self.model,
                 "checks": {condition_label(*c): f.convergence.summary()
                            for c, f in self.lines.items()}}
 
@@ -306,7 +309,7 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
         return Population(_frame(rows.rows, POPULATION_COLUMNS),
                           _frame([], CONTRAST_COLUMNS), len(subjects),
                           list(dict.fromkeys(rows.notes)), rows.outliers, excluded=excluded,
-                          rule_notes=list(rule_notes))
+                          rule_notes=list(rule_notes), model=model)
     conditions = conditions_of(subjects)
     # the study's 5 %, shared by the quantities checked: each condition's level and
     # exponent, mu, and h_L when it was fitted
@@ -325,7 +328,7 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
                       _frame(rows.contrasts, CONTRAST_COLUMNS), len(subjects),
                       list(dict.fromkeys(rows.notes)), rows.outliers, rows.lines,
                       rows.subject_lines, {c: s for c, s in rows.far.items() if s},
-                      per_subject, excluded, list(rule_notes))
+                      per_subject, excluded, list(rule_notes), model)
 
 
 def _frame(rows: list[dict[str, Any]], columns: Sequence[str]) -> pd.DataFrame:
