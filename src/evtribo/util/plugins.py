@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import weakref
 from collections.abc import Callable, Iterator, Mapping
 from functools import cache
 from importlib import metadata
@@ -36,8 +37,8 @@ __all__ = ["Registry", "forget", "load"]
 
 T = TypeVar("T")
 
-#: Every registry made, so that :func:`forget` reads their plug-ins again.
-_REGISTRIES: list[Registry[Any]] = []
+#: Every registry made (while it lives), so that :func:`forget` reads their plug-ins again.
+_REGISTRIES: list[weakref.ref[Registry[Any]]] = []
 
 log = logging.getLogger(__name__)
 
@@ -77,8 +78,12 @@ def forget() -> None:
     plug-ins with them.
     """
     _loaded.cache_clear()
-    for registry in _REGISTRIES:
-        registry.forget()
+    for ref in list(_REGISTRIES):
+        registry = ref()
+        if registry is None:
+            _REGISTRIES.remove(ref)
+        else:
+            registry.forget()
 
 
 class Registry(Mapping[str, T], Generic[T]):
@@ -108,7 +113,7 @@ class Registry(Mapping[str, T], Generic[T]):
         self._from_plugins: set[str] = set()
         self._read = False
         self._reading = threading.RLock()  # a plug-in that looks a name up while imported
-        _REGISTRIES.append(self)
+        _REGISTRIES.append(weakref.ref(self))
 
     def register(self, name: str, thing: T) -> None:
         """Add a thing under *name*.
