@@ -30,7 +30,6 @@ import threading
 import weakref
 from collections.abc import Callable, Iterator, Mapping
 from functools import cache
-from importlib import metadata
 from typing import Any, Generic, TypeVar
 
 __all__ = ["Registry", "forget", "load"]
@@ -45,6 +44,8 @@ log = logging.getLogger(__name__)
 
 @cache
 def _loaded(group: str) -> tuple[tuple[str, object], ...]:
+    from importlib import metadata  # on the first look: a process that asks for no plug-in
+                                    # does without it
     out = []
     for entry in sorted(metadata.entry_points(group=group), key=lambda e: (e.name, e.value)):
         try:
