@@ -9,6 +9,7 @@ import ast
 import logging
 import math
 import shutil
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +32,7 @@ from evtribo.analysis.friction.laws import (
 )
 from evtribo.model import TABLE_1
 from evtribo.model.friction_law import LoadLaw, added_load
+from evtribo.store import memo
 from evtribo.util import plugins
 
 SRC = Path(__file__).parents[2] / "src" / "evtribo"
@@ -226,3 +228,33 @@ def test_a_plug_in_with_a_builtin_s_name_or_no_law_is_said_and_skipped(tmp_path,
     assert "friction law 'auto' is registered already" in said
     assert "names int, not a friction law" in said
     assert type(LAWS["auto"]).__module__ == "evtribo.analysis.friction.laws.auto"
+
+
+def _forget_software() -> None:
+    memo.software_fingerprint.cache_clear()
+    memo.plugin_distributions.cache_clear()
+
+
+def test_a_law_s_new_version_is_not_taken_for_the_results_of_the_old(studies, tmp_path,
+                                                                    monkeypatch):
+    """An unchanged study is not analysed again: its last results are written again. A lab's
+    law is part of what the results depend on, as evtribo's own code is: its new version
+    (a plug-in upgraded between two runs) analyses the study again."""
+    lab, _ = studies
+    study = tmp_path / "lab"
+    shutil.copytree(lab, study)
+    root = install(tmp_path, monkeypatch, "mylab_laws", LAB_LAW,
+                   entry_points={"evtribo.friction_laws": {"pad075": "mylab_laws:Pad075"}})
+    _forget_software()
+    out = tmp_path / "out"
+    analyse(study, out, "--cache-dir", str(tmp_path / "cache"))
+    assert (pd.read_csv(out / "electrostatic.csv").friction_exponent == 0.75).all()
+    # the lab's next version: the same name, its pad at m = 0.8
+    (root / "mylab_laws.py").write_text(LAB_LAW.replace("0.75", "0.8"), encoding="utf-8")
+    (root / "mylab_plugin-1.0.dist-info").rename(root / "mylab_plugin-2.0.dist-info")
+    monkeypatch.delitem(sys.modules, "mylab_laws")
+    plugins.forget()
+    _forget_software()
+    analyse(study, out, "--cache-dir", str(tmp_path / "cache"), "--force")
+    assert (pd.read_csv(out / "electrostatic.csv").friction_exponent == 0.8).all()
+    _forget_software()

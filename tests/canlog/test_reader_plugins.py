@@ -5,8 +5,10 @@ is analysed as the same study in candump's format."""
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import shutil
+import sys
 
 import pandas as pd
 import pytest
@@ -14,8 +16,11 @@ import pytest
 from _plugins import install
 from _small_study import analyse, small_study
 from evtribo import study
+from evtribo.canlog.cache import CACHE_VERSION, cache_key
 from evtribo.canlog.io import read_frames
-from evtribo.canlog.io.registry import READERS, supported_suffixes
+from evtribo.canlog.io.registry import READERS, sha256_log, supported_suffixes
+from evtribo.canlog.rig import default_rig
+from evtribo.store import memo
 from evtribo.util import plugins
 
 #: The lab's format: one frame a line, ``time_s id_hex payload_hex`` (``-``: none); ``#`` a
@@ -106,3 +111,23 @@ def test_a_study_recorded_in_a_lab_s_format_is_analysed_as_in_candump_s(tmp_path
     theirs = pd.read_csv(analyse(plain, tmp_path / "out-plain") / "electrostatic.csv")
     assert len(mine) == 9
     pd.testing.assert_frame_equal(mine, theirs)
+
+
+def test_a_decoded_trial_is_kept_under_the_plug_ins_that_read_it(tmp_path, monkeypatch):
+    """A lab's reader decodes a log as evtribo's own readers do: its distribution (name,
+    version, where) is in the key of the decoded trial, so that a new version of it reads
+    the log again; without plug-ins the key is the one evtribo always gave."""
+    log = tmp_path / "run-01.log"
+    log.write_text("(1.000000) vcan0 0C1#00\n", encoding="utf-8")
+    rig = default_rig()
+    memo.plugin_distributions.cache_clear()
+    plugged = cache_key(log, rig)
+    assert any("mylab_plugin-1.0.dist-info" in p for p in memo.plugin_distributions())
+    monkeypatch.setattr(sys, "path", [p for p in sys.path if "mylab_plugin" not in p
+                                      and not p.startswith(str(tmp_path))])
+    memo.plugin_distributions.cache_clear()
+    alone = cache_key(log, rig)
+    memo.plugin_distributions.cache_clear()
+    assert plugged != alone
+    assert alone == hashlib.sha256(b"v%d" % CACHE_VERSION + sha256_log(log).encode()
+                                   + rig.fingerprint().encode()).hexdigest()[:40]

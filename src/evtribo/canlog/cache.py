@@ -47,7 +47,7 @@ from evtribo.canlog.signal_codec import SignalCodec, scaled
 from evtribo.canlog.signals import CellSignals, ExcitationSignals, TrialProvenance, TrialSignals
 from evtribo.errors import AnalysisError
 from evtribo.store.files import read_entry, write_checksummed
-from evtribo.store.memo import default_cache_dir
+from evtribo.store.memo import default_cache_dir, plugin_distributions
 from evtribo.util.docstrings import fill_doc
 
 log = logging.getLogger(__name__)
@@ -103,6 +103,8 @@ def _key(log_sha256: str, rig_fingerprint: str, channel: str | None) -> str:
     h.update(rig_fingerprint.encode())
     if channel is not None:
         h.update(b"\0channel\0" + channel.encode("utf-8", "surrogateescape"))
+    if plugin_distributions():  # a lab's log reader decodes as evtribo's own (none: as ever)
+        h.update(json.dumps(plugin_distributions()).encode())
     return h.hexdigest()[:40]
 
 
