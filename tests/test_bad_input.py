@@ -516,6 +516,8 @@ BUILD: dict[str, Callable[[Path], None]] = {
         t / "study", '[population]\nexclude = [{subject = "P09", reason = "recalibrated"}]'),
     "compare-population-exclude-no-reason": lambda t: _results(t) or _append(
         t / "study", '[population]\nexclude = [{subject = "P01"}]'),
+    "compare-population-model-unknown": lambda t: _results(t) or _append(
+        t / "study", '[population]\nmodel = "bayes"\n'),
     "session-protocol-misspelt-key": _text(Path("protocol.toml"), "[session]\ntrial_s = 20\n"
                                            "repetiton = 2\n[[trial]]\namplitude_V = 100\n"),
     "session-protocol-steps-not-a-list": _text(Path("protocol.toml"), "[session]\n"

@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from evtribo.analysis.friction.estimate import estimate_electrostatic
 from evtribo.analysis.friction.facts import WindowFacts
-from evtribo.analysis.friction.law import fit_subject_law
+from evtribo.analysis.friction.laws import LAWS, fit_subject_law
 from evtribo.analysis.friction.reference import fit_mu_model, fit_trial_model
 
 
@@ -130,13 +130,16 @@ def test_auto_uses_the_fitted_exponent_only_where_its_interval_excludes_one(m, s
     ft = 0.3 * fn ** m * np.exp(rng.normal(0, noise, n))
     facts = WindowFacts(np.arange(n, dtype=float), np.where(np.arange(n) % 2, 1.0, -1.0),
                         np.full(n, np.nan), np.arange(n), np.arange(n) // 20)
-    law = fit_subject_law([(fn, ft, facts, np.full(n, np.nan))])
-    low, high = law.interval
-    assert law.told  # the wandering press tells m
-    assert law.holds_amontons == (low <= 1.0 <= high)
-    if law.holds_amontons:
-        assert law.kind == "amontons" and law.exponent == 1.0
+    fitted = fit_subject_law([(fn, ft, facts, np.full(n, np.nan))])
+    law = LAWS["auto"].choose(fitted)
+    low, high = fitted.interval
+    assert fitted.told  # the wandering press tells m
+    assert fitted.holds_amontons == (low <= 1.0 <= high)
+    if fitted.holds_amontons:
+        assert law.label == "amontons" and law.exponent == 1.0 and law.draw_exponent
     else:
-        assert law.kind == "power" and law.exponent == law.estimate
+        assert law.label == "power" and law.exponent == fitted.estimate
+        assert law.draw_exponent and law.exponent_source
+    assert law.sensitivity is None  # the presses tell m: no sensitivity at 0.75
     if m <= 0.75:  # far from 1: told apart at this scatter
-        assert law.kind == "power" and abs(law.estimate - m) < 0.15  # 4 SE at most
+        assert law.label == "power" and abs(fitted.estimate - m) < 0.15  # 4 SE at most

@@ -13,6 +13,7 @@ from pathlib import Path
 
 import pytest
 
+import evtribo
 from evtribo.acquisition.simulator import TrialConfig, default_subjects, simulate_study
 from evtribo.cli import main
 from evtribo.errors import OutputExistsError
@@ -187,6 +188,17 @@ def test_the_software_fingerprint_follows_the_libraries_metadata_folders(tmp_pat
     monkeypatch.syspath_prepend(str(tmp_path))
     assert memo.software_fingerprint() != before
     memo.software_fingerprint.cache_clear()
+
+
+def test_the_software_fingerprint_follows_every_source_file_of_evtribo(monkeypatch):
+    """The analysis's code, not only the store's: a change to any module of evtribo (a
+    checkout pulled, the version unchanged) is another software."""
+    hashed = []
+    monkeypatch.setattr(memo, "tree_digest", lambda folder: hashed.append(folder) or "")
+    memo.software_fingerprint.cache_clear()
+    memo.software_fingerprint()
+    memo.software_fingerprint.cache_clear()
+    assert hashed == [Path(evtribo.__file__).resolve().parent]
 
 
 def test_a_trial_recorded_while_analyze_runs_is_analysed_next_time(study, tmp_path,

@@ -47,3 +47,33 @@ def test_a_plug_in_that_fails_to_import_is_said_and_skipped(tmp_path, monkeypatc
     [record] = caplog.records
     assert "broken = mylab_broken:THING" in record.getMessage()
     assert "RuntimeError: no licence file" in record.getMessage()
+
+
+def _registry():
+    things = plugins.Registry(GROUP, "thing", check=lambda o: o if isinstance(o, int) else None,
+                              key=lambda entry, thing: entry)
+    things.register("one", 1)
+    return things
+
+
+def test_a_registry_reads_its_plug_ins_only_for_a_name_its_builtins_lack(tmp_path, monkeypatch):
+    things = _registry()
+    read = []
+    real = plugins.load
+    monkeypatch.setattr(plugins, "load", lambda group: read.append(group) or real(group))
+    assert things["one"] == 1 and "one" in things and not read  # a builtin: no scan
+    install(tmp_path, monkeypatch, "mylab_more", "TWO = 2\nWORD = 'two'\n",
+            entry_points={GROUP: {"two": "mylab_more:TWO", "word": "mylab_more:WORD"}})
+    assert things["two"] == 2 and read == [GROUP]
+    assert list(things) == ["one", "two"] and read == [GROUP]  # read once
+    assert things.is_plugin("two") and not things.is_plugin("one")
+    with pytest.raises(KeyError):
+        things["three"]
+    with pytest.raises(ValueError, match="thing 'one' is registered already"):
+        things.register("one", 1)
+    with pytest.raises(ValueError, match="'x' is not a thing"):
+        things.register("x", "x")
+    plugins.forget()  # the plug-ins read again at the next look; the builtins stay
+    assert "two" not in things._things and dict(things) == {"one": 1, "two": 2}
+    things.unregister("two")
+    assert "two" not in things._things

@@ -24,7 +24,7 @@ from evtribo.analysis.friction.drift import (
     phase_notes,
     stroke_notes,
 )
-from evtribo.analysis.friction.law import SENSITIVITY_EXPONENT, FrictionLaw, untold_note
+from evtribo.analysis.friction.laws import SENSITIVITY_EXPONENT, FittedLaw, untold_note
 from evtribo.analysis.friction.plausible import MAX_MU, MIN_MU, implausible_rows
 from evtribo.analysis.tared_windows import _like_with_like
 from evtribo.canlog import sequence
@@ -82,8 +82,8 @@ def test_the_sequence_s_sentences_are_its_own(step, lost, new):
 
 
 @pytest.mark.parametrize("se", [0.12, math.nan])
-def test_the_untold_law_is_said_as_the_law_said_it(se):
-    law = FrictionLaw(estimate=math.nan if math.isnan(se) else 0.93, estimate_se=se, dof=12)
+def test_the_untold_law_is_said_as_the_law_says_it(se):
+    law = FittedLaw(estimate=math.nan if math.isnan(se) else 0.93, estimate_se=se, dof=12)
     low, high = law.interval
     found = (f"m = {law.estimate:.2f} [{low:.2f}, {high:.2f}]" if np.isfinite(low)
              else "no spread of the normal force to fit m to")

@@ -40,9 +40,9 @@ if TYPE_CHECKING:
     from evtribo.analysis.forces.spectra import dominant_frequency
     from evtribo.analysis.friction.estimate import (
         ElectrostaticEstimate,
-        electrostatic_force,
         estimate_electrostatic,
         friction_coefficient,
+        mean_inferred_force,
     )
     from evtribo.analysis.friction.powerlaw import PowerLawFit, fit_power_law
     from evtribo.analysis.friction.windows import find_windows
@@ -53,7 +53,7 @@ if TYPE_CHECKING:
 _HOMES = {
     "AlignedForces": "forces.align", "align_forces": "forces.align",
     "condition_from_excitation": "forces.conditions", "constant_condition": "forces.conditions",
-    "ElectrostaticEstimate": "friction.estimate", "electrostatic_force": "friction.estimate",
+    "ElectrostaticEstimate": "friction.estimate", "mean_inferred_force": "friction.estimate",
     "estimate_electrostatic": "friction.estimate", "friction_coefficient": "friction.estimate",
     "PowerLawFit": "friction.powerlaw", "fit_power_law": "friction.powerlaw",
     "dominant_frequency": "forces.spectra", "find_windows": "friction.windows",
@@ -81,9 +81,9 @@ __all__ = [
     "condition_from_excitation",
     "constant_condition",
     "dominant_frequency",
-    "electrostatic_force",
     "estimate_electrostatic",
     "find_windows",
     "fit_power_law",
     "friction_coefficient",
+    "mean_inferred_force",
 ]

@@ -14,14 +14,14 @@ import dataclasses
 import difflib
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass, fields
 from typing import Any
 
 from evtribo.analysis.forces.align import DEFAULT_MAX_GAP_PERIODS
 from evtribo.analysis.forces.conditions import DEFAULT_GUARD_S
 from evtribo.analysis.friction.estimate import DEFAULT_CONFIDENCE, DEFAULT_N_BOOT
-from evtribo.analysis.friction.law import LAWS
+from evtribo.analysis.friction.laws import LAWS
 from evtribo.analysis.friction.windows import (
     DEFAULT_MAX_WINDOW_S,
     DEFAULT_MIN_WINDOW_S,
@@ -34,8 +34,10 @@ from evtribo.study import STUDY_FILE, Study
 __all__ = ["HUM_MODES", "SETTING_HELP", "TARE_MODES", "AnalysisSettings", "parse_setting",
            "setting_bounds", "study_settings"]
 
-#: The allowed values of each setting that is a word.
-CHOICES = {"tare": TARE_MODES, "hum": HUM_MODES, "friction_law": LAWS}
+#: The allowed values of each setting that is a word (the friction laws' names: the
+#: builtins, then those of plug-ins, :mod:`evtribo.analysis.friction.laws`).
+CHOICES: dict[str, Collection[str]] = {"tare": TARE_MODES, "hum": HUM_MODES,
+                                       "friction_law": LAWS}
 
 #: One line per key: its meaning (``analysis/default.toml`` carries the same words).
 SETTING_HELP = {
@@ -63,7 +65,7 @@ SETTING_HELP = {
     "friction_law": "how the friction grows with the load W = F_n + F_el, F_t = c W^m: auto "
                     "(m measured from each subject's OFF windows where their normal forces "
                     "tell it, else Amontons' m = 1 with F_el at m = 0.75 beside it), power "
-                    "(the measured m however uncertain) or amontons (m = 1)",
+                    "(the measured m however uncertain), amontons (m = 1) or a plug-in's law",
 }
 
 
@@ -100,8 +102,9 @@ class AnalysisSettings:
         long before and after a switch from OFF to ON.
     trace_rate_Hz : float, Hz
         Highest sample rate of the sine trace (block means of the aligned forces).
-    friction_law : {"auto", "amontons", "power"}
-        How the friction grows with the load (:mod:`evtribo.analysis.friction.law`).
+    friction_law : str
+        How the friction grows with the load: ``auto``, ``amontons``, ``power`` or a
+        plug-in's law (:mod:`evtribo.analysis.friction.laws`).
     """
 
     tare: str = "auto"

@@ -39,7 +39,7 @@ from evtribo.population.estimates import (
     PopulationOutlier,
     population,
 )
-from evtribo.population.exclusions import study_exclusions
+from evtribo.population.exclusions import population_rule
 from evtribo.report.compare import CompareResult, draw_figures
 from evtribo.report.compare import compare as compare_folder
 from evtribo.report.population import read_population
@@ -290,9 +290,10 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
     names = resolve_fit_names(fit)
     base = load_parameters(None if params is None else Path(params))
     tables = _comparable(results)
-    exclude, notes = study_exclusions(tables)
+    rule = population_rule(tables)
     fits = fit_study(tables, base, names)
-    pop = population(tables, fits, exclude=exclude, rule_notes=notes)
+    pop = population(tables, fits, exclude=rule.exclude, rule_notes=rule.notes,
+                     model=rule.model)
     figures = _figures(tables, fits, names, pop)
     out = Fit(table=FIT.typed(fit_table(fits, tables)),
               figures={r["stem"]: ax.figure for r, ax in figures if isinstance(ax.figure,

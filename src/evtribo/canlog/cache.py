@@ -47,7 +47,7 @@ from evtribo.canlog.signal_codec import SignalCodec, scaled
 from evtribo.canlog.signals import CellSignals, ExcitationSignals, TrialProvenance, TrialSignals
 from evtribo.errors import AnalysisError
 from evtribo.store.files import read_entry, write_checksummed
-from evtribo.store.memo import default_cache_dir
+from evtribo.store.memo import default_cache_dir, plugin_distributions
 from evtribo.util.docstrings import fill_doc
 from evtribo.warning.collect import emitter
 from evtribo.warning.record import WarningRecord
@@ -57,25 +57,23 @@ emit = emitter(__name__)
 
 #: Bumped whenever what is stored, or how it is decoded, changes.
 CACHE_VERSION = 15  # 2: dropped frames counted by evtribo.canlog.dropped; 3: Rig.counter guess,
-#                    frames with an unknown multiplexer value ignored; 5: checksummed entries;
-#                    6: channel, logger's DROPCOUNT and decoder warnings kept; 7: waveform
-#                    codes named without a value table (evtribo.canlog.signals.FALLBACK_WAVEFORMS);
-#                    8: the reader's damaged lines kept, warned of again from the cache;
-#                    9: Arrow IPC files (were Parquet); 10: the excitation's columns
-#                    run-end encoded, counters in the narrowest ints, times as clock
-#                    ticks' steps and forces as their codes where exact; 11: frames lost
-#                    by the counter alone where it steps by one, outages only on bursty
-#                    timestamps (evtribo.canlog.outages); CAN FD frames only as FD messages;
-#                    12: the cells' frames in the order sent, duplicates counted, counter
-#                    jumps and the log's clock steps taken out (evtribo.canlog.sequence);
-#                    13: a force's samples outside its DBC range left out (bad samples);
-#                    14: lines stamped 2**63 s or more skipped, lines stamped far ahead a
-#                    stretch of their own, the counters' law (evtribo.canlog.counters);
-#                    15: the decoder's warnings as records (evtribo.warning), every one of
-#                    them kept, the frames lost's notes among them
+#                     frames with an unknown multiplexer value ignored; 5: checksummed entries; 6:
+#                     channel, logger's DROPCOUNT and decoder warnings kept; 7: waveform codes
+#                     named without a value table (evtribo.canlog.signals.FALLBACK_WAVEFORMS); 8:
+#                     the reader's damaged lines kept, warned of again from the cache; 9: Arrow IPC
+#                     files (were Parquet); 10: the excitation's columns run-end encoded, counters
+#                     in the narrowest ints, times as clock ticks' steps and forces as their codes
+#                     where exact; 11: frames lost by the counter alone where it steps by one,
+#                     outages only on bursty timestamps (evtribo.canlog.outages); CAN FD frames
+#                     only as FD messages; 12: the cells' frames in the order sent, duplicates
+#                     counted, counter jumps and the log's clock steps taken out
+#                     (evtribo.canlog.sequence); 13: a force's samples outside its DBC range left
+#                     out (bad samples); 14: lines stamped 2**63 s or more skipped, lines stamped
+#                     far ahead a stretch of their own, the counters' law
+#                     (evtribo.canlog.counters); 15: the decoder's warnings as records
+#                     (evtribo.warning), every one of them kept, the frames lost's notes among them
 _META = b"evtribo.trial"
-#: An entry's file name ends so.
-SUFFIX = ".arrow"
+SUFFIX = ".arrow"  #: An entry's file name ends so.
 
 
 @fill_doc
@@ -108,6 +106,8 @@ def _key(log_sha256: str, rig_fingerprint: str, channel: str | None) -> str:
     h.update(rig_fingerprint.encode())
     if channel is not None:
         h.update(b"\0channel\0" + channel.encode("utf-8", "surrogateescape"))
+    if plugin_distributions():  # a lab's log reader decodes as evtribo's own (none: as ever)
+        h.update(json.dumps(plugin_distributions()).encode())
     return h.hexdigest()[:40]
 
 

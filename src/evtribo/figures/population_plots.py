@@ -3,7 +3,7 @@
 One figure per condition (waveform x drive frequency) with a power law across subjects:
 log-log, forces in mN, a tick at each measured amplitude (:mod:`evtribo.figures.layout`).
 Everything drawn comes from the one model of the population (the nonlinear mixed model of
-:mod:`evtribo.population.power_law`; the meta-analysis's per-amplitude means are not drawn
+:mod:`evtribo.population.models.mixed`; the meta-analysis's per-amplitude means are not drawn
 beside it):
 
 - each subject's points (95 % intervals) and its own power law (its conditional mode in the

@@ -36,6 +36,7 @@ from evtribo.fit.model_points import (
     mean_friction_force,
 )
 from evtribo.model.circuit import layer_elastances
+from evtribo.model.friction_law import LoadLaw
 from evtribo.model.params import PARAMETER_BOUNDS, TABLE_1, ModelParameters
 from evtribo.warning.collect import emitter
 
@@ -188,7 +189,7 @@ def with_friction_law(base: ModelParameters, rows: pd.DataFrame) -> ModelParamet
     m, fn = m[np.isfinite(m) & (m > 0)], fn[np.isfinite(fn) & (fn > 0)]
     if m.size == 0 or fn.size == 0:
         return base
-    return base.with_values(m=float(m[0]), W0=float(np.mean(fn)))
+    return base.with_load_law(LoadLaw(float(m[0]), float(np.mean(fn))))
 
 
 def _resistance_range(name: str, base: ModelParameters,

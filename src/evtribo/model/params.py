@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from evtribo.errors import ConfigError
+from evtribo.model.friction_law import LoadLaw
 
 __all__ = ["MIN_GAP", "PARAMETER_BOUNDS", "TABLE_1", "ModelParameters", "ParameterInfo",
            "bounds_text"]
@@ -120,7 +121,8 @@ class ModelParameters:
     # ------------------------------------------------------------------ derived values
     def friction(self, load: ArrayLike) -> NDArray[np.float64]:
         """The friction of a contact loaded by *load*, N: ``mu W0 (W / W0)**m`` (``mu W``
-        when ``m = 1``, the paper's eq. 1).
+        when ``m = 1``, the paper's eq. 1; :class:`~evtribo.model.friction_law.LoadLaw`, no
+        load below zero).
 
         Parameters
         ----------
@@ -132,10 +134,26 @@ class ModelParameters:
         ndarray
             The friction force, N.
         """
-        w = np.asarray(load, dtype=np.float64)
-        if self.m == 1.0:
-            return self.mu * w
-        return np.asarray(self.mu * self.W0 * (np.maximum(w, 0.0) / self.W0) ** self.m)
+        return self.load_law.friction(self.mu, load, floor=0.0)
+
+    @property
+    def load_law(self) -> LoadLaw:
+        """The friction law of these parameters: ``m`` and ``W0``
+        (:class:`~evtribo.model.friction_law.LoadLaw`)."""
+        return LoadLaw(self.m, self.W0)
+
+    def with_load_law(self, law: LoadLaw) -> ModelParameters:
+        """A copy with the friction law *law* (its ``m`` and ``W0``).
+
+        Parameters
+        ----------
+        law : LoadLaw
+
+        Returns
+        -------
+        ModelParameters
+        """
+        return self.with_values(m=law.exponent, W0=law.load_ref_N)
 
     @property
     def effective_gap(self) -> float:

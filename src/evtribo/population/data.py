@@ -38,8 +38,8 @@ from evtribo.population.stats import (
 from evtribo.util.numbers import quantity
 
 __all__ = ["CONTRAST_COLUMNS", "LINEAR_COLUMNS", "META", "POPULATION_COLUMNS", "PRIMARY",
-           "Collector", "Condition", "PopulationOutlier", "SubjectData", "condition_label",
-           "conditions_of", "exp_or_nan", "subject_data"]
+           "Collector", "Condition", "ModelRow", "PopulationOutlier", "SubjectData",
+           "condition_label", "conditions_of", "exp_or_nan", "subject_data"]
 
 #: Columns of population.csv and population_contrasts.csv (study format §10;
 #: :mod:`evtribo.documents.tables`).
@@ -332,6 +332,62 @@ def conditions_of(subjects: Sequence[SubjectData]) -> list[Condition]:
     return unique
 
 
+@dataclass(frozen=True)
+class ModelRow:
+    """One estimate of a population model, a row of population.csv but for its drive and
+    its analysis (:meth:`Collector.add_row` sets them).
+
+    Attributes
+    ----------
+    quantity : str
+        ``electrostatic_force_N``, ``exponent``, ``prefactor_N``...
+    amplitude_V : float, V
+        NaN for a quantity of no amplitude.
+    values : (float, float, float)
+        The estimate and its 95 % interval, in the quantity's unit.
+    between_sd : float
+        The between-subject SD (of the log where the quantity is pooled on the log scale).
+    n : int
+        Subjects.
+    method : str
+        population.csv's ``method``.
+    extra : mapping
+        Its other columns (prediction interval, the SD's interval, I^2, ``checks``).
+    """
+
+    quantity: str
+    amplitude_V: float
+    values: tuple[float, float, float]
+    between_sd: float
+    n: int
+    method: str
+    extra: Mapping[str, float | str] = field(default_factory=dict)
+
+    @classmethod
+    def pooled(cls, quantity: str, amplitude_V: float, p: Pooled, *, method: str,
+               log: bool = False) -> ModelRow:
+        """The row of a random-effects meta-analysis (*log*: of the quantity's logarithm).
+
+        Parameters
+        ----------
+        quantity : str
+        amplitude_V : float, V
+        p : Pooled
+        method : str
+        log : bool
+
+        Returns
+        -------
+        ModelRow
+        """
+        f = exp_or_nan if log else float
+        return cls(quantity, amplitude_V, (f(p.estimate), f(p.ci_low), f(p.ci_high)),
+                   p.between_sd, p.n_subjects, method,
+                   {"pi_low": f(p.pi_low), "pi_high": f(p.pi_high),
+                    "between_sd_low": p.tau_low, "between_sd_high": p.tau_high,
+                    "i2": p.i2, "i2_low": p.i2_low, "i2_high": p.i2_high})
+
+
 class Collector:
     """Collects population.csv's rows, the notes and the subjects far from the others."""
 
@@ -384,13 +440,16 @@ class Collector:
         row.update(extra or {})
         self.rows.append(row)
 
+    def add_row(self, condition: Condition | None, row: ModelRow, *,
+                analysis: str = PRIMARY) -> None:
+        """A model's row of *condition*, in the analysis *analysis*."""
+        self.add(row.quantity, condition, row.amplitude_V, row.values,
+                 between_sd=row.between_sd, n=row.n, method=row.method, analysis=analysis,
+                 extra=row.extra)
+
     def add_pooled(self, quantity: str, condition: Condition | None, amplitude: float,
                    p: Pooled, *, method: str, analysis: str = PRIMARY,
                    log: bool = False) -> None:
         """A row from a meta-analysis (*log*: of the quantity's logarithm)."""
-        f = exp_or_nan if log else float
-        self.add(quantity, condition, amplitude, (f(p.estimate), f(p.ci_low), f(p.ci_high)),
-                 between_sd=p.between_sd, n=p.n_subjects, method=method, analysis=analysis,
-                 extra={"pi_low": f(p.pi_low), "pi_high": f(p.pi_high),
-                        "between_sd_low": p.tau_low, "between_sd_high": p.tau_high,
-                        "i2": p.i2, "i2_low": p.i2_low, "i2_high": p.i2_high})
+        self.add_row(condition, ModelRow.pooled(quantity, amplitude, p, method=method,
+                                                log=log), analysis=analysis)

@@ -6,14 +6,15 @@ subjects' fits. Every subject is in the primary rows (``analysis`` ``primary``),
 study excluded beforehand by a rule written in study.toml (``[population] exclude``,
 :mod:`evtribo.population.exclusions`), which are named with their reason:
 
-- per condition (waveform x drive frequency), the power law ``F_el = k U^n`` across subjects
-  on the linear scale, a nonlinear mixed model in which each cell counts with its own error,
-  negative ones too (:mod:`evtribo.population.power_law`): the population's F_el at each
-  measured amplitude (the geometric mean over subjects), its exponent n and prefactor k, with
-  the prediction interval for a new subject, the between-subject SD with its interval, I^2
-  and the convergence checks; a subject far from the others is named, with rows of the same
-  estimates without it (``without S03``); where valid, the meta-analysis of log F_el at each
-  amplitude (``meta-analysis``);
+- per condition (waveform x drive frequency), the model study.toml's ``[population] model``
+  chooses (:mod:`evtribo.population.models`; :mod:`evtribo.population.power_law` runs it):
+  by default the power law ``F_el = k U^n`` across subjects on the linear scale, a nonlinear
+  mixed model in which each cell counts with its own error, negative ones too: the
+  population's F_el at each measured amplitude (the geometric mean over subjects), its
+  exponent n and prefactor k, with the prediction interval for a new subject, the
+  between-subject SD with its interval, I^2 and the convergence checks; a subject far from
+  the others is named, with rows of the same estimates without it (``without S03``); where
+  valid, the meta-analysis of log F_el at each amplitude (``meta-analysis``);
 - the relative friction increase ``dF_t / F_t,OFF`` per amplitude (:mod:`evtribo.population.
   journal`), each subject's in population_subjects.csv with its Holm-adjusted one-sided test
   of ``F_el > 0``;
@@ -61,6 +62,7 @@ from evtribo.population.data import (
     subject_data,
 )
 from evtribo.population.journal import SUBJECT_COLUMNS, friction_increase, subject_table
+from evtribo.population.models import DEFAULT_MODEL, MODELS
 from evtribo.population.nonlinear_fit import NonlinearFit
 from evtribo.population.power_law import condition_estimates
 from evtribo.population.stats import MIN_SUBJECTS, OUTLIER_ALPHA, POOL_METHOD, Pooled
@@ -105,6 +107,8 @@ class Population:
         The subjects the study excluded beforehand, with the reason its rule gives.
     rule_notes : list of str
         What was said of that rule (its study.toml not read).
+    model : str
+        The population model of the primary rows (study.toml's ``[population] model``).
     """
 
     table: pd.DataFrame
@@ -120,6 +124,7 @@ class Population:
         default_factory=lambda: pd.DataFrame(columns=list(SUBJECT_COLUMNS)))
     excluded: dict[str, str] = field(default_factory=dict)
     rule_notes: list[str] = field(default_factory=list)
+    model: str = DEFAULT_MODEL
 
     @property
     def primary(self) -> pd.DataFrame:
@@ -149,8 +154,8 @@ class Population:
         return out
 
     def as_json(self) -> dict[str, Any]:
-        """What fit.json records of it: subjects, notes, the subjects far from the others
-        and those excluded beforehand.
+        """What fit.json records of it: subjects, notes, the subjects far from the others,
+        those excluded beforehand and the model of the primary rows.
 
         Returns
         -------
@@ -162,7 +167,7 @@ class Population:
                               "value": o.value, "low": o.low, "high": o.high,
                               "unit": o.unit} for o in self.outliers],
                 "excluded": [{"subject": k, "reason": v} for k, v in self.excluded.items()],
-                "exclusion_rule": list(self.rule_notes),
+                "exclusion_rule": list(self.rule_notes), "model": self.model,
                 "checks": {condition_label(*c): f.convergence.summary()
                            for c, f in self.lines.items()}}
 
@@ -244,7 +249,7 @@ def _air_gap(rows: Collector, fits: Sequence[SubjectFit], excluded: Mapping[str,
 
 def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
                exclude: Mapping[str, str] | None = None,
-               rule_notes: Sequence[str] = ()) -> Population:
+               rule_notes: Sequence[str] = (), model: str = DEFAULT_MODEL) -> Population:
     """The population's estimates of a study (study format §10).
 
     Parameters
@@ -258,6 +263,9 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
         ``[population] exclude``): left out of every estimate, and named.
     rule_notes : sequence of str
         What was said of that rule (study.toml not read), for fit.json and the methods.
+    model : str
+        The model of each condition's primary rows (study.toml's ``[population] model``: a
+        name of :data:`~evtribo.population.models.MODELS`).
 
     Returns
     -------
@@ -265,7 +273,16 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
         With fewer than three subjects with electrostatic forces: only mu's row (from
         the OFF windows of every subject, a study of OFF trials too), and a note saying
         why there is no other.
+
+    Raises
+    ------
+    ValueError
+        A *model* that is no population model's name.
     """
+    if model not in MODELS:
+        raise ValueError(f"population model must be one of {', '.join(MODELS)}, got "
+                         f"{model!r}")
+    primary = MODELS[model]
     rows = Collector()
     excluded = dict(exclude or {})
     for name, reason in excluded.items():
@@ -288,7 +305,7 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
         return Population(_frame(rows.rows, POPULATION_COLUMNS),
                           _frame([], CONTRAST_COLUMNS), len(subjects),
                           list(dict.fromkeys(rows.notes)), rows.outliers, excluded=excluded,
-                          rule_notes=list(rule_notes))
+                          rule_notes=list(rule_notes), model=model)
     conditions = conditions_of(subjects)
     # the study's 5 %, shared by the quantities checked: each condition's level and
     # exponent, mu, and h_L when it was fitted
@@ -297,7 +314,7 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
     rows.alpha = OUTLIER_ALPHA / checked
     per_subject = subject_table(subjects, conditions)
     for condition in conditions:
-        condition_estimates(rows, subjects, condition)
+        condition_estimates(rows, subjects, condition, primary)
         friction_increase(rows, per_subject, condition)
     _mu(rows, tables, everyone)
     _air_gap(rows, fits, excluded)
@@ -307,7 +324,7 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
                       _frame(rows.contrasts, CONTRAST_COLUMNS), len(subjects),
                       list(dict.fromkeys(rows.notes)), rows.outliers, rows.lines,
                       rows.subject_lines, {c: s for c, s in rows.far.items() if s},
-                      per_subject, excluded, list(rule_notes))
+                      per_subject, excluded, list(rule_notes), model)
 
 
 def _frame(rows: list[dict[str, Any]], columns: Sequence[str]) -> pd.DataFrame:

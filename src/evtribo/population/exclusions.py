@@ -1,4 +1,5 @@
-"""Subjects excluded from the population's estimates by a rule written beforehand.
+"""Study.toml's ``[population]`` rule: the subjects excluded from the population's estimates
+by a rule written beforehand, and the population model of the primary rows.
 
 A paper's primary analysis has every subject; a subject may be left out only by a rule
 declared before the data were analysed (a protocol deviation, a recalibrated load cell), not
@@ -8,6 +9,11 @@ because its numbers came out far from the others'. The rule is study.toml's::
     exclude = [
       {subject = "P03", reason = "load cell recalibrated during the session"},
     ]
+    model = "mixed"
+
+``model`` names the population model of the primary rows (:mod:`evtribo.population.models`:
+``mixed``, the default, ``meta-analysis``, or a plug-in's), decided, as the exclusions are,
+before the analysis.
 
 ``evtribo compare`` reads it from the study folder the analysis names (``summary.json``'s
 ``study_dir``); when study.toml changed since the analysis (its SHA-256 differs from the one
@@ -21,21 +27,24 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Collection, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from evtribo.documents.names import validate_name
 from evtribo.errors import StudyError
 from evtribo.fit.tables import ResultTables
+from evtribo.population.models import DEFAULT_MODEL, MODELS
 from evtribo.store.files import sha256_file
 from evtribo.study import STUDY_FILE, read_study_toml
 
 log = logging.getLogger(__name__)
 
-__all__ = ["POPULATION_KEYS", "parse_exclusions", "study_exclusions"]
+__all__ = ["POPULATION_KEYS", "PopulationRule", "parse_exclusions", "parse_population",
+           "population_rule"]
 
 #: The keys of study.toml's ``[population]`` table.
-POPULATION_KEYS = ("exclude",)
+POPULATION_KEYS = ("exclude", "model")
 #: The keys of one exclusion.
 _EXCLUSION_KEYS = ("subject", "reason")
 
@@ -112,8 +121,58 @@ def parse_exclusions(table: Any, path: Path, subjects: Collection[str] = ()
     return out
 
 
-def study_exclusions(tables: ResultTables) -> tuple[dict[str, str], list[str]]:
-    """The exclusions of the study the results are of, and notes for the user.
+@dataclass(frozen=True)
+class PopulationRule:
+    """What study.toml's ``[population]`` table says, and what was said of it.
+
+    Attributes
+    ----------
+    exclude : dict of str to str
+        The subjects excluded beforehand, with the reason, in the order given.
+    notes : list of str
+        What was said of the rule (its study.toml not read).
+    model : str
+        The population model of the primary rows (``mixed`` when it names none).
+    """
+
+    exclude: dict[str, str] = field(default_factory=dict)
+    notes: list[str] = field(default_factory=list)
+    model: str = DEFAULT_MODEL
+
+
+def parse_population(table: Any, path: Path, subjects: Collection[str] = ()
+                     ) -> PopulationRule:
+    """study.toml's ``[population]`` table, checked: the exclusions and the model.
+
+    Parameters
+    ----------
+    table : object
+        The table as read (None when study.toml has none).
+    path : Path
+        The study.toml (for messages).
+    subjects : collection of str
+        The subjects of the results (an exclusion must name one); empty: not checked.
+
+    Returns
+    -------
+    PopulationRule
+
+    Raises
+    ------
+    StudyError
+        As :func:`parse_exclusions`; a model that is not one of
+        :data:`~evtribo.population.models.MODELS` (exit code 2).
+    """
+    exclude = parse_exclusions(table, path, subjects)
+    model = DEFAULT_MODEL if table is None else table.get("model", DEFAULT_MODEL)
+    if not isinstance(model, str) or model not in MODELS:
+        raise StudyError(f"{model!r} is not allowed: choose one of {', '.join(MODELS)}",
+                         path=path, key="population.model")
+    return PopulationRule(exclude, [], model)
+
+
+def population_rule(tables: ResultTables) -> PopulationRule:
+    """The ``[population]`` rule of the study the results are of, and notes for the user.
 
     Parameters
     ----------
@@ -123,8 +182,9 @@ def study_exclusions(tables: ResultTables) -> tuple[dict[str, str], list[str]]:
 
     Returns
     -------
-    (dict of str to str, list of str)
-        Subject to reason; notes (the study folder not found: no rule read).
+    PopulationRule
+        No exclusion and the default model, with a note, when the study folder is not
+        found (no rule read).
 
     Raises
     ------
@@ -135,12 +195,13 @@ def study_exclusions(tables: ResultTables) -> tuple[dict[str, str], list[str]]:
     study_dir = tables.summary.study_dir
     path = Path(study_dir) / STUDY_FILE if study_dir else None
     if path is None or not path.is_file():
-        return {}, [f"the study folder {study_dir or '(not recorded)'} was not there: its "
-                    "study.toml's [population] rule was not read, and every subject is in "
-                    "the population's estimates"]
+        return PopulationRule(notes=[
+            f"the study folder {study_dir or '(not recorded)'} was not there: its "
+            "study.toml's [population] rule was not read, and every subject is in the "
+            "population's estimates"])
     config = read_study_toml(path)
     if "population" not in config:
-        return {}, []
+        return PopulationRule()
     recorded = [r.sha256 for r in tables.summary.inputs if r.role == "study"]
     if recorded and sha256_file(path) != recorded[0]:
         raise StudyError("changed since the analysis (its SHA-256 differs from the one in "
@@ -148,4 +209,4 @@ def study_exclusions(tables: ResultTables) -> tuple[dict[str, str], list[str]]:
                          "only when written before the analysis; run `evtribo analyze` "
                          "again", path=path, key="population")
     subjects = {str(s) for s in tables.all_subjects}
-    return parse_exclusions(config["population"], path, subjects), []
+    return parse_population(config["population"], path, subjects)

@@ -21,8 +21,9 @@ the between-subject variance estimated:
     it checks, so that about one study in twenty of a population without outliers names
     one.
 
-Several amplitudes per subject, fitted with a power law across subjects, are
-:mod:`evtribo.population.model`'s.
+Several amplitudes per subject, fitted with a power law across subjects, are the
+population models' (:mod:`evtribo.population.models`: the mixed model of the power law, and
+the meta-analysis of log F_el at each amplitude, which pools with :func:`pool`).
 """
 
 from __future__ import annotations

@@ -65,7 +65,7 @@ from evtribo.fit.tables import ResultTables, check_out_folder, read_results
 from evtribo.guard import refuse_in_study, refuse_input
 from evtribo.model.params import ModelParameters
 from evtribo.population.estimates import Population, population
-from evtribo.population.exclusions import study_exclusions
+from evtribo.population.exclusions import PopulationRule, population_rule
 from evtribo.report.drawing import Drawing, FigureRecord, Figures, Look, Runner, emit_checks
 from evtribo.report.kept import FigureStore, compare_key, last_fit, options_text
 from evtribo.results.outputs import (
@@ -267,7 +267,7 @@ def _run(folder: Path, tables: ResultTables, setup: _Setup, params: str | Path |
     _check_outputs(folder, force, [
         f"{FIGURES}/{stem}.{fmt}" for fmt in setup.look.formats
         for stem in figure_stems(tables.subjects, sine=tables.sine_trace is not None)])
-    exclude = study_exclusions(tables)  # a bad [population] rule: before any write
+    exclude = population_rule(tables)  # a bad [population] rule: before any write
     stale = compare_files(folder)
     previous = last_fit(folder)
     with Staging(folder, by="compare", also=earlier_results(folder)) as stage:
@@ -285,9 +285,10 @@ def _run(folder: Path, tables: ResultTables, setup: _Setup, params: str | Path |
 
 def _compare(tables: ResultTables, stage: Staging, setup: _Setup, figures: Figures, *,
              scheduler: Any = None, progress: Callable[[str], None],
-             exclude: tuple[dict[str, str], list[str]] = ({}, [])) -> CompareResult:
+             exclude: PopulationRule | None = None) -> CompareResult:
     """The fits and figures, written into *stage* (``result.files`` relative to it);
-    *exclude*: the study's exclusions from the population and notes on them."""
+    *exclude*: the study's ``[population]`` rule (its exclusions, its model) and notes on
+    it."""
     names = setup.names
     only_mu = tables.electrostatic.empty  # a study of OFF trials: its friction, no fit
     if not only_mu:
@@ -318,8 +319,9 @@ def _compare(tables: ResultTables, stage: Staging, setup: _Setup, figures: Figur
     if not only_mu:
         progress("estimating the population (a mixed model per condition, checked with "
                  "several optimisers)")
-    result.population = pop = population(tables, fits, exclude=exclude[0],
-                                         rule_notes=exclude[1])
+    rule = exclude or PopulationRule()
+    result.population = pop = population(tables, fits, exclude=rule.exclude,
+                                         rule_notes=rule.notes, model=rule.model)
     for name, text in pop.files().items():
         atomic_write(stage.path(name), text)
         result.files.append(Path(name))

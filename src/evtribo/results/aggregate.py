@@ -48,7 +48,7 @@ from evtribo.analysis.friction.estimate import (
     ElectrostaticEstimate,
     estimate_electrostatic,
 )
-from evtribo.analysis.friction.law import SENSITIVITY_EXPONENT, untold_note
+from evtribo.analysis.friction.laws import untold_note
 from evtribo.analysis.friction.plausible import implausible_rows
 from evtribo.analysis.friction.powerlaw import fit_power_law
 from evtribo.documents.tables import BOOTSTRAP, ELECTROSTATIC, EXPONENTS
@@ -61,7 +61,7 @@ emit = emitter(__name__)
 
 #: Columns of electrostatic.csv, exponents.csv and electrostatic_bootstrap.csv
 #: (:mod:`evtribo.documents.tables`); of electrostatic.csv beyond the study format's, the
-#: subject's friction law (:mod:`evtribo.analysis.friction.law`) and the force at
+#: subject's friction law (:mod:`evtribo.analysis.friction.laws`) and the force at
 #: ``m = 0.75`` where the presses do not tell ``m`` (``friction_law = "auto"``).
 ELECTROSTATIC_COLUMNS, EXPONENT_COLUMNS = ELECTROSTATIC.names(), EXPONENTS.names()
 BOOTSTRAP_COLUMNS = BOOTSTRAP.names()
@@ -224,10 +224,10 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
     est = estimate_electrostatic(*args, seed=_seed(seed, subject), friction_law=friction_law,
                                  **options)
     sensitivity = None
-    if friction_law == "auto" and est.law.kind == "amontons" and not est.law.holds_amontons:
+    if est.law.sensitivity is not None:  # the law chosen says what m may rather be
         sensitivity = estimate_electrostatic(*args, seed=_seed(seed, subject),
-                                             exponent=SENSITIVITY_EXPONENT, **options)
-        untold_note(subject, est.law)
+                                             exponent=est.law.sensitivity, **options)
+        untold_note(subject, est.law.fitted)
     window_mu = pd.Series(est.on_mu, index=on.index)
     own = {}
     for r, model in est.models.items():
@@ -236,9 +236,7 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
         if trends[r]:
             own[refs[r].trial.iloc[0]] = model
     window_mu = window_mu[~window_mu.index.duplicated()]
-    law = est.law
-    drifts = trial_drifts(off, own, rate_slope=law.rate_slope, exponent=law.exponent,
-                          load_ref_N=law.load_ref_N)
+    drifts = trial_drifts(off, own, rate_slope=est.law.fitted.rate_slope, law=est.law.law)
     alone = sorted({t for t in on.trial if facts.condition_of.get((subject, t)) == "on"},
                    key=str)
     drift_notes(subject, drifts, compared_in_trial=any(trends), on_trials_alone=alone)
@@ -261,13 +259,12 @@ def _estimate_subject(subject: str, sub: pd.DataFrame, facts: _TrialFacts, *, n_
 def _law_columns(est: ElectrostaticEstimate, sensitivity: ElectrostaticEstimate | None,
                  j: int) -> dict[str, object]:
     """A row's columns of :data:`LAW_COLUMNS`."""
-    low, high = est.law.interval
-    # the interval of m where the forces use it, or where it holds Amontons' 1
-    shown = est.law.kind == "power" or est.law.holds_amontons
-    out: dict[str, object] = {"friction_law": est.law.kind,
+    # the interval of m where the forces carry its uncertainty
+    low, high = est.law.shown_interval
+    out: dict[str, object] = {"friction_law": est.law.label,
                               "friction_exponent": est.law.exponent,
-                              "friction_exponent_ci_low": low if shown else np.nan,
-                              "friction_exponent_ci_high": high if shown else np.nan}
+                              "friction_exponent_ci_low": low,
+                              "friction_exponent_ci_high": high}
     found = sensitivity is not None and j < sensitivity.force_N.size
     for col, values in (("electrostatic_force_m075_N", "force_N"),
                         ("electrostatic_force_m075_ci_low_N", "ci_low_N"),
@@ -392,9 +389,9 @@ def summarize_study(windows: pd.DataFrame, trials: pd.DataFrame, *,
         Coverage of the intervals.
     n_saved : int
         Replicates kept in the bootstrap table (the first ones; at most *n_boot*).
-    friction_law : {"auto", "amontons", "power"}
-        How the friction grows with the load (``[analysis] friction_law``,
-        :func:`~evtribo.analysis.friction.law.fit_subject_law`).
+    friction_law : str
+        How the friction grows with the load (``[analysis] friction_law``: a name of
+        :data:`~evtribo.analysis.friction.laws.LAWS`).
 
     Returns
     -------
@@ -463,7 +460,7 @@ def summarize(windows: pd.DataFrame, trials: pd.DataFrame, *, n_boot: int = DEFA
         Coverage of the intervals.
     n_saved : int
         Replicates kept in the bootstrap table.
-    friction_law : {"auto", "amontons", "power"}
+    friction_law : str
         As :func:`summarize_study`'s.
 
     Returns

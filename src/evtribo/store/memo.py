@@ -41,6 +41,7 @@ __all__ = [
     "HashMemo",
     "default_cache_dir",
     "installed_distributions",
+    "plugin_distributions",
     "prehash",
     "software_fingerprint",
     "software_versions",
@@ -262,17 +263,56 @@ def installed_distributions(names: Iterable[str]) -> list[str]:
 
 
 @cache
+def plugin_distributions() -> tuple[str, ...]:
+    """The distributions that plug into evtribo (a friction law, a population model, a log
+    reader...): the metadata folders on :data:`sys.path` whose ``entry_points.txt`` declares
+    one of evtribo's entry point groups (``[evtribo.friction_laws]``...), read from the
+    folders' listings as :func:`installed_distributions` reads them.
+
+    Returns
+    -------
+    tuple of str
+        The path of each one's metadata folder (``<name>-<version>.dist-info``), in the order
+        of :data:`sys.path`; empty when none is installed. Read once per process, as
+        :func:`software_fingerprint` is.
+    """
+    found = []
+    for entry in sys.path:
+        try:
+            listing = sorted(os.listdir(entry or "."))
+        except OSError:
+            continue
+        for item in listing:
+            if not item.endswith(".dist-info"):
+                continue
+            folder = os.path.join(os.path.abspath(entry or "."), item)
+            try:
+                with open(os.path.join(folder, "entry_points.txt"), encoding="utf-8") as f:
+                    declared = "[evtribo." in f.read()
+            except (OSError, UnicodeDecodeError):
+                continue
+            if declared:
+                found.append(folder)
+    return tuple(found)
+
+
+@cache
 def software_fingerprint() -> str:
-    """SHA-256 of evtribo's source files, the Python build and the libraries the analysis
-    runs on (their metadata folders: name, version and where they are installed).
+    """SHA-256 of evtribo's source files, the Python build, the libraries the analysis
+    runs on (their metadata folders: name, version and where they are installed) and the
+    plug-ins installed (:func:`plugin_distributions`: a lab's friction law or log reader
+    changes the results as evtribo's own code would).
 
     Returns
     -------
     str
     """
     h = hashlib.sha256(f"{sys.version}\0".encode())
-    h.update(tree_digest(Path(__file__).resolve().parent).encode())
+    h.update(tree_digest(Path(__file__).resolve().parents[1]).encode())  # evtribo/, all of it
     h.update(json.dumps(installed_distributions(["evtribo", *_PACKAGES.values()])).encode())
+    plugged = plugin_distributions()
+    if plugged:  # none: the fingerprint evtribo alone has always had
+        h.update(json.dumps(list(plugged)).encode())
     return h.hexdigest()
 
 

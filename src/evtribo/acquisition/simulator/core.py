@@ -30,7 +30,7 @@ from evtribo.acquisition.simulator.cells import Creep
 from evtribo.acquisition.simulator.config import SubjectParams, TrialConfig
 from evtribo.acquisition.simulator.delivery import Delivery
 from evtribo.acquisition.simulator.encode import pack_signals
-from evtribo.acquisition.simulator.finger import FrictionLaw, contact_time, press_cycle
+from evtribo.acquisition.simulator.finger import SimulatedFriction, contact_time, press_cycle
 from evtribo.acquisition.simulator.physics import (
     CONTACT_RAMP_S,
     FORCE_STEP_S,
@@ -162,7 +162,7 @@ class TrialGenerator:
                                     np.random.default_rng([seed, _S_STROKE]),
                                     np.random.default_rng([seed, _S_DWELL]),
                                     np.random.default_rng([seed, _S_SPEED]))
-        self.friction = FrictionLaw.of(subject, np.random.default_rng([seed, _S_FINGER]))
+        self.friction = SimulatedFriction.of(subject, np.random.default_rng([seed, _S_FINGER]))
         self.delivery = Delivery.draw(config, np.random.default_rng([seed, _S_DELIVERY]))
         self.creep = {"normal": Creep(config.creep, config.creep_time_s),
                       "tangential": Creep(config.creep, config.creep_time_s)}
@@ -250,7 +250,8 @@ class TrialGenerator:
 
     def mu_at(self, t: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """The finger's friction coefficient at times *t* (s from the trial's start), at
-        the law's reference load (:class:`~evtribo.acquisition.simulator.finger.FrictionLaw`)."""
+        the law's reference load (:class:`~evtribo.acquisition.simulator.finger.
+        SimulatedFriction`)."""
         law = self.friction
         if law.constant:
             return np.full(t.shape, law.mu0)

@@ -26,8 +26,9 @@ glass does not (``docs/simulator.md`` gives the sources and the ranges):
   ``F_t = mu * W_0 * (W / W_0)**m``, so that ``mu`` is the coefficient at that press
   (and ``m = 1`` is Amontons-Coulomb friction, ``F_t = mu * W``).
 
-:class:`FrictionLaw` combines them; the simulator evaluates it at every sample of the
-tangential cell and records it as the truth.
+:class:`SimulatedFriction` combines them; the simulator evaluates it at every sample of the
+tangential cell and records it as the truth. The load's part is the friction law of the
+model's physics (:class:`evtribo.model.friction_law.LoadLaw`), not a copy of its own.
 """
 
 from __future__ import annotations
@@ -38,7 +39,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["PRESS_PERIOD_S", "FrictionLaw", "contact_time", "press_cycle"]
+from evtribo.model.friction_law import LoadLaw
+
+__all__ = ["PRESS_PERIOD_S", "SimulatedFriction", "contact_time", "press_cycle"]
 
 if TYPE_CHECKING:
     from evtribo.acquisition.simulator.config import SubjectParams
@@ -77,12 +80,13 @@ def contact_time(t: npt.ArrayLike, off_start: npt.ArrayLike, off_end: npt.ArrayL
 
 
 @dataclass(frozen=True)
-class FrictionLaw:
+class SimulatedFriction:
     """A trial's friction at each instant.
 
     ``mu(t) = mu0 * moisture(t) * (v / v_ref)**speed_exponent * (1 + asymmetry * d)``, the
     coefficient at the reference load ``W_0``; the friction under a load ``W`` is
-    ``F_t = mu(t) * W_0 * (W / W_0)**exponent`` (:meth:`force`).
+    ``F_t = mu(t) * W_0 * (W / W_0)**exponent`` (:meth:`force`, the law of
+    :attr:`load_law`).
 
     Attributes
     ----------
@@ -115,7 +119,7 @@ class FrictionLaw:
     reference_load_N: float = 1.0
 
     @classmethod
-    def of(cls, subject: SubjectParams, rng: np.random.Generator) -> FrictionLaw:
+    def of(cls, subject: SubjectParams, rng: np.random.Generator) -> SimulatedFriction:
         """The subject's friction in one trial (its coefficient drawn about the subject's
         when trials differ, ``mu_trial_spread``).
 
@@ -126,7 +130,7 @@ class FrictionLaw:
 
         Returns
         -------
-        FrictionLaw
+        SimulatedFriction
         """
         mu0 = subject.mu
         if subject.mu_trial_spread > 0:
@@ -137,9 +141,16 @@ class FrictionLaw:
                    subject.direction_asymmetry, subject.friction_exponent,
                    subject.normal_force_N)
 
+    @property
+    def load_law(self) -> LoadLaw:
+        """How the friction grows with the load: ``m`` and ``W_0``
+        (:class:`~evtribo.model.friction_law.LoadLaw`)."""
+        return LoadLaw(self.exponent, self.reference_load_N)
+
     def force(self, mu: npt.ArrayLike, load_N: npt.ArrayLike) -> FloatArray:
         """The friction's magnitude under *load_N* with the coefficient *mu* (at the
-        reference load), ``mu * W_0 * (W / W_0)**m``, N.
+        reference load), ``mu * W_0 * (W / W_0)**m``, N: no load below zero (a finger
+        pulled off the screen has none).
 
         Parameters
         ----------
@@ -153,11 +164,7 @@ class FrictionLaw:
         ndarray of float64, N
         """
         w = np.maximum(np.asarray(load_N, dtype=np.float64), 0.0)
-        mu_a = np.asarray(mu, dtype=np.float64)
-        if self.exponent == 1.0:
-            return np.asarray(mu_a * w, dtype=np.float64)
-        w0 = self.reference_load_N
-        return np.asarray(mu_a * w0 * (w / w0) ** self.exponent, dtype=np.float64)
+        return self.load_law.friction(mu, w, floor=0.0)
 
     def coefficient_at(self, mu: npt.ArrayLike, load_N: npt.ArrayLike) -> FloatArray:
         """The coefficient ``F_t / W`` under *load_N*: ``mu * (W / W_0)**(m - 1)`` (*mu*
@@ -177,8 +184,10 @@ class FrictionLaw:
             return np.asarray(np.broadcast_to(mu_a, np.broadcast_shapes(
                 mu_a.shape, np.shape(load_N))), dtype=np.float64).copy()
         w = np.asarray(load_N, dtype=np.float64)
-        ratio = np.where(w > 0, w / self.reference_load_N, 1.0)
-        return np.asarray(mu_a * ratio ** (self.exponent - 1.0), dtype=np.float64)
+        # no load: the coefficient at W_0 (W_0 / W_0 is 1 to the last bit)
+        at = np.where(w > 0, w, self.reference_load_N)
+        return np.asarray(mu_a * self.load_law.coefficient_factor(at, floor=0.0),
+                          dtype=np.float64)
 
     @property
     def constant(self) -> bool:

@@ -64,7 +64,7 @@ class TrialTruth:
         The finger's speed in each of :attr:`slides`.
     friction : dict
         The trial's friction law (:class:`~evtribo.acquisition.simulator.finger.
-        FrictionLaw`'s fields: ``mu0``, moisture, speed and direction terms, the load's
+        SimulatedFriction`'s fields: ``mu0``, moisture, speed and direction terms, the load's
         ``exponent`` and ``reference_load_N``).
     outages : list of (start_s, end_s)
         Periods in which the logger received nothing.

@@ -2,7 +2,7 @@
 (:mod:`evtribo.analysis.friction.estimate` says what they are and how they are calibrated).
 
 :class:`References` fits each reference's model of ``mu`` (with the subject's friction law,
-:mod:`evtribo.analysis.friction.law`) and draws its replicates; :func:`group_force` gives a
+:mod:`evtribo.analysis.friction.laws`) and draws its replicates; :func:`group_force` gives a
 group's force and its calibrated replicates; :func:`small_sample_scale` is the calibration of
 a percentile-bootstrap interval for few windows (a Welch-Satterthwaite Student factor).
 """
@@ -18,9 +18,10 @@ from scipy import special  # stats.t.ppf is special.stdtrit, stats.norm.ppf spec
 
 from evtribo.analysis.friction.balance import balanced_weights
 from evtribo.analysis.friction.facts import WindowFacts, cr2_residuals
-from evtribo.analysis.friction.law import FrictionLaw, fit_subject_law, force_of
+from evtribo.analysis.friction.laws import ChosenLaw, at_exponent, fit_subject_law, law_choice
 from evtribo.analysis.friction.reference import MuModel, fit_mu_model, fit_trial_model
 from evtribo.errors import AnalysisError
+from evtribo.model.friction_law import added_load
 
 __all__ = ["DEFAULT_CONFIDENCE", "small_sample_scale"]
 
@@ -70,20 +71,19 @@ def small_sample_scale(variances: npt.ArrayLike, counts: npt.ArrayLike,
 
 
 def subject_law(w: Windows, offs: list[WindowFacts], ons: WindowFacts, friction_law: str,
-         exponent: float | None) -> FrictionLaw:
+                exponent: float | None) -> ChosenLaw:
     """The subject's friction law from the OFF windows of the references used and all its
-    ON windows (:func:`~evtribo.analysis.friction.law.fit_subject_law`), or at the exponent
-    given."""
+    ON windows (:func:`~evtribo.analysis.friction.laws.fit.fit_subject_law`), as the choice
+    *friction_law* makes it the forces' law, or at the exponent given (its uncertainty left
+    out)."""
+    choice = law_choice(friction_law)
     used = [int(x) for x in np.unique(w.on_ref)]
-    law = fit_subject_law(
+    fitted = fit_subject_law(
         [(w.off_normal[r], w.off_friction[r], offs[r], np.full(w.off_normal[r].size, np.nan))
-         for r in used] + [(w.on_normal, w.on_friction, ons, w.on_group)],
-        law=friction_law)
+         for r in used] + [(w.on_normal, w.on_friction, ons, w.on_group)])
     if exponent is not None:
-        law = law.with_exponent(float(exponent), "amontons" if exponent == 1 else "power")
-        law = FrictionLaw(law.exponent, law.kind, law.estimate, float("nan"), law.told, 0.0,
-                          law.rate_slope, law.rate_se, law.load_ref_N, law.press_spread)
-    return law
+        return at_exponent(fitted, float(exponent))
+    return choice.choose(fitted)
 
 
 @dataclass(frozen=True)
@@ -156,9 +156,10 @@ def on_residuals(normal_N: FloatArray, friction_N: FloatArray, mu: FloatArray, m
                  facts: WindowFacts, group: FloatArray
                  ) -> tuple[FloatArray, FloatArray, dict[float, float]]:
     """The ON windows' scatter, as perturbations of their ``log F_t``: each window's force
-    under the law (:func:`force_of`) about its cell's (trial and group) level and
-    direction term (two windows each way or more), CR2-scaled (weighted least squares,
-    weights ``F_n``), and divided by ``d F_el / d log F_t = (F_n + F_el) / m``.
+    under the law (:func:`~evtribo.model.friction_law.added_load`) about its cell's (trial
+    and group) level and direction term (two windows each way or more), CR2-scaled
+    (weighted least squares, weights ``F_n``), and divided by ``d F_el / d log F_t =
+    (F_n + F_el) / m``.
 
     The force of a cell is its mean over its ON phases, of which the windows are a
     sample: whatever the windows' force varies with (noise, the press where ``F_el``
@@ -186,7 +187,7 @@ def on_residuals(normal_N: FloatArray, friction_N: FloatArray, mu: FloatArray, m
     dofs : dict
         Each cell's degrees of freedom (strokes less coefficients).
     """
-    force = force_of(normal_N, friction_N, mu, m)
+    force = added_load(normal_N, friction_N, mu, m)
     load = np.maximum(normal_N + force, 1e-6 * normal_N) / m
     resid = np.zeros(force.size)
     dofs: dict[float, float] = {}
@@ -220,7 +221,7 @@ class References:
     noise_on_b: FloatArray  # (n_boot, n_on): log F_t's perturbation
     resid_on: FloatArray  # (n_on,): their scale (:func:`on_residuals`)
     off_clusters: dict[int, int]  # strokes behind each model
-    law: FrictionLaw
+    law: ChosenLaw
     exponent_b: FloatArray  # (n_boot, 1): the law's exponent in each replicate
     law_shift: FloatArray  # (n_on,): d log mu / d m at each ON window
     sources: list[Source]
@@ -228,7 +229,7 @@ class References:
 
     @classmethod
     def fit(cls, w: Windows, offs: list[WindowFacts], ons: WindowFacts, trends: list[bool],
-            *, rng: np.random.Generator, n_boot: int, law: FrictionLaw) -> References:
+            *, rng: np.random.Generator, n_boot: int, law: ChosenLaw) -> References:
         """Each used reference's model (a trial's from its OFF and ON windows together,
         :func:`~evtribo.analysis.friction.reference.fit_trial_model`), and the replicates."""
         models: dict[int, MuModel] = {}
@@ -238,16 +239,17 @@ class References:
         shift = np.zeros(n_on)
         coupled = np.zeros(n_on, dtype=bool)
         clusters, sources = {}, []
-        rate, m = law.rate_slope, law.exponent
-        slope_b = rng.normal(rate, law.rate_se, n_boot) if rate else np.zeros(n_boot)
+        fitted = law.fitted
+        rate, m = fitted.rate_slope, law.exponent
+        slope_b = rng.normal(rate, fitted.rate_se, n_boot) if rate else np.zeros(n_boot)
         m_b = np.full(n_boot, m)
-        # m's uncertainty is in the interval wherever it was measured: about the fitted m,
-        # or about 1 where its interval holds Amontons' 1 (a pad of m = 0.9 may be taken
-        # for one of m = 1: its forces are then about a tenth low, inside the interval)
-        if (law.kind == "power" or law.holds_amontons) and np.isfinite(law.estimate_se):
-            m_b = np.maximum(m + law.estimate_se * rng.standard_t(max(law.dof, 1.0), n_boot),
-                             MIN_EXPONENT)
-        given = {"rate_slope": rate, "exponent": m, "load_ref_N": law.load_ref_N}
+        # m's uncertainty is in the interval wherever the choice of law carries it: about
+        # the fitted m, or about 1 where its interval holds Amontons' 1 (a pad of m = 0.9
+        # may be taken for one of m = 1: its forces are then about a tenth low, inside the
+        # interval)
+        if law.draw_exponent:
+            m_b = np.maximum(m + fitted.estimate_se * rng.standard_t(max(fitted.dof, 1.0),
+                                                                     n_boot), MIN_EXPONENT)
         for r in (int(x) for x in np.unique(w.on_ref)):
             if w.off_normal[r].size == 0:
                 raise AnalysisError("no OFF windows to estimate the friction coefficient from")
@@ -256,10 +258,10 @@ class References:
             if trends[r]:
                 model = fit_trial_model((w.off_normal[r], w.off_friction[r], offs[r]),
                                         (w.on_normal[sel], w.on_friction[sel], here,
-                                         w.on_group[sel]), **given)
+                                         w.on_group[sel]), rate_slope=rate, law=law.law)
             else:
                 model = fit_mu_model(w.off_normal[r], w.off_friction[r], offs[r],
-                                     time_trend=False, **given)
+                                     time_trend=False, rate_slope=rate, law=law.law)
             wts = _weights(rng, model.cluster, n_boot)
             load = model.load_factor(w.on_normal[sel])
             mu_on[sel] = model.at(here) * load
@@ -274,7 +276,7 @@ class References:
                 mu_on_b[:, sel] *= np.exp(np.outer(slope_b - rate, centred))
             # the exponent is uncertain too: the coefficient at the ON window's load moves
             # with it, about the load where the OFF windows hold it
-            shift[sel] = np.log(w.on_normal[sel] / law.load_ref_N) - model.log_load_mean
+            shift[sel] = np.log(w.on_normal[sel] / law.law.load_ref_N) - model.log_load_mean
             clusters[r] = int(np.unique(model.cluster).size)
             sources.append(Source(sel, sel & coupled, clusters[r] - model.coef.size))
             models[r] = model
@@ -362,7 +364,7 @@ def group_force(rng: np.random.Generator, w: Windows, sel: npt.NDArray[np.bool_]
                 refs: References, facts: WindowFacts, confidence: float,
                 pooled: Pooled) -> GroupForce:
     """The force of the ON windows *sel* (the balanced mean of each window's force under
-    the law, :func:`force_of`) and its calibrated replicates.
+    the law, :func:`~evtribo.model.friction_law.added_load`) and its calibrated replicates.
 
     One wild cluster bootstrap (Cameron, Gelbach & Miller 2008): the design fixed (the ON
     windows, their normal forces and weights as they are), each window's ``log F_t``
@@ -381,17 +383,17 @@ def group_force(rng: np.random.Generator, w: Windows, sel: npt.NDArray[np.bool_]
     mu, mu_b = refs.mu_on[sel], refs.mu_on_b[:, sel]
     noise = refs.noise_on_b[:, sel]
     m, m_b = refs.law.exponent, refs.exponent_b
-    force = float(weight @ force_of(fn, ft, mu, m))
+    force = float(weight @ added_load(fn, ft, mu, m))
 
     def replicate(mu_rep: FloatArray, noise_rep: FloatArray | float,
                   m_rep: float | FloatArray = m) -> FloatArray:
-        return np.asarray(force_of(fn, ft * np.exp(noise_rep), mu_rep, m_rep) @ weight)
+        return np.asarray(added_load(fn, ft * np.exp(noise_rep), mu_rep, m_rep) @ weight)
 
     acc = replicate(mu_b, noise, m_b)
     without_m = mu_b / np.exp((m_b - m) * refs.law_shift[sel])
     variances: list[float] = []
     dofs: list[float] = []
-    load = (fn + force_of(fn, ft, mu, m)) / m  # d F_el / d log F_t of each window
+    load = (fn + added_load(fn, ft, mu, m)) / m  # d F_el / d log F_t of each window
     for src in refs.sources:
         mu_part, noise_part = src.mu_part[sel], src.noise_part[sel]
         if not (mu_part.any() or noise_part.any()):
@@ -405,10 +407,10 @@ def group_force(rng: np.random.Generator, w: Windows, sel: npt.NDArray[np.bool_]
                                rng=rng) or [(v, dof)]
         variances += [p[0] for p in parts]
         dofs += [max(p[1], 1.0) for p in parts]
-    if refs.law.kind == "power" and np.ptp(m_b) > 0:  # the exponent alone
+    if refs.law.exponent_source and np.ptp(m_b) > 0:  # the exponent alone
         alone = mu * np.exp((m_b - m) * refs.law_shift[sel])
         variances.append(float(np.var(replicate(alone, 0.0, m_b))))
-        dofs.append(max(float(refs.law.dof), 1.0))
+        dofs.append(max(float(refs.law.fitted.dof), 1.0))
     # HC2 residuals and the law's Student draws: no source's variance is a plug-in one
     scale, nu = small_sample_scale(variances, dofs, confidence, dofs=dofs)
     return GroupForce(force, float(weight @ mu), force + scale * (acc - force), scale, nu)

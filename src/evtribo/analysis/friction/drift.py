@@ -25,6 +25,7 @@ from evtribo.analysis.friction.facts import (
 )
 from evtribo.analysis.friction.reference import MuModel, fit_mu_model
 from evtribo.errors import AnalysisError
+from evtribo.model.friction_law import AMONTONS, LoadLaw
 from evtribo.warning.collect import emitter
 from evtribo.warning.record import Scope, WarningRecord
 
@@ -131,7 +132,7 @@ class TrialDrift:
 
 
 def trial_drifts(off: pd.DataFrame, models: dict[object, MuModel] | None = None, *,
-                 rate_slope: float = 0.0, exponent: float = 1.0, load_ref_N: float = 1.0
+                 rate_slope: float = 0.0, law: LoadLaw = AMONTONS
                  ) -> dict[object, TrialDrift]:
     """Each trial's drift of mu, from its OFF windows, at a constant stroke pace and press
     (the subject's friction law's terms taken out, so that strokes that slow down over a
@@ -144,8 +145,12 @@ def trial_drifts(off: pd.DataFrame, models: dict[object, MuModel] | None = None,
     models : dict, optional
         Models already fitted to a trial's OFF windows alone (its alternating reference),
         by trial name: used as they are.
-    rate_slope, exponent, load_ref_N : float
-        The subject's friction law (:class:`~evtribo.analysis.friction.law.FrictionLaw`).
+    rate_slope : float
+        The subject's stroke rate's term
+        (:class:`~evtribo.analysis.friction.laws.fit.FittedLaw`).
+    law : LoadLaw
+        Its friction law's load term, as its forces use it
+        (:class:`~evtribo.analysis.friction.laws.choice.ChosenLaw`).
 
     Returns
     -------
@@ -162,8 +167,7 @@ def trial_drifts(off: pd.DataFrame, models: dict[object, MuModel] | None = None,
         if model is None:
             try:
                 model = fit_mu_model(rows.normal_force_N, rows.friction_force_N, facts,
-                                     time_trend=True, rate_slope=rate_slope,
-                                     exponent=exponent, load_ref_N=load_ref_N)
+                                     time_trend=True, rate_slope=rate_slope, law=law)
             except AnalysisError:
                 continue
         mu = float(np.mean(model.at(facts)))

@@ -10,7 +10,7 @@ Friction coefficient
     effect and Amontons' law the inferred force is exactly zero whatever the spread of
     normal forces, and it is the maximum-likelihood estimate when the friction's noise
     grows with the load; the model keeps that weighting. The subject's friction law
-    ``F_t = c W**m`` (:mod:`evtribo.analysis.friction.law`) enters as a known factor
+    ``F_t = c W**m`` (:mod:`evtribo.analysis.friction.laws`) enters as a known factor
     ``(F_n / W_0)**(m - 1)``, as the stroke rate's does.
 
 Electrostatic force
@@ -81,7 +81,8 @@ from evtribo.analysis.friction.bootstrap import (
     subject_law,
 )
 from evtribo.analysis.friction.facts import WindowFacts
-from evtribo.analysis.friction.law import FrictionLaw, electrostatic_force, force_of
+from evtribo.analysis.friction.laws import ChosenLaw, FittedLaw
+from evtribo.analysis.friction.laws.amontons import amontons
 from evtribo.analysis.friction.reference import MuModel
 from evtribo.errors import AnalysisError
 
@@ -123,6 +124,36 @@ def friction_coefficient(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike) -> 
     return float(np.sum(ft)) / total
 
 
+def mean_inferred_force(normal_on_N: npt.ArrayLike, friction_on_N: npt.ArrayLike,
+                        mu: float | npt.ArrayLike) -> float:
+    """The electrostatic force inferred from ON windows under Amontons' law: the mean of
+    ``F_t,on / mu - F_n,on`` over them (the study format's definition; the model's force of
+    a voltage is :func:`evtribo.model.electrostatic_force`).
+
+    Parameters
+    ----------
+    normal_on_N, friction_on_N : array_like of float, N
+        Mean normal force and friction magnitude of each ON window.
+    mu : float or array_like of float
+        The friction coefficient (one, or one per ON window).
+
+    Returns
+    -------
+    float
+        Force in N.
+
+    Raises
+    ------
+    AnalysisError
+        No ON windows.
+    """
+    fn = np.asarray(normal_on_N, dtype=np.float64)
+    ft = np.asarray(friction_on_N, dtype=np.float64)
+    if fn.size == 0:
+        raise AnalysisError("no ON windows to infer the electrostatic force from")
+    return float(np.mean(ft / np.asarray(mu, dtype=np.float64) - fn))
+
+
 @dataclass(frozen=True)
 class ElectrostaticEstimate:
     """Electrostatic force per group of ON windows (an amplitude, or any label the caller
@@ -153,9 +184,9 @@ class ElectrostaticEstimate:
         The coefficient each ON window was compared with, in the order given.
     models : dict
         Each used reference's :class:`~evtribo.analysis.friction.reference.MuModel`, by its index.
-    law : FrictionLaw
+    law : ChosenLaw
         The subject's friction law the forces were inferred with
-        (:mod:`evtribo.analysis.friction.law`).
+        (:mod:`evtribo.analysis.friction.laws`).
     """
 
     groups: FloatArray
@@ -174,7 +205,7 @@ class ElectrostaticEstimate:
     dof: FloatArray
     on_mu: FloatArray = field(default_factory=lambda: np.empty(0))
     models: dict[int, MuModel] = field(default_factory=dict)
-    law: FrictionLaw = field(default_factory=FrictionLaw)
+    law: ChosenLaw = field(default_factory=lambda: amontons(FittedLaw()))
 
 
 def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
@@ -223,13 +254,11 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     time_trend : sequence of bool, optional
         Per reference, whether its ``mu`` may change with time (its windows share a
         trial's clock); default: no.
-    friction_law : {"auto", "amontons", "power"}
-        How the friction grows with the load (:func:`~evtribo.analysis.friction.law.
-        fit_subject_law`): the forces are inferred with the subject's exponent ``m``
-        where the law is a power law.
+    friction_law : str
+        How the friction grows with the load (a name of
+        :data:`~evtribo.analysis.friction.laws.LAWS`).
     exponent : float, optional
-        Infer the forces with this ``m`` instead (a sensitivity: the law's other terms
-        are fitted as usual).
+        Infer the forces with this ``m`` (a sensitivity; the law's other terms fitted).
 
     Returns
     -------
@@ -240,6 +269,8 @@ def estimate_electrostatic(  # noqa: PLR0917 - one array per window attribute
     ------
     AnalysisError
         An ON window refers to a reference without OFF windows, or there are no ON windows.
+    ValueError
+        A *friction_law* that is no law's name.
     """
     w = checked_windows(off_normal_N, off_friction_N, on_normal_N=on_normal_N,
                  on_friction_N=on_friction_N, on_reference=on_reference, on_group=on_group)
@@ -308,9 +339,8 @@ def _group_means(w: Windows, sel: npt.NDArray[np.bool_], mu_on: FloatArray) -> _
 
 
 __all__ = ["DEFAULT_CONFIDENCE", "DEFAULT_N_BOOT", "INTERVAL", "MU_ESTIMATOR",
-           "ElectrostaticEstimate",
-           "electrostatic_force", "estimate_electrostatic", "force_of", "friction_coefficient",
-           "small_sample_scale"]
+           "ElectrostaticEstimate", "estimate_electrostatic", "friction_coefficient",
+           "mean_inferred_force", "small_sample_scale"]
 
 #: How each ON window's μ is found, as summary.json's settings say it.
 MU_ESTIMATOR = ("each ON window's reference: the OFF windows' F_t/F_n at its time, sliding "

@@ -16,15 +16,19 @@ with ``P_k`` Legendre polynomials of the window's time scaled to the span (strai
 beyond it) and ``d`` the sliding direction; the constant alone is the ratio of means
 ``sum F_t / sum F_n``. An alternating trial's trend is fitted to its OFF and ON windows
 together, in ``log(F_t/F_n)`` with one term per ON group (:func:`fit_trial_model`). The
-terms are chosen by the corrected Akaike criterion (AICc); a stroke rate's fixed slope (the
-subject's, :mod:`evtribo.analysis.friction.pace`) multiplies the coefficient. Each ON window is
-compared with the model at its own time, direction and stroke rate: each treatment phase
-against the baseline that brackets it, as in ABAB designs and interrupted time series with
-a trend (Huitema & McKean 2000).
+terms are chosen by the corrected Akaike criterion (AICc); a stroke rate's fixed slope and
+the friction law's factor of the load (the subject's,
+:func:`~evtribo.analysis.friction.laws.fit.fit_subject_law`) multiply the coefficient. Each
+ON window is compared with the model at its own time, direction, stroke rate and normal
+force: each treatment phase against the baseline that brackets it, as in ABAB designs and
+interrupted time series with a trend (Huitema & McKean 2000).
 
-Uncertainty: a wild cluster bootstrap (Cameron, Gelbach & Miller 2008): the residuals, HC2-
-scaled, added back with Webb's six-point weights drawn per stroke; the design stays fixed,
-and every replicate chooses its model again by AICc.
+Uncertainty: a model keeps its residuals, CR2-scaled per stroke, and how each fitted window
+moves its coefficients; the wild cluster bootstrap of
+:class:`~evtribo.analysis.friction.bootstrap.References` (Cameron, Gelbach & Miller 2008)
+draws a standard normal weight per stroke, adds the weighted residuals back to the fitted
+values, and :meth:`MuModel.replicates_given` refits every candidate model to each replicate's
+data, the design fixed, each replicate choosing its model again by AICc.
 """
 
 from __future__ import annotations
@@ -46,6 +50,7 @@ from evtribo.analysis.friction.facts import (
     time_basis,
 )
 from evtribo.errors import AnalysisError
+from evtribo.model.friction_law import AMONTONS, LoadLaw
 
 __all__ = ["MATTERS_SE", "MuModel", "fit_mu_model", "fit_trial_model"]
 
@@ -54,8 +59,6 @@ IntArray = npt.NDArray[np.int64]
 
 #: A model's description names a term whose effect stands this many standard errors out.
 MATTERS_SE = 3.0
-#: Webb's six-point weights for the wild bootstrap (each drawn with probability 1/6).
-WEBB = np.array([-np.sqrt(1.5), -1.0, -np.sqrt(0.5), np.sqrt(0.5), 1.0, np.sqrt(1.5)])
 
 
 @dataclass(frozen=True)
@@ -104,13 +107,13 @@ class MuModel:
         The design, response and weights it was fitted to, and its AICc.
     rivals : tuple of MuModel
         The other candidates fitted to the same windows (each replicate chooses again).
-    exponent : float
-        ``m`` of the friction law ``F_t ~ W**m`` (:mod:`evtribo.analysis.friction.law`;
-        1: Amontons): the model's coefficient is the one at the load :attr:`load_ref`
-        (N), and a window's is :meth:`mu_at`.
+    law : LoadLaw
+        The friction law ``F_t ~ W**m`` (the subject's, :mod:`evtribo.analysis.friction.laws`;
+        ``m = 1``: Amontons): the model's coefficient is the one at the law's load ``W_0``,
+        and a window's is :meth:`mu_at`.
     log_load_mean : float
-        The fitted OFF windows' mean of ``log(F_n / load_ref)`` (weighted as the fit):
-        where the coefficient is known best, whatever ``m``.
+        The fitted OFF windows' mean of ``log(F_n / W_0)`` (weighted as the fit): where the
+        coefficient is known best, whatever ``m``.
     """
 
     degree: int
@@ -128,8 +131,7 @@ class MuModel:
     rate_slope: float = 0.0
     fit: _Fit | None = None
     rivals: tuple[MuModel, ...] = ()
-    exponent: float = 1.0
-    load_ref: float = 1.0
+    law: LoadLaw = AMONTONS
     log_load_mean: float = 0.0
 
     @property
@@ -153,11 +155,8 @@ class MuModel:
         return np.exp(self.rate_slope * _centred(facts.rate, self.rate_mean))
 
     def load_factor(self, normal_N: npt.ArrayLike) -> FloatArray:
-        """``(F_n / load_ref)**(exponent - 1)`` at each normal force (ones for Amontons)."""
-        fn = np.asarray(normal_N, dtype=np.float64)
-        if self.exponent == 1.0:
-            return np.ones(fn.shape)
-        return np.asarray((np.maximum(fn, 1e-12) / self.load_ref) ** (self.exponent - 1.0))
+        """``(F_n / W_0)**(m - 1)`` at each normal force (ones for Amontons)."""
+        return self.law.coefficient_factor(normal_N)
 
     def mu_at(self, facts: WindowFacts, normal_N: npt.ArrayLike) -> FloatArray:
         """The coefficient ``F_t / F_n`` without the voltage at each window of *facts*,
@@ -165,7 +164,7 @@ class MuModel:
         return self.at(facts) * self.load_factor(normal_N)
 
     def at(self, facts: WindowFacts) -> FloatArray:
-        """The coefficient at each window of *facts* (at the load :attr:`load_ref`)."""
+        """The coefficient at each window of *facts* (at the law's load ``W_0``)."""
         return self.at_replicates(facts, self.coef[None, :])[0]
 
     def at_replicates(self, facts: WindowFacts, coef: FloatArray) -> FloatArray:
@@ -176,26 +175,12 @@ class MuModel:
         base = self.smear * np.exp(value) if self.log else value
         return base * self.rate_factor(facts)
 
-    def replicates(self, rng: np.random.Generator, n_boot: int) -> FloatArray:
-        """Wild cluster bootstrap replicates of the coefficients, shape (n_boot, p)."""
-        return self.coef + self._noise(rng, n_boot) @ self.unit
-
-    def _noise(self, rng: np.random.Generator, n_boot: int) -> FloatArray:
-        """The residuals with Webb's weights drawn per stroke, shape (n_boot, n)."""
-        _, inverse = np.unique(self.cluster, return_inverse=True)
-        signs = WEBB[rng.integers(0, WEBB.size, size=(n_boot, int(inverse.max()) + 1))]
-        return signs[:, inverse] * self.resid
-
-    def replicates_at(self, facts: WindowFacts, rng: np.random.Generator, n_boot: int
-                      ) -> FloatArray:
-        """Bootstrap replicates of the coefficient at each window of *facts*, shape
-        (n_boot, windows): the wild cluster bootstrap's data fitted by every candidate
-        model, each replicate taking the candidate its data give the least AICc."""
-        return self.replicates_given(facts, self._noise(rng, n_boot))
-
     def replicates_given(self, facts: WindowFacts, noise: FloatArray) -> FloatArray:
-        """:meth:`replicates_at` with the wild bootstrap's noise given (its residuals
-        times each replicate's weights, shape (n_boot, fitted windows))."""
+        """Bootstrap replicates of the coefficient at each window of *facts*, shape
+        (n_boot, windows): the fitted values plus *noise* (the wild bootstrap's residuals
+        times each replicate's weights, shape (n_boot, fitted windows)) fitted by every
+        candidate model, each replicate taking the candidate its data give the least
+        AICc."""
         n_boot = noise.shape[0]
         if not self.rivals or self.fit is None:
             return self.at_replicates(facts, self.coef + noise @ self.unit)
@@ -307,8 +292,8 @@ def _offers(facts: WindowFacts, time_trend: bool) -> tuple[list[int], list[bool]
 
 
 def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: WindowFacts, *,
-                 time_trend: bool, rate_slope: float = 0.0, exponent: float = 1.0,
-                 load_ref_N: float = 1.0) -> MuModel:
+                 time_trend: bool, rate_slope: float = 0.0, law: LoadLaw = AMONTONS
+                 ) -> MuModel:
     """The friction coefficient of a reference's OFF windows as a model of their facts.
 
     Parameters
@@ -321,11 +306,10 @@ def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: Wind
         Whether a trend in time may be fitted (the windows share one trial's clock).
     rate_slope : float
         The coefficient's change per unit of log stroke rate, relative (the subject's,
-        :func:`~evtribo.analysis.friction.law.fit_subject_law`; 0: none).
-    exponent : float
-        ``m`` of the friction law (the subject's; 1: Amontons).
-    load_ref_N : float, N
-        The load at which the model's coefficient is ``F_t / F_n``.
+        :func:`~evtribo.analysis.friction.laws.fit.fit_subject_law`; 0: none).
+    law : LoadLaw
+        The friction law (the subject's; its ``m`` 1: Amontons): the model's coefficient
+        is ``F_t / F_n`` at its load ``W_0``.
 
     Returns
     -------
@@ -344,8 +328,8 @@ def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: Wind
         raise AnalysisError("no OFF windows to estimate the friction coefficient from")
     if not np.all(fn > 0):
         raise AnalysisError("an OFF window's normal force is not positive")
-    shape = _Shape.of(facts, rate_slope, exponent, load_ref_N, fn)
-    load = shape.load_factor(fn)
+    shape = _Shape.of(facts, rate_slope, law, fn)
+    load = shape.law.coefficient_factor(fn)
     ratio = ft / fn / shape.rate_factor(facts) / load
     candidates = []
     for degree, direction in product(*_offers(facts, time_trend)):
@@ -361,43 +345,36 @@ def fit_mu_model(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, facts: Wind
 @dataclass(frozen=True)
 class _Shape:
     """What every candidate model of a set of windows shares: the time span, the stroke
-    rates' centre and the rate's slope."""
+    rates' centre and the rate's slope, the friction law."""
 
     t_lo: float
     t_hi: float
     rate_mean: float
     rate_slope: float
-    exponent: float = 1.0
-    load_ref: float = 1.0
+    law: LoadLaw = AMONTONS
     log_load_mean: float = 0.0
 
     @classmethod
-    def of(cls, facts: WindowFacts, rate_slope: float, exponent: float = 1.0,
-           load_ref: float = 1.0, normal_N: FloatArray | None = None) -> _Shape:
+    def of(cls, facts: WindowFacts, rate_slope: float, law: LoadLaw = AMONTONS,
+           normal_N: FloatArray | None = None) -> _Shape:
         t = facts.t_s[np.isfinite(facts.t_s)]
         rates = facts.rate[np.isfinite(facts.rate)]
         mean = 0.0
         if normal_N is not None and normal_N.size and np.all(normal_N > 0):
-            mean = float(np.average(np.log(normal_N / load_ref), weights=normal_N))
+            mean = float(np.average(np.log(normal_N / law.load_ref_N), weights=normal_N))
         return cls(float(t.min()) if t.size else 0.0, float(t.max()) if t.size else 0.0,
                    float(rates.mean()) if rates.size else 0.0,
-                   rate_slope if rates.size else 0.0, exponent, load_ref, mean)
+                   rate_slope if rates.size else 0.0, law, mean)
 
     def rate_factor(self, facts: WindowFacts) -> FloatArray:
         return np.exp(self.rate_slope * _centred(facts.rate, self.rate_mean))
-
-    def load_factor(self, normal_N: FloatArray) -> FloatArray:
-        if self.exponent == 1.0:
-            return np.ones(normal_N.shape)
-        return np.asarray((np.maximum(normal_N, 1e-12) / self.load_ref)
-                          ** (self.exponent - 1.0))
 
     def model(self, degree: int, direction: bool, cluster: IntArray, *, log: bool
               ) -> MuModel:
         return MuModel(degree, direction, self.rate_slope != 0, self.t_lo, self.t_hi,
                        self.rate_mean, np.empty(0), np.empty((0, 0)), np.empty(0), cluster,
-                       log=log, rate_slope=self.rate_slope, exponent=self.exponent,
-                       load_ref=self.load_ref, log_load_mean=self.log_load_mean)
+                       log=log, rate_slope=self.rate_slope, law=self.law,
+                       log_load_mean=self.log_load_mean)
 
 
 def _centred(rate: FloatArray, mean: float) -> FloatArray:
@@ -430,8 +407,7 @@ def _choose(candidates: list[MuModel]) -> MuModel:
 
 def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
                     on: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts, npt.ArrayLike], *,
-                    rate_slope: float = 0.0, exponent: float = 1.0,
-                    load_ref_N: float = 1.0) -> MuModel:
+                    rate_slope: float = 0.0, law: LoadLaw = AMONTONS) -> MuModel:
     """A trial's friction coefficient in time, from its OFF and its ON windows together.
 
     ``log(F_t / F_n) = b0 + sum_k b_k P_k(x) + c d + sum_g a_g [window in ON group g]``
@@ -448,7 +424,9 @@ def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
         The trial's OFF windows.
     on : (normal_N, friction_N, facts, group)
         Its ON windows and each one's group (an amplitude, say).
-    rate_slope, exponent, load_ref_N : float
+    rate_slope : float
+        As :func:`fit_mu_model`'s.
+    law : LoadLaw
         As :func:`fit_mu_model`'s.
 
     Returns
@@ -461,14 +439,13 @@ def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
     group = np.asarray(on[3])
     facts = stack_facts([off[2], on[2]])
     fn, ft = np.concatenate([fn_off, fn_on]), np.concatenate([ft_off, ft_on])
-    law = {"exponent": exponent, "load_ref_N": load_ref_N}
-    flat = fit_mu_model(fn_off, ft_off, off[2], time_trend=False, rate_slope=0.0, **law)
+    flat = fit_mu_model(fn_off, ft_off, off[2], time_trend=False, rate_slope=0.0, law=law)
     if not (np.all(fn > 0) and np.all(ft > 0)):
         return flat
-    shape = _Shape.of(facts, rate_slope, exponent, load_ref_N, fn_off)
+    shape = _Shape.of(facts, rate_slope, law, fn_off)
     ons = _on_terms(fn_off.size, fn_on, group)
     y = (np.log(ft / fn) - shape.rate_slope * _centred(facts.rate, shape.rate_mean)
-         - np.log(shape.load_factor(fn)))
+         - np.log(shape.law.coefficient_factor(fn)))
     candidates = []
     for degree, direction in product(*_offers(facts, True)):
         template = shape.model(degree, direction, facts.cluster, log=True)
@@ -480,7 +457,7 @@ def fit_trial_model(off: tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts],
     best = _choose(candidates)
     if best.degree == 0 and not best.direction:
         return fit_mu_model(fn_off, ft_off, off[2], time_trend=False, rate_slope=rate_slope,
-                            **law)
+                            law=law)
     return best
 
 

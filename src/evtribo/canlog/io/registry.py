@@ -2,7 +2,11 @@
 
 The registry maps a suffix to a reader function ``reader(path, on_bad) -> (FrameTable,
 lines)``, the way python-can's ``MESSAGE_READERS`` maps suffixes to reader classes. A
-``.gz`` name is read by the reader of the suffix before it (``run-01.log.gz``).
+``.gz`` name is read by the reader of the suffix before it (``run-01.log.gz``). A lab's own
+format is a reader in its own module, found, as python-can finds its readers
+(``can.io.message_reader``), through the entry point group ``evtribo.log_readers``: the
+entry point's name is the suffix (``.mylog``), the object it names the reader; a suffix
+evtribo reads already stays evtribo's.
 
 The content is looked at first (:func:`~evtribo.canlog.io.sniff.sniff`): a file that is
 another format than its suffix says (Vector ASC text named ``.log``, a SavvyCAN CSV named
@@ -36,6 +40,7 @@ from evtribo.canlog.io.sniff import Sniffed, sniff
 from evtribo.canlog.io.table import FrameTable
 from evtribo.errors import LogFormatError
 from evtribo.store.files import PARTIAL_SUFFIX, check_regular_file, sha256_file
+from evtribo.util.plugins import Registry
 from evtribo.warning.collect import emitter
 
 log = logging.getLogger(__name__)
@@ -44,12 +49,27 @@ emit = emitter(__name__)
 Reader = Callable[[str | os.PathLike[str], Callable[[int | None, str], None]],
                   tuple[FrameTable, int]]
 
+#: The entry point group of plug-ins' log readers (the entry point's name: the suffix).
+ENTRY_POINTS = "evtribo.log_readers"
+
+
+def _suffix(entry: str, reader: Reader) -> str:
+    """The suffix a plug-in's reader is registered under: its entry point's name, as
+    :func:`log_suffix` gives suffixes (``.mylog``)."""
+    name = entry.lower()
+    return name if name.startswith(".") else f".{name}"
+
+
 #: Suffix -> reader. ``.log`` is evtribo's own vectorised candump reader; the others are
-#: python-can's readers (``.mf4`` only where python-can's optional ``asammdf`` is installed).
-READERS: dict[str, Reader] = {".log": read_candump}
-for _suffix in MESSAGE_READERS:
-    if _suffix != ".log":
-        READERS[_suffix] = read_with_python_can
+#: python-can's readers (``.mf4`` only where python-can's optional ``asammdf`` is installed);
+#: then the plug-ins' (read the first time a suffix the builtins lack is asked for).
+READERS: Registry[Reader] = Registry(ENTRY_POINTS, "log reader",
+                                     check=lambda obj: obj if callable(obj) else None,
+                                     key=_suffix)
+READERS.register(".log", read_candump)
+for _builtin in MESSAGE_READERS:
+    if _builtin != ".log":
+        READERS.register(_builtin, read_with_python_can)
 
 #: The formats' names, for messages.
 FORMAT_NAMES = {".log": "candump -L", ".asc": "Vector ASC", ".blf": "Vector BLF",
@@ -137,6 +157,8 @@ def _reader(path: str | os.PathLike[str], fmt: str, base: str) -> Reader:
     if fmt == ".db.gz":
         raise LogFormatError("a gzipped SQLite database cannot be read in place: decompress "
                              "it first (gunzip), then give evtribo the .db", path=path)
+    if READERS.is_plugin(base):  # a lab's format: its reader knows it (and its .gz)
+        return READERS[base]
     found = sniff(path)
     if found is not None and found.encoding is not None:
         raise LogFormatError(f"{found.description}: {found.hint(path)}.", path=path)

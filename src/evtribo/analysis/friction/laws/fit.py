@@ -1,14 +1,16 @@
-"""A subject's friction law, from all its trials at once: how the friction grows with the
-load, and how it follows the pace of the strokes.
+"""A subject's friction law fitted from all its trials at once: how the friction grows with
+the load, and how it follows the pace of the strokes (which law the forces then use is the
+choice of ``[analysis] friction_law``, :mod:`evtribo.analysis.friction.laws`).
 
 The load. A finger pad on smooth glass is a soft Hertzian contact: its real area grows as
 ``W**(2/3)`` and the friction follows the area, so ``F_t = c * W**m`` with ``m`` from 2/3 (a
 dry pad, ``mu ~ W**(-1/3)``) towards 1 as the contact saturates; finger pads give about
 0.67-0.9 (Adams et al., J. R. Soc. Interface 2013; Dzidek et al., J. R. Soc. Interface
-2017). Amontons' law is ``m = 1``. The electrostatic force loads the same contact: ON,
-``W = F_n + F_el``, and the force is ``F_el = (F_t,on / c)**(1/m) - F_n,on``
-(:mod:`evtribo.analysis.friction.estimate`), which is ``F_t,on/mu - F_n,on`` only when
-``m = 1``; with ``m`` taken as 1 where it is 0.75, F_el comes out about a quarter low.
+2017). Amontons' law is ``m = 1`` (the law itself: :class:`evtribo.model.friction_law.LoadLaw`).
+The electrostatic force loads the same contact: ON, ``W = F_n + F_el``, and the force is
+``F_el = (F_t,on / c)**(1/m) - F_n,on`` (:mod:`evtribo.analysis.friction.estimate`), which
+is ``F_t,on/mu - F_n,on`` only when ``m = 1``; with ``m`` taken as 1 where it is 0.75, F_el
+comes out about a quarter low.
 
 The pace. Finger-pad friction depends on the sliding speed (``mu ~ v**beta``, beta about
 0.1-0.2; Pasumarty et al. 2011, Adams et al. 2013), and a person's strokes differ in speed.
@@ -26,12 +28,7 @@ the stroke's log rate over all windows, both pooled over the trials. Their stand
 are cluster-robust over strokes (CR1). The presses tell ``m`` when its 95 % interval is
 narrower than the span from the dry contact's 2/3 to Amontons' 1 (:data:`TOLD_WIDTH`):
 a press held within a few percent does not, a press that wanders by +/- 0.1-0.2 N or OFF
-phases at two or three target presses do. ``"auto"`` infers the forces with the fitted ``m``
-only where the presses tell it and its interval excludes Amontons' 1: a friction that is
-Amontons' gives the same forces as with ``m = 1`` (19 times in 20), and the scatter of a
-fitted ``m`` about 1 (the pace of a person's strokes, which the stroke rate follows only
-roughly, adds to it) does not move them. Where the interval holds 1, ``m = 1`` is used
-and the interval is reported.
+phases at two or three target presses do (:attr:`FittedLaw.told`).
 """
 
 from __future__ import annotations
@@ -50,22 +47,20 @@ from evtribo.analysis.friction.facts import (
     stack_facts,
     time_basis,
 )
-from evtribo.errors import AnalysisError
 from evtribo.warning.collect import emitter
 from evtribo.warning.record import Scope, WarningRecord
 
-__all__ = ["LAWS", "RATE_SE", "SENSITIVITY_EXPONENT", "TOLD_WIDTH", "FrictionLaw",
-           "electrostatic_force", "fit_subject_law", "force_of", "untold_note"]
+__all__ = ["RATE_SE", "SENSITIVITY_EXPONENT", "TOLD_WIDTH", "FittedLaw", "fit_subject_law",
+           "untold_note"]
 
 emit = emitter(__name__)
 
 FloatArray = npt.NDArray[np.float64]
 
-#: Values of ``[analysis] friction_law``.
-LAWS = ("auto", "amontons", "power")
 #: The presses tell ``m`` when its 95 % interval is at most this wide (from 2/3 to 1).
 TOLD_WIDTH = 1.0 / 3.0
-#: The exponent of the sensitivity row where the presses do not tell ``m``.
+#: The exponent of the sensitivity row where the presses do not tell ``m`` (the ``m075``
+#: columns of electrostatic.csv).
 SENSITIVITY_EXPONENT = 0.75
 #: A subject's friction follows its strokes' rate when the pooled slope stands this many
 #: standard errors from zero.
@@ -75,16 +70,13 @@ MIN_FREE = 3
 
 
 @dataclass(frozen=True)
-class FrictionLaw:
-    """A subject's friction law: ``F_t = c W_0 (W / W_0)**m``, times the stroke rate's factor
-    ``exp(rate_slope * (rate - its mean))`` (the mean is each reference's).
+class FittedLaw:
+    """A subject's friction law as its windows give it: ``F_t = c W_0 (W / W_0)**m`` with
+    the ``m`` of :attr:`estimate`, times the stroke rate's factor ``exp(rate_slope * (rate -
+    its mean))`` (the mean is each reference's).
 
     Attributes
     ----------
-    exponent : float
-        The ``m`` the forces are inferred with (1: Amontons).
-    kind : {"power", "amontons"}
-        Which law the forces use.
     estimate, estimate_se : float
         ``m`` as the OFF windows give it and its standard error (NaN when the presses
         give no spread to fit it to).
@@ -101,8 +93,6 @@ class FrictionLaw:
         Standard deviation of the OFF windows' ``log F_n`` about their trials' means.
     """
 
-    exponent: float = 1.0
-    kind: str = "amontons"
     estimate: float = float("nan")
     estimate_se: float = float("nan")
     told: bool = False
@@ -115,7 +105,7 @@ class FrictionLaw:
     @property
     def holds_amontons(self) -> bool:
         """Whether the presses tell ``m`` and its 95 % interval holds 1: the data are
-        Amontons' as far as they can tell, and ``"auto"`` keeps ``m = 1``."""
+        Amontons' as far as they can tell."""
         low, high = self.interval
         return self.told and bool(low <= 1.0 <= high)
 
@@ -126,38 +116,6 @@ class FrictionLaw:
             return float("nan"), float("nan")
         half = float(special.stdtrit(self.dof, 0.975)) * self.estimate_se
         return self.estimate - half, self.estimate + half
-
-    def load_factor(self, normal_N: npt.ArrayLike) -> FloatArray:
-        """``(F_n / W_0)**(m - 1)``: the friction coefficient ``F_t / F_n`` at each
-        normal force, relative to the one at ``W_0``.
-
-        Parameters
-        ----------
-        normal_N : array_like of float, N
-
-        Returns
-        -------
-        ndarray
-        """
-        fn = np.asarray(normal_N, dtype=np.float64)
-        if self.exponent == 1.0:
-            return np.ones(fn.shape)
-        return np.asarray((np.maximum(fn, 1e-12) / self.load_ref_N) ** (self.exponent - 1.0))
-
-    def with_exponent(self, m: float, kind: str) -> FrictionLaw:
-        """This law with the forces inferred at exponent *m*.
-
-        Parameters
-        ----------
-        m : float
-        kind : {"power", "amontons"}
-
-        Returns
-        -------
-        FrictionLaw
-        """
-        return FrictionLaw(m, kind, self.estimate, self.estimate_se, self.told, self.dof,
-                           self.rate_slope, self.rate_se, self.load_ref_N, self.press_spread)
 
 
 @dataclass
@@ -274,8 +232,7 @@ def _robust_cov(sums: _Sums, clusters: list[npt.NDArray[np.int64]], coef: FloatA
 
 
 def fit_subject_law(parts: Sequence[tuple[npt.ArrayLike, npt.ArrayLike, WindowFacts,
-                                          npt.ArrayLike]], *, law: str = "auto"
-                    ) -> FrictionLaw:
+                                          npt.ArrayLike]]) -> FittedLaw:
     """A subject's friction law from all its windows (ON and OFF, every trial).
 
     Parameters
@@ -284,17 +241,12 @@ def fit_subject_law(parts: Sequence[tuple[npt.ArrayLike, npt.ArrayLike, WindowFa
         Windows, their facts (``stratum`` tells the trials: a trial's ON and OFF windows are
         fitted together whichever part they come in) and their groups (NaN for OFF
         windows). N for the forces.
-    law : {"auto", "amontons", "power"}
-        ``"auto"``: the power law where the presses tell ``m``, else Amontons;
-        ``"power"``: the power law with the estimate however uncertain; ``"amontons"``:
-        ``m = 1``.
 
     Returns
     -------
-    FrictionLaw
+    FittedLaw
+        Which law the forces use is chosen from it (:mod:`evtribo.analysis.friction.laws`).
     """
-    if law not in LAWS:
-        raise ValueError(f"friction_law must be one of {LAWS}, got {law!r}")
     sums, clusters = _pooled(parts)
     off_fn = np.concatenate([np.asarray(p[0], dtype=np.float64)[
         ~np.isfinite(np.asarray(p[3], dtype=np.float64))] for p in parts]) if parts \
@@ -320,72 +272,17 @@ def fit_subject_law(parts: Sequence[tuple[npt.ArrayLike, npt.ArrayLike, WindowFa
     rate = b_hat if np.isfinite(b_hat) and dof > 0 and abs(b_hat) > RATE_SE * b_se else 0.0
     told = bool(np.isfinite(m_se) and dof > 0
                 and 2 * float(special.stdtrit(dof, 0.975)) * m_se <= TOLD_WIDTH)
-    found = FrictionLaw(1.0, "amontons", m_hat, m_se, told, dof, rate, b_se, ref, spread)
-    if law == "power" and np.isfinite(m_hat) and m_hat > 0:
-        return found.with_exponent(m_hat, "power")
-    if law == "auto" and told and m_hat > 0 and not found.holds_amontons:
-        return found.with_exponent(m_hat, "power")
-    return found
+    return FittedLaw(m_hat, m_se, told, dof, rate, b_se, ref, spread)
 
 
-def force_of(normal_N: npt.ArrayLike, friction_N: npt.ArrayLike, mu: npt.ArrayLike,
-             exponent: float | npt.ArrayLike = 1.0) -> FloatArray:
-    """The electrostatic force of ON windows under the friction law ``F_t ~ W**m``:
-    ``F_n ((F_t / (mu F_n))**(1/m) - 1)``, which is ``F_t / mu - F_n`` when ``m = 1``.
-
-    Parameters
-    ----------
-    normal_N, friction_N : array_like of float, N
-        Each ON window's normal force and friction.
-    mu : array_like of float
-        The friction coefficient ``F_t / F_n`` each window would have without the voltage,
-        at its own normal force.
-    exponent : float or array_like
-        ``m`` (broadcast against the windows: one per replicate as a column).
-
-    Returns
-    -------
-    ndarray, N
-    """
-    fn = np.asarray(normal_N, dtype=np.float64)
-    ratio = np.asarray(friction_N, dtype=np.float64) / (fn * np.asarray(mu, dtype=np.float64))
-    m = np.asarray(exponent, dtype=np.float64)
-    if m.ndim == 0 and float(m) == 1.0:
-        return np.asarray(fn * (ratio - 1.0))
-    return np.asarray(fn * (np.maximum(ratio, 0.0) ** (1.0 / m) - 1.0))
-
-
-def electrostatic_force(normal_on_N: npt.ArrayLike, friction_on_N: npt.ArrayLike,
-                        mu: float | npt.ArrayLike) -> float:
-    """Inferred electrostatic force: the mean of ``F_t,on / mu - F_n,on`` over ON windows.
-
-    Parameters
-    ----------
-    normal_on_N, friction_on_N : array_like of float, N
-        Mean normal force and friction magnitude of each ON window.
-    mu : float or array_like of float
-        The friction coefficient (one, or one per ON window).
-
-    Returns
-    -------
-    float
-        Force in N.
-    """
-    fn = np.asarray(normal_on_N, dtype=np.float64)
-    ft = np.asarray(friction_on_N, dtype=np.float64)
-    if fn.size == 0:
-        raise AnalysisError("no ON windows to infer the electrostatic force from")
-    return float(np.mean(ft / np.asarray(mu, dtype=np.float64) - fn))
-
-
-def untold_note(subject: str, law: FrictionLaw) -> WarningRecord:
+def untold_note(subject: str, law: FittedLaw) -> WarningRecord:
     """Say of a subject whose presses do not tell how the friction grows with the load
     (``law-untold``).
 
     Parameters
     ----------
     subject : str
-    law : FrictionLaw
+    law : FittedLaw
         Its law, as :func:`fit_subject_law` found it.
 
     Returns
