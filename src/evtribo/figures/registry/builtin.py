@@ -46,7 +46,9 @@ def _check(ctx: FigureContext, c: CheckFigure) -> Drawing:
     return Drawing(draw_trial_check, (c.sketch,))
 
 
-def _all(ctx: FigureContext, _: Any) -> Drawing:
+def _all(ctx: FigureContext, _: Any) -> Drawing | None:
+    if not ctx.fits:
+        return None
     return Drawing(plot_electrostatic_force_all, (
         ctx.tables.electrostatic, {f.subject: f.params for f in ctx.fits}))
 
@@ -105,19 +107,21 @@ def _first_trace(tables: ResultTables) -> tuple[pd.DataFrame | None, str | None]
     return trace, subject
 
 
-def _traced(ctx: FigureContext) -> SubjectFit:
+def _traced(ctx: FigureContext) -> SubjectFit | None:
     """The fit of the subject whose sine trial is drawn (the first fit if none is)."""
     _, subject = _first_trace(ctx.tables)
-    return ctx.fit_of(subject or "") or ctx.fits[0]
+    return ctx.fit_of(subject or "") or next(iter(ctx.fits), None)
 
 
-def _time(ctx: FigureContext, _: Any) -> Drawing:
+def _time(ctx: FigureContext, _: Any) -> Drawing | None:
     """Friction against time: the measured sine trial and the model along it."""
     trace, _subject = _first_trace(ctx.tables)
     elec = ctx.tables.electrostatic
     sine_rows = elec[elec["waveform"].astype(str) == "sine"]
     amp = float(sine_rows["amplitude_V"].max()) if not sine_rows.empty else 140.0
     pick = _traced(ctx)
+    if pick is None:
+        return None
     return Drawing(plot_friction_time, (trace, pick.params), {
         "amplitude": amp, "normal_force": float(np.nanmean(
             elec["normal_force_on_N"].to_numpy(float))), "subject": pick.subject})
@@ -128,8 +132,9 @@ def _time_caption(ctx: FigureContext, _: Any) -> str:
     voltage = ("measured voltage" if trace is not None and "voltage_V" in trace.columns else
                "drive's amplitude and frequency (its phase, which the rig does not record, "
                "chosen to match the measured friction)")
-    return (f"Measured sine trial of {_traced(ctx).subject} and the model evaluated at its "
-            f"measured normal force and the {voltage}, cf. the paper's Figure 5.")
+    pick = _traced(ctx)
+    return (f"Measured sine trial of {pick.subject if pick else '?'} and the model evaluated "
+            f"at its measured normal force and the {voltage}, cf. the paper's Figure 5.")
 
 
 def _no_trace(ctx: FigureContext) -> str:
@@ -140,9 +145,11 @@ def _no_trace(ctx: FigureContext) -> str:
             "the model's.")
 
 
-def _area(ctx: FigureContext, _: Any) -> Drawing:
+def _area(ctx: FigureContext, _: Any) -> Drawing | None:
     """The contact-area increase the fitted model predicts, at each subject's mean
     normal force ON."""
+    if not ctx.fits:
+        return None
     elec = ctx.tables.electrostatic
     mean_fn = {f.subject: float(np.nanmean(elec.loc[elec["subject"] == f.subject,
                                                     "normal_force_on_N"].to_numpy(float)))
