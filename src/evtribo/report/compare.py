@@ -11,11 +11,18 @@ Writes into the result folder:
 - ``population.csv`` and ``population_contrasts.csv`` (study format §10) when the study has
   at least three subjects with electrostatic forces (:mod:`evtribo.population.estimates`),
   with a ``population_<waveform>_<frequency>Hz`` figure per condition;
-- ``figures/``: each figure once per format asked (``<stem>.svg`` and ``<stem>.png`` by
-  default, ``<stem>.pdf`` too on request), in the journal style of
-  :mod:`evtribo.figures.style` (a single column or a page wide, no titles: fit.json's
-  captions carry them). The first is ``electrostatic_force_all``, every subject's
-  electrostatic force and fitted model in one figure.
+- ``models.csv`` with ``--models``: each candidate model fitted to each subject and ranked
+  (:func:`evtribo.fit.model_comparison.compare_models`);
+- ``figures/``: each figure of the figure registry (:mod:`evtribo.figures.registry`) once
+  per format asked (``<stem>.svg`` and ``<stem>.png`` by default, ``<stem>.pdf`` too on
+  request), in the journal style of :mod:`evtribo.figures.style` (a single column or a
+  page wide, no titles: fit.json's captions carry them). The first is
+  ``electrostatic_force_all``, every subject's electrostatic force and fitted model in one
+  figure.
+
+The sequence (the fits, the trials' checks, the population, the models, each figure as soon
+as what it shows is known) is :func:`run_comparison`, which ``evtribo.compare`` runs too,
+keeping the figures in memory.
 
 ``fit.json`` also records the ``run_id`` of the analysis it fitted (from ``summary.json``)
 and the SHA-256 of every file compare wrote (``output_sha256``), which ``evtribo report``
