@@ -150,6 +150,9 @@ def test_the_api_draws_what_compare_draws(analysed, tmp_path):
                                                          nan_ok=True)
     assert any(n.startswith("Models over the study") for n in fit.notes)
     assert fit.notes == written["notes"]
+    loaded = evtribo.load_results(out).fit  # the same tables, read from the folder
+    pd.testing.assert_frame_equal(loaded.models, fit.models)
+    assert loaded.notes == fit.notes
 
 
 def test_a_figure_registered_from_a_test_module(analysed, tmp_path, fresh):

@@ -10,6 +10,7 @@ figure registry (:mod:`evtribo.figures.registry`), kept as matplotlib figures.
 
 from __future__ import annotations
 
+import io
 import math
 import os
 from collections.abc import Iterable
@@ -256,14 +257,17 @@ class _Kept:
         return [*self.drawn, *self._late]
 
 
-def _models(folder: Path) -> pd.DataFrame | None:
-    """models.csv in *folder* (None: no models compared)."""
-    path = folder / MODELS_CSV
-    if not path.is_file():
+def _models(source: Path | pd.DataFrame | None) -> pd.DataFrame | None:
+    """models.csv in a folder, or as compare writes this table, typed as the API's tables
+    are (None: no models compared)."""
+    if source is None or (isinstance(source, Path)
+                          and not (source := source / MODELS_CSV).is_file()):
         return None
-    return typed_table(pd.read_csv(path, dtype=dict.fromkeys(_MODELS_TEXT, str),
-                                   keep_default_na=False, na_values=[""], **CSV_EXACT),
-                       text=_MODELS_TEXT)
+    # a table as compare computes it, read as its file would be: an empty cell is missing
+    text = source if isinstance(source, Path) else io.StringIO(source.to_csv(index=False))
+    table = pd.read_csv(text, dtype=dict.fromkeys(_MODELS_TEXT, str), keep_default_na=False,
+                        na_values=[""], **CSV_EXACT)
+    return typed_table(table, text=_MODELS_TEXT)
 
 
 def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
@@ -330,8 +334,7 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
               params_file=None if params is None else Path(params),
               population=pop.table, population_contrasts=pop.contrasts,
               population_notes=[*pop.notes, *(o.describe() for o in pop.outliers)],
-              models=None if done.models_table is None else typed_table(
-                  done.models_table, text=_MODELS_TEXT), notes=done.notes, _results=results,
+              models=_models(done.models_table), notes=done.notes, _results=results,
               _asked={"models": models, "trial_checks": trial_checks})
     results.fit = out
     return out
