@@ -52,12 +52,13 @@ What to know:
 - **The same tables either way.** `analyze(...)` and `load_results(...)` give the same
   columns with the same types: names as `str`, counts (`frames`, `n_on`, ...) as nullable
   `Int64`, everything else `float64` (NaN where the CSV cell is empty).
-- **The fit in memory, its files from `save`.** `evtribo.compare(results)` fits as
-  `evtribo compare` does and keeps the figures as matplotlib figures (`fit.figures`, by
-  file stem). `fit.save()` runs `evtribo compare` on the results' folder, so the results
-  must be saved first. A folder read after `evtribo compare` has `results.fit` (its table,
-  and its figure files under `fit.files`); a fit of another analysis is left out with a
-  warning.
+- **The fit in memory, its files from `save`.** `evtribo.compare(results)` runs
+  `evtribo compare`'s sequence (the fits, the population, the models asked for with
+  `models=`, ranked in `fit.models`) and keeps the same figures as matplotlib figures
+  (`fit.figures`, by file stem, the trials' checks among them). `fit.save()` runs
+  `evtribo compare` on the results' folder, so the results must be saved first. A folder
+  read after `evtribo compare` has `results.fit` (its table, and its figure files under
+  `fit.files`); a fit of another analysis is left out with a warning.
 - **One object for the result folder.** `Results` is a
   `evtribo.documents.result_folder.ResultFolder`, the one class that reads a result folder
   for the report, the console and the figures too: compare's documents are read when first

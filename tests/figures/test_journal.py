@@ -16,24 +16,15 @@ import pandas as pd
 import pytest
 from matplotlib.colors import to_rgb
 
+from evtribo.figures.registry import FigureContext, planned
 from evtribo.figures.style import MIN_TEXT_PT, journal_style
 from evtribo.fit.fit import fit_study
 from evtribo.fit.tables import read_results
 from evtribo.model import TABLE_1
-from evtribo.report.compare import CompareResult, draw_figures
 from legends import legend_entries, unexplained
 from synthetic import make_out
 
 _NONE = ("None", "none", "", " ")
-
-
-class _Keep:
-    def __init__(self, tables, fits) -> None:
-        self.result = CompareResult(out=tables.out, fits=fits)
-        self.figures: dict[str, object] = {}
-
-    def emit(self, ax, kind, title, stem, **_) -> None:
-        self.figures[stem] = ax.figure
 
 
 @pytest.fixture(scope="module")
@@ -49,12 +40,12 @@ def figures(tmp_path_factory) -> dict[str, object]:
     pd.concat([elec, sine]).to_csv(folder / "electrostatic.csv", index=False)
     tables = read_results(folder)
     fits = fit_study(tables, TABLE_1, ("h_L",))
-    keep = _Keep(tables, fits)
     with journal_style():
-        draw_figures(tables, fits, ("h_L",), keep)
-    for fig in keep.figures.values():
+        figures = {f.stem: f.drawing.draw().figure
+                   for f in planned(FigureContext(tables, fits=fits), "fits")}
+    for fig in figures.values():
         fig.canvas.draw()
-    return keep.figures
+    return figures
 
 
 def _svg_sizes(fig) -> list[float]:

@@ -18,13 +18,13 @@ from evtribo.acquisition.simulator.realism import human, realistic_rig
 from evtribo.analysis.forces.conditions import ON
 from evtribo.figures.frequency_plots import plot_frequency_response
 from evtribo.figures.layout import reading_order
+from evtribo.figures.registry import FigureContext, planned
 from evtribo.figures.style import journal_style
 from evtribo.figures.trial_plots import _HATCH, draw_trial_check
 from evtribo.fit.fit import fit_study
 from evtribo.fit.models import fit_models
 from evtribo.fit.tables import read_results
 from evtribo.model import TABLE_1
-from evtribo.report.compare import CompareResult, draw_figures
 from evtribo.results.check import check_trial, excluded_stretches
 from legends import legend_entries, unexplained
 from sweep_data import sweep_out
@@ -44,24 +44,14 @@ def _add_sine_rows(folder: Path) -> None:
     pd.concat([elec, rows]).to_csv(path, index=False)
 
 
-class _Keep:
-    """compare's figure sink, keeping the figures drawn."""
-
-    def __init__(self, tables, fits) -> None:
-        self.result = CompareResult(out=tables.out, fits=fits)
-        self.figures: dict[str, object] = {}
-
-    def emit(self, ax, kind, title, stem, **_) -> None:
-        self.figures[stem] = ax.figure
-
-
 def _drawn(folder: Path) -> dict[str, object]:
+    """compare's figures of the fits (those of the registry drawn once the subjects are
+    fitted), by stem."""
     tables = read_results(folder)
     fits = fit_study(tables, TABLE_1, ("h_L",))
-    keep = _Keep(tables, fits)
     with journal_style():
-        draw_figures(tables, fits, ("h_L",), keep)
-    return keep.figures
+        return {f.stem: f.drawing.draw().figure
+                for f in planned(FigureContext(tables, fits=fits), "fits")}
 
 
 @pytest.fixture(scope="module")

@@ -202,6 +202,23 @@ def test_the_study_ranking_sums_each_model_over_the_subjects_with_every_model():
     assert "hertz ΔAICc 19.0" in said
 
 
+def test_the_ranking_of_models_csv_read_back_where_no_parameter_is_at_a_bound(tmp_path):
+    """models.csv read back as the report reads it, with no parameter at a bound: its empty
+    at_bound column comes back as numbers (NaN), and the ranking is that of the table
+    written."""
+    from evtribo.fit.models import study_ranking
+
+    rows = [{"subject": s, "model": m, "aic": a, "delta_aic": a - 1.0, "criterion": "AIC",
+             "at_bound": ""} for s in ("P01", "P02") for m, a in (("paper", 1.0),
+                                                                 ("hertz", 4.0))]
+    written = pd.DataFrame(rows)
+    written.to_csv(tmp_path / "models.csv", index=False)
+    read = pd.read_csv(tmp_path / "models.csv", dtype={"subject": str, "model": str})
+    assert read["at_bound"].isna().all()
+    pd.testing.assert_frame_equal(study_ranking(read), study_ranking(written))
+    assert list(study_ranking(read)["at_bound_in"]) == [0, 0]
+
+
 def test_a_parameter_on_a_bound_of_its_range_is_found():
     from evtribo.fit.models import _at_bound
 

@@ -39,8 +39,15 @@ def test_compare_writes_fit_and_figures(compared_out):
     assert [f["stem"] for f in doc["figures"]] == list(stems)
     first = doc["figures"][0]
     assert first["kind"] == "electrostatic_force_all" and first["subject"] is None
-    assert set(first) == {"kind", "title", "stem", "subject", "caption", "key", "dpi"}
+    assert set(first) == {"kind", "title", "stem", "subject", "caption", "section", "per",
+                          "key", "dpi"}
     assert len(first["key"]) == 40 and first["dpi"] == 40.0  # what its files were drawn from
+    # where the report places each, said in the record too (a report without its spec)
+    assert (first["section"], first["per"]) == ("all", "study")
+    by_stem = {f["stem"]: f for f in doc["figures"]}
+    assert by_stem["electrostatic_force_P01"]["section"] == "subject"
+    assert by_stem["electrostatic_force_P01"]["grid"][0].startswith("Electrostatic force")
+    assert by_stem["area_increase"]["section"] == "predictions"
     assert doc["fit"] == ["h_L"]
     assert doc["subjects"]["P02"]["parameters"]["h_L"] == pytest.approx(
         fit.loc[fit["subject"] == "P02", "value"].item())

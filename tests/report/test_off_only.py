@@ -80,4 +80,8 @@ def test_the_python_api_compares_them_too(reported):
     out, _ = reported
     fit = evtribo.compare(evtribo.load_results(out))
     assert fit.table.empty
-    assert sorted(fit.figures) == [f"friction_normal_force_{s}" for s in sorted(MU)]
+    # the figures evtribo compare drew, in its order: each subject's friction, each trial's check
+    written = [f["stem"] for f in json.loads((out / "fit.json").read_text())["figures"]]
+    assert list(fit.figures) == written
+    assert sorted(s for s in fit.figures if not s.startswith("trial_")) == [
+        f"friction_normal_force_{s}" for s in sorted(MU)]

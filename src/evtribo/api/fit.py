@@ -1,10 +1,11 @@
 """The seed paper's model fitted to a study's results, from Python: :func:`compare`.
 
-The fit is ``evtribo compare``'s (:func:`evtribo.fit.fit.fit_study`, its table
-:func:`evtribo.fit.fit_csv.fit_table`), made in memory from the :class:`Results`; the
-figures are drawn by the plot functions of :mod:`evtribo.figures.plots` and kept as
-matplotlib figures. :meth:`Fit.save` runs ``evtribo compare`` on the results' folder, which
-writes ``fit.csv``, ``fit.json`` and the figure files.
+The comparison is ``evtribo compare``'s, its sequence run in memory from the
+:class:`Results` (:func:`evtribo.report.compare.run_comparison`: the fits, the trials'
+checks, the population, the candidate models asked for), and its figures are those of the
+figure registry (:mod:`evtribo.figures.registry`), kept as matplotlib figures.
+:meth:`Fit.save` runs ``evtribo compare`` on the results' folder, which writes ``fit.csv``,
+``fit.json``, ``models.csv`` and the figure files.
 """
 
 from __future__ import annotations
@@ -23,24 +24,18 @@ from matplotlib.figure import Figure
 from evtribo.api.results import Results
 from evtribo.documents.fit import FitDocument
 from evtribo.documents.result_folder import ResultFolder
-from evtribo.documents.tables import FIT, FIT_CSV, WINDOWS
+from evtribo.documents.tables import FIT, FIT_CSV, MODELS, WINDOWS
 from evtribo.errors import FORCE, UserInputError
-from evtribo.figures.friction_only import friction_figures
-from evtribo.figures.population_plots import draw_population
+from evtribo.figures.registry import PlannedFigure
 from evtribo.figures.style import journal_style
-from evtribo.fit.fit import SubjectFit, fit_study
-from evtribo.fit.fit_csv import fit_table
-from evtribo.fit.params import load_parameters, resolve_fit_names
-from evtribo.fit.tables import ResultTables
+from evtribo.fit.fit import SubjectFit
 from evtribo.population.estimates import (
     CONTRAST_COLUMNS,
     POPULATION_COLUMNS,
-    Population,
     PopulationOutlier,
-    population,
 )
 from evtribo.population.exclusions import population_rule
-from evtribo.report.compare import CompareResult, draw_figures
+from evtribo.report.compare import CompareSetup, run_comparison
 from evtribo.report.compare import compare as compare_folder
 from evtribo.report.population import read_population
 from evtribo.results.outputs import FIGURES
@@ -87,6 +82,12 @@ class Fit:
         ``population_contrasts.csv``: ratios and differences between conditions.
     population_notes : list of str
         What could not be estimated and why, and the subjects left out as outliers.
+    models : pandas.DataFrame or None
+        ``models.csv``: each candidate model fitted to each subject and ranked (None: no
+        models compared).
+    notes : list of str
+        What the comparison noted (fit.json's notes: how the intervals were obtained, the
+        models' ranking, figures left out and why).
     """
 
     table: pd.DataFrame
@@ -102,7 +103,10 @@ class Fit:
     population_contrasts: pd.DataFrame = field(
         default_factory=lambda: pd.DataFrame(columns=list(CONTRAST_COLUMNS)))
     population_notes: list[str] = field(default_factory=list)
+    models: pd.DataFrame | None = None
+    notes: list[str] = field(default_factory=list)
     _results: Results | None = field(default=None, repr=False)
+    _asked: dict[str, Any] = field(default_factory=dict, repr=False)
 
     @classmethod
     def from_folder(cls, folder: str | os.PathLike[str], doc: FitDocument | None = None,
@@ -146,7 +150,8 @@ class Fit:
                    else Path(pfile["path"]), out=folder, files=_files(folder, doc.figures),
                    population=_or_empty(pop, POPULATION_COLUMNS),
                    population_contrasts=_or_empty(contrasts, CONTRAST_COLUMNS),
-                   population_notes=_population_notes(doc.population), _results=results)
+                   population_notes=_population_notes(doc.population),
+                   models=source.models, notes=doc.notes, _results=results)
 
     def __repr__(self) -> str:
         where = "in memory" if self.out is None else f"in {str(self.out)!r}"
@@ -181,10 +186,12 @@ class Fit:
         if results is None or results.out is None:
             raise UserInputError("the results of this fit are in memory only; save them "
                                  "first (results.save(OUT)), then fit.save()")
-        compare_folder(results.out, fit=self.fitted, params=self.params_file, force=force)
+        compare_folder(results.out, fit=self.fitted, params=self.params_file, force=force,
+                       **self._asked)
         results.forget()  # compare's documents are new
         written = Fit.from_folder(results.out, results=results)
         self.out, self.files, self.records = written.out, written.files, written.records
+        self.notes = written.notes
         results.fit = self
         return results.out
 
@@ -226,41 +233,45 @@ def _comparable(results: Results) -> Results:
 
 
 class _Kept:
-    """Keeps compare's figures in memory (the sink of
-    :func:`~evtribo.report.compare.draw_figures`)."""
+    """Keeps compare's figures in memory, drawn as they come, those to look at (a trial's
+    check) after the others (the sink of :func:`~evtribo.report.compare.run_comparison`)."""
 
-    def __init__(self, tables: ResultTables, fits: list[SubjectFit]) -> None:
-        self.result = CompareResult(out=tables.out or Path(), fits=fits)
+    def __init__(self) -> None:
         self.drawn: list[tuple[dict[str, Any], Axes]] = []
+        self._late: list[tuple[dict[str, Any], Axes]] = []
 
-    def emit(self, ax: Axes, kind: str, title: str, stem: str, *, subject: str | None = None,
-             caption: str = "", extra: dict[str, Any] | None = None, **_: Any) -> None:
-        self.drawn.append(({"kind": kind, "title": title, "stem": stem, "subject": subject,
-                            "caption": caption, **(extra or {})}, ax))
+    def emit(self, figure: PlannedFigure) -> None:
+        record = {"kind": figure.spec.kind, "title": figure.title, "stem": figure.stem,
+                  "subject": figure.subject, "caption": figure.caption, **figure.placed()}
+        (self._late if figure.spec.screen else self.drawn).append(
+            (record, figure.drawing.draw()))
+
+    def figures(self) -> list[tuple[dict[str, Any], Axes]]:
+        return [*self.drawn, *self._late]
 
 
-def _figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...],
-             pop: Population) -> list[tuple[dict[str, Any], Axes]]:
-    """compare's figures of the fit, in the journal style, as ``evtribo compare`` draws them
-    (without the trial checks, which need the study, and the models')."""
-    kept = _Kept(tables, fits)
-    with journal_style("single"):
-        if tables.electrostatic.empty:  # OFF trials only: each subject's friction
-            friction_figures(tables, kept.emit)
-        else:
-            draw_figures(tables, fits, names, kept)
-            draw_population(tables.electrostatic, pop, kept.emit)
-    return kept.drawn
+def _models(table: pd.DataFrame | None) -> pd.DataFrame | None:
+    """models.csv as compare computes it, typed as when read back (an empty name missing;
+    None: no models compared)."""
+    if table is None:
+        return None
+    text = [c.name for c in MODELS.columns if c.kind == "text" and c.name in table]
+    return MODELS.typed(table.assign(**{c: table[c].mask(table[c].eq("")) for c in text}))
 
 
 def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
-            params: str | os.PathLike[str] | None = None) -> Fit:
+            params: str | os.PathLike[str] | None = None,
+            models: str | Iterable[str] | None = None,
+            trial_checks: bool | str | None = None) -> Fit:
     """Fit the seed paper's model to each subject's electrostatic forces, in memory.
 
-    The same fit as ``evtribo compare`` (weighted least squares, intervals from refits to
-    the bootstrap replicates), and the population's estimates (``.population``, study
-    format §10) with their figure; nothing is written: :meth:`Fit.save` writes it once the
-    results are in a folder.
+    The same comparison as ``evtribo compare`` (weighted least squares, intervals from
+    refits to the bootstrap replicates; the population's estimates, ``.population``, study
+    format §10; the candidate models asked for, ranked, ``.models``) and the same figures,
+    kept as matplotlib figures: the trials' checks too, from what the analysis kept of each
+    or, where it kept nothing, from the study folder (when it is not there, a note says
+    they are left out). Nothing is written: :meth:`Fit.save` writes it once the results
+    are in a folder.
 
     Parameters
     ----------
@@ -271,6 +282,14 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
         None: ``("h_L",)``.
     params : path-like, optional
         TOML file of fixed parameters in SI units (the paper's Table 1 for the others).
+    models : str or iterable of str, optional
+        Candidate models to fit and rank per subject (``"paper,hertz,maugis,circuit"``):
+        ``.models`` and a ``frequency_response`` figure per subject with a drive at
+        several frequencies.
+    trial_checks : bool or str, optional
+        Which trials' checks to draw: ``"all"`` (True), ``"none"`` (False), ``"auto"``
+        (None: every trial of a small study, else those with a warning that may change a
+        number or widens an interval).
 
     Returns
     -------
@@ -280,28 +299,31 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
     Raises
     ------
     ConfigError
-        An unknown parameter name, or a bad parameter file.
+        An unknown parameter or model name, or a bad parameter file.
     UserInputError
         The results hold no window at all (results without electrostatic forces, a study
-        of OFF trials, give an empty table and each subject's friction figure).
+        of OFF trials, give an empty table and each subject's friction figure); a bad
+        ``trial_checks``.
     AnalysisError
         A fit cannot be made.
     """
-    names = resolve_fit_names(fit)
-    base = load_parameters(None if params is None else Path(params))
+    setup = CompareSetup.of(fit=fit, params=None if params is None else Path(params),
+                            models=models, trial_checks=trial_checks)
     tables = _comparable(results)
-    rule = population_rule(tables)
-    fits = fit_study(tables, base, names)
-    pop = population(tables, fits, exclude=rule.exclude, rule_notes=rule.notes,
-                     model=rule.model)
-    figures = _figures(tables, fits, names, pop)
-    out = Fit(table=FIT.typed(fit_table(fits, tables)),
-              figures={r["stem"]: ax.figure for r, ax in figures if isinstance(ax.figure,
-                                                                                Figure)},
-              records=[r for r, _ in figures], fits=fits, fitted=names,
+    kept = _Kept()
+    with journal_style(setup.look.width):
+        done = run_comparison(tables, setup, kept, exclude=population_rule(tables))
+    figures = kept.figures()
+    pop = done.population
+    assert pop is not None and done.fit_table is not None  # run_comparison gives both
+    out = Fit(table=FIT.typed(done.fit_table),
+              figures={r["stem"]: ax.figure for r, ax in figures
+                       if isinstance(ax.figure, Figure)},
+              records=[r for r, _ in figures], fits=done.fits, fitted=setup.names,
               params_file=None if params is None else Path(params),
               population=pop.table, population_contrasts=pop.contrasts,
               population_notes=[*pop.notes, *(o.describe() for o in pop.outliers)],
-              _results=results)
+              models=_models(done.models_table), notes=done.notes, _results=results,
+              _asked={"models": models, "trial_checks": trial_checks})
     results.fit = out
     return out

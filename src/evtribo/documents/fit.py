@@ -9,8 +9,12 @@ fitted, from its ``summary.json``), ``software``, ``fit`` (the parameters fitted
 why, ``outliers``: each ``{"subject", "quantity", "value", "low", "high", "unit"}``),
 ``compare_key`` (what the comparison was made from: the analysis, the options, the software;
 :func:`evtribo.report.kept.compare_key`) and ``output_sha256`` (every file compare wrote,
-which ``evtribo report`` checks). Each figure's record names the key and resolution its
-files were drawn from (``key``, ``dpi``). The document
+which ``evtribo report`` checks). Each figure's record (``kind``, ``title``, ``stem``,
+``subject``, ``caption``) says where the report places it (``section``, ``per`` and, for a
+kind shown as a grid with many subjects, ``grid``: its title and caption; the figure
+registry's, :mod:`evtribo.figures.registry`, so that a report made where the kind is not
+registered places it) and names the key and resolution its files were drawn from (``key``,
+``dpi``). The document
 is JSON with two-space indentation and a final newline; non-finite numbers are written as
 null. It carries no version key of its own: :data:`FIT_VERSION` is the version of the shape
 this module writes and reads.
@@ -99,7 +103,8 @@ class FitDocument(Mapping[str, Any]):
 
     @property
     def figures(self) -> list[dict[str, Any]]:
-        """``{"kind", "title", "stem", "subject", "caption"}`` of each figure written."""
+        """``{"kind", "title", "stem", "subject", "caption", "section", "per"...}`` of each
+        figure written."""
         return [dict(f) for f in self._typed("figures", list, []) if isinstance(f, dict)]
 
     @property

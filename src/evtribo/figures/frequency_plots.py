@@ -1,18 +1,17 @@
 """F_el against the drive's frequency, measured and as each fitted model has it (the figure
-kind ``frequency_response``, one per subject, stem ``frequency_response_<subject>``), and
-``compare --models``' outputs: ``models.csv`` and those figures.
+kind ``frequency_response`` of ``compare --models``, one per subject:
+:mod:`evtribo.figures.registry.builtin`).
 
 A subject none of whose drives (waveform and amplitude) was measured at
-:data:`MIN_FREQUENCIES` frequencies or more gets no such figure (one x-value per drive:
-flat lines, and the circuit's curves where nothing was measured); the models are then
-ranked on the voltage alone, and the notes say so.
+:data:`~evtribo.fit.model_comparison.MIN_FREQUENCIES` frequencies or more gets no such
+figure (one x-value per drive: flat lines, and the circuit's curves where nothing was
+measured); the models are then ranked on the voltage alone, and compare's notes say so.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -20,7 +19,7 @@ import pandas as pd
 from matplotlib.axes import Axes
 
 from evtribo.figures.layout import place_legend, plain_log_axis, voltage_ticks
-from evtribo.figures.plots import new_axes, safe_name
+from evtribo.figures.plots import new_axes
 from evtribo.figures.style import (
     EVERY_COLOUR,
     MAX_DRIVE_ENTRIES,
@@ -28,39 +27,13 @@ from evtribo.figures.style import (
     proxy,
     series_style,
 )
-from evtribo.fit.models import ModelFit, fit_models, models_table, study_ranking, verdict
-from evtribo.fit.tables import ResultTables
-from evtribo.model.params import ModelParameters
-from evtribo.results.outputs import MODELS_CSV
-from evtribo.store.files import atomic_write
-from evtribo.store.resultdir import Staging
+from evtribo.fit.models import ModelFit
 
-__all__ = ["MIN_FREQUENCIES", "WIDE_RANGE", "frequencies_of", "frequency_response_stem",
-           "models_text", "plot_frequency_response", "write_models"]
-
-#: ``emit(ax, kind, title, stem, subject=..., caption=...)`` of :mod:`evtribo.report.compare`.
-Emit = Callable[..., Any]
+__all__ = ["WIDE_RANGE", "plot_frequency_response"]
 
 #: Forces spanning more than this factor get a log axis.
 WIDE_RANGE = 20.0
-#: Fewer drive frequencies than this: no figure of F_el against the frequency.
-MIN_FREQUENCIES = 2
 _STYLES = {"paper": "-", "hertz": ":", "maugis": "-.", "circuit": "--"}
-
-
-def frequency_response_stem(subject: str) -> str:
-    """The figure's file stem for *subject*.
-
-    Parameters
-    ----------
-    subject : str
-
-    Returns
-    -------
-    str
-        ``frequency_response_<subject>`` (the subject made safe for a file name).
-    """
-    return f"frequency_response_{safe_name(subject)}"
 
 
 def _groups(rows: pd.DataFrame) -> list[tuple[tuple[str, float], pd.DataFrame]]:
@@ -191,114 +164,3 @@ def _model_label(fit: ModelFit) -> str:
 
 #: Parameters' names in mathtext.
 _MATH = {"h_L": "h_L", "r_g": "r_g", "r_sc": r"r_\mathrm{sc}"}
-
-
-def frequencies_of(rows: pd.DataFrame) -> int:
-    """How many drive frequencies the most swept drive (waveform and amplitude) of
-    electrostatic.csv's rows was measured at.
-
-    Parameters
-    ----------
-    rows : DataFrame
-        Rows of ``electrostatic.csv``.
-
-    Returns
-    -------
-    int
-        0 without a known frequency; 1 when every drive had a single frequency (a square
-        drive at 10 kHz and a sine at 10 Hz are two drives of one frequency each).
-    """
-    if rows.empty or "frequency_Hz" not in rows.columns:
-        return 0
-    f = pd.to_numeric(rows["frequency_Hz"], errors="coerce")
-    known = rows.assign(_f=f)[np.isfinite(f.to_numpy(float)) & (f.to_numpy(float) > 0)]
-    if known.empty:
-        return 0
-    per = known.groupby([known["waveform"].astype(str),
-                         known["amplitude_V"].astype(float)])["_f"].nunique()
-    return int(per.max())
-
-
-def write_models(tables: ResultTables, stage: Staging, models: Sequence[str],
-                 base: ModelParameters, emit: Emit) -> tuple[list[Path], list[str]]:
-    """Fit the candidate *models*, write ``models.csv`` into *stage* and draw a
-    ``frequency_response`` figure per subject through *emit*.
-
-    Parameters
-    ----------
-    tables : ResultTables
-        The result folder's tables.
-    stage : Staging
-        Where ``models.csv`` is written (the result folder's staging).
-    models : sequence of str
-        Names of :data:`evtribo.fit.models.CANDIDATES` (validated).
-    base : ModelParameters
-        Starting values and the fixed parameters.
-    emit : callable
-        ``emit(ax, kind, title, stem, subject=..., caption=...)``: saves and records a
-        figure (``evtribo.report.compare``'s).
-
-    Returns
-    -------
-    (list of Path, list of str)
-        The files written (relative to the folder: ``models.csv``) and notes for fit.json.
-    """
-    fits = fit_models(tables, models, base)
-    table = models_table(fits)
-    atomic_write(stage.path(MODELS_CSV), table.to_csv(index=False))
-    crit = {f.criterion for f in fits if f.params is not None}
-    notes = []
-    said = verdict(study_ranking(table))
-    if said:
-        notes.append(f"Models over the study ({models_text(crit)}; each model's criterion "
-                     f"summed over the subjects): {said}.")
-    for subject in tables.subjects:
-        mine = [f for f in fits if f.subject == str(subject)]
-        notes += [f"Model {f.model} of {subject} could not be fitted: {f.note}"
-                  for f in mine if f.params is None]
-        rows = tables.electrostatic[tables.electrostatic["subject"].astype(str) == str(subject)]
-        if frequencies_of(rows) < MIN_FREQUENCIES:
-            continue
-        emit(plot_frequency_response(rows, mine, subject=str(subject)), "frequency_response",
-             f"Electrostatic force vs drive frequency, {subject}",
-             frequency_response_stem(str(subject)), subject=str(subject),
-             caption="Inferred electrostatic force (points, 95 % intervals) against the "
-                     "drive's frequency, one colour and marker per drive, and each candidate "
-                     "model fitted to the subject's points (models.csv; one line style per "
-                     "model, in each drive's colour), at the points' mean normal force ON.")
-    bound: dict[tuple[str, str], list[str]] = {}
-    for f in fits:
-        for name in f.at_bound:
-            bound.setdefault((f.model, name), []).append(f.subject)
-    notes += [f"Model {model}: {name} at its bound for {', '.join(subjects)} (the data do "
-              "not set it; models.csv's fitted holds the bound, not an estimate)."
-              for (model, name), subjects in bound.items()]
-    few = [str(s) for s in tables.subjects if frequencies_of(
-        tables.electrostatic[tables.electrostatic["subject"].astype(str) == str(s)])
-        < MIN_FREQUENCIES]
-    if few:
-        notes.append(f"{len(few)} subject(s) with each drive at a single frequency: no "
-                     "figure of F_el against the frequency for them, and the models are told "
-                     "apart by the voltage alone (the circuit's leak needs a drive at two "
-                     "frequencies or more).")
-    return [Path(MODELS_CSV)], notes
-
-
-def models_text(criteria: set[str]) -> str:
-    """How models.csv's ``aic`` column was computed, for a note.
-
-    Parameters
-    ----------
-    criteria : set of str
-        Of ``"AIC"`` and ``"AICc"``.
-
-    Returns
-    -------
-    str
-    """
-    if criteria == {"AICc"}:
-        return "aic is the small-sample AICc: fewer than 40 points per parameter"
-    if "AICc" in criteria:
-        return ("aic is the small-sample AICc for the subjects with fewer than 40 points per "
-                "parameter, AIC for the others")
-    return "aic is AIC"

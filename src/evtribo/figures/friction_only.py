@@ -5,24 +5,19 @@ electrostatic force and no model fit, but its OFF windows give each subject's fr
 coefficient μ: the ratio of means ``ΣF_t / ΣF_n`` of its OFF windows
 (:func:`evtribo.analysis.friction.estimate.friction_coefficient`, the estimator's μ when no trend is
 supported), per subject and per trial. ``evtribo compare`` then draws each subject's friction
-against the normal force (the OFF windows and the line of that μ) and the check of every
+against the normal force (the OFF windows and the line of that μ: the figure kind
+``friction_normal_force`` of :mod:`evtribo.figures.registry.builtin`) and the check of every
 trial, and ``evtribo report`` leads with the table of μ.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any
-
 import numpy as np
 import pandas as pd
 
 from evtribo.analysis.friction.estimate import friction_coefficient
-from evtribo.figures.plots import plot_friction_normal_force, safe_name
-from evtribo.fit.tables import ResultTables
-from evtribo.model.params import TABLE_1
 
-__all__ = ["NOTE", "friction_figures", "subject_mu", "trial_mu"]
+__all__ = ["NOTE", "subject_mu", "trial_mu"]
 
 #: What compare says of such results (fit.json's notes, the console).
 NOTE = ("No electrostatic force in these results (no subject has ON windows to compare with "
@@ -86,29 +81,3 @@ def subject_mu(windows: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=["subject", "mu", "mu_trial_min", "mu_trial_max",
                                        "trials", "windows", "normal_force_min_N",
                                        "normal_force_max_N"])
-
-
-def friction_figures(tables: ResultTables, emit: Callable[..., None]) -> None:
-    """Each subject's friction against the normal force: its OFF windows and its μ.
-
-    Parameters
-    ----------
-    tables : ResultTables
-        Results without electrostatic forces.
-    emit : callable
-        ``emit(ax, kind, title, stem, *, subject, caption)``, which writes one figure.
-
-    Returns
-    -------
-    None
-    """
-    for row in subject_mu(tables.windows).itertuples(index=False):
-        s: Any = row.subject
-        mu_value: Any = row.mu
-        mu = float(mu_value)
-        win = tables.windows[tables.windows["subject"].astype(str) == s]
-        ax = plot_friction_normal_force(win, TABLE_1.with_values(mu=mu), subject=s)
-        emit(ax, "friction_normal_force", f"Friction vs normal force, {s}",
-             f"friction_normal_force_{safe_name(s)}", subject=s,
-             caption=f"{s}: steady-sliding windows OFF (points) and F_t = μ·F_n with the "
-                     "subject's μ, the ratio of means of those windows (line).")

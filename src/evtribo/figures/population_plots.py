@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import math
 import sys
-from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -37,7 +36,7 @@ from evtribo.figures.layout import place_legend
 from evtribo.figures.style import new_axes, proxy, series_style, styled
 from evtribo.population.estimates import Condition, Population, condition_label
 
-__all__ = ["draw_population", "plot_population", "population_stem"]
+__all__ = ["condition_stem", "plot_population", "population_caption"]
 
 #: A thin white edge around each subject's line and markers: they stay apart from the grey
 #: bands under them in greyscale.
@@ -48,8 +47,9 @@ HALO = [patheffects.withStroke(linewidth=1.8, foreground="white"), patheffects.N
 CI_GREY, PI_GREY = "0.7", "0.9"
 
 
-def population_stem(condition: Condition) -> str:
-    """The file stem of a condition's figure: ``population_square_10000Hz``.
+def condition_stem(condition: Condition) -> str:
+    """A condition as a file stem names it: ``square_10000Hz`` (the population's figure of
+    it is ``population_square_10000Hz``).
 
     Parameters
     ----------
@@ -62,7 +62,7 @@ def population_stem(condition: Condition) -> str:
     """
     wave, freq = condition
     tail = f"_{freq:g}Hz" if math.isfinite(freq) else ""
-    return f"population_{wave or 'drive'}{tail}".replace(".", "p")
+    return f"{wave or 'drive'}{tail}".replace(".", "p")
 
 
 def _rows_of(electrostatic: pd.DataFrame, condition: Condition) -> pd.DataFrame:
@@ -204,7 +204,21 @@ def _zoomed(ax: Axes, es: pd.DataFrame, band: np.ndarray, pred: np.ndarray) -> N
             ha="right", va="bottom", fontsize="x-small", color="0.3")
 
 
-def _caption(pop: Population, condition: Condition) -> str:
+def population_caption(pop: Population, condition: Condition) -> str:
+    """The caption of a condition's figure: what is drawn, and the subjects far from the
+    others.
+
+    Parameters
+    ----------
+    pop : Population
+        The population's estimates.
+    condition : (str, float)
+        The waveform and drive frequency shown (one of ``pop.lines``).
+
+    Returns
+    -------
+    str
+    """
     fit = pop.lines[condition]
     far = sorted(pop.far.get(condition, set()))
     named = (f" Open markers: {', '.join(far)}, far from the other subjects (every estimate "
@@ -217,29 +231,3 @@ def _caption(pop: Population, condition: Condition) -> str:
             f"linear scale, subjects' {random} random, each force with its own error): the "
             "mid-grey band is the 95 % confidence band of the population's mean, the light "
             "band with dashed edges the 95 % prediction band for a new subject." + named)
-
-
-def draw_population(electrostatic: pd.DataFrame, pop: Population,
-                    emit: Callable[..., Any], conditions: Sequence[Condition] | None = None
-                    ) -> None:
-    """Draw the population's figure of each condition with a power law, and emit it.
-
-    Parameters
-    ----------
-    electrostatic : DataFrame
-        ``electrostatic.csv``.
-    pop : Population
-        The population's estimates.
-    emit : callable
-        ``emit(ax, kind, title, stem, *, subject, caption)`` writes or keeps the figure.
-    conditions : sequence, optional
-        The conditions to draw (default: all with a power law).
-
-    Returns
-    -------
-    None
-    """
-    for condition in conditions if conditions is not None else list(pop.lines):
-        ax = plot_population(electrostatic, pop, condition)
-        emit(ax, "population", f"The population, {condition_label(*condition)}",
-             population_stem(condition), subject=None, caption=_caption(pop, condition))

@@ -373,7 +373,8 @@ def study_ranking(models: pd.DataFrame) -> pd.DataFrame:
     weight = np.exp(-delta / 2.0)
     weight = weight / float(weight.sum())
     crit = set(used.get("criterion", pd.Series(["AIC"] * len(used))).dropna().astype(str))
-    bound = used.get("at_bound", pd.Series([""] * len(used), index=used.index))
+    bound = used.get("at_bound", pd.Series([""] * len(used), index=used.index)).astype(
+        object)  # read back from a models.csv with none at a bound: numbers, all NaN
     rows = []
     for name in sums.index:
         mine = used[used["model"].astype(str) == name]

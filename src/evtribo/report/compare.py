@@ -11,11 +11,18 @@ Writes into the result folder:
 - ``population.csv`` and ``population_contrasts.csv`` (study format §10) when the study has
   at least three subjects with electrostatic forces (:mod:`evtribo.population.estimates`),
   with a ``population_<waveform>_<frequency>Hz`` figure per condition;
-- ``figures/``: each figure once per format asked (``<stem>.svg`` and ``<stem>.png`` by
-  default, ``<stem>.pdf`` too on request), in the journal style of
-  :mod:`evtribo.figures.style` (a single column or a page wide, no titles: fit.json's
-  captions carry them). The first is ``electrostatic_force_all``, every subject's
-  electrostatic force and fitted model in one figure.
+- ``models.csv`` with ``--models``: each candidate model fitted to each subject and ranked
+  (:func:`evtribo.fit.model_comparison.compare_models`);
+- ``figures/``: each figure of the figure registry (:mod:`evtribo.figures.registry`) once
+  per format asked (``<stem>.svg`` and ``<stem>.png`` by default, ``<stem>.pdf`` too on
+  request), in the journal style of :mod:`evtribo.figures.style` (a single column or a
+  page wide, no titles: fit.json's captions carry them). The first is
+  ``electrostatic_force_all``, every subject's electrostatic force and fitted model in one
+  figure.
+
+The sequence (the fits, the trials' checks, the population, the models, each figure as soon
+as what it shows is known) is :func:`run_comparison`, which ``evtribo.compare`` runs too,
+keeping the figures in memory.
 
 ``fit.json`` also records the ``run_id`` of the analysis it fitted (from ``summary.json``)
 and the SHA-256 of every file compare wrote (``output_sha256``), which ``evtribo report``
@@ -33,32 +40,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
 from evtribo import __version__
 from evtribo.documents.fit import write_fit
 from evtribo.documents.tables import FIT
-from evtribo.figures.frequency_plots import write_models
-from evtribo.figures.friction_only import NOTE, friction_figures
-from evtribo.figures.plots import (
-    plot_area_increase,
-    plot_electrostatic_force,
-    plot_electrostatic_force_all,
-    plot_friction_normal_force,
-    plot_friction_time,
-    safe_name,
-)
-from evtribo.figures.population_plots import draw_population
-from evtribo.figures.style import (
-    journal_style,
-    parse_dpi,
-    parse_figure_formats,
-    parse_figure_width,
-)
-from evtribo.figures.trial_checks import parse_which
+from evtribo.figures.friction_only import NOTE
+from evtribo.figures.registry import FigureContext, FigureSink, absent_notes, planned, stems
+from evtribo.figures.style import parse_dpi, parse_figure_formats, parse_figure_width
+from evtribo.figures.trial_checks import CheckFigure, parse_which, trial_checks
 from evtribo.fit.fit import SubjectFit, fit_study, interval_notes
 from evtribo.fit.fit_csv import fit_table
+from evtribo.fit.model_comparison import compare_models
 from evtribo.fit.models import resolve_models
 from evtribo.fit.params import load_parameters, resolve_fit_names
 from evtribo.fit.tables import ResultTables, check_out_folder, read_results
@@ -66,34 +59,31 @@ from evtribo.guard import refuse_in_study, refuse_input
 from evtribo.model.params import ModelParameters
 from evtribo.population.estimates import Population, population
 from evtribo.population.exclusions import PopulationRule, population_rule
-from evtribo.report.drawing import Drawing, FigureRecord, Figures, Look, Runner, emit_checks
+from evtribo.report.drawing import FigureRecord, Figures, Look, Runner, trials_to_check
 from evtribo.report.kept import FigureStore, compare_key, last_fit, options_text
 from evtribo.results.outputs import (
     FIGURES,
     FIT_CSV,
     FIT_JSON,
+    MODELS_CSV,
     check_compare,
     compare_files,
     earlier_results,
 )
 from evtribo.store.files import atomic_write, sha256_file
 from evtribo.store.memo import default_cache_dir
+from evtribo.store.pool import Mapper
 from evtribo.store.resultdir import Staging, locked, recover
 
 log = logging.getLogger(__name__)
 
-__all__ = ["FIGURES", "FIT_CSV", "FIT_JSON", "CompareResult", "FigureRecord", "compare",
-           "figure_stems"]
-
-
-#: The citation of the model's paper, for captions and help texts.
-PAPER = ("Voltage-Induced Friction with Application to Electrovibration, Lubricants 2019, "
-         "7(12), 102, doi:10.3390/lubricants7120102")
+__all__ = ["FIGURES", "FIT_CSV", "FIT_JSON", "CompareResult", "CompareSetup", "FigureRecord",
+           "compare", "run_comparison"]
 
 
 @dataclass
 class CompareResult:
-    """What :func:`compare` did."""
+    """What :func:`compare` (or :func:`run_comparison`, in memory) did."""
 
     out: Path
     fits: list[SubjectFit]
@@ -105,28 +95,10 @@ class CompareResult:
     """The SHA-256 of each figure file (relative), those kept as they were included."""
     kept: set[str] = field(default_factory=set)
     """The figure files (relative) left as they were: their figures had not changed."""
-
-
-def figure_stems(subjects: Iterable[str], *, sine: bool = True) -> list[str]:
-    """File stems of the figures :func:`compare` writes for these subjects.
-
-    Parameters
-    ----------
-    subjects : iterable of str
-        The subjects, in order.
-    sine : bool
-        Whether the results hold a measured sine trace (``sine_trace.csv``): the
-        friction-versus-time figure is drawn only then.
-
-    Returns
-    -------
-    list of str
-        The figure of all subjects, those of the whole study, then two per subject.
-    """
-    stems = ["electrostatic_force_all", *(["friction_time"] if sine else []), "area_increase"]
-    for s in subjects:
-        stems += [f"electrostatic_force_{safe_name(s)}", f"friction_normal_force_{safe_name(s)}"]
-    return stems
+    fit_table: pd.DataFrame | None = None
+    """``fit.csv``'s table."""
+    models_table: pd.DataFrame | None = None
+    """``models.csv``'s table (None: no models compared)."""
 
 
 def _check_outputs(out: Path, force: bool, figures: Iterable[str] = ()) -> None:
@@ -137,18 +109,6 @@ def _check_outputs(out: Path, force: bool, figures: Iterable[str] = ()) -> None:
 
 def _jsonable(x: float) -> float | None:
     return x if math.isfinite(x) else None
-
-
-def _first_trace(tables: ResultTables) -> tuple[pd.DataFrame | None, str | None]:
-    """The first trial of ``sine_trace.csv`` (when it holds several) and its subject."""
-    trace = tables.sine_trace
-    if trace is None or trace.empty:
-        return None, None
-    for col in ("subject", "trial"):
-        if col in trace.columns:
-            trace = trace[trace[col].astype(str) == str(trace[col].iloc[0])]
-    subject = str(trace["subject"].iloc[0]) if "subject" in trace.columns else None
-    return trace, subject
 
 
 def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
@@ -211,7 +171,7 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
     AnalysisError
         When a fit cannot be made.
     """
-    setup = _Setup.of(fit=fit, params=params, formats=formats, dpi=dpi, width=width,
+    setup = CompareSetup.of(fit=fit, params=params, formats=formats, dpi=dpi, width=width,
                       models=models, trial_checks=trial_checks, cache_dir=cache_dir)
     folder = check_out_folder(out)
     _check_outputs(folder, force)  # before the lock: a refusal writes nothing
@@ -233,8 +193,26 @@ def compare(out: str | Path, *, fit: str | Iterable[str] | None = None,
 
 
 @dataclass(frozen=True)
-class _Setup:
-    """What a comparison is asked to do."""
+class CompareSetup:
+    """What a comparison is asked to do.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The parameters fitted per subject.
+    base : ModelParameters
+        Starting values and the fixed parameters.
+    look : Look
+        Formats, resolution and width of the figures.
+    models : tuple of str
+        The candidate models to compare (empty: none).
+    checks : str
+        Which trials' checks to draw (:data:`~evtribo.figures.trial_checks.WHICH`).
+    cache : Path
+        The analysis's cache folder (its sketches, the figures kept).
+    options : dict
+        The options as the comparison's key holds them.
+    """
 
     names: tuple[str, ...]
     base: ModelParameters
@@ -245,9 +223,20 @@ class _Setup:
     options: dict[str, Any]
 
     @classmethod
-    def of(cls, *, fit: Any, params: Any, formats: Any, dpi: Any, width: str, models: Any,
-           trial_checks: Any, cache_dir: Any) -> _Setup:
-        """compare's options checked (each bad one an error naming it)."""
+    def of(cls, *, fit: Any = None, params: Any = None, formats: Any = None, dpi: Any = None,
+           width: str = "single", models: Any = None, trial_checks: Any = None,
+           cache_dir: Any = None) -> CompareSetup:
+        """compare's options checked (each bad one an error naming it).
+
+        Parameters
+        ----------
+        fit, params, formats, dpi, width, models, trial_checks, cache_dir
+            As :func:`compare` takes them.
+
+        Returns
+        -------
+        CompareSetup
+        """
         look = Look(dpi=parse_dpi(dpi),
                     formats=parse_figure_formats(formats), width=parse_figure_width(width))
         return cls(names=resolve_fit_names(fit), base=load_parameters(params), look=look,
@@ -259,22 +248,26 @@ class _Setup:
                                         trial_checks=trial_checks))
 
 
-def _run(folder: Path, tables: ResultTables, setup: _Setup, params: str | Path | None,
-         runner: Runner, *, force: bool, progress: Callable[[str], None],
-         scheduler: Any) -> CompareResult:
+def _run(folder: Path, tables: ResultTables, setup: CompareSetup,
+         params: str | Path | None, runner: Runner, *, force: bool,
+         progress: Callable[[str], None], scheduler: Any) -> CompareResult:
     """The comparison, under the folder's lock: written as one unit, the figures that did
     not change left as they are."""
-    _check_outputs(folder, force, [
-        f"{FIGURES}/{stem}.{fmt}" for fmt in setup.look.formats
-        for stem in figure_stems(tables.subjects, sine=tables.sine_trace is not None)])
+    known = stems(FigureContext(tables, names=setup.names, models=setup.models))
+    _check_outputs(folder, force, [f"{FIGURES}/{stem}.{fmt}" for fmt in setup.look.formats
+                                   for stem in known])
     exclude = population_rule(tables)  # a bad [population] rule: before any write
     stale = compare_files(folder)
     previous = last_fit(folder)
     with Staging(folder, by="compare", also=earlier_results(folder)) as stage:
-        figures = Figures(stage, setup.look, CompareResult(out=folder, fits=[]), runner,
-                          FigureStore(setup.cache), previous=previous, progress=progress)
-        result = _compare(tables, stage, setup, figures, scheduler=scheduler,
-                          progress=progress, exclude=exclude)
+        figures = Figures(stage, setup.look, runner, FigureStore(setup.cache),
+                          previous=previous, progress=progress)
+        result = run_comparison(tables, setup, figures, scheduler=scheduler,
+                                mapper=runner.map, progress=progress, exclude=exclude)
+        tables_written = _write_tables(stage, result)
+        figures.finish()
+        result.files = [*tables_written, *figures.files]
+        result.figures, result.sha256, result.kept = figures.records, figures.sha256, figures.kept
         _write_json(stage, result, setup.names, setup.base, params,
                     run_id=tables.summary.run_id,
                     key=compare_key(tables.summary, setup.options))
@@ -283,175 +276,116 @@ def _run(folder: Path, tables: ResultTables, setup: _Setup, params: str | Path |
     return result
 
 
-def _compare(tables: ResultTables, stage: Staging, setup: _Setup, figures: Figures, *,
-             scheduler: Any = None, progress: Callable[[str], None],
-             exclude: PopulationRule | None = None) -> CompareResult:
-    """The fits and figures, written into *stage* (``result.files`` relative to it);
-    *exclude*: the study's ``[population]`` rule (its exclusions, its model) and notes on
-    it."""
-    names = setup.names
-    only_mu = tables.electrostatic.empty  # a study of OFF trials: its friction, no fit
-    if not only_mu:
-        replicates = ("" if tables.bootstrap is None else
-                      ", refitted to each bootstrap replicate for its interval")
-        progress(f"fitting {', '.join(names)} to each of {len(tables.subjects)} subjects"
-                 f"{replicates}")
-    fits = [] if only_mu else fit_study(  # the subjects side by side on the workers
-        tables, setup.base, names, scheduler=scheduler,
-        mapper=figures.runner.map if scheduler is None else None)
-    # the trials' checks go to the workers after the fits (which they would hold up there),
-    # drawn while the population is estimated here
-    check_notes = emit_checks(figures, tables, setup.checks, setup.cache, progress)
-    result = figures.result
-    result.fits = fits
-    result.notes += [NOTE] if only_mu else interval_notes(
-        fits, has_bootstrap=tables.bootstrap is not None)
-    table = fit_table(fits, tables)
-    atomic_write(stage.path(FIT_CSV), FIT.text(table))
-    result.files.append(Path(FIT_CSV))
-    progress("drawing the figures of the fit" if not only_mu else
-             "drawing each subject's friction")
-    with journal_style(setup.look.width):  # drawn by the workers while the population is
-        if only_mu:                        # estimated here
-            friction_figures(tables, figures.emit)
-        else:
-            draw_figures(tables, fits, names, figures)
-    if not only_mu:
-        progress("estimating the population (a mixed model per condition, checked with "
-                 "several optimisers)")
-    rule = exclude or PopulationRule()
-    result.population = pop = population(tables, fits, exclude=rule.exclude,
-                                         rule_notes=rule.notes, model=rule.model)
-    for name, text in pop.files().items():
+def _write_tables(stage: Staging, result: CompareResult) -> list[Path]:
+    """fit.csv, the population's files and models.csv, into *stage*."""
+    texts = {} if result.fit_table is None else {FIT_CSV: FIT.text(result.fit_table)}
+    if result.population is not None:
+        texts.update(result.population.files())
+    if result.models_table is not None:
+        texts[MODELS_CSV] = result.models_table.to_csv(index=False)
+    for name, text in texts.items():
         atomic_write(stage.path(name), text)
-        result.files.append(Path(name))
-    with journal_style(setup.look.width):
-        if not only_mu:
-            draw_population(tables.electrostatic, pop, figures.emit)
-        if setup.models and not only_mu:
-            progress(f"fitting and ranking the models {', '.join(setup.models)}")
-            files, notes = write_models(tables, stage, setup.models, setup.base,
-                                        figures.emit)
-            result.files += files
-            result.notes += notes
-    figures.finish()
-    result.notes += check_notes
-    result.sha256, result.kept = figures.sha256, figures.kept
-    return result
+    return [Path(name) for name in texts]
 
 
-def draw_figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...],
-                 figures: Any) -> None:
-    """Draw compare's figures of the fit (all but the trial checks and the models').
+def _quiet(_: str) -> None:
+    pass
+
+
+def run_comparison(tables: ResultTables, setup: CompareSetup, sink: FigureSink, *,
+                   scheduler: Any = None, mapper: Mapper | None = None,
+                   progress: Callable[[str], None] = _quiet,
+                   exclude: PopulationRule | None = None) -> CompareResult:
+    """compare's sequence, for ``evtribo compare`` and ``evtribo.compare`` alike: the
+    subjects' fits, the trials' checks, the population, the candidate models, and each
+    figure of :data:`~evtribo.figures.registry.FIGURES` handed to *sink* as soon as what it
+    shows is known (the figures of the fits drawn while the population is estimated).
 
     Parameters
     ----------
     tables : ResultTables
         The results.
-    fits : list of SubjectFit
-        The subjects' fits.
-    names : tuple of str
-        The fitted parameters.
-    figures : object
-        Has ``emit(ax, kind, title, stem, *, subject, caption)`` (writes or keeps one
-        figure) and ``result`` (a :class:`CompareResult`, for notes); with a true ``lazy``
-        attribute, it is given a :class:`~evtribo.report.drawing.Drawing` instead of an
-        Axes (drawn where and when it is needed).
+    setup : CompareSetup
+        What the comparison is asked to do.
+    sink : FigureSink
+        Takes each figure (``sink.emit(figure)``): writes it, or keeps it in memory.
+    scheduler : distributed.Client, optional
+        A Dask cluster for the bootstrap refits.
+    mapper : callable, optional
+        ``mapper(func, items)`` (compare's worker processes): the subjects fitted and the
+        trials sketched again side by side (default: here).
+    progress : callable, optional
+        Told what is being done, stage by stage.
+    exclude : PopulationRule, optional
+        The study's ``[population]`` rule: its exclusions, its model and the notes on them
+        (:func:`~evtribo.population.exclusions.population_rule`; default: none, the mixed
+        model).
 
     Returns
     -------
-    None
+    CompareResult
+        The fits, ``fit_table``, ``population``, ``models_table`` and the notes; nothing
+        written (no ``files``, ``figures`` or ``sha256``: the sink's).
     """
-    _all_subjects_figure(tables, fits, figures)
-    _subject_figures(tables, fits, names, figures)
-    _study_figures(tables, fits, figures)
+    ctx = FigureContext(tables, names=setup.names, models=setup.models)
+    only_mu = ctx.only_mu  # a study of OFF trials: its friction, no fit
+    if not only_mu:
+        replicates = ("" if tables.bootstrap is None else
+                      ", refitted to each bootstrap replicate for its interval")
+        progress(f"fitting {', '.join(setup.names)} to each of {len(tables.subjects)} "
+                 f"subjects{replicates}")
+        ctx.fits = fit_study(tables, setup.base, setup.names, scheduler=scheduler,
+                             mapper=mapper if scheduler is None else None)
+    # the trials' checks go to the workers after the fits (which they would hold up there),
+    # drawn while the population is estimated here
+    ctx.checks, check_notes = _checks(tables, setup, mapper, progress)
+    result = CompareResult(out=tables.out or Path(), fits=ctx.fits,
+                           fit_table=fit_table(ctx.fits, tables))
+    result.notes += [NOTE] if only_mu else interval_notes(
+        ctx.fits, has_bootstrap=tables.bootstrap is not None)
+    progress("drawing the figures of the fit" if not only_mu else
+             "drawing each subject's friction")
+    result.notes += _emit(ctx, "fits", sink)
+    if not only_mu:
+        progress("estimating the population (a mixed model per condition, checked with "
+                 "several optimisers)")
+    rule = exclude or PopulationRule()
+    ctx.population = result.population = population(tables, ctx.fits, exclude=rule.exclude,
+                                                    rule_notes=rule.notes, model=rule.model)
+    result.notes += _emit(ctx, "population", sink)
+    if setup.models and not only_mu:
+        progress(f"fitting and ranking the models {', '.join(setup.models)}")
+        compared = compare_models(tables, setup.models, setup.base)
+        result.models_table, ctx.model_fits = compared.table, compared.fits
+        result.notes += compared.notes
+    result.notes += _emit(ctx, "models", sink)
+    result.notes += check_notes
+    return result
 
 
-def _drawn(figures: Any, drawing: Drawing) -> Any:
-    """A figure as *figures* takes it: the drawing itself when *figures* draws where and
-    when needed (``lazy``), else drawn here (its Axes)."""
-    return drawing if getattr(figures, "lazy", False) else drawing.draw()
+def _emit(ctx: FigureContext, stage: str, sink: FigureSink) -> list[str]:
+    """The figures of a stage handed to the sink; the notes on those not drawn."""
+    for figure in planned(ctx, stage):
+        sink.emit(figure)
+    return absent_notes(ctx, stage)
 
 
-def _all_subjects_figure(tables: ResultTables, fits: list[SubjectFit],
-                         figures: Any) -> None:
-    """``electrostatic_force_all``: every subject's F_el and fitted model."""
-    ax = _drawn(figures, Drawing(plot_electrostatic_force_all, (
-        tables.electrostatic, {f.subject: f.params for f in fits})))
-    waves = set(tables.electrostatic["waveform"].astype(str))
-    fill = " (filled markers: square drive; open: sine)" if len(waves) > 1 else ""
-    figures.emit(ax, "electrostatic_force_all", "Electrostatic force vs voltage, all subjects",
-                 "electrostatic_force_all", subject=None,
-                 caption="Inferred electrostatic force of every subject against the voltage "
-                         f"amplitude: points with 95 % intervals{fill}, spread by up to ±3 % "
-                         "in voltage so that they do not hide one another; lines: each "
-                         "subject's fitted model at its mean normal force ON "
-                         f"({PAPER}).")
-
-
-def _subject_figures(tables: ResultTables, fits: list[SubjectFit], names: tuple[str, ...],
-                     figures: Any) -> None:
-    """Per subject: F_el against U, and friction against normal force."""
-    mu_how = "fitted." if "mu" in names else "from the measured OFF windows."
-    for f in fits:
-        s = f.subject
-        rows = tables.electrostatic[tables.electrostatic["subject"] == s]
-        ax = _drawn(figures, Drawing(plot_electrostatic_force, (rows, f.params),
-                                     {"subject": s}))
-        figures.emit(ax, "electrostatic_force", f"Electrostatic force vs voltage, {s}",
-                     f"electrostatic_force_{safe_name(s)}", subject=s,
-                     caption=f"{s}: inferred electrostatic force (points, 95 % intervals) "
-                             "and the fitted model (lines) at the subject's mean normal force "
-                             "ON, over the amplitudes measured.")
-        win = tables.windows[tables.windows["subject"] == s]
-        ax = _drawn(figures, Drawing(plot_friction_normal_force, (win, f.params),
-                                     {"subject": s}))
-        figures.emit(ax, "friction_normal_force", f"Friction vs normal force, {s}",
-                     f"friction_normal_force_{safe_name(s)}", subject=s,
-                     caption=f"{s}: steady-sliding windows OFF and ON (points) and the model "
-                             "(lines, eq. 5, cf. the paper's Figure 6) over the normal forces "
-                             f"each drive's windows span; axes zoomed to the windows; μ {mu_how}")
-
-
-def _study_figures(tables: ResultTables, fits: list[SubjectFit], figures: Any) -> None:
-    """Friction against time (a measured sine trial, or the model alone) and the predicted
-    contact-area increase."""
-    by_subject = {f.subject: f for f in fits}
-    trace, trace_subject = _first_trace(tables)
-    pick = by_subject.get(trace_subject or "", fits[0])
-    elec = tables.electrostatic
-    sine_rows = elec[elec["waveform"].astype(str) == "sine"]
-    amp = float(sine_rows["amplitude_V"].max()) if not sine_rows.empty else 140.0
-    fn_mean = float(np.nanmean(elec["normal_force_on_N"].to_numpy(float)))
-    if trace is None:  # no sine trial: the paper's Figure 5 has nothing measured to show
-        figures.result.notes.append(
-            "No measured sine trace (sine_trace.csv: the study has no sine trial with ON and "
-            "OFF phases): no friction-versus-time figure; `evtribo model --figures DIR` draws "
-            "the model's.")
-    else:
-        voltage = ("measured voltage" if "voltage_V" in trace.columns else
-                   "drive's amplitude and frequency (its phase, which the rig does not record, "
-                   "chosen to match the measured friction)")
-        ax = _drawn(figures, Drawing(plot_friction_time, (trace, pick.params), {
-            "amplitude": amp, "normal_force": fn_mean, "subject": pick.subject}))
-        figures.emit(ax, "friction_time", "Friction vs time, sine drive", "friction_time",
-                     subject=None,
-                     caption=f"Measured sine trial of {pick.subject} and the model evaluated "
-                             f"at its measured normal force and the {voltage}, cf. the "
-                             "paper's Figure 5.")
-    mean_fn = {f.subject: float(np.nanmean(elec.loc[elec["subject"] == f.subject,
-                                                    "normal_force_on_N"].to_numpy(float)))
-               for f in fits}
-    amps = elec["amplitude_V"].to_numpy(float)
-    ax = _drawn(figures, Drawing(plot_area_increase, (
-        mean_fn, {f.subject: f.params for f in fits}), {
-        "u_max": max(150.0, float(np.nanmax(amps))),
-        "amplitudes": sorted(set(amps[np.isfinite(amps)].tolist()))}))
-    figures.emit(ax, "area_increase", "Predicted contact-area increase", "area_increase",
-                 subject=None,
-                 caption="A prediction of the model, nothing measured: JKR over Hertz "
-                         "contact area at each subject's mean normal force ON with the fitted "
-                         "parameters, cf. the paper's Figure 7.")
+def _checks(tables: ResultTables, setup: CompareSetup, mapper: Mapper | None,
+            progress: Callable[[str], None]) -> tuple[list[CheckFigure], list[str]]:
+    """The trials whose checks are drawn (:func:`~evtribo.figures.trial_checks.trial_checks`;
+    ``auto`` in a large study: those with a warning not only for information,
+    :func:`~evtribo.report.drawing.trials_to_check`, or not analysed) and the notes on
+    them."""
+    if setup.checks == "none":
+        return [], []
+    trials = list(zip(tables.trials["subject"].astype(str), tables.trials["trial"].astype(str),
+                      strict=True)) if not tables.trials.empty else []
+    checks, notes = trial_checks(tables, setup.checks, cache_dir=setup.cache, mapper=mapper,
+                                 flagged=trials_to_check(tables.summary.warnings, trials))
+    if checks:
+        progress(f"drawing the check of {len(checks)} trial(s) from what analyze kept of "
+                 "each, beside the figures of the fit (--trial-checks none leaves them out)")
+    return checks, notes
 
 
 def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],

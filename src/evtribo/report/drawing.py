@@ -1,8 +1,9 @@
 """compare's figures: each keyed by what it shows, reused while that is unchanged, drawn in
 worker processes.
 
-A figure is emitted as a :class:`Drawing` (a plotting function and its arguments, called
-where the figure is drawn) or drawn already (its Axes). A drawing's key is the SHA-256 of
+A figure comes as a :class:`~evtribo.figures.registry.PlannedFigure` of the figure registry
+(:mod:`evtribo.figures.registry`): its names and a :class:`Drawing` (a plotting function
+and its arguments, called where the figure is drawn). A drawing's key is the SHA-256 of
 what the figure shows and how (:func:`evtribo.report.kept.figure_key`: the function, its
 arguments, the width, the software); a file's key adds its format and resolution. Each
 file of a drawing is then:
@@ -16,16 +17,15 @@ file of a drawing is then:
   init_worker`), or on the Dask cluster compare was given, while compare goes on.
 
 The same figure gives the same bytes wherever it is drawn (no date, a fixed SVG salt:
-:func:`evtribo.figures.plots.figure_bytes`). A figure emitted drawn has no key: its files
-are written, unless the result folder holds those very bytes (then that file is left as
-it is).
+:func:`evtribo.figures.plots.figure_bytes`). A figure to look at rather than print (a
+trial's check: its spec's ``screen``) is written as PNG at most at
+:data:`~evtribo.figures.trial_checks.CHECK_DPI` and listed after the others.
 """
 
 from __future__ import annotations
 
 import hashlib
 import logging
-import pickle
 from collections.abc import Callable, Iterable, Mapping
 from concurrent.futures import Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
@@ -33,10 +33,9 @@ from pathlib import Path
 from typing import Any
 
 from evtribo.figures.plots import figure_bytes
+from evtribo.figures.registry import Drawing, PlannedFigure
 from evtribo.figures.style import journal_style
-from evtribo.figures.trial_checks import CHECK_DPI, CheckFigure, trial_checks
-from evtribo.figures.trial_plots import draw_failed, draw_trial_check
-from evtribo.fit.tables import ResultTables
+from evtribo.figures.trial_checks import CHECK_DPI
 from evtribo.report.kept import FigureStore, figure_key, file_key
 from evtribo.results.outputs import FIGURES
 from evtribo.store.files import atomic_write, sha256_file
@@ -47,8 +46,7 @@ from evtribo.warning.render import group
 
 log = logging.getLogger(__name__)
 
-__all__ = ["Drawing", "FigureRecord", "Figures", "Look", "Runner", "emit_checks", "render",
-           "trials_to_check"]
+__all__ = ["Drawing", "FigureRecord", "Figures", "Look", "Runner", "render", "trials_to_check"]
 
 
 @dataclass(frozen=True)
@@ -115,43 +113,14 @@ class FigureRecord:
                 "subject": self.subject, "caption": self.caption, **self.extra}
 
 
-@dataclass(frozen=True)
-class Drawing:
-    """A figure to draw: ``func(*args, **kwargs)`` draws it and returns its Axes.
-
-    Attributes
-    ----------
-    func : callable
-        A function importable by its name (a worker process imports it).
-    args : tuple
-        Its arguments (what the figure shows).
-    kwargs : dict
-        Its keyword arguments.
-    """
-
-    func: Callable[..., Any]
-    args: tuple[Any, ...] = ()
-    kwargs: Mapping[str, Any] = field(default_factory=dict)
-
-    def draw(self) -> Any:
-        """Draw the figure here.
-
-        Returns
-        -------
-        matplotlib.axes.Axes
-        """
-        return self.func(*self.args, **self.kwargs)
-
-
-def render(job: tuple[str, Drawing | bytes, tuple[str, ...], float]) -> dict[str, bytes]:
+def render(job: tuple[str, Drawing, tuple[str, ...], float]) -> dict[str, bytes]:
     """Draw a figure in the journal style and give its bytes in each format (what a worker
     does).
 
     Parameters
     ----------
     job : tuple
-        ``(width, what, formats, dpi)``: *what* a :class:`Drawing`, or a drawn figure
-        pickled.
+        ``(width, drawing, formats, dpi)``.
 
     Returns
     -------
@@ -160,8 +129,7 @@ def render(job: tuple[str, Drawing | bytes, tuple[str, ...], float]) -> dict[str
     """
     width, what, formats, dpi = job
     with journal_style(width):
-        fig = what.draw().figure if isinstance(what, Drawing) else pickle.loads(what)
-        return figure_bytes(fig, formats, dpi=dpi)
+        return figure_bytes(what.draw().figure, formats, dpi=dpi)
 
 
 class Runner:
@@ -225,16 +193,16 @@ class _Pending:
     """A figure being drawn: what to do with its bytes when they come."""
 
     stem: str
-    key: str | None
+    key: str
     dpi: float
     formats: tuple[str, ...]
     future: Any
-    tell: str | None
+    tell: str
 
 
 class Figures:
     """Writes compare's figures into a staging folder, each file left as it is, copied from
-    the cache folder or drawn (see the module's text), and records them in a result.
+    the cache folder or drawn (see the module's text), and records them.
 
     Parameters
     ----------
@@ -242,8 +210,6 @@ class Figures:
         Where the files written go (``figures/<stem>.<fmt>``).
     look : Look
         Formats, resolution and width asked.
-    result : CompareResult
-        Gets each figure's record (``figures``) and files (``files``, relative).
     runner : Runner
         Where figures are drawn.
     store : FigureStore
@@ -251,93 +217,79 @@ class Figures:
     previous : mapping, optional
         The result folder's fit.json, as the last comparison wrote it.
     progress : callable, optional
-        Told ``[k/n] <what>`` as each figure emitted with a ``tell`` is done.
+        Told ``[k/n] <what>`` as each figure whose spec tells of it is done.
+
+    Attributes
+    ----------
+    records : list of FigureRecord
+        Each figure's record in fit.json, those to look at (``screen``) last.
+    files : list of Path
+        Each figure's files (relative to the folder).
+    sha256 : dict of str to str
+        Every figure file's SHA-256.
+    kept : set of str
+        The figure files left as they were.
     """
 
-    #: It takes a :class:`Drawing` (drawn where and when needed), not only an Axes.
-    lazy = True
-
-    def __init__(self, stage: Staging, look: Look, result: Any, runner: Runner,
-                 store: FigureStore, *, previous: Mapping[str, Any] | None = None,
+    def __init__(self, stage: Staging, look: Look, runner: Runner, store: FigureStore, *,
+                 previous: Mapping[str, Any] | None = None,
                  progress: Callable[[str], None] | None = None) -> None:
-        self.stage, self.look, self.result = stage, look, result
+        self.stage, self.look = stage, look
         self.runner, self.store, self.progress = runner, store, progress
         prev = previous or {}
         self.previous = {str(f.get("stem")): f for f in prev.get("figures") or []
                          if isinstance(f, dict)}
         self.previous_sha = {str(k): str(v) for k, v in
                              dict(prev.get("output_sha256") or {}).items()}
-        #: Every figure file: its SHA-256; and those left as they were.
+        self.records: list[FigureRecord] = []
+        self.files: list[Path] = []
         self.sha256: dict[str, str] = {}
         self.kept: set[str] = set()
         self._late: list[FigureRecord] = []
         self._pending: list[_Pending] = []
         self._found: dict[str, str | None] = {}
 
-    def emit(self, what: Any, kind: str, title: str, stem: str, *, subject: str | None = None,
-             caption: str = "", extra: Mapping[str, Any] | None = None,
-             formats: tuple[str, ...] | None = None, dpi: float | None = None,
-             late: bool = False, tell: str | None = None) -> None:
+    def emit(self, figure: PlannedFigure) -> None:
         """Write a figure once per format as ``figures/<stem>.<fmt>`` (or keep it), record it.
 
         Parameters
         ----------
-        what : Drawing or Axes
-            The figure, to draw or drawn (its first Axes).
-        kind, title, stem, subject, caption : str
-            The record in fit.json (:class:`FigureRecord`).
-        extra : mapping, optional
-            Further keys of the record (``{"trial": "run-01"}``).
-        formats : tuple of str, optional
-            Formats of this figure (default: those asked for).
-        dpi : float, optional
-            Its resolution (default: the one asked for).
-        late : bool
-            Record it after the figures emitted without it (when :meth:`finish` is called).
-        tell : str, optional
-            What to tell the progress when the figure is done.
+        figure : PlannedFigure
+            The figure, its names and drawing; one to look at (its spec's ``screen``) is
+            written as PNG (else in the first format asked) at most at
+            :data:`~evtribo.figures.trial_checks.CHECK_DPI` and recorded after the others
+            (when :meth:`finish` is called).
 
         Returns
         -------
         None
         """
-        formats = tuple(formats or self.look.formats)
-        dpi = float(dpi or self.look.dpi)
-        key = (figure_key(what.func, what.args, what.kwargs, self.look.width)
-               if isinstance(what, Drawing) else None)
-        record = FigureRecord(kind, title, stem, subject, caption,
-                              {**(extra or {}), "key": key, "dpi": dpi})
-        (self._late if late else self.result.figures).append(record)
+        screen = figure.spec.screen
+        formats = self.look.formats
+        if screen:  # a figure to look at, not to print
+            formats = ("png",) if "png" in formats else formats[:1]
+        dpi = float(min(self.look.dpi, CHECK_DPI) if screen else self.look.dpi)
+        what, stem = figure.drawing, figure.stem
+        key = figure_key(what.func, what.args, what.kwargs, self.look.width)
+        record = FigureRecord(figure.spec.kind, figure.title, stem, figure.subject,
+                              figure.caption, {**figure.placed(), "key": key, "dpi": dpi})
+        (self._late if screen else self.records).append(record)
         todo = []
         for fmt in formats:
             rel = f"{FIGURES}/{stem}.{fmt}"
-            self.result.files.append(Path(rel))
-            if key is not None and self._unchanged(rel, stem, key, dpi):
+            self.files.append(Path(rel))
+            if self._unchanged(rel, stem, key, dpi):
                 continue
-            data = None if key is None else self.store.get(file_key(key, fmt, dpi), fmt)
+            data = self.store.get(file_key(key, fmt, dpi), fmt)
             if data is not None:
                 self._place(rel, data)
             else:
                 todo.append(fmt)
-        if not todo and not tell:
+        if not todo and not figure.told:
             return
-        future: Any = None
-        if todo:
-            future = self._draw(what, tuple(todo), dpi)
-        self._pending.append(_Pending(stem, key, dpi, tuple(todo), future, tell))
-
-    def _draw(self, what: Any, formats: tuple[str, ...], dpi: float) -> Any:
-        """The figure's bytes in *formats*, as a future: drawn by the workers, or here
-        when it is an Axes whose figure does not pickle."""
-        job: Any = what
-        if not isinstance(what, Drawing):
-            try:
-                job = pickle.dumps(what.figure)
-            except Exception:  # drawn here, then
-                done: Future[Any] = Future()
-                done.set_result(render((self.look.width, Drawing(lambda: what), formats, dpi)))
-                return done
-        return self.runner.submit(render, (self.look.width, job, formats, dpi))
+        future = (self.runner.submit(render, (self.look.width, what, tuple(todo), dpi))
+                  if todo else None)
+        self._pending.append(_Pending(stem, key, dpi, tuple(todo), future, figure.told))
 
     def _current(self, rel: str) -> str | None:
         """The SHA-256 of the result folder's file, as it is now (None: none)."""
@@ -375,7 +327,7 @@ class Figures:
 
     def finish(self) -> None:
         """Wait for the figures being drawn, write them (and keep them in the cache
-        folder), and record the figures emitted ``late``.
+        folder), and record the figures to look at after the others.
 
         Returns
         -------
@@ -385,21 +337,13 @@ class Figures:
         for p in self._pending:
             out = p.future.result() if p.future is not None else {}
             for fmt in p.formats:
-                if p.key is not None:
-                    self.store.put(file_key(p.key, fmt, p.dpi), fmt, out[fmt])
+                self.store.put(file_key(p.key, fmt, p.dpi), fmt, out[fmt])
                 self._place(f"{FIGURES}/{p.stem}.{fmt}", out[fmt])
             if p.tell and self.progress is not None:
                 self.progress(f"[{told.index(p) + 1}/{len(told)}] {p.tell}")
         self._pending.clear()
-        self.result.figures.extend(self._late)
+        self.records.extend(self._late)
         self._late.clear()
-
-
-def _check_drawing(check: CheckFigure) -> Drawing:
-    """What draws a trial's check (or says why the trial was not analysed)."""
-    if check.sketch is None:
-        return Drawing(draw_failed, (check.subject, check.trial, check.error or ""))
-    return Drawing(draw_trial_check, (check.sketch,))
 
 
 def trials_to_check(records: Iterable[WarningRecord], trials: Iterable[tuple[str, str]]
@@ -422,49 +366,3 @@ def trials_to_check(records: Iterable[WarningRecord], trials: Iterable[tuple[str
     trial_set = {(str(s), str(t)) for s, t in trials}
     return {f"{s}/{t}" for g in group(records) if g.effect != "information"
             for s, t in g.trials if (s, t) in trial_set}
-
-
-def emit_checks(figures: Figures, tables: ResultTables, which: str, cache: Path,
-                progress: Callable[[str], None]) -> list[str]:
-    """Each trial's check (:func:`~evtribo.figures.trial_checks.trial_checks`) handed to
-    the workers, recorded after the other figures; the notes on them. A check is written
-    as PNG (at most :data:`~evtribo.figures.trial_checks.CHECK_DPI`) when PNG is among the
-    formats asked, else in the first: a figure to look at, not to print.
-
-    Parameters
-    ----------
-    figures : Figures
-        Where the figures go.
-    tables : ResultTables
-        The result folder.
-    which : str
-        Which trials (:data:`~evtribo.figures.trial_checks.WHICH`); ``auto`` in a large
-        study: those with a warning not only for information
-        (:func:`trials_to_check`) or not analysed.
-    cache : Path
-        The cache folder of the analysis.
-    progress : callable
-        Told what is being done.
-
-    Returns
-    -------
-    list of str
-        Notes for the user.
-    """
-    if which == "none":
-        return []
-    trials = list(zip(tables.trials["subject"].astype(str), tables.trials["trial"].astype(str),
-                      strict=True)) if not tables.trials.empty else []
-    checks, notes = trial_checks(tables, which, cache_dir=cache, mapper=figures.runner.map,
-                                 flagged=trials_to_check(tables.summary.warnings, trials))
-    if checks:
-        progress(f"drawing the check of {len(checks)} trial(s) from what analyze kept of "
-                 "each, beside the figures of the fit (--trial-checks none leaves them out)")
-    formats = figures.look.formats
-    fmt = ("png",) if "png" in formats else formats[:1]  # figures to look at, not to print
-    for c in checks:
-        figures.emit(_check_drawing(c), "trial", f"{c.subject} / {c.trial}", c.stem,
-                     subject=c.subject, caption=c.caption, extra={"trial": c.trial},
-                     formats=fmt, dpi=min(figures.look.dpi, CHECK_DPI), late=True,
-                     tell=f"check of {c.subject}/{c.trial}")
-    return notes

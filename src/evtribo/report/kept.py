@@ -83,6 +83,10 @@ def _update(h: Any, value: Any) -> None:
         for k in sorted(value, key=repr):
             _update(h, k)
             _update(h, value[k])
+    elif isinstance(value, (set, frozenset)):  # its members in an order of their own
+        h.update(f"set:{len(value)};".encode())
+        for v in sorted(value, key=repr):
+            _update(h, v)
     elif isinstance(value, (list, tuple)):
         h.update(f"seq:{len(value)};".encode())
         for v in value:
@@ -93,8 +97,8 @@ def _update(h: Any, value: Any) -> None:
 
 def digest(value: Any) -> str:
     """The SHA-256 of a value by what it holds: numbers, text, arrays, tables (their
-    values, not their row labels), dataclasses, mappings and sequences of them, and objects
-    with ``to_bytes()``.
+    values, not their row labels), dataclasses, mappings, sets and sequences of them, and
+    objects with ``to_bytes()``.
 
     Parameters
     ----------

@@ -389,7 +389,7 @@ def add_population(report: Report, table: pd.DataFrame | None,
         ``fit.json`` (its ``population``: subjects, notes, outliers, exclusions);
         ``population_subjects.csv`` is read beside it.
     figures : sequence of mapping
-        fit.json's figure records, each with its ``file``.
+        fit.json's records of this section's figures, each with its ``file``.
     friction_only : bool
         A study of OFF trials: the population's μ only, or why there is none.
 
@@ -427,9 +427,8 @@ def add_population(report: Report, table: pd.DataFrame | None,
         if items:
             report.add_list(items, title, section=SECTION)
     for f in figures:
-        if f.get("kind") == "population":
-            report.add_figure(f["file"], str(f.get("title") or f.get("stem")),
-                              caption=str(f.get("caption") or ""), section=SECTION)
+        report.add_figure(f["file"], str(f.get("title") or f.get("stem")),
+                          caption=str(f.get("caption") or ""), section=SECTION)
     report.add_text(_methods_text(table, doc), "For a methods section", section=SECTION)
     return headlines
 

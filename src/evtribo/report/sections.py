@@ -9,8 +9,8 @@
    said to be measured, fixed or fitted, with the paper cited; then the population's
    estimates (:mod:`evtribo.report.population`);
 5. the measured figures of all subjects together (``electrostatic_force_all`` first) and,
-   with :data:`GRID_FROM` subjects or more, each kind of per-subject figure as one grid of
-   small multiples;
+   with :data:`GRID_FROM` subjects or more, each kind of per-subject figure that has a grid
+   as one grid of small multiples;
 6. the model's predictions (nothing measured: ``area_increase``);
 7. the model comparison (``models.csv`` ranked over the study and per subject, and the
    ``frequency_response`` figures), when there is one;
@@ -18,8 +18,10 @@
    each trial's check figure folded in a ``<details>`` element;
 9. provenance and settings (:mod:`evtribo.report.provenance`).
 
-Every number is printed for people (:mod:`evtribo.util.numbers`), every frequency as
-``10 kHz``; every figure links its files.
+Every figure is placed where its kind's spec in the figure registry says
+(:func:`evtribo.figures.registry.placement`: its section, and its grid); every number is
+printed for people (:mod:`evtribo.util.numbers`), every frequency as ``10 kHz``; every
+figure links its files.
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ import pandas as pd
 from markupsafe import escape
 
 from evtribo.documents.fit import FitDocument
+from evtribo.figures.registry import placement
 from evtribo.fit.tables import ResultTables
 from evtribo.report.friction_report import add_trial_mu
 from evtribo.report.headline import (
@@ -52,8 +55,8 @@ from evtribo.report.page import Report
 from evtribo.util.numbers import frequency, quantity, significant, to_float, voltage, with_interval
 
 __all__ = ["GRID_FROM", "SECTIONS", "add_all_subjects", "add_headline", "add_models",
-           "add_notes", "add_predictions", "add_subjects", "figure_files", "trial_summary",
-           "trials_view"]
+           "add_notes", "add_predictions", "add_subjects", "figure_files", "placed",
+           "trial_summary", "trials_view"]
 
 #: The sections' titles, in the page's order (a subject's is ``Subject <name>``).
 SECTIONS: dict[str, str] = {
@@ -63,16 +66,6 @@ SECTIONS: dict[str, str] = {
     "provenance": "Provenance and settings"}
 #: With this many subjects or more, each kind of per-subject figure is one grid.
 GRID_FROM = 4
-#: The per-subject figures a grid gathers, with its title and caption.
-_GRIDS = {"electrostatic_force": ("Electrostatic force vs voltage, each subject",
-                                  "Each subject's inferred electrostatic force (points, 95 % "
-                                  "intervals) and its fitted model (lines) at its mean normal "
-                                  "force ON, over the amplitudes measured."),
-          "friction_normal_force": ("Friction vs normal force, each subject",
-                                    "Each subject's steady-sliding windows OFF and ON (points) "
-                                    "and the model (lines, eq. 5) over the normal forces each "
-                                    "drive's windows span; axes zoomed to the windows.")}
-
 
 
 def _add(report: Report, headline: Headline, section: str, **kwargs: Any) -> None:
@@ -95,6 +88,37 @@ def figure_files(fig: Mapping[str, Any]) -> list[Path]:
     """
     first = Path(fig["file"])
     return [f for f in (first.with_suffix(s) for s in (".png", ".svg", ".pdf")) if f.is_file()]
+
+
+def placed(figures: Sequence[Mapping[str, Any]], section: str) -> list[Mapping[str, Any]]:
+    """The figures the report places in one section, in the registry's order of their
+    kinds (fit.json's order within a kind).
+
+    Parameters
+    ----------
+    figures : sequence of mapping
+        fit.json's figure records.
+    section : str
+        One of :data:`evtribo.figures.registry.SECTIONS`.
+
+    Returns
+    -------
+    list of mapping
+    """
+    mine = [(placement(f), f) for f in figures]
+    return [f for p, f in sorted(((p, f) for p, f in mine if p.section == section),
+                                 key=lambda pf: pf[0].order)]
+
+
+def _grids(figures: Sequence[Mapping[str, Any]]) -> dict[str, tuple[str, str]]:
+    """The kinds of per-subject figures shown as one grid with many subjects, each with
+    the grid's title and caption, in the registry's order."""
+    out: dict[str, tuple[str, str]] = {}
+    for f in placed(figures, "subject"):
+        grid = placement(f).grid
+        if grid is not None:
+            out.setdefault(str(f.get("kind")), grid)
+    return out
 
 
 def _cite(report: Report, section: str, lead: str) -> None:
@@ -190,14 +214,11 @@ def add_all_subjects(report: Report, figures: Sequence[Mapping[str, Any]],
     -------
     None
     """
-    study_wide = [f for f in figures if f.get("subject") is None and f.get("kind") not in (
-        "trial", "frequency_response", "population", "area_increase")]
-    study_wide.sort(key=lambda f: f.get("kind") != "electrostatic_force_all")
-    for f in study_wide:
+    for f in placed(figures, "all"):
         _figure(report, f, SECTIONS["all"])
     if len(subjects) < GRID_FROM:
         return
-    for kind, (title, caption) in _GRIDS.items():
+    for kind, (title, caption) in _grids(figures).items():
         panels = [f for s in subjects for f in figures
                   if f.get("kind") == kind and f.get("subject") == s]
         if panels:
@@ -220,9 +241,8 @@ def add_predictions(report: Report, figures: Sequence[Mapping[str, Any]]) -> Non
     -------
     None
     """
-    for f in figures:
-        if f.get("kind") == "area_increase":
-            _figure(report, f, SECTIONS["predictions"])
+    for f in placed(figures, "predictions"):
+        _figure(report, f, SECTIONS["predictions"])
 
 
 def add_models(report: Report, models: pd.DataFrame | None,
@@ -245,13 +265,16 @@ def add_models(report: Report, models: pd.DataFrame | None,
     -------
     None
     """
-    responses = [f for f in figures if f.get("kind") == "frequency_response"]
+    responses = placed(figures, "models")
     if models is None and not responses:
         return
     sec = SECTIONS["models"]
     _cite(report, sec, "The paper's model and its variants; the paper:")
     if models is not None:
         _add(report, model_ranking(models), sec)
+    for f in responses:  # of no one subject
+        if f.get("subject") is None:
+            _figure(report, f, sec)
     have = [s for s in subjects if models is not None
             and (models["subject"].astype(str) == s).any()]
     if models is not None and len(have) >= GRID_FROM:  # one table, a subject's rows together
@@ -265,8 +288,8 @@ def add_models(report: Report, models: pd.DataFrame | None,
     for s in subjects:
         if models is not None and s in have:
             _add(report, model_comparison(models, s), sec)
-        for f in figures:
-            if f in responses and f.get("subject") == s:
+        for f in responses:
+            if f.get("subject") == s:
                 _figure(report, f, sec)
 
 
@@ -363,7 +386,8 @@ def add_subjects(report: Report, tables: ResultTables, trials: pd.DataFrame,
     None
     """
     failed = {str(f.get("trial")): str(f.get("error")) for f in tables.summary.failed_trials}
-    gridded = set(_GRIDS) if grid else set()
+    gridded = set(_grids(figures)) if grid else set()
+    own, checked = placed(figures, "subject"), placed(figures, "checks")
     for subject in tables.all_subjects:
         sec = f"Subject {subject}"
         es = tables.electrostatic[tables.electrostatic["subject"].astype(str) == subject]
@@ -372,13 +396,11 @@ def add_subjects(report: Report, tables: ResultTables, trials: pd.DataFrame,
             add_trial_mu(report, mine, tables.windows, sec)
         else:
             report.add_table(_forces_of(es), "Electrostatic force", section=sec, wrap=True)
-        for f in figures:
-            if f.get("subject") == subject and f.get("kind") not in (
-                    "trial", "frequency_response", *gridded):
+        for f in own:
+            if f.get("subject") == subject and f.get("kind") not in gridded:
                 _figure(report, f, sec)
         report.add_table(trials_view(mine), "Trials", section=sec, wrap=True)
-        checks = {str(f.get("trial")): f for f in figures
-                  if f.get("kind") == "trial" and f.get("subject") == subject}
+        checks = {str(f.get("trial")): f for f in checked if f.get("subject") == subject}
         win = tables.windows
         for _, row in mine.iterrows():
             fig = checks.pop(str(row["trial"]), None)

@@ -279,15 +279,16 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
     if tables.electrostatic.empty:  # a study of OFF trials: its friction, no fit
         headlines = add_friction(report, tables.windows, fit_doc.notes)
         add_warnings(report, groups, keys, cells)
-        headlines += add_population(report, population, contrasts, fit_doc, figures,
-                                    friction_only=True)
+        headlines += add_population(report, population, contrasts, fit_doc,
+                                    sections.placed(figures, "population"), friction_only=True)
     else:
         key = key_results(tables, fit, population, models, groups)
         add_key_results(report, key)
         add_warnings(report, groups, keys, cells)
         headlines = sections.add_headline(report, tables, fit, fit_doc, key.marks)
         sections.add_notes(report, fit_doc.notes)
-        headlines += add_population(report, population, contrasts, fit_doc, figures)
+        headlines += add_population(report, population, contrasts, fit_doc,
+                                    sections.placed(figures, "population"))
     grid = len(tables.subjects) >= sections.GRID_FROM
     sections.add_all_subjects(report, figures, tables.subjects if grid else ())
     sections.add_predictions(report, figures)
