@@ -195,3 +195,48 @@ def test_any_stream_is_put_in_an_order_without_failing(steps, counter, modulus):
     assert np.unique(got.rows).size == got.rows.size == t.size - got.duplicates
     assert np.sort(got.by_time).tolist() == list(range(got.rows.size))
     assert np.isfinite(got.t).all()
+
+
+@st.composite
+def _restarted(draw):
+    """A cell's frames at 2 kHz whose firmware restarts once, its counter on from any value
+    (a step that runs ahead of the clock by more than the timing's noise), its timer begun
+    anew: the first frame after the restart comes *silent* periods late, at another phase,
+    sooner than a period after the last one where none is silent. Returns the timestamps
+    (in periods), the counter and the frames lost by the timing (the periods silent)."""
+    n = 24_000  # a count of 255 too few frames lost for the time they span to belie it
+    at = draw(st.integers(2_000, n - 2_000))
+    silent = draw(st.integers(0, 3))
+    phase = draw(st.floats(-0.9 if silent == 0 else -0.4, 0.4))
+    new = draw(st.integers(0, 255))
+    assume((new - (at - 1)) % 256 - 1 - silent >= 8)
+    k = np.arange(n)
+    counter = np.where(k < at, k, new + k - at) % 256
+    late = k + np.where(k >= at, silent + phase, 0.0)
+    return late, counter, silent
+
+
+@settings(max_examples=40, deadline=None)
+@given(restarted=_restarted(), poll_s=st.sampled_from([0.0, 1e-3, 8e-3]),
+       jitter=st.floats(0.0, 0.2), seed=st.integers(0, 2**32 - 1))
+def test_a_restart_whose_first_frame_comes_within_a_period_counts_no_whole_period(
+        restarted, poll_s, jitter, seed):
+    """Where the timing puts the counter's whole step down to the restart (its first frame
+    sooner than a period after the last, or a poll's stamps making it look so), the counter
+    rebuilt from the timing stepped by 0 there and 255 frames were counted lost of none (257
+    of 2, 258 of 3): a restart keeps the counter stepping by one at least, and the frames
+    lost there are the timing's count (to one frame where the adapter stamps its polls)."""
+    from evtribo.canlog.dropped import missing_frames_received
+    from evtribo.canlog.sequence import sending_order
+
+    late, counter, silent = restarted
+    rng = np.random.default_rng(seed)
+    t = 1.76e9 + (late + rng.uniform(0, jitter, late.size)) / 2000.0
+    if poll_s:
+        t = np.ceil(t / poll_s) * poll_s
+    payload = np.zeros((t.size, 8), np.uint8)
+    payload[:, 0] = rng.integers(0, 256, t.size)
+    payload[:, 7] = counter
+    seq = sending_order(t, counter, 256, payload)
+    found = missing_frames_received(seq.t, seq.counter, 256)
+    assert abs(found.count - silent) <= (1 if poll_s else 0), (found, seq.jumps)

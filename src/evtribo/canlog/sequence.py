@@ -229,7 +229,14 @@ def _events(s: Lead, c: IntArray | None) -> tuple[list[tuple[int, float]],
             continue  # frames lost (an outage): counted by the timing
         elif h < 0:
             k = round(-h)
-            if s.index[j + 1] - s.index[j] - 1 < k - s.tol:
+            skipped = int(s.index[j + 1] - s.index[j]) - 1
+            if skipped < k - s.tol:
+                continue
+            # the frame after a jump is one place on at least: where the timing puts the
+            # whole step down to the jump (its first frame within a period of the last, or
+            # a poll's stamps making it look so), none lost there, not a period less one
+            k = min(k, skipped)
+            if k < 1:
                 continue
             jumps.append((j, k))
             s.index[j + 1:] -= k
