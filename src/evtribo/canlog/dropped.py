@@ -359,6 +359,10 @@ def _outages_only(t: npt.NDArray[np.float64], period: float, coh: float) -> Drop
     saying so."""
     count, seen = outage_count(t)
     why = ("frames received in bursts, " if _bursty(t, period) else "") + f"coherence {coh:.2f}"
+    if not np.isfinite(seen):  # too few frames for the envelope's windows
+        return DropCount(count, "outages", period, coh, (
+            f"timestamps too irregular ({why}) to see single lost frames without a counter, "
+            f"and too few frames ({t.size}) to see an outage: none counted"))
     return DropCount(count, "outages", period, coh, (
         f"timestamps too irregular ({why}) to see single lost frames without a counter: only "
         f"outages of {max(int(np.ceil(seen)), 2)} or more frames in a row, away from the "

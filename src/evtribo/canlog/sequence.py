@@ -278,8 +278,20 @@ def _counted(out: Sequenced, times: FloatArray, c: IntArray | None, rows: IntArr
         # steps by 0 lost a whole period: counted as such)
         out.stood = int(np.count_nonzero(d == 0))
         out.first_stood = float(times[rows[int(np.argmax(d == 0)) + 1]])
-        d = np.where(d == 0, 1, d)
+        d = _stepped_on(d)
     return rows, d, modulus
+
+
+def _stepped_on(d: IntArray) -> IntArray:
+    """The counter's steps *d* with each frame it stood still for (a step of 0) taken for
+    the next frame, and the step out of the run stepping over the places they took (by one
+    at least): the frames of the run are no loss there."""
+    stood = d == 0
+    out = np.where(stood, 1, d)
+    moved = np.flatnonzero(~stood)
+    run = np.diff(np.concatenate([[0], np.cumsum(stood)[moved]]))  # stood just before each
+    out[moved] = np.maximum(d[moved] - run, 1)
+    return out
 
 
 def sending_order(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
