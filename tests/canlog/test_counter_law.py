@@ -72,3 +72,40 @@ def test_a_short_irregular_stream_is_counted_without_failing(steps, counter):
     t = 1.76e9 + np.cumsum(np.r_[0.0, steps])
     found = missing_frames(t, None if counter is None else np.zeros(t.size, np.int64))
     assert found.count >= 0
+
+
+@settings(max_examples=40, deadline=None)
+@given(period=st.integers(33, 255), start=st.sampled_from([0, 1]),
+       received=st.lists(st.tuples(st.integers(50, 5_000), st.integers(-1, 3)), min_size=1,
+                         max_size=4),
+       batch_s=st.sampled_from([0.0, 1e-3]), seed=st.integers(0, 10))
+def test_a_counter_s_period_is_read_whatever_frames_came_twice_or_late(period, start, received,
+                                                                       batch_s, seed):
+    """A frame received twice (a few frames after itself, stamped as the frame it follows)
+    or late (after the frame sent after it): read as a step ahead by nearly a period, it put
+    every later frame's place a period off the timing's line, and one such frame in a
+    trial left a counter counting 0 to 99 taken for its width's (156 frames lost a wrap,
+    the counter ignored for counting more than the time holds)."""
+    rng = np.random.default_rng(seed)
+    n = 6000
+    t = np.arange(n) / 1000.0 + 2e-4 + rng.exponential(1e-4, n)
+    c = start + np.arange(n) % period
+    order = list(range(n))
+    for at, later in sorted(received, reverse=True):
+        if later < 0:
+            order[at], order[at + 1] = order[at + 1], order[at]      # late
+        else:
+            order.insert(at + later + 1, -1 - at)                     # twice
+    rows = np.array([k if k >= 0 else -1 - k for k in order])
+    stamp = t[rows]
+    for i, k in enumerate(order):  # a copy is stamped as the frame it follows
+        if k < 0:
+            stamp[i] = stamp[i - 1]
+    stamp = np.maximum.accumulate(stamp)
+    if batch_s:
+        stamp = np.ceil(stamp / batch_s) * batch_s
+    law = counter_law(stamp, c[rows], 8)
+    if period == 256 - start:  # to the width's top
+        assert law.period == period and law.note is None
+    else:
+        assert (law.start, law.period, law.learnt) == (start, period, True), law

@@ -23,6 +23,7 @@ tell, the width's law is kept and a note says how to declare the period in the r
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from dataclasses import dataclass
 
@@ -51,6 +52,9 @@ MARGIN_SE = 6.0
 JUMP_S = 1.0
 #: Widest counter whose values are looked at, bits (a wider one never wraps in a trial).
 MAX_BITS = 62
+#: Most places a frame received twice or late is behind its own, for the timing (as
+#: :data:`evtribo.canlog.sequence.REORDER_REACH`).
+BACK_REACH = 8
 #: More frames a second than any CAN bus carries (a classic frame takes 47 bits at least,
 #: at 1 Mbit/s; CAN FD's arbitration is as slow), Hz: a law that would have a cell send
 #: faster is no cell's.
@@ -76,6 +80,10 @@ class CounterLaw:
         Whether the period was taken from the data (not the bit width's, nor declared).
     note : str or None
         What it does, in words, where that is worth saying.
+    sure : bool
+        Whether the frames say it for certain: False where the counter has not wrapped
+        yet (too few frames, or none of its wraps to learn its period from) and where the
+        timing cannot tell its period (*note* says so); more frames may change it.
     """
 
     start: int
@@ -84,6 +92,7 @@ class CounterLaw:
     counts: bool = True
     learnt: bool = False
     note: str | None = None
+    sure: bool = True
 
     @property
     def top(self) -> int:
@@ -150,7 +159,7 @@ def counter_law(t: npt.ArrayLike, raw: npt.ArrayLike, bits: int, *,
     times = np.asarray(t, dtype=np.float64)
     width = 1 << min(bits, MAX_BITS)
     if c.size < MIN_FRAMES:
-        return CounterLaw(0, 1, declared or width)
+        return CounterLaw(0, 1, declared or width, sure=declared is not None)
     d = np.diff(c)
     vmin, vmax = int(c.min()), int(c.max())
     step = _step(d, width)
@@ -170,8 +179,10 @@ def counter_law(t: npt.ArrayLike, raw: npt.ArrayLike, bits: int, *,
         start = wide.start if (vmax - wide.start) // step < declared else vmin
         return CounterLaw(start, step, declared)
     seen = (vmax - vmin) // step + 1
-    if not wraps.any() or (vmin == wide.start and seen >= wide.period):
-        return wide  # no wrap to learn from, or one at the width's top
+    if not wraps.any():
+        return dataclasses.replace(wide, sure=False)  # no wrap to learn from, yet
+    if vmin == wide.start and seen >= wide.period:
+        return wide  # a wrap at the width's top
     return _timed(times, c, wraps, seen=CounterLaw(vmin, step, seen), wide=wide, name=name,
                   key=key, bits=bits)
 
@@ -209,21 +220,37 @@ def _timed(t: FloatArray, c: IntArray, wraps: npt.NDArray[np.bool_], *, seen: Co
             f"frames, not {width} as its {bits} bits allow (counting to its top, the cell "
             f"would send {sent:,.0f} frames a second, more than a CAN bus carries; declare "
             f"its period in the rig file, [rig] {key} = {seen.period}, to make it certain)"))
-    return CounterLaw(wide.start, wide.step, wide.period, note=(
+    return CounterLaw(wide.start, wide.step, wide.period, sure=False, note=(
         f"the counter {name} never counted {width} in this trial (it counts {counts} and "
         "starts again), and the timestamps cannot tell whether its firmware starts again "
         f"there or the frames between were lost each time: counted as lost; if it counts "
         f"{counts}, declare it in the rig file ([rig] {key} = {seen.period})"))
 
 
+def _steps(place: IntArray, period: int) -> tuple[IntArray, IntArray]:
+    """The counter's steps in places (a step back by up to :data:`BACK_REACH`, a frame
+    received twice or late, taken as such where the period is long enough to tell it from
+    a step ahead by nearly a period), and the wraps each step makes (-1 where a frame from
+    before a wrap arrives after it)."""
+    steps = np.mod(np.diff(place), period)
+    if period > 4 * BACK_REACH:
+        steps = np.where(steps >= period - BACK_REACH, steps - period, steps)
+    turns = (int(place[0]) + np.concatenate([[0], np.cumsum(steps)])) // period
+    return steps, np.diff(turns)
+
+
 def _frames_a_wrap(t: FloatArray, place: IntArray, period: int,
                    wraps: npt.NDArray[np.bool_]) -> tuple[float, float]:
     """Frames a wrap skips beyond *period*, by the timing, and its standard error:
     :func:`_by_line`'s, else (its wraps as regular as its frames: a counter of a short
-    period) :func:`_by_steps`'s."""
-    steps = np.mod(np.diff(place), period)
+    period) :func:`_by_steps`'s. The steps and wraps are the places' (:func:`_steps`):
+    frames received twice or late, read as steps ahead by nearly a period, put off every
+    frame's place after them."""
+    steps, turned = _steps(place, period) if period > 4 * BACK_REACH \
+        else (np.mod(np.diff(place), period), wraps.astype(np.int64))
+    wraps = turned == 1
     dt = np.diff(t)
-    one = (steps == 1) & ~wraps & (dt >= 0) & (dt < JUMP_S)
+    one = (steps == 1) & (turned == 0) & (dt >= 0) & (dt < JUMP_S)
     at_wrap = wraps & (steps == 1) & (dt >= 0) & (dt < JUMP_S)
     if np.count_nonzero(one) < MIN_FRAMES or not at_wrap.any():
         return float("nan"), float("inf")
@@ -232,7 +259,7 @@ def _frames_a_wrap(t: FloatArray, place: IntArray, period: int,
         return float("nan"), float("inf")
     # a timestamp holding several frames (a logger that stamps its polls) widens the errors
     at_once = max(t.size / (np.count_nonzero(dt > 0.1 * frame_s) + 1), 1.0)
-    line = _by_line(t, steps, wraps, period=period, frame_s=frame_s, at_once=at_once)
+    line = _by_line(t, steps, turned, period=period, frame_s=frame_s, at_once=at_once)
     return line if np.isfinite(line[0]) else _by_steps(dt, one, at_wrap, frame_s)
 
 
@@ -247,7 +274,7 @@ def _by_steps(dt: FloatArray, one: npt.NDArray[np.bool_], at_wrap: npt.NDArray[n
     return extra, float(np.sqrt(var)) / frame_s
 
 
-def _by_line(t: FloatArray, steps: IntArray, wraps: npt.NDArray[np.bool_], *, period: int,
+def _by_line(t: FloatArray, steps: IntArray, wraps: IntArray, *, period: int,
              frame_s: float, at_once: float) -> tuple[float, float]:
     """Frames a wrap skips, by the frames' times against their places (``+1`` a frame, each
     wrap ``period``) and the wraps before them, by least squares within the stretches
