@@ -159,7 +159,7 @@ def counter_law(t: npt.ArrayLike, raw: npt.ArrayLike, bits: int, *,
     times = np.asarray(t, dtype=np.float64)
     width = 1 << min(bits, MAX_BITS)
     if c.size < MIN_FRAMES:
-        return CounterLaw(0, 1, declared or width, sure=declared is not None)
+        return CounterLaw(0, 1, declared or width, sure=False)  # its step not read
     d = np.diff(c)
     vmin, vmax = int(c.min()), int(c.max())
     step = _step(d, width)
@@ -196,7 +196,7 @@ def _timed(t: FloatArray, c: IntArray, wraps: npt.NDArray[np.bool_], *, seen: Co
     seen where the width's would have the cell send faster than a CAN bus carries; else
     the width's, with a note (a logger whose polls hold a whole cycle of the counter, in
     step with it, says nothing of the frames a wrap skips)."""
-    more, se = _frames_a_wrap(t, seen.place(c), seen.period, wraps)
+    more, se = _frames_a_wrap(t, seen.place(c), seen.period)
     skipped = wide.period - seen.period
     counts = f"from {seen.start} to {seen.top}" + (f" by {seen.step}" if seen.step > 1 else "")
     width = f"from {wide.start} to {wide.top}" + (f" by {wide.step}" if wide.step > 1 else "")
@@ -227,27 +227,32 @@ def _timed(t: FloatArray, c: IntArray, wraps: npt.NDArray[np.bool_], *, seen: Co
         f"{counts}, declare it in the rig file ([rig] {key} = {seen.period})"))
 
 
-def _steps(place: IntArray, period: int) -> tuple[IntArray, IntArray]:
-    """The counter's steps in places (a step back by up to :data:`BACK_REACH`, a frame
-    received twice or late, taken as such where the period is long enough to tell it from
-    a step ahead by nearly a period), and the wraps each step makes (-1 where a frame from
-    before a wrap arrives after it)."""
+def _steps(place: IntArray, period: int, dt: FloatArray) -> tuple[IntArray, IntArray]:
+    """The counter's steps in places, a step back by up to :data:`BACK_REACH` (a quarter of
+    the period at most: a frame received twice or late) taken as such, and the wraps each
+    step makes (-1 where a frame from before a wrap arrives after it). Where the period is
+    long (over four such reaches) a step back is no step ahead by nearly a period; in a
+    shorter one it is where the time it took (*dt*, s) says so."""
     steps = np.mod(np.diff(place), period)
-    if period > 4 * BACK_REACH:
-        steps = np.where(steps >= period - BACK_REACH, steps - period, steps)
+    reach = min(BACK_REACH, period // 4)
+    back = (steps >= period - reach) & (reach > 0)
+    if back.any() and period <= 4 * BACK_REACH:
+        one = (steps == 1) & (dt >= 0) & (dt < JUMP_S)
+        frame_s = float(np.mean(dt[one])) if np.count_nonzero(one) >= MIN_FRAMES else 0.0
+        frames = dt / frame_s if frame_s > 0 else np.full(dt.size, np.inf)
+        back &= np.abs(frames - (steps - period)) < np.abs(frames - steps)
+    steps = np.where(back, steps - period, steps)
     turns = (int(place[0]) + np.concatenate([[0], np.cumsum(steps)])) // period
     return steps, np.diff(turns)
 
 
-def _frames_a_wrap(t: FloatArray, place: IntArray, period: int,
-                   wraps: npt.NDArray[np.bool_]) -> tuple[float, float]:
+def _frames_a_wrap(t: FloatArray, place: IntArray, period: int) -> tuple[float, float]:
     """Frames a wrap skips beyond *period*, by the timing, and its standard error:
     :func:`_by_line`'s, else (its wraps as regular as its frames: a counter of a short
     period) :func:`_by_steps`'s. The steps and wraps are the places' (:func:`_steps`):
     frames received twice or late, read as steps ahead by nearly a period, put off every
     frame's place after them."""
-    steps, turned = _steps(place, period) if period > 4 * BACK_REACH \
-        else (np.mod(np.diff(place), period), wraps.astype(np.int64))
+    steps, turned = _steps(place, period, np.diff(t))
     wraps = turned == 1
     dt = np.diff(t)
     one = (steps == 1) & (turned == 0) & (dt >= 0) & (dt < JUMP_S)
