@@ -109,3 +109,19 @@ def test_a_counter_s_period_is_read_whatever_frames_came_twice_or_late(period, s
         assert law.period == period and law.note is None
     else:
         assert (law.start, law.period, law.learnt) == (start, period, True), law
+
+
+@settings(max_examples=60, deadline=None)
+@given(n=st.integers(8, 15), step=st.sampled_from([1, 2]), first=st.integers(0, 200),
+       lost=st.sets(st.integers(1, 6), max_size=1))
+def test_a_few_frames_say_their_counter_s_step(n, step, first, lost):
+    """A recording just begun (under 16 frames of a cell): too few to read a period, but a
+    counter counting by 2 steps by 2 (its start, odd or even, kept); read as stepping by 1,
+    each of its frames counted one lost on the live display."""
+    sent = [k for k in range(n) if k not in lost]
+    c = (first * step + step * np.asarray(sent)) % 256
+    law = counter_law(np.asarray(sent) * 1e-3, c, 8)
+    assert (law.step, law.sure) == (step, False), law
+    assert law.start == (first * step) % step
+    place = law.place(c)
+    assert int(np.count_nonzero(np.mod(np.diff(place), law.period) != 1)) == len(lost)

@@ -100,6 +100,8 @@ class CounterJump:
         The counter before the jump and after it.
     lost : int
         Frames lost at the jump, by the timing.
+    skipped : int
+        Frames the counter's step skips there (what it counts lost read as no jump).
     """
 
     after: int
@@ -107,6 +109,7 @@ class CounterJump:
     old: int
     new: int
     lost: int
+    skipped: int = 0
 
 
 @dataclass
@@ -343,7 +346,8 @@ def sending_order(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
             cs = (cs[0] + s.index) % modulus
             out.jumps = [CounterJump(int(rows[j + 1]), float(times[rows[j + 1]]),
                                      int(c[rows[j]]), int(c[rows[j + 1]]),
-                                     int(max(int(index[j + 1] - index[j]) - 1 - k, 0)))
+                                     int(max(int(index[j + 1] - index[j]) - 1 - k, 0)),
+                                     int(index[j + 1] - index[j]) - 1)
                          for j, k in jumps]
         bounds = s.bounds
     else:

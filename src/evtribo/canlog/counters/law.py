@@ -158,9 +158,13 @@ def counter_law(t: npt.ArrayLike, raw: npt.ArrayLike, bits: int, *,
     c = np.asarray(raw, dtype=np.int64)
     times = np.asarray(t, dtype=np.float64)
     width = 1 << min(bits, MAX_BITS)
-    if c.size < MIN_FRAMES:
-        return CounterLaw(0, 1, declared or width, sure=False)  # its step not read
     d = np.diff(c)
+    if c.size < MIN_FRAMES:  # too few frames to say more than its step, if that
+        up = _step(d, width) or 1  # taken when it is most of the steps, three at least
+        up = up if up > 1 and np.count_nonzero(d == up) >= max(3, d.size / 2) \
+            and np.all((c - c[0]) % up == 0) else 1
+        short = _width_law(bits, int(c.min(initial=0)) % up, up)
+        return dataclasses.replace(short, period=declared or short.period, sure=False)
     vmin, vmax = int(c.min()), int(c.max())
     step = _step(d, width)
     half = 0.5 * (vmax - vmin)
