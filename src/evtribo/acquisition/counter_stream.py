@@ -67,12 +67,13 @@ class Tally:
 def _tally(found: CellCount, first: int, size: int, *, final: bool) -> Tally:
     """*found*, the count of *size* frames of a message from its *first* on, as the tracker
     keeps it: a jump of the counter with fewer frames after it than the analysis's window
-    counts the values it skipped until they have arrived (or the log has closed)."""
+    counts the values it skipped until they have arrived (or the log has closed), where the
+    counter counts (a count the timing's, the counter ignored, holds no jump's values)."""
     window = max(2 * (found.modulus or 0), JUMP_WINDOW_PERIODS)
     out = Tally(found.found.count, found.seq.duplicates, law=found.law)
     for jump in found.seq.jumps:
         if not final and size - jump.after < window:
-            out.dropped += jump.skipped - jump.lost
+            out.dropped += jump.skipped - jump.lost if found.counted else 0
             out.waiting = True
         else:
             out.restarts.append((first + jump.after, jump.t))
