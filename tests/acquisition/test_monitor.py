@@ -10,6 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from evtribo.acquisition.counters import NOT_COUNTING, NOT_KNOWN
+from evtribo.acquisition.live.display import view_state
 from evtribo.acquisition.live.monitor import (
     Monitor,
     Snapshot,
@@ -170,7 +172,9 @@ snapshots = st.builds(
     alert=st.sampled_from(["", "NO DATA FROM THE RIG: no FzCell (0x0C1) or FxCell (0x0C2) "
                            "frame in 3 s; wrong bus, or the study's DBC is not this rig's?"]),
     hv_on=st.sampled_from([None, False, True]), hv_amplitude_V=st.just(140.0),
-    hv_frequency_Hz=st.just(10000.0), hv_waveform=st.just("square"))
+    hv_frequency_Hz=st.just(10000.0), hv_waveform=st.just("square"),
+    counters=st.dictionaries(st.sampled_from(["FzCell", "FxCell"]),
+                             st.sampled_from([NOT_KNOWN, NOT_COUNTING]), max_size=2))
 
 
 @settings(max_examples=60, deadline=None)
@@ -185,9 +189,27 @@ def test_the_block_fits_the_terminal_so_it_redraws_in_place(columns, snap):
         normal = _ANSI.sub("", next(line for line in lines if line.startswith("normal")))
         assert "[" in normal and any(w in normal for w in ("IN BAND", "TOO", "TARING",
                                                               "NO DATA"))
-        # the alert is wrapped, never cut
+        # the alert is wrapped, never cut, and what a counter says is said whole
         shown = " ".join(_ANSI.sub("", line) for line in lines)
         assert not alert or " ".join(alert.split()[-3:]) in shown
+        assert all(f"{name}: {text}" in shown for name, text in snap.counters.items())
+
+
+def test_a_count_not_known_yet_is_said_on_the_display():
+    """A cell whose counter's period is being learnt: the display says its lost frames are
+    not known yet (they are left out of the count shown), and that a counter does not
+    count, on the terminal, in the line for pipes, and to the live view."""
+    rig = load_rig_toml(default_rig_path())
+    mon = Monitor(rig, io.StringIO(), duration=10.0, tty=False)
+    mon._stats = LogStats(frames=900, dropped=2, counters={"FzCell": NOT_KNOWN,
+                                                          "FxCell": NOT_COUNTING})
+    snap = mon.snapshot()
+    assert snap.counters == {"FzCell": NOT_KNOWN, "FxCell": NOT_COUNTING}
+    block = "\n".join(render_status(snap, columns=70))
+    assert f"FzCell: {NOT_KNOWN}" in block and f"FxCell: {NOT_COUNTING}" in block
+    line = render_line(snap)
+    assert "dropped=2 [FzCell: period not yet learnt, its lost frames not known yet;" in line
+    assert view_state(snap)["counters"] == snap.counters
 
 
 def test_the_high_voltage_is_shown_and_decoded_from_the_status():

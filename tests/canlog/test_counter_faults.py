@@ -195,3 +195,84 @@ def test_any_stream_is_put_in_an_order_without_failing(steps, counter, modulus):
     assert np.unique(got.rows).size == got.rows.size == t.size - got.duplicates
     assert np.sort(got.by_time).tolist() == list(range(got.rows.size))
     assert np.isfinite(got.t).all()
+
+
+@st.composite
+def _restarted(draw):
+    """A cell's frames at 2 kHz whose firmware restarts once, its counter on from any value
+    (a step that runs ahead of the clock by more than the timing's noise), its timer begun
+    anew: the first frame after the restart comes *silent* periods late, at another phase,
+    sooner than a period after the last one where none is silent. Returns the timestamps
+    (in periods), the counter and the frames lost by the timing (the periods silent)."""
+    n = 24_000  # a count of 255 too few frames lost for the time they span to belie it
+    at = draw(st.integers(2_000, n - 2_000))
+    silent = draw(st.integers(0, 3))
+    phase = draw(st.floats(-0.9 if silent == 0 else -0.4, 0.4))
+    new = draw(st.integers(0, 255))
+    assume((new - (at - 1)) % 256 - 1 - silent >= 8)
+    k = np.arange(n)
+    counter = np.where(k < at, k, new + k - at) % 256
+    late = k + np.where(k >= at, silent + phase, 0.0)
+    return late, counter, silent
+
+
+@settings(max_examples=40, deadline=None)
+@given(restarted=_restarted(), poll_s=st.sampled_from([0.0, 1e-3, 8e-3]),
+       jitter=st.floats(0.0, 0.2), seed=st.integers(0, 2**32 - 1))
+def test_a_restart_whose_first_frame_comes_within_a_period_counts_no_whole_period(
+        restarted, poll_s, jitter, seed):
+    """Where the timing puts the counter's whole step down to the restart (its first frame
+    sooner than a period after the last, or a poll's stamps making it look so), the counter
+    rebuilt from the timing stepped by 0 there and 255 frames were counted lost of none (257
+    of 2, 258 of 3): a restart keeps the counter stepping by one at least, and the frames
+    lost there are the timing's count (to one frame where the adapter stamps its polls)."""
+    from evtribo.canlog.dropped import missing_frames_received
+    from evtribo.canlog.sequence import sending_order
+
+    late, counter, silent = restarted
+    rng = np.random.default_rng(seed)
+    t = 1.76e9 + (late + rng.uniform(0, jitter, late.size)) / 2000.0
+    if poll_s:
+        t = np.ceil(t / poll_s) * poll_s
+    payload = np.zeros((t.size, 8), np.uint8)
+    payload[:, 0] = rng.integers(0, 256, t.size)
+    payload[:, 7] = counter
+    seq = sending_order(t, counter, 256, payload)
+    found = missing_frames_received(seq.t, seq.counter, 256)
+    assert abs(found.count - silent) <= (1 if poll_s else 0), (found, seq.jumps)
+
+
+@st.composite
+def _standing(draw):
+    """A cell's frames whose counter stands still for a run of frames (the value of the
+    frame before, other forces: each frame the next one all the same) before it goes on
+    at its own value; some frames lost elsewhere, one by one. Returns the frames' numbers,
+    their counter and the frames lost."""
+    n = draw(st.integers(40, 600))
+    a = draw(st.integers(2, n - 12))
+    m = draw(st.integers(1, min(40, n // 3, n - a - 8)))  # most steps by one: a counter
+    lost = draw(st.sets(st.integers(1, n - 2).filter(lambda k: not a - 1 <= k <= a + m + 1),
+                        max_size=4))
+    sent = [k for k in range(n) if k not in lost]
+    counter = [(a - 1 if a <= k < a + m else k) % 256 for k in sent]
+    return sent, counter, len(lost)
+
+
+@settings(max_examples=60, deadline=None)
+@given(standing=_standing())
+def test_a_counter_that_stands_still_holds_the_places_it_steps_over(standing):
+    """The frames a counter stood still for are the next frames: the step out of the run
+    steps over their places, and is no loss. A stream too short for the timing to judge
+    (under 64 frames) counted them lost there (14 of 5), a longer one took the step out
+    for the counter jumping (a restart said where there was none)."""
+    from evtribo.canlog.dropped import missing_frames_received
+    from evtribo.canlog.sequence import sending_order
+
+    sent, counter, lost = standing
+    t = 1.76e9 + np.asarray(sent, dtype=np.float64) * 1e-3
+    payload = np.zeros((t.size, 8), np.uint8)
+    payload[:, 0] = np.arange(t.size) % 251  # another force in every frame
+    payload[:, 7] = counter
+    seq = sending_order(t, np.asarray(counter), 256, payload)
+    assert missing_frames_received(seq.t, seq.counter, 256).count == lost
+    assert not seq.jumps

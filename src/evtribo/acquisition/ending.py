@@ -114,6 +114,7 @@ def _last_sidecar(rec: _Recording, got: _Received, ended: str, error: BaseExcept
         "dropped_frames_by_message": stats.dropped_by_message,
         "duplicate_frames": stats.duplicates,
         "counter_restarts_s": got.writer.counters.restarts_by_message(stats.first_timestamp),
+        "counter_notes": got.writer.counters.notes_by_message(),
         "longest_gap_s_by_message": got.writer.counters.longest_gap_by_message(),
         "bus_errors": stats.error_frames + stats.damaged_lines + int(ended == "bus-error"),
         "bus_exceptions": exceptions,

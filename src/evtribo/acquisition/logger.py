@@ -81,9 +81,14 @@ class LogStats:
     error_frames : int
         Error frames received.
     dropped : int
-        Frames missing by the rig's counters.
+        Frames missing by the rig's counters, as the analysis counts them (those of a
+        counter whose period is not known yet left out: *counters* says so).
     dropped_by_message : dict
         The same per message name.
+    counters : dict
+        What the counters of the messages whose count is not simply theirs say, by message
+        name (:meth:`CounterTracker.states`: a period not known yet, a counter that does
+        not count).
     duplicates : int
         Frames of the counted messages received twice (the counter and payload of a frame
         just before), not counted as lost.
@@ -106,6 +111,7 @@ class LogStats:
     error_frames: int = 0
     dropped: int = 0
     dropped_by_message: dict[str, int] = field(default_factory=dict)
+    counters: dict[str, str] = field(default_factory=dict)
     duplicates: int = 0
     latest: dict[int, can.Message] = field(default_factory=dict)
     first_timestamp: float | None = None
@@ -185,6 +191,7 @@ class LogWriter:
         self._thread.join(timeout)
 
     def _run(self) -> None:
+        ended = False  # the end of the queue taken
         try:
             while True:
                 try:
@@ -192,27 +199,41 @@ class LogWriter:
                 except queue.Empty:
                     batch = []
                 if batch is None:
+                    ended = True
                     break
                 if batch and self.error is None:
                     self._write(batch)
                 if self.error is None and time.monotonic() - self._last_flush >= \
                         self.flush_interval:
                     self._flush()
-            self._settle()
             if self.error is None:
                 self._flush()
         except BaseException as err:  # disk full, closed file...: kept for the caller
             log.error("writing the log failed: %s", err)
             self.error = err
             # keep draining so the receive side never blocks on a dead writer
-            while self._queue.get() is not None:
+            while not ended and self._queue.get() is not None:
                 pass
+        self._settle()
 
     def _settle(self) -> None:
-        """The trial has ended: the counters' steps still waiting for frames after them are
-        judged (:meth:`CounterTracker.settle`)."""
-        self.stats.dropped += self.counters.settle()
-        self.stats.dropped_by_message = self.counters.dropped_by_message()
+        """The trial has ended: every frame of the rig's load cells counted at once, as the
+        analysis counts the log (:meth:`CounterTracker.settle`)."""
+        try:
+            self.counters.settle()
+        except Exception as err:  # the log is whole: a count that fails does not lose it
+            log.error("counting the load cells' lost frames failed (%s): the count is the "
+                      "one made while recording; evtribo analyze counts them from the log",
+                      err)
+        self._counted()
+
+    def _counted(self) -> None:
+        """The counters' counts into :attr:`stats`."""
+        stats, tracker = self.stats, self.counters
+        stats.dropped = tracker.dropped
+        stats.dropped_by_message = tracker.dropped_by_message()
+        stats.duplicates = tracker.duplicates
+        stats.counters = tracker.states()
 
     def _flush(self) -> None:
         self.file.flush()
@@ -269,8 +290,7 @@ class LogWriter:
         if stats.first_timestamp is None:
             stats.first_timestamp = batch[0].timestamp
         stats.last_timestamp = batch[-1].timestamp
-        stats.dropped_by_message = self.counters.dropped_by_message()
-        stats.duplicates = self.counters.duplicates
+        self._counted()
 
     def _lines(self, batch: list[can.Message]) -> list[str]:
         """The log lines of *batch*; count its frames per identifier, keep each message's
@@ -280,12 +300,12 @@ class LogWriter:
         by_id = stats.frames_by_id
         latest = stats.latest
         tracker = self.counters
-        counted: dict[int, tuple[list[bytearray], list[float]]] = {
-            key: ([], []) for key in tracker.specs}
+        counted: dict[int, tuple[list[bytearray], list[float], list[int]]] = {
+            key: ([], [], []) for key in tracker.specs}
         lines: list[str] = []
         append = lines.append
         prefix_cache: dict[int, str] = {}
-        for msg in batch:
+        for row, msg in enumerate(batch, stats.frames):
             if msg.is_error_frame or msg.is_remote_frame or msg.is_fd:
                 append(format_candump_line(msg, channel))
                 key = id_key(msg)
@@ -303,9 +323,10 @@ class LogWriter:
                 if fkey in counted:
                     counted[fkey][0].append(msg.data)
                     counted[fkey][1].append(msg.timestamp)
+                    counted[fkey][2].append(row)
             by_id[key] = by_id.get(key, 0) + 1
-        for fkey, (payloads, times) in counted.items():
-            stats.dropped += tracker.update_many(fkey, payloads, times)
+        for fkey, (payloads, times, rows) in counted.items():
+            tracker.update_many(fkey, payloads, times, rows)
         return lines
 
 

@@ -139,7 +139,9 @@ def _counters(rig: Rig) -> list[CounterSpec]:
         ref = rig.counter(cell)  # the rig's counter role, or a *Counter signal: as decoding
         if ref is None:
             continue
-        spec = counter_spec_from_dbc(rig.database, ref.message.name, ref.signal.name)
+        spec = counter_spec_from_dbc(rig.database, ref.message.name, ref.signal.name,
+                                     period=rig.counter_period(cell),
+                                     period_key=f"{cell}_force_counter_period")
         if spec.key not in {s.key for s in specs}:
             specs.append(spec)
     return specs

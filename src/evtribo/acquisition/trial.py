@@ -46,10 +46,14 @@ damaged_lines               lines the adapter's driver could not parse (``t0CZ8.
                             is skipped and the recording goes on
 dropped_frames              frames lost before the log, at least: the larger of the load
                             cells' counters' count and ``queue_dropped_frames``
-dropped_frames_by_message   frames missing by the load cells' rolling counters
+dropped_frames_by_message   frames missing by the load cells' rolling counters, counted as
+                            ``evtribo analyze`` counts the log
 duplicate_frames            frames of the load cells received twice: no loss
 counter_restarts_s          by message, when its counter restarted (back to 0 or a low
-                            value; s from the first frame): no wrap of frames lost there
+                            value, or any other; s from the first frame): no wrap of frames
+                            lost there
+counter_notes               by message, what its counter does where that is worth saying
+                            (a period learnt from its frames, or that it does not count)
 queue_dropped_frames        frames the receiving side dropped from its full receive queue
                             (SocketCAN: the kernel's count, ``SO_RXQ_OVFL``); null when the
                             bus does not count them

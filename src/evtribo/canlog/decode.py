@@ -48,8 +48,7 @@ from cantools.database import DecodeError
 from cantools.database.can import Database, Message
 
 from evtribo.canlog import sequence
-from evtribo.canlog.counters.law import counter_law
-from evtribo.canlog.dropped import missing_frames_received
+from evtribo.canlog.counters.streams import CellFrames, CounterSignal, count_cells
 from evtribo.canlog.frame_match import kind_mismatches, message_mask, rig_channel, rig_messages
 from evtribo.canlog.io.table import IMPOSSIBLE_TIMESTAMP, FrameTable, take_rows
 from evtribo.canlog.rig import Rig, SignalRef
@@ -275,68 +274,58 @@ def _in_time_order(msg: DecodedMessage) -> DecodedMessage:
     return _rows(msg, np.argsort(ts, kind="stable")) if np.any(ts[1:] < ts[:-1]) else msg
 
 
-def _sequenced(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
-               undecoded: list[npt.NDArray[np.int64]], *, cell: str, declared: int | None
-               ) -> tuple[DecodedMessage, sequence.Sequenced, int | None, Note | None]:
-    """One load cell's frames decoded and put in the order sent
-    (:func:`~evtribo.canlog.sequence.sending_order`), its counter's period (its places,
-    ``+1`` a frame, are the counter the stream keeps: :mod:`evtribo.canlog.counters.law`) and
-    what the counter does, where worth saying."""
+def _cell_frames(frames: FrameTable, force: SignalRef, counter: SignalRef | None,
+                 undecoded: list[npt.NDArray[np.int64]], *, cell: str, declared: int | None
+                 ) -> tuple[DecodedMessage, CellFrames]:
+    """One load cell's frames decoded, and as :func:`~evtribo.canlog.counters.streams.count_cells`
+    counts them (its counter with its law's width, declared period and names)."""
     names = [force.signal.name] + ([counter.signal.name] if counter is not None
                                    and counter.message is force.message else [])
     msg = _decoded_only(decode_message(frames, force.message, names), undecoded)
-    received = modulus = note = None
+    raw = spec = None
     if counter is not None and counter.message is force.message:
         raw = msg.raw[counter.signal.name].astype(np.int64)
-        law = counter_law(msg.timestamp, raw, counter.signal.length, declared=declared,
-                          name=counter.qualified_name, key=f"{cell}_force_counter_period")
-        note = law.note
-        if law.counts:
-            received, modulus = law.place(raw), law.period
+        spec = CounterSignal(counter.signal.length, declared, counter.qualified_name,
+                             f"{cell}_force_counter_period")
     elif counter is not None:
         emit("counter-elsewhere", counter=counter.qualified_name, message=force.message.name)
-    return msg, sequence.sending_order(msg.timestamp, received, modulus,
-                                       take_rows(frames.data, msg.index)), modulus, note
+    return msg, CellFrames(msg.index, raw, take_rows(frames.data, msg.index), spec)
 
 
 def _cells(frames: FrameTable, rig: Rig, undecoded: list[npt.NDArray[np.int64]]
            ) -> tuple[FrameTable, list[CellSignals]]:
     """The two load cells in time order and the frames missing from each (counted in the
-    order sent, duplicates left out), once the logger's clock steps are taken out of the
-    whole log (the amplifier's frames with them); what was put right is said."""
+    order sent, duplicates left out: :func:`~evtribo.canlog.counters.streams.count_cells`,
+    as the recorder counts them), once the logger's clock steps are taken out of the whole
+    log (the amplifier's frames with them); what was put right is said."""
     roles = [(rig.normal_force, rig.counter("normal"), "normal"),
              (rig.tangential_force, rig.counter("tangential"), "tangential")]
-
-    def each() -> list[tuple[DecodedMessage, sequence.Sequenced, int | None, Note | None]]:
-        return [_sequenced(frames, force, counter, undecoded, cell=cell,
-                           declared=rig.counter_period(cell)) for force, counter, cell in roles]
-
-    cells = each()
-    steps = sequence.log_clock_steps([(m.index, s) for m, s, _, _ in cells])
+    decoded = [_cell_frames(frames, force, counter, undecoded, cell=cell,
+                            declared=rig.counter_period(cell))
+               for force, counter, cell in roles]
+    times, counts, steps = count_cells(frames.timestamp, [c for _, c in decoded])
+    msgs = [m for m, _ in decoded]
     if steps:
-        frames = dataclasses.replace(frames, timestamp=sequence.clock_corrected(
-            frames.timestamp, [(b, a, step) for b, a, step, _ in steps]))
-        cells = each()
-    for _, _, _, note in cells:
-        if note is not None:
-            emit(note.kind, **note.mapping)
-    t0 = min((float(m.timestamp.min()) for m, _, _, _ in cells if len(m)), default=0.0)
-    named = [(f.message.name, None if c is None else c.qualified_name, s)
-             for (f, c, _), (_, s, _, _) in zip(roles, cells, strict=True)]
+        frames = dataclasses.replace(frames, timestamp=times)
+        msgs = [dataclasses.replace(m, timestamp=times[m.index]) for m in msgs]
+    for c in counts:
+        if c.law is not None and c.law.note is not None:
+            emit(c.law.note.kind, **c.law.note.mapping)
+    t0 = min((float(m.timestamp.min()) for m in msgs if len(m)), default=0.0)
+    named = [(f.message.name, None if c is None else c.qualified_name, n.seq)
+             for (f, c, _), n in zip(roles, counts, strict=True)]
     sequence.say(steps, named, t0)
-    out, lost = [], []
-    for (msg, seq, modulus, _), (force, _, cell) in zip(cells, roles, strict=True):
-        found = missing_frames_received(seq.t, seq.counter, modulus)  # bad samples too
+    out = []
+    for msg, n, (force, _, _) in zip(msgs, counts, roles, strict=True):
+        seq, found = n.seq, n.found  # bad samples counted too
         t, value = seq.t[seq.by_time], msg.scaled(force.signal.name)[seq.rows[seq.by_time]]
         bad = bad_samples(t, value, force.signal, t0, force.qualified_name)
-        lost.append((cell, found.notes))
-        counted = seq.counter is not None and modulus is not None and not found.counter_ignored
         out.append(CellSignals(t[~bad], value[~bad], seq.counter[seq.by_time][~bad]
-                               if counted and seq.counter is not None else None,
+                               if n.counted and seq.counter is not None else None,
                                found.count, found.method, seq.duplicates,
-                               counter_period=modulus if counted else None))
-    for cell, notes in lost:
-        say_lost(cell, notes)
+                               counter_period=n.modulus if n.counted else None))
+    for n, (_, _, cell) in zip(counts, roles, strict=True):
+        say_lost(cell, n.found.notes)
     return frames, out
 
 

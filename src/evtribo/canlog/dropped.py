@@ -363,9 +363,12 @@ def _outages_only(t: npt.NDArray[np.float64], period: float, coh: float) -> Drop
     """The outages of a stream whose timestamps cannot show single lost frames, with a note
     saying so."""
     count, seen = outage_count(t)
+    bursts = "frames received in bursts, " if _bursty(t, period) else ""
+    if not np.isfinite(seen):  # too few frames for the envelope's windows
+        return DropCount(count, "outages", period, coh, (Note("frames-lost-unseen", {
+            "bursts": bursts, "coherence": coh, "frames": int(t.size)}),))
     return DropCount(count, "outages", period, coh, (Note("frames-lost-outages", {
-        "bursts": "frames received in bursts, " if _bursty(t, period) else "",
-        "coherence": coh, "frames": max(int(np.ceil(seen)), 2)}),))
+        "bursts": bursts, "coherence": coh, "frames": max(int(np.ceil(seen)), 2)}),))
 
 
 def count_dropped(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,

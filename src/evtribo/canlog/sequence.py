@@ -103,6 +103,8 @@ class CounterJump:
         The counter before the jump and after it.
     lost : int
         Frames lost at the jump, by the timing.
+    skipped : int
+        Frames the counter's step skips there (what it counts lost read as no jump).
     """
 
     after: int
@@ -110,6 +112,7 @@ class CounterJump:
     old: int
     new: int
     lost: int
+    skipped: int = 0
 
 
 @dataclass
@@ -232,7 +235,14 @@ def _events(s: Lead, c: IntArray | None) -> tuple[list[tuple[int, float]],
             continue  # frames lost (an outage): counted by the timing
         elif h < 0:
             k = round(-h)
-            if s.index[j + 1] - s.index[j] - 1 < k - s.tol:
+            skipped = int(s.index[j + 1] - s.index[j]) - 1
+            if skipped < k - s.tol:
+                continue
+            # the frame after a jump is one place on at least: where the timing puts the
+            # whole step down to the jump (its first frame within a period of the last, or
+            # a poll's stamps making it look so), none lost there, not a period less one
+            k = min(k, skipped)
+            if k < 1:
                 continue
             jumps.append((j, k))
             s.index[j + 1:] -= k
@@ -274,8 +284,20 @@ def _counted(out: Sequenced, times: FloatArray, c: IntArray | None, rows: IntArr
         # steps by 0 lost a whole period: counted as such)
         out.stood = int(np.count_nonzero(d == 0))
         out.first_stood = float(times[rows[int(np.argmax(d == 0)) + 1]])
-        d = np.where(d == 0, 1, d)
+        d = _stepped_on(d)
     return rows, d, modulus
+
+
+def _stepped_on(d: IntArray) -> IntArray:
+    """The counter's steps *d* with each frame it stood still for (a step of 0) taken for
+    the next frame, and the step out of the run stepping over the places they took (by one
+    at least): the frames of the run are no loss there."""
+    stood = d == 0
+    out = np.where(stood, 1, d)
+    moved = np.flatnonzero(~stood)
+    run = np.diff(np.concatenate([[0], np.cumsum(stood)[moved]]))  # stood just before each
+    out[moved] = np.maximum(d[moved] - run, 1)
+    return out
 
 
 def sending_order(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
@@ -327,7 +349,8 @@ def sending_order(t: npt.ArrayLike, counter: npt.ArrayLike | None = None,
             cs = (cs[0] + s.index) % modulus
             out.jumps = [CounterJump(int(rows[j + 1]), float(times[rows[j + 1]]),
                                      int(c[rows[j]]), int(c[rows[j + 1]]),
-                                     int(max(int(index[j + 1] - index[j]) - 1 - k, 0)))
+                                     int(max(int(index[j + 1] - index[j]) - 1 - k, 0)),
+                                     int(index[j + 1] - index[j]) - 1)
                          for j, k in jumps]
         bounds = s.bounds
     else:

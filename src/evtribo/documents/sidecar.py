@@ -50,7 +50,7 @@ SIDECAR_KEYS = frozenset({
     "bus_exceptions", "damaged_lines", "bus", "software", "simulation",
     "discarded_before_start", "error_frames_by_kind", "controller_state",
     "worst_controller_state", "queue_dropped_frames", "receive", "duplicate_frames",
-    "counter_restarts_s",
+    "counter_restarts_s", "counter_notes",
 })
 
 

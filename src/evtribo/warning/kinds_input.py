@@ -228,7 +228,7 @@ _LOST = (
          "Nothing to do if they are few; otherwise lower the bus's load or use a logger that "
          "keeps up.", "trial",
          stands_for=("frames-lost-periods", "frames-dropcount", "counter-overcounts",
-                     "frames-lost-outages", "frames-lost-clock")),
+                     "frames-lost-outages", "frames-lost-unseen", "frames-lost-clock")),
     Kind("frames-lost-periods", "information", "whole counter periods lost at once",
          "{cell} force: {frames} frames missing, including whole counter periods lost at "
          "once (found from the timing)",
@@ -248,6 +248,12 @@ _LOST = (
          "{cell} force: timestamps too irregular ({bursts}coherence {coherence:.2f}) to see "
          "single lost frames without a counter: only outages of {frames} or more frames in a "
          "row, away from the trial's ends, are counted",
+         "Use a logger with hardware timestamps, or a load cell with a counter, to count "
+         "every lost frame.", "trial"),
+    Kind("frames-lost-unseen", "information", "lost frames not countable in a short stream",
+         "{cell} force: timestamps too irregular ({bursts}coherence {coherence:.2f}) to see "
+         "single lost frames without a counter, and too few frames ({frames}) to see an "
+         "outage: none counted",
          "Use a logger with hardware timestamps, or a load cell with a counter, to count "
          "every lost frame.", "trial"),
     Kind("frames-lost-clock", "information", "frames lost where the clock jumped",

@@ -57,6 +57,10 @@ class Snapshot:
     controller : str or None
         The CAN controller's state its error frames reported (``"bus-off"``,
         ``"error-passive"``...), None while none said.
+    counters : dict
+        What the load cells' counters whose count is not simply theirs say, by message
+        name (a period not known yet: that cell's frames lost left out of *dropped*; a
+        counter that does not count), :meth:`~evtribo.acquisition.counters.CounterTracker.states`.
     """
 
     elapsed_s: float
@@ -76,6 +80,7 @@ class Snapshot:
     hv_waveform: str | None = None
     queue_dropped: int | None = None
     controller: str | None = None
+    counters: dict[str, str] = field(default_factory=dict)
 
 
 def instruction(snap: Snapshot) -> str:
@@ -263,21 +268,38 @@ def render_status(snap: Snapshot, *, target: float | None = None, band: float = 
     rates = "   ".join(f"{name} {rate:6.0f}" for name, rate in snap.rates_Hz.items())
     lines.append(f"frames/s   {rates or '--'}")
     lines.append(_counts_line(snap, colour))
+    for name, text in snap.counters.items():  # wrapped, never cut, as the alert
+        lines += _wrapped(f"counter {name}: {text}", columns)
     if snap.alert:
-        words, line = snap.alert.split(), ""
-        for w in words:  # the alert wrapped, never cut: the operator must read all of it
-            if line and len(line) + 1 + len(w) > columns - 1:
-                lines.append(f"{_RED}{line}{_RESET}" if colour else line)
-                line = w
-            else:
-                line = f"{line} {w}".strip()
-        lines.append(f"{_RED}{line}{_RESET}" if colour else line)
+        lines += [f"{_RED}{line}{_RESET}" if colour else line
+                  for line in _wrapped(snap.alert, columns)]
     return [_fit(line, columns) for line in lines]
+
+
+def _wrapped(text: str, columns: int) -> list[str]:
+    """*text*'s words in lines narrower than *columns*, never cut: the operator must read
+    all of it."""
+    lines, line = [], ""
+    for w in text.split():
+        if line and len(line) + 1 + len(w) > columns - 1:
+            lines.append(line)
+            line = w
+        else:
+            line = f"{line} {w}".strip()
+    return [*lines, line]
 
 
 def _queue_text(snap: Snapshot) -> str:
     """`` (receive queue 12)`` when the queue dropped frames, else empty."""
     return f" (receive queue {snap.queue_dropped})" if snap.queue_dropped else ""
+
+
+def _counters_text(snap: Snapshot) -> str:
+    """`` [FzCell: period not yet learnt, ...]`` where a counter's count is not simply its
+    own."""
+    if not snap.counters:
+        return ""
+    return " [" + "; ".join(f"{name}: {text}" for name, text in snap.counters.items()) + "]"
 
 
 def _controller_text(snap: Snapshot) -> str:
@@ -322,7 +344,8 @@ def render_line(snap: Snapshot, *, target: float | None = None, band: float = 0.
     hv = hv_text(snap)
     return (f"t={snap.elapsed_s:.1f} s  Fn={fn}  Ft={ft}" + (f"  HV={hv}" if hv else "")
             + f"  frames={snap.frames} ({total:.0f}/s)  dropped={snap.dropped}"
-            + _queue_text(snap) + f"  bus errors={snap.bus_errors}" + _controller_text(snap)
+            + _queue_text(snap) + _counters_text(snap) + f"  bus errors={snap.bus_errors}"
+            + _controller_text(snap)
             + (f"  {todo}" if todo else "")
             + (f"  {snap.alert}" if snap.alert else ""))
 

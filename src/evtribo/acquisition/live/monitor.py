@@ -260,7 +260,8 @@ class Monitor:
                         bus_errors=stats.error_frames + stats.damaged_lines,
                         tare_left_s=tare_left, damaged_lines=stats.damaged_lines,
                         alert=self._alert(), queue_dropped=stats.queue_dropped,
-                        controller=stats.errors.state, **self._hv_fields(latest))
+                        controller=stats.errors.state, counters=dict(stats.counters),
+                        **self._hv_fields(latest))
 
     def _draw(self, final: bool = False) -> None:
         snap = self.snapshot(final)

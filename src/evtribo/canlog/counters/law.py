@@ -23,6 +23,7 @@ tell, the width's law is kept and a note says how to declare the period in the r
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from dataclasses import dataclass
 
@@ -52,6 +53,9 @@ MARGIN_SE = 6.0
 JUMP_S = 1.0
 #: Widest counter whose values are looked at, bits (a wider one never wraps in a trial).
 MAX_BITS = 62
+#: Most places a frame received twice or late is behind its own, for the timing (as
+#: :data:`evtribo.canlog.sequence.REORDER_REACH`).
+BACK_REACH = 8
 #: More frames a second than any CAN bus carries (a classic frame takes 47 bits at least,
 #: at 1 Mbit/s; CAN FD's arbitration is as slow), Hz: a law that would have a cell send
 #: faster is no cell's.
@@ -78,6 +82,10 @@ class CounterLaw:
     note : Note or None
         What it does, where that is worth saying (``counter-idle``, ``counter-law``,
         ``counter-law-rate``, ``counter-period-unsure``): the decoder says it.
+    sure : bool
+        Whether the frames say it for certain: False where the counter has not wrapped
+        yet (too few frames, or none of its wraps to learn its period from) and where the
+        timing cannot tell its period (*note* says so); more frames may change it.
     """
 
     start: int
@@ -86,6 +94,7 @@ class CounterLaw:
     counts: bool = True
     learnt: bool = False
     note: Note | None = None
+    sure: bool = True
 
     @property
     def top(self) -> int:
@@ -151,9 +160,13 @@ def counter_law(t: npt.ArrayLike, raw: npt.ArrayLike, bits: int, *,
     c = np.asarray(raw, dtype=np.int64)
     times = np.asarray(t, dtype=np.float64)
     width = 1 << min(bits, MAX_BITS)
-    if c.size < MIN_FRAMES:
-        return CounterLaw(0, 1, declared or width)
     d = np.diff(c)
+    if c.size < MIN_FRAMES:  # too few frames to say more than its step, if that
+        up = _step(d, width) or 1  # taken when it is most of the steps, three at least
+        up = up if up > 1 and np.count_nonzero(d == up) >= max(3, d.size / 2) \
+            and np.all((c - c[0]) % up == 0) else 1
+        short = _width_law(bits, int(c.min(initial=0)) % up, up)
+        return dataclasses.replace(short, period=declared or short.period, sure=False)
     vmin, vmax = int(c.min()), int(c.max())
     step = _step(d, width)
     half = 0.5 * (vmax - vmin)
@@ -171,8 +184,10 @@ def counter_law(t: npt.ArrayLike, raw: npt.ArrayLike, bits: int, *,
         start = wide.start if (vmax - wide.start) // step < declared else vmin
         return CounterLaw(start, step, declared)
     seen = (vmax - vmin) // step + 1
-    if not wraps.any() or (vmin == wide.start and seen >= wide.period):
-        return wide  # no wrap to learn from, or one at the width's top
+    if not wraps.any():
+        return dataclasses.replace(wide, sure=False)  # no wrap to learn from, yet
+    if vmin == wide.start and seen >= wide.period:
+        return wide  # a wrap at the width's top
     return _timed(times, c, wraps, seen=CounterLaw(vmin, step, seen), wide=wide, name=name,
                   key=key, bits=bits)
 
@@ -186,7 +201,7 @@ def _timed(t: FloatArray, c: IntArray, wraps: npt.NDArray[np.bool_], *, seen: Co
     seen where the width's would have the cell send faster than a CAN bus carries; else
     the width's, with a note (a logger whose polls hold a whole cycle of the counter, in
     step with it, says nothing of the frames a wrap skips)."""
-    more, se = _frames_a_wrap(t, seen.place(c), seen.period, wraps)
+    more, se = _frames_a_wrap(t, seen.place(c), seen.period)
     skipped = wide.period - seen.period
     counts = f"from {seen.start} to {seen.top}" + (f" by {seen.step}" if seen.step > 1 else "")
     width = f"from {wide.start} to {wide.top}" + (f" by {wide.step}" if wide.step > 1 else "")
@@ -205,18 +220,39 @@ def _timed(t: FloatArray, c: IntArray, wraps: npt.NDArray[np.bool_], *, seen: Co
     if sent > MAX_FRAME_RATE_HZ:  # the width's law would have the cell send too fast
         return CounterLaw(seen.start, seen.step, seen.period, learnt=True, note=Note(
             "counter-law-rate", {**said, "period": seen.period, "rate_Hz": sent}))
-    return CounterLaw(wide.start, wide.step, wide.period,
+    return CounterLaw(wide.start, wide.step, wide.period, sure=False,
                       note=Note("counter-period-unsure", {**said, "period": seen.period}))
 
 
-def _frames_a_wrap(t: FloatArray, place: IntArray, period: int,
-                   wraps: npt.NDArray[np.bool_]) -> tuple[float, float]:
+def _steps(place: IntArray, period: int, dt: FloatArray) -> tuple[IntArray, IntArray]:
+    """The counter's steps in places, a step back by up to :data:`BACK_REACH` (a quarter of
+    the period at most: a frame received twice or late) taken as such, and the wraps each
+    step makes (-1 where a frame from before a wrap arrives after it). Where the period is
+    long (over four such reaches) a step back is no step ahead by nearly a period; in a
+    shorter one it is where the time it took (*dt*, s) says so."""
+    steps = np.mod(np.diff(place), period)
+    reach = min(BACK_REACH, period // 4)
+    back = (steps >= period - reach) & (reach > 0)
+    if back.any() and period <= 4 * BACK_REACH:
+        one = (steps == 1) & (dt >= 0) & (dt < JUMP_S)
+        frame_s = float(np.mean(dt[one])) if np.count_nonzero(one) >= MIN_FRAMES else 0.0
+        frames = dt / frame_s if frame_s > 0 else np.full(dt.size, np.inf)
+        back &= np.abs(frames - (steps - period)) < np.abs(frames - steps)
+    steps = np.where(back, steps - period, steps)
+    turns = (int(place[0]) + np.concatenate([[0], np.cumsum(steps)])) // period
+    return steps, np.diff(turns)
+
+
+def _frames_a_wrap(t: FloatArray, place: IntArray, period: int) -> tuple[float, float]:
     """Frames a wrap skips beyond *period*, by the timing, and its standard error:
     :func:`_by_line`'s, else (its wraps as regular as its frames: a counter of a short
-    period) :func:`_by_steps`'s."""
-    steps = np.mod(np.diff(place), period)
+    period) :func:`_by_steps`'s. The steps and wraps are the places' (:func:`_steps`):
+    frames received twice or late, read as steps ahead by nearly a period, put off every
+    frame's place after them."""
+    steps, turned = _steps(place, period, np.diff(t))
+    wraps = turned == 1
     dt = np.diff(t)
-    one = (steps == 1) & ~wraps & (dt >= 0) & (dt < JUMP_S)
+    one = (steps == 1) & (turned == 0) & (dt >= 0) & (dt < JUMP_S)
     at_wrap = wraps & (steps == 1) & (dt >= 0) & (dt < JUMP_S)
     if np.count_nonzero(one) < MIN_FRAMES or not at_wrap.any():
         return float("nan"), float("inf")
@@ -225,7 +261,7 @@ def _frames_a_wrap(t: FloatArray, place: IntArray, period: int,
         return float("nan"), float("inf")
     # a timestamp holding several frames (a logger that stamps its polls) widens the errors
     at_once = max(t.size / (np.count_nonzero(dt > 0.1 * frame_s) + 1), 1.0)
-    line = _by_line(t, steps, wraps, period=period, frame_s=frame_s, at_once=at_once)
+    line = _by_line(t, steps, turned, period=period, frame_s=frame_s, at_once=at_once)
     return line if np.isfinite(line[0]) else _by_steps(dt, one, at_wrap, frame_s)
 
 
@@ -240,7 +276,7 @@ def _by_steps(dt: FloatArray, one: npt.NDArray[np.bool_], at_wrap: npt.NDArray[n
     return extra, float(np.sqrt(var)) / frame_s
 
 
-def _by_line(t: FloatArray, steps: IntArray, wraps: npt.NDArray[np.bool_], *, period: int,
+def _by_line(t: FloatArray, steps: IntArray, wraps: IntArray, *, period: int,
              frame_s: float, at_once: float) -> tuple[float, float]:
     """Frames a wrap skips, by the frames' times against their places (``+1`` a frame, each
     wrap ``period``) and the wraps before them, by least squares within the stretches

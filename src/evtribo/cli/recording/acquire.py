@@ -105,7 +105,8 @@ def _check_finite(args: argparse.Namespace) -> None:
 def summary_counts(side: dict[str, Any]) -> str:
     """The recording's counts in words, from its sidecar: frames, drops (by the receive
     queue), bus errors by kind and the controller's worst state, frames discarded as
-    queued before the trial.
+    queued before the trial, and what the load cells' counters do where it is worth saying
+    (a period learnt from the frames, a counter that does not count).
 
     Parameters
     ----------
@@ -133,6 +134,8 @@ def summary_counts(side: dict[str, Any]) -> str:
     if side.get("discarded_before_start"):
         text += (f"; {side['discarded_before_start']} frames queued before the trial were "
                  "discarded")
+    for note in (side.get("counter_notes") or {}).values():
+        text += f"; {note}"
     return text
 
 
