@@ -282,7 +282,7 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
         headlines += add_population(report, population, contrasts, fit_doc,
                                     sections.placed(figures, "population"), friction_only=True)
     else:
-        key = key_results(tables, fit, population, models, groups)
+        key = key_results(tables, fit, models, groups)
         add_key_results(report, key)
         add_warnings(report, groups, keys, cells)
         headlines = sections.add_headline(report, tables, fit, fit_doc, key.marks)
