@@ -275,7 +275,7 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
     groups = group([*input_warnings, *_warnings(tables)])
     cells = study_cells(tables.electrostatic.to_dict("records"))
     models = tables.models
-    population, contrasts = read_population(tables)
+    population, contrasts = tables.population, read_population(tables)[1]
     if tables.electrostatic.empty:  # a study of OFF trials: its friction, no fit
         headlines = add_friction(report, tables.windows, fit_doc.notes)
         add_warnings(report, groups, keys, cells)

@@ -42,7 +42,8 @@ from evtribo.documents.quantities import friction_increase_pct
 from evtribo.population.stats import MIN_SUBJECTS
 from evtribo.util.numbers import amplitude_key, significant, voltage, with_interval
 
-__all__ = ["AIR_GAP", "INCREASE", "Quoted", "State", "drive_order", "key_claims",
+__all__ = ["AIR_GAP", "INCREASE", "Quoted", "State", "drive_order", "exponent_claims",
+           "key_claims",
            "key_sentence", "nb"]
 
 #: population.csv's quantities the claims quote besides F_el and the exponent.
@@ -184,6 +185,25 @@ def drive_order(population: PopulationTable | None, electrostatic: pd.DataFrame
     drives = sorted({*cells, *(population.drives() if population is not None else [])})
     amps = {d: len({amplitude_key(a) for a in c["amplitude_V"]}) for d, c in cells.items()}
     return sorted(drives, key=lambda d: -amps.get(d, 0))
+
+
+def exponent_claims(population: PopulationTable | None) -> list[Quoted]:
+    """The exponent n of F_el ∝ U^n of each drive that has a power law's row: ``quoted``, or
+    ``undetermined`` where the mixed model's checks failed (what ``evtribo compare`` says).
+
+    Parameters
+    ----------
+    population : PopulationTable or None
+        population.csv, with the checks of each drive.
+
+    Returns
+    -------
+    list of Quoted
+    """
+    if population is None:
+        return []
+    found = [_claim(population, EXPONENT, d, None, np.zeros(0)) for d in population.drives()]
+    return [c for c in found if c.state != "absent"]
 
 
 def key_claims(population: PopulationTable | None, electrostatic: pd.DataFrame,
