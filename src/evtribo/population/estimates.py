@@ -15,7 +15,7 @@ study excluded beforehand by a rule written in study.toml (``[population] exclud
   between-subject SD with its interval, I^2 and the convergence checks; a subject far from
   the others is named, with rows of the same estimates without it (``without S03``); where
   valid, the meta-analysis of log F_el at each amplitude (``meta-analysis``);
-- the relative friction increase ``dF_t / F_t,OFF`` per amplitude (:mod:`evtribo.population.
+- the relative friction increase ``100 F_el / F_n,ON`` per amplitude (:mod:`evtribo.population.
   journal`), each subject's in population_subjects.csv with its Holm-adjusted one-sided test
   of ``F_el > 0``;
 - the friction coefficient mu (each subject's from its OFF windows, with the standard error of
