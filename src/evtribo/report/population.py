@@ -41,8 +41,8 @@ from evtribo.population.data import PopulationOutlier
 from evtribo.population.journal import subjects_view
 from evtribo.population.stats import MIN_SUBJECTS
 from evtribo.report.headline import Headline
+from evtribo.report.lead.population_methods import methods_paragraph
 from evtribo.report.page import Report
-from evtribo.report.population_methods import methods_paragraph
 from evtribo.util.numbers import frequency, quantity, significant, to_float, voltage, with_interval
 
 __all__ = ["INCREASE_CAPTION", "INCREASE_TITLE", "SECTION", "SUBJECTS_CAPTION", "SUBJECTS_TITLE",
