@@ -3,6 +3,7 @@ page of docs/ is in the navigation, and each entry of the navigation is a page."
 
 from __future__ import annotations
 
+import inspect
 import re
 from pathlib import Path
 
@@ -68,3 +69,25 @@ def test_the_electrostatic_force_is_defined_one_way_everywhere():
         assert _words(F_EL_DEFINITION) in _words(text), name
     for path in [root / "README.md", *DOCS.glob("*.md")]:
         assert "(F_on \u2212 F_off)/μ" not in path.read_text(encoding="utf-8"), path
+
+
+def test_the_relative_friction_increase_is_defined_one_way_everywhere():
+    """100 F_el/F_n,ON, stated word for word in the docs and the captions of the report's
+    tables that show it (the key results by voltage, the population's and each subject's);
+    the raw ratio of the friction ON to OFF under that name nowhere."""
+    from evtribo.documents.quantities import FRICTION_INCREASE_DEFINITION
+    from evtribo.report.lead import key_results
+    from evtribo.report.population import INCREASE_CAPTION, SUBJECTS_CAPTION
+
+    root = DOCS.parent
+    texts = {name: (root / name).read_text(encoding="utf-8")
+             for name in ("docs/population.md", "docs/analysis.md")}
+    texts |= {"Table 9": INCREASE_CAPTION, "Table 10": SUBJECTS_CAPTION}
+    for name, text in texts.items():
+        assert _words(FRICTION_INCREASE_DEFINITION) in _words(text), name
+    # Table 1's caption
+    assert "{FRICTION_INCREASE_DEFINITION}" in inspect.getsource(key_results._by_voltage)
+    for path in [*DOCS.glob("*.md"), *(root / "src").rglob("*.py")]:
+        text = path.read_text(encoding="utf-8")
+        for raw in ("F_t,OFF", "friction_on_N / friction_off_N", "ON over the friction OFF"):
+            assert raw not in text, (path, raw)

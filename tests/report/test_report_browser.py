@@ -19,6 +19,7 @@ from tests._browser import Browser
 
 from eight_subjects import AMPLITUDES, eight_subject_study
 from evtribo.report.study_report import build_report
+from evtribo.util.numbers import with_interval
 
 WIDTH = 1280
 
@@ -86,23 +87,26 @@ def test_the_key_results_come_first(page, out):
                       ".map(e => e.tagName + ' ' + (e.className || ''))")
     assert first[:3] == ["H2 ", "P lead", "H3 "]
     sentence = page.eval("document.querySelector('p.lead').textContent")
-    assert sentence.startswith("8 subjects, square drive at 10 kHz")
+    assert sentence.startswith("8 subjects, square 10 kHz: the relative friction increase")
     assert "ΔF" not in sentence and " % at 80 V to " in sentence
     # at the top of the page: the sentence and the table by voltage in the first screen
     top = page.eval("document.querySelector('main table').getBoundingClientRect().top")
     assert 0 < top < 500
     heads = _js(page, "Array.from(document.querySelector('main table').querySelectorAll('th'))"
                       ".map(t => t.textContent)")
-    assert heads[0] == "U" and "ΔF_t/F_t,OFF (%), mean [95 %]" in heads
+    assert heads[0] == "U" and "relative friction increase F_el/F_n,ON (%)" in heads
     rows = _js(page, "Array.from(document.querySelector('main table tbody').rows)"
                      ".map(r => r.cells[0].textContent)")
     assert rows == [f"{a:g} V" for a in AMPLITUDES]
-    # its relative increase is the subjects' friction ON over OFF
-    es = pd.read_csv(out / "electrostatic.csv")
-    rel = 100 * (es["friction_on_N"] / es["friction_off_N"] - 1)
-    mean_80 = rel[es["amplitude_V"] == AMPLITUDES[0]].mean()
-    cell = _js(page, "document.querySelector('main table tbody').rows[0].cells[3].textContent")
-    assert float(cell.split("\u00a0")[0]) == pytest.approx(mean_80, abs=0.6)
+    # its relative increase is the population's 100 F_el/F_n,ON, population.csv's cell
+    pop = pd.read_csv(out / "population.csv")
+    at_80 = pop[(pop["quantity"] == "friction_increase_pct") & (pop["analysis"] == "primary")
+                & (pop["amplitude_V"] == AMPLITUDES[0])].iloc[0]
+    column = heads.index("relative friction increase F_el/F_n,ON (%)")
+    cell = _js(page, "document.querySelector('main table tbody').rows[0]"
+                     f".cells[{column}].textContent")
+    assert cell.replace("\u00a0", " ") == with_interval(
+        at_80["estimate"], at_80["ci_low"], at_80["ci_high"])
 
 
 def test_each_kind_of_warning_appears_once_and_the_cells_it_touches_link_to_it(page, out):

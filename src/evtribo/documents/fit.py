@@ -6,7 +6,10 @@ fitted, from its ``summary.json``), ``software``, ``fit`` (the parameters fitted
 (per subject: ``parameters``, ``estimates``, ``correlation``, ``rmse_N``, ``r2``,
 ``chi2_reduced``, ``n_points``, ``mu_measured``, ``interval``), ``figures``, ``notes``,
 ``population`` (``n_subjects``, ``min_subjects``, ``notes``: what could not be estimated and
-why, ``outliers``: each ``{"subject", "quantity", "value", "low", "high", "unit"}``),
+why, ``outliers``: each ``{"subject", "quantity", "value", "low", "high", "unit"}``,
+``checks``: the mixed model's per drive, by its label ``square 10000 Hz``, each ``{"ok",
+"finite", "hessian_pd", "agree", "determined", "text", "waveform", "frequency_Hz"}``; an
+older fit.json's is the text alone),
 ``compare_key`` (what the comparison was made from: the analysis, the options, the software;
 :func:`evtribo.report.kept.compare_key`) and ``output_sha256`` (every file compare wrote,
 which ``evtribo report`` checks). Each figure's record (``kind``, ``title``, ``stem``,
@@ -30,6 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from evtribo.documents.population_table import Checks, Drive
 from evtribo.errors import ResultFolderError
 from evtribo.store.files import atomic_write, read_regular
 
@@ -117,6 +121,27 @@ class FitDocument(Mapping[str, Any]):
         """What compare noted of the population's estimates: ``n_subjects``,
         ``min_subjects``, ``notes`` and ``outliers`` (empty for an older fit)."""
         return dict(self._typed("population", dict, {}))
+
+    def population_checks(self) -> dict[Drive, Checks]:
+        """The mixed model's checks of each drive, as fields (an older fit.json's text read
+        by :meth:`~evtribo.documents.population_table.Checks.of_text`: failed unless it
+        starts ``ok``).
+
+        Returns
+        -------
+        dict of Drive to Checks
+            Empty for a fit without a population.
+        """
+        found = self.population.get("checks")
+        if not isinstance(found, Mapping):
+            return {}
+        out = {}
+        for label, obj in found.items():
+            drive = Drive.from_condition(str(label))
+            if isinstance(obj, Mapping) and "waveform" in obj:
+                drive = Drive.of(obj.get("waveform"), obj.get("frequency_Hz"))
+            out[drive] = Checks.from_json(obj)
+        return out
 
     @property
     def software(self) -> dict[str, Any]:

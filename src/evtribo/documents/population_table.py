@@ -263,6 +263,10 @@ class PopulationRow:
     method : str
     checks : str
         The mixed model's checks in words ("" for other methods).
+    between_subject_sd, between_sd_low, between_sd_high : float
+        The spread between subjects τ and its 95 % interval (NaN where absent).
+    i2, i2_low, i2_high : float
+        Its share I² of the subjects' scatter and its 95 % interval (NaN where absent).
     """
 
     quantity: str
@@ -277,6 +281,12 @@ class PopulationRow:
     n_subjects: int | None = None
     method: str = ""
     checks: str = ""
+    between_subject_sd: float = math.nan
+    between_sd_low: float = math.nan
+    between_sd_high: float = math.nan
+    i2: float = math.nan
+    i2_low: float = math.nan
+    i2_high: float = math.nan
 
     @property
     def key(self) -> tuple[str, Drive | None, float | None, str]:
@@ -291,6 +301,9 @@ def _float(value: Any) -> float:
         return math.nan
 
 
+_SPREAD = ("between_subject_sd", "between_sd_low", "between_sd_high", "i2", "i2_low", "i2_high")
+
+
 def _row(r: Mapping[Any, Any]) -> PopulationRow:
     wave, freq = _text(r.get("waveform")), frequency_key(r.get("frequency_Hz"))
     n = _float(r.get("n_subjects"))
@@ -302,7 +315,8 @@ def _row(r: Mapping[Any, Any]) -> PopulationRow:
         estimate=_float(r.get("estimate")), ci_low=_float(r.get("ci_low")),
         ci_high=_float(r.get("ci_high")), pi_low=_float(r.get("pi_low")),
         pi_high=_float(r.get("pi_high")), n_subjects=int(n) if math.isfinite(n) else None,
-        method=_text(r.get("method")) or "", checks=_text(r.get("checks")) or "")
+        method=_text(r.get("method")) or "", checks=_text(r.get("checks")) or "",
+        **{k: _float(r.get(k)) for k in _SPREAD})
 
 
 class PopulationTable:

@@ -420,10 +420,12 @@ class ResultFolder:
 
     @cached_property
     def population(self) -> PopulationTable | None:
-        """``population.csv``, its rows by key (None when absent)."""
+        """``population.csv``, its rows by key, with fit.json's checks of each drive (None
+        when absent)."""
         frame = self._compare_table(POPULATION)
         return None if frame is None else PopulationTable(
-            frame, path=None if self.out is None else self.out / POPULATION.file)
+            frame, checks=self.fit_doc.population_checks(),
+            path=None if self.out is None else self.out / POPULATION.file)
 
     @cached_property
     def contrasts(self) -> pd.DataFrame | None:

@@ -1,5 +1,5 @@
 """The checks of a fit of the population's mixed model, in words (what population.csv's
-``checks`` column says).
+``checks`` column says) and as fields (:meth:`Convergence.as_checks`, fit.json's).
 
 A fit is *checked*: its deviance is finite, the Hessian of the deviance at the optimum is
 positive-definite (its correlation form's smallest eigenvalue above 1e-8; at a variance's
@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+
+from evtribo.documents.population_table import Checks
 
 __all__ = ["AGREE_SE", "MAX_HALF_WIDTH", "MIN_DF", "OPTIMISERS", "PD_TOLERANCE",
            "Convergence", "OptimiserRun", "checks", "determined", "positive_definite",
@@ -98,6 +100,18 @@ class Convergence:
         if self.ok:
             return f"ok ({len(self.runs)} optimisers agree)"
         return "; ".join(self.problems)
+
+    def as_checks(self) -> Checks:
+        """The checks as fields, with :meth:`summary`'s words (what fit.json records and the
+        report's key results read: the force at an amplitude may hold where the exponent
+        does not).
+
+        Returns
+        -------
+        Checks
+        """
+        return Checks(finite=self.finite, hessian_pd=self.hessian_pd, agree=self.agree,
+                      determined=self.determined, text=self.summary())
 
 
 def positive_definite(m: Array) -> bool:

@@ -15,7 +15,7 @@ study excluded beforehand by a rule written in study.toml (``[population] exclud
   between-subject SD with its interval, I^2 and the convergence checks; a subject far from
   the others is named, with rows of the same estimates without it (``without S03``); where
   valid, the meta-analysis of log F_el at each amplitude (``meta-analysis``);
-- the relative friction increase ``dF_t / F_t,OFF`` per amplitude (:mod:`evtribo.population.
+- the relative friction increase ``100 F_el / F_n,ON`` per amplitude (:mod:`evtribo.population.
   journal`), each subject's in population_subjects.csv with its Holm-adjusted one-sided test
   of ``F_el > 0``;
 - the friction coefficient mu (each subject's from its OFF windows, with the standard error of
@@ -46,6 +46,7 @@ import pandas as pd
 # scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
 from scipy import special
 
+from evtribo.documents.population_table import Drive, PopulationTable
 from evtribo.documents.tables import CONTRASTS, POPULATION, POPULATION_SUBJECTS
 from evtribo.fit.fit import SubjectFit
 from evtribo.fit.tables import ResultTables
@@ -168,8 +169,20 @@ class Population:
                               "unit": o.unit} for o in self.outliers],
                 "excluded": [{"subject": k, "reason": v} for k, v in self.excluded.items()],
                 "exclusion_rule": list(self.rule_notes), "model": self.model,
-                "checks": {condition_label(*c): f.convergence.summary()
-                           for c, f in self.lines.items()}}
+                "checks": {condition_label(*c): {
+                    **f.convergence.as_checks().as_json(), "waveform": c[0],
+                    "frequency_Hz": c[1] if math.isfinite(c[1]) else None}
+                    for c, f in self.lines.items()}}
+
+    def population_table(self) -> PopulationTable:
+        """population.csv's rows by key, with each drive's checks as fields.
+
+        Returns
+        -------
+        PopulationTable
+        """
+        return PopulationTable(self.table, checks={
+            Drive.of(*c): f.convergence.as_checks() for c, f in self.lines.items()})
 
 
 def _sensitivity(rows: Collector, what: str, names: Sequence[str], values: np.ndarray,

@@ -1,10 +1,11 @@
 """What journals ask of each subject and of the population besides the forces: the relative
 friction increase, and whether each subject's F_el is above zero.
 
-The relative friction increase at a voltage is ``dF_t / F_t,OFF = F_el / F_n,ON`` (in %):
-with Coulomb friction, the friction ON over the friction OFF at the same normal force, less
-one (eq. 5 of the seed paper: ``F_t = mu (F_n + F_el)``). Each subject's at each amplitude is
-its cell's F_el over its mean normal force ON, with its interval scaled alike; the
+The relative friction increase at a voltage is ``100 F_el / F_n,ON`` (in %,
+:func:`~evtribo.documents.quantities.friction_increase_pct`): with Coulomb friction, the
+friction the voltage adds at the same normal force (eq. 5 of the seed paper: ``F_t = mu (F_n
++ F_el)``). Each subject's at each amplitude is its cell's F_el over its mean normal force
+ON, with its interval scaled alike; the
 population's is the random-effects mean over subjects on the linear scale (every subject in,
 negative cells too: an arithmetic mean of percentages has no logarithm to lose).
 
@@ -29,6 +30,7 @@ import pandas as pd
 # scipy.stats' distributions' functions are scipy.special's (the same numbers, without its import)
 from scipy import special
 
+from evtribo.documents.quantities import friction_increase_pct
 from evtribo.documents.tables import POPULATION_SUBJECTS
 from evtribo.population.data import PRIMARY, Collector, Condition, SubjectData, condition_label
 from evtribo.population.stats import MIN_SUBJECTS
@@ -111,15 +113,14 @@ def subject_table(subjects: Sequence[SubjectData], conditions: Sequence[Conditio
             tests.append((len(rows), idx.size, z, p))
             for _, c in cells.iterrows():
                 fn = float(c["normal_force_N"])
-                pct = 100.0 / fn if fn > 0 else math.nan
+                force, low, high = (float(c[k]) for k in ("force_N", "ci_low_N", "ci_high_N"))
                 rows.append({"subject": s.name, "waveform": cond[0], "frequency_Hz": cond[1],
                              "amplitude_V": float(c["amplitude_V"]),
-                             "electrostatic_force_N": float(c["force_N"]),
-                             "ci_low_N": float(c["ci_low_N"]),
-                             "ci_high_N": float(c["ci_high_N"]), "normal_force_N": fn,
-                             "friction_increase_pct": pct * float(c["force_N"]),
-                             "increase_ci_low_pct": pct * float(c["ci_low_N"]),
-                             "increase_ci_high_pct": pct * float(c["ci_high_N"])})
+                             "electrostatic_force_N": force, "ci_low_N": low,
+                             "ci_high_N": high, "normal_force_N": fn,
+                             "friction_increase_pct": friction_increase_pct(force, fn),
+                             "increase_ci_low_pct": friction_increase_pct(low, fn),
+                             "increase_ci_high_pct": friction_increase_pct(high, fn)})
     adjusted = holm([t[3] for t in tests]) if tests else np.zeros(0)
     for (first, n, z, p), p_adj in zip(tests, adjusted, strict=True):
         for r in rows[first:first + n]:

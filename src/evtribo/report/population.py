@@ -16,25 +16,37 @@ population.csv, population_contrasts.csv, population_subjects.csv and fit.json's
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
 
-from evtribo import __version__
 from evtribo.documents.fit import FitDocument
+from evtribo.documents.population_table import (
+    EXPONENT,
+    FORCE,
+    META,
+    PREFACTOR,
+    PRIMARY,
+    Drive,
+    PopulationRow,
+    PopulationTable,
+)
+from evtribo.documents.quantities import FRICTION_INCREASE_DEFINITION, FRICTION_INCREASE_HEADING
 from evtribo.documents.result_folder import ResultFolder
-from evtribo.errors import FORCE
+from evtribo.errors import FORCE as FORCE_OPTION
 from evtribo.population.data import PopulationOutlier
 from evtribo.population.journal import subjects_view
 from evtribo.population.stats import MIN_SUBJECTS
 from evtribo.report.headline import Headline
+from evtribo.report.lead.population_methods import methods_paragraph
 from evtribo.report.page import Report
 from evtribo.util.numbers import frequency, quantity, significant, to_float, voltage, with_interval
 
-__all__ = ["SECTION", "add_population", "exponent_verdict", "population_headline",
+__all__ = ["INCREASE_CAPTION", "INCREASE_TITLE", "SECTION", "SUBJECTS_CAPTION", "SUBJECTS_TITLE",
+           "add_population", "exponent_verdict", "population_headline",
            "read_population", "read_subjects"]
 
 #: The section's title.
@@ -44,7 +56,17 @@ _TIMES = "\u00d7/\u00f7"
 #: The seed paper's limits of the exponent (eqs. 13 and 12).
 LIMITS = ((Fraction(2), "the square law of a contact set by the normal force (eq. 13)"),
           (Fraction(10, 3), "the limit of a contact set by the voltage (eq. 12)"))
-_PRIMARY = "primary"
+#: population.csv's quantity of the relative friction increase.
+INCREASE = "friction_increase_pct"
+#: Tables 9 and 10: the population's relative friction increase and each subject's.
+INCREASE_TITLE = FRICTION_INCREASE_HEADING[:1].upper() + FRICTION_INCREASE_HEADING[1:]
+INCREASE_CAPTION = (f"The {FRICTION_INCREASE_DEFINITION}. The population's: the mean over "
+                    "subjects [95 % interval], every subject in (population.csv).")
+SUBJECTS_TITLE = f"Each subject: {FRICTION_INCREASE_HEADING} and F_el > 0"
+SUBJECTS_CAPTION = (f"The {FRICTION_INCREASE_DEFINITION}. Each subject's [95 % interval] at "
+                    "each amplitude (population_subjects.csv), and the one-sided test of "
+                    "F_el > 0 (its forces weighted as U^2) with Holm's correction over the "
+                    "study's subjects and conditions (family-wise 5 %).")
 
 
 def _as_read(frame: pd.DataFrame | None) -> pd.DataFrame | None:
@@ -101,42 +123,41 @@ def read_subjects(folder: Path | ResultFolder) -> pd.DataFrame | None:
     return _as_read(results.population_subjects)
 
 
-def _conditions(table: pd.DataFrame) -> list[tuple[str, float]]:
-    rows = table[table["waveform"].fillna("").astype(str) != ""]
-    pairs = dict.fromkeys(zip(rows["waveform"].astype(str),
-                              rows["frequency_Hz"].astype(float), strict=True))
-    return list(pairs)
+def _drives(table: PopulationTable) -> list[Drive]:
+    """The table's drives as the key results order them: those of more amplitudes first,
+    then by waveform and frequency."""
+    amps = {d: len({r.amplitude_V for r in table if r.drive == d}) for d in table.drives()}
+    return sorted(amps, key=lambda d: -amps[d])
 
 
-def _of(table: pd.DataFrame, quantity_name: str, condition: tuple[str, float] | None,
-        analysis: str = _PRIMARY) -> pd.DataFrame:
-    rows = table[(table["quantity"].astype(str) == quantity_name)
-                 & (table["analysis"].astype(str) == analysis)]
-    if condition is None:
-        return rows
-    f = rows["frequency_Hz"].astype(float)
-    same_f = f.isna() if math.isnan(condition[1]) else (f - condition[1]).abs() < 1e-9
-    return rows[(rows["waveform"].astype(str) == condition[0]) & same_f]
+def _amps(rows: Sequence[PopulationRow]) -> list[float]:
+    return sorted({r.amplitude_V for r in rows if r.amplitude_V is not None})
 
 
-def _by_amplitude(rows: pd.DataFrame, amps: Sequence[float], cell: Any) -> dict[str, str]:
+def _by_amplitude(table: PopulationTable, key: tuple[str, Drive, str], amps: Sequence[float],
+                  cell: Callable[[PopulationRow], str]) -> dict[str, str]:
+    """A drive's cells of *quantity_name* at each amplitude, by key ("—" where none)."""
     out = {}
     for a in amps:
-        hit = rows[(rows["amplitude_V"].astype(float) - a).abs() < 1e-9]
-        out[voltage(a)] = "—" if hit.empty else cell(hit.iloc[0])
+        hit = table.row(key[0], key[1], a, key[2])
+        out[voltage(a)] = "—" if hit is None else cell(hit)
     return out
 
 
-def _amps(rows: pd.DataFrame) -> list[float]:
-    return sorted({float(a) for a in rows["amplitude_V"]})
+def _mN(r: PopulationRow) -> str:
+    return with_interval(1e3 * r.estimate, 1e3 * r.ci_low, 1e3 * r.ci_high)
 
 
-def population_headline(table: pd.DataFrame) -> Headline:
-    """The population's F_el in mN with its 95 % interval: a row per condition.
+def _pct(r: PopulationRow) -> str:
+    return with_interval(r.estimate, r.ci_low, r.ci_high)
+
+
+def population_headline(table: PopulationTable) -> Headline:
+    """The population's F_el in mN with its 95 % interval: a row per drive.
 
     Parameters
     ----------
-    table : DataFrame
+    table : PopulationTable
         ``population.csv`` (its primary rows are shown).
 
     Returns
@@ -145,21 +166,19 @@ def population_headline(table: pd.DataFrame) -> Headline:
         Columns ``Waveform``, ``Frequency``, then one per amplitude (``80 V``), then the
         spread between subjects and the subjects counted.
     """
-    forces = _of(table, "electrostatic_force_N", None)
-    amps = _amps(forces)
+    drives = [d for d in _drives(table) if table.rows(FORCE, d)]
+    amps = _amps([r for d in drives for r in table.rows(FORCE, d)])
     rows = []
-    for cond in _conditions(forces):
-        mine = _of(forces, "electrostatic_force_N", cond)
-        row = {"Waveform": cond[0], "Frequency": frequency(cond[1]),
-               **_by_amplitude(mine, amps, lambda r: with_interval(
-                   1e3 * float(r["estimate"]), 1e3 * float(r["ci_low"]),
-                   1e3 * float(r["ci_high"])))}
-        sd = mine["between_subject_sd"].astype(float)
+    for drive in drives:
+        mine = table.rows(FORCE, drive)
+        row = {"Waveform": drive.waveform or "", "Frequency": frequency(drive.frequency_Hz),
+               **_by_amplitude(table, (FORCE, drive, PRIMARY), amps, _mN)}
+        sd = pd.Series([r.between_subject_sd for r in mine], dtype=float)
         row["spread between subjects"] = (f"{_TIMES} {significant(math.exp(sd.median()))}"
                                           if len(sd) else "—")
-        n = mine["n_subjects"].astype(int)
-        row["subjects"] = (str(n.min()) if n.min() == n.max() else f"{n.min()}-{n.max()}") \
-            if len(n) else "—"
+        n = [r.n_subjects or 0 for r in mine]
+        row["subjects"] = (str(min(n)) if min(n) == max(n) else f"{min(n)}-{max(n)}") \
+            if n else "—"
         rows.append(row)
     return Headline(
         "population", "The population's electrostatic force F_el (mN)",
@@ -197,8 +216,9 @@ def exponent_verdict(estimate: float, low: float, high: float) -> str:
     return f"n = {with_interval(estimate, low, high)}: " + "; ".join(parts)
 
 
-def _value(r: Any, unit: str, low: str = "ci_low", high: str = "ci_high") -> str:
-    est, lo, hi = float(r["estimate"]), float(r[low]), float(r[high])
+def _value(r: PopulationRow, unit: str, *, prediction: bool = False) -> str:
+    est = r.estimate
+    lo, hi = (r.pi_low, r.pi_high) if prediction else (r.ci_low, r.ci_high)
     if not (math.isfinite(lo) and math.isfinite(hi)):
         return "—"
     if unit:
@@ -206,79 +226,76 @@ def _value(r: Any, unit: str, low: str = "ci_low", high: str = "ci_high") -> str
     return with_interval(est, lo, hi)
 
 
-_NAMES = {"electrostatic_force_N": "F_el", "friction_increase_pct": "dF_t/F_t,OFF (%)"}
-_SHOWN = {"exponent": ("exponent n", "", False), "prefactor_N": ("prefactor k at 1 V", "N", True),
+_NAMES = {FORCE: "F_el", INCREASE: FRICTION_INCREASE_HEADING}
+_SHOWN = {EXPONENT: ("exponent n", "", False), PREFACTOR: ("prefactor k at 1 V", "N", True),
           "mu": ("friction coefficient μ", "", False), "h_L_m": ("air gap h_L", "m", True)}
 
 
-def _quantities(table: pd.DataFrame) -> pd.DataFrame:
-    """Exponent, prefactor, μ and h_L: one row each (per condition where it applies), with
+def _condition(drive: Drive | None) -> str:
+    return "all" if drive is None else drive.label()
+
+
+def _quantities(table: PopulationTable) -> pd.DataFrame:
+    """Exponent, prefactor, μ and h_L: one row each (per drive where it applies), with
     the prediction interval for a new subject and the model's checks."""
     rows = []
-    for _, r in table[table["analysis"].astype(str) == _PRIMARY].iterrows():
-        name = str(r["quantity"])
-        if name not in _SHOWN:
-            continue
-        label, unit, log_normal = _SHOWN[name]
-        wave = str(r["waveform"])
-        sd = float(r["between_subject_sd"])
-        rows.append({"quantity": label,
-                     "condition": f"{wave} {frequency(r['frequency_Hz'])}" if wave else "all",
-                     "population [95 %]": _value(r, unit),
-                     "a new subject [95 %]": _value(r, unit, "pi_low", "pi_high"),
-                     "spread between subjects": (f"{_TIMES} {significant(math.exp(sd))}"
-                                                 if log_normal else f"SD {significant(sd)}"),
-                     "subjects": str(int(r["n_subjects"])), "checks": str(r["checks"]) or "—",
-                     "method": str(r["method"])})
+    for drive in [*_drives(table), None]:
+        for name, (label, unit, log_normal) in _SHOWN.items():
+            r = table.row(name, drive)
+            if r is None:
+                continue
+            sd = r.between_subject_sd
+            rows.append({"quantity": label, "condition": _condition(drive),
+                         "population [95 %]": _value(r, unit),
+                         "a new subject [95 %]": _value(r, unit, prediction=True),
+                         "spread between subjects": (f"{_TIMES} {significant(math.exp(sd))}"
+                                                     if log_normal else f"SD {significant(sd)}"),
+                         "subjects": "—" if r.n_subjects is None else str(r.n_subjects),
+                         "checks": r.checks or "—",
+                         "method": r.method})
     return pd.DataFrame(rows, columns=["quantity", "condition", "population [95 %]",
                                        "a new subject [95 %]", "spread between subjects",
                                        "subjects", "checks", "method"])
 
 
-def _per_amplitude(table: pd.DataFrame, quantity_name: str, analysis: str,
-                   cell: Any) -> pd.DataFrame:
-    """A row per condition, a column per amplitude, of *quantity_name*'s rows."""
-    rows = _of(table, quantity_name, None, analysis)
-    amps = _amps(rows)
-    out = [{"condition": f"{c[0]} {frequency(c[1])}",
-            **_by_amplitude(_of(rows, quantity_name, c, analysis), amps, cell)}
-           for c in _conditions(rows)]
+def _per_amplitude(table: PopulationTable, quantity_name: str, analysis: str,
+                   cell: Callable[[PopulationRow], str]) -> pd.DataFrame:
+    """A row per drive, a column per amplitude, of *quantity_name*'s rows."""
+    drives = [d for d in _drives(table) if table.rows(quantity_name, d, analysis)]
+    amps = _amps([r for d in drives for r in table.rows(quantity_name, d, analysis)])
+    out = [{"condition": d.label(),
+            **_by_amplitude(table, (quantity_name, d, analysis), amps, cell)} for d in drives]
     return pd.DataFrame(out, columns=["condition", *(voltage(a) for a in amps)])
 
 
-def _where(r: Any) -> dict[str, str]:
-    """A row's quantity (with its amplitude) and condition, for people."""
-    amp, name = float(r["amplitude_V"]), str(r["quantity"])
-    name = _NAMES.get(name, _SHOWN.get(name, (name,))[0])
-    return {"quantity": name + (f" at {voltage(amp)}" if math.isfinite(amp) else ""),
-            "condition": (f"{r['waveform']} {frequency(r['frequency_Hz'])}"
-                          if str(r["waveform"]) else "all")}
+def _where(r: PopulationRow) -> dict[str, str]:
+    """A row's quantity (with its amplitude) and drive, for people."""
+    name = _NAMES.get(r.quantity, _SHOWN.get(r.quantity, (r.quantity,))[0])
+    return {"quantity": name + ("" if r.amplitude_V is None else f" at {voltage(r.amplitude_V)}"),
+            "condition": _condition(r.drive)}
 
 
-def _spread(table: pd.DataFrame) -> pd.DataFrame:
+def _spread(table: PopulationTable) -> pd.DataFrame:
     """tau and I^2 with their intervals, for every row that has them."""
-    rows = [{**_where(r), "analysis": str(r["analysis"]),
-             "τ [95 %]": with_interval(r["between_subject_sd"], r["between_sd_low"],
-                                       r["between_sd_high"]),
-             "I² (%) [95 %]": with_interval(100 * float(r["i2"]), 100 * float(r["i2_low"]),
-                                            100 * float(r["i2_high"]))}
-            for _, r in table[table["i2"].notna()].iterrows()
-            if str(r["analysis"]) in (_PRIMARY, "meta-analysis")]
+    rows = [{**_where(r), "analysis": r.analysis,
+             "τ [95 %]": with_interval(r.between_subject_sd, r.between_sd_low,
+                                       r.between_sd_high),
+             "I² (%) [95 %]": with_interval(100 * r.i2, 100 * r.i2_low, 100 * r.i2_high)}
+            for r in table if math.isfinite(r.i2) and r.analysis in (PRIMARY, META)]
     return pd.DataFrame(rows, columns=["quantity", "condition", "analysis", "τ [95 %]",
                                        "I² (%) [95 %]"])
 
 
-def _sensitivity(table: pd.DataFrame) -> pd.DataFrame:
+def _sensitivity(table: PopulationTable) -> pd.DataFrame:
     """Every primary estimate beside the same without each subject far from the others."""
-    primary = {tuple(_where(r).values()): r for _, r in
-               table[table["analysis"].astype(str) == _PRIMARY].iterrows()}
     rows = []
-    for _, r in table[table["analysis"].astype(str).str.startswith("without ")].iterrows():
-        name, where = str(r["quantity"]), _where(r)
-        unit = "N" if name == "electrostatic_force_N" else _SHOWN.get(name, ("", ""))[1]
-        same = primary.get(tuple(where.values()))
-        rows.append({**where, "every subject [95 %]": "—" if same is None else
-                     _value(same, unit), "analysis": str(r["analysis"]),
+    for r in table:
+        if not r.analysis.startswith("without "):
+            continue
+        unit = "N" if r.quantity == FORCE else _SHOWN.get(r.quantity, ("", ""))[1]
+        same = table.row(r.quantity, r.drive, r.amplitude_V, PRIMARY)
+        rows.append({**_where(r), "every subject [95 %]": "—" if same is None else
+                     _value(same, unit), "analysis": r.analysis,
                      "sensitivity [95 %]": _value(r, unit)})
     return pd.DataFrame(rows, columns=["quantity", "condition", "every subject [95 %]",
                                        "analysis", "sensitivity [95 %]"])
@@ -323,57 +340,32 @@ def _why_not(notes: Sequence[str], what: str = "") -> str:
     if notes:
         return f"No population estimate{f' of {what}' if what else 's'}: {notes[0]}."
     return ("No population estimates: this comparison was made by an older evtribo compare; "
-            f"run `evtribo compare OUT {FORCE}` for them (they need at least {MIN_SUBJECTS} "
+            f"run `evtribo compare OUT {FORCE_OPTION}` for them (they need at least "
+            f"{MIN_SUBJECTS} "
             "subjects with electrostatic forces).")
 
 
-def _methods_text(table: pd.DataFrame, doc: Mapping[str, Any]) -> str:
-    """A paragraph for a paper's methods section, with this study's numbers."""
-    gone = "".join(f" {e['subject']} was excluded by a rule written in the study's study.toml "
-                   f"before the analysis ({e['reason']})." for e in _excluded(doc))
-    gone += "".join(f" No exclusion rule was read: {n}." for n in doc.get("exclusion_rule")
-                    or [] if isinstance(n, str))
-    mu_text = ("each subject's friction coefficient μ (the ratio of its mean friction force "
-               "to its mean normal force over its OFF windows, with the delta method's "
-               "standard error)")
-    if not (table["quantity"].astype(str) == "electrostatic_force_N").any():
-        n = int(table["n_subjects"].max())
-        return (f"Population estimates were computed with evtribo {__version__} from the "
-                f"per-subject results of {n} subjects: the population's friction "
-                f"coefficient is the random-effects mean of {mu_text}, each weighted by its "
-                "own standard error (Paule-Mandel between-subject variance, "
-                "Hartung-Knapp-Sidik-Jonkman interval; statsmodels). Every subject was in "
-                "the estimate; subjects outside the prediction interval of the others "
-                "(Higgins et al. 2009, Bonferroni-corrected) were reported, with the "
-                "estimate without each." + gone)
-    n = int(doc.get("n_subjects") or table["n_subjects"].max() if len(table) else 0)
-    slopes = table["method"].astype(str).str.contains("intercept and exponent").any()
-    random = "level (log k) and exponent were" if slopes else "level (log k) was"
-    return (f"Population estimates were computed with evtribo {__version__} from the "
-            f"per-subject results of {n} subjects. The power law F_el = k U^n was fitted "
-            "across subjects as a nonlinear mixed-effects model on the linear scale: each "
-            f"subject's {random} normal random effects, each of its forces with its own "
-            "measurement error (from its 95 % bootstrap interval, correlated as its bootstrap "
-            "replicates), so that forces near or below zero count. The random effects were "
-            "integrated by the Laplace approximation and the variances estimated by "
-            "approximate REML; the fit was repeated with three optimisers (L-BFGS-B, "
-            "Nelder-Mead, Powell; the lowest deviance kept, any disagreement reported) and "
-            "checked for a finite log-likelihood and a positive-definite Hessian; intervals "
-            "from Student's t with Satterthwaite's degrees of freedom. The population's F_el "
-            "at each voltage is the model's geometric mean over subjects; prediction "
-            "intervals for a new subject use Student's t with k - 2 degrees of freedom "
-            "(Higgins, Thompson and Spiegelhalter 2009). The relative friction increase "
-            f"dF_t/F_t,OFF = F_el/F_n,ON, {mu_text} and the fitted air gap h_L (on the log "
-            "scale) were pooled by random-effects meta-analysis (Paule-Mandel between-subject "
-            "variance, Hartung-Knapp-Sidik-Jonkman interval, Q-profile interval of tau; "
-            "statsmodels). Each subject's F_el > 0 was tested one-sided, its forces weighted "
-            "as U^2, with Holm's correction over subjects. Every subject was in the primary "
-            "analysis; subjects outside the prediction interval of the others "
-            "(Bonferroni-corrected) were reported, with the estimates without each as a "
-            "sensitivity analysis." + gone)
+def _has_forces(table: PopulationTable) -> bool:
+    return any(r.quantity == FORCE for r in table)
 
 
-def add_population(report: Report, table: pd.DataFrame | None,
+def _exponent_text(report: Report, table: PopulationTable, drive: Drive) -> None:
+    """A drive's exponent against the seed paper's limits, or that its checks failed."""
+    r = table.row(EXPONENT, drive)
+    if r is None:
+        return
+    checks = table.checks(drive) if r.checks else None
+    if checks is not None and not checks.holds(EXPONENT):
+        report.add_text(f"{drive.label()}: the population's exponent is undetermined: the "
+                        f"mixed model's checks failed ({checks.text}); its value in the table "
+                        "below is no evidence for either of the seed paper's limits.",
+                        section=SECTION)
+        return
+    report.add_text(f"{drive.label()}: the population's exponent "
+                    + exponent_verdict(r.estimate, r.ci_low, r.ci_high) + ".", section=SECTION)
+
+
+def add_population(report: Report, table: PopulationTable | None,
                    contrasts: pd.DataFrame | None, fit_doc: FitDocument,
                    figures: Sequence[Mapping[str, Any]], *, friction_only: bool = False
                    ) -> list[Headline]:
@@ -383,8 +375,10 @@ def add_population(report: Report, table: pd.DataFrame | None,
     ----------
     report : Report
         The page.
-    table, contrasts : DataFrame or None
-        ``population.csv`` and ``population_contrasts.csv`` (None when absent).
+    table : PopulationTable or None
+        ``population.csv``, with fit.json's checks of each drive (None when absent).
+    contrasts : DataFrame or None
+        ``population_contrasts.csv`` (None when absent).
     fit_doc : FitDocument
         ``fit.json`` (its ``population``: subjects, notes, outliers, exclusions);
         ``population_subjects.csv`` is read beside it.
@@ -401,12 +395,12 @@ def add_population(report: Report, table: pd.DataFrame | None,
     doc = fit_doc.population
     notes = [n for n in doc.get("notes") or [] if isinstance(n, str)]
     headlines: list[Headline] = []
-    if table is None or not (table["quantity"].astype(str) == "electrostatic_force_N").any():
+    if table is None or not _has_forces(table):
         # fewer than three subjects with F_el: at most mu's row
         notes = notes[1:] if friction_only else notes
-        if not friction_only or table is None or table.empty:
+        if not friction_only or table is None or not len(table):
             report.add_text(_why_not(notes, "μ" if friction_only else ""), section=SECTION)
-        if table is None or table.empty:
+        if table is None or not len(table):
             return []
         notes = [] if friction_only else notes[1:]
     else:
@@ -414,12 +408,9 @@ def add_population(report: Report, table: pd.DataFrame | None,
         report.add_table(headline.table, headline.title, caption=headline.caption,
                          section=SECTION, wrap=True)
         headlines.append(headline)
-    for cond in _conditions(_of(table, "exponent", None)):
-        r = _of(table, "exponent", cond).iloc[0]
-        report.add_text(f"{cond[0]} {frequency(cond[1])}: the population's exponent "
-                        + exponent_verdict(float(r["estimate"]), float(r["ci_low"]),
-                                           float(r["ci_high"])) + ".", section=SECTION)
-    _tables(report, table, contrasts, fit_doc, only_mu=set(table["quantity"]) == {"mu"})
+    for drive in _drives(table):
+        _exponent_text(report, table, drive)
+    _tables(report, table, contrasts, fit_doc, only_mu={r.quantity for r in table} == {"mu"})
     for title, items in (("Far from the other subjects", _outliers(doc)),
                          ("Excluded beforehand", [f"{e['subject']}: {e['reason']}"
                                                   for e in _excluded(doc)]),
@@ -429,7 +420,8 @@ def add_population(report: Report, table: pd.DataFrame | None,
     for f in figures:
         report.add_figure(f["file"], str(f.get("title") or f.get("stem")),
                           caption=str(f.get("caption") or ""), section=SECTION)
-    report.add_text(_methods_text(table, doc), "For a methods section", section=SECTION)
+    report.add_text(methods_paragraph(table, doc, _excluded(doc)), "For a methods section",
+                    section=SECTION)
     return headlines
 
 
@@ -441,7 +433,7 @@ def _subjects_of(fit_doc: FitDocument) -> pd.DataFrame:
     return pd.DataFrame() if subjects is None or subjects.empty else subjects_view(subjects)
 
 
-def _tables(report: Report, table: pd.DataFrame, contrasts: pd.DataFrame | None,
+def _tables(report: Report, table: PopulationTable, contrasts: pd.DataFrame | None,
             fit_doc: FitDocument, *, only_mu: bool) -> None:
     """The section's tables after the headline."""
     report.add_table(_quantities(table), "The population's friction coefficient μ" if only_mu
@@ -456,15 +448,8 @@ def _tables(report: Report, table: pd.DataFrame, contrasts: pd.DataFrame | None,
                      "Hessian, the optimisers' agreement, a determined exponent).",
                      section=SECTION, wrap=True)
     views = [
-        (_per_amplitude(table, "friction_increase_pct", _PRIMARY, lambda r: with_interval(
-            r["estimate"], r["ci_low"], r["ci_high"])),
-         "Relative friction increase dF_t/F_t,OFF (%)",
-         "The population's mean over subjects of F_el / F_n,ON in % [95 % interval]: the "
-         "friction ON over the friction OFF at the same normal force, less one."),
-        (_subjects_of(fit_doc), "Each subject: relative friction increase (%) and F_el > 0",
-         "Each subject's F_el / F_n,ON in % [95 % interval] at each amplitude, and the "
-         "one-sided test of F_el > 0 (its forces weighted as U^2) with Holm's correction "
-         "over the study's subjects and conditions (family-wise 5 %)."),
+        (_per_amplitude(table, INCREASE, PRIMARY, _pct), INCREASE_TITLE, INCREASE_CAPTION),
+        (_subjects_of(fit_doc), SUBJECTS_TITLE, SUBJECTS_CAPTION),
         (_spread(table), "Spread between subjects: τ and I²",
          "τ: the between-subject SD (of log F_el for forces) [95 % interval: Satterthwaite's "
          "for the mixed model, Q-profile for the meta-analyses]; I²: its share of the "
@@ -472,10 +457,7 @@ def _tables(report: Report, table: pd.DataFrame, contrasts: pd.DataFrame | None,
         (_sensitivity(table), "Sensitivity: without each subject far from the others",
          "Each estimate with every subject (as above) and without the subject named far "
          "from the others."),
-        (_per_amplitude(table, "electrostatic_force_N", "meta-analysis",
-                        lambda r: with_interval(1e3 * float(r["estimate"]),
-                                                1e3 * float(r["ci_low"]),
-                                                1e3 * float(r["ci_high"]))),
+        (_per_amplitude(table, FORCE, META, _mN),
          "A second method: meta-analysis of log F_el (mN)",
          "At the amplitudes where every subject's force has an interval above zero and "
          "a standard error of its log of at most 0.2: a random-effects meta-analysis of log "

@@ -275,14 +275,14 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
     groups = group([*input_warnings, *_warnings(tables)])
     cells = study_cells(tables.electrostatic.to_dict("records"))
     models = tables.models
-    population, contrasts = read_population(tables)
+    population, contrasts = tables.population, read_population(tables)[1]
     if tables.electrostatic.empty:  # a study of OFF trials: its friction, no fit
         headlines = add_friction(report, tables.windows, fit_doc.notes)
         add_warnings(report, groups, keys, cells)
         headlines += add_population(report, population, contrasts, fit_doc,
                                     sections.placed(figures, "population"), friction_only=True)
     else:
-        key = key_results(tables, fit, population, models, groups)
+        key = key_results(tables, fit, models, groups)
         add_key_results(report, key)
         add_warnings(report, groups, keys, cells)
         headlines = sections.add_headline(report, tables, fit, fit_doc, key.marks)

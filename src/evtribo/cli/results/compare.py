@@ -181,16 +181,24 @@ def _say_progress() -> Any:
 
 
 def _print_population(result: Any) -> None:
-    """The population's exponent per condition and μ (every subject in), its checks, the
-    subjects far from the others or excluded, or why there is none."""
+    """The population's exponent per drive (undetermined where the mixed model's checks
+    failed: the key results' claims) and μ (every subject in), the subjects far from the
+    others or excluded, or why there is none."""
+    from evtribo.report.lead.claims import exponent_claims
+
     pop = result.population
     if pop is None:
         return
     primary = pop.primary
-    for _, r in primary[primary["quantity"] == "exponent"].iterrows():
-        print(f"population ({r['waveform']} {r['frequency_Hz']:g} Hz, {r['n_subjects']} "
-              f"subjects): exponent n = {r['estimate']:.3g} [{r['ci_low']:.3g}, "
-              f"{r['ci_high']:.3g}]; checks: {r['checks']}")
+    for c in exponent_claims(pop.population_table()):
+        assert c.row is not None and c.drive is not None  # a power law's row, checked
+        where = f"population ({c.drive.label()}, {c.row.n_subjects} subjects)"
+        if c.state == "quoted":
+            value = c.text.replace("\u00a0", " ")
+            print(f"{where}: exponent n = {value}; checks: {c.row.checks}")
+        else:
+            print(f"{where}: exponent n undetermined: the mixed model's checks failed "
+                  f"({c.text})")
     for _, r in primary[primary["quantity"] == "mu"].iterrows():
         print(f"population ({r['n_subjects']} subjects): μ = {r['estimate']:.3g} "
               f"[{r['ci_low']:.3g}, {r['ci_high']:.3g}]")
