@@ -36,11 +36,14 @@ def _replace(path: Path, kind: str) -> None:
 
 
 def _results(tmp: Path) -> None:
-    """A result folder's files, as stand-ins (the command stops at the one replaced)."""
+    """A result folder's files, as stand-ins: each table its columns' header, so that the
+    command, whichever table it reads first, stops at the one replaced."""
+    from evtribo.documents.tables import ELECTROSTATIC, EXPONENTS, TRIALS, WINDOWS
+
     out = tmp / "out"
     out.mkdir()
-    for name in ("trials.csv", "windows.csv", "electrostatic.csv", "exponents.csv"):
-        (out / name).write_text("subject,trial\nP01,run-01\n")
+    for schema in (TRIALS, WINDOWS, ELECTROSTATIC, EXPONENTS):
+        (out / schema.file).write_text(",".join(schema.names()) + "\n")
     (out / "summary.json").write_text("{}")
 
 

@@ -24,7 +24,7 @@ from matplotlib.figure import Figure
 from evtribo.api.results import Results
 from evtribo.documents.fit import FitDocument
 from evtribo.documents.result_folder import ResultFolder
-from evtribo.documents.tables import FIT, FIT_CSV, MODELS, WINDOWS
+from evtribo.documents.tables import CONTRASTS, FIT, FIT_CSV, MODELS, POPULATION, WINDOWS
 from evtribo.errors import FORCE, UserInputError
 from evtribo.figures.registry import PlannedFigure
 from evtribo.figures.style import journal_style
@@ -321,7 +321,8 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
                        if isinstance(ax.figure, Figure)},
               records=[r for r, _ in figures], fits=done.fits, fitted=setup.names,
               params_file=None if params is None else Path(params),
-              population=pop.table, population_contrasts=pop.contrasts,
+              population=POPULATION.typed(pop.table),
+              population_contrasts=CONTRASTS.typed(pop.contrasts),
               population_notes=[*pop.notes, *(o.describe() for o in pop.outliers)],
               models=_models(done.models_table), notes=done.notes, _results=results,
               _asked={"models": models, "trial_checks": trial_checks})
