@@ -408,7 +408,6 @@ def add_population(report: Report, table: pd.DataFrame | None,
             report.add_text(_why_not(notes, "μ" if friction_only else ""), section=SECTION)
         if table is None or table.empty:
             return []
-        notes = [] if friction_only else notes[1:]
     else:
         headline = population_headline(table)
         report.add_table(headline.table, headline.title, caption=headline.caption,
@@ -422,8 +421,7 @@ def add_population(report: Report, table: pd.DataFrame | None,
     _tables(report, table, contrasts, fit_doc, only_mu=set(table["quantity"]) == {"mu"})
     for title, items in (("Far from the other subjects", _outliers(doc)),
                          ("Excluded beforehand", [f"{e['subject']}: {e['reason']}"
-                                                  for e in _excluded(doc)]),
-                         ("Not estimated", notes)):
+                                                  for e in _excluded(doc)])):
         if items:
             report.add_list(items, title, section=SECTION)
     for f in figures:
