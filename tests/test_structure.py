@@ -391,8 +391,10 @@ def test_only_documents_read_a_result_folders_files():
 
 #: Where the analysis's warnings are said: each as a record of the catalogue (``emit``).
 WARNING_SITES = ("study.py", "canlog", "analysis", "results", "session/check.py", "fit",
+                 "population", "figures", "report/compare.py", "report/sections.py",
+                 "report/population.py", "report/friction_report.py", "api/fit.py",
                  "report/study_report.py", "report/study_files.py", "report/drawing.py",
-                 "report/lead", "cli/results/_warnings.py")
+                 "report/lead", "cli/results/_warnings.py", "cli/results/compare.py")
 #: The ``log.warning`` calls left in them, each with why it is no result's warning.
 OPERATIONAL_WARNINGS = {
     "canlog/decode_table.py": "evtribo decode's console: a log's decoder warnings, once for "
@@ -402,15 +404,17 @@ OPERATIONAL_WARNINGS = {
     "report/study_report.py": "the report running compare for a folder without a fit",
     "report/study_files.py": "what the report could not read of the study folder (its rig, "
                              "the sidecars' notes) for its own page",
+    "figures/registry/catalogue.py": "a lab's figure plug-in refused (an unknown section, a "
+                                     "kind registered twice): about the installation, no "
+                                     "result",
 }
-#: Modules whose ``notes`` are compare's notes in fit.json (sentences for the report's
-#: reader, not the analysis's warnings), each with what they hold.
-COMPARE_NOTES = {
-    "fit/fit.py": "the fits' intervals: how each was obtained",
-    "fit/model_comparison.py": "the candidate models' ranking and those not fitted",
+#: Modules among those sites whose notes are no result's warnings, each with why.
+NOT_RESULTS = {
+    "population/plan.py": "evtribo plan's notes on a simulated design (how its expected "
+                          "intervals were computed), about no result",
 }
 #: The callables whose first argument is a warning kind's id.
-_SAYS = {"emit", "Note", "_kept"}
+_SAYS = {"emit", "Note", "_kept", "record"}
 
 
 def _kind_ids(node: ast.expr) -> list[str]:
@@ -427,7 +431,14 @@ def _warning_site_files() -> list[Path]:
     for part in WARNING_SITES:
         path = SRC / part
         out += sorted(path.rglob("*.py")) if path.is_dir() else [path]
-    return out
+    return [p for p in out if p.relative_to(SRC).as_posix() not in NOT_RESULTS]
+
+
+def _said_list(node: ast.expr) -> bool:
+    """Whether an expression is a list of warnings or notes (``notes``, ``rows.notes``)."""
+    name = node.id if isinstance(node, ast.Name) else \
+        node.attr if isinstance(node, ast.Attribute) else ""
+    return name in ("warnings", "notes", "said")
 
 
 def _text(node: ast.expr) -> bool:
@@ -465,13 +476,11 @@ def test_every_warning_is_a_record_of_a_kind_the_catalogue_holds():
                 if name == "warning" and isinstance(func, ast.Attribute) \
                         and rel not in OPERATIONAL_WARNINGS:
                     logged.append(f"{rel}:{node.lineno}")
-                if name in ("append", "extend") and isinstance(func, ast.Attribute) \
-                        and isinstance(func.value, ast.Name) \
-                        and func.value.id in ("warnings", "notes") and rel not in COMPARE_NOTES \
-                        and node.args and _text(node.args[0]):
+                if name in ("append", "extend", "insert") and isinstance(func, ast.Attribute) \
+                        and _said_list(func.value) and node.args \
+                        and any(_text(a) for a in node.args):
                     appended.append(f"{rel}:{node.lineno}")
-            if isinstance(node, ast.AugAssign) and isinstance(node.target, ast.Name) \
-                    and node.target.id in ("warnings", "notes") and rel not in COMPARE_NOTES \
+            if isinstance(node, ast.AugAssign) and _said_list(node.target) \
                     and _text(node.value):
                 appended.append(f"{rel}:{node.lineno}")
     assert not unknown, f"ids no kind of the catalogue has: {unknown}"

@@ -148,11 +148,13 @@ def test_the_api_draws_what_compare_draws(analysed, tmp_path):
     assert list(fit.models["model"]) == list(on_disk["model"])
     assert fit.models["aic"].to_numpy() == pytest.approx(on_disk["aic"].to_numpy(),
                                                          nan_ok=True)
-    assert any(n.startswith("Models over the study") for n in fit.notes)
-    assert fit.notes == written["notes"]
+    assert any(n.kind == "models-ranked" for n in fit.notes)
+    said = [(n.kind, n.effect, n.text) for n in fit.notes]
+    assert said == [(w["kind"], w["effect"], w["text"]) for w in written["warnings"]]
+    assert [n.text for n in fit.notes] == written["notes"]
     loaded = evtribo.load_results(out).fit  # the same tables, read from the folder
     pd.testing.assert_frame_equal(loaded.models, fit.models)
-    assert loaded.notes == fit.notes
+    assert [(n.kind, n.effect, n.text) for n in loaded.notes] == said
 
 
 def test_a_figure_registered_from_a_test_module(analysed, tmp_path, fresh):

@@ -54,9 +54,10 @@ def test_the_air_gap_is_a_length_or_absent(amps, seed, rel):
         assert fit.interval_method == "profile"
         assert e.ci_low < math.inf and e.ci_high == math.inf  # ci_low 0: none excluded
         assert "do not differ from zero" in fit.interval_note
-        assert any(n.startswith("S: h_L is not determined by these data: its forces do not "
-                                "differ from zero")
-                   for n in interval_notes([fit], has_bootstrap=True))
+        [said] = interval_notes([fit], has_bootstrap=True)
+        assert said.kind == "intervals-profile" and said.scope.subject == "S"
+        assert said.text.startswith("S: h_L is not determined by these data: its forces do "
+                                    "not differ from zero")
     else:
         assert 0.0 <= e.value <= 0.1 and e.ci_low <= e.value <= e.ci_high
 

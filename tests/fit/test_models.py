@@ -64,7 +64,10 @@ def test_compare_models_writes_the_table_and_a_figure_per_subject(tmp_path):
     for stem in stems:
         assert (out / "figures" / f"{stem}.png").is_file()
     assert "models.csv" in doc["output_sha256"]
-    assert any("AICc" in n for n in result.notes)  # 40 points for 3 parameters: AICc
+    [ranked] = [n for n in result.notes if n.kind == "models-ranked"]
+    assert "AICc" in ranked.text  # 40 points for 3 parameters: AICc
+    assert ranked.effect == "information"
+    assert [w["kind"] for w in doc["warnings"]] == [n.kind for n in result.notes]
 
 
 def test_fit_json_is_strict_json_with_an_infinite_resistance(tmp_path):
@@ -170,14 +173,16 @@ def test_one_frequency_draws_no_frequency_figure_and_a_leak_at_its_bound_is_said
     result = compare(out, models="paper,circuit", formats=("png",), dpi=40,
                      trial_checks=False)
     assert not [f for f in result.figures if f.kind == "frequency_response"]
-    assert any("at a single frequency" in n for n in result.notes)
-    assert any(n.startswith("Models over the study") for n in result.notes)
+    kinds = [n.kind for n in result.notes]
+    assert "models-one-frequency" in kinds and "models-ranked" in kinds
+    assert any("at a single frequency" in n.text for n in result.notes)
     table = pd.read_csv(out / "models.csv", keep_default_na=False)
     bounded = table[table["at_bound"] != ""]
     assert set(bounded["at_bound"]) <= {"r_g"}
     if len(bounded):
-        [said] = [n for n in result.notes if n.startswith("Model circuit: r_g at its bound")]
-        assert all(str(s) in said for s in bounded["subject"])
+        [said] = [n for n in result.notes if n.kind == "model-at-bound"]
+        assert said.text.startswith("Model circuit: r_g at its bound")
+        assert all(str(s) in said.value("subjects") for s in bounded["subject"])
 
 
 def test_the_study_ranking_sums_each_model_over_the_subjects_with_every_model():

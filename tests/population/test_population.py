@@ -83,8 +83,9 @@ def test_fewer_than_three_subjects_no_rows_and_why():
     pop = population(_only(tables, ["S01", "S02"]))
     assert pop.table.empty and pop.contrasts.empty
     assert pop.files() == {}
-    assert pop.notes[0].startswith("2 subject(s) with electrostatic forces: a population "
-                                   "estimate needs at least 3")
+    assert pop.notes[0].kind == "population-too-few" and pop.notes[0].effect == "number"
+    assert pop.notes[0].text.startswith("2 subject(s) with electrostatic forces: a "
+                                        "population estimate needs at least 3")
 
 
 def test_missing_amplitudes_still_contribute():
@@ -116,8 +117,10 @@ def test_a_force_below_zero_counts_in_the_mixed_model():
     pop = population(tables)
     assert _rows(pop, "electrostatic_force_N").iloc[0]["n_subjects"] == 5
     assert 60.0 not in set(_rows(pop, "electrostatic_force_N", "meta-analysis")["amplitude_V"])
-    assert any(n.startswith("S04, square 10000 Hz, 60 V: F_el not positive (no logarithm): "
-                            "counted in the mixed model") for n in pop.notes)
+    [said] = [n for n in pop.notes if n.kind == "population-cell-not-positive"]
+    assert said.scope.subject == "S04" and said.scope.amplitude_V == 60.0
+    assert said.text.startswith("S04, square 10000 Hz, 60 V: F_el not positive (no "
+                                "logarithm): counted in the mixed model")
     row = pop.subjects[(pop.subjects["subject"] == "S04")
                        & (pop.subjects["amplitude_V"] == 60.0)].iloc[0]
     assert row["friction_increase_pct"] < 0
@@ -153,9 +156,10 @@ def test_a_subject_excluded_beforehand_is_out_and_named():
     np.testing.assert_allclose(_rows(pop, "exponent")["estimate"],
                                _rows(rest, "exponent")["estimate"], rtol=1e-6)
     assert pop.excluded == {"S02": "load cell recalibrated during the session"}
-    assert pop.notes[0] == ("S02: excluded from the population's estimates by the study's "
-                            "rule written beforehand (study.toml [population]): load cell "
-                            "recalibrated during the session")
+    assert pop.notes[0].kind == "population-excluded" and pop.notes[0].scope.subject == "S02"
+    assert pop.notes[0].text == ("S02: excluded from the population's estimates by the "
+                                 "study's rule written beforehand (study.toml [population]): "
+                                 "load cell recalibrated during the session")
     assert "S02" not in set(pop.subjects["subject"])
     assert pop.as_json()["excluded"] == [{"subject": "S02", "reason": "load cell "
                                           "recalibrated during the session"}]
@@ -241,7 +245,8 @@ def test_one_amplitude_only_gives_forces_and_says_why_no_power_law():
     assert list(forces["amplitude_V"]) == [100.0] and forces.iloc[0]["n_subjects"] == 5
     assert _rows(pop, "exponent").empty and _rows(pop, "prefactor_N").empty
     assert ("square 10000 Hz: one amplitude only, no power law; the force there from the "
-            "meta-analysis of log F_el where it is valid") in pop.notes
+            "meta-analysis of log F_el where it is valid") in [n.text for n in pop.notes]
+    assert "population-one-amplitude" in [n.kind for n in pop.notes]
 
 
 def test_contrast_between_two_drive_frequencies():
@@ -281,8 +286,8 @@ def test_a_study_of_off_trials_gets_the_population_s_mu():
     assert mu["n_subjects"] == 5 and mu["ci_low"] < truth.mu < mu["ci_high"]
     assert pop.table.equals(_rows(population(tables), "mu").reset_index(drop=True))
     assert set(pop.files()) == {"population.csv", "population_contrasts.csv"}
-    assert pop.notes[0].startswith("0 subject(s) with electrostatic forces")
+    assert pop.notes[0].text.startswith("0 subject(s) with electrostatic forces")
     two = population(_only(off, ["S01", "S02"]))
     assert two.table.empty and two.files() == {}
     assert "friction coefficient mu: 2 subject(s) to pool; a population estimate needs at " \
-        "least 3" in two.notes
+        "least 3" in [n.text for n in two.notes]

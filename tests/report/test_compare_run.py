@@ -54,9 +54,14 @@ def test_compare_writes_fit_and_figures(compared_out):
     for subject in TRUE_H_L:
         assert doc["subjects"][subject]["interval"] == {"method": "bootstrap",
                                                         "replicates": 200, "note": ""}
-    # a synthetic result folder has no study: no trial checks, and a note saying so
-    assert len(doc["notes"]) == 2 and "electrostatic_bootstrap.csv" in doc["notes"][0]
-    assert "no check figures of the trials" in doc["notes"][1]
+    # a synthetic result folder has no study: no trial checks, and a warning saying so
+    kinds = [w["kind"] for w in doc["warnings"]]
+    assert kinds[0] == "intervals-bootstrap" and kinds[-1] == "checks-study-gone"
+    assert "electrostatic_bootstrap.csv" in doc["warnings"][0]["text"]
+    assert "no check figures of the trials" in doc["warnings"][-1]["text"]
+    assert "population-rule-unread" in kinds  # nor the study's [population] rule
+    assert doc["notes"] == [w["text"] for w in doc["warnings"]]  # for older readers
+    assert doc["fit_version"] == 2
     captions = {f["stem"]: f["caption"] for f in doc["figures"]}
     assert captions["friction_time"].startswith("Measured sine trial of P01")
 
@@ -85,9 +90,10 @@ def test_refuses_to_overwrite(compared_out):
 def test_without_sine_trace_no_friction_time_figure(out_dir):
     (out_dir / "sine_trace.csv").unlink()
     result = compare(out_dir, dpi=30, formats=("png",))
-    assert any("sine_trace.csv" in n for n in result.notes)
+    [said] = [n for n in result.notes if n.kind == "sine-trace-none"]
+    assert "sine_trace.csv" in said.text
     doc = json.loads((out_dir / "fit.json").read_text())
-    assert any("sine_trace.csv" in n for n in doc["notes"])
+    assert said.as_json() in doc["warnings"]
     assert "friction_time" not in {f["kind"] for f in doc["figures"]}
     assert not (out_dir / "figures" / "friction_time.png").exists()
     ax = plot_friction_time(None, TABLE_1)  # the model alone, when asked for: no text over it
@@ -97,7 +103,8 @@ def test_without_sine_trace_no_friction_time_figure(out_dir):
     assert {e.name for e in again.fits[0].estimates} == {"h_L", "mu"}
     # mu is fitted with the windows, which have no replicates: the Jacobian, said so
     assert all(f.interval_method == "jacobian" for f in again.fits)
-    assert any("mu is fitted with the windows" in n for n in again.notes)
+    assert any("mu is fitted with the windows" in n.text for n in again.notes
+               if n.kind == "intervals-jacobian")
 
 
 def test_without_bootstrap_file_falls_back_to_the_jacobian(tmp_path):
@@ -108,7 +115,8 @@ def test_without_bootstrap_file_falls_back_to_the_jacobian(tmp_path):
         assert doc["subjects"][subject]["interval"]["method"] == "jacobian"
         est = doc["subjects"][subject]["estimates"]["h_L"]
         assert est["ci_low"] <= truth <= est["ci_high"]
-    assert any("No electrostatic_bootstrap.csv" in n for n in result.notes)
+    assert [n.kind for n in result.notes if n.kind.startswith(("bootstrap", "intervals"))] \
+        == ["bootstrap-missing"]
 
 
 def _pixel_variance(path) -> float:

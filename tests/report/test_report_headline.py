@@ -370,16 +370,22 @@ def test_no_number_over_long_and_intervals_with_one_precision(page):
     assert DECIMAL.findall("RMSE 0.0000000000000555 mN") == [("0", "0000000000000555")]
 
 
-def test_fit_notes_are_under_the_fit_and_settings_as_given(page, out):
+def test_the_comparison_s_warnings_are_among_the_warnings_and_settings_as_given(page, out):
+    """fit.json's warnings are said with the analysis's, each kind once (counted in
+    fit.json), none apart under the fit."""
     path, outline = page
     html = path.read_text(encoding="utf-8")
     sections = {part.split("</h2>", 1)[0].split(">")[-1]: part for part in html.split("<h2")}
-    notes = json.loads((out / "fit.json").read_text(encoding="utf-8"))["notes"]
-    assert notes
+    said = json.loads((out / "fit.json").read_text(encoding="utf-8"))["warnings"]
+    assert said
     from markupsafe import escape
-    for note in notes:
-        assert str(escape(note)) not in sections["Warnings"], note
-        assert str(escape(note)) in sections["Model fit"], note
+
+    from evtribo.warning.catalogue import KINDS
+    for kind in {w["kind"] for w in said}:
+        title = str(escape(KINDS[kind].title))
+        assert sections["Warnings"].count(f"{title}</b>") == 1, kind
+        assert title not in sections["Model fit"], kind
+    assert sections["Warnings"].count("in fit.json)") == len({w["kind"] for w in said})
     settings = next(t for t in outline.tables if t["title"] == "Analysis settings")
     values = dict(settings["rows"])
     assert values["guard_s"] == "0.15" and values["confidence"] == "0.95"

@@ -39,6 +39,7 @@ from evtribo.report.compare import CompareSetup, run_comparison
 from evtribo.report.compare import compare as compare_folder
 from evtribo.report.population import read_population
 from evtribo.results.outputs import FIGURES
+from evtribo.warning.record import WarningRecord
 
 __all__ = ["FIT_TEXT_COLUMNS", "Fit", "compare"]
 
@@ -80,14 +81,19 @@ class Fit:
         columns).
     population_contrasts : pandas.DataFrame
         ``population_contrasts.csv``: ratios and differences between conditions.
-    population_notes : list of str
-        What could not be estimated and why, and the subjects left out as outliers.
+    population_notes : list of WarningRecord
+        What could not be estimated and why, then each subject far from the others
+        (``population-outlier``): records (:class:`~evtribo.warning.record.WarningRecord`:
+        ``kind``, ``effect``, ``text``...).
     models : pandas.DataFrame or None
         ``models.csv``: each candidate model fitted to each subject and ranked (None: no
         models compared).
-    notes : list of str
-        What the comparison noted (fit.json's notes: how the intervals were obtained, the
-        models' ranking, figures left out and why).
+    notes : list of WarningRecord
+        What the comparison said, in the order said (fit.json's ``warnings``: the fits'
+        parameters not determined, how the intervals were obtained, the population's
+        notes, the models' ranking, figures left out and why), each a record
+        (:class:`~evtribo.warning.record.WarningRecord`: ``kind``, ``effect``, ``text``,
+        the subject or trial it concerns).
     """
 
     table: pd.DataFrame
@@ -102,9 +108,9 @@ class Fit:
         default_factory=lambda: pd.DataFrame(columns=list(POPULATION_COLUMNS)))
     population_contrasts: pd.DataFrame = field(
         default_factory=lambda: pd.DataFrame(columns=list(CONTRAST_COLUMNS)))
-    population_notes: list[str] = field(default_factory=list)
+    population_notes: list[WarningRecord] = field(default_factory=list)
     models: pd.DataFrame | None = None
-    notes: list[str] = field(default_factory=list)
+    notes: list[WarningRecord] = field(default_factory=list)
     _results: Results | None = field(default=None, repr=False)
     _asked: dict[str, Any] = field(default_factory=dict, repr=False)
 
@@ -150,8 +156,8 @@ class Fit:
                    else Path(pfile["path"]), out=folder, files=_files(folder, doc.figures),
                    population=_or_empty(pop, POPULATION_COLUMNS),
                    population_contrasts=_or_empty(contrasts, CONTRAST_COLUMNS),
-                   population_notes=_population_notes(doc.population),
-                   models=source.models, notes=doc.notes, _results=results)
+                   population_notes=_population_notes(doc),
+                   models=source.models, notes=doc.warnings, _results=results)
 
     def __repr__(self) -> str:
         where = "in memory" if self.out is None else f"in {str(self.out)!r}"
@@ -200,16 +206,18 @@ def _or_empty(frame: pd.DataFrame | None, columns: tuple[str, ...]) -> pd.DataFr
     return pd.DataFrame(columns=list(columns)) if frame is None else frame
 
 
-def _population_notes(doc: dict[str, Any]) -> list[str]:
-    """fit.json's population notes, then one line per outlier."""
-    notes = [str(n) for n in doc.get("notes") or []]
-    for o in doc.get("outliers") or []:
+def _population_notes(doc: FitDocument) -> list[WarningRecord]:
+    """fit.json's population's warnings, then one per outlier."""
+    pop = doc.population
+    texts = {str(n) for n in pop.get("notes") or []}
+    notes = [w for w in doc.warnings if w.text in texts]
+    for o in pop.get("outliers") or []:
         if isinstance(o, dict):
             notes.append(PopulationOutlier(str(o.get("subject")), str(o.get("quantity")),
                                            float(o.get("value") or math.nan),
                                            float(o.get("low") or math.nan),
                                            float(o.get("high") or math.nan),
-                                           str(o.get("unit") or "")).describe())
+                                           str(o.get("unit") or "")).record())
     return notes
 
 
@@ -323,7 +331,7 @@ def compare(results: Results, fit: str | Iterable[str] | None = ("h_L",), *,
               params_file=None if params is None else Path(params),
               population=POPULATION.typed(pop.table),
               population_contrasts=CONTRASTS.typed(pop.contrasts),
-              population_notes=[*pop.notes, *(o.describe() for o in pop.outliers)],
+              population_notes=[*pop.notes, *(o.record() for o in pop.outliers)],
               models=_models(done.models_table), notes=done.notes, _results=results,
               _asked={"models": models, "trial_checks": trial_checks})
     results.fit = out

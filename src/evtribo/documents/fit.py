@@ -1,12 +1,17 @@
 """``fit.json``: what one ``evtribo compare`` fitted and wrote.
 
 Keys (in the order ``compare`` writes them, :data:`FIT_KEYS`): ``run_id`` (the analysis
-fitted, from its ``summary.json``), ``software``, ``fit`` (the parameters fitted per subject),
+fitted, from its ``summary.json``), ``software``, ``fit_version`` (:data:`FIT_VERSION`,
+the document's shape), ``fit`` (the parameters fitted per subject),
 ``parameters_file`` (``{"path", "sha256"}`` or null), ``fixed_parameters``, ``subjects``
 (per subject: ``parameters``, ``estimates``, ``correlation``, ``rmse_N``, ``r2``,
-``chi2_reduced``, ``n_points``, ``mu_measured``, ``interval``), ``figures``, ``notes``,
-``population`` (``n_subjects``, ``min_subjects``, ``notes``: what could not be estimated and
-why, ``outliers``: each ``{"subject", "quantity", "value", "low", "high", "unit"}``,
+``chi2_reduced``, ``n_points``, ``mu_measured``, ``interval``), ``figures``, ``notes`` (the
+texts of the warnings, for readers of version 1), ``warnings`` (what the comparison said,
+in the order said, each a record as summary.json keeps the analysis's: ``kind``,
+``effect``, ``text``, ``subject``, ``trial``... :meth:`WarningRecord.as_json
+<evtribo.warning.record.WarningRecord.as_json>`), ``population`` (``n_subjects``,
+``min_subjects``, ``notes``: the texts of what could not be estimated and why,
+``outliers``: each ``{"subject", "quantity", "value", "low", "high", "unit"}``,
 ``checks``: the mixed model's per drive, by its label ``square 10000 Hz``, each ``{"ok",
 "finite", "hessian_pd", "agree", "determined", "text", "waveform", "frequency_Hz"}``; an
 older fit.json's is the text alone),
@@ -19,8 +24,8 @@ registry's, :mod:`evtribo.figures.registry`, so that a report made where the kin
 registered places it) and names the key and resolution its files were drawn from (``key``,
 ``dpi``). The document
 is JSON with two-space indentation and a final newline; non-finite numbers are written as
-null. It carries no version key of its own: :data:`FIT_VERSION` is the version of the shape
-this module writes and reads.
+null. A document without ``fit_version`` is of version 1 (no ``warnings``): its notes are
+lifted into records when read (:func:`evtribo.warning.legacy_compare.lift_notes`).
 """
 
 from __future__ import annotations
@@ -36,17 +41,20 @@ from typing import Any
 from evtribo.documents.population_table import Checks, Drive
 from evtribo.errors import ResultFolderError
 from evtribo.store.files import atomic_write, read_regular
+from evtribo.warning.legacy_compare import lift_notes
+from evtribo.warning.record import WarningRecord
 
 __all__ = ["FIT_JSON", "FIT_KEYS", "FIT_VERSION", "FitDocument", "fit_text", "read_fit",
            "write_fit"]
 
 #: The file's name in a result folder.
 FIT_JSON = "fit.json"
-#: Version of the shape of the document (not written into it).
-FIT_VERSION = 1
+#: Version of the shape of the document, its ``fit_version`` (none: 1, notes as lines of
+#: text only; 2: the warnings as records too).
+FIT_VERSION = 2
 #: The keys ``evtribo compare`` writes, in its order.
-FIT_KEYS: tuple[str, ...] = ("run_id", "software", "fit", "parameters_file",
-                             "fixed_parameters", "subjects", "figures", "notes",
+FIT_KEYS: tuple[str, ...] = ("run_id", "software", "fit_version", "fit", "parameters_file",
+                             "fixed_parameters", "subjects", "figures", "notes", "warnings",
                              "population", "compare_key", "output_sha256")
 
 
@@ -112,9 +120,40 @@ class FitDocument(Mapping[str, Any]):
         return [dict(f) for f in self._typed("figures", list, []) if isinstance(f, dict)]
 
     @property
+    def version(self) -> int:
+        """The shape's version (``fit_version``; 1 where the document has none)."""
+        return int(self._typed("fit_version", int, 1))
+
+    @property
     def notes(self) -> list[str]:
-        """What the comparison noted (how the intervals were obtained, a missing trace)."""
+        """The texts of what the comparison said (how the intervals were obtained, a missing
+        trace): :attr:`warnings`' texts."""
         return [str(n) for n in self._typed("notes", list, [])]
+
+    @property
+    def warnings(self) -> list[WarningRecord]:
+        """What the comparison said, as records, in the order said (an earlier document's
+        notes, its population's and its exclusion rule's lifted:
+        :func:`~evtribo.warning.legacy_compare.lift_notes`).
+
+        Raises
+        ------
+        ResultFolderError
+            An item that is not a record (naming it).
+        """
+        items = self.data.get("warnings")
+        if items is None:
+            pop = self.population
+            return lift_notes([*self.notes, *(pop.get("exclusion_rule") or []),
+                               *(pop.get("notes") or [])])
+        out = []
+        for k, w in enumerate(self._typed("warnings", list, [])):
+            try:
+                out.append(WarningRecord.from_json(w))
+            except ValueError as err:
+                raise ResultFolderError(f"key 'warnings', item {k + 1}: {err} (fit.json "
+                                        "edited?)", path=self.path) from None
+        return out
 
     @property
     def population(self) -> dict[str, Any]:

@@ -17,11 +17,7 @@ import pandas as pd
 
 from evtribo.analysis.friction.estimate import friction_coefficient
 
-__all__ = ["NOTE", "subject_mu", "trial_mu"]
-
-#: What compare says of such results (fit.json's notes, the console).
-NOTE = ("No electrostatic force in these results (no subject has ON windows to compare with "
-        "its OFF ones): no model fit; each subject's friction coefficient μ is in the report.")
+__all__ = ["subject_mu", "trial_mu"]
 
 
 def _off(windows: pd.DataFrame) -> pd.DataFrame:

@@ -28,6 +28,8 @@ from evtribo.figures.trial_plots import trial_stem
 from evtribo.fit.tables import ResultTables
 from evtribo.results.sketch import TrialSketch
 from evtribo.store.pool import Mapper
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import Scope, WarningRecord
 
 # the analysis (results.check) and the rig's DBC (evtribo.study) are imported where a trial's
 # check needs them: compare starts without them, and a large study's may need none
@@ -36,6 +38,7 @@ __all__ = ["AUTO_ALL", "CHECK_DPI", "WHICH", "CheckFigure", "chosen_trials", "pa
            "sketch_again", "trial_checks"]
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 #: Most resolution of the trial checks' PNGs (and of their rasterised traces in SVG and
 #: PDF), dots per inch: figures to look at on a screen, 1033 pixels wide at 175 mm.
@@ -100,7 +103,7 @@ def parse_which(which: bool | str | None) -> str:
 
 
 def chosen_trials(tables: ResultTables, which: str, *, flagged: Iterable[str]
-                  ) -> tuple[list[tuple[str, str]], list[str]]:
+                  ) -> tuple[list[tuple[str, str]], list[WarningRecord]]:
     """The trials (of ``trials.csv``, in its order) whose checks to draw, and a note on
     those left out.
 
@@ -117,8 +120,9 @@ def chosen_trials(tables: ResultTables, which: str, *, flagged: Iterable[str]
 
     Returns
     -------
-    (list of (str, str), list of str)
-        ``(subject, trial)`` of each check to draw; the notes.
+    (list of (str, str), list of WarningRecord)
+        ``(subject, trial)`` of each check to draw; what compare says of those left out
+        (made, not said).
     """
     rows = tables.trials
     if which == "none" or rows.empty:
@@ -129,12 +133,8 @@ def chosen_trials(tables: ResultTables, which: str, *, flagged: Iterable[str]
     keys = [f"{s}/{t}" for s, t in trials]
     warned = set(flagged) | {str(f.get("trial")) for f in tables.summary.failed_trials}
     chosen = [st for st, k in zip(trials, keys, strict=True) if k in warned]
-    note = (f"Each trial's check: drawn for the {len(chosen)} of {len(trials)} trials with a "
-            "warning that may change a number or widens an interval, or that could not be "
-            f"analysed (a study of more than {AUTO_ALL} "
-            "trials); `evtribo compare OUT --force --trial-checks all` draws every trial's "
-            "(from what the analysis kept of each, no trial analysed again; the figures "
-            "drawn before are reused), `evtribo plot trial STUDY SUBJECT TRIAL` one.")
+    note = emit.record("checks-chosen", chosen=len(chosen), trials=len(trials),
+                       auto_all=AUTO_ALL)
     return chosen, [note]
 
 
@@ -166,7 +166,7 @@ def sketch_again(job: tuple[str, str, str, Mapping[str, Any], str | None]) -> by
 def trial_checks(tables: ResultTables, which: str = "auto", *,
                  cache_dir: str | os.PathLike[str] | None = None,
                  mapper: Mapper | None = None, flagged: Iterable[str]
-                 ) -> tuple[list[CheckFigure], list[str]]:
+                 ) -> tuple[list[CheckFigure], list[WarningRecord]]:
     """The check of each trial chosen (:func:`chosen_trials`), ready to draw.
 
     Parameters
@@ -186,9 +186,10 @@ def trial_checks(tables: ResultTables, which: str = "auto", *,
 
     Returns
     -------
-    (list of CheckFigure, list of str)
-        The checks in ``trials.csv``'s order; notes for the user (the study is gone, a
-        trial the analysis analysed could not be checked, the trials left out).
+    (list of CheckFigure, list of WarningRecord)
+        The checks in ``trials.csv``'s order; what compare says of them, made and not said
+        (the study is gone, a trial the analysis analysed could not be checked, the trials
+        left out).
     """
     chosen, notes = chosen_trials(tables, which, flagged=flagged)
     if not chosen:
@@ -199,12 +200,12 @@ def trial_checks(tables: ResultTables, which: str = "auto", *,
 
     study_dir = tables.summary.study_dir
     if not study_dir or not Path(study_dir).is_dir():
-        return [], [*notes, f"The study folder {study_dir or '(not recorded)'} is not there: "
-                            "no check figures of the trials (run compare where the study is)."]
+        return [], [*notes, emit.record("checks-study-gone",
+                                        study_dir=study_dir or "(not recorded)")]
     try:
         study = load_study(study_dir)
     except UserInputError as err:  # the study changed since the analysis
-        return [], [*notes, f"No check figures of the trials: {err}"]
+        return [], [*notes, emit.record("checks-study-unreadable", error=str(err))]
     kept = kept_sketches(study, tables.summary, cache_dir)
     failed = {str(f.get("trial")): str(f.get("error")) for f in tables.summary.failed_trials}
     again = [(s, t) for s, t in chosen if f"{s}/{t}" not in kept and f"{s}/{t}" not in failed]
@@ -219,7 +220,8 @@ def trial_checks(tables: ResultTables, which: str = "auto", *,
                 kept[f"{s}/{t}"] = TrialSketch.from_bytes(got)
             else:
                 failed[f"{s}/{t}"] = got
-                notes.append(f"Trial {s}/{t}: not analysed, so nothing to check: {got}")
+                notes.append(emit.record("check-not-analysed", Scope(s, t), subject=s,
+                                         trial=t, error=got))
     out = []
     for s, t in chosen:
         sketch = kept.get(f"{s}/{t}")

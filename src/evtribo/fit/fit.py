@@ -77,7 +77,7 @@ from evtribo.fit.tables import MIN_REPLICATES, ResultTables, replicate_matrix
 from evtribo.model.params import TABLE_1, ModelParameters
 from evtribo.store.pool import Mapper
 from evtribo.warning.collect import collected, emitter, replay
-from evtribo.warning.record import WarningRecord
+from evtribo.warning.record import Scope, WarningRecord
 
 log = logging.getLogger(__name__)
 emit = emitter(__name__)
@@ -365,11 +365,10 @@ def fit_study(tables: ResultTables, base: ModelParameters = TABLE_1,
             reps = replicate_matrix(rows, boot[boot["subject"].astype(str) == str(subject)],
                                     max_replicates=N_REFITS)
             if reps is None:
-                emit("replicates-missing", subject=subject)
+                emit("replicates-missing", Scope(str(subject)), subject=subject)
         jobs.append((subject, rows, base, tuple(fit), win, reps))
     if mapper is None or scheduler is not None or len(jobs) < 2:
-        return [_said(fit_subject(s, rows, b, names, win, replicates=reps,
-                                  scheduler=scheduler)) for s, rows, b, names, win, reps in jobs]
+        return [_fit_here(job, scheduler) for job in jobs]
     fits = []
     for done, said in mapper(_fit_logged, jobs):
         replay(said)  # what each fit said, here, in the subjects' order
@@ -387,6 +386,20 @@ def _said(fit: SubjectFit) -> SubjectFit:
     return fit
 
 
+def _fit_here(job: tuple[Any, ...], scheduler: Any) -> SubjectFit:
+    """One subject's fit here, what it said said of the subject (before its error, if it
+    raises)."""
+    subject, rows, base, names, win, reps = job
+    try:
+        fit, said = collected(fit_subject, subject, rows, base, names, win, replicates=reps,
+                              scheduler=scheduler, scope=Scope(str(subject)))
+    except Exception as err:
+        replay(err.__dict__.pop("records", []))
+        raise
+    replay(said)
+    return _said(fit)
+
+
 def _fit_logged(job: tuple[Any, ...]
                 ) -> tuple[SubjectFit | Exception, list[WarningRecord]]:
     """One subject's fit (a worker's job), or the error that stopped it, and the warnings
@@ -394,15 +407,17 @@ def _fit_logged(job: tuple[Any, ...]
     error."""
     subject, rows, base, names, win, reps = job
     try:
-        return collected(fit_subject, subject, rows, base, names, win, replicates=reps)
+        return collected(fit_subject, subject, rows, base, names, win, replicates=reps,
+                         scope=Scope(str(subject)))
     except Exception as err:  # returned: the subjects fitted before it are said first
         where = "".join(traceback.format_tb(err.__traceback__))
         err.add_note(f"(raised in the fit of subject {subject}, at:\n{where})")
         return err, err.__dict__.pop("records", [])
 
 
-def interval_notes(fits: list[SubjectFit], *, has_bootstrap: bool) -> list[str]:
-    """What fit.json's notes say about how the intervals were obtained.
+def interval_notes(fits: list[SubjectFit], *, has_bootstrap: bool) -> list[WarningRecord]:
+    """What compare says of how the intervals were obtained (made, not said: compare says
+    them in its order).
 
     Parameters
     ----------
@@ -413,28 +428,22 @@ def interval_notes(fits: list[SubjectFit], *, has_bootstrap: bool) -> list[str]:
 
     Returns
     -------
-    list of str
+    list of WarningRecord
+        Of kinds ``intervals-bootstrap``, ``bootstrap-missing``, ``intervals-jacobian`` and
+        ``intervals-profile``.
     """
     jac = [f for f in fits if f.interval_method == "jacobian"]
     boot = [f for f in fits if f.interval_method == "bootstrap"]
     notes = []
     if boot:
-        notes.append(f"Intervals of {', '.join(f.subject for f in boot)}: 2.5-97.5 % "
-                     "percentiles of the parameters refitted to the bootstrap replicates of "
-                     f"the electrostatic forces ({boot[0].n_replicates} replicates, "
-                     "electrostatic_bootstrap.csv), which carry the errors the points share "
-                     "through a common OFF reference.")
+        notes.append(emit.record("intervals-bootstrap", subjects=", ".join(
+            f.subject for f in boot), replicates=boot[0].n_replicates))
     if jac and not has_bootstrap:
-        notes.append("No electrostatic_bootstrap.csv in the result folder (results of an "
-                     "older evtribo analyze?): intervals from the Jacobian, with each "
-                     "point's error taken as independent; they are too narrow when several "
-                     "amplitudes share an OFF reference. Re-run evtribo analyze to get the "
-                     "replicates.")
+        notes.append(emit.record("bootstrap-missing"))
     elif jac:
-        for f in jac:
-            why = f.interval_note or "no replicates for some of its points"
-            notes.append(f"Intervals of {f.subject} from the Jacobian (each point's error "
-                         f"taken as independent): {why}.")
-    notes += [f"{f.subject}: {f.interval_note}." for f in fits
-              if f.interval_method == "profile"]
+        notes += [emit.record("intervals-jacobian", Scope(f.subject), subject=f.subject,
+                              why=f.interval_note or "no replicates for some of its points")
+                  for f in jac]
+    notes += [emit.record("intervals-profile", Scope(f.subject), why=f.interval_note)
+              for f in fits if f.interval_method == "profile"]
     return notes

@@ -20,12 +20,16 @@ import pandas as pd
 from evtribo.fit.models import ModelFit, fit_models, models_table, study_ranking, verdict
 from evtribo.fit.tables import ResultTables
 from evtribo.model.params import ModelParameters
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import Scope, WarningRecord
 
 __all__ = ["MIN_FREQUENCIES", "ModelComparison", "compare_models", "frequencies_of",
            "models_text"]
 
 #: Fewer drive frequencies than this: no figure of F_el against the frequency.
 MIN_FREQUENCIES = 2
+
+emit = emitter(__name__)
 
 
 @dataclass(frozen=True)
@@ -36,14 +40,15 @@ class ModelComparison:
     ----------
     table : DataFrame
         ``models.csv`` (:data:`~evtribo.fit.models.MODELS_COLUMNS`).
-    notes : list of str
-        What compare notes of the comparison (fit.json's notes).
+    notes : list of WarningRecord
+        What compare says of the comparison (made, not said: compare says them in its
+        order; fit.json's warnings).
     fits : list of ModelFit
         Each candidate fitted to each subject (:func:`~evtribo.fit.models.fit_models`).
     """
 
     table: pd.DataFrame
-    notes: list[str]
+    notes: list[WarningRecord]
     fits: list[ModelFit]
 
 
@@ -71,26 +76,23 @@ def compare_models(tables: ResultTables, models: Sequence[str],
     notes = []
     said = verdict(study_ranking(table))
     if said:
-        notes.append(f"Models over the study ({models_text(crit)}; each model's criterion "
-                     f"summed over the subjects): {said}.")
+        notes.append(emit.record("models-ranked", criterion=models_text(crit), verdict=said))
     for subject in tables.subjects:
-        notes += [f"Model {f.model} of {subject} could not be fitted: {f.note}"
+        notes += [emit.record("model-not-fitted", Scope(str(subject)), model=f.model,
+                              subject=str(subject), why=f.note)
                   for f in fits if f.subject == str(subject) and f.params is None]
     bound: dict[tuple[str, str], list[str]] = {}
     for f in fits:
         for name in f.at_bound:
             bound.setdefault((f.model, name), []).append(f.subject)
-    notes += [f"Model {model}: {name} at its bound for {', '.join(subjects)} (the data do "
-              "not set it; models.csv's fitted holds the bound, not an estimate)."
+    notes += [emit.record("model-at-bound", model=model, parameter=name,
+                          subjects=", ".join(subjects))
               for (model, name), subjects in bound.items()]
     elec = tables.electrostatic
     few = [str(s) for s in tables.subjects if frequencies_of(
         elec[elec["subject"].astype(str) == str(s)]) < MIN_FREQUENCIES]
     if few:
-        notes.append(f"{len(few)} subject(s) with each drive at a single frequency: no "
-                     "figure of F_el against the frequency for them, and the models are told "
-                     "apart by the voltage alone (the circuit's leak needs a drive at two "
-                     "frequencies or more).")
+        notes.append(emit.record("models-one-frequency", subjects=len(few)))
     return ModelComparison(table, notes, fits)
 
 

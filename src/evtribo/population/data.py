@@ -36,10 +36,14 @@ from evtribo.population.stats import (
     pool,
 )
 from evtribo.util.numbers import quantity
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import Scope, WarningRecord
 
 __all__ = ["CONTRAST_COLUMNS", "LINEAR_COLUMNS", "META", "POPULATION_COLUMNS", "PRIMARY",
            "Collector", "Condition", "ModelRow", "PopulationOutlier", "SubjectData",
-           "condition_label", "conditions_of", "exp_or_nan", "subject_data"]
+           "condition_label", "conditions_of", "drive_scope", "exp_or_nan", "subject_data"]
+
+emit = emitter(__name__)
 
 #: Columns of population.csv and population_contrasts.csv (study format §10;
 #: :mod:`evtribo.documents.tables`).
@@ -115,12 +119,24 @@ class PopulationOutlier:
 
     def describe(self) -> str:
         """One sentence for people: ``S03: F_el at 60 V, square 10000 Hz, 263 mN, outside
-        the other subjects' prediction interval [12.8 mN, 97.3 mN]``."""
+        the other subjects' prediction interval [12.8 mN, 97.3 mN]`` (:meth:`record`'s
+        text)."""
+        return self.record().text
+
+    def record(self) -> WarningRecord:
+        """The warning (``population-outlier``) saying it, made and not said.
+
+        Returns
+        -------
+        WarningRecord
+        """
         def q(x: float) -> str:
             return quantity(x, self.unit)
 
-        return (f"{self.subject}: {self.quantity}, {q(self.value)}, outside the other "
-                f"subjects' prediction interval [{q(self.low)}, {q(self.high)}]")
+        return emit.record("population-outlier", Scope(self.subject),
+                           quantity=self.quantity, value_text=q(self.value),
+                           low_text=q(self.low), high_text=q(self.high), value=self.value,
+                           low=self.low, high=self.high, unit=self.unit)
 
 
 #: Columns of a subject's linear cells.
@@ -245,7 +261,29 @@ def _covariance(corr: NDArray[np.float64], se: NDArray[np.float64],
     return cov
 
 
-def subject_data(tables: ResultTables, subject: str, notes: list[str], *,
+def _cell_record(kind_id: str, subject: str, r: pd.Series) -> WarningRecord:
+    """A warning about one of a subject's cells (made, not said)."""
+    wave, freq, amp = str(r["waveform"]), float(r["frequency_Hz"]), float(r["amplitude_V"])
+    return emit.record(kind_id, Scope(subject, None, wave, freq, amp), subject=subject,
+                       drive=condition_label(wave, freq), amplitude_V=amp)
+
+
+def drive_scope(condition: Condition) -> Scope:
+    """The scope of a warning about a drive of the population (no subject's).
+
+    Parameters
+    ----------
+    condition : (str, float)
+        The waveform and drive frequency, Hz.
+
+    Returns
+    -------
+    Scope
+    """
+    return Scope(None, None, condition[0] or None, condition[1])
+
+
+def subject_data(tables: ResultTables, subject: str, notes: list[WarningRecord], *,
                  bootstrap: pd.DataFrame | None = None) -> SubjectData | None:
     """A subject's usable cells and their covariance (correlation from its replicates).
 
@@ -255,9 +293,9 @@ def subject_data(tables: ResultTables, subject: str, notes: list[str], *,
         The result folder's tables (electrostatic.csv, and its replicates when present).
     subject : str
         Whose cells.
-    notes : list of str
+    notes : list of WarningRecord
         Where a cell left out (no interval; no logarithm, for the log-scale estimates) is
-        named.
+        named (made, not said).
     bootstrap : DataFrame, optional
         The subject's rows of the bootstrap table (default: picked from *tables*).
 
@@ -279,14 +317,9 @@ def subject_data(tables: ResultTables, subject: str, notes: list[str], *,
     se = _log_se(f, lo, hi)
     logged = usable & (f > 0) & np.isfinite(se) & (se > 0)
     for _, r in rows[~usable].iterrows():
-        notes.append(f"{subject}, {condition_label(str(r['waveform']), float(r['frequency_Hz']))}"
-                     f", {float(r['amplitude_V']):g} V: F_el without an interval: left out of "
-                     "the population estimates")
+        notes.append(_cell_record("population-cell-no-interval", subject, r))
     for _, r in rows[usable & ~logged].iterrows():
-        notes.append(f"{subject}, {condition_label(str(r['waveform']), float(r['frequency_Hz']))}"
-                     f", {float(r['amplitude_V']):g} V: F_el not positive (no logarithm): "
-                     "counted in the mixed model on the linear scale, left out of the "
-                     "meta-analysis of log F_el and of the contrasts")
+        notes.append(_cell_record("population-cell-not-positive", subject, r))
     if not usable.any():
         return None
     boot = tables.bootstrap
@@ -394,7 +427,8 @@ class Collector:
     def __init__(self) -> None:
         self.rows: list[dict[str, Any]] = []
         self.contrasts: list[dict[str, Any]] = []
-        self.notes: list[str] = []
+        #: What the population's estimates say (made, not said: compare says them).
+        self.notes: list[WarningRecord] = []
         self.outliers: list[PopulationOutlier] = []
         self.lines: dict[Condition, NonlinearFit] = {}
         self.subject_lines: dict[Condition, dict[str, tuple[float, float]]] = {}
@@ -417,8 +451,8 @@ class Collector:
         (and a note) with fewer than three. *unit*: the values are logs of a quantity in
         that unit."""
         if len(subjects) < MIN_SUBJECTS:
-            self.notes.append(f"{what}: {len(subjects)} subject(s) to pool; a population "
-                              f"estimate needs at least {MIN_SUBJECTS}")
+            self.notes.append(emit.record("population-pool-few", what=what,
+                                          subjects=len(subjects), needed=MIN_SUBJECTS))
             return None
         far: list[str] = []
         if check:

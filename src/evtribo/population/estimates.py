@@ -67,8 +67,11 @@ from evtribo.population.models import DEFAULT_MODEL, MODELS
 from evtribo.population.nonlinear_fit import NonlinearFit
 from evtribo.population.power_law import condition_estimates
 from evtribo.population.stats import MIN_SUBJECTS, OUTLIER_ALPHA, POOL_METHOD, Pooled
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import Scope, WarningRecord
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["CONTRAST_COLUMNS", "POPULATION_COLUMNS", "SUBJECT_COLUMNS", "Condition",
            "Population", "PopulationOutlier", "condition_label", "population"]
@@ -90,8 +93,9 @@ class Population:
         population_contrasts.csv (:data:`CONTRAST_COLUMNS`).
     n_subjects : int
         Subjects with electrostatic forces (those excluded beforehand not counted).
-    notes : list of str
-        What could not be estimated and why; cells left out; failed checks.
+    notes : list of WarningRecord
+        What could not be estimated and why; cells left out; failed checks (made, not
+        said: compare says them, fit.json keeps them).
     outliers : list of PopulationOutlier
         The subjects named as far from the others (in every primary row all the same).
     lines : dict
@@ -106,7 +110,7 @@ class Population:
         population_subjects.csv (:data:`~evtribo.population.journal.SUBJECT_COLUMNS`).
     excluded : dict
         The subjects the study excluded beforehand, with the reason its rule gives.
-    rule_notes : list of str
+    rule_notes : list of WarningRecord
         What was said of that rule (its study.toml not read).
     model : str
         The population model of the primary rows (study.toml's ``[population] model``).
@@ -115,7 +119,7 @@ class Population:
     table: pd.DataFrame
     contrasts: pd.DataFrame
     n_subjects: int
-    notes: list[str] = field(default_factory=list)
+    notes: list[WarningRecord] = field(default_factory=list)
     outliers: list[PopulationOutlier] = field(default_factory=list)
     lines: dict[Condition, NonlinearFit] = field(default_factory=dict)
     subject_lines: dict[Condition, dict[str, tuple[float, float]]] = field(
@@ -124,7 +128,7 @@ class Population:
     subjects: pd.DataFrame = field(
         default_factory=lambda: pd.DataFrame(columns=list(SUBJECT_COLUMNS)))
     excluded: dict[str, str] = field(default_factory=dict)
-    rule_notes: list[str] = field(default_factory=list)
+    rule_notes: list[WarningRecord] = field(default_factory=list)
     model: str = DEFAULT_MODEL
 
     @property
@@ -155,20 +159,21 @@ class Population:
         return out
 
     def as_json(self) -> dict[str, Any]:
-        """What fit.json records of it: subjects, notes, the subjects far from the others,
-        those excluded beforehand and the model of the primary rows.
+        """What fit.json records of it: subjects, notes (their texts: fit.json's
+        ``warnings`` holds them as records), the subjects far from the others, those
+        excluded beforehand and the model of the primary rows.
 
         Returns
         -------
         dict
         """
         return {"n_subjects": self.n_subjects, "min_subjects": MIN_SUBJECTS,
-                "notes": list(self.notes),
+                "notes": [n.text for n in self.notes],
                 "outliers": [{"subject": o.subject, "quantity": o.quantity,
                               "value": o.value, "low": o.low, "high": o.high,
                               "unit": o.unit} for o in self.outliers],
                 "excluded": [{"subject": k, "reason": v} for k, v in self.excluded.items()],
-                "exclusion_rule": list(self.rule_notes), "model": self.model,
+                "exclusion_rule": [n.text for n in self.rule_notes], "model": self.model,
                 "checks": {condition_label(*c): {
                     **f.convergence.as_checks().as_json(), "waveform": c[0],
                     "frequency_Hz": c[1] if math.isfinite(c[1]) else None}
@@ -245,8 +250,8 @@ def _air_gap(rows: Collector, fits: Sequence[SubjectFit], excluded: Mapping[str,
             y.append(math.log(e.value))
             v.append(((math.log(e.ci_high) - math.log(e.ci_low)) / (2 * _Z95)) ** 2)
         else:
-            rows.notes.append(f"{f.subject}: its fitted air gap h_L is not determined by its "
-                              "data (no finite interval): left out of the population's")
+            rows.notes.append(emit.record("population-air-gap-undetermined",
+                                          Scope(f.subject)))
     method = f"{POOL_METHOD}, of log h_L"
 
     def add(p: Pooled, analysis: str) -> None:
@@ -262,7 +267,8 @@ def _air_gap(rows: Collector, fits: Sequence[SubjectFit], excluded: Mapping[str,
 
 def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
                exclude: Mapping[str, str] | None = None,
-               rule_notes: Sequence[str] = (), model: str = DEFAULT_MODEL) -> Population:
+               rule_notes: Sequence[WarningRecord] = (), model: str = DEFAULT_MODEL
+               ) -> Population:
     """The population's estimates of a study (study format §10).
 
     Parameters
@@ -274,7 +280,7 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
     exclude : mapping of str to str, optional
         Subjects the study excluded beforehand, with the reason (study.toml's
         ``[population] exclude``): left out of every estimate, and named.
-    rule_notes : sequence of str
+    rule_notes : sequence of WarningRecord
         What was said of that rule (study.toml not read), for fit.json and the methods.
     model : str
         The model of each condition's primary rows (study.toml's ``[population] model``: a
@@ -299,8 +305,7 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
     rows = Collector()
     excluded = dict(exclude or {})
     for name, reason in excluded.items():
-        rows.notes.append(f"{name}: excluded from the population's estimates by the study's "
-                          f"rule written beforehand (study.toml [population]): {reason}")
+        rows.notes.append(emit.record("population-excluded", Scope(name), reason=reason))
     boot = tables.bootstrap
     by_subject = {} if boot is None else {
         str(k): g for k, g in boot.groupby(boot["subject"].astype(str))}
@@ -310,10 +315,8 @@ def population(tables: ResultTables, fits: Sequence[SubjectFit] = (), *,
         for name in tables.subjects if str(name) not in excluded) if s is not None]
     everyone = [s for s in tables.all_subjects if str(s) not in excluded]
     if len(subjects) < MIN_SUBJECTS:
-        rows.notes.insert(len(excluded),
-                          f"{len(subjects)} subject(s) with electrostatic forces: a "
-                          f"population estimate needs at least {MIN_SUBJECTS}, so none "
-                          "was made of F_el, its power law or h_L")
+        rows.notes.insert(len(excluded), emit.record(
+            "population-too-few", subjects=len(subjects), needed=MIN_SUBJECTS))
         _mu(rows, tables, everyone)  # mu needs OFF windows only
         return Population(_frame(rows.rows, POPULATION_COLUMNS),
                           _frame([], CONTRAST_COLUMNS), len(subjects),

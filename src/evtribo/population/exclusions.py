@@ -37,8 +37,11 @@ from evtribo.fit.tables import ResultTables
 from evtribo.population.models import DEFAULT_MODEL, MODELS
 from evtribo.store.files import sha256_file
 from evtribo.study import STUDY_FILE, read_study_toml
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import WarningRecord
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["POPULATION_KEYS", "PopulationRule", "parse_exclusions", "parse_population",
            "population_rule"]
@@ -129,14 +132,15 @@ class PopulationRule:
     ----------
     exclude : dict of str to str
         The subjects excluded beforehand, with the reason, in the order given.
-    notes : list of str
-        What was said of the rule (its study.toml not read).
+    notes : list of WarningRecord
+        What was said of the rule (its study.toml not read): made, not said (compare
+        says them with the population's).
     model : str
         The population model of the primary rows (``mixed`` when it names none).
     """
 
     exclude: dict[str, str] = field(default_factory=dict)
-    notes: list[str] = field(default_factory=list)
+    notes: list[WarningRecord] = field(default_factory=list)
     model: str = DEFAULT_MODEL
 
 
@@ -195,10 +199,8 @@ def population_rule(tables: ResultTables) -> PopulationRule:
     study_dir = tables.summary.study_dir
     path = Path(study_dir) / STUDY_FILE if study_dir else None
     if path is None or not path.is_file():
-        return PopulationRule(notes=[
-            f"the study folder {study_dir or '(not recorded)'} was not there: its "
-            "study.toml's [population] rule was not read, and every subject is in the "
-            "population's estimates"])
+        return PopulationRule(notes=[emit.record("population-rule-unread",
+                                                 study_dir=study_dir or "(not recorded)")])
     config = read_study_toml(path)
     if "population" not in config:
         return PopulationRule()

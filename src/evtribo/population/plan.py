@@ -51,6 +51,7 @@ from evtribo.population.contrasts import contrast
 from evtribo.population.data import Collector, subject_data
 from evtribo.population.nonlinear import nonlinear_data
 from evtribo.population.nonlinear_fit import fit_nonlinear
+from evtribo.warning.record import WarningRecord
 
 log = logging.getLogger(__name__)
 
@@ -374,7 +375,7 @@ def _one_study(rng: np.random.Generator, k: int, expected: Expected, pilot: Pilo
 
 def _contrast_found(tables: ResultTables) -> bool | None:
     """Whether the interval of the ratio B/A excludes 1 (None: no contrast estimated)."""
-    notes: list[str] = []
+    notes: list[WarningRecord] = []  # simulated cells left out: nobody to tell
     subjects = [s for s in (subject_data(tables, n, notes) for n in tables.subjects) if s]
     rows = Collector()
     contrast(rows, subjects, ("square", 10_000.0), ("square", 100.0))

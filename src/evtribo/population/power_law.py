@@ -26,7 +26,8 @@ Rows of population.csv, by ``analysis``:
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
+from typing import Any
 
 from evtribo.population.data import (
     META,
@@ -35,6 +36,7 @@ from evtribo.population.data import (
     Condition,
     SubjectData,
     condition_label,
+    drive_scope,
 )
 from evtribo.population.models import (
     DEFAULT_MODEL,
@@ -46,8 +48,11 @@ from evtribo.population.models import (
 )
 from evtribo.population.nonlinear import NonlinearData, nonlinear_data
 from evtribo.population.stats import MIN_SUBJECTS
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import WarningRecord
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["condition_estimates"]
 
@@ -65,6 +70,23 @@ def _data(subjects: Sequence[SubjectData], condition: Condition) -> NonlinearDat
 def _add(rows: Collector, cells: DriveCells, fit: ModelFit, analysis: str) -> None:
     for row in fit.rows:
         rows.add_row(cells.condition, row, analysis=analysis)
+
+
+def _records(said: Iterable[Any], cells: DriveCells, model: PopulationModel
+             ) -> list[WarningRecord]:
+    """What a model said of a drive, as records (a plug-in's text as a
+    ``population-model-note``)."""
+    return [s if isinstance(s, WarningRecord) else emit.record(
+        "population-model-note", drive_scope(cells.condition), model=model.name, text=str(s))
+        for s in said]
+
+
+def _fitted(rows: Collector, cells: DriveCells, model: PopulationModel) -> ModelFit | None:
+    """The model fitted to *cells*, what it said of them kept with the population's."""
+    said: list[Any] = []
+    fit = model.fit(cells, said)
+    rows.notes += _records(said, cells, model)
+    return fit
 
 
 def _second(rows: Collector, cells: DriveCells, model: PopulationModel) -> None:
@@ -109,25 +131,26 @@ def condition_estimates(rows: Collector, subjects: Sequence[SubjectData],
     data = _data(subjects, condition)
     amps = sorted({float(a) for s in subjects
                    for a in s.linear["amplitude_V"].to_numpy(float)[s.select_linear(condition)]})
+    scope = drive_scope(condition)
     if data is None or data.k < MIN_SUBJECTS:
-        rows.notes.append(f"{label}: {0 if data is None else data.k} subject(s) with "
-                          f"electrostatic forces; a population estimate needs at least "
-                          f"{MIN_SUBJECTS}")
+        rows.notes.append(emit.record("population-drive-few", scope, drive=label,
+                                      subjects=0 if data is None else data.k,
+                                      needed=MIN_SUBJECTS))
         return
     cells = DriveCells(condition, list(subjects), data, amps, label)
     if len(amps) < model.min_amplitudes:
-        few = ("one amplitude only, no power law" if len(amps) == 1 else
-               f"{len(amps)} amplitudes, fewer than the {model.name} model needs "
-               f"({model.min_amplitudes})")
-        rows.notes.append(f"{label}: {few}; the force there from the meta-analysis of log "
-                          "F_el where it is valid")
+        rows.notes.append(emit.record("population-one-amplitude", scope, drive=label)
+                          if len(amps) == 1 else
+                          emit.record("population-amplitudes-few", scope, drive=label,
+                                      amplitudes=len(amps), model=model.name,
+                                      needed=model.min_amplitudes))
         _second(rows, cells, model)
         return
-    fit = model.fit(cells, rows.notes)
+    fit = _fitted(rows, cells, model)
     if fit is None:
         _second(rows, cells, model)
         return
-    rows.notes.extend(fit.notes)
+    rows.notes += _records(fit.notes, cells, model)
     if fit.line is not None:
         rows.lines[condition] = fit.line
     if fit.modes:
@@ -139,7 +162,7 @@ def condition_estimates(rows: Collector, subjects: Sequence[SubjectData],
         rest = cells.without(name)
         if rest.data.k < MIN_SUBJECTS:
             continue
-        other = model.fit(rest, rows.notes)
+        other = _fitted(rows, rest, model)
         if other is not None:
             _add(rows, rest, other, f"without {name}")
     _second(rows, cells, model)

@@ -43,9 +43,8 @@ from typing import Any
 import pandas as pd
 
 from evtribo import __version__
-from evtribo.documents.fit import write_fit
+from evtribo.documents.fit import FIT_VERSION, write_fit
 from evtribo.documents.tables import FIT
-from evtribo.figures.friction_only import NOTE
 from evtribo.figures.registry import FigureContext, FigureSink, absent_notes, planned, stems
 from evtribo.figures.style import parse_dpi, parse_figure_formats, parse_figure_width
 from evtribo.figures.trial_checks import CheckFigure, parse_which, trial_checks
@@ -74,8 +73,11 @@ from evtribo.store.files import atomic_write, sha256_file
 from evtribo.store.memo import default_cache_dir
 from evtribo.store.pool import Mapper
 from evtribo.store.resultdir import Staging, locked, recover
+from evtribo.warning.collect import collecting, emitter, replay
+from evtribo.warning.record import WarningRecord
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["FIGURES", "FIT_CSV", "FIT_JSON", "CompareResult", "CompareSetup", "FigureRecord",
            "compare", "run_comparison"]
@@ -89,7 +91,8 @@ class CompareResult:
     fits: list[SubjectFit]
     files: list[Path] = field(default_factory=list)
     figures: list[FigureRecord] = field(default_factory=list)
-    notes: list[str] = field(default_factory=list)
+    notes: list[WarningRecord] = field(default_factory=list)
+    """What the comparison said (fit.json's ``warnings``), in the order said."""
     population: Population | None = None
     sha256: dict[str, str] = field(default_factory=dict)
     """The SHA-256 of each figure file (relative), those kept as they were included."""
@@ -324,9 +327,28 @@ def run_comparison(tables: ResultTables, setup: CompareSetup, sink: FigureSink, 
     Returns
     -------
     CompareResult
-        The fits, ``fit_table``, ``population``, ``models_table`` and the notes; nothing
-        written (no ``files``, ``figures`` or ``sha256``: the sink's).
+        The fits, ``fit_table``, ``population``, ``models_table`` and what the comparison
+        said (``notes``: the records of the fits, the intervals, the population, the
+        models, the figures not drawn and the trials' checks, in that order, each once;
+        said quietly: the caller shows them); nothing written (no ``files``, ``figures``
+        or ``sha256``: the sink's). When a step raises, what was said before it is said
+        (logged) before the error goes on.
     """
+    try:
+        with collecting(quiet=True) as said:
+            result = _sequence(tables, setup, sink, scheduler=scheduler, mapper=mapper,
+                               progress=progress, exclude=exclude)
+    except BaseException:
+        replay(said)  # what was said before the comparison stopped: said, nothing lost
+        raise
+    result.notes = list(dict.fromkeys(said))
+    return result
+
+
+def _sequence(tables: ResultTables, setup: CompareSetup, sink: FigureSink, *,
+              scheduler: Any, mapper: Mapper | None, progress: Callable[[str], None],
+              exclude: PopulationRule | None) -> CompareResult:
+    """:func:`run_comparison`'s steps, each warning said (into its collector) in order."""
     ctx = FigureContext(tables, names=setup.names, models=setup.models)
     only_mu = ctx.only_mu  # a study of OFF trials: its friction, no fit
     if not only_mu:
@@ -341,37 +363,38 @@ def run_comparison(tables: ResultTables, setup: CompareSetup, sink: FigureSink, 
     ctx.checks, check_notes = _checks(tables, setup, mapper, progress)
     result = CompareResult(out=tables.out or Path(), fits=ctx.fits,
                            fit_table=fit_table(ctx.fits, tables))
-    result.notes += [NOTE] if only_mu else interval_notes(
-        ctx.fits, has_bootstrap=tables.bootstrap is not None)
+    replay([emit.record("fit-none")] if only_mu else interval_notes(
+        ctx.fits, has_bootstrap=tables.bootstrap is not None))
     progress("drawing the figures of the fit" if not only_mu else
              "drawing each subject's friction")
-    result.notes += _emit(ctx, "fits", sink)
+    _emit(ctx, "fits", sink)
     if not only_mu:
         progress("estimating the population (a mixed model per condition, checked with "
                  "several optimisers)")
     rule = exclude or PopulationRule()
     ctx.population = result.population = population(tables, ctx.fits, exclude=rule.exclude,
                                                     rule_notes=rule.notes, model=rule.model)
-    result.notes += _emit(ctx, "population", sink)
+    replay([*rule.notes, *result.population.notes])
+    _emit(ctx, "population", sink)
     if setup.models and not only_mu:
         progress(f"fitting and ranking the models {', '.join(setup.models)}")
         compared = compare_models(tables, setup.models, setup.base)
         result.models_table, ctx.model_fits = compared.table, compared.fits
-        result.notes += compared.notes
-    result.notes += _emit(ctx, "models", sink)
-    result.notes += check_notes
+        replay(compared.notes)
+    _emit(ctx, "models", sink)
+    replay(check_notes)
     return result
 
 
-def _emit(ctx: FigureContext, stage: str, sink: FigureSink) -> list[str]:
-    """The figures of a stage handed to the sink; the notes on those not drawn."""
+def _emit(ctx: FigureContext, stage: str, sink: FigureSink) -> None:
+    """The figures of a stage handed to the sink; what is said of those not drawn."""
     for figure in planned(ctx, stage):
         sink.emit(figure)
-    return absent_notes(ctx, stage)
+    replay(absent_notes(ctx, stage))
 
 
 def _checks(tables: ResultTables, setup: CompareSetup, mapper: Mapper | None,
-            progress: Callable[[str], None]) -> tuple[list[CheckFigure], list[str]]:
+            progress: Callable[[str], None]) -> tuple[list[CheckFigure], list[WarningRecord]]:
     """The trials whose checks are drawn (:func:`~evtribo.figures.trial_checks.trial_checks`;
     ``auto`` in a large study: those with a warning not only for information,
     :func:`~evtribo.report.drawing.trials_to_check`, or not analysed) and the notes on
@@ -398,6 +421,7 @@ def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],
     doc = {
         "run_id": run_id,
         "software": {"evtribo": __version__},
+        "fit_version": FIT_VERSION,
         "fit": list(names),
         "parameters_file": pfile,
         "fixed_parameters": base.as_dict(),
@@ -416,7 +440,8 @@ def _write_json(stage: Staging, result: CompareResult, names: tuple[str, ...],
                              "note": f.interval_note},
             } for f in result.fits},
         "figures": [r.as_dict() for r in result.figures],
-        "notes": result.notes,
+        "notes": [n.text for n in result.notes],
+        "warnings": [n.as_json() for n in result.notes],
         "population": None if result.population is None else result.population.as_json(),
         "compare_key": key,
         "output_sha256": {rel.as_posix(): result.sha256.get(rel.as_posix())

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from evtribo.figures.friction_only import NOTE, trial_mu
+from evtribo.figures.friction_only import trial_mu
 from evtribo.report.headline import Headline, friction_table
 from evtribo.report.page import Report
 from evtribo.util.numbers import frequency, significant, voltage
@@ -22,8 +22,9 @@ __all__ = ["SECTION", "add_friction", "add_trial_mu", "trial_table"]
 SECTION = "Friction coefficient"
 
 
-def add_friction(report: Report, windows: pd.DataFrame, notes: list[str]) -> list[Headline]:
-    """The page's first section: μ by subject, and compare's notes.
+def add_friction(report: Report, windows: pd.DataFrame) -> list[Headline]:
+    """The page's first section: μ by subject (what compare said of it, the study folder
+    gone, a trial not checked..., is among the page's warnings).
 
     Parameters
     ----------
@@ -31,8 +32,6 @@ def add_friction(report: Report, windows: pd.DataFrame, notes: list[str]) -> lis
         The page.
     windows : DataFrame
         ``windows.csv``.
-    notes : list of str
-        fit.json's notes (the study folder gone, a trial not checked...).
 
     Returns
     -------
@@ -42,10 +41,6 @@ def add_friction(report: Report, windows: pd.DataFrame, notes: list[str]) -> lis
     table = friction_table(windows)
     report.add_table(table.table, table.title, caption=table.caption, section=SECTION,
                      wrap=True)
-    notes = [n for n in notes if n != NOTE]  # the table's caption says it
-    if notes:
-        report.add_list(notes, "Notes", section=SECTION, caption="From evtribo compare "
-                                                                 "(fit.json).")
     return [table]
 
 

@@ -402,7 +402,6 @@ def add_population(report: Report, table: PopulationTable | None,
             report.add_text(_why_not(notes, "μ" if friction_only else ""), section=SECTION)
         if table is None or not len(table):
             return []
-        notes = [] if friction_only else notes[1:]
     else:
         headline = population_headline(table)
         report.add_table(headline.table, headline.title, caption=headline.caption,
@@ -413,8 +412,7 @@ def add_population(report: Report, table: PopulationTable | None,
     _tables(report, table, contrasts, fit_doc, only_mu={r.quantity for r in table} == {"mu"})
     for title, items in (("Far from the other subjects", _outliers(doc)),
                          ("Excluded beforehand", [f"{e['subject']}: {e['reason']}"
-                                                  for e in _excluded(doc)]),
-                         ("Not estimated", notes)):
+                                                  for e in _excluded(doc)])):
         if items:
             report.add_list(items, title, section=SECTION)
     for f in figures:

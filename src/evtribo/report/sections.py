@@ -55,7 +55,7 @@ from evtribo.report.page import Report
 from evtribo.util.numbers import frequency, quantity, significant, to_float, voltage, with_interval
 
 __all__ = ["GRID_FROM", "SECTIONS", "add_all_subjects", "add_headline", "add_models",
-           "add_notes", "add_predictions", "add_subjects", "figure_files", "placed",
+           "add_predictions", "add_subjects", "figure_files", "placed",
            "trial_summary", "trials_view"]
 
 #: The sections' titles, in the page's order (a subject's is ``Subject <name>``).
@@ -451,23 +451,3 @@ def trials_view(trials: pd.DataFrame) -> pd.DataFrame:
             view[col] = [("" if v is None or (isinstance(v, float) and math.isnan(v))
                           else str(v)) for v in trials[col]]
     return view
-
-
-def add_notes(report: Report, notes: Sequence[str]) -> None:
-    """What the comparison says of how it fitted (how the intervals were obtained, what
-    was left out): notes, not warnings, under the model fit.
-
-    Parameters
-    ----------
-    report : Report
-        The page.
-    notes : sequence of str
-        fit.json's notes.
-
-    Returns
-    -------
-    None
-    """
-    if notes:
-        report.add_list([hertz(n) for n in notes], "Notes on the fit", section=SECTIONS["fit"],
-                        caption="From evtribo compare (fit.json).")

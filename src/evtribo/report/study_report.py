@@ -73,8 +73,7 @@ def _warnings(tables: ResultTables) -> list[WarningRecord]:
     """The analysis's warnings, and those its tables say besides: a failed trial that
     summary.json does not say (``not-analysed``), the trials' dropped frames
     (``frames-lost``) and damaged lines (``damaged-lines``, where summary.json has no
-    record of them), each once (the comparison's notes are the fit's:
-    :func:`sections.add_notes`)."""
+    record of them), each once (the comparison's follow them: fit.json's)."""
     records = list(tables.summary.warnings)
     said = {(r.kind, r.scope.subject, r.scope.trial) for r in records}
     with collecting(quiet=True) as more:
@@ -272,21 +271,21 @@ def _page(tables: ResultTables, fit: pd.DataFrame, fit_doc: FitDocument,
     replay(input_warnings)  # the study as it is now: said by the report
     keys = list(zip(tables.trials["subject"].astype(str), tables.trials["trial"].astype(str),
                     strict=True))
-    groups = group([*input_warnings, *_warnings(tables)])
+    compared = fit_doc.warnings  # the comparison's, after the analysis's: one list
+    groups = group([*input_warnings, *_warnings(tables), *compared])
     cells = study_cells(tables.electrostatic.to_dict("records"))
     models = tables.models
     population, contrasts = tables.population, read_population(tables)[1]
     if tables.electrostatic.empty:  # a study of OFF trials: its friction, no fit
-        headlines = add_friction(report, tables.windows, fit_doc.notes)
-        add_warnings(report, groups, keys, cells)
+        headlines = add_friction(report, tables.windows)
+        add_warnings(report, groups, keys, cells, compared)
         headlines += add_population(report, population, contrasts, fit_doc,
                                     sections.placed(figures, "population"), friction_only=True)
     else:
         key = key_results(tables, fit, models, groups)
         add_key_results(report, key)
-        add_warnings(report, groups, keys, cells)
+        add_warnings(report, groups, keys, cells, compared)
         headlines = sections.add_headline(report, tables, fit, fit_doc, key.marks)
-        sections.add_notes(report, fit_doc.notes)
         headlines += add_population(report, population, contrasts, fit_doc,
                                     sections.placed(figures, "population"))
     grid = len(tables.subjects) >= sections.GRID_FROM

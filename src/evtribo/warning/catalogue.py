@@ -5,7 +5,8 @@ The builtin kinds are declared by area, so that each area's kinds are in one pla
 clocks), :mod:`~evtribo.warning.kinds_trial` (a trial's analysis),
 :mod:`~evtribo.warning.kinds_study` (the study gathered: per subject, drive and cell) and
 :mod:`~evtribo.warning.kinds_compare` (the model's fit, the population, the figures), and
-those only results of earlier versions have (:mod:`~evtribo.warning.legacy`). A
+those only results of earlier versions have (:mod:`~evtribo.warning.legacy`,
+:mod:`~evtribo.warning.legacy_compare`). A
 lab's plug-in adds its own through the entry point group ``evtribo.warning_kinds``
 (:mod:`evtribo.util.plugins`): the object it names is a :class:`Kind` or a sequence of
 them, read the first time an id the builtins lack is asked for (or the whole catalogue
@@ -29,6 +30,7 @@ from evtribo.warning.kinds_input import INPUT_KINDS
 from evtribo.warning.kinds_study import STUDY_KINDS
 from evtribo.warning.kinds_trial import TRIAL_KINDS
 from evtribo.warning.legacy import EARLIER_KINDS
+from evtribo.warning.legacy_compare import EARLIER_COMPARE_KINDS
 
 __all__ = ["AREAS", "ENTRY_POINTS", "KINDS", "Kind", "kind", "register"]
 
@@ -42,7 +44,7 @@ AREAS: dict[str, tuple[Kind, ...]] = {
     "A trial's analysis": TRIAL_KINDS,
     "The study's results: subjects, drives and cells": STUDY_KINDS,
     "The comparison: the model's fit, the population, the figures": COMPARE_KINDS,
-    "Results of earlier versions": EARLIER_KINDS,
+    "Results of earlier versions": (*EARLIER_KINDS, *EARLIER_COMPARE_KINDS),
 }
 
 _KINDS: dict[str, Kind] = {}

@@ -103,6 +103,32 @@ class Emit:
             self.logger.warning("%s", record.text)
         return record
 
+    def record(self, kind_id: str, scope: Scope | None = None, /, **values: Any
+               ) -> WarningRecord:
+        """A warning of this module made but not said: kept by no collector, logged by
+        nobody, for the caller that says it where it decides (:func:`replay`: compare's
+        notes, said in the comparison's order).
+
+        Parameters
+        ----------
+        kind_id : str
+            The kind's id in the catalogue.
+        scope : Scope, optional
+            Where it is said (default: the study).
+        **values
+            The kind's wording's values.
+
+        Returns
+        -------
+        WarningRecord
+
+        Raises
+        ------
+        KeyError
+            An id the catalogue lacks, or a field of the wording without a value.
+        """
+        return kind(kind_id).record(scope, values, self.logger.name)
+
 
 def emitter(logger_name: str) -> Emit:
     """A module's emitter of warnings.

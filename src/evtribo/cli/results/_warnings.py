@@ -1,6 +1,6 @@
-"""``evtribo analyze``'s warnings on its console: each kind once, with the trials or cells it
-concerns, at the end (:mod:`evtribo.warning.render`), rather than one line per trial as the
-analysis says them.
+"""``evtribo analyze``'s warnings on its console (and ``evtribo compare``'s:
+:func:`say_records`): each kind once, with the trials or cells it concerns, at the end
+(:mod:`evtribo.warning.render`), rather than one line per trial as the analysis says them.
 
 While the analysis runs, :func:`held` holds back the warnings of the analysis's loggers
 (``evtribo.analysis``, ``evtribo.results``, ``evtribo.canlog``); :func:`say_grouped` then
@@ -13,14 +13,14 @@ from __future__ import annotations
 
 import logging
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 from evtribo.documents.summary import SUMMARY_FILE, Summary
 from evtribo.report.lead.scope import read_scope
-from evtribo.warning.record import EFFECTS
+from evtribo.warning.record import EFFECTS, WarningRecord
 from evtribo.warning.render import console_lines, group
 
 #: The loggers whose warnings the analysis keeps in summary.json.
@@ -75,13 +75,31 @@ def say_grouped(summary: dict[str, Any], out_dir: Path | None, out: str,
         hold.said = True
         texts = {w.text for w in kept}
         _release([r for r in hold.records if r.getMessage() not in texts])
-    if not kept:
+    say_records(kept, out_dir, "the analysis", Path(out) / SUMMARY_FILE)
+
+
+def say_records(records: Sequence[WarningRecord], out_dir: Path | None, who: str,
+                where: Path) -> None:
+    """Say *records* grouped by kind, each kind once with the trials or cells it concerns,
+    and where they are kept (on standard error; nothing when there are none).
+
+    Parameters
+    ----------
+    records : sequence of WarningRecord
+    out_dir : Path or None
+        The result folder (its trials and cells, to say "all").
+    who : str
+        Who said them (``the analysis``, ``the comparison``).
+    where : Path
+        The file that keeps them.
+    """
+    if not records:
         return
     trials, cells = read_scope(out_dir) if out_dir is not None else ([], [])
-    groups = group(kept)
+    groups = group(records)
     for line in console_lines(groups, trials, cells):
         print(line, file=sys.stderr)
     counts = {e: sum(g.effect == e for g in groups) for e in EFFECTS}
     said = ", ".join(f"{n} {EFFECTS[e].split(' (')[0]}" for e, n in counts.items() if n)
-    print(f"{len(kept)} warning(s) of {len(groups)} kind(s) ({said}); each as the analysis "
-          f"said it in {Path(out) / SUMMARY_FILE}", file=sys.stderr)
+    print(f"{len(records)} warning(s) of {len(groups)} kind(s) ({said}); each as {who} said "
+          f"it in {where}", file=sys.stderr)

@@ -105,9 +105,8 @@ def run(args: argparse.Namespace) -> int:
         parts = ", ".join(_estimate(e) for e in f.estimates)
         print(f"{f.subject}: {parts}; RMSE {significant(1e3 * f.rmse_N)} mN, "
               f"R² {r_squared(f.r2)}")
-    for note in result.notes:
-        print(f"note: {note}", file=sys.stderr)
     _print_population(result)
+    _say_warnings(result.notes, result.out)
     from evtribo.documents.tables import FIT_CSV
     from evtribo.results.outputs import FIGURES
 
@@ -144,11 +143,20 @@ def _unchanged(args: argparse.Namespace) -> bool:
                           for name, e in (fit.get("estimates") or {}).items())
         print(f"{subject}: {parts}; RMSE {significant(1e3 * _num(fit.get('rmse_N')))} mN, "
               f"R² {r_squared(_num(fit.get('r2')))}")
-    for note in doc.notes:
-        print(f"note: {note}", file=sys.stderr)
+    _say_warnings(doc.warnings, out)
     print(f"{out}: the fit and its {len(doc.figures)} figures are those of this analysis, "
           "these options and this evtribo already: nothing written")
     return True
+
+
+def _say_warnings(records: Any, out: Any) -> None:
+    """What the comparison said, each kind once (as analyze's console says its own)."""
+    from pathlib import Path
+
+    from evtribo.cli.results._warnings import say_records
+    from evtribo.documents.fit import FIT_JSON
+
+    say_records(records, Path(out), "the comparison", Path(out) / FIT_JSON)
 
 
 def _num(value: Any) -> float:
@@ -209,7 +217,7 @@ def _print_population(result: Any) -> None:
         print(f"population: {subject} excluded by study.toml's [population] rule: {reason}",
               file=sys.stderr)
     if pop.table.empty and pop.notes:
-        print(f"population: none: {pop.notes[0]}", file=sys.stderr)
+        print(f"population: none: {pop.notes[0].text}", file=sys.stderr)
 
 
 def _estimate(e: Any) -> str:

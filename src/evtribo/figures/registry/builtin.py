@@ -31,6 +31,10 @@ from evtribo.fit.fit import SubjectFit
 from evtribo.fit.model_comparison import MIN_FREQUENCIES, frequencies_of
 from evtribo.fit.tables import ResultTables
 from evtribo.model.params import TABLE_1
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import WarningRecord
+
+emit = emitter(__name__)
 
 __all__ = ["BUILTIN", "PAPER"]
 
@@ -137,12 +141,8 @@ def _time_caption(ctx: FigureContext, _: Any) -> str:
             f"at its measured normal force and the {voltage}, cf. the paper's Figure 5.")
 
 
-def _no_trace(ctx: FigureContext) -> str:
-    if ctx.only_mu:
-        return ""
-    return ("No measured sine trace (sine_trace.csv: the study has no sine trial with ON and "
-            "OFF phases): no friction-versus-time figure; `evtribo model --figures DIR` draws "
-            "the model's.")
+def _no_trace(ctx: FigureContext) -> WarningRecord | None:
+    return None if ctx.only_mu else emit.record("sine-trace-none")
 
 
 def _area(ctx: FigureContext, _: Any) -> Drawing | None:

@@ -23,8 +23,11 @@ from evtribo.figures.registry.spec import (
 )
 from evtribo.population.estimates import condition_label
 from evtribo.util import plugins
+from evtribo.warning.collect import emitter
+from evtribo.warning.record import WarningRecord
 
 log = logging.getLogger(__name__)
+emit = emitter(__name__)
 
 __all__ = ["ENTRY_POINTS", "FIGURES", "Placement", "absent_notes", "placement", "planned",
            "register", "stems"]
@@ -192,8 +195,9 @@ def stems(ctx: FigureContext) -> list[str]:
             for spec, item in _in_order(ctx, _specs(ctx, None))]
 
 
-def absent_notes(ctx: FigureContext, stage: str) -> list[str]:
-    """Compare's notes on the figures of a stage not drawn, saying why.
+def absent_notes(ctx: FigureContext, stage: str) -> list[WarningRecord]:
+    """Compare's warnings on the figures of a stage not drawn, saying why (made, not said:
+    compare says them in its order).
 
     Parameters
     ----------
@@ -203,10 +207,19 @@ def absent_notes(ctx: FigureContext, stage: str) -> list[str]:
 
     Returns
     -------
-    list of str
+    list of WarningRecord
+        Each spec's ``why_not``; a plug-in's text as a ``figure-absent`` record.
     """
-    return [note for s in FIGURES.values() if s.needs == stage and s.why_not is not None
-            and not s.when(ctx) and (note := s.why_not(ctx))]
+    out = []
+    for s in FIGURES.values():
+        if s.needs != stage or s.why_not is None or s.when(ctx):
+            continue
+        why = s.why_not(ctx)
+        if isinstance(why, WarningRecord):
+            out.append(why)
+        elif why:
+            out.append(emit.record("figure-absent", figure=s.kind, text=str(why)))
+    return out
 
 
 @dataclass(frozen=True)

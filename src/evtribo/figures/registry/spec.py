@@ -17,6 +17,7 @@ from evtribo.fit.fit import SubjectFit
 from evtribo.fit.models import ModelFit
 from evtribo.fit.tables import ResultTables
 from evtribo.population.estimates import Population
+from evtribo.warning.record import WarningRecord
 
 __all__ = ["PERS", "SECTIONS", "STAGES", "Draw", "Drawing", "FigureContext", "FigureSink",
            "FigureSpec", "PlannedFigure"]
@@ -147,8 +148,9 @@ class FigureSpec:
     when : callable
         ``when(ctx)``: whether the figure is drawn for these results at all.
     why_not : callable, optional
-        ``why_not(ctx)``: where :attr:`when` is false, compare's note saying why ("" for
-        none).
+        ``why_not(ctx)``: where :attr:`when` is false, compare's warning saying why: a
+        record of a kind of the catalogue (a plug-in's text is said as a ``figure-absent``
+        record), or None (or "") for none.
     items : callable, optional
         ``items(ctx)``: what it is drawn per, when not every one of :attr:`per`'s (the
         subjects, the conditions with a power law, the trials checked).
@@ -172,7 +174,7 @@ class FigureSpec:
     draw: Draw
     needs: Stage = "models"
     when: Callable[[FigureContext], bool] = _always
-    why_not: Callable[[FigureContext], str] | None = None
+    why_not: Callable[[FigureContext], WarningRecord | str | None] | None = None
     items: Callable[[FigureContext], Iterable[Any]] | None = None
     grid: tuple[str, str] | None = None
     screen: bool = False

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 from evtribo.population.data import Condition, ModelRow, SubjectData, condition_label
 from evtribo.population.nonlinear import NonlinearData
@@ -75,8 +75,10 @@ class ModelFit:
     ----------
     rows : list of ModelRow
         Its estimates (population.csv's rows but for the drive and the analysis).
-    notes : list of str
-        What its checks say of it (said of the primary fit).
+    notes : list of WarningRecord
+        What its checks say of it (said of the primary fit): records of kinds of the
+        catalogue (:mod:`evtribo.warning.catalogue`), made and not said
+        (``emitter(__name__).record(...)``); a text is said as a ``population-model-note``.
     line : NonlinearFit or None
         The power law across subjects, for the figure and the report (None: the model
         has none to draw).
@@ -85,7 +87,7 @@ class ModelFit:
     """
 
     rows: list[ModelRow]
-    notes: list[str] = field(default_factory=list)
+    notes: list[Any] = field(default_factory=list)
     line: NonlinearFit | None = None
     modes: dict[str, tuple[float, float]] = field(default_factory=dict)
 
@@ -126,14 +128,17 @@ class PopulationModel(Protocol):
     name: str
     min_amplitudes: int
 
-    def fit(self, cells: DriveCells, notes: list[str]) -> ModelFit | None:
+    def fit(self, cells: DriveCells, notes: list[Any]) -> ModelFit | None:
         """The model fitted to one drive's cells.
 
         Parameters
         ----------
         cells : DriveCells
-        notes : list of str
-            Where what could not be fitted, and why, is said.
+        notes : list
+            Where what could not be fitted, and why, is said: a record of a kind of the
+            catalogue, made and not said (``emitter(__name__).record(...)``; a lab's
+            plug-in registers its kinds through ``evtribo.warning_kinds``), or a text,
+            said as a ``population-model-note``.
 
         Returns
         -------

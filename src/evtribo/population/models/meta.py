@@ -14,14 +14,18 @@ one of a drive of one amplitude; chosen as the primary model, its rows are the p
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
-from evtribo.population.data import ModelRow
+from evtribo.population.data import ModelRow, drive_scope
 from evtribo.population.models.interface import DriveCells, FarSubjects, ModelFit
 from evtribo.population.stats import MIN_SUBJECTS, POOL_METHOD, pool
+from evtribo.warning.collect import emitter
 
 __all__ = ["META_MAX_LOG_SE", "MetaAnalysis"]
+
+emit = emitter(__name__)
 
 #: The largest standard error of a cell's log F_el for the meta-analysis of log F_el.
 META_MAX_LOG_SE = 0.2
@@ -33,14 +37,15 @@ class MetaAnalysis:
     name = "meta-analysis"
     min_amplitudes = 1
 
-    def fit(self, cells: DriveCells, notes: list[str]) -> ModelFit:
+    def fit(self, cells: DriveCells, notes: list[Any]) -> ModelFit:
         """The pooled log F_el at each amplitude where the meta-analysis is valid.
 
         Parameters
         ----------
         cells : DriveCells
-        notes : list of str
-            Where an amplitude without a valid meta-analysis is said.
+        notes : list
+            Where an amplitude without a valid meta-analysis is said (a record, made and
+            not said).
 
         Returns
         -------
@@ -63,11 +68,12 @@ class MetaAnalysis:
                 y.append(math.log(f) if f > 0 else math.nan)
                 v.append(se * se)
             if not valid or len(names) < MIN_SUBJECTS:
-                notes.append(f"{cells.label}, {amp:g} V: no meta-analysis of log F_el ("
-                             + (f"{len(names)} subject(s) measured there; it needs "
-                                f"{MIN_SUBJECTS}" if valid else
-                                "a subject's interval there reaches zero, or its log "
-                                f"standard error is over {META_MAX_LOG_SE:g}") + ")")
+                scope = drive_scope(cells.condition)
+                notes.append(emit.record(
+                    "population-meta-few", scope, drive=cells.label, amplitude_V=amp,
+                    subjects=len(names), needed=MIN_SUBJECTS) if valid else emit.record(
+                    "population-meta-invalid", scope, drive=cells.label, amplitude_V=amp,
+                    max_log_se=META_MAX_LOG_SE))
                 continue
             rows.append(ModelRow.pooled("electrostatic_force_N", amp,
                                         pool(np.array(y), np.array(v)),

@@ -15,30 +15,36 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
-from evtribo.population.data import ModelRow, exp_or_nan
+from evtribo.population.data import ModelRow, drive_scope, exp_or_nan
 from evtribo.population.models.interface import DriveCells, FarSubjects, ModelFit
 from evtribo.population.nonlinear import NonlinearData, subject_fits
 from evtribo.population.nonlinear_fit import NonlinearFit, fit_nonlinear
 from evtribo.population.stats import MIN_SUBJECTS, find_outliers, i_squared, typical_variance
+from evtribo.warning.collect import emitter
 
 __all__ = ["MixedModel"]
 
+emit = emitter(__name__)
 
-def _fit(data: NonlinearData, notes: list[str], label: str) -> NonlinearFit | None:
+
+def _fit(cells: DriveCells, notes: list[Any]) -> NonlinearFit | None:
     """The mixed model, with random exponents where at least three subjects have three
     amplitudes or more (else, or when that fit fails, random levels only)."""
+    data = cells.data
     rich = int(np.sum([np.unique(np.round(data.x[i, :n], 9)).size >= 3
                        for i, n in enumerate(data.n_cells)]))
     for slopes in ((True, False) if rich >= MIN_SUBJECTS else (False,)):
         try:
             return fit_nonlinear(data, random_slopes=slopes)
         except np.linalg.LinAlgError as err:
-            notes.append(f"{label}: the mixed model with random "
-                         f"{'exponents' if slopes else 'levels'} could not be fitted "
-                         f"({err})")
+            notes.append(emit.record("population-model-failed", drive_scope(cells.condition),
+                                     drive=cells.label,
+                                     effects="exponents" if slopes else "levels",
+                                     error=str(err)))
     return None
 
 
@@ -93,29 +99,32 @@ class MixedModel:
     name = "mixed"
     min_amplitudes = 2
 
-    def fit(self, cells: DriveCells, notes: list[str]) -> ModelFit | None:
+    def fit(self, cells: DriveCells, notes: list[Any]) -> ModelFit | None:
         """The mixed model of one drive's cells, checked.
 
         Parameters
         ----------
         cells : DriveCells
-        notes : list of str
-            Where a fit that cannot be made is said.
+        notes : list
+            Where a fit that cannot be made is said (a record, made and not said).
 
         Returns
         -------
         ModelFit or None
-            Its notes say the checks that failed; None when no fit could be made.
+            Its notes say the checks that failed (records, made and not said); None when
+            no fit could be made.
         """
-        fit = _fit(cells.data, notes, cells.label)
+        fit = _fit(cells, notes)
         if fit is None:
             return None
-        said = []
+        said: list[Any] = []
+        scope = drive_scope(cells.condition)
         if not fit.convergence.ok:
-            said.append(f"{cells.label}: the mixed model's checks failed: "
-                        f"{fit.convergence.summary()}; read its rows with care")
+            said.append(emit.record("population-checks-failed", scope, drive=cells.label,
+                                    checks=fit.convergence.summary()))
         if fit.convergence.singular:
-            said.append(f"{cells.label}: {fit.convergence.singular}")
+            said.append(emit.record("population-singular", scope, drive=cells.label,
+                                    singular=fit.convergence.singular))
         return ModelFit(_rows_of(cells.data, fit, cells.amplitudes), said, fit,
                         {s: (float(b[0]), float(b[1]))
                          for s, b in zip(fit.subjects, fit.modes, strict=True)})

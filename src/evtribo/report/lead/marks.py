@@ -1,6 +1,8 @@
 """The cells of electrostatic.csv each warning touches: a cell's own warnings, its
 subject's, those of the trials that measured it (a whole-OFF trial gave every cell of its
-subject its references), and the study's (every cell)."""
+subject its references), and the study's (every cell). The comparison's warnings
+(:data:`~evtribo.warning.kinds_compare.COMPARE_IDS`: the fit's, the population's) touch
+none: they concern what was estimated from the cells, not the cells."""
 
 from __future__ import annotations
 
@@ -12,6 +14,7 @@ import pandas as pd
 
 from evtribo.report.lead.scope import study_cells
 from evtribo.util.numbers import to_float
+from evtribo.warning.kinds_compare import COMPARE_IDS
 from evtribo.warning.record import Scope
 from evtribo.warning.render import WarningGroup
 
@@ -85,7 +88,7 @@ def cell_marks(electrostatic: pd.DataFrame, trials: pd.DataFrame,
     by_row: list[list[int]] = [[] for _ in cells]
     everywhere = []
     for k, g in enumerate(groups, start=1):
-        if g.effect not in FLAGGING:
+        if g.effect not in FLAGGING or g.kind in COMPARE_IDS:
             continue
         touched = g.touches(per_trial)
         hit = [(g.study and not touched) or any(

@@ -8,16 +8,18 @@ cells of the tables link to (:mod:`evtribo.report.lead.marks`).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 from markupsafe import escape
 
+from evtribo.documents.fit import FIT_JSON
+from evtribo.documents.summary import SUMMARY_FILE
 from evtribo.fit.tables import ResultTables
 from evtribo.report.lead.analysed import analysed_table, effect_title, methods_text
 from evtribo.report.lead.key_results import KeyResults
 from evtribo.report.lead.marks import warning_anchor
 from evtribo.report.page import Report, hertz
-from evtribo.warning.record import Scope
+from evtribo.warning.record import Scope, WarningRecord
 from evtribo.warning.render import WarningGroup, scope_text
 
 __all__ = ["KEY_SECTION", "WARNINGS_SECTION", "add_analysed", "add_key_results",
@@ -49,8 +51,10 @@ def add_key_results(report: Report, key: KeyResults) -> None:
 
 
 def add_warnings(report: Report, groups: Sequence[WarningGroup],
-                 trials: Sequence[tuple[str, str]], cells: Sequence[Scope]) -> None:
-    """The warnings, each kind once with where it was said, under the heading of its effect.
+                 trials: Sequence[tuple[str, str]], cells: Sequence[Scope],
+                 compared: Iterable[WarningRecord] = ()) -> None:
+    """The warnings, each kind once with where it was said, under the heading of its effect:
+    the analysis's and the comparison's in one list.
 
     Parameters
     ----------
@@ -62,15 +66,18 @@ def add_warnings(report: Report, groups: Sequence[WarningGroup],
         The study's trials.
     cells : sequence of Scope
         The study's cells.
+    compared : iterable of WarningRecord
+        The comparison's (fit.json's): their kinds' lines are counted there.
 
     Returns
     -------
     None
     """
     if not groups:
-        report.add_html('<p class="caption">None: the analysis warned of nothing.</p>',
-                        section=WARNINGS_SECTION)
+        report.add_html('<p class="caption">None: neither the analysis nor the comparison '
+                        "warned of anything.</p>", section=WARNINGS_SECTION)
         return
+    fit_kinds = {r.kind for r in compared}
     html, effect = [], None
     for k, g in enumerate(groups, start=1):
         if g.effect != effect:
@@ -80,19 +87,21 @@ def add_warnings(report: Report, groups: Sequence[WarningGroup],
             html.append(f'<div class="effect-{escape(effect)}"><h3>'
                         f'{escape(effect_title(effect))}</h3><ol class="warnings">')
         lines = f"{g.count} line{'s' if g.count > 1 else ''}"
+        where = FIT_JSON if g.kind in fit_kinds else SUMMARY_FILE
         html.append(
             f'<li id="{warning_anchor(k)}" value="{k}"><b>W{k}. {escape(hertz(g.title))}</b> '
             f'<span class="where">({escape(hertz(scope_text(g, trials, cells)))}; {lines} in '
-            f'summary.json)</span><br><span class="said">{escape(hertz(g.text))}</span></li>')
+            f'{where})</span><br><span class="said">{escape(hertz(g.text))}</span></li>')
     html.append("</ol></div>")
     report.add_html("\n".join(html), section=WARNINGS_SECTION)
     report.add_html('<p class="caption">Each kind of warning once, with the trials or cells '
                     "it concerns, by what it does to the reported numbers: first what may "
                     "change a number beyond its interval, then what widens an interval (the "
                     "interval holds it), then what is for information. The cells of the "
-                    "tables a warning touches link to it. Each line as the analysis said it: "
-                    "summary.json's warnings; the study's inputs as they are now: "
-                    "Provenance.</p>", section=WARNINGS_SECTION)
+                    "tables a warning of the analysis touches link to it. Each line as it "
+                    "was said: the analysis's in summary.json's warnings, the comparison's "
+                    "(the fit, the population, the figures) in fit.json's; the study's "
+                    "inputs as they are now: Provenance.</p>", section=WARNINGS_SECTION)
 
 
 def add_analysed(report: Report, tables: ResultTables, section: str, *,
