@@ -228,3 +228,21 @@ def test_a_trial_recorded_while_analyze_runs_is_analysed_next_time(study, tmp_pa
     assert main(["analyze", *args, "--out", str(tmp_path / "b")]) == 0
     assert f"of {before + 1} trials" in capsys.readouterr().out
     assert "P01/run-99" in (tmp_path / "b" / "trials.csv").read_text().replace(",", "/")
+
+
+def test_an_unchanged_comparison_is_said_without_the_libraries(study, tmp_path):
+    """compare again on results, options and software unchanged writes nothing and imports
+    none of numpy, pandas, scipy, matplotlib, cantools or python-can (it reads fit.json and
+    the files' hashes alone)."""
+    out = tmp_path / "out"
+    cache = ["--cache-dir", str(tmp_path / "cache")]
+    assert main(["analyze", str(study), "--out", str(out), *cache]) == 0
+    assert main(["compare", str(out), *cache]) == 0
+    proc = subprocess.run([sys.executable, "-c", _PROBE.replace('"importlib.metadata"',
+                                                                '"matplotlib"'),
+                           "compare", str(out), "--force", *cache],
+                          capture_output=True, text=True, check=False)
+    assert proc.returncode == 0, proc.stderr
+    assert "nothing written" in proc.stdout
+    imported = eval(proc.stdout.strip().splitlines()[-1])  # the dict printed last
+    assert not any(imported.values()), imported

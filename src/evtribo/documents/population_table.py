@@ -26,12 +26,13 @@ from collections.abc import Iterator, Mapping
 from dataclasses import dataclass
 from functools import total_ordering
 from pathlib import Path
-from typing import Any
-
-import pandas as pd
+from typing import TYPE_CHECKING, Any
 
 from evtribo.errors import ResultFolderError
 from evtribo.util.numbers import amplitude_key, frequency, frequency_key
+
+if TYPE_CHECKING:  # pandas only where a table is read: fit.json's checks need none
+    import pandas as pd
 
 __all__ = ["EXPONENT", "FORCE", "META", "PREFACTOR", "PRIMARY", "Checks", "Drive",
            "PopulationRow", "PopulationTable", "without"]
@@ -61,7 +62,8 @@ def without(subject: str) -> str:
 
 def _text(value: Any) -> str | None:
     """A cell of text: None where it is missing."""
-    if value is None or (isinstance(value, float) and math.isnan(value)) or value is pd.NA:
+    if value is None or (isinstance(value, float) and math.isnan(value)) or \
+            type(value).__name__ == "NAType":  # pandas.NA, pandas not imported for it
         return None
     text = str(value)
     return text or None
