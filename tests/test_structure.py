@@ -283,7 +283,7 @@ _HOLDS = re.compile(r"`([\w/]+\.py)`(?: \(([^)]*)\)|'s ((?:`[\w.]+`(?:, | and |/
 
 def test_every_name_architecture_md_places_in_a_module_is_there():
     """Where docs/architecture.md says a module holds a function, a class or a constant
-    (``results/check.py`` (``check_trial``), ``cli/__init__.py``'s ``GROUPS``), the module
+    (``results/trial_view.py`` (``view_trial``), ``cli/__init__.py``'s ``GROUPS``), the module
     has it."""
     import importlib
 

@@ -1,7 +1,7 @@
 """A study's aligned forces, trial by trial, as one ASAM MDF 4 file (``evtribo export``).
 
-Each trial is analysed as ``evtribo analyze`` analyses it (:func:`~evtribo.results.check.
-check_trial`, through the cache), and each continuous piece it worked on becomes a channel
+Each trial is analysed as ``evtribo analyze`` analyses it (:func:`~evtribo.results.trial_view.
+view_trial`, through the cache), and each continuous piece it worked on becomes a channel
 group named ``SUBJECT/TRIAL`` (``SUBJECT/TRIAL#2`` for a second piece), with its drive in
 the group's comment: on the piece's grid (time in s from the trial's start), the normal and
 the tangential force (N; calibrated, tared, hum removed: the forces the windows' means are
@@ -23,7 +23,7 @@ import numpy as np
 from evtribo.analysis.forces.conditions import EXCLUDED, OFF, ON
 from evtribo.canlog.decode_mf4 import MF4_EXTRA, save_mdf
 from evtribo.errors import AnalysisError, UserInputError
-from evtribo.results.check import check_trial
+from evtribo.results.trial_view import view_trial
 from evtribo.study import Study, load_study
 
 __all__ = ["CONDITION_TEXT", "Exported", "export_forces"]
@@ -107,7 +107,7 @@ def export_forces(study: Study | str | os.PathLike[str], path: str | os.PathLike
         for k, ref in enumerate(trials):
             key = f"{ref.subject}/{ref.name}"
             try:
-                check = check_trial(study, ref.subject, ref.name)
+                check = view_trial(study, ref.subject, ref.name)
             except AnalysisError as err:
                 out.skipped.append(f"{key}: {err}")
                 continue

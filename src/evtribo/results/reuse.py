@@ -16,7 +16,7 @@ Two things are kept in the cache folder (:func:`evtribo.canlog.cache.default_cac
   checked on every read;
 - **each trial's sketch** (``checks/<key>.<checksum>.sketch``, under the same key): what
   its check's figure draws (:class:`~evtribo.results.sketch.TrialSketch`), which ``evtribo
-  compare`` finds there (:func:`evtribo.results.check.kept_sketches`) instead of analysing
+  compare`` finds there (:func:`evtribo.results.trial_view.kept_sketches`) instead of analysing
   the trial again. It is kept with ``--recompute`` too.
 
 A reused outcome is the one an analysis of the same inputs gives (the analysis of a trial

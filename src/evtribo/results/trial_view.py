@@ -1,6 +1,6 @@
-"""A check of one trial: what its analysis used and what it left out, and why.
+"""A view of one trial: what its analysis used and what it left out, and why.
 
-:func:`check_trial` decodes a trial of a study through the cache and analyses it with the
+:func:`view_trial` decodes a trial of a study through the cache and analyses it with the
 study's settings, as ``evtribo analyze`` does (:func:`~evtribo.analysis.trial.
 analyze_signals`, the same code), keeping what each continuous piece worked on
 (:class:`~evtribo.analysis.observed.PieceState`): the forces as tared, the ON/OFF condition
@@ -47,12 +47,23 @@ from evtribo.study import Study, TrialRef, load_study
 from evtribo.warning.collect import collecting
 from evtribo.warning.record import Scope, WarningRecord
 
-__all__ = ["MIN_HOLE_S", "STRETCH_LABELS", "Stretch", "TrialCheck", "check_signals", "check_trial",
-           "excluded_stretches", "find_trial", "kept_sketches", "settings_of", "sketch_of",
-           "trial_signals"]
+__all__ = [
+    "MIN_HOLE_S",
+    "STRETCH_LABELS",
+    "Stretch",
+    "TrialView",
+    "excluded_stretches",
+    "find_trial",
+    "kept_sketches",
+    "settings_of",
+    "sketch_of",
+    "trial_signals",
+    "view_signals",
+    "view_trial",
+]
 
 @dataclass
-class TrialCheck:
+class TrialView:
     """A trial as its analysis saw it.
 
     Attributes
@@ -85,9 +96,9 @@ class TrialCheck:
         return f"{self.subject}/{self.trial}"
 
 
-def check_signals(signals: TrialSignals, meta: TrialMeta, *,
+def view_signals(signals: TrialSignals, meta: TrialMeta, *,
                   settings: AnalysisSettings | None = None,
-                  calibration: Calibration | None = None) -> TrialCheck:
+                  calibration: Calibration | None = None) -> TrialView:
     """Analyse a decoded trial as ``evtribo analyze`` does and keep what it worked on.
 
     Parameters
@@ -103,7 +114,7 @@ def check_signals(signals: TrialSignals, meta: TrialMeta, *,
 
     Returns
     -------
-    TrialCheck
+    TrialView
 
     Raises
     ------
@@ -113,9 +124,9 @@ def check_signals(signals: TrialSignals, meta: TrialMeta, *,
     pieces: list[PieceState] = []
     result = analyze_signals(signals, meta, settings=settings, calibration=calibration,
                              observe=pieces.append)
-    return TrialCheck(subject=meta.subject, trial=meta.trial, t0=trial_start(signals),
-                      pieces=pieces, windows=result.windows, row=result.row,
-                      warnings=result.warnings)
+    return TrialView(subject=meta.subject, trial=meta.trial, t0=trial_start(signals),
+                     pieces=pieces, windows=result.windows, row=result.row,
+                     warnings=result.warnings)
 
 
 def find_trial(study: Study, subject: str, trial: str) -> TrialRef:
@@ -205,9 +216,9 @@ def trial_signals(ref: TrialRef, study: Study, cache_dir: str | os.PathLike[str]
         raise SidecarError(err.message, path=ref.sidecar_path, key="log_channel") from err
 
 
-def check_trial(study: Study | str | os.PathLike[str], subject: str, trial: str, *,
+def view_trial(study: Study | str | os.PathLike[str], subject: str, trial: str, *,
                 settings: AnalysisSettings | Mapping[str, Any] | None = None,
-                cache_dir: str | os.PathLike[str] | None = None) -> TrialCheck:
+                cache_dir: str | os.PathLike[str] | None = None) -> TrialView:
     """Check one trial of a study: decode it through the cache, analyse it with the study's
     settings, keep what the analysis worked on. What the analysis warns of is kept in the
     check's ``warnings`` and not said again (``evtribo analyze`` says it).
@@ -225,7 +236,7 @@ def check_trial(study: Study | str | os.PathLike[str], subject: str, trial: str,
 
     Returns
     -------
-    TrialCheck
+    TrialView
 
     Raises
     ------
@@ -240,17 +251,17 @@ def check_trial(study: Study | str | os.PathLike[str], subject: str, trial: str,
     assert study.rig is not None
     # evtribo analyze said them; the check keeps them in .warnings
     with collecting(Scope(subject, trial), quiet=True):
-        return check_signals(trial_signals(ref, study, cache_dir), trial_meta(ref),
+        return view_signals(trial_signals(ref, study, cache_dir), trial_meta(ref),
                              settings=settings_of(study, settings),
                              calibration=study.rig.calibration)
 
 
-def excluded_stretches(check: TrialCheck) -> list[Stretch]:
+def excluded_stretches(check: TrialView) -> list[Stretch]:
     """What the windows of a trial could not use, and why, in time order.
 
     Parameters
     ----------
-    check : TrialCheck
+    check : TrialView
         The trial's check.
 
     Returns
@@ -264,12 +275,12 @@ def excluded_stretches(check: TrialCheck) -> list[Stretch]:
     return sketch_of(check).stretches
 
 
-def sketch_of(check: TrialCheck) -> TrialSketch:
+def sketch_of(check: TrialView) -> TrialSketch:
     """What the figure of a trial's check draws, from the check (as analyze keeps it).
 
     Parameters
     ----------
-    check : TrialCheck
+    check : TrialView
         The trial's check.
 
     Returns
