@@ -180,7 +180,7 @@ class TrialPaths:
 
 
 @dataclass
-class TrialResult:
+class RecordingOutcome:
     """What :func:`record_trial` did.
 
     Attributes
@@ -304,9 +304,19 @@ class StopFlag:
         return self._event.is_set()
 
 
-__all__ = ["RESERVE_BYTES", "RIG_DATA_TIMEOUT_S", "StopFlag", "StopOnSignals", "TrialInfo",
-           "TrialOptions", "TrialPaths", "TrialResult", "keep_reserve", "refuse_existing",
-           "trial_lock"]
+__all__ = [
+    "RESERVE_BYTES",
+    "RIG_DATA_TIMEOUT_S",
+    "RecordingOutcome",
+    "StopFlag",
+    "StopOnSignals",
+    "TrialInfo",
+    "TrialOptions",
+    "TrialPaths",
+    "keep_reserve",
+    "refuse_existing",
+    "trial_lock",
+]
 
 
 class StopOnSignals:

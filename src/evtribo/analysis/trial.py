@@ -96,7 +96,7 @@ class TrialMeta:
 
 
 @dataclass
-class TrialResult:
+class TrialAnalysis:
     """A trial's row of trials.csv, its windows and what went wrong on the way.
 
     Attributes
@@ -321,7 +321,7 @@ def _pieces(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: Anal
 def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
                     settings: AnalysisSettings | None = None,
                     calibration: Calibration | None = None,
-                    observe: PieceObserver | None = None) -> TrialResult:
+                    observe: PieceObserver | None = None) -> TrialAnalysis:
     """Analyse one decoded trial.
 
     A trial whose load cells both fall silent for more than a second (a jump of the log's
@@ -344,7 +344,7 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
 
     Returns
     -------
-    TrialResult
+    TrialAnalysis
 
     Raises
     ------
@@ -361,7 +361,7 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
 
 
 def _analyze(signals: TrialSignals, meta: TrialMeta, settings: AnalysisSettings,
-             calibration: Calibration | None, observe: PieceObserver | None) -> TrialResult:
+             calibration: Calibration | None, observe: PieceObserver | None) -> TrialAnalysis:
     """:func:`analyze_signals` within its trial's collector of warnings."""
     t0 = trial_start(signals)
     parts, cut = _pieces(signals, meta, t0, settings=settings, calibration=calibration,
@@ -397,7 +397,7 @@ def _analyze(signals: TrialSignals, meta: TrialMeta, settings: AnalysisSettings,
         "tare": "+".join(methods) or "none",
         **_crosstalk(parts, windows, methods),
     }
-    return TrialResult(row=row, windows=windows, trace=trace)
+    return TrialAnalysis(row=row, windows=windows, trace=trace)
 
 
 def _crosstalk(parts: list[_PieceResult], windows: pd.DataFrame, methods: list[str]
@@ -452,6 +452,15 @@ def failed_row(meta: TrialMeta) -> dict[str, Any]:
     return row
 
 
-__all__ = ["SINE_TRACE_CSV_COLUMNS", "TRIAL_COLUMNS", "WINDOW_CSV_COLUMNS", "AnalysisSettings",
-           "TrialMeta", "TrialResult", "analyze_signals", "empty_windows", "failed_row",
-           "trial_start"]
+__all__ = [
+    "SINE_TRACE_CSV_COLUMNS",
+    "TRIAL_COLUMNS",
+    "WINDOW_CSV_COLUMNS",
+    "AnalysisSettings",
+    "TrialAnalysis",
+    "TrialMeta",
+    "analyze_signals",
+    "empty_windows",
+    "failed_row",
+    "trial_start",
+]
