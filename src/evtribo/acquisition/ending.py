@@ -169,7 +169,7 @@ def _keep_previous(rec: _Recording, ended: str, error: BaseException | None,
                     "dropped_frames": 0, "damaged_lines": 0,
                     "bus_errors": int(ended == "bus-error"), "end_detail": why, "log": None})
     return RecordingOutcome(ended=ended, exit_code=EXIT_CODES[ended], paths=paths,
-                       sidecar=sidecar, error=error, kept_previous=True)
+                            sidecar=sidecar, error=error, kept_previous=True)
 
 
 def _commit(rec: _Recording) -> None:

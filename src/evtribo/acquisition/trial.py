@@ -343,7 +343,7 @@ def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
              paths.log.stem, ended, stats.frames, got.elapsed, stats.dropped,
              sidecar["bus_errors"])
     return RecordingOutcome(ended=ended, exit_code=EXIT_CODES[ended], paths=paths, sidecar=sidecar,
-                       error=error)
+                            error=error)
 
 
 def _receive(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,

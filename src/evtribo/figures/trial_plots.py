@@ -41,7 +41,7 @@ from evtribo.results.sketch import MAX_POINTS, STRETCH_LABELS, Stretch, TrialSke
 if TYPE_CHECKING:
     from evtribo.analysis.settings import AnalysisSettings
     from evtribo.results.trial_view import TrialView
-    from evtribo.study import Study
+    from evtribo.study import StudyFolder
 
 log = logging.getLogger(__name__)
 
@@ -266,7 +266,7 @@ def trial_caption(check: TrialView | TrialSketch) -> str:
     return "; ".join(parts) + "."
 
 
-def plot_trial(study: Study | str | os.PathLike[str], subject: str, trial: str, *,
+def plot_trial(study: StudyFolder | str | os.PathLike[str], subject: str, trial: str, *,
                ax: Axes | None = None,
                settings: AnalysisSettings | Mapping[str, Any] | None = None,
                cache_dir: str | os.PathLike[str] | None = None) -> Axes:
@@ -276,7 +276,7 @@ def plot_trial(study: Study | str | os.PathLike[str], subject: str, trial: str, 
 
     Parameters
     ----------
-    study : Study or path-like
+    study : StudyFolder or path-like
         The study, or its folder.
     subject, trial : str
         The trial.
@@ -328,7 +328,7 @@ def _failed(subject: str, trial: str, err: Exception) -> TrialFigure:
                        error=str(err))
 
 
-def trial_check_figures(study_root: Study | str | os.PathLike[str],
+def trial_check_figures(study_root: StudyFolder | str | os.PathLike[str],
                         subjects: Sequence[str] | None = None,
                         settings: AnalysisSettings | Mapping[str, Any] | None = None, *,
                         cache_dir: str | os.PathLike[str] | None = None
@@ -337,7 +337,7 @@ def trial_check_figures(study_root: Study | str | os.PathLike[str],
 
     Parameters
     ----------
-    study_root : Study or path-like
+    study_root : StudyFolder or path-like
         The study, or its folder.
     subjects : sequence of str, optional
         Only these subjects' trials (default: all).
@@ -355,9 +355,9 @@ def trial_check_figures(study_root: Study | str | os.PathLike[str],
         its own (no pyplot state): save it, then let it go.
     """
     from evtribo.results.trial_view import settings_of, sketch_of, view_trial
-    from evtribo.study import Study, load_study
+    from evtribo.study import StudyFolder, load_study
 
-    study = study_root if isinstance(study_root, Study) else load_study(study_root)
+    study = study_root if isinstance(study_root, StudyFolder) else load_study(study_root)
     chosen = settings_of(study, settings)
     for ref in study.trials:
         if subjects is not None and ref.subject not in subjects:

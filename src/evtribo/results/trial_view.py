@@ -43,7 +43,7 @@ from evtribo.results.sketch import (
 )
 from evtribo.results.workers import trial_meta
 from evtribo.store.memo import default_cache_dir
-from evtribo.study import Study, TrialRef, load_study
+from evtribo.study import StudyFolder, TrialRef, load_study
 from evtribo.warning.collect import collecting
 from evtribo.warning.record import Scope, WarningRecord
 
@@ -129,12 +129,12 @@ def view_signals(signals: TrialSignals, meta: TrialMeta, *,
                      warnings=result.warnings)
 
 
-def find_trial(study: Study, subject: str, trial: str) -> TrialRef:
+def find_trial(study: StudyFolder, subject: str, trial: str) -> TrialRef:
     """The trial *subject*/*trial* of a study.
 
     Parameters
     ----------
-    study : Study
+    study : StudyFolder
         The loaded study.
     subject, trial : str
         The names.
@@ -160,13 +160,13 @@ def find_trial(study: Study, subject: str, trial: str) -> TrialRef:
                      f"{', '.join(t.name for t in trials)}", path=study.root / subject)
 
 
-def settings_of(study: Study, settings: AnalysisSettings | Mapping[str, Any] | None
+def settings_of(study: StudyFolder, settings: AnalysisSettings | Mapping[str, Any] | None
                 ) -> AnalysisSettings:
     """The settings to analyse a study's trials with.
 
     Parameters
     ----------
-    study : Study
+    study : StudyFolder
         The study (its ``[analysis]`` table).
     settings : AnalysisSettings or mapping or None
         None: the study's (the package's defaults, then ``[analysis]``); settings: those; a
@@ -187,7 +187,7 @@ def settings_of(study: Study, settings: AnalysisSettings | Mapping[str, Any] | N
     return AnalysisSettings().updated(values, table="settings")
 
 
-def trial_signals(ref: TrialRef, study: Study, cache_dir: str | os.PathLike[str] | None = None
+def trial_signals(ref: TrialRef, study: StudyFolder, cache_dir: str | os.PathLike[str] | None = None
                   ) -> TrialSignals:
     """The trial's decoded signals, from the channel its sidecar names (as analyze reads
     them).
@@ -196,7 +196,7 @@ def trial_signals(ref: TrialRef, study: Study, cache_dir: str | os.PathLike[str]
     ----------
     ref : TrialRef
         The trial.
-    study : Study
+    study : StudyFolder
         Its study.
     cache_dir : path-like, optional
         The decoded-trial cache.
@@ -216,7 +216,7 @@ def trial_signals(ref: TrialRef, study: Study, cache_dir: str | os.PathLike[str]
         raise SidecarError(err.message, path=ref.sidecar_path, key="log_channel") from err
 
 
-def view_trial(study: Study | str | os.PathLike[str], subject: str, trial: str, *,
+def view_trial(study: StudyFolder | str | os.PathLike[str], subject: str, trial: str, *,
                 settings: AnalysisSettings | Mapping[str, Any] | None = None,
                 cache_dir: str | os.PathLike[str] | None = None) -> TrialView:
     """Check one trial of a study: decode it through the cache, analyse it with the study's
@@ -225,7 +225,7 @@ def view_trial(study: Study | str | os.PathLike[str], subject: str, trial: str, 
 
     Parameters
     ----------
-    study : Study or path-like
+    study : StudyFolder or path-like
         The study, or its folder.
     subject, trial : str
         The trial.
@@ -245,7 +245,7 @@ def view_trial(study: Study | str | os.PathLike[str], subject: str, trial: str, 
     AnalysisError
         The trial cannot be analysed.
     """
-    if not isinstance(study, Study):
+    if not isinstance(study, StudyFolder):
         study = load_study(Path(study))
     ref = find_trial(study, subject, trial)
     assert study.rig is not None
@@ -301,7 +301,7 @@ def _relative(path: str | os.PathLike[str], root: Path) -> str:
         return str(Path(path).resolve())
 
 
-def kept_sketches(study: Study, summary: Mapping[str, Any],
+def kept_sketches(study: StudyFolder, summary: Mapping[str, Any],
                   cache_dir: str | os.PathLike[str] | None = None) -> dict[str, TrialSketch]:
     """The sketches ``evtribo analyze`` kept of a study's trials when it wrote *summary*:
     those of the trials it analysed with these settings and this rig, each log as it hashed
@@ -309,7 +309,7 @@ def kept_sketches(study: Study, summary: Mapping[str, Any],
 
     Parameters
     ----------
-    study : Study
+    study : StudyFolder
         The study, as loaded now (its trials named and described as when analysed).
     summary : mapping
         The analysis's ``summary.json``.
