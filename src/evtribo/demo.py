@@ -44,7 +44,7 @@ Progress = Callable[[str], None]
 
 
 @dataclass(frozen=True)
-class PlannedTrial:
+class DemoTrial:
     """One trial of the demo study."""
 
     subject: SubjectParams
@@ -71,7 +71,7 @@ class DemoResult:
 
 
 def plan(subjects: Sequence[SubjectParams], amplitudes: Sequence[float] = AMPLITUDES_V, *,
-         trial_s: float = 10.0, seed: int = 0) -> list[PlannedTrial]:
+         trial_s: float = 10.0, seed: int = 0) -> list[DemoTrial]:
     """The demo's trials: per subject, alternating square-wave trials at 10 kHz for each
     amplitude, then one alternating 10 Hz sine trial at the highest amplitude; every one on
     a real rig's load cells (offsets, drift, hum, a tare stretch)."""
@@ -83,11 +83,11 @@ def plan(subjects: Sequence[SubjectParams], amplitudes: Sequence[float] = AMPLIT
             cfg = TrialConfig(duration_s=trial_s, waveform=waveform, frequency_Hz=freq,
                               amplitude_V=amp, condition="alternating",
                               seed=seed * 1000 + i * 100 + k)
-            trials.append(PlannedTrial(subject, f"run-{k + 1:02d}", realistic_rig(cfg)))
+            trials.append(DemoTrial(subject, f"run-{k + 1:02d}", realistic_rig(cfg)))
     return trials
 
 
-def record(trial: PlannedTrial, study: Path, *, speed: float) -> dict[str, Any]:
+def record(trial: DemoTrial, study: Path, *, speed: float) -> dict[str, Any]:
     """Stream one simulated trial on a virtual bus and record it into *study*.
 
     Returns the simulator's truth for the trial.

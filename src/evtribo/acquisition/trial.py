@@ -393,16 +393,5 @@ def _receive(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
                      t_start=rec.t_start, care=care)
 
 
-__all__ = [
-    "CONDITIONS",
-    "EXIT_CODES",
-    "RIG_DATA_TIMEOUT_S",
-    "WAVEFORMS",
-    "RecordingOutcome",
-    "StopFlag",
-    "TrialInfo",
-    "TrialOptions",
-    "TrialPaths",
-    "record_trial",
-    "trial_lock",
-]
+__all__ = ["CONDITIONS", "EXIT_CODES", "RIG_DATA_TIMEOUT_S", "WAVEFORMS", "RecordingOutcome",
+           "StopFlag", "TrialInfo", "TrialOptions", "TrialPaths", "record_trial", "trial_lock"]

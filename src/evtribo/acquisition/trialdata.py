@@ -304,19 +304,9 @@ class StopFlag:
         return self._event.is_set()
 
 
-__all__ = [
-    "RESERVE_BYTES",
-    "RIG_DATA_TIMEOUT_S",
-    "RecordingOutcome",
-    "StopFlag",
-    "StopOnSignals",
-    "TrialInfo",
-    "TrialOptions",
-    "TrialPaths",
-    "keep_reserve",
-    "refuse_existing",
-    "trial_lock",
-]
+__all__ = ["RESERVE_BYTES", "RIG_DATA_TIMEOUT_S", "RecordingOutcome", "StopFlag", "StopOnSignals",
+           "TrialInfo", "TrialOptions", "TrialPaths", "keep_reserve", "refuse_existing",
+           "trial_lock"]
 
 
 class StopOnSignals:

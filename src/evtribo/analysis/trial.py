@@ -452,15 +452,6 @@ def failed_row(meta: TrialMeta) -> dict[str, Any]:
     return row
 
 
-__all__ = [
-    "SINE_TRACE_CSV_COLUMNS",
-    "TRIAL_COLUMNS",
-    "WINDOW_CSV_COLUMNS",
-    "AnalysisSettings",
-    "TrialAnalysis",
-    "TrialMeta",
-    "analyze_signals",
-    "empty_windows",
-    "failed_row",
-    "trial_start",
-]
+__all__ = ["SINE_TRACE_CSV_COLUMNS", "TRIAL_COLUMNS", "WINDOW_CSV_COLUMNS", "AnalysisSettings",
+           "TrialAnalysis", "TrialMeta", "analyze_signals", "empty_windows", "failed_row",
+           "trial_start"]

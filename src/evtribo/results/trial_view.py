@@ -47,20 +47,9 @@ from evtribo.study import StudyFolder, TrialRef, load_study
 from evtribo.warning.collect import collecting
 from evtribo.warning.record import Scope, WarningRecord
 
-__all__ = [
-    "MIN_HOLE_S",
-    "STRETCH_LABELS",
-    "Stretch",
-    "TrialView",
-    "excluded_stretches",
-    "find_trial",
-    "kept_sketches",
-    "settings_of",
-    "sketch_of",
-    "trial_signals",
-    "view_signals",
-    "view_trial",
-]
+__all__ = ["MIN_HOLE_S", "STRETCH_LABELS", "Stretch", "TrialView", "excluded_stretches",
+           "find_trial", "kept_sketches", "settings_of", "sketch_of", "trial_signals",
+           "view_signals", "view_trial"]
 
 @dataclass
 class TrialView:
