@@ -12,7 +12,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from analysed import analysed_study
-from evtribo.results.sketch import SketchPiece, Stretch, TrialSketch
+from evtribo.results.trial_sketch import SketchPiece, Stretch, TrialSketch
 from evtribo.results.trial_view import kept_sketches, sketch_of, view_trial
 from evtribo.study import load_study
 

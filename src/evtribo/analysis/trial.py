@@ -35,7 +35,7 @@ from evtribo.analysis.forces.zero_offsets import HUM_FREE_S, removed_offsets
 from evtribo.analysis.friction.plausible import swapped_roles
 from evtribo.analysis.friction.sine import friction_modulation, trace_around_switch
 from evtribo.analysis.friction.trace import TRACE_COLUMNS
-from evtribo.analysis.observed import PieceObserver, PieceState
+from evtribo.analysis.piece_observer import PieceObserver, PieceState
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.tared_windows import offset_warnings, tare_and_find_windows
 from evtribo.canlog.rig import Calibration

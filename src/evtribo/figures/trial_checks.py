@@ -26,7 +26,7 @@ from typing import Any
 from evtribo.errors import AnalysisError, UserInputError
 from evtribo.figures.trial_plots import trial_stem
 from evtribo.fit.tables import ResultTables
-from evtribo.results.sketch import TrialSketch
+from evtribo.results.trial_sketch import TrialSketch
 from evtribo.store.pool import Mapper
 
 # the analysis (results.check) and the rig's DBC (evtribo.study) are imported where a trial's
@@ -150,7 +150,7 @@ def sketch_again(job: tuple[str, str, str, Mapping[str, Any], str | None]) -> by
     Returns
     -------
     bytes or str
-        The sketch (:meth:`~evtribo.results.sketch.TrialSketch.to_bytes`), or the error.
+        The sketch (:meth:`~evtribo.results.trial_sketch.TrialSketch.to_bytes`), or the error.
     """
     from evtribo.results.trial_view import sketch_of, view_trial
 

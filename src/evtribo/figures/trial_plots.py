@@ -9,7 +9,7 @@ zero was read; and, hatched, what no window may use (guard times at ON/OFF switc
 unknown state, the finger leaving or touching down, missing frames, pauses). A researcher
 sees at once when the analysis picked the wrong stretches.
 
-A check is drawn from the trial's :class:`~evtribo.results.sketch.TrialSketch`: the one
+A check is drawn from the trial's :class:`~evtribo.results.trial_sketch.TrialSketch`: the one
 ``evtribo analyze`` kept (:func:`evtribo.results.trial_view.kept_sketches`), or one made from a
 new analysis (:func:`~evtribo.results.trial_view.view_trial`, :func:`~evtribo.results.trial_view.
 sketch_of`). The traces are rasterised in SVG and PDF (a trial's thousands of points, drawn
@@ -36,7 +36,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from evtribo.errors import AnalysisError, UserInputError
-from evtribo.results.sketch import MAX_POINTS, STRETCH_LABELS, Stretch, TrialSketch, envelope
+from evtribo.results.trial_sketch import MAX_POINTS, STRETCH_LABELS, Stretch, TrialSketch, envelope
 
 if TYPE_CHECKING:
     from evtribo.analysis.settings import AnalysisSettings

@@ -3,7 +3,7 @@
 :func:`view_trial` decodes a trial of a study through the cache and analyses it with the
 study's settings, as ``evtribo analyze`` does (:func:`~evtribo.analysis.trial.
 analyze_signals`, the same code), keeping what each continuous piece worked on
-(:class:`~evtribo.analysis.observed.PieceState`): the forces as tared, the ON/OFF condition
+(:class:`~evtribo.analysis.piece_observer.PieceState`): the forces as tared, the ON/OFF condition
 of every grid point, the finger-lifted stretches and the steady-sliding windows. Its windows
 are those of ``windows.csv`` when the study has not changed since it was analysed.
 
@@ -25,7 +25,7 @@ from typing import Any
 
 import pandas as pd
 
-from evtribo.analysis.observed import PieceState
+from evtribo.analysis.piece_observer import PieceState
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals, trial_start
 from evtribo.canlog.cache import load_trial
@@ -34,7 +34,7 @@ from evtribo.canlog.signals import TrialSignals
 from evtribo.errors import SidecarError, StudyError, UserInputError
 from evtribo.results.pipeline import study_settings
 from evtribo.results.reuse import OutcomeStore, analysis_context
-from evtribo.results.sketch import (
+from evtribo.results.trial_sketch import (
     MIN_HOLE_S,
     STRETCH_LABELS,
     Sketcher,
