@@ -34,6 +34,8 @@ from evtribo.errors import AcquisitionError, OutputExistsError
 from evtribo.store.files import atomic_write
 from evtribo.store.names import check_new_path
 
+__all__ = ["AMPLITUDES_V", "MARKER", "DemoResult", "DemoTrial", "run_demo"]
+
 log = logging.getLogger(__name__)
 
 #: Square-wave amplitudes of the demo study, V (as in the seed paper's Section 3.3).
@@ -222,6 +224,10 @@ def run_demo(out: str | Path, *, subjects: int = 3, amplitudes: Sequence[float] 
         Replace a previous demo in *out*.
     progress : callable, optional
         Called with a line of text after each step.
+
+    Returns
+    -------
+    DemoResult
     """
     from evtribo.report.compare import compare
     from evtribo.report.study_report import build_report

@@ -44,9 +44,9 @@ def _write_json(path: Path, data: dict[str, Any]) -> None:
 
 @dataclass
 class _Recording:
-    """A trial whose log is open: what :func:`_run` needs to record and end it (*paths*:
-    where it records, in *stage* for a trial recorded again over itself; *final*: the
-    trial's)."""
+    """A trial whose log is open: what :func:`~evtribo.acquisition.trial.record_trial` needs to
+    record and end it (*paths*: where it records, in *stage* for a trial recorded again over itself;
+    *final*: the trial's)."""
 
     paths: TrialPaths
     final: TrialPaths

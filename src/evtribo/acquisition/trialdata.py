@@ -181,7 +181,7 @@ class TrialPaths:
 
 @dataclass
 class RecordingOutcome:
-    """What :func:`record_trial` did.
+    """What :func:`~evtribo.acquisition.trial.record_trial` did.
 
     Attributes
     ----------
@@ -285,8 +285,8 @@ class StopFlag:
     reason : str or None
         Why the stop was requested (the sidecar's ``end_detail``).
     interruptible : bool
-        True while :func:`record_trial` receives frames: only then may a signal handler
-        raise ``KeyboardInterrupt`` to cut a receive that hangs. Once it is False the
+        True while :func:`~evtribo.acquisition.trial.record_trial` receives frames: only then may a
+        signal handler raise ``KeyboardInterrupt`` to cut a receive that hangs. Once it is False the
         trial's log and sidecar are being saved, and must not be interrupted.
     """
 

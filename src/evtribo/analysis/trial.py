@@ -109,7 +109,7 @@ class TrialAnalysis:
         What its decoding and analysis said of it, in order.
     trace : pandas.DataFrame or None
         For a sine trial with ON phases: :data:`SINE_TRACE_CSV_COLUMNS` over a stretch
-        around a switch from OFF to ON (see :func:`sine_trace`).
+        around a switch from OFF to ON (see :func:`~evtribo.analysis.friction.trace.sine_trace`).
     """
 
     row: dict[str, Any]

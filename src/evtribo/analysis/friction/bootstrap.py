@@ -89,7 +89,7 @@ def subject_law(w: Windows, offs: list[WindowFacts], ons: WindowFacts, friction_
 @dataclass(frozen=True)
 class Windows:
     """The windows of one estimate as flat float arrays (see
-    :func:`estimate_electrostatic`'s parameters)."""
+    :func:`~evtribo.analysis.friction.estimate.estimate_electrostatic`'s parameters)."""
 
     off_normal: list[FloatArray]
     off_friction: list[FloatArray]
