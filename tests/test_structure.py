@@ -829,3 +829,48 @@ def test_the_structure_check_of_warnings_finds_what_it_looks_for():
     said = sum(path.read_text(encoding="utf-8").count("emit(")
                for path in _warning_site_files())
     assert said >= 80
+
+
+def _how_to_add() -> dict[str, list[str]]:
+    """The rows of docs/architecture.md's "How to add": what is added, and its cells."""
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    section = text.split("## How to add", 1)[1].split("\n## ", 1)[0]
+    rows = [line.strip("|").split(" | ") for line in section.splitlines()
+            if line.startswith("| a ")]
+    return {cells[0].strip(): [c.strip() for c in cells[1:]] for cells in rows}
+
+
+def test_every_way_to_add_architecture_md_gives_is_there():
+    """docs/architecture.md's "How to add" names, for a log format, a friction law, a
+    population model, a figure and a warning, the files to touch (each there: a module, or
+    the folder a new one goes into), a registry that imports (a mapping of what is
+    registered) and the entry point group its module reads plug-ins from."""
+    import importlib
+    import importlib.util
+    from collections.abc import Mapping
+
+    rows = _how_to_add()
+    assert set(rows) == {"a log format", "a friction law", "a population model", "a figure",
+                         "a warning"}
+    wrong = []
+    for what, cells in rows.items():
+        for code in re.findall(r"`([^`]+)`", " ".join(cells)):
+            if "<" in code and "/" in code:  # the folder a new module goes into
+                if not (SRC / code).parent.is_dir():
+                    wrong.append(f"{what}: no folder for {code}")
+            elif code.endswith((".py", ".md")) and \
+                    not any((base / code).exists() for base in (SRC, ROOT)):
+                wrong.append(f"{what}: no {code}")
+        module_path, registry = re.search(r"`([\w/]+\.py)` \(`(\w+)`", cells[1]).groups()
+        parts = Path(module_path).with_suffix("").parts
+        module = importlib.import_module(".".join(
+            ("evtribo", *(parts[:-1] if parts[-1] == "__init__" else parts))))
+        if not isinstance(getattr(module, registry, None), Mapping | tuple):
+            wrong.append(f"{what}: {module_path} has no registry {registry}")
+        group = re.search(r"entry point group (evtribo\.\w+)", cells[2]).group(1)
+        near = (module.__name__, module.__name__.rsplit(".", 1)[0] + ".catalogue")
+        groups = {vars(importlib.import_module(m)).get("ENTRY_POINTS") for m in near
+                  if importlib.util.find_spec(m) is not None}
+        if group not in groups:
+            wrong.append(f"{what}: {module_path} reads no entry point group {group}")
+    assert not wrong, "\n".join(wrong)
