@@ -26,8 +26,8 @@ from evtribo.acquisition.simulator import TrialConfig, default_subjects, simulat
 from evtribo.analysis.trial import analyze_signals
 from evtribo.canlog.cache import load_trial
 from evtribo.figures.trial_plots import trial_check_figures
-from evtribo.results.check import settings_of
 from evtribo.results.pipeline import analyze_study
+from evtribo.results.trial_view import settings_of
 from evtribo.results.workers import trial_meta
 from evtribo.study import load_study
 

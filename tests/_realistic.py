@@ -22,7 +22,7 @@ import pandas as pd
 from evtribo.acquisition.simulator import SubjectParams, TrialConfig, default_subjects
 from evtribo.acquisition.simulator.core import TrialTruth, simulate_trial
 from evtribo.acquisition.simulator.realism import human, real_finger, real_logger, realistic_rig
-from evtribo.analysis.friction.balance import balanced_weights
+from evtribo.analysis.friction.direction_weights import balanced_weights
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals
 from evtribo.canlog.decode import decode_trial
@@ -74,8 +74,8 @@ def attach_truth(el: pd.DataFrame, ex: pd.DataFrame, windows: pd.DataFrame,
     """electrostatic.csv and exponents.csv with the truth of each row beside it: the
     simulated electrostatic force and friction coefficient over the row's ON windows,
     averaged as the estimate averages them (each trial by its share, both directions alike:
-    :func:`evtribo.analysis.friction.balance.balanced_weights`; the subject's coefficient where the
-    simulator did not record it)."""
+    :func:`evtribo.analysis.friction.direction_weights.balanced_weights`; the subject's
+    coefficient where the simulator did not record it)."""
     on = windows[windows.condition == "on"]
     rows = [on[(on.subject == r.subject) & (on.amplitude_V == r.amplitude_V)
                & (on.waveform == r.waveform)] for r in el.itertuples()]

@@ -181,12 +181,12 @@ def _results(tmp: Path, *, summary: bool = True, fit_of: str | None = None,
 
 def _session_begun(tmp: Path) -> None:
     """P01's session begun with amplitudes 60 and 100 V; the protocol now asks 140 V."""
-    from evtribo.documents.session import PlannedTrial, Session, write_session
+    from evtribo.documents.session import Session, SessionTrial, write_session
 
     old = {"session": {"trial_s": 20.0}, "trial": [{"amplitude_V": [60.0, 100.0]}]}
     write_session(tmp / "study" / "P01" / "session.json", Session(
         subject="P01", seed=1, protocol=old,
-        order=(PlannedTrial("run-09", "square", 10000.0, 60.0, "alternating"),)))
+        order=(SessionTrial("run-09", "square", 10000.0, 60.0, "alternating"),)))
     (tmp / "protocol.toml").write_text("[[trial]]\namplitude_V = 140\n")
 
 

@@ -13,8 +13,8 @@ from evtribo.documents.names import NAME_PATTERN
 from evtribo.documents.session import (
     SESSION_FILE,
     VERSION,
-    PlannedTrial,
     Session,
+    SessionTrial,
     read_session,
     write_session,
 )
@@ -24,7 +24,7 @@ from evtribo.study import discover_trials
 
 names = st.from_regex(NAME_PATTERN, fullmatch=True).filter(lambda s: len(s) <= 20)
 numbers = st.none() | st.floats(0, 1e5, allow_nan=False)
-planned = st.builds(PlannedTrial, trial=names, waveform=st.none() | st.sampled_from(WAVEFORMS),
+planned = st.builds(SessionTrial, trial=names, waveform=st.none() | st.sampled_from(WAVEFORMS),
                     frequency_Hz=numbers, amplitude_V=numbers,
                     condition=st.none() | st.sampled_from(CONDITIONS))
 orders = st.lists(planned, max_size=6, unique_by=lambda t: t.trial).map(tuple)
@@ -51,11 +51,11 @@ def test_what_is_written_is_read_back(tmp_path_factory, session):
 
 
 def test_the_next_trial_is_the_first_not_done():
-    session = Session(subject="P01", seed=1, order=(PlannedTrial("run-01"),
-                                                    PlannedTrial("run-02")))
-    assert session.next_trial() == PlannedTrial("run-01")
+    session = Session(subject="P01", seed=1, order=(SessionTrial("run-01"),
+                                                    SessionTrial("run-02")))
+    assert session.next_trial() == SessionTrial("run-01")
     session = session.with_done("run-01")
-    assert session.next_trial() == PlannedTrial("run-02")
+    assert session.next_trial() == SessionTrial("run-02")
     assert session.with_done("run-02").next_trial() is None
     with pytest.raises(ValueError, match="run-03"):
         session.with_done("run-03")
@@ -95,7 +95,7 @@ def test_invalid_json_names_the_line(tmp_path):
 def test_a_session_file_is_not_taken_for_a_sidecar_without_a_log(tmp_path):
     root = _studies.make_study(tmp_path / "s", {"P01/run-01": {}}, rig={"dbc": "rig/x.dbc"})
     write_session(root / "P01" / SESSION_FILE, Session(
-        subject="P01", seed=1, order=(PlannedTrial("run-01"),), done=("run-01",)))
+        subject="P01", seed=1, order=(SessionTrial("run-01"),), done=("run-01",)))
     trials, warnings = discover_trials(root)
     assert [t.key for t in trials] == ["P01/run-01"]
     assert not any(SESSION_FILE in w.text for w in warnings)

@@ -1,5 +1,5 @@
-"""The package's shape: lower layers never import higher ones, modules and functions stay
-short enough to read."""
+"""The package's shape: lower layers never import higher ones, each module holds one thing and
+says what, functions stay short enough to read, and what a docstring points at is there."""
 
 from __future__ import annotations
 
@@ -27,7 +27,6 @@ LAYERS = {
     "demo": 12, "api": 12,
     "cli": 13, "__main__": 14,
 }
-MAX_MODULE_LINES = 500
 MAX_FUNCTION_LINES = 80
 #: Functions still being split into named steps, by package (each must be over the limit:
 #: a function brought under it leaves its set).
@@ -38,8 +37,112 @@ LONG_IN_ACQUISITION: set[str] = set()
 LONG_IN_COMPARE: set[str] = set()
 
 LONG_FUNCTIONS = LONG_IN_ANALYSIS | LONG_IN_ACQUISITION | LONG_IN_COMPARE
-#: Modules still being split.
-LONG_MODULES: set[str] = set()
+#: A module over this many lines is read as doing more than one thing, whatever its graph says.
+MAX_MODULE_LINES = 1000
+#: The command line's modules: reached through the ``evtribo`` command (``cli/__init__.py``'s
+#: ``SUBCOMMANDS`` imports each one's ``add_parser`` and ``run``), they offer no Python names
+#: and need no ``__all__``.
+COMMAND_LINE = ("cli/", "__main__.py")
+_FORMULAS = "the model's equations, one function each (docs/models.md), none calling another"
+_DOCUMENT = ("a document's format: its file name and version, its keys, its reader and its "
+             "writer, each used apart by the modules that read or write it")
+_CONSTANTS = "a module of constants or names other modules share, each used where it is read"
+#: Modules whose public names form more than one group of the graph of their top-level
+#: definitions (:func:`_public_groups`) and are one thing nevertheless: each with why.
+COLLECTIONS = {
+    "errors.py": "the error tree, and the two helpers that point an error at a TOML key",
+    "analysis/modes.py": _CONSTANTS,
+    "documents/quantities.py": "the relative friction increase: its formula, heading and "
+                               "definition, each used where it is shown",
+    "model/contact.py": _FORMULAS, "model/electrostatics.py": _FORMULAS,
+    "model/friction.py": _FORMULAS,
+    "documents/fit.py": _DOCUMENT, "documents/summary.py": _DOCUMENT,
+    "documents/sidecar.py": _DOCUMENT,
+    "population/models/__init__.py": "the population models' registry, its default and the "
+                                     "meta-analysis's name",
+    "util/running.py": "runs of a series: moving sums and counts, runs of equal values",
+    "warning/record.py": "a warning record and what it is made of: its kind's effect, its "
+                         "scope, its level",
+    "warning/collect.py": "how records are said and collected, and a record moved to another "
+                          "scope on the way",
+    "warning/legacy_compare.py": "an earlier fit.json's notes lifted into records: the "
+                                 "patterns, the kinds only they say, and the lifting",
+    "warning/legacy.py": "an earlier result's sentences lifted into records: the patterns, "
+                         "the lifting, the texts merged",
+    "figures/style.py": "the journal style: sizes, widths, formats, colours, markers and the "
+                        "axes drawn in it",
+    "figures/layout.py": "where a figure's parts go: log axes and their ticks, legends placed "
+                         "clear of the data",
+    "figures/plots.py": "the per-subject friction figures of compare and their saving",
+    "figures/population_plots.py": "the population figure, its file stem and its caption",
+    "figures/log_plots.py": "a log's signals decoded and drawn, and the channel the switch is "
+                            "read from",
+    "figures/trial_checks.py": "the trial checks compare draws: which trials, their figures "
+                               "and their resolution",
+    "api/fit.py": "evtribo.compare and the Fit it returns, with fit.csv's text columns",
+    "api/results.py": "evtribo.analyze and the Results it returns, with the tables' readers",
+    "report/headline.py": "the report's first tables: forces, friction, fit, models, and "
+                          "how to cite what it rests on",
+    "report/study_files.py": "what the report reads of the study folder: its name, rig, "
+                             "inputs and their hashes, the trials' notes",
+    "report/drawing.py": "the figures drawn for a report, and the trials it checks",
+    "report/friction_report.py": "the report's friction section: per subject and per trial",
+    "report/compare_cache.py": "what compare keeps from its last run: the keys and the "
+                               "figures under them",
+    "report/lead/analysed.py": "the paragraph and table of what was analysed",
+    "report/lead/marks.py": "the marks a cell carries for its warnings, and their anchors",
+    "report/lead/sections.py": "the key results', analysed and warnings sections of the "
+                               "report's lead",
+    "results/outputs.py": "a result folder's files: which, who writes each, and the "
+                          "refusals before anything is written",
+    "results/distributed.py": "analysing on a Dask cluster: connecting, mapping, counting its "
+                              "threads",
+    "fit/intervals.py": "the fit's intervals: covariance and refitted replicates",
+    "fit/tables.py": "the tables compare reads (ResultTables) and the replicate matrix made "
+                     "from them",
+    "population/data.py": "the population's data: each subject's cells, their conditions and "
+                          "the tables' columns",
+    "analysis/settings.py": "the analysis settings: their fields, bounds, help texts and "
+                            "parsing",
+    "analysis/piece_observer.py": "what the analysis hands out of each piece, and the lifted "
+                                  "stretches it excludes",
+    "analysis/forces/crosstalk.py": "the load cells' cross-talk: reversal sums, its notes, the "
+                                    "share of each direction",
+    "analysis/forces/hum.py": "the mains hum: found and removed, and friction that oscillates "
+                              "beside it",
+    "analysis/forces/pieces.py": "a trial's continuous pieces and the gaps between them",
+    "analysis/friction/drift.py": "the friction's drift over a trial and its notes",
+    "analysis/friction/estimate.py": "the electrostatic force estimated from a subject's "
+                                     "windows, the coefficient and the mean inferred force",
+    "analysis/friction/sine.py": "a sine drive's friction: its modulation and the trace "
+                                 "around a switch",
+    "analysis/friction/window_facts.py": "where a window lies in its trial, and the time "
+                                         "polynomial its models use",
+    "canlog/decode_table.py": "a log decoded into a table, and the DBC it is decoded with",
+    "canlog/io/candump_line.py": "one candump line parsed, and a line read with a bound",
+    "canlog/io/ids.py": "a frame's identifier: its key and its text",
+    "canlog/io/table.py": "a table of frames: its payloads' widths, and the channel and the "
+                          "time no frame has",
+    "cli/_startup.py": "what the command does before it imports: one BLAS thread, the heavy "
+                       "imports started",
+    "cli/recording/_bounds.py": "the recording options' bounds",
+    "cli/setup/_signals.py": "SIGTERM as an interruption, and its exit code",
+    "acquisition/buses/bus.py": "a bus opened from its settings, and its options parsed",
+    "acquisition/live/display.py": "the live display's lines, and its no-rig-data alert",
+    "acquisition/protocol.py": "a protocol: read, planned, and its examples",
+    "acquisition/replace.py": "a trial recorded again: its new stage, committed or discarded",
+    "acquisition/rigfile.py": "a study's rig for recording: created, loaded, checked",
+    "acquisition/trialdata.py": "what a recording is given and gives back, and the disk "
+                                "space it keeps in reserve",
+    "acquisition/simulator/physics.py": "the simulated finger's physics, the model's "
+                                        "parameters and the ON/OFF schedule",
+    "acquisition/simulator/realism.py": "a realistic rig and subject beside the ideal ones",
+    "rigsetup/roles.py": "the rig's signals' roles guessed, and their behaviour said",
+    "session/trialfiles.py": "a session's trial files: found, rejected, the first free name",
+    "store/files.py": "whole files: written atomically, read bounded, checksummed entries",
+    "store/owned.py": "which files evtribo may replace: checks and claims",
+    "store/pool.py": "the worker processes: the pool, their start and their stop",
+}
 
 def _modules():
     for path in sorted(SRC.rglob("*.py")):
@@ -75,18 +178,260 @@ def test_every_module_has_a_layer():
     assert tops - {"__init__"} <= set(LAYERS), tops - set(LAYERS)
 
 
-def test_modules_and_functions_are_short():
-    long_modules, long_functions = set(), set()
+def test_functions_are_short():
+    long_functions = set()
     for path, tree in _modules():
         rel = path.relative_to(SRC).as_posix()
-        if path.read_text(encoding="utf-8").count("\n") > MAX_MODULE_LINES:
-            long_modules.add(rel)
         for node in ast.walk(tree):
             if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef) and \
                     node.end_lineno - node.lineno + 1 > MAX_FUNCTION_LINES:
                 long_functions.add(f"{rel}:{node.name}")
-    assert long_modules == LONG_MODULES
     assert long_functions == LONG_FUNCTIONS
+
+
+def test_no_module_is_past_the_backstop():
+    """However connected its names, a module this long does more than one thing."""
+    long = {path.relative_to(SRC).as_posix(): n for path, _ in _modules()
+            if (n := path.read_text(encoding="utf-8").count("\n")) > MAX_MODULE_LINES}
+    assert not long, long
+
+
+def _public_names(tree: ast.Module) -> list[str] | None:
+    """A module's ``__all__``, or None without one."""
+    for node in tree.body:
+        if isinstance(node, ast.Assign | ast.AnnAssign):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            if any(isinstance(t, ast.Name) and t.id == "__all__" for t in targets):
+                assert isinstance(node.value, ast.List | ast.Tuple)
+                return [e.value for e in node.value.elts if isinstance(e, ast.Constant)]
+    return None
+
+
+def _first_sentence(doc: str) -> str:
+    return re.split(r"(?<=\.)\s", " ".join(doc.split()), maxsplit=1)[0]
+
+
+def test_every_module_says_what_it_holds():
+    """Each module opens with a docstring whose first sentence names what it holds (a few
+    words at least), and lists its public names in ``__all__`` (the command line's modules
+    but their package, :data:`COMMAND_LINE`, offer none); every name listed is defined or
+    imported there (or, in a package that imports its names when first asked for, found by
+    its ``__getattr__``)."""
+    wrong = []
+    for path, tree in _modules():
+        rel = path.relative_to(SRC).as_posix()
+        doc = ast.get_docstring(tree) or ""
+        if len(_first_sentence(doc).split()) < 3:
+            wrong.append(f"{rel}: no first sentence saying what it holds")
+        public = _public_names(tree)
+        if public is None:
+            if not rel.startswith(COMMAND_LINE) or rel == "cli/__init__.py":
+                wrong.append(f"{rel}: no __all__")
+            continue
+        bound = {n.id for n in ast.walk(tree) if isinstance(n, ast.Name)
+                 and isinstance(n.ctx, ast.Store)}
+        bound |= {n.name for n in ast.walk(tree) if isinstance(
+            n, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef)}
+        bound |= {(a.asname or a.name).split(".")[0] for n in ast.walk(tree)
+                  if isinstance(n, ast.Import | ast.ImportFrom) for a in n.names}
+        if "__getattr__" not in bound:
+            wrong += [f"{rel}: __all__ names {n}, not defined there" for n in public
+                      if n not in bound]
+    assert not wrong, "\n".join(wrong)
+
+
+def _words(text: str) -> set[str]:
+    return set(re.findall(r"[A-Za-z_]\w*", text))
+
+
+def _definitions(tree: ast.Module, lines: list[str]) -> dict[str, set[str]]:
+    """Each top-level definition of a module (a function, a class, a constant; a statement
+    that defines nothing, such as a registration, counts as one) and the names it uses: in
+    its code, its docstring and the ``#:`` comment above it."""
+    defs: dict[str, set[str]] = {}
+    for node in tree.body:
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+            names = [node.name]
+        elif isinstance(node, ast.Assign | ast.AnnAssign | ast.AugAssign):
+            targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+            names = [n.id for t in targets for n in ast.walk(t) if isinstance(n, ast.Name)]
+        elif isinstance(node, ast.Expr) and not isinstance(node.value, ast.Constant):
+            names = [f"<line {node.lineno}>"]
+        else:
+            continue
+        used = set()
+        for inner in ast.walk(node):
+            if isinstance(inner, ast.Name):
+                used.add(inner.id)
+            elif isinstance(inner, ast.Constant) and isinstance(inner.value, str):
+                used |= _words(inner.value)  # annotations as text, docstrings
+        i = node.lineno - 2
+        while 0 <= i < len(lines) and lines[i].lstrip().startswith("#:"):
+            used |= _words(lines[i])
+            i -= 1
+        for name in names:
+            if name != "__all__":
+                defs.setdefault(name, set()).update(used)
+    return defs
+
+
+def _public_groups(tree: ast.Module, lines: list[str], public: list[str]) -> list[list[str]]:
+    """A module's public names grouped by the graph of its top-level definitions (an edge
+    where one names another, either way): names in one group work together."""
+    defs = _definitions(tree, lines)
+    linked: dict[str, set[str]] = {name: set() for name in defs}
+    for name, used in defs.items():
+        for other in used & set(defs) - {name}:
+            linked[name].add(other)
+            linked[other].add(name)
+    groups, seen = [], set()
+    for name in public:
+        if name in seen or name not in linked:
+            continue
+        group, todo = set(), [name]
+        while todo:
+            here = todo.pop()
+            if here not in group:
+                group.add(here)
+                todo += linked[here]
+        seen |= group
+        groups.append(sorted(group & set(public)))
+    return groups
+
+
+def test_each_module_does_one_thing():
+    """A module's public names form one group in the graph of its top-level definitions, or
+    the module is a collection :data:`COLLECTIONS` names with its reason (and leaves it once
+    its names are one group)."""
+    split, listed = {}, set()
+    for path, tree in _modules():
+        rel = path.relative_to(SRC).as_posix()
+        public = _public_names(tree)
+        if not public:
+            continue
+        groups = _public_groups(tree, path.read_text(encoding="utf-8").splitlines(), public)
+        if len(groups) > 1:
+            listed.add(rel)
+            if rel not in COLLECTIONS:
+                split[rel] = " | ".join(", ".join(g) for g in groups)
+    assert not split, "modules doing more than one thing:\n" + "\n".join(
+        f"{k}: {v}" for k, v in sorted(split.items()))
+    assert set(COLLECTIONS) <= listed, f"one thing now: {sorted(set(COLLECTIONS) - listed)}"
+
+
+def test_the_one_thing_check_finds_two():
+    """The check above sees two unrelated functions as two things, and one calling the other
+    (or a helper both use) as one."""
+    two = ast.parse("def a():\n    return 1\n\n\ndef b():\n    return 2\n")
+    one = ast.parse("def _h():\n    return 1\n\n\ndef a():\n    return _h()\n\n\n"
+                    "def b():\n    return _h()\n")
+    assert len(_public_groups(two, [], ["a", "b"])) == 2
+    assert len(_public_groups(one, [], ["a", "b"])) == 1
+
+
+#: A reference of a docstring: ``:func:`x```, ``:class:`~a.b```, and the like.
+_ROLE = re.compile(r":(mod|func|class|data|meth|attr|exc|obj):`([^`]+)`")
+#: A module of the package or a page of the documentation, in backticks:
+#: ``analysis/trial.py``, ``docs/analysis.md``.
+_DOC_PATH = re.compile(r"`+((?:[\w.-]+/)+[\w-]+\.py|docs/[\w/-]+\.md)`+")
+_ABSENT = object()
+
+
+def _find(dotted: str) -> object:
+    """The object *dotted* names (a module, then attributes), or :data:`_ABSENT`."""
+    import importlib
+
+    parts = dotted.split(".")
+    for i in range(len(parts), 0, -1):
+        try:
+            obj: object = importlib.import_module(".".join(parts[:i]))
+        except ImportError:
+            continue
+        for attr in parts[i:]:
+            obj = getattr(obj, attr, _ABSENT)
+        return obj
+    return _ABSENT
+
+
+def _instance_attribute(dotted: str) -> bool:
+    """Whether *dotted* is ``class.attribute`` of an attribute its instances have (a field,
+    an annotation, one set on ``self``)."""
+    import inspect
+
+    owner, _, name = dotted.rpartition(".")
+    cls = _find(owner) if owner else _ABSENT
+    if not inspect.isclass(cls):
+        return False
+    for base in cls.__mro__:
+        if name in getattr(base, "__annotations__", {}) or name in vars(base):
+            return True
+        try:
+            if re.search(rf"self\.{name}\b\s*(:[^=\n]*)?=", inspect.getsource(base)):
+                return True
+        except (OSError, TypeError):
+            continue
+    return False
+
+
+def _resolves(target: str, module: str, cls: str | None, modules: list[str]) -> bool:
+    """Whether a reference finds what Sphinx would look for: a full name, a name of the
+    module or of its class, a builtin, or (``.name``) any object whose name ends so."""
+    import builtins
+
+    target = re.sub(r"\s+", "", target).removeprefix("~")
+    if "<" in target:
+        target = target[target.index("<") + 1:].rstrip(">")
+    if target.startswith("."):
+        return any(_find(f"{m}{target}") is not _ABSENT for m in modules)
+    places = [target] if target.startswith("evtribo.") else \
+        [*([f"{module}.{cls}.{target}"] if cls else []), f"{module}.{target}", target]
+    if hasattr(builtins, target.split(".")[0]):
+        places.append(f"builtins.{target}")
+    return any(_find(p) is not _ABSENT or _instance_attribute(p) for p in places)
+
+
+def _docstrings_with_class(tree: ast.Module):
+    """Each docstring of a module, with the class it is read in (None at the top level)."""
+    def walk(node: ast.AST, cls: str | None):
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
+                here = child.name if isinstance(child, ast.ClassDef) else cls
+                doc = ast.get_docstring(child, clean=False)
+                if doc:
+                    yield child.lineno, doc, here
+                yield from walk(child, here)
+    yield 1, ast.get_docstring(tree, clean=False) or "", None
+    yield from walk(tree, None)
+
+
+def test_every_reference_in_a_docstring_resolves():
+    """Every ``:mod:``, ``:func:``, ``:class:``, ``:data:``, ``:meth:``, ``:attr:`` and
+    ``:exc:`` of a docstring names what is there (a module, a name it defines or imports, an
+    attribute of a class), and every backticked path (``analysis/trial.py``,
+    ``docs/analysis.md``) is a file of the package, beside the module, or of the
+    repository."""
+    import pkgutil
+
+    import evtribo
+
+    modules = ["evtribo", *(m.name for m in pkgutil.walk_packages(evtribo.__path__,
+                                                                  "evtribo."))]
+    wrong, seen = [], 0
+    for path, tree in _modules():
+        rel = path.relative_to(SRC)
+        parts = ("evtribo", *rel.with_suffix("").parts)
+        module = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        for line, doc, cls in _docstrings_with_class(tree):
+            for role, target in _ROLE.findall(doc):
+                seen += 1
+                if not _resolves(target, module, cls, modules):
+                    wrong.append(f"{rel}:{line} :{role}:`{target}`")
+            for name in _DOC_PATH.findall(doc):
+                seen += 1
+                if not any((base / name).exists() for base in (SRC, path.parent, ROOT)):
+                    wrong.append(f"{rel}:{line} `{name}`")
+    assert seen > 500  # the patterns still read the docstrings
+    assert not wrong, "references to what is not there:\n" + "\n".join(wrong)
 
 
 #: Most modules directly in one folder of the package (its ``__init__.py`` not counted), and
@@ -283,7 +628,7 @@ _HOLDS = re.compile(r"`([\w/]+\.py)`(?: \(([^)]*)\)|'s ((?:`[\w.]+`(?:, | and |/
 
 def test_every_name_architecture_md_places_in_a_module_is_there():
     """Where docs/architecture.md says a module holds a function, a class or a constant
-    (``results/check.py`` (``check_trial``), ``cli/__init__.py``'s ``GROUPS``), the module
+    (``results/trial_view.py`` (``view_trial``), ``cli/__init__.py``'s ``GROUPS``), the module
     has it."""
     import importlib
 
@@ -493,3 +838,48 @@ def test_the_structure_check_of_warnings_finds_what_it_looks_for():
     said = sum(path.read_text(encoding="utf-8").count("emit(")
                for path in _warning_site_files())
     assert said >= 80
+
+
+def _how_to_add() -> dict[str, list[str]]:
+    """The rows of docs/architecture.md's "How to add": what is added, and its cells."""
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    section = text.split("## How to add", 1)[1].split("\n## ", 1)[0]
+    rows = [line.strip("|").split(" | ") for line in section.splitlines()
+            if line.startswith("| a ")]
+    return {cells[0].strip(): [c.strip() for c in cells[1:]] for cells in rows}
+
+
+def test_every_way_to_add_architecture_md_gives_is_there():
+    """docs/architecture.md's "How to add" names, for a log format, a friction law, a
+    population model, a figure and a warning, the files to touch (each there: a module, or
+    the folder a new one goes into), a registry that imports (a mapping of what is
+    registered) and the entry point group its module reads plug-ins from."""
+    import importlib
+    import importlib.util
+    from collections.abc import Mapping
+
+    rows = _how_to_add()
+    assert set(rows) == {"a log format", "a friction law", "a population model", "a figure",
+                         "a warning"}
+    wrong = []
+    for what, cells in rows.items():
+        for code in re.findall(r"`([^`]+)`", " ".join(cells)):
+            if "<" in code and "/" in code:  # the folder a new module goes into
+                if not (SRC / code).parent.is_dir():
+                    wrong.append(f"{what}: no folder for {code}")
+            elif code.endswith((".py", ".md")) and \
+                    not any((base / code).exists() for base in (SRC, ROOT)):
+                wrong.append(f"{what}: no {code}")
+        module_path, registry = re.search(r"`([\w/]+\.py)` \(`(\w+)`", cells[1]).groups()
+        parts = Path(module_path).with_suffix("").parts
+        module = importlib.import_module(".".join(
+            ("evtribo", *(parts[:-1] if parts[-1] == "__init__" else parts))))
+        if not isinstance(getattr(module, registry, None), Mapping | tuple):
+            wrong.append(f"{what}: {module_path} has no registry {registry}")
+        group = re.search(r"entry point group (evtribo\.\w+)", cells[2]).group(1)
+        near = (module.__name__, module.__name__.rsplit(".", 1)[0] + ".catalogue")
+        groups = {vars(importlib.import_module(m)).get("ENTRY_POINTS") for m in near
+                  if importlib.util.find_spec(m) is not None}
+        if group not in groups:
+            wrong.append(f"{what}: {module_path} reads no entry point group {group}")
+    assert not wrong, "\n".join(wrong)

@@ -34,6 +34,8 @@ from evtribo.errors import AcquisitionError, OutputExistsError
 from evtribo.store.files import atomic_write
 from evtribo.store.names import check_new_path
 
+__all__ = ["AMPLITUDES_V", "MARKER", "DemoResult", "DemoTrial", "run_demo"]
+
 log = logging.getLogger(__name__)
 
 #: Square-wave amplitudes of the demo study, V (as in the seed paper's Section 3.3).
@@ -44,7 +46,7 @@ Progress = Callable[[str], None]
 
 
 @dataclass(frozen=True)
-class PlannedTrial:
+class DemoTrial:
     """One trial of the demo study."""
 
     subject: SubjectParams
@@ -71,7 +73,7 @@ class DemoResult:
 
 
 def plan(subjects: Sequence[SubjectParams], amplitudes: Sequence[float] = AMPLITUDES_V, *,
-         trial_s: float = 10.0, seed: int = 0) -> list[PlannedTrial]:
+         trial_s: float = 10.0, seed: int = 0) -> list[DemoTrial]:
     """The demo's trials: per subject, alternating square-wave trials at 10 kHz for each
     amplitude, then one alternating 10 Hz sine trial at the highest amplitude; every one on
     a real rig's load cells (offsets, drift, hum, a tare stretch)."""
@@ -83,11 +85,11 @@ def plan(subjects: Sequence[SubjectParams], amplitudes: Sequence[float] = AMPLIT
             cfg = TrialConfig(duration_s=trial_s, waveform=waveform, frequency_Hz=freq,
                               amplitude_V=amp, condition="alternating",
                               seed=seed * 1000 + i * 100 + k)
-            trials.append(PlannedTrial(subject, f"run-{k + 1:02d}", realistic_rig(cfg)))
+            trials.append(DemoTrial(subject, f"run-{k + 1:02d}", realistic_rig(cfg)))
     return trials
 
 
-def record(trial: PlannedTrial, study: Path, *, speed: float) -> dict[str, Any]:
+def record(trial: DemoTrial, study: Path, *, speed: float) -> dict[str, Any]:
     """Stream one simulated trial on a virtual bus and record it into *study*.
 
     Returns the simulator's truth for the trial.
@@ -222,6 +224,10 @@ def run_demo(out: str | Path, *, subjects: int = 3, amplitudes: Sequence[float] 
         Replace a previous demo in *out*.
     progress : callable, optional
         Called with a line of text after each step.
+
+    Returns
+    -------
+    DemoResult
     """
     from evtribo.report.compare import compare
     from evtribo.report.study_report import build_report

@@ -124,7 +124,7 @@ class TrialRef:
 
 
 @dataclass
-class Study:
+class StudyFolder:
     """A study folder, loaded and validated (its logs not yet read)."""
 
     root: Path
@@ -368,7 +368,7 @@ def _outside(folder: Path, root: Path) -> None:
              subject=folder.name)
 
 
-def load_study(path: str | os.PathLike[str], *, with_rig: bool = True) -> Study:
+def load_study(path: str | os.PathLike[str], *, with_rig: bool = True) -> StudyFolder:
     """Load a study folder: ``study.toml``, its rig (DBC checked) and its trials.
 
     Parameters
@@ -380,7 +380,7 @@ def load_study(path: str | os.PathLike[str], *, with_rig: bool = True) -> Study:
 
     Returns
     -------
-    Study
+    StudyFolder
 
     Raises
     ------
@@ -401,8 +401,8 @@ def load_study(path: str | os.PathLike[str], *, with_rig: bool = True) -> Study:
         rig = Rig.from_mapping(config["rig"], base_dir=root, source=toml_path, key_prefix="rig")
     trials, warnings = discover_trials(root)
     replay(warnings)
-    return Study(root=root, name=str(config.get("name", root.name)), config=config, rig=rig,
-                 trials=trials, warnings=warnings)
+    return StudyFolder(root=root, name=str(config.get("name", root.name)), config=config, rig=rig,
+                       trials=trials, warnings=warnings)
 
 
 def study_rig(path: str | os.PathLike[str]) -> Rig:
@@ -482,7 +482,7 @@ def write_study_toml(root: str | os.PathLike[str], *, name: str, rig: Mapping[st
 
 # the sidecar's and the names' definitions live in evtribo.documents; imported from here too
 __all__ = ["CONDITIONS", "MAX_NAME_BYTES", "NAME_PATTERN", "NOT_SUBJECTS", "OS_CLUTTER",
-           "SIDECAR_KEYS", "STUDY_FILE", "STUDY_KEYS", "WAVEFORMS", "Sidecar", "Study",
+           "SIDECAR_KEYS", "STUDY_FILE", "STUDY_KEYS", "WAVEFORMS", "Sidecar", "StudyFolder",
            "TrialRef", "discover_trials", "load_study", "log_stem", "log_suffixes",
            "parse_sidecar", "read_sidecar", "read_study_toml", "study_rig",
            "unknown_sidecar_keys", "validate_name", "write_sidecar", "write_study_toml"]

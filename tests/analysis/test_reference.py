@@ -9,9 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from evtribo.analysis.friction.estimate import estimate_electrostatic
-from evtribo.analysis.friction.facts import WindowFacts
 from evtribo.analysis.friction.laws import LAWS, fit_subject_law
 from evtribo.analysis.friction.reference import fit_mu_model, fit_trial_model
+from evtribo.analysis.friction.window_facts import WindowFacts
 
 
 def _facts(t, direction, rate=None, cluster=None):

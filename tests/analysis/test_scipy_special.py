@@ -75,7 +75,7 @@ def test_compare_starts_without_scipy_stats_the_can_libraries_or_the_analysis():
     import sys
 
     heavy = ("scipy.stats", "cantools", "can", "asammdf", "evtribo.analysis.trial",
-             "evtribo.results.check", "evtribo.canlog.decode")
+             "evtribo.results.trial_view", "evtribo.canlog.decode")
     code = ("import sys, evtribo.cli.results.compare, evtribo.report.compare; "
             f"print(sorted(m for m in {heavy!r} if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

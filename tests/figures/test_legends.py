@@ -25,7 +25,7 @@ from evtribo.fit.fit import fit_study
 from evtribo.fit.models import fit_models
 from evtribo.fit.tables import read_results
 from evtribo.model import TABLE_1
-from evtribo.results.check import check_trial, excluded_stretches
+from evtribo.results.trial_view import excluded_stretches, view_trial
 from legends import legend_entries, unexplained
 from sweep_data import sweep_out
 from synthetic import make_out
@@ -148,7 +148,7 @@ def trial_check(tmp_path_factory):
     root = tmp_path_factory.mktemp("check") / "study"
     write_trial(root, "run-01", human(SubjectParams(), seed=2),
                 realistic_rig(TrialConfig(duration_s=12.0, seed=2)))
-    check = check_trial(root, "P01", "run-01")
+    check = view_trial(root, "P01", "run-01")
     lifted = [s for s in excluded_stretches(check) if s.kind == "lifted"]
     t = check.pieces[0].forces.t - check.t0
     assert any((check.pieces[0].condition[(t > s.t_start) & (t < s.t_end)] == ON).any()

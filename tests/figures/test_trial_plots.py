@@ -26,8 +26,8 @@ from evtribo.figures.trial_plots import (
     trial_check_figures,
     trial_stem,
 )
-from evtribo.results.check import check_trial, excluded_stretches, settings_of
 from evtribo.results.pipeline import analyze_study
+from evtribo.results.trial_view import excluded_stretches, settings_of, view_trial
 from evtribo.study import load_study
 
 REFERENCE = Path(__file__).resolve().parents[2] / "data" / "reference-study"
@@ -65,7 +65,7 @@ def test_the_windows_of_a_check_are_those_of_windows_csv(lab):
     study, res, _ = lab
     assert settings_of(load_study(study), None).min_window_s == 0.25
     for trial in ("run-01", "run-02", "run-03"):
-        check = check_trial(study, "P01", trial)
+        check = view_trial(study, "P01", trial)
         csv = res.windows[res.windows.trial == trial]
         _same_windows(check.windows, csv)
         # the windows drawn (each piece's, on the log's clock) are the same ones
@@ -79,10 +79,10 @@ def test_the_settings_of_summary_json_give_the_same_windows(lab):
     study, res, _ = lab
     settings = json.loads((res.out_dir / "summary.json").read_text())["settings"]
     assert settings["min_window_s"] == 0.25
-    check = check_trial(study, "P01", "run-02", settings=settings)
+    check = view_trial(study, "P01", "run-02", settings=settings)
     _same_windows(check.windows, res.windows[res.windows.trial == "run-02"])
     # and other settings give other windows: the check does use them
-    other = check_trial(study, "P01", "run-02", settings={**settings, "min_window_s": 0.9})
+    other = view_trial(study, "P01", "run-02", settings={**settings, "min_window_s": 0.9})
     assert len(other.windows) < len(check.windows)
 
 
@@ -96,7 +96,7 @@ def test_what_is_excluded_is_what_the_simulator_did(lab):
     assert lift_offs > len(truth), "the simulated person should lift the finger mid-trial"
     found_mid = 0
     for trial, tt in truth.items():
-        check = check_trial(study, "P01", trial)
+        check = view_trial(study, "P01", trial)
         stretches = excluded_stretches(check)
         lifted = [(s.t_start, s.t_end) for s in stretches if s.kind == "lifted"]
         # the tare stretch at the start is found, and every stretch found is a real lift
@@ -127,7 +127,7 @@ def _segments(line: Line2D) -> list[tuple[float, float, float]]:
 
 def test_the_figure_draws_each_window_and_the_stretches(lab):
     study, _, _ = lab
-    check = check_trial(study, "P01", "run-02")
+    check = view_trial(study, "P01", "run-02")
     ax = draw_trial_check(check)
     bars = [ln for ln in ax.get_lines() if ln.get_linewidth() > 2]
     on_bars = [ln for ln in bars if ln.get_linestyle() == "-"]
@@ -155,7 +155,7 @@ def test_the_figure_draws_each_window_and_the_stretches(lab):
 
 def test_the_caption_counts_what_the_figure_shows(lab):
     study, res, _ = lab
-    check = check_trial(study, "P01", "run-01")
+    check = view_trial(study, "P01", "run-01")
     caption = trial_caption(check)
     w = res.windows[res.windows.trial == "run-01"]
     n_on = int((w.condition == "on").sum())
@@ -197,7 +197,7 @@ def plt_image(path: Path) -> np.ndarray:
 def test_unknown_subject_and_trial_name_what_there_is(lab):
     study, _, _ = lab
     with pytest.raises(StudyError, match=r"no subject 'P9'; its subjects: P01"):
-        check_trial(study, "P9", "run-01")
+        view_trial(study, "P9", "run-01")
     with pytest.raises(StudyError, match=r"no trial 'run-9'; its trials: run-01, run-02"):
         plot_trial(study, "P01", "run-9")
 
@@ -235,7 +235,7 @@ def test_the_recorded_reference_study(tmp_path):
             shutil.copy(REFERENCE / "P02" / f"{trial}{suffix}", study / "P02")
     res = analyze_study(study, tmp_path / "out", jobs=1)
     for trial in ("run-03", "run-06"):
-        check = check_trial(study, "P02", trial)
+        check = view_trial(study, "P02", trial)
         _same_windows(check.windows, res.windows[res.windows.trial == trial])
         ax = draw_trial_check(check)
         assert len([seg for ln in ax.get_lines() if ln.get_linewidth() > 2

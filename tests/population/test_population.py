@@ -18,7 +18,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 
 from evtribo.fit.tables import ResultTables
 from evtribo.population.estimates import CONTRAST_COLUMNS, POPULATION_COLUMNS, population
-from evtribo.population.journal import HOLM_ALPHA, holm
+from evtribo.population.per_subject import HOLM_ALPHA, holm
 from population_sim import hierarchical_tables
 
 

@@ -1,5 +1,5 @@
 """``evtribo export STUDY -o OUT.mf4``: each trial's aligned forces and conditions, read
-back by asammdf, are those the analysis worked on (:func:`check_trial`), value for value."""
+back by asammdf, are those the analysis worked on (:func:`view_trial`), value for value."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from evtribo.acquisition.simulator import SubjectParams, TrialConfig, write_tria
 from evtribo.acquisition.simulator.realism import human, realistic_rig
 from evtribo.analysis.forces.conditions import ON
 from evtribo.cli import main
-from evtribo.results.check import check_trial
+from evtribo.results.trial_view import view_trial
 
 asammdf = pytest.importorskip("asammdf")
 
@@ -34,7 +34,7 @@ def test_each_trial_s_forces_round_trip_through_asammdf(study, tmp_path, capsys)
         names = [g.channel_group.acq_name for g in mdf.groups]
         assert names == ["P01/run-01", "P01/run-02"]
         for gi, trial in enumerate(("run-01", "run-02")):
-            check = check_trial(study, "P01", trial)
+            check = view_trial(study, "P01", trial)
             [piece] = check.pieces
             normal = mdf.get("normal_force", gi)
             assert normal.unit == "N"

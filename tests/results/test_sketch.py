@@ -12,8 +12,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from analysed import analysed_study
-from evtribo.results.check import check_trial, kept_sketches, sketch_of
-from evtribo.results.sketch import SketchPiece, Stretch, TrialSketch
+from evtribo.results.trial_sketch import SketchPiece, Stretch, TrialSketch
+from evtribo.results.trial_view import kept_sketches, sketch_of, view_trial
 from evtribo.study import load_study
 
 _floats = st.floats(-1e3, 1e3, allow_nan=False, width=32)
@@ -70,7 +70,7 @@ def test_compare_finds_what_analyze_kept_and_it_is_what_an_analysis_gives(analys
     kept = kept_sketches(study, summary, cache)
     assert sorted(kept) == sorted(t.key for t in study.trials)  # every trial's
     for ref in study.trials:
-        again = sketch_of(check_trial(study, ref.subject, ref.name,
+        again = sketch_of(view_trial(study, ref.subject, ref.name,
                                       settings=summary["settings"], cache_dir=cache))
         assert kept[ref.key].to_bytes() == again.to_bytes(), ref.key
         assert 1_000 < len(again.to_bytes()) < 200_000  # a few tens of kB

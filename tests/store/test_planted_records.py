@@ -17,7 +17,7 @@ import _studies
 from evtribo.canlog.rig import default_rig_path
 from evtribo.cli import main
 from evtribo.errors import OutputExistsError, ResultFolderError
-from evtribo.store.journal import JOURNAL
+from evtribo.store.commit_record import COMMIT_RECORD
 from evtribo.store.resultdir import Staging, lock_path, locked, recover
 
 DBC = default_rig_path().with_name("default.dbc")
@@ -60,7 +60,7 @@ def _plant(out: Path, doc: dict, files: dict[str, bytes]) -> Path:
     for rel, data in files.items():  # a name climbing out is planted inside
         (stage / rel.replace("../", "")).parent.mkdir(parents=True, exist_ok=True)
         (stage / rel.replace("../", "")).write_bytes(data)
-    (stage / JOURNAL).write_text(json.dumps(doc))
+    (stage / COMMIT_RECORD).write_text(json.dumps(doc))
     return stage
 
 
@@ -98,7 +98,7 @@ def test_a_planted_record_is_refused_by_name_and_nothing_is_done(share, case):
     stage = _plant(out, doc, files)
     with pytest.raises(ResultFolderError) as info, locked(out, "evtribo compare"):
         recover(out)
-    assert str(stage / JOURNAL) in str(info.value) and info.value.exit_code == 2
+    assert str(stage / COMMIT_RECORD) in str(info.value) and info.value.exit_code == 2
     assert "not replayed" in str(info.value)
     assert _files(share) == before
 
@@ -112,7 +112,7 @@ def test_a_record_through_a_link_is_refused(share):
     with pytest.raises(ResultFolderError), locked(out, "evtribo compare"):
         recover(out)
     # a record that names a link inside its folder: the link is not followed either
-    os.unlink(stage / JOURNAL)
+    os.unlink(stage / COMMIT_RECORD)
     _plant(out, _v2("out", [["link/a80.log", _sha(EVIL), _sha(LOG)]],
                     [["link/a80.json", _sha(SIDECAR)]]), {"link/a80.log": EVIL})
     with pytest.raises(ResultFolderError), locked(out, "evtribo compare"):
@@ -142,7 +142,7 @@ def test_the_commands_refuse_a_planted_record_naming_it(share, command, capsys):
             "report": ["report", str(out), "--force"],
             "analyze": ["analyze", str(share / "study"), "--out", str(out), "--force"]}[command]
     assert main(argv) == 2
-    assert str(stage / JOURNAL) in capsys.readouterr().err
+    assert str(stage / COMMIT_RECORD) in capsys.readouterr().err
     assert _files(share) == before
 
 

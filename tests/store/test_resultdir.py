@@ -21,9 +21,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from evtribo.errors import OutputBusyError, OutputWriteError
-from evtribo.store import journal, resultdir
+from evtribo.store import commit_record, resultdir
 from evtribo.store.owned import MANIFEST
-from evtribo.store.resultdir import JOURNAL, Staging, holder, lock_path, locked, pending, recover
+from evtribo.store.resultdir import (
+    COMMIT_RECORD,
+    Staging,
+    holder,
+    lock_path,
+    locked,
+    pending,
+    recover,
+)
 
 FORK = multiprocessing.get_context("fork")
 
@@ -177,7 +185,7 @@ def test_a_commit_that_fails_is_taken_back_unless_part_of_it_is_done(tmp_path, m
                 raise PermissionError(13, "Permission denied", os.fspath(dst))
         return real_replace(src, dst, *args, **kwargs)
 
-    monkeypatch.setattr(journal.os, "replace", replace)
+    monkeypatch.setattr(commit_record.os, "replace", replace)
     with pytest.raises(OutputWriteError) as info, locked(out, "t"), \
             Staging(out, by="t") as stage:
         stage.path("a.csv").write_bytes(b"new")
@@ -301,7 +309,7 @@ def test_killed_at_any_step_the_folder_is_old_or_new(tmp_path_factory, old, new,
     # nothing of the write is left beside the folder
     assert sorted(p.name for p in root.iterdir()) == sorted(["dry", *(["out"] if (
         before or out.exists()) else [])])
-    assert all(not (out / n).exists() for n in (JOURNAL,))
+    assert all(not (out / n).exists() for n in (COMMIT_RECORD,))
 
 
 def test_a_kill_after_the_commit_is_finished_by_the_next_reader(tmp_path):
@@ -315,7 +323,7 @@ def test_a_kill_after_the_commit_is_finished_by_the_next_reader(tmp_path):
     _run(_commit, dry, new, ["fit.csv"], None, (counted, tmp_path / "steps"))
     steps = (tmp_path / "steps").read_text().splitlines()
     # kill at the second rename into the folder: trials.csv is new, summary.json not yet
-    swap = [i for i, s in enumerate(steps) if s.startswith("replace") and JOURNAL not in s]
+    swap = [i for i, s in enumerate(steps) if s.startswith("replace") and COMMIT_RECORD not in s]
     code = _run(_commit, out, new, ["fit.csv"], swap[1] + 1)
     assert code == -signal.SIGKILL
     assert pending(out)
@@ -329,7 +337,8 @@ def test_a_kill_after_the_commit_is_finished_by_the_next_reader(tmp_path):
 
 def test_the_module_names_each_step_it_counts():
     # the kill tests count these calls: a commit must use no other way to change files
-    source = "".join(Path(m.__file__).read_text(encoding="utf-8") for m in (resultdir, journal))
+    source = "".join(Path(m.__file__).read_text(encoding="utf-8")
+                     for m in (resultdir, commit_record))
     for call in ("os.rename(", "shutil.move(", "os.remove(", ".rename("):
         assert call not in source, call
     assert all(s in source for s in _STEPS)

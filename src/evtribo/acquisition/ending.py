@@ -18,7 +18,7 @@ from evtribo.acquisition.logger import LogStats, LogWriter
 from evtribo.acquisition.receive import ReceiveResult
 from evtribo.acquisition.replace import commit, discard
 from evtribo.acquisition.rigfile import AcquisitionRig
-from evtribo.acquisition.trialdata import TrialPaths, TrialResult
+from evtribo.acquisition.trialdata import RecordingOutcome, TrialPaths
 from evtribo.canlog.io.ids import id_text, key_id
 from evtribo.documents.replacing import committed
 from evtribo.documents.sidecar import write_sidecar
@@ -44,9 +44,9 @@ def _write_json(path: Path, data: dict[str, Any]) -> None:
 
 @dataclass
 class _Recording:
-    """A trial whose log is open: what :func:`_run` needs to record and end it (*paths*:
-    where it records, in *stage* for a trial recorded again over itself; *final*: the
-    trial's)."""
+    """A trial whose log is open: what :func:`~evtribo.acquisition.trial.record_trial` needs to
+    record and end it (*paths*: where it records, in *stage* for a trial recorded again over itself;
+    *final*: the trial's)."""
 
     paths: TrialPaths
     final: TrialPaths
@@ -152,7 +152,7 @@ def _rig_frames(stats: LogStats, acq_rig: AcquisitionRig) -> int:
 
 
 def _keep_previous(rec: _Recording, ended: str, error: BaseException | None,
-                   got: _Received) -> TrialResult:
+                   got: _Received) -> RecordingOutcome:
     """The forced trial ended without any frame of the rig's load cells: nothing of it is
     kept, and the one recorded before stays."""
     assert rec.stage is not None
@@ -168,8 +168,8 @@ def _keep_previous(rec: _Recording, ended: str, error: BaseException | None,
     sidecar.update({"ended": ended, "frames": frames, "duration_s": round(got.elapsed, 6),
                     "dropped_frames": 0, "damaged_lines": 0,
                     "bus_errors": int(ended == "bus-error"), "end_detail": why, "log": None})
-    return TrialResult(ended=ended, exit_code=EXIT_CODES[ended], paths=paths,
-                       sidecar=sidecar, error=error, kept_previous=True)
+    return RecordingOutcome(ended=ended, exit_code=EXIT_CODES[ended], paths=paths,
+                            sidecar=sidecar, error=error, kept_previous=True)
 
 
 def _commit(rec: _Recording) -> None:

@@ -97,13 +97,14 @@ class LogStats:
     first_timestamp, last_timestamp : float or None
         Reception times, s, of the first and last frame.
     damaged_lines : int
-        Lines the bus's driver could not parse (counted by :func:`receive`, skipped).
+        Lines the bus's driver could not parse (counted by
+        :func:`~evtribo.acquisition.receive.receive`, skipped).
     errors : ErrorTally
         The error frames by kind, and the controller's state they report.
     queue_dropped : int or None
         Frames the receiving side dropped (SocketCAN: the kernel's count of the frames the
-        socket's full receive queue dropped), read by :func:`receive`; None when the bus
-        does not count them.
+        socket's full receive queue dropped), read by :func:`~evtribo.acquisition.receive.receive`;
+        None when the bus does not count them.
     """
 
     frames: int = 0

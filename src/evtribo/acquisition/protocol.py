@@ -31,7 +31,7 @@ import numpy as np
 from evtribo.errors import ConfigError, toml_key_line, toml_problem
 from evtribo.store.files import read_limited
 
-__all__ = ["CONDITIONS", "PlannedTrial", "Protocol", "SessionSettings", "TrialSpec",
+__all__ = ["CONDITIONS", "Protocol", "ProtocolTrial", "SessionSettings", "TrialSpec",
            "example_protocols", "plan_trials", "read_protocol", "session_seed"]
 
 #: Values of a trial's ``condition`` (spec §1's sidecar).
@@ -130,7 +130,7 @@ class Protocol:
 
 
 @dataclass(frozen=True)
-class PlannedTrial:
+class ProtocolTrial:
     """One trial of the plan: what the excitation is.
 
     Attributes
@@ -340,7 +340,7 @@ def session_seed(protocol: Protocol) -> int:
     return secrets.randbelow(2**31)
 
 
-def plan_trials(protocol: Protocol, seed: int | None = None) -> list[PlannedTrial]:
+def plan_trials(protocol: Protocol, seed: int | None = None) -> list[ProtocolTrial]:
     """The trials in the order they will be recorded.
 
     Parameters
@@ -352,14 +352,14 @@ def plan_trials(protocol: Protocol, seed: int | None = None) -> list[PlannedTria
 
     Returns
     -------
-    list of PlannedTrial
+    list of ProtocolTrial
         Each ``[[trial]]`` expanded (every combination of its lists, in the file's order),
         the whole list repeated, then shuffled when ``randomize``.
     """
-    one: list[PlannedTrial] = []
+    one: list[ProtocolTrial] = []
     for spec in protocol.trials:
         for freq, amp in itertools.product(spec.frequency_Hz, spec.amplitude_V):
-            one.append(PlannedTrial(spec.waveform, freq, amp, spec.condition, spec.notes))
+            one.append(ProtocolTrial(spec.waveform, freq, amp, spec.condition, spec.notes))
     planned = one * protocol.session.repetitions
     if protocol.session.randomize:
         s = protocol.session.seed if seed is None else seed

@@ -104,11 +104,11 @@ from evtribo.acquisition.rigfile import AcquisitionRig, check_name, open_study
 from evtribo.acquisition.trialdata import (
     RESERVE_BYTES,
     RIG_DATA_TIMEOUT_S,
+    RecordingOutcome,
     StopFlag,
     TrialInfo,
     TrialOptions,
     TrialPaths,
-    TrialResult,
     keep_reserve,
     refuse_existing,
     trial_lock,
@@ -146,7 +146,7 @@ def _pkg_version(name: str) -> str | None:
 
 
 def record_trial(bus: can.BusABC, study: str | Path, subject: str, trial: str,
-                 options: TrialOptions | None = None, **fields: Any) -> TrialResult:
+                 options: TrialOptions | None = None, **fields: Any) -> RecordingOutcome:
     """Record one trial from *bus* into *study* until its duration, a stop, or a fault.
 
     The trial is locked while it records (``TRIAL.lock``, :class:`~evtribo.store.lock.WriteLock`):
@@ -169,7 +169,7 @@ def record_trial(bus: can.BusABC, study: str | Path, subject: str, trial: str,
 
     Returns
     -------
-    TrialResult
+    RecordingOutcome
         Whatever the end; faults are in ``ended`` / ``error``, not raised.
 
     Raises
@@ -320,7 +320,7 @@ def _begin(rec: _Recording, bus: can.BusABC) -> None:
 
 
 def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
-         opts: TrialOptions) -> TrialResult:
+         opts: TrialOptions) -> RecordingOutcome:
     """Record into the open log until the trial ends; save the log and the sidecar."""
     got = _receive(rec, bus, acq_rig, opts)
     ended, error = _how_it_ended(rec, got)
@@ -342,8 +342,8 @@ def _run(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
     log.info("%s/%s %s: %d frames in %.1f s, %d dropped, %d bus errors", paths.folder.name,
              paths.log.stem, ended, stats.frames, got.elapsed, stats.dropped,
              sidecar["bus_errors"])
-    return TrialResult(ended=ended, exit_code=EXIT_CODES[ended], paths=paths, sidecar=sidecar,
-                       error=error)
+    return RecordingOutcome(ended=ended, exit_code=EXIT_CODES[ended], paths=paths, sidecar=sidecar,
+                            error=error)
 
 
 def _receive(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
@@ -393,5 +393,5 @@ def _receive(rec: _Recording, bus: can.BusABC, acq_rig: AcquisitionRig,
                      t_start=rec.t_start, care=care)
 
 
-__all__ = ["CONDITIONS", "EXIT_CODES", "RIG_DATA_TIMEOUT_S", "WAVEFORMS", "StopFlag",
-           "TrialInfo", "TrialOptions", "TrialPaths", "TrialResult", "record_trial", "trial_lock"]
+__all__ = ["CONDITIONS", "EXIT_CODES", "RIG_DATA_TIMEOUT_S", "WAVEFORMS", "RecordingOutcome",
+           "StopFlag", "TrialInfo", "TrialOptions", "TrialPaths", "record_trial", "trial_lock"]

@@ -180,8 +180,8 @@ class TrialPaths:
 
 
 @dataclass
-class TrialResult:
-    """What :func:`record_trial` did.
+class RecordingOutcome:
+    """What :func:`~evtribo.acquisition.trial.record_trial` did.
 
     Attributes
     ----------
@@ -285,8 +285,8 @@ class StopFlag:
     reason : str or None
         Why the stop was requested (the sidecar's ``end_detail``).
     interruptible : bool
-        True while :func:`record_trial` receives frames: only then may a signal handler
-        raise ``KeyboardInterrupt`` to cut a receive that hangs. Once it is False the
+        True while :func:`~evtribo.acquisition.trial.record_trial` receives frames: only then may a
+        signal handler raise ``KeyboardInterrupt`` to cut a receive that hangs. Once it is False the
         trial's log and sidecar are being saved, and must not be interrupted.
     """
 
@@ -304,8 +304,8 @@ class StopFlag:
         return self._event.is_set()
 
 
-__all__ = ["RESERVE_BYTES", "RIG_DATA_TIMEOUT_S", "StopFlag", "StopOnSignals", "TrialInfo",
-           "TrialOptions", "TrialPaths", "TrialResult", "keep_reserve", "refuse_existing",
+__all__ = ["RESERVE_BYTES", "RIG_DATA_TIMEOUT_S", "RecordingOutcome", "StopFlag", "StopOnSignals",
+           "TrialInfo", "TrialOptions", "TrialPaths", "keep_reserve", "refuse_existing",
            "trial_lock"]
 
 

@@ -26,7 +26,7 @@ from evtribo.analysis.forces.align import align_forces
 from evtribo.analysis.forces.crosstalk import ReversalSums, reversal_sums
 from evtribo.analysis.forces.pieces import continuous_pieces, restrict
 from evtribo.analysis.forces.timebase import sample_times
-from evtribo.analysis.observed import PieceState
+from evtribo.analysis.piece_observer import PieceState
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals
 from evtribo.canlog.rig import Calibration

@@ -29,7 +29,7 @@ from evtribo.analysis.friction.windows import (
 )
 from evtribo.analysis.modes import HUM_MODES, TARE_MODES
 from evtribo.errors import ConfigError, toml_key_line
-from evtribo.study import STUDY_FILE, Study
+from evtribo.study import STUDY_FILE, StudyFolder
 
 __all__ = ["HUM_MODES", "SETTING_HELP", "TARE_MODES", "AnalysisSettings", "parse_setting",
            "setting_bounds", "study_settings"]
@@ -279,14 +279,14 @@ def parse_setting(text: str) -> tuple[str, Any]:
     return key, value
 
 
-def study_settings(study: Study, overrides: Mapping[str, Any] | None = None,
+def study_settings(study: StudyFolder, overrides: Mapping[str, Any] | None = None,
                    base: AnalysisSettings | None = None) -> AnalysisSettings:
     """The analysis settings of a study: *base* (default: the package's defaults), then the
     ``[analysis]`` table of its study.toml, then *overrides* (the command line's).
 
     Parameters
     ----------
-    study : Study
+    study : StudyFolder
         The study, as loaded (its ``[analysis]`` table).
     overrides : mapping, optional
         Settings that take precedence (``{"tare": "none"}``).

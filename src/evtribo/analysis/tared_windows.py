@@ -26,7 +26,7 @@ from evtribo.analysis.forces.zero_offsets import (
     tare_loop,
 )
 from evtribo.analysis.friction.windows import find_windows, with_means
-from evtribo.analysis.observed import lift_exclusion
+from evtribo.analysis.piece_observer import lift_exclusion
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.canlog.rig import Calibration
 from evtribo.warning.collect import emitter

@@ -35,7 +35,7 @@ from evtribo.analysis.forces.zero_offsets import HUM_FREE_S, removed_offsets
 from evtribo.analysis.friction.plausible import swapped_roles
 from evtribo.analysis.friction.sine import friction_modulation, trace_around_switch
 from evtribo.analysis.friction.trace import TRACE_COLUMNS
-from evtribo.analysis.observed import PieceObserver, PieceState
+from evtribo.analysis.piece_observer import PieceObserver, PieceState
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.tared_windows import offset_warnings, tare_and_find_windows
 from evtribo.canlog.rig import Calibration
@@ -96,7 +96,7 @@ class TrialMeta:
 
 
 @dataclass
-class TrialResult:
+class TrialAnalysis:
     """A trial's row of trials.csv, its windows and what went wrong on the way.
 
     Attributes
@@ -109,7 +109,7 @@ class TrialResult:
         What its decoding and analysis said of it, in order.
     trace : pandas.DataFrame or None
         For a sine trial with ON phases: :data:`SINE_TRACE_CSV_COLUMNS` over a stretch
-        around a switch from OFF to ON (see :func:`sine_trace`).
+        around a switch from OFF to ON (see :func:`~evtribo.analysis.friction.trace.sine_trace`).
     """
 
     row: dict[str, Any]
@@ -321,7 +321,7 @@ def _pieces(signals: TrialSignals, meta: TrialMeta, t0: float, *, settings: Anal
 def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
                     settings: AnalysisSettings | None = None,
                     calibration: Calibration | None = None,
-                    observe: PieceObserver | None = None) -> TrialResult:
+                    observe: PieceObserver | None = None) -> TrialAnalysis:
     """Analyse one decoded trial.
 
     A trial whose load cells both fall silent for more than a second (a jump of the log's
@@ -344,7 +344,7 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
 
     Returns
     -------
-    TrialResult
+    TrialAnalysis
 
     Raises
     ------
@@ -361,7 +361,7 @@ def analyze_signals(signals: TrialSignals, meta: TrialMeta, *,
 
 
 def _analyze(signals: TrialSignals, meta: TrialMeta, settings: AnalysisSettings,
-             calibration: Calibration | None, observe: PieceObserver | None) -> TrialResult:
+             calibration: Calibration | None, observe: PieceObserver | None) -> TrialAnalysis:
     """:func:`analyze_signals` within its trial's collector of warnings."""
     t0 = trial_start(signals)
     parts, cut = _pieces(signals, meta, t0, settings=settings, calibration=calibration,
@@ -397,7 +397,7 @@ def _analyze(signals: TrialSignals, meta: TrialMeta, settings: AnalysisSettings,
         "tare": "+".join(methods) or "none",
         **_crosstalk(parts, windows, methods),
     }
-    return TrialResult(row=row, windows=windows, trace=trace)
+    return TrialAnalysis(row=row, windows=windows, trace=trace)
 
 
 def _crosstalk(parts: list[_PieceResult], windows: pd.DataFrame, methods: list[str]
@@ -453,5 +453,5 @@ def failed_row(meta: TrialMeta) -> dict[str, Any]:
 
 
 __all__ = ["SINE_TRACE_CSV_COLUMNS", "TRIAL_COLUMNS", "WINDOW_CSV_COLUMNS", "AnalysisSettings",
-           "TrialMeta", "TrialResult", "analyze_signals", "empty_windows", "failed_row",
+           "TrialAnalysis", "TrialMeta", "analyze_signals", "empty_windows", "failed_row",
            "trial_start"]

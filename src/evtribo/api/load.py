@@ -26,8 +26,8 @@ def load_results(out: str | os.PathLike[str]) -> Results:
     Returns
     -------
     Results
-        The same tables as :func:`analyze` gave, with :attr:`Results.out` set and
-        :attr:`Results.fit` when ``evtribo compare`` has fitted these results.
+        The same tables as :func:`~evtribo.api.results.analyze` gave, with :attr:`Results.out` set
+        and :attr:`Results.fit` when ``evtribo compare`` has fitted these results.
 
     Raises
     ------

@@ -1,5 +1,6 @@
 """A study's results from Python: :func:`analyze` (in memory), :meth:`Results.save` (the
-result folder of study format §2), :func:`load_results` (a result folder read back).
+result folder of study format §2), :func:`~evtribo.api.load.load_results` (a result folder read
+back).
 
 ``evtribo analyze`` runs the same two functions as ``analyze(study).save(out)``:
 :func:`evtribo.results.pipeline.compute_study`, then
@@ -140,7 +141,7 @@ class Results(ResultFolder):
         -------
         Path
             The folder written (also :attr:`out`; :attr:`summary` becomes what was written;
-            a :attr:`fit` made in memory stays, for :meth:`Fit.save`).
+            a :attr:`fit` made in memory stays, for :meth:`~evtribo.api.fit.Fit.save`).
 
         Raises
         ------

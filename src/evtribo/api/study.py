@@ -27,8 +27,7 @@ from evtribo.canlog.rig import Rig
 from evtribo.canlog.signals import ExcitationSignals, TrialSignals
 from evtribo.errors import AnalysisError, SidecarError, UserInputError
 from evtribo.results.pipeline import study_settings
-from evtribo.study import Study as StudyFolder
-from evtribo.study import TrialRef, load_study
+from evtribo.study import StudyFolder, TrialRef, load_study
 from evtribo.util.docstrings import fill_doc
 from evtribo.warning.record import WarningRecord
 
@@ -263,7 +262,7 @@ def trial_forces(ref: TrialRef, rig: Rig, *, settings: AnalysisSettings | None =
     Parameters
     ----------
     ref : TrialRef
-        The trial (:attr:`evtribo.study.Study.trials`).
+        The trial (:attr:`evtribo.study.StudyFolder.trials`).
     %(rig)s
     settings : AnalysisSettings, optional
         The analysis settings (their ``max_gap_periods``); default: the package's.

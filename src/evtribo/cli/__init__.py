@@ -28,6 +28,8 @@ from typing import Any
 from evtribo.cli._startup import one_blas_thread
 from evtribo.errors import EvtriboError
 
+__all__ = ["EXIT_BROKEN_PIPE", "GROUPS", "SUBCOMMANDS", "build_parser", "entry", "main"]
+
 #: Subcommands in the order ``evtribo --help`` lists them, with a line of help each.
 #: Only the module of the subcommand being run is imported (start-up stays fast).
 SUBCOMMANDS: dict[str, str] = {
@@ -122,6 +124,10 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     only : str, optional
         Import and register fully only this subcommand; the others are listed with their
         help line. By default every subcommand's module is imported.
+
+    Returns
+    -------
+    argparse.ArgumentParser
     """
     parser = argparse.ArgumentParser(
         prog="evtribo",
@@ -211,8 +217,18 @@ def _denied(err: PermissionError) -> str:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run ``evtribo`` with *argv*; return the exit code (0 done, 1 failed, 2 bad input,
-    141 standard output closed early)."""
+    """Run ``evtribo`` with *argv*.
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The command line without the program's name (default: ``sys.argv[1:]``).
+
+    Returns
+    -------
+    int
+        The exit code: 0 done, 1 failed, 2 bad input, 141 standard output closed early.
+    """
     try:
         try:
             return _main(argv)
@@ -261,5 +277,7 @@ def _main(argv: Sequence[str] | None) -> int:
 
 
 def entry() -> None:  # pragma: no cover - console script
+    """The ``evtribo`` console script: one BLAS thread, then :func:`main`, its exit code the
+    process's."""
     one_blas_thread()  # before numpy is imported
     sys.exit(main())

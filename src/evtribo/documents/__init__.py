@@ -12,3 +12,5 @@ reader and its writer.
 Every module that writes or reads one of these files goes through its document module; no
 other module builds or parses their JSON.
 """
+
+__all__: list[str] = []

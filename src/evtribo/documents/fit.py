@@ -16,7 +16,7 @@ in the order said, each a record as summary.json keeps the analysis's: ``kind``,
 "finite", "hessian_pd", "agree", "determined", "text", "waveform", "frequency_Hz"}``; an
 older fit.json's is the text alone),
 ``compare_key`` (what the comparison was made from: the analysis, the options, the software;
-:func:`evtribo.report.kept.compare_key`) and ``output_sha256`` (every file compare wrote,
+:func:`evtribo.report.compare_cache.compare_key`) and ``output_sha256`` (every file compare wrote,
 which ``evtribo report`` checks). Each figure's record (``kind``, ``title``, ``stem``,
 ``subject``, ``caption``) says where the report places it (``section``, ``per`` and, for a
 kind shown as a grid with many subjects, ``grid``: its title and caption; the figure

@@ -27,7 +27,7 @@ from evtribo.documents.sidecar import CONDITIONS, WAVEFORMS
 from evtribo.errors import StudyError
 from evtribo.store.files import DuplicateKeyError, atomic_write, loads_json_unique, read_limited
 
-__all__ = ["EXCITATION_KEYS", "SESSION_FILE", "VERSION", "PlannedTrial", "Session", "parse_session",
+__all__ = ["EXCITATION_KEYS", "SESSION_FILE", "VERSION", "Session", "SessionTrial", "parse_session",
            "read_session", "write_session"]
 
 #: Version of the format this module writes (and the newest it reads).
@@ -39,7 +39,7 @@ EXCITATION_KEYS = ("waveform", "frequency_Hz", "amplitude_V", "condition")
 
 
 @dataclass(frozen=True)
-class PlannedTrial:
+class SessionTrial:
     """One trial of the planned order.
 
     Attributes
@@ -70,7 +70,7 @@ class Session:
         Seed of the order's shuffle.
     protocol : dict
         The protocol file's tables as given (``session``, ``trial``).
-    order : tuple of PlannedTrial
+    order : tuple of SessionTrial
         The trials in the order they are recorded.
     done : tuple of str
         Names of the trials recorded, in the order they were.
@@ -79,10 +79,10 @@ class Session:
     subject: str
     seed: int
     protocol: dict[str, Any] = field(default_factory=dict)
-    order: tuple[PlannedTrial, ...] = ()
+    order: tuple[SessionTrial, ...] = ()
     done: tuple[str, ...] = ()
 
-    def next_trial(self) -> PlannedTrial | None:
+    def next_trial(self) -> SessionTrial | None:
         """The first trial of the order not done (None: the session is complete)."""
         return next((t for t in self.order if t.trial not in self.done), None)
 
@@ -112,7 +112,7 @@ def _get(data: dict[str, Any], key: str, kind: type, path: Path) -> Any:
     return value
 
 
-def _planned(item: object, i: int, path: Path) -> PlannedTrial:
+def _planned(item: object, i: int, path: Path) -> SessionTrial:
     key = f"order[{i}]"
     if not isinstance(item, dict):
         raise StudyError(f"expected an object, got {item!r}", path=path, key=key)
@@ -127,7 +127,7 @@ def _planned(item: object, i: int, path: Path) -> PlannedTrial:
                               or not math.isfinite(v) or v < 0):
             raise StudyError(f"expected a finite number >= 0, got {v!r}", path=path,
                              key=f"{key}.{k}")
-    return PlannedTrial(trial=name, waveform=item.get("waveform"),
+    return SessionTrial(trial=name, waveform=item.get("waveform"),
                         frequency_Hz=None if item.get("frequency_Hz") is None
                         else float(item["frequency_Hz"]),
                         amplitude_V=None if item.get("amplitude_V") is None

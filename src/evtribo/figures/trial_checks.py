@@ -2,7 +2,7 @@
 
 ``compare`` draws one figure per trial of the analysed study (kind ``trial``, stem
 ``trial_<subject>_<trial>``; :mod:`evtribo.figures.trial_plots`) from the sketch ``evtribo
-analyze`` kept of it (:func:`evtribo.results.check.kept_sketches`): no trial is read or
+analyze`` kept of it (:func:`evtribo.results.trial_view.kept_sketches`): no trial is read or
 analysed again. A trial whose sketch is not kept (a cache cleared, another cache folder,
 an analysis of an older evtribo) is analysed again from the study folder, which must then be
 there; a trial the analysis could not analyse gets a figure saying why.
@@ -26,12 +26,12 @@ from typing import Any
 from evtribo.errors import AnalysisError, UserInputError
 from evtribo.figures.trial_plots import trial_stem
 from evtribo.fit.tables import ResultTables
-from evtribo.results.sketch import TrialSketch
+from evtribo.results.trial_sketch import TrialSketch
 from evtribo.store.pool import Mapper
 from evtribo.warning.collect import emitter
 from evtribo.warning.record import Scope, WarningRecord
 
-# the analysis (results.check) and the rig's DBC (evtribo.study) are imported where a trial's
+# the analysis (results.trial_view) and the rig's DBC (evtribo.study) are imported where a trial's
 # check needs them: compare starts without them, and a large study's may need none
 
 __all__ = ["AUTO_ALL", "CHECK_DPI", "WHICH", "CheckFigure", "chosen_trials", "parse_which",
@@ -150,13 +150,13 @@ def sketch_again(job: tuple[str, str, str, Mapping[str, Any], str | None]) -> by
     Returns
     -------
     bytes or str
-        The sketch (:meth:`~evtribo.results.sketch.TrialSketch.to_bytes`), or the error.
+        The sketch (:meth:`~evtribo.results.trial_sketch.TrialSketch.to_bytes`), or the error.
     """
-    from evtribo.results.check import check_trial, sketch_of
+    from evtribo.results.trial_view import sketch_of, view_trial
 
     study, subject, trial, settings, cache_dir = job
     try:
-        return sketch_of(check_trial(study, subject, trial, settings=settings,
+        return sketch_of(view_trial(study, subject, trial, settings=settings,
                                      cache_dir=cache_dir)).to_bytes()
     except (AnalysisError, UserInputError) as err:
         log.info("%s/%s: no check figure: %s", subject, trial, err)  # its figure says why
@@ -195,7 +195,7 @@ def trial_checks(tables: ResultTables, which: str = "auto", *,
     if not chosen:
         return [], notes
     from evtribo.figures.trial_plots import trial_caption
-    from evtribo.results.check import kept_sketches
+    from evtribo.results.trial_view import kept_sketches
     from evtribo.study import load_study
 
     study_dir = tables.summary.study_dir

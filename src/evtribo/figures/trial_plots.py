@@ -9,9 +9,9 @@ zero was read; and, hatched, what no window may use (guard times at ON/OFF switc
 unknown state, the finger leaving or touching down, missing frames, pauses). A researcher
 sees at once when the analysis picked the wrong stretches.
 
-A check is drawn from the trial's :class:`~evtribo.results.sketch.TrialSketch`: the one
-``evtribo analyze`` kept (:func:`evtribo.results.check.kept_sketches`), or one made from a
-new analysis (:func:`~evtribo.results.check.check_trial`, :func:`~evtribo.results.check.
+A check is drawn from the trial's :class:`~evtribo.results.trial_sketch.TrialSketch`: the one
+``evtribo analyze`` kept (:func:`evtribo.results.trial_view.kept_sketches`), or one made from a
+new analysis (:func:`~evtribo.results.trial_view.view_trial`, :func:`~evtribo.results.trial_view.
 sketch_of`). The traces are rasterised in SVG and PDF (a trial's thousands of points, drawn
 at the resolution asked) and the windows are two lines per condition, so that a check is
 quick to write and to open.
@@ -36,12 +36,12 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from evtribo.errors import AnalysisError, UserInputError
-from evtribo.results.sketch import MAX_POINTS, STRETCH_LABELS, Stretch, TrialSketch, envelope
+from evtribo.results.trial_sketch import MAX_POINTS, STRETCH_LABELS, Stretch, TrialSketch, envelope
 
 if TYPE_CHECKING:
     from evtribo.analysis.settings import AnalysisSettings
-    from evtribo.results.check import TrialCheck
-    from evtribo.study import Study
+    from evtribo.results.trial_view import TrialView
+    from evtribo.study import StudyFolder
 
 log = logging.getLogger(__name__)
 
@@ -91,10 +91,10 @@ def _new_axes() -> Axes:
     return fig.add_subplot()
 
 
-def _as_sketch(check: TrialCheck | TrialSketch) -> TrialSketch:
+def _as_sketch(check: TrialView | TrialSketch) -> TrialSketch:
     if isinstance(check, TrialSketch):
         return check
-    from evtribo.results.check import sketch_of  # the analysis, imported when needed
+    from evtribo.results.trial_view import sketch_of  # the analysis, imported when needed
 
     return sketch_of(check)
 
@@ -171,13 +171,13 @@ def _legend(ax: Axes, kinds: set[str], conditions: set[str]) -> None:
               ncol=min(3, len(handles)), fontsize="small", frameon=False)
 
 
-def draw_trial_check(check: TrialCheck | TrialSketch, ax: Axes | None = None) -> Axes:
+def draw_trial_check(check: TrialView | TrialSketch, ax: Axes | None = None) -> Axes:
     """Draw a trial's check: the forces (mN), the ON phases, the windows, what was left out.
 
     Parameters
     ----------
-    check : TrialCheck or TrialSketch
-        The trial as its analysis saw it (:func:`evtribo.results.check.check_trial`), or
+    check : TrialView or TrialSketch
+        The trial as its analysis saw it (:func:`evtribo.results.trial_view.view_trial`), or
         its sketch (what analyze kept of it).
     ax : matplotlib.axes.Axes, optional
         Where to draw (default: a new figure, :data:`TRIAL_FIGSIZE`).
@@ -229,12 +229,12 @@ def _seconds(stretches: list[Stretch], kind: str) -> float:
     return sum(s.t_end - s.t_start for s in stretches if s.kind == kind)
 
 
-def trial_caption(check: TrialCheck | TrialSketch) -> str:
+def trial_caption(check: TrialView | TrialSketch) -> str:
     """A caption for a trial's check figure: what it shows, counted.
 
     Parameters
     ----------
-    check : TrialCheck or TrialSketch
+    check : TrialView or TrialSketch
         The trial's check, or its sketch.
 
     Returns
@@ -266,7 +266,7 @@ def trial_caption(check: TrialCheck | TrialSketch) -> str:
     return "; ".join(parts) + "."
 
 
-def plot_trial(study: Study | str | os.PathLike[str], subject: str, trial: str, *,
+def plot_trial(study: StudyFolder | str | os.PathLike[str], subject: str, trial: str, *,
                ax: Axes | None = None,
                settings: AnalysisSettings | Mapping[str, Any] | None = None,
                cache_dir: str | os.PathLike[str] | None = None) -> Axes:
@@ -276,7 +276,7 @@ def plot_trial(study: Study | str | os.PathLike[str], subject: str, trial: str, 
 
     Parameters
     ----------
-    study : Study or path-like
+    study : StudyFolder or path-like
         The study, or its folder.
     subject, trial : str
         The trial.
@@ -284,7 +284,7 @@ def plot_trial(study: Study | str | os.PathLike[str], subject: str, trial: str, 
         Where to draw (default: a new figure).
     settings : AnalysisSettings or mapping, optional
         The analysis settings (default: the study's; a mapping such as ``summary.json``'s
-        ``settings``, see :func:`evtribo.results.check.settings_of`).
+        ``settings``, see :func:`evtribo.results.trial_view.settings_of`).
     cache_dir : path-like, optional
         The decoded-trial cache (default: ``$EVTRIBO_CACHE_DIR`` or ``~/.cache/evtribo``).
 
@@ -299,9 +299,9 @@ def plot_trial(study: Study | str | os.PathLike[str], subject: str, trial: str, 
     AnalysisError
         The trial cannot be analysed.
     """
-    from evtribo.results.check import check_trial
+    from evtribo.results.trial_view import view_trial
 
-    return draw_trial_check(check_trial(study, subject, trial, settings=settings,
+    return draw_trial_check(view_trial(study, subject, trial, settings=settings,
                                         cache_dir=cache_dir), ax)
 
 
@@ -328,7 +328,7 @@ def _failed(subject: str, trial: str, err: Exception) -> TrialFigure:
                        error=str(err))
 
 
-def trial_check_figures(study_root: Study | str | os.PathLike[str],
+def trial_check_figures(study_root: StudyFolder | str | os.PathLike[str],
                         subjects: Sequence[str] | None = None,
                         settings: AnalysisSettings | Mapping[str, Any] | None = None, *,
                         cache_dir: str | os.PathLike[str] | None = None
@@ -337,13 +337,13 @@ def trial_check_figures(study_root: Study | str | os.PathLike[str],
 
     Parameters
     ----------
-    study_root : Study or path-like
+    study_root : StudyFolder or path-like
         The study, or its folder.
     subjects : sequence of str, optional
         Only these subjects' trials (default: all).
     settings : AnalysisSettings or mapping, optional
         The settings the results were analysed with (``summary.json``'s ``settings``; see
-        :func:`evtribo.results.check.settings_of`); default: the study's.
+        :func:`evtribo.results.trial_view.settings_of`); default: the study's.
     cache_dir : path-like, optional
         The decoded-trial cache.
 
@@ -354,16 +354,16 @@ def trial_check_figures(study_root: Study | str | os.PathLike[str],
         trial that cannot be analysed (or read) gets a figure saying why. Each figure is
         its own (no pyplot state): save it, then let it go.
     """
-    from evtribo.results.check import check_trial, settings_of, sketch_of
-    from evtribo.study import Study, load_study
+    from evtribo.results.trial_view import settings_of, sketch_of, view_trial
+    from evtribo.study import StudyFolder, load_study
 
-    study = study_root if isinstance(study_root, Study) else load_study(study_root)
+    study = study_root if isinstance(study_root, StudyFolder) else load_study(study_root)
     chosen = settings_of(study, settings)
     for ref in study.trials:
         if subjects is not None and ref.subject not in subjects:
             continue
         try:
-            check = check_trial(study, ref.subject, ref.name, settings=chosen,
+            check = view_trial(study, ref.subject, ref.name, settings=chosen,
                                 cache_dir=cache_dir)
         except (AnalysisError, UserInputError) as err:
             log.info("%s: no check figure: %s", ref.key, err)  # its figure says why

@@ -39,7 +39,7 @@ def fit_table(fits: Sequence[SubjectFit], tables: ResultTables) -> pd.DataFrame:
     Parameters
     ----------
     fits : sequence of SubjectFit
-        The fits (:func:`fit_study`).
+        The fits (:func:`~evtribo.fit.fit.fit_study`).
     tables : ResultTables
         The tables they were fitted to.
 

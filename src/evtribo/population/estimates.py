@@ -15,9 +15,9 @@ study excluded beforehand by a rule written in study.toml (``[population] exclud
   between-subject SD with its interval, I^2 and the convergence checks; a subject far from
   the others is named, with rows of the same estimates without it (``without S03``); where
   valid, the meta-analysis of log F_el at each amplitude (``meta-analysis``);
-- the relative friction increase ``100 F_el / F_n,ON`` per amplitude (:mod:`evtribo.population.
-  journal`), each subject's in population_subjects.csv with its Holm-adjusted one-sided test
-  of ``F_el > 0``;
+- the relative friction increase ``100 F_el / F_n,ON`` per amplitude
+  (:mod:`evtribo.population.per_subject`), each subject's in population_subjects.csv with its
+  Holm-adjusted one-sided test of ``F_el > 0``;
 - the friction coefficient mu (each subject's from its OFF windows, with the standard error of
   that ratio of means) and the fitted air gap h_L (geometric mean; each subject's interval from
   its fit), random-effects meta-analyses;
@@ -62,9 +62,9 @@ from evtribo.population.data import (
     conditions_of,
     subject_data,
 )
-from evtribo.population.journal import SUBJECT_COLUMNS, friction_increase, subject_table
 from evtribo.population.models import DEFAULT_MODEL, MODELS
 from evtribo.population.nonlinear_fit import NonlinearFit
+from evtribo.population.per_subject import SUBJECT_COLUMNS, friction_increase, subject_table
 from evtribo.population.power_law import condition_estimates
 from evtribo.population.stats import MIN_SUBJECTS, OUTLIER_ALPHA, POOL_METHOD, Pooled
 from evtribo.warning.collect import emitter
@@ -107,7 +107,7 @@ class Population:
         Per condition, the subjects named as far from the others (each with its rows
         ``without <subject>``).
     subjects : DataFrame
-        population_subjects.csv (:data:`~evtribo.population.journal.SUBJECT_COLUMNS`).
+        population_subjects.csv (:data:`~evtribo.population.per_subject.SUBJECT_COLUMNS`).
     excluded : dict
         The subjects the study excluded beforehand, with the reason its rule gives.
     rule_notes : list of WarningRecord

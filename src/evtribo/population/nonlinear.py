@@ -21,7 +21,8 @@ variance parameters are estimated by an approximate REML (the log-determinant of
 effects' information, linearised at the modes, added to the deviance, as nlme does), which
 removes most of maximum likelihood's downward bias of the between-subject variance with few
 subjects. The deviance is minimised with several of scipy's optimisers from the same start
-(:func:`fit_nonlinear`): the best is kept, and the others' disagreement is reported.
+(:func:`~evtribo.population.nonlinear_fit.fit_nonlinear`): the best is kept, and the others'
+disagreement is reported.
 
 Inference: the fixed effects' covariance is the inverse of their information linearised at the
 modes (phi at least 1); the 95 % intervals use Student's t with Satterthwaite's degrees of

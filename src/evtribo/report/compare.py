@@ -58,8 +58,8 @@ from evtribo.guard import refuse_in_study, refuse_input
 from evtribo.model.params import ModelParameters
 from evtribo.population.estimates import Population, population
 from evtribo.population.exclusions import PopulationRule, population_rule
+from evtribo.report.compare_cache import FigureStore, compare_key, last_fit, options_text
 from evtribo.report.drawing import FigureRecord, Figures, Look, Runner, trials_to_check
-from evtribo.report.kept import FigureStore, compare_key, last_fit, options_text
 from evtribo.results.outputs import (
     FIGURES,
     FIT_CSV,

@@ -4,7 +4,7 @@ worker processes.
 A figure comes as a :class:`~evtribo.figures.registry.PlannedFigure` of the figure registry
 (:mod:`evtribo.figures.registry`): its names and a :class:`Drawing` (a plotting function
 and its arguments, called where the figure is drawn). A drawing's key is the SHA-256 of
-what the figure shows and how (:func:`evtribo.report.kept.figure_key`: the function, its
+what the figure shows and how (:func:`evtribo.report.compare_cache.figure_key`: the function, its
 arguments, the width, the software); a file's key adds its format and resolution. Each
 file of a drawing is then:
 
@@ -36,7 +36,7 @@ from evtribo.figures.plots import figure_bytes
 from evtribo.figures.registry import Drawing, PlannedFigure
 from evtribo.figures.style import journal_style
 from evtribo.figures.trial_checks import CHECK_DPI
-from evtribo.report.kept import FigureStore, figure_key, file_key
+from evtribo.report.compare_cache import FigureStore, figure_key, file_key
 from evtribo.results.outputs import FIGURES
 from evtribo.store.files import atomic_write, sha256_file
 from evtribo.store.pool import init_worker, stop_workers

@@ -38,7 +38,7 @@ from evtribo.documents.quantities import FRICTION_INCREASE_DEFINITION, FRICTION_
 from evtribo.documents.result_folder import ResultFolder
 from evtribo.errors import FORCE as FORCE_OPTION
 from evtribo.population.data import PopulationOutlier
-from evtribo.population.journal import subjects_view
+from evtribo.population.per_subject import subjects_view
 from evtribo.population.stats import MIN_SUBJECTS
 from evtribo.report.headline import Headline
 from evtribo.report.lead.population_methods import methods_paragraph

@@ -7,7 +7,7 @@ order:
 
 - ``analysed_s``: inside a steady-sliding window (ON or OFF);
 - ``excluded_lift_s``: the finger lifted, and leaving or touching down around it
-  (:func:`~evtribo.analysis.observed.lift_exclusion`, as the window search excludes it);
+  (:func:`~evtribo.analysis.piece_observer.lift_exclusion`, as the window search excludes it);
 - ``excluded_switch_s``: the guard time around an ON/OFF switch (``guard_s`` each side);
 - ``excluded_other_s``: no status frame tells ON from OFF there, or a load cell's data are
   missing;
@@ -24,7 +24,7 @@ import numpy as np
 import numpy.typing as npt
 
 from evtribo.analysis.forces.conditions import EXCLUDED, OFF, ON
-from evtribo.analysis.observed import PieceState, lift_exclusion
+from evtribo.analysis.piece_observer import PieceState, lift_exclusion
 from evtribo.util.running import true_runs
 
 __all__ = ["SECONDS_COLUMNS", "TrialSeconds"]

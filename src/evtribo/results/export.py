@@ -1,7 +1,7 @@
 """A study's aligned forces, trial by trial, as one ASAM MDF 4 file (``evtribo export``).
 
-Each trial is analysed as ``evtribo analyze`` analyses it (:func:`~evtribo.results.check.
-check_trial`, through the cache), and each continuous piece it worked on becomes a channel
+Each trial is analysed as ``evtribo analyze`` analyses it (:func:`~evtribo.results.trial_view.
+view_trial`, through the cache), and each continuous piece it worked on becomes a channel
 group named ``SUBJECT/TRIAL`` (``SUBJECT/TRIAL#2`` for a second piece), with its drive in
 the group's comment: on the piece's grid (time in s from the trial's start), the normal and
 the tangential force (N; calibrated, tared, hum removed: the forces the windows' means are
@@ -23,8 +23,8 @@ import numpy as np
 from evtribo.analysis.forces.conditions import EXCLUDED, OFF, ON
 from evtribo.canlog.decode_mf4 import MF4_EXTRA, save_mdf
 from evtribo.errors import AnalysisError, UserInputError
-from evtribo.results.check import check_trial
-from evtribo.study import Study, load_study
+from evtribo.results.trial_view import view_trial
+from evtribo.study import StudyFolder, load_study
 
 __all__ = ["CONDITION_TEXT", "Exported", "export_forces"]
 
@@ -59,14 +59,14 @@ def _comment(info: dict[str, Any]) -> str:
     return f"evtribo aligned forces; drive: {drive}" if drive else "evtribo aligned forces"
 
 
-def export_forces(study: Study | str | os.PathLike[str], path: str | os.PathLike[str], *,
+def export_forces(study: StudyFolder | str | os.PathLike[str], path: str | os.PathLike[str], *,
                   subjects: Sequence[str] | None = None,
                   progress: Callable[[int, int, str], None] | None = None) -> Exported:
     """Write each trial's aligned forces and conditions to an MF4 (see the module's notes).
 
     Parameters
     ----------
-    study : Study or path-like
+    study : StudyFolder or path-like
         The study, or its folder.
     path : path-like
         The output, ``.mf4``; written whole or not at all.
@@ -91,7 +91,7 @@ def export_forces(study: Study | str | os.PathLike[str], path: str | os.PathLike
     except ImportError:
         raise UserInputError(f"writing .mf4 needs the optional package asammdf: {MF4_EXTRA}",
                              path=str(path), key="-o") from None
-    study = study if isinstance(study, Study) else load_study(Path(study))
+    study = study if isinstance(study, StudyFolder) else load_study(Path(study))
     unknown = [s for s in subjects or () if s not in study.subjects]
     if unknown:
         raise UserInputError(f"no subject {unknown[0]!r} in the study; its subjects: "
@@ -107,7 +107,7 @@ def export_forces(study: Study | str | os.PathLike[str], path: str | os.PathLike
         for k, ref in enumerate(trials):
             key = f"{ref.subject}/{ref.name}"
             try:
-                check = check_trial(study, ref.subject, ref.name)
+                check = view_trial(study, ref.subject, ref.name)
             except AnalysisError as err:
                 out.skipped.append(f"{key}: {err}")
                 continue

@@ -76,7 +76,7 @@ from evtribo.results.workers import (
 )
 from evtribo.store.memo import HashMemo, default_cache_dir
 from evtribo.store.resultdir import locked, recover
-from evtribo.study import Study, TrialRef, load_study
+from evtribo.study import StudyFolder, TrialRef, load_study
 from evtribo.util.docstrings import fill_doc
 from evtribo.warning.collect import collecting, emitter
 from evtribo.warning.record import Scope, WarningRecord
@@ -107,7 +107,7 @@ class StudyResults(ResultFolder):
         return self.out
 
 
-def _plan(study: Study, inputs: list[dict[str, Any]]
+def _plan(study: StudyFolder, inputs: list[dict[str, Any]]
           ) -> tuple[list[TrialTask], list[TrialOutcome], list[dict[str, Any]]]:
     """The trials to analyse, as hashed; those not analysed: logs being written while
     hashed (failed) and logs identical to another trial's (counted once, as that trial,
@@ -241,7 +241,7 @@ def analyze_study(
 
 
 @fill_doc
-def compute_study(study: Study | str | os.PathLike[str], *, jobs: int | None = None,
+def compute_study(study: StudyFolder | str | os.PathLike[str], *, jobs: int | None = None,
                   strict: bool = False, cache_dir: str | os.PathLike[str] | None = None,
                   settings: AnalysisSettings | None = None,
                   overrides: Mapping[str, Any] | None = None,
@@ -252,7 +252,7 @@ def compute_study(study: Study | str | os.PathLike[str], *, jobs: int | None = N
 
     Parameters
     ----------
-    study : Study or path-like
+    study : StudyFolder or path-like
         The study (:func:`evtribo.study.load_study`) or its folder.
     %(jobs)s
     %(strict)s
@@ -276,10 +276,10 @@ def compute_study(study: Study | str | os.PathLike[str], *, jobs: int | None = N
                            progress=progress, scheduler=scheduler, reuse=reuse)
 
 
-def _prepare(study: Study | str | os.PathLike[str], overrides: Mapping[str, Any] | None,
-             settings: AnalysisSettings | None) -> tuple[Study, AnalysisSettings]:
+def _prepare(study: StudyFolder | str | os.PathLike[str], overrides: Mapping[str, Any] | None,
+             settings: AnalysisSettings | None) -> tuple[StudyFolder, AnalysisSettings]:
     """The study loaded, its settings, and a refusal of a study without trials."""
-    study = study if isinstance(study, Study) else load_study(study)
+    study = study if isinstance(study, StudyFolder) else load_study(study)
     settings = study_settings(study, overrides, settings)
     if not study.trials:
         raise StudyError("the study holds no trials (no <subject>/<trial>.log files)",
@@ -287,7 +287,7 @@ def _prepare(study: Study | str | os.PathLike[str], overrides: Mapping[str, Any]
     return study, settings
 
 
-def _analyze_locked(study: Study, settings: AnalysisSettings, *, jobs: int | None,
+def _analyze_locked(study: StudyFolder, settings: AnalysisSettings, *, jobs: int | None,
                     strict: bool, cache_dir: str | os.PathLike[str] | None,
                     progress: ProgressCallback | None, scheduler: Any = None,
                     reuse: bool = True) -> StudyResults:
@@ -428,7 +428,7 @@ class _Tables:
                    list(warnings))
 
 
-def _summary(study: Study, tables: _Tables, settings: AnalysisSettings, *, started_at: float,
+def _summary(study: StudyFolder, tables: _Tables, settings: AnalysisSettings, *, started_at: float,
              inputs: list[dict[str, Any]], duplicates: list[dict[str, Any]],
              warnings: list[WarningRecord], strict: bool, jobs: int) -> dict[str, Any]:
     """The content of summary.json (``output_sha256`` and ``elapsed_s`` filled in when the

@@ -29,7 +29,7 @@ from evtribo.errors import (
 )
 from evtribo.store.files import sha256_file
 from evtribo.store.memo import HashMemo, software_versions
-from evtribo.study import Study
+from evtribo.study import StudyFolder
 from evtribo.warning.collect import emitter
 from evtribo.warning.record import WarningRecord
 
@@ -90,12 +90,12 @@ def file_record(path: Path, root: Path, role: str, memo: HashMemo | None = None
             "_mtime_ns": stamp, "_path": os.path.abspath(path)}
 
 
-def input_files(study: Study, memo: HashMemo | None = None) -> list[dict[str, Any]]:
+def input_files(study: StudyFolder, memo: HashMemo | None = None) -> list[dict[str, Any]]:
     """Records of a study's inputs: study.toml, the rig's DBC, each trial's log and sidecar.
 
     Parameters
     ----------
-    study : evtribo.study.Study
+    study : evtribo.study.StudyFolder
         The study, as loaded.
     memo : HashMemo, optional
         Hashes of the files as they were when last hashed: a file unchanged since is not
@@ -122,7 +122,7 @@ def input_files(study: Study, memo: HashMemo | None = None) -> list[dict[str, An
         return list(pool.map(lambda item: file_record(item[0], root, item[1], memo), files))
 
 
-def rig_roles(study: Study) -> dict[str, Any]:
+def rig_roles(study: StudyFolder) -> dict[str, Any]:
     """The rig as a flat mapping: name, DBC (relative to the study), each role's signal and
     the counters' periods the rig file declares."""
     rig = study.rig
@@ -142,13 +142,13 @@ def rig_roles(study: Study) -> dict[str, Any]:
     return out
 
 
-def provenance(study: Study, started: float,
+def provenance(study: StudyFolder, started: float,
                inputs: list[dict[str, Any]] | None = None) -> dict[str, Any]:
     """The provenance keys of summary.json.
 
     Parameters
     ----------
-    study : evtribo.study.Study
+    study : evtribo.study.StudyFolder
         The study, as loaded.
     started : float
         Epoch time at which the analysis started, s.

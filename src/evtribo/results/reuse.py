@@ -15,8 +15,8 @@ Two things are kept in the cache folder (:func:`evtribo.canlog.cache.default_cac
   As for decoded trials, ``<checksum>`` is the start of the SHA-256 of the file's bytes,
   checked on every read;
 - **each trial's sketch** (``checks/<key>.<checksum>.sketch``, under the same key): what
-  its check's figure draws (:class:`~evtribo.results.sketch.TrialSketch`), which ``evtribo
-  compare`` finds there (:func:`evtribo.results.check.kept_sketches`) instead of analysing
+  its check's figure draws (:class:`~evtribo.results.trial_sketch.TrialSketch`), which ``evtribo
+  compare`` finds there (:func:`evtribo.results.trial_view.kept_sketches`) instead of analysing
   the trial again. It is kept with ``--recompute`` too.
 
 A reused outcome is the one an analysis of the same inputs gives (the analysis of a trial
@@ -38,7 +38,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from evtribo.results.sketch import TrialSketch
+from evtribo.results.trial_sketch import TrialSketch
 from evtribo.store.files import read_entry, write_checksummed
 from evtribo.store.memo import software_fingerprint
 from evtribo.warning.record import WarningRecord

@@ -26,7 +26,7 @@ from typing import Any
 
 import pandas as pd
 
-from evtribo.analysis.observed import PieceState
+from evtribo.analysis.piece_observer import PieceState
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import (
     TrialMeta,
@@ -40,7 +40,7 @@ from evtribo.canlog.rig import Rig
 from evtribo.canlog.signals import TrialSignals
 from evtribo.errors import AnalysisError, SidecarError, UserInputError
 from evtribo.results.exclusions import TrialSeconds
-from evtribo.results.sketch import Sketcher
+from evtribo.results.trial_sketch import Sketcher
 from evtribo.store.pool import init_worker, stop_workers
 from evtribo.study import TrialRef
 from evtribo.warning.collect import collected, collecting, emitter, replay
@@ -111,7 +111,7 @@ class TrialOutcome:
     trace : pandas.DataFrame or None
         Its rows of sine_trace.csv.
     sketch : bytes or None
-        What its check's figure draws (:class:`~evtribo.results.sketch.TrialSketch`'s
+        What its check's figure draws (:class:`~evtribo.results.trial_sketch.TrialSketch`'s
         bytes), kept beside the outcome for ``evtribo compare``.
     """
 

@@ -91,7 +91,7 @@ def render_study_toml(name: str, dbc: str, guesses: Mapping[str, RoleGuess], *,
     Returns
     -------
     str
-        TOML text that :func:`evtribo.study.open_study` reads once the required roles are
+        TOML text that :func:`evtribo.study.load_study` reads once the required roles are
         there.
     """
     out = [f"# A study of evtribo {__version__} (spec: docs/study-format.md), written by "

@@ -17,7 +17,7 @@ from evtribo.analysis.trial import TrialMeta, analyze_signals
 from evtribo.canlog.cache import load_trial
 from evtribo.errors import EvtriboError, UserInputError
 from evtribo.results.pipeline import study_settings
-from evtribo.study import Study, load_study
+from evtribo.study import StudyFolder, load_study
 from evtribo.warning.collect import collecting
 from evtribo.warning.record import Scope
 
@@ -79,12 +79,12 @@ class TrialCheck:
         return [self.summary(), *(f"  warning: {w}" for w in self.warnings)]
 
 
-def check_trial(study: Study, subject: str, trial: str, condition: str | None) -> TrialCheck:
+def check_trial(study: StudyFolder, subject: str, trial: str, condition: str | None) -> TrialCheck:
     """Analyse one trial of *study* and say what is wrong with it, if anything.
 
     Parameters
     ----------
-    study : Study
+    study : StudyFolder
         The study (:func:`evtribo.study.load_study`), its trials discovered after the trial
         was recorded.
     subject, trial : str

@@ -48,8 +48,8 @@ from evtribo.acquisition.trial import record_trial
 from evtribo.acquisition.trialdata import RIG_DATA_TIMEOUT_S, TrialInfo, TrialOptions
 from evtribo.documents.session import (
     SESSION_FILE,
-    PlannedTrial,
     Session,
+    SessionTrial,
     read_session,
     write_session,
 )
@@ -158,7 +158,7 @@ def _plan(cfg: SessionConfig, protocol: Protocol, subject_dir: Path) -> Session:
     """A new session: the plan, with the trials' names."""
     seed = session_seed(protocol)
     first = first_free(subject_dir)
-    order = tuple(PlannedTrial(trial=f"run-{first + i:02d}", waveform=p.waveform,
+    order = tuple(SessionTrial(trial=f"run-{first + i:02d}", waveform=p.waveform,
                                frequency_Hz=p.frequency_Hz, amplitude_V=p.amplitude_V,
                                condition=p.condition)
                   for i, p in enumerate(plan_trials(protocol, seed)))
@@ -268,7 +268,7 @@ class _Session:
         return answer or default
 
     # -- one trial --------------------------------------------------------------------
-    def excitation(self, entry: PlannedTrial) -> Excitation:
+    def excitation(self, entry: SessionTrial) -> Excitation:
         state = Excitation(entry.condition != "off", float(entry.amplitude_V or 0.0),
                            float(entry.frequency_Hz or 0.0), entry.waveform or "square")
         if self.command is None:
@@ -278,7 +278,7 @@ class _Session:
             self.ask("press Enter when it is set ", "")
         return state
 
-    def record(self, entry: PlannedTrial, number: int) -> Any:
+    def record(self, entry: SessionTrial, number: int) -> Any:
         s = self.protocol.session
         title = (f"{self.cfg.subject}/{entry.trial}  ({number}/{len(self.doc.order)}: "
                  f"{entry.waveform} {entry.frequency_Hz:g} Hz {entry.amplitude_V:g} V "
@@ -339,7 +339,7 @@ class _Session:
                     state.amplitude_V, SETTLE_S)
         return False
 
-    def _record(self, entry: PlannedTrial, state: Excitation, options: TrialOptions) -> Any:
+    def _record(self, entry: SessionTrial, state: Excitation, options: TrialOptions) -> Any:
         """Record with the stop guard, the amplifier commanded meanwhile when it can be."""
         s = self.protocol.session
         if self.command is not None:
@@ -359,7 +359,7 @@ class _Session:
                 return record_trial(self.bus, self.cfg.study, self.cfg.subject,
                                     entry.trial, options)
 
-    def check(self, entry: PlannedTrial) -> TrialCheck | None:
+    def check(self, entry: SessionTrial) -> TrialCheck | None:
         if not self.cfg.check:
             return None
         result = check_recorded(self.cfg.study, self.cfg.subject, entry.trial,
@@ -372,14 +372,14 @@ class _Session:
             self.say(line)
         return result
 
-    def reject(self, entry: PlannedTrial, why: str) -> None:
+    def reject(self, entry: SessionTrial, why: str) -> None:
         name = set_aside(self.subject_dir, entry.trial)
         if name is not None:
             self.out.rejected.append(name)
             self.say(f"{entry.trial} {why}: kept as {self.subject_dir / REJECTED / name}.*")
         self.save()
 
-    def one(self, entry: PlannedTrial, number: int) -> str | None:
+    def one(self, entry: SessionTrial, number: int) -> str | None:
         """Record *entry* until kept; the reason to stop the session, or None."""
         while True:
             if trial_files(self.subject_dir, entry.trial):

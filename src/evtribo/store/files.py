@@ -7,7 +7,7 @@ regular files of a sane size are read (:func:`read_limited`); anything else is t
 error class (exit 2), naming the file.
 
 Writing: every file evtribo writes whole (a sidecar, study.toml, a cache entry, a decoded
-table, a figure, a journal) goes through :func:`atomic_open` or :func:`atomic_write`: a
+table, a figure, a commit record) goes through :func:`atomic_open` or :func:`atomic_write`: a
 temporary file beside the target, renamed over it only when it is complete, removed
 otherwise. A reader sees the old file or the new one, never half of one. The exceptions are
 the logs being recorded, which grow as ``TRIAL.log.part`` (:func:`partial_path`).
@@ -303,7 +303,7 @@ def atomic_open(path: str | os.PathLike[str], mode: str = "wb", *,
         For text mode (default UTF-8).
     durable : bool
         Flush the file and its folder to the disk before and after the rename (a sidecar, a
-        journal: what must survive a power cut).
+        commit record: what must survive a power cut).
 
     Yields
     ------

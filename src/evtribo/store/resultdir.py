@@ -10,18 +10,19 @@ report) this way:
    a process that is gone holds no lock (the system releases it with the process): it is
    taken over.
 2. **A new folder beside OUT.** Everything is written into ``.OUT.evtribo-new-<id>/``.
-3. **The commit.** The new files are flushed to disk, then a journal (``.evtribo-commit.json``
-   in the new folder, :mod:`evtribo.store.journal`: the files to install, and the stale files
-   of the same commands to remove, each with its SHA-256) is written and flushed. From then
+3. **The commit.** The new files are flushed to disk, then a commit record
+   (``.evtribo-commit.json`` in the new folder, :mod:`evtribo.store.commit_record`: the files
+   to install, and the stale files of the same commands to remove, each with its SHA-256) is
+   written and flushed. From then
    on the new results are OUT's results.
 4. **The swap.** The stale files are removed, the new ones renamed into OUT (one rename
    each, on the same file system), OUT's manifest records them
-   (:mod:`evtribo.store.owned`), then the journal and the new folder are removed.
+   (:mod:`evtribo.store.owned`), then the commit record and the new folder are removed.
 
 A command killed before step 3 leaves OUT as it was (its new folder is deleted by the next
 command on OUT); killed during step 4, the next command on OUT finishes the swap before
-anything else (:func:`recover`, under the lock), once the journal passes its checks
-(:func:`~evtribo.store.journal.read_record`: one planted beside OUT is refused by name).
+anything else (:func:`recover`, under the lock), once the commit record passes its checks
+(:func:`~evtribo.store.commit_record.read_record`: one planted beside OUT is refused by name).
 A file is replaced or removed only if OUT's manifest shows that the command (or one it
 supersedes) wrote it, with the bytes it has now: files in OUT that evtribo did not write,
 or that were edited since, are never touched, ``--force`` or not; a commit that would
@@ -46,9 +47,8 @@ from types import TracebackType
 from typing import Any
 
 from evtribo.errors import EvtriboError, LockedError, OutputBusyError, OutputWriteError
-from evtribo.store.files import atomic_write, fsync_path
-from evtribo.store.journal import (
-    JOURNAL,
+from evtribo.store.commit_record import (
+    COMMIT_RECORD,
     STAGE_MARK,
     VERSION,
     apply,
@@ -56,6 +56,7 @@ from evtribo.store.journal import (
     read_record,
     withdraw,
 )
+from evtribo.store.files import atomic_write, fsync_path
 from evtribo.store.lock import WriteLock, lock_holder
 from evtribo.store.names import LOCK_SUFFIX, STAGE_INFIX, check_new_path, working_home
 from evtribo.store.owned import (
@@ -72,7 +73,7 @@ from evtribo.store.owned import (
 
 log = logging.getLogger(__name__)
 
-__all__ = ["JOURNAL", "STAGE_MARK", "Staging", "holder", "inside", "lock_path", "locked",
+__all__ = ["COMMIT_RECORD", "STAGE_MARK", "Staging", "holder", "inside", "lock_path", "locked",
            "pending", "recover", "release_inherited_locks"]
 
 #: Errors of a folder that cannot be written.
@@ -264,7 +265,7 @@ def pending(unit: str | os.PathLike[str]) -> list[Path]:
     -------
     list of Path
     """
-    return [s for s in _stages(_real(unit)) if os.path.lexists(s / JOURNAL)]
+    return [s for s in _stages(_real(unit)) if os.path.lexists(s / COMMIT_RECORD)]
 
 
 def recover(unit: str | os.PathLike[str]) -> list[str]:
@@ -286,7 +287,7 @@ def recover(unit: str | os.PathLike[str]) -> list[str]:
         raise RuntimeError(f"recover({path}) without holding its lock")
     done = []
     for stage in _stages(path):
-        if os.path.lexists(stage / JOURNAL):
+        if os.path.lexists(stage / COMMIT_RECORD):
             apply(stage, read_record(stage, path))
             done.append(f"{path}: finished writing the results of an interrupted run "
                         f"({stage.name})")
@@ -375,7 +376,7 @@ class Staging:
     def files(self) -> list[str]:
         """The files written so far, relative to the target."""
         return sorted(p.relative_to(self.folder).as_posix() for p in self.folder.rglob("*")
-                      if p.is_file() and p.name not in (JOURNAL, STAGE_MARK))
+                      if p.is_file() and p.name not in (COMMIT_RECORD, STAGE_MARK))
 
     def refuse_foreign(self, rels: Iterable[str]) -> None:
         """Refuse (before the work) outputs where files this command may not replace are.
@@ -415,7 +416,7 @@ class Staging:
                 "install": todo, "remove": stale}
 
     def commit(self, remove: Iterable[str] = (), last: Sequence[str] = ()) -> None:
-        """Make the new files the output's: flush them, write the journal, swap them in.
+        """Make the new files the output's: flush them, write the commit record, swap them in.
 
         Parameters
         ----------
@@ -441,7 +442,7 @@ class Staging:
             if adopt:  # what an older evtribo wrote, as its documents show: now listed
                 record(self.target, adopt)
             doc = self._plan(install, remove)
-            atomic_write(self.folder / JOURNAL, json.dumps(doc, indent=1), durable=True)
+            atomic_write(self.folder / COMMIT_RECORD, json.dumps(doc, indent=1), durable=True)
         except OSError as err:
             if isinstance(err, EvtriboError):
                 raise

@@ -11,3 +11,5 @@ warnings of results written by earlier versions are lifted into records
 
 Nothing here imports more than the standard library: ``evtribo analyze``'s console uses it.
 """
+
+__all__: list[str] = []

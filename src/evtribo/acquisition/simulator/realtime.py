@@ -61,7 +61,8 @@ Deliver = Callable[[FrameTable, int, int], int]
 
 
 class Simulator:
-    """The simulated rig, streaming the frames of :func:`simulate_trial` in real time.
+    """The simulated rig, streaming the frames of
+    :func:`~evtribo.acquisition.simulator.core.simulate_trial` in real time.
 
     Parameters
     ----------

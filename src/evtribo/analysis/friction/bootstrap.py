@@ -16,10 +16,10 @@ import numpy as np
 import numpy.typing as npt
 from scipy import special  # stats.t.ppf is special.stdtrit, stats.norm.ppf special.ndtri
 
-from evtribo.analysis.friction.balance import balanced_weights
-from evtribo.analysis.friction.facts import WindowFacts, cr2_residuals
+from evtribo.analysis.friction.direction_weights import balanced_weights
 from evtribo.analysis.friction.laws import ChosenLaw, at_exponent, fit_subject_law, law_choice
 from evtribo.analysis.friction.reference import MuModel, fit_mu_model, fit_trial_model
+from evtribo.analysis.friction.window_facts import WindowFacts, cr2_residuals
 from evtribo.errors import AnalysisError
 from evtribo.model.friction_law import added_load
 
@@ -89,7 +89,7 @@ def subject_law(w: Windows, offs: list[WindowFacts], ons: WindowFacts, friction_
 @dataclass(frozen=True)
 class Windows:
     """The windows of one estimate as flat float arrays (see
-    :func:`estimate_electrostatic`'s parameters)."""
+    :func:`~evtribo.analysis.friction.estimate.estimate_electrostatic`'s parameters)."""
 
     off_normal: list[FloatArray]
     off_friction: list[FloatArray]

@@ -17,13 +17,13 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from evtribo.analysis.friction.facts import (
+from evtribo.analysis.friction.reference import MuModel, fit_mu_model
+from evtribo.analysis.friction.window_facts import (
     MAX_DEGREE,
     SPAN_PER_DEGREE_S,
     WindowFacts,
     time_basis,
 )
-from evtribo.analysis.friction.reference import MuModel, fit_mu_model
 from evtribo.errors import AnalysisError
 from evtribo.model.friction_law import AMONTONS, LoadLaw
 from evtribo.warning.collect import emitter

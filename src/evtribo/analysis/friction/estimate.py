@@ -80,10 +80,10 @@ from evtribo.analysis.friction.bootstrap import (
     small_sample_scale,
     subject_law,
 )
-from evtribo.analysis.friction.facts import WindowFacts
 from evtribo.analysis.friction.laws import ChosenLaw, FittedLaw
 from evtribo.analysis.friction.laws.amontons import amontons
 from evtribo.analysis.friction.reference import MuModel
+from evtribo.analysis.friction.window_facts import WindowFacts
 from evtribo.errors import AnalysisError
 
 log = logging.getLogger(__name__)

@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from evtribo.analysis.friction.facts import (
+from evtribo.analysis.friction.window_facts import (
     MAX_DEGREE,
     SPAN_PER_DEGREE_S,
     WindowFacts,
@@ -251,7 +251,7 @@ class MuModel:
 def _fit(X: FloatArray, ratio: FloatArray, weight: FloatArray, cluster: IntArray
          ) -> tuple[FloatArray, FloatArray, FloatArray, float] | None:
     """Weighted least squares: coefficients, ``unit`` (see :class:`MuModel`), CR2-scaled
-    residuals (per stroke, :func:`~evtribo.analysis.friction.facts.cr2_residuals`) and the
+    residuals (per stroke, :func:`~evtribo.analysis.friction.window_facts.cr2_residuals`) and the
     weighted residual sum of squares; None when singular."""
     sw = np.sqrt(weight)
     A = X * sw[:, None]

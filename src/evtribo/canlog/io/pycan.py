@@ -40,6 +40,8 @@ from evtribo.canlog.io.table import (
 from evtribo.errors import LogFormatError
 from evtribo.store.files import PARTIAL_SUFFIX
 
+__all__ = ["MF4_EXTRA", "frames_from_messages", "read_with_python_can"]
+
 #: The extra that installs what python-can's MF4 reader needs.
 MF4_EXTRA = "pip install 'evtribo[mf4]'"
 
@@ -110,6 +112,10 @@ def frames_from_messages(messages: Iterable[can.Message], channel: str | None = 
     channel : str, optional
         Channel name of the frames whose message names none (default: none). Each frame
         keeps its message's channel (python-can's ``msg.channel``, as text).
+
+    Returns
+    -------
+    FrameTable
     """
     ts, ids, ext, rem, err, fd, dlc, payloads = [], [], [], [], [], [], [], []
     names: dict[str, int] = {}
@@ -230,6 +236,14 @@ def _implausible(msg: can.Message) -> str | None:
 def read_with_python_can(path: str | os.PathLike[str], on_bad: BadLineHandler
                          ) -> tuple[FrameTable, int]:
     """Read *path* with the python-can reader its suffix names (``.gz`` decompressed).
+
+    Parameters
+    ----------
+    path : path-like
+        The log.
+    on_bad : callable
+        Called with each line the reader cannot parse: its number (None where not known)
+        and what is wrong with it.
 
     Returns
     -------

@@ -43,6 +43,9 @@ from evtribo.store.files import PARTIAL_SUFFIX, check_regular_file, sha256_file
 from evtribo.util.plugins import Registry
 from evtribo.warning.collect import emitter
 
+__all__ = ["ENTRY_POINTS", "FORMAT_NAMES", "MAX_WARNINGS", "READERS", "STREAM_BLOCK", "FrameStream",
+           "ReadReport", "log_suffix", "read_frames", "sha256_log", "supported_suffixes"]
+
 log = logging.getLogger(__name__)
 emit = emitter(__name__)
 
@@ -129,6 +132,15 @@ def log_suffix(path: str | os.PathLike[str]) -> str:
     """The format suffix of *path*: ``.log``, ``.asc``..., or ``.log.gz`` for gzip.
 
     A trailing :data:`PARTIAL_SUFFIX` is ignored: ``run-01.log.part`` is a ``.log``.
+
+    Parameters
+    ----------
+    path : path-like
+        A log's path.
+
+    Returns
+    -------
+    str
     """
     name = os.path.basename(os.fspath(path)).lower()
     if name.endswith(PARTIAL_SUFFIX) and len(name) > len(PARTIAL_SUFFIX):
@@ -140,7 +152,12 @@ def log_suffix(path: str | os.PathLike[str]) -> str:
 
 
 def supported_suffixes() -> list[str]:
-    """Every suffix :func:`read_frames` accepts (each also with ``.gz``)."""
+    """Every suffix :func:`read_frames` accepts (each also with ``.gz``).
+
+    Returns
+    -------
+    list of str
+    """
     return sorted(READERS)
 
 

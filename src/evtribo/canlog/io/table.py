@@ -10,6 +10,9 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+__all__ = ["CLASSIC_WIDTH", "FD_WIDTH", "IMPOSSIBLE_TIMESTAMP", "NO_CHANNEL", "FrameTable",
+           "impossible_time", "take_rows"]
+
 #: Payload width of a :class:`FrameTable` holding only classic CAN frames.
 CLASSIC_WIDTH = 8
 #: Payload width once any CAN FD frame (or an over-long classic one) is present.

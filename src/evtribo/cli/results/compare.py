@@ -122,7 +122,7 @@ def _unchanged(args: argparse.Namespace) -> bool:
     from pathlib import Path
 
     from evtribo.documents.fit import FIT_JSON
-    from evtribo.report.kept import options_text, unchanged
+    from evtribo.report.compare_cache import options_text, unchanged
     from evtribo.store.resultdir import locked, recover
 
     out = Path(args.out)

@@ -137,7 +137,7 @@ def _save(fig: Figure, out: str, fmt: str) -> None:
 def _trial(args: argparse.Namespace, window: Figure | None) -> Figure:
     """``evtribo plot trial STUDY SUBJECT TRIAL``."""
     from evtribo.figures.trial_plots import draw_trial_check, trial_caption
-    from evtribo.results.check import check_trial
+    from evtribo.results.trial_view import view_trial
 
     if len(args.args) != 4:
         raise UserInputError("expected 'evtribo plot trial STUDY SUBJECT TRIAL' (got "
@@ -147,7 +147,7 @@ def _trial(args: argparse.Namespace, window: Figure | None) -> Figure:
                              "signals", key="--dbc")
     _, study, subject, trial = args.args
     refuse_cache_in_study(args.cache_dir, study)
-    check = check_trial(study, subject, trial, cache_dir=args.cache_dir)
+    check = view_trial(study, subject, trial, cache_dir=args.cache_dir)
     ax = draw_trial_check(check, None if window is None else window.add_subplot())
     print(trial_caption(check))
     fig = ax.get_figure()

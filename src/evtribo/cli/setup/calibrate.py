@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
     """Run ``evtribo calibrate``; return the exit code."""
     from evtribo.analysis.calibration import crosstalk_matrix
     from evtribo.errors import AnalysisError, UserInputError
-    from evtribo.results.check import find_trial, trial_signals
+    from evtribo.results.trial_view import find_trial, trial_signals
     from evtribo.results.workers import trial_meta
     from evtribo.study import load_study
 

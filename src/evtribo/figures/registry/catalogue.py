@@ -157,7 +157,7 @@ def planned(ctx: FigureContext, stage: str | None = None) -> list[PlannedFigure]
     ctx : FigureContext
         What the figures show, as far as known.
     stage : str, optional
-        One of :data:`STAGES`: the figures drawn after it only.
+        One of :data:`~evtribo.figures.registry.spec.STAGES`: the figures drawn after it only.
 
     Returns
     -------
@@ -203,7 +203,7 @@ def absent_notes(ctx: FigureContext, stage: str) -> list[WarningRecord]:
     ----------
     ctx : FigureContext
     stage : str
-        One of :data:`STAGES`.
+        One of :data:`~evtribo.figures.registry.spec.STAGES`.
 
     Returns
     -------

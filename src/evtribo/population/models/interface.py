@@ -4,9 +4,9 @@ subject (:class:`DriveCells`) and gives the population's estimates (:class:`Mode
 A model is one value of study.toml's ``[population] model``
 (:mod:`evtribo.population.models` registers them by name). The orchestration around it is
 :func:`evtribo.population.power_law.condition_estimates`: the primary rows are the chosen
-model's, every subject in; the subjects it names as far from the others (:meth:`far`) each
-get the same model refitted without them (``without S03``); the meta-analysis of log F_el
-is the second method unless it is the primary one.
+model's, every subject in; the subjects it names as far from the others
+(:meth:`PopulationModel.far`) each get the same model refitted without them (``without S03``); the
+meta-analysis of log F_el is the second method unless it is the primary one.
 """
 
 from __future__ import annotations

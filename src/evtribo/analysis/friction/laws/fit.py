@@ -40,7 +40,7 @@ import numpy as np
 import numpy.typing as npt
 from scipy import special
 
-from evtribo.analysis.friction.facts import (
+from evtribo.analysis.friction.window_facts import (
     MAX_DEGREE,
     SPAN_PER_DEGREE_S,
     WindowFacts,

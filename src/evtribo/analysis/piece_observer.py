@@ -1,5 +1,5 @@
 """What the analysis of a trial worked on, handed out as it goes: the data of a check of the
-trial (:mod:`evtribo.results.check`), which draws the forces, the ON/OFF phases, the
+trial (:mod:`evtribo.results.trial_view`), which draws the forces, the ON/OFF phases, the
 finger-lifted stretches and the windows exactly as
 :func:`~evtribo.analysis.trial.analyze_signals` found them.
 """

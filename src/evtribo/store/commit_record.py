@@ -47,10 +47,10 @@ from evtribo.store.manifest import (
 
 log = logging.getLogger(__name__)
 
-__all__ = ["JOURNAL", "STAGE_MARK", "VERSION", "apply", "discard", "read_record", "withdraw"]
+__all__ = ["COMMIT_RECORD", "STAGE_MARK", "VERSION", "apply", "discard", "read_record", "withdraw"]
 
 #: The commit record in a new folder: its presence is the commit.
-JOURNAL = ".evtribo-commit.json"
+COMMIT_RECORD = ".evtribo-commit.json"
 #: What a new folder holds from its making to its removal: a folder without it is not one
 #: evtribo made (but an empty one, the last step of a removal).
 STAGE_MARK = ".evtribo-stage"
@@ -142,7 +142,7 @@ def read_record(stage: Path, unit: Path) -> dict[str, Any]:
     ResultFolderError
         The record fails a check: naming it, and what to do.
     """
-    path = stage / JOURNAL
+    path = stage / COMMIT_RECORD
     refuse = (f"it is not replayed, and nothing of it is done: if no evtribo command is "
               f"writing {unit.name}, remove {stage}")
     try:
@@ -236,7 +236,7 @@ def apply(stage: Path, doc: Mapping[str, Any]) -> None:
         for folder in {target, *((target / rel).parent for rel in installed)}:
             fsync_path(folder, directory=True)
         record(target, installed, locked=True)
-    (stage / JOURNAL).unlink()
+    (stage / COMMIT_RECORD).unlink()
     discard(stage)
 
 
@@ -266,7 +266,7 @@ def withdraw(stage: Path, doc: Mapping[str, Any]) -> bool:
         path = plain_path(target, rel)
         if path is None or file_sha256(path) != digest:
             return False
-    (stage / JOURNAL).unlink(missing_ok=True)
+    (stage / COMMIT_RECORD).unlink(missing_ok=True)
     fsync_path(stage, directory=True)
     return True
 

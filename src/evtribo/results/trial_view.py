@@ -1,9 +1,9 @@
-"""A check of one trial: what its analysis used and what it left out, and why.
+"""A view of one trial: what its analysis used and what it left out, and why.
 
-:func:`check_trial` decodes a trial of a study through the cache and analyses it with the
+:func:`view_trial` decodes a trial of a study through the cache and analyses it with the
 study's settings, as ``evtribo analyze`` does (:func:`~evtribo.analysis.trial.
 analyze_signals`, the same code), keeping what each continuous piece worked on
-(:class:`~evtribo.analysis.observed.PieceState`): the forces as tared, the ON/OFF condition
+(:class:`~evtribo.analysis.piece_observer.PieceState`): the forces as tared, the ON/OFF condition
 of every grid point, the finger-lifted stretches and the steady-sliding windows. Its windows
 are those of ``windows.csv`` when the study has not changed since it was analysed.
 
@@ -25,7 +25,7 @@ from typing import Any
 
 import pandas as pd
 
-from evtribo.analysis.observed import PieceState
+from evtribo.analysis.piece_observer import PieceState
 from evtribo.analysis.settings import AnalysisSettings
 from evtribo.analysis.trial import TrialMeta, analyze_signals, trial_start
 from evtribo.canlog.cache import load_trial
@@ -34,7 +34,7 @@ from evtribo.canlog.signals import TrialSignals
 from evtribo.errors import SidecarError, StudyError, UserInputError
 from evtribo.results.pipeline import study_settings
 from evtribo.results.reuse import OutcomeStore, analysis_context
-from evtribo.results.sketch import (
+from evtribo.results.trial_sketch import (
     MIN_HOLE_S,
     STRETCH_LABELS,
     Sketcher,
@@ -43,16 +43,16 @@ from evtribo.results.sketch import (
 )
 from evtribo.results.workers import trial_meta
 from evtribo.store.memo import default_cache_dir
-from evtribo.study import Study, TrialRef, load_study
+from evtribo.study import StudyFolder, TrialRef, load_study
 from evtribo.warning.collect import collecting
 from evtribo.warning.record import Scope, WarningRecord
 
-__all__ = ["MIN_HOLE_S", "STRETCH_LABELS", "Stretch", "TrialCheck", "check_signals", "check_trial",
-           "excluded_stretches", "find_trial", "kept_sketches", "settings_of", "sketch_of",
-           "trial_signals"]
+__all__ = ["MIN_HOLE_S", "STRETCH_LABELS", "Stretch", "TrialView", "excluded_stretches",
+           "find_trial", "kept_sketches", "settings_of", "sketch_of", "trial_signals",
+           "view_signals", "view_trial"]
 
 @dataclass
-class TrialCheck:
+class TrialView:
     """A trial as its analysis saw it.
 
     Attributes
@@ -85,9 +85,9 @@ class TrialCheck:
         return f"{self.subject}/{self.trial}"
 
 
-def check_signals(signals: TrialSignals, meta: TrialMeta, *,
+def view_signals(signals: TrialSignals, meta: TrialMeta, *,
                   settings: AnalysisSettings | None = None,
-                  calibration: Calibration | None = None) -> TrialCheck:
+                  calibration: Calibration | None = None) -> TrialView:
     """Analyse a decoded trial as ``evtribo analyze`` does and keep what it worked on.
 
     Parameters
@@ -103,7 +103,7 @@ def check_signals(signals: TrialSignals, meta: TrialMeta, *,
 
     Returns
     -------
-    TrialCheck
+    TrialView
 
     Raises
     ------
@@ -113,17 +113,17 @@ def check_signals(signals: TrialSignals, meta: TrialMeta, *,
     pieces: list[PieceState] = []
     result = analyze_signals(signals, meta, settings=settings, calibration=calibration,
                              observe=pieces.append)
-    return TrialCheck(subject=meta.subject, trial=meta.trial, t0=trial_start(signals),
-                      pieces=pieces, windows=result.windows, row=result.row,
-                      warnings=result.warnings)
+    return TrialView(subject=meta.subject, trial=meta.trial, t0=trial_start(signals),
+                     pieces=pieces, windows=result.windows, row=result.row,
+                     warnings=result.warnings)
 
 
-def find_trial(study: Study, subject: str, trial: str) -> TrialRef:
+def find_trial(study: StudyFolder, subject: str, trial: str) -> TrialRef:
     """The trial *subject*/*trial* of a study.
 
     Parameters
     ----------
-    study : Study
+    study : StudyFolder
         The loaded study.
     subject, trial : str
         The names.
@@ -149,13 +149,13 @@ def find_trial(study: Study, subject: str, trial: str) -> TrialRef:
                      f"{', '.join(t.name for t in trials)}", path=study.root / subject)
 
 
-def settings_of(study: Study, settings: AnalysisSettings | Mapping[str, Any] | None
+def settings_of(study: StudyFolder, settings: AnalysisSettings | Mapping[str, Any] | None
                 ) -> AnalysisSettings:
     """The settings to analyse a study's trials with.
 
     Parameters
     ----------
-    study : Study
+    study : StudyFolder
         The study (its ``[analysis]`` table).
     settings : AnalysisSettings or mapping or None
         None: the study's (the package's defaults, then ``[analysis]``); settings: those; a
@@ -176,7 +176,7 @@ def settings_of(study: Study, settings: AnalysisSettings | Mapping[str, Any] | N
     return AnalysisSettings().updated(values, table="settings")
 
 
-def trial_signals(ref: TrialRef, study: Study, cache_dir: str | os.PathLike[str] | None = None
+def trial_signals(ref: TrialRef, study: StudyFolder, cache_dir: str | os.PathLike[str] | None = None
                   ) -> TrialSignals:
     """The trial's decoded signals, from the channel its sidecar names (as analyze reads
     them).
@@ -185,7 +185,7 @@ def trial_signals(ref: TrialRef, study: Study, cache_dir: str | os.PathLike[str]
     ----------
     ref : TrialRef
         The trial.
-    study : Study
+    study : StudyFolder
         Its study.
     cache_dir : path-like, optional
         The decoded-trial cache.
@@ -205,16 +205,16 @@ def trial_signals(ref: TrialRef, study: Study, cache_dir: str | os.PathLike[str]
         raise SidecarError(err.message, path=ref.sidecar_path, key="log_channel") from err
 
 
-def check_trial(study: Study | str | os.PathLike[str], subject: str, trial: str, *,
+def view_trial(study: StudyFolder | str | os.PathLike[str], subject: str, trial: str, *,
                 settings: AnalysisSettings | Mapping[str, Any] | None = None,
-                cache_dir: str | os.PathLike[str] | None = None) -> TrialCheck:
+                cache_dir: str | os.PathLike[str] | None = None) -> TrialView:
     """Check one trial of a study: decode it through the cache, analyse it with the study's
     settings, keep what the analysis worked on. What the analysis warns of is kept in the
     check's ``warnings`` and not said again (``evtribo analyze`` says it).
 
     Parameters
     ----------
-    study : Study or path-like
+    study : StudyFolder or path-like
         The study, or its folder.
     subject, trial : str
         The trial.
@@ -225,7 +225,7 @@ def check_trial(study: Study | str | os.PathLike[str], subject: str, trial: str,
 
     Returns
     -------
-    TrialCheck
+    TrialView
 
     Raises
     ------
@@ -234,23 +234,23 @@ def check_trial(study: Study | str | os.PathLike[str], subject: str, trial: str,
     AnalysisError
         The trial cannot be analysed.
     """
-    if not isinstance(study, Study):
+    if not isinstance(study, StudyFolder):
         study = load_study(Path(study))
     ref = find_trial(study, subject, trial)
     assert study.rig is not None
     # evtribo analyze said them; the check keeps them in .warnings
     with collecting(Scope(subject, trial), quiet=True):
-        return check_signals(trial_signals(ref, study, cache_dir), trial_meta(ref),
+        return view_signals(trial_signals(ref, study, cache_dir), trial_meta(ref),
                              settings=settings_of(study, settings),
                              calibration=study.rig.calibration)
 
 
-def excluded_stretches(check: TrialCheck) -> list[Stretch]:
+def excluded_stretches(check: TrialView) -> list[Stretch]:
     """What the windows of a trial could not use, and why, in time order.
 
     Parameters
     ----------
-    check : TrialCheck
+    check : TrialView
         The trial's check.
 
     Returns
@@ -264,12 +264,12 @@ def excluded_stretches(check: TrialCheck) -> list[Stretch]:
     return sketch_of(check).stretches
 
 
-def sketch_of(check: TrialCheck) -> TrialSketch:
+def sketch_of(check: TrialView) -> TrialSketch:
     """What the figure of a trial's check draws, from the check (as analyze keeps it).
 
     Parameters
     ----------
-    check : TrialCheck
+    check : TrialView
         The trial's check.
 
     Returns
@@ -290,7 +290,7 @@ def _relative(path: str | os.PathLike[str], root: Path) -> str:
         return str(Path(path).resolve())
 
 
-def kept_sketches(study: Study, summary: Mapping[str, Any],
+def kept_sketches(study: StudyFolder, summary: Mapping[str, Any],
                   cache_dir: str | os.PathLike[str] | None = None) -> dict[str, TrialSketch]:
     """The sketches ``evtribo analyze`` kept of a study's trials when it wrote *summary*:
     those of the trials it analysed with these settings and this rig, each log as it hashed
@@ -298,7 +298,7 @@ def kept_sketches(study: Study, summary: Mapping[str, Any],
 
     Parameters
     ----------
-    study : Study
+    study : StudyFolder
         The study, as loaded now (its trials named and described as when analysed).
     summary : mapping
         The analysis's ``summary.json``.

@@ -26,7 +26,7 @@ import numpy.typing as npt
 
 from evtribo.analysis.forces.conditions import EXCLUDED, OFF, ON
 from evtribo.analysis.forces.lifted import EDGE_S
-from evtribo.analysis.observed import PieceState
+from evtribo.analysis.piece_observer import PieceState
 from evtribo.util.running import true_runs
 
 __all__ = ["MAX_POINTS", "MIN_HOLE_S", "STRETCH_LABELS", "SketchPiece", "Sketcher",
