@@ -121,3 +121,17 @@ def test_an_older_summary_s_lines_are_never_unclassified(lines):
     assert [r.text for r in records] == list(dict.fromkeys(lines))
     for g in group(records):
         assert g.effect in EFFECTS and g.kind in {r.kind for r in records}
+
+
+def test_a_warning_about_a_drive_of_the_population_names_the_drive():
+    """A record scoped to a drive and no subject (the population's) is said of that drive,
+    not of "the study"."""
+    sine = kind("population-one-amplitude").record(Scope(None, None, "sine", 10.0, None),
+                                                   {"drive": "sine 10 Hz"})
+    square = kind("population-checks-failed").record(
+        Scope(None, None, "square", 10000.0, None),
+        {"drive": "square 10000 Hz", "checks": "the exponent is hardly determined"})
+    groups = group([sine, square])
+    assert [scope_text(g, TRIALS, CELLS) for g in groups] == [
+        "the population at sine 10 Hz", "the population at square 10 kHz"]
+    assert not any(g.study for g in groups)

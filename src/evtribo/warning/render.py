@@ -22,6 +22,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from evtribo.util.numbers import frequency
 from evtribo.warning.catalogue import KINDS
 from evtribo.warning.kind import Kind, Span
 from evtribo.warning.legacy import merged_texts
@@ -55,6 +56,8 @@ class WarningGroup:
         The cells (a subject's drive at an amplitude) and drives it was said of.
     subjects : list of str
         The subjects it was said of as a whole.
+    drives : list of str
+        The drives of the population it was said of (no subject's): ``square 10 kHz``.
     study : bool
         Whether it was said of the study as a whole.
     """
@@ -67,6 +70,7 @@ class WarningGroup:
     trials: list[tuple[str, str]] = field(default_factory=list)
     cells: list[Scope] = field(default_factory=list)
     subjects: list[str] = field(default_factory=list)
+    drives: list[str] = field(default_factory=list)
     study: bool = False
 
     @property
@@ -184,6 +188,8 @@ def group(records: Iterable[WarningRecord]) -> list[WarningGroup]:
             g.cells.append(Scope(s.subject, None, s.waveform, s.frequency_Hz, s.amplitude_V))
         elif level == "subject":
             g.subjects.append(str(s.subject))
+        elif s.subject is None and s.waveform is not None:  # a drive of the population
+            g.drives.append(_drive(s))
         else:
             g.study = True
     for g in groups.values():
@@ -192,9 +198,16 @@ def group(records: Iterable[WarningRecord]) -> list[WarningGroup]:
         g.text = " | ".join(said[:MAX_WORDINGS]) + (
             f" | and {rest} other wording(s)" if rest > 0 else "")
         g.subjects = list(dict.fromkeys(g.subjects))
+        g.drives = list(dict.fromkeys(g.drives))
     order = list(EFFECTS)
     return sorted(groups.values(), key=lambda g: (
         order.index(g.effect) if g.effect in order else 0, -g.count, g.title))
+
+
+def _drive(scope: Scope) -> str:
+    """A drive for people: ``square 10 kHz``, ``sine 10 Hz``, ``square``."""
+    wave = str(scope.waveform)
+    return wave if scope.frequency_Hz is None else f"{wave} {frequency(scope.frequency_Hz)}"
 
 
 def _amps(cells: Sequence[Scope]) -> str:
@@ -263,6 +276,8 @@ def scope_text(group: WarningGroup, all_trials: Sequence[tuple[str, str]] = (),
         parts.append(_cells_text(group.cells, all_cells))
     if group.subjects:
         parts.append(", ".join(group.subjects))
+    if group.drives:
+        parts.append("the population at " + ", ".join(group.drives))
     if group.study and not parts:
         parts.append("the study")
     return "; ".join(parts)
